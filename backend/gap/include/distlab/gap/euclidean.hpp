@@ -1,0 +1,46 @@
+#pragma once
+// The Euclidean baseline: FCL for separation distance and nearest points, libccd (GJK/MPR) for
+// the intersection test. Geometry is converted once per shape (EuclideanShape) and reused.
+#include <memory>
+#include <optional>
+
+#include "distlab/geometry/shape.hpp"
+
+namespace fcl {
+template <typename S>
+class CollisionGeometry;
+}
+
+namespace distlab {
+
+class EuclideanShape {
+ public:
+  explicit EuclideanShape(const Shape& shape);
+  const Shape& shape() const { return *shape_; }
+  const std::shared_ptr<fcl::CollisionGeometry<double>>& fcl_geometry() const { return fcl_; }
+
+ private:
+  std::shared_ptr<const Shape> shape_;
+  std::shared_ptr<fcl::CollisionGeometry<double>> fcl_;
+};
+
+struct EuclideanResult {
+  double distance = 0;  // >= 0; 0 when the shapes touch or overlap
+  Vec3 witness_a = Vec3::Zero();
+  Vec3 witness_b = Vec3::Zero();
+  // d distance / d (linear velocity, angular velocity about the shape's origin), world frame.
+  // Zero when overlapping.
+  Vec6 gradient_a = Vec6::Zero();
+  Vec6 gradient_b = Vec6::Zero();
+};
+
+// Separation distance and nearest points with FCL (DistanceRequest with nearest points).
+EuclideanResult euclidean_distance(const EuclideanShape& a, const Pose& pose_a,
+                                   const EuclideanShape& b, const Pose& pose_b);
+
+// libccd intersection test (GJK). If the shapes intersect, returns a point common to both
+// (from MPR's penetration position, moved into the intersection); otherwise nullopt.
+std::optional<Vec3> common_point(const Shape& a, const Pose& pose_a, const Shape& b,
+                                 const Pose& pose_b);
+
+}  // namespace distlab

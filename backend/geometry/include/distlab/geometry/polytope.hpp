@@ -1,0 +1,34 @@
+#pragma once
+// Convex polytopes {x : A x <= b} with unit-norm rows, and how to build them.
+#include <vector>
+
+#include "distlab/geometry/types.hpp"
+
+namespace distlab {
+
+struct Polytope {
+  MatX3 A;                            // n x 3, rows of unit length
+  VecX b;                             // n offsets: the set is {x : A x <= b}
+  std::vector<Vec3> vertices;         // extreme points, no duplicates
+  std::vector<Eigen::Vector3i> faces;  // triangles over `vertices`, outward (counter-clockwise)
+
+  int rows() const { return static_cast<int>(A.rows()); }
+};
+
+// Normalises the rows, then checks that the set is bounded and has an interior (a "regular"
+// set in the GAP paper's sense). Throws InvalidInput naming `field` (e.g. "a") on an empty,
+// flat or unbounded set, on zero rows, and on non-finite numbers. Rows are kept as given
+// (redundant rows stay; they do not change the set).
+Polytope make_polytope(const MatX3& A, const VecX& b, const std::string& field);
+
+// Convex hull of points (CGAL) as a polytope; coplanar hull triangles are merged into one row.
+// Throws InvalidInput if fewer than 4 affinely independent points or non-finite values.
+Polytope polytope_from_points(const std::vector<Vec3>& points, const std::string& field);
+
+// The largest number of half-spaces of a bounded, regular polytope that a single point can
+// violate (the paper's m in W_i = 1/(m + eps), Section III-B). Exact: for such a set it equals
+// the largest number of rows with a_i . d > 0 over directions d (an open-hemisphere count),
+// which is found on the arrangement's vertices +-(a_i x a_j).
+int max_violated_halfspaces(const MatX3& A_unit_rows);
+
+}  // namespace distlab
