@@ -1,0 +1,144 @@
+// Topological and geometric validation of closed solid boundaries.
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Polygon_mesh_processing/self_intersections.h>
+#include <CGAL/Surface_mesh.h>
+
+#include <algorithm>
+#include <numeric>
+#include <unordered_map>
+#include <vector>
+
+#include "distlab/geometry/error.hpp"
+#include "distlab/mesh/checks.hpp"
+
+namespace distlab::mesh {
+namespace {
+
+using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+
+std::uint64_t edge_key(int a, int b) {
+  return (static_cast<std::uint64_t>(std::min(a, b)) << 32) | static_cast<std::uint32_t>(std::max(a, b));
+}
+
+// Union-find over the faces around one vertex: the star is a disk iff it is one fan.
+int find(std::vector<int>& parent, int i) {
+  while (parent[i] != i) i = parent[i] = parent[parent[i]];
+  return i;
+}
+
+}  // namespace
+
+std::string topology_defect(const SurfaceMesh& mesh) {
+  const auto nv = static_cast<int>(mesh.vertices.rows());
+  const auto nf = static_cast<int>(mesh.faces.rows());
+  if (nf == 0) return "mesh has no triangles";
+  for (int f = 0; f < nf; ++f) {
+    const int a = mesh.faces(f, 0), b = mesh.faces(f, 1), c = mesh.faces(f, 2);
+    if (std::min({a, b, c}) < 0 || std::max({a, b, c}) >= nv)
+      return "face " + std::to_string(f) + " has a vertex index out of range";
+    if (a == b || b == c || c == a) return "degenerate face " + std::to_string(f) + " (repeated vertex)";
+  }
+  // Per undirected edge: number of faces, and the balance of its two directions.
+  struct Use { int count = 0; int forward = 0; };
+  std::unordered_map<std::uint64_t, Use> edges;
+  edges.reserve(static_cast<size_t>(nf) * 2);
+  for (int f = 0; f < nf; ++f)
+    for (int k = 0; k < 3; ++k) {
+      const int a = mesh.faces(f, k), b = mesh.faces(f, (k + 1) % 3);
+      Use& use = edges[edge_key(a, b)];
+      ++use.count;
+      use.forward += a < b ? 1 : -1;
+    }
+  size_t boundary = 0;
+  std::uint64_t first_boundary = 0, non_manifold = 0, flipped = 0;
+  bool have_non_manifold = false, have_flipped = false;
+  for (const auto& [key, use] : edges) {
+    if (use.count == 1) {
+      if (boundary++ == 0 || key < first_boundary) first_boundary = key;
+    } else if (use.count > 2 && (!have_non_manifold || key < non_manifold)) {
+      non_manifold = key, have_non_manifold = true;
+    } else if (use.count == 2 && use.forward != 0 && (!have_flipped || key < flipped)) {
+      flipped = key, have_flipped = true;
+    }
+  }
+  auto edge_name = [](std::uint64_t key) {
+    return "(" + std::to_string(key >> 32) + ", " + std::to_string(key & 0xffffffffu) + ")";
+  };
+  if (boundary > 0)
+    return std::to_string(boundary) + " boundary edge" + (boundary > 1 ? "s" : "") +
+           " (not closed), first at edge " + edge_name(first_boundary);
+  if (have_non_manifold)
+    return "non-manifold edge at vertex " + std::to_string(non_manifold >> 32) + " (edge " +
+           edge_name(non_manifold) + " has more than two faces)";
+  if (have_flipped)
+    return "inconsistently oriented faces at edge " + edge_name(flipped);
+
+  // Non-manifold vertices: the faces around a vertex must form a single fan.
+  std::vector<std::vector<int>> star(static_cast<size_t>(nv));
+  for (int f = 0; f < nf; ++f)
+    for (int k = 0; k < 3; ++k) star[static_cast<size_t>(mesh.faces(f, k))].push_back(f);
+  for (int v = 0; v < nv; ++v) {
+    const auto& faces = star[static_cast<size_t>(v)];
+    if (faces.empty()) continue;  // unreferenced vertices are harmless
+    std::vector<int> parent(faces.size());
+    std::iota(parent.begin(), parent.end(), 0);
+    // Faces sharing an edge through v are joined; key them by the other edge endpoint.
+    std::unordered_map<int, int> by_neighbour;
+    for (size_t i = 0; i < faces.size(); ++i)
+      for (int k = 0; k < 3; ++k) {
+        const int w = mesh.faces(faces[i], k);
+        if (w == v) continue;
+        auto [it, inserted] = by_neighbour.emplace(w, static_cast<int>(i));
+        if (!inserted) parent[static_cast<size_t>(find(parent, static_cast<int>(i)))] = find(parent, it->second);
+      }
+    const int root = find(parent, 0);
+    for (size_t i = 1; i < faces.size(); ++i)
+      if (find(parent, static_cast<int>(i)) != root)
+        return "non-manifold vertex " + std::to_string(v) + " (two surface sheets touch there)";
+  }
+  return {};
+}
+
+void require_closed_manifold(SurfaceMesh& mesh, const std::string& field,
+                             const CheckOptions& options) {
+  if (!mesh.vertices.allFinite())
+    throw InvalidInput(field, "mesh has non-finite vertex coordinates");
+  if (std::string defect = topology_defect(mesh); !defect.empty())
+    throw InvalidInput(field, "mesh is not a closed manifold surface: " + defect);
+  const double scale = (mesh.vertices.colwise().maxCoeff() - mesh.vertices.colwise().minCoeff()).norm();
+  for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f) {
+    const Vec3 a = mesh.vertices.row(mesh.faces(f, 0));
+    const Vec3 b = mesh.vertices.row(mesh.faces(f, 1));
+    const Vec3 c = mesh.vertices.row(mesh.faces(f, 2));
+    if ((b - a).cross(c - a).norm() <= 1e-14 * scale * scale)
+      throw InvalidInput(field, "degenerate (zero-area) face " + std::to_string(f));
+  }
+  if (options.self_intersection) {
+    CGAL::Surface_mesh<K::Point_3> sm;
+    using VI = CGAL::Surface_mesh<K::Point_3>::Vertex_index;
+    std::vector<VI> vi;
+    vi.reserve(static_cast<size_t>(mesh.vertices.rows()));
+    for (Eigen::Index v = 0; v < mesh.vertices.rows(); ++v)
+      vi.push_back(sm.add_vertex(K::Point_3(mesh.vertices(v, 0), mesh.vertices(v, 1), mesh.vertices(v, 2))));
+    for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f)
+      if (sm.add_face(vi[static_cast<size_t>(mesh.faces(f, 0))], vi[static_cast<size_t>(mesh.faces(f, 1))],
+                      vi[static_cast<size_t>(mesh.faces(f, 2))]) == CGAL::Surface_mesh<K::Point_3>::null_face())
+        throw InvalidInput(field, "mesh is not a closed manifold surface: face " + std::to_string(f) +
+                                      " cannot be added to a halfedge mesh");
+    std::vector<std::pair<CGAL::Surface_mesh<K::Point_3>::Face_index,
+                          CGAL::Surface_mesh<K::Point_3>::Face_index>> pairs;
+    CGAL::Polygon_mesh_processing::self_intersections(sm, std::back_inserter(pairs));
+    if (!pairs.empty()) {
+      auto [f, g] = *std::min_element(pairs.begin(), pairs.end(), [](auto& p, auto& q) {
+        return std::minmax(p.first, p.second) < std::minmax(q.first, q.second);
+      });
+      throw InvalidInput(field, "self-intersection: " + std::to_string(pairs.size()) +
+                                    " pair(s) of intersecting faces, first faces " +
+                                    std::to_string(std::min(f, g).idx()) + " and " +
+                                    std::to_string(std::max(f, g).idx()));
+    }
+  }
+  if (signed_volume(mesh) < 0) mesh.faces.col(1).swap(mesh.faces.col(2));
+}
+
+}  // namespace distlab::mesh

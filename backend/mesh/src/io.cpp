@@ -1,0 +1,117 @@
+// assimp import/export of indexed triangle meshes.
+#include <assimp/Exporter.hpp>
+#include <assimp/Importer.hpp>
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+
+#include <array>
+#include <filesystem>
+#include <map>
+#include <memory>
+
+#include "distlab/geometry/error.hpp"
+#include "distlab/mesh/surface.hpp"
+
+namespace distlab::mesh {
+
+SurfaceMesh load_mesh(const std::string& path, const std::string& field) {
+  if (!std::filesystem::is_regular_file(path))
+    throw InvalidInput(field, "cannot read mesh file '" + path + "': no such file");
+  Assimp::Importer importer;
+  // Meshes are welded across the whole scene below; drop every attribute but positions so that
+  // assimp's JoinIdenticalVertices welds STL corners (per-face normals would keep them apart).
+  importer.SetPropertyInteger(AI_CONFIG_PP_RVC_FLAGS,
+                              aiComponent_NORMALS | aiComponent_TANGENTS_AND_BITANGENTS |
+                                  aiComponent_COLORS | aiComponent_TEXCOORDS |
+                                  aiComponent_BONEWEIGHTS | aiComponent_ANIMATIONS |
+                                  aiComponent_TEXTURES | aiComponent_LIGHTS |
+                                  aiComponent_CAMERAS | aiComponent_MATERIALS);
+  const aiScene* scene = importer.ReadFile(
+      path, aiProcess_RemoveComponent | aiProcess_DropNormals | aiProcess_Triangulate |
+                aiProcess_JoinIdenticalVertices | aiProcess_PreTransformVertices |
+                aiProcess_SortByPType);
+  if (scene == nullptr)
+    throw InvalidInput(field, "cannot read mesh file '" + path + "': " + importer.GetErrorString());
+
+  // Concatenate the triangle meshes, welding identical positions across meshes too.
+  std::vector<Vec3> points;
+  std::vector<Eigen::Vector3i> tris;
+  std::map<std::array<double, 3>, int> index;
+  for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
+    const aiMesh* mesh = scene->mMeshes[m];
+    if ((mesh->mPrimitiveTypes & aiPrimitiveType_TRIANGLE) == 0) continue;
+    std::vector<int> local(mesh->mNumVertices);
+    for (unsigned v = 0; v < mesh->mNumVertices; ++v) {
+      const aiVector3D& p = mesh->mVertices[v];
+      std::array<double, 3> key{p.x, p.y, p.z};
+      auto [it, inserted] = index.emplace(key, static_cast<int>(points.size()));
+      if (inserted) points.emplace_back(p.x, p.y, p.z);
+      local[v] = it->second;
+    }
+    for (unsigned f = 0; f < mesh->mNumFaces; ++f) {
+      const aiFace& face = mesh->mFaces[f];
+      if (face.mNumIndices != 3) continue;
+      tris.emplace_back(local[face.mIndices[0]], local[face.mIndices[1]],
+                        local[face.mIndices[2]]);
+    }
+  }
+  if (tris.empty()) throw InvalidInput(field, "mesh file '" + path + "' contains no triangles");
+  SurfaceMesh out;
+  out.vertices.resize(static_cast<Eigen::Index>(points.size()), 3);
+  for (size_t i = 0; i < points.size(); ++i) out.vertices.row(static_cast<Eigen::Index>(i)) = points[i];
+  out.faces.resize(static_cast<Eigen::Index>(tris.size()), 3);
+  for (size_t i = 0; i < tris.size(); ++i) out.faces.row(static_cast<Eigen::Index>(i)) = tris[i];
+  return out;
+}
+
+void save_mesh(const SurfaceMesh& mesh, const std::string& path, const std::string& format,
+               const std::string& field) {
+  static const std::map<std::string, std::string> ids = {
+      {"stl", "stlb"}, {"obj", "obj"}, {"ply", "plyb"}, {"glb", "glb2"}};
+  auto id = ids.find(format);
+  if (id == ids.end())
+    throw InvalidInput(field, "unknown mesh format '" + format + "' (use stl, obj, ply or glb)");
+
+  // aiScene's destructor frees everything below, so build it with new[] as assimp expects.
+  auto scene = std::make_unique<aiScene>();
+  scene->mRootNode = new aiNode();
+  scene->mNumMaterials = 1;
+  scene->mMaterials = new aiMaterial*[1]{new aiMaterial()};
+  scene->mNumMeshes = 1;
+  scene->mMeshes = new aiMesh*[1]{new aiMesh()};
+  scene->mRootNode->mNumMeshes = 1;
+  scene->mRootNode->mMeshes = new unsigned[1]{0};
+  aiMesh* out = scene->mMeshes[0];
+  out->mMaterialIndex = 0;
+  out->mPrimitiveTypes = aiPrimitiveType_TRIANGLE;
+  out->mNumVertices = static_cast<unsigned>(mesh.vertices.rows());
+  out->mVertices = new aiVector3D[out->mNumVertices];
+  for (unsigned v = 0; v < out->mNumVertices; ++v)
+    out->mVertices[v] = aiVector3D(static_cast<float>(mesh.vertices(v, 0)),
+                                   static_cast<float>(mesh.vertices(v, 1)),
+                                   static_cast<float>(mesh.vertices(v, 2)));
+  out->mNumFaces = static_cast<unsigned>(mesh.faces.rows());
+  out->mFaces = new aiFace[out->mNumFaces];
+  for (unsigned f = 0; f < out->mNumFaces; ++f) {
+    out->mFaces[f].mNumIndices = 3;
+    out->mFaces[f].mIndices = new unsigned[3];
+    for (int k = 0; k < 3; ++k)
+      out->mFaces[f].mIndices[k] = static_cast<unsigned>(mesh.faces(f, k));
+  }
+  Assimp::Exporter exporter;
+  if (exporter.Export(scene.get(), id->second, path) != aiReturn_SUCCESS)
+    throw InvalidInput("path", "cannot write mesh '" + path + "': " + exporter.GetErrorString());
+}
+
+double signed_volume(const SurfaceMesh& mesh) {
+  double six_v = 0;
+  for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f) {
+    const Vec3 a = mesh.vertices.row(mesh.faces(f, 0));
+    const Vec3 b = mesh.vertices.row(mesh.faces(f, 1));
+    const Vec3 c = mesh.vertices.row(mesh.faces(f, 2));
+    six_v += a.dot(b.cross(c));
+  }
+  return six_v / 6.0;
+}
+
+}  // namespace distlab::mesh
