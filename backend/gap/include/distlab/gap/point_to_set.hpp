@@ -1,0 +1,78 @@
+#pragma once
+// Point-to-set functions of one shape: the weak e_S (eq. 5 and its round-shape analogues) and the
+// strict E_S = ερ + sqrt(ε²ρ² + σ²e_S²) of eq. (6) (Theorem 2) with ρ = ½(‖p − c‖² − R²).
+#include <optional>
+#include <string>
+
+#include "distlab/gap/base_function.hpp"
+#include "distlab/geometry/shape.hpp"
+
+namespace distlab {
+
+struct StrictParams {
+  double eps = 0.01;
+  double sigma = 0.9899494936611665;  // sqrt(1 − 2ε), the published package's choice
+};
+
+// Per-shape options; everything has a documented default.
+// The default ρ ball is the bounding ball scaled by kDefaultRhoScale. The published package
+// uses R² = 1.2 × (half diagonal)², but with ε = 0.01, σ = sqrt(1 − 2ε) that breaks Property 2
+// near the corners of most shapes (∂²E reaches 1.5–3: ρ is small there, and ∂²E grows like
+// σ²∇e∇eᵀ/(ε|ρ|)); from a scale of 1.5 on, the validator finds every tested shape below 0.7.
+inline constexpr double kDefaultRhoScale = 1.5;
+
+struct P2SOptions {
+  std::optional<VecX> weights;  // polytopes/boxes: W_i; default 1/(m + weight_margin)
+  double weight_margin = 0.01;  // the small positive number in W_i = 1/(m + ε), Section III-B
+  std::optional<Ball> rho;      // ball of ρ in the shape frame; default: bounding ball scaled
+};
+
+// A value with optional first and second derivatives (world or local frame as stated).
+struct P2SValue {
+  double value = 0;
+  Vec3 gradient = Vec3::Zero();
+  Mat3 hessian = Mat3::Zero();
+};
+
+class PointToSet {
+ public:
+  // Throws InvalidInput naming `field` (e.g. "a.weights[2]", "a.rho.radius") on bad options:
+  // weights not positive/finite or of the wrong count, or a ρ ball that does not strictly cover
+  // the shape.
+  PointToSet(const Shape& shape, const BaseFunction& phi, const StrictParams& strict,
+             const P2SOptions& options, const std::string& field);
+
+  // Moves the shape; evaluations below are in world coordinates.
+  void set_pose(const Pose& pose);
+  const Pose& pose() const { return pose_; }
+
+  // e_S and E_S at a world point. `order` 0: value only, 1: + gradient, 2: + Hessian.
+  P2SValue weak(const Vec3& p, int order) const;
+  P2SValue strict(const Vec3& p, int order) const;
+  // True if p is in the set (e_S = 0): exact zero test, consistent with E_S = 0.
+  bool contains(const Vec3& p) const { return weak(p, 0).value == 0.0; }
+
+  const VecX& weights() const { return weights_; }  // empty for round shapes
+  const Ball& rho_ball() const { return rho_; }      // shape frame
+  const Shape& shape() const { return shape_; }
+  const StrictParams& strict_params() const { return strict_; }
+
+ private:
+  P2SValue weak_local(const Vec3& p, int order) const;
+  P2SValue halfspaces_world(const Vec3& p, int order) const;
+  P2SValue capsule_local(const Vec3& p, int order) const;
+
+  Shape shape_;
+  BaseFunction phi_;
+  StrictParams strict_;
+  Pose pose_;
+  Mat3 R_ = Mat3::Identity();
+  MatX3 A_local_, A_world_;  // half-spaces (polytopes and boxes)
+  VecX b_local_, b_world_;
+  VecX weights_;
+  double round_weight_ = 1.0;
+  Ball rho_{Vec3::Zero(), 1.0};
+  Vec3 rho_center_world_ = Vec3::Zero();
+};
+
+}  // namespace distlab

@@ -1,0 +1,267 @@
+// Weak and strict point-to-set functions (GAP paper, Sections III-B and III-C).
+//
+// Weak e_S per shape (each satisfies Definition 1 with >= 0 in Property 2):
+// - polytope/box, eq. (5): Σ W_i Φ(a_i·p − b_i); ‖∂²e‖ <= Σ_violated W_i Φ'' < m W_i < 1.
+// - sphere: Φ(‖p‖ − r). Hessian Φ'' nnᵀ + Φ'/‖p‖ (I − nnᵀ); Φ' <= s < ‖p‖, so both parts < 1.
+// - cylinder: Φ(‖p_xy‖ − r) + Φ(z − l/2) + Φ(−z − l/2); the radial, tangential and axial parts
+//   act on orthogonal directions, so m = 1: round shapes get the weight 1/(1 + margin).
+// - capsule: the infimal convolution min_t [Φ(‖p − t e_z‖ − r) + Φ(|t| − l/2)] of a ball's and
+//   a segment's functions. Its zero set is exactly the capsule; it is convex; by the implicit
+//   function theorem (the t-curvature is > 0 outside the set) it is as smooth as Φ; and its
+//   Hessian is a Schur complement of the ball's, so it stays below I. (Φ(dist − r) would only be
+//   C¹ across the planes z = ±l/2.)
+#include "distlab/gap/point_to_set.hpp"
+
+#include <cmath>
+
+#include "distlab/geometry/error.hpp"
+
+namespace distlab {
+namespace {
+
+template <class... F>
+struct Overloaded : F... {
+  using F::operator()...;
+};
+template <class... F>
+Overloaded(F...) -> Overloaded<F...>;
+
+// Adds W Φ(s) along unit direction u (s = u·p − b), for a term whose Hessian is rank one.
+inline void add_linear_term(P2SValue& v, const BaseFunction& phi, double w, double s,
+                            const Vec3& u, int order) {
+  if (!(s > 0)) return;
+  const auto j = phi.jet(s);
+  v.value += w * j.value;
+  if (order >= 1) v.gradient += (w * j.d1) * u;
+  if (order >= 2) v.hessian.noalias() += (w * j.d2) * u * u.transpose();
+}
+
+// Φ(‖q‖ − r) for q = p (sphere) or q = (x, y, 0) (cylinder, `planar`).
+inline void add_radial_term(P2SValue& v, const BaseFunction& phi, const Vec3& q, double r,
+                            bool planar, int order) {
+  const double n2 = q.squaredNorm();
+  if (!(n2 > r * r)) return;
+  const double norm = std::sqrt(n2);
+  const auto j = phi.jet(norm - r);
+  v.value += j.value;
+  if (order < 1) return;
+  const Vec3 n = q / norm;
+  v.gradient += j.d1 * n;
+  if (order < 2) return;
+  Mat3 P = Mat3::Identity();  // projector onto the space q lives in
+  if (planar) P(2, 2) = 0.0;
+  v.hessian.noalias() += j.d2 * n * n.transpose() + (j.d1 / norm) * (P - n * n.transpose());
+}
+
+P2SValue scaled(P2SValue v, double w) {
+  v.value *= w;
+  v.gradient *= w;
+  v.hessian *= w;
+  return v;
+}
+
+// Largest distance from c to a point of the shape (shape frame).
+double farthest_distance(const Shape& shape, const Vec3& c) {
+  return std::visit(
+      Overloaded{
+          [&](const Polytope& poly) {
+            double d = 0;
+            for (const auto& v : poly.vertices) d = std::max(d, (v - c).norm());
+            return d;
+          },
+          [&](const Box& box) {
+            const Vec3 far = c.cwiseAbs() + box.size / 2;  // the corner opposite to c
+            return far.norm();
+          },
+          [&](const Sphere& s) { return c.norm() + s.radius; },
+          [&](const Cylinder& cyl) {
+            const double radial = std::hypot(c.x(), c.y()) + cyl.radius;
+            return std::hypot(radial, std::abs(c.z()) + cyl.height / 2);
+          },
+          [&](const Capsule& cap) {
+            return (c - Vec3(0, 0, c.z() > 0 ? -cap.height / 2 : cap.height / 2)).norm() +
+                   cap.radius;
+          }},
+      shape);
+}
+
+}  // namespace
+
+PointToSet::PointToSet(const Shape& shape, const BaseFunction& phi, const StrictParams& strict,
+                       const P2SOptions& options, const std::string& field)
+    : shape_(shape), phi_(phi), strict_(strict) {
+  if (const auto* poly = std::get_if<Polytope>(&shape_)) {
+    A_local_ = poly->A;
+    b_local_ = poly->b;
+  } else if (const auto* box = std::get_if<Box>(&shape_)) {
+    box_halfspaces(*box, A_local_, b_local_);
+  }
+  const auto rows = A_local_.rows();
+  if (options.weights) {
+    if (rows == 0)
+      throw InvalidInput(field + ".weights", "weights apply only to polytopes and boxes");
+    if (options.weights->size() != rows)
+      throw InvalidInput(field + ".weights", "expected " + std::to_string(rows) +
+                                                 " weights (one per half-space), got " +
+                                                 std::to_string(options.weights->size()));
+    for (Eigen::Index i = 0; i < rows; ++i) {
+      const double w = (*options.weights)[i];
+      if (!std::isfinite(w) || w <= 0)
+        throw InvalidInput(field + ".weights[" + std::to_string(i) + "]",
+                           "weights must be finite and > 0");
+    }
+    weights_ = *options.weights;
+  } else if (rows > 0) {
+    if (!std::isfinite(options.weight_margin) || options.weight_margin <= 0)
+      throw InvalidInput("params.weight_margin", "weight_margin must be finite and > 0");
+    const int m = max_violated_halfspaces(A_local_);
+    weights_ = VecX::Constant(rows, 1.0 / (m + options.weight_margin));
+  } else {
+    // Round shapes: their terms act on orthogonal directions, so m = 1.
+    round_weight_ = 1.0 / (1.0 + options.weight_margin);
+  }
+
+  const Ball bound = bounding_ball(shape_);
+  if (options.rho) {
+    rho_ = *options.rho;
+    if (!rho_.center.allFinite())
+      throw InvalidInput(field + ".rho.center", "rho.center must be 3 finite numbers");
+    if (!std::isfinite(rho_.radius) || rho_.radius <= 0)
+      throw InvalidInput(field + ".rho.radius", "rho.radius must be finite and > 0");
+    // ρ must be negative on the whole shape (Theorem 2): the ball must strictly cover it.
+    const double reach = farthest_distance(shape_, rho_.center);
+    if (!(reach < rho_.radius))
+      throw InvalidInput(field + ".rho.radius",
+                         "the rho ball must strictly cover the shape: radius " +
+                             std::to_string(rho_.radius) + " <= farthest shape point at " +
+                             std::to_string(reach));
+  } else {
+    rho_ = {bound.center, bound.radius * kDefaultRhoScale};
+  }
+  if (!std::isfinite(strict_.eps) || strict_.eps <= 0)
+    throw InvalidInput("params.eps", "eps must be finite and > 0");
+  if (!std::isfinite(strict_.sigma) || strict_.sigma <= 0)
+    throw InvalidInput("params.sigma", "sigma must be finite and > 0");
+  set_pose(Pose{});
+}
+
+void PointToSet::set_pose(const Pose& pose) {
+  pose_ = pose;
+  R_ = pose.R();
+  if (A_local_.rows() > 0) {
+    A_world_ = A_local_ * R_.transpose();
+    b_world_ = b_local_ + A_world_ * pose.position;
+  }
+  rho_center_world_ = pose.to_world(rho_.center);
+}
+
+P2SValue PointToSet::halfspaces_world(const Vec3& p, int order) const {
+  P2SValue v;
+  const auto n = A_world_.rows();
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const Vec3 u = A_world_.row(i).transpose();
+    add_linear_term(v, phi_, weights_[i], u.dot(p) - b_world_[i], u, order);
+  }
+  return v;
+}
+
+P2SValue PointToSet::capsule_local(const Vec3& p, int order) const {
+  const auto& cap = std::get<Capsule>(shape_);
+  const double r = cap.radius, half = cap.height / 2;
+  const double rho2 = p.x() * p.x() + p.y() * p.y();
+  const double z = std::abs(p.z()), sign = p.z() < 0 ? -1.0 : 1.0;
+  P2SValue v;
+  const double tz = std::min(z, half);
+  if (rho2 + (z - tz) * (z - tz) <= r * r) return v;  // inside the capsule
+  // g(t) = Φ(‖p − t e_z‖ − r) + Φ(t − l/2) over t in [min(z, l/2), z] (z >= 0 by symmetry);
+  // g' is increasing; safeguarded Newton on g'(t) = 0.
+  double lo = tz, hi = z, t = tz;
+  auto dg = [&](double tt, double* d2) {
+    const double dz = z - tt, d = std::sqrt(rho2 + dz * dz);
+    const auto j = phi_.jet(d - r);
+    const auto jt = phi_.jet(tt - half);
+    const double c = -dz / d;
+    *d2 = j.d2 * c * c + j.d1 / d * (1 - c * c) + jt.d2;
+    return j.d1 * c + jt.d1;
+  };
+  if (z > half) {
+    for (int it = 0; it < 100; ++it) {
+      double d2;
+      const double g1 = dg(t, &d2);
+      if (g1 > 0) hi = t; else lo = t;
+      if (g1 == 0) break;
+      double next = t - g1 / d2;
+      if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
+      if (std::abs(next - t) <= 1e-16 * std::max(1.0, std::abs(t))) { t = next; break; }
+      t = next;
+    }
+  }
+  const Vec3 q(p.x(), p.y(), sign * (z - t));  // p − t* e_z, in p's half-space
+  const double d = q.norm();
+  const auto j = phi_.jet(d - r);
+  const auto jt = phi_.jet(t - half);
+  v.value = j.value + jt.value;
+  if (order < 1) return v;
+  const Vec3 n = q / d;
+  v.gradient = j.d1 * n;
+  if (order < 2) return v;
+  // Schur complement: H = f_pp − f_pp e ( eᵀ f_pp e + ψ'' )⁻¹ eᵀ f_pp.
+  const Mat3 fpp = j.d2 * n * n.transpose() + (j.d1 / d) * (Mat3::Identity() - n * n.transpose());
+  const Vec3 fe = fpp.col(2);
+  const double ftt = fe.z() + jt.d2;
+  v.hessian = fpp - fe * fe.transpose() / ftt;
+  return v;
+}
+
+P2SValue PointToSet::weak_local(const Vec3& p, int order) const {
+  return std::visit(
+      Overloaded{
+          [&](const Sphere& s) {
+            P2SValue v;
+            add_radial_term(v, phi_, p, s.radius, false, order);
+            return scaled(v, round_weight_);
+          },
+          [&](const Cylinder& c) {
+            P2SValue v;
+            add_radial_term(v, phi_, Vec3(p.x(), p.y(), 0.0), c.radius, true, order);
+            add_linear_term(v, phi_, 1.0, p.z() - c.height / 2, Vec3::UnitZ(), order);
+            add_linear_term(v, phi_, 1.0, -p.z() - c.height / 2, -Vec3::UnitZ(), order);
+            return scaled(v, round_weight_);
+          },
+          [&](const Capsule&) { return scaled(capsule_local(p, order), round_weight_); },
+          [&](const auto&) { return P2SValue{}; }},
+      shape_);
+}
+
+P2SValue PointToSet::weak(const Vec3& p, int order) const {
+  if (A_world_.rows() > 0) return halfspaces_world(p, order);
+  P2SValue v = weak_local(pose_.to_local(p), order);
+  if (order >= 1) v.gradient = R_ * v.gradient;
+  if (order >= 2) v.hessian = R_ * v.hessian * R_.transpose();
+  return v;
+}
+
+// Eq. (6) in a form without cancellation: with A = ερ, B = σe, V = sqrt(A² + B²),
+// E = A + V = B²/(V − A) when A < 0; ∇E = (E∇A + B∇B)/V;
+// ∂²E = (E ∂²A + B ∂²B)/V + q qᵀ/V³ with q = A∇B − B∇A (eq. 18).
+P2SValue PointToSet::strict(const Vec3& p, int order) const {
+  const P2SValue e = weak(p, order);
+  const double eps = strict_.eps, sigma = strict_.sigma;
+  const Vec3 dc = p - rho_center_world_;
+  const double A = eps * 0.5 * (dc.squaredNorm() - rho_.radius * rho_.radius);
+  const double B = sigma * e.value;
+  const double V = std::hypot(A, B);
+  P2SValue out;
+  out.value = A >= 0 ? A + V : B * B / (V - A);
+  if (order < 1) return out;
+  const Vec3 dA = eps * dc;
+  const Vec3 dB = sigma * e.gradient;
+  out.gradient = (out.value * dA + B * dB) / V;
+  if (order < 2) return out;
+  const Vec3 q = A * dB - B * dA;
+  out.hessian = (out.value * eps * Mat3::Identity() + (B * sigma) * e.hessian) / V +
+                q * q.transpose() / (V * V * V);
+  return out;
+}
+
+}  // namespace distlab
