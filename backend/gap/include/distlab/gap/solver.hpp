@@ -1,0 +1,37 @@
+#pragma once
+// Differentiable witness points (Definition 2) for two disjoint sets, by two methods:
+// - the paper's generalized alternating projection a ← Π_A(Π_B(a)) (eq. 2), and
+// - Newton's method on Lemma 3's min–max: Λ_B(a) = max_b Λ(a, b) is convex in a, with gradient
+//   ∇E_B(a) − (a − b°) and Hessian ∂²E_B(a) − I − (∂²E_A(b°) − I)⁻¹ (eq. 11); Armijo line
+//   search on Λ_B itself, the inner maximisation by Newton as well. Converges quadratically where
+//   the plain iteration crawls (contraction factors of 0.999+ near contact).
+#include "distlab/gap/point_to_set.hpp"
+
+namespace distlab {
+
+struct WitnessSolution {
+  Vec3 a = Vec3::Zero();  // a* = Π_A(b*)
+  Vec3 b = Vec3::Zero();  // b* = Π_B(a*)
+  double lambda = 0;      // eq. (3)
+  int iterations = 0;     // outer iterations
+  bool converged = false;
+};
+
+// Plain iteration from a0; stops when ‖a[k+1] − a[k]‖ < tol (the paper's rule) or at max_iter.
+WitnessSolution solve_fixed_point(const PointToSet& A, const PointToSet& B, const Vec3& a0,
+                                  double tol, int max_iter);
+
+// Newton on the min–max from a0; stops when the Newton step is below tol (the error is then
+// of the order of tol², quadratic convergence) or at max_iter.
+WitnessSolution solve_newton(const PointToSet& A, const PointToSet& B, const Vec3& a0, double tol,
+                             int max_iter);
+
+// Λ(a, b) = E_A(b) + E_B(a) − ½‖a − b‖² (eq. 3 at the witness points).
+double lambda_at(const PointToSet& A, const PointToSet& B, const Vec3& a, const Vec3& b);
+
+// Gradients of Λ from the witness points (envelope theorem on Lemma 3's saddle point):
+// dΛ/dv_A = a* − b*, dΛ/dω_A = −(b* − t_A) × (b* − a*); B with the roles swapped.
+void lambda_gradients(const Vec3& a_star, const Vec3& b_star, const Pose& pose_a,
+                      const Pose& pose_b, Vec6& grad_a, Vec6& grad_b);
+
+}  // namespace distlab
