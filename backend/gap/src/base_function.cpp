@@ -15,7 +15,7 @@
 namespace distlab {
 namespace {
 
-constexpr int kSeriesTerms = 44;
+constexpr int kSeriesTerms = 60;
 
 using Poly = std::vector<long double>;
 
@@ -40,11 +40,9 @@ Poly integrate_times_exp(const Poly& p) {
   return r;
 }
 
-double horner(const std::vector<double>& c, double L) {
-  double r = 0;
-  for (auto it = c.rbegin(); it != c.rend(); ++it) r = r * L + *it;
-  return r;
-}
+// Series limit in u = (k−1) L / h: the closed form's relative cancellation grows like
+// 1/Φ''(L) ~ (k−1)^(k−1)/u^(k−1) below it, so larger k keeps the series longer.
+double series_limit_u(int k) { return std::min(4.0, 1.0 + 0.75 * (k - 2)); }
 
 // E(β) = (x^β − 1)/β with x^β given; expm1 where x^β is close to 1.
 inline double E(double beta, double x_beta, double L) {
@@ -68,8 +66,8 @@ BaseFunction::BaseFunction(double h, int k) : h_(h), k_(k) {
     c = c * (k - 1 - i) / (i + 1);
   }
   // Φ''(t) = (1 − e^(−t/h))^(k−1) as a series in t = L; its coefficients grow like
-  // ((k−1)/h)^n/n!, so the series is used while (k−1) L / h <= 4 (and L <= 4): the truncation
-  // error is then below 4^44/44! and the closed form's cancellation above it stays near 1e-14.
+  // ((k−1)/h)^n/n!, so the series is used while u = (k−1) L / h <= series_limit_u(k) (and
+  // L <= that limit); above it the closed form loses at most a few digits to cancellation.
   Poly g(kSeriesTerms, 0.0L);  // 1 − e^(−t/h)
   long double term = 1.0L;
   for (int n = 1; n < kSeriesTerms; ++n) {
@@ -81,22 +79,40 @@ BaseFunction::BaseFunction(double h, int k) : h_(h), k_(k) {
   for (int i = 0; i < k - 1; ++i) p = multiply(p, g);
   const Poly p1 = integrate_times_exp(p);
   const Poly p0 = integrate_times_exp(p1);
-  c2_.assign(p.begin(), p.end());
-  c1_.assign(p1.begin(), p1.end());
-  c0_.assign(p0.begin(), p0.end());
-  series_limit_ = std::min(4.0, 4.0 * h / (k - 1));
+  // Truncate where the next term is below 1e-19 at the series limit: coefficients decay like
+  // w^n/n! with w the larger of u's limit and 2L (from the e^t, e^2t factors of Φ', Φ).
+  const double u_max = series_limit_u(k);
+  series_limit_ = std::min(u_max, u_max * h / (k - 1));
+  const double w = std::max(u_max, 2 * series_limit_);
+  int terms = 8;
+  for (double bound = 1; terms < kSeriesTerms; ++terms) {
+    bound = std::pow(w, terms) / std::tgamma(terms + 1.0);
+    if (bound < 1e-19) break;
+  }
+  c0_.assign(p0.begin(), p0.begin() + terms);
+  c1_.assign(p1.begin(), p1.begin() + terms);
+  c2_.assign(p.begin(), p.begin() + terms);
 }
 
 BaseFunction::Jet BaseFunction::series(double L) const {
-  return {horner(c0_, L), horner(c1_, L), horner(c2_, L)};
+  // Three Horner chains interleaved (independent, so they pipeline).
+  const size_t n = c0_.size();
+  double v0 = c0_[n - 1], v1 = c1_[n - 1], v2 = c2_[n - 1];
+  for (size_t i = n - 1; i-- > 0;) {
+    v0 = v0 * L + c0_[i];
+    v1 = v1 * L + c1_[i];
+    v2 = v2 * L + c2_[i];
+  }
+  return {v0, v1, v2};
 }
 
 BaseFunction::Jet BaseFunction::closed_form(double s, double L) const {
   const double x = s + 1.0;
   const double t = std::exp(-L / h_);  // x^(−1/h)
-  Jet j;
-  double xa = 1.0;  // x^(−i/h)
-  for (int i = 0; i < k_; ++i) {
+  // i = 0 (a = 0): E(1) = s and E(2) = s(s + 2)/2 exactly, so its term is s²/2.
+  Jet j{binom_[0] * 0.5 * s * s, binom_[0] * s, 0.0};
+  double xa = t;  // x^(−i/h)
+  for (int i = 1; i < k_; ++i) {
     const double a = i / h_;
     const double e1 = E(1.0 - a, x * xa, L);
     const double e2 = E(2.0 - a, x * x * xa, L);
@@ -104,8 +120,10 @@ BaseFunction::Jet BaseFunction::closed_form(double s, double L) const {
     j.d1 += binom_[i] * e1;
     xa *= t;
   }
-  // Here L/h > 4/(k−1) >= 1/3, so 1 − t has no cancellation.
-  j.d2 = std::pow(1.0 - t, k_ - 1);
+  // Here L/h > 1/(k−1), so 1 − t has no cancellation.
+  double d2 = 1.0;
+  for (int i = 1; i < k_; ++i) d2 *= 1.0 - t;
+  j.d2 = d2;
   return j;
 }
 
