@@ -1,0 +1,88 @@
+#pragma once
+// The semantics-aware distance h(x) of one object (kelvin-semantics-aware-distance.txt):
+// prepare once (invert, tetrahedralise, assemble, factor), then set σ and query h and ∇h.
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "distlab/geometry/types.hpp"
+#include "distlab/kelvin/progress.hpp"
+#include "distlab/kelvin/sigma.hpp"
+#include "distlab/kelvin/tet_mesh.hpp"
+#include "distlab/mesh/surface.hpp"
+
+namespace distlab::kelvin {
+
+struct PrepareOptions {
+  double lx = 0.1;            // exterior element size l_x, metres (eq. 23)
+  std::optional<Vec3> centre;  // inversion centre; default: a deep interior point
+  // l_y is bounded below by its value at |x| = far_radius · (largest centre-to-surface distance):
+  // beyond that radius the exterior mesh coarsens quadratically instead of staying at l_x.
+  double far_radius = 1.0;
+  double feature_angle = 60.0;  // sharp-edge detection (degrees)
+};
+
+struct Stats {
+  long n_verts = 0, n_tets = 0;
+  double size_mb = 0;
+  double t_mesh = 0, t_build = 0, t_decomp = 0, t_solve = 0;  // seconds
+};
+
+enum class Status : std::uint8_t {
+  ok,
+  inside,       // the point is inside the object (or at the centre): h is not defined
+  nonpositive,  // the discrete V ≤ 0 there, so h = -ln(GV) does not exist (see numerics notes)
+};
+
+struct Sample {
+  double h = 0;
+  Vec3 gradient = Vec3::Zero();
+  Status status = Status::ok;
+};
+
+class Field {
+ public:
+  // Validates the surface (closed, manifold, oriented) and builds everything σ-independent.
+  static Field prepare(const mesh::SurfaceMesh& surface, const PrepareOptions& options,
+                       const Progress& progress = {});
+  // As prepare, but reuses <cache_dir>/<content hash>.kelvin when present and intact, and
+  // writes it atomically otherwise. *hit (if given) tells whether the cache was used.
+  static Field prepare_cached(const mesh::SurfaceMesh& surface, const PrepareOptions& options,
+                              const std::string& cache_dir, const Progress& progress = {},
+                              bool* hit = nullptr);
+
+  Field(Field&&) noexcept;
+  Field& operator=(Field&&) noexcept;
+  ~Field();
+
+  // Solves eqs. 17, 20, 21 for V with V_∂ = e^(−σ)/|y| and the vertex gradients of V.
+  void set_sigma(const SigmaSpec& sigma);
+
+  // h(x) and ∇h(x) (Algorithm 1). hint: the cell of a previous query (updated), or nullptr
+  // to locate through the seeding grid.
+  Sample query(const Vec3& x, int* hint = nullptr) const;
+  std::vector<Sample> query(const std::vector<Vec3>& points) const;  // coherent order helps
+
+  // Closed, oriented boundary of {h ≥ level} (marching tetrahedra mapped back by eq. 5),
+  // normals pointing to increasing h. Where σ > level it runs along the object's surface.
+  mesh::SurfaceMesh isosurface(double level) const;
+
+  const Stats& stats() const;
+  const TetMesh& tet_mesh() const;           // y-space cells
+  const mesh::SurfaceMesh& surface() const;  // the validated input surface
+  Vec3 centre() const;
+  // Meshed boundary vertices mapped back to x (they lie on the input surface) and σ there.
+  std::vector<Vec3> boundary_points() const;
+  const VecX& boundary_sigma() const;
+  // Vertex values of V (indexed like tet_mesh().points; NaN for vertices outside Ω_inv).
+  const VecX& vertex_values() const;
+
+  struct Impl;
+
+ private:
+  explicit Field(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace distlab::kelvin

@@ -1,0 +1,36 @@
+#pragma once
+// The tetrahedralised inverted domain Ω_inv ∪ {0} (Section IV-C) in y-coordinates.
+#include <Eigen/Core>
+#include <cstdint>
+#include <vector>
+
+#include "distlab/geometry/types.hpp"
+#include "distlab/kelvin/progress.hpp"
+#include "distlab/mesh/surface.hpp"
+
+namespace distlab::kelvin {
+
+using TetsX4 = Eigen::Matrix<int, Eigen::Dynamic, 4, Eigen::RowMajor>;
+
+// Every finite cell of the mesher's triangulation (it covers the convex hull, so point location
+// can walk across concavities); in_domain marks the cells of Ω_inv. Cells are positively
+// oriented; neighbours(c, i) is the cell opposite vertex i, or -1 on the hull.
+struct TetMesh {
+  MatX3 points;
+  TetsX4 tets;
+  TetsX4 neighbours;
+  std::vector<std::uint8_t> in_domain;
+};
+
+struct MeshingParams {
+  double lx = 0.1;              // exterior element size l_x (eq. 23)
+  double min_size = 0.0;        // lower bound of the interior sizing field l_y
+  double feature_angle = 60.0;  // dihedral angle (degrees) below which edges are kept sharp
+};
+
+// CGAL Mesh_3 on the region bounded by the (already inverted, outward-oriented) surface with
+// l_y(y) = max(|y|² l_x, min_size) (eq. 23). Deterministic: fixed seeds, no time limits.
+TetMesh mesh_inverted_domain(const mesh::SurfaceMesh& inverted, const MeshingParams& params,
+                             const Progress& progress);
+
+}  // namespace distlab::kelvin

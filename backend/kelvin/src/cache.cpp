@@ -1,0 +1,161 @@
+// On-disk cache of prepared objects: content-hash names, checksummed, written atomically.
+#include <unistd.h>
+
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "field_impl.hpp"
+
+namespace distlab::kelvin {
+namespace {
+
+// Bump when the meshing or the file layout changes: old entries then simply miss.
+constexpr char kFormat[] = "distlab-kelvin-cache-v1";
+
+struct Fnv64 {
+  std::uint64_t h;
+  explicit Fnv64(std::uint64_t basis = 1469598103934665603ull) : h(basis) {}
+  void add(const void* data, size_t n) {
+    const auto* p = static_cast<const unsigned char*>(data);
+    for (size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 1099511628211ull;
+  }
+};
+
+class Writer {
+ public:
+  template <class T>
+  void pod(const T& v) { raw(&v, sizeof(T)); }
+  template <class T>
+  void array(const T* p, std::uint64_t n) { pod(n); raw(p, sizeof(T) * n); }
+  void raw(const void* p, size_t n) { out.write(static_cast<const char*>(p), static_cast<std::streamsize>(n)); }
+  std::ostringstream out;
+};
+
+class Reader {
+ public:
+  explicit Reader(std::string data) : in(std::move(data)) {}
+  template <class T>
+  bool pod(T& v) { return raw(&v, sizeof(T)); }
+  // Reads a length-prefixed array into an Eigen matrix with the given column count.
+  template <class M>
+  bool matrix(M& m, Eigen::Index cols, std::uint64_t max_rows) {
+    std::uint64_t n = 0;
+    if (!pod(n) || n % static_cast<std::uint64_t>(cols) != 0 || n / cols > max_rows) return false;
+    m.resize(static_cast<Eigen::Index>(n / cols), cols);
+    return raw(m.data(), sizeof(typename M::Scalar) * n);
+  }
+  bool raw(void* p, size_t n) {
+    in.read(static_cast<char*>(p), static_cast<std::streamsize>(n));
+    return static_cast<bool>(in);
+  }
+  std::istringstream in;
+};
+
+}  // namespace
+
+std::string prepare_key(const mesh::SurfaceMesh& s, const PrepareOptions& o, const Vec3& centre) {
+  // Two 64-bit FNV-1a streams with different bases give a 128-bit name.
+  Fnv64 a, b(0x9e3779b97f4a7c15ull);
+  auto add = [&](const void* p, size_t n) { a.add(p, n); b.add(p, n); };
+  add(kFormat, sizeof(kFormat));
+  add(s.vertices.data(), sizeof(double) * static_cast<size_t>(s.vertices.size()));
+  add(s.faces.data(), sizeof(int) * static_cast<size_t>(s.faces.size()));
+  const double params[6] = {o.lx, o.far_radius, o.feature_angle, centre.x(), centre.y(), centre.z()};
+  add(params, sizeof(params));
+  char text[33];
+  std::snprintf(text, sizeof(text), "%016llx%016llx", static_cast<unsigned long long>(a.h),
+                static_cast<unsigned long long>(b.h));
+  return text;
+}
+
+void save_prepared(const Field::Impl& m, const std::string& path, const std::string& key) {
+  Writer w;
+  w.raw(kFormat, sizeof(kFormat));
+  w.array(key.data(), key.size());
+  w.array(m.surface.vertices.data(), static_cast<std::uint64_t>(m.surface.vertices.size()));
+  w.array(m.surface.faces.data(), static_cast<std::uint64_t>(m.surface.faces.size()));
+  const double params[8] = {m.options.lx, m.options.far_radius, m.options.feature_angle, m.centre.x(),
+                            m.centre.y(), m.centre.z(), m.stats.t_mesh, m.stats.t_decomp};
+  w.raw(params, sizeof(params));
+  w.array(m.tm.points.data(), static_cast<std::uint64_t>(m.tm.points.size()));
+  w.array(m.tm.tets.data(), static_cast<std::uint64_t>(m.tm.tets.size()));
+  w.array(m.tm.neighbours.data(), static_cast<std::uint64_t>(m.tm.neighbours.size()));
+  w.array(m.tm.in_domain.data(), static_cast<std::uint64_t>(m.tm.in_domain.size()));
+  m.solver.save(w.out);
+  std::string payload = w.out.str();
+  Fnv64 sum;
+  sum.add(payload.data(), payload.size());
+  const std::uint64_t size = payload.size();
+
+  // Write a private temporary file, flush it to disk, then rename over the final name: readers
+  // see either no file or a complete one.
+  std::filesystem::create_directories(std::filesystem::path(path).parent_path());
+  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
+  {
+    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+    f.write(reinterpret_cast<const char*>(&size), sizeof(size));
+    f.write(payload.data(), static_cast<std::streamsize>(payload.size()));
+    f.write(reinterpret_cast<const char*>(&sum.h), sizeof(sum.h));
+    f.flush();
+    if (!f) {
+      std::filesystem::remove(tmp);
+      throw std::runtime_error("cannot write cache file " + tmp);
+    }
+  }
+  if (FILE* f = std::fopen(tmp.c_str(), "rb")) {
+    ::fsync(fileno(f));
+    std::fclose(f);
+  }
+  std::filesystem::rename(tmp, path);
+}
+
+std::unique_ptr<Field::Impl> load_prepared(const std::string& path, const std::string& key) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) return nullptr;
+  std::uint64_t size = 0, stored = 0;
+  if (!f.read(reinterpret_cast<char*>(&size), sizeof(size)) || size > (1ull << 36)) return nullptr;
+  std::string payload(size, '\0');
+  if (!f.read(payload.data(), static_cast<std::streamsize>(size)) ||
+      !f.read(reinterpret_cast<char*>(&stored), sizeof(stored)) || f.peek() != EOF)
+    return nullptr;  // truncated or trailing garbage
+  Fnv64 sum;
+  sum.add(payload.data(), payload.size());
+  if (sum.h != stored) return nullptr;  // corrupt
+
+  Reader r(std::move(payload));
+  char format[sizeof(kFormat)];
+  if (!r.raw(format, sizeof(format)) || std::memcmp(format, kFormat, sizeof(kFormat)) != 0) return nullptr;
+  std::uint64_t key_size = 0;
+  if (!r.pod(key_size) || key_size != key.size()) return nullptr;
+  std::string stored_key(key_size, '\0');
+  if (!r.raw(stored_key.data(), key_size) || stored_key != key) return nullptr;
+  auto m = std::make_unique<Field::Impl>();
+  constexpr std::uint64_t max_rows = 1ull << 31;
+  double params[8];
+  if (!r.matrix(m->surface.vertices, 3, max_rows) || !r.matrix(m->surface.faces, 3, max_rows) ||
+      !r.raw(params, sizeof(params)) || !r.matrix(m->tm.points, 3, max_rows) ||
+      !r.matrix(m->tm.tets, 4, max_rows) || !r.matrix(m->tm.neighbours, 4, max_rows))
+    return nullptr;
+  std::uint64_t nd = 0;
+  if (!r.pod(nd) || nd != static_cast<std::uint64_t>(m->tm.tets.rows())) return nullptr;
+  m->tm.in_domain.resize(nd);
+  if (!r.raw(m->tm.in_domain.data(), nd)) return nullptr;
+  // Indices are checked, not trusted: a stale layout must not index out of bounds.
+  const auto np = static_cast<int>(m->tm.points.rows()), nt = static_cast<int>(m->tm.tets.rows());
+  if (m->tm.neighbours.rows() != nt || (m->tm.tets.size() > 0 && (m->tm.tets.minCoeff() < 0 || m->tm.tets.maxCoeff() >= np)) ||
+      (m->tm.neighbours.size() > 0 && (m->tm.neighbours.minCoeff() < -1 || m->tm.neighbours.maxCoeff() >= nt)) ||
+      (m->surface.faces.size() > 0 && (m->surface.faces.minCoeff() < 0 || m->surface.faces.maxCoeff() >= m->surface.vertices.rows())))
+    return nullptr;
+  if (!m->solver.load(r.in)) return nullptr;
+  m->options.lx = params[0];
+  m->options.far_radius = params[1];
+  m->options.feature_angle = params[2];
+  m->centre = Vec3(params[3], params[4], params[5]);
+  m->options.centre = m->centre;
+  // params[6..7] record the original t_mesh and t_decomp; nothing was spent on them now.
+  return m;
+}
+
+}  // namespace distlab::kelvin

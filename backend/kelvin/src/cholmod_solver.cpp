@@ -1,0 +1,158 @@
+// CHOLMOD (supernodal, over the system BLAS: OpenBLAS) with reusable solve workspaces.
+#include "cholmod_solver.hpp"
+
+#include <cholmod.h>
+
+#include <istream>
+#include <ostream>
+#include <stdexcept>
+#include <vector>
+
+namespace distlab::kelvin {
+
+struct CholmodSolver::Impl {
+  mutable cholmod_common common;
+  cholmod_factor* factor = nullptr;
+  mutable cholmod_dense* x = nullptr;  // workspaces reused by cholmod_solve2
+  mutable cholmod_dense* y = nullptr;
+  mutable cholmod_dense* e = nullptr;
+  Impl() {
+    cholmod_start(&common);
+    common.supernodal = CHOLMOD_SUPERNODAL;
+    common.print = 0;
+  }
+  ~Impl() {
+    cholmod_free_dense(&x, &common);
+    cholmod_free_dense(&y, &common);
+    cholmod_free_dense(&e, &common);
+    cholmod_free_factor(&factor, &common);
+    cholmod_finish(&common);
+  }
+};
+
+CholmodSolver::CholmodSolver() : impl_(std::make_unique<Impl>()) {}
+CholmodSolver::~CholmodSolver() = default;
+
+void CholmodSolver::factorize(const Eigen::SparseMatrix<double>& lower) {
+  cholmod_sparse a{};
+  a.nrow = a.ncol = static_cast<size_t>(lower.rows());
+  a.nzmax = static_cast<size_t>(lower.nonZeros());
+  a.p = const_cast<int*>(lower.outerIndexPtr());
+  a.i = const_cast<int*>(lower.innerIndexPtr());
+  a.x = const_cast<double*>(lower.valuePtr());
+  a.stype = -1;  // lower triangle stored
+  a.itype = CHOLMOD_INT;
+  a.xtype = CHOLMOD_REAL;
+  a.dtype = CHOLMOD_DOUBLE;
+  a.sorted = 1;
+  a.packed = 1;
+  cholmod_free_factor(&impl_->factor, &impl_->common);
+  impl_->factor = cholmod_analyze(&a, &impl_->common);
+  if (impl_->factor == nullptr) throw std::runtime_error("CHOLMOD analysis failed");
+  cholmod_factorize(&a, impl_->factor, &impl_->common);
+  if (impl_->common.status == CHOLMOD_NOT_POSDEF)
+    throw std::runtime_error("stiffness matrix is not positive definite (degenerate tetrahedra?)");
+  if (impl_->common.status < CHOLMOD_OK) throw std::runtime_error("CHOLMOD factorization failed");
+}
+
+void CholmodSolver::solve(VecX& b) const {
+  if (impl_->factor == nullptr || b.size() != size()) throw std::logic_error("solve before factorize");
+  cholmod_dense rhs{};
+  rhs.nrow = rhs.d = rhs.nzmax = static_cast<size_t>(b.size());
+  rhs.ncol = 1;
+  rhs.x = b.data();
+  rhs.xtype = CHOLMOD_REAL;
+  rhs.dtype = CHOLMOD_DOUBLE;
+  if (!cholmod_solve2(CHOLMOD_A, impl_->factor, &rhs, nullptr, &impl_->x, nullptr, &impl_->y,
+                      &impl_->e, &impl_->common))
+    throw std::runtime_error("CHOLMOD solve failed");
+  std::copy_n(static_cast<const double*>(impl_->x->x), b.size(), b.data());
+}
+
+Eigen::Index CholmodSolver::size() const {
+  return impl_->factor == nullptr ? 0 : static_cast<Eigen::Index>(impl_->factor->n);
+}
+
+double CholmodSolver::factor_megabytes() const {
+  const cholmod_factor* f = impl_->factor;
+  if (f == nullptr) return 0;
+  return (8.0 * static_cast<double>(f->xsize) + 4.0 * static_cast<double>(f->ssize + 2 * f->n)) / 1e6;
+}
+
+namespace {
+
+template <class T>
+void put(std::ostream& out, const T* data, size_t count) {
+  out.write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(sizeof(T) * count));
+}
+template <class T>
+bool get(std::istream& in, T* data, size_t count) {
+  in.read(reinterpret_cast<char*>(data), static_cast<std::streamsize>(sizeof(T) * count));
+  return static_cast<bool>(in);
+}
+
+}  // namespace
+
+// Layout: sizes, then Perm, ColCount, super, pi, px, s, x (the supernodal LLᵀ factor).
+void CholmodSolver::save(std::ostream& out) const {
+  const cholmod_factor* f = impl_->factor;
+  if (f == nullptr || !f->is_super || f->itype != CHOLMOD_INT) throw std::logic_error("no supernodal factor to save");
+  const std::uint64_t sizes[8] = {f->n, f->nsuper, f->ssize, f->xsize, f->maxcsize, f->maxesize,
+                                  static_cast<std::uint64_t>(f->ordering), static_cast<std::uint64_t>(f->is_monotonic)};
+  put(out, sizes, 8);
+  put(out, static_cast<const int*>(f->Perm), f->n);
+  put(out, static_cast<const int*>(f->ColCount), f->n);
+  put(out, static_cast<const int*>(f->super), f->nsuper + 1);
+  put(out, static_cast<const int*>(f->pi), f->nsuper + 1);
+  put(out, static_cast<const int*>(f->px), f->nsuper + 1);
+  put(out, static_cast<const int*>(f->s), f->ssize);
+  put(out, static_cast<const double*>(f->x), f->xsize);
+}
+
+bool CholmodSolver::load(std::istream& in) {
+  std::uint64_t sizes[8];
+  if (!get(in, sizes, 8)) return false;
+  const std::uint64_t n = sizes[0], nsuper = sizes[1], ssize = sizes[2], xsize = sizes[3];
+  if (n == 0 || n > (1u << 30) || nsuper > n || ssize > (1ull << 34) || xsize > (1ull << 34)) return false;
+  cholmod_common* c = &impl_->common;
+  cholmod_free_factor(&impl_->factor, c);
+  cholmod_factor* f = cholmod_allocate_factor(n, c);
+  if (f == nullptr) return false;
+  // A simplicial symbolic factor with the supernodal sizes set converts to an empty supernodal
+  // numeric one of exactly those sizes; then the arrays are filled from the stream.
+  f->nsuper = nsuper;
+  f->ssize = ssize;
+  f->xsize = xsize;
+  f->maxcsize = sizes[4];
+  f->maxesize = sizes[5];
+  f->ordering = static_cast<int>(sizes[6]);
+  impl_->factor = f;
+  if (!get(in, static_cast<int*>(f->Perm), n) || !get(in, static_cast<int*>(f->ColCount), n)) return false;
+  if (!cholmod_change_factor(CHOLMOD_REAL, 1, 1, 1, 1, f, c) || !f->is_super) return false;
+  f->is_monotonic = static_cast<int>(sizes[7]);
+  if (!get(in, static_cast<int*>(f->super), nsuper + 1) || !get(in, static_cast<int*>(f->pi), nsuper + 1) ||
+      !get(in, static_cast<int*>(f->px), nsuper + 1) || !get(in, static_cast<int*>(f->s), ssize) ||
+      !get(in, static_cast<double*>(f->x), xsize))
+    return false;
+  // Structural sanity, so a corrupt file cannot send the solver out of bounds.
+  const int* super = static_cast<const int*>(f->super);
+  const int* pi = static_cast<const int*>(f->pi);
+  const int* px = static_cast<const int*>(f->px);
+  const int* perm = static_cast<const int*>(f->Perm);
+  if (super[0] != 0 || super[nsuper] != static_cast<int>(n) || pi[0] != 0 || px[0] != 0 ||
+      static_cast<std::uint64_t>(pi[nsuper]) > ssize || static_cast<std::uint64_t>(px[nsuper]) > xsize)
+    return false;
+  for (std::uint64_t k = 0; k < nsuper; ++k)
+    if (super[k + 1] <= super[k] || pi[k + 1] < pi[k] || px[k + 1] < px[k]) return false;
+  std::vector<char> seen(n, 0);
+  for (std::uint64_t k = 0; k < n; ++k) {
+    if (perm[k] < 0 || static_cast<std::uint64_t>(perm[k]) >= n || seen[static_cast<size_t>(perm[k])]) return false;
+    seen[static_cast<size_t>(perm[k])] = 1;
+  }
+  const int* s = static_cast<const int*>(f->s);
+  for (std::uint64_t k = 0; k < ssize; ++k)
+    if (s[k] < 0 || static_cast<std::uint64_t>(s[k]) >= n) return false;
+  return true;
+}
+
+}  // namespace distlab::kelvin

@@ -1,0 +1,292 @@
+// Preparation pipeline (Section IV): invert (eq. 5), tetrahedralise (eq. 23), assemble the P1
+// Laplacian and reduce it (eqs. 19–21), factor (eq. 22); and the σ-dependent solve (eq. 17).
+#include <chrono>
+#include <cmath>
+
+#include "distlab/geometry/error.hpp"
+#include "distlab/mesh/checks.hpp"
+#include "field_impl.hpp"
+
+namespace distlab::kelvin {
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
+
+Field::Field(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+Field::Field(Field&&) noexcept = default;
+Field& Field::operator=(Field&&) noexcept = default;
+Field::~Field() = default;
+
+// Validation shared by prepare and prepare_cached: returns the validated surface and centre.
+static std::pair<mesh::SurfaceMesh, Vec3> validated(const mesh::SurfaceMesh& input, const PrepareOptions& o,
+                                                    std::unique_ptr<SurfaceOracle>& oracle,
+                                                    const Progress& progress) {
+  if (!std::isfinite(o.lx) || o.lx <= 0) throw InvalidInput("lx", "lx must be a positive number of metres");
+  if (!std::isfinite(o.far_radius) || o.far_radius < 0.5)
+    throw InvalidInput("far_radius", "far_radius must be at least 0.5");
+  progress("load", 0.0);
+  mesh::SurfaceMesh surface = input;
+  mesh::require_closed_manifold(surface, "mesh");
+  oracle = std::make_unique<SurfaceOracle>(surface);
+  Vec3 centre;
+  if (o.centre) {
+    centre = *o.centre;
+    if (!centre.allFinite()) throw InvalidInput("center", "center must be three finite numbers");
+    if (!oracle->inside(centre)) throw InvalidInput("center", "center lies outside the object");
+  } else {
+    centre = oracle->deepest_point();
+  }
+  const double r_max = (surface.vertices.rowwise() - centre.transpose()).rowwise().norm().maxCoeff();
+  const double clearance = oracle->distance(centre);
+  // The inverted surface spans radii 1/r_max … 1/clearance: a tiny clearance makes it enormous.
+  if (clearance < 0.02 * r_max)
+    throw InvalidInput("center", "center is too close to the surface (" + std::to_string(clearance) +
+                                     " m; at least 2% of the object's radius " + std::to_string(r_max) +
+                                     " m is needed)");
+  if (o.lx > r_max) throw InvalidInput("lx", "lx is larger than the object (" + std::to_string(r_max) + " m)");
+  // Rough vertex estimate: ~1 vertex per 1.5 l_x³ of the uniform region, capped for safety.
+  const double region = 4.18879 * std::pow(o.far_radius * r_max, 3);
+  if (region / (1.5 * std::pow(o.lx, 3)) > 2e7)
+    throw InvalidInput("lx", "lx is too small for this object: the mesh would exceed 20 million vertices");
+  progress("load", 1.0);
+  return {std::move(surface), centre};
+}
+
+static std::unique_ptr<Field::Impl> mesh_stage(mesh::SurfaceMesh surface, const Vec3& centre,
+                                               const PrepareOptions& o, std::unique_ptr<SurfaceOracle> oracle,
+                                               const Progress& progress) {
+  auto impl = std::make_unique<Field::Impl>();
+  const auto t0 = std::chrono::steady_clock::now();
+  progress("invert", 0.0);
+  // Flat input faces invert to sphere patches: split long edges first so the inverted
+  // polyhedron follows them (chord error ≲ l_x²/(4|x|) mapped back).
+  mesh::SurfaceMesh inverted = split_long_edges(surface, o.lx);
+  double r_max = 0;
+  for (Eigen::Index v = 0; v < inverted.vertices.rows(); ++v) {
+    const Vec3 p = Vec3(inverted.vertices.row(v)) - centre;
+    r_max = std::max(r_max, p.norm());
+    inverted.vertices.row(v) = p / p.squaredNorm();  // eq. 5; orientation stays outward for Ω_inv
+  }
+  progress("invert", 1.0);
+  MeshingParams params;
+  params.lx = o.lx;
+  params.min_size = o.lx / std::pow(o.far_radius * r_max, 2);
+  params.feature_angle = o.feature_angle;
+  impl->tm = mesh_inverted_domain(inverted, params, progress);
+  impl->stats.t_mesh = seconds_since(t0);
+  impl->surface = std::move(surface);
+  impl->options = o;
+  impl->options.centre = centre;
+  impl->centre = centre;
+  impl->oracle = std::move(oracle);
+  return impl;
+}
+
+void Field::Impl::build(const Progress& progress) {
+  const auto t0 = std::chrono::steady_clock::now();
+  progress("build", 0.0);
+  const auto np = static_cast<size_t>(tm.points.rows());
+  const auto nt = static_cast<int>(tm.tets.rows());
+  slot.assign(np, -1);
+  domain_tets.clear();
+  for (int c = 0; c < nt; ++c)
+    if (tm.in_domain[static_cast<size_t>(c)]) domain_tets.push_back(c);
+  // Boundary vertices: on faces between a domain cell and a non-domain or hull neighbour.
+  std::vector<char> on_boundary(np, 0), used(np, 0);
+  for (int c : domain_tets)
+    for (int k = 0; k < 4; ++k) {
+      used[static_cast<size_t>(tm.tets(c, k))] = 1;
+      const int n = tm.neighbours(c, k);
+      if (n < 0 || !tm.in_domain[static_cast<size_t>(n)])
+        for (int j = 0; j < 4; ++j)
+          if (j != k) on_boundary[static_cast<size_t>(tm.tets(c, j))] = 1;
+    }
+  interior.clear();
+  boundary.clear();
+  for (size_t v = 0; v < np; ++v) {
+    if (!used[v]) continue;
+    if (on_boundary[v]) {
+      slot[v] = -(static_cast<int>(boundary.size()) + 2);
+      boundary.push_back(static_cast<int>(v));
+    } else {
+      slot[v] = static_cast<int>(interior.size());
+      interior.push_back(static_cast<int>(v));
+    }
+  }
+  progress("build", 0.1);
+
+  // P1 stiffness K_ij = Σ_t vol_t ∇φ_i·∇φ_j: the cotangent Laplacian [34, 35] of eq. 19.
+  std::vector<Eigen::Triplet<double>> oo, ob;
+  oo.reserve(domain_tets.size() * 10);
+  ob.reserve(domain_tets.size() * 6);
+  grad_weights.resize(domain_tets.size());
+  star_volume = VecX::Zero(static_cast<Eigen::Index>(np));
+  for (size_t i = 0; i < domain_tets.size(); ++i) {
+    if ((i & 0xffff) == 0) progress("build", 0.1 + 0.7 * static_cast<double>(i) / static_cast<double>(domain_tets.size()));
+    const int c = domain_tets[i];
+    const Vec3 a = tm.points.row(tm.tets(c, 0));
+    Mat3 d;
+    for (int k = 0; k < 3; ++k) d.col(k) = Vec3(tm.points.row(tm.tets(c, k + 1))) - a;
+    const double vol = d.determinant() / 6.0;
+    const Mat3 inv = d.inverse();  // rows: ∇φ_1..3
+    Eigen::Matrix<double, 4, 3> g;
+    g.row(0) = -inv.colwise().sum();
+    g.bottomRows<3>() = inv;
+    grad_weights[i] = vol * g;
+    for (int j = 0; j < 4; ++j) {
+      const int vj = tm.tets(c, j);
+      star_volume[vj] += vol;
+      const int sj = slot[static_cast<size_t>(vj)];
+      if (sj < 0) continue;  // rows only for interior unknowns
+      for (int k = 0; k < 4; ++k) {
+        const int sk = slot[static_cast<size_t>(tm.tets(c, k))];
+        const double value = vol * g.row(j).dot(g.row(k));
+        if (sk >= 0) {
+          if (sj >= sk) oo.emplace_back(sj, sk, value);
+        } else {
+          ob.emplace_back(sj, -sk - 2, value);
+        }
+      }
+    }
+  }
+  const auto ni = static_cast<Eigen::Index>(interior.size()), nb = static_cast<Eigen::Index>(boundary.size());
+  a_oo_lower.resize(ni, ni);
+  a_oo_lower.setFromTriplets(oo.begin(), oo.end());
+  a_ob.resize(ni, nb);
+  a_ob.setFromTriplets(ob.begin(), ob.end());
+  progress("build", 0.85);
+
+  locator.build(tm);
+  // σ sampling: each boundary vertex maps back (eq. 5) onto the input surface.
+  if (!oracle) oracle = std::make_unique<SurfaceOracle>(surface);
+  boundary_face.resize(boundary.size());
+  boundary_weights.resize(boundary.size());
+  for (size_t b = 0; b < boundary.size(); ++b) {
+    const Vec3 y = tm.points.row(boundary[b]);
+    oracle->closest(centre + y / y.squaredNorm(), boundary_face[b], boundary_weights[b]);
+  }
+  stats.t_build = seconds_since(t0);
+  progress("build", 1.0);
+}
+
+void Field::Impl::factor(const Progress& progress) {
+  const auto t0 = std::chrono::steady_clock::now();
+  progress("decomp", 0.0);
+  solver.factorize(a_oo_lower);
+  stats.t_decomp = seconds_since(t0);
+  progress("decomp", 1.0);
+}
+
+void Field::Impl::finish_stats() {
+  stats.n_verts = static_cast<long>(interior.size() + boundary.size());
+  stats.n_tets = static_cast<long>(domain_tets.size());
+  // What a query server holds: points, cells, neighbours, vertex values and gradients, factor.
+  const double mesh_bytes = static_cast<double>(tm.points.size()) * 8 * 2 +  // points, gradients
+                            static_cast<double>(tm.tets.size() + tm.neighbours.size()) * 4 +
+                            static_cast<double>(tm.points.rows()) * 8;      // V
+  stats.size_mb = mesh_bytes / 1e6 + solver.factor_megabytes();
+}
+
+Field Field::prepare(const mesh::SurfaceMesh& surface, const PrepareOptions& options, const Progress& progress) {
+  std::unique_ptr<SurfaceOracle> oracle;
+  auto [valid, centre] = validated(surface, options, oracle, progress);
+  auto impl = mesh_stage(std::move(valid), centre, options, std::move(oracle), progress);
+  impl->build(progress);
+  impl->factor(progress);
+  impl->finish_stats();
+  return Field(std::move(impl));
+}
+
+void Field::set_sigma(const SigmaSpec& sigma) {
+  Impl& m = *impl_;
+  validate(sigma, m.surface.vertices.rows());
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto nb = static_cast<Eigen::Index>(m.boundary.size());
+  m.boundary_sigma.resize(nb);
+  VecX v_bnd(nb);
+  for (Eigen::Index b = 0; b < nb; ++b) {
+    const Vec3 y = m.tm.points.row(m.boundary[static_cast<size_t>(b)]);
+    const Vec3 x = m.centre + y / y.squaredNorm();
+    double s = sigma.constant;
+    if (sigma.per_vertex) {
+      const int f = m.boundary_face[static_cast<size_t>(b)];
+      const Vec3& w = m.boundary_weights[static_cast<size_t>(b)];
+      for (int k = 0; k < 3; ++k) s += w[k] * (*sigma.per_vertex)[m.surface.faces(f, k)];
+    }
+    for (const auto& a : sigma.axis) s += evaluate(a, x);
+    for (const auto& br : sigma.brushes) s += evaluate(br, x);
+    m.boundary_sigma[b] = s;
+    v_bnd[b] = std::exp(-s) / y.norm();  // eq. 17: V_∂ = U_∂ / G with U_∂ = e^(−σ), G = |y|
+  }
+  VecX rhs = -(m.a_ob * v_bnd);  // eq. 20
+  m.solver.solve(rhs);           // eq. 21
+  const auto np = m.tm.points.rows();
+  m.V = VecX::Constant(np, std::numeric_limits<double>::quiet_NaN());
+  for (size_t i = 0; i < m.interior.size(); ++i) m.V[m.interior[i]] = rhs[static_cast<Eigen::Index>(i)];
+  for (size_t b = 0; b < m.boundary.size(); ++b) m.V[m.boundary[b]] = v_bnd[static_cast<Eigen::Index>(b)];
+  // Vertex gradients: volume-weighted average of the cell gradients over each star [36].
+  m.grad = MatX3::Zero(np, 3);
+  for (size_t i = 0; i < m.domain_tets.size(); ++i) {
+    const int c = m.domain_tets[i];
+    const Eigen::Vector4d vals(m.V[m.tm.tets(c, 0)], m.V[m.tm.tets(c, 1)], m.V[m.tm.tets(c, 2)], m.V[m.tm.tets(c, 3)]);
+    const Eigen::RowVector3d g = vals.transpose() * m.grad_weights[i];  // vol · ∇V_t
+    for (int k = 0; k < 4; ++k) m.grad.row(m.tm.tets(c, k)) += g;
+  }
+  for (Eigen::Index v = 0; v < np; ++v)
+    if (m.star_volume[v] > 0) m.grad.row(v) /= m.star_volume[v];
+  m.stats.t_solve = seconds_since(t0);
+}
+
+const Stats& Field::stats() const { return impl_->stats; }
+const TetMesh& Field::tet_mesh() const { return impl_->tm; }
+const mesh::SurfaceMesh& Field::surface() const { return impl_->surface; }
+Vec3 Field::centre() const { return impl_->centre; }
+const VecX& Field::boundary_sigma() const { return impl_->boundary_sigma; }
+const VecX& Field::vertex_values() const { return impl_->V; }
+
+std::vector<Vec3> Field::boundary_points() const {
+  std::vector<Vec3> out;
+  for (int v : impl_->boundary) {
+    const Vec3 y = impl_->tm.points.row(v);
+    out.push_back(impl_->centre + y / y.squaredNorm());
+  }
+  return out;
+}
+
+}  // namespace distlab::kelvin
+
+namespace distlab::kelvin {
+
+Field Field::prepare_cached(const mesh::SurfaceMesh& surface, const PrepareOptions& options,
+                            const std::string& cache_dir, const Progress& progress, bool* hit) {
+  std::unique_ptr<SurfaceOracle> oracle;
+  auto [valid, centre] = validated(surface, options, oracle, progress);
+  const std::string key = prepare_key(valid, options, centre);
+  const std::string path = cache_dir + "/" + key + ".kelvin";
+  progress("cache", 0.0);
+  if (auto cached = load_prepared(path, key)) {
+    cached->oracle = std::make_unique<SurfaceOracle>(cached->surface);
+    cached->build(progress);  // cheap; derived data are not stored
+    // The factor must fit the rebuilt system, or the entry is not trusted.
+    if (cached->solver.size() == static_cast<Eigen::Index>(cached->interior.size())) {
+      cached->finish_stats();
+      if (hit) *hit = true;
+      return Field(std::move(cached));
+    }
+  }
+  auto impl = mesh_stage(std::move(valid), centre, options, std::move(oracle), progress);
+  impl->build(progress);
+  impl->factor(progress);
+  impl->finish_stats();
+  progress("cache", 0.5);
+  save_prepared(*impl, path, key);
+  progress("cache", 1.0);
+  if (hit) *hit = false;
+  return Field(std::move(impl));
+}
+
+}  // namespace distlab::kelvin

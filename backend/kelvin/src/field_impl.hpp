@@ -1,0 +1,53 @@
+#pragma once
+// State of a prepared Field, shared by the translation units of distlab_kelvin.
+#include <Eigen/Sparse>
+#include <memory>
+#include <vector>
+
+#include "cholmod_solver.hpp"
+#include "distlab/kelvin/field.hpp"
+#include "locator.hpp"
+#include "surface_tools.hpp"
+
+namespace distlab::kelvin {
+
+struct Field::Impl {
+  // Inputs and the mesh (what the cache stores, together with the factor).
+  mesh::SurfaceMesh surface;
+  PrepareOptions options;
+  Vec3 centre = Vec3::Zero();
+  TetMesh tm;
+  CholmodSolver solver;
+
+  // Derived in build(): vertex roles, A_Ω∂ (eq. 20), gradient weights, locator, σ sampling.
+  std::vector<int> slot;  // per point: interior index ≥ 0, boundary b as -(b + 2), unused -1
+  std::vector<int> interior, boundary;  // point ids
+  std::vector<int> domain_tets;
+  std::vector<Eigen::Matrix<double, 4, 3>> grad_weights;  // per domain tet: vol · ∇φ_j
+  VecX star_volume;                                        // per point
+  Eigen::SparseMatrix<double> a_ob;                        // A_Ω∂
+  Eigen::SparseMatrix<double> a_oo_lower;                  // lower triangle of A_ΩΩ
+  Locator locator;
+  std::unique_ptr<SurfaceOracle> oracle;
+  std::vector<int> boundary_face;
+  std::vector<Vec3> boundary_weights;
+
+  // State for the current σ.
+  VecX boundary_sigma;
+  VecX V;      // per point
+  MatX3 grad;  // per point, ∇_y V (vertex gradients)
+  Stats stats;
+
+  // Assembles everything derived from tm (t_build); factor() then factors A_ΩΩ (t_decomp).
+  void build(const Progress& progress);
+  void factor(const Progress& progress);
+  void finish_stats();
+};
+
+// Content hash of everything that determines a prepared object.
+std::string prepare_key(const mesh::SurfaceMesh& surface, const PrepareOptions& options, const Vec3& centre);
+// Cache I/O; load returns nullptr (and removes nothing) when the file is absent or not intact.
+std::unique_ptr<Field::Impl> load_prepared(const std::string& path, const std::string& key);
+void save_prepared(const Field::Impl& impl, const std::string& path, const std::string& key);
+
+}  // namespace distlab::kelvin

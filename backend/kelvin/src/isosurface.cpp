@@ -1,0 +1,118 @@
+// Marching tetrahedra on U = |y| V (so the vertex at y = 0, i.e. infinity, needs no special
+// case): the boundary of {h ≥ level} = {U ≤ e^(−level)}, mapped back by eq. 5.
+#include <cmath>
+#include <unordered_map>
+
+#include "distlab/geometry/error.hpp"
+#include "field_impl.hpp"
+
+namespace distlab::kelvin {
+namespace {
+
+class Builder {
+ public:
+  Builder(const Field::Impl& m, const VecX& u, double level_u) : m_(m), u_(u), level_(level_u) {}
+
+  // Output vertex for mesh vertex a (a == b) or for the level crossing on edge (a, b); shared by
+  // every triangle that touches it, which makes the surface watertight.
+  int vertex(int a, int b) {
+    if (a > b) std::swap(a, b);
+    const auto key = static_cast<std::uint64_t>(a) * static_cast<std::uint64_t>(m_.tm.points.rows()) +
+                     static_cast<std::uint64_t>(b);
+    auto [it, inserted] = index_.emplace(key, static_cast<int>(points_.size()));
+    if (inserted) {
+      Vec3 y = m_.tm.points.row(a);
+      if (a != b) {
+        const double t = (level_ - u_[a]) / (u_[b] - u_[a]);
+        y += t * (Vec3(m_.tm.points.row(b)) - y);
+      }
+      ys_.push_back(y);
+      points_.push_back(m_.centre + y / y.squaredNorm());
+    }
+    return it->second;
+  }
+
+  // Adds triangle (i, j, k) facing n_y in y-space, where the test is well conditioned: the
+  // triangle is planar there. The inversion reverses orientation, so the x-space triangle then
+  // faces the pushed-forward n_y when its vertex order is reversed.
+  void triangle(int i, int j, int k, const Vec3& n_y) {
+    const Vec3 &a = ys_[static_cast<size_t>(i)], &b = ys_[static_cast<size_t>(j)], &c = ys_[static_cast<size_t>(k)];
+    if ((b - a).cross(c - a).dot(n_y) > 0) tris_.emplace_back(i, k, j);
+    else tris_.emplace_back(i, j, k);
+  }
+
+  bool in(int v) const { return u_[v] <= level_; }
+
+  mesh::SurfaceMesh take() {
+    mesh::SurfaceMesh out;
+    out.vertices.resize(static_cast<Eigen::Index>(points_.size()), 3);
+    for (size_t i = 0; i < points_.size(); ++i) out.vertices.row(static_cast<Eigen::Index>(i)) = points_[i];
+    out.faces.resize(static_cast<Eigen::Index>(tris_.size()), 3);
+    for (size_t i = 0; i < tris_.size(); ++i) out.faces.row(static_cast<Eigen::Index>(i)) = tris_[i];
+    return out;
+  }
+
+ private:
+  const Field::Impl& m_;
+  const VecX& u_;
+  double level_;
+  std::unordered_map<std::uint64_t, int> index_;
+  std::vector<Vec3> points_, ys_;
+  std::vector<Eigen::Vector3i> tris_;
+};
+
+}  // namespace
+
+mesh::SurfaceMesh Field::isosurface(double level) const {
+  const Impl& m = *impl_;
+  if (m.V.size() == 0) throw std::logic_error("isosurface before set_sigma");
+  if (!std::isfinite(level)) throw InvalidInput("isosurfaces.levels", "levels must be finite numbers");
+  VecX u(m.tm.points.rows());
+  for (Eigen::Index v = 0; v < u.size(); ++v) u[v] = m.tm.points.row(v).norm() * m.V[v];
+  Builder out(m, u, std::exp(-level));
+
+  for (int c : m.domain_tets) {
+    int v[4], n_in = 0;
+    for (int k = 0; k < 4; ++k) n_in += out.in(v[k] = m.tm.tets(c, k));
+    if (n_in == 0 || n_in == 4) continue;
+    // −∇U in this cell points into {h ≥ level}.
+    Mat3 d;
+    for (int k = 0; k < 3; ++k) d.row(k) = m.tm.points.row(v[k + 1]) - m.tm.points.row(v[0]);
+    const Vec3 du(u[v[1]] - u[v[0]], u[v[2]] - u[v[0]], u[v[3]] - u[v[0]]);
+    const Vec3 into = -d.colPivHouseholderQr().solve(du);
+    int ins[4], outs[4], ni = 0, no = 0;
+    for (int k = 0; k < 4; ++k) (out.in(v[k]) ? ins[ni++] : outs[no++]) = v[k];
+    if (ni == 1 || no == 1) {
+      const int lone = ni == 1 ? ins[0] : outs[0];
+      const int* rest = ni == 1 ? outs : ins;
+      out.triangle(out.vertex(lone, rest[0]), out.vertex(lone, rest[1]), out.vertex(lone, rest[2]), into);
+    } else {
+      const int a = out.vertex(ins[0], outs[0]), b = out.vertex(ins[0], outs[1]),
+                e = out.vertex(ins[1], outs[1]), f = out.vertex(ins[1], outs[0]);
+      out.triangle(a, b, e, into);
+      out.triangle(a, e, f, into);
+    }
+  }
+  // Where the region reaches the object's surface, the surface itself closes it.
+  for (int c : m.domain_tets)
+    for (int k = 0; k < 4; ++k) {
+      const int nb = m.tm.neighbours(c, k);
+      if (nb >= 0 && m.tm.in_domain[static_cast<size_t>(nb)]) continue;
+      int f[3], j = 0;
+      for (int i = 0; i < 4; ++i)
+        if (i != k) f[j++] = m.tm.tets(c, i);
+      const Vec3 a = m.tm.points.row(f[0]), b = m.tm.points.row(f[1]), cc = m.tm.points.row(f[2]);
+      Vec3 into = (b - a).cross(cc - a);
+      if (into.dot(Vec3(m.tm.points.row(m.tm.tets(c, k))) - a) < 0) into = -into;
+      std::vector<int> poly;  // the facet clipped to U ≤ level (Sutherland–Hodgman)
+      for (int i = 0; i < 3; ++i) {
+        const int p = f[i], q = f[(i + 1) % 3];
+        if (out.in(p)) poly.push_back(out.vertex(p, p));
+        if (out.in(p) != out.in(q)) poly.push_back(out.vertex(p, q));
+      }
+      for (size_t i = 2; i < poly.size(); ++i) out.triangle(poly[0], poly[i - 1], poly[i], into);
+    }
+  return out.take();
+}
+
+}  // namespace distlab::kelvin

@@ -1,0 +1,80 @@
+// Algorithm 1: h(x) = −ln(G(y) V(y)) with y = Φ⁻¹(x), and ∇h by the chain rule (eq. 18).
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "field_impl.hpp"
+
+namespace distlab::kelvin {
+namespace {
+
+Sample undefined(Status status) {
+  constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+  return {nan, Vec3::Constant(nan), status};
+}
+
+// Interpolates V and its vertex gradients in cell c at barycentric lambda, then maps to x.
+Sample evaluate(const Field::Impl& m, int c, const double lambda[4], const Vec3& p, const Vec3& y) {
+  double v = 0;
+  Vec3 gv = Vec3::Zero();
+  for (int k = 0; k < 4; ++k) {
+    const int i = m.tm.tets(c, k);
+    v += lambda[k] * m.V[i];
+    gv += lambda[k] * Vec3(m.grad.row(i));
+  }
+  if (!(v > 0)) return undefined(Status::nonpositive);
+  const double y2 = y.squaredNorm();
+  Sample s;
+  s.h = -std::log(std::sqrt(y2) * v);               // U = G V with G = |y| (eq. 16)
+  const Vec3 grad_y = -(y / y2 + gv / v);           // ∇_y h
+  const double p2 = p.squaredNorm();
+  const Vec3 n = p / std::sqrt(p2);
+  s.gradient = (grad_y - 2 * n * n.dot(grad_y)) / p2;  // ∇_x h = (∂y/∂x)ᵀ ∇_y h, symmetric Jacobian
+  return s;
+}
+
+}  // namespace
+
+Sample Field::query(const Vec3& x, int* hint) const {
+  const Impl& m = *impl_;
+  const Vec3 p = x - m.centre;
+  const double p2 = p.squaredNorm();
+  if (!(p2 > 0)) return undefined(Status::inside);
+  const Vec3 y = p / p2;  // eq. 5
+  const Location loc = m.locator.locate(m.tm, y, hint ? *hint : -1);
+  if (hint) *hint = loc.cell;
+  if (!loc.outside_hull && m.tm.in_domain[static_cast<size_t>(loc.cell)]) return evaluate(m, loc.cell, loc.lambda, p, y);
+  if (m.oracle->inside(x)) return undefined(Status::inside);
+  // Outside the object yet outside the meshed domain: a sliver between the input surface and
+  // the mesher's piecewise-flat boundary. Extend from an adjacent domain cell, clamped.
+  std::vector<int> frontier{loc.cell}, seen{loc.cell};
+  for (int depth = 0; depth < 3 && !frontier.empty(); ++depth) {
+    std::vector<int> next;
+    for (int c : frontier)
+      for (int k = 0; k < 4; ++k) {
+        const int n = m.tm.neighbours(c, k);
+        if (n < 0 || std::find(seen.begin(), seen.end(), n) != seen.end()) continue;
+        if (m.tm.in_domain[static_cast<size_t>(n)]) {
+          double lambda[4];
+          barycentric(m.tm, n, y, lambda);
+          double sum = 0;
+          for (double& l : lambda) sum += (l = std::max(l, 0.0));
+          for (double& l : lambda) l /= sum;
+          return evaluate(m, n, lambda, p, y);
+        }
+        seen.push_back(n);
+        next.push_back(n);
+      }
+    frontier.swap(next);
+  }
+  return undefined(Status::inside);
+}
+
+std::vector<Sample> Field::query(const std::vector<Vec3>& points) const {
+  std::vector<Sample> out;
+  out.reserve(points.size());
+  for (const Vec3& x : points) out.push_back(query(x, nullptr));
+  return out;
+}
+
+}  // namespace distlab::kelvin

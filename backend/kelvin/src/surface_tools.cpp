@@ -1,0 +1,115 @@
+// CGAL AABB tree and Polygon_mesh_processing on the input surface.
+#include "surface_tools.hpp"
+
+#include <CGAL/AABB_face_graph_triangle_primitive.h>
+#include <CGAL/AABB_traits.h>
+#include <CGAL/AABB_tree.h>
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Polygon_mesh_processing/remesh.h>
+#include <CGAL/Side_of_triangle_mesh.h>
+#include <CGAL/Surface_mesh.h>
+
+namespace distlab::kelvin {
+namespace {
+
+using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+using Mesh = CGAL::Surface_mesh<K::Point_3>;
+using Primitive = CGAL::AABB_face_graph_triangle_primitive<Mesh>;
+using Tree = CGAL::AABB_tree<CGAL::AABB_traits<K, Primitive>>;
+
+Mesh to_cgal(const mesh::SurfaceMesh& s) {
+  Mesh m;
+  std::vector<Mesh::Vertex_index> vi;
+  for (Eigen::Index v = 0; v < s.vertices.rows(); ++v)
+    vi.push_back(m.add_vertex(K::Point_3(s.vertices(v, 0), s.vertices(v, 1), s.vertices(v, 2))));
+  for (Eigen::Index f = 0; f < s.faces.rows(); ++f)
+    m.add_face(vi[static_cast<size_t>(s.faces(f, 0))], vi[static_cast<size_t>(s.faces(f, 1))],
+               vi[static_cast<size_t>(s.faces(f, 2))]);
+  return m;
+}
+
+}  // namespace
+
+struct SurfaceOracle::Impl {
+  Mesh mesh;
+  Tree tree;
+  std::unique_ptr<CGAL::Side_of_triangle_mesh<Mesh, K>> side;
+  mesh::SurfaceMesh indexed;
+};
+
+SurfaceOracle::SurfaceOracle(const mesh::SurfaceMesh& surface) : impl_(std::make_unique<Impl>()) {
+  impl_->indexed = surface;
+  impl_->mesh = to_cgal(surface);
+  impl_->tree.insert(faces(impl_->mesh).first, faces(impl_->mesh).second, impl_->mesh);
+  impl_->tree.build();
+  impl_->tree.accelerate_distance_queries();
+  impl_->side = std::make_unique<CGAL::Side_of_triangle_mesh<Mesh, K>>(impl_->tree);
+}
+
+SurfaceOracle::~SurfaceOracle() = default;
+
+bool SurfaceOracle::inside(const Vec3& x) const {
+  return (*impl_->side)(K::Point_3(x.x(), x.y(), x.z())) == CGAL::ON_BOUNDED_SIDE;
+}
+
+double SurfaceOracle::distance(const Vec3& x) const {
+  return std::sqrt(CGAL::to_double(impl_->tree.squared_distance(K::Point_3(x.x(), x.y(), x.z()))));
+}
+
+void SurfaceOracle::closest(const Vec3& x, int& face, Vec3& weights) const {
+  const auto [p, f] = impl_->tree.closest_point_and_primitive(K::Point_3(x.x(), x.y(), x.z()));
+  face = static_cast<int>(f.idx());
+  const auto& s = impl_->indexed;
+  const Vec3 a = s.vertices.row(s.faces(face, 0)), b = s.vertices.row(s.faces(face, 1)),
+             c = s.vertices.row(s.faces(face, 2));
+  const Vec3 q(p.x(), p.y(), p.z());
+  const Vec3 n = (b - a).cross(c - a);
+  const double area2 = n.squaredNorm();
+  weights.x() = (c - b).cross(q - b).dot(n) / area2;
+  weights.y() = (a - c).cross(q - c).dot(n) / area2;
+  weights.z() = 1.0 - weights.x() - weights.y();
+}
+
+Vec3 SurfaceOracle::deepest_point() const {
+  // Coarse grid over the bounding box, then a finer grid around the best point.
+  const auto& v = impl_->indexed.vertices;
+  Vec3 lo = v.colwise().minCoeff().transpose(), hi = v.colwise().maxCoeff().transpose();
+  Vec3 best = 0.5 * (lo + hi);
+  double best_d = inside(best) ? distance(best) : -1.0;
+  for (int pass = 0; pass < 2; ++pass) {
+    const int n = 24;
+    const Vec3 step = (hi - lo) / n;
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j)
+        for (int k = 0; k < n; ++k) {
+          const Vec3 p = lo + Vec3((i + 0.5) * step.x(), (j + 0.5) * step.y(), (k + 0.5) * step.z());
+          if (!inside(p)) continue;
+          const double d = distance(p);
+          if (d > best_d) best_d = d, best = p;
+        }
+    lo = best - 2 * step;
+    hi = best + 2 * step;
+  }
+  return best;
+}
+
+mesh::SurfaceMesh split_long_edges(const mesh::SurfaceMesh& surface, double max_length) {
+  Mesh m = to_cgal(surface);
+  CGAL::Polygon_mesh_processing::split_long_edges(edges(m), max_length, m);
+  mesh::SurfaceMesh out;
+  out.vertices.resize(static_cast<Eigen::Index>(m.number_of_vertices()), 3);
+  for (auto v : m.vertices()) {
+    const auto& p = m.point(v);
+    out.vertices.row(v.idx()) << p.x(), p.y(), p.z();
+  }
+  out.faces.resize(static_cast<Eigen::Index>(m.number_of_faces()), 3);
+  Eigen::Index row = 0;
+  for (auto f : m.faces()) {
+    int k = 0;
+    for (auto v : vertices_around_face(m.halfedge(f), m)) out.faces(row, k++) = static_cast<int>(v.idx());
+    ++row;
+  }
+  return out;
+}
+
+}  // namespace distlab::kelvin
