@@ -123,12 +123,13 @@ bool CholmodSolver::load(std::istream& in) {
   f->nsuper = nsuper;
   f->ssize = ssize;
   f->xsize = xsize;
-  f->maxcsize = sizes[4];
-  f->maxesize = sizes[5];
   f->ordering = static_cast<int>(sizes[6]);
   impl_->factor = f;
   if (!get(in, static_cast<int*>(f->Perm), n) || !get(in, static_cast<int*>(f->ColCount), n)) return false;
   if (!cholmod_change_factor(CHOLMOD_REAL, 1, 1, 1, 1, f, c) || !f->is_super) return false;
+  // The conversion resets these; the supernodal solve sizes its workspace from maxesize.
+  f->maxcsize = sizes[4];
+  f->maxesize = sizes[5];
   f->is_monotonic = static_cast<int>(sizes[7]);
   if (!get(in, static_cast<int*>(f->super), nsuper + 1) || !get(in, static_cast<int*>(f->pi), nsuper + 1) ||
       !get(in, static_cast<int*>(f->px), nsuper + 1) || !get(in, static_cast<int*>(f->s), ssize) ||
