@@ -241,6 +241,14 @@ void Field::set_sigma(const SigmaSpec& sigma) {
   m.stats.t_solve = seconds_since(t0);
 }
 
+Eigen::SparseMatrix<double> Field::reduced_matrix() const {
+  const auto& l = impl_->a_oo_lower;
+  Eigen::SparseMatrix<double> full = l.selfadjointView<Eigen::Lower>();
+  return full;
+}
+
+void Field::solve_reduced(VecX& rhs) const { impl_->solver.solve(rhs); }
+
 const Stats& Field::stats() const { return impl_->stats; }
 const TetMesh& Field::tet_mesh() const { return impl_->tm; }
 const mesh::SurfaceMesh& Field::surface() const { return impl_->surface; }

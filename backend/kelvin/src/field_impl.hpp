@@ -7,7 +7,7 @@
 #include "cholmod_solver.hpp"
 #include "distlab/kelvin/field.hpp"
 #include "locator.hpp"
-#include "surface_tools.hpp"
+#include "distlab/kelvin/surface_tools.hpp"
 
 namespace distlab::kelvin {
 

@@ -1,5 +1,5 @@
 // CGAL AABB tree and Polygon_mesh_processing on the input surface.
-#include "surface_tools.hpp"
+#include "distlab/kelvin/surface_tools.hpp"
 
 #include <CGAL/AABB_face_graph_triangle_primitive.h>
 #include <CGAL/AABB_traits.h>

@@ -1,6 +1,7 @@
 #pragma once
 // The semantics-aware distance h(x) of one object (kelvin-semantics-aware-distance.txt):
 // prepare once (invert, tetrahedralise, assemble, factor), then set σ and query h and ∇h.
+#include <Eigen/Sparse>
 #include <memory>
 #include <optional>
 #include <string>
@@ -77,6 +78,10 @@ class Field {
   const VecX& boundary_sigma() const;
   // Vertex values of V (indexed like tet_mesh().points; NaN for vertices outside Ω_inv).
   const VecX& vertex_values() const;
+
+  // For benchmarks: A_ΩΩ of eq. 21 (full symmetric) and a solve with its CHOLMOD factor.
+  Eigen::SparseMatrix<double> reduced_matrix() const;
+  void solve_reduced(VecX& rhs) const;
 
   struct Impl;
 

@@ -1,6 +1,6 @@
 #pragma once
 // Geometric queries on the input surface (x-space): inside test, closest point, deepest point,
-// and edge splitting before inversion. Private to distlab_kelvin; CGAL stays in the .cpp.
+// and edge splitting before inversion (also the AABB-tree distance baseline of the benchmark).
 #include <memory>
 
 #include "distlab/mesh/surface.hpp"

@@ -1,0 +1,185 @@
+// Kelvin requests as JSON: parse with field paths, prepare/solve/query, encode.
+#include "distlab/server/kelvin_json.hpp"
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <set>
+
+#include "distlab/geometry/error.hpp"
+#include "distlab/mesh/surface.hpp"
+
+namespace distlab::server {
+namespace {
+
+using json = nlohmann::json;
+namespace fs = std::filesystem;
+
+void object_with(const json& j, const std::string& field, std::set<std::string> keys) {
+  if (!j.is_object()) throw InvalidInput(field, (field.empty() ? "request" : field) + " must be an object");
+  for (const auto& [k, v] : j.items())
+    if (!keys.count(k)) throw InvalidInput(field.empty() ? k : field + "." + k, "unknown key \"" + k + "\"");
+}
+
+double number(const json& j, const std::string& field) {
+  if (!j.is_number()) throw InvalidInput(field, field + " must be a number");
+  const double v = j.get<double>();
+  if (!std::isfinite(v)) throw InvalidInput(field, field + " must be finite");
+  return v;
+}
+
+Vec3 vec3(const json& j, const std::string& field) {
+  if (!j.is_array() || j.size() != 3) throw InvalidInput(field, field + " must be an array of 3 numbers");
+  return {number(j[0], field + "[0]"), number(j[1], field + "[1]"), number(j[2], field + "[2]")};
+}
+
+std::string text(const json& j, const std::string& field) {
+  if (!j.is_string() || j.get<std::string>().empty()) throw InvalidInput(field, field + " must be a non-empty string");
+  return j.get<std::string>();
+}
+
+kelvin::AxisSigma parse_axis(const json& j, const std::string& f) {
+  object_with(j, f, {"axis", "d0", "sigma_nom", "origin", "width"});
+  kelvin::AxisSigma a;
+  if (!j.contains("axis")) throw InvalidInput(f + ".axis", f + ".axis is required");
+  a.axis = vec3(j["axis"], f + ".axis");
+  a.d0 = j.contains("d0") ? number(j["d0"], f + ".d0") : 0.0;
+  a.sigma_nom = j.contains("sigma_nom") ? number(j["sigma_nom"], f + ".sigma_nom") : 1.0;
+  if (j.contains("origin")) a.origin = vec3(j["origin"], f + ".origin");
+  if (j.contains("width")) a.width = number(j["width"], f + ".width");
+  return a;
+}
+
+json nullable(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
+}  // namespace
+
+kelvin::SigmaSpec parse_sigma(const json& j) {
+  object_with(j, "sigma", {"constant", "per_vertex", "axis", "brushes"});
+  kelvin::SigmaSpec s;
+  if (j.contains("constant")) s.constant = number(j["constant"], "sigma.constant");
+  if (j.contains("per_vertex")) {
+    const json& v = j["per_vertex"];
+    if (!v.is_array()) throw InvalidInput("sigma.per_vertex", "sigma.per_vertex must be an array of numbers");
+    VecX values(static_cast<Eigen::Index>(v.size()));
+    for (size_t i = 0; i < v.size(); ++i)
+      values[static_cast<Eigen::Index>(i)] = number(v[i], "sigma.per_vertex[" + std::to_string(i) + "]");
+    s.per_vertex = values;
+  }
+  if (j.contains("axis")) {
+    const json& a = j["axis"];
+    if (a.is_array()) {
+      for (size_t i = 0; i < a.size(); ++i) s.axis.push_back(parse_axis(a[i], "sigma.axis[" + std::to_string(i) + "]"));
+    } else {
+      s.axis.push_back(parse_axis(a, "sigma.axis"));
+    }
+  }
+  if (j.contains("brushes")) {
+    const json& b = j["brushes"];
+    if (!b.is_array()) throw InvalidInput("sigma.brushes", "sigma.brushes must be an array");
+    for (size_t i = 0; i < b.size(); ++i) {
+      const std::string f = "sigma.brushes[" + std::to_string(i) + "]";
+      object_with(b[i], f, {"center", "radius", "value", "falloff"});
+      kelvin::BrushSigma br;
+      if (!b[i].contains("center") || !b[i].contains("radius") || !b[i].contains("value"))
+        throw InvalidInput(f, f + " needs center, radius and value");
+      br.centre = vec3(b[i]["center"], f + ".center");
+      br.radius = number(b[i]["radius"], f + ".radius");
+      br.value = number(b[i]["value"], f + ".value");
+      if (b[i].contains("falloff")) br.falloff = number(b[i]["falloff"], f + ".falloff");
+      s.brushes.push_back(br);
+    }
+  }
+  return s;
+}
+
+std::string asset_path(const std::string& name) {
+  for (char c : name)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_' && c != '-')
+      throw InvalidInput("mesh.asset", "asset names are letters, digits, '_' and '-'");
+  std::vector<fs::path> roots;
+  if (const char* env = std::getenv("DISTLAB_ASSETS")) roots.emplace_back(env);
+  roots.emplace_back("assets");
+  std::error_code ec;
+  for (fs::path p = fs::read_symlink("/proc/self/exe", ec).parent_path(); !ec && !p.empty(); p = p.parent_path()) {
+    roots.push_back(p / "assets");
+    if (p == p.root_path()) break;
+  }
+  for (const auto& root : roots)
+    for (const char* ext : {".stl", ".ply", ".obj", ".glb", ".off"})
+      if (fs::is_regular_file(root / (name + ext))) return (root / (name + ext)).string();
+  throw InvalidInput("mesh.asset", "unknown asset \"" + name + "\" (looked in $DISTLAB_ASSETS and assets/)");
+}
+
+json run_kelvin_request(const json& r, const kelvin::Progress& progress) {
+  object_with(r, "", {"mesh", "lx", "center", "far_radius", "cache", "sigma", "query", "isosurfaces", "comment"});
+  if (!r.contains("mesh")) throw InvalidInput("mesh", "mesh is required");
+  const json& m = r["mesh"];
+  object_with(m, "mesh", {"path", "asset"});
+  if (m.contains("path") == m.contains("asset")) throw InvalidInput("mesh", "mesh needs exactly one of path and asset");
+  const std::string path = m.contains("path") ? text(m["path"], "mesh.path") : asset_path(text(m["asset"], "mesh.asset"));
+  if (!r.contains("lx")) throw InvalidInput("lx", "lx is required");
+  kelvin::PrepareOptions options;
+  options.lx = number(r["lx"], "lx");
+  if (r.contains("center")) options.centre = vec3(r["center"], "center");
+  if (r.contains("far_radius")) options.far_radius = number(r["far_radius"], "far_radius");
+  kelvin::SigmaSpec sigma = r.contains("sigma") ? parse_sigma(r["sigma"]) : kelvin::SigmaSpec{};
+  std::vector<Vec3> points;
+  if (r.contains("query")) {
+    if (!r["query"].is_array()) throw InvalidInput("query", "query must be an array of [x, y, z]");
+    for (size_t i = 0; i < r["query"].size(); ++i) points.push_back(vec3(r["query"][i], "query[" + std::to_string(i) + "]"));
+  }
+  std::vector<double> levels;
+  std::string iso_format, iso_path;
+  if (r.contains("isosurfaces")) {
+    const json& iso = r["isosurfaces"];
+    object_with(iso, "isosurfaces", {"levels", "format", "path"});
+    if (!iso.contains("levels") || !iso["levels"].is_array() || iso["levels"].empty())
+      throw InvalidInput("isosurfaces.levels", "isosurfaces.levels must be a non-empty array of numbers");
+    for (size_t i = 0; i < iso["levels"].size(); ++i)
+      levels.push_back(number(iso["levels"][i], "isosurfaces.levels[" + std::to_string(i) + "]"));
+    iso_format = iso.contains("format") ? text(iso["format"], "isosurfaces.format") : "ply";
+    if (iso_format != "ply" && iso_format != "stl" && iso_format != "obj" && iso_format != "glb")
+      throw InvalidInput("isosurfaces.format", "isosurfaces.format must be ply, stl, obj or glb");
+    if (!iso.contains("path")) throw InvalidInput("isosurfaces.path", "isosurfaces.path is required");
+    iso_path = text(iso["path"], "isosurfaces.path");
+  }
+
+  const mesh::SurfaceMesh surface = mesh::load_mesh(path, m.contains("path") ? "mesh.path" : "mesh.asset");
+  bool hit = false;
+  kelvin::Field field = r.contains("cache")
+                            ? kelvin::Field::prepare_cached(surface, options, text(r["cache"], "cache"), progress, &hit)
+                            : kelvin::Field::prepare(surface, options, progress);
+  field.set_sigma(sigma);
+
+  json out;
+  const kelvin::Stats& st = field.stats();
+  out["stats"] = {{"n_verts", st.n_verts}, {"n_tets", st.n_tets},   {"size_mb", st.size_mb},
+                  {"t_mesh", st.t_mesh},   {"t_build", st.t_build}, {"t_decomp", st.t_decomp},
+                  {"t_solve", st.t_solve}, {"cache_hit", hit}};
+  json h = json::array(), grad = json::array(), inside = json::array();
+  int hint = -1;
+  for (const Vec3& x : points) {
+    const kelvin::Sample s = field.query(x, &hint);
+    h.push_back(nullable(s.h));
+    grad.push_back(s.status == kelvin::Status::ok ? json::array({s.gradient.x(), s.gradient.y(), s.gradient.z()}) : json(nullptr));
+    inside.push_back(s.status == kelvin::Status::inside);
+  }
+  out["query"] = {{"h", h}, {"gradient", grad}, {"inside", inside}};
+  if (!levels.empty()) {
+    json files = json::array();
+    for (size_t i = 0; i < levels.size(); ++i) {
+      fs::path file = iso_path;
+      if (levels.size() > 1)
+        file = file.parent_path() / (file.stem().string() + "_" + std::to_string(i) + file.extension().string());
+      const mesh::SurfaceMesh iso = field.isosurface(levels[i]);
+      mesh::save_mesh(iso, file.string(), iso_format, "isosurfaces.format");
+      files.push_back({{"level", levels[i]}, {"path", file.string()}, {"n_verts", iso.vertices.rows()},
+                       {"n_faces", iso.faces.rows()}});
+    }
+    out["isosurfaces"] = files;
+  }
+  return out;
+}
+
+}  // namespace distlab::server
