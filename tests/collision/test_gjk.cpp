@@ -1,0 +1,70 @@
+// The internal GJK (polish of FCL's answer, repair of MPR's point), tested directly.
+#include <gtest/gtest.h>
+
+#include "../../backend/collision/src/gjk.hpp"
+#include "collision/collision_test_util.hpp"
+
+namespace distlab {
+namespace {
+
+using detail::gjk_closest;
+using detail::Placed;
+
+TEST(Gjk, SeparatedPairsBracketTheDistance) {
+  const auto zoo = test::shape_zoo();
+  for (const auto& [na, a] : zoo) {
+    for (const auto& [nb, b] : zoo) {
+      SCOPED_TRACE(na + " vs " + nb);
+      std::mt19937_64 rng(31);
+      for (int k = 0; k < 30; ++k) {
+        const Pose pa = test::random_pose(rng, 1.0);
+        Pose pb = test::random_pose(rng, 1.0);
+        pb.position = pa.position + 2.5 * test::random_unit(rng);
+        const EuclideanResult ref = euclidean_distance(EuclideanShape(a), pa, EuclideanShape(b), pb);
+        if (ref.distance < 0.05) continue;
+        // Cold start from an arbitrary direction, tight tolerance.
+        const auto g = gjk_closest(Placed(a, pa), Placed(b, pb), Vec3::UnitX(), 1e-13, 1e-12, 128);
+        EXPECT_FALSE(g.overlap);
+        EXPECT_LE(g.lower, g.upper);
+        EXPECT_LT(g.upper - g.lower, 1e-12 * (1 + g.upper));
+        EXPECT_NEAR(g.upper, ref.distance, 1e-11);
+        EXPECT_NEAR((g.pb - g.pa).norm(), g.upper, 1e-12);
+        EXPECT_NEAR(test::world_signed_distance(a, pa, g.pa), 0, 1e-9);
+        EXPECT_NEAR(test::world_signed_distance(b, pb, g.pb), 0, 1e-9);
+      }
+    }
+  }
+}
+
+TEST(Gjk, OverlapGivesACommonPoint) {
+  const auto zoo = test::shape_zoo();
+  for (const auto& [na, a] : zoo) {
+    for (const auto& [nb, b] : zoo) {
+      SCOPED_TRACE(na + " vs " + nb);
+      std::mt19937_64 rng(32);
+      for (int k = 0; k < 30; ++k) {
+        const Pose pa = test::random_pose(rng, 1.0);
+        Pose pb = test::random_pose(rng, 1.0);
+        pb.position = pa.position + 0.2 * test::random_unit(rng);
+        const auto g = gjk_closest(Placed(a, pa), Placed(b, pb), Vec3::UnitY(), 0, 1e-12, 128);
+        ASSERT_TRUE(g.overlap);
+        const Vec3 p = 0.5 * (g.pa + g.pb);
+        EXPECT_LE(test::world_signed_distance(a, pa, p), 1e-12);
+        EXPECT_LE(test::world_signed_distance(b, pb, p), 1e-12);
+      }
+    }
+  }
+}
+
+// A separating direction that proves the distance exceeds stop_above ends the search early.
+TEST(Gjk, StopsOnceSeparationIsProved) {
+  const Shape s = Sphere{0.5};
+  Pose pb;
+  pb.position = Vec3(3, 0, 0);
+  const auto g = gjk_closest(Placed(s, Pose{}), Placed(s, pb), Vec3(1, 1, 0), 0, 1e-12, 128, 1e-9);
+  EXPECT_GT(g.lower, 1e-9);
+  EXPECT_FALSE(g.overlap);
+}
+
+}  // namespace
+}  // namespace distlab
