@@ -1,0 +1,71 @@
+#pragma once
+// The GAP metric between two posed shapes: Λ (eq. 3), D = sqrt(2Λ), differentiable witness
+// points, gradients with respect to both poses, and the Euclidean baseline beside it.
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "distlab/collision/euclidean.hpp"
+#include "distlab/gap/point_to_set.hpp"
+#include "distlab/gap/solver.hpp"
+
+namespace distlab {
+
+enum class GapSolver { fixed_point, newton };
+
+// Defaults: the paper's robot experiment (h = 0.1, k = 2, ε = 0.01, σ = sqrt(1 − 2ε)) and a tight
+// tolerance; `max_iter` 0 means the solver's default (Newton 100, fixed point 100000).
+struct GapParams {
+  double h = 0.1;
+  int k = 2;
+  double eps = 0.01;
+  double sigma = 0.9899494936611665;
+  double weight_margin = 0.01;
+  double tol = 1e-10;
+  int max_iter = 0;
+  GapSolver solver = GapSolver::newton;
+  bool gradient = true;
+
+  int iteration_limit() const { return max_iter > 0 ? max_iter : (solver == GapSolver::newton ? 100 : 100000); }
+};
+
+// Throws InvalidInput naming "params.<name>" for a parameter out of range.
+void check_params(const GapParams& params);
+
+// One shape with its P2S functions and Euclidean geometry, built once and moved by set_pose.
+class GapBody {
+ public:
+  GapBody(const Shape& shape, const Pose& pose, const GapParams& params,
+          const P2SOptions& options = {}, const std::string& field = "shape");
+  void set_pose(const Pose& pose);
+  const Pose& pose() const { return p2s_.pose(); }
+  const PointToSet& p2s() const { return p2s_; }
+  const EuclideanShape& euclidean() const { return euclid_; }
+
+ private:
+  PointToSet p2s_;
+  EuclideanShape euclid_;
+};
+
+struct GapResult {
+  double lambda = 0;    // Λ, eq. (3)
+  double distance = 0;  // D = sqrt(2Λ)
+  Vec3 witness_a = Vec3::Zero();
+  Vec3 witness_b = Vec3::Zero();
+  int iterations = 0;
+  bool converged = true;
+  bool overlap = false;
+  EuclideanResult euclidean;
+  // dD/d(v, ω) of each shape, world frame, ω about the shape's own origin (zero on overlap).
+  Vec6 gradient_a = Vec6::Zero();
+  Vec6 gradient_b = Vec6::Zero();
+};
+
+GapResult gap_distance(const GapBody& a, const GapBody& b, const GapParams& params);
+
+// Many pairs on all cores (threads = 0: hardware concurrency). Results in input order.
+std::vector<GapResult> gap_distance_batch(
+    const std::vector<std::pair<const GapBody*, const GapBody*>>& pairs, const GapParams& params,
+    unsigned threads = 0);
+
+}  // namespace distlab

@@ -1,0 +1,94 @@
+#include "distlab/gap/distance.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <thread>
+
+#include "distlab/geometry/error.hpp"
+
+namespace distlab {
+namespace {
+
+P2SOptions with_margin(P2SOptions options, const GapParams& params) {
+  options.weight_margin = params.weight_margin;
+  return options;
+}
+
+}  // namespace
+
+void check_params(const GapParams& p) {
+  BaseFunction(p.h, p.k);  // validates h and k
+  auto positive = [](double v, const char* field, double upper = INFINITY) {
+    if (!std::isfinite(v) || v <= 0 || v >= upper)
+      throw InvalidInput(std::string("params.") + field,
+                         std::string(field) + " must be finite, > 0" +
+                             (std::isfinite(upper) ? " and < " + std::to_string(upper) : "") +
+                             ", got " + std::to_string(v));
+  };
+  positive(p.eps, "eps", 0.5);
+  positive(p.sigma, "sigma", 1.0);
+  positive(p.weight_margin, "weight_margin");
+  positive(p.tol, "tol", 1.0);
+  if (p.max_iter < 0 || p.max_iter > 10'000'000)
+    throw InvalidInput("params.max_iter", "max_iter must be in [0, 10000000] (0: default)");
+}
+
+GapBody::GapBody(const Shape& shape, const Pose& pose, const GapParams& params,
+                 const P2SOptions& options, const std::string& field)
+    : p2s_(shape, BaseFunction(params.h, params.k), StrictParams{params.eps, params.sigma},
+           with_margin(options, params), field),
+      euclid_(shape) {
+  p2s_.set_pose(pose);
+}
+
+void GapBody::set_pose(const Pose& pose) { p2s_.set_pose(pose); }
+
+GapResult gap_distance(const GapBody& a, const GapBody& b, const GapParams& params) {
+  GapResult r;
+  r.euclidean = euclidean_distance(a.euclidean(), a.pose(), b.euclidean(), b.pose());
+  if (r.euclidean.distance <= 0.0) {
+    // Definition 2 on overlap: any common point; Λ = 0 (Proposition 3).
+    const auto common = common_point(a.p2s().shape(), a.pose(), b.p2s().shape(), b.pose());
+    r.overlap = true;
+    r.witness_a = r.witness_b = common ? *common : r.euclidean.witness_a;
+    return r;
+  }
+  const int limit = params.iteration_limit();
+  const WitnessSolution s =
+      params.solver == GapSolver::newton
+          ? solve_newton(a.p2s(), b.p2s(), r.euclidean.witness_a, params.tol, limit)
+          : solve_fixed_point(a.p2s(), b.p2s(), r.euclidean.witness_a, params.tol, limit);
+  r.witness_a = s.a;
+  r.witness_b = s.b;
+  r.iterations = s.iterations;
+  r.converged = s.converged;
+  r.lambda = std::max(s.lambda, 0.0);
+  r.distance = std::sqrt(2.0 * r.lambda);
+  if (params.gradient && r.distance > 0) {
+    lambda_gradients(s.a, s.b, a.pose(), b.pose(), r.gradient_a, r.gradient_b);
+    r.gradient_a /= r.distance;  // dD = dΛ / D
+    r.gradient_b /= r.distance;
+  }
+  return r;
+}
+
+std::vector<GapResult> gap_distance_batch(
+    const std::vector<std::pair<const GapBody*, const GapBody*>>& pairs, const GapParams& params,
+    unsigned threads) {
+  std::vector<GapResult> out(pairs.size());
+  if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
+  threads = std::min<unsigned>(threads, std::max<size_t>(1, pairs.size()));
+  std::atomic<size_t> next{0};
+  auto work = [&] {
+    for (size_t i; (i = next.fetch_add(1)) < pairs.size();)
+      out[i] = gap_distance(*pairs[i].first, *pairs[i].second, params);
+  };
+  std::vector<std::thread> pool;
+  for (unsigned t = 1; t < threads; ++t) pool.emplace_back(work);
+  work();
+  for (auto& t : pool) t.join();
+  return out;
+}
+
+}  // namespace distlab

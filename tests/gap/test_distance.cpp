@@ -1,0 +1,178 @@
+// The GAP metric end to end (FCL start, libccd overlap): Definition 2 on overlap, Lemma 4 against
+// the Euclidean witness, gradients of D against finite differences, differentiability where the
+// Euclidean distance has a kink, batch = single calls.
+#include <gtest/gtest.h>
+
+#include "distlab/gap/distance.hpp"
+#include "gap_test_util.hpp"
+
+namespace distlab {
+namespace {
+
+GapParams defaults() { return GapParams{}; }
+
+TEST(GapDistance, OverlapGivesZeroAndACommonPoint) {
+  const GapParams p = defaults();
+  std::mt19937_64 rng(2);
+  for (int i = 0; i < 50; ++i) {
+    const GapBody a(Box{Vec3(0.3, 0.2, 0.25)}, Pose{Vec3::Zero(), test::random_rotation(rng)}, p);
+    const GapBody b(Cylinder{0.1, 0.3}, Pose{0.15 * test::random_unit(rng), test::random_rotation(rng)}, p);
+    const GapResult r = gap_distance(a, b, p);
+    ASSERT_TRUE(r.overlap);
+    EXPECT_EQ(r.lambda, 0.0);
+    EXPECT_EQ(r.distance, 0.0);
+    EXPECT_EQ(r.witness_a, r.witness_b);
+    // The common point lies in both sets: E vanishes there up to rounding of the pose.
+    EXPECT_LT(a.p2s().weak(r.witness_a, 0).value, 1e-20);
+    EXPECT_LT(b.p2s().weak(r.witness_a, 0).value, 1e-20);
+    EXPECT_EQ(r.gradient_a.norm(), 0.0);
+  }
+}
+
+TEST(GapDistance, SeparatedPairsSatisfyLemma4AndTheFixedPoint) {
+  const GapParams p = defaults();
+  std::mt19937_64 rng(4);
+  for (int i = 0; i < 100; ++i) {
+    const GapBody a(test::random_polytope(rng, 10, 0.1), Pose{Vec3::Zero(), test::random_rotation(rng)}, p);
+    const GapBody b(test::random_polytope(rng, 8, 0.1),
+                    Pose{(0.25 + 0.2 * (i % 3)) * test::random_unit(rng), test::random_rotation(rng)}, p);
+    const GapResult r = gap_distance(a, b, p);
+    if (r.overlap) continue;
+    ASSERT_TRUE(r.converged);
+    EXPECT_GT(r.distance, 0.0);
+    EXPECT_NEAR(r.distance, std::sqrt(2 * r.lambda), 1e-15);
+    // Lemma 4 with the Euclidean witness a0* in A: Λ <= E_B(a0*).
+    EXPECT_LE(r.lambda, b.p2s().strict(r.euclidean.witness_a, 0).value * (1 + 1e-9) + 1e-300);
+    // Definition 2: a* = Π_A(Π_B(a*)), b* = Π_B(a*).
+    const Vec3 bb = r.witness_a - b.p2s().strict(r.witness_a, 1).gradient;
+    EXPECT_LT((bb - r.witness_b).norm(), 1e-14);
+    const Vec3 aa = bb - a.p2s().strict(bb, 1).gradient;
+    EXPECT_LT((aa - r.witness_a).norm(), 1e-10);
+  }
+}
+
+// dD/d(v, ω) for both shapes against central differences of D.
+TEST(GapDistance, DistanceGradientsMatchFiniteDifferences) {
+  GapParams p = defaults();
+  p.tol = 1e-14;
+  std::mt19937_64 rng(8);
+  const std::vector<Shape> shapes = {Box{Vec3(0.2, 0.1, 0.3)}, Cylinder{0.08, 0.25}, Capsule{0.05, 0.2},
+                                     Sphere{0.1}, test::random_polytope(rng, 12, 0.12)};
+  for (size_t i = 0; i < shapes.size(); ++i)
+    for (size_t j = 0; j < shapes.size(); ++j) {
+      GapBody a(shapes[i], Pose{Vec3(0.1, 0, 0), test::random_rotation(rng)}, p);
+      GapBody b(shapes[j], Pose{Vec3(0.1, 0, 0) + 0.45 * test::random_unit(rng), test::random_rotation(rng)}, p);
+      const GapResult r = gap_distance(a, b, p);
+      ASSERT_FALSE(r.overlap);
+      const double d = 1e-6;
+      for (int which = 0; which < 2; ++which) {
+        GapBody& moved = which == 0 ? a : b;
+        const Pose base = moved.pose();
+        for (int c = 0; c < 6; ++c) {
+          double v[2];
+          for (int s = 0; s < 2; ++s) {
+            Pose q = base;
+            Vec3 delta = Vec3::Zero();
+            delta[c % 3] = s ? d : -d;
+            if (c < 3) q.position += delta;
+            else q.rotation = test::rotate_world(base.rotation, delta);
+            moved.set_pose(q);
+            v[s] = gap_distance(a, b, p).distance;
+          }
+          moved.set_pose(base);
+          const double want = (which == 0 ? r.gradient_a : r.gradient_b)[c];
+          EXPECT_NEAR((v[1] - v[0]) / (2 * d), want, 2e-7 * (1 + std::abs(want)))
+              << shape_type_name(shapes[i]) << "-" << shape_type_name(shapes[j]) << " shape " << which
+              << " coord " << c;
+        }
+      }
+    }
+}
+
+// Two parallel boxes: rotating B about the normal axis makes the Euclidean distance kink at
+// θ = 0 (one edge or the other comes closer). D's one-sided derivatives agree there.
+TEST(GapDistance, DifferentiableWhereTheEuclideanDistanceHasAKink) {
+  const GapParams p = defaults();
+  const Box box{Vec3(0.3, 0.05, 0.2)};
+  const GapBody a(box, Pose{}, p);
+  auto at = [&](double theta) {
+    const GapBody b(box, Pose{Vec3(0.05, 0.15, 0.0), Quat(Eigen::AngleAxisd(theta, Vec3::UnitZ()))}, p);
+    return gap_distance(a, b, p);
+  };
+  const double h = 1e-4;
+  const GapResult m = at(-h), z = at(0), pl = at(h);
+  const double e_left = (z.euclidean.distance - m.euclidean.distance) / h;
+  const double e_right = (pl.euclidean.distance - z.euclidean.distance) / h;
+  const double g_left = (z.distance - m.distance) / h, g_right = (pl.distance - z.distance) / h;
+  EXPECT_GT(std::abs(e_right - e_left), 0.1);  // a kink: ~ the box's half length
+  const double scale = std::max(std::abs(g_left), std::abs(g_right)) + z.distance;
+  EXPECT_LT(std::abs(g_right - g_left), 1e-2 * scale + 1e-12);
+  // and the analytic gradient sits between the one-sided slopes (ω_z of shape B)
+  EXPECT_NEAR(z.gradient_b[5], 0.5 * (g_left + g_right), 1e-3 * scale + 1e-12);
+}
+
+// B slides along A while tilting through parallel (the paper's Fig. 3): the Euclidean witness on
+// B jumps from one end of its face to the other at θ = 0, so the Euclidean angular gradient
+// jumps; GAP's changes by O(step).
+TEST(GapDistance, GradientIsContinuousWhileBoxesSlidePastEachOther) {
+  const GapParams p = defaults();
+  const Box box{Vec3(0.2, 0.05, 0.2)};
+  const GapBody a(box, Pose{}, p);
+  double gap_jump = 0, euclid_jump = 0;
+  Vec6 prev_gap = Vec6::Zero(), prev_euclid = Vec6::Zero();
+  const double step = 2e-3;
+  for (int i = 0; i <= 200; ++i) {
+    const double tau = -0.2 + i * step;
+    const GapBody b(box, Pose{Vec3(0.5 * tau, 0.1, 0.0), Quat(Eigen::AngleAxisd(0.05 * tau, Vec3::UnitZ()))}, p);
+    const GapResult r = gap_distance(a, b, p);
+    ASSERT_FALSE(r.overlap);
+    if (i > 0) {
+      gap_jump = std::max(gap_jump, (r.gradient_b - prev_gap).norm());
+      euclid_jump = std::max(euclid_jump, (r.euclidean.gradient_b - prev_euclid).norm());
+    }
+    prev_gap = r.gradient_b;
+    prev_euclid = r.euclidean.gradient_b;
+  }
+  EXPECT_GT(euclid_jump, 0.05);
+  EXPECT_LT(gap_jump, 20 * step);
+}
+
+TEST(GapDistance, BatchEqualsSingleCalls) {
+  const GapParams p = defaults();
+  std::mt19937_64 rng(12);
+  std::vector<std::unique_ptr<GapBody>> bodies;
+  std::vector<std::pair<const GapBody*, const GapBody*>> pairs;
+  for (int i = 0; i < 64; ++i) {
+    bodies.push_back(std::make_unique<GapBody>(test::random_polytope(rng, 10, 0.1),
+                                               Pose{Vec3::Zero(), test::random_rotation(rng)}, p));
+    bodies.push_back(std::make_unique<GapBody>(Box{Vec3(0.1, 0.2, 0.1)},
+                                               Pose{0.3 * test::random_unit(rng), test::random_rotation(rng)}, p));
+    pairs.emplace_back(bodies[bodies.size() - 2].get(), bodies.back().get());
+  }
+  const auto batch = gap_distance_batch(pairs, p, 2);
+  ASSERT_EQ(batch.size(), pairs.size());
+  for (size_t i = 0; i < pairs.size(); ++i) {
+    const GapResult single = gap_distance(*pairs[i].first, *pairs[i].second, p);
+    EXPECT_EQ(batch[i].distance, single.distance);
+    EXPECT_EQ(batch[i].witness_a, single.witness_a);
+  }
+}
+
+TEST(GapDistance, PlainIterationAgreesWithNewton) {
+  GapParams newton = defaults(), plain = defaults();
+  plain.solver = GapSolver::fixed_point;
+  plain.tol = 1e-14;
+  plain.max_iter = 3'000'000;
+  std::mt19937_64 rng(13);
+  for (int i = 0; i < 20; ++i) {
+    const GapBody a(Cylinder{0.08, 0.3}, Pose{Vec3::Zero(), test::random_rotation(rng)}, newton);
+    const GapBody b(Box{Vec3(0.1, 0.2, 0.1)}, Pose{0.4 * test::random_unit(rng), test::random_rotation(rng)}, newton);
+    const GapResult rn = gap_distance(a, b, newton), rp = gap_distance(a, b, plain);
+    ASSERT_TRUE(rp.converged);
+    EXPECT_LT((rn.witness_a - rp.witness_a).norm(), 1e-10);
+    EXPECT_NEAR(rn.distance, rp.distance, 1e-12);
+  }
+}
+
+}  // namespace
+}  // namespace distlab
