@@ -42,7 +42,7 @@ Poly integrate_times_exp(const Poly& p) {
 
 // Series limit in u = (k−1) L / h: the closed form's relative cancellation grows like
 // 1/Φ''(L) ~ (k−1)^(k−1)/u^(k−1) below it, so larger k keeps the series longer.
-double series_limit_u(int k) { return std::min(4.0, 1.0 + 0.75 * (k - 2)); }
+double series_limit_u(int k) { return std::min(4.0, 0.5 + 0.75 * (k - 2)); }
 
 // E(β) = (x^β − 1)/β with x^β given; expm1 where x^β is close to 1.
 inline double E(double beta, double x_beta, double L) {

@@ -55,9 +55,13 @@ GapResult gap_distance(const GapBody& a, const GapBody& b, const GapParams& para
     return r;
   }
   const int limit = params.iteration_limit();
+  // The plain iteration starts at the Euclidean witness on A, as in the paper (Section IV-A);
+  // Newton starts between the Euclidean witnesses, where a* and b* lie (fewer steps: 4.5 against
+  // 5.7 on the paper's random polytopes).
+  const Vec3 middle = 0.5 * (r.euclidean.witness_a + r.euclidean.witness_b);
   const WitnessSolution s =
       params.solver == GapSolver::newton
-          ? solve_newton(a.p2s(), b.p2s(), r.euclidean.witness_a, params.tol, limit)
+          ? solve_newton(a.p2s(), b.p2s(), middle, params.tol, limit)
           : solve_fixed_point(a.p2s(), b.p2s(), r.euclidean.witness_a, params.tol, limit);
   r.witness_a = s.a;
   r.witness_b = s.b;

@@ -250,7 +250,7 @@ P2SValue PointToSet::strict(const Vec3& p, int order) const {
   const Vec3 dc = p - rho_center_world_;
   const double A = eps * 0.5 * (dc.squaredNorm() - rho_.radius * rho_.radius);
   const double B = sigma * e.value;
-  const double V = std::hypot(A, B);
+  const double V = std::sqrt(A * A + B * B);  // both are far from overflow here
   P2SValue out;
   out.value = A >= 0 ? A + V : B * B / (V - A);
   if (order < 1) return out;

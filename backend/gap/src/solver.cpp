@@ -68,80 +68,86 @@ WitnessSolution solve_fixed_point(const PointToSet& A, const PointToSet& B, cons
 
 namespace {
 
+// The current pair with E_A at b and E_B at a (values, gradients, Hessians).
+struct Saddle {
+  Vec3 a, b;
+  P2SValue ea, eb;
+  double lambda() const { return ea.value + eb.value - 0.5 * (a - b).squaredNorm(); }
+};
+
 // Joint Newton on the saddle-point equations of Lemma 3 in (a, b):
 //   r_b = b − Π_B(a) = 0,  r_a = a − Π_A(b) = 0,
 // Jacobian [[∂²E_B − I, I], [I, ∂²E_A − I]], eliminated to one 3×3 solve. Two P2S evaluations a
-// step; backtracking on ‖r‖. Returns false if it cannot make progress (then the nested method,
-// which is globally convergent, takes over from the best point found).
-bool joint_newton(const PointToSet& A, const PointToSet& B, Vec3& a, Vec3& b, double tol,
-                  int max_iter, int& iterations) {
+// step; backtracking on ‖r‖. Stops, without evaluating again, when the next Newton step is below
+// tol (the error is then of order tol). Returns false if it cannot make progress (then the
+// nested method, which is globally convergent, takes over).
+bool joint_newton(const PointToSet& A, const PointToSet& B, Saddle& s, double tol, int max_iter,
+                  int& iterations) {
   const Mat3 I = Mat3::Identity();
-  P2SValue eb = B.strict(a, 2), ea = A.strict(b, 2);
-  auto residual = [&](const Vec3& x, const Vec3& y, const P2SValue& ex_b, const P2SValue& ey_a,
-                      Vec3& rb, Vec3& ra) {
-    rb = y - x + ex_b.gradient;
-    ra = x - y + ey_a.gradient;
+  auto residual = [](const Saddle& x, Vec3& rb, Vec3& ra) {
+    rb = x.b - x.a + x.eb.gradient;
+    ra = x.a - x.b + x.ea.gradient;
     return rb.squaredNorm() + ra.squaredNorm();
   };
   Vec3 rb, ra;
-  double merit = residual(a, b, eb, ea, rb, ra);
+  double merit = residual(s, rb, ra);
   while (iterations < max_iter) {
-    ++iterations;
-    const Mat3 Hb = eb.hessian - I, Ha = ea.hessian - I;
+    const Mat3 Hb = s.eb.hessian - I, Ha = s.ea.hessian - I;
     // (Hb δa + δb = −rb, δa + Ha δb = −ra)  =>  (I − Hb Ha) δb = −rb + Hb ra.
     const Vec3 db = (I - Hb * Ha).partialPivLu().solve(-rb + Hb * ra);
     const Vec3 da = -ra - Ha * db;
     if (!da.allFinite() || !db.allFinite()) return false;
+    if (std::max(da.norm(), db.norm()) < tol) return true;
+    ++iterations;
     double alpha = 1.0;
     for (int ls = 0;; ++ls, alpha *= 0.5) {
       if (ls == 6) return false;
-      const Vec3 an = a + alpha * da, bn = b + alpha * db;
-      const P2SValue ebn = B.strict(an, 2), ean = A.strict(bn, 2);
+      Saddle n{s.a + alpha * da, s.b + alpha * db, {}, {}};
+      n.eb = B.strict(n.a, 2);
+      n.ea = A.strict(n.b, 2);
       Vec3 rbn, ran;
-      const double m = residual(an, bn, ebn, ean, rbn, ran);
+      const double m = residual(n, rbn, ran);
       if (m < (1 - 1e-4 * alpha) * merit || m == 0.0) {
-        a = an, b = bn, eb = ebn, ea = ean, rb = rbn, ra = ran, merit = m;
+        s = n, rb = rbn, ra = ran, merit = m;
         break;
       }
     }
-    if (alpha * std::max(da.norm(), db.norm()) < tol) return true;
   }
   return false;
 }
 
-// Newton on Λ_B(a) = max_b Λ(a, b) (nested), from a with b warm.
-bool nested_newton(const PointToSet& A, const PointToSet& B, Vec3& a, Vec3& b, double tol,
-                   int max_iter, int& iterations) {
-  P2SValue ea = maximise_inner(A, a, b);
-  P2SValue eb = B.strict(a, 2);
-  double lam = ea.value + eb.value - 0.5 * (a - b).squaredNorm();
+// Newton on Λ_B(a) = max_b Λ(a, b) (nested), from s.a with s.b warm.
+bool nested_newton(const PointToSet& A, const PointToSet& B, Saddle& s, double tol, int max_iter,
+                   int& iterations) {
+  s.ea = maximise_inner(A, s.a, s.b);
+  s.eb = B.strict(s.a, 2);
+  double lam = s.lambda();
   const Mat3 I = Mat3::Identity();
   while (iterations < max_iter) {
-    ++iterations;
-    const Vec3 g = eb.gradient - (a - b);  // ∇Λ_B(a) = b° − Π_B(a)
-    const Eigen::LLT<Mat3> inner(I - ea.hessian);
-    const Mat3 M = eb.hessian - I + inner.solve(I);  // eq. (11), SPD
+    const Vec3 g = s.eb.gradient - (s.a - s.b);  // ∇Λ_B(a) = b° − Π_B(a)
+    const Eigen::LLT<Mat3> inner(I - s.ea.hessian);
+    const Mat3 M = s.eb.hessian - I + inner.solve(I);  // eq. (11), SPD
     Eigen::LLT<Mat3> outer(M);
     Vec3 d = outer.info() == Eigen::Success ? Vec3(-outer.solve(g)) : Vec3(-g);
     if (!d.allFinite() || g.dot(d) >= 0) d = -g;
+    if (d.norm() < tol) return true;
+    ++iterations;
     const Vec3 db = inner.solve(d);  // b° moves by (I − ∂²E_A)⁻¹ da
     const double slope = g.dot(d);
     double alpha = 1.0;
     bool moved = false;
     for (int ls = 0; ls < 60; ++ls, alpha *= 0.5) {
-      const Vec3 an = a + alpha * d;
-      Vec3 bn = b + alpha * db;
-      const P2SValue ean = maximise_inner(A, an, bn);
-      const P2SValue ebn = B.strict(an, 2);
-      const double lamn = ean.value + ebn.value - 0.5 * (an - bn).squaredNorm();
+      Saddle n{s.a + alpha * d, s.b + alpha * db, {}, {}};
+      n.ea = maximise_inner(A, n.a, n.b);
+      n.eb = B.strict(n.a, 2);
+      const double lamn = n.lambda();
       if (lamn <= lam + kArmijo * alpha * slope + kRound * std::abs(lam)) {
-        a = an, b = bn, ea = ean, eb = ebn, lam = lamn;
+        s = n, lam = lamn;
         moved = true;
         break;
       }
     }
     if (!moved) return false;  // no decrease possible at working precision
-    if (alpha * d.norm() < tol) return true;
   }
   return false;
 }
@@ -150,24 +156,28 @@ bool nested_newton(const PointToSet& A, const PointToSet& B, Vec3& a, Vec3& b, d
 
 WitnessSolution solve_newton(const PointToSet& A, const PointToSet& B, const Vec3& a0, double tol,
                              int max_iter) {
-  WitnessSolution s;
-  Vec3 a = a0, b = a0 - B.strict(a0, 1).gradient;  // b = Π_B(a0)
-  const Vec3 a_start = a, b_start = b;
-  s.converged = joint_newton(A, B, a, b, tol, max_iter, s.iterations);
-  if (!s.converged) {
-    if (!a.allFinite() || !b.allFinite()) a = a_start, b = b_start;
-    b = a;  // the nested method's inner solve starts from b = a (exact when a is in A)
-    s.converged = nested_newton(A, B, a, b, tol, max_iter, s.iterations);
+  WitnessSolution out;
+  Saddle s{a0, a0, {}, {}};  // a* and b* are close (∇E is small near the sets)
+  s.eb = B.strict(s.a, 2);
+  s.ea = A.strict(s.b, 2);
+  out.converged = joint_newton(A, B, s, tol, max_iter, out.iterations);
+  if (!out.converged) {
+    if (!s.a.allFinite() || !s.b.allFinite()) s.a = a0;
+    s.b = s.a;  // the nested method's inner solve starts from b = a (exact when a is in A)
+    out.converged = nested_newton(A, B, s, tol, max_iter, out.iterations);
   }
-  // Report the fixed point's own pair: b* = Π_B(a*), with Λ from eq. (3).
-  s.a = a;
-  s.b = a - B.strict(a, 1).gradient;
-  s.lambda = lambda_at(A, B, s.a, s.b);
-  if (!s.converged) {
-    const Vec3 fa = s.b - A.strict(s.b, 1).gradient;
-    s.converged = (fa - a).norm() < tol;  // converged to working precision after all
+  out.a = s.a;
+  if (out.converged) {
+    // b = Π_B(a) and a = Π_A(b) hold to within the last step (< tol); Λ is stationary there.
+    out.b = s.b;
+    out.lambda = s.lambda();
+  } else {
+    out.b = s.a - B.strict(s.a, 1).gradient;
+    out.lambda = lambda_at(A, B, out.a, out.b);
+    const Vec3 fa = out.b - A.strict(out.b, 1).gradient;
+    out.converged = (fa - s.a).norm() < tol;  // converged to working precision after all
   }
-  return s;
+  return out;
 }
 
 void lambda_gradients(const Vec3& a_star, const Vec3& b_star, const Pose& pose_a,
