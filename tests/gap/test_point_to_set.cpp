@@ -50,6 +50,7 @@ TEST(PointToSet, Definition1PropertiesOnRandomPoints) {
       } else {
         ++outside;
         EXPECT_GT(strict.value, 0.0);
+        EXPECT_GT(strict.gradient.norm(), 0.0);  // Proposition 1: ∇E = 0 only in S
         EXPECT_GE(ew[0], -1e-14) << shape_type_name(shape);
         EXPECT_LT(ew[2], 1.0) << shape_type_name(shape);
         // > 0 up to the eigen solver's rounding (relative to the largest eigenvalue).

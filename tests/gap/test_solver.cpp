@@ -66,6 +66,25 @@ TEST(Solver, NewtonAndPlainIterationReachTheSameFixedPoint) {
   EXPECT_GT(compared, 40);
 }
 
+// Proposition 2: the iteration converges to one point whatever the start.
+TEST(Solver, PlainIterationConvergesToAUniquePointFromAnyStart) {
+  std::mt19937_64 rng(17);
+  for (int i = 0; i < 20; ++i) {
+    const Pair p = random_pair(rng, 0.1, i);
+    const WitnessSolution ref = solve_fixed_point(p.a, p.b, p.start, 1e-15, 2'000'000);
+    ASSERT_TRUE(ref.converged);
+    for (int j = 0; j < 3; ++j) {
+      const Vec3 start = p.start + 2.0 * test::random_unit(rng);  // far away, any side
+      const WitnessSolution s = solve_fixed_point(p.a, p.b, start, 1e-15, 2'000'000);
+      ASSERT_TRUE(s.converged);
+      EXPECT_LT((s.a - ref.a).norm(), 1e-10);
+      const WitnessSolution n = solve_newton(p.a, p.b, start, 1e-12, 200);
+      ASSERT_TRUE(n.converged);
+      EXPECT_LT((n.a - ref.a).norm(), 1e-10);
+    }
+  }
+}
+
 // Lemma 4: E_B(a) >= Λ for every a in A (in particular the Euclidean witness), and
 // Λ >= min_x E_A(x) + E_B(x) > 0 (Proposition 3).
 TEST(Solver, Lemma4BoundsAndPositivity) {
