@@ -176,3 +176,35 @@ TEST(GapDistance, PlainIterationAgreesWithNewton) {
 
 }  // namespace
 }  // namespace distlab
+
+namespace distlab {
+namespace {
+
+// Tracking: the warm-started call from the previous witnesses gives the cold call's answer.
+TEST(GapDistance, WarmStartAlongAMotionMatchesColdCalls) {
+  const GapParams p;
+  std::mt19937_64 rng(31);
+  const GapBody a(Box{Vec3(0.1, 0.2, 0.1)}, Pose{}, p);
+  GapBody b(Cylinder{0.06, 0.2}, Pose{Vec3(0.3, 0.0, 0.0), Quat::Identity()}, p);
+  Vec3 start_a = Vec3(0.15, 0, 0), start_b = start_a;
+  int warm_iterations = 0, cold_iterations = 0;
+  for (int i = 0; i < 100; ++i) {
+    const double t = 0.01 * i;
+    b.set_pose(Pose{Vec3(0.3, 0.2 * std::sin(3 * t), 0.1 * t), Quat(Eigen::AngleAxisd(t, Vec3::UnitX()))});
+    const GapResult warm = gap_distance_warm(a, b, p, start_a, start_b);
+    const GapResult cold = gap_distance(a, b, p);
+    ASSERT_TRUE(warm.converged);
+    EXPECT_FALSE(warm.euclidean_computed);
+    EXPECT_NEAR(warm.distance, cold.distance, 1e-12);
+    EXPECT_LT((warm.gradient_b - cold.gradient_b).norm(), 1e-8);
+    if (i > 0) warm_iterations += warm.iterations, cold_iterations += cold.iterations;
+    start_a = warm.witness_a, start_b = warm.witness_b;
+  }
+  EXPECT_LT(warm_iterations, cold_iterations);
+  // and overlap is still detected
+  b.set_pose(Pose{Vec3(0.05, 0, 0), Quat::Identity()});
+  EXPECT_TRUE(gap_distance_warm(a, b, p, start_a, start_b).overlap);
+}
+
+}  // namespace
+}  // namespace distlab

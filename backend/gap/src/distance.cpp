@@ -44,25 +44,16 @@ GapBody::GapBody(const Shape& shape, const Pose& pose, const GapParams& params,
 
 void GapBody::set_pose(const Pose& pose) { p2s_.set_pose(pose); }
 
-GapResult gap_distance(const GapBody& a, const GapBody& b, const GapParams& params) {
-  GapResult r;
-  r.euclidean = euclidean_distance(a.euclidean(), a.pose(), b.euclidean(), b.pose());
-  if (r.euclidean.distance <= 0.0) {
-    // Definition 2 on overlap: any common point; Λ = 0 (Proposition 3).
-    const auto common = common_point(a.p2s().shape(), a.pose(), b.p2s().shape(), b.pose());
-    r.overlap = true;
-    r.witness_a = r.witness_b = common ? *common : r.euclidean.witness_a;
-    return r;
-  }
+namespace {
+
+// Solves from the given starts and fills witness points, Λ, D and gradients.
+void solve_into(GapResult& r, const GapBody& a, const GapBody& b, const GapParams& params,
+                const Vec3& newton_a, const Vec3& newton_b, const Vec3& plain_start) {
   const int limit = params.iteration_limit();
-  // The plain iteration starts at the Euclidean witness on A, as in the paper (Section IV-A);
-  // Newton starts between the Euclidean witnesses, where a* and b* lie (fewer steps: 4.5 against
-  // 5.7 on the paper's random polytopes).
-  const Vec3 middle = 0.5 * (r.euclidean.witness_a + r.euclidean.witness_b);
   const WitnessSolution s =
       params.solver == GapSolver::newton
-          ? solve_newton(a.p2s(), b.p2s(), middle, params.tol, limit)
-          : solve_fixed_point(a.p2s(), b.p2s(), r.euclidean.witness_a, params.tol, limit);
+          ? solve_newton(a.p2s(), b.p2s(), newton_a, params.tol, limit, &newton_b)
+          : solve_fixed_point(a.p2s(), b.p2s(), plain_start, params.tol, limit);
   r.witness_a = s.a;
   r.witness_b = s.b;
   r.iterations = s.iterations;
@@ -74,6 +65,38 @@ GapResult gap_distance(const GapBody& a, const GapBody& b, const GapParams& para
     r.gradient_a /= r.distance;  // dD = dΛ / D
     r.gradient_b /= r.distance;
   }
+}
+
+}  // namespace
+
+GapResult gap_distance(const GapBody& a, const GapBody& b, const GapParams& params) {
+  GapResult r;
+  r.euclidean = euclidean_distance(a.euclidean(), a.pose(), b.euclidean(), b.pose());
+  if (r.euclidean.distance <= 0.0) {
+    // Definition 2 on overlap: any common point; Λ = 0 (Proposition 3).
+    const auto common = common_point(a.p2s().shape(), a.pose(), b.p2s().shape(), b.pose());
+    r.overlap = true;
+    r.witness_a = r.witness_b = common ? *common : r.euclidean.witness_a;
+    return r;
+  }
+  // The plain iteration starts at the Euclidean witness on A, as in the paper (Section IV-A);
+  // Newton starts between the Euclidean witnesses, where a* and b* lie (fewer steps: 4.5 against
+  // 5.7 on the paper's random polytopes).
+  const Vec3 middle = 0.5 * (r.euclidean.witness_a + r.euclidean.witness_b);
+  solve_into(r, a, b, params, middle, middle, r.euclidean.witness_a);
+  return r;
+}
+
+GapResult gap_distance_warm(const GapBody& a, const GapBody& b, const GapParams& params,
+                            const Vec3& start_a, const Vec3& start_b) {
+  GapResult r;
+  r.euclidean_computed = false;
+  if (const auto common = common_point(a.p2s().shape(), a.pose(), b.p2s().shape(), b.pose())) {
+    r.overlap = true;
+    r.witness_a = r.witness_b = *common;
+    return r;
+  }
+  solve_into(r, a, b, params, start_a, start_b, start_a);
   return r;
 }
 

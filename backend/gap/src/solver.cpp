@@ -155,9 +155,9 @@ bool nested_newton(const PointToSet& A, const PointToSet& B, Saddle& s, double t
 }  // namespace
 
 WitnessSolution solve_newton(const PointToSet& A, const PointToSet& B, const Vec3& a0, double tol,
-                             int max_iter) {
+                             int max_iter, const Vec3* b0) {
   WitnessSolution out;
-  Saddle s{a0, a0, {}, {}};  // a* and b* are close (∇E is small near the sets)
+  Saddle s{a0, b0 ? *b0 : a0, {}, {}};
   s.eb = B.strict(s.a, 2);
   s.ea = A.strict(s.b, 2);
   out.converged = joint_newton(A, B, s, tol, max_iter, out.iterations);

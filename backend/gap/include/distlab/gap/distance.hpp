@@ -56,12 +56,19 @@ struct GapResult {
   bool converged = true;
   bool overlap = false;
   EuclideanResult euclidean;
+  bool euclidean_computed = true;  // false from gap_distance_warm
   // dD/d(v, ω) of each shape, world frame, ω about the shape's own origin (zero on overlap).
   Vec6 gradient_a = Vec6::Zero();
   Vec6 gradient_b = Vec6::Zero();
 };
 
 GapResult gap_distance(const GapBody& a, const GapBody& b, const GapParams& params);
+
+// For tracking a moving pair (CBF rollouts): no FCL call; overlap decided by libccd; Newton
+// starts at the given points (e.g. the previous step's witnesses), so it needs few steps.
+// `euclidean` is left empty (euclidean_computed = false).
+GapResult gap_distance_warm(const GapBody& a, const GapBody& b, const GapParams& params,
+                            const Vec3& start_a, const Vec3& start_b);
 
 // Many pairs on all cores (threads = 0: hardware concurrency). Results in input order.
 std::vector<GapResult> gap_distance_batch(

@@ -23,8 +23,9 @@ WitnessSolution solve_fixed_point(const PointToSet& A, const PointToSet& B, cons
 
 // Newton on the min–max from a0; stops when the Newton step is below tol (the error is then
 // of the order of tol², quadratic convergence) or at max_iter.
+// b0: start for b (default a0: a* and b* are close when ∇E is small).
 WitnessSolution solve_newton(const PointToSet& A, const PointToSet& B, const Vec3& a0, double tol,
-                             int max_iter);
+                             int max_iter, const Vec3* b0 = nullptr);
 
 // Λ(a, b) = E_A(b) + E_B(a) − ½‖a − b‖² (eq. 3 at the witness points).
 double lambda_at(const PointToSet& A, const PointToSet& B, const Vec3& a, const Vec3& b);
