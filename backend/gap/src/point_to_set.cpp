@@ -254,13 +254,14 @@ P2SValue PointToSet::strict(const Vec3& p, int order) const {
   P2SValue out;
   out.value = A >= 0 ? A + V : B * B / (V - A);
   if (order < 1) return out;
+  const double inv_v = 1.0 / V;
   const Vec3 dA = eps * dc;
   const Vec3 dB = sigma * e.gradient;
-  out.gradient = (out.value * dA + B * dB) / V;
+  out.gradient = (out.value * inv_v) * dA + (B * inv_v) * dB;
   if (order < 2) return out;
   const Vec3 q = A * dB - B * dA;
-  out.hessian = (out.value * eps * Mat3::Identity() + (B * sigma) * e.hessian) / V +
-                q * q.transpose() / (V * V * V);
+  out.hessian.noalias() = (B * sigma * inv_v) * e.hessian + (inv_v * inv_v * inv_v) * q * q.transpose();
+  out.hessian.diagonal().array() += out.value * eps * inv_v;
   return out;
 }
 
