@@ -1,0 +1,44 @@
+#pragma once
+// Configuration of the service: directories and every explicit limit (all enforced with a 4xx).
+#include <cstddef>
+#include <string>
+
+namespace distlab::server {
+
+struct Limits {
+  std::size_t max_body_bytes = std::size_t{8} << 20;     // JSON requests
+  std::size_t max_upload_bytes = std::size_t{64} << 20;  // mesh uploads
+  std::size_t max_upload_triangles = 200000;
+  std::size_t max_uploads_per_session = 8;
+  double min_lx = 0.005;             // absolute floor of l_x, metres
+  std::size_t max_vertex_estimate = 150000;  // vertex budget of one prepared object (estimated)
+  std::size_t max_sessions = 1000;
+  double session_idle_seconds = 3600;
+  std::size_t max_objects_per_session = 16;
+  std::size_t max_jobs_per_session = 4;   // queued + running
+  std::size_t max_jobs_total = 16;        // queued + running, all sessions
+  std::size_t max_finished_jobs_kept = 64;  // per session; older finished jobs are forgotten
+  double max_job_seconds = 600;           // a job running longer is cancelled
+  double max_request_seconds = 30;        // cancellable request work stops after this (408)
+  std::size_t max_pending_requests = 256; // compute queue; beyond it 503 busy
+  std::size_t max_ws_message_bytes = std::size_t{1} << 20;
+  double ws_messages_per_second = 50;     // token bucket rate ...
+  double ws_burst = 100;                  // ... and depth; empty bucket: error, then close
+  std::size_t max_ws_queue = 256;         // outgoing messages queued for a slow client
+  std::size_t max_query_points = 100000;
+  std::size_t max_levels = 16;
+  int max_grid_resolution = 128;
+  int max_plane_resolution = 512;
+  std::size_t max_gap_pairs = 2000;
+};
+
+struct ServiceConfig {
+  std::string web_dir = "web/dist";
+  std::string assets_dir = "assets";
+  std::string cache_dir;      // "" : a temporary directory
+  unsigned compute_threads = 0;  // 0: hardware concurrency
+  unsigned job_threads = 0;      // 0: hardware concurrency
+  Limits limits;
+};
+
+}  // namespace distlab::server

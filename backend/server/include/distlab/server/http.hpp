@@ -1,0 +1,66 @@
+#pragma once
+// Transport-neutral HTTP request/response values and the error type of the API: the Beast layer
+// converts to and from these, so the router and the endpoints can be tested without sockets.
+#include <map>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace distlab::server {
+
+struct Request {
+  std::string method;  // upper case: GET, POST, PUT, DELETE, HEAD, ...
+  std::string target;  // as received: path + optional ?query
+  std::string path;    // target without the query string, not percent-decoded
+  std::map<std::string, std::string> query;    // decoded query parameters
+  std::map<std::string, std::string> headers;  // lower-case names
+  std::string body;
+  std::map<std::string, std::string> params;  // path parameters filled in by the router
+
+  std::string header(const std::string& lower_name) const;
+  // The client session id: header X-Distlab-Session, else cookie distlab_session, else the query
+  // parameter "session" (browsers cannot set headers on WebSocket upgrades). Empty if none.
+  std::string session_id() const;
+};
+
+struct Response {
+  int status = 200;
+  std::string content_type = "application/json";
+  std::string body;
+  std::vector<std::pair<std::string, std::string>> headers;
+};
+
+// An API failure with its status: becomes {"error": {"code", "message", "field"}}.
+class ApiError : public std::runtime_error {
+ public:
+  ApiError(int status, std::string code, const std::string& message, std::string field = "")
+      : std::runtime_error(message), status_(status), code_(std::move(code)), field_(std::move(field)) {}
+  int status() const { return status_; }
+  const std::string& code() const { return code_; }
+  const std::string& field() const { return field_; }
+
+ private:
+  int status_;
+  std::string code_, field_;
+};
+
+Response json_response(int status, const nlohmann::json& body);
+Response error_response(int status, const std::string& code, const std::string& message,
+                        const std::string& field = "");
+
+// Splits "path?a=1&b=2" and percent-decodes the query ('+' is a space there).
+void split_target(const std::string& target, std::string& path, std::map<std::string, std::string>& query);
+// Percent-decoding; returns false on a malformed escape or an encoded NUL.
+bool percent_decode(const std::string& in, std::string& out, bool plus_is_space = false);
+
+// Parses a JSON request body with the GAP codec's limits (depth, duplicates, overflow); maps
+// syntax errors to 400 malformed_json and an empty body to 400.
+nlohmann::json parse_body(const Request& request);
+
+// Random identifier: 128 bits from the OS generator, as 32 hex digits.
+std::string random_id();
+
+}  // namespace distlab::server

@@ -1,0 +1,114 @@
+#pragma once
+// Kelvin objects of the service. The σ-independent preparation (meshing, assembly, factor) is
+// shared by every session through a registry keyed by content (and backed by the on-disk cache);
+// σ, the watched iso-levels and everything else a client edits live in its own KelvinObject.
+// A shared Field is solved for one σ at a time: readers take a shared lock when the field holds
+// their σ already, otherwise an exclusive lock re-solves it (so two sessions never see each
+// other's σ, only, at worst, each other's solve time).
+#include <condition_variable>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <shared_mutex>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "distlab/kelvin/field.hpp"
+#include "distlab/mesh/surface.hpp"
+
+namespace distlab::server {
+
+struct PreparedField {
+  PreparedField(std::string k, kelvin::Field f) : key(std::move(k)), field(std::move(f)) {}
+  const std::string key;
+  kelvin::Field field;
+  bool cache_hit = false;
+
+  // Runs fn(const kelvin::Field&) with `sigma` solved (sigma_key identifies it exactly).
+  template <class Fn>
+  auto with_sigma(const kelvin::SigmaSpec& sigma, const std::string& sigma_key, Fn&& fn) {
+    {
+      std::shared_lock lock(mutex_);
+      if (solved_ == sigma_key) return fn(static_cast<const kelvin::Field&>(field));
+    }
+    std::unique_lock lock(mutex_);
+    if (solved_ != sigma_key) {
+      solved_.clear();
+      field.set_sigma(sigma);
+      solved_ = sigma_key;
+    }
+    return fn(static_cast<const kelvin::Field&>(field));
+  }
+
+ private:
+  std::shared_mutex mutex_;
+  std::string solved_;  // key of the σ in `field`; "" before the first solve
+};
+
+// Content key of a preparation: 128-bit FNV-1a of the surface and options (hex). Entries with
+// the same key are also compared exactly before they are shared.
+std::string content_key(const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& options);
+
+class PreparedRegistry {
+ public:
+  explicit PreparedRegistry(std::string cache_dir) : cache_dir_(std::move(cache_dir)) {}
+  // The prepared field for this content: from memory, else waits for another job preparing the
+  // same content, else prepares (through the disk cache). Throws kelvin::Cancelled if
+  // progress.cancel becomes true, InvalidInput for a bad surface.
+  std::shared_ptr<PreparedField> acquire(const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& options,
+                                         const kelvin::Progress& progress, bool* from_memory = nullptr);
+  std::size_t size() const;
+
+ private:
+  struct Entry {
+    mesh::SurfaceMesh surface;
+    kelvin::PrepareOptions options;
+    std::weak_ptr<PreparedField> field;
+    bool preparing = false;
+  };
+  Entry* find_locked(const std::string& key, const mesh::SurfaceMesh& s, const kelvin::PrepareOptions& o);
+
+  std::string cache_dir_;
+  mutable std::mutex mutex_;
+  std::condition_variable cv_;
+  std::multimap<std::string, Entry> entries_;
+  std::vector<std::shared_ptr<PreparedField>> recent_;  // keeps the last few alive when unused
+};
+
+struct KelvinObject {
+  std::string id;
+  std::string key;          // content key
+  nlohmann::json source;    // how it was made: asset/upload/mesh, lx, center, far_radius
+  mesh::SurfaceMesh surface;  // the welded input surface
+
+  std::mutex mutex;  // guards everything below
+  std::string state = "preparing";  // preparing | ready | failed | cancelled
+  std::string job;
+  nlohmann::json error;
+  std::shared_ptr<PreparedField> prepared;
+  bool shared = false;  // the preparation was found in memory (another session or object)
+
+  kelvin::SigmaSpec sigma;
+  nlohmann::json sigma_json = nlohmann::json::object();
+  std::string sigma_key = "{}";
+  std::uint64_t sigma_version = 0;
+  std::vector<double> levels;  // watched iso-levels: frames are pushed over the WebSocket
+  bool computing = false;      // a frame task is queued or running
+  std::uint64_t frames_version = 0;  // bumped on every σ or levels change
+
+  nlohmann::json status_json();  // locks
+};
+
+// σ at each input vertex (constant + per-vertex + axis + brush terms).
+std::vector<double> sigma_at_vertices(const kelvin::SigmaSpec& sigma, const mesh::SurfaceMesh& surface);
+
+// A rough vertex count of the preparation, for the vertex budget: the exterior mesh has element
+// size l_x near the object, so the count grows like (R / l_x)³ for bounding radius R. The
+// constant is fitted to the cube asset (1608 vertices at l_x 0.2, 11891 at 0.1).
+inline constexpr double kVertexEstimateConstant = 20.0;
+double estimate_vertices(const mesh::SurfaceMesh& surface, double lx);
+
+}  // namespace distlab::server

@@ -1,0 +1,96 @@
+#pragma once
+// The distlab service, independent of sockets: the router with every endpoint, sessions, jobs,
+// Kelvin objects, static files, and the WebSocket protocol. server.hpp puts it on a port.
+//
+// WebSocket (/ws?session=ID, or the session cookie/header on the upgrade request):
+//   client -> server (JSON text): {"type": "ping"} | {"type": "watch", "object", "levels": [...]}
+//     | {"type": "sigma", "object", "sigma": {...}} | {"type": "cancel", "job"}
+//     | {"type": "state"} (resend the current state)
+//   server -> client: text {"type": "hello"|"pong"|"job"|"object"|"sigma"|"error", ...};
+//     binary msgpack frames {"type": "isosurface"|"surface", "object", "level", "sigma_version",
+//     "positions", "indices"[, "scalars"]} (see frames.hpp).
+//   A client joining late gets "hello" with the session's jobs and objects, then the current
+//   frames of every watched object.
+#include <atomic>
+#include <functional>
+#include <memory>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "distlab/server/config.hpp"
+#include "distlab/server/http.hpp"
+#include "distlab/server/jobs.hpp"
+#include "distlab/server/kelvin_objects.hpp"
+#include "distlab/server/router.hpp"
+#include "distlab/server/session.hpp"
+#include "distlab/server/static_files.hpp"
+#include "distlab/server/worker_pool.hpp"
+
+namespace distlab::server {
+
+// The OpenAPI document (backend/server/openapi.json, embedded at build time).
+const std::string& openapi_text();
+std::string version_string();
+
+class Service {
+ public:
+  explicit Service(ServiceConfig config);
+  ~Service();
+  Service(const Service&) = delete;
+  Service& operator=(const Service&) = delete;
+
+  const ServiceConfig& config() const { return config_; }
+  const Router& router() const { return router_; }
+
+  // Any HTTP request (API or static file). May block for heavy routes: call it from the
+  // compute pool when heavy() says so.
+  Response handle(Request& request);
+  bool heavy(const Request& request) const;
+  std::size_t body_limit(const std::string& path) const;
+  // Runs fn on the compute pool; false if too many requests wait (the caller answers 503).
+  bool post_compute(std::function<void()> fn);
+
+  // WebSocket: the session of an upgrade request, or nullptr with the refusal to send.
+  std::shared_ptr<Session> ws_authorize(const Request& request, Response& refusal);
+  void ws_open(const std::shared_ptr<Session>& session, const std::shared_ptr<WsSink>& socket);
+  void ws_message(const std::shared_ptr<Session>& session, const std::shared_ptr<WsSink>& socket,
+                  const std::string& data, bool binary);
+
+  void shutdown();  // cancels jobs, stops the pools (idempotent)
+
+ private:
+  void register_core_routes();
+  void register_gap_routes();
+  void register_kelvin_routes();
+  // CBF rollout endpoints (issue: CBF module) join here: register_cbf_routes() in
+  // src/routes_cbf.cpp, under /api/cbf/..., documented in openapi.json like the others.
+
+  void send_state(const std::shared_ptr<Session>& session, const std::shared_ptr<WsSink>& socket);
+  std::shared_ptr<Session> require_session(const Request& request);
+  std::shared_ptr<KelvinObject> require_object(const Session& session, const Request& request);
+
+  // Kelvin helpers (routes_kelvin.cpp).
+  nlohmann::json create_object(const std::shared_ptr<Session>& session, const nlohmann::json& body);
+  void set_sigma(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,
+                 const nlohmann::json& sigma);
+  void set_levels(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,
+                  const nlohmann::json& levels);
+  void schedule_frames(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object);
+  void send_frames(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,
+                   WsSink* only = nullptr);
+
+  ServiceConfig config_;
+  std::string temp_cache_;  // removed on shutdown if we made it
+  std::string cache_dir_;
+  const std::string& registry_cache_dir() const { return cache_dir_; }
+  Router router_;
+  StaticFiles static_files_;
+  SessionStore sessions_;
+  PreparedRegistry registry_;
+  WorkerPool compute_;
+  JobManager jobs_;
+  std::atomic<bool> stopped_{false};
+};
+
+}  // namespace distlab::server

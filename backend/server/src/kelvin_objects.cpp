@@ -1,0 +1,166 @@
+#include "distlab/server/kelvin_objects.hpp"
+
+#include <cmath>
+#include <cstdio>
+
+#include "distlab/kelvin/progress.hpp"
+#include "distlab/kelvin/sigma.hpp"
+
+namespace distlab::server {
+
+using json = nlohmann::json;
+
+namespace {
+
+struct Fnv64 {
+  std::uint64_t h;
+  explicit Fnv64(std::uint64_t basis) : h(basis) {}
+  void add(const void* data, std::size_t n) {
+    const auto* p = static_cast<const unsigned char*>(data);
+    for (std::size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 1099511628211ull;
+  }
+};
+
+bool same_options(const kelvin::PrepareOptions& a, const kelvin::PrepareOptions& b) {
+  return a.lx == b.lx && a.far_radius == b.far_radius && a.feature_angle == b.feature_angle &&
+         a.centre.has_value() == b.centre.has_value() && (!a.centre || *a.centre == *b.centre);
+}
+
+bool same_surface(const mesh::SurfaceMesh& a, const mesh::SurfaceMesh& b) {
+  return a.vertices.rows() == b.vertices.rows() && a.faces.rows() == b.faces.rows() &&
+         a.vertices == b.vertices && a.faces == b.faces;
+}
+
+}  // namespace
+
+std::string content_key(const mesh::SurfaceMesh& s, const kelvin::PrepareOptions& o) {
+  Fnv64 a(1469598103934665603ull), b(0x9e3779b97f4a7c15ull);
+  auto add = [&](const void* p, std::size_t n) {
+    a.add(p, n);
+    b.add(p, n);
+  };
+  const std::int64_t rows[2] = {s.vertices.rows(), s.faces.rows()};
+  add(rows, sizeof rows);
+  add(s.vertices.data(), sizeof(double) * static_cast<std::size_t>(s.vertices.size()));
+  add(s.faces.data(), sizeof(int) * static_cast<std::size_t>(s.faces.size()));
+  const Vec3 c = o.centre.value_or(Vec3::Constant(std::nan("")));
+  const double params[7] = {o.lx, o.far_radius, o.feature_angle, c.x(), c.y(), c.z(), o.centre ? 1.0 : 0.0};
+  add(params, sizeof params);
+  char text[33];
+  std::snprintf(text, sizeof text, "%016llx%016llx", static_cast<unsigned long long>(a.h),
+                static_cast<unsigned long long>(b.h));
+  return text;
+}
+
+PreparedRegistry::Entry* PreparedRegistry::find_locked(const std::string& key, const mesh::SurfaceMesh& s,
+                                                       const kelvin::PrepareOptions& o) {
+  auto [lo, hi] = entries_.equal_range(key);
+  for (auto it = lo; it != hi; ++it)
+    if (same_options(it->second.options, o) && same_surface(it->second.surface, s)) return &it->second;
+  return nullptr;
+}
+
+std::shared_ptr<PreparedField> PreparedRegistry::acquire(const mesh::SurfaceMesh& surface,
+                                                         const kelvin::PrepareOptions& options,
+                                                         const kelvin::Progress& progress, bool* from_memory) {
+  const std::string key = content_key(surface, options);
+  if (from_memory) *from_memory = false;
+  {
+    std::unique_lock lock(mutex_);
+    for (;;) {
+      Entry* e = find_locked(key, surface, options);
+      if (e == nullptr) {
+        Entry fresh{surface, options, {}, true};
+        entries_.emplace(key, std::move(fresh));
+        break;
+      }
+      if (auto f = e->field.lock()) {
+        if (from_memory) *from_memory = true;
+        return f;
+      }
+      if (!e->preparing) {
+        e->preparing = true;
+        break;
+      }
+      // Another job prepares the same content: wait for it (and stay cancellable).
+      cv_.wait_for(lock, std::chrono::milliseconds(100));
+      progress.check();
+    }
+  }
+  auto release = [&](const std::shared_ptr<PreparedField>& f) {
+    {
+      std::lock_guard lock(mutex_);
+      Entry* e = find_locked(key, surface, options);
+      if (e != nullptr) {
+        e->preparing = false;
+        if (f) e->field = f;
+      }
+      if (f) {
+        recent_.push_back(f);
+        if (recent_.size() > 4) recent_.erase(recent_.begin());
+      }
+      // Forget entries nobody holds (their disk cache remains).
+      for (auto it = entries_.begin(); it != entries_.end();)
+        it = (!it->second.preparing && it->second.field.expired()) ? entries_.erase(it) : std::next(it);
+    }
+    cv_.notify_all();
+  };
+  try {
+    bool hit = false;
+    kelvin::Field field = cache_dir_.empty()
+                              ? kelvin::Field::prepare(surface, options, progress)
+                              : kelvin::Field::prepare_cached(surface, options, cache_dir_, progress, &hit);
+    auto prepared = std::make_shared<PreparedField>(key, std::move(field));
+    prepared->cache_hit = hit;
+    release(prepared);
+    return prepared;
+  } catch (...) {
+    release(nullptr);
+    throw;
+  }
+}
+
+std::size_t PreparedRegistry::size() const {
+  std::lock_guard lock(mutex_);
+  return entries_.size();
+}
+
+json KelvinObject::status_json() {
+  std::lock_guard lock(mutex);
+  json j = {{"id", id}, {"state", state}, {"job", job}, {"source", source},
+            {"n_input_vertices", surface.vertices.rows()}, {"n_input_faces", surface.faces.rows()},
+            {"sigma_version", sigma_version}, {"levels", levels}, {"key", key}};
+  if (!error.is_null()) j["error"] = error;
+  if (prepared) {
+    const kelvin::Stats& st = prepared->field.stats();
+    j["stats"] = {{"n_verts", st.n_verts}, {"n_tets", st.n_tets}, {"size_mb", st.size_mb},
+                  {"t_mesh", st.t_mesh},   {"t_build", st.t_build}, {"t_decomp", st.t_decomp},
+                  {"t_solve", st.t_solve}, {"cache_hit", prepared->cache_hit}, {"shared", shared}};
+    const Vec3 c = prepared->field.centre();
+    j["center"] = {c.x(), c.y(), c.z()};
+  }
+  return j;
+}
+
+std::vector<double> sigma_at_vertices(const kelvin::SigmaSpec& sigma, const mesh::SurfaceMesh& surface) {
+  std::vector<double> out(static_cast<std::size_t>(surface.vertices.rows()), sigma.constant);
+  for (Eigen::Index v = 0; v < surface.vertices.rows(); ++v) {
+    const Vec3 x = surface.vertices.row(v).transpose();
+    double& s = out[static_cast<std::size_t>(v)];
+    if (sigma.per_vertex && v < sigma.per_vertex->size()) s += (*sigma.per_vertex)[v];
+    for (const auto& a : sigma.axis) s += kelvin::evaluate(a, x);
+    for (const auto& b : sigma.brushes) s += kelvin::evaluate(b, x);
+  }
+  return out;
+}
+
+double estimate_vertices(const mesh::SurfaceMesh& surface, double lx) {
+  if (surface.vertices.rows() == 0 || !(lx > 0)) return 0;
+  const Vec3 lo = surface.vertices.colwise().minCoeff().transpose();
+  const Vec3 hi = surface.vertices.colwise().maxCoeff().transpose();
+  const double r = 0.5 * (hi - lo).norm();
+  const double ratio = r / lx;
+  return kVertexEstimateConstant * ratio * ratio * ratio + static_cast<double>(surface.vertices.rows());
+}
+
+}  // namespace distlab::server

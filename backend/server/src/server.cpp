@@ -1,0 +1,363 @@
+// Boost.Beast listener, HTTP connections and WebSocket connections.
+#include "distlab/server/server.hpp"
+
+#include <boost/asio/dispatch.hpp>
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/signal_set.hpp>
+#include <boost/asio/strand.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/http.hpp>
+#include <boost/beast/websocket.hpp>
+#include <chrono>
+#include <cstdio>
+#include <deque>
+#include <thread>
+
+namespace distlab::server {
+
+namespace beast = boost::beast;
+namespace http = beast::http;
+namespace websocket = beast::websocket;
+namespace net = boost::asio;
+using tcp = net::ip::tcp;
+
+namespace {
+
+constexpr auto kReadTimeout = std::chrono::seconds(30);
+constexpr std::size_t kHeaderLimit = 16 * 1024;
+
+std::string lower(std::string s) {
+  for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+Request to_request(const http::request<http::string_body>& req) {
+  Request r;
+  r.method = std::string(req.method_string());
+  r.target = std::string(req.target());
+  split_target(r.target, r.path, r.query);
+  for (const auto& f : req) r.headers[lower(std::string(f.name_string()))] = std::string(f.value());
+  r.body = req.body();
+  return r;
+}
+
+http::response<http::string_body> to_beast(const Response& res, unsigned version, bool keep_alive, bool head) {
+  http::response<http::string_body> out{static_cast<http::status>(res.status), version};
+  out.set(http::field::server, "distlab");
+  if (!res.content_type.empty()) out.set(http::field::content_type, res.content_type);
+  for (const auto& [k, v] : res.headers) out.set(k, v);
+  out.set("X-Content-Type-Options", "nosniff");
+  out.keep_alive(keep_alive);
+  if (head) {
+    out.content_length(res.body.size());
+  } else {
+    out.body() = res.body;
+    out.prepare_payload();
+  }
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+
+class WsConnection : public WsSink, public std::enable_shared_from_this<WsConnection> {
+ public:
+  WsConnection(tcp::socket&& socket, Service& service, std::shared_ptr<Session> session)
+      : ws_(std::move(socket)), service_(service), session_(std::move(session)),
+        tokens_(service.config().limits.ws_burst), last_refill_(std::chrono::steady_clock::now()) {}
+
+  void start(http::request<http::string_body> req) {
+    beast::get_lowest_layer(ws_).expires_never();
+    ws_.set_option(websocket::stream_base::timeout::suggested(beast::role_type::server));
+    ws_.set_option(websocket::stream_base::decorator(
+        [](websocket::response_type& res) { res.set(http::field::server, "distlab"); }));
+    ws_.read_message_max(service_.config().limits.max_ws_message_bytes);
+    ws_.async_accept(req, beast::bind_front_handler(&WsConnection::on_accept, shared_from_this()));
+  }
+
+  void send(std::string data, bool binary) override {
+    net::post(ws_.get_executor(), [self = shared_from_this(), data = std::move(data), binary]() mutable {
+      if (self->closed_) return;
+      if (self->queue_.size() >= self->service_.config().limits.max_ws_queue) {
+        // A client that does not read: drop it rather than grow without bound.
+        self->do_close(websocket::close_code::policy_error);
+        return;
+      }
+      self->queue_.emplace_back(std::move(data), binary);
+      if (self->queue_.size() == 1) self->do_write();
+    });
+  }
+
+  void close() override {
+    net::post(ws_.get_executor(), [self = shared_from_this()] { self->do_close(websocket::close_code::going_away); });
+  }
+
+ private:
+  void on_accept(beast::error_code ec) {
+    if (ec) return;
+    accepted_ = true;
+    service_.ws_open(session_, shared_from_this());
+    do_read();
+  }
+
+  void do_read() {
+    ws_.async_read(buffer_, beast::bind_front_handler(&WsConnection::on_read, shared_from_this()));
+  }
+
+  void on_read(beast::error_code ec, std::size_t) {
+    if (ec) {
+      if (ec == websocket::error::message_too_big && !closed_) do_close(websocket::close_code::too_big);
+      closed_ = true;
+      return;
+    }
+    // Token bucket: rate and burst from the limits; an empty bucket answers an error, and a
+    // client that keeps going far past it is disconnected.
+    const Limits& lim = service_.config().limits;
+    const auto now = std::chrono::steady_clock::now();
+    tokens_ = std::min(lim.ws_burst, tokens_ + std::chrono::duration<double>(now - last_refill_).count() * lim.ws_messages_per_second);
+    last_refill_ = now;
+    const std::string data = beast::buffers_to_string(buffer_.data());
+    const bool binary = ws_.got_binary();
+    buffer_.consume(buffer_.size());
+    if (tokens_ >= 1) {
+      tokens_ -= 1;
+      refused_ = 0;
+      auto self = shared_from_this();
+      service_.ws_message(session_, self, data, binary);
+    } else if (++refused_ > static_cast<std::size_t>(lim.ws_burst)) {
+      do_close(websocket::close_code::policy_error);
+      return;
+    } else {
+      send(nlohmann::json{{"type", "error"}, {"status", 429},
+                          {"error", {{"code", "rate_limited"}, {"message", "too many WebSocket messages; slow down"}, {"field", ""}}}}
+               .dump(),
+           false);
+    }
+    do_read();
+  }
+
+  void do_write() {
+    ws_.binary(queue_.front().second);
+    ws_.async_write(net::buffer(queue_.front().first), beast::bind_front_handler(&WsConnection::on_write, shared_from_this()));
+  }
+
+  void on_write(beast::error_code ec, std::size_t) {
+    if (ec) {
+      closed_ = true;
+      queue_.clear();
+      return;
+    }
+    queue_.pop_front();
+    if (!queue_.empty() && !closed_) do_write();
+  }
+
+  void do_close(websocket::close_code code) {
+    if (closed_ || !accepted_) return;
+    closed_ = true;
+    queue_.clear();
+    ws_.async_close(code, [self = shared_from_this()](beast::error_code) {});
+  }
+
+  websocket::stream<beast::tcp_stream> ws_;
+  beast::flat_buffer buffer_;
+  Service& service_;
+  std::shared_ptr<Session> session_;
+  std::deque<std::pair<std::string, bool>> queue_;
+  bool closed_ = false, accepted_ = false;
+  double tokens_;
+  std::size_t refused_ = 0;
+  std::chrono::steady_clock::time_point last_refill_;
+};
+
+// ---------------------------------------------------------------------------------------------
+
+class HttpConnection : public std::enable_shared_from_this<HttpConnection> {
+ public:
+  HttpConnection(tcp::socket&& socket, Service& service) : stream_(std::move(socket)), service_(service) {}
+
+  void start() { net::dispatch(stream_.get_executor(), beast::bind_front_handler(&HttpConnection::do_read, shared_from_this())); }
+
+ private:
+  void do_read() {
+    parser_.emplace();
+    parser_->header_limit(kHeaderLimit);
+    parser_->body_limit(service_.config().limits.max_upload_bytes);
+    stream_.expires_after(kReadTimeout);
+    http::async_read_header(stream_, buffer_, *parser_, beast::bind_front_handler(&HttpConnection::on_header, shared_from_this()));
+  }
+
+  void on_header(beast::error_code ec, std::size_t) {
+    if (ec == http::error::end_of_stream) return do_shutdown();
+    if (ec == http::error::header_limit) return fail_and_close(431, "header_too_large", "request headers are too large");
+    if (ec) {
+      if (ec != beast::error::timeout && ec != net::error::operation_aborted && ec != net::error::connection_reset)
+        return fail_and_close(400, "bad_request", "malformed HTTP request");
+      return;
+    }
+    auto& req = parser_->get();
+    if (websocket::is_upgrade(req)) {
+      Request r = to_request(req);
+      Response refusal;
+      auto session = service_.ws_authorize(r, refusal);
+      if (!session) return fail_and_close(refusal.status, refusal.body);
+      stream_.expires_never();
+      std::make_shared<WsConnection>(stream_.release_socket(), service_, session)->start(parser_->release());
+      return;
+    }
+    std::string path;
+    std::map<std::string, std::string> query;
+    split_target(std::string(req.target()), path, query);
+    limit_ = service_.body_limit(path);
+    if (req.has_content_length() || req.chunked()) {
+      const auto length = parser_->content_length();
+      if (length && *length > limit_)
+        return fail_and_close(413, "body_too_large", "the request body exceeds " + std::to_string(limit_) + " bytes");
+      parser_->body_limit(limit_);
+    }
+    http::async_read(stream_, buffer_, *parser_, beast::bind_front_handler(&HttpConnection::on_read, shared_from_this()));
+  }
+
+  void on_read(beast::error_code ec, std::size_t) {
+    if (ec == http::error::body_limit)
+      return fail_and_close(413, "body_too_large", "the request body exceeds " + std::to_string(limit_) + " bytes");
+    if (ec) {
+      if (ec != beast::error::timeout && ec != net::error::operation_aborted && ec != http::error::end_of_stream)
+        return fail_and_close(400, "bad_request", "malformed HTTP request");
+      return;
+    }
+    auto req = parser_->release();
+    auto request = std::make_shared<Request>(to_request(req));
+    const unsigned version = req.version();
+    const bool keep_alive = req.keep_alive();
+    const bool head = req.method() == http::verb::head;
+    if (!service_.heavy(*request)) {
+      const Response res = service_.handle(*request);
+      return write(to_beast(res, version, keep_alive, head));
+    }
+    stream_.expires_never();
+    auto self = shared_from_this();
+    const bool posted = service_.post_compute([self, request, version, keep_alive, head] {
+      Response res = self->service_.handle(*request);
+      net::post(self->stream_.get_executor(), [self, res = std::move(res), version, keep_alive, head] {
+        self->write(to_beast(res, version, keep_alive, head));
+      });
+    });
+    if (!posted)
+      write(to_beast(error_response(503, "busy", "the server is busy; try again shortly"), version, keep_alive, head));
+  }
+
+  void fail_and_close(int status, const std::string& code, const std::string& message) {
+    fail_and_close(status, error_response(status, code, message).body);
+  }
+  void fail_and_close(int status, const std::string& body) {
+    Response r;
+    r.status = status;
+    r.body = body;
+    write(to_beast(r, 11, false, false));
+  }
+
+  void write(http::response<http::string_body>&& res) {
+    auto sp = std::make_shared<http::response<http::string_body>>(std::move(res));
+    response_ = sp;
+    stream_.expires_after(kReadTimeout);
+    http::async_write(stream_, *sp, [self = shared_from_this(), sp](beast::error_code ec, std::size_t) {
+      self->response_.reset();
+      if (ec) return;
+      if (!sp->keep_alive()) return self->do_shutdown();
+      self->do_read();
+    });
+  }
+
+  void do_shutdown() {
+    beast::error_code ec;
+    stream_.socket().shutdown(tcp::socket::shutdown_send, ec);
+  }
+
+  beast::tcp_stream stream_;
+  beast::flat_buffer buffer_;
+  Service& service_;
+  std::optional<http::request_parser<http::string_body>> parser_;
+  std::shared_ptr<void> response_;
+  std::size_t limit_ = 0;
+};
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+
+struct HttpServer::Impl {
+  Service& service;
+  net::io_context ioc;
+  tcp::acceptor acceptor;
+  unsigned threads;
+  std::atomic<bool> stopping{false};
+  std::thread stopper;
+
+  Impl(Service& s, unsigned n) : service(s), ioc(static_cast<int>(n)), acceptor(net::make_strand(ioc)), threads(n) {}
+
+  void accept() {
+    acceptor.async_accept(net::make_strand(ioc), [this](beast::error_code ec, tcp::socket socket) {
+      if (ec == net::error::operation_aborted || !acceptor.is_open()) return;
+      if (!ec) std::make_shared<HttpConnection>(std::move(socket), service)->start();
+      accept();
+    });
+  }
+};
+
+HttpServer::HttpServer(Service& service, const std::string& host, unsigned short port, unsigned io_threads) {
+  if (io_threads == 0) io_threads = std::max(2u, std::thread::hardware_concurrency());
+  impl_ = std::make_unique<Impl>(service, io_threads);
+  beast::error_code ec;
+  const auto address = net::ip::make_address(host, ec);
+  if (ec) throw std::runtime_error("invalid host address \"" + host + "\"");
+  const tcp::endpoint endpoint(address, port);
+  auto& a = impl_->acceptor;
+  a.open(endpoint.protocol(), ec);
+  if (!ec) a.set_option(net::socket_base::reuse_address(true), ec);
+  if (!ec) a.bind(endpoint, ec);
+  if (!ec) a.listen(net::socket_base::max_listen_connections, ec);
+  if (ec) throw std::runtime_error("cannot listen on " + host + ":" + std::to_string(port) + ": " + ec.message());
+}
+
+HttpServer::~HttpServer() {
+  stop();
+  if (impl_->stopper.joinable()) impl_->stopper.join();
+}
+
+unsigned short HttpServer::port() const { return impl_->acceptor.local_endpoint().port(); }
+
+void HttpServer::run(bool handle_signals) {
+  Impl& m = *impl_;
+  net::signal_set signals(m.ioc);
+  if (handle_signals) {
+    signals.add(SIGINT);
+    signals.add(SIGTERM);
+    signals.async_wait([this](beast::error_code ec, int) {
+      if (!ec) stop();
+    });
+  }
+  m.accept();
+  std::vector<std::thread> pool;
+  for (unsigned i = 1; i < m.threads; ++i) pool.emplace_back([&m] { m.ioc.run(); });
+  m.ioc.run();
+  for (auto& t : pool) t.join();
+  if (m.stopper.joinable()) m.stopper.join();
+}
+
+void HttpServer::stop() {
+  if (!impl_) return;
+  Impl& m = *impl_;
+  if (m.stopping.exchange(true)) return;
+  net::post(m.acceptor.get_executor(), [&m] {
+    beast::error_code ec;
+    m.acceptor.close(ec);
+  });
+  // Finish the service's work first (jobs are cancelled, sockets get a close frame), then give
+  // pending writes a moment before the loop stops.
+  m.stopper = std::thread([&m] {
+    m.service.shutdown();
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    m.ioc.stop();
+  });
+}
+
+}  // namespace distlab::server

@@ -1,0 +1,312 @@
+// The service: construction, dispatch, sessions, jobs routes, the WebSocket protocol.
+#include "distlab/server/service.hpp"
+
+#include <filesystem>
+#include <thread>
+
+#include "distlab/geometry/error.hpp"
+#include "distlab/server/frames.hpp"
+#include "distlab/server/gap_json.hpp"
+
+namespace distlab::server {
+
+using json = nlohmann::json;
+namespace fs = std::filesystem;
+
+std::string version_string() {
+#ifdef DISTLAB_VERSION
+  return DISTLAB_VERSION;
+#else
+  return "0.0.0";
+#endif
+}
+
+namespace {
+
+std::string make_cache_dir(const std::string& wanted, std::string& temp) {
+  if (!wanted.empty()) {
+    std::error_code ec;
+    fs::create_directories(wanted, ec);
+    if (ec) throw std::runtime_error("cannot create the cache directory " + wanted + ": " + ec.message());
+    return wanted;
+  }
+  temp = (fs::temp_directory_path() / ("distlab-cache-" + random_id().substr(0, 12))).string();
+  fs::create_directories(temp);
+  return temp;
+}
+
+JobManager::Options job_options(const ServiceConfig& c) {
+  JobManager::Options o;
+  o.threads = c.job_threads;
+  o.per_session = c.limits.max_jobs_per_session;
+  o.total = c.limits.max_jobs_total;
+  o.keep_finished = c.limits.max_finished_jobs_kept;
+  o.max_seconds = c.limits.max_job_seconds;
+  return o;
+}
+
+}  // namespace
+
+Service::Service(ServiceConfig config)
+    : config_(std::move(config)),
+      cache_dir_(make_cache_dir(config_.cache_dir, temp_cache_)),
+      static_files_(config_.web_dir),
+      sessions_(config_.limits.max_sessions, config_.limits.session_idle_seconds),
+      registry_(cache_dir_),
+      compute_(config_.compute_threads),
+      jobs_(job_options(config_), [this](const std::string& session_id, const json& event) {
+        if (auto s = sessions_.find(session_id)) s->broadcast(event.dump(), false);
+      }) {
+  register_core_routes();
+  register_gap_routes();
+  register_kelvin_routes();
+}
+
+Service::~Service() { shutdown(); }
+
+void Service::shutdown() {
+  if (stopped_.exchange(true)) return;
+  jobs_.shutdown();
+  compute_.stop();
+  for (const auto& s : sessions_.all()) {
+    std::vector<std::shared_ptr<WsSink>> live;
+    {
+      std::lock_guard lock(s->mutex);
+      for (auto& w : s->sockets)
+        if (auto p = w.lock()) live.push_back(p);
+    }
+    for (auto& p : live) p->close();
+  }
+  if (!temp_cache_.empty()) {
+    std::error_code ec;
+    fs::remove_all(temp_cache_, ec);
+  }
+}
+
+Response Service::handle(Request& request) {
+  if (request.path == "/api" || request.path.rfind("/api/", 0) == 0) {
+    Response r = router_.dispatch(request);
+    r.headers.emplace_back("Cache-Control", "no-store");
+    return r;
+  }
+  return static_files_.serve(request);
+}
+
+bool Service::heavy(const Request& request) const {
+  const Route* r = router_.match(request.method, request.path);
+  return r != nullptr && r->heavy;
+}
+
+std::size_t Service::body_limit(const std::string& path) const {
+  for (const Route& r : router_.routes())
+    if (r.body_limit != 0 && router_.match(r.method, path) == &r) return r.body_limit;
+  return config_.limits.max_body_bytes;
+}
+
+bool Service::post_compute(std::function<void()> fn) {
+  return compute_.post(std::move(fn), config_.limits.max_pending_requests);
+}
+
+std::shared_ptr<Session> Service::require_session(const Request& request) {
+  const std::string id = request.session_id();
+  if (id.empty())
+    throw ApiError(401, "session_required",
+                   "this endpoint needs a session: POST /api/session, then send its id in the "
+                   "X-Distlab-Session header (or the distlab_session cookie)");
+  auto s = sessions_.find(id);
+  if (!s) throw ApiError(404, "unknown_session", "no such session (it may have expired)");
+  return s;
+}
+
+// --------------------------------------------------------------------------------------------
+// Core routes: health, version, OpenAPI, sessions, jobs.
+
+void Service::register_core_routes() {
+  router_.add({"GET", "/api/health", [](Request&) { return json_response(200, {{"status", "ok"}}); }});
+  router_.add({"GET", "/api/version", [](Request&) {
+                 json modules = {"gap", "levelset"};
+#ifdef DISTLAB_HAVE_KELVIN
+                 modules.push_back("kelvin");
+#endif
+                 return json_response(200, {{"name", "distlab"}, {"version", version_string()},
+                                            {"api", "1"}, {"modules", modules}});
+               }});
+  router_.add({"GET", "/api/openapi.json", [](Request&) {
+                 Response r;
+                 r.body = openapi_text();
+                 return r;
+               }});
+  router_.add({"GET", "/api/limits", [this](Request&) {
+                 const Limits& l = config_.limits;
+                 return json_response(200, {{"max_body_bytes", l.max_body_bytes},
+                                            {"max_upload_bytes", l.max_upload_bytes},
+                                            {"max_upload_triangles", l.max_upload_triangles},
+                                            {"min_lx", l.min_lx},
+                                            {"max_vertex_estimate", l.max_vertex_estimate},
+                                            {"max_objects_per_session", l.max_objects_per_session},
+                                            {"max_jobs_per_session", l.max_jobs_per_session},
+                                            {"max_jobs_total", l.max_jobs_total},
+                                            {"max_job_seconds", l.max_job_seconds},
+                                            {"max_request_seconds", l.max_request_seconds},
+                                            {"max_ws_message_bytes", l.max_ws_message_bytes},
+                                            {"ws_messages_per_second", l.ws_messages_per_second},
+                                            {"max_query_points", l.max_query_points},
+                                            {"max_levels", l.max_levels},
+                                            {"max_grid_resolution", l.max_grid_resolution},
+                                            {"max_gap_pairs", l.max_gap_pairs}});
+               }});
+
+  router_.add({"POST", "/api/session", [this](Request&) {
+                 auto s = sessions_.create();
+                 Response r = json_response(201, {{"session", s->id}});
+                 r.headers.emplace_back("Set-Cookie", "distlab_session=" + s->id + "; Path=/; HttpOnly; SameSite=Strict");
+                 return r;
+               }});
+  router_.add({"GET", "/api/session", [this](Request& req) {
+                 auto s = require_session(req);
+                 std::size_t objects, uploads, sockets;
+                 {
+                   std::lock_guard lock(s->mutex);
+                   objects = s->objects.size();
+                   uploads = s->uploads.size();
+                   sockets = s->sockets.size();
+                 }
+                 return json_response(200, {{"session", s->id}, {"objects", objects}, {"uploads", uploads},
+                                            {"sockets", sockets}, {"jobs", jobs_.list(s->id).size()}});
+               }});
+  router_.add({"DELETE", "/api/session", [this](Request& req) {
+                 auto s = require_session(req);
+                 jobs_.cancel_session(s->id);
+                 sessions_.erase(s->id);
+                 Response r;
+                 r.status = 204;
+                 r.content_type.clear();
+                 return r;
+               }});
+
+  router_.add({"GET", "/api/jobs", [this](Request& req) {
+                 auto s = require_session(req);
+                 json list = json::array();
+                 for (const auto& j : jobs_.list(s->id)) list.push_back(j->to_json());
+                 return json_response(200, {{"jobs", list}});
+               }});
+  router_.add({"GET", "/api/jobs/{id}", [this](Request& req) {
+                 auto s = require_session(req);
+                 auto j = jobs_.find(s->id, req.params["id"]);
+                 if (!j) throw ApiError(404, "unknown_job", "no such job in this session");
+                 return json_response(200, j->to_json());
+               }});
+  router_.add({"POST", "/api/jobs/{id}/cancel", [this](Request& req) {
+                 auto s = require_session(req);
+                 auto j = jobs_.find(s->id, req.params["id"]);
+                 if (!j) throw ApiError(404, "unknown_job", "no such job in this session");
+                 j->cancel = true;
+                 return json_response(202, j->to_json());
+               }});
+}
+
+// --------------------------------------------------------------------------------------------
+// WebSocket protocol.
+
+std::shared_ptr<Session> Service::ws_authorize(const Request& request, Response& refusal) {
+  if (request.path != "/ws") {
+    refusal = error_response(404, "unknown_route", "the WebSocket endpoint is /ws");
+    return nullptr;
+  }
+  refusal = guarded([&]() -> Response {
+    require_session(request);
+    return Response{};
+  });
+  if (refusal.status != 200) return nullptr;
+  return sessions_.find(request.session_id());
+}
+
+void Service::ws_open(const std::shared_ptr<Session>& session, const std::shared_ptr<WsSink>& socket) {
+  {
+    std::lock_guard lock(session->mutex);
+    session->sockets.push_back(socket);
+  }
+  send_state(session, socket);
+}
+
+void Service::send_state(const std::shared_ptr<Session>& session, const std::shared_ptr<WsSink>& socket) {
+  std::vector<std::shared_ptr<KelvinObject>> objects;
+  {
+    std::lock_guard lock(session->mutex);
+    for (const auto& [id, o] : session->objects) objects.push_back(o);
+  }
+  json jobs = json::array(), objs = json::array();
+  for (const auto& j : jobs_.list(session->id)) jobs.push_back(j->to_json());
+  for (const auto& o : objects) objs.push_back(o->status_json());
+  socket->send(json{{"type", "hello"}, {"session", session->id}, {"jobs", jobs}, {"objects", objs}}.dump(), false);
+  // Late joiners get the current frames of watched objects.
+  for (const auto& o : objects) {
+    bool watched;
+    {
+      std::lock_guard lock(o->mutex);
+      watched = !o->levels.empty() && o->state == "ready";
+    }
+    if (watched) {
+      auto weak = std::weak_ptr<WsSink>(socket);
+      post_compute([this, session, o, weak] {
+        if (auto s = weak.lock()) send_frames(session, o, s.get());
+      });
+    }
+  }
+}
+
+void Service::ws_message(const std::shared_ptr<Session>& session, const std::shared_ptr<WsSink>& socket,
+                         const std::string& data, bool binary) {
+  session->touch();
+  auto reply_error = [&](int status, const std::string& code, const std::string& message, const std::string& field) {
+    socket->send(json{{"type", "error"}, {"status", status},
+                      {"error", {{"code", code}, {"message", message}, {"field", field}}}}.dump(), false);
+  };
+  if (binary) return reply_error(400, "unsupported", "binary messages from clients are not part of the protocol", "");
+  json msg;
+  try {
+    msg = parse_json_text(data);
+  } catch (const JsonSyntaxError& e) {
+    return reply_error(400, "malformed_json", "malformed JSON at byte " + std::to_string(e.byte()), "");
+  } catch (const InvalidInput& e) {
+    return reply_error(400, "invalid_input", e.what(), e.field());
+  }
+  const Response r = guarded([&]() -> Response {
+    if (!msg.is_object() || !msg.contains("type") || !msg["type"].is_string())
+      throw InvalidInput("type", "a message is an object with a string \"type\"");
+    const std::string type = msg["type"];
+    auto object = [&]() {
+      if (!msg.contains("object") || !msg["object"].is_string()) throw InvalidInput("object", "object must be an object id");
+      std::lock_guard lock(session->mutex);
+      auto it = session->objects.find(msg["object"].get<std::string>());
+      if (it == session->objects.end()) throw ApiError(404, "unknown_object", "no such object in this session", "object");
+      return it->second;
+    };
+    if (type == "ping") {
+      socket->send(json{{"type", "pong"}}.dump(), false);
+    } else if (type == "state") {
+      send_state(session, socket);
+    } else if (type == "watch") {
+      if (!msg.contains("levels")) throw InvalidInput("levels", "levels is required");
+      set_levels(session, object(), msg["levels"]);
+    } else if (type == "sigma") {
+      if (!msg.contains("sigma")) throw InvalidInput("sigma", "sigma is required");
+      set_sigma(session, object(), msg["sigma"]);
+    } else if (type == "cancel") {
+      if (!msg.contains("job") || !msg["job"].is_string()) throw InvalidInput("job", "job must be a job id");
+      auto j = jobs_.find(session->id, msg["job"]);
+      if (!j) throw ApiError(404, "unknown_job", "no such job in this session", "job");
+      j->cancel = true;
+    } else {
+      throw InvalidInput("type", "unknown message type \"" + type.substr(0, 32) + "\"");
+    }
+    return Response{};
+  });
+  if (r.status != 200) {
+    const json body = json::parse(r.body, nullptr, false);
+    if (body.is_object() && body.contains("error"))
+      socket->send(json{{"type", "error"}, {"status", r.status}, {"error", body["error"]}}.dump(), false);
+  }
+}
+
+}  // namespace distlab::server
