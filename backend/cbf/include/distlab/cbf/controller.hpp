@@ -1,0 +1,95 @@
+#pragma once
+// The CBF-QP controller of the corridor experiment (paper Section IV-B, franka-corridor.md):
+//   min ½uᵀHu + fᵀu,  H = J_rᵀJ_r + λI,  f = J_rᵀ K r
+//   s.t. ∇_q D_ij · u ≥ −η (D_ij − δ)   for robot–obstacle and self-collision pairs (eq. 7),
+//        u ≥ −η_q (q − q_min),  −u ≥ −η_q (q_max − q)   (joint limits),
+// with D the GAP distance sqrt(2Λ) or the Euclidean distance (FCL).
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "distlab/cbf/qp.hpp"
+#include "distlab/cbf/scenario.hpp"
+
+namespace distlab::cbf {
+
+struct PairInfo {
+  std::string name;  // "link7_box/wall1"
+  int a;             // robot primitive index
+  int b;             // obstacle index (self = false) or robot primitive index (self = true)
+  bool self;
+};
+
+struct PairSample {
+  double distance = 0;   // the controller's D (GAP or Euclidean)
+  double clearance = 0;  // true Euclidean distance (NaN if not audited)
+  Vec3 witness_a = Vec3::Zero();
+  Vec3 witness_b = Vec3::Zero();
+  bool overlap = false;
+  int iterations = 0;    // GAP solver iterations (0 for Euclidean)
+  bool converged = true;
+  bool cold = false;     // GAP: solved from the Euclidean witnesses instead of warm-started
+};
+
+struct StepTiming {  // microseconds, steady_clock
+  double kinematics = 0;  // FK, Jacobians, task function
+  double distance = 0;    // poses, every pair's distance and gradient, chain rule to ∇_q D
+  double qp = 0;          // assembling and solving the QP (and the relaxed one if needed)
+  double step = 0;        // all of the above
+  double audit = 0;       // GAP only: true Euclidean clearance of every pair (not control)
+};
+
+struct StepOutput {
+  VecQ u = VecQ::Zero();
+  Vec6 r = Vec6::Zero();
+  double task_error = 0;  // ‖r‖
+  std::vector<PairSample> pairs;
+  double min_clearance = 0;  // min over pairs of the true Euclidean clearance
+  QpStatus status = QpStatus::optimal;
+  bool relaxed = false;   // the QP was infeasible; u solves the slack relaxation
+  bool held = false;      // even the relaxation failed; u = 0
+  double slack = 0;
+  int active_rows = 0;
+  StepTiming timing;
+};
+
+// Task function r(q) and its Jacobian (franka-corridor.md, "Controller").
+struct Task {
+  Vec6 r;
+  Eigen::Matrix<double, 6, kDof> J;
+};
+Task task_function(const Kinematics& k, const Panda& robot, const Pose& target);
+
+class CbfController {
+ public:
+  CbfController(const Scenario& scenario, Metric metric);
+  ~CbfController();
+  CbfController(const CbfController&) = delete;
+  CbfController& operator=(const CbfController&) = delete;
+
+  const std::vector<PairInfo>& pairs() const { return pairs_; }
+  const Panda& robot() const { return robot_; }
+  Metric metric() const { return metric_; }
+
+  // One control step at q. `audit`: also compute the true Euclidean clearance of every pair
+  // (free for the Euclidean metric; extra FCL calls for GAP, timed separately).
+  StepOutput step(const VecQ& q, bool audit = true);
+
+  // The distance rows at q without the QP (for tests): row i is ∇_q D of pair i.
+  void distances(const VecQ& q, std::vector<PairSample>& samples,
+                 Eigen::Matrix<double, Eigen::Dynamic, kDof>& grad);
+
+  void reset_warm_start();
+
+ private:
+  struct Impl;
+  void compute_pairs(const Kinematics& k, std::vector<PairSample>& samples,
+                     Eigen::Matrix<double, Eigen::Dynamic, kDof>& grad);
+  Scenario scenario_;
+  Metric metric_;
+  Panda robot_;
+  std::vector<PairInfo> pairs_;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace distlab::cbf

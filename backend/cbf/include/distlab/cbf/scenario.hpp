@@ -1,0 +1,64 @@
+#pragma once
+// A CBF rollout scenario: the scene, the target, the start and every controller constant
+// (franka-corridor.md gives the corridor's values, which are the defaults here).
+// Transport-free: the JSON codec lives in distlab_server (cbf_json).
+#include <string>
+#include <vector>
+
+#include "distlab/cbf/robot.hpp"
+#include "distlab/gap/distance.hpp"
+
+namespace distlab::cbf {
+
+enum class Metric { gap, euclidean };
+const char* to_string(Metric m);
+
+struct Obstacle {
+  std::string name;
+  Shape shape;
+  Pose pose;              // world
+  P2SOptions options{};   // GAP weights / ρ ball (defaults of the gap library)
+};
+
+struct Margins {
+  double obstacle;  // δ_obs
+  double self;      // δ_auto
+};
+
+struct Scenario {
+  std::string name = "custom";
+  std::vector<Obstacle> obstacles;
+  Pose target;  // end-effector target pose
+  VecQ q0 = VecQ::Zero();
+  double dt = 0.01;
+  double duration = 35.0;
+  double task_gain = 0.4;   // K = task_gain · I₆
+  double damping = 0.01;    // H = J_rᵀJ_r + damping · I
+  double eta = 0.5;         // η of the obstacle and self-collision rows (eq. 7)
+  double eta_joint = 0.5;   // η of the joint-limit rows
+  bool self_collision = true;
+  Margins gap_margins{0.002, 0.0001};
+  Margins euclidean_margins{0.03, 0.01};
+  // GAP metric: h = 0.1, k = 2, ε = 0.01, σ = sqrt(1 − 2ε) as in the paper. Newton from the
+  // previous step's witnesses is the default solver (exact to 1e-10, 2–4 steps per pair);
+  // {fixed_point, tol 2e-4, max_iter 300} reproduces the published package.
+  GapParams gap;
+  // Goal test of a rollout: ‖r‖ at the last step below this counts as reached.
+  double goal_tolerance = 1e-3;
+  // Relaxed QP of an infeasible step: one slack s ≥ 0 on every distance row, cost ½·w·s².
+  double slack_weight = 1e4;
+
+  const Margins& margins(Metric m) const {
+    return m == Metric::gap ? gap_margins : euclidean_margins;
+  }
+  int steps() const;  // round(duration / dt)
+};
+
+// The corridor of franka-corridor.md (also assets/scenarios/corridor.json).
+Scenario corridor_scenario();
+
+// Throws InvalidInput naming the field ("dt", "q0[3]", "obstacles[1].pose.position[2]",
+// "gap.tol", ...) for a value out of range.
+void validate(const Scenario& s);
+
+}  // namespace distlab::cbf

@@ -1,0 +1,245 @@
+#include "distlab/cbf/controller.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "distlab/collision/euclidean.hpp"
+
+namespace distlab::cbf {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double us_since(Clock::time_point t0, Clock::time_point t1) {
+  return std::chrono::duration<double, std::micro>(t1 - t0).count();
+}
+Mat3 skew(const Vec3& v) {
+  Mat3 S;
+  S << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return S;
+}
+
+}  // namespace
+
+Task task_function(const Kinematics& k, const Panda& robot, const Pose& target) {
+  const Jac Je = robot.ee_jacobian(k);
+  const Mat3 Rd = target.R();
+  Task t;
+  t.r.head<3>() = k.ee.position - target.position;
+  t.J.topRows<3>() = Je.topRows<3>();
+  for (int i = 0; i < 3; ++i) {
+    const Vec3 axis = k.ee_R.col(i), axis_d = Rd.col(i);
+    // r_i = max(0, 1 − a_dᵀa); d/dt = a_dᵀ S(a) ω (a_dᵀa ≤ 1 for unit axes, so the max is only
+    // a kink at r_i = 0, where both one-sided rows are valid).
+    t.r[3 + i] = std::max(0.0, 1.0 - axis_d.dot(axis));
+    t.J.row(3 + i) = axis_d.transpose() * skew(axis) * Je.bottomRows<3>();
+  }
+  return t;
+}
+
+struct CbfController::Impl {
+  std::vector<GapBody> robot_gap, obstacle_gap;  // GAP metric only
+  std::vector<EuclideanShape> robot_euclid, obstacle_euclid;
+  std::vector<Pose> robot_pose, obstacle_pose;
+  std::vector<Jac> robot_jac;  // Jacobian of each primitive's origin, fixed to its link
+  std::vector<Vec3> warm_a, warm_b;
+  std::vector<char> warm_ok;
+  QpSolver qp;
+  Eigen::MatrixXd H, C, C_relaxed, H_relaxed;
+  Eigen::VectorXd f, d, f_relaxed, d_relaxed;
+  Eigen::Matrix<double, Eigen::Dynamic, kDof> grad;
+};
+
+CbfController::CbfController(const Scenario& scenario, Metric metric)
+    : scenario_(scenario), metric_(metric), impl_(std::make_unique<Impl>()) {
+  validate(scenario_);
+  const auto& prims = robot_.primitives();
+  for (int i = 0; i < static_cast<int>(prims.size()); ++i)
+    for (int j = 0; j < static_cast<int>(scenario_.obstacles.size()); ++j)
+      pairs_.push_back({prims[i].name + "/" + scenario_.obstacles[j].name, i, j, false});
+  if (scenario_.self_collision)
+    for (const auto& [i, j] : robot_.self_pairs())
+      pairs_.push_back({prims[i].name + "/" + prims[j].name, i, j, true});
+
+  Impl& m = *impl_;
+  for (std::size_t i = 0; i < prims.size(); ++i) {
+    m.robot_euclid.emplace_back(prims[i].shape);
+    if (metric_ == Metric::gap)
+      m.robot_gap.emplace_back(prims[i].shape, Pose{}, scenario_.gap, P2SOptions{},
+                               "robot." + prims[i].name);
+  }
+  for (std::size_t j = 0; j < scenario_.obstacles.size(); ++j) {
+    const Obstacle& o = scenario_.obstacles[j];
+    m.obstacle_euclid.emplace_back(o.shape);
+    m.obstacle_pose.push_back(o.pose);
+    if (metric_ == Metric::gap)
+      m.obstacle_gap.emplace_back(o.shape, o.pose, scenario_.gap, o.options,
+                                  "obstacles[" + std::to_string(j) + "]");
+  }
+  m.robot_pose.resize(prims.size());
+  m.robot_jac.resize(prims.size());
+  reset_warm_start();
+}
+
+CbfController::~CbfController() = default;
+
+void CbfController::reset_warm_start() {
+  impl_->warm_a.assign(pairs_.size(), Vec3::Zero());
+  impl_->warm_b.assign(pairs_.size(), Vec3::Zero());
+  impl_->warm_ok.assign(pairs_.size(), 0);
+}
+
+void CbfController::distances(const VecQ& q, std::vector<PairSample>& samples,
+                              Eigen::Matrix<double, Eigen::Dynamic, kDof>& grad) {
+  compute_pairs(robot_.forward(q), samples, grad);
+}
+
+void CbfController::compute_pairs(const Kinematics& k, std::vector<PairSample>& samples,
+                                  Eigen::Matrix<double, Eigen::Dynamic, kDof>& grad) {
+  Impl& m = *impl_;
+  const auto& prims = robot_.primitives();
+  for (std::size_t i = 0; i < prims.size(); ++i) {
+    m.robot_pose[i] = robot_.primitive_pose(k, static_cast<int>(i));
+    m.robot_jac[i] = robot_.point_jacobian(k, prims[i].link, m.robot_pose[i].position);
+    if (metric_ == Metric::gap) m.robot_gap[i].set_pose(m.robot_pose[i]);
+  }
+  samples.resize(pairs_.size());
+  grad.resize(static_cast<Eigen::Index>(pairs_.size()), kDof);
+  for (std::size_t p = 0; p < pairs_.size(); ++p) {
+    const PairInfo& pair = pairs_[p];
+    PairSample& s = samples[p];
+    s = PairSample{};
+    Vec6 ga, gb;
+    if (metric_ == Metric::gap) {
+      const GapBody& A = m.robot_gap[pair.a];
+      const GapBody& B = pair.self ? m.robot_gap[pair.b] : m.obstacle_gap[pair.b];
+      GapResult g;
+      if (m.warm_ok[p]) {
+        // Tracking: Newton from the previous step's witnesses converges in a few steps.
+        g = gap_distance_warm(A, B, scenario_.gap, m.warm_a[p], m.warm_b[p]);
+      }
+      if (!m.warm_ok[p] || !g.converged) {
+        g = gap_distance(A, B, scenario_.gap);
+        s.cold = true;
+        s.clearance = g.euclidean.distance;
+      } else {
+        s.clearance = std::numeric_limits<double>::quiet_NaN();
+      }
+      m.warm_ok[p] = !g.overlap;
+      m.warm_a[p] = g.witness_a;
+      m.warm_b[p] = g.witness_b;
+      s.distance = g.distance;
+      s.witness_a = g.witness_a;
+      s.witness_b = g.witness_b;
+      s.overlap = g.overlap;
+      s.iterations = g.iterations;
+      s.converged = g.converged;
+      ga = g.gradient_a;
+      gb = g.gradient_b;
+    } else {
+      const Pose& pb = pair.self ? m.robot_pose[pair.b] : m.obstacle_pose[pair.b];
+      const EuclideanShape& eb = pair.self ? m.robot_euclid[pair.b] : m.obstacle_euclid[pair.b];
+      const EuclideanResult e = euclidean_distance(m.robot_euclid[pair.a], m.robot_pose[pair.a], eb, pb);
+      s.distance = s.clearance = e.distance;
+      s.witness_a = e.witness_a;
+      s.witness_b = e.witness_b;
+      s.overlap = e.distance <= 0;
+      ga = e.gradient_a;
+      gb = e.gradient_b;
+    }
+    // Chain rule: dD/dq = g_vᵀ J_v(o) + g_ωᵀ J_ω for the origin o of each moving shape.
+    grad.row(static_cast<Eigen::Index>(p)) = ga.transpose() * m.robot_jac[pair.a];
+    if (pair.self) grad.row(static_cast<Eigen::Index>(p)) += gb.transpose() * m.robot_jac[pair.b];
+  }
+}
+
+StepOutput CbfController::step(const VecQ& q, bool audit) {
+  Impl& m = *impl_;
+  StepOutput out;
+  const auto t0 = Clock::now();
+  const Kinematics k = robot_.forward(q);
+  const Task task = task_function(k, robot_, scenario_.target);
+  const auto t1 = Clock::now();
+  compute_pairs(k, out.pairs, m.grad);
+  const auto t2 = Clock::now();
+
+  // Rows C u ≥ d: eq. (7) for every pair, then the joint limits.
+  const int np = static_cast<int>(pairs_.size());
+  const int rows = np + 2 * kDof;
+  const Margins& margin = scenario_.margins(metric_);
+  m.C.resize(rows, kDof);
+  m.d.resize(rows);
+  for (int p = 0; p < np; ++p) {
+    const double delta = pairs_[p].self ? margin.self : margin.obstacle;
+    m.C.row(p) = m.grad.row(p);
+    m.d[p] = -scenario_.eta * (out.pairs[p].distance - delta);
+  }
+  m.C.bottomRows(2 * kDof).setZero();
+  for (int i = 0; i < kDof; ++i) {
+    m.C(np + i, i) = 1;
+    m.d[np + i] = -scenario_.eta_joint * (q[i] - robot_.q_min()[i]);
+    m.C(np + kDof + i, i) = -1;
+    m.d[np + kDof + i] = -scenario_.eta_joint * (robot_.q_max()[i] - q[i]);
+  }
+  m.H = task.J.transpose() * task.J + scenario_.damping * Eigen::MatrixXd::Identity(kDof, kDof);
+  m.f = task.J.transpose() * (scenario_.task_gain * task.r);
+  QpResult res = m.qp.solve(m.H, m.f, m.C, m.d);
+  out.status = res.status;
+  if (res.status == QpStatus::optimal) {
+    out.u = res.x;
+  } else {
+    // Infeasible (or stalled): relax every distance row by one slack s ≥ 0 with cost ½ w s².
+    // Always feasible: the joint-limit rows alone are (q_min < q_max), and s absorbs the rest.
+    out.relaxed = true;
+    m.H_relaxed = Eigen::MatrixXd::Zero(kDof + 1, kDof + 1);
+    m.H_relaxed.topLeftCorner(kDof, kDof) = m.H;
+    m.H_relaxed(kDof, kDof) = scenario_.slack_weight;
+    m.f_relaxed = Eigen::VectorXd::Zero(kDof + 1);
+    m.f_relaxed.head(kDof) = m.f;
+    m.C_relaxed = Eigen::MatrixXd::Zero(rows + 1, kDof + 1);
+    m.C_relaxed.topLeftCorner(rows, kDof) = m.C;
+    m.C_relaxed.col(kDof).head(np).setOnes();
+    m.C_relaxed(rows, kDof) = 1;
+    m.d_relaxed.resize(rows + 1);
+    m.d_relaxed.head(rows) = m.d;
+    m.d_relaxed[rows] = 0;
+    res = m.qp.solve(m.H_relaxed, m.f_relaxed, m.C_relaxed, m.d_relaxed);
+    if (res.status == QpStatus::optimal) {
+      out.u = res.x.head(kDof);
+      out.slack = res.x[kDof];
+    } else {
+      out.held = true;  // u stays 0
+    }
+  }
+  out.active_rows = static_cast<int>(res.active.size());
+  const auto t3 = Clock::now();
+
+  out.r = task.r;
+  out.task_error = task.r.norm();
+  out.timing.kinematics = us_since(t0, t1);
+  out.timing.distance = us_since(t1, t2);
+  out.timing.qp = us_since(t2, t3);
+  out.timing.step = us_since(t0, t3);
+
+  out.min_clearance = std::numeric_limits<double>::infinity();
+  if (audit) {
+    const auto a0 = Clock::now();
+    for (int p = 0; p < np; ++p) {
+      PairSample& s = out.pairs[p];
+      if (std::isnan(s.clearance)) {
+        const PairInfo& pair = pairs_[p];
+        const Pose& pb = pair.self ? m.robot_pose[pair.b] : m.obstacle_pose[pair.b];
+        const EuclideanShape& eb =
+            pair.self ? m.robot_euclid[pair.b] : m.obstacle_euclid[pair.b];
+        s.clearance = euclidean_distance(m.robot_euclid[pair.a], m.robot_pose[pair.a], eb, pb).distance;
+      }
+      out.min_clearance = std::min(out.min_clearance, s.clearance);
+    }
+    out.timing.audit = us_since(a0, Clock::now());
+  } else {
+    out.min_clearance = std::numeric_limits<double>::quiet_NaN();
+  }
+  return out;
+}
+
+}  // namespace distlab::cbf

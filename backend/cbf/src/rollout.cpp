@@ -1,0 +1,80 @@
+#include "distlab/cbf/rollout.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+namespace distlab::cbf {
+
+RolloutRecord rollout(const Scenario& scenario, Metric metric, const RolloutOptions& options) {
+  const auto w0 = std::chrono::steady_clock::now();
+  CbfController controller(scenario, metric);
+  RolloutRecord rec;
+  rec.metric = metric;
+  rec.dt = scenario.dt;
+  rec.pairs = controller.pairs();
+  rec.min_clearance = std::numeric_limits<double>::infinity();
+  const int n = scenario.steps();
+  rec.steps.reserve(static_cast<std::size_t>(n));
+  VecQ q = scenario.q0;
+  for (int i = 0; i < n; ++i) {
+    if (options.cancel && options.cancel->load(std::memory_order_relaxed)) {
+      rec.cancelled = true;
+      break;
+    }
+    StepOutput out = controller.step(q, options.audit_clearance);
+    StepRecord s;
+    s.t = i * scenario.dt;
+    s.q = q;
+    s.u = out.u;
+    s.task_error = out.task_error;
+    s.min_clearance = out.min_clearance;
+    s.relaxed = out.relaxed;
+    s.held = out.held;
+    s.slack = out.slack;
+    s.timing = out.timing;
+    for (const PairSample& p : out.pairs) rec.cold_solves += p.cold && metric == Metric::gap;
+    if (options.record_pairs) s.pairs = std::move(out.pairs);
+    if (s.relaxed || s.held) rec.infeasible_steps.push_back(i);
+    if (options.audit_clearance) rec.min_clearance = std::min(rec.min_clearance, s.min_clearance);
+    rec.timing.kinematics += s.timing.kinematics;
+    rec.timing.distance += s.timing.distance;
+    rec.timing.qp += s.timing.qp;
+    rec.timing.step += s.timing.step;
+    rec.timing.audit += s.timing.audit;
+    q += out.u * scenario.dt;
+    rec.steps.push_back(std::move(s));
+    if (options.progress && !options.progress(i, rec.steps.back())) {
+      rec.cancelled = true;
+      break;
+    }
+  }
+  const double count = std::max<std::size_t>(1, rec.steps.size());
+  rec.timing.kinematics /= count;
+  rec.timing.distance /= count;
+  rec.timing.qp /= count;
+  rec.timing.step /= count;
+  rec.timing.audit /= count;
+  if (!options.audit_clearance) rec.min_clearance = std::numeric_limits<double>::quiet_NaN();
+  rec.q_final = q;
+  const Panda& robot = controller.robot();
+  rec.final_task_error = task_function(robot.forward(q), robot, scenario.target).r.norm();
+  rec.reached = !rec.cancelled && rec.final_task_error < scenario.goal_tolerance;
+  rec.wall_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
+  return rec;
+}
+
+Smoothness smoothness(const RolloutRecord& record, int joint, double t_begin, double t_end) {
+  Smoothness s;
+  for (std::size_t i = 1; i < record.steps.size(); ++i) {
+    const StepRecord &a = record.steps[i - 1], &b = record.steps[i];
+    if (a.t < t_begin || b.t > t_end) continue;
+    const double du = std::abs(b.u[joint] - a.u[joint]);
+    s.total_variation += du;
+    s.max_rate = std::max(s.max_rate, du / record.dt);
+  }
+  return s;
+}
+
+}  // namespace distlab::cbf

@@ -1,0 +1,82 @@
+#include "distlab/cbf/scenario.hpp"
+
+#include <cmath>
+#include <numbers>
+
+#include "distlab/geometry/error.hpp"
+
+namespace distlab::cbf {
+
+const char* to_string(Metric m) { return m == Metric::gap ? "gap" : "euclidean"; }
+
+int Scenario::steps() const { return static_cast<int>(std::lround(duration / dt)); }
+
+Scenario corridor_scenario() {
+  constexpr double pi = std::numbers::pi;
+  Scenario s;
+  s.name = "corridor";
+  auto box = [](const char* name, Vec3 c, Vec3 size) {
+    Obstacle o{name, Box{size}, Pose{}, P2SOptions{}};
+    o.pose.position = c;
+    return o;
+  };
+  s.obstacles = {box("wall1", {0.53, 0.16, 0.45}, {0.35, 0.05, 0.90}),
+                 box("wall2", {0.53, -0.16, 0.45}, {0.35, 0.05, 0.90}),
+                 box("roof", {0.53, 0, 0.925}, {0.35, 0.35, 0.05})};
+  s.target.position = Vec3(0.64, 0, 0.75);
+  s.target.rotation = Quat(Eigen::AngleAxisd(pi / 2, Vec3::UnitY())) *
+                      Quat(Eigen::AngleAxisd(pi / 2, Vec3::UnitZ()));
+  s.q0 << 1.0582, -1.3811, 0.3629, -1.9647, -0.959, 1.4881, -0.1534;
+  return s;
+}
+
+namespace {
+
+void positive(double v, const std::string& field, double upper = INFINITY) {
+  if (!std::isfinite(v) || !(v > 0) || !(v < upper))
+    throw InvalidInput(field, field + " must be finite, > 0" +
+                                  (std::isfinite(upper) ? " and < " + std::to_string(upper) : "") +
+                                  ", got " + std::to_string(v));
+}
+void nonnegative(double v, const std::string& field) {
+  if (!std::isfinite(v) || v < 0)
+    throw InvalidInput(field, field + " must be finite and >= 0, got " + std::to_string(v));
+}
+
+}  // namespace
+
+void validate(const Scenario& s) {
+  positive(s.dt, "dt", 1.0);
+  positive(s.duration, "duration", 3600.0);
+  if (s.steps() < 1 || s.steps() > 1'000'000)
+    throw InvalidInput("duration", "duration / dt must give 1 to 1000000 steps");
+  positive(s.task_gain, "task_gain");
+  positive(s.damping, "damping");
+  positive(s.eta, "eta");
+  positive(s.eta_joint, "eta_joint");
+  nonnegative(s.gap_margins.obstacle, "gap_margins.obstacle");
+  nonnegative(s.gap_margins.self, "gap_margins.self");
+  nonnegative(s.euclidean_margins.obstacle, "euclidean_margins.obstacle");
+  nonnegative(s.euclidean_margins.self, "euclidean_margins.self");
+  positive(s.goal_tolerance, "goal_tolerance");
+  positive(s.slack_weight, "slack_weight");
+  try {
+    check_params(s.gap);
+  } catch (const InvalidInput& e) {  // "params.h" -> "gap.h"
+    const std::string f = e.field();
+    throw InvalidInput(f.rfind("params.", 0) == 0 ? "gap." + f.substr(7) : f, e.what());
+  }
+  const Panda robot;
+  for (int i = 0; i < kDof; ++i) {
+    const std::string f = "q0[" + std::to_string(i) + "]";
+    if (!std::isfinite(s.q0[i]))
+      throw InvalidInput(f, f + " must be finite");
+    if (s.q0[i] < robot.q_min()[i] || s.q0[i] > robot.q_max()[i])
+      throw InvalidInput(f, f + " = " + std::to_string(s.q0[i]) + " is outside the joint limits [" +
+                                std::to_string(robot.q_min()[i]) + ", " +
+                                std::to_string(robot.q_max()[i]) + "]");
+  }
+  if (s.obstacles.size() > 1000) throw InvalidInput("obstacles", "at most 1000 obstacles");
+}
+
+}  // namespace distlab::cbf

@@ -1,0 +1,56 @@
+#pragma once
+// CBF rollouts as JSON, shared by `distlab cbf` and (later) the HTTP service.
+//
+// Scenario: {"name", "comment"?, "robot": "panda"?, "obstacles": [{"name", "shape": SHAPE}],
+//            "target": {"position", "quaternion" [w, x, y, z]}, "q0": [7], "dt", "duration",
+//            "task_gain", "damping", "eta", "eta_joint", "self_collision", "goal_tolerance",
+//            "slack_weight", "margins": {"gap"|"euclidean": {"obstacle", "self"}},
+//            "gap": {h, k, eps, sigma, weight_margin, tol, max_iter, solver}}
+//            (SHAPE as in gap_json, pose in the world; every key but obstacles/target/q0 optional,
+//            defaults from cbf::Scenario).
+// Request:  {"scenario": NAME | SCENARIO, "metric": "gap" | "euclidean", "params": {...}?,
+//            "comment"?}; NAME is a file assets/scenarios/NAME.json; params override the
+//            scenario's dt, duration, q0, task_gain, damping, eta, eta_joint, self_collision,
+//            goal_tolerance, slack_weight, margins, gap, and set the output: "record_pairs"
+//            (true: every pair's distance and witnesses per step), "audit" (true: true
+//            Euclidean clearance per step; needed for min_distance with GAP).
+// Response: see encode_record.
+#include <atomic>
+#include <functional>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "distlab/cbf/rollout.hpp"
+#include "distlab/server/gap_json.hpp"
+
+namespace distlab::server {
+
+inline constexpr double kMaxScenarioDuration = 600.0;  // seconds of simulated time per request
+
+// Throws InvalidInput naming the field (prefixed with `field`, e.g. "scenario.q0[2]").
+cbf::Scenario parse_scenario(const nlohmann::json& j, const std::string& field = "scenario");
+
+// Looks for NAME.json in $DISTLAB_ASSETS/scenarios, ./assets/scenarios and assets/scenarios
+// above the executable. Names are letters, digits, '_' and '-'.
+std::string scenario_path(const std::string& name);
+
+struct CbfRequest {
+  cbf::Scenario scenario;
+  cbf::Metric metric = cbf::Metric::gap;
+  cbf::RolloutOptions options;
+};
+CbfRequest parse_cbf_request(const nlohmann::json& request);
+
+// {"scenario", "metric", "dt", "steps", "pairs": [names], "t": [...], "q": [[7]...], "u": [[7]...],
+//  "task_error": [...], "min_distance": [...], "infeasible_steps": [indices], "slack": {index: s},
+//  "distance": [[per pair]...], "witness_a"/"witness_b": [[[x,y,z] per pair]...] (record_pairs),
+//  "timing": {"kinematics_us_mean", "step_us_mean", "distance_us_mean", "qp_us_mean",
+//             "audit_us_mean", "wall_s"}, "summary": {"reached", "final_task_error",
+//  "min_distance", "cancelled", "cold_solves", "q_final"}}.
+nlohmann::json encode_record(const cbf::RolloutRecord& record, const std::string& scenario_name);
+
+// Parse, run, encode; throws InvalidInput on bad input.
+nlohmann::json run_cbf_request(const nlohmann::json& request);
+
+}  // namespace distlab::server

@@ -1,0 +1,334 @@
+// CBF scenarios and rollout requests as JSON: strict parsing with field paths, and the record.
+#include "distlab/server/cbf_json.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <initializer_list>
+#include <limits>
+#include <sstream>
+#include <string_view>
+
+namespace distlab::server {
+namespace {
+
+using json = nlohmann::json;
+namespace fs = std::filesystem;
+
+std::string key_path(const std::string& base, const std::string& key) {
+  return base.empty() ? key : base + "." + key;
+}
+std::string index_path(const std::string& base, std::size_t i) {
+  return base + "[" + std::to_string(i) + "]";
+}
+[[noreturn]] void fail(const std::string& field, const std::string& message) {
+  throw InvalidInput(field, message);
+}
+void require_object(const json& j, const std::string& field) {
+  if (!j.is_object()) fail(field, std::string("expected an object, got ") + j.type_name());
+}
+void check_keys(const json& j, const std::string& field,
+                std::initializer_list<std::string_view> allowed) {
+  for (const auto& [key, value] : j.items())
+    if (std::find(allowed.begin(), allowed.end(), key) == allowed.end())
+      fail(key_path(field, key), "unknown key \"" + key.substr(0, 64) + "\"");
+}
+const json& required(const json& j, const std::string& field, const char* key) {
+  const auto it = j.find(key);
+  if (it == j.end()) fail(key_path(field, key), std::string("missing required key \"") + key + "\"");
+  return *it;
+}
+double number(const json& j, const std::string& field) {
+  if (!j.is_number()) fail(field, std::string("expected a number, got ") + j.type_name());
+  const double v = j.get<double>();
+  if (!std::isfinite(v) || std::abs(v) > kMaxCoordinate)
+    fail(field, "expected a finite number of magnitude <= 1e6");
+  return v;
+}
+bool boolean(const json& j, const std::string& field) {
+  if (!j.is_boolean()) fail(field, std::string("expected true or false, got ") + j.type_name());
+  return j.get<bool>();
+}
+std::string string(const json& j, const std::string& field) {
+  if (!j.is_string()) fail(field, std::string("expected a string, got ") + j.type_name());
+  return j.get<std::string>();
+}
+template <int N>
+Eigen::Matrix<double, N, 1> vec(const json& j, const std::string& field) {
+  if (!j.is_array() || j.size() != N)
+    fail(field, "expected an array of " + std::to_string(N) + " numbers");
+  Eigen::Matrix<double, N, 1> v;
+  for (int i = 0; i < N; ++i) v[i] = number(j[static_cast<std::size_t>(i)], index_path(field, static_cast<std::size_t>(i)));
+  return v;
+}
+template <class V>
+json vec_json(const V& v) {
+  json a = json::array();
+  for (Eigen::Index i = 0; i < v.size(); ++i) a.push_back(v[i]);
+  return a;
+}
+
+Pose parse_target(const json& j, const std::string& field) {
+  require_object(j, field);
+  check_keys(j, field, {"position", "quaternion"});
+  Pose p;
+  p.position = vec<3>(required(j, field, "position"), key_path(field, "position"));
+  if (const auto it = j.find("quaternion"); it != j.end()) {
+    const Eigen::Vector4d q = vec<4>(*it, key_path(field, "quaternion"));
+    if (!(q.norm() > 1e-9)) fail(key_path(field, "quaternion"), "quaternion has (near) zero norm");
+    p.rotation = Quat(q[0], q[1], q[2], q[3]).normalized();
+  }
+  return p;
+}
+
+cbf::Margins parse_margins(const json& j, const std::string& field, cbf::Margins m) {
+  require_object(j, field);
+  check_keys(j, field, {"obstacle", "self"});
+  if (auto it = j.find("obstacle"); it != j.end()) m.obstacle = number(*it, key_path(field, "obstacle"));
+  if (auto it = j.find("self"); it != j.end()) m.self = number(*it, key_path(field, "self"));
+  return m;
+}
+
+// The settings a scenario and a request's params share.
+constexpr std::array<std::string_view, 12> kSettings = {
+    "dt", "duration", "q0", "task_gain", "damping", "eta", "eta_joint", "self_collision",
+    "goal_tolerance", "slack_weight", "margins", "gap"};
+
+void apply_settings(const json& j, const std::string& field, cbf::Scenario& s) {
+  auto get = [&](const char* key) -> const json* {
+    const auto it = j.find(key);
+    return it == j.end() ? nullptr : &*it;
+  };
+  const auto f = [&](const char* key) { return key_path(field, key); };
+  if (auto v = get("dt")) s.dt = number(*v, f("dt"));
+  if (auto v = get("duration")) {
+    s.duration = number(*v, f("duration"));
+    if (s.duration > kMaxScenarioDuration)
+      fail(f("duration"), "at most " + std::to_string(kMaxScenarioDuration) + " s per request");
+  }
+  if (auto v = get("q0")) s.q0 = vec<cbf::kDof>(*v, f("q0"));
+  if (auto v = get("task_gain")) s.task_gain = number(*v, f("task_gain"));
+  if (auto v = get("damping")) s.damping = number(*v, f("damping"));
+  if (auto v = get("eta")) s.eta = number(*v, f("eta"));
+  if (auto v = get("eta_joint")) s.eta_joint = number(*v, f("eta_joint"));
+  if (auto v = get("self_collision")) s.self_collision = boolean(*v, f("self_collision"));
+  if (auto v = get("goal_tolerance")) s.goal_tolerance = number(*v, f("goal_tolerance"));
+  if (auto v = get("slack_weight")) s.slack_weight = number(*v, f("slack_weight"));
+  if (auto v = get("margins")) {
+    require_object(*v, f("margins"));
+    check_keys(*v, f("margins"), {"gap", "euclidean"});
+    const std::string mf = f("margins");
+    if (auto it = v->find("gap"); it != v->end())
+      s.gap_margins = parse_margins(*it, key_path(mf, "gap"), s.gap_margins);
+    if (auto it = v->find("euclidean"); it != v->end())
+      s.euclidean_margins = parse_margins(*it, key_path(mf, "euclidean"), s.euclidean_margins);
+  }
+  if (auto v = get("gap")) {
+    const std::string gf = f("gap");
+    require_object(*v, gf);
+    // gradient and validate are not settings here: the controller needs gradients.
+    check_keys(*v, gf, {"h", "k", "eps", "sigma", "weight_margin", "tol", "max_iter", "solver"});
+    json merged = {{"h", s.gap.h}, {"k", s.gap.k}, {"eps", s.gap.eps}, {"sigma", s.gap.sigma},
+                   {"weight_margin", s.gap.weight_margin}, {"tol", s.gap.tol},
+                   {"max_iter", s.gap.max_iter},
+                   {"solver", s.gap.solver == GapSolver::newton ? "newton" : "fixed_point"}};
+    merged.update(*v);
+    try {
+      s.gap = parse_params(merged, gf).params;
+    } catch (const InvalidInput& e) {  // check_params names "params.<x>"
+      const std::string& ef = e.field();
+      throw InvalidInput(ef.rfind("params.", 0) == 0 ? key_path(gf, ef.substr(7)) : ef, e.what());
+    }
+    s.gap.gradient = true;
+  }
+}
+
+// cbf::validate names fields relative to the scenario.
+void validated(const cbf::Scenario& s, const std::string& field) {
+  try {
+    cbf::validate(s);
+  } catch (const InvalidInput& e) {
+    throw InvalidInput(key_path(field, e.field()), e.what());
+  }
+}
+
+}  // namespace
+
+cbf::Scenario parse_scenario(const json& j, const std::string& field) {
+  require_object(j, field);
+  for (const auto& [key, value] : j.items()) {
+    static const std::initializer_list<std::string_view> own = {"name", "comment", "robot",
+                                                               "obstacles", "target"};
+    if (std::find(own.begin(), own.end(), key) == own.end() &&
+        std::find(kSettings.begin(), kSettings.end(), key) == kSettings.end())
+      fail(key_path(field, key), "unknown key \"" + key.substr(0, 64) + "\"");
+  }
+  cbf::Scenario s;
+  s.name = "inline";
+  if (auto it = j.find("name"); it != j.end()) s.name = string(*it, key_path(field, "name"));
+  if (auto it = j.find("comment"); it != j.end()) string(*it, key_path(field, "comment"));
+  if (auto it = j.find("robot"); it != j.end() && string(*it, key_path(field, "robot")) != "panda")
+    fail(key_path(field, "robot"), "only \"panda\" is supported");
+  const std::string of = key_path(field, "obstacles");
+  const json& obstacles = required(j, field, "obstacles");
+  if (!obstacles.is_array()) fail(of, "expected an array of obstacles");
+  if (obstacles.size() > 1000) fail(of, "at most 1000 obstacles");
+  for (std::size_t i = 0; i < obstacles.size(); ++i) {
+    const std::string f = index_path(of, i);
+    require_object(obstacles[i], f);
+    check_keys(obstacles[i], f, {"name", "shape"});
+    ShapeSpec spec = parse_shape(required(obstacles[i], f, "shape"), key_path(f, "shape"));
+    cbf::Obstacle o{"obstacle" + std::to_string(i), std::move(spec.shape), spec.pose,
+                    std::move(spec.options)};
+    if (auto it = obstacles[i].find("name"); it != obstacles[i].end())
+      o.name = string(*it, key_path(f, "name"));
+    s.obstacles.push_back(std::move(o));
+  }
+  s.target = parse_target(required(j, field, "target"), key_path(field, "target"));
+  required(j, field, "q0");
+  apply_settings(j, field, s);
+  validated(s, field);
+  return s;
+}
+
+std::string scenario_path(const std::string& name) {
+  if (name.empty() || name.size() > 64) fail("scenario", "scenario names have 1 to 64 characters");
+  for (char c : name)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_' && c != '-')
+      fail("scenario", "scenario names are letters, digits, '_' and '-'");
+  std::vector<fs::path> roots;
+  if (const char* env = std::getenv("DISTLAB_ASSETS")) roots.emplace_back(env);
+  roots.emplace_back("assets");
+  std::error_code ec;
+  for (fs::path p = fs::read_symlink("/proc/self/exe", ec).parent_path(); !ec && !p.empty();
+       p = p.parent_path()) {
+    roots.push_back(p / "assets");
+    if (p == p.root_path()) break;
+  }
+  for (const auto& root : roots)
+    if (fs::is_regular_file(root / "scenarios" / (name + ".json")))
+      return (root / "scenarios" / (name + ".json")).string();
+  fail("scenario", "unknown scenario \"" + name + "\" (looked for scenarios/" + name +
+                       ".json in $DISTLAB_ASSETS and assets/)");
+}
+
+CbfRequest parse_cbf_request(const json& r) {
+  require_object(r, "");
+  check_keys(r, "", {"scenario", "metric", "params", "comment"});
+  if (auto it = r.find("comment"); it != r.end()) string(*it, "comment");
+  CbfRequest out;
+  const json& sj = required(r, "", "scenario");
+  if (sj.is_string()) {
+    const std::string path = scenario_path(sj.get<std::string>());
+    std::ifstream in(path);
+    std::stringstream text;
+    text << in.rdbuf();
+    if (!in) throw std::runtime_error("cannot read " + path);
+    // A broken asset is an internal error, not the caller's.
+    try {
+      out.scenario = parse_scenario(parse_json_text(text.str()), "scenario");
+    } catch (const std::exception& e) {
+      throw std::runtime_error("scenario file " + path + ": " + e.what());
+    }
+  } else {
+    out.scenario = parse_scenario(sj, "scenario");
+  }
+  if (auto it = r.find("metric"); it != r.end()) {
+    const std::string m = string(*it, "metric");
+    if (m == "gap") out.metric = cbf::Metric::gap;
+    else if (m == "euclidean") out.metric = cbf::Metric::euclidean;
+    else fail("metric", "expected \"gap\" or \"euclidean\"");
+  }
+  if (auto it = r.find("params"); it != r.end()) {
+    require_object(*it, "params");
+    for (const auto& [key, value] : it->items())
+      if (key != "record_pairs" && key != "audit" &&
+          std::find(kSettings.begin(), kSettings.end(), key) == kSettings.end())
+        fail("params." + key.substr(0, 64), "unknown key \"" + key.substr(0, 64) + "\"");
+    apply_settings(*it, "params", out.scenario);
+    if (auto v = it->find("record_pairs"); v != it->end())
+      out.options.record_pairs = boolean(*v, "params.record_pairs");
+    if (auto v = it->find("audit"); v != it->end())
+      out.options.audit_clearance = boolean(*v, "params.audit");
+    try {
+      cbf::validate(out.scenario);
+    } catch (const InvalidInput& e) {
+      throw InvalidInput("params." + e.field(), e.what());
+    }
+  }
+  return out;
+}
+
+json encode_record(const cbf::RolloutRecord& rec, const std::string& scenario_name) {
+  json t = json::array(), q = json::array(), u = json::array(), err = json::array(),
+       mind = json::array(), slack = json::object();
+  const bool pairs = !rec.steps.empty() && !rec.steps.front().pairs.empty();
+  json dist = json::array(), wa = json::array(), wb = json::array();
+  auto finite_or_null = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
+  for (std::size_t i = 0; i < rec.steps.size(); ++i) {
+    const cbf::StepRecord& s = rec.steps[i];
+    t.push_back(s.t);
+    q.push_back(vec_json(s.q));
+    u.push_back(vec_json(s.u));
+    err.push_back(s.task_error);
+    mind.push_back(finite_or_null(s.min_clearance));
+    if (s.relaxed || s.held)
+      slack[std::to_string(i)] = s.held ? json("held") : json(s.slack);
+    if (pairs) {
+      json d = json::array(), a = json::array(), b = json::array();
+      for (const cbf::PairSample& p : s.pairs) {
+        d.push_back(p.distance);
+        a.push_back(vec_json(p.witness_a));
+        b.push_back(vec_json(p.witness_b));
+      }
+      dist.push_back(std::move(d));
+      wa.push_back(std::move(a));
+      wb.push_back(std::move(b));
+    }
+  }
+  json names = json::array();
+  for (const cbf::PairInfo& p : rec.pairs) names.push_back(p.name);
+  json out = {{"scenario", scenario_name},
+              {"metric", cbf::to_string(rec.metric)},
+              {"dt", rec.dt},
+              {"steps", rec.steps.size()},
+              {"pairs", names},
+              {"t", t},
+              {"q", q},
+              {"u", u},
+              {"task_error", err},
+              {"min_distance", mind},
+              {"infeasible_steps", rec.infeasible_steps},
+              {"slack", slack},
+              {"timing",
+               {{"kinematics_us_mean", rec.timing.kinematics},
+                {"distance_us_mean", rec.timing.distance},
+                {"qp_us_mean", rec.timing.qp},
+                {"step_us_mean", rec.timing.step},
+                {"audit_us_mean", rec.timing.audit},
+                {"wall_s", rec.wall_seconds}}},
+              {"summary",
+               {{"reached", rec.reached},
+                {"final_task_error", rec.final_task_error},
+                {"min_distance", finite_or_null(rec.min_clearance)},
+                {"cancelled", rec.cancelled},
+                {"cold_solves", rec.cold_solves},
+                {"q_final", vec_json(rec.q_final)}}}};
+  if (pairs) {
+    out["distance"] = std::move(dist);
+    out["witness_a"] = std::move(wa);
+    out["witness_b"] = std::move(wb);
+  }
+  return out;
+}
+
+json run_cbf_request(const json& request) {
+  const CbfRequest r = parse_cbf_request(request);
+  return encode_record(cbf::rollout(r.scenario, r.metric, r.options), r.scenario.name);
+}
+
+}  // namespace distlab::server
