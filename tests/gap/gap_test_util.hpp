@@ -44,4 +44,14 @@ inline Quat rotate_world(const Quat& q, const Vec3& w) {
   return (Quat(Eigen::AngleAxisd(angle, w / angle)) * q).normalized();
 }
 
+// Pose moved along coordinate c of (v, ω) (c < 3: translation, else world rotation) by `delta`.
+inline Pose perturbed(const Pose& base, int c, double delta) {
+  Pose q = base;
+  Vec3 step = Vec3::Zero();
+  step[c % 3] = delta;
+  if (c < 3) q.position += step;
+  else q.rotation = rotate_world(base.rotation, step);
+  return q;
+}
+
 }  // namespace distlab::test

@@ -71,12 +71,7 @@ TEST(GapDistance, DistanceGradientsMatchFiniteDifferences) {
         for (int c = 0; c < 6; ++c) {
           double v[2];
           for (int s = 0; s < 2; ++s) {
-            Pose q = base;
-            Vec3 delta = Vec3::Zero();
-            delta[c % 3] = s ? d : -d;
-            if (c < 3) q.position += delta;
-            else q.rotation = test::rotate_world(base.rotation, delta);
-            moved.set_pose(q);
+            moved.set_pose(test::perturbed(base, c, s ? d : -d));
             v[s] = gap_distance(a, b, p).distance;
           }
           moved.set_pose(base);

@@ -152,12 +152,7 @@ TEST(Solver, LambdaGradientsMatchFiniteDifferences) {
       for (int c = 0; c < 6; ++c) {
         double value[2];
         for (int sgn = 0; sgn < 2; ++sgn) {
-          Pose q = base;
-          Vec3 delta = Vec3::Zero();
-          delta[c % 3] = sgn ? d : -d;
-          if (c < 3) q.position += delta;
-          else q.rotation = test::rotate_world(base.rotation, delta);
-          moved.set_pose(q);
+          moved.set_pose(test::perturbed(base, c, sgn ? d : -d));
           value[sgn] = solve_newton(p.a, p.b, s.a, 1e-14, 100).lambda;
         }
         moved.set_pose(base);

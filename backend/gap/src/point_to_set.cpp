@@ -15,16 +15,10 @@
 #include <cmath>
 
 #include "distlab/geometry/error.hpp"
+#include "distlab/geometry/overloaded.hpp"
 
 namespace distlab {
 namespace {
-
-template <class... F>
-struct Overloaded : F... {
-  using F::operator()...;
-};
-template <class... F>
-Overloaded(F...) -> Overloaded<F...>;
 
 // Adds W Φ(s) along unit direction u (s = u·p − b), for a term whose Hessian is rank one.
 inline void add_linear_term(P2SValue& v, const BaseFunction& phi, double w, double s,

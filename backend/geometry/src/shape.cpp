@@ -1,18 +1,12 @@
 // Names, bounding balls and support points of the shape variants.
 #include "distlab/geometry/shape.hpp"
+#include "distlab/geometry/overloaded.hpp"
 
 #include <algorithm>
 #include <cmath>
 
 namespace distlab {
 namespace {
-
-template <class... F>
-struct Overloaded : F... {
-  using F::operator()...;
-};
-template <class... F>
-Overloaded(F...) -> Overloaded<F...>;
 
 // d scaled to unit length, or zero when d is zero (stableNorm: no underflow for tiny d).
 Vec3 unit_or_zero(const Vec3& d) {
