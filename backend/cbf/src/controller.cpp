@@ -19,6 +19,17 @@ Mat3 skew(const Vec3& v) {
   return S;
 }
 
+// GAP options of a shape. A box's violated half-spaces are mutually orthogonal, so its Hessian
+// Σ W_i Φ''(s_i) u_i u_iᵀ has eigenvalues W_i Φ'' < W_i: W_i = 1/(1 + margin) keeps Property 2,
+// like the cylinder's terms. (The gap library's default 1/(m + margin), m = 3 for a box, is the
+// bound for general polytopes; it makes D three times flatter, and at the corridor's q0 it puts
+// the link-5/link-7 pair below δ_auto. The published package uses weight 1 for boxes.)
+P2SOptions gap_options(const Shape& shape, P2SOptions options, double weight_margin) {
+  if (std::holds_alternative<Box>(shape) && !options.weights)
+    options.weights = VecX::Constant(6, 1.0 / (1.0 + weight_margin));
+  return options;
+}
+
 }  // namespace
 
 Task task_function(const Kinematics& k, const Panda& robot, const Pose& target) {
@@ -65,7 +76,8 @@ CbfController::CbfController(const Scenario& scenario, Metric metric)
   for (std::size_t i = 0; i < prims.size(); ++i) {
     m.robot_euclid.emplace_back(prims[i].shape);
     if (metric_ == Metric::gap)
-      m.robot_gap.emplace_back(prims[i].shape, Pose{}, scenario_.gap, P2SOptions{},
+      m.robot_gap.emplace_back(prims[i].shape, Pose{}, scenario_.gap,
+                               gap_options(prims[i].shape, {}, scenario_.gap.weight_margin),
                                "robot." + prims[i].name);
   }
   for (std::size_t j = 0; j < scenario_.obstacles.size(); ++j) {
@@ -73,7 +85,8 @@ CbfController::CbfController(const Scenario& scenario, Metric metric)
     m.obstacle_euclid.emplace_back(o.shape);
     m.obstacle_pose.push_back(o.pose);
     if (metric_ == Metric::gap)
-      m.obstacle_gap.emplace_back(o.shape, o.pose, scenario_.gap, o.options,
+      m.obstacle_gap.emplace_back(o.shape, o.pose, scenario_.gap,
+                                  gap_options(o.shape, o.options, scenario_.gap.weight_margin),
                                   "obstacles[" + std::to_string(j) + "]");
   }
   m.robot_pose.resize(prims.size());

@@ -1,0 +1,57 @@
+// The corridor rollout (paper Section IV-B) with both metrics: outcomes, never times.
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "distlab/cbf/rollout.hpp"
+
+namespace distlab::cbf {
+namespace {
+
+const RolloutRecord& run(Metric m) {
+  static const RolloutRecord gap = rollout(corridor_scenario(), Metric::gap);
+  static const RolloutRecord euclid = rollout(corridor_scenario(), Metric::euclidean);
+  return m == Metric::gap ? gap : euclid;
+}
+
+class Corridor : public ::testing::TestWithParam<Metric> {};
+
+TEST_P(Corridor, TrueClearanceNeverBelowZero) {
+  const RolloutRecord& r = run(GetParam());
+  ASSERT_EQ(r.steps.size(), 3500u);
+  for (const StepRecord& s : r.steps) {
+    ASSERT_TRUE(std::isfinite(s.min_clearance));
+    ASSERT_GT(s.min_clearance, 0.0) << "t = " << s.t;
+  }
+}
+
+TEST_P(Corridor, EveryStepSolvedWithoutRelaxation) {
+  const RolloutRecord& r = run(GetParam());
+  EXPECT_TRUE(r.infeasible_steps.empty()) << r.infeasible_steps.size() << " relaxed steps";
+}
+
+TEST_P(Corridor, RecordIsComplete) {
+  const RolloutRecord& r = run(GetParam());
+  ASSERT_EQ(r.pairs.size(), 27u + 25u);  // 9 primitives × 3 boxes, 25 self pairs
+  for (const StepRecord& s : r.steps) {
+    ASSERT_EQ(s.pairs.size(), r.pairs.size());
+    for (const PairSample& p : s.pairs) {
+      ASSERT_TRUE(std::isfinite(p.distance));
+      ASSERT_TRUE(p.converged);
+      // The controller's D never exceeds the true distance (GAP is a lower bound here).
+      ASSERT_LE(p.distance, p.clearance + 1e-9);
+    }
+  }
+}
+
+TEST_P(Corridor, ReachesTheTarget) {
+  // The requirement: ‖r‖ below the scenario's goal tolerance (1e-3) after 35 s.
+  const RolloutRecord& r = run(GetParam());
+  EXPECT_TRUE(r.reached) << to_string(GetParam()) << ": final ‖r‖ = " << r.final_task_error;
+}
+
+INSTANTIATE_TEST_SUITE_P(BothMetrics, Corridor, ::testing::Values(Metric::gap, Metric::euclidean),
+                         [](const auto& p) { return std::string(to_string(p.param)); });
+
+}  // namespace
+}  // namespace distlab::cbf
