@@ -1,0 +1,87 @@
+#pragma once
+// The JSON schema of GAP requests and responses, shared by `distlab gap` and the HTTP service.
+//
+// Request:  {"a": SHAPE, "b": SHAPE, "params": PARAMS}  or  {"pairs": [{"a", "b"}, ...], "params"}
+//           (+ an optional top-level "comment" string, ignored, so example files can explain
+//           themselves).
+// SHAPE:    {"type": "polytope", "A": [[x, y, z], ...], "b": [...]} | {"type": "box", "size": [...]}
+//           | {"type": "sphere", "radius"} | {"type": "cylinder"|"capsule", "radius", "height"}
+//           | {"type": "convex_hull", "points": [[x, y, z], ...]}; optional "pose" {"position",
+//           "quaternion" [w, x, y, z]}, "weights" (polytope, box, convex_hull), "rho" {"center",
+//           "radius"} (shape frame).
+// PARAMS:   h, k, eps, sigma, weight_margin, tol, max_iter, solver ("fixed_point" | "newton"),
+//           gradient, validate; defaults are GapParams's, validate defaults to true.
+// Response: one pair -> the pair's object; a batch -> {"results": [...]}. Per pair: "lambda",
+//           "distance", "witness_a", "witness_b", "iterations", "converged", "overlap",
+//           "euclidean" {"distance", "witness_a", "witness_b"[, "gradient_a", "gradient_b"]},
+//           [, "gradient_a", "gradient_b" (6 numbers: d distance / d (v, ω), world frame)]
+//           [, "validation" {"a": {"ok", "max_eigenvalue", "samples"}, "b": {...}}].
+// Errors:   {"error": {"code", "message", "field"}}; "field" is a path such as "pairs[2].b.size[1]"
+//           ("" for the request as a whole).
+#include <cstddef>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+
+#include <nlohmann/json.hpp>
+
+#include "distlab/gap/distance.hpp"
+#include "distlab/geometry/error.hpp"
+
+namespace distlab::server {
+
+// Limits, so one request cannot pin the machine or the parser.
+inline constexpr std::size_t kMaxRequestBytes = std::size_t{64} << 20;  // 64 MiB of JSON text
+inline constexpr int kMaxJsonDepth = 64;           // the schema needs 6 levels
+inline constexpr std::size_t kMaxPairs = 10000;    // pairs per batch
+inline constexpr std::size_t kMaxPolytopeRows = 1000;  // rows of a polytope, facets of a hull
+inline constexpr std::size_t kMaxHullPoints = 100000;  // input points of a convex_hull
+// Largest |coordinate| of positions, sizes, vertices and ρ balls: keeps squares and sums far
+// from overflow, so a huge input is refused instead of producing an inf downstream.
+inline constexpr double kMaxCoordinate = 1e6;
+inline constexpr double kMinQuaternionNorm = 1e-9;
+
+// Malformed JSON text (a syntax error); `byte` is the 1-based offset nlohmann reports.
+class JsonSyntaxError : public std::runtime_error {
+ public:
+  JsonSyntaxError(const std::string& message, std::size_t byte)
+      : std::runtime_error(message), byte_(byte) {}
+  std::size_t byte() const { return byte_; }
+
+ private:
+  std::size_t byte_;
+};
+
+// Parses JSON text with the limits above. Throws JsonSyntaxError for malformed text, and
+// InvalidInput for text over kMaxRequestBytes, nesting deeper than kMaxJsonDepth, a duplicate
+// key, or a number that overflows a double (e.g. 1e999; the field names where it is).
+nlohmann::json parse_json_text(std::string_view text);
+
+// A shape of the request, parsed and checked (not yet built into P2S functions).
+struct ShapeSpec {
+  Shape shape;
+  Pose pose;
+  P2SOptions options;
+};
+ShapeSpec parse_shape(const nlohmann::json& j, const std::string& field);
+
+struct GapRequestParams {
+  GapParams params;
+  bool validate = true;  // run validate_p2s on every distinct shape and refuse on failure
+};
+// Also runs check_params. `j` may be null (all defaults).
+GapRequestParams parse_params(const nlohmann::json& j, const std::string& field = "params");
+
+// Runs a whole request; throws InvalidInput (with the field) on bad input and
+// std::runtime_error on an internal failure (e.g. a non-finite result, which is never emitted).
+nlohmann::json run_gap_request(const nlohmann::json& request);
+
+// Encodes one result (validation reports are added by run_gap_request).
+nlohmann::json encode_result(const GapResult& r, bool gradient);
+
+// {"error": {"code": "invalid_input", "message", "field"}}.
+nlohmann::json error_json(const InvalidInput& e);
+nlohmann::json error_json(const std::string& code, const std::string& message,
+                          const std::string& field = "");
+
+}  // namespace distlab::server

@@ -1,0 +1,541 @@
+// GAP requests as JSON: strict parsing with field paths, running, and encoding the results.
+#include "distlab/server/gap_json.hpp"
+
+#include <cstdlib>
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <exception>
+#include <initializer_list>
+#include <limits>
+#include <map>
+#include <optional>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include "distlab/gap/validator.hpp"
+#include "distlab/geometry/polytope.hpp"
+
+namespace distlab::server {
+namespace {
+
+using json = nlohmann::json;
+
+std::string key_path(const std::string& base, const std::string& key) {
+  return base.empty() ? key : base + "." + key;
+}
+std::string index_path(const std::string& base, std::size_t i) {
+  return base + "[" + std::to_string(i) + "]";
+}
+
+// User-supplied names go into messages; keep them short (cut on a UTF-8 boundary).
+std::string shorten(const std::string& s, std::size_t max = 64) {
+  if (s.size() <= max) return s;
+  std::size_t n = max;
+  while (n > 0 && (static_cast<unsigned char>(s[n]) & 0xC0) == 0x80) --n;
+  return s.substr(0, n) + "...";
+}
+
+// ---------------------------------------------------------------------------------------------
+// Parsing text: a SAX builder, because nlohmann's DOM parser cannot say *where* a number
+// overflowed, and a depth limit must stop hostile nesting before anything is built.
+
+class Builder final : public json::json_sax_t {
+ public:
+  explicit Builder(json& root) : root_(root) {}
+
+  bool null() override { return add(json(nullptr)); }
+  bool boolean(bool v) override { return add(json(v)); }
+  bool number_integer(number_integer_t v) override { return add(json(v)); }
+  bool number_unsigned(number_unsigned_t v) override { return add(json(v)); }
+  bool number_float(number_float_t v, const string_t&) override { return add(json(v)); }
+  bool string(string_t& v) override { return add(json(std::move(v))); }
+  bool binary(binary_t&) override { return false; }  // JSON text has no binary values
+  bool start_object(std::size_t) override { return open(json::object()); }
+  bool start_array(std::size_t) override { return open(json::array()); }
+  bool end_object() override { return close(); }
+  bool end_array() override { return close(); }
+  bool key(string_t& k) override {
+    if (stack_.back().node->contains(k)) {
+      invalid_ = InvalidInput(key_path(stack_.back().path, k),
+                              "duplicate key \"" + shorten(k) + "\"");
+      return false;
+    }
+    key_ = std::move(k);
+    return true;
+  }
+  bool parse_error(std::size_t position, const std::string&,
+                   const nlohmann::detail::exception& ex) override {
+    if (ex.id == 406)  // out_of_range.406: a number that overflows a double, e.g. 1e999
+      invalid_ = InvalidInput(next_path(), "number is out of range (not a finite double)");
+    else
+      syntax_ = JsonSyntaxError(ex.what(), position);
+    return false;
+  }
+
+  std::optional<InvalidInput> invalid_;
+  std::optional<JsonSyntaxError> syntax_;
+
+ private:
+  struct Frame {
+    json* node;
+    std::string path;
+  };
+
+  // Path of the value about to be added.
+  std::string next_path() const {
+    if (stack_.empty()) return "";
+    const Frame& f = stack_.back();
+    return f.node->is_array() ? index_path(f.path, f.node->size()) : key_path(f.path, key_);
+  }
+  json* add(json&& v) {
+    if (stack_.empty()) {
+      root_ = std::move(v);
+      return &root_;
+    }
+    json& top = *stack_.back().node;
+    if (top.is_array()) {
+      top.push_back(std::move(v));
+      return &top.back();  // parents only grow after this child is closed: pointer stays valid
+    }
+    json& slot = top[key_];
+    slot = std::move(v);
+    return &slot;
+  }
+  bool open(json&& container) {
+    if (stack_.size() >= static_cast<std::size_t>(kMaxJsonDepth)) {
+      invalid_ = InvalidInput("", "JSON nested deeper than " + std::to_string(kMaxJsonDepth) +
+                                      " levels");
+      return false;
+    }
+    std::string path = next_path();
+    json* node = add(std::move(container));
+    stack_.push_back({node, std::move(path)});
+    return true;
+  }
+  bool close() {
+    stack_.pop_back();
+    return true;
+  }
+
+  json& root_;
+  std::vector<Frame> stack_;
+  std::string key_;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Typed accessors: every failure names the field.
+
+[[noreturn]] void fail(const std::string& field, const std::string& message) {
+  throw InvalidInput(field, message);
+}
+
+std::string type_of(const json& j) { return j.type_name(); }
+
+void require_object(const json& j, const std::string& field) {
+  if (!j.is_object()) fail(field, "expected an object, got " + type_of(j));
+}
+
+void check_keys(const json& j, const std::string& field,
+                std::initializer_list<std::string_view> allowed) {
+  for (const auto& [key, value] : j.items()) {
+    if (std::find(allowed.begin(), allowed.end(), key) != allowed.end()) continue;
+    std::string list;
+    for (std::string_view a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
+    fail(key_path(field, key), "unknown key \"" + shorten(key) + "\" (allowed here: " + list + ")");
+  }
+}
+
+const json& required(const json& j, const std::string& field, const std::string& key) {
+  const auto it = j.find(key);
+  if (it == j.end()) fail(key_path(field, key), "missing required key \"" + key + "\"");
+  return *it;
+}
+
+double number(const json& j, const std::string& field) {
+  if (!j.is_number()) fail(field, "expected a number, got " + type_of(j));
+  const double v = j.get<double>();
+  if (!std::isfinite(v)) fail(field, "expected a finite number");
+  return v;
+}
+
+double coordinate(const json& j, const std::string& field) {
+  const double v = number(j, field);
+  if (std::abs(v) > kMaxCoordinate)
+    fail(field, "magnitude above the limit of " + json(kMaxCoordinate).dump());
+  return v;
+}
+
+// A length that must be > 0 (sizes, radii, heights).
+double length(const json& j, const std::string& field) {
+  const double v = coordinate(j, field);
+  if (!(v > 0)) fail(field, "must be > 0, got " + json(v).dump());
+  return v;
+}
+
+int integer(const json& j, const std::string& field) {
+  if (!j.is_number()) fail(field, "expected an integer, got " + type_of(j));
+  const double v = j.get<double>();
+  if (j.is_number_float() && !(std::isfinite(v) && v == std::floor(v)))
+    fail(field, "expected an integer, got " + j.dump());
+  if (!(v >= std::numeric_limits<int>::min() && v <= std::numeric_limits<int>::max()))
+    fail(field, "integer out of range: " + j.dump());
+  return j.is_number_float() ? static_cast<int>(v) : j.get<int>();
+}
+
+bool boolean(const json& j, const std::string& field) {
+  if (!j.is_boolean()) fail(field, "expected true or false, got " + type_of(j));
+  return j.get<bool>();
+}
+
+const json& array(const json& j, const std::string& field, std::size_t max,
+                  const std::string& what) {
+  if (!j.is_array()) fail(field, "expected an array, got " + type_of(j));
+  if (j.size() > max)
+    fail(field, std::to_string(j.size()) + " " + what + " exceed the limit of " +
+                    std::to_string(max));
+  return j;
+}
+
+template <class Element>
+Vec3 vec3(const json& j, const std::string& field, Element element) {
+  if (!j.is_array() || j.size() != 3)
+    fail(field, "expected an array of 3 numbers, got " +
+                    (j.is_array() ? std::to_string(j.size()) + " elements" : type_of(j)));
+  Vec3 v;
+  for (int i = 0; i < 3; ++i) v[i] = element(j[i], index_path(field, i));
+  return v;
+}
+
+Pose parse_pose(const json& j, const std::string& field) {
+  require_object(j, field);
+  check_keys(j, field, {"position", "quaternion"});
+  Pose pose;
+  if (const auto it = j.find("position"); it != j.end())
+    pose.position = vec3(*it, key_path(field, "position"), coordinate);
+  if (const auto it = j.find("quaternion"); it != j.end()) {
+    const std::string qf = key_path(field, "quaternion");
+    if (!it->is_array() || it->size() != 4)
+      fail(qf, "expected [w, x, y, z] (4 numbers), got " +
+                   (it->is_array() ? std::to_string(it->size()) + " elements" : type_of(*it)));
+    double q[4];
+    for (int i = 0; i < 4; ++i) q[i] = number((*it)[i], index_path(qf, i));
+    const double norm = Eigen::Vector4d(q[0], q[1], q[2], q[3]).stableNorm();
+    if (!(norm >= kMinQuaternionNorm))
+      fail(qf, "quaternion has (near) zero norm; it must be a rotation");
+    pose.rotation = Quat(q[0] / norm, q[1] / norm, q[2] / norm, q[3] / norm);
+  }
+  return pose;
+}
+
+Polytope checked_extent(Polytope P, const std::string& field) {
+  for (const Vec3& v : P.vertices)
+    if (!(v.cwiseAbs().maxCoeff() <= kMaxCoordinate))
+      fail(field, "polytope reaches beyond the coordinate limit of " + json(kMaxCoordinate).dump());
+  return P;
+}
+
+Polytope parse_polytope(const json& j, const std::string& field) {
+  const std::string af = key_path(field, "A"), bf = key_path(field, "b");
+  const json& A = array(required(j, field, "A"), af, kMaxPolytopeRows, "rows");
+  const json& b = array(required(j, field, "b"), bf, kMaxPolytopeRows, "offsets");
+  MatX3 Am(static_cast<Eigen::Index>(A.size()), 3);
+  for (std::size_t i = 0; i < A.size(); ++i)
+    Am.row(static_cast<Eigen::Index>(i)) = vec3(A[i], index_path(af, i), number).transpose();
+  VecX bv(static_cast<Eigen::Index>(b.size()));
+  for (std::size_t i = 0; i < b.size(); ++i)
+    bv[static_cast<Eigen::Index>(i)] = number(b[i], index_path(bf, i));
+  return checked_extent(make_polytope(Am, bv, field), field);
+}
+
+Polytope parse_hull(const json& j, const std::string& field) {
+  const std::string pf = key_path(field, "points");
+  const json& pts = array(required(j, field, "points"), pf, kMaxHullPoints, "points");
+  std::vector<Vec3> points;
+  points.reserve(pts.size());
+  for (std::size_t i = 0; i < pts.size(); ++i)
+    points.push_back(vec3(pts[i], index_path(pf, i), coordinate));
+  Polytope P = polytope_from_points(points, field);
+  if (static_cast<std::size_t>(P.rows()) > kMaxPolytopeRows)
+    fail(pf, "the hull has " + std::to_string(P.rows()) + " facets, above the limit of " +
+                 std::to_string(kMaxPolytopeRows));
+  return P;
+}
+
+// Runs fn(i) for i < n on all cores; rethrows the exception of the lowest failing index.
+template <class Fn>
+void parallel_for(std::size_t n, Fn fn) {
+  std::vector<std::exception_ptr> errors(n);
+  std::atomic<std::size_t> next{0};
+  auto work = [&] {
+    for (std::size_t i; (i = next.fetch_add(1)) < n;) {
+      try {
+        fn(i);
+      } catch (...) {
+        errors[i] = std::current_exception();
+      }
+    }
+  };
+  const unsigned threads = static_cast<unsigned>(
+      std::min<std::size_t>(std::max(1u, std::thread::hardware_concurrency()), std::max<std::size_t>(n, 1)));
+  std::vector<std::thread> pool;
+  for (unsigned t = 1; t < (getenv("SER_BUILD") ? 1u : threads); ++t) pool.emplace_back(work);
+  work();
+  for (auto& t : pool) t.join();
+  for (auto& e : errors)
+    if (e) std::rethrow_exception(e);
+}
+
+json vec_json(const Vec3& v) { return json::array({v.x(), v.y(), v.z()}); }
+json vec_json(const Vec6& v) {
+  json out = json::array();
+  for (int i = 0; i < 6; ++i) out.push_back(v[i]);
+  return out;
+}
+
+bool finite(const GapResult& r) {
+  const auto& e = r.euclidean;
+  return std::isfinite(r.lambda) && std::isfinite(r.distance) && r.witness_a.allFinite() &&
+         r.witness_b.allFinite() && r.gradient_a.allFinite() && r.gradient_b.allFinite() &&
+         std::isfinite(e.distance) && e.witness_a.allFinite() && e.witness_b.allFinite() &&
+         e.gradient_a.allFinite() && e.gradient_b.allFinite();
+}
+
+// One distinct shape of a request (same JSON apart from the pose), built and validated once.
+struct Prototype {
+  std::string field;  // where it first appears
+  GapBody body;
+  std::optional<ValidationReport> report;
+};
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+
+json parse_json_text(std::string_view text) {
+  if (text.size() > kMaxRequestBytes)
+    fail("", "request too large: " + std::to_string(text.size()) + " bytes, the limit is " +
+                 std::to_string(kMaxRequestBytes) + " (64 MiB)");
+  json root;
+  Builder builder(root);
+  const bool ok = json::sax_parse(text.begin(), text.end(), &builder);
+  if (builder.invalid_) throw *builder.invalid_;
+  if (builder.syntax_) throw *builder.syntax_;
+  if (!ok) throw JsonSyntaxError("malformed JSON", 0);
+  return root;
+}
+
+ShapeSpec parse_shape(const json& j, const std::string& field) {
+  require_object(j, field);
+  const std::string tf = key_path(field, "type");
+  const json& type_j = required(j, field, "type");
+  if (!type_j.is_string()) fail(tf, "expected a string, got " + type_of(type_j));
+  const std::string type = type_j.get<std::string>();
+
+  ShapeSpec spec;
+  if (type == "polytope") {
+    check_keys(j, field, {"type", "A", "b", "pose", "weights", "rho"});
+    spec.shape = parse_polytope(j, field);
+  } else if (type == "convex_hull") {
+    check_keys(j, field, {"type", "points", "pose", "weights", "rho"});
+    spec.shape = parse_hull(j, field);
+  } else if (type == "box") {
+    check_keys(j, field, {"type", "size", "pose", "weights", "rho"});
+    spec.shape = Box{vec3(required(j, field, "size"), key_path(field, "size"), length)};
+  } else if (type == "sphere") {
+    check_keys(j, field, {"type", "radius", "pose", "rho"});
+    spec.shape = Sphere{length(required(j, field, "radius"), key_path(field, "radius"))};
+  } else if (type == "cylinder" || type == "capsule") {
+    check_keys(j, field, {"type", "radius", "height", "pose", "rho"});
+    const double r = length(required(j, field, "radius"), key_path(field, "radius"));
+    const double h = length(required(j, field, "height"), key_path(field, "height"));
+    if (type == "cylinder") spec.shape = Cylinder{r, h};
+    else spec.shape = Capsule{r, h};
+  } else {
+    fail(tf, "unknown shape type \"" + shorten(type) +
+                 "\" (known: polytope, box, sphere, cylinder, capsule, convex_hull)");
+  }
+
+  if (const auto it = j.find("pose"); it != j.end()) spec.pose = parse_pose(*it, key_path(field, "pose"));
+  if (const auto it = j.find("weights"); it != j.end()) {
+    const std::string wf = key_path(field, "weights");
+    const json& w = array(*it, wf, kMaxPolytopeRows, "weights");
+    VecX weights(static_cast<Eigen::Index>(w.size()));
+    for (std::size_t i = 0; i < w.size(); ++i)
+      weights[static_cast<Eigen::Index>(i)] = number(w[i], index_path(wf, i));
+    spec.options.weights = weights;  // count and sign are checked by PointToSet
+  }
+  if (const auto it = j.find("rho"); it != j.end()) {
+    const std::string rf = key_path(field, "rho");
+    require_object(*it, rf);
+    check_keys(*it, rf, {"center", "radius"});
+    const Vec3 c = vec3(required(*it, rf, "center"), key_path(rf, "center"), coordinate);
+    const double r = length(required(*it, rf, "radius"), key_path(rf, "radius"));
+    spec.options.rho = Ball{c, r};
+  }
+  return spec;
+}
+
+GapRequestParams parse_params(const json& j, const std::string& field) {
+  GapRequestParams out;
+  if (j.is_null()) {
+    check_params(out.params);
+    return out;
+  }
+  require_object(j, field);
+  check_keys(j, field,
+             {"h", "k", "eps", "sigma", "weight_margin", "tol", "max_iter", "solver", "gradient",
+              "validate"});
+  GapParams& p = out.params;
+  auto get = [&](const char* key) -> const json* {
+    const auto it = j.find(key);
+    return it == j.end() ? nullptr : &*it;
+  };
+  const auto f = [&](const char* key) { return key_path(field, key); };
+  if (auto v = get("h")) p.h = number(*v, f("h"));
+  if (auto v = get("k")) p.k = integer(*v, f("k"));
+  if (auto v = get("eps")) p.eps = number(*v, f("eps"));
+  if (auto v = get("sigma")) p.sigma = number(*v, f("sigma"));
+  if (auto v = get("weight_margin")) p.weight_margin = number(*v, f("weight_margin"));
+  if (auto v = get("tol")) p.tol = number(*v, f("tol"));
+  if (auto v = get("max_iter")) p.max_iter = integer(*v, f("max_iter"));
+  if (auto v = get("solver")) {
+    if (!v->is_string()) fail(f("solver"), "expected \"fixed_point\" or \"newton\", got " + type_of(*v));
+    const std::string s = v->get<std::string>();
+    if (s == "newton") p.solver = GapSolver::newton;
+    else if (s == "fixed_point") p.solver = GapSolver::fixed_point;
+    else fail(f("solver"), "unknown solver \"" + shorten(s) + "\" (expected fixed_point or newton)");
+  }
+  if (auto v = get("gradient")) p.gradient = boolean(*v, f("gradient"));
+  if (auto v = get("validate")) out.validate = boolean(*v, f("validate"));
+  check_params(p);
+  return out;
+}
+
+json encode_result(const GapResult& r, bool gradient) {
+  json euclid = {{"distance", r.euclidean.distance},
+                 {"witness_a", vec_json(r.euclidean.witness_a)},
+                 {"witness_b", vec_json(r.euclidean.witness_b)}};
+  json out = {{"lambda", r.lambda},
+              {"distance", r.distance},
+              {"witness_a", vec_json(r.witness_a)},
+              {"witness_b", vec_json(r.witness_b)},
+              {"iterations", r.iterations},
+              {"converged", r.converged},
+              {"overlap", r.overlap}};
+  if (gradient) {
+    euclid["gradient_a"] = vec_json(r.euclidean.gradient_a);
+    euclid["gradient_b"] = vec_json(r.euclidean.gradient_b);
+    out["gradient_a"] = vec_json(r.gradient_a);
+    out["gradient_b"] = vec_json(r.gradient_b);
+  }
+  out["euclidean"] = std::move(euclid);
+  return out;
+}
+
+json run_gap_request(const json& request) {
+  require_object(request, "");
+  check_keys(request, "", {"a", "b", "pairs", "params", "comment"});
+  if (const auto it = request.find("comment"); it != request.end() && !it->is_string())
+    fail("comment", "expected a string, got " + type_of(*it));
+  const bool batch = request.contains("pairs");
+  if (batch)
+    for (const char* k : {"a", "b"})
+      if (request.contains(k))
+        fail(k, "give either \"a\" and \"b\" or \"pairs\", not both");
+  const auto params_it = request.find("params");
+  const GapRequestParams rp = parse_params(params_it == request.end() ? json() : *params_it);
+  const GapParams& params = rp.params;
+
+  // Every shape instance in request order, with its path.
+  std::vector<std::pair<const json*, std::string>> instances;
+  if (batch) {
+    const json& pairs = array(request["pairs"], "pairs", kMaxPairs, "pairs");
+    instances.reserve(2 * pairs.size());
+    for (std::size_t i = 0; i < pairs.size(); ++i) {
+      const std::string pf = index_path("pairs", i);
+      require_object(pairs[i], pf);
+      check_keys(pairs[i], pf, {"a", "b"});
+      instances.emplace_back(&required(pairs[i], pf, "a"), key_path(pf, "a"));
+      instances.emplace_back(&required(pairs[i], pf, "b"), key_path(pf, "b"));
+    }
+  } else {
+    instances.emplace_back(&required(request, "", "a"), "a");
+    instances.emplace_back(&required(request, "", "b"), "b");
+  }
+
+  // Build each distinct shape once (a hull or a 1000-row polytope is costly to build and check),
+  // on all cores; the lowest failing index wins, so errors are the same as a sequential run's.
+  std::vector<std::size_t> first_instance;  // per prototype
+  std::map<std::string, std::size_t> seen;
+  std::vector<std::size_t> proto_of(instances.size());
+  for (std::size_t i = 0; i < instances.size(); ++i) {
+    const auto& [j, field] = instances[i];
+    require_object(*j, field);
+    json key_json = *j;
+    key_json.erase("pose");
+    const auto [it, inserted] = seen.emplace(key_json.dump(), first_instance.size());
+    if (inserted) first_instance.push_back(i);
+    proto_of[i] = it->second;
+  }
+  std::vector<std::optional<Prototype>> protos(first_instance.size());
+  parallel_for(protos.size(), [&](std::size_t k) {
+    const auto& [j, field] = instances[first_instance[k]];
+    const ShapeSpec spec = parse_shape(*j, field);
+    protos[k].emplace(Prototype{field, GapBody(spec.shape, Pose{}, params, spec.options, field), {}});
+  });
+  std::vector<Pose> poses(instances.size());
+  for (std::size_t i = 0; i < instances.size(); ++i) {
+    const auto& [j, field] = instances[i];
+    if (const auto pit = j->find("pose"); pit != j->end())
+      poses[i] = parse_pose(*pit, key_path(field, "pose"));
+  }
+
+  if (rp.validate) {
+    parallel_for(protos.size(),
+                 [&](std::size_t k) { protos[k]->report = validate_p2s(protos[k]->body.p2s()); });
+    for (const auto& p : protos)
+      if (!p->report->ok) fail(p->field, p->report->message);
+  }
+
+  std::vector<GapBody> bodies;
+  bodies.reserve(instances.size());  // no reallocation: the pairs below point into it
+  for (std::size_t i = 0; i < instances.size(); ++i) {
+    bodies.push_back(protos[proto_of[i]]->body);
+    bodies.back().set_pose(poses[i]);
+  }
+  std::vector<std::pair<const GapBody*, const GapBody*>> pairs;
+  for (std::size_t i = 0; i + 1 < bodies.size(); i += 2) pairs.emplace_back(&bodies[i], &bodies[i + 1]);
+
+  const std::vector<GapResult> results =
+      batch ? gap_distance_batch(pairs, params, getenv("SER_BATCH") ? 1u : 0u)
+            : std::vector<GapResult>{gap_distance(*pairs[0].first, *pairs[0].second, params)};
+
+  json out = json::array();
+  for (std::size_t i = 0; i < results.size(); ++i) {
+    if (!finite(results[i]))
+      throw std::runtime_error("non-finite result for " +
+                               (batch ? index_path("pairs", i) : std::string("the pair")) +
+                               "; refusing to report it");
+    json r = encode_result(results[i], params.gradient);
+    if (rp.validate) {
+      auto summary = [](const ValidationReport& rep) {
+        return json{{"ok", rep.ok}, {"max_eigenvalue", rep.max_eigenvalue}, {"samples", rep.samples}};
+      };
+      r["validation"] = {{"a", summary(*protos[proto_of[2 * i]]->report)},
+                         {"b", summary(*protos[proto_of[2 * i + 1]]->report)}};
+    }
+    out.push_back(std::move(r));
+  }
+  if (batch) return json{{"results", std::move(out)}};
+  return std::move(out[0]);
+}
+
+json error_json(const InvalidInput& e) { return error_json("invalid_input", e.what(), e.field()); }
+
+json error_json(const std::string& code, const std::string& message, const std::string& field) {
+  return json{{"error", {{"code", code}, {"message", message}, {"field", field}}}};
+}
+
+}  // namespace distlab::server
