@@ -12,7 +12,7 @@ namespace distlab::kelvin {
 namespace {
 
 // Bump when the meshing or the file layout changes: old entries then simply miss.
-constexpr char kFormat[] = "distlab-kelvin-cache-v1";
+constexpr char kFormat[] = "distlab-kelvin-cache-v2";
 
 struct Fnv64 {
   std::uint64_t h;
@@ -154,7 +154,10 @@ std::unique_ptr<Field::Impl> load_prepared(const std::string& path, const std::s
   m->options.feature_angle = params[2];
   m->centre = Vec3(params[3], params[4], params[5]);
   m->options.centre = m->centre;
-  // params[6..7] record the original t_mesh and t_decomp; nothing was spent on them now.
+  // A cached object reports the timings of its original preparation (Stats::cached says so).
+  m->stats.t_mesh = params[6];
+  m->stats.t_decomp = params[7];
+  m->stats.cached = true;
   return m;
 }
 

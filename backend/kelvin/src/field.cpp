@@ -26,6 +26,8 @@ static std::pair<mesh::SurfaceMesh, Vec3> validated(const mesh::SurfaceMesh& inp
                                                     std::unique_ptr<SurfaceOracle>& oracle,
                                                     const Progress& progress) {
   if (!std::isfinite(o.lx) || o.lx <= 0) throw InvalidInput("lx", "lx must be a positive number of metres");
+  if (!std::isfinite(o.feature_angle) || o.feature_angle <= 0 || o.feature_angle > 180)
+    throw InvalidInput("feature_angle", "feature_angle must be in (0, 180] degrees");
   if (!std::isfinite(o.far_radius) || o.far_radius < 0.5)
     throw InvalidInput("far_radius", "far_radius must be at least 0.5");
   progress("load", 0.0);
@@ -201,7 +203,7 @@ Field Field::prepare(const mesh::SurfaceMesh& surface, const PrepareOptions& opt
   return Field(std::move(impl));
 }
 
-void Field::set_sigma(const SigmaSpec& sigma) {
+void Field::set_sigma(const SigmaSpec& sigma, bool gradients) {
   Impl& m = *impl_;
   validate(sigma, m.surface.vertices.rows());
   const auto t0 = std::chrono::steady_clock::now();
@@ -228,6 +230,11 @@ void Field::set_sigma(const SigmaSpec& sigma) {
   m.V = VecX::Constant(np, std::numeric_limits<double>::quiet_NaN());
   for (size_t i = 0; i < m.interior.size(); ++i) m.V[m.interior[i]] = rhs[static_cast<Eigen::Index>(i)];
   for (size_t b = 0; b < m.boundary.size(); ++b) m.V[m.boundary[b]] = v_bnd[static_cast<Eigen::Index>(b)];
+  m.stats.t_solve = seconds_since(t0);
+  m.grad.resize(0, 3);
+  m.stats.t_gradient = 0;
+  if (!gradients) return;
+  const auto t1 = std::chrono::steady_clock::now();
   // Vertex gradients: volume-weighted average of the cell gradients over each star [36].
   m.grad = MatX3::Zero(np, 3);
   for (size_t i = 0; i < m.domain_tets.size(); ++i) {
@@ -238,7 +245,7 @@ void Field::set_sigma(const SigmaSpec& sigma) {
   }
   for (Eigen::Index v = 0; v < np; ++v)
     if (m.star_volume[v] > 0) m.grad.row(v) /= m.star_volume[v];
-  m.stats.t_solve = seconds_since(t0);
+  m.stats.t_gradient = seconds_since(t1);
 }
 
 Eigen::SparseMatrix<double> Field::reduced_matrix() const {
@@ -276,12 +283,14 @@ Field Field::prepare_cached(const mesh::SurfaceMesh& surface, const PrepareOptio
   const std::string key = prepare_key(valid, options, centre);
   const std::string path = cache_dir + "/" + key + ".kelvin";
   progress("cache", 0.0);
+  const auto t0 = std::chrono::steady_clock::now();
   if (auto cached = load_prepared(path, key)) {
     cached->oracle = std::make_unique<SurfaceOracle>(cached->surface);
     cached->build(progress);  // cheap; derived data are not stored
     // The factor must fit the rebuilt system, or the entry is not trusted.
     if (cached->solver.size() == static_cast<Eigen::Index>(cached->interior.size())) {
       cached->finish_stats();
+      cached->stats.t_load = seconds_since(t0);
       if (hit) *hit = true;
       return Field(std::move(cached));
     }

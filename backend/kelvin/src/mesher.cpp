@@ -28,9 +28,13 @@ using Criteria = CGAL::Mesh_criteria_3<Tr>;
 struct Sizing {
   double lx, min_size, scale;
   const Progress* progress;
+  double max_ratio = 0;  // if > 0: l_y ≤ max_ratio · |y|
   K::FT operator()(const K::Point_3& p, int, const Domain::Index&) const {
     progress->check();
-    return scale * std::max(lx * CGAL::to_double(p.x() * p.x() + p.y() * p.y() + p.z() * p.z()), min_size);
+    const double y2 = CGAL::to_double(p.x() * p.x() + p.y() * p.y() + p.z() * p.z());
+    double l = std::max(lx * y2, min_size);
+    if (max_ratio > 0) l = std::min(l, max_ratio * std::sqrt(y2));
+    return scale * l;
   }
 };
 
@@ -55,17 +59,24 @@ TetMesh mesh_inverted_domain(const mesh::SurfaceMesh& inverted, const MeshingPar
   domain.detect_features(params.feature_angle);
   progress("mesh", 0.1);
 
-  // Mesh_3 bounds circumradii; edge lengths of good tets are about 1.6× that, so the
-  // circumradius bound is l_y / 1.6 and the facet distance a tenth of l_y.
-  const Sizing edge{params.lx, params.min_size, 1.0, &progress};
-  const Sizing radius{params.lx, params.min_size, 1.0 / 1.6, &progress};
+  // l_y is used as Mesh_3's own size bound (cell and facet circumradii, feature-edge length), as
+  // the paper does: at equal l_x this gives vertex counts comparable to its Table I. The facet
+  // distance bound is a tenth of it.
+  const Sizing size{params.lx, params.min_size, 1.0, &progress};
+  // Protecting balls on sharp edges must stay small against the inverted edge curves (circles
+  // through the origin, radius 1/(2d) for an edge at distance d from the centre): near the centre
+  // |y|² l_x exceeds them and refinement never ends (seen on a 5 mm thick plate at l_x = 4 mm).
+  Sizing edge = size;
+  edge.max_ratio = 0.25;
   const Sizing distance{params.lx, params.min_size, 0.1, &progress};
   namespace P = CGAL::parameters;
-  Criteria criteria(P::edge_size = edge, P::facet_angle = 25.0, P::facet_size = radius,
+  Criteria criteria(P::edge_size = edge, P::facet_angle = 25.0, P::facet_size = size,
                     P::facet_distance = distance, P::cell_radius_edge_ratio = 3.0,
-                    P::cell_size = radius);
+                    P::cell_size = size);
+  // Exudation without a time limit (determinism) but with a target angle: sliver_bound = 0 asks
+  // it to improve the worst cell until nothing improves, which took minutes (profiled).
   C3t3 c3t3 = CGAL::make_mesh_3<C3t3>(domain, criteria, P::no_perturb(),
-                                      P::exude(P::time_limit = 0, P::sliver_bound = 0));
+                                      P::exude(P::time_limit = 0, P::sliver_bound = 10));
   progress("mesh", 0.9);
 
   const Tr& tr = c3t3.triangulation();

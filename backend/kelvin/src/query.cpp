@@ -17,10 +17,11 @@ Sample undefined(Status status) {
 Sample evaluate(const Field::Impl& m, int c, const double lambda[4], const Vec3& p, const Vec3& y) {
   double v = 0;
   Vec3 gv = Vec3::Zero();
+  const bool with_gradient = m.grad.rows() > 0;  // set_sigma(…, gradients = false) skips them
   for (int k = 0; k < 4; ++k) {
     const int i = m.tm.tets(c, k);
     v += lambda[k] * m.V[i];
-    gv += lambda[k] * Vec3(m.grad.row(i));
+    if (with_gradient) gv += lambda[k] * Vec3(m.grad.row(i));
   }
   if (!(v > 0)) return undefined(Status::nonpositive);
   const double y2 = y.squaredNorm();
@@ -29,7 +30,8 @@ Sample evaluate(const Field::Impl& m, int c, const double lambda[4], const Vec3&
   const Vec3 grad_y = -(y / y2 + gv / v);           // ∇_y h
   const double p2 = p.squaredNorm();
   const Vec3 n = p / std::sqrt(p2);
-  s.gradient = (grad_y - 2 * n * n.dot(grad_y)) / p2;  // ∇_x h = (∂y/∂x)ᵀ ∇_y h, symmetric Jacobian
+  s.gradient = with_gradient ? Vec3((grad_y - 2 * n * n.dot(grad_y)) / p2)  // ∇_x h = (∂y/∂x)ᵀ ∇_y h
+                            : Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
   return s;
 }
 
@@ -44,9 +46,12 @@ Sample Field::query(const Vec3& x, int* hint) const {
   const Location loc = m.locator.locate(m.tm, y, hint ? *hint : -1);
   if (hint) *hint = loc.cell;
   if (!loc.outside_hull && m.tm.in_domain[static_cast<size_t>(loc.cell)]) return evaluate(m, loc.cell, loc.lambda, p, y);
-  if (m.oracle->inside(x)) return undefined(Status::inside);
-  // Outside the object yet outside the meshed domain: a sliver between the input surface and
-  // the mesher's piecewise-flat boundary. Extend from an adjacent domain cell, clamped.
+  // Not in a domain cell: either on the domain's boundary (a point on a shared face or vertex,
+  // located in the outside neighbour by rounding), inside the object, or in a sliver between the
+  // input surface and the mesher's piecewise-flat boundary. Look at the domain cells nearby and
+  // take the one that needs the least extrapolation.
+  int best = -1;
+  double best_lambda[4] = {0, 0, 0, 0}, best_min = -1e300;
   std::vector<int> frontier{loc.cell}, seen{loc.cell};
   for (int depth = 0; depth < 3 && !frontier.empty(); ++depth) {
     std::vector<int> next;
@@ -54,20 +59,23 @@ Sample Field::query(const Vec3& x, int* hint) const {
       for (int k = 0; k < 4; ++k) {
         const int n = m.tm.neighbours(c, k);
         if (n < 0 || std::find(seen.begin(), seen.end(), n) != seen.end()) continue;
-        if (m.tm.in_domain[static_cast<size_t>(n)]) {
-          double lambda[4];
-          barycentric(m.tm, n, y, lambda);
-          double sum = 0;
-          for (double& l : lambda) sum += (l = std::max(l, 0.0));
-          for (double& l : lambda) l /= sum;
-          return evaluate(m, n, lambda, p, y);
-        }
         seen.push_back(n);
         next.push_back(n);
+        if (!m.tm.in_domain[static_cast<size_t>(n)]) continue;
+        double lambda[4];
+        barycentric(m.tm, n, y, lambda);
+        const double lo = std::min(std::min(lambda[0], lambda[1]), std::min(lambda[2], lambda[3]));
+        if (lo > best_min) best = n, best_min = lo, std::copy_n(lambda, 4, best_lambda);
       }
     frontier.swap(next);
   }
-  return undefined(Status::inside);
+  constexpr double on_face = 1e-9;  // relative to the cell: rounding, not extrapolation
+  if (best >= 0 && best_min >= -on_face) return evaluate(m, best, best_lambda, p, y);
+  if (best < 0 || m.oracle->inside(x)) return undefined(Status::inside);
+  double sum = 0;  // extend from the nearest domain cell, clamped to it
+  for (double& l : best_lambda) sum += (l = std::max(l, 0.0));
+  for (double& l : best_lambda) l /= sum;
+  return evaluate(m, best, best_lambda, p, y);
 }
 
 std::vector<Sample> Field::query(const std::vector<Vec3>& points) const {

@@ -112,7 +112,8 @@ std::string asset_path(const std::string& name) {
 }
 
 json run_kelvin_request(const json& r, const kelvin::Progress& progress) {
-  object_with(r, "", {"mesh", "lx", "center", "far_radius", "cache", "sigma", "query", "isosurfaces", "comment"});
+  object_with(r, "", {"mesh", "lx", "center", "far_radius", "feature_angle", "cache", "sigma", "query", "isosurfaces",
+                      "comment"});
   if (!r.contains("mesh")) throw InvalidInput("mesh", "mesh is required");
   const json& m = r["mesh"];
   object_with(m, "mesh", {"path", "asset"});
@@ -123,6 +124,8 @@ json run_kelvin_request(const json& r, const kelvin::Progress& progress) {
   options.lx = number(r["lx"], "lx");
   if (r.contains("center")) options.centre = vec3(r["center"], "center");
   if (r.contains("far_radius")) options.far_radius = number(r["far_radius"], "far_radius");
+  // Sharp-edge protection threshold (degrees); 180 turns protection off (see the wrench cases).
+  if (r.contains("feature_angle")) options.feature_angle = number(r["feature_angle"], "feature_angle");
   kelvin::SigmaSpec sigma = r.contains("sigma") ? parse_sigma(r["sigma"]) : kelvin::SigmaSpec{};
   std::vector<Vec3> points;
   if (r.contains("query")) {
@@ -157,6 +160,8 @@ json run_kelvin_request(const json& r, const kelvin::Progress& progress) {
   out["stats"] = {{"n_verts", st.n_verts}, {"n_tets", st.n_tets},   {"size_mb", st.size_mb},
                   {"t_mesh", st.t_mesh},   {"t_build", st.t_build}, {"t_decomp", st.t_decomp},
                   {"t_solve", st.t_solve}, {"cache_hit", hit}};
+  // On a cache hit t_mesh and t_decomp are the original preparation's; t_load is this load.
+  if (hit) out["stats"]["t_load"] = st.t_load;
   json h = json::array(), grad = json::array(), inside = json::array();
   int hint = -1;
   for (const Vec3& x : points) {

@@ -21,13 +21,22 @@ struct PrepareOptions {
   // l_y is bounded below by its value at |x| = far_radius · (largest centre-to-surface distance):
   // beyond that radius the exterior mesh coarsens quadratically instead of staying at l_x.
   double far_radius = 1.0;
-  double feature_angle = 60.0;  // sharp-edge detection (degrees)
+  // Sharp-edge detection (degrees between face normals); 180 disables edge protection. With
+  // protection, Mesh_3 (CGAL 5.5) did not finish on the 5 mm wrench plate (refine_balls loops);
+  // without it, edges are rounded at the element scale but boundary vertices stay on the surface.
+  double feature_angle = 60.0;
 };
 
 struct Stats {
   long n_verts = 0, n_tets = 0;
   double size_mb = 0;
-  double t_mesh = 0, t_build = 0, t_decomp = 0, t_solve = 0;  // seconds
+  double t_mesh = 0, t_build = 0, t_decomp = 0;  // seconds
+  double t_solve = 0;     // last set_sigma: σ on the boundary → V (eqs. 17, 20, 21), seconds
+  double t_gradient = 0;  // last set_sigma: vertex gradients of V (0 if not asked), seconds
+  // Loaded from the cache: t_mesh and t_decomp are then those of the original preparation,
+  // t_build is measured again (derived data are rebuilt) and t_load is the time of the load.
+  bool cached = false;
+  double t_load = 0;
 };
 
 enum class Status : std::uint8_t {
@@ -57,8 +66,10 @@ class Field {
   Field& operator=(Field&&) noexcept;
   ~Field();
 
-  // Solves eqs. 17, 20, 21 for V with V_∂ = e^(−σ)/|y| and the vertex gradients of V.
-  void set_sigma(const SigmaSpec& sigma);
+  // Solves eqs. 17, 20, 21 for V with V_∂ = e^(−σ)/|y|, and (unless gradients is false) the
+  // vertex gradients of V. Without them, queries return NaN gradients: a caller that needs only
+  // h (or only V, as a σ update between gradient queries) saves their cost.
+  void set_sigma(const SigmaSpec& sigma, bool gradients = true);
 
   // h(x) and ∇h(x) (Algorithm 1). hint: the cell of a previous query (updated), or nullptr
   // to locate through the seeding grid.
