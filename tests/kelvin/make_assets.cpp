@@ -1,7 +1,9 @@
 // distlab-make-assets OUTDIR: builds the project's test objects procedurally (metres, closed,
 // outward-oriented, checked): cube (Table I), sphere, combination wrench 96.47 mm long (Table
 // II, Fig. 5), knife (Fig. 1), and the wrench's three σ cases of Section V-B as requests.
+#include <CGAL/Constrained_Delaunay_triangulation_2.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Triangulation_vertex_base_with_info_2.h>
 #include <CGAL/Polygon_mesh_processing/corefinement.h>
 #include <CGAL/Surface_mesh.h>
 
@@ -9,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <numeric>
 #include <vector>
 
 #include "distlab/mesh/checks.hpp"
@@ -37,34 +40,6 @@ SurfaceMesh build(const std::vector<Vec3>& v, const std::vector<Eigen::Vector3i>
   return m;
 }
 
-// Annular sector [t0, t1] of radii [r0, r1] in the xy-plane around c, extruded over z ∈ [z0, z1];
-// a full turn (t1 − t0 = 2π) closes into a ring.
-SurfaceMesh annulus(const Vec3& c, double r0, double r1, double z0, double z1, double t0, double t1, int n) {
-  const bool full = std::abs(t1 - t0 - 2 * M_PI) < 1e-12;
-  const int cols = full ? n : n + 1;
-  std::vector<Vec3> v;
-  for (int i = 0; i < cols; ++i) {
-    const double t = t0 + (t1 - t0) * i / n;
-    const Vec3 d(std::cos(t), std::sin(t), 0);
-    for (double r : {r0, r1})
-      for (double z : {z0, z1}) v.push_back(c + r * d + Vec3(0, 0, z));
-  }
-  auto id = [&](int i, int r, int z) { return 4 * (i % cols) + 2 * r + z; };
-  std::vector<Eigen::Vector3i> f;
-  for (int i = 0; i < n; ++i) {
-    const int j = i + 1;
-    quad(f, id(i, 1, 0), id(j, 1, 0), id(j, 1, 1), id(i, 1, 1));  // outer wall
-    quad(f, id(i, 0, 0), id(i, 0, 1), id(j, 0, 1), id(j, 0, 0));  // inner wall
-    quad(f, id(i, 0, 1), id(i, 1, 1), id(j, 1, 1), id(j, 0, 1));  // top
-    quad(f, id(i, 0, 0), id(j, 0, 0), id(j, 1, 0), id(i, 1, 0));  // bottom
-  }
-  if (!full) {
-    quad(f, id(0, 0, 0), id(0, 1, 0), id(0, 1, 1), id(0, 0, 1));
-    quad(f, id(n, 0, 0), id(n, 0, 1), id(n, 1, 1), id(n, 1, 0));
-  }
-  return build(v, f);
-}
-
 // Convex polygon (xy, counter-clockwise) extruded over z ∈ [z0, z1].
 SurfaceMesh prism(const std::vector<Eigen::Vector2d>& poly, double z0, double z1) {
   const int n = static_cast<int>(poly.size());
@@ -77,6 +52,84 @@ SurfaceMesh prism(const std::vector<Eigen::Vector2d>& poly, double z0, double z1
     f.emplace_back(n, n + i, n + i + 1);
   }
   for (int i = 0; i < n; ++i) quad(f, i, (i + 1) % n, n + (i + 1) % n, n + i);
+  return build(v, f);
+}
+
+using Polyline = std::vector<Eigen::Vector2d>;
+
+// Appends points from angle t0 to t1 (either direction) on a circle, without the end point.
+void arc(Polyline& p, const Eigen::Vector2d& c, double r, double t0, double t1, double step) {
+  // An even count puts a point on the arc's midpoint (the wrench's extreme at the ring end).
+  const int n = 2 * std::max(1, static_cast<int>(std::ceil(std::abs(t1 - t0) * r / (2 * step))));
+  for (int i = 0; i < n; ++i) {
+    const double t = t0 + (t1 - t0) * i / n;
+    p.push_back(c + r * Eigen::Vector2d(std::cos(t), std::sin(t)));
+  }
+}
+
+// Appends points on the segment a → b, without b.
+void line(Polyline& p, const Eigen::Vector2d& a, const Eigen::Vector2d& b, double step) {
+  const int n = std::max(1, static_cast<int>(std::ceil((b - a).norm() / step)));
+  for (int i = 0; i < n; ++i) p.push_back(a + (b - a) * i / n);
+}
+
+double area(const Polyline& p) {
+  double a = 0;
+  for (size_t i = 0; i < p.size(); ++i) {
+    const auto &u = p[i], &v = p[(i + 1) % p.size()];
+    a += 0.5 * (u.x() * v.y() - v.x() * u.y());
+  }
+  return a;
+}
+
+bool inside(const Polyline& p, const Eigen::Vector2d& q) {
+  bool in = false;
+  for (size_t i = 0, j = p.size() - 1; i < p.size(); j = i++)
+    if ((p[i].y() > q.y()) != (p[j].y() > q.y()) &&
+        q.x() < p[j].x() + (p[i].x() - p[j].x()) * (q.y() - p[j].y()) / (p[i].y() - p[j].y()))
+      in = !in;
+  return in;
+}
+
+// The region inside loops[0] and outside the other loops, extruded over z ∈ [z0, z1]: caps from
+// a constrained Delaunay triangulation of the loops' own points, walls from the loop edges.
+SurfaceMesh extrude(std::vector<Polyline> loops, double z0, double z1) {
+  using Vb = CGAL::Triangulation_vertex_base_with_info_2<int, K>;
+  using Tds = CGAL::Triangulation_data_structure_2<Vb, CGAL::Constrained_triangulation_face_base_2<K>>;
+  using CDT = CGAL::Constrained_Delaunay_triangulation_2<K, Tds>;
+  for (size_t l = 0; l < loops.size(); ++l)  // outer loop counter-clockwise, holes clockwise
+    if ((area(loops[l]) > 0) != (l == 0)) std::reverse(loops[l].begin(), loops[l].end());
+  std::vector<Eigen::Vector2d> pts;
+  CDT cdt;
+  std::vector<Eigen::Vector3i> f;
+  const int n_total = static_cast<int>(std::accumulate(loops.begin(), loops.end(), size_t{0},
+                                                       [](size_t a, const Polyline& p) { return a + p.size(); }));
+  for (const Polyline& loop : loops) {
+    const int first = static_cast<int>(pts.size()), n = static_cast<int>(loop.size());
+    std::vector<CDT::Vertex_handle> vh;
+    for (int i = 0; i < n; ++i) {
+      vh.push_back(cdt.insert(K::Point_2(loop[i].x(), loop[i].y())));
+      vh.back()->info() = first + i;
+      pts.push_back(loop[i]);
+    }
+    for (int i = 0; i < n; ++i) {
+      cdt.insert_constraint(vh[i], vh[(i + 1) % n]);
+      quad(f, first + i, first + (i + 1) % n, n_total + first + (i + 1) % n, n_total + first + i);  // wall
+    }
+  }
+  if (static_cast<int>(cdt.number_of_vertices()) != n_total) throw std::runtime_error("outline has duplicate points");
+  for (auto fh = cdt.finite_faces_begin(); fh != cdt.finite_faces_end(); ++fh) {
+    const int a = fh->vertex(0)->info(), b = fh->vertex(1)->info(), c = fh->vertex(2)->info();
+    const Eigen::Vector2d mid = (pts[a] + pts[b] + pts[c]) / 3;
+    bool in = inside(loops[0], mid);
+    for (size_t l = 1; l < loops.size() && in; ++l) in = !inside(loops[l], mid);
+    if (!in) continue;
+    f.emplace_back(n_total + a, n_total + b, n_total + c);  // top (CDT faces are counter-clockwise)
+    f.emplace_back(a, c, b);                                // bottom
+  }
+  std::vector<Vec3> v;
+  for (double z : {z0, z1})
+    for (const auto& p : pts) v.emplace_back(p.x(), p.y(), z);
   return build(v, f);
 }
 
@@ -126,15 +179,31 @@ SurfaceMesh unite(const std::vector<SurfaceMesh>& parts) {
   return from_cgal(acc);
 }
 
-// Combination wrench along x, 96.47 mm overall: a closed ring end (left), an open end with its
-// jaws facing +x (right), a thinner handle between them.
+// Combination wrench along x, 96.47 mm overall, as one extruded outline: a ring end (left), an
+// open end with its jaws facing +x (right) and a handle between them. Built directly as a single
+// closed manifold with ~1 mm edges: a boolean union leaves tiny edges and slivers where the parts
+// meet, and Mesh_3's feature protection then refines around them without end.
 SurfaceMesh wrench() {
-  const double half = 0.096470 / 2, gap = 50 * M_PI / 180;
-  const Vec3 ring(-half + 0.009, 0, 0);
-  const Vec3 open(half - 0.010 * std::cos(gap), 0, 0);
-  return unite({box_at(Vec3(-0.033, -0.004, -0.002), Vec3(0.034, 0.004, 0.002)),
-                annulus(ring, 0.0055, 0.009, -0.0025, 0.0025, 0, 2 * M_PI, 48),
-                annulus(open, 0.0045, 0.010, -0.0025, 0.0025, gap, 2 * M_PI - gap, 40)});
+  const double half = 0.096470 / 2, thick = 0.005, step = 0.001;
+  const double r_ring = 0.009, r_hole = 0.0055, r_open = 0.010, jaw = 0.0045, handle = 0.004;
+  const double t_jaw = std::asin(jaw / r_open);  // where the jaw faces meet the outer arc
+  const Eigen::Vector2d c_ring(-half + r_ring, 0), c_open(half - r_open * std::cos(t_jaw), 0);
+  const double t_ring = std::asin(handle / r_ring), t_neck = std::asin(handle / r_open);
+  Polyline outer, hole;
+  // Counter-clockwise from the lower jaw tip: outer arc of the open end down and round to the
+  // handle, handle bottom, ring arc, handle top, open-end arc to the upper jaw tip, then the slot.
+  arc(outer, c_open, r_open, -t_jaw, -(M_PI - t_neck), step);
+  line(outer, c_open + r_open * Eigen::Vector2d(-std::cos(t_neck), -handle / r_open),
+       c_ring + r_ring * Eigen::Vector2d(std::cos(t_ring), -std::sin(t_ring)), step);
+  arc(outer, c_ring, r_ring, -t_ring, -(2 * M_PI - t_ring), step);
+  line(outer, c_ring + r_ring * Eigen::Vector2d(std::cos(t_ring), std::sin(t_ring)),
+       c_open + r_open * Eigen::Vector2d(-std::cos(t_neck), handle / r_open), step);
+  arc(outer, c_open, r_open, M_PI - t_neck, t_jaw, step);
+  line(outer, c_open + r_open * Eigen::Vector2d(std::cos(t_jaw), std::sin(t_jaw)), c_open + Eigen::Vector2d(0, jaw), step);
+  arc(outer, c_open, jaw, M_PI / 2, 3 * M_PI / 2, step);
+  line(outer, c_open + Eigen::Vector2d(0, -jaw), c_open + r_open * Eigen::Vector2d(std::cos(t_jaw), -std::sin(t_jaw)), step);
+  arc(hole, c_ring, r_hole, 0, 2 * M_PI, step);
+  return extrude({outer, hole}, -thick / 2, thick / 2);
 }
 
 // Kitchen knife along x: a 2 mm blade with a curved cutting edge and a box handle.
@@ -152,7 +221,8 @@ SurfaceMesh knife() {
 
 void write_case(const std::filesystem::path& file, const std::string& comment, const std::string& sigma) {
   std::ofstream(file) << "{\n  \"comment\": \"" << comment << "\",\n"
-                      << "  \"mesh\": {\"asset\": \"wrench\"},\n  \"lx\": 0.0015,\n"
+                      << "  \"mesh\": {\"asset\": \"wrench\"},\n  \"lx\": 0.002,\n"
+                      << "  \"center\": [0.0, 0.0, 0.0],\n  \"feature_angle\": 180,\n"
                       << "  \"sigma\": " << sigma << ",\n"
                       << "  \"query\": [[0.0, 0.0, 0.01], [0.045, 0.0, 0.01], [-0.06, 0.0, 0.0]]\n}\n";
 }

@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include "distlab/geometry/error.hpp"
+#include "distlab/mesh/surface.hpp"
 #include "sphere_fixture.hpp"
 
 namespace fs = std::filesystem;
@@ -95,6 +96,13 @@ TEST(KelvinPrepare, CacheRoundTripAndCorruptionIsRebuilt) {
   EXPECT_FALSE(hit);
   Field b = Field::prepare_cached(surface, sphere_options(0.2), dir.string(), {}, &hit);
   EXPECT_TRUE(hit);
+  // A cached object reports its original preparation times and says it was loaded.
+  EXPECT_FALSE(a.stats().cached);
+  EXPECT_TRUE(b.stats().cached);
+  EXPECT_EQ(b.stats().t_mesh, a.stats().t_mesh);
+  EXPECT_EQ(b.stats().t_decomp, a.stats().t_decomp);
+  EXPECT_GT(b.stats().t_mesh, 0.0);
+  EXPECT_GT(b.stats().t_load, 0.0);
   a.set_sigma(constant_sigma(0.2));
   b.set_sigma(constant_sigma(0.2));
   EXPECT_TRUE((a.tet_mesh().points.array() == b.tet_mesh().points.array()).all());
@@ -130,4 +138,33 @@ TEST(KelvinPrepare, CacheRoundTripAndCorruptionIsRebuilt) {
   Field::prepare_cached(surface, sphere_options(0.25), dir.string(), {}, &hit);
   EXPECT_FALSE(hit);
   fs::remove_all(dir);
+}
+
+// The wrench asset (a 5 mm plate with a ring end and an open end, 96.47 mm long) meshes without
+// edge protection (see PrepareOptions::feature_angle), centre of inversion at its centre as in
+// the paper, and h = σ holds on its surface for the σ of case (c) (eq. 24).
+TEST(KelvinPrepare, WrenchMeshesAndMatchesSigma) {
+  const mesh::SurfaceMesh wrench = mesh::load_mesh(std::string(DISTLAB_ASSET_DIR) + "/wrench.stl");
+  PrepareOptions o;
+  o.lx = 0.006;
+  o.centre = Vec3::Zero();
+  o.feature_angle = 180;
+  const Field field = [&] {
+    Field f = Field::prepare(wrench, o);
+    SigmaSpec c;
+    c.axis.push_back({Vec3::UnitX(), Vec3::Zero(), 0.03, 1.0, 0.003});
+    f.set_sigma(c);
+    return f;
+  }();
+  EXPECT_GT(field.stats().n_verts, 1000);
+  const auto points = field.boundary_points();
+  int hint = -1;
+  for (size_t b = 0; b < points.size(); b += 7) {
+    const Sample q = field.query(points[b], &hint);
+    ASSERT_EQ(q.status, Status::ok);
+    EXPECT_NEAR(q.h, field.boundary_sigma()[static_cast<Eigen::Index>(b)], 1e-9);
+  }
+  // Ends allowed (σ ≈ +1), handle not (σ ≈ −1): h is lower above the handle than beyond the ends.
+  EXPECT_LT(field.query(Vec3(0, 0, 0.01)).h, field.query(Vec3(0.06, 0, 0)).h);
+  EXPECT_EQ(field.query(Vec3(0, 0, 0)).status, Status::inside);
 }
