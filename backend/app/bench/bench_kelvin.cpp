@@ -1,7 +1,9 @@
 // distlab-bench-kelvin: Table I (cube) and Table II (wrench) of the Kelvin paper, with Eigen's
 // SparseLU (the paper's solver) and CGAL's AABB-tree distance in the same run.
 // usage: distlab-bench-kelvin [--assets DIR] [--lx 0.2,0.15,...] [--grid 1000] [--lu-max 60000]
-//                             [--wrench-lx 0.0015] [--json FILE]
+//                             [--wrench-lx 0.002] [--wrench-features 180] [--json FILE]
+// t_solve is σ → V (eqs. 17, 20, 21: what the paper times); t_grad, the vertex gradients for ∇h,
+// is reported beside it.
 #include <Eigen/SparseLU>
 
 #include <algorithm>
@@ -58,29 +60,41 @@ std::pair<double, double> query_times(const Field& f, const std::vector<Vec3>& p
 struct Row {
   double lx = 0;
   Stats stats;
-  double solve_ms = 0, solve_sd = 0, chol_solve_ms = 0, rmse = -1, q_hint = 0, q_seed = 0;
+  double solve_ms = 0, solve_sd = 0, grad_ms = 0, chol_solve_ms = 0, rmse = -1, q_hint = 0, q_seed = 0;
+  std::vector<double> case_solve_ms;  // Table II: one per σ case
   double lu_decomp = -1, lu_solve_ms = -1, aabb_us = 0;
 };
 
 nlohmann::json to_json(const Row& r) {
   return {{"lx", r.lx}, {"n_verts", r.stats.n_verts}, {"n_tets", r.stats.n_tets}, {"size_mb", r.stats.size_mb},
           {"rmse", r.rmse}, {"t_mesh", r.stats.t_mesh}, {"t_build", r.stats.t_build}, {"t_decomp", r.stats.t_decomp},
-          {"t_solve_ms", r.solve_ms}, {"t_solve_sd_ms", r.solve_sd}, {"t_cholmod_solve_ms", r.chol_solve_ms},
+          {"t_solve_ms", r.solve_ms}, {"t_solve_sd_ms", r.solve_sd}, {"t_grad_ms", r.grad_ms},
+          {"t_cholmod_solve_ms", r.chol_solve_ms}, {"t_solve_cases_ms", r.case_solve_ms},
           {"t_query_hint_us", r.q_hint}, {"t_query_nohint_us", r.q_seed}, {"t_sparselu_decomp", r.lu_decomp},
           {"t_sparselu_solve_ms", r.lu_solve_ms}, {"t_aabb_distance_us", r.aabb_us}};
 }
 
-Row run(const mesh::SurfaceMesh& surface, double lx, const SigmaSpec& sigma, const std::vector<Vec3>& path,
-        const std::vector<Vec3>& random, long lu_max, std::optional<Field>* keep = nullptr) {
-  PrepareOptions o;
-  o.lx = lx;
+Row run(const mesh::SurfaceMesh& surface, const PrepareOptions& o, const std::vector<SigmaSpec>& sigmas,
+        const std::vector<Vec3>& path, const std::vector<Vec3>& random, long lu_max,
+        std::optional<Field>* keep = nullptr) {
   Field f = Field::prepare(surface, o);
   Row r;
-  r.lx = lx;
+  r.lx = o.lx;
   std::vector<double> t;
-  for (int i = 0; i < 100; ++i) {
-    f.set_sigma(sigma);
-    t.push_back(f.stats().t_solve * 1e3);
+  for (const SigmaSpec& sigma : sigmas) {  // 100 solves per case; the first case fills t
+    std::vector<double> tc;
+    for (int i = 0; i < 100; ++i) {
+      f.set_sigma(sigma, false);
+      tc.push_back(f.stats().t_solve * 1e3);
+    }
+    double m = 0;
+    for (double v : tc) m += v / tc.size();
+    r.case_solve_ms.push_back(m);
+    if (t.empty()) t = tc;
+  }
+  for (int i = 0; i < 10; ++i) {
+    f.set_sigma(sigmas.front(), true);
+    r.grad_ms += f.stats().t_gradient * 1e3 / 10;
   }
   double mean = 0, sq = 0;
   for (double v : t) mean += v / t.size();
@@ -129,14 +143,15 @@ Row run(const mesh::SurfaceMesh& surface, double lx, const SigmaSpec& sigma, con
 }
 
 void print(const char* title, const std::vector<Row>& rows) {
-  std::printf("\n%s\n%6s %8s %8s %7s %7s %7s %7s %8s %9s %9s %7s %7s %9s %9s %7s\n", title, "lx", "N_verts", "N_tets",
-              "MB", "RMSE", "t_mesh", "t_build", "t_decomp", "t_solve", "chol_ms", "q_hint", "q_seed", "LU_decomp",
-              "LU_solve", "AABB");
+  std::printf("\n%s\n| l_x | N_verts | N_tets | MB | RMSE | t_mesh | t_build | t_decomp | t_solve | t_grad | chol_ms | "
+              "q_hint | q_seed | LU_decomp | LU_solve | AABB |\n|%s\n", title,
+              "---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
   for (const Row& r : rows)
-    std::printf("%6.3g %8ld %8ld %7.2f %7.4f %7.2f %7.3f %8.3f %6.2f±%.2f %9.2f %7.3f %7.3f %9.3f %9.2f %7.3f\n", r.lx,
-                r.stats.n_verts, r.stats.n_tets, r.stats.size_mb, r.rmse, r.stats.t_mesh, r.stats.t_build,
-                r.stats.t_decomp, r.solve_ms, r.solve_sd, r.chol_solve_ms, r.q_hint, r.q_seed, r.lu_decomp,
+    std::printf("| %.3g | %ld | %ld | %.2f | %.4f | %.2f | %.3f | %.3f | %.2f ± %.2f | %.2f | %.2f | %.3f | %.3f | %.3f | %.2f | %.3f |\n",
+                r.lx, r.stats.n_verts, r.stats.n_tets, r.stats.size_mb, r.rmse, r.stats.t_mesh, r.stats.t_build,
+                r.stats.t_decomp, r.solve_ms, r.solve_sd, r.grad_ms, r.chol_solve_ms, r.q_hint, r.q_seed, r.lu_decomp,
                 r.lu_solve_ms, r.aabb_us);
+  std::fflush(stdout);
 }
 
 std::vector<double> parse_list(const std::string& s) {
@@ -153,7 +168,7 @@ int main(int argc, char** argv) {
   std::string assets = "assets", json_path = "bench_kelvin.json";
   int grid = 1000;
   long lu_max = 60000;
-  double wrench_lx = 0.0015;
+  double wrench_lx = 0.002, wrench_features = 180;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string k = argv[i], v = argv[i + 1];
     if (k == "--lx") lxs = parse_list(v);
@@ -161,6 +176,7 @@ int main(int argc, char** argv) {
     else if (k == "--lu-max") lu_max = std::stol(v);
     else if (k == "--assets") assets = v;
     else if (k == "--wrench-lx") wrench_lx = std::stod(v);
+    else if (k == "--wrench-features") wrench_features = std::stod(v);
     else if (k == "--json") json_path = v;
   }
   std::sort(lxs.rbegin(), lxs.rend());
@@ -186,7 +202,9 @@ int main(int argc, char** argv) {
   std::vector<std::vector<double>> planes;
   for (double lx : lxs) {
     std::optional<Field> kept;
-    rows.push_back(run(cube, lx, zero, path, random, lu_max, &kept));
+    PrepareOptions o;
+    o.lx = lx;
+    rows.push_back(run(cube, o, {zero}, path, random, lu_max, &kept));
     const Field& f = *kept;
     std::vector<double> plane(static_cast<size_t>(grid) * grid);
     int hint = -1;
@@ -196,6 +214,7 @@ int main(int argc, char** argv) {
             f.query(Vec3(-3 + 6.0 * (j + 0.5) / grid, -3 + 6.0 * (i + 0.5) / grid, 0), &hint).h;
     planes.push_back(std::move(plane));
     std::fprintf(stderr, "lx %.3g done (%ld vertices)\n", lx, rows.back().stats.n_verts);
+    print("Table I so far", {rows.back()});
   }
   for (size_t k = 0; k + 1 < rows.size(); ++k) {
     double sum = 0;
@@ -207,19 +226,29 @@ int main(int argc, char** argv) {
       }
     rows[k].rmse = std::sqrt(sum / std::max(n, 1L));
   }
-  print("Table I: unit cube (times in s, t_solve/chol_ms/LU_solve in ms, queries and AABB in µs)", rows);
+  std::printf("\nRMSE of h against l_x = %.3g on a %d × %d grid in [−3, 3]² (z = 0)\n", lxs.back(), grid, grid);
+  print("Table I: unit cube (times in s; t_solve, t_grad, chol_ms, LU_solve in ms; q_*, AABB in µs)", rows);
 
-  // Table II: the wrench, σ of case (c).
+  // Table II: the wrench, centre of inversion at its centre (as the paper), σ cases (a), (b), (c)
+  // of Section V-B (eq. 24, as in assets/wrench_case_*.json); t_solve of case (a).
   std::vector<Row> wrench_rows;
   try {
     const mesh::SurfaceMesh wrench = mesh::load_mesh(assets + "/wrench.stl");
-    SigmaSpec c;
-    c.axis.push_back({Vec3::UnitX(), Vec3::Zero(), 0.03, 1.0, 0.003});
+    std::vector<SigmaSpec> cases(3);
+    cases[0].axis.push_back({Vec3::UnitX(), Vec3::Zero(), 0.03, -1.0, 0.003});
+    cases[1].constant = -1.0;
+    cases[2].axis.push_back({Vec3::UnitX(), Vec3::Zero(), 0.03, 1.0, 0.003});
     std::vector<Vec3> wpath, wrandom;
     for (const Vec3& x : path) wpath.push_back(x * 0.04);
     for (const Vec3& x : random) wrandom.push_back(x * 0.04);
-    wrench_rows.push_back(run(wrench, wrench_lx, c, wpath, wrandom, lu_max));
-    print("Table II: combination wrench (case c)", wrench_rows);
+    PrepareOptions o;
+    o.lx = wrench_lx;
+    o.centre = Vec3::Zero();
+    o.feature_angle = wrench_features;
+    wrench_rows.push_back(run(wrench, o, cases, wpath, wrandom, lu_max));
+    print("Table II: combination wrench", wrench_rows);
+    std::printf("t_solve per case (a), (b), (c): %.2f, %.2f, %.2f ms\n", wrench_rows[0].case_solve_ms[0],
+                wrench_rows[0].case_solve_ms[1], wrench_rows[0].case_solve_ms[2]);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "wrench skipped: %s\n", e.what());
   }
