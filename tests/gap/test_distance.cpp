@@ -153,6 +153,27 @@ TEST(GapDistance, BatchEqualsSingleCalls) {
   }
 }
 
+// Starting from FCL's raw answer (no certified Euclidean result) changes nothing in GAP's output.
+TEST(GapDistance, RawFclStartGivesTheSameResult) {
+  GapParams certified = defaults(), raw = defaults();
+  raw.euclidean = false;
+  std::mt19937_64 rng(41);
+  int separated = 0;
+  for (int i = 0; i < 100; ++i) {
+    const GapBody a(test::random_polytope(rng, 10, 0.1), Pose{Vec3::Zero(), test::random_rotation(rng)}, raw);
+    const GapBody b(Capsule{0.05, 0.1}, Pose{0.3 * test::random_unit(rng), test::random_rotation(rng)}, raw);
+    const GapResult rc = gap_distance(a, b, certified), rr = gap_distance(a, b, raw);
+    EXPECT_EQ(rc.overlap, rr.overlap);
+    if (rc.overlap) continue;
+    ++separated;
+    EXPECT_FALSE(rr.euclidean_computed);
+    EXPECT_NEAR(rr.distance, rc.distance, 1e-12 * (1 + rc.distance));
+    EXPECT_LT((rr.witness_a - rc.witness_a).norm(), 1e-10);
+    EXPECT_LT((rr.gradient_a - rc.gradient_a).norm(), 1e-8);
+  }
+  EXPECT_GT(separated, 30);
+}
+
 TEST(GapDistance, PlainIterationAgreesWithNewton) {
   GapParams newton = defaults(), plain = defaults();
   plain.solver = GapSolver::fixed_point;

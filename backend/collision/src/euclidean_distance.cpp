@@ -70,6 +70,19 @@ Separation separation(const EuclideanShape& ea, const Placed& a, const Euclidean
 
 }  // namespace
 
+EuclideanResult fcl_distance(const EuclideanShape& a, const Pose& pose_a, const EuclideanShape& b,
+                             const Pose& pose_b) {
+  const Placed pa(a.shape(), pose_a), pb(b.shape(), pose_b);
+  const fcl::DistanceRequestd request(true, false, 0, 0, kFclTolerance, fcl::GST_LIBCCD);
+  fcl::DistanceResultd result;
+  EuclideanResult r;
+  r.distance = fcl::distance(a.fcl_geometry().get(), to_fcl(pa), b.fcl_geometry().get(),
+                             to_fcl(pb), request, result);
+  r.witness_a = result.nearest_points[0];
+  r.witness_b = result.nearest_points[1];
+  return r;
+}
+
 EuclideanResult euclidean_distance(const EuclideanShape& a, const Pose& pose_a,
                                    const EuclideanShape& b, const Pose& pose_b) {
   const Placed pa(a.shape(), pose_a), pb(b.shape(), pose_b);

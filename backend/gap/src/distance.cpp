@@ -38,7 +38,8 @@ GapBody::GapBody(const Shape& shape, const Pose& pose, const GapParams& params,
                  const P2SOptions& options, const std::string& field)
     : p2s_(shape, BaseFunction(params.h, params.k), StrictParams{params.eps, params.sigma},
            with_margin(options, params), field),
-      euclid_(shape) {
+      euclid_(shape),
+      radius_(bounding_ball(shape).radius) {
   p2s_.set_pose(pose);
 }
 
@@ -71,6 +72,17 @@ void solve_into(GapResult& r, const GapBody& a, const GapBody& b, const GapParam
 
 GapResult gap_distance(const GapBody& a, const GapBody& b, const GapParams& params) {
   GapResult r;
+  if (!params.euclidean) {
+    // FCL's raw answer is a good enough start; near contact (or FCL's "collision") the certified
+    // path below decides overlap with libccd.
+    r.euclidean = fcl_distance(a.euclidean(), a.pose(), b.euclidean(), b.pose());
+    if (r.euclidean.distance > 1e-6 * (a.radius() + b.radius())) {
+      r.euclidean_computed = false;
+      const Vec3 middle = 0.5 * (r.euclidean.witness_a + r.euclidean.witness_b);
+      solve_into(r, a, b, params, middle, middle, r.euclidean.witness_a);
+      return r;
+    }
+  }
   r.euclidean = euclidean_distance(a.euclidean(), a.pose(), b.euclidean(), b.pose());
   if (r.euclidean.distance <= 0.0) {
     // Definition 2 on overlap: any common point; Λ = 0 (Proposition 3).

@@ -38,6 +38,12 @@ struct EuclideanResult {
 EuclideanResult euclidean_distance(const EuclideanShape& a, const Pose& pose_a,
                                    const EuclideanShape& b, const Pose& pose_b);
 
+// FCL's distance and nearest points as FCL returns them: no certification, no gradients, and
+// distance <= 0 (FCL's "in collision") without a common point. The baseline a user would call,
+// and a cheap start for the GAP solver.
+EuclideanResult fcl_distance(const EuclideanShape& a, const Pose& pose_a, const EuclideanShape& b,
+                             const Pose& pose_b);
+
 // libccd intersection test (GJK). If the shapes intersect, returns a point common to both
 // (from MPR's penetration position, moved into the intersection); otherwise nullopt.
 std::optional<Vec3> common_point(const Shape& a, const Pose& pose_a, const Shape& b,

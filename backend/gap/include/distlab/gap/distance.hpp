@@ -25,6 +25,9 @@ struct GapParams {
   int max_iter = 0;
   GapSolver solver = GapSolver::newton;
   bool gradient = true;
+  // Also report the certified Euclidean distance (FCL checked by a duality gap). Off: the solver
+  // starts from FCL's raw answer and `euclidean` holds that raw answer (no gradients).
+  bool euclidean = true;
 
   int iteration_limit() const { return max_iter > 0 ? max_iter : (solver == GapSolver::newton ? 100 : 100000); }
 };
@@ -41,10 +44,12 @@ class GapBody {
   const Pose& pose() const { return p2s_.pose(); }
   const PointToSet& p2s() const { return p2s_; }
   const EuclideanShape& euclidean() const { return euclid_; }
+  double radius() const { return radius_; }  // of the shape's bounding ball
 
  private:
   PointToSet p2s_;
   EuclideanShape euclid_;
+  double radius_;
 };
 
 struct GapResult {
@@ -56,7 +61,8 @@ struct GapResult {
   bool converged = true;
   bool overlap = false;
   EuclideanResult euclidean;
-  bool euclidean_computed = true;  // false from gap_distance_warm
+  // false from gap_distance_warm (empty) and with params.euclidean off (FCL's raw answer)
+  bool euclidean_computed = true;
   // dD/d(v, ω) of each shape, world frame, ω about the shape's own origin (zero on overlap).
   Vec6 gradient_a = Vec6::Zero();
   Vec6 gradient_b = Vec6::Zero();
