@@ -1,6 +1,7 @@
 // `distlab serve`: the HTTP + WebSocket service on one port (REST under /api, the WebSocket at
 // /ws, the front end's static files from --web). Stops gracefully on SIGINT/SIGTERM: the
 // listener closes, running jobs are cancelled, WebSocket clients get a close frame.
+#include <csignal>
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
@@ -101,6 +102,7 @@ int run_serve(const std::vector<std::string>& args, std::istream&, std::ostream&
     return 2;
   }
   if (lim.max_upload_bytes < lim.max_body_bytes) lim.max_upload_bytes = lim.max_body_bytes;
+  std::signal(SIGPIPE, SIG_IGN);  // a peer closing mid-write is an error code, not a signal
   try {
     server::Service service(config);
     server::HttpServer http(service, host, static_cast<unsigned short>(port));

@@ -11,6 +11,7 @@
 #include <chrono>
 #include <cstdio>
 #include <deque>
+#include <optional>
 #include <thread>
 
 namespace distlab::server {
@@ -76,19 +77,19 @@ class WsConnection : public WsSink, public std::enable_shared_from_this<WsConnec
 
   void send(std::string data, bool binary) override {
     net::post(ws_.get_executor(), [self = shared_from_this(), data = std::move(data), binary]() mutable {
-      if (self->closed_) return;
+      if (self->closed_ || self->close_code_) return;
       if (self->queue_.size() >= self->service_.config().limits.max_ws_queue) {
         // A client that does not read: drop it rather than grow without bound.
-        self->do_close(websocket::close_code::policy_error);
+        self->request_close(websocket::close_code::policy_error);
         return;
       }
       self->queue_.emplace_back(std::move(data), binary);
-      if (self->queue_.size() == 1) self->do_write();
+      if (!self->writing_) self->do_write();
     });
   }
 
   void close() override {
-    net::post(ws_.get_executor(), [self = shared_from_this()] { self->do_close(websocket::close_code::going_away); });
+    net::post(ws_.get_executor(), [self = shared_from_this()] { self->request_close(websocket::close_code::going_away); });
   }
 
  private:
@@ -104,9 +105,9 @@ class WsConnection : public WsSink, public std::enable_shared_from_this<WsConnec
   }
 
   void on_read(beast::error_code ec, std::size_t) {
-    if (ec) {
-      if (ec == websocket::error::message_too_big && !closed_) do_close(websocket::close_code::too_big);
+    if (ec) {  // closed, or failed (Beast itself answers an oversized message with close 1009)
       closed_ = true;
+      queue_.clear();
       return;
     }
     // Token bucket: rate and burst from the limits; an empty bucket answers an error, and a
@@ -123,8 +124,8 @@ class WsConnection : public WsSink, public std::enable_shared_from_this<WsConnec
       refused_ = 0;
       auto self = shared_from_this();
       service_.ws_message(session_, self, data, binary);
-    } else if (++refused_ > static_cast<std::size_t>(lim.ws_burst)) {
-      do_close(websocket::close_code::policy_error);
+    } else if (++refused_ > std::max<std::size_t>(50, static_cast<std::size_t>(10 * lim.ws_burst))) {
+      request_close(websocket::close_code::policy_error);
       return;
     } else {
       send(nlohmann::json{{"type", "error"}, {"status", 429},
@@ -135,26 +136,37 @@ class WsConnection : public WsSink, public std::enable_shared_from_this<WsConnec
     do_read();
   }
 
+  // One write at a time; a close waits for the write in flight (a close is a write too).
   void do_write() {
+    if (queue_.empty() || closed_) return;
+    writing_ = true;
     ws_.binary(queue_.front().second);
     ws_.async_write(net::buffer(queue_.front().first), beast::bind_front_handler(&WsConnection::on_write, shared_from_this()));
   }
 
   void on_write(beast::error_code ec, std::size_t) {
+    writing_ = false;
     if (ec) {
       closed_ = true;
       queue_.clear();
       return;
     }
-    queue_.pop_front();
-    if (!queue_.empty() && !closed_) do_write();
+    if (!queue_.empty()) queue_.pop_front();
+    if (close_code_) return start_close();
+    do_write();
   }
 
-  void do_close(websocket::close_code code) {
+  void request_close(websocket::close_code code) {
+    if (closed_ || close_code_) return;
+    close_code_ = code;
+    if (!writing_) start_close();
+  }
+
+  void start_close() {
+    queue_.clear();
     if (closed_ || !accepted_) return;
     closed_ = true;
-    queue_.clear();
-    ws_.async_close(code, [self = shared_from_this()](beast::error_code) {});
+    ws_.async_close(*close_code_, [self = shared_from_this()](beast::error_code) {});
   }
 
   websocket::stream<beast::tcp_stream> ws_;
@@ -162,7 +174,8 @@ class WsConnection : public WsSink, public std::enable_shared_from_this<WsConnec
   Service& service_;
   std::shared_ptr<Session> session_;
   std::deque<std::pair<std::string, bool>> queue_;
-  bool closed_ = false, accepted_ = false;
+  bool closed_ = false, accepted_ = false, writing_ = false;
+  std::optional<websocket::close_code> close_code_;
   double tokens_;
   std::size_t refused_ = 0;
   std::chrono::steady_clock::time_point last_refill_;
@@ -188,6 +201,8 @@ class HttpConnection : public std::enable_shared_from_this<HttpConnection> {
   void on_header(beast::error_code ec, std::size_t) {
     if (ec == http::error::end_of_stream) return do_shutdown();
     if (ec == http::error::header_limit) return fail_and_close(431, "header_too_large", "request headers are too large");
+    if (ec == http::error::body_limit)
+      return fail_and_close(413, "body_too_large", "the request body exceeds the limit");
     if (ec) {
       if (ec != beast::error::timeout && ec != net::error::operation_aborted && ec != net::error::connection_reset)
         return fail_and_close(400, "bad_request", "malformed HTTP request");

@@ -1,0 +1,232 @@
+#pragma once
+// Starts the real `distlab serve` (port 0: it prints the port it got) with a temporary cache and
+// web directory, waits for /api/health, and stops it with SIGTERM, expecting a clean exit (a
+// sanitizer report or a crash fails the test). Plus a small Beast WebSocket client.
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <boost/asio/connect.hpp>
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/websocket.hpp>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <httplib.h>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+namespace distlab::test {
+
+using json = nlohmann::json;
+namespace fs = std::filesystem;
+
+inline std::string temp_dir(const std::string& prefix) {
+  std::random_device rd;
+  const fs::path p = fs::temp_directory_path() / (prefix + "-" + std::to_string(rd()) + std::to_string(::getpid()));
+  fs::create_directories(p);
+  return p.string();
+}
+
+class ServerProcess {
+ public:
+  // extra: more `distlab serve` options (limits). cache_dir "" makes a fresh one.
+  explicit ServerProcess(std::vector<std::string> extra = {}, std::string cache_dir = "") {
+    ::signal(SIGPIPE, SIG_IGN);  // a server closing on a refused upload must not kill the test
+    cache_dir_ = cache_dir.empty() ? temp_dir("distlab-test-cache") : cache_dir;
+    own_cache_ = cache_dir.empty();
+    web_dir_ = temp_dir("distlab-test-web");
+    std::ofstream(fs::path(web_dir_) / "index.html") << "<!doctype html><title>distlab test</title>\n";
+    fs::create_directories(fs::path(web_dir_) / "js");
+    std::ofstream(fs::path(web_dir_) / "js" / "app.js") << "console.log('distlab');\n";
+    std::ofstream(fs::path(web_dir_).parent_path() / (fs::path(web_dir_).filename().string() + "-secret.txt")) << "secret\n";
+    start(std::move(extra));
+  }
+  ~ServerProcess() {
+    if (pid_ > 0) stop();
+    std::error_code ec;
+    fs::remove_all(web_dir_, ec);
+    fs::remove(fs::path(web_dir_).parent_path() / (fs::path(web_dir_).filename().string() + "-secret.txt"), ec);
+    if (own_cache_) fs::remove_all(cache_dir_, ec);
+  }
+  ServerProcess(const ServerProcess&) = delete;
+  ServerProcess& operator=(const ServerProcess&) = delete;
+
+  int port() const { return port_; }
+  const std::string& cache_dir() const { return cache_dir_; }
+  const std::string& web_dir() const { return web_dir_; }
+  httplib::Client client() const {
+    httplib::Client c("127.0.0.1", port_);
+    c.set_read_timeout(120, 0);
+    c.set_write_timeout(60, 0);
+    return c;
+  }
+
+  // SIGTERM and wait; returns the exit status (0 expected).
+  int stop() {
+    if (pid_ <= 0) return -1;
+    ::kill(pid_, SIGTERM);
+    int status = 0;
+    for (int i = 0; i < 300; ++i) {  // 30 s
+      if (::waitpid(pid_, &status, WNOHANG) == pid_) {
+        pid_ = -1;
+        if (out_) std::fclose(out_);
+        out_ = nullptr;
+        return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    ::kill(pid_, SIGKILL);
+    ::waitpid(pid_, &status, 0);
+    pid_ = -1;
+    return 137;
+  }
+
+ private:
+  void start(std::vector<std::string> extra) {
+    std::vector<std::string> args = {DISTLAB_EXE, "serve", "--host", "127.0.0.1", "--port", "0",
+                                     "--cache-dir", cache_dir_, "--web", web_dir_,
+                                     "--assets", std::string(DISTLAB_SOURCE_DIR) + "/assets", "--threads", "2"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    int fds[2];
+    ASSERT_EQ(::pipe(fds), 0);
+    pid_ = ::fork();
+    ASSERT_GE(pid_, 0);
+    if (pid_ == 0) {
+      ::dup2(fds[1], 1);
+      ::close(fds[0]);
+      ::close(fds[1]);
+      std::vector<char*> argv;
+      for (auto& a : args) argv.push_back(a.data());
+      argv.push_back(nullptr);
+      ::execv(argv[0], argv.data());
+      ::_exit(127);
+    }
+    ::close(fds[1]);
+    out_ = ::fdopen(fds[0], "r");
+    char line[1024] = {0};
+    ASSERT_NE(std::fgets(line, sizeof line, out_), nullptr) << "the server printed nothing";
+    const std::string s = line;
+    const auto colon = s.find("127.0.0.1:");
+    ASSERT_NE(colon, std::string::npos) << s;
+    port_ = std::stoi(s.substr(colon + 10));
+    auto c = client();
+    for (int i = 0; i < 100; ++i) {
+      if (auto r = c.Get("/api/health"); r && r->status == 200) return;
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    FAIL() << "no /api/health";
+  }
+
+  pid_t pid_ = -1;
+  FILE* out_ = nullptr;
+  int port_ = 0;
+  std::string cache_dir_, web_dir_;
+  bool own_cache_ = true;
+};
+
+inline json body_json(const httplib::Result& r) {
+  if (!r) return json();
+  return json::parse(r->body, nullptr, false);
+}
+
+inline std::string new_session(httplib::Client& c) {
+  auto r = c.Post("/api/session", "", "application/json");
+  if (!r || r->status != 201) return "";
+  return body_json(r)["session"].get<std::string>();
+}
+
+inline httplib::Headers session_headers(const std::string& id) { return {{"X-Distlab-Session", id}}; }
+
+// A blocking WebSocket client with timeouts (Boost.Beast).
+class WsClient {
+ public:
+  struct Message {
+    std::string data;
+    bool binary = false;
+    json j;  // parsed: JSON text or msgpack
+  };
+
+  WsClient(int port, const std::string& session) : ws_(ioc_) {
+    namespace net = boost::asio;
+    net::ip::tcp::resolver resolver(ioc_);
+    auto results = resolver.resolve("127.0.0.1", std::to_string(port));
+    boost::beast::get_lowest_layer(ws_).connect(results);
+    ws_.handshake("127.0.0.1:" + std::to_string(port), "/ws?session=" + session);
+  }
+
+  void send(const json& j) { ws_.write(boost::asio::buffer(j.dump())); }
+  void send_raw(const std::string& s) { ws_.write(boost::asio::buffer(s)); }
+
+  // Next message, or false after timeout seconds / on close (error() then says why).
+  bool read(Message& m, double timeout = 30) {
+    boost::beast::flat_buffer buffer;
+    bool done = false;
+    error_ = {};
+    boost::beast::get_lowest_layer(ws_).expires_after(std::chrono::milliseconds(static_cast<long>(timeout * 1000)));
+    ws_.async_read(buffer, [&](boost::beast::error_code ec, std::size_t) {
+      error_ = ec;
+      done = true;
+    });
+    ioc_.restart();
+    ioc_.run();
+    if (!done || error_) return false;
+    m.data = boost::beast::buffers_to_string(buffer.data());
+    m.binary = ws_.got_binary();
+    m.j = m.binary ? json::from_msgpack(m.data, true, false) : json::parse(m.data, nullptr, false);
+    return true;
+  }
+
+  // Reads until pred(message) holds; false on timeout/close.
+  bool until(const std::function<bool(const Message&)>& pred, Message& out, double timeout = 60) {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(static_cast<long>(timeout * 1000));
+    while (std::chrono::steady_clock::now() < end) {
+      const double left = std::chrono::duration<double>(end - std::chrono::steady_clock::now()).count();
+      if (!read(out, std::max(0.01, left))) return false;
+      if (pred(out)) return true;
+    }
+    return false;
+  }
+
+  boost::beast::error_code error() const { return error_; }
+  boost::beast::websocket::close_reason close_reason() const { return ws_.reason(); }
+
+ private:
+  boost::asio::io_context ioc_;
+  boost::beast::websocket::stream<boost::beast::tcp_stream> ws_;
+  boost::beast::error_code error_;
+};
+
+// Raw HTTP over a socket, for requests a client library would normalise (traversal attempts).
+inline std::string raw_http(int port, const std::string& request) {
+  namespace net = boost::asio;
+  net::io_context ioc;
+  net::ip::tcp::socket s(ioc);
+  s.connect({net::ip::make_address("127.0.0.1"), static_cast<unsigned short>(port)});
+  net::write(s, net::buffer(request));
+  std::string out;
+  boost::system::error_code ec;
+  char buf[4096];
+  for (;;) {
+    const std::size_t n = s.read_some(net::buffer(buf), ec);
+    out.append(buf, n);
+    if (ec) break;
+  }
+  return out;
+}
+
+inline int raw_status(const std::string& response) {
+  if (response.size() < 12) return 0;
+  return std::atoi(response.substr(9, 3).c_str());
+}
+
+}  // namespace distlab::test

@@ -1,0 +1,401 @@
+// The service's API without Kelvin preparation: health, version, OpenAPI coverage, sessions,
+// GAP distance and level sets, static files, and every kind of bad input.
+#include <set>
+
+#include "distlab/server/frames.hpp"
+#include "distlab/server/service.hpp"
+#include "server/server_fixture.hpp"
+
+namespace distlab::test {
+namespace {
+
+ServerProcess* g_server = nullptr;
+
+class Api : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() { g_server = new ServerProcess(); }
+  static void TearDownTestSuite() {
+    EXPECT_EQ(g_server->stop(), 0) << "the server did not exit cleanly";
+    delete g_server;
+    g_server = nullptr;
+  }
+  httplib::Client c = g_server->client();
+};
+
+void expect_error(const httplib::Result& r, int status, const std::string& code, const std::string& field = "*") {
+  ASSERT_TRUE(r) << "no response";
+  EXPECT_EQ(r->status, status) << r->body;
+  const json j = body_json(r);
+  ASSERT_TRUE(j.is_object() && j.contains("error")) << r->body;
+  if (code != "*") {
+    EXPECT_EQ(j["error"]["code"], code) << r->body;
+  }
+  EXPECT_TRUE(j["error"]["message"].is_string());
+  ASSERT_TRUE(j["error"]["field"].is_string());
+  if (field != "*") {
+    EXPECT_EQ(j["error"]["field"], field) << r->body;
+  }
+}
+
+const char* kPair = R"({"a": {"type": "box", "size": [1, 1, 1]},
+  "b": {"type": "sphere", "radius": 0.5, "pose": {"position": [2, 0, 0]}}})";
+
+TEST_F(Api, HealthAndVersion) {
+  auto r = c.Get("/api/health");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200);
+  EXPECT_EQ(body_json(r)["status"], "ok");
+  EXPECT_EQ(r->get_header_value("Content-Type"), "application/json");
+  r = c.Get("/api/version");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(body_json(r)["name"], "distlab");
+  EXPECT_TRUE(body_json(r)["version"].is_string());
+  r = c.Get("/api/limits");
+  ASSERT_TRUE(r);
+  EXPECT_GT(body_json(r)["max_body_bytes"].get<long>(), 0);
+}
+
+TEST_F(Api, OpenApiDocumentsEveryRouteAndNothingElse) {
+  auto r = c.Get("/api/openapi.json");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200);
+  const json doc = body_json(r);
+  ASSERT_TRUE(doc.is_object());
+  EXPECT_EQ(doc["openapi"], "3.1.0");
+  const json& paths = doc["paths"];
+  // The routes the server really registers (the same Service the binary runs).
+  server::ServiceConfig cfg;
+  cfg.cache_dir = temp_dir("distlab-openapi");
+  cfg.compute_threads = cfg.job_threads = 1;
+  std::set<std::string> registered, documented;
+  {
+    server::Service service(cfg);
+    for (const auto& route : service.router().routes()) {
+      std::string m = route.method;
+      for (auto& ch : m) ch = static_cast<char>(std::tolower(ch));
+      registered.insert(m + " " + route.pattern);
+    }
+  }
+  fs::remove_all(cfg.cache_dir);
+  for (const auto& [path, ops] : paths.items())
+    for (const auto& [method, op] : ops.items()) {
+      documented.insert(method + " " + path);
+      EXPECT_TRUE(op.contains("responses")) << method << " " << path;
+      EXPECT_TRUE(op.contains("summary")) << method << " " << path;
+    }
+  documented.erase("get /ws");  // the WebSocket upgrade is served by the transport, not the router
+  EXPECT_EQ(registered, documented);
+  // And every documented operation exists on the live server: no unknown_route / 405.
+  for (const auto& [path, ops] : paths.items()) {
+    if (path == "/ws") continue;
+    std::string p = path;
+    for (std::size_t b; (b = p.find('{')) != std::string::npos;) p.replace(b, p.find('}') - b + 1, "0123");
+    for (const auto& [method, op] : ops.items()) {
+      auto send = [&]() {
+        if (method == "post") return c.Post(p.c_str(), "", "application/json");
+        if (method == "put") return c.Put(p.c_str(), "", "application/json");
+        if (method == "delete") return c.Delete(p.c_str());
+        return c.Get(p.c_str());
+      };
+      auto res = send();
+      ASSERT_TRUE(res) << method << " " << p;
+      EXPECT_NE(res->status, 405) << method << " " << p;
+      if (res->status == 404) {
+        EXPECT_NE(body_json(res)["error"]["code"], "unknown_route") << method << " " << p;
+      }
+      // Documented statuses only.
+      EXPECT_TRUE(op["responses"].contains(std::to_string(res->status)))
+          << method << " " << p << " answered " << res->status << " " << res->body;
+    }
+  }
+}
+
+TEST_F(Api, UnknownRouteAndMethod) {
+  expect_error(c.Get("/api/nope"), 404, "unknown_route");
+  expect_error(c.Delete("/api/health"), 405, "method_not_allowed");
+  expect_error(c.Post("/api/gap/nope", "{}", "application/json"), 404, "unknown_route");
+}
+
+TEST_F(Api, GapDistanceOnePairAndBatch) {
+  auto r = c.Post("/api/gap/distance", kPair, "application/json");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200) << r->body;
+  json j = body_json(r);
+  EXPECT_TRUE(j["converged"].get<bool>());
+  EXPECT_NEAR(j["euclidean"]["distance"].get<double>(), 1.0, 1e-6);
+  EXPECT_GT(j["distance"].get<double>(), 0.0);
+  const json pair = json::parse(kPair);
+  json batch = {{"pairs", json::array({pair, pair, pair})}, {"params", {{"gradient", false}}}};
+  r = c.Post("/api/gap/distance", batch.dump(), "application/json");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200) << r->body;
+  j = body_json(r);
+  ASSERT_EQ(j["results"].size(), 3u);
+  EXPECT_DOUBLE_EQ(j["results"][0]["distance"].get<double>(), j["results"][2]["distance"].get<double>());
+}
+
+TEST_F(Api, GapBadInputs) {
+  expect_error(c.Post("/api/gap/distance", "{\"a\": ", "application/json"), 400, "malformed_json");
+  expect_error(c.Post("/api/gap/distance", "", "application/json"), 400, "empty_body");
+  expect_error(c.Post("/api/gap/distance", "[1, 2]", "application/json"), 400, "invalid_input");
+  json bad = json::parse(kPair);
+  bad["b"]["radius"] = "big";
+  expect_error(c.Post("/api/gap/distance", bad.dump(), "application/json"), 400, "invalid_input", "b.radius");
+  bad = json::parse(kPair);
+  bad["a"]["size"][1] = -1;
+  expect_error(c.Post("/api/gap/distance", bad.dump(), "application/json"), 400, "invalid_input", "a.size[1]");
+  bad = json::parse(kPair);
+  bad["params"] = {{"k", 99}};
+  expect_error(c.Post("/api/gap/distance", bad.dump(), "application/json"), 400, "invalid_input", "params.k");
+  expect_error(c.Post("/api/gap/distance", "{\"a\": 1e999}", "application/json"), 400, "invalid_input");
+  std::string deep(10000, '[');
+  expect_error(c.Post("/api/gap/distance", deep, "application/json"), 400, "*");
+  json many = {{"pairs", json::array()}};
+  for (int i = 0; i < 2001; ++i) many["pairs"].push_back(json::parse(kPair));
+  expect_error(c.Post("/api/gap/distance", many.dump(), "application/json"), 413, "too_many_pairs", "pairs");
+  // Binary junk and invalid UTF-8 never crash the server.
+  std::string junk;
+  for (int i = 0; i < 4096; ++i) junk.push_back(static_cast<char>((i * 7919) & 0xFF));
+  auto r = c.Post("/api/gap/distance", junk, "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 400);
+  EXPECT_EQ(c.Get("/api/health")->status, 200);
+}
+
+TEST_F(Api, BodyTooLarge) {
+  std::string big(9u << 20, ' ');  // over the 8 MiB default
+  auto r = c.Post("/api/gap/distance", big, "application/json");
+  if (r) {  // the server answers 413 and closes; a client may see the reset first
+    expect_error(r, 413, "body_too_large");
+  }
+  // A raw request announcing a huge body is refused before it is sent.
+  const std::string resp = raw_http(g_server->port(),
+                                    "POST /api/gap/distance HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+                                    "Content-Length: 100000000000\r\nConnection: close\r\n\r\n");
+  EXPECT_EQ(raw_status(resp), 413) << resp;
+  EXPECT_EQ(c.Get("/api/health")->status, 200);
+}
+
+TEST_F(Api, MalformedHttpAndHugeHeaders) {
+  std::string resp = raw_http(g_server->port(), "GARBAGE\r\n\r\n");
+  EXPECT_EQ(raw_status(resp), 400) << resp;
+  resp = raw_http(g_server->port(), "GET /api/health HTTP/1.1\r\nHost: x\r\nX-Big: " + std::string(20000, 'a') +
+                                        "\r\nConnection: close\r\n\r\n");
+  EXPECT_EQ(raw_status(resp), 431) << resp;
+  EXPECT_EQ(c.Get("/api/health")->status, 200);
+}
+
+TEST_F(Api, StaticFilesAndNoTraversal) {
+  auto r = c.Get("/");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200);
+  EXPECT_NE(r->body.find("distlab test"), std::string::npos);
+  EXPECT_EQ(r->get_header_value("Content-Type"), "text/html; charset=utf-8");
+  r = c.Get("/js/app.js");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200);
+  EXPECT_EQ(r->get_header_value("Content-Type"), "text/javascript; charset=utf-8");
+  expect_error(c.Get("/missing.png"), 404, "not_found");
+  const std::string secret = fs::path(g_server->web_dir()).filename().string() + "-secret.txt";
+  for (const std::string& target : std::vector<std::string>{"/../../etc/passwd", "/%2e%2e/%2e%2e/etc/passwd", "/%2E%2E/%2E%2E/etc/passwd", "/js/../../" + secret,
+        "/%2e%2e/" + secret, "/..%2f" + secret, "/..%5c" + secret, "/js/%2e%2e/%2e%2e/" + secret,
+        "/%00/etc/passwd", "/%2e%2e%2f%2e%2e%2fetc%2fpasswd", "//etc/passwd", "/./../" + secret}) {
+    const std::string resp =
+        raw_http(g_server->port(), "GET " + target + " HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n");
+    EXPECT_TRUE(raw_status(resp) == 404 || raw_status(resp) == 400) << target << "\n" << resp;
+    EXPECT_EQ(resp.find("root:"), std::string::npos) << target;
+    EXPECT_EQ(resp.find("secret"), std::string::npos) << target;
+  }
+}
+
+TEST_F(Api, SessionsAreIsolatedAndUnguessable) {
+  const std::string a = new_session(c), b = new_session(c);
+  ASSERT_EQ(a.size(), 32u);
+  ASSERT_NE(a, b);
+  auto r = c.Get("/api/session", session_headers(a));
+  ASSERT_TRUE(r);
+  EXPECT_EQ(body_json(r)["session"], a);
+  expect_error(c.Get("/api/session"), 401, "session_required");
+  expect_error(c.Get("/api/session", session_headers("0123456789abcdef0123456789abcdef")), 404, "unknown_session");
+  expect_error(c.Get("/api/kelvin/objects", session_headers(a + "x")), 404, "unknown_session");
+  // Cookie works too.
+  r = c.Get("/api/session", {{"Cookie", "theme=dark; distlab_session=" + b}});
+  ASSERT_TRUE(r);
+  EXPECT_EQ(body_json(r)["session"], b);
+  // A's inline object is invisible to B.
+  json cube = {{"mesh", {{"vertices", {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}}},
+                         {"faces", {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}}}}},
+               {"lx", 0.3}};
+  r = c.Post("/api/kelvin/objects", session_headers(a), cube.dump(), "application/json");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 202) << r->body;
+  const std::string id = body_json(r)["object"]["id"];
+  const std::string job = body_json(r)["job"]["id"];
+  EXPECT_EQ(c.Get(("/api/kelvin/objects/" + id).c_str(), session_headers(a))->status, 200);
+  expect_error(c.Get(("/api/kelvin/objects/" + id).c_str(), session_headers(b)), 404, "unknown_object");
+  expect_error(c.Put(("/api/kelvin/objects/" + id + "/sigma").c_str(), session_headers(b), "{\"constant\": 1}", "application/json"),
+               404, "unknown_object");
+  expect_error(c.Delete(("/api/kelvin/objects/" + id).c_str(), session_headers(b)), 404, "unknown_object");
+  expect_error(c.Get(("/api/jobs/" + job).c_str(), session_headers(b)), 404, "unknown_job");
+  expect_error(c.Post(("/api/jobs/" + job + "/cancel").c_str(), session_headers(b), "", "application/json"), 404, "unknown_job");
+  EXPECT_EQ(body_json(c.Get("/api/kelvin/objects", session_headers(b)))["objects"].size(), 0u);
+  EXPECT_EQ(body_json(c.Get("/api/jobs", session_headers(b)))["jobs"].size(), 0u);
+  // Deleting A ends it.
+  EXPECT_EQ(c.Delete("/api/session", session_headers(a))->status, 204);
+  expect_error(c.Get("/api/session", session_headers(a)), 404, "unknown_session");
+}
+
+TEST_F(Api, GapLevelsetsMsgpack) {
+  json req = {{"shape", {{"type", "box"}, {"size", {1, 0.6, 0.4}}}},
+              {"levels", {{"weak", {0.05, 0.2}}, {"strict", {0.1}}}},
+              {"grid", {{"resolution", 32}}},
+              {"plane", {{"normal", {0, 0, 1}}, {"size", {3, 3}}, {"resolution", {64, 48}}}}};
+  auto r = c.Post("/api/gap/levelsets", req.dump(), "application/json");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200) << r->body;
+  EXPECT_EQ(r->get_header_value("Content-Type"), "application/msgpack");
+  const json doc = json::from_msgpack(r->body);
+  EXPECT_EQ(doc["type"], "gap_levelsets");
+  ASSERT_EQ(doc["surfaces"].size(), 3u);
+  for (std::size_t i = 0; i < 3; ++i) {
+    const json& s = doc["surfaces"][i];
+    EXPECT_EQ(s["field"], i < 2 ? "weak" : "strict");
+    const auto pos = server::read_float32(s["positions"]);
+    const auto idx = server::read_uint32(s["indices"]);
+    ASSERT_GT(s["n_faces"].get<long>(), 10);
+    EXPECT_EQ(pos.size(), 3u * s["n_vertices"].get<std::size_t>());
+    EXPECT_EQ(idx.size(), 3u * s["n_faces"].get<std::size_t>());
+    for (auto k : idx) ASSERT_LT(k, s["n_vertices"].get<std::uint32_t>());
+
+  }
+  const auto weak = server::read_float32(doc["plane"]["weak"]);
+  const auto strict = server::read_float32(doc["plane"]["strict"]);
+  ASSERT_EQ(weak.size(), 64u * 48u);
+  ASSERT_EQ(strict.size(), 64u * 48u);
+  // The centre of the plane is inside the box: both fields vanish there (nearly: the lattice
+  // has no node exactly at the centre), and they grow towards the corners.
+  EXPECT_LT(weak[32 + 64 * 24], 1e-6);
+  EXPECT_GT(weak[0], 0.1);
+  EXPECT_GT(strict[0], 0.0);
+  // format=json gives a summary.
+  req["format"] = "json";
+  r = c.Post("/api/gap/levelsets", req.dump(), "application/json");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200);
+  EXPECT_GT(body_json(r)["surfaces"][0]["n_faces"].get<long>(), 0);
+}
+
+TEST_F(Api, GapLevelsetsBadInputs) {
+  json ok = {{"shape", {{"type", "sphere"}, {"radius", 0.5}}}, {"levels", {{"weak", {0.1}}}}};
+  json bad = ok;
+  bad["levels"]["weak"] = {-1};
+  expect_error(c.Post("/api/gap/levelsets", bad.dump(), "application/json"), 400, "invalid_input", "levels.weak[0]");
+  bad = ok;
+  bad["grid"] = {{"resolution", 100000}};
+  expect_error(c.Post("/api/gap/levelsets", bad.dump(), "application/json"), 400, "invalid_input", "grid.resolution");
+  bad = ok;
+  bad["grid"] = {{"resolution", "fine"}};
+  expect_error(c.Post("/api/gap/levelsets", bad.dump(), "application/json"), 400, "invalid_input", "grid.resolution");
+  bad = ok;
+  bad["plane"] = {{"normal", {0, 0, 0}}};
+  expect_error(c.Post("/api/gap/levelsets", bad.dump(), "application/json"), 400, "invalid_input", "plane.normal");
+  bad = ok;
+  bad["shape"]["radius"] = -2;
+  expect_error(c.Post("/api/gap/levelsets", bad.dump(), "application/json"), 400, "invalid_input", "shape.radius");
+  bad = ok;
+  bad["surprise"] = 1;
+  expect_error(c.Post("/api/gap/levelsets", bad.dump(), "application/json"), 400, "invalid_input", "surprise");
+  bad = ok;
+  bad["levels"]["weak"] = json::array();
+  for (int i = 0; i < 100; ++i) bad["levels"]["weak"].push_back(0.1 + i);
+  expect_error(c.Post("/api/gap/levelsets", bad.dump(), "application/json"), 413, "too_many_levels", "levels.weak");
+}
+
+TEST_F(Api, WebSocketNeedsASessionAndSurvivesBadMessages) {
+  // No or unknown session: the upgrade is refused.
+  EXPECT_THROW(WsClient(g_server->port(), "nope"), std::exception);
+  const std::string s = new_session(c);
+  WsClient ws(g_server->port(), s);
+  WsClient::Message m;
+  ASSERT_TRUE(ws.read(m));
+  EXPECT_EQ(m.j["type"], "hello");
+  EXPECT_EQ(m.j["session"], s);
+  ws.send({{"type", "ping"}});
+  ASSERT_TRUE(ws.read(m));
+  EXPECT_EQ(m.j["type"], "pong");
+  ws.send_raw("{not json");
+  ASSERT_TRUE(ws.read(m));
+  EXPECT_EQ(m.j["type"], "error");
+  EXPECT_EQ(m.j["error"]["code"], "malformed_json");
+  ws.send({{"type", "teleport"}});
+  ASSERT_TRUE(ws.read(m));
+  EXPECT_EQ(m.j["error"]["field"], "type");
+  ws.send({{"type", "sigma"}, {"object", "0123"}, {"sigma", {{"constant", 1}}}});
+  ASSERT_TRUE(ws.read(m));
+  EXPECT_EQ(m.j["error"]["code"], "unknown_object");
+  ws.send({{"type", "cancel"}, {"job", "0123"}});
+  ASSERT_TRUE(ws.read(m));
+  EXPECT_EQ(m.j["error"]["code"], "unknown_job");
+  EXPECT_EQ(c.Get("/api/health")->status, 200);
+}
+
+TEST(ApiLimits, WebSocketMessageSizeAndRate) {
+  ServerProcess server({"--max-ws-message-bytes", "1000", "--ws-rate", "5", "--ws-burst", "5"});
+  auto c = server.client();
+  const std::string s = new_session(c);
+  {
+    WsClient ws(server.port(), s);
+    WsClient::Message m;
+    ASSERT_TRUE(ws.read(m));  // hello
+    int errors = 0, pongs = 0;
+    for (int i = 0; i < 20; ++i) ws.send({{"type", "ping"}});
+    for (int i = 0; i < 20 && ws.read(m, 5); ++i) {
+      if (m.j["type"] == "pong") ++pongs;
+      if (m.j["type"] == "error" && m.j["error"]["code"] == "rate_limited") ++errors;
+    }
+    EXPECT_GE(pongs, 4);
+    EXPECT_LE(pongs, 8);
+    EXPECT_GE(errors, 12);
+    // A client that keeps going far past the limit is disconnected (1008).
+    try {
+      for (int i = 0; i < 300; ++i) ws.send({{"type", "ping"}});
+    } catch (const std::exception&) {  // the server may close before the last ones are sent
+    }
+    while (ws.read(m, 5)) {
+    }
+    EXPECT_EQ(ws.close_reason().code, boost::beast::websocket::close_code::policy_error);
+  }
+  {
+    WsClient ws(server.port(), s);
+    WsClient::Message m;
+    ASSERT_TRUE(ws.read(m));  // hello
+    try {
+      ws.send_raw(std::string(5000, ' '));
+    } catch (const std::exception&) {  // the server may close while the frame is being sent
+    }
+    EXPECT_FALSE(ws.read(m, 10));  // closed: message too big
+  }
+  EXPECT_EQ(c.Get("/api/health")->status, 200);
+  EXPECT_EQ(server.stop(), 0);
+}
+
+TEST(ApiLimits, SmallBodyLimitAndSessionLimit) {
+  ServerProcess server({"--max-body-bytes", "2000", "--max-sessions", "2"});
+  auto c = server.client();
+  std::string body = std::string(R"({"a": {"type": "sphere", "radius": 1}, "b": {"type": "sphere", "radius": 1, "pose": {"position": [3, 0, 0]}}, "comment": ")") +
+                     std::string(3000, 'x') + "\"}";
+  auto r = c.Post("/api/gap/distance", body, "application/json");
+  if (r) {
+    EXPECT_EQ(r->status, 413);
+  }
+  EXPECT_FALSE(new_session(c).empty());
+  EXPECT_FALSE(new_session(c).empty());
+  auto r3 = c.Post("/api/session", "", "application/json");
+  ASSERT_TRUE(r3);
+  EXPECT_EQ(r3->status, 429);
+  EXPECT_EQ(body_json(r3)["error"]["code"], "too_many_sessions");
+  EXPECT_EQ(server.stop(), 0);
+}
+
+}  // namespace
+}  // namespace distlab::test

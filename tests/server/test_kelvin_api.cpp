@@ -1,0 +1,391 @@
+// Kelvin objects through the service: prepare jobs with progress over the WebSocket, σ in every
+// form, queries, iso-surface frames (WebSocket and REST), exports, uploads, limits, two sessions
+// editing σ at once, cancellation midway, and a restart that reloads from the cache.
+#include <atomic>
+#include <cmath>
+
+#include "distlab/server/frames.hpp"
+#include "server/server_fixture.hpp"
+
+namespace distlab::test {
+namespace {
+
+using Msg = WsClient::Message;
+
+std::string path_of(const std::string& id, const std::string& tail = "") { return "/api/kelvin/objects/" + id + tail; }
+
+// Creates an object and waits (over the WebSocket) for its job to finish; returns the object id.
+std::string create_ready(httplib::Client& c, WsClient& ws, const std::string& session, const json& body,
+                         std::vector<std::string>* stages = nullptr, json* final_job = nullptr) {
+  auto r = c.Post("/api/kelvin/objects", session_headers(session), body.dump(), "application/json");
+  EXPECT_TRUE(r);
+  if (!r) return "";
+  EXPECT_EQ(r->status, 202) << r->body;
+  const json j = body_json(r);
+  const std::string job = j["job"]["id"];
+  Msg m;
+  const bool done = ws.until(
+      [&](const Msg& x) {
+        if (x.binary || x.j["type"] != "job" || x.j["job"]["id"] != job) return false;
+        if (stages && !x.j["job"]["stage"].get<std::string>().empty()) stages->push_back(x.j["job"]["stage"]);
+        const std::string st = x.j["job"]["state"];
+        return st == "succeeded" || st == "failed" || st == "cancelled";
+      },
+      m, 300);
+  EXPECT_TRUE(done) << "no final job event";
+  if (final_job) *final_job = m.j["job"];
+  EXPECT_EQ(m.j["job"]["state"], "succeeded") << m.data;
+  return j["object"]["id"];
+}
+
+json query(httplib::Client& c, const std::string& s, const std::string& id, const json& points) {
+  auto r = c.Post(path_of(id, "/query").c_str(), session_headers(s), json{{"points", points}}.dump(), "application/json");
+  EXPECT_TRUE(r);
+  EXPECT_EQ(r->status, 200) << r->body;
+  return body_json(r);
+}
+
+class KelvinApi : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() { server_ = new ServerProcess({"--max-jobs-per-session", "2"}); }
+  static void TearDownTestSuite() {
+    EXPECT_EQ(server_->stop(), 0);
+    delete server_;
+  }
+  static ServerProcess* server_;
+  httplib::Client c = server_->client();
+};
+ServerProcess* KelvinApi::server_ = nullptr;
+
+const json kCube = {{"asset", "cube"}, {"lx", 0.2}};
+
+TEST_F(KelvinApi, AssetsListed) {
+  auto r = c.Get("/api/kelvin/assets");
+  ASSERT_TRUE(r);
+  const json a = body_json(r)["assets"];
+  EXPECT_NE(std::find(a.begin(), a.end(), "cube"), a.end());
+  EXPECT_NE(std::find(a.begin(), a.end(), "sphere"), a.end());
+}
+
+TEST_F(KelvinApi, PrepareQuerySigmaIsosurfaceExport) {
+  const std::string s = new_session(c);
+  WsClient ws(server_->port(), s);
+  std::vector<std::string> stages;
+  json job;
+  const std::string id = create_ready(c, ws, s, kCube, &stages, &job);
+  ASSERT_FALSE(id.empty());
+  // Progress went through the stages of preparation (or the cache).
+  EXPECT_FALSE(stages.empty());
+  EXPECT_TRUE(job["result"]["stats"]["n_verts"].get<long>() > 100) << job.dump();
+
+  auto r = c.Get(path_of(id).c_str(), session_headers(s));
+  ASSERT_TRUE(r);
+  json st = body_json(r);
+  EXPECT_EQ(st["state"], "ready");
+  EXPECT_GT(st["stats"]["n_tets"].get<long>(), 100);
+  EXPECT_EQ(st["n_input_vertices"], 8);
+
+  // h and ∇h: outside points defined, inside not; h grows away from the cube.
+  json q = query(c, s, id, {{1.0, 0, 0}, {1.5, 0, 0}, {0, 0, 0}});
+  ASSERT_TRUE(q["h"][0].is_number());
+  ASSERT_TRUE(q["h"][1].is_number());
+  EXPECT_GT(q["h"][1].get<double>(), q["h"][0].get<double>());
+  EXPECT_TRUE(q["inside"][2].get<bool>());
+  EXPECT_TRUE(q["h"][2].is_null());
+  EXPECT_GT(q["gradient"][0][0].get<double>(), 0.0);
+  const double h_before = q["h"][0];
+
+  // σ in every form; each bumps the version and changes h near the surface.
+  const std::vector<json> sigmas = {
+      {{"constant", 0.5}},
+      {{"per_vertex", {0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8}}},
+      {{"axis", {{"axis", {1, 0, 0}}, {"d0", 0.2}, {"sigma_nom", 1.0}}}},
+      {{"axis", {{{"axis", {0, 1, 0}}, {"d0", 0.1}, {"sigma_nom", 0.5}, {"origin", {0, 0, 0}}, {"width", 0.5}}}}},
+      {{"brushes", {{{"center", {0.5, 0, 0}}, {"radius", 0.2}, {"value", 1.0}, {"falloff", 0.1}}}}},
+      {{"constant", 0.1}, {"brushes", {{{"center", {0.5, 0.5, 0.5}}, {"radius", 0.3}, {"value", 0.5}}}}}};
+  int version = 0;
+  for (const json& sg : sigmas) {
+    r = c.Put(path_of(id, "/sigma").c_str(), session_headers(s), sg.dump(), "application/json");
+    ASSERT_TRUE(r);
+    ASSERT_EQ(r->status, 200) << sg.dump() << " " << r->body;
+    EXPECT_EQ(body_json(r)["sigma_version"].get<int>(), ++version);
+    EXPECT_EQ(body_json(c.Get(path_of(id, "/sigma").c_str(), session_headers(s)))["sigma"], sg);
+    json q2 = query(c, s, id, {{1.0, 0, 0}});
+    EXPECT_TRUE(q2["h"][0].is_number()) << sg.dump();
+  }
+  r = c.Put(path_of(id, "/sigma").c_str(), session_headers(s), json{{"constant", 0.5}}.dump(), "application/json");
+  EXPECT_NE(query(c, s, id, {{1.0, 0, 0}})["h"][0].get<double>(), h_before);
+
+  // Bad σ: field paths.
+  auto bad_sigma = [&](const json& sg, const std::string& field) {
+    auto br = c.Put(path_of(id, "/sigma").c_str(), session_headers(s), sg.dump(), "application/json");
+    ASSERT_TRUE(br);
+    EXPECT_EQ(br->status, 400) << sg.dump();
+    EXPECT_EQ(body_json(br)["error"]["field"], field) << br->body;
+  };
+  bad_sigma({{"constant", "high"}}, "sigma.constant");
+  bad_sigma({{"per_vertex", {1, 2}}}, "sigma.per_vertex");
+  bad_sigma({{"brushes", {{{"center", {0, 0}}, {"radius", 1}, {"value", 1}}}}}, "sigma.brushes[0].center");
+  bad_sigma({{"colour", 1}}, "sigma.colour");
+
+  // Iso-surface as a REST msgpack download.
+  r = c.Get((path_of(id, "/isosurface") + "?level=0.3").c_str(), session_headers(s));
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200) << r->body;
+  EXPECT_EQ(r->get_header_value("Content-Type"), "application/msgpack");
+  json frame = json::from_msgpack(r->body);
+  EXPECT_EQ(frame["type"], "isosurface");
+  EXPECT_GT(frame["n_faces"].get<long>(), 10);
+  EXPECT_EQ(server::read_float32(frame["positions"]).size(), 3 * frame["n_vertices"].get<std::size_t>());
+  EXPECT_EQ(server::read_uint32(frame["indices"]).size(), 3 * frame["n_faces"].get<std::size_t>());
+  auto bad = c.Get((path_of(id, "/isosurface") + "?level=abc").c_str(), session_headers(s));
+  ASSERT_TRUE(bad);
+  EXPECT_EQ(bad->status, 400);
+  EXPECT_EQ(body_json(bad)["error"]["field"], "level");
+
+  // The surface with σ per vertex.
+  r = c.Get(path_of(id, "/surface").c_str(), session_headers(s));
+  ASSERT_TRUE(r);
+  frame = json::from_msgpack(r->body);
+  const auto scal = server::read_float32(frame["scalars"]);
+  ASSERT_EQ(scal.size(), 8u);
+  EXPECT_FLOAT_EQ(scal[0], 0.5f);
+
+  // Exports in every format.
+  for (const std::string fmt : {"stl", "obj", "ply", "glb"}) {
+    r = c.Get((path_of(id, "/export") + "?level=0.3&format=" + fmt).c_str(), session_headers(s));
+    ASSERT_TRUE(r);
+    ASSERT_EQ(r->status, 200) << fmt << " " << r->body;
+    EXPECT_GT(r->body.size(), 200u) << fmt;
+    EXPECT_NE(r->get_header_value("Content-Disposition").find("." + fmt), std::string::npos);
+    if (fmt == "glb") {
+      EXPECT_EQ(r->body.substr(0, 4), "glTF");
+    }
+    if (fmt == "ply") {
+      EXPECT_EQ(r->body.substr(0, 3), "ply");
+    }
+  }
+  bad = c.Get((path_of(id, "/export") + "?level=0.3&format=dwg").c_str(), session_headers(s));
+  ASSERT_TRUE(bad);
+  EXPECT_EQ(bad->status, 400);
+
+  // Delete.
+  EXPECT_EQ(c.Delete(path_of(id).c_str(), session_headers(s))->status, 204);
+  EXPECT_EQ(c.Get(path_of(id).c_str(), session_headers(s))->status, 404);
+}
+
+TEST_F(KelvinApi, SigmaEditAnsweredByIsosurfaceFrame) {
+  const std::string s = new_session(c);
+  WsClient ws(server_->port(), s);
+  json body = kCube;
+  body["levels"] = {0.3};
+  const std::string id = create_ready(c, ws, s, body);
+  Msg m;
+  // Being watched, the object pushes its frames once ready (surface, then the iso-surface).
+  ASSERT_TRUE(ws.until([&](const Msg& x) { return x.binary && x.j["type"] == "isosurface"; }, m, 60));
+  EXPECT_EQ(m.j["object"], id);
+  EXPECT_EQ(m.j["sigma_version"], 0);
+  const auto before = m.j["n_vertices"].get<long>();
+  ws.send({{"type", "sigma"}, {"object", id}, {"sigma", {{"constant", 1.0}}}});
+  ASSERT_TRUE(ws.until([&](const Msg& x) { return x.binary && x.j["type"] == "isosurface" && x.j["sigma_version"] == 1; }, m, 60));
+  EXPECT_EQ(m.j["level"], 0.3);
+  EXPECT_GT(m.j["n_faces"].get<long>(), 0);
+  // With σ = 1 > level the surface runs along the object: a different mesh.
+  EXPECT_NE(m.j["n_vertices"].get<long>(), before);
+  // REST edits answer over the WebSocket too; watch adds levels.
+  ws.send({{"type", "watch"}, {"object", id}, {"levels", {0.3, 0.6}}});
+  ASSERT_TRUE(ws.until([&](const Msg& x) { return x.binary && x.j["type"] == "isosurface" && x.j["level"] == 0.6; }, m, 60));
+  auto r = c.Put(path_of(id, "/sigma").c_str(), session_headers(s), json{{"constant", 0.0}}.dump(), "application/json");
+  ASSERT_EQ(r->status, 200);
+  ASSERT_TRUE(ws.until([&](const Msg& x) { return x.binary && x.j["type"] == "isosurface" && x.j["sigma_version"] == 2; }, m, 60));
+  // A late joiner gets hello with the object and its current frames.
+  WsClient late(server_->port(), s);
+  ASSERT_TRUE(late.read(m));
+  EXPECT_EQ(m.j["type"], "hello");
+  EXPECT_EQ(m.j["objects"].size(), 1u);
+  ASSERT_TRUE(late.until([&](const Msg& x) { return x.binary && x.j["type"] == "isosurface" && x.j["sigma_version"] == 2; }, m, 60));
+}
+
+TEST_F(KelvinApi, TwoSessionsEditSigmaAtOnceWithoutSeeingEachOther) {
+  const std::string a = new_session(c), b = new_session(c);
+  WsClient wa(server_->port(), a), wb(server_->port(), b);
+  const std::string ia = create_ready(c, wa, a, kCube);
+  const std::string ib = create_ready(c, wb, b, kCube);
+  // The second preparation is shared with the first (same content).
+  EXPECT_TRUE(body_json(c.Get(path_of(ib).c_str(), session_headers(b)))["stats"]["shared"].get<bool>());
+  const json pts = {{0.8, 0.1, 0}, {0, 0.9, 0.2}, {0.7, 0.7, 0.7}};
+  // References: each σ alone.
+  c.Put(path_of(ia, "/sigma").c_str(), session_headers(a), json{{"constant", 0.0}}.dump(), "application/json");
+  const json ref_a = query(c, a, ia, pts)["h"];
+  c.Put(path_of(ib, "/sigma").c_str(), session_headers(b), json{{"constant", 0.8}}.dump(), "application/json");
+  const json ref_b = query(c, b, ib, pts)["h"];
+  ASSERT_NE(ref_a, ref_b);
+  // Interleaved edits and queries from two threads.
+  std::atomic<int> mismatches{0};
+  auto hammer = [&](const std::string& s, const std::string& id, double sigma, const json& ref) {
+    httplib::Client cc = server_->client();
+    for (int i = 0; i < 15; ++i) {
+      auto r = cc.Put(path_of(id, "/sigma").c_str(), session_headers(s), json{{"constant", sigma}}.dump(), "application/json");
+      if (!r || r->status != 200) ++mismatches;
+      auto q = cc.Post(path_of(id, "/query").c_str(), session_headers(s), json{{"points", pts}}.dump(), "application/json");
+      if (!q || q->status != 200 || body_json(q)["h"] != ref) ++mismatches;
+    }
+  };
+  std::thread ta(hammer, a, ia, 0.0, ref_a), tb(hammer, b, ib, 0.8, ref_b);
+  ta.join();
+  tb.join();
+  EXPECT_EQ(mismatches.load(), 0);
+  EXPECT_EQ(body_json(c.Get(path_of(ia, "/sigma").c_str(), session_headers(a)))["sigma"]["constant"], 0.0);
+  EXPECT_EQ(body_json(c.Get(path_of(ib, "/sigma").c_str(), session_headers(b)))["sigma"]["constant"], 0.8);
+}
+
+TEST_F(KelvinApi, JobCancelledMidway) {
+  const std::string s = new_session(c);
+  WsClient ws(server_->port(), s);
+  // Fine enough to take seconds (not cached: an unusual lx).
+  auto r = c.Post("/api/kelvin/objects", session_headers(s), json{{"asset", "sphere"}, {"lx", 0.0613}}.dump(), "application/json");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 202) << r->body;
+  const std::string job = body_json(r)["job"]["id"], id = body_json(r)["object"]["id"];
+  Msg m;
+  ASSERT_TRUE(ws.until([&](const Msg& x) { return !x.binary && x.j["type"] == "job" && x.j["job"]["id"] == job && x.j["job"]["state"] == "running" && x.j["job"]["stage"] == "mesh"; }, m, 120));
+  const auto t0 = std::chrono::steady_clock::now();
+  auto cr = c.Post(("/api/jobs/" + job + "/cancel").c_str(), session_headers(s), "", "application/json");
+  ASSERT_TRUE(cr);
+  EXPECT_EQ(cr->status, 202);
+  ASSERT_TRUE(ws.until([&](const Msg& x) { return !x.binary && x.j["type"] == "job" && x.j["job"]["id"] == job && x.j["job"]["state"] != "running"; }, m, 120));
+  EXPECT_EQ(m.j["job"]["state"], "cancelled") << m.data;
+  EXPECT_EQ(m.j["job"]["error"]["code"], "cancelled");
+  std::printf("cancelled %.2f s after the request\n", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  EXPECT_EQ(body_json(c.Get(path_of(id).c_str(), session_headers(s)))["state"], "cancelled");
+  EXPECT_EQ(body_json(c.Get(("/api/jobs/" + job).c_str(), session_headers(s)))["state"], "cancelled");
+  auto q = c.Post(path_of(id, "/query").c_str(), session_headers(s), R"({"points": [[1, 0, 0]]})", "application/json");
+  EXPECT_EQ(q->status, 409);
+}
+
+TEST_F(KelvinApi, UploadsAndInlineMeshes) {
+  const std::string s = new_session(c);
+  WsClient ws(server_->port(), s);
+  std::ifstream f(std::string(DISTLAB_SOURCE_DIR) + "/assets/cube.stl", std::ios::binary);
+  const std::string stl((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  auto r = c.Post("/api/kelvin/uploads?format=stl", session_headers(s), stl, "application/octet-stream");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 201) << r->body;
+  const std::string up = body_json(r)["upload"];
+  EXPECT_EQ(body_json(r)["n_faces"], 12);
+  const std::string id = create_ready(c, ws, s, {{"upload", up}, {"lx", 0.2}});
+  EXPECT_EQ(body_json(c.Get(path_of(id).c_str(), session_headers(s)))["state"], "ready");
+  // Another session cannot use the upload id.
+  const std::string other = new_session(c);
+  r = c.Post("/api/kelvin/objects", session_headers(other), json{{"upload", up}, {"lx", 0.2}}.dump(), "application/json");
+  EXPECT_EQ(r->status, 404);
+  EXPECT_EQ(body_json(r)["error"]["code"], "unknown_upload");
+  // Garbage uploads.
+  r = c.Post("/api/kelvin/uploads?format=ply", session_headers(s), std::string(300, '\x01'), "application/octet-stream");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 400) << r->body;
+  r = c.Post("/api/kelvin/uploads?format=stl", session_headers(s), "solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 zz\n", "application/octet-stream");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 400) << r->body;
+  r = c.Post("/api/kelvin/uploads?format=obj", session_headers(s), "v 0 0 0\nf 1 2 3\n", "application/octet-stream");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status / 100, 4) << r->body;
+  r = c.Post("/api/kelvin/uploads?format=exe", session_headers(s), "x", "application/octet-stream");
+  EXPECT_EQ(r->status, 400);
+  // A binary STL announcing too many triangles.
+  std::string huge(84, '\0');
+  const std::uint32_t n = 5000000;
+  std::memcpy(huge.data() + 80, &n, 4);
+  r = c.Post("/api/kelvin/uploads?format=stl", session_headers(s), huge, "application/octet-stream");
+  EXPECT_EQ(r->status, 413);
+  EXPECT_EQ(body_json(r)["error"]["code"], "too_many_triangles");
+  // An open inline mesh: the job fails with the mesh checker's message, the server lives on.
+  r = c.Post("/api/kelvin/objects", session_headers(s),
+             json{{"mesh", {{"vertices", {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}}}, {"faces", {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {0, 3, 2}}}}}, {"lx", 0.3}}.dump(),
+             "application/json");
+  ASSERT_EQ(r->status, 202) << r->body;
+  const std::string job = body_json(r)["job"]["id"];
+  Msg m;
+  ASSERT_TRUE(ws.until([&](const Msg& x) { return !x.binary && x.j["type"] == "job" && x.j["job"]["id"] == job && (x.j["job"]["state"] == "failed" || x.j["job"]["state"] == "succeeded"); }, m, 60));
+  EXPECT_EQ(m.j["job"]["state"], "failed");
+  EXPECT_EQ(m.j["job"]["error"]["code"], "invalid_input");
+  // Bad inline meshes are refused at once.
+  r = c.Post("/api/kelvin/objects", session_headers(s), json{{"mesh", {{"vertices", {{0, 0, 0}}}, {"faces", {{0, 0, 9}}}}}, {"lx", 0.3}}.dump(), "application/json");
+  EXPECT_EQ(r->status, 400);
+  EXPECT_EQ(c.Get("/api/health")->status, 200);
+}
+
+TEST_F(KelvinApi, Limits) {
+  const std::string s = new_session(c);
+  auto post = [&](const json& b) { return c.Post("/api/kelvin/objects", session_headers(s), b.dump(), "application/json"); };
+  auto r = post({{"asset", "cube"}, {"lx", 0.0001}});
+  EXPECT_EQ(r->status, 422);
+  EXPECT_EQ(body_json(r)["error"]["field"], "lx");
+  r = post({{"asset", "cube"}, {"lx", 0.006}});  // over the vertex budget
+  EXPECT_EQ(r->status, 422);
+  EXPECT_EQ(body_json(r)["error"]["code"], "over_budget");
+  r = post({{"asset", "cube"}, {"lx", "fine"}});
+  EXPECT_EQ(r->status, 400);
+  EXPECT_EQ(body_json(r)["error"]["field"], "lx");
+  r = post({{"asset", "../../etc/passwd"}, {"lx", 0.2}});
+  EXPECT_EQ(r->status, 400);
+  r = post({{"asset", "nothing"}, {"lx", 0.2}});
+  EXPECT_EQ(r->status, 404);
+  r = post({{"asset", "cube"}, {"upload", "x"}, {"lx", 0.2}});
+  EXPECT_EQ(r->status, 400);
+  // Jobs per session (2 on this server): the third concurrent one is refused with 429.
+  int refused = 0;
+  for (double lx : {0.0711, 0.0712, 0.0713}) {
+    r = post({{"asset", "sphere"}, {"lx", lx}});
+    if (r->status == 429) {
+      ++refused;
+      EXPECT_EQ(body_json(r)["error"]["code"], "too_many_jobs");
+    }
+  }
+  EXPECT_EQ(refused, 1);
+  EXPECT_EQ(c.Delete("/api/session", session_headers(s))->status, 204);  // cancels them
+  // Not ready yet → 409 is covered by JobCancelledMidway; the query point limit:
+  const std::string s2 = new_session(c);
+  WsClient ws(server_->port(), s2);
+  const std::string id = create_ready(c, ws, s2, kCube);
+  json many = json::array();
+  for (int i = 0; i < 100001; ++i) many.push_back({2, 0, 0});
+  r = c.Post(path_of(id, "/query").c_str(), session_headers(s2), json{{"points", many}}.dump(), "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status / 100, 4);
+}
+
+TEST(KelvinRestart, ReloadsPreparedObjectFromCache) {
+  const std::string cache = temp_dir("distlab-test-restart");
+  json first_stats;
+  const json pts = {{1.0, 0.2, 0}, {0.3, 0.9, -0.4}};
+  json h1;
+  {
+    ServerProcess server({}, cache);
+    auto c = server.client();
+    const std::string s = new_session(c);
+    WsClient ws(server.port(), s);
+    const std::string id = create_ready(c, ws, s, kCube);
+    first_stats = body_json(c.Get(path_of(id).c_str(), session_headers(s)))["stats"];
+    EXPECT_FALSE(first_stats["cache_hit"].get<bool>());
+    h1 = query(c, s, id, pts)["h"];
+    EXPECT_EQ(server.stop(), 0);
+  }
+  {
+    ServerProcess server({}, cache);
+    auto c = server.client();
+    const std::string s = new_session(c);
+    WsClient ws(server.port(), s);
+    const std::string id = create_ready(c, ws, s, kCube);
+    const json stats = body_json(c.Get(path_of(id).c_str(), session_headers(s)))["stats"];
+    EXPECT_TRUE(stats["cache_hit"].get<bool>());
+    EXPECT_EQ(stats["n_verts"], first_stats["n_verts"]);
+    EXPECT_EQ(stats["n_tets"], first_stats["n_tets"]);
+    EXPECT_EQ(query(c, s, id, pts)["h"], h1);
+    EXPECT_EQ(server.stop(), 0);
+  }
+  fs::remove_all(cache);
+}
+
+}  // namespace
+}  // namespace distlab::test
