@@ -34,7 +34,23 @@ GapLevelsets gap_levelsets(const PointToSet& p2s, const GapLevelsetOptions& o,
   } else {
     const Ball ball = bounding_ball(p2s.shape());
     const Vec3 c = p2s.pose().to_world(ball.center);
-    const double r = ball.radius * (1.0 + o.padding);
+    double r = ball.radius * (1.0 + o.padding);
+    // Grow the box until the largest requested level set fits: e_S and E_S grow more slowly
+    // than the Euclidean distance, so a fixed padding would cut large levels open.
+    double weak_max = 0, strict_max = 0;
+    for (double l : o.weak_levels) weak_max = std::max(weak_max, l);
+    for (double l : o.strict_levels) strict_max = std::max(strict_max, l);
+    for (int grow = 0; grow < 12; ++grow) {
+      double weak_min = INFINITY, strict_min = INFINITY;
+      for (int a = 0; a < 3; ++a)
+        for (double sign : {-1.0, 1.0}) {
+          const Vec3 x = c + sign * r * Vec3::Unit(a);
+          weak_min = std::min(weak_min, p2s.weak(x, 0).value);
+          strict_min = std::min(strict_min, p2s.strict(x, 0).value);
+        }
+      if (weak_min > 1.05 * weak_max && strict_min > 1.05 * strict_max) break;
+      r *= 1.3;
+    }
     out.lo = c - Vec3::Constant(r);
     out.hi = c + Vec3::Constant(r);
   }

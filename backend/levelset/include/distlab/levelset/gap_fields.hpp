@@ -15,8 +15,8 @@ struct GapLevelsetOptions {
   std::vector<double> weak_levels;    // iso-values of e_S
   std::vector<double> strict_levels;  // iso-values of E_S
   int resolution = 48;                // grid nodes along the longest box side (>= 4)
-  // Box of the grid (world frame). Default: the shape's bounding ball, posed, grown by `padding`
-  // times its radius on every side.
+  // Box of the grid (world frame). Default: a cube around the shape's posed bounding ball, grown
+  // by at least `padding` times its radius and further until the largest level fits inside.
   std::optional<std::pair<Vec3, Vec3>> bounds;
   double padding = 0.75;
   std::optional<PlaneFrame> plane;  // sample e_S and E_S here if set
