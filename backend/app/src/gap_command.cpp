@@ -19,7 +19,7 @@ namespace server = distlab::server;
 
 constexpr int kExitOk = 0;
 constexpr int kExitInvalid = 2;
-constexpr int kExitParse = 65;    // EX_DATAERR
+constexpr int kExitParse = 65;     // EX_DATAERR
 constexpr int kExitInternal = 70;  // EX_SOFTWARE
 
 constexpr const char* kHelp = R"(usage: distlab gap [--pretty] < request.json

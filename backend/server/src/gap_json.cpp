@@ -1,7 +1,6 @@
 // GAP requests as JSON: strict parsing with field paths, running, and encoding the results.
 #include "distlab/server/gap_json.hpp"
 
-#include <cstdlib>
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -58,8 +57,8 @@ class Builder final : public json::json_sax_t {
   bool end_array() override { return close(); }
   bool key(string_t& k) override {
     if (stack_.back().node->contains(k)) {
-      invalid_ = InvalidInput(key_path(stack_.back().path, k),
-                              "duplicate key \"" + shorten(k) + "\"");
+      invalid_ =
+          InvalidInput(key_path(stack_.back().path, k), "duplicate key \"" + shorten(k) + "\"");
       return false;
     }
     key_ = std::move(k);
@@ -105,8 +104,8 @@ class Builder final : public json::json_sax_t {
   }
   bool open(json&& container) {
     if (stack_.size() >= static_cast<std::size_t>(kMaxJsonDepth)) {
-      invalid_ = InvalidInput("", "JSON nested deeper than " + std::to_string(kMaxJsonDepth) +
-                                      " levels");
+      invalid_ =
+          InvalidInput("", "JSON nested deeper than " + std::to_string(kMaxJsonDepth) + " levels");
       return false;
     }
     std::string path = next_path();
@@ -193,8 +192,8 @@ const json& array(const json& j, const std::string& field, std::size_t max,
                   const std::string& what) {
   if (!j.is_array()) fail(field, "expected an array, got " + type_of(j));
   if (j.size() > max)
-    fail(field, std::to_string(j.size()) + " " + what + " exceed the limit of " +
-                    std::to_string(max));
+    fail(field,
+         std::to_string(j.size()) + " " + what + " exceed the limit of " + std::to_string(max));
   return j;
 }
 
@@ -263,24 +262,29 @@ Polytope parse_hull(const json& j, const std::string& field) {
   return P;
 }
 
-// Runs fn(i) for i < n on all cores; rethrows the exception of the lowest failing index.
+// Runs fn(i) for i < n on all cores; rethrows the exception of the lowest failing index, so the
+// error is the one a sequential loop would give. Indices above a known failure are skipped.
 template <class Fn>
 void parallel_for(std::size_t n, Fn fn) {
   std::vector<std::exception_ptr> errors(n);
-  std::atomic<std::size_t> next{0};
+  std::atomic<std::size_t> next{0}, first_failure{n};
   auto work = [&] {
     for (std::size_t i; (i = next.fetch_add(1)) < n;) {
+      if (i > first_failure.load()) continue;
       try {
         fn(i);
       } catch (...) {
         errors[i] = std::current_exception();
+        for (std::size_t f = first_failure.load();
+             i < f && !first_failure.compare_exchange_weak(f, i);) {
+        }
       }
     }
   };
-  const unsigned threads = static_cast<unsigned>(
-      std::min<std::size_t>(std::max(1u, std::thread::hardware_concurrency()), std::max<std::size_t>(n, 1)));
+  const unsigned threads = static_cast<unsigned>(std::min<std::size_t>(
+      std::max(1u, std::thread::hardware_concurrency()), std::max<std::size_t>(n, 1)));
   std::vector<std::thread> pool;
-  for (unsigned t = 1; t < (getenv("SER_BUILD") ? 1u : threads); ++t) pool.emplace_back(work);
+  for (unsigned t = 1; t < threads; ++t) pool.emplace_back(work);
   work();
   for (auto& t : pool) t.join();
   for (auto& e : errors)
@@ -350,14 +354,17 @@ ShapeSpec parse_shape(const json& j, const std::string& field) {
     check_keys(j, field, {"type", "radius", "height", "pose", "rho"});
     const double r = length(required(j, field, "radius"), key_path(field, "radius"));
     const double h = length(required(j, field, "height"), key_path(field, "height"));
-    if (type == "cylinder") spec.shape = Cylinder{r, h};
-    else spec.shape = Capsule{r, h};
+    if (type == "cylinder")
+      spec.shape = Cylinder{r, h};
+    else
+      spec.shape = Capsule{r, h};
   } else {
     fail(tf, "unknown shape type \"" + shorten(type) +
                  "\" (known: polytope, box, sphere, cylinder, capsule, convex_hull)");
   }
 
-  if (const auto it = j.find("pose"); it != j.end()) spec.pose = parse_pose(*it, key_path(field, "pose"));
+  if (const auto it = j.find("pose"); it != j.end())
+    spec.pose = parse_pose(*it, key_path(field, "pose"));
   if (const auto it = j.find("weights"); it != j.end()) {
     const std::string wf = key_path(field, "weights");
     const json& w = array(*it, wf, kMaxPolytopeRows, "weights");
@@ -401,11 +408,15 @@ GapRequestParams parse_params(const json& j, const std::string& field) {
   if (auto v = get("tol")) p.tol = number(*v, f("tol"));
   if (auto v = get("max_iter")) p.max_iter = integer(*v, f("max_iter"));
   if (auto v = get("solver")) {
-    if (!v->is_string()) fail(f("solver"), "expected \"fixed_point\" or \"newton\", got " + type_of(*v));
+    if (!v->is_string())
+      fail(f("solver"), "expected \"fixed_point\" or \"newton\", got " + type_of(*v));
     const std::string s = v->get<std::string>();
-    if (s == "newton") p.solver = GapSolver::newton;
-    else if (s == "fixed_point") p.solver = GapSolver::fixed_point;
-    else fail(f("solver"), "unknown solver \"" + shorten(s) + "\" (expected fixed_point or newton)");
+    if (s == "newton")
+      p.solver = GapSolver::newton;
+    else if (s == "fixed_point")
+      p.solver = GapSolver::fixed_point;
+    else
+      fail(f("solver"), "unknown solver \"" + shorten(s) + "\" (expected fixed_point or newton)");
   }
   if (auto v = get("gradient")) p.gradient = boolean(*v, f("gradient"));
   if (auto v = get("validate")) out.validate = boolean(*v, f("validate"));
@@ -442,8 +453,7 @@ json run_gap_request(const json& request) {
   const bool batch = request.contains("pairs");
   if (batch)
     for (const char* k : {"a", "b"})
-      if (request.contains(k))
-        fail(k, "give either \"a\" and \"b\" or \"pairs\", not both");
+      if (request.contains(k)) fail(k, "give either \"a\" and \"b\" or \"pairs\", not both");
   const auto params_it = request.find("params");
   const GapRequestParams rp = parse_params(params_it == request.end() ? json() : *params_it);
   const GapParams& params = rp.params;
@@ -483,7 +493,8 @@ json run_gap_request(const json& request) {
   parallel_for(protos.size(), [&](std::size_t k) {
     const auto& [j, field] = instances[first_instance[k]];
     const ShapeSpec spec = parse_shape(*j, field);
-    protos[k].emplace(Prototype{field, GapBody(spec.shape, Pose{}, params, spec.options, field), {}});
+    protos[k].emplace(
+        Prototype{field, GapBody(spec.shape, Pose{}, params, spec.options, field), {}});
   });
   std::vector<Pose> poses(instances.size());
   for (std::size_t i = 0; i < instances.size(); ++i) {
@@ -506,22 +517,25 @@ json run_gap_request(const json& request) {
     bodies.back().set_pose(poses[i]);
   }
   std::vector<std::pair<const GapBody*, const GapBody*>> pairs;
-  for (std::size_t i = 0; i + 1 < bodies.size(); i += 2) pairs.emplace_back(&bodies[i], &bodies[i + 1]);
+  for (std::size_t i = 0; i + 1 < bodies.size(); i += 2)
+    pairs.emplace_back(&bodies[i], &bodies[i + 1]);
 
   const std::vector<GapResult> results =
-      batch ? gap_distance_batch(pairs, params, getenv("SER_BATCH") ? 1u : 0u)
+      batch ? gap_distance_batch(pairs, params)
             : std::vector<GapResult>{gap_distance(*pairs[0].first, *pairs[0].second, params)};
 
   json out = json::array();
   for (std::size_t i = 0; i < results.size(); ++i) {
     if (!finite(results[i]))
-      throw std::runtime_error("non-finite result for " +
-                               (batch ? index_path("pairs", i) : std::string("the pair")) +
-                               "; refusing to report it");
+      throw std::runtime_error(
+          "non-finite result for " + (batch ? index_path("pairs", i) : std::string("the pair")) +
+          "; refusing to report it" +
+          (rp.validate ? "" : " (validate is off: parameters that break Property 2 can do this)"));
     json r = encode_result(results[i], params.gradient);
     if (rp.validate) {
       auto summary = [](const ValidationReport& rep) {
-        return json{{"ok", rep.ok}, {"max_eigenvalue", rep.max_eigenvalue}, {"samples", rep.samples}};
+        return json{
+            {"ok", rep.ok}, {"max_eigenvalue", rep.max_eigenvalue}, {"samples", rep.samples}};
       };
       r["validation"] = {{"a", summary(*protos[proto_of[2 * i]]->report)},
                          {"b", summary(*protos[proto_of[2 * i + 1]]->report)}};

@@ -4,7 +4,7 @@
 // Request:  {"a": SHAPE, "b": SHAPE, "params": PARAMS}  or  {"pairs": [{"a", "b"}, ...], "params"}
 //           (+ an optional top-level "comment" string, ignored, so example files can explain
 //           themselves).
-// SHAPE:    {"type": "polytope", "A": [[x, y, z], ...], "b": [...]} | {"type": "box", "size": [...]}
+// SHAPE:    {"type": "polytope", "A": [[x, y, z], ...], "b": [...]} | {"type": "box", "size"}
 //           | {"type": "sphere", "radius"} | {"type": "cylinder"|"capsule", "radius", "height"}
 //           | {"type": "convex_hull", "points": [[x, y, z], ...]}; optional "pose" {"position",
 //           "quaternion" [w, x, y, z]}, "weights" (polytope, box, convex_hull), "rho" {"center",
@@ -32,8 +32,8 @@ namespace distlab::server {
 
 // Limits, so one request cannot pin the machine or the parser.
 inline constexpr std::size_t kMaxRequestBytes = std::size_t{64} << 20;  // 64 MiB of JSON text
-inline constexpr int kMaxJsonDepth = 64;           // the schema needs 6 levels
-inline constexpr std::size_t kMaxPairs = 10000;    // pairs per batch
+inline constexpr int kMaxJsonDepth = 64;               // the schema needs 6 levels
+inline constexpr std::size_t kMaxPairs = 10000;        // pairs per batch
 inline constexpr std::size_t kMaxPolytopeRows = 1000;  // rows of a polytope, facets of a hull
 inline constexpr std::size_t kMaxHullPoints = 100000;  // input points of a convex_hull
 // Largest |coordinate| of positions, sizes, vertices and ρ balls: keeps squares and sums far
