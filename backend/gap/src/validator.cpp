@@ -41,7 +41,11 @@ ValidationReport validate_p2s(const PointToSet& original, int samples, std::uint
     Eigen::SelfAdjointEigenSolver<Mat3> es;
     es.compute(v.hessian, Eigen::EigenvaluesOnly);  // computeDirect loses small eigenvalues
     const double lmax = es.eigenvalues()[2], lmin = es.eigenvalues()[0];
-    rep.min_eigenvalue = std::min(rep.min_eigenvalue, lmin);
+    // Eigenvalues carry an absolute rounding error of ~eps ‖H‖: below that, negative is zero.
+    if (lmin < rep.min_eigenvalue) {
+      rep.min_eigenvalue = lmin;
+      rep.min_eigenvalue_tolerance = 64 * 2.2e-16 * std::max(std::abs(lmax), 1e-300);
+    }
     if (lmax > rep.max_eigenvalue) {
       rep.max_eigenvalue = lmax;
       rep.worst_point = p;
@@ -81,7 +85,7 @@ ValidationReport validate_p2s(const PointToSet& original, int samples, std::uint
     msg << "Property 2 fails: the Hessian of E_S has eigenvalue " << rep.max_eigenvalue
         << " >= 1 at (" << rep.worst_point.transpose()
         << ") in the shape frame; decrease eps, sigma or the weights";
-  } else if (rep.min_eigenvalue < 0) {
+  } else if (rep.min_eigenvalue < -rep.min_eigenvalue_tolerance) {
     msg << "Property 2 fails: E_S is not convex (eigenvalue " << rep.min_eigenvalue << ")";
   } else if (rep.max_inside_norm > 0) {
     msg << "Property 2 fails: the Hessian of E_S is not zero inside the set";

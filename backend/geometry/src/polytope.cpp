@@ -81,6 +81,25 @@ Hull hull_of(const std::vector<Point>& points) {
       break;
     }
   }
+  // CGAL's output order follows memory addresses; a canonical order makes results bit-for-bit
+  // reproducible: points sorted lexicographically, each face rotated to start at its smallest
+  // index (orientation kept), faces sorted.
+  std::vector<std::size_t> order(h.points.size()), rank(h.points.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
+    return CGAL::compare_xyz(h.points[x], h.points[y]) == CGAL::SMALLER;
+  });
+  std::vector<Point> sorted;
+  for (std::size_t i = 0; i < order.size(); ++i) {
+    rank[order[i]] = i;
+    sorted.push_back(h.points[order[i]]);
+  }
+  h.points = std::move(sorted);
+  for (Triangle& f : h.faces) {
+    for (auto& v : f) v = rank[v];
+    std::rotate(f.begin(), std::min_element(f.begin(), f.end()), f.end());
+  }
+  std::sort(h.faces.begin(), h.faces.end());
   return h;
 }
 

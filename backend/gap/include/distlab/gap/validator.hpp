@@ -15,6 +15,7 @@ struct ValidationReport {
   double max_eigenvalue = 0;   // largest Hessian eigenvalue found outside the set
   Vec3 worst_point = Vec3::Zero();  // shape frame
   double min_eigenvalue = 0;   // smallest eigenvalue found outside the set (should be > 0)
+  double min_eigenvalue_tolerance = 0;  // the eigen solver's rounding at that point
   double max_inside_norm = 0;  // largest |∂²E| found inside the set (should be 0)
   int samples = 0;
   std::string message;
