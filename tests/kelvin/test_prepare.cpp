@@ -1,6 +1,7 @@
 // Preparation: refused inputs, progress and cancellation, and the cache round trip.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <unistd.h>
@@ -167,4 +168,95 @@ TEST(KelvinPrepare, WrenchMeshesAndMatchesSigma) {
   // Ends allowed (σ ≈ +1), handle not (σ ≈ −1): h is lower above the handle than beyond the ends.
   EXPECT_LT(field.query(Vec3(0, 0, 0.01)).h, field.query(Vec3(0.06, 0, 0)).h);
   EXPECT_EQ(field.query(Vec3(0, 0, 0)).status, Status::inside);
+}
+
+// No request may hang. The wrench meshes with the default options (edge protection at 60°) at a
+// coarse l_x; and when protection exceeds its step budget (as on the 5 mm plate at finer l_x,
+// where CGAL's refine_balls does not converge) the wrench is meshed without protection,
+// deterministically, with a warning saying so. Here the budget is made small to force that path.
+TEST(KelvinPrepare, WrenchWithDefaultOptionsMeshes) {
+  const mesh::SurfaceMesh wrench = mesh::load_mesh(std::string(DISTLAB_ASSET_DIR) + "/wrench.stl");
+  for (const bool force_fallback : {false, true}) {
+    PrepareOptions o;
+    o.lx = 0.006;
+    ASSERT_LT(o.feature_angle, 180);  // the default protects edges
+    if (force_fallback) o.max_protection_steps = 100;
+    Field f = Field::prepare(wrench, o);
+    EXPECT_GT(f.stats().n_verts, 1000);
+    ASSERT_EQ(f.stats().warnings.size(), force_fallback ? 1u : 0u);
+    if (force_fallback) {
+      EXPECT_NE(f.stats().warnings[0].find("edge protection"), std::string::npos) << f.stats().warnings[0];
+      // Deterministic fallback: the same request gives the same mesh.
+      const Field g = Field::prepare(wrench, o);
+      EXPECT_TRUE(g.tet_mesh().points == f.tet_mesh().points);
+    }
+    f.set_sigma(constant_sigma(0.5));
+    const auto points = f.boundary_points();
+    int hint = -1;
+    for (size_t b = 0; b < points.size(); b += 11) {
+      const Sample q = f.query(points[b], &hint);
+      ASSERT_EQ(q.status, Status::ok);
+      EXPECT_NEAR(q.h, 0.5, 1e-9);
+    }
+  }
+}
+
+// The configuration that hung before (wrench case files' centre, l_x = 4 mm, default 60° edge
+// protection): it now ends, through the protection budget, without edge protection.
+TEST(KelvinPrepare, WrenchThinPlateDoesNotHang) {
+  const mesh::SurfaceMesh wrench = mesh::load_mesh(std::string(DISTLAB_ASSET_DIR) + "/wrench.stl");
+  PrepareOptions o;
+  o.lx = 0.004;
+  o.centre = Vec3::Zero();
+  const Field f = Field::prepare(wrench, o);
+  EXPECT_GT(f.stats().n_verts, 1000);
+  EXPECT_EQ(f.stats().warnings.size(), 1u);
+}
+
+// An absurd element size fails at once with an error naming lx, for every asset shape; and the
+// vertex budget also stops Mesh_3 itself (a budget below what the estimate lets through).
+TEST(KelvinPrepare, TinyLxFailsQuicklyNamingLx) {
+  const mesh::SurfaceMesh wrench = mesh::load_mesh(std::string(DISTLAB_ASSET_DIR) + "/wrench.stl");
+  PrepareOptions o;
+  o.lx = 1e-5;
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::string r = refused_field(wrench, o);
+  EXPECT_EQ(r.rfind("lx: ", 0), 0u) << r;
+  EXPECT_NE(r.find("max_vertices"), std::string::npos) << r;
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 10.0);
+
+  const mesh::SurfaceMesh ball = mesh::icosphere(0.5, 2);  // 162 vertices
+  PrepareOptions s = sphere_options(0.3);
+  s.max_vertices = 100;  // the estimate for l_x = 0.3 (~30) is below this; the mesh is not
+  const std::string r2 = refused_field(ball, s);
+  EXPECT_EQ(r2.rfind("lx: ", 0), 0u) << r2;
+  EXPECT_NE(r2.find("vertex budget"), std::string::npos) << r2;
+}
+
+// The knife (Fig. 1) meshes with the default options at a coarse l_x and h = σ on its surface.
+TEST(KelvinPrepare, KnifeMeshesAndMatchesSigma) {
+  const mesh::SurfaceMesh knife = mesh::load_mesh(std::string(DISTLAB_ASSET_DIR) + "/knife.stl");
+  PrepareOptions o;
+  o.lx = 0.03;
+  Field f = Field::prepare(knife, o);
+  EXPECT_GT(f.stats().n_verts, 1000);
+  SigmaSpec sigma;
+  sigma.axis.push_back({Vec3::UnitX(), f.centre(), 0.05, 1.0, 0.01});
+  f.set_sigma(sigma);
+  const auto points = f.boundary_points();
+  ASSERT_GT(points.size(), 100u);
+  int hint = -1;
+  double spread_lo = 1e9, spread_hi = -1e9;
+  for (size_t b = 0; b < points.size(); b += 5) {
+    const Sample q = f.query(points[b], &hint);
+    ASSERT_EQ(q.status, Status::ok);
+    const double expected = f.boundary_sigma()[static_cast<Eigen::Index>(b)];
+    EXPECT_NEAR(q.h, expected, 1e-9);
+    // and the boundary σ is σ evaluated at the (surface) point itself
+    EXPECT_NEAR(expected, evaluate(sigma.axis[0], points[b]), 1e-6);
+    spread_lo = std::min(spread_lo, expected);
+    spread_hi = std::max(spread_hi, expected);
+  }
+  EXPECT_GT(spread_hi - spread_lo, 0.5);  // σ really varies over the knife
+  EXPECT_EQ(f.query(f.centre()).status, Status::inside);
 }

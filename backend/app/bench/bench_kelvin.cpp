@@ -2,6 +2,7 @@
 // SparseLU (the paper's solver) and CGAL's AABB-tree distance in the same run.
 // usage: distlab-bench-kelvin [--assets DIR] [--lx 0.2,0.15,...] [--grid 1000] [--lu-max 60000]
 //                             [--wrench-lx 0.002] [--wrench-features 180] [--json FILE]
+//                             [--table2-only 1] [--table1-only 1]
 // t_solve is σ → V (eqs. 17, 20, 21: what the paper times); t_grad, the vertex gradients for ∇h,
 // is reported beside it.
 #include <Eigen/SparseLU>
@@ -169,6 +170,7 @@ int main(int argc, char** argv) {
   int grid = 1000;
   long lu_max = 60000;
   double wrench_lx = 0.002, wrench_features = 180;
+  bool table1 = true, table2 = true;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string k = argv[i], v = argv[i + 1];
     if (k == "--lx") lxs = parse_list(v);
@@ -178,6 +180,12 @@ int main(int argc, char** argv) {
     else if (k == "--wrench-lx") wrench_lx = std::stod(v);
     else if (k == "--wrench-features") wrench_features = std::stod(v);
     else if (k == "--json") json_path = v;
+    else if (k == "--table2-only") table1 = v == "0";
+    else if (k == "--table1-only") table2 = v == "0";
+    else {
+      std::fprintf(stderr, "unknown option %s\n", k.c_str());
+      return 2;
+    }
   }
   std::sort(lxs.rbegin(), lxs.rend());
   const mesh::SurfaceMesh cube = mesh::box(Vec3::Ones());
@@ -200,7 +208,7 @@ int main(int argc, char** argv) {
   // Table I. RMSE of h against the finest l_x on a grid × grid plane z = 0 in [−3, 3]².
   std::vector<Row> rows;
   std::vector<std::vector<double>> planes;
-  for (double lx : lxs) {
+  for (double lx : table1 ? lxs : std::vector<double>{}) {
     std::optional<Field> kept;
     PrepareOptions o;
     o.lx = lx;
@@ -226,13 +234,13 @@ int main(int argc, char** argv) {
       }
     rows[k].rmse = std::sqrt(sum / std::max(n, 1L));
   }
-  std::printf("\nRMSE of h against l_x = %.3g on a %d × %d grid in [−3, 3]² (z = 0)\n", lxs.back(), grid, grid);
-  print("Table I: unit cube (times in s; t_solve, t_grad, chol_ms, LU_solve in ms; q_*, AABB in µs)", rows);
+  if (table1) std::printf("\nRMSE of h against l_x = %.3g on a %d × %d grid in [−3, 3]² (z = 0)\n", lxs.back(), grid, grid);
+  if (table1) print("Table I: unit cube (times in s; t_solve, t_grad, chol_ms, LU_solve in ms; q_*, AABB in µs)", rows);
 
   // Table II: the wrench, centre of inversion at its centre (as the paper), σ cases (a), (b), (c)
   // of Section V-B (eq. 24, as in assets/wrench_case_*.json); t_solve of case (a).
   std::vector<Row> wrench_rows;
-  try {
+  if (table2) try {
     const mesh::SurfaceMesh wrench = mesh::load_mesh(assets + "/wrench.stl");
     std::vector<SigmaSpec> cases(3);
     cases[0].axis.push_back({Vec3::UnitX(), Vec3::Zero(), 0.03, -1.0, 0.003});
@@ -245,7 +253,9 @@ int main(int argc, char** argv) {
     o.lx = wrench_lx;
     o.centre = Vec3::Zero();
     o.feature_angle = wrench_features;
+    std::fprintf(stderr, "wrench: lx %.4g, feature_angle %.0f\n", o.lx, o.feature_angle);
     wrench_rows.push_back(run(wrench, o, cases, wpath, wrandom, lu_max));
+    for (const std::string& w : wrench_rows.back().stats.warnings) std::printf("warning: %s\n", w.c_str());
     print("Table II: combination wrench", wrench_rows);
     std::printf("t_solve per case (a), (b), (c): %.2f, %.2f, %.2f ms\n", wrench_rows[0].case_solve_ms[0],
                 wrench_rows[0].case_solve_ms[1], wrench_rows[0].case_solve_ms[2]);

@@ -2,6 +2,7 @@
 // Laplacian and reduce it (eqs. 19–21), factor (eq. 22); and the σ-dependent solve (eq. 17).
 #include <chrono>
 #include <cmath>
+#include <map>
 
 #include "distlab/geometry/error.hpp"
 #include "distlab/mesh/checks.hpp"
@@ -52,10 +53,50 @@ static std::pair<mesh::SurfaceMesh, Vec3> validated(const mesh::SurfaceMesh& inp
   if (o.lx > r_max) throw InvalidInput("lx", "lx is larger than the object (" + std::to_string(r_max) + " m)");
   // Rough vertex estimate: ~1 vertex per 1.5 l_x³ of the uniform region, capped for safety.
   const double region = 4.18879 * std::pow(o.far_radius * r_max, 3);
-  if (region / (1.5 * std::pow(o.lx, 3)) > 2e7)
-    throw InvalidInput("lx", "lx is too small for this object: the mesh would exceed 20 million vertices");
+  if (o.max_vertices < 100) throw InvalidInput("max_vertices", "max_vertices must be at least 100");
+  if (!(o.max_protection_steps >= 0) || !(o.max_refinement_steps >= 1000))  // NaN fails too
+    throw InvalidInput("max_refinement_steps", "meshing step limits must be positive (refinement at least 1000)");
+  const double estimate = region / (1.5 * std::pow(o.lx, 3));
+  if (estimate > static_cast<double>(o.max_vertices))
+    throw InvalidInput("lx", "lx is too small for this object: about " + std::to_string(static_cast<long long>(estimate)) +
+                                 " vertices expected, more than the limit of " + std::to_string(o.max_vertices) +
+                                 " (max_vertices)");
   progress("load", 1.0);
   return {std::move(surface), centre};
+}
+
+// Sharp-edge protection places balls of radius ~ the edge size along the feature edges; a
+// converging protection evaluates the edge sizing a few times per ball. Estimated ball count:
+// Σ over feature edges (normals deviating by more than feature_angle) of length / size, in x,
+// where the edge size maps back to min(l_x, 0.25 |x − c|). When features are thinner than that,
+// CGAL shrinks the balls over and over (tens of thousands of evaluations on the 5 mm wrench plate
+// at l_x = 4 mm against a few hundred at 6 mm) and the refinement that follows explodes.
+static double protection_budget(const mesh::SurfaceMesh& s, const Vec3& centre, const PrepareOptions& o) {
+  if (o.max_protection_steps > 0) return o.max_protection_steps;
+  if (o.feature_angle >= 180) return 0;
+  const double cos_limit = std::cos(o.feature_angle * 3.14159265358979323846 / 180.0);
+  std::map<std::pair<int, int>, std::pair<int, int>> edges;  // (a < b) -> first face, second face
+  const auto nf = static_cast<int>(s.faces.rows());
+  std::vector<Vec3> normal(static_cast<size_t>(nf));
+  for (int f = 0; f < nf; ++f) {
+    const Vec3 a = s.vertices.row(s.faces(f, 0)), b = s.vertices.row(s.faces(f, 1)), c = s.vertices.row(s.faces(f, 2));
+    normal[static_cast<size_t>(f)] = (b - a).cross(c - a).normalized();
+    for (int k = 0; k < 3; ++k) {
+      int u = s.faces(f, k), v = s.faces(f, (k + 1) % 3);
+      if (u > v) std::swap(u, v);
+      auto [it, fresh] = edges.try_emplace({u, v}, f, -1);
+      if (!fresh) it->second.second = f;
+    }
+  }
+  double balls = 0;
+  for (const auto& [e, fs] : edges) {
+    if (fs.second < 0) continue;
+    if (normal[static_cast<size_t>(fs.first)].dot(normal[static_cast<size_t>(fs.second)]) >= cos_limit) continue;
+    const Vec3 a = s.vertices.row(e.first), b = s.vertices.row(e.second);
+    const double size = std::min(o.lx, 0.25 * (0.5 * (a + b) - centre).norm());
+    balls += (b - a).norm() / std::max(size, 1e-12);
+  }
+  return 30 * balls + 2000;
 }
 
 static std::unique_ptr<Field::Impl> mesh_stage(mesh::SurfaceMesh surface, const Vec3& centre,
@@ -78,11 +119,21 @@ static std::unique_ptr<Field::Impl> mesh_stage(mesh::SurfaceMesh surface, const 
   params.lx = o.lx;
   params.min_size = o.lx / std::pow(o.far_radius * r_max, 2);
   params.feature_angle = o.feature_angle;
-  impl->tm = mesh_inverted_domain(inverted, params, progress);
+  params.max_vertices = o.max_vertices;
+  params.max_protection_evaluations = protection_budget(surface, centre, o);
+  params.max_refinement_evaluations = o.max_refinement_steps;
+  std::string warning;
+  impl->tm = mesh_inverted_domain(inverted, params, progress, &warning);
   impl->stats.t_mesh = seconds_since(t0);
   impl->surface = std::move(surface);
   impl->options = o;
   impl->options.centre = centre;
+  // The effective angle (180 if protection was skipped) is what the cache stores, so a reloaded
+  // object reports the same warning.
+  if (!warning.empty()) {
+    impl->options.feature_angle = 180;
+    impl->stats.warnings.push_back(warning);
+  }
   impl->centre = centre;
   impl->oracle = std::move(oracle);
   return impl;
@@ -291,6 +342,10 @@ Field Field::prepare_cached(const mesh::SurfaceMesh& surface, const PrepareOptio
     if (cached->solver.size() == static_cast<Eigen::Index>(cached->interior.size())) {
       cached->finish_stats();
       cached->stats.t_load = seconds_since(t0);
+      if (options.feature_angle < 180 && cached->options.feature_angle >= 180)
+        cached->stats.warnings.push_back("sharp-edge protection (feature_angle " + std::to_string(options.feature_angle) +
+                                         ") did not converge (features thinner than the element size); meshed "
+                                         "without edge protection (feature_angle 180)");
       if (hit) *hit = true;
       return Field(std::move(cached));
     }

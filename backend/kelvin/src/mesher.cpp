@@ -6,8 +6,11 @@
 #include <CGAL/Polyhedral_mesh_domain_with_features_3.h>
 #include <CGAL/Random.h>
 #include <CGAL/Surface_mesh.h>
+#include <CGAL/Mesh_error_code.h>
 #include <CGAL/make_mesh_3.h>
 
+#include <cstdio>
+#include <cstdlib>
 #include <unordered_map>
 
 #include "distlab/geometry/error.hpp"
@@ -25,12 +28,29 @@ using Criteria = CGAL::Mesh_criteria_3<Tr>;
 
 // l_y(y) = max(|y|² l_x, l_min), eq. 23 with the lower bound of Section IV-C-1. Mesh_3 calls it
 // throughout refinement, so it is also where a cancellation request is noticed.
+// Work budget of one meshing attempt, counted in sizing-field evaluations (deterministic, unlike
+// wall time): Mesh_3 evaluates the edge sizing only while it protects sharp edges, and every
+// refinement step evaluates the facet/cell sizing, so the counts bound both stages.
+struct Budget {
+  long edge_calls = 0, calls = 0;
+  long max_edge_calls = 0, max_calls = 0;
+};
+struct ProtectionBudgetExceeded {};
+struct RefinementBudgetExceeded {};
+
 struct Sizing {
   double lx, min_size, scale;
   const Progress* progress;
   double max_ratio = 0;  // if > 0: l_y ≤ max_ratio · |y|
+  Budget* budget = nullptr;
+  bool edge = false;
   K::FT operator()(const K::Point_3& p, int, const Domain::Index&) const {
     progress->check();
+    if (edge) {
+      if (++budget->edge_calls > budget->max_edge_calls) throw ProtectionBudgetExceeded{};
+    } else if (++budget->calls > budget->max_calls) {
+      throw RefinementBudgetExceeded{};
+    }
     const double y2 = CGAL::to_double(p.x() * p.x() + p.y() * p.y() + p.z() * p.z());
     double l = std::max(lx * y2, min_size);
     if (max_ratio > 0) l = std::min(l, max_ratio * std::sqrt(y2));
@@ -38,10 +58,9 @@ struct Sizing {
   }
 };
 
-}  // namespace
-
-TetMesh mesh_inverted_domain(const mesh::SurfaceMesh& inverted, const MeshingParams& params,
-                             const Progress& progress) {
+// One Mesh_3 run; protect selects sharp-edge protection (params.feature_angle).
+TetMesh mesh_once(const mesh::SurfaceMesh& inverted, const MeshingParams& params, bool protect,
+                  Budget& budget, const Progress& progress) {
   Polyhedron poly;
   std::vector<Polyhedron::Vertex_index> vi;
   for (Eigen::Index v = 0; v < inverted.vertices.rows(); ++v)
@@ -56,27 +75,40 @@ TetMesh mesh_inverted_domain(const mesh::SurfaceMesh& inverted, const MeshingPar
   CGAL::get_default_random() = CGAL::Random(0);
   CGAL::Random rng(0);
   Domain domain(poly, &rng);
-  domain.detect_features(params.feature_angle);
+  if (protect) domain.detect_features(params.feature_angle);
   progress("mesh", 0.1);
 
   // l_y is used as Mesh_3's own size bound (cell and facet circumradii, feature-edge length), as
   // the paper does: at equal l_x this gives vertex counts comparable to its Table I. The facet
   // distance bound is a tenth of it.
-  const Sizing size{params.lx, params.min_size, 1.0, &progress};
+  Sizing size{params.lx, params.min_size, 1.0, &progress};
+  size.budget = &budget;
   // Protecting balls on sharp edges must stay small against the inverted edge curves (circles
   // through the origin, radius 1/(2d) for an edge at distance d from the centre): near the centre
   // |y|² l_x exceeds them and refinement never ends (seen on a 5 mm thick plate at l_x = 4 mm).
   Sizing edge = size;
   edge.max_ratio = 0.25;
-  const Sizing distance{params.lx, params.min_size, 0.1, &progress};
+  edge.edge = true;
+  Sizing distance{params.lx, params.min_size, 0.1, &progress};
+  distance.budget = &budget;
   namespace P = CGAL::parameters;
   Criteria criteria(P::edge_size = edge, P::facet_angle = 25.0, P::facet_size = size,
                     P::facet_distance = distance, P::cell_radius_edge_ratio = 3.0,
                     P::cell_size = size);
   // Exudation without a time limit (determinism) but with a target angle: sliver_bound = 0 asks
   // it to improve the worst cell until nothing improves, which took minutes (profiled).
-  C3t3 c3t3 = CGAL::make_mesh_3<C3t3>(domain, criteria, P::no_perturb(),
-                                      P::exude(P::time_limit = 0, P::sliver_bound = 10));
+  CGAL::Mesh_error_code error = CGAL::CGAL_MESH_3_NO_ERROR;
+  C3t3 c3t3 = CGAL::make_mesh_3<C3t3>(
+      domain, criteria, P::no_perturb(), P::exude(P::time_limit = 0, P::sliver_bound = 10),
+      P::mesh_3_options(P::maximal_number_of_vertices = params.max_vertices,
+                        P::pointer_to_error_code = &error));
+  if (std::getenv("DISTLAB_MESH_DEBUG"))
+    std::fprintf(stderr, "mesh: protect=%d edge_calls=%ld calls=%ld verts=%zu\n", protect ? 1 : 0,
+                 budget.edge_calls, budget.calls, c3t3.triangulation().number_of_vertices());
+  if (error == CGAL::CGAL_MESH_3_MAXIMAL_NUMBER_OF_VERTICES_REACHED)
+    throw InvalidInput("lx", "lx is too small for this object: meshing reached the vertex budget of " +
+                                 std::to_string(params.max_vertices) +
+                                 " vertices (PrepareOptions::max_vertices); use a larger lx");
   progress("mesh", 0.9);
 
   const Tr& tr = c3t3.triangulation();
@@ -109,6 +141,42 @@ TetMesh mesh_inverted_domain(const mesh::SurfaceMesh& inverted, const MeshingPar
     throw InvalidInput("lx", "meshing produced no tetrahedra (is lx far larger than the object?)");
   progress("mesh", 1.0);
   return out;
+}
+
+}  // namespace
+
+TetMesh mesh_inverted_domain(const mesh::SurfaceMesh& inverted, const MeshingParams& params,
+                             const Progress& progress, std::string* warning) {
+  Budget budget;
+  // Refinement: Mesh_3 evaluates the sizing field a few tens of times per inserted vertex.
+  budget.max_calls = static_cast<long>(std::min<double>(params.max_refinement_evaluations, 4e18));
+  budget.max_edge_calls = static_cast<long>(std::min<double>(params.max_protection_evaluations, 4e18));
+  const bool protect = params.feature_angle < 180;
+  if (protect) {
+    try {
+      return mesh_once(inverted, params, true, budget, progress);
+    } catch (const ProtectionBudgetExceeded&) {
+      // Thin features (protecting balls of opposite edges of a thin plate overlap and shrink
+      // without end): mesh again without edge protection, and say so.
+      if (warning)
+        *warning = "sharp-edge protection (feature_angle " + std::to_string(params.feature_angle) +
+                   ") did not converge within " + std::to_string(params.max_protection_evaluations) +
+                   " steps (features thinner than the element size); meshed without edge protection "
+                   "(feature_angle 180)";
+    } catch (const RefinementBudgetExceeded&) {
+      throw InvalidInput("lx", "lx is too small for this object: meshing exceeded its budget of " +
+                                   std::to_string(params.max_refinement_evaluations) +
+                                   " refinement steps; use a larger lx");
+    }
+    budget.edge_calls = budget.calls = 0;
+  }
+  try {
+    return mesh_once(inverted, params, false, budget, progress);
+  } catch (const RefinementBudgetExceeded&) {
+    throw InvalidInput("lx", "lx is too small for this object: meshing exceeded its budget of " +
+                                 std::to_string(params.max_refinement_evaluations) +
+                                 " refinement steps; use a larger lx");
+  }
 }
 
 }  // namespace distlab::kelvin

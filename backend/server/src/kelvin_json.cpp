@@ -112,8 +112,8 @@ std::string asset_path(const std::string& name) {
 }
 
 json run_kelvin_request(const json& r, const kelvin::Progress& progress) {
-  object_with(r, "", {"mesh", "lx", "center", "far_radius", "feature_angle", "cache", "sigma", "query", "isosurfaces",
-                      "comment"});
+  object_with(r, "", {"mesh", "lx", "center", "far_radius", "feature_angle", "max_vertices", "cache", "sigma", "query",
+                      "isosurfaces", "comment"});
   if (!r.contains("mesh")) throw InvalidInput("mesh", "mesh is required");
   const json& m = r["mesh"];
   object_with(m, "mesh", {"path", "asset"});
@@ -126,6 +126,13 @@ json run_kelvin_request(const json& r, const kelvin::Progress& progress) {
   if (r.contains("far_radius")) options.far_radius = number(r["far_radius"], "far_radius");
   // Sharp-edge protection threshold (degrees); 180 turns protection off (see the wrench cases).
   if (r.contains("feature_angle")) options.feature_angle = number(r["feature_angle"], "feature_angle");
+  // Meshing vertex budget (default 1,000,000): beyond it the request fails with an "lx" error.
+  if (r.contains("max_vertices")) {
+    const double mv = number(r["max_vertices"], "max_vertices");
+    if (!(mv >= 100 && mv <= 1e8 && mv == std::floor(mv)))
+      throw InvalidInput("max_vertices", "max_vertices must be an integer in [100, 1e8]");
+    options.max_vertices = static_cast<std::size_t>(mv);
+  }
   kelvin::SigmaSpec sigma = r.contains("sigma") ? parse_sigma(r["sigma"]) : kelvin::SigmaSpec{};
   std::vector<Vec3> points;
   if (r.contains("query")) {
@@ -162,6 +169,8 @@ json run_kelvin_request(const json& r, const kelvin::Progress& progress) {
                   {"t_solve", st.t_solve}, {"cache_hit", hit}};
   // On a cache hit t_mesh and t_decomp are the original preparation's; t_load is this load.
   if (hit) out["stats"]["t_load"] = st.t_load;
+  // Fallbacks taken while preparing (e.g. edge protection skipped on thin features).
+  if (!st.warnings.empty()) out["warnings"] = st.warnings;
   json h = json::array(), grad = json::array(), inside = json::array();
   int hint = -1;
   for (const Vec3& x : points) {

@@ -25,6 +25,18 @@ struct PrepareOptions {
   // protection, Mesh_3 (CGAL 5.5) did not finish on the 5 mm wrench plate (refine_balls loops);
   // without it, edges are rounded at the element scale but boundary vertices stay on the surface.
   double feature_angle = 60.0;
+  // Meshing limits, so that no request can hang (all deterministic counts, no wall time):
+  // - max_vertices: refused up front (InvalidInput "lx") when the estimated vertex count exceeds
+  //   it, and Mesh_3 stops with the same error when its triangulation reaches it;
+  // - max_protection_steps: sizing evaluations allowed for sharp-edge protection (0: automatic,
+  //   30 × the estimated number of protecting balls + 2000); beyond it the features are thinner
+  //   than the elements (protecting balls shrink over and over and the refinement explodes, as
+  //   on the 5 mm wrench plate at l_x = 4 mm: 194k vertices, 330 s) and the object is meshed
+  //   again without protection, with a warning in Stats::warnings;
+  // - max_refinement_steps: sizing evaluations allowed for refinement (InvalidInput "lx" beyond).
+  std::size_t max_vertices = 1'000'000;
+  double max_protection_steps = 0;
+  double max_refinement_steps = 1e8;
 };
 
 struct Stats {
@@ -37,6 +49,7 @@ struct Stats {
   // t_build is measured again (derived data are rebuilt) and t_load is the time of the load.
   bool cached = false;
   double t_load = 0;
+  std::vector<std::string> warnings;  // e.g. edge protection skipped for thin features
 };
 
 enum class Status : std::uint8_t {

@@ -1,7 +1,9 @@
 #pragma once
 // The tetrahedralised inverted domain Ω_inv ∪ {0} (Section IV-C) in y-coordinates.
 #include <Eigen/Core>
+#include <cstddef>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "distlab/geometry/types.hpp"
@@ -26,11 +28,18 @@ struct MeshingParams {
   double lx = 0.1;              // exterior element size l_x (eq. 23)
   double min_size = 0.0;        // lower bound of the interior sizing field l_y
   double feature_angle = 60.0;  // dihedral angle (degrees) below which edges are kept sharp
+  // Limits that turn a runaway refinement into an error instead of a hang (deterministic: counts,
+  // not wall time). See PrepareOptions.
+  std::size_t max_vertices = 2'000'000;
+  double max_protection_evaluations = 2e5;  // edge-sizing evaluations while protecting edges
+  double max_refinement_evaluations = 1e8;  // facet/cell sizing evaluations while refining
 };
 
 // CGAL Mesh_3 on the region bounded by the (already inverted, outward-oriented) surface with
 // l_y(y) = max(|y|² l_x, min_size) (eq. 23). Deterministic: fixed seeds, no time limits.
+// If edge protection exceeds its step budget (thin features), meshes again without it and sets
+// *warning. Exceeding the vertex or refinement budget throws InvalidInput("lx", …).
 TetMesh mesh_inverted_domain(const mesh::SurfaceMesh& inverted, const MeshingParams& params,
-                             const Progress& progress);
+                             const Progress& progress, std::string* warning = nullptr);
 
 }  // namespace distlab::kelvin
