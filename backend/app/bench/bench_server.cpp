@@ -1,0 +1,193 @@
+// Benchmark client of `distlab serve` (loopback; start the server first):
+//   distlab-bench-server [--port 8080] [--lx 0.06] [--edits 40] [--clients 50] [--seconds 30]
+// 1. σ edit -> iso-surface frame received over the WebSocket, on a Kelvin field of the cube asset
+//    (l_x chosen for ~25k vertices): median and p95 latency.
+// 2. `clients` concurrent clients, each repeatedly querying h at 1000 points and GAP on 100 pairs
+//    for `seconds`: throughput, p95 latency per request kind, error count.
+#include <algorithm>
+#include <atomic>
+#include <boost/asio/connect.hpp>
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/http.hpp>
+#include <boost/beast/websocket.hpp>
+#include <chrono>
+#include <cstdio>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace beast = boost::beast;
+namespace http = beast::http;
+namespace net = boost::asio;
+using tcp = net::ip::tcp;
+using json = nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+std::string g_host = "127.0.0.1";
+std::string g_port = "8080";
+
+class HttpClient {
+ public:
+  HttpClient() : stream_(ioc_) { stream_.connect(tcp::resolver(ioc_).resolve(g_host, g_port)); }
+  // Returns the status; body in *out.
+  int request(http::verb verb, const std::string& target, const std::string& body, const std::string& session,
+              std::string* out = nullptr) {
+    http::request<http::string_body> req{verb, target, 11};
+    req.set(http::field::host, g_host);
+    req.set(http::field::content_type, "application/json");
+    if (!session.empty()) req.set("X-Distlab-Session", session);
+    req.body() = body;
+    req.prepare_payload();
+    http::write(stream_, req);
+    beast::flat_buffer buf;
+    http::response_parser<http::string_body> parser;
+    parser.body_limit(1u << 30);
+    http::read(stream_, buf, parser);
+    if (out) *out = parser.get().body();
+    return parser.get().result_int();
+  }
+
+ private:
+  net::io_context ioc_;
+  beast::tcp_stream stream_;
+};
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<std::size_t>(p * static_cast<double>(v.size())))];
+}
+
+std::string session_of(HttpClient& c) {
+  std::string body;
+  c.request(http::verb::post, "/api/session", "", "", &body);
+  return json::parse(body)["session"];
+}
+
+std::string ready_object(HttpClient& c, const std::string& s, double lx, bool quiet = false) {
+  std::string body;
+  int st = 0;
+  for (int attempt = 0; attempt < 600; ++attempt) {  // 429: the server's job limit; wait and retry
+    st = c.request(http::verb::post, "/api/kelvin/objects", json{{"asset", "cube"}, {"lx", lx}}.dump(), s, &body);
+    if (st != 429) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  if (st != 202) throw std::runtime_error("create: " + body);
+  const std::string id = json::parse(body)["object"]["id"];
+  for (int i = 0; i < 3000; ++i) {
+    c.request(http::verb::get, "/api/kelvin/objects/" + id, "", s, &body);
+    const json j = json::parse(body);
+    if (j["state"] == "ready") {
+      if (!quiet) std::printf("object ready: %ld vertices, %ld tets (cache hit: %s)\n", j["stats"]["n_verts"].get<long>(),
+                  j["stats"]["n_tets"].get<long>(), j["stats"]["cache_hit"].get<bool>() ? "yes" : "no");
+      return id;
+    }
+    if (j["state"] != "preparing") throw std::runtime_error("prepare: " + body);
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  }
+  throw std::runtime_error("prepare: timeout");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  double lx = 0.06, seconds = 30;
+  int edits = 40, clients = 50;
+  for (int i = 1; i + 1 < argc; i += 2) {
+    const std::string k = argv[i], v = argv[i + 1];
+    if (k == "--port") g_port = v;
+    else if (k == "--host") g_host = v;
+    else if (k == "--lx") lx = std::stod(v);
+    else if (k == "--edits") edits = std::clamp(std::stoi(v), 1, 10000);
+    else if (k == "--clients") clients = std::clamp(std::stoi(v), 1, 500);
+    else if (k == "--seconds") seconds = std::clamp(std::stod(v), 1.0, 600.0);
+  }
+  try {
+    // ---- 1. σ edit -> iso-surface frame.
+    HttpClient c;
+    const std::string s = session_of(c);
+    const std::string id = ready_object(c, s, lx);
+    net::io_context ioc;
+    beast::websocket::stream<tcp::socket> ws(ioc);
+    net::connect(ws.next_layer(), tcp::resolver(ioc).resolve(g_host, g_port));
+    ws.handshake(g_host + ":" + g_port, "/ws?session=" + s);
+    auto read_until_frame = [&](long version) {
+      for (;;) {
+        beast::flat_buffer buf;
+        ws.read(buf);
+        if (!ws.got_binary()) continue;
+        const json f = json::from_msgpack(beast::buffers_to_string(buf.data()));
+        if (f["type"] == "isosurface" && f["sigma_version"] == version) return f;
+      }
+    };
+    ws.write(net::buffer(json{{"type", "watch"}, {"object", id}, {"levels", {0.3}}}.dump()));
+    json frame = read_until_frame(0);
+    std::vector<double> lat;
+    for (int i = 1; i <= edits; ++i) {
+      const auto t0 = Clock::now();
+      ws.write(net::buffer(json{{"type", "sigma"}, {"object", id}, {"sigma", {{"constant", (i % 2) ? 0.2 : 0.0}}}}.dump()));
+      frame = read_until_frame(i);
+      lat.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+    }
+    std::printf("sigma edit -> isosurface frame (%ld iso vertices): median %.1f ms, p95 %.1f ms over %d edits\n",
+                frame["n_vertices"].get<long>(), percentile(lat, 0.5), percentile(lat, 0.95), edits);
+    ws.close(beast::websocket::close_code::normal);
+
+    // ---- 2. Concurrent clients.
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> u(-2.0, 2.0);
+    json points = json::array();
+    for (int i = 0; i < 1000; ++i) points.push_back({u(rng), u(rng), u(rng)});
+    const std::string query_body = json{{"points", points}}.dump();
+    json pairs = json::array();
+    for (int i = 0; i < 100; ++i)
+      pairs.push_back({{"a", {{"type", "box"}, {"size", {1, 0.5, 0.3}}}},
+                       {"b", {{"type", "sphere"}, {"radius", 0.3}, {"pose", {{"position", {1.5 + 0.01 * i, u(rng) * 0.2, 0}}}}}}});
+    const std::string gap_body = json{{"pairs", pairs}, {"params", {{"validate", false}}}}.dump();
+    std::atomic<long> errors{0}, requests{0};
+    std::mutex m;
+    std::vector<double> lat_query, lat_gap;
+    const auto end = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
+    std::vector<std::thread> threads;
+    for (int t = 0; t < clients; ++t)
+      threads.emplace_back([&] {
+        std::vector<double> lq, lg;
+        try {
+          HttpClient hc;
+          const std::string ss = session_of(hc);
+          const std::string oid = ready_object(hc, ss, lx, true);  // shared preparation: instant
+          while (Clock::now() < end) {
+            auto t0 = Clock::now();
+            if (hc.request(http::verb::post, "/api/kelvin/objects/" + oid + "/query", query_body, ss) != 200) ++errors;
+            lq.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+            t0 = Clock::now();
+            if (hc.request(http::verb::post, "/api/gap/distance", gap_body, "") != 200) ++errors;
+            lg.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+            requests += 2;
+          }
+        } catch (const std::exception& e) {
+          ++errors;
+          std::fprintf(stderr, "client: %s\n", e.what());
+        }
+        std::lock_guard lock(m);
+        lat_query.insert(lat_query.end(), lq.begin(), lq.end());
+        lat_gap.insert(lat_gap.end(), lg.begin(), lg.end());
+      });
+    for (auto& th : threads) th.join();
+    std::printf("%d clients, %.0f s: %ld requests (%.1f/s; %.0f h-queries/s, %.0f GAP pairs/s), errors %ld\n", clients,
+                seconds, requests.load(), requests.load() / seconds, lat_query.size() * 1000.0 / seconds,
+                lat_gap.size() * 100.0 / seconds, errors.load());
+    std::printf("  query h at 1000 points: median %.1f ms, p95 %.1f ms\n", percentile(lat_query, 0.5), percentile(lat_query, 0.95));
+    std::printf("  GAP on 100 pairs:       median %.1f ms, p95 %.1f ms\n", percentile(lat_gap, 0.5), percentile(lat_gap, 0.95));
+    return errors.load() == 0 ? 0 : 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "distlab-bench-server: %s\n", e.what());
+    return 1;
+  }
+}
