@@ -189,6 +189,18 @@ TEST(KelvinPrepare, WrenchWithDefaultOptionsMeshes) {
       // Deterministic fallback: the same request gives the same mesh.
       const Field g = Field::prepare(wrench, o);
       EXPECT_TRUE(g.tet_mesh().points == f.tet_mesh().points);
+      // A cache reload reports the same fallback.
+      const fs::path dir = fresh_dir("wrench_fallback");
+      bool hit = true;
+      const Field c1 = Field::prepare_cached(wrench, o, dir.string(), {}, &hit);
+      EXPECT_FALSE(hit);
+      EXPECT_EQ(c1.stats().warnings.size(), 1u);
+      const Field c2 = Field::prepare_cached(wrench, o, dir.string(), {}, &hit);
+      EXPECT_TRUE(hit);
+      ASSERT_EQ(c2.stats().warnings.size(), 1u);
+      EXPECT_NE(c2.stats().warnings[0].find("edge protection"), std::string::npos);
+      EXPECT_TRUE(c2.tet_mesh().points == f.tet_mesh().points);
+      fs::remove_all(dir);
     }
     f.set_sigma(constant_sigma(0.5));
     const auto points = f.boundary_points();

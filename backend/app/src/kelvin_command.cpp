@@ -34,8 +34,13 @@ int run_kelvin(const std::vector<std::string>& args, std::istream& in, std::ostr
       out << "usage: distlab kelvin [--pretty] [--progress] < request.json\n"
              "request  {\"mesh\": {\"path\": FILE} | {\"asset\": NAME}, \"lx\": m, \"center\"?: [x,y,z],\n"
              "          \"cache\"?: DIR, \"sigma\"?: {\"constant\", \"per_vertex\", \"axis\", \"brushes\"},\n"
-             "          \"query\"?: [[x,y,z], ...], \"isosurfaces\"?: {\"levels\", \"format\", \"path\"}}\n"
-             "response {\"stats\": {...}, \"query\": {\"h\", \"gradient\", \"inside\"}, \"isosurfaces\"?: [...]}\n";
+             "          \"query\"?: [[x,y,z], ...], \"isosurfaces\"?: {\"levels\", \"format\", \"path\"},\n"
+             "          \"feature_angle\"?: deg (60; 180 = no edge protection), \"max_vertices\"?: n (1000000)}\n"
+             "response {\"stats\": {...}, \"query\": {\"h\", \"gradient\", \"inside\"}, \"isosurfaces\"?: [...],\n"
+             "          \"warnings\"?: [...]}\n"
+             "limits   meshing never hangs: more than max_vertices vertices (estimated or reached) or too many\n"
+             "         refinement steps fail with an \"lx\" error; edge protection that does not converge\n"
+             "         (features thinner than the elements) is dropped, with a warning.\n";
       return 0;
     } else {
       err << "distlab kelvin: unknown option '" << a << "' (see distlab kelvin --help)\n";

@@ -343,7 +343,7 @@ Field Field::prepare_cached(const mesh::SurfaceMesh& surface, const PrepareOptio
       cached->finish_stats();
       cached->stats.t_load = seconds_since(t0);
       if (options.feature_angle < 180 && cached->options.feature_angle >= 180)
-        cached->stats.warnings.push_back("sharp-edge protection (feature_angle " + std::to_string(options.feature_angle) +
+        cached->stats.warnings.push_back("sharp-edge protection (feature_angle " + std::to_string(std::lround(options.feature_angle)) +
                                          ") did not converge (features thinner than the element size); meshed "
                                          "without edge protection (feature_angle 180)");
       if (hit) *hit = true;

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 namespace distlab::kelvin {
@@ -98,7 +99,25 @@ Location Locator::locate(const TetMesh& m, const Vec3& y, int start) const {
     }
     c = next;
   }
-  throw std::runtime_error("point location did not terminate");
+  // The walk cycled (seen at l_x = 0.03 on the cube: rounding in the barycentric coordinates of
+  // nearly flat cells). Fall back to a scan of every cell, keeping the one the point is most
+  // inside of (largest smallest barycentric coordinate): slow, rare, and it always ends.
+  double best = -std::numeric_limits<double>::infinity();
+  double lambda[4];
+  for (int k = 0; k < static_cast<int>(m.tets.rows()); ++k) {
+    barycentric(m, k, y, lambda);
+    const double worst = std::min(std::min(lambda[0], lambda[1]), std::min(lambda[2], lambda[3]));
+    if (std::isfinite(worst) && worst > best) {
+      best = worst;
+      loc.cell = k;
+      std::copy(lambda, lambda + 4, loc.lambda);
+    }
+  }
+  if (!(best >= -1e-9)) {
+    // Not inside any finite cell: outside the hull; report the nearest cell as the walk does.
+    loc.outside_hull = true;
+  }
+  return loc;
 }
 
 }  // namespace distlab::kelvin

@@ -9,6 +9,7 @@
 #include <CGAL/Mesh_error_code.h>
 #include <CGAL/make_mesh_3.h>
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <unordered_map>
@@ -57,6 +58,8 @@ struct Sizing {
     return scale * l;
   }
 };
+
+std::string whole(double v) { return std::to_string(static_cast<long long>(std::llround(v))); }
 
 // One Mesh_3 run; protect selects sharp-edge protection (params.feature_angle).
 TetMesh mesh_once(const mesh::SurfaceMesh& inverted, const MeshingParams& params, bool protect,
@@ -159,13 +162,13 @@ TetMesh mesh_inverted_domain(const mesh::SurfaceMesh& inverted, const MeshingPar
       // Thin features (protecting balls of opposite edges of a thin plate overlap and shrink
       // without end): mesh again without edge protection, and say so.
       if (warning)
-        *warning = "sharp-edge protection (feature_angle " + std::to_string(params.feature_angle) +
-                   ") did not converge within " + std::to_string(params.max_protection_evaluations) +
+        *warning = "sharp-edge protection (feature_angle " + whole(params.feature_angle) +
+                   ") did not converge within " + whole(params.max_protection_evaluations) +
                    " steps (features thinner than the element size); meshed without edge protection "
                    "(feature_angle 180)";
     } catch (const RefinementBudgetExceeded&) {
       throw InvalidInput("lx", "lx is too small for this object: meshing exceeded its budget of " +
-                                   std::to_string(params.max_refinement_evaluations) +
+                                   whole(params.max_refinement_evaluations) +
                                    " refinement steps; use a larger lx");
     }
     budget.edge_calls = budget.calls = 0;
@@ -174,7 +177,7 @@ TetMesh mesh_inverted_domain(const mesh::SurfaceMesh& inverted, const MeshingPar
     return mesh_once(inverted, params, false, budget, progress);
   } catch (const RefinementBudgetExceeded&) {
     throw InvalidInput("lx", "lx is too small for this object: meshing exceeded its budget of " +
-                                 std::to_string(params.max_refinement_evaluations) +
+                                 whole(params.max_refinement_evaluations) +
                                  " refinement steps; use a larger lx");
   }
 }
