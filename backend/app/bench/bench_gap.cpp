@@ -188,7 +188,9 @@ int main(int argc, char** argv) {
   const Run fcl_certified = run_fcl(cases, true);
   const Run r_plain = run_gap(cases, plain, ref);
   const Run r_newton = run_gap(cases, newton, ref);
-  const Run r_tight = run_gap(cases, plain_tight, ref);
+  // The plain iteration at 1e-10 crawls (up to 1e5 steps near contact): a subset suffices.
+  std::vector<Case> subset(cases.begin(), cases.begin() + std::min<size_t>(cases.size(), 5000));
+  const Run r_tight = run_gap(subset, plain_tight, ref);
   std::printf("GAP benchmark 1: %d random pairs of 10-half-space polytopes, distance >= 5 cm, "
               "single thread (times in us, including the FCL start)\n", pairs);
   std::printf(kHeader, "method", "mean", "median", "p99", "max", "it mean", "it p99", "it max",
@@ -196,7 +198,7 @@ int main(int argc, char** argv) {
   print_row("FCL distance alone", fcl);
   print_row("Euclidean, certified (distlab)", fcl_certified);
   print_row("GAP plain iteration, tol 1e-3", r_plain);
-  print_row("GAP plain iteration, tol 1e-10", r_tight);
+  print_row("GAP plain, tol 1e-10 (5000 pairs)", r_tight);
   print_row("GAP Newton, tol 1e-10", r_newton);
   const double ratio = stats(r_newton.us).mean / stats(fcl.us).mean;
   const double ratio_median = stats(r_newton.us).median / stats(fcl.us).median;
