@@ -1,26 +1,16 @@
 // `distlab cbf`: one CBF rollout request (JSON) on stdin, the record (JSON) on stdout.
 // Exit codes as `distlab gap`: 0 ok, 2 invalid input or usage, 65 malformed JSON, 70 internal
 // error; on any error the JSON error body goes to stdout and one line to stderr.
-#include <istream>
-#include <ostream>
-#include <stdexcept>
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include "command.hpp"
+#include "json_command.hpp"
 #include "distlab/server/cbf_json.hpp"
 
 namespace {
 
-using nlohmann::json;
 namespace server = distlab::server;
-
-constexpr int kExitOk = 0;
-constexpr int kExitInvalid = 2;
-constexpr int kExitParse = 65;     // EX_DATAERR
-constexpr int kExitInternal = 70;  // EX_SOFTWARE
 
 constexpr const char* kHelp = R"(usage: distlab cbf [--pretty] < request.json
 
@@ -42,54 +32,11 @@ errors    {"error": {"code", "message", "field"}}
 exit      0 ok, 2 invalid input, 65 malformed JSON, 70 internal error
 )";
 
-std::string one_line(std::string s) {
-  for (char& c : s)
-    if (c == '\n' || c == '\r') c = ' ';
-  return s;
-}
-
 int run_cbf(const std::vector<std::string>& args, std::istream& in, std::ostream& out,
             std::ostream& err) {
-  bool pretty = false;
-  for (const std::string& a : args) {
-    if (a == "--pretty") {
-      pretty = true;
-    } else if (a == "--help" || a == "-h") {
-      out << kHelp;
-      return kExitOk;
-    } else {
-      err << "distlab cbf: unknown option '" << a << "' (see distlab cbf --help)\n";
-      return kExitInvalid;
-    }
-  }
-  auto emit = [&](const json& j) {
-    out << j.dump(pretty ? 2 : -1, ' ', false, json::error_handler_t::replace) << '\n';
-    out.flush();
-  };
-  try {
-    std::string text;
-    char buf[1 << 16];
-    while (text.size() <= server::kMaxRequestBytes && in.read(buf, sizeof buf).gcount() > 0)
-      text.append(buf, static_cast<std::size_t>(in.gcount()));
-    if (in.bad()) throw std::runtime_error("cannot read stdin");
-    emit(server::run_cbf_request(server::parse_json_text(text)));
-    return kExitOk;
-  } catch (const server::JsonSyntaxError& e) {
-    json body = server::error_json("parse_error", e.what());
-    body["error"]["byte"] = e.byte();
-    emit(body);
-    err << "distlab cbf: malformed JSON: " << one_line(e.what()) << "\n";
-    return kExitParse;
-  } catch (const distlab::InvalidInput& e) {
-    emit(server::error_json(e));
-    err << "distlab cbf: invalid input" << (e.field().empty() ? "" : " at " + e.field()) << ": "
-        << one_line(e.what()) << "\n";
-    return kExitInvalid;
-  } catch (const std::exception& e) {
-    emit(server::error_json("internal_error", e.what()));
-    err << "distlab cbf: internal error: " << one_line(e.what()) << "\n";
-    return kExitInternal;
-  }
+  return distlab::app::run_json_command(
+      {"cbf", kHelp, {}}, args, in, out, err,
+      [](const nlohmann::json& request, const auto&) { return server::run_cbf_request(request); });
 }
 
 const distlab::app::RegisterCommand kRegister(

@@ -1,26 +1,16 @@
 // `distlab gap`: one GAP request (JSON) on stdin, the response (JSON) on stdout.
 // Exit codes: 0 ok, 2 invalid input or usage, 65 malformed JSON, 70 internal error; on any error
 // the JSON error body goes to stdout (so scripts always get JSON) and one line to stderr.
-#include <istream>
-#include <ostream>
-#include <stdexcept>
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include "command.hpp"
+#include "json_command.hpp"
 #include "distlab/server/gap_json.hpp"
 
 namespace {
 
-using nlohmann::json;
 namespace server = distlab::server;
-
-constexpr int kExitOk = 0;
-constexpr int kExitInvalid = 2;
-constexpr int kExitParse = 65;     // EX_DATAERR
-constexpr int kExitInternal = 70;  // EX_SOFTWARE
 
 constexpr const char* kHelp = R"(usage: distlab gap [--pretty] < request.json
 
@@ -51,59 +41,11 @@ exit      0 ok, 2 invalid input ("invalid_input"), 65 malformed JSON ("parse_err
           70 internal error ("internal_error")
 )";
 
-// One line for stderr: messages may quote user input.
-std::string one_line(std::string s) {
-  for (char& c : s)
-    if (c == '\n' || c == '\r') c = ' ';
-  return s;
-}
-
 int run_gap(const std::vector<std::string>& args, std::istream& in, std::ostream& out,
             std::ostream& err) {
-  bool pretty = false;
-  for (const std::string& a : args) {
-    if (a == "--pretty") {
-      pretty = true;
-    } else if (a == "--help" || a == "-h") {
-      out << kHelp;
-      return kExitOk;
-    } else {
-      err << "distlab gap: unknown option '" << a << "' (see distlab gap --help)\n";
-      return kExitInvalid;
-    }
-  }
-  auto emit = [&](const json& j) {
-    // replace: never throw on a stray byte in an echoed name; numbers print shortest round-trip.
-    out << j.dump(pretty ? 2 : -1, ' ', false, json::error_handler_t::replace) << '\n';
-    out.flush();
-  };
-
-  try {
-    // Read at most one byte past the limit, so a huge stream is refused without buffering it.
-    std::string text;
-    char buf[1 << 16];
-    while (text.size() <= server::kMaxRequestBytes && in.read(buf, sizeof buf).gcount() > 0)
-      text.append(buf, static_cast<std::size_t>(in.gcount()));
-    if (in.bad()) throw std::runtime_error("cannot read stdin");
-    const json request = server::parse_json_text(text);
-    emit(server::run_gap_request(request));
-    return kExitOk;
-  } catch (const server::JsonSyntaxError& e) {
-    json body = server::error_json("parse_error", e.what());
-    body["error"]["byte"] = e.byte();
-    emit(body);
-    err << "distlab gap: malformed JSON: " << one_line(e.what()) << "\n";
-    return kExitParse;
-  } catch (const distlab::InvalidInput& e) {
-    emit(server::error_json(e));
-    err << "distlab gap: invalid input" << (e.field().empty() ? "" : " at " + e.field()) << ": "
-        << one_line(e.what()) << "\n";
-    return kExitInvalid;
-  } catch (const std::exception& e) {
-    emit(server::error_json("internal_error", e.what()));
-    err << "distlab gap: internal error: " << one_line(e.what()) << "\n";
-    return kExitInternal;
-  }
+  return distlab::app::run_json_command(
+      {"gap", kHelp, {}}, args, in, out, err,
+      [](const nlohmann::json& request, const auto&) { return server::run_gap_request(request); });
 }
 
 const distlab::app::RegisterCommand kRegister(
