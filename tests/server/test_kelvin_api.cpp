@@ -179,10 +179,23 @@ TEST_F(KelvinApi, SigmaEditAnsweredByIsosurfaceFrame) {
   WsClient ws(server_->port(), s);
   json body = kCube;
   body["levels"] = {0.3};
-  const std::string id = create_ready(c, ws, s, body);
-  Msg m;
-  // Being watched, the object pushes its frames once ready (surface, then the iso-surface).
-  ASSERT_TRUE(ws.until([&](const Msg& x) { return x.binary && x.j["type"] == "isosurface"; }, m, 60));
+  auto created = c.Post("/api/kelvin/objects", session_headers(s), body.dump(), "application/json");
+  ASSERT_TRUE(created);
+  ASSERT_EQ(created->status, 202) << created->body;
+  const std::string id = body_json(created)["object"]["id"], job = body_json(created)["job"]["id"];
+  // Being watched, the object pushes its frames once ready; the job's final event and the frames
+  // come from different threads, so wait for both in either order.
+  Msg m, frame;
+  bool succeeded = false, framed = false;
+  ASSERT_TRUE(ws.until(
+      [&](const Msg& x) {
+        if (!x.binary && x.j["type"] == "job" && x.j["job"]["id"] == job && x.j["job"]["state"] == "succeeded")
+          succeeded = true;
+        if (x.binary && x.j["type"] == "isosurface") framed = true, frame = x;
+        return succeeded && framed;
+      },
+      m, 120));
+  m = frame;
   EXPECT_EQ(m.j["object"], id);
   EXPECT_EQ(m.j["sigma_version"], 0);
   const auto before = m.j["n_vertices"].get<long>();
