@@ -102,6 +102,9 @@ class ServerProcess {
     pid_ = ::fork();
     ASSERT_GE(pid_, 0);
     if (pid_ == 0) {
+      // Sanitized builds: known third-party leaks only (see lsan.supp).
+      const std::string lsan = "suppressions=" + std::string(DISTLAB_SOURCE_DIR) + "/tests/server/lsan.supp";
+      ::setenv("LSAN_OPTIONS", lsan.c_str(), 0);
       ::dup2(fds[1], 1);
       ::close(fds[0]);
       ::close(fds[1]);
