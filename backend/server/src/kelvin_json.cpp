@@ -1,4 +1,5 @@
 // Kelvin requests as JSON: parse with field paths, prepare/solve/query, encode.
+#include "distlab/server/json_fields.hpp"
 #include "distlab/server/kelvin_json.hpp"
 
 #include <cmath>
@@ -21,17 +22,8 @@ void object_with(const json& j, const std::string& field, std::set<std::string> 
     if (!keys.count(k)) throw InvalidInput(field.empty() ? k : field + "." + k, "unknown key \"" + k + "\"");
 }
 
-double number(const json& j, const std::string& field) {
-  if (!j.is_number()) throw InvalidInput(field, field + " must be a number");
-  const double v = j.get<double>();
-  if (!std::isfinite(v)) throw InvalidInput(field, field + " must be finite");
-  return v;
-}
-
-Vec3 vec3(const json& j, const std::string& field) {
-  if (!j.is_array() || j.size() != 3) throw InvalidInput(field, field + " must be an array of 3 numbers");
-  return {number(j[0], field + "[0]"), number(j[1], field + "[1]"), number(j[2], field + "[2]")};
-}
+double number(const json& j, const std::string& field) { return json_number(j, field); }
+Vec3 vec3(const json& j, const std::string& field) { return json_vec3(j, field); }
 
 std::string text(const json& j, const std::string& field) {
   if (!j.is_string() || j.get<std::string>().empty()) throw InvalidInput(field, field + " must be a non-empty string");

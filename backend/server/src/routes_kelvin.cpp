@@ -9,6 +9,7 @@
 #include "distlab/kelvin/progress.hpp"
 #include "distlab/kelvin/sigma.hpp"
 #include "distlab/mesh/primitives.hpp"
+#include "distlab/server/json_fields.hpp"
 #include "distlab/server/frames.hpp"
 #include "distlab/server/gap_json.hpp"
 #include "distlab/server/kelvin_json.hpp"
@@ -30,17 +31,8 @@ bool valid_name(const std::string& s) {
   return true;
 }
 
-double num(const json& j, const std::string& field) {
-  if (!j.is_number()) throw InvalidInput(field, field + " must be a number");
-  const double v = j.get<double>();
-  if (!std::isfinite(v)) throw InvalidInput(field, field + " must be finite");
-  return v;
-}
-
-Vec3 vec3(const json& j, const std::string& field) {
-  if (!j.is_array() || j.size() != 3) throw InvalidInput(field, field + " must be an array of 3 numbers");
-  return {num(j[0], field + "[0]"), num(j[1], field + "[1]"), num(j[2], field + "[2]")};
-}
+double num(const json& j, const std::string& field) { return json_number(j, field); }
+Vec3 vec3(const json& j, const std::string& field) { return json_vec3(j, field); }
 
 std::vector<double> parse_levels(const json& j, const std::string& field, std::size_t max) {
   if (!j.is_array()) throw InvalidInput(field, field + " must be an array of numbers");
