@@ -1,0 +1,102 @@
+// Browser-test harness: starts the real `distlab serve` on a free port with the built front end
+// (web/dist), launches Debian's chromium headless through playwright-core, and keeps screenshots
+// as artifacts. Environment (set by tests/web/CMakeLists.txt): DISTLAB_EXE, DISTLAB_SOURCE_DIR,
+// DISTLAB_ARTIFACTS, CHROMIUM.
+import { spawn } from "node:child_process";
+import { mkdirSync, mkdtempSync, rmSync, existsSync } from "node:fs";
+import { createRequire } from "node:module";
+import { tmpdir } from "node:os";
+import path from "node:path";
+
+const source = process.env.DISTLAB_SOURCE_DIR ?? path.resolve(import.meta.dirname, "../..");
+const require = createRequire(path.join(source, "web", "package.json"));
+const { chromium } = require("playwright-core");
+
+export const artifacts = process.env.DISTLAB_ARTIFACTS ?? path.join(source, "build", "web-artifacts");
+mkdirSync(artifacts, { recursive: true });
+
+/** Starts `distlab serve --port 0` and resolves once it prints the port it listens on. */
+export async function startServer({ extra = [], cacheDir, port: wanted = 0 } = {}) {
+  const exe = process.env.DISTLAB_EXE ?? path.join(source, "build", "backend", "app", "distlab");
+  const web = path.join(source, "web", "dist");
+  if (!existsSync(path.join(web, "index.html"))) throw new Error(`no front-end build at ${web} (run npm run build in web/)`);
+  const cache = cacheDir ?? mkdtempSync(path.join(tmpdir(), "distlab-web-cache-"));
+  const args = ["serve", "--host", "127.0.0.1", "--port", String(wanted), "--assets", path.join(source, "assets"), "--web", web, "--cache-dir", cache, ...extra];
+  const proc = spawn(exe, args, { stdio: ["ignore", "pipe", "pipe"] });
+  let log = "";
+  const port = await new Promise((resolve, reject) => {
+    const timer = setTimeout(() => reject(new Error("server did not start in 30 s:\n" + log)), 30000);
+    const onData = (d) => {
+      log += d.toString();
+      const m = /listening on http:\/\/[^:]+:(\d+)\//.exec(log);
+      if (m) {
+        clearTimeout(timer);
+        resolve(Number(m[1]));
+      }
+    };
+    proc.stdout.on("data", onData);
+    proc.stderr.on("data", onData);
+    proc.on("exit", (code) => reject(new Error(`server exited (${code}):\n${log}`)));
+  });
+  return {
+    port,
+    url: `http://127.0.0.1:${port}/`,
+    cacheDir: cache,
+    log: () => log,
+    async stop({ keepCache = false } = {}) {
+      if (proc.exitCode === null) {
+        proc.kill("SIGTERM");
+        await new Promise((r) => proc.once("exit", r));
+      }
+      if (!cacheDir && !keepCache) rmSync(cache, { recursive: true, force: true });
+    },
+  };
+}
+
+export async function launchBrowser() {
+  return chromium.launch({
+    executablePath: process.env.CHROMIUM ?? "/usr/bin/chromium",
+    headless: true,
+    args: [
+      "--no-sandbox",
+      "--disable-gpu",
+      "--disable-background-networking",
+      "--disable-component-update",
+      "--enable-unsafe-swiftshader", // WebGL on the CPU (no GPU here)
+      "--use-angle=swiftshader",
+    ],
+  });
+}
+
+/** A page on the given hash; console errors and failed requests are collected in page.problems. */
+export async function openView(browser, server, hash, { width = 1280, height = 800 } = {}) {
+  const context = await browser.newContext({ viewport: { width, height }, acceptDownloads: true });
+  const page = await context.newPage();
+  page.problems = [];
+  page.on("pageerror", (e) => page.problems.push(`pageerror: ${e.message}`));
+  page.on("console", (m) => {
+    if (m.type() === "error") page.problems.push(`console: ${m.text()}`);
+  });
+  await page.goto(server.url + hash);
+  await page.waitForFunction(() => document.getElementById("connection")?.textContent === "connected", null, { timeout: 30000 });
+  return page;
+}
+
+export async function screenshot(page, name) {
+  const file = path.join(artifacts, `${name}.png`);
+  await page.screenshot({ path: file });
+  return file;
+}
+
+/** Pixels of the 3D canvas (for "the picture changed" checks). */
+export async function canvasPixels(page) {
+  const buf = await page.locator("canvas.viewport-canvas").first().screenshot();
+  return buf;
+}
+
+export function differentBytes(a, b) {
+  if (a.length !== b.length) return Math.max(a.length, b.length);
+  let n = 0;
+  for (let i = 0; i < a.length; i++) if (a[i] !== b[i]) n++;
+  return n;
+}

@@ -1,0 +1,111 @@
+// The /ws connection: JSON text messages by "type", binary msgpack frames (meshes). Reconnects
+// with backoff after a server restart; before reconnecting it revalidates the session through the
+// REST client (which makes a new one if the server forgot it), then asks for the current state.
+import { decode } from "@msgpack/msgpack";
+import { api, Api } from "./api";
+
+export type ConnectionState = "connecting" | "open" | "closed";
+export type TextMessage = { type: string; [key: string]: unknown };
+export type BinaryFrame = { type?: string; [key: string]: unknown };
+
+type Listener<T> = (m: T) => void;
+
+export class Socket {
+  private ws: WebSocket | null = null;
+  private text = new Map<string, Set<Listener<TextMessage>>>();
+  private binary = new Set<Listener<BinaryFrame>>();
+  private stateListeners = new Set<Listener<ConnectionState>>();
+  private openListeners = new Set<() => void>();
+  private retry = 0;
+  private timer: number | undefined;
+  state: ConnectionState = "closed";
+
+  constructor(private readonly client: Api = api) {}
+
+  start(): void {
+    void this.connect();
+  }
+
+  on(type: string, f: Listener<TextMessage>): () => void {
+    if (!this.text.has(type)) this.text.set(type, new Set());
+    this.text.get(type)!.add(f);
+    return () => this.text.get(type)?.delete(f);
+  }
+  onFrame(f: Listener<BinaryFrame>): () => void {
+    this.binary.add(f);
+    return () => this.binary.delete(f);
+  }
+  onState(f: Listener<ConnectionState>): () => void {
+    this.stateListeners.add(f);
+    f(this.state);
+    return () => this.stateListeners.delete(f);
+  }
+  /** Called on every (re)connection: views re-register what the server should push. */
+  onOpen(f: () => void): () => void {
+    this.openListeners.add(f);
+    if (this.state === "open") f();
+    return () => this.openListeners.delete(f);
+  }
+
+  send(message: TextMessage): boolean {
+    if (!this.ws || this.ws.readyState !== WebSocket.OPEN) return false;
+    this.ws.send(JSON.stringify(message));
+    return true;
+  }
+
+  private setState(s: ConnectionState): void {
+    this.state = s;
+    this.stateListeners.forEach((f) => f(s));
+  }
+
+  private async connect(): Promise<void> {
+    this.setState("connecting");
+    let session: string;
+    try {
+      await this.client.get("/api/session"); // revalidates (or recreates) the session
+      session = await this.client.sessionId();
+    } catch {
+      this.scheduleReconnect();
+      return;
+    }
+    const url = new URL(`ws?session=${encodeURIComponent(session)}`, location.href);
+    url.protocol = location.protocol === "https:" ? "wss:" : "ws:";
+    const ws = new WebSocket(url);
+    ws.binaryType = "arraybuffer";
+    this.ws = ws;
+    ws.onopen = () => {
+      this.retry = 0;
+      this.setState("open");
+      this.openListeners.forEach((f) => f());
+    };
+    ws.onmessage = (ev: MessageEvent) => {
+      if (typeof ev.data === "string") {
+        let m: TextMessage;
+        try {
+          m = JSON.parse(ev.data) as TextMessage;
+        } catch {
+          return;
+        }
+        this.text.get(m.type)?.forEach((f) => f(m));
+        this.text.get("*")?.forEach((f) => f(m));
+      } else {
+        const frame = decode(new Uint8Array(ev.data as ArrayBuffer)) as BinaryFrame;
+        this.binary.forEach((f) => f(frame));
+      }
+    };
+    ws.onclose = () => {
+      if (this.ws !== ws) return;
+      this.ws = null;
+      this.scheduleReconnect();
+    };
+  }
+
+  private scheduleReconnect(): void {
+    this.setState("closed");
+    clearTimeout(this.timer);
+    const delay = Math.min(5000, 250 * 2 ** this.retry++);
+    this.timer = window.setTimeout(() => void this.connect(), delay);
+  }
+}
+
+export const socket = new Socket();

@@ -1,0 +1,25 @@
+// Readable messages in a corner: API errors ("field: message"), progress notes, successes.
+import { ApiError } from "./api";
+
+export type ToastKind = "error" | "info" | "ok";
+
+export function toast(message: string, kind: ToastKind = "info", ms = kind === "error" ? 8000 : 3000): void {
+  const box = document.getElementById("toasts");
+  if (!box) return;
+  const el = document.createElement("div");
+  el.className = `toast toast-${kind}`;
+  el.setAttribute("role", kind === "error" ? "alert" : "status");
+  el.textContent = message;
+  el.addEventListener("click", () => el.remove());
+  box.appendChild(el);
+  window.setTimeout(() => el.remove(), ms);
+}
+
+/** Shows any thrown value as a readable error; returns its text. */
+export function showError(e: unknown, context?: string): string {
+  const text = e instanceof ApiError ? e.readable : e instanceof Error ? e.message : String(e);
+  const full = context ? `${context}: ${text}` : text;
+  toast(full, "error");
+  console.warn(full);
+  return full;
+}
