@@ -1,23 +1,376 @@
-// Placeholder until the view lands: an empty viewport.
+// View 1, the GAP explorer: two shapes dragged with a gizmo, GAP (Λ, D, witness points) beside
+// the Euclidean distance live, parameters with the validator's verdict, iso-surfaces and a slice
+// of e_S / E_S (Fig. 1 in 3D), and a sweep plot of D and dD/ds along a straight motion of B.
+import * as THREE from "three";
+import { TransformControls } from "three/addons/controls/TransformControls.js";
+import { api, ApiError } from "../../core/api";
 import type { Shortcut } from "../../core/keys";
+import { LatestWins, type LatestResult } from "../../core/latest";
+import { toast } from "../../core/toast";
 import type { View, ViewHost } from "../../core/view";
 import { Viewport } from "../../core/viewport";
+import "./gap.css";
+import { IsoLayer } from "./levelsets";
+import { GapPanel, type Change, type GizmoState } from "./panel";
+import { Readout, statusLine, type GapResult } from "./readout";
+import { COLORS, GapScene } from "./scene";
+import { setPose, shapeRequest } from "./shapes";
+import { defaultState, paramsBody, parseState, type GapState } from "./state";
+import { Sweep } from "./sweep";
+
+type DistanceInput = Pick<GapState, "a" | "b" | "params">;
 
 export class GapView implements View {
+  private host!: ViewHost;
   private viewport: Viewport | null = null;
-  mount(host: ViewHost): void {
-    this.viewport = new Viewport(host.canvas);
-    host.status("GAP explorer: not built yet");
+  private state: GapState = defaultState();
+  private readonly gizmoState: GizmoState = { selected: "b", mode: "translate", space: "world" };
+  private scene!: GapScene;
+  private gizmo!: TransformControls;
+  private panel!: GapPanel;
+  private readout!: Readout;
+  private iso!: IsoLayer;
+  private sweep!: Sweep;
+  private distance!: LatestWins<DistanceInput, GapResult>;
+  private result: GapResult | null = null;
+  private lastError = "";
+  private sweepTimer = 0;
+  private pendingMoves: Array<{ seq: number; t: number }> = [];
+  private latencies: number[] = [];
+  private cleanup: Array<() => void> = [];
+
+  mount(host: ViewHost, raw: Record<string, unknown>): void {
+    this.host = host;
+    this.state = parseState(raw);
+    const vp = (this.viewport = new Viewport(host.canvas, { up: "z" }));
+    vp.camera.position.set(0.9, -1.7, 1.3);
+    this.scene = new GapScene(vp.scene);
+    this.scene.setShape("a", this.state.a);
+    this.scene.setShape("b", this.state.b);
+
+    this.gizmo = new TransformControls(vp.camera, vp.renderer.domElement);
+    this.gizmo.size = 0.9;
+    vp.scene.add(this.gizmo.getHelper());
+    this.gizmo.addEventListener("change", () => vp.invalidate());
+    this.gizmo.addEventListener("dragging-changed", (e) => (vp.controls.enabled = !e.value));
+    this.gizmo.addEventListener("objectChange", () => this.moved());
+    this.gizmo.addEventListener("mouseUp", () => this.scheduleSweep(0));
+
+    this.readout = new Readout(host.canvas);
+    host.canvas.appendChild(legend());
+
+    this.panel = new GapPanel(host.panel, this.state, this.gizmoState, (c) => this.changed(c), {
+      reset: () => this.reset(),
+      copyLink: () => void navigator.clipboard?.writeText(location.href).then(() => toast("link copied", "ok")),
+      frame: () => this.frameAll(),
+    });
+    this.panel.onLevelError = (m) => toast(m, "error");
+
+    this.iso = new IsoLayer(
+      (err) => {
+        if (err) this.reportError(err, "level sets");
+        vp.invalidate();
+      },
+      (busy) => host.progress(busy ? "computing level sets…" : null),
+    );
+    this.sweep = new Sweep(host.bottom, (err) => err && this.reportError(err, "sweep"));
+    host.showBottom(true);
+
+    this.distance = new LatestWins(
+      (i) =>
+        api.post<GapResult>("/api/gap/distance", { a: shapeRequest(i.a), b: shapeRequest(i.b), params: paramsBody(i.params, { gradient: false }) }),
+      (r) => this.showDistance(r),
+    );
+
+    this.installPicking(vp);
+    this.applyGizmo();
+    this.attachIso();
+    this.frameAll();
+    this.requestDistance();
+    this.iso.update(this.isoInput());
+    this.scheduleSweep(0);
+    this.exposeHooks();
   }
+
+  // ---- changes -------------------------------------------------------------------------------
+
+  private moved(): void {
+    const k = this.gizmoState.selected;
+    setPose(this.state[k], this.scene.groups[k]);
+    const seq = this.requestDistance();
+    this.pendingMoves.push({ seq, t: performance.now() });
+    this.save();
+  }
+
+  private changed(c: Change): void {
+    switch (c) {
+      case "shape-a":
+      case "shape-b": {
+        const k = c === "shape-a" ? "a" : "b";
+        this.scene.setShape(k, this.state[k]);
+        if (this.state.iso.around === k) this.iso.update(this.isoInput());
+        break;
+      }
+      case "params":
+        this.state.params.k = Math.round(this.state.params.k);
+        this.iso.update(this.isoInput());
+        break;
+      case "iso":
+        this.attachIso();
+        this.iso.update(this.isoInput());
+        break;
+      case "slice-style":
+        this.iso.restyle(this.state.iso);
+        break;
+      case "gizmo":
+        this.applyGizmo();
+        return;
+      case "sweep":
+        break;
+    }
+    this.viewport?.invalidate();
+    this.requestDistance();
+    this.scheduleSweep(150);
+    this.save();
+  }
+
+  private requestDistance(): number {
+    const s = this.state;
+    return this.distance.submit(structuredClone({ a: s.a, b: s.b, params: s.params }));
+  }
+
+  private showDistance(r: LatestResult<DistanceInput, GapResult>): void {
+    const now = performance.now();
+    this.pendingMoves = this.pendingMoves.filter((m) => {
+      if (m.seq > r.seq) return true;
+      this.latencies.push(now - m.t);
+      return false;
+    });
+    if (this.latencies.length > 1000) this.latencies.splice(0, this.latencies.length - 1000);
+    if (r.error !== undefined || !r.output) {
+      this.result = null;
+      this.scene.gap.set(null, null);
+      this.scene.euclid.set(null, null);
+      const text = this.reportError(r.error, "distance");
+      this.readout.error(text);
+      this.host.status(`error: ${text}`);
+      this.viewport?.invalidate();
+      return;
+    }
+    const res = (this.result = r.output);
+    this.lastError = "";
+    this.readout.show(res, r.input.params.solver);
+    this.host.status(statusLine(res, r.input.params.solver));
+    this.scene.gap.set(res.witness_a, res.witness_b);
+    this.scene.euclid.set(res.euclidean.witness_a, res.euclidean.witness_b);
+    const va = res.validation?.a, vb = res.validation?.b;
+    if (va && vb)
+      this.panel.setVerdict(
+        va.ok && vb.ok,
+        `✓ Property 2 holds: largest Hessian eigenvalue of E_S ${va.max_eigenvalue.toFixed(4)} (A), ${vb.max_eigenvalue.toFixed(4)} (B) < 1`,
+      );
+    this.viewport?.invalidate();
+  }
+
+  /** Shows an error readably (toast once per distinct message, red verdict for parameters). */
+  private reportError(e: unknown, what: string): string {
+    const text = e instanceof ApiError ? e.readable : e instanceof Error ? e.message : String(e);
+    const field = e instanceof ApiError ? (e.field ?? "") : "";
+    if (field.startsWith("params") || field === "a" || field === "b") this.panel.setVerdict(false, `✗ refused — ${text}`);
+    const key = `${what}: ${text}`;
+    if (key !== this.lastError) {
+      this.lastError = key;
+      toast(`${what}: ${text}`, "error");
+    }
+    return text;
+  }
+
+  private scheduleSweep(ms: number): void {
+    clearTimeout(this.sweepTimer);
+    this.sweepTimer = window.setTimeout(() => {
+      const s = this.state;
+      this.sweep.update({ a: s.a, b: s.b, params: s.params, sweep: s.sweep });
+    }, ms);
+  }
+
+  private isoInput() {
+    const s = this.state;
+    return { shape: s[s.iso.around], params: s.params, iso: s.iso };
+  }
+
+  private attachIso(): void {
+    this.scene.groups[this.state.iso.around].add(this.iso.group);
+  }
+
+  private applyGizmo(): void {
+    const g = this.gizmoState;
+    this.gizmo.attach(this.scene.groups[g.selected]);
+    this.gizmo.setMode(g.mode);
+    this.gizmo.setSpace(g.space);
+    this.scene.select(g.selected);
+    this.panel.refresh();
+    this.viewport?.invalidate();
+  }
+
+  private save(): void {
+    this.host.saveState(structuredClone(this.state) as unknown as Record<string, unknown>);
+  }
+
+  private reset(): void {
+    const d = defaultState();
+    const s = this.state;
+    for (const k of ["a", "b"] as const) {
+      const size = s[k].size;
+      Object.assign(s[k], d[k], { size });
+      size.splice(0, 3, ...d[k].size);
+      this.scene.setShape(k, s[k]);
+    }
+    Object.assign(s.params, d.params);
+    Object.assign(s.iso, d.iso);
+    Object.assign(s.sweep, d.sweep);
+    this.panel.refresh();
+    this.changed("iso");
+    this.frameAll();
+  }
+
+  private nudge(axis: 0 | 1 | 2, step: number): void {
+    const g = this.scene.groups[this.gizmoState.selected];
+    g.position.setComponent(axis, g.position.getComponent(axis) + step);
+    g.updateMatrixWorld(true);
+    this.moved();
+    this.scheduleSweep(250);
+    this.viewport?.invalidate();
+  }
+
+  private frameAll(): void {
+    const box = new THREE.Box3();
+    for (const k of ["a", "b"] as const) box.expandByObject(this.scene.meshes[k]);
+    this.viewport?.frame(box.expandByScalar(0.15));
+  }
+
+  // ---- picking: a click (not a drag) on a shape selects it for the gizmo -----------------------
+
+  private installPicking(vp: Viewport): void {
+    const dom = vp.renderer.domElement;
+    let down: { x: number; y: number } | null = null;
+    const onDown = (e: PointerEvent) => (down = { x: e.clientX, y: e.clientY });
+    const onUp = (e: PointerEvent) => {
+      if (!down || Math.hypot(e.clientX - down.x, e.clientY - down.y) > 4 || this.gizmo.dragging) return;
+      down = null;
+      const r = dom.getBoundingClientRect();
+      const ndc = new THREE.Vector2(((e.clientX - r.left) / r.width) * 2 - 1, -((e.clientY - r.top) / r.height) * 2 + 1);
+      const ray = new THREE.Raycaster();
+      ray.setFromCamera(ndc, vp.camera);
+      const hit = ray.intersectObjects([this.scene.meshes.a, this.scene.meshes.b], false)[0];
+      const k = hit?.object.userData.shape as "a" | "b" | undefined;
+      if (k && k !== this.gizmoState.selected) {
+        this.gizmoState.selected = k;
+        this.applyGizmo();
+      }
+    };
+    dom.addEventListener("pointerdown", onDown);
+    dom.addEventListener("pointerup", onUp);
+    this.cleanup.push(() => {
+      dom.removeEventListener("pointerdown", onDown);
+      dom.removeEventListener("pointerup", onUp);
+    });
+  }
+
+  // ---- hooks for tests and measurements (read-only) --------------------------------------------
+
+  private exposeHooks(): void {
+    const vp = this.viewport!;
+    const hooks = {
+      result: () => structuredClone(this.result),
+      D: () => this.result?.distance ?? null,
+      lambda: () => this.result?.lambda ?? null,
+      euclidean: () => this.result?.euclidean.distance ?? null,
+      requests: () => this.distance.sent,
+      inFlight: () => this.distance.inFlight,
+      readout: () => this.readout.text(),
+      state: () => structuredClone(this.state),
+      selected: () => this.gizmoState.selected,
+      sweep: () => ({ data: this.sweep.last, plots: [this.sweep.dPlot.data(), this.sweep.derivPlot.data()], requests: this.sweep.requestsSent }),
+      iso: () => ({ ...structuredClone(this.iso.shown), requests: this.iso.requestsSent }),
+      latencies: () => [...this.latencies],
+      frameStats: () => vp.frameStats(),
+      resetFrameStats: () => vp.resetFrameStats(),
+      gizmoAxis: () => this.gizmo.axis,
+      /** Page coordinates of a world point (to aim the mouse at the gizmo). */
+      toScreen: (p: [number, number, number]) => {
+        const v = new THREE.Vector3(...p).project(vp.camera);
+        const r = vp.renderer.domElement.getBoundingClientRect();
+        return { x: r.left + ((v.x + 1) / 2) * r.width, y: r.top + ((1 - v.y) / 2) * r.height };
+      },
+    };
+    const w = window as unknown as { distlab?: Record<string, unknown> };
+    w.distlab = Object.assign(w.distlab ?? {}, { gap: hooks });
+    this.cleanup.push(() => delete w.distlab?.gap);
+  }
+
   unmount(): void {
+    clearTimeout(this.sweepTimer);
+    this.cleanup.forEach((f) => f());
+    this.distance?.dispose();
+    this.iso?.dispose();
+    this.sweep?.dispose();
+    this.gizmo?.detach();
+    this.gizmo?.dispose();
+    this.panel?.dispose();
     this.viewport?.dispose();
     this.viewport = null;
+    this.host?.progress(null);
   }
+
   shortcuts(): Shortcut[] {
-    return [];
+    const set = (p: Partial<GizmoState>) => () => {
+      Object.assign(this.gizmoState, p);
+      this.applyGizmo();
+    };
+    return [
+      { key: "w", description: "gizmo: translate", run: set({ mode: "translate" }) },
+      { key: "e", description: "gizmo: rotate", run: set({ mode: "rotate" }) },
+      { key: "q", description: "gizmo: world / local axes", run: () => set({ space: this.gizmoState.space === "world" ? "local" : "world" })() },
+      { key: "s", description: "drag the other shape (A / B)", run: () => set({ selected: this.gizmoState.selected === "a" ? "b" : "a" })() },
+      { key: "f", description: "frame both shapes", run: () => this.frameAll() },
+      { key: "l", description: "slice: E_S → e_S → none", run: () => this.cycleSlice() },
+      { key: "ArrowLeft", description: "nudge the dragged shape −x by 1 cm", run: () => this.nudge(0, -0.01) },
+      { key: "ArrowRight", description: "nudge +x by 1 cm", run: () => this.nudge(0, 0.01) },
+      { key: "ArrowDown", description: "nudge −y by 1 cm", run: () => this.nudge(1, -0.01) },
+      { key: "ArrowUp", description: "nudge +y by 1 cm", run: () => this.nudge(1, 0.01) },
+      { key: "PageDown", description: "nudge −z by 1 cm", run: () => this.nudge(2, -0.01) },
+      { key: "PageUp", description: "nudge +z by 1 cm", run: () => this.nudge(2, 0.01) },
+    ];
   }
+
+  private cycleSlice(): void {
+    const order = ["strict", "weak", "none"] as const;
+    this.state.iso.slice = order[(order.indexOf(this.state.iso.slice) + 1) % order.length];
+    this.panel.refresh();
+    this.changed("slice-style");
+  }
+
   screenshot(): Promise<Blob> {
     if (!this.viewport) return Promise.reject(new Error("no view"));
     return this.viewport.screenshot();
   }
+}
+
+function legend(): HTMLElement {
+  const el = document.createElement("div");
+  el.className = "gap-legend";
+  const hex = (c: number) => `#${c.toString(16).padStart(6, "0")}`;
+  const items: Array<[string, string]> = [
+    [hex(COLORS.gap), "● GAP witness points a, b"],
+    [hex(COLORS.euclid), "● Euclidean nearest points"],
+    ["#5b9bd5", "■ e_S iso-surfaces (weak, eq. 5)"],
+    ["#f0a050", "■ E_S iso-surfaces (strict, eq. 6)"],
+  ];
+  for (const [color, text] of items) {
+    const d = document.createElement("div");
+    d.style.color = color;
+    d.textContent = text;
+    el.appendChild(d);
+  }
+  return el;
 }

@@ -1,0 +1,133 @@
+// A small typed wrapper around uPlot for line plots over one x axis: named series on one or two
+// y scales, a vertical marker (current position / time), and a size that follows its container.
+// Used by the GAP sweep and the CBF rollout plots.
+import uPlot from "uplot";
+import "uplot/dist/uPlot.min.css";
+
+export interface PlotSeries {
+  label: string;
+  color: string;
+  /** "y" (left axis, default) or "y2" (right axis). */
+  scale?: "y" | "y2";
+  dash?: number[];
+  width?: number;
+}
+
+export interface PlotOptions {
+  title?: string;
+  xLabel: string;
+  yLabel?: string;
+  /** Label of the right axis; only drawn when a series uses scale "y2". */
+  y2Label?: string;
+  series: PlotSeries[];
+  /** Digits shown in the legend. */
+  digits?: number;
+}
+
+const AXIS = { stroke: "#8b949e", grid: { stroke: "#2c323a", width: 1 }, ticks: { stroke: "#2c323a", width: 1 } };
+
+export class Plot {
+  readonly root: HTMLDivElement;
+  private readonly u: uPlot;
+  private marker: number | null = null;
+  private readonly observer: ResizeObserver;
+  private xs: number[] = [];
+  private ys: Array<Array<number | null>> = [];
+
+  constructor(container: HTMLElement, readonly options: PlotOptions) {
+    this.root = document.createElement("div");
+    this.root.className = "plot";
+    this.root.style.cssText = "flex: 1; min-width: 0; min-height: 0; position: relative;";
+    container.appendChild(this.root);
+    const digits = options.digits ?? 4;
+    const fmt = (_u: uPlot, v: number | null) => (v === null || v === undefined ? "—" : v.toFixed(digits));
+    const usesY2 = options.series.some((s) => s.scale === "y2");
+    const axes: uPlot.Axis[] = [
+      { ...AXIS, label: options.xLabel },
+      { ...AXIS, label: options.yLabel ?? "", scale: "y" },
+    ];
+    if (usesY2) axes.push({ ...AXIS, label: options.y2Label ?? "", scale: "y2", side: 1, grid: { show: false } });
+    const opts: uPlot.Options = {
+      title: options.title,
+      width: 400,
+      height: 200,
+      scales: { x: { time: false }, y: { auto: true }, ...(usesY2 ? { y2: { auto: true } } : {}) },
+      axes,
+      series: [
+        { label: options.xLabel, value: fmt },
+        ...options.series.map((s) => ({
+          label: s.label,
+          stroke: s.color,
+          width: s.width ?? 1.5,
+          dash: s.dash,
+          scale: s.scale ?? "y",
+          value: fmt,
+          points: { show: false },
+        })),
+      ],
+      legend: { live: true },
+      cursor: { drag: { x: false, y: false } },
+      hooks: { draw: [(u) => this.drawMarker(u)] },
+    };
+    this.u = new uPlot(opts, [[], ...options.series.map(() => [])], this.root);
+    this.observer = new ResizeObserver(() => this.resize());
+    this.observer.observe(this.root);
+  }
+
+  /** Replaces the data: one x array and one y array per series (null = gap in the line). */
+  setData(x: ArrayLike<number>, ys: Array<ArrayLike<number | null>>): void {
+    if (ys.length !== this.options.series.length) throw new Error("plot: one y array per series");
+    this.xs = Array.from(x);
+    this.ys = ys.map((y) => {
+      if (y.length !== this.xs.length) throw new Error("plot: series length differs from x");
+      return Array.from(y, (v) => (v === null || Number.isFinite(v) ? v : null));
+    });
+    this.u.setData([this.xs, ...this.ys] as uPlot.AlignedData);
+  }
+
+  /** A vertical line at x (e.g. the current position); null hides it. */
+  setMarker(x: number | null): void {
+    this.marker = x;
+    this.u.redraw(false, false);
+  }
+
+  /** Replaces the title line (e.g. to name the current x unit). */
+  setTitle(text: string): void {
+    const t = this.root.querySelector<HTMLElement>(".u-title");
+    if (t) t.textContent = text;
+  }
+
+  /** What is plotted (for tests and exports). */
+  data(): { labels: string[]; x: number[]; y: Array<Array<number | null>> } {
+    return { labels: this.options.series.map((s) => s.label), x: [...this.xs], y: this.ys.map((a) => [...a]) };
+  }
+
+  private drawMarker(u: uPlot): void {
+    if (this.marker === null) return;
+    const x = u.valToPos(this.marker, "x", true);
+    const ctx = u.ctx;
+    ctx.save();
+    ctx.strokeStyle = "#d8dde3";
+    ctx.setLineDash([4, 4]);
+    ctx.lineWidth = 1;
+    ctx.beginPath();
+    ctx.moveTo(x, u.bbox.top);
+    ctx.lineTo(x, u.bbox.top + u.bbox.height);
+    ctx.stroke();
+    ctx.restore();
+  }
+
+  private resize(): void {
+    const legend = this.root.querySelector<HTMLElement>(".u-legend")?.offsetHeight ?? 0;
+    const title = this.root.querySelector<HTMLElement>(".u-title")?.offsetHeight ?? 0;
+    const w = Math.max(120, this.root.clientWidth);
+    const h = Math.max(80, this.root.clientHeight - legend - title);
+    if (w !== this.u.width || h !== this.u.height) this.u.setSize({ width: w, height: h });
+  }
+
+  dispose(): void {
+    this.observer.disconnect();
+    this.u.destroy();
+    this.root.remove();
+  }
+}

@@ -1,0 +1,76 @@
+// The numbers the user reads: an overlay on the viewport (GAP beside Euclidean, with the legend
+// colours of the witness segments) and one line for the status bar.
+export interface Validation {
+  max_eigenvalue: number;
+  ok: boolean;
+  samples: number;
+}
+
+/** One pair's answer from /api/gap/distance (the `distlab gap` response). */
+export interface GapResult {
+  lambda: number;
+  distance: number;
+  witness_a: number[];
+  witness_b: number[];
+  iterations: number;
+  converged: boolean;
+  overlap: boolean;
+  euclidean: { distance: number; witness_a: number[]; witness_b: number[]; gradient_a?: number[]; gradient_b?: number[] };
+  gradient_a?: number[];
+  gradient_b?: number[];
+  validation?: { a?: Validation; b?: Validation };
+}
+
+/** Fixed significant digits so the text is stable and comparable with a direct API call. */
+export const fmt = (v: number): string => (Number.isFinite(v) ? v.toPrecision(6) : String(v));
+
+export class Readout {
+  readonly el: HTMLDivElement;
+
+  constructor(parent: HTMLElement) {
+    this.el = document.createElement("div");
+    this.el.className = "readout gap-readout";
+    this.el.dataset.testid = "gap-readout";
+    parent.appendChild(this.el);
+    this.waiting();
+  }
+
+  waiting(): void {
+    this.el.replaceChildren(this.line("muted", "computing…"));
+  }
+
+  show(r: GapResult, solver: string): void {
+    this.el.classList.remove("stale");
+    this.el.replaceChildren(
+      this.line("legend-gap", `● GAP        D = ${fmt(r.distance)} m`, "gap-d"),
+      this.line("legend-gap", `             Λ = ${fmt(r.lambda)} m²`, "gap-lambda"),
+      this.line("legend-gap", `             ${r.iterations} iterations (${solver})${r.converged ? "" : " — not converged"}`, "gap-iter"),
+      this.line("legend-euclid", `● Euclidean  d = ${fmt(r.euclidean.distance)} m`, "euclid-d"),
+      this.line(r.overlap ? "legend-bad" : "muted", r.overlap ? "overlap: the shapes intersect (Λ = 0)" : "no overlap", "overlap"),
+    );
+  }
+
+  /** Keeps the last numbers but marks them as not matching the current input. */
+  error(message: string): void {
+    this.el.classList.add("stale");
+    const old = [...this.el.querySelectorAll(".err")];
+    old.forEach((e) => e.remove());
+    this.el.appendChild(this.line("legend-bad err", message, "error"));
+  }
+
+  text(): string {
+    return this.el.textContent ?? "";
+  }
+
+  private line(cls: string, text: string, id?: string): HTMLDivElement {
+    const d = document.createElement("div");
+    d.className = cls;
+    d.textContent = text;
+    if (id) d.dataset.field = id;
+    return d;
+  }
+}
+
+export function statusLine(r: GapResult, solver: string): string {
+  return `GAP D = ${fmt(r.distance)} m · Λ = ${fmt(r.lambda)} · ${r.iterations} it (${solver}) · Euclidean d = ${fmt(r.euclidean.distance)} m${r.overlap ? " · overlap" : ""}`;
+}

@@ -1,0 +1,135 @@
+// The explorer's whole state (what a shared URL restores): both shapes, GAP parameters,
+// iso-surface levels and slice, and the sweep. Reads from the URL are typed and clamped so a
+// hand-edited link cannot inject the wrong type; the server still validates every number.
+import { num, numArray, str } from "../../core/urlstate";
+import { SHAPE_TYPES, type ShapeState } from "./shapes";
+
+export const SOLVERS = ["newton", "fixed_point"] as const;
+export const FIELDS = ["weak", "strict"] as const;
+export const SURFACES = ["strict", "weak", "both", "none"] as const;
+export const AXES = ["x", "y", "z"] as const;
+export const MOTIONS = ["translate", "rotate"] as const;
+export type Axis = (typeof AXES)[number];
+
+export interface GapParams {
+  h: number;
+  k: number;
+  eps: number;
+  sigma: number;
+  solver: (typeof SOLVERS)[number];
+}
+
+export interface IsoState {
+  /** Which shape the iso-surfaces and the slice surround. */
+  around: "a" | "b";
+  surfaces: (typeof SURFACES)[number];
+  weak: number[];
+  strict: number[];
+  slice: (typeof FIELDS)[number] | "none";
+  /** Slice normal in the shape's frame, and offset of the plane from its origin along it. */
+  normal: Axis;
+  offset: number;
+  /** Contour spacing on the slice (field units). */
+  spacing: number;
+}
+
+export interface SweepState {
+  motion: (typeof MOTIONS)[number];
+  axis: Axis;
+  /** Half-range: metres (translate) or radians (rotate), centred on B's current pose. */
+  range: number;
+  samples: number;
+}
+
+export interface GapState {
+  a: ShapeState;
+  b: ShapeState;
+  params: GapParams;
+  iso: IsoState;
+  sweep: SweepState;
+}
+
+export function defaultState(): GapState {
+  return {
+    a: { type: "polytope", size: [0.4, 0.4, 0.4], radius: 0.25, height: 0.3, position: [0, 0, 0], quaternion: [1, 0, 0, 0] },
+    b: { type: "box", size: [0.3, 0.3, 0.3], radius: 0.15, height: 0.3, position: [0.55, 0.1, 0], quaternion: [1, 0, 0, 0] },
+    params: { h: 0.1, k: 2, eps: 0.01, sigma: Math.sqrt(1 - 2 * 0.01), solver: "newton" },
+    iso: { around: "a", surfaces: "strict", weak: [0.002, 0.008], strict: [0.002, 0.008], slice: "strict", normal: "z", offset: 0, spacing: 0.001 },
+    sweep: { motion: "translate", axis: "y", range: 0.8, samples: 121 },
+  };
+}
+
+function levels(v: unknown, fallback: number[]): number[] {
+  if (!Array.isArray(v)) return fallback;
+  const out = v.filter((x): x is number => typeof x === "number" && Number.isFinite(x) && x > 0).slice(0, 16);
+  return out.length === v.length ? out : fallback;
+}
+
+function shape(v: unknown, d: ShapeState): ShapeState {
+  const o = (v && typeof v === "object" ? v : {}) as Record<string, unknown>;
+  return {
+    type: str(o.type, SHAPE_TYPES, d.type),
+    size: numArray(o.size, 3, d.size) as [number, number, number],
+    radius: num(o.radius, d.radius),
+    height: num(o.height, d.height),
+    position: numArray(o.position, 3, d.position) as [number, number, number],
+    quaternion: numArray(o.quaternion, 4, d.quaternion) as [number, number, number, number],
+  };
+}
+
+function obj(v: unknown): Record<string, unknown> {
+  return (v && typeof v === "object" && !Array.isArray(v) ? v : {}) as Record<string, unknown>;
+}
+
+/** State from the URL, defaults for whatever is missing or malformed. */
+export function parseState(raw: Record<string, unknown>): GapState {
+  const d = defaultState();
+  const p = obj(raw.params);
+  const iso = obj(raw.iso);
+  const sw = obj(raw.sweep);
+  return {
+    a: shape(raw.a, d.a),
+    b: shape(raw.b, d.b),
+    params: {
+      h: num(p.h, d.params.h),
+      k: num(p.k, d.params.k),
+      eps: num(p.eps, d.params.eps),
+      sigma: num(p.sigma, d.params.sigma),
+      solver: str(p.solver, SOLVERS, d.params.solver),
+    },
+    iso: {
+      around: str(iso.around, ["a", "b"] as const, d.iso.around),
+      surfaces: str(iso.surfaces, SURFACES, d.iso.surfaces),
+      weak: levels(iso.weak, d.iso.weak),
+      strict: levels(iso.strict, d.iso.strict),
+      slice: str(iso.slice, [...FIELDS, "none"] as const, d.iso.slice),
+      normal: str(iso.normal, AXES, d.iso.normal),
+      offset: num(iso.offset, d.iso.offset, -10, 10),
+      spacing: num(iso.spacing, d.iso.spacing, 0, 10),
+    },
+    sweep: {
+      motion: str(sw.motion, MOTIONS, d.sweep.motion),
+      axis: str(sw.axis, AXES, d.sweep.axis),
+      range: num(sw.range, d.sweep.range, 1e-3, 10),
+      samples: Math.round(num(sw.samples, d.sweep.samples, 5, 1000)),
+    },
+  };
+}
+
+/** The GAP params as the server reads them. */
+export function paramsBody(p: GapParams, extra: Record<string, unknown> = {}): Record<string, unknown> {
+  return { h: p.h, k: p.k, eps: p.eps, sigma: p.sigma, solver: p.solver, validate: true, ...extra };
+}
+
+/** Levels as text ("0.002, 0.008") and back; throws a readable message on a bad entry. */
+export function formatLevels(v: number[]): string {
+  return v.join(", ");
+}
+export function parseLevels(text: string, field: string): number[] {
+  const parts = text.split(/[\s,;]+/).filter((t) => t.length > 0);
+  const out = parts.map((t) => Number(t));
+  const bad = parts.find((_, i) => !(Number.isFinite(out[i]) && out[i] > 0));
+  if (bad !== undefined) throw new Error(`${field}: "${bad}" is not a positive number`);
+  if (out.length > 16) throw new Error(`${field}: at most 16 levels`);
+  return out;
+}
