@@ -2,8 +2,10 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <unistd.h>
 
 #include "distlab/geometry/error.hpp"
@@ -138,6 +140,68 @@ TEST(KelvinPrepare, CacheRoundTripAndCorruptionIsRebuilt) {
   // A different lx is a different entry.
   Field::prepare_cached(surface, sphere_options(0.25), dir.string(), {}, &hit);
   EXPECT_FALSE(hit);
+  fs::remove_all(dir);
+}
+
+// The file name is a 128-bit FNV digest of the inputs, not a cryptographic one. A file that
+// carries the right name and key but was prepared from other inputs (a digest collision, forged
+// here by rewriting the key and checksum of another entry) must not be served: the stored inputs
+// are compared with the request. Layout: u64 size, payload (format tag, u64 key length, key, ...),
+// u64 FNV-1a checksum of the payload.
+std::string forged_entry(const fs::path& from, const std::string& key) {
+  std::ifstream in(from, std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const size_t key_at = 8 + sizeof("distlab-kelvin-cache-v3") + 8;
+  EXPECT_EQ(bytes.compare(8, 23, "distlab-kelvin-cache-v3"), 0);
+  bytes.replace(key_at, key.size(), key);
+  std::uint64_t h = 1469598103934665603ull;
+  for (size_t i = 8; i + 8 < bytes.size(); ++i) h = (h ^ static_cast<unsigned char>(bytes[i])) * 1099511628211ull;
+  bytes.replace(bytes.size() - 8, 8, reinterpret_cast<const char*>(&h), 8);
+  return bytes;
+}
+
+TEST(KelvinPrepare, CacheEntryWithACollidingNameIsNotServed) {
+  const fs::path dir = fresh_dir("collide");
+  const auto surface = sphere_mesh(kSphere);
+  auto entries = [&] {
+    std::vector<fs::path> files;
+    for (const auto& entry : fs::directory_iterator(dir)) files.push_back(entry.path());
+    return files;
+  };
+  bool hit = true;
+  Field::prepare_cached(surface, sphere_options(0.2), dir.string(), {}, &hit);
+  const fs::path file_a = entries().at(0);
+  // Same lx, other surface: one coordinate moved by its last bit.
+  mesh::SurfaceMesh moved = surface;
+  moved.vertices(0, 0) = std::nextafter(moved.vertices(0, 0), 2.0);
+  Field b = Field::prepare_cached(moved, sphere_options(0.2), dir.string(), {}, &hit);
+  EXPECT_FALSE(hit);
+  ASSERT_EQ(entries().size(), 2u);
+  const fs::path file_b = entries()[0] == file_a ? entries()[1] : entries()[0];
+  b.set_sigma(constant_sigma(0.2));
+  const Vec3 x(0.9, 0.1, 0.2);
+  const double h_b = b.query(x).h;
+
+  // a's entry, made to look like b's (name, key, checksum): refused, rebuilt, b's field.
+  std::ofstream(file_b, std::ios::binary | std::ios::trunc) << forged_entry(file_a, file_b.stem().string());
+  Field b2 = Field::prepare_cached(moved, sphere_options(0.2), dir.string(), {}, &hit);
+  EXPECT_FALSE(hit);
+  b2.set_sigma(constant_sigma(0.2));
+  EXPECT_EQ(b2.query(x).h, h_b);
+  // Another lx under a forged name is refused as well.
+  Field c = Field::prepare_cached(surface, sphere_options(0.25), dir.string(), {}, &hit);
+  fs::path file_c;
+  for (const auto& f : entries())
+    if (f != file_a && f != file_b) file_c = f;
+  ASSERT_FALSE(file_c.empty());
+  std::ofstream(file_c, std::ios::binary | std::ios::trunc) << forged_entry(file_a, file_c.stem().string());
+  Field::prepare_cached(surface, sphere_options(0.25), dir.string(), {}, &hit);
+  EXPECT_FALSE(hit);
+  // The forgery itself is well formed: under its own name it is served.
+  const std::string same = forged_entry(file_a, file_a.stem().string());
+  std::ofstream(file_a, std::ios::binary | std::ios::trunc) << same;
+  Field::prepare_cached(surface, sphere_options(0.2), dir.string(), {}, &hit);
+  EXPECT_TRUE(hit);
   fs::remove_all(dir);
 }
 

@@ -4,6 +4,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include "field_impl.hpp"
@@ -12,7 +13,8 @@ namespace distlab::kelvin {
 namespace {
 
 // Bump when the meshing or the file layout changes: old entries then simply miss.
-constexpr char kFormat[] = "distlab-kelvin-cache-v2";
+constexpr char kFormat[] = "distlab-kelvin-cache-v3";
+constexpr int kInputs = 6;  // requested lx, far_radius, feature_angle, centre
 
 struct Fnv64 {
   std::uint64_t h;
@@ -76,8 +78,10 @@ void save_prepared(const Field::Impl& m, const std::string& path, const std::str
   w.array(key.data(), key.size());
   w.array(m.surface.vertices.data(), static_cast<std::uint64_t>(m.surface.vertices.size()));
   w.array(m.surface.faces.data(), static_cast<std::uint64_t>(m.surface.faces.size()));
-  const double params[8] = {m.options.lx, m.options.far_radius, m.options.feature_angle, m.centre.x(),
-                            m.centre.y(), m.centre.z(), m.stats.t_mesh, m.stats.t_decomp};
+  const Vec3 c = m.requested.centre.value_or(m.centre);
+  const double inputs[kInputs] = {m.requested.lx, m.requested.far_radius, m.requested.feature_angle, c.x(), c.y(), c.z()};
+  w.raw(inputs, sizeof(inputs));
+  const double params[3] = {m.options.feature_angle, m.stats.t_mesh, m.stats.t_decomp};
   w.raw(params, sizeof(params));
   w.array(m.tm.points.data(), static_cast<std::uint64_t>(m.tm.points.size()));
   w.array(m.tm.tets.data(), static_cast<std::uint64_t>(m.tm.tets.size()));
@@ -111,7 +115,9 @@ void save_prepared(const Field::Impl& m, const std::string& path, const std::str
   std::filesystem::rename(tmp, path);
 }
 
-std::unique_ptr<Field::Impl> load_prepared(const std::string& path, const std::string& key) {
+std::unique_ptr<Field::Impl> load_prepared(const std::string& path, const std::string& key,
+                                           const mesh::SurfaceMesh& surface, const PrepareOptions& requested) {
+  if (!requested.centre) return nullptr;
   std::ifstream f(path, std::ios::binary);
   if (!f) return nullptr;
   std::uint64_t size = 0, stored = 0;
@@ -133,9 +139,22 @@ std::unique_ptr<Field::Impl> load_prepared(const std::string& path, const std::s
   if (!r.raw(stored_key.data(), key_size) || stored_key != key) return nullptr;
   auto m = std::make_unique<Field::Impl>();
   constexpr std::uint64_t max_rows = 1ull << 31;
-  double params[8];
+  double inputs[kInputs], params[3];
   if (!r.matrix(m->surface.vertices, 3, max_rows) || !r.matrix(m->surface.faces, 3, max_rows) ||
-      !r.raw(params, sizeof(params)) || !r.matrix(m->tm.points, 3, max_rows) ||
+      !r.raw(inputs, sizeof(inputs)) || !r.raw(params, sizeof(params)))
+    return nullptr;
+  // The name is only a 128-bit FNV digest: the stored inputs themselves must equal the request,
+  // bit for bit (memcmp: -0.0 and NaN payloads count as different, as they hash differently).
+  const Vec3 c = requested.centre.value_or(Vec3::Constant(std::numeric_limits<double>::quiet_NaN()));
+  const double wanted[kInputs] = {requested.lx, requested.far_radius, requested.feature_angle, c.x(), c.y(), c.z()};
+  const auto same = [](const auto& a, const auto& b) {
+    return a.rows() == b.rows() && a.cols() == b.cols() &&
+           std::memcmp(a.data(), b.data(), sizeof(*a.data()) * static_cast<size_t>(a.size())) == 0;
+  };
+  if (std::memcmp(inputs, wanted, sizeof(inputs)) != 0 || !same(m->surface.vertices, surface.vertices) ||
+      !same(m->surface.faces, surface.faces))
+    return nullptr;
+  if (!r.matrix(m->tm.points, 3, max_rows) ||
       !r.matrix(m->tm.tets, 4, max_rows) || !r.matrix(m->tm.neighbours, 4, max_rows))
     return nullptr;
   std::uint64_t nd = 0;
@@ -149,14 +168,13 @@ std::unique_ptr<Field::Impl> load_prepared(const std::string& path, const std::s
       (m->surface.faces.size() > 0 && (m->surface.faces.minCoeff() < 0 || m->surface.faces.maxCoeff() >= m->surface.vertices.rows())))
     return nullptr;
   if (!m->solver.load(r.in)) return nullptr;
-  m->options.lx = params[0];
-  m->options.far_radius = params[1];
-  m->options.feature_angle = params[2];
-  m->centre = Vec3(params[3], params[4], params[5]);
-  m->options.centre = m->centre;
+  m->requested = requested;
+  m->options = requested;
+  m->options.feature_angle = params[0];
+  m->centre = *requested.centre;
   // A cached object reports the timings of its original preparation (Stats::cached says so).
-  m->stats.t_mesh = params[6];
-  m->stats.t_decomp = params[7];
+  m->stats.t_mesh = params[1];
+  m->stats.t_decomp = params[2];
   m->stats.cached = true;
   return m;
 }

@@ -128,6 +128,7 @@ static std::unique_ptr<Field::Impl> mesh_stage(mesh::SurfaceMesh surface, const 
   impl->surface = std::move(surface);
   impl->options = o;
   impl->options.centre = centre;
+  impl->requested = impl->options;
   // The effective angle (180 if protection was skipped) is what the cache stores, so a reloaded
   // object reports the same warning.
   if (!warning.empty()) {
@@ -335,7 +336,9 @@ Field Field::prepare_cached(const mesh::SurfaceMesh& surface, const PrepareOptio
   const std::string path = cache_dir + "/" + key + ".kelvin";
   progress("cache", 0.0);
   const auto t0 = std::chrono::steady_clock::now();
-  if (auto cached = load_prepared(path, key)) {
+  PrepareOptions requested = options;
+  requested.centre = centre;
+  if (auto cached = load_prepared(path, key, valid, requested)) {
     cached->oracle = std::make_unique<SurfaceOracle>(cached->surface);
     cached->build(progress);  // cheap; derived data are not stored
     // The factor must fit the rebuilt system, or the entry is not trusted.

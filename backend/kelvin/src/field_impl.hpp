@@ -14,7 +14,8 @@ namespace distlab::kelvin {
 struct Field::Impl {
   // Inputs and the mesh (what the cache stores, together with the factor).
   mesh::SurfaceMesh surface;
-  PrepareOptions options;
+  PrepareOptions options;    // effective (feature_angle 180 when protection was skipped)
+  PrepareOptions requested;  // as asked (centre filled in): what the cache entry must match
   Vec3 centre = Vec3::Zero();
   TetMesh tm;
   CholmodSolver solver;
@@ -46,8 +47,11 @@ struct Field::Impl {
 
 // Content hash of everything that determines a prepared object.
 std::string prepare_key(const mesh::SurfaceMesh& surface, const PrepareOptions& options, const Vec3& centre);
-// Cache I/O; load returns nullptr (and removes nothing) when the file is absent or not intact.
-std::unique_ptr<Field::Impl> load_prepared(const std::string& path, const std::string& key);
+// Cache I/O; load returns nullptr (and removes nothing) when the file is absent, not intact, or
+// prepared from other inputs than (surface, requested): the file stores its full inputs and they
+// are compared byte for byte, so a colliding name can never serve a wrong object.
+std::unique_ptr<Field::Impl> load_prepared(const std::string& path, const std::string& key,
+                                           const mesh::SurfaceMesh& surface, const PrepareOptions& requested);
 void save_prepared(const Field::Impl& impl, const std::string& path, const std::string& key);
 
 }  // namespace distlab::kelvin
