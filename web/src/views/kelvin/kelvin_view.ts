@@ -1,21 +1,554 @@
-// Placeholder until the view lands: an empty viewport.
+// View 2, the semantic distance explorer (issue 5): prepare a Kelvin object (built-in or
+// uploaded) with a progress bar, paint σ on its surface, watch iso-surfaces of h pushed by the
+// server, slice h on a plane, probe h and ∇h, export iso-surfaces. State lives in the URL.
+import * as THREE from "three";
+import { api, ApiError } from "../../core/api";
 import type { Shortcut } from "../../core/keys";
+import { isMeshFrame, type MeshFrame } from "../../core/meshframe";
+import { socket, type BinaryFrame } from "../../core/socket";
+import { showError, toast } from "../../core/toast";
 import type { View, ViewHost } from "../../core/view";
 import { Viewport } from "../../core/viewport";
+import { BrushTool } from "./brush_tool";
+import { Coalescer } from "./coalesce";
+import { IsoLayers, type IsoFrameInfo } from "./iso_layers";
+import { DEFAULT_BASE, defaultLx, readState, writeStateJson, type KelvinState } from "./kelvin_state";
+import { ObjectJob, uploadMesh, type ObjectStatus, type Source } from "./object_source";
+import { Panel } from "./panel";
+import { Probe } from "./probe";
+import { composeSigma, evaluateAll, evaluateAt, presets, type Brush, type SigmaBody } from "./sigma";
+import { SliceLayer } from "./slice_layer";
+import { SurfaceLayer } from "./surface_layer";
+import { installHooks, type Timings } from "./test_hooks";
+import "./kelvin.css";
+
+interface Limits {
+  max_query_points?: number;
+  min_lx?: number;
+}
 
 export class KelvinView implements View {
+  private host!: ViewHost;
   private viewport: Viewport | null = null;
-  mount(host: ViewHost): void {
-    this.viewport = new Viewport(host.canvas);
-    host.status("Semantic distance: not built yet");
+  private state!: KelvinState;
+  private panel: Panel | null = null;
+  private iso = new IsoLayers();
+  private slice: SliceLayer | null = null;
+  private probe: Probe | null = null;
+  private brush: BrushTool | null = null;
+  private surface: SurfaceLayer | null = null;
+  private objectId: string | null = null;
+  private pendingId: string | null = null;
+  private status: ObjectStatus | null = null;
+  private job: ObjectJob | null = null;
+  private upload: Source | null = null;
+  private ticket = 0;
+  private offs: Array<() => void> = [];
+  private strokes: number[] = []; // brushes.length at each stroke's start (undo)
+  private sigmaVersion = 0;
+  private frameLog: IsoFrameInfo[] = [];
+  private waiters: Array<{ version: number; resolve: () => void }> = [];
+  private unsentSince: number | null = null;
+  // σ version → times (performance.now) of its first mouse event, PUT sent, PUT answered.
+  private awaitingDraw = new Map<number, { since: number; sent: number; answered: number }>();
+  private lastArrival = 0; // the latest iso-surface frame's arrival
+  private localPending: number[] = []; // mouse events whose σ colours are not drawn yet
+  readonly timings: Timings = { prepareMs: [], strokeToFrameMs: [], strokeToColourMs: [], sliceMs: [] };
+  private sigmaSync = new Coalescer<void>(() => this.sendSigma());
+  private hoverEvent: PointerEvent | null = null;
+  private firstOpen = true;
+  private sliceAtVersion = -1;
+
+  async mount(host: ViewHost, raw: Record<string, unknown>): Promise<void> {
+    this.host = host;
+    this.state = readState(raw);
+    const vp = (this.viewport = new Viewport(host.canvas));
+    vp.grid.visible = false;
+    vp.scene.add(this.iso.group);
+    const [limits, assets] = await Promise.all([
+      api.get<Limits>("/api/limits").catch(() => ({}) as Limits),
+      api.get<{ assets: string[] }>("/api/kelvin/assets").then((r) => r.assets).catch((e) => (showError(e, "cannot list the built-in objects"), ["cube"])),
+    ]);
+    if (this.viewport !== vp) return; // unmounted meanwhile
+    if (this.state.object === "upload") {
+      toast("the shared link used an uploaded mesh, which lives only in its session: showing the cube", "info", 6000);
+      this.state.object = "cube";
+      this.state.lx = defaultLx.cube;
+    }
+    this.slice = new SliceLayer(limits.max_query_points ?? 10000);
+    this.slice.onError = (e) => showError(e, "slice");
+    this.slice.onSampled = () => {
+      this.timings.sliceMs.push(this.slice!.lastSampleMs);
+      vp.invalidate();
+    };
+    vp.scene.add(this.slice.plane);
+    this.probe = new Probe(host.canvas);
+    this.probe.onChange = () => vp.invalidate();
+    vp.scene.add(this.probe.arrow, this.probe.marker);
+    this.brush = new BrushTool({
+      camera: vp.camera,
+      canvas: vp.renderer.domElement,
+      target: () => (this.surface && this.state.brush.on ? this.surface.pickMesh : null),
+      sigmaAt: (p) => evaluateAt(this.sigmaBody(), p),
+      setOrbit: (on) => (vp.controls.enabled = on),
+      stamp: (b, t, first) => this.stamp(b, t, first),
+      strokeEnd: () => this.save(),
+      hover: (_p, ev) => {
+        this.hoverEvent = ev;
+        vp.invalidate();
+      },
+    });
+    this.brush.enabled = this.state.brush.on;
+    vp.scene.add(this.brush.object3d);
+    this.panel = new Panel(host.panel, this.state, assets, {
+      objectChanged: () => void this.load(),
+      upload: (f) => void this.uploadFile(f),
+      sigmaChanged: () => this.sigmaEdited(true),
+      presetChosen: () => this.applyPreset(),
+      undoStroke: () => this.undo(),
+      resetSigma: () => this.reset(),
+      levelsChanged: () => this.levelsChanged(),
+      styleChanged: () => this.restyle(),
+      sliceChanged: () => this.sliceChanged(),
+      exportShown: () => void this.exportShown(),
+    });
+    this.offs.push(
+      socket.onFrame((f) => this.onFrame(f)),
+      socket.onOpen(() => this.onSocketOpen()),
+      vp.onBeforeRender(() => this.beforeRender()),
+    );
+    installHooks(this);
+    this.restyle();
+    await this.load();
   }
+
+  // ---- read-only views for the test hooks ----
+  get currentObjectId(): string | null {
+    return this.objectId;
+  }
+  get currentStatus(): ObjectStatus | null {
+    return this.status;
+  }
+  get frames(): IsoFrameInfo[] {
+    return this.frameLog;
+  }
+  get shownFrames(): IsoFrameInfo[] {
+    return this.iso.shown();
+  }
+  get sigma(): { body: SigmaBody; version: number } {
+    return { body: this.sigmaBody(), version: this.sigmaVersion };
+  }
+  get stateJson(): Record<string, unknown> {
+    return writeStateJson(this.state);
+  }
+  get view(): Viewport | null {
+    return this.viewport;
+  }
+  get displayTriangles(): number {
+    return this.surface?.displayTriangles ?? 0;
+  }
+  /** σ at the input mesh's vertices, evaluated here (the server sends the same as surface scalars). */
+  localSigmaAtInputVertices(): number[] {
+    if (!this.surface) return [];
+    const pos = this.surface.pickMesh.geometry.getAttribute("position").array as Float32Array;
+    return Array.from(evaluateAll(this.sigmaBody(), pos));
+  }
+  /** True once the object is ready and every watched level has a frame for the current σ. */
+  get ready(): boolean {
+    if (!this.objectId || !this.surface) return false;
+    const shown = this.iso.shown();
+    return this.state.levels.every((l) => shown.some((s) => s.level === l && s.sigma_version >= this.sigmaVersion));
+  }
+  get sliceSigmaVersion(): number {
+    return this.slice?.lastSigmaVersion ?? -1;
+  }
+  get probeReading() {
+    return this.probe?.last ?? null;
+  }
+
+  // ---- the object ----
+  private async load(): Promise<void> {
+    const ticket = ++this.ticket;
+    await this.job?.cancel();
+    this.job = null;
+    const old = this.objectId ?? this.pendingId;
+    if (old) void api.del(`/api/kelvin/objects/${old}`).catch(() => undefined);
+    this.objectId = this.pendingId = null;
+    this.status = null;
+    this.dropSurface();
+    this.iso.clear();
+    this.iso.setLevels(this.state.levels);
+    this.slice?.setObject(null, new THREE.Box3());
+    this.probe?.setObject(null, new THREE.Box3());
+    this.sigmaVersion = 0;
+    this.save();
+    const source: Source = this.state.object === "upload" && this.upload ? this.upload : { asset: this.state.object };
+    const name = "asset" in source ? source.asset : source.name;
+    const job = (this.job = new ObjectJob());
+    const t0 = performance.now();
+    const label = (stage: string) => `preparing ${name} (l_x = ${this.state.lx})${stage ? ": " + stage : ""}`;
+    this.host.progress(label(""), undefined, () => void job.cancel());
+    this.host.status(label(""));
+    let status: ObjectStatus;
+    try {
+      status = await job.prepare(source, this.state.lx, { sigma: this.sigmaBody(), levels: this.state.levels }, {
+        progress: (stage, fraction, cancel) => ticket === this.ticket && this.host.progress(label(stage), fraction, cancel),
+        created: (id) => ticket === this.ticket && (this.pendingId = id),
+      });
+    } catch (e) {
+      if (ticket !== this.ticket) return;
+      this.host.progress(null);
+      const text = e instanceof ApiError && e.code === "cancelled" ? "preparation cancelled" : showError(e, `cannot prepare ${name}`);
+      this.host.status(text);
+      this.panel?.setStats([["object", `${name}: ${text}`]]);
+      return;
+    }
+    if (ticket !== this.ticket) return;
+    this.timings.prepareMs.push(performance.now() - t0);
+    this.status = status;
+    this.objectId = status.id;
+    try {
+      const frame = await api.get<MeshFrame>(`/api/kelvin/objects/${status.id}/surface`);
+      if (ticket !== this.ticket) return;
+      if (!isMeshFrame(frame)) throw new Error("the server's surface is not a mesh frame");
+      this.showSurface(frame);
+    } catch (e) {
+      if (ticket === this.ticket) showError(e, "cannot fetch the surface");
+    }
+    this.host.progress(null);
+    this.updateStats();
+  }
+
+  private showSurface(frame: MeshFrame): void {
+    const vp = this.viewport!;
+    this.dropSurface();
+    const s = (this.surface = new SurfaceLayer(frame));
+    s.setScale(this.state.sigmaScale);
+    s.setSigma(this.sigmaBody());
+    vp.scene.add(s.mesh);
+    const size = s.bounds.getSize(new THREE.Vector3()).length();
+    if (this.state.brush.radius <= 0) {
+      this.state.brush.radius = Number((size * 0.08).toPrecision(2));
+      this.state.brush.falloff = Number((size * 0.04).toPrecision(2));
+      this.panel?.refresh();
+    }
+    this.restyle();
+    const view = s.bounds.clone().expandByScalar(size * 0.2);
+    vp.frame(view);
+    this.slice?.setObject(this.objectId, s.bounds);
+    this.probe?.setObject(this.objectId, s.bounds);
+    this.sliceChanged();
+  }
+
+  private dropSurface(): void {
+    if (!this.surface) return;
+    this.viewport?.scene.remove(this.surface.mesh);
+    this.surface.dispose();
+    this.surface = null;
+  }
+
+  private async uploadFile(file: File): Promise<void> {
+    this.host.progress(`uploading ${file.name}`);
+    try {
+      const r = await uploadMesh(file);
+      toast(`${file.name}: ${r.n_vertices} vertices, ${r.n_faces} triangles`, "ok");
+      this.upload = { upload: r.upload, name: file.name };
+      this.state.object = "upload";
+      this.state.preset = "none";
+      this.state.brushes = [];
+      this.state.brush.radius = 0;
+      this.strokes = [];
+      this.panel?.refresh();
+      await this.load();
+    } catch (e) {
+      this.host.progress(null);
+      const text = showError(e, `cannot use ${file.name}`);
+      this.host.status(text);
+    }
+  }
+
+  private onSocketOpen(): void {
+    if (this.firstOpen) {
+      this.firstOpen = false;
+      return;
+    }
+    // After a reconnect: the server may have restarted (sessions are in memory). The prepared
+    // object comes back from its cache when re-created with the same inputs.
+    const id = this.objectId;
+    if (!id) return;
+    api.get<ObjectStatus>(`/api/kelvin/objects/${id}`).then(
+      () => socket.send({ type: "state" }),
+      (e) => {
+        if (id !== this.objectId) return;
+        if (e instanceof ApiError && e.status === 404) {
+          toast("the server forgot this object (restarted?): preparing it again", "info");
+          if (this.state.object === "upload") {
+            this.state.object = "cube";
+            this.state.lx = defaultLx.cube;
+          }
+          void this.load();
+        }
+      },
+    );
+  }
+
+  private onFrame(f: BinaryFrame): void {
+    if (f.type !== "isosurface" || !isMeshFrame(f)) return;
+    if (f.object !== this.objectId && f.object !== this.pendingId) return;
+    const info = this.iso.accept(f, Number(f.level), Number(f.sigma_version ?? 0));
+    if (!info) return;
+    this.frameLog.push(info);
+    this.lastArrival = info.receivedAt;
+    if (this.frameLog.length > 500) this.frameLog.shift();
+    this.viewport?.invalidate();
+    this.checkWaiters();
+  }
+
+  // ---- σ ----
+  private sigmaBody(): SigmaBody {
+    return composeSigma(this.state.preset, this.state.base, this.state.brushes);
+  }
+
+  private stamp(b: Brush, eventTime: number, strokeStart: boolean): void {
+    if (!this.surface) return;
+    if (strokeStart) this.strokes.push(this.state.brushes.length);
+    this.state.brushes.push(b);
+    this.surface.addBrush(b);
+    this.localPending.push(eventTime);
+    this.unsentSince ??= eventTime;
+    this.viewport?.invalidate();
+    this.sigmaSync.push();
+  }
+
+  /** Whole-σ changes (preset, base, reset, undo). */
+  private sigmaEdited(save: boolean): void {
+    this.surface?.setSigma(this.sigmaBody());
+    this.unsentSince ??= performance.now();
+    this.viewport?.invalidate();
+    this.sigmaSync.push();
+    if (save) this.save();
+  }
+
+  private async sendSigma(): Promise<void> {
+    const id = this.objectId;
+    if (!id) return;
+    const since = this.unsentSince;
+    this.unsentSince = null;
+    try {
+      const sent = performance.now();
+      const r = await api.put<{ sigma_version: number }>(`/api/kelvin/objects/${id}/sigma`, this.sigmaBody());
+      if (id !== this.objectId) return;
+      this.sigmaVersion = Math.max(this.sigmaVersion, r.sigma_version);
+      if (since !== null) this.awaitingDraw.set(r.sigma_version, { since, sent, answered: performance.now() });
+      this.slice?.refresh();
+      // Wait for this σ's frames before sending the next edit: the server then always works on
+      // the newest σ and the screen never lags behind a queue of stale edits.
+      await this.framesFor(r.sigma_version, 3000);
+    } catch (e) {
+      showError(e, "σ not applied");
+    }
+  }
+
+  private framesFor(version: number, timeoutMs: number): Promise<void> {
+    return new Promise((resolve) => {
+      const w = { version, resolve };
+      this.waiters.push(w);
+      window.setTimeout(() => {
+        this.waiters = this.waiters.filter((x) => x !== w);
+        resolve();
+      }, timeoutMs);
+      this.checkWaiters();
+    });
+  }
+
+  private allShownAtLeast(version: number): boolean {
+    const shown = this.iso.shown();
+    return this.state.levels.every((l) => shown.some((s) => s.level === l && s.sigma_version >= version));
+  }
+
+  private checkWaiters(): void {
+    this.waiters = this.waiters.filter((w) => {
+      if (!this.allShownAtLeast(w.version)) return true;
+      w.resolve();
+      return false;
+    });
+  }
+
+  private beforeRender(): void {
+    const now = performance.now();
+    for (const t of this.localPending) this.timings.strokeToColourMs.push(now - t);
+    this.localPending = [];
+    for (const [version, t] of this.awaitingDraw)
+      if (this.allShownAtLeast(version)) {
+        this.timings.strokeToFrameMs.push({
+          version,
+          ms: now - t.since,
+          waitMs: t.sent - t.since,
+          putMs: t.answered - t.sent,
+          framesMs: this.lastArrival - t.sent,
+          drawMs: now - Math.max(this.lastArrival, t.answered),
+          fieldVertices: this.status?.stats?.n_verts ?? 0,
+          lx: this.state.lx,
+        });
+        this.awaitingDraw.delete(version);
+      }
+    // The slice follows σ: resample when it shows an older σ than the current one.
+    if (this.slice && this.state.slice.show && this.sliceAtVersion !== this.sigmaVersion && this.slice.lastSigmaVersion >= 0) {
+      this.sliceAtVersion = this.sigmaVersion;
+      this.slice.refresh();
+    }
+    if (this.hoverEvent) this.hover(this.hoverEvent);
+    this.hoverEvent = null;
+  }
+
+  private applyPreset(): void {
+    const p = this.state.preset;
+    this.state.brushes = [];
+    this.strokes = [];
+    if (p !== "none" && this.state.object !== presets[p].asset) {
+      this.state.object = presets[p].asset;
+      this.state.lx = defaultLx[this.state.object] ?? this.state.lx;
+      this.state.brush.radius = 0;
+      this.panel?.refresh();
+      void this.load();
+      return;
+    }
+    this.panel?.refresh();
+    this.sigmaEdited(true);
+  }
+
+  private undo(): void {
+    const n = this.strokes.pop();
+    if (n === undefined) return;
+    this.state.brushes.length = n;
+    this.sigmaEdited(true);
+  }
+
+  private reset(): void {
+    this.state.brushes = [];
+    this.strokes = [];
+    this.state.preset = "none";
+    this.state.base = DEFAULT_BASE;
+    this.panel?.refresh();
+    this.sigmaEdited(true);
+  }
+
+  // ---- levels, slice, probe, style ----
+  private levelsChanged(): void {
+    this.iso.setLevels(this.state.levels);
+    this.save();
+    const id = this.objectId;
+    if (id) void api.put(`/api/kelvin/objects/${id}/levels`, { levels: this.state.levels }).catch((e) => showError(e, "levels"));
+    this.viewport?.invalidate();
+  }
+
+  private sliceChanged(): void {
+    const s = this.state.slice;
+    this.slice?.configure(s.axis, s.offset, s.show);
+    this.save();
+    this.viewport?.invalidate();
+  }
+
+  private restyle(): void {
+    this.iso.setVisible(this.state.showIso);
+    this.iso.setOpacity(this.state.opacity);
+    if (this.brush) {
+      this.brush.enabled = this.state.brush.on;
+      this.brush.settings = { value: this.state.brush.value, radius: this.state.brush.radius, falloff: this.state.brush.falloff };
+    }
+    this.surface?.setScale(this.state.sigmaScale);
+    this.save();
+    this.viewport?.invalidate();
+  }
+
+  private hover(ev: PointerEvent): void {
+    const vp = this.viewport;
+    if (!vp || !this.probe || this.brush?.isPainting || ev.buttons !== 0) return;
+    const r = vp.renderer.domElement.getBoundingClientRect();
+    const ray = new THREE.Raycaster();
+    ray.setFromCamera(new THREE.Vector2(((ev.clientX - r.left) / r.width) * 2 - 1, -((ev.clientY - r.top) / r.height) * 2 + 1), vp.camera);
+    const targets: THREE.Object3D[] = [];
+    if (this.slice?.plane.visible) targets.push(this.slice.plane);
+    else if (this.state.showIso) targets.push(...this.iso.meshes());
+    const hit = ray.intersectObjects(targets, false)[0];
+    if (hit) this.probe.at(hit.point);
+  }
+
+  // ---- export ----
+  private async exportShown(): Promise<void> {
+    const id = this.objectId;
+    if (!id) return void toast("no object yet", "info");
+    const name = this.state.object === "upload" && this.upload && "name" in this.upload ? this.upload.name.replace(/\.[^.]+$/, "") : this.state.object;
+    for (const level of this.state.levels) {
+      try {
+        const { blob } = await api.binary(`/api/kelvin/objects/${id}/export?level=${level}&format=${this.state.format}`);
+        const a = document.createElement("a");
+        a.href = URL.createObjectURL(blob);
+        a.download = `${name}-h${level}.${this.state.format}`;
+        a.click();
+        window.setTimeout(() => URL.revokeObjectURL(a.href), 2000);
+      } catch (e) {
+        showError(e, `export of level ${level}`);
+      }
+    }
+  }
+
+  // ---- bookkeeping ----
+  private save(): void {
+    this.host.saveState(writeStateJson(this.state));
+  }
+
+  private updateStats(): void {
+    const st = this.status?.stats ?? {};
+    const f = (x: unknown, d = 3) => (typeof x === "number" ? x.toFixed(d) : "–");
+    const name = this.state.object === "upload" && this.upload && "name" in this.upload ? this.upload.name : this.state.object;
+    this.panel?.setStats([
+      ["object", `${name}, l_x = ${this.state.lx}`],
+      ["input surface", `${this.surface?.inputVertices ?? "–"} vertices`],
+      ["n_verts / n_tets", `${st.n_verts ?? "–"} / ${st.n_tets ?? "–"}`],
+      ["size", `${f(st.size_mb, 1)} MB`],
+      ["t_mesh / t_build / t_decomp", `${f(st.t_mesh)} / ${f(st.t_build)} / ${f(st.t_decomp)} s`],
+      ["cache", st.cache_hit ? `hit (load ${f(st.t_load)} s)` : st.shared ? "shared in memory" : "computed"],
+      ["prepared in", `${f((this.timings.prepareMs.at(-1) ?? NaN) / 1000, 2)} s (this page)`],
+    ]);
+    this.host.status(`${name} · ${st.n_verts ?? "?"} field vertices · drag on the surface paints σ, elsewhere orbits (b: brush off)`);
+  }
+
   unmount(): void {
+    this.ticket++;
+    void this.job?.cancel();
+    this.sigmaSync.cancelPending();
+    this.offs.forEach((f) => f());
+    this.offs = [];
+    this.brush?.dispose();
+    this.probe?.dispose();
+    this.slice?.dispose();
+    this.panel?.dispose();
+    this.dropSurface();
     this.viewport?.dispose();
     this.viewport = null;
+    const d = (window as unknown as { distlab?: { kelvin?: unknown } }).distlab;
+    if (d) delete d.kelvin;
   }
+
   shortcuts(): Shortcut[] {
-    return [];
+    const toggle = (f: () => void) => () => {
+      f();
+      this.panel?.refresh();
+    };
+    return [
+      { key: "b", description: "brush on/off (paint σ by dragging on the surface)", run: toggle(() => ((this.state.brush.on = !this.state.brush.on), this.restyle())) },
+      { key: "z", description: "undo the last σ stroke", run: () => this.undo() },
+      { key: "r", description: "reset σ", run: () => this.reset() },
+      { key: "s", description: "slice plane on/off", run: toggle(() => ((this.state.slice.show = !this.state.slice.show), this.sliceChanged())) },
+      { key: "i", description: "iso-surfaces on/off", run: toggle(() => ((this.state.showIso = !this.state.showIso), this.restyle())) },
+      { key: "e", description: "export the shown iso-surfaces", run: () => void this.exportShown() },
+      { key: "[", description: "smaller brush", run: toggle(() => ((this.state.brush.radius *= 0.8), this.restyle())) },
+      { key: "]", description: "larger brush", run: toggle(() => ((this.state.brush.radius *= 1.25), this.restyle())) },
+      { key: "f", description: "frame the object", run: () => this.surface && this.viewport?.frame(this.surface.bounds.clone().expandByScalar(this.surface.bounds.getSize(new THREE.Vector3()).length() * 0.2)) },
+    ];
   }
+
   screenshot(): Promise<Blob> {
     if (!this.viewport) return Promise.reject(new Error("no view"));
     return this.viewport.screenshot();

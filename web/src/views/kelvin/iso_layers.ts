@@ -1,0 +1,116 @@
+// Iso-surfaces of h from the frames the server pushes: transparent, nested (outer shells drawn
+// first), the zero level set (the safe set's boundary) opaque-ish orange, the others blue and
+// fainter the further out. A frame older than the one shown (sigma_version) is dropped.
+import * as THREE from "three";
+import { toGeometry, type MeshFrame } from "../../core/meshframe";
+
+export interface IsoFrameInfo {
+  level: number;
+  index: number;
+  sigma_version: number;
+  n_vertices: number;
+  n_faces: number;
+  hash: string;
+  receivedAt: number;
+}
+
+interface Shell {
+  mesh: THREE.Mesh<THREE.BufferGeometry, THREE.MeshStandardMaterial>;
+  info: IsoFrameInfo;
+}
+
+const ZERO = new THREE.Color(0xff9f1c);
+const OUTER = new THREE.Color(0x4fa3ff);
+
+export class IsoLayers {
+  readonly group = new THREE.Group();
+  private shells = new Map<number, Shell>();
+  private levels: number[] = [];
+  opacity = 0.28;
+
+  setLevels(levels: number[]): void {
+    this.levels = [...levels].sort((a, b) => a - b);
+    for (const [level, s] of this.shells)
+      if (!this.levels.includes(level)) {
+        this.group.remove(s.mesh);
+        s.mesh.geometry.dispose();
+        s.mesh.material.dispose();
+        this.shells.delete(level);
+      }
+    this.restyle();
+  }
+
+  /** Takes a pushed frame; returns its description, or null when stale or not a watched level. */
+  accept(frame: MeshFrame, level: number, sigmaVersion: number): IsoFrameInfo | null {
+    if (!this.levels.includes(level)) return null;
+    const old = this.shells.get(level);
+    if (old && old.info.sigma_version > sigmaVersion) return null;
+    const info: IsoFrameInfo = {
+      level,
+      index: Number(frame.index ?? 0),
+      sigma_version: sigmaVersion,
+      n_vertices: frame.n_vertices,
+      n_faces: frame.n_faces,
+      hash: hashBytes(frame.positions),
+      receivedAt: performance.now(),
+    };
+    const geometry = toGeometry(frame);
+    if (old) {
+      old.mesh.geometry.dispose();
+      old.mesh.geometry = geometry;
+      old.info = info;
+    } else {
+      const mesh = new THREE.Mesh(geometry, new THREE.MeshStandardMaterial({ transparent: true, depthWrite: false, side: THREE.DoubleSide, roughness: 0.6 }));
+      mesh.userData.level = level;
+      this.group.add(mesh);
+      this.shells.set(level, { mesh, info });
+    }
+    this.restyle();
+    return info;
+  }
+
+  shown(): IsoFrameInfo[] {
+    return [...this.shells.values()].map((s) => s.info).sort((a, b) => a.level - b.level);
+  }
+
+  meshes(): THREE.Mesh[] {
+    return [...this.shells.values()].map((s) => s.mesh);
+  }
+
+  setVisible(v: boolean): void {
+    this.group.visible = v;
+  }
+
+  setOpacity(o: number): void {
+    this.opacity = o;
+    this.restyle();
+  }
+
+  clear(): void {
+    this.setLevels([]);
+  }
+
+  private restyle(): void {
+    const positive = this.levels.filter((l) => l > 0);
+    const top = positive.length ? Math.max(...positive) : 1;
+    for (const [level, s] of this.shells) {
+      const m = s.mesh.material;
+      const zero = Math.abs(level) < 1e-12;
+      m.color.copy(zero ? ZERO : OUTER.clone().lerp(new THREE.Color(0x9fd0ff), Math.max(0, Math.min(1, level / top))));
+      m.opacity = zero ? Math.min(1, this.opacity + 0.15) : this.opacity * (1 - 0.5 * Math.max(0, Math.min(1, level / top)));
+      m.needsUpdate = true;
+      // Transparent shells without depth writes: draw the outermost (largest level) first.
+      s.mesh.renderOrder = 10 - this.levels.indexOf(level) / Math.max(1, this.levels.length);
+    }
+  }
+}
+
+/** FNV-1a over the bytes (tests compare meshes by hash). */
+export function hashBytes(b: Uint8Array): string {
+  let h = 0x811c9dc5;
+  for (let i = 0; i < b.length; i++) {
+    h ^= b[i];
+    h = Math.imul(h, 0x01000193);
+  }
+  return (h >>> 0).toString(16).padStart(8, "0");
+}

@@ -1,0 +1,93 @@
+// The view's shareable state (the URL's s= JSON): object, l_x, σ (preset or base constant plus
+// painted brushes), iso-levels, slice, brush settings. Every read is typed and bounded.
+import { num, str } from "../../core/urlstate";
+import { packBrushes, presetNames, unpackBrushes, type Brush, type PresetName } from "./sigma";
+import { sliceAxes, type SliceAxis } from "./slice_layer";
+
+export const exportFormats = ["stl", "obj", "ply", "glb"] as const;
+export type ExportFormat = (typeof exportFormats)[number];
+
+export interface KelvinState {
+  object: string; // an asset name, or "upload" (not restorable: uploads live in the session)
+  lx: number;
+  preset: PresetName;
+  base: number;
+  brushes: Brush[];
+  levels: number[];
+  showIso: boolean;
+  opacity: number;
+  slice: { show: boolean; axis: SliceAxis; offset: number };
+  brush: { on: boolean; value: number; radius: number; falloff: number };
+  sigmaScale: number;
+  format: ExportFormat;
+}
+
+/** A quick default l_x per built-in asset (seconds to prepare on a laptop, not the paper's). */
+export const defaultLx: Record<string, number> = { cube: 0.1, sphere: 0.1, knife: 0.05, wrench: 0.005 };
+
+/** Contact nowhere by default (the zero level set floats outside the surface); paint σ > 0. */
+export const DEFAULT_BASE = -0.5;
+
+export function defaults(object = "cube"): KelvinState {
+  return {
+    object,
+    lx: defaultLx[object] ?? 0.1,
+    preset: "none",
+    base: DEFAULT_BASE,
+    brushes: [],
+    levels: [0, 0.25, 0.5],
+    showIso: true,
+    opacity: 0.28,
+    slice: { show: false, axis: "z", offset: 0 },
+    brush: { on: true, value: 1, radius: 0, falloff: 0 }, // radius 0: chosen from the object's size
+    sigmaScale: 1,
+    format: "stl",
+  };
+}
+
+export function parseLevels(v: unknown, fallback: number[]): number[] {
+  const list = typeof v === "string" ? v.split(/[,\s]+/).filter(Boolean).map(Number) : v;
+  if (!Array.isArray(list)) return fallback;
+  const out = [...new Set(list.filter((x): x is number => typeof x === "number" && Number.isFinite(x)))].sort((a, b) => a - b);
+  return out.length ? out.slice(0, 16) : fallback;
+}
+
+export function readState(raw: Record<string, unknown>): KelvinState {
+  const object = typeof raw.object === "string" && /^[A-Za-z0-9_-]{1,64}$/.test(raw.object) ? raw.object : "cube";
+  const d = defaults(object);
+  const slice = (raw.slice ?? {}) as Record<string, unknown>;
+  const brush = (raw.brush ?? {}) as Record<string, unknown>;
+  return {
+    object,
+    lx: num(raw.lx, d.lx, 1e-4, 10),
+    preset: str(raw.preset, presetNames, "none"),
+    base: num(raw.base, DEFAULT_BASE, -20, 20),
+    brushes: unpackBrushes(raw.brushes),
+    levels: parseLevels(raw.levels, d.levels),
+    showIso: raw.showIso !== false,
+    opacity: num(raw.opacity, d.opacity, 0.02, 1),
+    slice: { show: slice.show === true, axis: str(slice.axis, sliceAxes, "z"), offset: num(slice.offset, 0, -1, 1) },
+    brush: {
+      on: brush.on !== false,
+      value: num(brush.value, 1, -20, 20),
+      radius: num(brush.radius, 0, 0, 100),
+      falloff: num(brush.falloff, 0, 0, 100),
+    },
+    sigmaScale: num(raw.sigmaScale, 1, 1e-3, 100),
+    format: str(raw.format, exportFormats, "stl"),
+  };
+}
+
+export function writeStateJson(s: KelvinState): Record<string, unknown> {
+  const out: Record<string, unknown> = { object: s.object, lx: s.lx, levels: s.levels };
+  if (s.preset !== "none") out.preset = s.preset;
+  if (s.base !== DEFAULT_BASE) out.base = s.base;
+  if (s.brushes.length) out.brushes = packBrushes(s.brushes);
+  if (!s.showIso) out.showIso = false;
+  if (s.opacity !== 0.28) out.opacity = s.opacity;
+  if (s.slice.show || s.slice.offset !== 0 || s.slice.axis !== "z") out.slice = s.slice;
+  out.brush = s.brush;
+  if (s.sigmaScale !== 1) out.sigmaScale = s.sigmaScale;
+  if (s.format !== "stl") out.format = s.format;
+  return out;
+}

@@ -1,0 +1,120 @@
+// The right-hand panel (lil-gui): object and l_x, upload, σ (presets, base, brush, undo, reset),
+// iso-levels, slice, export, and a statistics table. It edits the KelvinState in place and calls
+// back; the view decides what that means for the server.
+import GUI, { type Controller } from "lil-gui";
+import { presets } from "./sigma";
+import { exportFormats, type KelvinState } from "./kelvin_state";
+import { sliceAxes } from "./slice_layer";
+
+export interface PanelActions {
+  objectChanged(): void;
+  upload(file: File): void;
+  sigmaChanged(): void;
+  presetChosen(): void;
+  undoStroke(): void;
+  resetSigma(): void;
+  levelsChanged(): void;
+  styleChanged(): void;
+  sliceChanged(): void;
+  exportShown(): void;
+}
+
+export class Panel {
+  readonly gui: GUI;
+  readonly stats: HTMLTableElement;
+  private levelsText: { levels: string };
+  private controllers: Controller[] = [];
+  private fileInput: HTMLInputElement;
+
+  constructor(container: HTMLElement, state: KelvinState, assets: string[], a: PanelActions) {
+    this.gui = new GUI({ container, title: "Semantic distance", width: 300 });
+    const obj = this.gui.addFolder("Object");
+    const names = assets.includes(state.object) || state.object === "upload" ? assets : [...assets, state.object];
+    this.add(obj.add(state, "object", state.object === "upload" ? [...names, "upload"] : names).name("built-in").onChange(() => a.objectChanged()));
+    this.add(obj.add(state, "lx", 0.001, 1, 0.001).name("l_x").onFinishChange(() => a.objectChanged()));
+    this.fileInput = document.createElement("input");
+    this.fileInput.type = "file";
+    this.fileInput.accept = ".stl,.obj,.ply,.glb,.off";
+    this.fileInput.hidden = true;
+    this.fileInput.dataset.testid = "kelvin-upload";
+    this.fileInput.addEventListener("change", () => {
+      const f = this.fileInput.files?.[0];
+      if (f) a.upload(f);
+      this.fileInput.value = "";
+    });
+    container.appendChild(this.fileInput);
+    obj.add({ upload: () => this.fileInput.click() }, "upload").name("upload a mesh…");
+
+    const sig = this.gui.addFolder("σ (contact allowed where σ > 0)");
+    const presetLabels: Record<string, string> = { none: "none (base σ + brushes)" };
+    for (const [k, p] of Object.entries(presets)) presetLabels[k] = `wrench (${k}): ${p.label.replace(/^\([abc]\)\s*/, "")}`;
+    const presetOptions = Object.fromEntries(Object.entries(presetLabels).map(([k, l]) => [l, k]));
+    this.add(sig.add(state, "preset", presetOptions).name("preset").onChange(() => a.presetChosen()));
+    this.add(sig.add(state, "base", -3, 3, 0.05).name("base σ").onFinishChange(() => a.sigmaChanged()));
+    this.add(sig.add(state.brush, "on").name("brush (b)").onChange(() => a.styleChanged()));
+    this.add(sig.add(state.brush, "value", -3, 3, 0.05).name("brush value").onChange(() => a.styleChanged()));
+    this.add(sig.add(state.brush, "radius", 0, 1, 0.001).name("brush radius").onChange(() => a.styleChanged()));
+    this.add(sig.add(state.brush, "falloff", 0, 1, 0.001).name("brush falloff").onChange(() => a.styleChanged()));
+    this.add(sig.add(state, "sigmaScale", 0.05, 5, 0.05).name("colour scale |σ|").onChange(() => a.styleChanged()));
+    sig.add({ undo: () => a.undoStroke() }, "undo").name("undo stroke (z)");
+    sig.add({ reset: () => a.resetSigma() }, "reset").name("reset σ (r)");
+
+    const iso = this.gui.addFolder("Iso-surfaces of h");
+    this.levelsText = { levels: state.levels.join(", ") };
+    this.add(iso.add(this.levelsText, "levels").name("levels").onFinishChange((v: string) => {
+      const parsed = v.split(/[,\s]+/).filter(Boolean).map(Number);
+      if (parsed.length && parsed.every(Number.isFinite)) {
+        state.levels = [...new Set(parsed)].sort((x, y) => x - y).slice(0, 16);
+        a.levelsChanged();
+      }
+      this.levelsText.levels = state.levels.join(", ");
+      this.refresh();
+    }));
+    this.add(iso.add(state, "showIso").name("show (i)").onChange(() => a.styleChanged()));
+    this.add(iso.add(state, "opacity", 0.02, 1, 0.01).name("opacity").onChange(() => a.styleChanged()));
+
+    const sl = this.gui.addFolder("Slice plane (h)");
+    this.add(sl.add(state.slice, "show").name("show (s)").onChange(() => a.sliceChanged()));
+    this.add(sl.add(state.slice, "axis", sliceAxes).name("normal").onChange(() => a.sliceChanged()));
+    this.add(sl.add(state.slice, "offset", -1, 1, 0.01).name("offset").onFinishChange(() => a.sliceChanged()));
+
+    const ex = this.gui.addFolder("Export");
+    this.add(ex.add(state, "format", exportFormats).name("format"));
+    ex.add({ go: () => a.exportShown() }, "go").name("export shown levels (e)");
+
+    this.stats = document.createElement("table");
+    this.stats.className = "kelvin-stats";
+    container.appendChild(this.stats);
+  }
+
+  private add(c: Controller): Controller {
+    this.controllers.push(c);
+    return c;
+  }
+
+  /** Re-reads the state into the widgets (after a preset, reset, undo or URL restore). */
+  refresh(levels?: number[]): void {
+    if (levels) this.levelsText.levels = levels.join(", ");
+    this.controllers.forEach((c) => c.updateDisplay());
+  }
+
+  setStats(rows: Array<[string, string]>): void {
+    this.stats.replaceChildren(
+      ...rows.map(([k, v]) => {
+        const tr = document.createElement("tr");
+        const a = document.createElement("th");
+        a.textContent = k;
+        const b = document.createElement("td");
+        b.textContent = v;
+        tr.append(a, b);
+        return tr;
+      }),
+    );
+  }
+
+  dispose(): void {
+    this.gui.destroy();
+    this.fileInput.remove();
+    this.stats.remove();
+  }
+}

@@ -1,0 +1,145 @@
+// The object's input surface coloured by σ. The input mesh may be coarse (the cube has 12
+// triangles), so for display each triangle is subdivided until its edges are short enough to
+// show a brush; σ is evaluated locally per display vertex (sigma.ts) and a brush stamp only
+// recolours the vertices it reaches. Raycasts go to the (smaller) input mesh.
+import * as THREE from "three";
+import { toCreasedNormals } from "three/addons/utils/BufferGeometryUtils.js";
+import { diverging } from "../../core/colormap";
+import { floats, uints, type MeshFrame } from "../../core/meshframe";
+import { addBrush, evaluateAll, type Brush, type SigmaBody } from "./sigma";
+
+const MAX_DISPLAY_TRIANGLES = 250_000;
+
+export class SurfaceLayer {
+  readonly mesh: THREE.Mesh<THREE.BufferGeometry, THREE.MeshStandardMaterial>;
+  /** The input mesh as sent by the server (raycast target, never drawn). */
+  readonly pickMesh: THREE.Mesh;
+  readonly bounds: THREE.Box3;
+  readonly inputVertices: number;
+  private positions: Float32Array;
+  private sigma: Float32Array;
+  private colors: THREE.BufferAttribute;
+  private scale = 1;
+
+  constructor(frame: MeshFrame) {
+    const input = new THREE.BufferGeometry();
+    input.setAttribute("position", new THREE.BufferAttribute(floats(frame.positions).slice(), 3));
+    input.setIndex(new THREE.BufferAttribute(uints(frame.indices).slice(), 1));
+    input.computeBoundingBox();
+    input.computeBoundingSphere();
+    this.inputVertices = frame.n_vertices;
+    this.bounds = input.boundingBox!.clone();
+    this.pickMesh = new THREE.Mesh(input, new THREE.MeshBasicMaterial({ side: THREE.DoubleSide }));
+
+    const display = subdivide(toCreasedNormals(input.clone(), Math.PI / 6), this.bounds);
+    this.positions = display.getAttribute("position").array as Float32Array;
+    this.sigma = new Float32Array(this.positions.length / 3);
+    this.colors = new THREE.BufferAttribute(new Float32Array(this.positions.length), 3);
+    display.setAttribute("color", this.colors);
+    this.mesh = new THREE.Mesh(
+      display,
+      new THREE.MeshStandardMaterial({ vertexColors: true, roughness: 0.75, metalness: 0.0, polygonOffset: true, polygonOffsetFactor: 1, polygonOffsetUnits: 1 }),
+    );
+    this.mesh.renderOrder = 0;
+  }
+
+  get displayTriangles(): number {
+    return this.positions.length / 9;
+  }
+
+  /** Recomputes σ everywhere (preset, reset, load). */
+  setSigma(body: SigmaBody): void {
+    evaluateAll(body, this.positions, this.sigma);
+    this.recolor();
+  }
+
+  /** Adds one brush term: only the vertices it reaches change. */
+  addBrush(b: Brush): void {
+    const touched = addBrush(b, this.positions, this.sigma);
+    const c = new THREE.Color();
+    for (const v of touched) {
+      diverging(this.sigma[v], this.scale, c);
+      this.colors.setXYZ(v, c.r, c.g, c.b);
+    }
+    if (touched.length) this.colors.needsUpdate = true;
+  }
+
+  /** Colour half-width: |σ| values up to this are distinguished (white = 0, red allowed, blue not). */
+  setScale(scale: number): void {
+    this.scale = Math.max(1e-6, scale);
+    this.recolor();
+  }
+
+  /** σ at the display vertices (tests compare it with the server's surface scalars). */
+  sigmaValues(): Float32Array {
+    return this.sigma;
+  }
+
+  private recolor(): void {
+    const c = new THREE.Color();
+    for (let v = 0; v < this.sigma.length; v++) {
+      diverging(this.sigma[v], this.scale, c);
+      this.colors.setXYZ(v, c.r, c.g, c.b);
+    }
+    this.colors.needsUpdate = true;
+  }
+
+  dispose(): void {
+    this.mesh.geometry.dispose();
+    this.mesh.material.dispose();
+    this.pickMesh.geometry.dispose();
+    (this.pickMesh.material as THREE.Material).dispose();
+  }
+}
+
+/** Splits every triangle of a non-indexed geometry into n² (n from its longest edge). */
+function subdivide(g: THREE.BufferGeometry, bounds: THREE.Box3): THREE.BufferGeometry {
+  const pos = g.getAttribute("position").array as Float32Array;
+  const nor = g.getAttribute("normal").array as Float32Array;
+  const nTri = pos.length / 9;
+  let target = bounds.getSize(new THREE.Vector3()).length() / 120;
+  const edge = (t: number) => {
+    let m = 0;
+    for (let k = 0; k < 3; k++) {
+      const a = t * 9 + k * 3, b = t * 9 + ((k + 1) % 3) * 3;
+      m = Math.max(m, Math.hypot(pos[a] - pos[b], pos[a + 1] - pos[b + 1], pos[a + 2] - pos[b + 2]));
+    }
+    return m;
+  };
+  const splits = new Uint16Array(nTri);
+  for (;;) {
+    let total = 0;
+    for (let t = 0; t < nTri; t++) {
+      splits[t] = Math.min(64, Math.max(1, Math.ceil(edge(t) / target)));
+      total += splits[t] * splits[t];
+    }
+    if (total <= Math.max(MAX_DISPLAY_TRIANGLES, nTri)) break;
+    target *= 1.3;
+  }
+  let nv = 0;
+  for (let t = 0; t < nTri; t++) nv += splits[t] * splits[t] * 3;
+  const P = new Float32Array(nv * 3), N = new Float32Array(nv * 3);
+  let o = 0;
+  const put = (t: number, u: number, v: number) => {
+    const w = 1 - u - v, a = t * 9;
+    for (let c = 0; c < 3; c++) {
+      P[o + c] = w * pos[a + c] + u * pos[a + 3 + c] + v * pos[a + 6 + c];
+      N[o + c] = w * nor[a + c] + u * nor[a + 3 + c] + v * nor[a + 6 + c];
+    }
+    o += 3;
+  };
+  for (let t = 0; t < nTri; t++) {
+    const n = splits[t];
+    for (let i = 0; i < n; i++)
+      for (let j = 0; j < n - i; j++) {
+        put(t, i / n, j / n), put(t, (i + 1) / n, j / n), put(t, i / n, (j + 1) / n);
+        if (j < n - i - 1) put(t, (i + 1) / n, j / n), put(t, (i + 1) / n, (j + 1) / n), put(t, i / n, (j + 1) / n);
+      }
+  }
+  const out = new THREE.BufferGeometry();
+  out.setAttribute("position", new THREE.BufferAttribute(P, 3));
+  out.setAttribute("normal", new THREE.BufferAttribute(N, 3)); // the shader renormalises
+  out.computeBoundingBox();
+  out.computeBoundingSphere();
+  return out;
+}
