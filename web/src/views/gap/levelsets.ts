@@ -94,7 +94,7 @@ export class IsoLayer {
         weak: want === "weak" || want === "both" ? i.iso.weak : [],
         strict: want === "strict" || want === "both" ? i.iso.strict : [],
       },
-      grid: { resolution: 64 },
+      grid: { resolution: 48 },
       plane: { center: n.map((c) => c * i.iso.offset), normal: [...n], size: [side, side], resolution: [200, 200] },
     };
     return api.msgpack<LevelsetsResponse>("POST", "/api/gap/levelsets", stripUndefined(body));
@@ -121,13 +121,13 @@ export class IsoLayer {
       list.forEach((s, rank) => {
         if (s.n_faces === 0) return;
         const inner = list.length > 1 ? rank / (list.length - 1) : 1;
-        const mat = new THREE.MeshStandardMaterial({
+        const mat = new THREE.MeshLambertMaterial({
           color: new THREE.Color().setHSL(HUES[field], 0.85, 0.45 + 0.2 * inner),
           transparent: true,
           opacity: 0.18 + 0.12 * inner,
           depthWrite: false,
           side: THREE.DoubleSide,
-          roughness: 0.6,
+          forceSinglePass: true, // one pass per surface: the nested shells stay readable at half the fill
         });
         const mesh = new THREE.Mesh(toGeometry(s), mat);
         mesh.name = `${field}-${s.level}`;

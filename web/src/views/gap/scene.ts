@@ -52,8 +52,8 @@ class Segment extends THREE.Group {
 export class GapScene {
   readonly groups = { a: new THREE.Group(), b: new THREE.Group() };
   readonly meshes: { a: THREE.Mesh; b: THREE.Mesh };
-  readonly gap = new Segment(COLORS.gap, 0.008);
-  readonly euclid = new Segment(COLORS.euclid, 0.007);
+  readonly gap = new Segment(COLORS.gap, 0.011);
+  readonly euclid = new Segment(COLORS.euclid, 0.01);
 
   constructor(scene: THREE.Scene) {
     const make = (color: number) =>
