@@ -83,3 +83,133 @@ test("the cube is prepared with a progress bar; painting σ with the mouse chang
   fromServer.forEach((s, i) => assert.ok(Math.abs(s - local[i]) < 1e-5, `σ at vertex ${i}: server ${s}, page ${local[i]}`));
   assert.deepEqual(page.problems, []);
 });
+
+test("a shared URL restores object, σ strokes, levels and slice: the same iso-surfaces come back", async () => {
+  const page = await openView(browser, server, hash({ object: "cube", lx: 0.1, levels: [0, 0.3], slice: { show: true, axis: "x", offset: 0 } }));
+  await waitReady(page);
+  await page.waitForFunction(() => window.distlab.kelvin.sliceSigmaVersion >= 0, null, { timeout: 30000 });
+  const v0 = await K(page, "k.sigma.version");
+  await stroke(page, [0.5, 0.3, -0.3], [0.5, -0.3, 0.3]);
+  await page.waitForFunction((v) => window.distlab.kelvin.sigma.version > v && window.distlab.kelvin.ready, v0, { timeout: 30000 });
+  await page.waitForFunction(() => window.distlab.kelvin.sliceSigmaVersion === window.distlab.kelvin.sigma.version, null, { timeout: 30000 });
+  await page.waitForTimeout(400); // the URL is written debounced
+  const shared = await page.evaluate(() => location.hash);
+  const sigma = await K(page, "k.sigma.body");
+  const shown = await K(page, "k.shown");
+  await screenshot(page, "kelvin-slice-and-stroke");
+
+  const again = await openView(browser, server, shared);
+  await waitReady(again);
+  const sigma2 = await K(again, "k.sigma.body");
+  assert.equal(sigma2.brushes.length, sigma.brushes.length);
+  sigma2.brushes.forEach((b, i) => {
+    b.center.forEach((c, j) => assert.ok(Math.abs(c - sigma.brushes[i].center[j]) < 1e-4 * 1.01, "brush centre within the URL's 5 digits"));
+    assert.ok(Math.abs(b.value - sigma.brushes[i].value) <= 1e-4 * Math.max(1, Math.abs(b.value)));
+  });
+  const shown2 = await K(again, "k.shown");
+  assert.deepEqual(shown2.map((f) => f.level), [0, 0.3]);
+  for (const f of shown2) {
+    const g = shown.find((x) => x.level === f.level);
+    // The URL rounds brush parameters to 5 digits: the meshes agree in size to within a few cells.
+    assert.ok(Math.abs(f.n_vertices - g.n_vertices) <= Math.max(8, 0.01 * g.n_vertices), `level ${f.level}: ${f.n_vertices} vs ${g.n_vertices} vertices`);
+  }
+  await again.waitForFunction(() => window.distlab.kelvin.sliceSigmaVersion >= 0, null, { timeout: 30000 });
+  assert.equal((await K(again, "k.state")).slice.axis, "x");
+  assert.equal(await again.isChecked(".lil-controller:has(.lil-name:text-is('show (s)')) input"), true, "the panel shows the restored slice");
+  assert.deepEqual(page.problems, []);
+  assert.deepEqual(again.problems, []);
+});
+
+test("export downloads every shown level, and the server's importer reads each file back", async () => {
+  const page = await openView(browser, server, hash({ object: "sphere", lx: 0.1, levels: [0, 0.4], format: "ply" }));
+  await waitReady(page);
+  const downloads = [];
+  page.on("download", (d) => downloads.push(d));
+  await page.keyboard.press("e");
+  await page.waitForFunction(() => true);
+  for (let i = 0; i < 50 && downloads.length < 2; i++) await page.waitForTimeout(200);
+  assert.equal(downloads.length, 2, "one file per shown level");
+  const session = (await (await fetch(server.url + "api/session", { method: "POST" })).json()).session;
+  for (const d of downloads) {
+    assert.match(d.suggestedFilename(), /^sphere-h(0|0\.4)\.ply$/);
+    const bytes = await (await import("node:fs/promises")).readFile(await d.path());
+    const r = await fetch(`${server.url}api/kelvin/uploads?format=ply`, { method: "POST", headers: { "X-Distlab-Session": session, "Content-Type": "application/octet-stream" }, body: bytes });
+    const body = await r.json();
+    assert.equal(r.status, 201, JSON.stringify(body));
+    assert.ok(body.n_faces > 100, `${d.suggestedFilename()} has ${body.n_faces} triangles`);
+  }
+  assert.deepEqual(page.problems, []);
+});
+
+test("bad uploads show the server's message readably", async () => {
+  const page = await openView(browser, server, hash({ object: "sphere", lx: 0.1, levels: [0] }));
+  await waitReady(page);
+  const session = (await (await fetch(server.url + "api/session", { method: "POST" })).json()).session;
+  const serverSays = async (bytes, format) => {
+    const r = await fetch(`${server.url}api/kelvin/uploads?format=${format}`, { method: "POST", headers: { "X-Distlab-Session": session }, body: bytes });
+    return r.status >= 400 ? (await r.json()).error.message : null;
+  };
+  // Garbage bytes named .stl: refused by the importer.
+  const garbage = Buffer.from("this is not a mesh at all, just words".repeat(5));
+  const expected = await serverSays(garbage, "stl");
+  assert.ok(expected, "the server refuses garbage");
+  await page.setInputFiles("input[data-testid=kelvin-upload]", { name: "garbage.stl", mimeType: "model/stl", buffer: garbage });
+  const text = await errorToast(page);
+  assert.ok(text.includes("garbage.stl") && text.includes(expected), `toast "${text}" shows "${expected}"`);
+  await screenshot(page, "kelvin-bad-upload");
+
+  // An open mesh (a tetrahedron without one face): refused with the defect named.
+  const open = ["solid open", ...[[[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 0, 0], [0, 0, 1], [1, 0, 0]], [[0, 0, 0], [0, 1, 0], [0, 0, 1]]].map(
+    (t) => `facet normal 0 0 0\nouter loop\n${t.map((p) => `vertex ${p.join(" ")}`).join("\n")}\nendloop\nendfacet`), "endsolid open"].join("\n");
+  await page.evaluate(() => document.querySelectorAll(".toast").forEach((t) => t.remove()));
+  await page.setInputFiles("input[data-testid=kelvin-upload]", { name: "open.stl", mimeType: "model/stl", buffer: Buffer.from(open) });
+  const text2 = await errorToast(page);
+  assert.match(text2, /open\.stl/);
+  assert.match(text2, /boundary edge|not closed|open/i, text2);
+  assert.deepEqual(page.problems.filter((p) => !p.includes("the server responded with a status")), []);
+});
+
+test("the wrench presets (a), (b), (c) apply the case files' σ; switching between them keeps the object", async () => {
+  const fs = await import("node:fs/promises");
+  const root = new URL("../../assets/", import.meta.url);
+  const cases = {};
+  for (const c of ["a", "b", "c"]) cases[c] = JSON.parse(await fs.readFile(new URL(`wrench_case_${c}.json`, root), "utf8")).sigma;
+  const page = await openView(browser, server, hash({ object: "cube", lx: 0.1, levels: [0, 0.5] }));
+  await waitReady(page);
+  const preset = page.locator(".lil-controller:has(.lil-name:text-is('preset')) select");
+  await preset.selectOption({ index: 1 }); // (a)
+  await page.waitForFunction(() => window.distlab.kelvin.object?.source?.asset === "wrench", null, { timeout: 120000 });
+  await waitReady(page);
+  assert.deepEqual((await K(page, "k.sigma")).body, cases.a);
+  const id = await K(page, "k.objectId");
+  const a = await K(page, "k.shown");
+  await page.waitForTimeout(300);
+  await screenshot(page, "kelvin-wrench-a");
+  for (const [index, name] of [[3, "c"], [2, "b"]]) {
+    const v = await K(page, "k.sigma.version");
+    await preset.selectOption({ index });
+    await page.waitForFunction((v) => window.distlab.kelvin.sigma.version > v && window.distlab.kelvin.ready, v, { timeout: 60000 });
+    assert.deepEqual((await K(page, "k.sigma")).body, cases[name]);
+    assert.equal(await K(page, "k.objectId"), id, "the same prepared object");
+    const shown = await K(page, "k.shown");
+    assert.notEqual(shown[0].hash, a[0].hash, `case (${name}) has another zero level set than (a)`);
+    await page.waitForTimeout(300);
+    await screenshot(page, `kelvin-wrench-${name}`);
+  }
+  assert.deepEqual(page.problems, []);
+});
+
+test("after a server restart the page re-creates its object (from the server's cache) with its σ", async () => {
+  const page = await openView(browser, server, hash({ object: "cube", lx: 0.1, levels: [0, 0.25], base: -0.3 }));
+  await waitReady(page);
+  const id = await K(page, "k.objectId");
+  const port = server.port;
+  await server.stop({ keepCache: true });
+  await page.waitForFunction(() => document.getElementById("connection")?.textContent?.startsWith("offline"), null, { timeout: 15000 });
+  server = await startServer({ cacheDir: server.cacheDir, port });
+  await page.waitForFunction((id) => window.distlab.kelvin.objectId && window.distlab.kelvin.objectId !== id && window.distlab.kelvin.ready, id, { timeout: 120000 });
+  const o = await K(page, "k.object");
+  assert.equal(o.stats.cache_hit, true, "prepared object reloaded from the cache");
+  assert.deepEqual((await K(page, "k.sigma")).body, { constant: -0.3 });
+  assert.deepEqual(page.problems.filter((p) => !p.includes("Failed to load resource") && !p.includes("WebSocket")), []);
+});

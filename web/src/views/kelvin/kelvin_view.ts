@@ -57,6 +57,7 @@ export class KelvinView implements View {
   private sigmaSync = new Coalescer<void>(() => this.sendSigma());
   private hoverEvent: PointerEvent | null = null;
   private firstOpen = true;
+  private unclaimed: MeshFrame[] = [];
   private sliceAtVersion = -1;
 
   async mount(host: ViewHost, raw: Record<string, unknown>): Promise<void> {
@@ -193,7 +194,7 @@ export class KelvinView implements View {
     try {
       status = await job.prepare(source, this.state.lx, { sigma: this.sigmaBody(), levels: this.state.levels }, {
         progress: (stage, fraction, cancel) => ticket === this.ticket && this.host.progress(label(stage), fraction, cancel),
-        created: (id) => ticket === this.ticket && (this.pendingId = id),
+        created: (id) => ticket === this.ticket && this.adopt(id),
       });
     } catch (e) {
       if (ticket !== this.ticket) return;
@@ -217,6 +218,13 @@ export class KelvinView implements View {
     }
     this.host.progress(null);
     this.updateStats();
+  }
+
+  private adopt(id: string): void {
+    this.pendingId = id;
+    const mine = this.unclaimed.filter((f) => f.object === id);
+    this.unclaimed = this.unclaimed.filter((f) => f.object !== id);
+    mine.forEach((f) => this.onFrame(f));
   }
 
   private showSurface(frame: MeshFrame): void {
@@ -294,7 +302,13 @@ export class KelvinView implements View {
 
   private onFrame(f: BinaryFrame): void {
     if (f.type !== "isosurface" || !isMeshFrame(f)) return;
-    if (f.object !== this.objectId && f.object !== this.pendingId) return;
+    if (f.object !== this.objectId && f.object !== this.pendingId) {
+      // A prepared object shared from the server's memory is ready (and its frames pushed)
+      // before our POST has returned its id: keep a few unclaimed frames for adopt().
+      this.unclaimed.push(f);
+      if (this.unclaimed.length > 32) this.unclaimed.shift();
+      return;
+    }
     const info = this.iso.accept(f, Number(f.level), Number(f.sigma_version ?? 0));
     if (!info) return;
     this.frameLog.push(info);
