@@ -1,6 +1,8 @@
 // CBF scenarios and rollout requests as JSON: strict parsing with field paths, and the record.
 #include "distlab/server/cbf_json.hpp"
 
+#include "distlab/server/json_fields.hpp"
+
 #include <algorithm>
 #include <array>
 #include <cctype>
@@ -19,51 +21,27 @@ namespace {
 using json = nlohmann::json;
 namespace fs = std::filesystem;
 
-std::string key_path(const std::string& base, const std::string& key) {
-  return base.empty() ? key : base + "." + key;
-}
-std::string index_path(const std::string& base, std::size_t i) {
-  return base + "[" + std::to_string(i) + "]";
-}
+// The one typed reader (json_fields.hpp), under the short names this codec reads best with.
+std::string key_path(const std::string& base, const std::string& key) { return json_key_path(base, key); }
+std::string index_path(const std::string& base, std::size_t i) { return json_index_path(base, i); }
 [[noreturn]] void fail(const std::string& field, const std::string& message) {
   throw InvalidInput(field, message);
 }
-void require_object(const json& j, const std::string& field) {
-  if (!j.is_object()) fail(field, std::string("expected an object, got ") + j.type_name());
-}
+void require_object(const json& j, const std::string& field) { json_require_object(j, field); }
 void check_keys(const json& j, const std::string& field,
                 std::initializer_list<std::string_view> allowed) {
-  for (const auto& [key, value] : j.items())
-    if (std::find(allowed.begin(), allowed.end(), key) == allowed.end())
-      fail(key_path(field, key), "unknown key \"" + key.substr(0, 64) + "\"");
+  json_check_keys(j, field, allowed);
 }
 const json& required(const json& j, const std::string& field, const char* key) {
-  const auto it = j.find(key);
-  if (it == j.end()) fail(key_path(field, key), std::string("missing required key \"") + key + "\"");
-  return *it;
+  return json_required(j, field, key);
 }
-double number(const json& j, const std::string& field) {
-  if (!j.is_number()) fail(field, std::string("expected a number, got ") + j.type_name());
-  const double v = j.get<double>();
-  if (!std::isfinite(v) || std::abs(v) > kMaxCoordinate)
-    fail(field, "expected a finite number of magnitude <= 1e6");
-  return v;
-}
-bool boolean(const json& j, const std::string& field) {
-  if (!j.is_boolean()) fail(field, std::string("expected true or false, got ") + j.type_name());
-  return j.get<bool>();
-}
-std::string string(const json& j, const std::string& field) {
-  if (!j.is_string()) fail(field, std::string("expected a string, got ") + j.type_name());
-  return j.get<std::string>();
-}
+// Every number of a scenario is a coordinate, a gain or a time: |v| <= 1e6 keeps squares finite.
+double number(const json& j, const std::string& field) { return json_number(j, field, kMaxCoordinate); }
+bool boolean(const json& j, const std::string& field) { return json_bool(j, field); }
+std::string string(const json& j, const std::string& field) { return json_string(j, field); }
 template <int N>
 Eigen::Matrix<double, N, 1> vec(const json& j, const std::string& field) {
-  if (!j.is_array() || j.size() != N)
-    fail(field, "expected an array of " + std::to_string(N) + " numbers");
-  Eigen::Matrix<double, N, 1> v;
-  for (int i = 0; i < N; ++i) v[i] = number(j[static_cast<std::size_t>(i)], index_path(field, static_cast<std::size_t>(i)));
-  return v;
+  return json_vec<N>(j, field, kMaxCoordinate);
 }
 template <class V>
 json vec_json(const V& v) {
@@ -195,19 +173,23 @@ cbf::Scenario parse_scenario(const json& j, const std::string& field) {
   return s;
 }
 
-std::string scenario_path(const std::string& name) {
+std::string scenario_path(const std::string& name, const std::string& assets_dir) {
   if (name.empty() || name.size() > 64) fail("scenario", "scenario names have 1 to 64 characters");
   for (char c : name)
     if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_' && c != '-')
       fail("scenario", "scenario names are letters, digits, '_' and '-'");
   std::vector<fs::path> roots;
-  if (const char* env = std::getenv("DISTLAB_ASSETS")) roots.emplace_back(env);
-  roots.emplace_back("assets");
-  std::error_code ec;
-  for (fs::path p = fs::read_symlink("/proc/self/exe", ec).parent_path(); !ec && !p.empty();
-       p = p.parent_path()) {
-    roots.push_back(p / "assets");
-    if (p == p.root_path()) break;
+  if (!assets_dir.empty()) {
+    roots.emplace_back(assets_dir);
+  } else {
+    if (const char* env = std::getenv("DISTLAB_ASSETS")) roots.emplace_back(env);
+    roots.emplace_back("assets");
+    std::error_code ec;
+    for (fs::path p = fs::read_symlink("/proc/self/exe", ec).parent_path(); !ec && !p.empty();
+         p = p.parent_path()) {
+      roots.push_back(p / "assets");
+      if (p == p.root_path()) break;
+    }
   }
   for (const auto& root : roots)
     if (fs::is_regular_file(root / "scenarios" / (name + ".json")))
@@ -216,24 +198,29 @@ std::string scenario_path(const std::string& name) {
                        ".json in $DISTLAB_ASSETS and assets/)");
 }
 
-CbfRequest parse_cbf_request(const json& r) {
+nlohmann::json read_scenario_file(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  if (!in) throw std::runtime_error("cannot read " + path);
+  // A broken asset is an internal error, not the caller's.
+  try {
+    json j = parse_json_text(text.str());
+    parse_scenario(j, "scenario");
+    return j;
+  } catch (const std::exception& e) {
+    throw std::runtime_error("scenario file " + path + ": " + e.what());
+  }
+}
+
+CbfRequest parse_cbf_request(const json& r, const std::string& assets_dir) {
   require_object(r, "");
   check_keys(r, "", {"scenario", "metric", "params", "comment"});
   if (auto it = r.find("comment"); it != r.end()) string(*it, "comment");
   CbfRequest out;
   const json& sj = required(r, "", "scenario");
   if (sj.is_string()) {
-    const std::string path = scenario_path(sj.get<std::string>());
-    std::ifstream in(path);
-    std::stringstream text;
-    text << in.rdbuf();
-    if (!in) throw std::runtime_error("cannot read " + path);
-    // A broken asset is an internal error, not the caller's.
-    try {
-      out.scenario = parse_scenario(parse_json_text(text.str()), "scenario");
-    } catch (const std::exception& e) {
-      throw std::runtime_error("scenario file " + path + ": " + e.what());
-    }
+    out.scenario = parse_scenario(read_scenario_file(scenario_path(sj.get<std::string>(), assets_dir)));
   } else {
     out.scenario = parse_scenario(sj, "scenario");
   }
@@ -263,10 +250,20 @@ CbfRequest parse_cbf_request(const json& r) {
   return out;
 }
 
-json encode_record(const cbf::RolloutRecord& rec, const std::string& scenario_name) {
+json encode_smoothness(const cbf::RolloutRecord& rec) {
+  json tv = json::array(), rate = json::array();
+  for (int j = 0; j < cbf::kDof; ++j) {
+    const cbf::Smoothness s = cbf::smoothness(rec, j);
+    tv.push_back(s.total_variation);
+    rate.push_back(s.max_rate);
+  }
+  return {{"total_variation", tv}, {"max_rate", rate}};
+}
+
+json encode_record(const cbf::RolloutRecord& rec, const std::string& scenario_name, bool with_pairs) {
   json t = json::array(), q = json::array(), u = json::array(), err = json::array(),
        mind = json::array(), slack = json::object();
-  const bool pairs = !rec.steps.empty() && !rec.steps.front().pairs.empty();
+  const bool pairs = with_pairs && !rec.steps.empty() && !rec.steps.front().pairs.empty();
   json dist = json::array(), wa = json::array(), wb = json::array();
   auto finite_or_null = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
   for (std::size_t i = 0; i < rec.steps.size(); ++i) {
@@ -304,6 +301,7 @@ json encode_record(const cbf::RolloutRecord& rec, const std::string& scenario_na
               {"min_distance", mind},
               {"infeasible_steps", rec.infeasible_steps},
               {"slack", slack},
+              {"smoothness", encode_smoothness(rec)},
               {"timing",
                {{"kinematics_us_mean", rec.timing.kinematics},
                 {"distance_us_mean", rec.timing.distance},

@@ -31,24 +31,32 @@ inline constexpr double kMaxScenarioDuration = 600.0;  // seconds of simulated t
 // Throws InvalidInput naming the field (prefixed with `field`, e.g. "scenario.q0[2]").
 cbf::Scenario parse_scenario(const nlohmann::json& j, const std::string& field = "scenario");
 
-// Looks for NAME.json in $DISTLAB_ASSETS/scenarios, ./assets/scenarios and assets/scenarios
-// above the executable. Names are letters, digits, '_' and '-'.
-std::string scenario_path(const std::string& name);
+// Looks for NAME.json in ASSETS_DIR/scenarios when assets_dir is given (the service), else in
+// $DISTLAB_ASSETS/scenarios, ./assets/scenarios and assets/scenarios above the executable.
+// Names are letters, digits, '_' and '-'; an unknown name is InvalidInput("scenario").
+std::string scenario_path(const std::string& name, const std::string& assets_dir = "");
+// A scenario file's JSON, checked with parse_scenario; a broken file is std::runtime_error
+// (the server's fault, not the caller's).
+nlohmann::json read_scenario_file(const std::string& path);
 
 struct CbfRequest {
   cbf::Scenario scenario;
   cbf::Metric metric = cbf::Metric::gap;
   cbf::RolloutOptions options;
 };
-CbfRequest parse_cbf_request(const nlohmann::json& request);
+CbfRequest parse_cbf_request(const nlohmann::json& request, const std::string& assets_dir = "");
 
 // {"scenario", "metric", "dt", "steps", "pairs": [names], "t": [...], "q": [[7]...], "u": [[7]...],
 //  "task_error": [...], "min_distance": [...], "infeasible_steps": [indices], "slack": {index: s},
+//  "smoothness": {"total_variation": [7], "max_rate": [7]} (per joint: Σ|Δu|, max |Δu|/dt),
 //  "distance": [[per pair]...], "witness_a"/"witness_b": [[[x,y,z] per pair]...] (record_pairs),
 //  "timing": {"kinematics_us_mean", "step_us_mean", "distance_us_mean", "qp_us_mean",
 //             "audit_us_mean", "wall_s"}, "summary": {"reached", "final_task_error",
 //  "min_distance", "cancelled", "cold_solves", "q_final"}}.
-nlohmann::json encode_record(const cbf::RolloutRecord& record, const std::string& scenario_name);
+// with_pairs = false leaves out "distance"/"witness_a"/"witness_b" even if the record has them.
+nlohmann::json encode_record(const cbf::RolloutRecord& record, const std::string& scenario_name,
+                             bool with_pairs = true);
+nlohmann::json encode_smoothness(const cbf::RolloutRecord& record);
 
 // Parse, run, encode; throws InvalidInput on bad input.
 nlohmann::json run_cbf_request(const nlohmann::json& request);

@@ -1,8 +1,13 @@
 #pragma once
 // Typed reads of request fields shared by the JSON codecs and routes: each names the field in its
-// InvalidInput, and refuses non-finite numbers.
+// InvalidInput (a path such as "scenario.obstacles[2].shape.size[1]"), and refuses non-finite
+// numbers.
+#include <algorithm>
 #include <cmath>
+#include <initializer_list>
+#include <limits>
 #include <string>
+#include <string_view>
 
 #include <nlohmann/json.hpp>
 
@@ -11,18 +16,77 @@
 
 namespace distlab::server {
 
-inline double json_number(const nlohmann::json& j, const std::string& field) {
-  if (!j.is_number()) throw InvalidInput(field, field + " must be a number");
+// "base.key" (or "key" at the top level) and "base[i]".
+inline std::string json_key_path(const std::string& base, const std::string& key) {
+  return base.empty() ? key : base + "." + key;
+}
+inline std::string json_index_path(const std::string& base, std::size_t i) {
+  return base + "[" + std::to_string(i) + "]";
+}
+
+// A finite number; |v| <= max_abs when given (e.g. kMaxCoordinate keeps squares finite).
+inline double json_number(const nlohmann::json& j, const std::string& field,
+                          double max_abs = std::numeric_limits<double>::infinity()) {
+  if (!j.is_number()) throw InvalidInput(field, field + " must be a number, got " + j.type_name());
   const double v = j.get<double>();
   if (!std::isfinite(v)) throw InvalidInput(field, field + " must be finite");
+  if (std::abs(v) > max_abs)
+    throw InvalidInput(field, field + " must have magnitude <= " + nlohmann::json(max_abs).dump());
   return v;
 }
 
-inline Vec3 json_vec3(const nlohmann::json& j, const std::string& field) {
-  if (!j.is_array() || j.size() != 3)
-    throw InvalidInput(field, field + " must be an array of 3 numbers");
-  return {json_number(j[0], field + "[0]"), json_number(j[1], field + "[1]"),
-          json_number(j[2], field + "[2]")};
+inline bool json_bool(const nlohmann::json& j, const std::string& field) {
+  if (!j.is_boolean()) throw InvalidInput(field, field + " must be true or false, got " + j.type_name());
+  return j.get<bool>();
+}
+
+inline std::string json_string(const nlohmann::json& j, const std::string& field) {
+  if (!j.is_string()) throw InvalidInput(field, field + " must be a string, got " + j.type_name());
+  return j.get<std::string>();
+}
+
+// A fixed-size vector of finite numbers.
+template <int N>
+Eigen::Matrix<double, N, 1> json_vec(const nlohmann::json& j, const std::string& field,
+                                     double max_abs = std::numeric_limits<double>::infinity()) {
+  if (!j.is_array() || j.size() != N)
+    throw InvalidInput(field, field + " must be an array of " + std::to_string(N) + " numbers");
+  Eigen::Matrix<double, N, 1> v;
+  for (int i = 0; i < N; ++i)
+    v[i] = json_number(j[static_cast<std::size_t>(i)], json_index_path(field, static_cast<std::size_t>(i)),
+                       max_abs);
+  return v;
+}
+
+inline Vec3 json_vec3(const nlohmann::json& j, const std::string& field,
+                      double max_abs = std::numeric_limits<double>::infinity()) {
+  return json_vec<3>(j, field, max_abs);
+}
+
+inline void json_require_object(const nlohmann::json& j, const std::string& field) {
+  if (!j.is_object())
+    throw InvalidInput(field, (field.empty() ? std::string("the request") : field) +
+                                  " must be an object, got " + j.type_name());
+}
+
+// j[key], or InvalidInput naming "field.key" when it is missing.
+inline const nlohmann::json& json_required(const nlohmann::json& j, const std::string& field,
+                                           const std::string& key) {
+  const auto it = j.find(key);
+  if (it == j.end()) throw InvalidInput(json_key_path(field, key), "missing required key \"" + key + "\"");
+  return *it;
+}
+
+// Refuses keys outside `allowed` (strict schemas catch typos such as "duraton").
+template <class Range>
+void json_check_keys(const nlohmann::json& j, const std::string& field, const Range& allowed) {
+  for (const auto& [key, value] : j.items())
+    if (std::find(std::begin(allowed), std::end(allowed), key) == std::end(allowed))
+      throw InvalidInput(json_key_path(field, key.substr(0, 64)), "unknown key \"" + key.substr(0, 64) + "\"");
+}
+inline void json_check_keys(const nlohmann::json& j, const std::string& field,
+                            std::initializer_list<std::string_view> allowed) {
+  json_check_keys<std::initializer_list<std::string_view>>(j, field, allowed);
 }
 
 }  // namespace distlab::server
