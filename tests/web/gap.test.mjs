@@ -174,6 +174,31 @@ test("a real drag on the gizmo changes D; the readout equals a direct POST for t
   await page.context().close();
 });
 
+test("measurement: drag → readout latency with the iso-surfaces hidden (rendering out of the way)", async () => {
+  const light = { iso: { surfaces: "none", slice: "none" } };
+  const page = await openView(browser, server, `#/gap?s=${encodeURIComponent(JSON.stringify(light))}`);
+  await settled(page);
+  const D0 = await hook(page, "D()");
+  const n0 = (await hook(page, "latencies()")).length, r0 = (await hook(page, "roundTrips()")).length;
+  const q0 = await hook(page, "requests()");
+  const { at, dir } = await grabGizmo(page, "X");
+  await page.mouse.down();
+  for (let i = 1; i <= 60; i++) {
+    await page.mouse.move(at.x + dir.x * i, at.y + dir.y * i);
+    await page.waitForTimeout(16);
+  }
+  await page.mouse.up();
+  await settled(page);
+  assert.notEqual(await hook(page, "D()"), D0, "D changed");
+  const lat = (await hook(page, "latencies()")).slice(n0), rt = (await hook(page, "roundTrips()")).slice(r0);
+  const fs = await hook(page, "frameStats()");
+  console.log(
+    `light scene: drag step → readout n=${lat.length} median ${median(lat).toFixed(1)} ms; request round trip median ${median(rt).toFixed(1)} ms; ${(await hook(page, "requests()")) - q0} requests for 60 steps; frame median ${fs.medianMs.toFixed(1)} ms`,
+  );
+  assert.deepEqual(page.problems, []);
+  await page.context().close();
+});
+
 test("refused parameters show the server's message; a good value turns the verdict green again", async () => {
   const page = await openView(browser, server, "#/gap");
   await settled(page);

@@ -167,7 +167,7 @@ export class GapView implements View {
       this.scene.euclid.set(null, null);
       const text = this.reportError(r.error, "distance");
       this.readout.error(text);
-      this.host.status(`error: ${text}`);
+      this.host.status(`refused or failed — see the readout (${r.error instanceof ApiError && r.error.field ? r.error.field : "error"})`);
       this.viewport?.invalidate();
       return;
     }
@@ -191,8 +191,11 @@ export class GapView implements View {
     const text = e instanceof ApiError ? e.readable : e instanceof Error ? e.message : String(e);
     const field = e instanceof ApiError ? (e.field ?? "") : "";
     if (field.startsWith("params") || field === "a" || field === "b") this.panel.setVerdict(false, `✗ refused — ${text}`);
+    // A refused parameter set fails the distance, the sweep and the level sets alike: the
+    // verdict and the readout show it, one toast (from the distance) is enough.
+    const refusal = field.startsWith("params") || field === "a" || field === "b" || /^pairs\[\d+\]\.(a|b|params)/.test(field);
     const key = `${what}: ${text}`;
-    if (key !== this.lastError) {
+    if (key !== this.lastError && (!refusal || what === "distance")) {
       this.lastError = key;
       toast(`${what}: ${text}`, "error");
     }

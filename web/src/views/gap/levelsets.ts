@@ -72,7 +72,8 @@ export class IsoLayer {
       this.shown.slice = "none";
       return;
     }
-    const f = iso.slice === "weak" ? this.planeFields.weak : this.planeFields.strict;
+    // Both fields are exactly 0 on the set S itself: draw it as "inside" (the shader's NaN grey).
+    const f = Float32Array.from(iso.slice === "weak" ? this.planeFields.weak : this.planeFields.strict, (x) => (x === 0 ? NaN : x));
     let hi = 0;
     for (const x of f) if (Number.isFinite(x) && x > hi) hi = x;
     const m = this.planeFields.meta;
