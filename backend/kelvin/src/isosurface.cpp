@@ -1,7 +1,9 @@
 // Marching tetrahedra on U = |y| V (so the vertex at y = 0, i.e. infinity, needs no special
 // case): the boundary of {h ≥ level} = {U ≤ e^(−level)}, mapped back by eq. 5.
+#include <bit>
 #include <cmath>
-#include <unordered_map>
+#include <cstdint>
+#include <vector>
 
 #include "distlab/geometry/error.hpp"
 #include "field_impl.hpp"
@@ -11,25 +13,29 @@ namespace {
 
 class Builder {
  public:
-  Builder(const Field::Impl& m, const VecX& u, double level_u) : m_(m), u_(u), level_(level_u) {}
+  Builder(const Field::Impl& m, const VecX& u, double level_u) : m_(m), u_(u), level_(level_u) { rehash(1 << 12); }
 
   // Output vertex for mesh vertex a (a == b) or for the level crossing on edge (a, b); shared by
   // every triangle that touches it, which makes the surface watertight.
   int vertex(int a, int b) {
     if (a > b) std::swap(a, b);
-    const auto key = static_cast<std::uint64_t>(a) * static_cast<std::uint64_t>(m_.tm.points.rows()) +
-                     static_cast<std::uint64_t>(b);
-    auto [it, inserted] = index_.emplace(key, static_cast<int>(points_.size()));
-    if (inserted) {
-      Vec3 y = m_.tm.points.row(a);
-      if (a != b) {
-        const double t = (level_ - u_[a]) / (u_[b] - u_[a]);
-        y += t * (Vec3(m_.tm.points.row(b)) - y);
-      }
-      ys_.push_back(y);
-      points_.push_back(m_.centre + y / y.squaredNorm());
+    const auto key = (static_cast<std::uint64_t>(a) << 32) | static_cast<std::uint32_t>(b);
+    std::size_t i = slot(key);
+    if (keys_[i] == key) return values_[i];
+    if (2 * (points_.size() + 1) > keys_.size()) {
+      rehash(2 * keys_.size());
+      i = slot(key);
     }
-    return it->second;
+    keys_[i] = key;
+    values_[i] = static_cast<int>(points_.size());
+    Vec3 y = m_.tm.points.row(a);
+    if (a != b) {
+      const double t = (level_ - u_[a]) / (u_[b] - u_[a]);
+      y += t * (Vec3(m_.tm.points.row(b)) - y);
+    }
+    ys_.push_back(y);
+    points_.push_back(m_.centre + y / y.squaredNorm());
+    return values_[i];
   }
 
   // Adds triangle (i, j, k) facing n_y in y-space, where the test is well conditioned: the
@@ -53,10 +59,34 @@ class Builder {
   }
 
  private:
+  // Open addressing (linear probing, load ≤ 1/2): the vertex lookup is the hot path, and a
+  // node-based map spent most of its time in malloc.
+  static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
+  std::size_t slot(std::uint64_t key) const {
+    std::size_t i = static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ull) >> shift_);
+    while (keys_[i] != kEmpty && keys_[i] != key) i = (i + 1) & (keys_.size() - 1);
+    return i;
+  }
+  void rehash(std::size_t capacity) {  // a power of two
+    std::vector<std::uint64_t> keys(capacity, kEmpty);
+    std::vector<int> values(capacity);
+    keys_.swap(keys);
+    values_.swap(values);
+    shift_ = 64 - static_cast<int>(std::countr_zero(capacity));
+    for (std::size_t j = 0; j < keys.size(); ++j)
+      if (keys[j] != kEmpty) {
+        const std::size_t i = slot(keys[j]);
+        keys_[i] = keys[j];
+        values_[i] = values[j];
+      }
+  }
+
   const Field::Impl& m_;
   const VecX& u_;
   double level_;
-  std::unordered_map<std::uint64_t, int> index_;
+  std::vector<std::uint64_t> keys_;
+  std::vector<int> values_;
+  int shift_ = 0;
   std::vector<Vec3> points_, ys_;
   std::vector<Eigen::Vector3i> tris_;
 };
@@ -71,15 +101,21 @@ mesh::SurfaceMesh Field::isosurface(double level) const {
   for (Eigen::Index v = 0; v < u.size(); ++v) u[v] = m.tm.points.row(v).norm() * m.V[v];
   Builder out(m, u, std::exp(-level));
 
+  std::vector<int> touching;  // cells with a corner in the region: only they can clip a facet
   for (int c : m.domain_tets) {
     int v[4], n_in = 0;
     for (int k = 0; k < 4; ++k) n_in += out.in(v[k] = m.tm.tets(c, k));
+    if (n_in > 0) touching.push_back(c);
     if (n_in == 0 || n_in == 4) continue;
     // −∇U in this cell points into {h ≥ level}.
+    // ∇U solves D ∇U = ΔU (rows of D: edges from v[0]); D⁻¹ has columns (d_j × d_k) / det D.
     Mat3 d;
     for (int k = 0; k < 3; ++k) d.row(k) = m.tm.points.row(v[k + 1]) - m.tm.points.row(v[0]);
     const Vec3 du(u[v[1]] - u[v[0]], u[v[2]] - u[v[0]], u[v[3]] - u[v[0]]);
-    const Vec3 into = -d.colPivHouseholderQr().solve(du);
+    const Vec3 c0 = d.row(1).cross(d.row(2)), c1 = d.row(2).cross(d.row(0)), c2 = d.row(0).cross(d.row(1));
+    const double det = d.row(0).dot(c0);
+    const Vec3 into = det != 0 ? Vec3(-(du[0] * c0 + du[1] * c1 + du[2] * c2) / det)
+                               : Vec3(-d.colPivHouseholderQr().solve(du));  // degenerate cell
     int ins[4], outs[4], ni = 0, no = 0;
     for (int k = 0; k < 4; ++k) (out.in(v[k]) ? ins[ni++] : outs[no++]) = v[k];
     if (ni == 1 || no == 1) {
@@ -94,7 +130,7 @@ mesh::SurfaceMesh Field::isosurface(double level) const {
     }
   }
   // Where the region reaches the object's surface, the surface itself closes it.
-  for (int c : m.domain_tets)
+  for (int c : touching)
     for (int k = 0; k < 4; ++k) {
       const int nb = m.tm.neighbours(c, k);
       if (nb >= 0 && m.tm.in_domain[static_cast<size_t>(nb)]) continue;
@@ -104,13 +140,13 @@ mesh::SurfaceMesh Field::isosurface(double level) const {
       const Vec3 a = m.tm.points.row(f[0]), b = m.tm.points.row(f[1]), cc = m.tm.points.row(f[2]);
       Vec3 into = (b - a).cross(cc - a);
       if (into.dot(Vec3(m.tm.points.row(m.tm.tets(c, k))) - a) < 0) into = -into;
-      std::vector<int> poly;  // the facet clipped to U ≤ level (Sutherland–Hodgman)
+      int poly[4], n = 0;  // the facet clipped to U ≤ level (Sutherland–Hodgman): ≤ 4 corners
       for (int i = 0; i < 3; ++i) {
         const int p = f[i], q = f[(i + 1) % 3];
-        if (out.in(p)) poly.push_back(out.vertex(p, p));
-        if (out.in(p) != out.in(q)) poly.push_back(out.vertex(p, q));
+        if (out.in(p)) poly[n++] = out.vertex(p, p);
+        if (out.in(p) != out.in(q)) poly[n++] = out.vertex(p, q);
       }
-      for (size_t i = 2; i < poly.size(); ++i) out.triangle(poly[0], poly[i - 1], poly[i], into);
+      for (int i = 2; i < n; ++i) out.triangle(poly[0], poly[i - 1], poly[i], into);
     }
   return out.take();
 }
