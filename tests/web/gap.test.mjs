@@ -5,7 +5,7 @@
 // readout latency, frame intervals while orbiting) are printed, never asserted.
 import { test, after, before } from "node:test";
 import assert from "node:assert/strict";
-import { launchBrowser, openView, screenshot, startServer } from "./harness.mjs";
+import { canvasPixels, differentBytes, launchBrowser, openView, screenshot, startServer } from "./harness.mjs";
 
 let server, browser;
 before(async () => {
@@ -287,6 +287,7 @@ test("a shared URL restores the same shapes and D; frames while orbiting", async
 
   // Orbit: drag on an empty part of the canvas (upper right, away from the shapes).
   const box = await page2.locator("canvas.viewport-canvas").boundingBox();
+  const before = await canvasPixels(page2);
   await page2.evaluate(() => window.distlab.gap.resetFrameStats());
   const x0 = box.x + box.width * 0.85, y0 = box.y + box.height * 0.2;
   await page2.mouse.move(x0, y0);
@@ -298,7 +299,7 @@ test("a shared URL restores the same shapes and D; frames while orbiting", async
   await page2.mouse.up();
   const fs = await hook(page2, "frameStats()");
   console.log(`orbiting: ${fs.frames} frames, median ${fs.medianMs.toFixed(1)} ms (${(1000 / fs.medianMs).toFixed(0)} fps), p95 ${fs.p95Ms.toFixed(1)} ms, ${fs.triangles} triangles`);
-  assert.ok(fs.frames > 10, "the view re-rendered while orbiting");
+  assert.ok(differentBytes(before, await canvasPixels(page2)) > 0, "orbiting changed the picture");
   assert.deepEqual(page.problems, []);
   assert.deepEqual(page2.problems, []);
   await page.context().close();
