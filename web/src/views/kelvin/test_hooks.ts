@@ -59,6 +59,26 @@ export function installHooks(view: KelvinView): void {
     },
     localSigmaAtInputVertices: () => view.localSigmaAtInputVertices(),
     frameStats: () => view.view?.frameStats() ?? null,
+    /** Orbits the camera through n frames rendered back to back (each waited for by reading a pixel back)
+     *  and puts it back; returns per-frame render times (ms) and the triangles drawn. */
+    measureOrbit: (n = 30) => {
+      const vp = view.view;
+      if (!vp) return null;
+      const cam = vp.camera, saved = cam.position.clone(), target = vp.controls.target;
+      const gl = vp.renderer.getContext(), times: number[] = [], px = new Uint8Array(4);
+      for (let i = 0; i < n; i++) {
+        cam.position.sub(target).applyAxisAngle(cam.up, (2 * Math.PI) / n).add(target);
+        cam.lookAt(target);
+        const t = performance.now();
+        vp.renderer.render(vp.scene, cam);
+        gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, px); // waits for the frame (gl.finish does not in Chrome)
+        times.push(performance.now() - t);
+      }
+      cam.position.copy(saved);
+      cam.lookAt(target);
+      vp.invalidate();
+      return { times, triangles: vp.renderer.info.render.triangles, width: gl.drawingBufferWidth, height: gl.drawingBufferHeight };
+    },
     resetFrameStats: () => view.view?.resetFrameStats(),
     /** Canvas pixel position of a world point (tests aim the real mouse with it). */
     toScreen: (p: [number, number, number]) => {
