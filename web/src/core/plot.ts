@@ -11,6 +11,8 @@ export interface PlotSeries {
   scale?: "y" | "y2";
   dash?: number[];
   width?: number;
+  /** Drawn initially (default true); the legend toggles it. */
+  show?: boolean;
 }
 
 export interface PlotOptions {
@@ -22,7 +24,15 @@ export interface PlotOptions {
   series: PlotSeries[];
   /** Digits shown in the legend. */
   digits?: number;
+  /** Values under the cursor in the legend (default true; false keeps a many-series legend short). */
+  legendValues?: boolean;
+  /** Logarithmic left axis (values ≤ 0 are not drawn). */
+  yLog?: boolean;
 }
+
+/** Log-scale range; without any positive value a fixed decade (uPlot would fail to draw the axis). */
+const logRange: uPlot.Range.Function = (_u, min, max) =>
+  min !== null && max !== null && min > 0 && max > 0 ? uPlot.rangeLog(min, max, 10, true) : [0.01, 1];
 
 const AXIS = { stroke: "#8b949e", grid: { stroke: "#2c323a", width: 1 }, ticks: { stroke: "#2c323a", width: 1 } };
 
@@ -51,7 +61,7 @@ export class Plot {
       title: options.title,
       width: 400,
       height: 200,
-      scales: { x: { time: false }, y: { auto: true }, ...(usesY2 ? { y2: { auto: true } } : {}) },
+      scales: { x: { time: false }, y: options.yLog ? { distr: 3, auto: true, range: logRange } : { auto: true }, ...(usesY2 ? { y2: { auto: true } } : {}) },
       axes,
       series: [
         { label: options.xLabel, value: fmt },
@@ -61,11 +71,12 @@ export class Plot {
           width: s.width ?? 1.5,
           dash: s.dash,
           scale: s.scale ?? "y",
+          show: s.show ?? true,
           value: fmt,
           points: { show: false },
         })),
       ],
-      legend: { live: true },
+      legend: { live: options.legendValues ?? true },
       cursor: { drag: { x: false, y: false } },
       hooks: { draw: [(u) => this.drawMarker(u)] },
     };
@@ -87,8 +98,23 @@ export class Plot {
 
   /** A vertical line at x (e.g. the current position); null hides it. */
   setMarker(x: number | null): void {
+    if (x === this.marker) return;
     this.marker = x;
-    this.u.redraw(false, false);
+    // Before any data uPlot has not laid out its axes: a redraw without recalculation would throw.
+    if (this.xs.length > 0) this.u.redraw(false, false);
+  }
+
+  /** Shows or hides series i (index into options.series). */
+  setShown(i: number, show: boolean): void {
+    this.u.setSeries(i + 1, { show });
+  }
+
+  /** Calls f with the x value under a click in the plotting area (e.g. to seek to a time). */
+  onPick(f: (x: number) => void): void {
+    this.u.over.addEventListener("click", (e) => {
+      const r = this.u.over.getBoundingClientRect();
+      f(this.u.posToVal(e.clientX - r.left, "x"));
+    });
   }
 
   /** Replaces the title line (e.g. to name the current x unit). */
