@@ -1,0 +1,150 @@
+// The steps of one rollout, kept compactly as they stream in (typed arrays indexed by step, not
+// thousands of small JSON objects): q, u, task error, true clearance, per-pair distance and
+// witnesses, primitive poses. Steps may arrive twice (live batches and a replay) or out of order
+// after a reconnect: each index is stored once; `contiguous` is the prefix without holes.
+import type { CbfFrame } from "./types";
+
+const DOF = 7;
+
+class Grow<T extends Float64Array | Float32Array> {
+  data: T;
+  constructor(
+    private readonly make: (n: number) => T,
+    readonly stride: number,
+  ) {
+    this.data = make(0);
+  }
+  ensure(steps: number): void {
+    const need = steps * this.stride;
+    if (this.data.length >= need) return;
+    const next = this.make(Math.max(need, this.data.length * 2, 64 * this.stride));
+    next.fill(NaN);
+    next.set(this.data);
+    this.data = next;
+  }
+}
+
+export class FrameStore {
+  readonly q = new Grow((n) => new Float64Array(n), DOF);
+  readonly u = new Grow((n) => new Float64Array(n), DOF);
+  readonly taskError = new Grow((n) => new Float64Array(n), 1);
+  readonly minDistance = new Grow((n) => new Float64Array(n), 1); // true clearance (NaN = none)
+  readonly minD = new Grow((n) => new Float64Array(n), 1); // min over pairs of the controller's D
+  readonly distance: Grow<Float64Array>;
+  readonly witnessA: Grow<Float32Array>;
+  readonly witnessB: Grow<Float32Array>;
+  readonly poses: Grow<Float32Array>;
+  readonly flags = new Grow((n) => new Float32Array(n), 1); // 0 ok, 1 relaxed, 2 held
+  private present = new Uint8Array(0);
+  /** Steps [0, contiguous) are all here. */
+  contiguous = 0;
+  /** Highest index received + 1. */
+  extent = 0;
+  received = 0;
+  hasPairs = false;
+  hasPoses = false;
+
+  constructor(
+    readonly pairCount: number,
+    readonly primitiveCount: number,
+    readonly dt: number,
+  ) {
+    this.distance = new Grow((n) => new Float64Array(n), pairCount);
+    this.witnessA = new Grow((n) => new Float32Array(n), pairCount * 3);
+    this.witnessB = new Grow((n) => new Float32Array(n), pairCount * 3);
+    this.poses = new Grow((n) => new Float32Array(n), primitiveCount * 7);
+  }
+
+  /** Stores the frames; returns how many were new. */
+  add(frames: CbfFrame[]): number {
+    let added = 0;
+    for (const f of frames) {
+      const i = f.i;
+      if (!Number.isInteger(i) || i < 0) continue;
+      this.reserve(i + 1);
+      if (this.present[i]) continue;
+      this.present[i] = 1;
+      added++;
+      this.q.data.set(f.q.slice(0, DOF), i * DOF);
+      this.u.data.set(f.u.slice(0, DOF), i * DOF);
+      this.taskError.data[i] = f.task_error;
+      this.minDistance.data[i] = f.min_distance ?? NaN;
+      this.flags.data[i] = f.held ? 2 : f.relaxed ? 1 : 0;
+      const P = this.pairCount;
+      if (f.distance && f.distance.length === P) {
+        this.hasPairs = true;
+        let m = Infinity;
+        for (let k = 0; k < P; k++) {
+          const d = f.distance[k];
+          this.distance.data[i * P + k] = d;
+          if (d < m) m = d;
+        }
+        this.minD.data[i] = m;
+        const wa = f.witness_a!, wb = f.witness_b!;
+        for (let k = 0; k < P; k++) {
+          this.witnessA.data.set(wa[k], (i * P + k) * 3);
+          this.witnessB.data.set(wb[k], (i * P + k) * 3);
+        }
+      }
+      if (f.poses && f.poses.length === this.primitiveCount) {
+        this.hasPoses = true;
+        const base = i * this.primitiveCount * 7;
+        f.poses.forEach((p, k) => this.poses.data.set(p, base + k * 7));
+      }
+      if (i + 1 > this.extent) this.extent = i + 1;
+    }
+    while (this.contiguous < this.extent && this.present[this.contiguous]) this.contiguous++;
+    this.received += added;
+    return added;
+  }
+
+  has(i: number): boolean {
+    return i >= 0 && i < this.present.length && this.present[i] === 1;
+  }
+
+  /** The first missing index in [0, upTo), or -1. */
+  firstMissing(upTo: number): number {
+    for (let i = this.contiguous; i < upTo; i++) if (!this.has(i)) return i;
+    return -1;
+  }
+
+  private reserve(steps: number): void {
+    if (this.present.length < steps) {
+      const p = new Uint8Array(Math.max(steps, this.present.length * 2, 64));
+      p.set(this.present);
+      this.present = p;
+    }
+    for (const g of [this.q, this.u, this.taskError, this.minDistance, this.minD, this.distance, this.witnessA, this.witnessB, this.poses, this.flags])
+      g.ensure(steps);
+  }
+
+  /** Joint j's velocity over [0, n). */
+  uSeries(j: number, n: number): Float64Array {
+    const out = new Float64Array(n);
+    for (let i = 0; i < n; i++) out[i] = this.u.data[i * DOF + j];
+    return out;
+  }
+  scalarSeries(g: Grow<Float64Array>, n: number): Float64Array {
+    return g.data.slice(0, n);
+  }
+  /** Pair indices sorted by the controller's distance at step i (closest first). */
+  closestPairs(i: number): number[] {
+    const P = this.pairCount;
+    const idx = Array.from({ length: P }, (_, k) => k);
+    const d = this.distance.data;
+    return idx.sort((a, b) => d[i * P + a] - d[i * P + b]);
+  }
+  /** The step's frame as plain numbers (test hooks). */
+  frame(i: number): { i: number; t: number; q: number[]; u: number[]; task_error: number; min_distance: number | null } | null {
+    if (!this.has(i)) return null;
+    const md = this.minDistance.data[i];
+    return {
+      i,
+      t: i * this.dt,
+      q: Array.from(this.q.data.subarray(i * DOF, i * DOF + DOF)),
+      u: Array.from(this.u.data.subarray(i * DOF, i * DOF + DOF)),
+      task_error: this.taskError.data[i],
+      min_distance: Number.isFinite(md) ? md : null,
+    };
+  }
+}

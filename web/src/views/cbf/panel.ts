@@ -1,0 +1,126 @@
+// The control panel (lil-gui in host.panel): the rollout to run (scenario, metric or both,
+// duration), playback and drawing options, an editor for the scenario JSON (posted inline, the
+// server's verdict shown under it), and the numbers of the finished run (Summary) below.
+import GUI, { type Controller } from "lil-gui";
+import { METRIC_CHOICES, SPEEDS, WITNESS_MODES, type CbfState } from "./state";
+
+export interface PanelActions {
+  run(): void;
+  cancel(): void;
+  runEdited(text: string): void;
+  revertEdited(): void;
+  changed(what: "scenario" | "metric" | "duration" | "speed" | "draw" | "joint" | "layout"): void;
+  frame(): void;
+  copyLink(): void;
+}
+
+export class Panel {
+  private readonly gui: GUI;
+  private scenarioCtrl: Controller;
+  private readonly runCtrl: Controller;
+  private readonly cancelCtrl: Controller;
+  readonly editor: HTMLTextAreaElement;
+  readonly verdict: HTMLDivElement;
+  readonly extra: HTMLDivElement;
+  private readonly proxy: { scenario: string; joint: string };
+  private readonly folder: GUI;
+
+  constructor(container: HTMLElement, private readonly state: CbfState, scenarios: string[], private readonly actions: PanelActions) {
+    this.gui = new GUI({ container, title: "CBF rollouts — Panda (paper IV-B)" });
+    const r = (this.folder = this.gui.addFolder("Rollout"));
+    this.proxy = { scenario: state.inline ? "(edited)" : state.scenario, joint: state.joint === 0 ? "all" : String(state.joint) };
+    this.scenarioCtrl = this.scenarioSelect(scenarios);
+    r.add(state, "metric", { "GAP & Euclidean": "both", "GAP only": "gap", "Euclidean only": "euclidean" } satisfies Record<string, (typeof METRIC_CHOICES)[number]>)
+      .name("metric")
+      .onChange(() => actions.changed("metric"));
+    // No upper bound here: the server states its limit (and refuses more with a readable message).
+    r.add(state, "duration").min(0.01).step(0.01).name("duration (s)").onFinishChange(() => actions.changed("duration"));
+    this.runCtrl = r.add(actions, "run").name("▶ run (r)");
+    this.cancelCtrl = r.add(actions, "cancel").name("cancel (Esc)");
+    this.cancelCtrl.disable();
+
+    const p = this.gui.addFolder("Playback and drawing");
+    p.add(state, "speed", [...SPEEDS]).name("speed").onChange(() => actions.changed("speed"));
+    p.add(state, "layout", { overlay: "overlay", "side by side": "side" }).name("two robots").onChange(() => actions.changed("layout"));
+    p.add(state, "witnesses", [...WITNESS_MODES]).name("witness pairs (w)").onChange(() => actions.changed("draw"));
+    p.add(state, "closest", 1, 60, 1).name("closest how many").onChange(() => actions.changed("draw"));
+    p.add(this.proxy, "joint", ["all", "1", "2", "3", "4", "5", "6", "7"])
+      .name("plot joints (j)")
+      .onChange((v: string) => {
+        state.joint = v === "all" ? 0 : Number(v);
+        actions.changed("joint");
+      });
+    p.add(actions, "frame").name("frame the scene (f)");
+    p.add(actions, "copyLink").name("copy link");
+
+    const e = this.gui.addFolder("Scenario JSON (edit and run inline)");
+    e.close();
+    this.editor = document.createElement("textarea");
+    this.editor.className = "cbf-editor";
+    this.editor.spellcheck = false;
+    this.editor.rows = 14;
+    this.editor.dataset.testid = "cbf-editor";
+    this.verdict = document.createElement("div");
+    this.verdict.className = "cbf-verdict";
+    this.verdict.dataset.testid = "cbf-verdict";
+    const buttons = document.createElement("div");
+    buttons.className = "cbf-buttons";
+    const runB = document.createElement("button");
+    runB.textContent = "run this scenario";
+    runB.dataset.testid = "cbf-run-edited";
+    runB.addEventListener("click", () => actions.runEdited(this.editor.value));
+    const revB = document.createElement("button");
+    revB.textContent = "revert";
+    revB.addEventListener("click", () => actions.revertEdited());
+    buttons.append(runB, revB);
+    e.$children.append(this.editor, buttons, this.verdict);
+
+    this.extra = document.createElement("div");
+    container.appendChild(this.extra);
+  }
+
+  private scenarioSelect(scenarios: string[]): Controller {
+    const options = [...scenarios];
+    if (this.state.inline) options.push("(edited)");
+    const c = this.folder
+      .add(this.proxy, "scenario", options)
+      .name("scenario")
+      .onChange((v: string) => {
+        if (v === "(edited)") return;
+        this.state.scenario = v;
+        this.state.inline = null;
+        this.actions.changed("scenario");
+      });
+    // Keep it first in its folder.
+    this.folder.$children.prepend(c.domElement);
+    return c;
+  }
+
+  /** Rebuilds the scenario list (e.g. "(edited)" appears or goes). */
+  setScenarios(scenarios: string[]): void {
+    this.proxy.scenario = this.state.inline ? "(edited)" : this.state.scenario;
+    this.scenarioCtrl.destroy();
+    this.scenarioCtrl = this.scenarioSelect(scenarios);
+  }
+
+  setRunning(running: boolean): void {
+    this.runCtrl.name(running ? "running…" : "▶ run (r)");
+    if (running) this.cancelCtrl.enable();
+    else this.cancelCtrl.disable();
+  }
+
+  setVerdict(kind: "ok" | "bad" | "", text: string): void {
+    this.verdict.textContent = text;
+    this.verdict.className = `cbf-verdict ${kind}`;
+  }
+
+  refresh(): void {
+    this.proxy.joint = this.state.joint === 0 ? "all" : String(this.state.joint);
+    this.gui.controllersRecursive().forEach((c) => c.updateDisplay());
+  }
+
+  dispose(): void {
+    this.gui.destroy();
+    this.extra.remove();
+  }
+}

@@ -1,0 +1,111 @@
+// The rollout plots in the bottom strip (paper Fig. 4 and friends): joint velocities u_j(t), the
+// distances over time (true clearance and the controller's smallest D), the task error ‖r‖; every
+// metric of the run in the same plot (GAP solid, Euclidean dashed), a line at the current time,
+// a click seeks there. Rebuilt per run (the series depend on the metrics run).
+import { Plot, type PlotSeries } from "../../core/plot";
+import type { FrameStore } from "./frames";
+import type { Metric } from "./types";
+
+const JOINT_COLORS = ["#4e79a7", "#f28e2b", "#e15759", "#76b7b2", "#59a14f", "#edc948", "#b07aa1"];
+const METRIC_COLOR: Record<Metric, string> = { gap: "#ffb347", euclidean: "#6ad1a3" };
+const SHORT: Record<Metric, string> = { gap: "GAP", euclidean: "Eucl" };
+const dash = (m: Metric) => (m === "euclidean" ? [5, 3] : undefined);
+
+export interface PlotSource {
+  metric: Metric;
+  store: FrameStore | null;
+}
+
+export class RolloutPlots {
+  readonly velocity: Plot;
+  readonly distance: Plot;
+  readonly error: Plot;
+  private timer = 0;
+  private dirty = false;
+  /** Times (performance.now) of plot refreshes, for measurements. */
+  refreshes = 0;
+
+  constructor(
+    container: HTMLElement,
+    readonly metrics: Metric[],
+    joint: number,
+    onPick: (t: number) => void,
+  ) {
+    const vSeries: PlotSeries[] = [];
+    for (let j = 0; j < 7; j++)
+      for (const m of metrics)
+        vSeries.push({ label: `u${j + 1} ${SHORT[m]}`, color: JOINT_COLORS[j], dash: dash(m), width: m === "gap" ? 1.6 : 1.2, show: joint === 0 || joint === j + 1 });
+    this.velocity = new Plot(container, { title: metrics.length === 2 ? "joint velocities u (rad/s) — GAP solid, Euclidean dashed" : `joint velocities u (rad/s) — ${metrics[0] === "gap" ? "GAP" : "Euclidean"}`, xLabel: "t (s)", yLabel: "u", series: vSeries, digits: 4, legendValues: false });
+    this.velocity.root.style.flex = "1.6";
+    const dSeries: PlotSeries[] = [];
+    for (const m of metrics) {
+      dSeries.push({ label: `clearance ${SHORT[m]}`, color: METRIC_COLOR[m], width: 2 });
+      dSeries.push({ label: `min D ${SHORT[m]}`, color: METRIC_COLOR[m], dash: [2, 3], width: 1.2 });
+    }
+    this.distance = new Plot(container, { title: "distance (m): true clearance, min D", xLabel: "t (s)", yLabel: "m", series: dSeries, digits: 5 });
+    this.error = new Plot(container, {
+      title: "task error ‖r‖",
+      xLabel: "t (s)",
+      yLabel: "‖r‖",
+      yLog: true,
+      series: metrics.map((m) => ({ label: `‖r‖ ${SHORT[m]}`, color: METRIC_COLOR[m], dash: dash(m), width: 1.6 })),
+      digits: 5,
+    });
+    this.error.root.style.flex = "0.8";
+    for (const p of [this.velocity, this.distance, this.error]) p.onPick(onPick);
+  }
+
+  /** Only joint j (1…7) or all (0). */
+  showJoint(joint: number): void {
+    let i = 0;
+    for (let j = 0; j < 7; j++) for (let k = 0; k < this.metrics.length; k++) this.velocity.setShown(i++, joint === 0 || joint === j + 1);
+  }
+
+  /** Coalesced: at most ~8 refreshes a second while frames stream in. */
+  update(sources: PlotSource[]): void {
+    this.dirty = true;
+    if (this.timer) return;
+    this.timer = window.setTimeout(() => {
+      this.timer = 0;
+      if (this.dirty) this.refresh(sources);
+    }, 120);
+  }
+
+  refresh(sources: PlotSource[]): void {
+    this.dirty = false;
+    this.refreshes++;
+    const n = Math.max(0, ...sources.map((s) => s.store?.contiguous ?? 0));
+    const dt = sources.find((s) => s.store)?.store?.dt ?? 0.01;
+    const x = Float64Array.from({ length: n }, (_, i) => i * dt);
+    const bySource = this.metrics.map((m) => sources.find((s) => s.metric === m)?.store ?? null);
+    const pad = (store: FrameStore | null, f: (s: FrameStore, len: number) => ArrayLike<number>, positive = false): Array<number | null> => {
+      const len = store?.contiguous ?? 0;
+      const out: Array<number | null> = new Array(n).fill(null);
+      if (!store) return out;
+      const v = f(store, len);
+      for (let i = 0; i < len; i++) out[i] = Number.isFinite(v[i]) && (!positive || v[i] > 0) ? v[i] : null;
+      return out;
+    };
+    const vel: Array<Array<number | null>> = [];
+    for (let j = 0; j < 7; j++) for (const s of bySource) vel.push(pad(s, (st, len) => st.uSeries(j, len)));
+    this.velocity.setData(x, vel);
+    const dist: Array<Array<number | null>> = [];
+    for (const s of bySource) {
+      dist.push(pad(s, (st, len) => st.scalarSeries(st.minDistance, len)));
+      dist.push(pad(s, (st, len) => st.scalarSeries(st.minD, len)));
+    }
+    this.distance.setData(x, dist);
+    this.error.setData(x, bySource.map((s) => pad(s, (st, len) => st.scalarSeries(st.taskError, len), true)));
+  }
+
+  setTime(t: number | null): void {
+    for (const p of [this.velocity, this.distance, this.error]) p.setMarker(t);
+  }
+
+  dispose(): void {
+    clearTimeout(this.timer);
+    this.velocity.dispose();
+    this.distance.dispose();
+    this.error.dispose();
+  }
+}

@@ -1,0 +1,99 @@
+// One press of "run": a rollout per metric of the same scenario and duration, one after the other
+// (so each one's per-step timing is measured without the other competing for the 2 cores), with
+// a combined progress, one cancel for all, and the first API error reported (the rest not sent).
+import { Rollout, type RolloutEvents, type RolloutRequest } from "./rollout";
+import type { Metric } from "./types";
+
+export interface RunEvents {
+  frames(r: Rollout, added: number, arrived: number): void;
+  progress(run: Run): void;
+  /** A rollout ended (finished, cancelled or failed). */
+  ended(r: Rollout): void;
+  /** The whole run is over (all rollouts ended, or one failed to start). */
+  done(run: Run, error: unknown | null): void;
+}
+
+export class Run {
+  readonly rollouts: Rollout[];
+  cancelled = false;
+  finished = false;
+  private disposed = false;
+
+  constructor(
+    readonly scenario: RolloutRequest["scenario"],
+    readonly metrics: Metric[],
+    readonly duration: number,
+    primitiveCount: number,
+    private readonly events: RunEvents,
+  ) {
+    const ev: RolloutEvents = {
+      frames: (r, added, arrived) => !this.disposed && events.frames(r, added, arrived),
+      progress: () => !this.disposed && events.progress(this),
+      ended: (r) => !this.disposed && this.onEnded(r),
+      error: () => undefined, // reported through ended/done
+    };
+    this.rollouts = metrics.map((metric) => new Rollout({ scenario, metric, duration }, primitiveCount, ev));
+  }
+
+  get running(): boolean {
+    return !this.finished;
+  }
+
+  /** Fraction of all steps of all rollouts computed so far. */
+  get fraction(): number {
+    const total = this.rollouts.reduce((s, r) => s + (r.stepsTotal || Math.round(this.duration / 0.01)), 0);
+    const done = this.rollouts.reduce((s, r) => s + (r.state === "finished" ? r.stepsTotal : r.stepsDone), 0);
+    return total > 0 ? done / total : 0;
+  }
+
+  rollout(metric: Metric): Rollout | undefined {
+    return this.rollouts.find((r) => r.metric === metric);
+  }
+
+  async start(): Promise<void> {
+    await this.startNext();
+  }
+
+  private async startNext(): Promise<void> {
+    const next = this.rollouts.find((r) => r.state === "queued" && !r.id);
+    if (!next || this.cancelled || this.disposed) {
+      this.end(null);
+      return;
+    }
+    try {
+      await next.start();
+      this.events.progress(this);
+    } catch (e) {
+      this.end(e);
+    }
+  }
+
+  private onEnded(r: Rollout): void {
+    this.events.ended(r);
+    if (r.state === "failed") {
+      this.end(r.error);
+      return;
+    }
+    void this.startNext();
+  }
+
+  private end(error: unknown | null): void {
+    if (this.finished) return;
+    this.finished = true;
+    for (const r of this.rollouts) if (!r.id && r.state === "queued") r.state = "cancelled"; // never started
+    if (!this.disposed) this.events.done(this, error);
+  }
+
+  async cancel(): Promise<void> {
+    this.cancelled = true;
+    await Promise.all(this.rollouts.map((r) => r.cancel()));
+  }
+
+  dispose(): void {
+    this.disposed = true;
+    for (const r of this.rollouts) {
+      if (r.running) void r.cancel();
+      r.dispose();
+    }
+  }
+}

@@ -1,0 +1,180 @@
+// The 3D scene, z up: per metric a "world" group holding the robot's collision primitives, the
+// scenario's obstacles (transparent), the target frame (axes) and the witness segments of the
+// pairs. Overlay puts both robots in one corridor; side by side moves the Euclidean world along y.
+import * as THREE from "three";
+import { shapeGeometry } from "./geometry";
+import { poseMatrix } from "./kinematics";
+import type { CbfRobot, CbfScenario, Metric } from "./types";
+
+export const COLORS: Record<Metric, number> = { gap: 0xffb347, euclidean: 0x6ad1a3 }; // = --gap, --euclid
+const ROBOT: Record<Metric, number> = { gap: 0xf0a040, euclidean: 0x40c8a0 };
+export const SIDE_OFFSET = 1.4; // m along y between the worlds in "side by side"
+
+export type Layout = "overlay" | "side";
+
+function label(text: string, color: number): THREE.Sprite {
+  const c = document.createElement("canvas");
+  c.width = 256;
+  c.height = 64;
+  const ctx = c.getContext("2d")!;
+  ctx.font = "bold 40px system-ui, sans-serif";
+  ctx.fillStyle = `#${color.toString(16).padStart(6, "0")}`;
+  ctx.textAlign = "center";
+  ctx.textBaseline = "middle";
+  ctx.fillText(text, 128, 32);
+  const s = new THREE.Sprite(new THREE.SpriteMaterial({ map: new THREE.CanvasTexture(c), depthTest: false, transparent: true }));
+  s.scale.set(0.4, 0.1, 1);
+  return s;
+}
+
+/** Segments between the witness points of chosen pairs, with dots at both ends. */
+class Witnesses extends THREE.Group {
+  private readonly lines: THREE.LineSegments<THREE.BufferGeometry, THREE.LineBasicMaterial>;
+  private readonly dots: THREE.Points<THREE.BufferGeometry, THREE.PointsMaterial>;
+  shown: number[] = [];
+
+  constructor(color: number, pairs: number) {
+    super();
+    const pos = new THREE.BufferAttribute(new Float32Array(Math.max(1, pairs) * 6), 3);
+    pos.setUsage(THREE.DynamicDrawUsage);
+    const g = new THREE.BufferGeometry();
+    g.setAttribute("position", pos);
+    this.lines = new THREE.LineSegments(g, new THREE.LineBasicMaterial({ color, depthTest: false, transparent: true }));
+    this.dots = new THREE.Points(g, new THREE.PointsMaterial({ color, size: 7, sizeAttenuation: false, depthTest: false, transparent: true }));
+    for (const o of [this.lines, this.dots]) {
+      o.renderOrder = 10;
+      o.frustumCulled = false;
+      this.add(o);
+    }
+  }
+
+  set(indices: number[], wa: Float32Array, wb: Float32Array, base: number): void {
+    const pos = this.lines.geometry.getAttribute("position") as THREE.BufferAttribute;
+    const a = pos.array as Float32Array;
+    indices.forEach((k, n) => {
+      const o = (base + k) * 3;
+      a.set(wa.subarray(o, o + 3), n * 6);
+      a.set(wb.subarray(o, o + 3), n * 6 + 3);
+    });
+    pos.needsUpdate = true;
+    this.lines.geometry.setDrawRange(0, indices.length * 2);
+    this.shown = indices;
+  }
+}
+
+export class World {
+  readonly group = new THREE.Group();
+  readonly robot = new THREE.Group();
+  readonly obstacles = new THREE.Group();
+  readonly target = new THREE.AxesHelper(0.12);
+  readonly name: THREE.Sprite;
+  private readonly links: THREE.Mesh[] = [];
+  witnesses: Witnesses;
+  /** The pose currently drawn (step index, or -1 for q0). */
+  step = -1;
+
+  constructor(
+    readonly metric: Metric,
+    robot: CbfRobot,
+  ) {
+    const mat = new THREE.MeshStandardMaterial({ color: ROBOT[metric], roughness: 0.5, metalness: 0.1, transparent: true, opacity: 1 });
+    for (const p of robot.primitives) {
+      const m = new THREE.Mesh(shapeGeometry(p.shape), mat);
+      m.name = p.name;
+      m.matrixAutoUpdate = false;
+      this.links.push(m);
+      this.robot.add(m);
+    }
+    this.witnesses = new Witnesses(COLORS[metric], 0);
+    this.name = label(metric === "gap" ? "GAP" : "Euclidean", COLORS[metric]);
+    this.name.position.set(0, 0, 1.25);
+    this.group.add(this.robot, this.obstacles, this.target, this.witnesses, this.name);
+  }
+
+  setScenario(sc: Pick<CbfScenario, "obstacles" | "target">): void {
+    this.obstacles.children.forEach((c) => (c as THREE.Mesh).geometry.dispose());
+    this.obstacles.clear();
+    const mat = new THREE.MeshStandardMaterial({ color: 0x8aa4c8, transparent: true, opacity: 0.28, depthWrite: false, side: THREE.DoubleSide });
+    const edges = new THREE.LineBasicMaterial({ color: 0x9fb6d6, transparent: true, opacity: 0.6 });
+    for (const o of sc.obstacles) {
+      const g = shapeGeometry(o.shape);
+      const m = new THREE.Mesh(g, mat);
+      m.name = o.name ?? "obstacle";
+      if (o.shape.pose) m.applyMatrix4(poseMatrix(o.shape.pose));
+      m.add(new THREE.LineSegments(new THREE.EdgesGeometry(g, 20), edges));
+      this.obstacles.add(m);
+    }
+    this.target.matrixAutoUpdate = false;
+    this.target.matrix.copy(poseMatrix(sc.target));
+  }
+
+  setPairs(count: number): void {
+    this.group.remove(this.witnesses);
+    this.witnesses.traverse((o) => (o as THREE.Mesh).geometry?.dispose());
+    this.witnesses = new Witnesses(COLORS[this.metric], count);
+    this.group.add(this.witnesses);
+  }
+
+  /** Primitive world poses [x, y, z, qw, qx, qy, qz] × n, from `data` at `offset`. */
+  setPoses(data: ArrayLike<number>, offset = 0): void {
+    const p = new THREE.Vector3(), q = new THREE.Quaternion(), one = new THREE.Vector3(1, 1, 1);
+    this.links.forEach((m, k) => {
+      const o = offset + k * 7;
+      p.set(data[o], data[o + 1], data[o + 2]);
+      q.set(data[o + 4], data[o + 5], data[o + 6], data[o + 3]);
+      m.matrix.compose(p, q, one);
+      m.matrixWorldNeedsUpdate = true;
+    });
+  }
+
+  setOpacity(opacity: number): void {
+    const mat = this.links[0]?.material as THREE.MeshStandardMaterial | undefined;
+    if (mat) {
+      mat.opacity = opacity;
+      mat.depthWrite = opacity >= 1;
+    }
+  }
+}
+
+export class CbfScene {
+  readonly worlds: Record<Metric, World>;
+  readonly root = new THREE.Group();
+
+  constructor(scene: THREE.Scene, robot: CbfRobot) {
+    this.worlds = { gap: new World("gap", robot), euclidean: new World("euclidean", robot) };
+    this.root.add(this.worlds.gap.group, this.worlds.euclidean.group);
+    scene.add(this.root);
+  }
+
+  setScenario(sc: Pick<CbfScenario, "obstacles" | "target">): void {
+    this.worlds.gap.setScenario(sc);
+    this.worlds.euclidean.setScenario(sc);
+  }
+
+  /** Which worlds are visible and where. */
+  arrange(shown: Metric[], layout: Layout): void {
+    const both = shown.length === 2;
+    const side = both && layout === "side";
+    for (const m of ["gap", "euclidean"] as const) {
+      const w = this.worlds[m];
+      w.group.visible = shown.includes(m);
+      w.group.position.set(0, side && m === "euclidean" ? -SIDE_OFFSET : 0, 0);
+      const second = both && !side && m === "euclidean";
+      w.obstacles.visible = !second;
+      w.target.visible = !second;
+      w.name.visible = side;
+      w.setOpacity(both && !side ? 0.7 : 1);
+    }
+  }
+
+  bounds(): THREE.Box3 {
+    const box = new THREE.Box3();
+    this.root.updateMatrixWorld(true);
+    for (const w of Object.values(this.worlds)) {
+      if (!w.group.visible) continue;
+      box.expandByObject(w.obstacles);
+      box.expandByObject(w.robot);
+    }
+    return box;
+  }
+}

@@ -1,0 +1,67 @@
+// The view's shareable state (the URL): scenario (a name, or an edited inline scenario), which
+// metric(s), duration, the current time and how things are drawn. A link with `run` set re-runs
+// the rollout(s) on load and returns to `t`.
+import { num, str } from "../../core/urlstate";
+import type { Layout } from "./scene";
+import type { Metric } from "./types";
+
+export const METRIC_CHOICES = ["both", "gap", "euclidean"] as const;
+export type MetricChoice = (typeof METRIC_CHOICES)[number];
+export const WITNESS_MODES = ["closest", "all", "none"] as const;
+export const SPEEDS = [0.1, 0.25, 0.5, 1, 2, 4, 10] as const;
+
+export interface CbfState {
+  scenario: string;
+  /** An edited scenario posted inline (null: the named one). */
+  inline: Record<string, unknown> | null;
+  metric: MetricChoice;
+  duration: number;
+  t: number;
+  speed: number;
+  witnesses: (typeof WITNESS_MODES)[number];
+  closest: number;
+  layout: Layout;
+  /** The first joint plotted alone, or 0 = all joints. */
+  joint: number;
+  run: boolean;
+}
+
+export function defaultState(): CbfState {
+  return { scenario: "corridor", inline: null, metric: "both", duration: 10, t: 0, speed: 1, witnesses: "closest", closest: 4, layout: "overlay", joint: 0, run: false };
+}
+
+export function metricsOf(c: MetricChoice): Metric[] {
+  return c === "both" ? ["gap", "euclidean"] : [c];
+}
+
+export function parseState(raw: Record<string, unknown>): CbfState {
+  const d = defaultState();
+  const inline = raw.inline && typeof raw.inline === "object" && !Array.isArray(raw.inline) ? (raw.inline as Record<string, unknown>) : null;
+  return {
+    scenario: typeof raw.scenario === "string" && /^[A-Za-z0-9_-]{1,64}$/.test(raw.scenario) ? raw.scenario : d.scenario,
+    inline,
+    metric: str(raw.metric, METRIC_CHOICES, d.metric),
+    duration: num(raw.duration, d.duration, 0.01, 1e6), // the server states its own limit
+    t: num(raw.t, 0, 0, 1e6),
+    speed: num(raw.speed, d.speed, 0.01, 100),
+    witnesses: str(raw.witnesses, WITNESS_MODES, d.witnesses),
+    closest: Math.round(num(raw.closest, d.closest, 1, 1000)),
+    layout: str(raw.layout, ["overlay", "side"] as const, d.layout),
+    joint: Math.round(num(raw.joint, d.joint, 0, 7)),
+    run: raw.run === true,
+  };
+}
+
+/** What goes in the URL (defaults are left out to keep links short). */
+export function stateJson(s: CbfState): Record<string, unknown> {
+  const d = defaultState() as unknown as Record<string, unknown>;
+  const out: Record<string, unknown> = {};
+  for (const [k, v] of Object.entries(s)) {
+    if (k === "t") {
+      if (s.run) out.t = Math.round(v * 1000) / 1000;
+      continue;
+    }
+    if (JSON.stringify(v) !== JSON.stringify(d[k])) out[k] = v;
+  }
+  return out;
+}

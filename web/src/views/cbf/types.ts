@@ -1,0 +1,138 @@
+// The CBF API's shapes as the view reads them (see /api/openapi.json, tag cbf). Units: metres,
+// radians, seconds; quaternions [w, x, y, z]; positions in the world frame (= robot base).
+export const METRICS = ["gap", "euclidean"] as const;
+export type Metric = (typeof METRICS)[number];
+
+export interface PoseJson {
+  position: [number, number, number];
+  quaternion?: [number, number, number, number];
+}
+
+/** A GAP shape as the server describes it (pose optional: robot primitives carry it separately). */
+export interface ShapeJson {
+  type: string;
+  size?: [number, number, number];
+  radius?: number;
+  height?: number;
+  A?: number[][];
+  b?: number[];
+  points?: number[][];
+  vertices?: number[][];
+  pose?: PoseJson;
+}
+
+export interface CbfRobot {
+  name: string;
+  dof: number;
+  dh: Array<{ d: number; alpha: number; a: number }>;
+  q_min: number[];
+  q_max: number[];
+  end_effector: { link: number; pose: PoseJson };
+  primitives: Array<{ name: string; link: number; shape: ShapeJson; pose: PoseJson }>;
+  self_pairs: Array<[number, number]>;
+}
+
+export interface CbfScenario {
+  name?: string;
+  obstacles: Array<{ name?: string; shape: ShapeJson }>;
+  target: PoseJson;
+  q0: number[];
+  dt: number;
+  duration: number;
+  [key: string]: unknown;
+}
+
+export interface CbfLimits {
+  max_steps: number;
+  max_duration: number;
+  max_pair_steps: number;
+  max_batch_steps: number;
+  max_frames_per_request: number;
+  kept_per_session: number;
+}
+
+export interface PairInfo {
+  name: string;
+  a: number;
+  b: number;
+  self: boolean;
+}
+
+export type RolloutState = "queued" | "running" | "finished" | "cancelled" | "failed";
+
+export interface CbfRolloutStatus {
+  id: string;
+  state: RolloutState;
+  scenario: string;
+  metric: Metric;
+  dt: number;
+  steps_total: number;
+  steps_done: number;
+  pairs: PairInfo[];
+  obstacles: CbfScenario["obstacles"];
+  target: PoseJson;
+  summary?: { reached: boolean; final_task_error: number; min_distance: number | null; infeasible_steps: number; cancelled: boolean };
+  job?: JobJson;
+}
+
+export interface JobJson {
+  id: string;
+  kind?: string;
+  state: string;
+  stage?: string;
+  fraction?: number;
+  error?: { code?: string; message?: string; field?: string };
+}
+
+export interface CbfFrame {
+  i: number;
+  t: number;
+  q: number[];
+  u: number[];
+  task_error: number;
+  min_distance: number | null;
+  relaxed: boolean;
+  held: boolean;
+  slack: number;
+  distance?: number[];
+  clearance?: Array<number | null>;
+  witness_a?: number[][];
+  witness_b?: number[][];
+  poses?: number[][];
+}
+
+export interface CbfFramesMessage {
+  type: "cbf_frames";
+  rollout: string;
+  first: number;
+  count: number;
+  steps_done: number;
+  steps_total: number;
+  frames: CbfFrame[];
+}
+
+export interface CbfTiming {
+  kinematics_us_mean: number;
+  step_us_mean: number;
+  distance_us_mean: number;
+  qp_us_mean: number;
+  audit_us_mean: number;
+  wall_s: number;
+}
+
+/** The record (GET .../record), requested without per-pair arrays (the frames carry those). */
+export interface CbfRecord {
+  scenario: string;
+  metric: Metric;
+  dt: number;
+  steps: number;
+  pairs: string[];
+  t: number[];
+  u: number[][];
+  task_error: number[];
+  min_distance: Array<number | null>;
+  infeasible_steps: number[];
+  smoothness: { total_variation: number[]; max_rate: number[] };
+  timing: CbfTiming;
+  summary: { reached: boolean; final_task_error: number; min_distance: number | null; cancelled: boolean; cold_solves?: number; q_final: number[] };
+}
