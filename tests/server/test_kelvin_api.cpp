@@ -3,6 +3,7 @@
 // editing σ at once, cancellation midway, and a restart that reloads from the cache.
 #include <atomic>
 #include <cmath>
+#include <map>
 
 #include "distlab/server/frames.hpp"
 #include "server/server_fixture.hpp"
@@ -217,6 +218,61 @@ TEST_F(KelvinApi, SigmaEditAnsweredByIsosurfaceFrame) {
   EXPECT_EQ(m.j["type"], "hello");
   EXPECT_EQ(m.j["objects"].size(), 1u);
   ASSERT_TRUE(late.until([&](const Msg& x) { return x.binary && x.j["type"] == "isosurface" && x.j["sigma_version"] == 2; }, m, 60));
+}
+
+// A burst of σ edits (latest wins) ends with every watched level at the last version, frames
+// never go back in version, a change of levels alone does not resend the surface, and a query
+// after frames (solved without vertex gradients) gets the same h and ∇h as a fresh solve.
+TEST_F(KelvinApi, BurstOfEditsEndsAtTheLatestSigmaAndQueriesGetGradients) {
+  const std::string s = new_session(c);
+  WsClient ws(server_->port(), s);
+  json body = kCube;
+  body["levels"] = {0.3, 0.6};
+  const std::string id = create_ready(c, ws, s, body);
+  ASSERT_FALSE(id.empty());
+  const int edits = 12;
+  for (int i = 1; i <= edits; ++i) ws.send({{"type", "sigma"}, {"object", id}, {"sigma", {{"constant", 0.05 * i}}}});
+  std::map<double, int> last;  // level -> last sigma_version seen
+  int surfaces_at_last = 0;
+  Msg m;
+  ASSERT_TRUE(ws.until(
+      [&](const Msg& x) {
+        if (!x.binary) return false;
+        const int v = x.j["sigma_version"];
+        if (x.j["type"] == "surface" && v == edits) ++surfaces_at_last;
+        if (x.j["type"] != "isosurface") return false;
+        const double level = x.j["level"];
+        EXPECT_GE(v, last[level]) << "frames went back in version";
+        last[level] = v;
+        EXPECT_GE(x.j["server_ms"]["solve"].get<double>(), 0.0);
+        EXPECT_GE(x.j["server_ms"]["isosurface"].get<double>(), 0.0);
+        return last[0.3] == edits && last[0.6] == edits;
+      },
+      m, 120));
+  EXPECT_LE(surfaces_at_last, 1);
+  // Levels only: iso-surface frames at the same σ version, and no surface frame.
+  ws.send({{"type", "watch"}, {"object", id}, {"levels", {0.45}}});
+  ASSERT_TRUE(ws.until(
+      [&](const Msg& x) {
+        EXPECT_FALSE(x.binary && x.j["type"] == "surface") << "unchanged surface resent";
+        return x.binary && x.j["type"] == "isosurface" && x.j["level"] == 0.45;
+      },
+      m, 60));
+  EXPECT_EQ(m.j["sigma_version"], edits);
+
+  const json pts = {{0.8, 0.1, 0}, {0, 0.9, 0.2}, {0.7, 0.7, 0.7}};
+  const json after_frames = query(c, s, id, pts);
+  // The same σ written differently is another key: a fresh solve with gradients.
+  auto r = c.Put(path_of(id, "/sigma").c_str(), session_headers(s),
+                 json{{"constant", 0.05 * edits}, {"brushes", json::array()}}.dump(), "application/json");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200) << r->body;
+  const json fresh = query(c, s, id, pts);
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    ASSERT_TRUE(after_frames["gradient"][i].is_array()) << after_frames.dump();
+    EXPECT_EQ(after_frames["h"][i], fresh["h"][i]);
+    EXPECT_EQ(after_frames["gradient"][i], fresh["gradient"][i]);
+  }
 }
 
 TEST_F(KelvinApi, TwoSessionsEditSigmaAtOnceWithoutSeeingEachOther) {

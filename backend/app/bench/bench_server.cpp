@@ -20,6 +20,11 @@
 #include <thread>
 #include <vector>
 
+#include "distlab/kelvin/field.hpp"
+#include "distlab/mesh/surface.hpp"
+#include "distlab/server/frames.hpp"
+#include "distlab/server/kelvin_objects.hpp"
+
 namespace beast = boost::beast;
 namespace http = beast::http;
 namespace net = boost::asio;
@@ -94,11 +99,63 @@ std::string ready_object(HttpClient& c, const std::string& s, double lx, bool qu
   throw std::runtime_error("prepare: timeout");
 }
 
+template <class Fn>
+double median_ms(int reps, Fn&& fn) {
+  std::vector<double> t;
+  for (int i = 0; i < reps; ++i) {
+    const auto t0 = Clock::now();
+    fn(i);
+    t.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+  }
+  return percentile(t, 0.5);
+}
+
+// In-process: where the time of one σ edit goes, stage by stage (same field as the service).
+int breakdown(const std::string& assets, const std::string& cache, double lx, int reps) {
+  using namespace distlab;
+  const mesh::SurfaceMesh surface = mesh::load_mesh(assets + "/cube.stl", "asset");
+  kelvin::PrepareOptions options;
+  options.lx = lx;
+  kelvin::Field field = kelvin::Field::prepare_cached(surface, options, cache);
+  std::printf("field: %ld vertices, %ld tets\n", field.stats().n_verts, field.stats().n_tets);
+  auto sigma = [](int i) {
+    kelvin::SigmaSpec s;
+    s.constant = 0.01 * (i + 1);
+    return s;
+  };
+  const double t_solve_grad = median_ms(reps, [&](int i) { field.set_sigma(sigma(i), true); });
+  const double t_solve = median_ms(reps, [&](int i) { field.set_sigma(sigma(i), false); });
+  mesh::SurfaceMesh iso;
+  const double t_iso = median_ms(reps, [&](int) { iso = field.isosurface(0.3); });
+  std::size_t bytes = 0;
+  const double t_frame = median_ms(reps, [&](int) {
+    bytes = server::to_msgpack(server::mesh_frame(iso, {{"type", "isosurface"}, {"level", 0.3}})).size();
+  });
+  const double t_surface = median_ms(reps, [&](int i) {
+    const auto values = server::sigma_at_vertices(sigma(i), surface);
+    (void)server::to_msgpack(server::mesh_frame(surface, {{"type", "surface"}}, &values));
+  });
+  {  // checksum of the iso-surface (orientation-sensitive), so two builds can be compared
+    double sum = 0;
+    for (Eigen::Index f = 0; f < iso.faces.rows(); ++f) {
+      const Vec3 a = iso.vertices.row(iso.faces(f, 0)), b = iso.vertices.row(iso.faces(f, 1)), c = iso.vertices.row(iso.faces(f, 2));
+      sum += (b - a).cross(c - a).dot(a) * static_cast<double>(f % 7 + 1);
+    }
+    std::printf("iso-surface: %ld faces, checksum %.12g\n", static_cast<long>(iso.faces.rows()), sum);
+  }
+  std::printf("| stage (median of %d) | ms |\n|---|---:|\n", reps);
+  std::printf("| Kelvin solve + vertex gradients | %.1f |\n| Kelvin solve only | %.1f |\n", t_solve_grad, t_solve);
+  std::printf("| marching tets, level 0.3 (%ld vertices) | %.1f |\n", static_cast<long>(iso.vertices.rows()), t_iso);
+  std::printf("| msgpack iso frame (%zu bytes) | %.1f |\n| σ surface frame | %.1f |\n", bytes, t_frame, t_surface);
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   double lx = 0.06, seconds = 30;
   int edits = 40, clients = 50;
+  std::string breakdown_assets, cache = "/tmp/distlab-bench-cache";
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string k = argv[i], v = argv[i + 1];
     if (k == "--port") g_port = v;
@@ -107,7 +164,10 @@ int main(int argc, char** argv) {
     else if (k == "--edits") edits = std::clamp(std::stoi(v), 1, 10000);
     else if (k == "--clients") clients = std::clamp(std::stoi(v), 1, 500);
     else if (k == "--seconds") seconds = std::clamp(std::stod(v), 1.0, 600.0);
+    else if (k == "--breakdown") breakdown_assets = v;
+    else if (k == "--cache-dir") cache = v;
   }
+  if (!breakdown_assets.empty()) return breakdown(breakdown_assets, cache, lx, edits);
   try {
     // ---- 1. σ edit -> iso-surface frame.
     HttpClient c;
@@ -116,6 +176,7 @@ int main(int argc, char** argv) {
     net::io_context ioc;
     beast::websocket::stream<tcp::socket> ws(ioc);
     net::connect(ws.next_layer(), tcp::resolver(ioc).resolve(g_host, g_port));
+    ws.next_layer().set_option(tcp::no_delay(true));  // as browsers do on WebSockets
     ws.handshake(g_host + ":" + g_port, "/ws?session=" + s);
     auto read_until_frame = [&](long version) {
       for (;;) {
@@ -128,15 +189,22 @@ int main(int argc, char** argv) {
     };
     ws.write(net::buffer(json{{"type", "watch"}, {"object", id}, {"levels", {0.3}}}.dump()));
     json frame = read_until_frame(0);
-    std::vector<double> lat;
+    std::vector<double> lat, solve, iso;
     for (int i = 1; i <= edits; ++i) {
       const auto t0 = Clock::now();
-      ws.write(net::buffer(json{{"type", "sigma"}, {"object", id}, {"sigma", {{"constant", (i % 2) ? 0.2 : 0.0}}}}.dump()));
+      // A new σ every time (no solve can be reused).
+      ws.write(net::buffer(json{{"type", "sigma"}, {"object", id}, {"sigma", {{"constant", 0.005 * i}}}}.dump()));
       frame = read_until_frame(i);
       lat.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+      if (frame.contains("server_ms")) {
+        solve.push_back(frame["server_ms"].value("solve", 0.0));
+        iso.push_back(frame["server_ms"].value("isosurface", 0.0));
+      }
     }
     std::printf("sigma edit -> isosurface frame (%ld iso vertices): median %.1f ms, p95 %.1f ms over %d edits\n",
                 frame["n_vertices"].get<long>(), percentile(lat, 0.5), percentile(lat, 0.95), edits);
+    std::printf("  server side: Kelvin solve median %.1f ms, marching tets median %.1f ms\n", percentile(solve, 0.5),
+                percentile(iso, 0.5));
     ws.close(beast::websocket::close_code::normal);
 
     // ---- 2. Concurrent clients.

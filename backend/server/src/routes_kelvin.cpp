@@ -319,11 +319,13 @@ void Service::schedule_frames(const std::shared_ptr<Session>& session, const std
 
 void Service::send_frames(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,
                           WsSink* only) {
+  using Ms = std::chrono::duration<double, std::milli>;
   std::shared_ptr<PreparedField> prepared;
   kelvin::SigmaSpec sigma;
   std::string key;
   std::vector<double> levels;
-  std::uint64_t version;
+  std::uint64_t version, frames_version;
+  bool send_surface = only != nullptr;
   {
     std::lock_guard lock(object->mutex);
     if (object->state != "ready" || !object->prepared) return;
@@ -332,6 +334,12 @@ void Service::send_frames(const std::shared_ptr<Session>& session, const std::sh
     key = object->sigma_key;
     levels = object->levels;
     version = object->sigma_version;
+    frames_version = object->frames_version;
+    // The surface depends on σ only: a change of the watched levels does not resend it.
+    if (only == nullptr && object->surface_sent != static_cast<std::int64_t>(version)) {
+      send_surface = true;
+      object->surface_sent = static_cast<std::int64_t>(version);
+    }
   }
   auto send = [&](const json& frame) {
     const std::string bytes = to_msgpack(frame);
@@ -340,12 +348,28 @@ void Service::send_frames(const std::shared_ptr<Session>& session, const std::sh
     else
       session->broadcast(bytes, true);
   };
-  const std::vector<double> sigma_values = sigma_at_vertices(sigma, object->surface);
-  send(mesh_frame(object->surface, {{"type", "surface"}, {"object", object->id}, {"sigma_version", version}}, &sigma_values));
+  auto stale = [&] {
+    std::lock_guard lock(object->mutex);
+    return object->frames_version != frames_version;
+  };
+  if (send_surface) {
+    const std::vector<double> sigma_values = sigma_at_vertices(sigma, object->surface);
+    send(mesh_frame(object->surface, {{"type", "surface"}, {"object", object->id}, {"sigma_version", version}}, &sigma_values));
+  }
   for (std::size_t i = 0; i < levels.size(); ++i) {
-    mesh::SurfaceMesh iso = prepared->with_sigma(sigma, key, [&](const kelvin::Field& f) { return f.isosurface(levels[i]); });
-    send(mesh_frame(iso, {{"type", "isosurface"}, {"object", object->id}, {"level", levels[i]}, {"index", i},
-                          {"count", levels.size()}, {"sigma_version", version}}));
+    // A newer σ or level set supersedes this one: stop, the scheduler computes the latest.
+    if (stale()) return;
+    const auto t0 = std::chrono::steady_clock::now();
+    auto t1 = t0;
+    mesh::SurfaceMesh iso = prepared->with_sigma(sigma, key, false, [&](const kelvin::Field& f) {
+      t1 = std::chrono::steady_clock::now();
+      return f.isosurface(levels[i]);
+    });
+    const auto t2 = std::chrono::steady_clock::now();
+    json frame = mesh_frame(iso, {{"type", "isosurface"}, {"object", object->id}, {"level", levels[i]}, {"index", i},
+                                  {"count", levels.size()}, {"sigma_version", version}});
+    frame["server_ms"] = {{"solve", Ms(t1 - t0).count()}, {"isosurface", Ms(t2 - t1).count()}};
+    send(frame);
   }
 }
 
@@ -494,7 +518,7 @@ void Service::register_kelvin_routes() {
                 std::string key;
                 std::uint64_t version;
                 auto prepared = ready(object, sigma, key, version);
-                const auto samples = prepared->with_sigma(sigma, key, [&](const kelvin::Field& f) { return f.query(points); });
+                const auto samples = prepared->with_sigma(sigma, key, true, [&](const kelvin::Field& f) { return f.query(points); });
                 json h = json::array(), grad = json::array(), inside = json::array();
                 for (const auto& s : samples) {
                   const bool ok = s.status == kelvin::Status::ok && std::isfinite(s.h);
@@ -515,7 +539,7 @@ void Service::register_kelvin_routes() {
               std::string key;
               std::uint64_t version;
               auto prepared = ready(object, sigma, key, version);
-              const mesh::SurfaceMesh m = prepared->with_sigma(sigma, key, [&](const kelvin::Field& f) { return f.isosurface(level); });
+              const mesh::SurfaceMesh m = prepared->with_sigma(sigma, key, false, [&](const kelvin::Field& f) { return f.isosurface(level); });
               Response r;
               r.content_type = "application/msgpack";
               r.body = to_msgpack(mesh_frame(m, {{"type", "isosurface"}, {"object", object->id}, {"level", level},
@@ -555,7 +579,7 @@ void Service::register_kelvin_routes() {
               std::string key;
               std::uint64_t version;
               auto prepared = ready(object, sigma, key, version);
-              const mesh::SurfaceMesh m = prepared->with_sigma(sigma, key, [&](const kelvin::Field& f) { return f.isosurface(level); });
+              const mesh::SurfaceMesh m = prepared->with_sigma(sigma, key, false, [&](const kelvin::Field& f) { return f.isosurface(level); });
               if (m.faces.rows() == 0) throw ApiError(422, "empty_isosurface", "the iso-surface at this level is empty", "level");
               const fs::path dir = fs::path(registry_cache_dir()) / ("export-" + random_id());
               fs::create_directories(dir);

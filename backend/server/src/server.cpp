@@ -312,7 +312,12 @@ struct HttpServer::Impl {
   void accept() {
     acceptor.async_accept(net::make_strand(ioc), [this](beast::error_code ec, tcp::socket socket) {
       if (ec == net::error::operation_aborted || !acceptor.is_open()) return;
-      if (!ec) std::make_shared<HttpConnection>(std::move(socket), service)->start();
+      if (!ec) {
+        // Small messages (σ acknowledgements, frames' headers) must not wait for a delayed ACK.
+        beast::error_code nd;
+        socket.set_option(tcp::no_delay(true), nd);
+        std::make_shared<HttpConnection>(std::move(socket), service)->start();
+      }
       accept();
     });
   }

@@ -27,18 +27,20 @@ struct PreparedField {
   kelvin::Field field;
   bool cache_hit = false;
 
-  // Runs fn(const kelvin::Field&) with `sigma` solved (sigma_key identifies it exactly).
+  // Runs fn(const kelvin::Field&) with `sigma` solved (sigma_key identifies it exactly). Vertex
+  // gradients (needed by queries, not by iso-surfaces) are computed only when `gradients` asks.
   template <class Fn>
-  auto with_sigma(const kelvin::SigmaSpec& sigma, const std::string& sigma_key, Fn&& fn) {
+  auto with_sigma(const kelvin::SigmaSpec& sigma, const std::string& sigma_key, bool gradients, Fn&& fn) {
     {
       std::shared_lock lock(mutex_);
-      if (solved_ == sigma_key) return fn(static_cast<const kelvin::Field&>(field));
+      if (solved_ == sigma_key && (gradients_ || !gradients)) return fn(static_cast<const kelvin::Field&>(field));
     }
     std::unique_lock lock(mutex_);
-    if (solved_ != sigma_key) {
+    if (solved_ != sigma_key || (gradients && !gradients_)) {
       solved_.clear();
-      field.set_sigma(sigma);
+      field.set_sigma(sigma, gradients);
       solved_ = sigma_key;
+      gradients_ = gradients;
     }
     return fn(static_cast<const kelvin::Field&>(field));
   }
@@ -46,6 +48,7 @@ struct PreparedField {
  private:
   std::shared_mutex mutex_;
   std::string solved_;  // key of the σ in `field`; "" before the first solve
+  bool gradients_ = false;  // `field` holds vertex gradients for solved_
 };
 
 // Content key of a preparation: 128-bit FNV-1a of the surface and options (hex). Entries with
@@ -98,6 +101,7 @@ struct KelvinObject {
   std::vector<double> levels;  // watched iso-levels: frames are pushed over the WebSocket
   bool computing = false;      // a frame task is queued or running
   std::uint64_t frames_version = 0;  // bumped on every σ or levels change
+  std::int64_t surface_sent = -1;    // sigma_version of the last surface frame broadcast
 
   nlohmann::json status_json();  // locks
 };
