@@ -60,6 +60,7 @@ Service::Service(ServiceConfig config)
   register_core_routes();
   register_gap_routes();
   register_kelvin_routes();
+  register_cbf_routes();
 }
 
 Service::~Service() { shutdown(); }
@@ -297,6 +298,8 @@ void Service::ws_message(const std::shared_ptr<Session>& session, const std::sha
       auto j = jobs_.find(session->id, msg["job"]);
       if (!j) throw ApiError(404, "unknown_job", "no such job in this session", "job");
       j->cancel = true;
+    } else if (type.rfind("cbf_", 0) == 0) {
+      cbf_ws_message(session, socket, msg);
     } else {
       throw InvalidInput("type", "unknown message type \"" + type.substr(0, 32) + "\"");
     }

@@ -5,8 +5,8 @@
 // WebSocket (/ws?session=ID, or the session cookie/header on the upgrade request):
 //   client -> server (JSON text): {"type": "ping"} | {"type": "watch", "object", "levels": [...]}
 //     | {"type": "sigma", "object", "sigma": {...}} | {"type": "cancel", "job"}
-//     | {"type": "state"} (resend the current state)
-//   server -> client: text {"type": "hello"|"pong"|"job"|"object"|"sigma"|"error", ...};
+//     | {"type": "state"} (resend the current state) | {"type": "cbf_replay", "rollout", "from"?}
+//   server -> client: text {"type": "hello"|"pong"|"job"|"object"|"sigma"|"cbf_frames"|"error", ...};
 //     binary msgpack frames {"type": "isosurface"|"surface", "object", "level", "sigma_version",
 //     "positions", "indices"[, "scalars"]} (see frames.hpp).
 //   A client joining late gets "hello" with the session's jobs and objects, then the current
@@ -28,6 +28,8 @@
 #include "distlab/server/worker_pool.hpp"
 
 namespace distlab::server {
+
+class CbfRolloutStore;  // cbf_rollouts.hpp
 
 // The OpenAPI document (backend/server/openapi.json, embedded at build time).
 const std::string& openapi_text();
@@ -63,8 +65,9 @@ class Service {
   void register_core_routes();
   void register_gap_routes();
   void register_kelvin_routes();
-  // CBF rollout endpoints (issue: CBF module) join here: register_cbf_routes() in
-  // src/routes_cbf.cpp, under /api/cbf/..., documented in openapi.json like the others.
+  void register_cbf_routes();  // routes_cbf.cpp: /api/cbf/...
+  void cbf_ws_message(const std::shared_ptr<Session>& session, const std::shared_ptr<WsSink>& socket,
+                      const nlohmann::json& msg);  // "cbf_*" WebSocket messages
 
   void send_state(const std::shared_ptr<Session>& session, const std::shared_ptr<WsSink>& socket);
   std::shared_ptr<Session> require_session(const Request& request);
@@ -90,6 +93,7 @@ class Service {
   PreparedRegistry registry_;
   WorkerPool compute_;
   JobManager jobs_;
+  std::shared_ptr<CbfRolloutStore> cbf_rollouts_;
   std::atomic<bool> stopped_{false};
 };
 

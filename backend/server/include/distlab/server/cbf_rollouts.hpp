@@ -1,0 +1,81 @@
+#pragma once
+// CBF rollouts in the service: each is a job of its session (same id), whose steps are kept here
+// as they are computed so they can stream over the WebSocket ("cbf_frames" messages), be replayed
+// to a late joiner and be fetched as the full record when the job ends. See /api/cbf/... in
+// openapi.json for the message formats.
+#include <cstddef>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "distlab/cbf/rollout.hpp"
+
+namespace distlab::server {
+
+// Explicit limits of one rollout request (also reported by GET /api/cbf/scenarios).
+struct CbfLimits {
+  int max_steps = 20000;                  // duration / dt
+  std::size_t max_pair_steps = 1000000;   // steps × pairs kept in memory (≈ 80 bytes each)
+  int max_batch_steps = 500;              // steps per "cbf_frames" message
+  std::size_t max_frames_per_request = 2000;  // steps per GET .../frames
+  std::size_t kept_per_session = 4;       // most recent rollouts kept (older finished ones go)
+  std::size_t kept_total = 32;
+};
+
+struct CbfStreamOptions {
+  int batch_steps = 50;   // a message carries at most this many steps ...
+  double batch_seconds = 0.05;  // ... and is sent at least this often while steps come
+  bool pairs = true;      // per-pair distance, clearance and witnesses in frames
+  bool poses = true;      // world pose of every robot primitive in frames
+};
+
+struct CbfRollout {
+  std::string id, session;
+  std::string scenario_name;
+  nlohmann::json scenario_json;  // the scenario as given (file content or inline object)
+  cbf::Scenario scenario;
+  cbf::Metric metric = cbf::Metric::gap;
+  bool record_pairs = true;      // the request's params.record_pairs (record endpoint)
+  CbfStreamOptions stream;
+  int steps_total = 0;
+  std::vector<cbf::PairInfo> pairs;
+
+  mutable std::mutex mutex;
+  std::vector<cbf::StepRecord> steps;  // computed so far (moved into `record` at the end)
+  std::shared_ptr<const cbf::RolloutRecord> record;  // set when the run ended (finished or cancelled)
+  std::string state = "queued";  // queued | running | finished | cancelled | failed
+
+  std::size_t steps_done() const;
+  const std::vector<cbf::StepRecord>& steps_locked() const { return record ? record->steps : steps; }
+  // {"id", "state", "scenario", "metric", "steps_total", "steps_done", "dt", "pairs": [{"name",
+  //  "a", "b", "self"}], "obstacles", "target", "stream"} (+ "summary" when ended).
+  nlohmann::json status_json() const;
+};
+
+// A "cbf_frames" message of steps [first, first + count) (clamped to what exists).
+nlohmann::json cbf_frames_json(const CbfRollout& rollout, std::size_t first, std::size_t count);
+// GET /api/cbf/robot: DH table, joint limits, end-effector offset, every collision primitive.
+nlohmann::json cbf_robot_json();
+
+class CbfRolloutStore {
+ public:
+  explicit CbfRolloutStore(CbfLimits limits) : limits_(limits) {}
+  const CbfLimits& limits() const { return limits_; }
+  // Adds r; forgets the oldest ended rollouts past the per-session / total limits and those whose
+  // session is gone (alive(session) false).
+  void add(const std::shared_ptr<CbfRollout>& r, const std::function<bool(const std::string&)>& alive);
+  std::shared_ptr<CbfRollout> find(const std::string& session, const std::string& id) const;  // owner only
+  std::vector<std::shared_ptr<CbfRollout>> list(const std::string& session) const;
+
+ private:
+  CbfLimits limits_;
+  mutable std::mutex mutex_;
+  std::vector<std::shared_ptr<CbfRollout>> rollouts_;  // oldest first
+};
+
+}  // namespace distlab::server

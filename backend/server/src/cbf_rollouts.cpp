@@ -1,0 +1,205 @@
+// CBF rollouts kept by the service: the store, their status, frames and the robot description.
+#include "distlab/server/cbf_rollouts.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <type_traits>
+#include <variant>
+
+#include "distlab/server/cbf_json.hpp"
+
+namespace distlab::server {
+
+using json = nlohmann::json;
+
+namespace {
+
+template <class V>
+json vec_json(const V& v) {
+  json a = json::array();
+  for (Eigen::Index i = 0; i < v.size(); ++i) a.push_back(v[i]);
+  return a;
+}
+json quat_json(const Quat& q) { return json::array({q.w(), q.x(), q.y(), q.z()}); }
+json pose_json(const Pose& p) { return {{"position", vec_json(p.position)}, {"quaternion", quat_json(p.rotation)}}; }
+json finite_or_null(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
+// A shape in the request schema of gap_json (SHAPE without pose).
+json shape_json(const Shape& shape) {
+  return std::visit(
+      [](const auto& s) -> json {
+        using T = std::decay_t<decltype(s)>;
+        if constexpr (std::is_same_v<T, Box>) return {{"type", "box"}, {"size", vec_json(s.size)}};
+        else if constexpr (std::is_same_v<T, Sphere>) return {{"type", "sphere"}, {"radius", s.radius}};
+        else if constexpr (std::is_same_v<T, Cylinder>)
+          return {{"type", "cylinder"}, {"radius", s.radius}, {"height", s.height}};
+        else if constexpr (std::is_same_v<T, Capsule>)
+          return {{"type", "capsule"}, {"radius", s.radius}, {"height", s.height}};
+        else {
+          json A = json::array();
+          for (Eigen::Index i = 0; i < s.A.rows(); ++i) A.push_back({s.A(i, 0), s.A(i, 1), s.A(i, 2)});
+          return {{"type", "polytope"}, {"A", A}, {"b", vec_json(s.b)}};
+        }
+      },
+      shape);
+}
+
+const cbf::Panda& panda() {
+  static const cbf::Panda robot;
+  return robot;
+}
+
+bool ended(const std::string& state) { return state != "queued" && state != "running"; }
+
+}  // namespace
+
+std::size_t CbfRollout::steps_done() const {
+  std::lock_guard lock(mutex);
+  return steps_locked().size();
+}
+
+json CbfRollout::status_json() const {
+  json pair_list = json::array();
+  for (const cbf::PairInfo& p : pairs)
+    pair_list.push_back({{"name", p.name}, {"a", p.a}, {"b", p.b}, {"self", p.self}});
+  json j = {{"id", id},
+            {"scenario", scenario_name},
+            {"metric", cbf::to_string(metric)},
+            {"dt", scenario.dt},
+            {"steps_total", steps_total},
+            {"pairs", pair_list},
+            {"obstacles", scenario_json.value("obstacles", json::array())},
+            {"target", pose_json(scenario.target)},
+            {"stream", {{"batch_steps", stream.batch_steps}, {"pairs", stream.pairs}, {"poses", stream.poses}}}};
+  std::lock_guard lock(mutex);
+  j["state"] = state;
+  j["steps_done"] = steps_locked().size();
+  if (record) {
+    j["summary"] = {{"reached", record->reached},
+                    {"final_task_error", record->final_task_error},
+                    {"min_distance", finite_or_null(record->min_clearance)},
+                    {"infeasible_steps", record->infeasible_steps.size()},
+                    {"cancelled", record->cancelled}};
+  }
+  return j;
+}
+
+json cbf_frames_json(const CbfRollout& r, std::size_t first, std::size_t count) {
+  const cbf::Panda& robot = panda();
+  json frames = json::array();
+  std::size_t done;
+  {
+    std::lock_guard lock(r.mutex);
+    const std::vector<cbf::StepRecord>& steps = r.steps_locked();
+    done = steps.size();
+    const std::size_t end = first >= done ? first : first + std::min(count, done - first);
+    for (std::size_t i = first; i < end; ++i) {
+      const cbf::StepRecord& s = steps[i];
+      json f = {{"i", i},
+                {"t", s.t},
+                {"q", vec_json(s.q)},
+                {"u", vec_json(s.u)},
+                {"task_error", s.task_error},
+                {"min_distance", finite_or_null(s.min_clearance)},
+                {"relaxed", s.relaxed},
+                {"held", s.held},
+                {"slack", s.slack}};
+      if (r.stream.pairs && !s.pairs.empty()) {
+        json d = json::array(), c = json::array(), a = json::array(), b = json::array();
+        for (const cbf::PairSample& p : s.pairs) {
+          d.push_back(p.distance);
+          c.push_back(finite_or_null(p.clearance));
+          a.push_back(vec_json(p.witness_a));
+          b.push_back(vec_json(p.witness_b));
+        }
+        f["distance"] = std::move(d);
+        f["clearance"] = std::move(c);
+        f["witness_a"] = std::move(a);
+        f["witness_b"] = std::move(b);
+      }
+      if (r.stream.poses) {
+        const cbf::Kinematics k = robot.forward(s.q);
+        json poses = json::array();
+        for (int p = 0; p < static_cast<int>(robot.primitives().size()); ++p) {
+          const Pose w = robot.primitive_pose(k, p);
+          poses.push_back({w.position.x(), w.position.y(), w.position.z(), w.rotation.w(), w.rotation.x(),
+                           w.rotation.y(), w.rotation.z()});
+        }
+        f["poses"] = std::move(poses);
+      }
+      frames.push_back(std::move(f));
+    }
+  }
+  return {{"type", "cbf_frames"}, {"rollout", r.id}, {"first", first}, {"count", frames.size()},
+          {"steps_done", done}, {"steps_total", r.steps_total}, {"frames", std::move(frames)}};
+}
+
+json cbf_robot_json() {
+  const cbf::Panda& robot = panda();
+  json dh = json::array();
+  for (const cbf::DhRow& row : robot.dh()) dh.push_back({{"d", row.d}, {"alpha", row.alpha}, {"a", row.a}});
+  json prims = json::array();
+  for (const cbf::LinkPrimitive& p : robot.primitives())
+    prims.push_back({{"name", p.name}, {"link", p.link}, {"shape", shape_json(p.shape)}, {"pose", pose_json(p.pose)}});
+  json self = json::array();
+  for (const auto& [i, j] : robot.self_pairs()) self.push_back({i, j});
+  Pose ee;
+  ee.rotation = Quat(Eigen::AngleAxisd(-std::numbers::pi / 4, Vec3::UnitZ()));
+  return {{"name", "panda"},
+          {"dof", cbf::kDof},
+          {"convention",
+           "standard DH: frame i = frame i-1 · Rz(q_i) · Tz(d_i) · Rx(alpha_i) · Tx(a_i), frame 0 = world; "
+           "a primitive's world pose is frame[link] · pose; quaternions are [w, x, y, z]"},
+          {"dh", dh},
+          {"q_min", vec_json(robot.q_min())},
+          {"q_max", vec_json(robot.q_max())},
+          {"end_effector", {{"link", cbf::kDof}, {"pose", pose_json(ee)}}},
+          {"primitives", prims},
+          {"self_pairs", self}};
+}
+
+void CbfRolloutStore::add(const std::shared_ptr<CbfRollout>& r,
+                          const std::function<bool(const std::string&)>& alive) {
+  std::lock_guard lock(mutex_);
+  auto state_of = [](const CbfRollout& x) {
+    std::lock_guard l(x.mutex);
+    return x.state;
+  };
+  rollouts_.erase(std::remove_if(rollouts_.begin(), rollouts_.end(),
+                                 [&](const auto& x) { return !alive(x->session) && ended(state_of(*x)); }),
+                  rollouts_.end());
+  rollouts_.push_back(r);
+  // Oldest ended rollouts go first; running ones stay (the job limits bound them).
+  auto trim = [&](const std::function<bool(const CbfRollout&)>& in_scope, std::size_t keep) {
+    std::size_t n = static_cast<std::size_t>(
+        std::count_if(rollouts_.begin(), rollouts_.end(), [&](const auto& x) { return in_scope(*x); }));
+    for (auto it = rollouts_.begin(); n > keep && it != rollouts_.end();) {
+      if (in_scope(**it) && ended(state_of(**it))) {
+        it = rollouts_.erase(it);
+        --n;
+      } else {
+        ++it;
+      }
+    }
+  };
+  trim([&](const CbfRollout& x) { return x.session == r->session; }, limits_.kept_per_session);
+  trim([](const CbfRollout&) { return true; }, limits_.kept_total);
+}
+
+std::shared_ptr<CbfRollout> CbfRolloutStore::find(const std::string& session, const std::string& id) const {
+  std::lock_guard lock(mutex_);
+  for (const auto& r : rollouts_)
+    if (r->id == id && r->session == session) return r;
+  return nullptr;
+}
+
+std::vector<std::shared_ptr<CbfRollout>> CbfRolloutStore::list(const std::string& session) const {
+  std::lock_guard lock(mutex_);
+  std::vector<std::shared_ptr<CbfRollout>> out;
+  for (const auto& r : rollouts_)
+    if (r->session == session) out.push_back(r);
+  return out;
+}
+
+}  // namespace distlab::server

@@ -1,0 +1,295 @@
+// CBF endpoints: scenarios, the robot description, rollouts as jobs whose steps stream over the
+// WebSocket ("cbf_frames"), their status, frames and full record (same JSON as `distlab cbf`).
+#include <algorithm>
+#include <cctype>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+
+#include "distlab/geometry/error.hpp"
+#include "distlab/server/cbf_json.hpp"
+#include "distlab/server/cbf_rollouts.hpp"
+#include "distlab/server/json_fields.hpp"
+#include "distlab/server/service.hpp"
+
+namespace distlab::server {
+
+using json = nlohmann::json;
+namespace fs = std::filesystem;
+
+namespace {
+
+bool valid_name(const std::string& s) {
+  if (s.empty() || s.size() > 64) return false;
+  for (char c : s)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_' && c != '-') return false;
+  return true;
+}
+
+std::size_t query_index(const Request& req, const std::string& name, std::size_t fallback) {
+  auto it = req.query.find(name);
+  if (it == req.query.end()) return fallback;
+  const std::string& v = it->second;
+  if (v.empty() || v.size() > 9 || v.find_first_not_of("0123456789") != std::string::npos)
+    throw InvalidInput(name, "query parameter " + name + " must be a whole number below 10^9");
+  return static_cast<std::size_t>(std::stoul(v));
+}
+
+CbfStreamOptions parse_stream(const json& j, const CbfLimits& limits) {
+  CbfStreamOptions s;
+  json_require_object(j, "stream");
+  json_check_keys(j, "stream", {"batch_steps", "pairs", "poses"});
+  if (auto it = j.find("batch_steps"); it != j.end()) {
+    const double n = json_number(*it, "stream.batch_steps");
+    if (n != std::floor(n) || n < 1 || n > limits.max_batch_steps)
+      throw InvalidInput("stream.batch_steps",
+                         "stream.batch_steps must be a whole number from 1 to " + std::to_string(limits.max_batch_steps));
+    s.batch_steps = static_cast<int>(n);
+  }
+  if (auto it = j.find("pairs"); it != j.end()) s.pairs = json_bool(*it, "stream.pairs");
+  if (auto it = j.find("poses"); it != j.end()) s.poses = json_bool(*it, "stream.poses");
+  return s;
+}
+
+// Where duration came from, for the error's field.
+std::string duration_field(const json& body) {
+  const json* p = body.contains("params") ? &body["params"] : nullptr;
+  if (p && p->is_object() && (p->contains("duration") || p->contains("dt"))) return "params.duration";
+  return "scenario.duration";
+}
+
+// The job's work: runs the rollout, keeps every step, streams batches to the session's sockets.
+json run_rollout(const std::shared_ptr<CbfRollout>& r, cbf::RolloutOptions options,
+                          const std::weak_ptr<Session>& weak, Job& job) {
+  using Clock = std::chrono::steady_clock;
+  {
+    std::lock_guard lock(r->mutex);
+    r->state = "running";
+  }
+  std::size_t sent = 0;
+  auto last = Clock::now();
+  auto flush = [&](std::size_t done) {
+    auto s = weak.lock();
+    bool listening = false;
+    if (s) {
+      std::lock_guard lock(s->mutex);
+      listening = !s->sockets.empty();
+    }
+    while (sent < done) {
+      const std::size_t n = std::min<std::size_t>(static_cast<std::size_t>(r->stream.batch_steps), done - sent);
+      if (listening) s->broadcast(cbf_frames_json(*r, sent, n).dump(), false);
+      sent += n;
+    }
+    last = Clock::now();
+  };
+  options.cancel = &job.cancel;
+  options.progress = [&](int i, const cbf::StepRecord& step) {
+    std::size_t done;
+    {
+      std::lock_guard lock(r->mutex);
+      r->steps.push_back(step);
+      done = r->steps.size();
+    }
+    job.report("rollout", (i + 1.0) / r->steps_total);
+    if (done - sent >= static_cast<std::size_t>(r->stream.batch_steps) ||
+        std::chrono::duration<double>(Clock::now() - last).count() >= r->stream.batch_seconds)
+      flush(done);
+    return !job.cancelled();
+  };
+  cbf::RolloutRecord rec;
+  try {
+    rec = cbf::rollout(r->scenario, r->metric, options);
+  } catch (...) {
+    std::lock_guard lock(r->mutex);
+    r->state = "failed";
+    throw;
+  }
+  flush(r->steps_done());
+  const json summary = {{"reached", rec.reached}, {"final_task_error", rec.final_task_error},
+                        {"infeasible_steps", rec.infeasible_steps.size()}, {"steps", rec.steps.size()}};
+  {
+    std::lock_guard lock(r->mutex);
+    r->state = rec.cancelled ? "cancelled" : "finished";
+    r->steps.clear();
+    r->steps.shrink_to_fit();
+    r->record = std::make_shared<const cbf::RolloutRecord>(std::move(rec));
+  }
+  return {{"rollout", r->id}, {"summary", summary}};
+}
+
+}  // namespace
+
+void Service::register_cbf_routes() {
+  cbf_rollouts_ = std::make_shared<CbfRolloutStore>(CbfLimits{});
+  const CbfLimits limits = cbf_rollouts_->limits();
+  const std::string scenarios_dir = (fs::path(config_.assets_dir) / "scenarios").string();
+
+  router_.add({"GET", "/api/cbf/scenarios", [scenarios_dir, limits](Request&) {
+                 std::vector<std::string> names;
+                 std::error_code ec;
+                 for (const auto& e : fs::directory_iterator(scenarios_dir, ec))
+                   if (e.path().extension() == ".json" && valid_name(e.path().stem().string()))
+                     names.push_back(e.path().stem().string());
+                 std::sort(names.begin(), names.end());
+                 return json_response(200, {{"scenarios", names},
+                                            {"metrics", {"gap", "euclidean"}},
+                                            {"limits",
+                                             {{"max_steps", limits.max_steps},
+                                              {"max_duration", kMaxScenarioDuration},
+                                              {"max_pair_steps", limits.max_pair_steps},
+                                              {"max_batch_steps", limits.max_batch_steps},
+                                              {"max_frames_per_request", limits.max_frames_per_request},
+                                              {"kept_per_session", limits.kept_per_session}}}});
+               }});
+  router_.add({"GET", "/api/cbf/scenarios/{name}", [scenarios_dir](Request& req) {
+                 const std::string name = req.params["name"];
+                 if (!valid_name(name))
+                   throw InvalidInput("name", "scenario names are 1 to 64 letters, digits, '_' and '-'");
+                 const fs::path path = fs::path(scenarios_dir) / (name + ".json");
+                 std::error_code ec;
+                 if (!fs::is_regular_file(path, ec))
+                   throw ApiError(404, "unknown_scenario", "no scenario named \"" + name + "\"", "name");
+                 return json_response(200, read_scenario_file(path.string()));
+               }});
+  router_.add({"GET", "/api/cbf/robot", [](Request&) { return json_response(200, cbf_robot_json()); }});
+
+  Route post{"POST", "/api/cbf/rollouts", [this, limits](Request& req) {
+               auto session = require_session(req);
+               json body = parse_body(req);
+               json_require_object(body, "");
+               CbfStreamOptions stream;
+               if (auto it = body.find("stream"); it != body.end()) {
+                 stream = parse_stream(*it, limits);
+                 body.erase("stream");
+               }
+               const CbfRequest parsed = parse_cbf_request(body, config_.assets_dir);
+               const cbf::Scenario& sc = parsed.scenario;
+               const int steps = sc.steps();
+               if (steps > limits.max_steps)
+                 throw ApiError(422, "too_long",
+                                "duration / dt = " + std::to_string(steps) + " steps; at most " +
+                                    std::to_string(limits.max_steps) + " per rollout on this server",
+                                duration_field(body));
+               const cbf::Panda robot;
+               const std::size_t pairs = robot.primitives().size() * sc.obstacles.size() +
+                                         (sc.self_collision ? robot.self_pairs().size() : 0);
+               if (pairs * static_cast<std::size_t>(steps) > limits.max_pair_steps)
+                 throw ApiError(422, "too_long",
+                                std::to_string(pairs) + " pairs × " + std::to_string(steps) + " steps is over this server's " +
+                                    std::to_string(limits.max_pair_steps) + " pair-steps per rollout; shorten it or use fewer obstacles",
+                                duration_field(body));
+
+               auto r = std::make_shared<CbfRollout>();
+               r->session = session->id;
+               const json& sj = body["scenario"];
+               r->scenario_json = sj.is_string() ? read_scenario_file(scenario_path(sj.get<std::string>(), config_.assets_dir)) : sj;
+               r->scenario_name = sc.name;
+               r->scenario = sc;
+               r->metric = parsed.metric;
+               r->record_pairs = parsed.options.record_pairs;
+               r->stream = stream;
+               r->steps_total = steps;
+               cbf::RolloutOptions options = parsed.options;
+               options.record_pairs = options.record_pairs || stream.pairs;
+               {
+                 // The pair list without building the controller's GAP bodies.
+                 const auto& prims = robot.primitives();
+                 for (int i = 0; i < static_cast<int>(prims.size()); ++i)
+                   for (int j = 0; j < static_cast<int>(sc.obstacles.size()); ++j)
+                     r->pairs.push_back({prims[i].name + "/" + sc.obstacles[j].name, i, j, false});
+                 if (sc.self_collision)
+                   for (const auto& [i, j] : robot.self_pairs())
+                     r->pairs.push_back({prims[i].name + "/" + prims[j].name, i, j, true});
+               }
+
+               std::weak_ptr<Session> weak = session;
+               auto job = jobs_.submit(session->id, "cbf_rollout", {{"scenario", sc.name}, {"metric", cbf::to_string(parsed.metric)}},
+                                       [r, options, weak](Job& j) mutable { return run_rollout(r, options, weak, j); });
+               r->id = job->id;
+               cbf_rollouts_->add(r, [this](const std::string& s) { return sessions_.find(s) != nullptr; });
+               json status = r->status_json();
+               return json_response(202, {{"rollout", status}, {"job", job->to_json()}});
+             }};
+  post.heavy = true;  // reads a scenario file, builds the request
+  router_.add(std::move(post));
+
+  auto require_rollout = [this](const Request& req) {
+    auto session = require_session(req);
+    auto r = cbf_rollouts_->find(session->id, req.params.at("id"));
+    if (!r) throw ApiError(404, "unknown_rollout", "no such rollout in this session");
+    return std::make_pair(session, r);
+  };
+
+  router_.add({"GET", "/api/cbf/rollouts", [this](Request& req) {
+                 auto session = require_session(req);
+                 json list = json::array();
+                 for (const auto& r : cbf_rollouts_->list(session->id)) list.push_back(r->status_json());
+                 return json_response(200, {{"rollouts", list}});
+               }});
+  router_.add({"GET", "/api/cbf/rollouts/{id}", [this, require_rollout](Request& req) {
+                 auto [session, r] = require_rollout(req);
+                 json status = r->status_json();
+                 if (auto j = jobs_.find(session->id, r->id)) status["job"] = j->to_json();
+                 return json_response(200, status);
+               }});
+  Route frames{"GET", "/api/cbf/rollouts/{id}/frames", [require_rollout, limits](Request& req) {
+                 auto [session, r] = require_rollout(req);
+                 const std::size_t from = query_index(req, "from", 0);
+                 const std::size_t count = query_index(req, "count", limits.max_frames_per_request);
+                 if (count > limits.max_frames_per_request)
+                   throw ApiError(413, "too_many_frames",
+                                  "at most " + std::to_string(limits.max_frames_per_request) + " frames per request", "count");
+                 return json_response(200, cbf_frames_json(*r, from, count));
+               }};
+  frames.heavy = true;
+  router_.add(std::move(frames));
+  Route record{"GET", "/api/cbf/rollouts/{id}/record", [require_rollout](Request& req) {
+                 auto [session, r] = require_rollout(req);
+                 std::shared_ptr<const cbf::RolloutRecord> rec;
+                 std::string state;
+                 {
+                   std::lock_guard lock(r->mutex);
+                   rec = r->record;
+                   state = r->state;
+                 }
+                 if (!rec)
+                   throw ApiError(409, "not_finished", "the rollout is " + state + "; its record is ready when it ends "
+                                                       "(its frames so far: GET .../frames)");
+                 return json_response(200, encode_record(*rec, r->scenario_name, r->record_pairs));
+               }};
+  record.heavy = true;
+  router_.add(std::move(record));
+}
+
+// WebSocket {"type": "cbf_replay", "rollout", "from"?}: the frames computed so far, to this socket
+// only (a late joiner; live batches keep coming to every socket of the session).
+void Service::cbf_ws_message(const std::shared_ptr<Session>& session, const std::shared_ptr<WsSink>& socket,
+                             const json& msg) {
+  const std::string type = msg["type"].get<std::string>();
+  if (type != "cbf_replay") throw InvalidInput("type", "unknown message type \"" + type.substr(0, 32) + "\"");
+  if (!msg.contains("rollout") || !msg["rollout"].is_string())
+    throw InvalidInput("rollout", "rollout must be a rollout id");
+  std::size_t from = 0;
+  if (msg.contains("from")) {
+    const double f = json_number(msg["from"], "from");
+    if (f < 0 || f != std::floor(f) || f > 1e9) throw InvalidInput("from", "from must be a step index");
+    from = static_cast<std::size_t>(f);
+  }
+  auto r = cbf_rollouts_->find(session->id, msg["rollout"].get<std::string>());
+  if (!r) throw ApiError(404, "unknown_rollout", "no such rollout in this session", "rollout");
+  const std::size_t batch = static_cast<std::size_t>(cbf_rollouts_->limits().max_batch_steps);
+  std::weak_ptr<WsSink> weak = socket;
+  if (!post_compute([r, weak, from, batch] {
+        const std::size_t done = r->steps_done();
+        std::size_t i = from;
+        do {  // at least one message, so the client learns steps_done even when nothing is new
+          auto s = weak.lock();
+          if (!s) return;
+          s->send(cbf_frames_json(*r, i, batch).dump(), false);
+          i += batch;
+        } while (i < done);
+      }))
+    throw ApiError(503, "busy", "the server is busy; try again");
+}
+
+}  // namespace distlab::server

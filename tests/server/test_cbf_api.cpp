@@ -1,0 +1,392 @@
+// CBF rollouts through the service: scenarios, the robot model (checked by recomputing the
+// streamed primitive poses from it), rollouts whose steps stream over the WebSocket, replay to a
+// late joiner, cancellation midway, session isolation, bad input, and the record compared number
+// for number with `distlab cbf` on the same request.
+#include <Eigen/Geometry>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <memory>
+
+#include "server/server_fixture.hpp"
+
+namespace distlab::test {
+namespace {
+
+using Msg = WsClient::Message;
+
+class CbfApi : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() { server_ = new ServerProcess(); }
+  static void TearDownTestSuite() {
+    EXPECT_EQ(server_->stop(), 0) << "the server did not exit cleanly";
+    delete server_;
+  }
+  static ServerProcess* server_;
+  httplib::Client c = server_->client();
+};
+ServerProcess* CbfApi::server_ = nullptr;
+
+void expect_error(const httplib::Result& r, int status, const std::string& code, const std::string& field = "*") {
+  ASSERT_TRUE(r) << "no response";
+  EXPECT_EQ(r->status, status) << r->body;
+  const json j = body_json(r);
+  ASSERT_TRUE(j.is_object() && j.contains("error")) << r->body;
+  EXPECT_EQ(j["error"]["code"], code) << r->body;
+  EXPECT_TRUE(j["error"]["message"].is_string());
+  if (field != "*") {
+    EXPECT_EQ(j["error"]["field"], field) << r->body;
+  }
+}
+
+// A WebSocket of session s, after its "hello" (the server has registered it: broadcasts reach it).
+std::unique_ptr<WsClient> connect(int port, const std::string& s) {
+  auto ws = std::make_unique<WsClient>(port, s);
+  Msg m;
+  EXPECT_TRUE(ws->until([](const Msg& x) { return !x.binary && x.j["type"] == "hello"; }, m, 60)) << "no hello";
+  return ws;
+}
+
+httplib::Result post_rollout(httplib::Client& c, const std::string& s, const json& body) {
+  return c.Post("/api/cbf/rollouts", session_headers(s), body.dump(), "application/json");
+}
+
+std::string start(httplib::Client& c, const std::string& s, const json& body) {
+  auto r = post_rollout(c, s, body);
+  EXPECT_TRUE(r);
+  if (!r) return "";
+  EXPECT_EQ(r->status, 202) << r->body;
+  const json j = body_json(r);
+  EXPECT_EQ(j["rollout"]["id"], j["job"]["id"]);
+  EXPECT_EQ(j["job"]["kind"], "cbf_rollout");
+  return j["rollout"]["id"];
+}
+
+// Reads WebSocket messages until the job `id` ends; collects its cbf_frames steps by index.
+std::string follow(WsClient& ws, const std::string& id, std::map<std::size_t, json>& frames, int* messages = nullptr,
+                   const std::function<void(const json&)>& on_frames = {}) {
+  Msg m;
+  std::string final_state;
+  const bool ok = ws.until(
+      [&](const Msg& x) {
+        if (x.binary) return false;
+        if (x.j["type"] == "cbf_frames" && x.j["rollout"] == id) {
+          if (messages) ++*messages;
+          EXPECT_EQ(x.j["count"], x.j["frames"].size());
+          for (const json& f : x.j["frames"]) frames[f["i"].get<std::size_t>()] = f;
+          if (on_frames) on_frames(x.j);
+        }
+        if (x.j["type"] == "job" && x.j["job"]["id"] == id) {
+          const std::string st = x.j["job"]["state"];
+          if (st == "succeeded" || st == "failed" || st == "cancelled") final_state = st;
+        }
+        return !final_state.empty();
+      },
+      m, 300);
+  EXPECT_TRUE(ok) << "no final job event for " << id;
+  return final_state;
+}
+
+json get_json(httplib::Client& c, const std::string& s, const std::string& path, int status = 200) {
+  auto r = c.Get(path.c_str(), session_headers(s));
+  EXPECT_TRUE(r);
+  if (!r) return json();
+  EXPECT_EQ(r->status, status) << path << ": " << r->body;
+  return body_json(r);
+}
+
+// `distlab cbf` on the same request.
+json run_cli(const json& request) {
+  const std::string dir = temp_dir("distlab-cbf-cli");
+  const std::string in = dir + "/request.json", out = dir + "/record.json";
+  std::ofstream(in) << request.dump();
+  const std::string cmd = "DISTLAB_ASSETS='" + std::string(DISTLAB_SOURCE_DIR) + "/assets' '" + DISTLAB_EXE +
+                          "' cbf < '" + in + "' > '" + out + "'";
+  const int rc = std::system(cmd.c_str());
+  EXPECT_EQ(rc, 0) << cmd;
+  std::ifstream f(out);
+  const json j = json::parse(f, nullptr, false);
+  fs::remove_all(dir);
+  return j;
+}
+
+TEST_F(CbfApi, ScenariosAndRobot) {
+  json j = get_json(c, "", "/api/cbf/scenarios");
+  ASSERT_TRUE(j["scenarios"].is_array());
+  EXPECT_NE(std::find(j["scenarios"].begin(), j["scenarios"].end(), "corridor"), j["scenarios"].end()) << j;
+  EXPECT_GT(j["limits"]["max_steps"].get<int>(), 0);
+  EXPECT_GT(j["limits"]["max_pair_steps"].get<int>(), 0);
+
+  const json corridor = get_json(c, "", "/api/cbf/scenarios/corridor");
+  std::ifstream f(std::string(DISTLAB_SOURCE_DIR) + "/assets/scenarios/corridor.json");
+  EXPECT_EQ(corridor, json::parse(f)) << "the scenario is the file's JSON";
+  expect_error(c.Get("/api/cbf/scenarios/nowhere"), 404, "unknown_scenario", "name");
+  expect_error(c.Get("/api/cbf/scenarios/..%2Fsecret"), 400, "invalid_input", "name");
+
+  const json robot = get_json(c, "", "/api/cbf/robot");
+  ASSERT_EQ(robot["dh"].size(), 7u);
+  ASSERT_EQ(robot["q_min"].size(), 7u);
+  ASSERT_EQ(robot["primitives"].size(), 9u);
+  for (const json& p : robot["primitives"]) {
+    EXPECT_GE(p["link"].get<int>(), 1);
+    EXPECT_LE(p["link"].get<int>(), 7);
+    EXPECT_TRUE(p["shape"]["type"] == "box" || p["shape"]["type"] == "cylinder") << p;
+    EXPECT_EQ(p["pose"]["quaternion"].size(), 4u);
+  }
+  EXPECT_EQ(robot["primitives"][4]["name"], "link5_box");
+  EXPECT_EQ(robot["primitives"][4]["shape"]["size"], json::array({0.08, 0.05, 0.23}));
+}
+
+TEST_F(CbfApi, BadInputIsRefusedWithTheField) {
+  const std::string s = new_session(c);
+  // No session.
+  expect_error(c.Post("/api/cbf/rollouts", R"({"scenario": "corridor"})", "application/json"), 401, "session_required");
+  expect_error(post_rollout(c, s, {{"scenario", "nowhere"}}), 400, "invalid_input", "scenario");
+  expect_error(post_rollout(c, s, {{"scenario", "../corridor"}}), 400, "invalid_input", "scenario");
+  expect_error(post_rollout(c, s, {{"scenario", "corridor"}, {"metric", "manhattan"}}), 400, "invalid_input", "metric");
+  expect_error(post_rollout(c, s, {{"metric", "gap"}}), 400, "invalid_input", "scenario");
+  expect_error(post_rollout(c, s, {{"scenario", "corridor"}, {"params", {{"duraton", 1}}}}), 400, "invalid_input",
+               "params.duraton");
+  expect_error(post_rollout(c, s, {{"scenario", "corridor"}, {"params", {{"dt", -0.01}}}}), 400, "invalid_input",
+               "params.dt");
+  expect_error(post_rollout(c, s, {{"scenario", "corridor"}, {"params", {{"q0", {0, 0, 0, 0, 0, 0}}}}}), 400,
+               "invalid_input", "params.q0");
+  expect_error(post_rollout(c, s, {{"scenario", "corridor"}, {"params", {{"q0", {0, 0, 0, 0, 0, 0, 0}}}}}), 400,
+               "invalid_input", "params.q0[3]");  // joint 4 must be in [-176°, -4°]
+  // Not a finite number: NaN is not JSON, 1e999 overflows.
+  expect_error(c.Post("/api/cbf/rollouts", session_headers(s), R"({"scenario": "corridor", "params": {"dt": NaN}})",
+                      "application/json"),
+               400, "malformed_json");
+  expect_error(c.Post("/api/cbf/rollouts", session_headers(s), R"({"scenario": "corridor", "params": {"eta": 1e999}})",
+                      "application/json"),
+               400, "invalid_input", "params.eta");
+  // Too long: over the codec's 600 s, and over the server's step budget.
+  expect_error(post_rollout(c, s, {{"scenario", "corridor"}, {"params", {{"duration", 601}}}}), 400, "invalid_input",
+               "params.duration");
+  expect_error(post_rollout(c, s, {{"scenario", "corridor"}, {"params", {{"duration", 500}}}}), 422, "too_long",
+               "params.duration");
+  json tiny_dt = get_json(c, "", "/api/cbf/scenarios/corridor");
+  tiny_dt["dt"] = 1e-4;
+  expect_error(post_rollout(c, s, {{"scenario", tiny_dt}}), 422, "too_long", "scenario.duration");
+  // Inline scenarios are checked as strictly, with their paths.
+  json bad = get_json(c, "", "/api/cbf/scenarios/corridor");
+  bad["obstacles"][1]["shape"]["size"][2] = -1;
+  expect_error(post_rollout(c, s, {{"scenario", bad}}), 400, "invalid_input", "scenario.obstacles[1].shape.size[2]");
+  bad = get_json(c, "", "/api/cbf/scenarios/corridor");
+  bad["target"]["quaternion"] = {0, 0, 0, 0};
+  expect_error(post_rollout(c, s, {{"scenario", bad}}), 400, "invalid_input", "scenario.target.quaternion");
+  // Stream options.
+  expect_error(post_rollout(c, s, {{"scenario", "corridor"}, {"stream", {{"batch_steps", 0}}}}), 400, "invalid_input",
+               "stream.batch_steps");
+  expect_error(post_rollout(c, s, {{"scenario", "corridor"}, {"stream", {{"pairs", "yes"}}}}), 400, "invalid_input",
+               "stream.pairs");
+  expect_error(c.Post("/api/cbf/rollouts", session_headers(s), "[1, 2]", "application/json"), 400, "invalid_input");
+  // Nothing was started.
+  EXPECT_TRUE(get_json(c, s, "/api/cbf/rollouts")["rollouts"].empty());
+  // Unknown rollouts and bad query parameters.
+  expect_error(c.Get("/api/cbf/rollouts/0123", session_headers(s)), 404, "unknown_rollout");
+  expect_error(c.Get("/api/cbf/rollouts/0123/record", session_headers(s)), 404, "unknown_rollout");
+}
+
+TEST_F(CbfApi, FramesStreamAndMatchTheRecordAndTheRobotModel) {
+  const std::string s = new_session(c);
+  auto ws_owner = connect(server_->port(), s);
+  WsClient& ws = *ws_owner;
+  const json body = {{"scenario", "corridor"}, {"metric", "gap"}, {"params", {{"duration", 1.0}}},
+                     {"stream", {{"batch_steps", 10}}}};
+  const std::string id = start(c, s, body);
+  std::map<std::size_t, json> frames;
+  int messages = 0;
+  ASSERT_EQ(follow(ws, id, frames, &messages), "succeeded");
+  const json status = get_json(c, s, "/api/cbf/rollouts/" + id);
+  EXPECT_EQ(status["state"], "finished");
+  EXPECT_EQ(status["steps_total"], 100);
+  EXPECT_EQ(status["steps_done"], 100);
+  EXPECT_EQ(status["job"]["state"], "succeeded");
+  EXPECT_EQ(status["obstacles"].size(), 3u);
+  const std::size_t n_pairs = status["pairs"].size();
+  EXPECT_EQ(n_pairs, 9u * 3u + 25u);
+  // Every step exactly once, in batches of at most 10.
+  ASSERT_EQ(frames.size(), 100u);
+  EXPECT_EQ(frames.rbegin()->first, 99u);
+  EXPECT_GE(messages, 10);
+
+  const json rec = get_json(c, s, "/api/cbf/rollouts/" + id + "/record");
+  ASSERT_EQ(rec["steps"], 100);
+  for (std::size_t i = 0; i < 100; ++i) {
+    const json& f = frames[i];
+    EXPECT_EQ(f["t"], rec["t"][i]);
+    EXPECT_EQ(f["q"], rec["q"][i]);
+    EXPECT_EQ(f["u"], rec["u"][i]);
+    EXPECT_EQ(f["task_error"], rec["task_error"][i]);
+    EXPECT_EQ(f["min_distance"], rec["min_distance"][i]);
+    ASSERT_EQ(f["distance"].size(), n_pairs);
+    EXPECT_EQ(f["distance"], rec["distance"][i]);
+    EXPECT_EQ(f["witness_a"], rec["witness_a"][i]);
+    EXPECT_EQ(f["witness_b"], rec["witness_b"][i]);
+    // min_distance is the smallest true clearance over the pairs.
+    double smallest = INFINITY;
+    for (const json& cl : f["clearance"]) smallest = std::min(smallest, cl.get<double>());
+    EXPECT_EQ(smallest, f["min_distance"].get<double>());
+    ASSERT_EQ(f["poses"].size(), 9u);
+  }
+
+  // The streamed primitive poses follow from q and GET /api/cbf/robot alone (standard DH).
+  const json robot = get_json(c, "", "/api/cbf/robot");
+  for (std::size_t i : {0ul, 57ul, 99ul}) {
+    const json& f = frames[i];
+    std::vector<Eigen::Isometry3d> T(8, Eigen::Isometry3d::Identity());
+    for (int k = 0; k < 7; ++k) {
+      const json& row = robot["dh"][k];
+      T[k + 1] = T[k] * Eigen::AngleAxisd(f["q"][k].get<double>(), Eigen::Vector3d::UnitZ()) *
+                 Eigen::Translation3d(0, 0, row["d"].get<double>()) *
+                 Eigen::AngleAxisd(row["alpha"].get<double>(), Eigen::Vector3d::UnitX()) *
+                 Eigen::Translation3d(row["a"].get<double>(), 0, 0);
+    }
+    for (std::size_t p = 0; p < 9; ++p) {
+      const json& prim = robot["primitives"][p];
+      const json& pos = prim["pose"]["position"];
+      const json& qu = prim["pose"]["quaternion"];
+      Eigen::Isometry3d local = Eigen::Isometry3d::Identity();
+      local.translate(Eigen::Vector3d(pos[0], pos[1], pos[2]));
+      local.rotate(Eigen::Quaterniond(qu[0], qu[1], qu[2], qu[3]));
+      const Eigen::Isometry3d world = T[prim["link"].get<int>()] * local;
+      const json& got = f["poses"][p];
+      const Eigen::Quaterniond gq(got[3], got[4], got[5], got[6]);
+      EXPECT_LT((world.translation() - Eigen::Vector3d(got[0], got[1], got[2])).norm(), 1e-12) << i << " " << p;
+      EXPECT_LT(gq.angularDistance(Eigen::Quaterniond(world.rotation())), 1e-9) << i << " " << p;
+    }
+  }
+
+  // Smoothness per joint, as the record defines it.
+  ASSERT_EQ(rec["smoothness"]["total_variation"].size(), 7u);
+  for (int j = 0; j < 7; ++j) {
+    double tv = 0, rate = 0;
+    for (std::size_t i = 1; i < 100; ++i) {
+      const double du = std::abs(rec["u"][i][j].get<double>() - rec["u"][i - 1][j].get<double>());
+      tv += du;
+      rate = std::max(rate, du / rec["dt"].get<double>());
+    }
+    EXPECT_NEAR(rec["smoothness"]["total_variation"][j].get<double>(), tv, 1e-12 * (1 + tv));
+    EXPECT_NEAR(rec["smoothness"]["max_rate"][j].get<double>(), rate, 1e-12 * (1 + rate));
+  }
+
+  // Frames by REST, and replayed to a late joiner over the WebSocket.
+  const json part = get_json(c, s, "/api/cbf/rollouts/" + id + "/frames?from=50&count=10");
+  ASSERT_EQ(part["frames"].size(), 10u);
+  EXPECT_EQ(part["first"], 50);
+  EXPECT_EQ(part["frames"][0], frames[50]);
+  EXPECT_EQ(part["frames"][9], frames[59]);
+  EXPECT_EQ(get_json(c, s, "/api/cbf/rollouts/" + id + "/frames?from=1000")["frames"].size(), 0u);
+  expect_error(c.Get(("/api/cbf/rollouts/" + id + "/frames?from=-1").c_str(), session_headers(s)), 400, "invalid_input", "from");
+  expect_error(c.Get(("/api/cbf/rollouts/" + id + "/frames?count=999999").c_str(), session_headers(s)), 413, "too_many_frames", "count");
+
+  auto late_owner = connect(server_->port(), s);
+  WsClient& late = *late_owner;
+  late.send({{"type", "cbf_replay"}, {"rollout", id}, {"from", 0}});
+  std::map<std::size_t, json> replayed;
+  Msg m;
+  ASSERT_TRUE(late.until(
+      [&](const Msg& x) {
+        if (x.binary || x.j["type"] != "cbf_frames") return false;
+        for (const json& f : x.j["frames"]) replayed[f["i"].get<std::size_t>()] = f;
+        return replayed.size() == 100;
+      },
+      m, 60));
+  EXPECT_EQ(replayed, frames);
+  late.send({{"type", "cbf_replay"}, {"rollout", "0123"}});
+  ASSERT_TRUE(late.until([](const Msg& x) { return !x.binary && x.j["type"] == "error"; }, m, 30));
+  EXPECT_EQ(m.j["status"], 404);
+  EXPECT_EQ(m.j["error"]["code"], "unknown_rollout");
+
+  // Without pairs and poses the frames are small.
+  const std::string lean = start(c, s, {{"scenario", "corridor"}, {"metric", "euclidean"}, {"params", {{"duration", 0.2}}},
+                                        {"stream", {{"pairs", false}, {"poses", false}}}});
+  std::map<std::size_t, json> lean_frames;
+  ASSERT_EQ(follow(ws, lean, lean_frames), "succeeded");
+  ASSERT_EQ(lean_frames.size(), 20u);
+  EXPECT_FALSE(lean_frames[0].contains("poses"));
+  EXPECT_FALSE(lean_frames[0].contains("distance"));
+  EXPECT_TRUE(lean_frames[0]["q"].is_array());
+  EXPECT_EQ(get_json(c, s, "/api/cbf/rollouts")["rollouts"].size(), 2u);
+}
+
+TEST_F(CbfApi, RecordIsTheCliRecord) {
+  const std::string s = new_session(c);
+  auto ws_owner = connect(server_->port(), s);
+  WsClient& ws = *ws_owner;
+  json inline_scenario = get_json(c, "", "/api/cbf/scenarios/corridor");
+  inline_scenario["name"] = "corridor-inline";
+  inline_scenario["obstacles"][2]["shape"]["pose"]["position"][2] = 0.95;
+  const json requests[] = {
+      {{"scenario", "corridor"}, {"metric", "gap"}, {"params", {{"duration", 0.6}}}},
+      {{"scenario", "corridor"}, {"metric", "euclidean"}, {"params", {{"duration", 0.6}, {"record_pairs", false}}}},
+      {{"scenario", inline_scenario}, {"metric", "euclidean"}, {"params", {{"duration", 0.3}, {"audit", false}}}},
+  };
+  for (const json& request : requests) {
+    const std::string id = start(c, s, request);
+    std::map<std::size_t, json> frames;
+    ASSERT_EQ(follow(ws, id, frames), "succeeded");
+    json api = get_json(c, s, "/api/cbf/rollouts/" + id + "/record");
+    json cli = run_cli(request);
+    ASSERT_TRUE(cli.is_object() && cli.contains("q")) << cli.dump().substr(0, 300);
+    // Timings differ from run to run; every other number is the same.
+    EXPECT_TRUE(api["timing"].contains("step_us_mean"));
+    api.erase("timing");
+    cli.erase("timing");
+    EXPECT_EQ(api.contains("distance"), request["params"].value("record_pairs", true));
+    for (const auto& [key, value] : cli.items()) EXPECT_EQ(api[key], value) << "record field " << key << " of " << request;
+    EXPECT_EQ(api.size(), cli.size());
+  }
+}
+
+TEST_F(CbfApi, CancelMidwayAndOtherSessionsSeeNothing) {
+  const std::string s = new_session(c), other = new_session(c);
+  auto ws_owner = connect(server_->port(), s), spy_owner = connect(server_->port(), other);
+  WsClient &ws = *ws_owner, &spy = *spy_owner;
+  // 150 s of simulated time: seconds of work, so it is cancelled while running.
+  const std::string id = start(c, s, {{"scenario", "corridor"}, {"metric", "gap"}, {"params", {{"duration", 150}, {"record_pairs", false}}},
+                                      {"stream", {{"batch_steps", 20}, {"pairs", false}}}});
+  expect_error(c.Get(("/api/cbf/rollouts/" + id + "/record").c_str(), session_headers(s)), 409, "not_finished");
+
+  // Another session: 404 everywhere, and no frames on its socket.
+  expect_error(c.Get(("/api/cbf/rollouts/" + id).c_str(), session_headers(other)), 404, "unknown_rollout");
+  expect_error(c.Get(("/api/cbf/rollouts/" + id + "/frames").c_str(), session_headers(other)), 404, "unknown_rollout");
+  expect_error(c.Get(("/api/cbf/rollouts/" + id + "/record").c_str(), session_headers(other)), 404, "unknown_rollout");
+  expect_error(c.Post(("/api/jobs/" + id + "/cancel").c_str(), session_headers(other), "", "application/json"), 404, "unknown_job");
+  EXPECT_TRUE(get_json(c, other, "/api/cbf/rollouts")["rollouts"].empty());
+  spy.send({{"type", "cbf_replay"}, {"rollout", id}});
+  Msg m;
+  ASSERT_TRUE(spy.until([](const Msg& x) { return !x.binary; }, m, 30));
+  EXPECT_EQ(m.j["type"], "error") << m.data;
+  EXPECT_EQ(m.j["error"]["code"], "unknown_rollout");
+
+  std::map<std::size_t, json> frames;
+  bool cancel_sent = false;
+  const std::string state = follow(ws, id, frames, nullptr, [&](const json& msg) {
+    if (cancel_sent || msg["steps_done"].get<int>() < 100) return;
+    auto r = c.Post(("/api/jobs/" + id + "/cancel").c_str(), session_headers(s), "", "application/json");
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 202);
+    cancel_sent = true;
+  });
+  EXPECT_TRUE(cancel_sent);
+  EXPECT_EQ(state, "cancelled");
+  const json status = get_json(c, s, "/api/cbf/rollouts/" + id);
+  EXPECT_EQ(status["state"], "cancelled");
+  EXPECT_EQ(status["job"]["error"]["code"], "cancelled");
+  const int done = status["steps_done"];
+  EXPECT_GE(done, 100);
+  EXPECT_LT(done, 15000);
+  EXPECT_EQ(frames.size(), static_cast<std::size_t>(done)) << "every computed step was streamed";
+  // The partial record is kept and says so.
+  const json rec = get_json(c, s, "/api/cbf/rollouts/" + id + "/record");
+  EXPECT_EQ(rec["steps"], done);
+  EXPECT_EQ(rec["summary"]["cancelled"], true);
+  EXPECT_EQ(rec["summary"]["reached"], false);
+  // The other session's socket saw none of it.
+  while (spy.read(m, 0.2)) EXPECT_NE(m.j["type"], "cbf_frames");
+}
+
+}  // namespace
+}  // namespace distlab::test
