@@ -1,12 +1,17 @@
 // distlab-bench-cbf: the corridor experiment (paper Section IV-B) with both metrics in one run:
 // goal reached?, true clearance, smoothness of u per joint (paper Fig. 4), per-step times.
-// usage: distlab-bench-cbf [--scenario FILE] [--duration S] [--no-audit] [--json FILE]
+// usage: distlab-bench-cbf [--scenario FILE] [--duration S] [--repeat N] [--no-audit] [--json FILE]
+// With --repeat N the two metrics run N times each, alternating (so both see the same machine
+// load), and the times are medians over the runs; "step p50" is the median step of a run.
+#include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <iostream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -40,20 +45,40 @@ void print_smoothness(const RolloutRecord& g, const RolloutRecord& e, double t0,
   }
 }
 
+struct RunTimes {
+  double kinematics, distance, qp, step, audit, wall, step_p50;
+};
+
+RunTimes run_times(const RolloutRecord& r) {
+  std::vector<double> steps;
+  for (const StepRecord& s : r.steps) steps.push_back(s.timing.step);
+  std::nth_element(steps.begin(), steps.begin() + steps.size() / 2, steps.end());
+  return {r.timing.kinematics, r.timing.distance, r.timing.qp, r.timing.step, r.timing.audit, r.wall_seconds,
+          steps.empty() ? 0.0 : steps[steps.size() / 2]};
+}
+
+double median_of(std::vector<RunTimes> runs, double RunTimes::*field) {
+  std::sort(runs.begin(), runs.end(), [&](const RunTimes& a, const RunTimes& b) { return a.*field < b.*field; });
+  const std::size_t n = runs.size();
+  return n % 2 ? runs[n / 2].*field : 0.5 * (runs[n / 2 - 1].*field + runs[n / 2].*field);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   std::string scenario_file, json_file;
   double duration = -1;
+  int repeat = 1;
   bool audit = true;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--scenario" && i + 1 < argc) scenario_file = argv[++i];
     else if (a == "--json" && i + 1 < argc) json_file = argv[++i];
     else if (a == "--duration" && i + 1 < argc) duration = std::stod(argv[++i]);
+    else if (a == "--repeat" && i + 1 < argc) repeat = std::max(1, std::atoi(argv[++i]));
     else if (a == "--no-audit") audit = false;
     else {
-      std::fprintf(stderr, "usage: %s [--scenario FILE] [--duration S] [--no-audit] [--json FILE]\n",
+      std::fprintf(stderr, "usage: %s [--scenario FILE] [--duration S] [--repeat N] [--no-audit] [--json FILE]\n",
                    argv[0]);
       return 2;
     }
@@ -69,11 +94,30 @@ int main(int argc, char** argv) {
 
   RolloutOptions opt;
   opt.audit_clearance = audit;
-  const RolloutRecord g = rollout(sc, Metric::gap, opt);
-  const RolloutRecord e = rollout(sc, Metric::euclidean, opt);
+  // Timings of every run; the records of the last run of each metric (the numbers do not change
+  // between runs, only the times).
+  RolloutRecord g, e;
+  std::vector<RunTimes> gt, et;
+  for (int k = 0; k < repeat; ++k) {
+    g = rollout(sc, Metric::gap, opt);
+    gt.push_back(run_times(g));
+    e = rollout(sc, Metric::euclidean, opt);
+    et.push_back(run_times(e));
+  }
+  for (auto* p : {&g, &e}) {  // medians over the runs in place of the last run's means
+    const std::vector<RunTimes>& t = p == &g ? gt : et;
+    p->timing.kinematics = median_of(t, &RunTimes::kinematics);
+    p->timing.distance = median_of(t, &RunTimes::distance);
+    p->timing.qp = median_of(t, &RunTimes::qp);
+    p->timing.step = median_of(t, &RunTimes::step);
+    p->timing.audit = median_of(t, &RunTimes::audit);
+    p->wall_seconds = median_of(t, &RunTimes::wall);
+  }
+  const double g_p50 = median_of(gt, &RunTimes::step_p50), e_p50 = median_of(et, &RunTimes::step_p50);
 
-  std::printf("CBF-QP corridor rollout, %s, %.1f s at dt = %.3f s, %zu pairs, 1 thread\n",
-              sc.name.c_str(), sc.duration, sc.dt, g.pairs.size());
+  std::printf("CBF-QP corridor rollout, %s, %.1f s at dt = %.3f s, %zu pairs, 1 thread, %d run(s) per metric "
+              "(times: medians over runs of the per-run mean)\n",
+              sc.name.c_str(), sc.duration, sc.dt, g.pairs.size(), repeat);
   std::printf("  metric     reached  final |r|   min clearance  infeasible  cold | kin us  dist us   qp us  step us | audit us | wall s\n");
   for (const RolloutRecord* r : {&g, &e})
     std::printf("  %-9s  %-7s  %9.2e  %13.5f  %10zu  %4d | %6.2f  %7.2f  %6.2f  %7.2f | %8.2f | %6.3f\n",
@@ -84,6 +128,8 @@ int main(int argc, char** argv) {
   const double ratio = g.timing.step / e.timing.step;
   std::printf("  GAP step / Euclidean step = %.2f (target <= 1.3); GAP step %.1f us (target <= 150)\n",
               ratio, g.timing.step);
+  std::printf("  median step (p50 within a run, median over runs): GAP %.1f us, Euclidean %.1f us\n", g_p50,
+              e_p50);
   std::printf("  35 s rollout wall time: GAP %.3f s, Euclidean %.3f s (target < 1 s; includes the\n"
               "  per-pair record%s)\n", g.wall_seconds, e.wall_seconds,
               audit ? " and the GAP run's Euclidean clearance audit" : "");
@@ -106,6 +152,9 @@ int main(int argc, char** argv) {
           {"smoothness_all", smooth_json(*r, 0, 1e300)}};
     }
     out["step_ratio_gap_over_euclidean"] = ratio;
+    out["repeat"] = repeat;
+    out["gap"]["step_p50_us"] = g_p50;
+    out["euclidean"]["step_p50_us"] = e_p50;
     std::ofstream(json_file) << out.dump(2) << "\n";
   }
   return 0;

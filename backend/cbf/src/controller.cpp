@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "distlab/collision/euclidean.hpp"
+#include "distlab/gap/solver.hpp"
 
 namespace distlab::cbf {
 namespace {
@@ -30,6 +31,46 @@ P2SOptions gap_options(const Shape& shape, P2SOptions options, double weight_mar
   return options;
 }
 
+// A plane normal to n (from A towards B) with A on one side and B on the other, at least `gap`
+// apart: a proof that A and B do not overlap, from two support points.
+bool separated_along(const Shape& sa, const Pose& pa, const Mat3& Ra, const Shape& sb, const Pose& pb,
+                     const Mat3& Rb, Vec3 n, double gap) {
+  const double len = n.norm();
+  if (!(len > 0) || !std::isfinite(len)) return false;
+  n /= len;
+  const double a_max = n.dot(Ra * support(sa, Ra.transpose() * n) + pa.position);
+  const double b_min = n.dot(Rb * support(sb, Rb.transpose() * -n) + pb.position);
+  return b_min - a_max > gap;
+}
+
+// Separation proved by a plane this far apart is far beyond the overlap test's own tolerances
+// (1e-9 in collision/placed.hpp), so that test would answer "no overlap" too.
+constexpr double kCertifiedGap = 1e-6;
+
+// gap_distance_warm for a pair known to be disjoint: the same solve without its overlap test
+// (libccd GJK plus a verifying GJK, the most expensive part of a warm call).
+GapResult warm_disjoint(const GapBody& a, const GapBody& b, const GapParams& params,
+                        const Vec3& start_a, const Vec3& start_b) {
+  GapResult r;
+  r.euclidean_computed = false;
+  const WitnessSolution s =
+      params.solver == GapSolver::newton
+          ? solve_newton(a.p2s(), b.p2s(), start_a, params.tol, params.iteration_limit(), &start_b)
+          : solve_fixed_point(a.p2s(), b.p2s(), start_a, params.tol, params.iteration_limit());
+  r.witness_a = s.a;
+  r.witness_b = s.b;
+  r.iterations = s.iterations;
+  r.converged = s.converged;
+  r.lambda = std::max(s.lambda, 0.0);
+  r.distance = std::sqrt(2.0 * r.lambda);
+  if (params.gradient && r.distance > 0) {
+    lambda_gradients(s.a, s.b, a.pose(), b.pose(), r.gradient_a, r.gradient_b);
+    r.gradient_a /= r.distance;  // dD = dΛ / D
+    r.gradient_b /= r.distance;
+  }
+  return r;
+}
+
 }  // namespace
 
 Task task_function(const Kinematics& k, const Panda& robot, const Pose& target) {
@@ -52,6 +93,7 @@ struct CbfController::Impl {
   std::vector<GapBody> robot_gap, obstacle_gap;  // GAP metric only
   std::vector<EuclideanShape> robot_euclid, obstacle_euclid;
   std::vector<Pose> robot_pose, obstacle_pose;
+  std::vector<Mat3> robot_R, obstacle_R;  // rotation matrices of the poses
   std::vector<Jac> robot_jac;  // Jacobian of each primitive's origin, fixed to its link
   std::vector<Vec3> warm_a, warm_b;
   std::vector<char> warm_ok;
@@ -84,12 +126,14 @@ CbfController::CbfController(const Scenario& scenario, Metric metric)
     const Obstacle& o = scenario_.obstacles[j];
     m.obstacle_euclid.emplace_back(o.shape);
     m.obstacle_pose.push_back(o.pose);
+    m.obstacle_R.push_back(o.pose.R());
     if (metric_ == Metric::gap)
       m.obstacle_gap.emplace_back(o.shape, o.pose, scenario_.gap,
                                   gap_options(o.shape, o.options, scenario_.gap.weight_margin),
                                   "obstacles[" + std::to_string(j) + "]");
   }
   m.robot_pose.resize(prims.size());
+  m.robot_R.resize(prims.size());
   m.robot_jac.resize(prims.size());
   reset_warm_start();
 }
@@ -113,6 +157,7 @@ void CbfController::compute_pairs(const Kinematics& k, std::vector<PairSample>& 
   const auto& prims = robot_.primitives();
   for (std::size_t i = 0; i < prims.size(); ++i) {
     m.robot_pose[i] = robot_.primitive_pose(k, static_cast<int>(i));
+    m.robot_R[i] = m.robot_pose[i].R();
     m.robot_jac[i] = robot_.point_jacobian(k, prims[i].link, m.robot_pose[i].position);
     if (metric_ == Metric::gap) m.robot_gap[i].set_pose(m.robot_pose[i]);
   }
@@ -128,8 +173,18 @@ void CbfController::compute_pairs(const Kinematics& k, std::vector<PairSample>& 
       const GapBody& B = pair.self ? m.robot_gap[pair.b] : m.obstacle_gap[pair.b];
       GapResult g;
       if (m.warm_ok[p]) {
-        // Tracking: Newton from the previous step's witnesses converges in a few steps.
-        g = gap_distance_warm(A, B, scenario_.gap, m.warm_a[p], m.warm_b[p]);
+        // Tracking: Newton from the previous step's witnesses converges in a few steps. The
+        // previous witnesses' direction usually still separates the shapes; then the overlap test
+        // is skipped (same result: the separated branch of gap_distance_warm).
+        const Shape& sb = pair.self ? prims[pair.b].shape : scenario_.obstacles[pair.b].shape;
+        const Pose& pb = pair.self ? m.robot_pose[pair.b] : m.obstacle_pose[pair.b];
+        const Mat3& Rb = pair.self ? m.robot_R[pair.b] : m.obstacle_R[pair.b];
+        if (separated_along(prims[pair.a].shape, m.robot_pose[pair.a], m.robot_R[pair.a], sb, pb, Rb,
+                            m.warm_b[p] - m.warm_a[p], kCertifiedGap)) {
+          g = warm_disjoint(A, B, scenario_.gap, m.warm_a[p], m.warm_b[p]);
+        } else {
+          g = gap_distance_warm(A, B, scenario_.gap, m.warm_a[p], m.warm_b[p]);
+        }
       }
       if (!m.warm_ok[p] || !g.converged) {
         g = gap_distance(A, B, scenario_.gap);
