@@ -36,13 +36,13 @@ export class RolloutPlots {
       for (const m of metrics)
         vSeries.push({ label: `u${j + 1} ${SHORT[m]}`, color: JOINT_COLORS[j], dash: dash(m), width: m === "gap" ? 1.6 : 1.2, show: joint === 0 || joint === j + 1 });
     this.velocity = new Plot(container, { title: metrics.length === 2 ? "joint velocities u (rad/s) — GAP solid, Euclidean dashed" : `joint velocities u (rad/s) — ${metrics[0] === "gap" ? "GAP" : "Euclidean"}`, xLabel: "t (s)", yLabel: "u", series: vSeries, digits: 4, legendValues: false });
-    this.velocity.root.style.flex = "1.6";
+    this.velocity.root.style.flex = "2.2";
     const dSeries: PlotSeries[] = [];
     for (const m of metrics) {
       dSeries.push({ label: `clearance ${SHORT[m]}`, color: METRIC_COLOR[m], width: 2 });
       dSeries.push({ label: `min D ${SHORT[m]}`, color: METRIC_COLOR[m], dash: [2, 3], width: 1.2 });
     }
-    this.distance = new Plot(container, { title: "distance (m): true clearance, min D", xLabel: "t (s)", yLabel: "m", series: dSeries, digits: 5 });
+    this.distance = new Plot(container, { title: "distance (m)", xLabel: "t (s)", yLabel: "m", series: dSeries, digits: 5, legendValues: false });
     this.error = new Plot(container, {
       title: "task error ‖r‖",
       xLabel: "t (s)",
@@ -50,8 +50,9 @@ export class RolloutPlots {
       yLog: true,
       series: metrics.map((m) => ({ label: `‖r‖ ${SHORT[m]}`, color: METRIC_COLOR[m], dash: dash(m), width: 1.6 })),
       digits: 5,
+      legendValues: false,
     });
-    this.error.root.style.flex = "0.8";
+    this.error.root.style.flex = "0.9";
     for (const p of [this.velocity, this.distance, this.error]) p.onPick(onPick);
   }
 
