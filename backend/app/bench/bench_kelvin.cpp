@@ -2,9 +2,11 @@
 // SparseLU (the paper's solver) and CGAL's AABB-tree distance in the same run.
 // usage: distlab-bench-kelvin [--assets DIR] [--lx 0.2,0.15,...] [--grid 1000] [--lu-max 60000]
 //                             [--wrench-lx 0.002] [--wrench-features 180] [--json FILE]
-//                             [--table2-only 1] [--table1-only 1]
-// t_solve is σ → V (eqs. 17, 20, 21: what the paper times); t_grad, the vertex gradients for ∇h,
-// is reported beside it.
+//                             [--table2-only 1] [--table1-only 1] [--sphere-rmse 0.1,0.05,...]
+// t_solve is σ → V (eqs. 17, 20, 21: what the paper times; mean and median of 100); t_grad, the
+// vertex gradients for ∇h, is reported beside it. "own dense" and chol_ms: the same factor's
+// solve with a dense right-hand side (all ones) by our supernodal solve and by CHOLMOD's
+// cholmod_solve2; LU_*: Eigen SparseLU on the same matrix and right-hand side.
 #include <Eigen/SparseLU>
 
 #include <algorithm>
@@ -16,6 +18,7 @@
 #include <random>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -40,7 +43,13 @@ double median(std::vector<double> v) {
 
 // Per-query timings in µs: a coherent path with the previous cell as hint, and random points
 // located through the seeding grid.
-std::pair<double, double> query_times(const Field& f, const std::vector<Vec3>& path, const std::vector<Vec3>& random) {
+double percentile(std::vector<double> v, double q) {
+  const auto k = static_cast<long>(q * static_cast<double>(v.size() - 1));
+  std::nth_element(v.begin(), v.begin() + k, v.end());
+  return v[static_cast<size_t>(k)];
+}
+
+std::tuple<double, double, double> query_times(const Field& f, const std::vector<Vec3>& path, const std::vector<Vec3>& random) {
   std::vector<double> hinted, seeded;
   int hint = -1;
   double sink = 0;
@@ -55,13 +64,13 @@ std::pair<double, double> query_times(const Field& f, const std::vector<Vec3>& p
     seeded.push_back(since(t0) * 1e6);
   }
   if (sink == 12345.678) std::puts("");  // keep the queries observable
-  return {median(hinted), median(seeded)};
+  return {median(hinted), median(seeded), percentile(seeded, 0.9)};
 }
 
 struct Row {
   double lx = 0;
   Stats stats;
-  double solve_ms = 0, solve_sd = 0, grad_ms = 0, chol_solve_ms = 0, rmse = -1, q_hint = 0, q_seed = 0;
+  double solve_ms = 0, solve_med = 0, solve_sd = 0, grad_ms = 0, chol_solve_ms = 0, dense_solve_ms = 0, q_seed_p90 = 0, rmse = -1, q_hint = 0, q_seed = 0;
   std::vector<double> case_solve_ms;  // Table II: one per σ case
   double lu_decomp = -1, lu_solve_ms = -1, aabb_us = 0;
 };
@@ -70,7 +79,8 @@ nlohmann::json to_json(const Row& r) {
   return {{"lx", r.lx}, {"n_verts", r.stats.n_verts}, {"n_tets", r.stats.n_tets}, {"size_mb", r.stats.size_mb},
           {"rmse", r.rmse}, {"t_mesh", r.stats.t_mesh}, {"t_build", r.stats.t_build}, {"t_decomp", r.stats.t_decomp},
           {"t_solve_ms", r.solve_ms}, {"t_solve_sd_ms", r.solve_sd}, {"t_grad_ms", r.grad_ms},
-          {"t_cholmod_solve_ms", r.chol_solve_ms}, {"t_solve_cases_ms", r.case_solve_ms},
+          {"t_solve_median_ms", r.solve_med}, {"t_cholmod_solve_ms", r.chol_solve_ms},
+          {"t_own_dense_solve_ms", r.dense_solve_ms}, {"t_query_nohint_p90_us", r.q_seed_p90}, {"t_solve_cases_ms", r.case_solve_ms},
           {"t_query_hint_us", r.q_hint}, {"t_query_nohint_us", r.q_seed}, {"t_sparselu_decomp", r.lu_decomp},
           {"t_sparselu_solve_ms", r.lu_solve_ms}, {"t_aabb_distance_us", r.aabb_us}};
 }
@@ -101,19 +111,24 @@ Row run(const mesh::SurfaceMesh& surface, const PrepareOptions& o, const std::ve
   for (double v : t) mean += v / t.size();
   for (double v : t) sq += (v - mean) * (v - mean) / t.size();
   r.solve_ms = mean;
+  r.solve_med = median(t);
   r.solve_sd = std::sqrt(sq);
   r.stats = f.stats();
   const Eigen::SparseMatrix<double> a = f.reduced_matrix();
   const VecX b = VecX::Ones(a.rows());
   {
-    std::vector<double> ts;
+    std::vector<double> ts, tc;
     for (int i = 0; i < 20; ++i) {
-      VecX x = b;
-      const auto t0 = Clock::now();
+      VecX x = b, y = b;
+      auto t0 = Clock::now();
       f.solve_reduced(x);
       ts.push_back(since(t0) * 1e3);
+      t0 = Clock::now();
+      f.solve_reduced(y, true);
+      tc.push_back(since(t0) * 1e3);
     }
-    r.chol_solve_ms = median(ts);
+    r.dense_solve_ms = median(ts);
+    r.chol_solve_ms = median(tc);
   }
   if (r.stats.n_verts <= lu_max) {
     Eigen::SparseLU<Eigen::SparseMatrix<double>> lu;
@@ -128,7 +143,7 @@ Row run(const mesh::SurfaceMesh& surface, const PrepareOptions& o, const std::ve
     }
     r.lu_solve_ms = median(ts);
   }
-  std::tie(r.q_hint, r.q_seed) = query_times(f, path, random);
+  std::tie(r.q_hint, r.q_seed, r.q_seed_p90) = query_times(f, path, random);
   const SurfaceOracle oracle(surface);
   std::vector<double> ts;
   double sink = 0;
@@ -144,14 +159,14 @@ Row run(const mesh::SurfaceMesh& surface, const PrepareOptions& o, const std::ve
 }
 
 void print(const char* title, const std::vector<Row>& rows) {
-  std::printf("\n%s\n| l_x | N_verts | N_tets | MB | RMSE | t_mesh | t_build | t_decomp | t_solve | t_grad | chol_ms | "
-              "q_hint | q_seed | LU_decomp | LU_solve | AABB |\n|%s\n", title,
-              "---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+  std::printf("\n%s\n| l_x | N_verts | N_tets | MB | RMSE | t_mesh | t_build | t_decomp | t_solve | t_solve med | t_grad | "
+              "own dense | chol_ms | q_hint | q_seed | q_seed p90 | LU_decomp | LU_solve | AABB |\n|%s\n", title,
+              "---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
   for (const Row& r : rows)
-    std::printf("| %.3g | %ld | %ld | %.2f | %.4f | %.2f | %.3f | %.3f | %.2f ± %.2f | %.2f | %.2f | %.3f | %.3f | %.3f | %.2f | %.3f |\n",
+    std::printf("| %.3g | %ld | %ld | %.2f | %.4f | %.2f | %.3f | %.3f | %.2f ± %.2f | %.2f | %.2f | %.2f | %.2f | %.3f | %.3f | %.3f | %.3f | %.2f | %.3f |\n",
                 r.lx, r.stats.n_verts, r.stats.n_tets, r.stats.size_mb, r.rmse, r.stats.t_mesh, r.stats.t_build,
-                r.stats.t_decomp, r.solve_ms, r.solve_sd, r.grad_ms, r.chol_solve_ms, r.q_hint, r.q_seed, r.lu_decomp,
-                r.lu_solve_ms, r.aabb_us);
+                r.stats.t_decomp, r.solve_ms, r.solve_sd, r.solve_med, r.grad_ms, r.dense_solve_ms, r.chol_solve_ms,
+                r.q_hint, r.q_seed, r.q_seed_p90, r.lu_decomp, r.lu_solve_ms, r.aabb_us);
   std::fflush(stdout);
 }
 
@@ -171,6 +186,7 @@ int main(int argc, char** argv) {
   long lu_max = 60000;
   double wrench_lx = 0.002, wrench_features = 180;
   bool table1 = true, table2 = true;
+  std::vector<double> sphere_lxs;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string k = argv[i], v = argv[i + 1];
     if (k == "--lx") lxs = parse_list(v);
@@ -182,6 +198,7 @@ int main(int argc, char** argv) {
     else if (k == "--json") json_path = v;
     else if (k == "--table2-only") table1 = v == "0";
     else if (k == "--table1-only") table2 = v == "0";
+    else if (k == "--sphere-rmse") sphere_lxs = parse_list(v), table1 = table2 = false;
     else {
       std::fprintf(stderr, "unknown option %s\n", k.c_str());
       return 2;
@@ -263,7 +280,61 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "wrench skipped: %s\n", e.what());
   }
 
+  // RMSE against the exact field of a sphere (radius 0.5, σ = 0, inversion centre off its centre
+  // as in tests/kelvin): h = ln(|x|/R), on the plane z = 0 in [−3, 3]², split into the region
+  // where the mesh is uniform in x (|x − c| ≤ far_radius · r_max) and the far region beyond.
+  nlohmann::json sphere_json;
+  if (!sphere_lxs.empty()) {
+    std::printf("\nSphere R = 0.5, centre of inversion (0.12, -0.07, 0.05): h against ln(|x|/R) on a %d × %d grid, z = 0, [-3, 3]²\n"
+                "| l_x | N_verts | RMSE | RMSE |x|<0.65 | RMSE |x|≥0.65 | max |dh| | boundary RMS dist / l_x |\n|---|---|---|---|---|---|---|\n", grid, grid);
+    const mesh::SurfaceMesh sphere = mesh::icosphere(0.5, 6);
+    for (double lx : sphere_lxs) {
+      PrepareOptions o;
+      o.lx = lx;
+      o.centre = Vec3(0.12, -0.07, 0.05);
+      Field f = Field::prepare(sphere, o);
+      f.set_sigma(SigmaSpec{});
+      double all = 0, near = 0, far = 0, worst = 0;
+      long n_all = 0, n_near = 0, n_far = 0;
+      int hint = -1;
+      for (int i = 0; i < grid; ++i)
+        for (int j = 0; j < grid; ++j) {
+          const Vec3 x(-3 + 6.0 * (j + 0.5) / grid, -3 + 6.0 * (i + 0.5) / grid, 0);
+          if (x.norm() <= 0.5) continue;
+          const Sample q = f.query(x, &hint);
+          if (q.status != Status::ok) continue;
+          const double d = q.h - std::log(x.norm() / 0.5), d2 = d * d;
+          all += d2, ++n_all, worst = std::max(worst, std::abs(d));
+          if ((x - *o.centre).norm() < 0.65) near += d2, ++n_near; else far += d2, ++n_far;
+        }
+      // Boundary fidelity: RMS distance of the meshed boundary's face centroids (mapped to x) to
+      // the sphere, relative to l_x.
+      double bd = 0;
+      long nb = 0;
+      const TetMesh& m = f.tet_mesh();
+      for (Eigen::Index c = 0; c < m.tets.rows(); ++c) {
+        if (!m.in_domain[static_cast<size_t>(c)]) continue;
+        for (int k = 0; k < 4; ++k) {
+          const int n = m.neighbours(c, k);
+          if (n >= 0 && m.in_domain[static_cast<size_t>(n)]) continue;
+          Vec3 yc = Vec3::Zero();
+          for (int j = 0; j < 4; ++j)
+            if (j != k) yc += Vec3(m.points.row(m.tets(c, j))) / 3.0;
+          const Vec3 xc = *o.centre + yc / yc.squaredNorm();
+          bd += std::pow(xc.norm() - 0.5, 2), ++nb;
+        }
+      }
+      const double rmse = std::sqrt(all / std::max(n_all, 1L)), rn = std::sqrt(near / std::max(n_near, 1L)),
+                   rf = std::sqrt(far / std::max(n_far, 1L)), bdist = std::sqrt(bd / std::max(nb, 1L)) / lx;
+      std::printf("| %.3g | %ld | %.5f | %.5f | %.5f | %.4f | %.4f |\n", lx, f.stats().n_verts, rmse, rn, rf, worst, bdist);
+      std::fflush(stdout);
+      sphere_json.push_back({{"lx", lx}, {"n_verts", f.stats().n_verts}, {"rmse", rmse}, {"rmse_near", rn},
+                             {"rmse_far", rf}, {"max_abs", worst}, {"boundary_rms_over_lx", bdist}});
+    }
+  }
+
   nlohmann::json out;
+  if (!sphere_json.is_null()) out["sphere_rmse"] = sphere_json;
   for (const Row& r : rows) out["table1"].push_back(to_json(r));
   for (const Row& r : wrench_rows) out["table2"].push_back(to_json(r));
   std::ofstream(json_path) << out.dump(2) << "\n";

@@ -4,12 +4,21 @@
 #include <cholmod.h>
 #include <dlfcn.h>
 
+#include <algorithm>
 #include <istream>
 #include <ostream>
 #include <stdexcept>
 #include <vector>
 
 namespace distlab::kelvin {
+
+extern "C" {
+// Fortran BLAS (the system's: OpenBLAS), as CHOLMOD's own supernodal solve uses it.
+void dtrsv_(const char* uplo, const char* trans, const char* diag, const int* n, const double* a, const int* lda,
+            double* x, const int* incx);
+void dgemv_(const char* trans, const int* m, const int* n, const double* alpha, const double* a, const int* lda,
+            const double* x, const int* incx, const double* beta, double* y, const int* incy);
+}
 
 namespace {
 
@@ -30,6 +39,8 @@ struct CholmodSolver::Impl {
   mutable cholmod_dense* x = nullptr;  // workspaces reused by cholmod_solve2
   mutable cholmod_dense* y = nullptr;
   mutable cholmod_dense* e = nullptr;
+  mutable std::vector<double> work, below;  // solve(): permuted vector, one supernode's rows below
+  mutable double read_fraction = 1;
   Impl() {
     cholmod_start(&common);
     common.supernodal = CHOLMOD_SUPERNODAL;
@@ -77,6 +88,67 @@ void CholmodSolver::factorize(const Eigen::SparseMatrix<double>& lower) {
 }
 
 void CholmodSolver::solve(VecX& b) const {
+  const cholmod_factor* f = impl_->factor;
+  if (f == nullptr || b.size() != size()) throw std::logic_error("solve before factorize");
+  if (!f->is_super || f->itype != CHOLMOD_INT || f->xtype != CHOLMOD_REAL) {
+    solve_cholmod(b);
+    return;
+  }
+  // Supernode k: columns super[k] … super[k+1]−1; its rows s[pi[k]] … (the first ncol are its
+  // own columns), values x[px[k]] … as a dense column-major nrow × ncol block.
+  const int* super = static_cast<const int*>(f->super);
+  const int* pi = static_cast<const int*>(f->pi);
+  const int* px = static_cast<const int*>(f->px);
+  const int* rows = static_cast<const int*>(f->s);
+  const int* perm = static_cast<const int*>(f->Perm);
+  const double* lx = static_cast<const double*>(f->x);
+  const auto n = static_cast<size_t>(f->n), nsuper = static_cast<size_t>(f->nsuper);
+  std::vector<double>& w = impl_->work;
+  std::vector<double>& t = impl_->below;
+  w.resize(n);
+  t.resize(n);
+  for (size_t k = 0; k < n; ++k) w[k] = b[perm[k]];
+  double skipped = 0;
+  // Forward: L y = P b. Dense blocks through BLAS (dtrsv, dgemv), one thread (see above).
+  set_blas_threads(1);
+  const int one = 1;
+  const double p1 = 1, m1 = -1, zero0 = 0;
+  for (size_t k = 0; k < nsuper; ++k) {
+    const int c0 = super[k], ncol = super[k + 1] - c0, nrow = pi[k + 1] - pi[k], nbelow = nrow - ncol;
+    bool zero = true;
+    for (int j = 0; j < ncol && zero; ++j) zero = w[static_cast<size_t>(c0 + j)] == 0.0;
+    if (zero) {  // nothing flows out of this supernode
+      skipped += static_cast<double>(nrow) * ncol;
+      continue;
+    }
+    const double* block = lx + px[k];
+    double* y = w.data() + c0;
+    dtrsv_("L", "N", "N", &ncol, block, &nrow, y, &one);
+    if (nbelow == 0) continue;
+    dgemv_("N", &nbelow, &ncol, &p1, block + ncol, &nrow, y, &one, &zero0, t.data(), &one);
+    const int* r = rows + pi[k] + ncol;
+    for (int i = 0; i < nbelow; ++i) w[static_cast<size_t>(r[i])] -= t[static_cast<size_t>(i)];
+  }
+  // Back: Lᵀ x = y, every supernode, last to first.
+  for (size_t k = nsuper; k-- > 0;) {
+    const int c0 = super[k], ncol = super[k + 1] - c0, nrow = pi[k + 1] - pi[k], nbelow = nrow - ncol;
+    const double* block = lx + px[k];
+    double* y = w.data() + c0;
+    if (nbelow > 0) {
+      const int* r = rows + pi[k] + ncol;
+      for (int i = 0; i < nbelow; ++i) t[static_cast<size_t>(i)] = w[static_cast<size_t>(r[i])];
+      dgemv_("T", &nbelow, &ncol, &m1, block + ncol, &nrow, t.data(), &one, &p1, y, &one);
+    }
+    dtrsv_("L", "T", "N", &ncol, block, &nrow, y, &one);
+  }
+  for (size_t k = 0; k < n; ++k) b[perm[k]] = w[k];
+  const double total = static_cast<double>(f->xsize);
+  impl_->read_fraction = total > 0 ? (2 * total - skipped) / (2 * total) : 1;
+}
+
+double CholmodSolver::last_read_fraction() const { return impl_->read_fraction; }
+
+void CholmodSolver::solve_cholmod(VecX& b) const {
   if (impl_->factor == nullptr || b.size() != size()) throw std::logic_error("solve before factorize");
   set_blas_threads(1);
   cholmod_dense rhs{};

@@ -18,8 +18,14 @@ class CholmodSolver {
 
   // lower: the lower triangle (with diagonal) of an SPD matrix, compressed column storage.
   void factorize(const Eigen::SparseMatrix<double>& lower);
-  // Solves A x = b in place (b must have size n).
+  // Solves A x = b in place (b must have size n): forward and back substitution over the
+  // supernodal factor, skipping in the forward pass every supernode whose part of the permuted
+  // right-hand side is still zero (b = −A_Ω∂ V_∂ of eq. 20 is nonzero only next to the boundary).
   void solve(VecX& b) const;
+  // The same through CHOLMOD's own cholmod_solve2 (reference and benchmark baseline).
+  void solve_cholmod(VecX& b) const;
+  // Share of the factor's entries read by the last solve() (forward and back together, in [0.5, 1]).
+  double last_read_fraction() const;
   Eigen::Index size() const;
   double factor_megabytes() const;
 

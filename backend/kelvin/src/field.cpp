@@ -2,11 +2,13 @@
 // Laplacian and reduce it (eqs. 19–21), factor (eq. 22); and the σ-dependent solve (eq. 17).
 #include <chrono>
 #include <cmath>
+#include <algorithm>
 #include <map>
 
 #include "distlab/geometry/error.hpp"
 #include "distlab/mesh/checks.hpp"
 #include "field_impl.hpp"
+#include "reorder.hpp"
 
 namespace distlab::kelvin {
 namespace {
@@ -124,6 +126,7 @@ static std::unique_ptr<Field::Impl> mesh_stage(mesh::SurfaceMesh surface, const 
   params.max_refinement_evaluations = o.max_refinement_steps;
   std::string warning;
   impl->tm = mesh_inverted_domain(inverted, params, progress, &warning);
+  reorder_spatially(impl->tm);
   impl->stats.t_mesh = seconds_since(t0);
   impl->surface = std::move(surface);
   impl->options = o;
@@ -174,13 +177,14 @@ void Field::Impl::build(const Progress& progress) {
   progress("build", 0.1);
 
   // P1 stiffness K_ij = Σ_t vol_t ∇φ_i·∇φ_j: the cotangent Laplacian [34, 35] of eq. 19.
-  std::vector<Eigen::Triplet<double>> oo, ob;
-  oo.reserve(domain_tets.size() * 10);
-  ob.reserve(domain_tets.size() * 6);
-  grad_weights.resize(domain_tets.size());
+  // Assembled column by column from each vertex's star (vertex → cell incidence by counting
+  // sort), straight into compressed storage: no triplet list to sort (was 2/3 of t_build).
+  const auto nd = domain_tets.size();
+  grad_weights.resize(nd);
+  std::vector<double> volume(nd);
   star_volume = VecX::Zero(static_cast<Eigen::Index>(np));
-  for (size_t i = 0; i < domain_tets.size(); ++i) {
-    if ((i & 0xffff) == 0) progress("build", 0.1 + 0.7 * static_cast<double>(i) / static_cast<double>(domain_tets.size()));
+  star_start.assign(np + 1, 0);
+  for (size_t i = 0; i < nd; ++i) {
     const int c = domain_tets[i];
     const Vec3 a = tm.points.row(tm.tets(c, 0));
     Mat3 d;
@@ -191,27 +195,65 @@ void Field::Impl::build(const Progress& progress) {
     g.row(0) = -inv.colwise().sum();
     g.bottomRows<3>() = inv;
     grad_weights[i] = vol * g;
+    volume[i] = vol;
     for (int j = 0; j < 4; ++j) {
-      const int vj = tm.tets(c, j);
-      star_volume[vj] += vol;
-      const int sj = slot[static_cast<size_t>(vj)];
-      if (sj < 0) continue;  // rows only for interior unknowns
-      for (int k = 0; k < 4; ++k) {
-        const int sk = slot[static_cast<size_t>(tm.tets(c, k))];
-        const double value = vol * g.row(j).dot(g.row(k));
-        if (sk >= 0) {
-          if (sj >= sk) oo.emplace_back(sj, sk, value);
-        } else {
-          ob.emplace_back(sj, -sk - 2, value);
-        }
-      }
+      star_volume[tm.tets(c, j)] += vol;
+      ++star_start[static_cast<size_t>(tm.tets(c, j)) + 1];
     }
   }
-  const auto ni = static_cast<Eigen::Index>(interior.size()), nb = static_cast<Eigen::Index>(boundary.size());
-  a_oo_lower.resize(ni, ni);
-  a_oo_lower.setFromTriplets(oo.begin(), oo.end());
-  a_ob.resize(ni, nb);
-  a_ob.setFromTriplets(ob.begin(), ob.end());
+  for (size_t v = 0; v < np; ++v) star_start[v + 1] += star_start[v];
+  star.assign(static_cast<size_t>(star_start.back()), 0);
+  {
+    std::vector<int> fill(star_start.begin(), star_start.end() - 1);
+    for (size_t i = 0; i < nd; ++i)
+      for (int j = 0; j < 4; ++j) star[fill[static_cast<size_t>(tm.tets(domain_tets[i], j))]++] = static_cast<int>(4 * i + j);
+  }
+  progress("build", 0.5);
+  // Column of vertex v: rows are the interior vertices w of its star with accept(slot of w);
+  // position[] maps a row to its place in the column being built (reset after each column).
+  const auto ni = static_cast<Eigen::Index>(interior.size());
+  std::vector<int> position(static_cast<size_t>(ni), -1);
+  std::vector<std::pair<int, double>> column;
+  auto assemble = [&](Eigen::SparseMatrix<double>& out, Eigen::Index rows, const std::vector<int>& columns,
+                      bool lower) {
+    std::vector<int> outer(columns.size() + 1, 0), inner;
+    std::vector<double> values;
+    inner.reserve(columns.size() * 16);
+    values.reserve(columns.size() * 16);
+    for (size_t col = 0; col < columns.size(); ++col) {
+      const int v = columns[col];
+      column.clear();
+      for (int e = star_start[static_cast<size_t>(v)]; e < star_start[static_cast<size_t>(v) + 1]; ++e) {
+        const int i = star[static_cast<size_t>(e)] >> 2, j = star[static_cast<size_t>(e)] & 3;
+        const auto& gw = grad_weights[static_cast<size_t>(i)];
+        const int c = domain_tets[static_cast<size_t>(i)];
+        for (int k = 0; k < 4; ++k) {
+          const int row = slot[static_cast<size_t>(tm.tets(c, k))];
+          if (row < 0 || (lower && row < static_cast<int>(col))) continue;
+          const double value = gw.row(j).dot(gw.row(k)) / volume[static_cast<size_t>(i)];
+          int& at = position[static_cast<size_t>(row)];
+          if (at < 0) {
+            at = static_cast<int>(column.size());
+            column.emplace_back(row, value);
+          } else {
+            column[static_cast<size_t>(at)].second += value;
+          }
+        }
+      }
+      std::sort(column.begin(), column.end());
+      for (const auto& [row, value] : column) {
+        position[static_cast<size_t>(row)] = -1;
+        inner.push_back(row);
+        values.push_back(value);
+      }
+      outer[col + 1] = static_cast<int>(inner.size());
+    }
+    out = Eigen::Map<const Eigen::SparseMatrix<double>>(rows, static_cast<Eigen::Index>(columns.size()),
+                                                        static_cast<Eigen::Index>(inner.size()), outer.data(),
+                                                        inner.data(), values.data());
+  };
+  assemble(a_oo_lower, ni, interior, true);
+  assemble(a_ob, ni, boundary, false);
   progress("build", 0.85);
 
   locator.build(tm);
@@ -306,7 +348,13 @@ Eigen::SparseMatrix<double> Field::reduced_matrix() const {
   return full;
 }
 
-void Field::solve_reduced(VecX& rhs) const { impl_->solver.solve(rhs); }
+void Field::solve_reduced(VecX& rhs, bool cholmod_reference) const {
+  if (cholmod_reference) {
+    impl_->solver.solve_cholmod(rhs);
+  } else {
+    impl_->solver.solve(rhs);
+  }
+}
 
 const Stats& Field::stats() const { return impl_->stats; }
 const TetMesh& Field::tet_mesh() const { return impl_->tm; }

@@ -24,6 +24,9 @@ struct Field::Impl {
   std::vector<int> slot;  // per point: interior index ≥ 0, boundary b as -(b + 2), unused -1
   std::vector<int> interior, boundary;  // point ids
   std::vector<int> domain_tets;
+  // Vertex stars: for point v, entries star[star_start[v] … star_start[v+1]) are 4 · (index into
+  // domain_tets) + (local vertex): the domain cells around v.
+  std::vector<int> star_start, star;
   std::vector<Eigen::Matrix<double, 4, 3>> grad_weights;  // per domain tet: vol · ∇φ_j
   VecX star_volume;                                        // per point
   Eigen::SparseMatrix<double> a_ob;                        // A_Ω∂

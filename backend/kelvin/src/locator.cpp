@@ -8,6 +8,8 @@
 
 namespace distlab::kelvin {
 
+Location walk(const TetMesh& m, const Vec3& y, int c);
+
 void barycentric(const TetMesh& m, int c, const Vec3& y, double lambda[4]) {
   const auto* t = m.tets.row(c).data();
   const Vec3 a = m.points.row(t[0]);
@@ -22,48 +24,38 @@ void barycentric(const TetMesh& m, int c, const Vec3& y, double lambda[4]) {
 }
 
 void Locator::build(const TetMesh& m) {
+  grid_.clear();
+  if (m.tets.rows() == 0) return;
   lo_ = m.points.colwise().minCoeff().transpose();
   const Vec3 hi = m.points.colwise().maxCoeff().transpose();
   const Vec3 extent = (hi - lo_).cwiseMax(1e-12);
-  // About two cells per grid box: short walks, small grid.
-  const double box = std::cbrt(extent.prod() * 2.0 / std::max<Eigen::Index>(m.tets.rows(), 1));
+  // About one box per cell (a box then spans about one cell where cells are average-sized; the
+  // hull's outer cells are larger, the far-field cells near y = 0 smaller: a few walk steps).
+  const double box = std::cbrt(extent.prod() / static_cast<double>(m.tets.rows()));
   for (int k = 0; k < 3; ++k) {
-    n_[k] = std::clamp(static_cast<int>(std::ceil(extent[k] / box)), 1, 512);
+    n_[k] = std::clamp(static_cast<int>(std::ceil(extent[k] / box)), 1, 1024);
     inv_step_[k] = n_[k] / extent[k];
   }
   grid_.assign(static_cast<size_t>(n_[0]) * n_[1] * n_[2], -1);
-  std::vector<double> best(grid_.size(), 1e300);
-  for (Eigen::Index c = 0; c < m.tets.rows(); ++c) {
-    Vec3 centroid = Vec3::Zero();
-    for (int k = 0; k < 4; ++k) centroid += Vec3(m.points.row(m.tets(c, k)));
-    centroid *= 0.25;
-    int idx[3];
-    for (int k = 0; k < 3; ++k)
-      idx[k] = std::clamp(static_cast<int>((centroid[k] - lo_[k]) * inv_step_[k]), 0, n_[k] - 1);
-    const size_t g = (static_cast<size_t>(idx[2]) * n_[1] + idx[1]) * n_[0] + idx[0];
-    Vec3 mid;
-    for (int k = 0; k < 3; ++k) mid[k] = lo_[k] + (idx[k] + 0.5) / inv_step_[k];
-    const double d = (centroid - mid).squaredNorm();
-    if (d < best[g]) best[g] = d, grid_[g] = static_cast<int>(c);
-  }
-  // Empty boxes take a neighbour's cell (repeated dilation), so every box has a nearby seed.
-  for (bool changed = true; changed;) {
-    changed = false;
-    std::vector<int> next = grid_;
-    for (int z = 0; z < n_[2]; ++z)
-      for (int y = 0; y < n_[1]; ++y)
-        for (int x = 0; x < n_[0]; ++x) {
-          const size_t g = (static_cast<size_t>(z) * n_[1] + y) * n_[0] + x;
-          if (grid_[g] >= 0) continue;
-          const int dx[6][3] = {{-1, 0, 0}, {1, 0, 0}, {0, -1, 0}, {0, 1, 0}, {0, 0, -1}, {0, 0, 1}};
-          for (const auto& d : dx) {
-            const int a = x + d[0], b = y + d[1], c = z + d[2];
-            if (a < 0 || b < 0 || c < 0 || a >= n_[0] || b >= n_[1] || c >= n_[2]) continue;
-            const int s = grid_[(static_cast<size_t>(c) * n_[1] + b) * n_[0] + a];
-            if (s >= 0) { next[g] = s; changed = true; break; }
-          }
-        }
-    grid_.swap(next);
+  // Box centres in row order, each walk starting from the previous box's cell (coherent: a few
+  // steps each). A centre outside the hull keeps the hull cell where the walk stopped.
+  int c = 0;
+  Vec3 y;
+  for (int z = 0; z < n_[2]; ++z) {
+    y.z() = lo_.z() + (z + 0.5) / inv_step_.z();
+    int row_start = c;
+    for (int yy = 0; yy < n_[1]; ++yy) {
+      y.y() = lo_.y() + (yy + 0.5) / inv_step_.y();
+      c = row_start;
+      for (int x = 0; x < n_[0]; ++x) {
+        y.x() = lo_.x() + (x + 0.5) / inv_step_.x();
+        const int found = walk(m, y, c).cell;
+        if (found >= 0) c = found;  // a cycling walk (rare) keeps its nearby start as the seed
+        if (x == 0) row_start = c;
+        grid_[(static_cast<size_t>(z) * n_[1] + yy) * n_[0] + x] = c;
+      }
+    }
+    c = grid_[static_cast<size_t>(z) * n_[1] * n_[0]];
   }
 }
 
@@ -75,8 +67,15 @@ int Locator::seed(const Vec3& y) const {
 }
 
 Location Locator::locate(const TetMesh& m, const Vec3& y, int start) const {
+  Location loc = walk(m, y, start >= 0 && start < m.tets.rows() ? start : seed(y));
+  // The walk cycled (seen at l_x = 0.03 on the cube: rounding in the barycentric coordinates of
+  // nearly flat cells). Fall back to a scan of every cell: slow, rare, and it always ends.
+  return loc.cell >= 0 ? loc : scan(m, y);
+}
+
+// Stochastic visibility walk; cell -1 when it did not end within its step budget.
+Location walk(const TetMesh& m, const Vec3& y, int c) {
   Location loc;
-  int c = start >= 0 && start < m.tets.rows() ? start : seed(y);
   // Tolerance so a point on a shared face is accepted by either cell instead of ping-ponging.
   constexpr double eps = 1e-12;
   std::uint32_t rng = 2463534242u;
@@ -99,9 +98,13 @@ Location Locator::locate(const TetMesh& m, const Vec3& y, int start) const {
     }
     c = next;
   }
-  // The walk cycled (seen at l_x = 0.03 on the cube: rounding in the barycentric coordinates of
-  // nearly flat cells). Fall back to a scan of every cell, keeping the one the point is most
-  // inside of (largest smallest barycentric coordinate): slow, rare, and it always ends.
+  loc.cell = -1;
+  return loc;
+}
+
+// Every cell, keeping the one the point is most inside of (largest smallest barycentric).
+Location Locator::scan(const TetMesh& m, const Vec3& y) {
+  Location loc;
   double best = -std::numeric_limits<double>::infinity();
   double lambda[4];
   for (int k = 0; k < static_cast<int>(m.tets.rows()); ++k) {

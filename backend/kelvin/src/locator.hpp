@@ -1,6 +1,8 @@
 #pragma once
 // Point location in the y-space triangulation: a stochastic visibility walk from a hint cell,
-// or from a seed cell taken from a uniform grid over the mesh (no walk from a fixed cell).
+// or from a seed cell taken from a uniform grid over the mesh (no walk from a fixed cell). Each
+// grid box holds the cell that contains the box's centre, located exactly when the grid is
+// built, so a hint-less walk starts within half a box diagonal of the point (about one cell).
 #include <vector>
 
 #include "distlab/kelvin/tet_mesh.hpp"
@@ -18,6 +20,9 @@ class Locator {
   void build(const TetMesh& mesh);
   int seed(const Vec3& y) const;
   Location locate(const TetMesh& mesh, const Vec3& y, int start) const;
+  // The cell of the scan fallback (for tests): the one y is most inside of.
+  static Location scan(const TetMesh& mesh, const Vec3& y);
+  std::size_t boxes() const { return grid_.size(); }
 
  private:
   Vec3 lo_ = Vec3::Zero(), inv_step_ = Vec3::Ones();

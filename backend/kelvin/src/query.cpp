@@ -46,14 +46,26 @@ Sample Field::query(const Vec3& x, int* hint) const {
   const Location loc = m.locator.locate(m.tm, y, hint ? *hint : -1);
   if (hint) *hint = loc.cell;
   if (!loc.outside_hull && m.tm.in_domain[static_cast<size_t>(loc.cell)]) return evaluate(m, loc.cell, loc.lambda, p, y);
-  // Not in a domain cell: either on the domain's boundary (a point on a shared face or vertex,
-  // located in the outside neighbour by rounding), inside the object, or in a sliver between the
-  // input surface and the mesher's piecewise-flat boundary. Look at the domain cells nearby and
-  // take the one that needs the least extrapolation.
+  // Not in a domain cell: either on the domain's boundary (a point on a shared face, edge or
+  // vertex, located in the outside cell by rounding), inside the object, or in a sliver between
+  // the input surface and the mesher's piecewise-flat boundary. A domain cell that shares the
+  // point with the located cell shares a vertex with it: look at the domain cells around its
+  // four vertices, then at the cells within three face steps, and take the one that needs the
+  // least extrapolation.
   int best = -1;
   double best_lambda[4] = {0, 0, 0, 0}, best_min = -1e300;
+  auto consider = [&](int n) {
+    double lambda[4];
+    barycentric(m.tm, n, y, lambda);
+    const double lo = std::min(std::min(lambda[0], lambda[1]), std::min(lambda[2], lambda[3]));
+    if (lo > best_min) best = n, best_min = lo, std::copy_n(lambda, 4, best_lambda);
+  };
+  for (int k = 0; k < 4; ++k) {
+    const auto v = static_cast<size_t>(m.tm.tets(loc.cell, k));
+    for (int e = m.star_start[v]; e < m.star_start[v + 1]; ++e) consider(m.domain_tets[static_cast<size_t>(m.star[static_cast<size_t>(e)] >> 2)]);
+  }
   std::vector<int> frontier{loc.cell}, seen{loc.cell};
-  for (int depth = 0; depth < 3 && !frontier.empty(); ++depth) {
+  for (int depth = 0; depth < 3 && !frontier.empty() && best_min < 0; ++depth) {
     std::vector<int> next;
     for (int c : frontier)
       for (int k = 0; k < 4; ++k) {
@@ -61,11 +73,7 @@ Sample Field::query(const Vec3& x, int* hint) const {
         if (n < 0 || std::find(seen.begin(), seen.end(), n) != seen.end()) continue;
         seen.push_back(n);
         next.push_back(n);
-        if (!m.tm.in_domain[static_cast<size_t>(n)]) continue;
-        double lambda[4];
-        barycentric(m.tm, n, y, lambda);
-        const double lo = std::min(std::min(lambda[0], lambda[1]), std::min(lambda[2], lambda[3]));
-        if (lo > best_min) best = n, best_min = lo, std::copy_n(lambda, 4, best_lambda);
+        if (m.tm.in_domain[static_cast<size_t>(n)]) consider(n);
       }
     frontier.swap(next);
   }

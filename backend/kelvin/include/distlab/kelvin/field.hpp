@@ -103,9 +103,10 @@ class Field {
   // Vertex values of V (indexed like tet_mesh().points; NaN for vertices outside Ω_inv).
   const VecX& vertex_values() const;
 
-  // For benchmarks: A_ΩΩ of eq. 21 (full symmetric) and a solve with its CHOLMOD factor.
+  // For benchmarks: A_ΩΩ of eq. 21 (full symmetric) and a solve with its CHOLMOD factor, by the
+  // solve set_sigma uses or (cholmod_reference) by CHOLMOD's own cholmod_solve2.
   Eigen::SparseMatrix<double> reduced_matrix() const;
-  void solve_reduced(VecX& rhs) const;
+  void solve_reduced(VecX& rhs, bool cholmod_reference = false) const;
 
   struct Impl;
 
