@@ -62,6 +62,7 @@ std::string duration_field(const json& body) {
 json run_rollout(const std::shared_ptr<CbfRollout>& r, cbf::RolloutOptions options,
                           const std::weak_ptr<Session>& weak, Job& job) {
   using Clock = std::chrono::steady_clock;
+  r->id_known.wait();
   {
     std::lock_guard lock(r->mutex);
     r->state = "running";
@@ -206,6 +207,7 @@ void Service::register_cbf_routes() {
                auto job = jobs_.submit(session->id, "cbf_rollout", {{"scenario", sc.name}, {"metric", cbf::to_string(parsed.metric)}},
                                        [r, options, weak](Job& j) mutable { return run_rollout(r, options, weak, j); });
                r->id = job->id;
+               r->id_set.set_value();
                cbf_rollouts_->add(r, [this](const std::string& s) { return sessions_.find(s) != nullptr; });
                json status = r->status_json();
                return json_response(202, {{"rollout", status}, {"job", job->to_json()}});

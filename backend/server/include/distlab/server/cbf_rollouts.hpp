@@ -5,6 +5,7 @@
 // openapi.json for the message formats.
 #include <cstddef>
 #include <functional>
+#include <future>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -35,7 +36,11 @@ struct CbfStreamOptions {
 };
 
 struct CbfRollout {
+  // The id is the job's, known only once the job is submitted: the job's work waits for
+  // id_known before it reads `id` (it may start before submit returns).
   std::string id, session;
+  std::promise<void> id_set;
+  std::shared_future<void> id_known = id_set.get_future().share();
   std::string scenario_name;
   nlohmann::json scenario_json;  // the scenario as given (file content or inline object)
   cbf::Scenario scenario;
