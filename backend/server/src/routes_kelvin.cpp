@@ -265,6 +265,7 @@ void Service::set_sigma(const std::shared_ptr<Session>& session, const std::shar
     object->sigma_json = sigma_json;
     object->sigma_key = sigma_json.dump();
     version = ++object->sigma_version;
+    object->sigma_at = std::chrono::steady_clock::now();
     ++object->frames_version;
   }
   session->broadcast(json{{"type", "sigma"}, {"object", object->id}, {"sigma_version", version}}.dump(), false);
@@ -325,6 +326,7 @@ void Service::send_frames(const std::shared_ptr<Session>& session, const std::sh
   std::string key;
   std::vector<double> levels;
   std::uint64_t version, frames_version;
+  std::chrono::steady_clock::time_point sigma_at;
   bool send_surface = only != nullptr;
   {
     std::lock_guard lock(object->mutex);
@@ -335,6 +337,7 @@ void Service::send_frames(const std::shared_ptr<Session>& session, const std::sh
     levels = object->levels;
     version = object->sigma_version;
     frames_version = object->frames_version;
+    sigma_at = object->sigma_at;
     // The surface depends on σ only: a change of the watched levels does not resend it.
     if (only == nullptr && object->surface_sent != static_cast<std::int64_t>(version)) {
       send_surface = true;
@@ -369,6 +372,8 @@ void Service::send_frames(const std::shared_ptr<Session>& session, const std::sh
     json frame = mesh_frame(iso, {{"type", "isosurface"}, {"object", object->id}, {"level", levels[i]}, {"index", i},
                                   {"count", levels.size()}, {"sigma_version", version}});
     frame["server_ms"] = {{"solve", Ms(t1 - t0).count()}, {"isosurface", Ms(t2 - t1).count()}};
+    // From the σ edit's arrival to this frame (queueing included); 0 for the initial σ.
+    if (version > 0) frame["server_ms"]["since_edit"] = Ms(std::chrono::steady_clock::now() - sigma_at).count();
     send(frame);
   }
 }

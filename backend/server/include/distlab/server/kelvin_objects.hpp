@@ -5,6 +5,7 @@
 // A shared Field is solved for one σ at a time: readers take a shared lock when the field holds
 // their σ already, otherwise an exclusive lock re-solves it (so two sessions never see each
 // other's σ, only, at worst, each other's solve time).
+#include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <map>
@@ -98,6 +99,7 @@ struct KelvinObject {
   nlohmann::json sigma_json = nlohmann::json::object();
   std::string sigma_key = "{}";
   std::uint64_t sigma_version = 0;
+  std::chrono::steady_clock::time_point sigma_at{};  // when the last σ edit arrived
   std::vector<double> levels;  // watched iso-levels: frames are pushed over the WebSocket
   bool computing = false;      // a frame task is queued or running
   std::uint64_t frames_version = 0;  // bumped on every σ or levels change
