@@ -1,5 +1,12 @@
 // GAP benchmark (issue 2): the paper's Section IV-A experiments, with FCL in the same run.
-//   distlab-bench-gap [--pairs N] [--box-pairs N] [--seed S] [--json FILE]
+//   distlab-bench-gap [--pairs N] [--box-pairs N] [--seed S] [--json FILE] [--newton-only]
+//   [--save-cases FILE | --load-cases FILE]
+// --newton-only: benchmark 1's FCL and Newton runs alone (no reference, no plain iteration, no
+// benchmark 2), for profiling. --save-cases/--load-cases FILE: benchmark 1's polytope pairs as
+// JSON, so they can be loaded without CGAL (whose interval arithmetic breaks under valgrind):
+//   distlab-bench-gap --pairs 2000 --newton-only --save-cases cases.json
+//   valgrind --tool=callgrind --toggle-collect='distlab::gap_distance(*' distlab-bench-gap
+//     --newton-only --load-cases cases.json     (instructions per pair = total / pairs)
 // Single thread. Times are per pair and include the Euclidean start (FCL), as in the paper.
 #include <algorithm>
 #include <chrono>
@@ -138,6 +145,42 @@ std::vector<double> reference(std::vector<Case>& cases, GapParams params) {
   return d;
 }
 
+// A pair of benchmark 1 as stored by --save-cases.
+struct PolytopePair {
+  Polytope a, b;
+  Pose pose_a, pose_b;
+};
+
+nlohmann::json polytope_json(const Polytope& p, const Pose& pose) {
+  nlohmann::json j;
+  for (int i = 0; i < p.rows(); ++i) j["A"].push_back({p.A(i, 0), p.A(i, 1), p.A(i, 2)});
+  j["b"] = std::vector<double>(p.b.data(), p.b.data() + p.b.size());
+  for (const auto& v : p.vertices) j["vertices"].push_back({v.x(), v.y(), v.z()});
+  for (const auto& f : p.faces) j["faces"].push_back({f.x(), f.y(), f.z()});
+  const Vec3& t = pose.position;
+  const Quat& q = pose.rotation;
+  j["position"] = {t.x(), t.y(), t.z()};
+  j["quaternion"] = {q.w(), q.x(), q.y(), q.z()};
+  return j;
+}
+
+// Read back exactly as written (the vertices and faces are FCL's geometry, so no hull is taken).
+std::pair<Polytope, Pose> polytope_from_json(const nlohmann::json& j) {
+  Polytope p;
+  const auto& A = j.at("A");
+  p.A.resize(static_cast<Eigen::Index>(A.size()), 3);
+  p.b.resize(static_cast<Eigen::Index>(A.size()));
+  for (size_t i = 0; i < A.size(); ++i) {
+    for (int c = 0; c < 3; ++c) p.A(static_cast<Eigen::Index>(i), c) = A[i][c].get<double>();
+    p.b[static_cast<Eigen::Index>(i)] = j.at("b")[i].get<double>();
+  }
+  for (const auto& v : j.at("vertices")) p.vertices.emplace_back(v[0], v[1], v[2]);
+  for (const auto& f : j.at("faces")) p.faces.emplace_back(f[0], f[1], f[2]);
+  const auto& t = j.at("position");
+  const auto& q = j.at("quaternion");
+  return {p, Pose{Vec3(t[0], t[1], t[2]), Quat(q[0], q[1], q[2], q[3])}};
+}
+
 const char* kHeader =
     "  %-30s %8s %8s %8s %9s | %7s %7s %7s | %9s %9s %6s\n";
 
@@ -147,14 +190,19 @@ int main(int argc, char** argv) {
   int pairs = 50000, box_pairs = 40000;
   unsigned long seed = 1;
   std::string json_path;
+  bool newton_only = false;
+  std::string save_path, load_path;
   for (int i = 1; i < argc; ++i) {
     auto next = [&] { return i + 1 < argc ? argv[++i] : ""; };
     if (!std::strcmp(argv[i], "--pairs")) pairs = std::atoi(next());
     else if (!std::strcmp(argv[i], "--box-pairs")) box_pairs = std::atoi(next());
     else if (!std::strcmp(argv[i], "--seed")) seed = std::strtoul(next(), nullptr, 10);
     else if (!std::strcmp(argv[i], "--json")) json_path = next();
+    else if (!std::strcmp(argv[i], "--newton-only")) newton_only = true;
+    else if (!std::strcmp(argv[i], "--save-cases")) save_path = next();
+    else if (!std::strcmp(argv[i], "--load-cases")) load_path = next();
     else {
-      std::fprintf(stderr, "usage: %s [--pairs N] [--box-pairs N] [--seed S] [--json FILE]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--pairs N] [--box-pairs N] [--seed S] [--json FILE] [--newton-only] [--save-cases FILE | --load-cases FILE]\n", argv[0]);
       return 2;
     }
   }
@@ -170,20 +218,53 @@ int main(int argc, char** argv) {
   sixth.weights = VecX::Constant(10, 1.0 / 6);
   std::vector<Case> cases;
   std::uniform_real_distribution<double> pos(-0.5, 0.5);
-  while (static_cast<int>(cases.size()) < pairs) {
-    Case c{GapBody(random_polytope(rng), Pose{Vec3::Zero(), random_rotation(rng)}, paper, sixth),
-           GapBody(random_polytope(rng), Pose{Vec3(pos(rng), pos(rng), pos(rng)), random_rotation(rng)},
-                   paper, sixth)};
-    const auto e = euclidean_distance(c.a.euclidean(), c.a.pose(), c.b.euclidean(), c.b.pose());
-    if (e.distance >= 0.05) cases.push_back(std::move(c));
+  if (!load_path.empty()) {
+    std::ifstream in(load_path);
+    if (!in) {
+      std::fprintf(stderr, "cannot read %s\n", load_path.c_str());
+      return 2;
+    }
+    for (const auto& j : nlohmann::json::parse(in)) {
+      auto [pa, pose_a] = polytope_from_json(j.at("a"));
+      auto [pb, pose_b] = polytope_from_json(j.at("b"));
+      cases.push_back(Case{GapBody(pa, pose_a, paper, sixth), GapBody(pb, pose_b, paper, sixth)});
+    }
+    pairs = static_cast<int>(cases.size());
   }
-  const std::vector<double> ref = reference(cases, paper);
+  nlohmann::json saved = nlohmann::json::array();
+  while (static_cast<int>(cases.size()) < pairs) {
+    // Draw order kept from earlier versions (same pairs for the same seed).
+    PolytopePair pp;
+    pp.a = random_polytope(rng);
+    pp.pose_a = Pose{Vec3::Zero(), random_rotation(rng)};
+    pp.b = random_polytope(rng);
+    pp.pose_b = Pose{Vec3(pos(rng), pos(rng), pos(rng)), random_rotation(rng)};
+    Case c{GapBody(pp.a, pp.pose_a, paper, sixth), GapBody(pp.b, pp.pose_b, paper, sixth)};
+    const auto e = euclidean_distance(c.a.euclidean(), c.a.pose(), c.b.euclidean(), c.b.pose());
+    if (e.distance < 0.05) continue;
+    cases.push_back(std::move(c));
+    if (!save_path.empty())
+      saved.push_back({{"a", polytope_json(pp.a, pp.pose_a)}, {"b", polytope_json(pp.b, pp.pose_b)}});
+  }
+  if (!save_path.empty()) std::ofstream(save_path) << saved.dump() << "\n";
   GapParams plain = paper;
   plain.solver = GapSolver::fixed_point, plain.tol = 1e-3, plain.max_iter = 100000;
   GapParams newton = paper;
   newton.solver = GapSolver::newton, newton.tol = 1e-10;
   GapParams plain_tight = plain;
   plain_tight.tol = 1e-10;
+  if (newton_only) {
+    const Run fcl = run_fcl(cases), r_newton = run_gap(cases, newton, {});
+    std::printf(kHeader, "method", "mean", "median", "p99", "max", "it mean", "it p99", "it max",
+                "err med", "err max", "unconv");
+    print_row("FCL distance alone", fcl);
+    print_row("GAP Newton, tol 1e-10", r_newton);
+    std::printf("  Newton/FCL time ratio: mean %.2f, median %.2f\n",
+                stats(r_newton.us).mean / stats(fcl.us).mean,
+                stats(r_newton.us).median / stats(fcl.us).median);
+    return 0;
+  }
+  const std::vector<double> ref = reference(cases, paper);
   const Run fcl = run_fcl(cases);
   const Run fcl_certified = run_fcl(cases, true);
   const Run r_plain = run_gap(cases, plain, ref);

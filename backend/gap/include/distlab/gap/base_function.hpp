@@ -1,6 +1,7 @@
 #pragma once
 // The base k-P2S function Φ of the GAP paper (Definition 4, eq. 4), for any integer k >= 2 and
 // h > 0:  Φ''(s) = (1 − (s+1)^(−1/h))^(k−1) for s >= 0, and Φ(s) = 0 for s <= 0.
+#include <array>
 #include <vector>
 
 namespace distlab {
@@ -24,6 +25,15 @@ class BaseFunction {
  private:
   Jet closed_form(double s, double L) const;
   Jet series(double L) const;
+  void build_rational_form();
+
+ public:
+  // Internal (instantiated for every term count; selected once in the constructor).
+  template <int T>
+  Jet rational_form(double s) const;
+  using RationalForm = Jet (BaseFunction::*)(double) const;
+
+ private:
 
   double h_;
   int k_;
@@ -31,6 +41,15 @@ class BaseFunction {
   double series_limit_;        // L = ln(1+s) below which the series in L is used
   // Taylor coefficients in L = ln(1 + s) of Φ, Φ', Φ'' (all three are entire functions of L).
   std::vector<double> c0_, c1_, c2_;
+
+  // When n = 1/h is an integer (3 <= n, (k−1) n <= kMaxDegree), Φ^(d) is a rational function of
+  // s without cancellation: Φ^(d)(s) = s^(k+1−d) P_d(s) / (1+s)^N, N = (k−1) n, where the
+  // polynomials P_d have positive coefficients (base_function.cpp). No log1p/exp, no series.
+  static constexpr int kMaxDegree = 20;
+  static constexpr double kRationalMaxS = 1e3;  // beyond it the closed form (no cancellation)
+  RationalForm rational_ = nullptr;             // null: not available for this (h, k)
+  // P_0, P_1, P_2 and (1+s)^N interleaved: r_[4 i + d] is the coefficient of s^i (.cpp).
+  alignas(16) std::array<double, 4 * (kMaxDegree + 1)> r_{};
 };
 
 }  // namespace distlab
