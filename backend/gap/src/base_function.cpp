@@ -227,9 +227,7 @@ BaseFunction::Jet BaseFunction::closed_form(double s, double L) const {
   return j;
 }
 
-BaseFunction::Jet BaseFunction::jet(double s) const {
-  if (!(s > 0)) return {};
-  if (rational_ && s <= kRationalMaxS) return (this->*rational_)(s);
+BaseFunction::Jet BaseFunction::general_jet(double s) const {
   const double L = std::log1p(s);
   return L <= series_limit_ ? series(L) : closed_form(s, L);
 }

@@ -145,17 +145,39 @@ void PointToSet::set_pose(const Pose& pose) {
   if (A_local_.rows() > 0) {
     A_world_ = A_local_ * R_.transpose();
     b_world_ = b_local_ + A_world_ * pose.position;
+    rows_.resize(static_cast<size_t>(A_world_.rows()));
+    for (Eigen::Index i = 0; i < A_world_.rows(); ++i) {
+      HalfSpace& r = rows_[static_cast<size_t>(i)];
+      const Vec3 u = A_world_.row(i).transpose();
+      const double w = weights_[i];
+      r = {{u.x(), u.y(), u.z()}, b_world_[i], w,
+           {w * u.x() * u.x(), w * u.x() * u.y(), w * u.x() * u.z(), w * u.y() * u.y(),
+            w * u.y() * u.z(), w * u.z() * u.z()}};
+    }
   }
   rho_center_world_ = pose.to_world(rho_.center);
 }
 
+// Eq. (5) over the rows; only violated rows (s > 0) contribute, and each adds a rank-one
+// Hessian term d2 W u uᵀ from the row's precomputed weighted outer product.
 P2SValue PointToSet::halfspaces_world(const Vec3& p, int order) const {
-  P2SValue v;
-  const auto n = A_world_.rows();
-  for (Eigen::Index i = 0; i < n; ++i) {
-    const Vec3 u = A_world_.row(i).transpose();
-    add_linear_term(v, phi_, weights_[i], u.dot(p) - b_world_[i], u, order);
+  double value = 0, g[3] = {0, 0, 0}, h[6] = {0, 0, 0, 0, 0, 0};
+  const double px = p.x(), py = p.y(), pz = p.z();
+  for (const HalfSpace& r : rows_) {
+    const double s = r.u[0] * px + r.u[1] * py + r.u[2] * pz - r.b;
+    if (!(s > 0)) continue;
+    const auto j = phi_.jet(s);
+    value += r.w * j.value;
+    if (order < 1) continue;
+    const double c = r.w * j.d1;
+    for (int q = 0; q < 3; ++q) g[q] += c * r.u[q];
+    if (order < 2) continue;
+    for (int q = 0; q < 6; ++q) h[q] += j.d2 * r.wuu[q];
   }
+  P2SValue v;
+  v.value = value;
+  v.gradient = Vec3(g[0], g[1], g[2]);
+  v.hessian << h[0], h[1], h[2], h[1], h[3], h[4], h[2], h[4], h[5];
   return v;
 }
 

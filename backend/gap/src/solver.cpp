@@ -1,6 +1,7 @@
 #include "distlab/gap/solver.hpp"
 
 #include <Eigen/Cholesky>
+#include <Eigen/LU>
 #include <cmath>
 #include <limits>
 
@@ -93,8 +94,11 @@ bool joint_newton(const PointToSet& A, const PointToSet& B, Saddle& s, double to
   double merit = residual(s, rb, ra);
   while (iterations < max_iter) {
     const Mat3 Hb = s.eb.hessian - I, Ha = s.ea.hessian - I;
-    // (Hb δa + δb = −rb, δa + Ha δb = −ra)  =>  (I − Hb Ha) δb = −rb + Hb ra.
-    const Vec3 db = (I - Hb * Ha).partialPivLu().solve(-rb + Hb * ra);
+    // (Hb δa + δb = −rb, δa + Ha δb = −ra)  =>  (I − Hb Ha) δb = −rb + Hb ra. The matrix is
+    // I − Sb Sa with Sa, Sb = I − ∂²E in (0, I], so its eigenvalues lie in [0, 1): the 3×3
+    // cofactor inverse (Eigen's closed form) is as accurate as pivoted LU here, at a third of
+    // the cost; an exactly singular matrix gives non-finite steps, caught below.
+    const Vec3 db = (I - Hb * Ha).inverse() * (Hb * ra - rb);
     const Vec3 da = -ra - Ha * db;
     if (!da.allFinite() || !db.allFinite()) return false;
     if (std::max(da.norm(), db.norm()) < tol) return true;

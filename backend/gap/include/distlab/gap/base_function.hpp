@@ -16,13 +16,18 @@ class BaseFunction {
   struct Jet {
     double value = 0, d1 = 0, d2 = 0;  // Φ, Φ', Φ''
   };
-  Jet jet(double s) const;
+  Jet jet(double s) const {
+    if (!(s > 0)) return {};
+    if (rational_ && s <= kRationalMaxS) return (this->*rational_)(s);
+    return general_jet(s);
+  }
   double value(double s) const { return jet(s).value; }
 
   double h() const { return h_; }
   int k() const { return k_; }
 
  private:
+  Jet general_jet(double s) const;  // s > 0: series in ln(1+s) or closed form
   Jet closed_form(double s, double L) const;
   Jet series(double L) const;
   void build_rational_form();

@@ -3,6 +3,7 @@
 // strict E_S = ερ + sqrt(ε²ρ² + σ²e_S²) of eq. (6) (Theorem 2) with ρ = ½(‖p − c‖² − R²).
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "distlab/gap/base_function.hpp"
 #include "distlab/geometry/shape.hpp"
@@ -70,6 +71,14 @@ class PointToSet {
   MatX3 A_local_, A_world_;  // half-spaces (polytopes and boxes)
   VecX b_local_, b_world_;
   VecX weights_;
+  // World-frame rows with their weights, for the evaluation loop (set_pose).
+  struct HalfSpace {
+    double u[3];    // unit normal
+    double b;       // offset: the row is violated where u·p > b
+    double w;       // W_i
+    double wuu[6];  // W_i u uᵀ: xx, xy, xz, yy, yz, zz
+  };
+  std::vector<HalfSpace> rows_;
   double round_weight_ = 1.0;
   Ball rho_{Vec3::Zero(), 1.0};
   Vec3 rho_center_world_ = Vec3::Zero();
