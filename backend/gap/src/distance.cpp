@@ -49,11 +49,11 @@ namespace {
 
 // Solves from the given starts and fills witness points, Λ, D and gradients.
 void solve_into(GapResult& r, const GapBody& a, const GapBody& b, const GapParams& params,
-                const Vec3& newton_a, const Vec3& newton_b, const Vec3& plain_start) {
+                const Vec3& newton_a, const Vec3* newton_b, const Vec3& plain_start) {
   const int limit = params.iteration_limit();
   const WitnessSolution s =
       params.solver == GapSolver::newton
-          ? solve_newton(a.p2s(), b.p2s(), newton_a, params.tol, limit, &newton_b)
+          ? solve_newton(a.p2s(), b.p2s(), newton_a, params.tol, limit, newton_b)
           : solve_fixed_point(a.p2s(), b.p2s(), plain_start, params.tol, limit);
   r.witness_a = s.a;
   r.witness_b = s.b;
@@ -79,7 +79,7 @@ GapResult gap_distance(const GapBody& a, const GapBody& b, const GapParams& para
     if (r.euclidean.distance > 1e-6 * (a.radius() + b.radius())) {
       r.euclidean_computed = false;
       const Vec3 middle = 0.5 * (r.euclidean.witness_a + r.euclidean.witness_b);
-      solve_into(r, a, b, params, middle, middle, r.euclidean.witness_a);
+      solve_into(r, a, b, params, middle, nullptr, r.euclidean.witness_a);
       return r;
     }
   }
@@ -95,7 +95,7 @@ GapResult gap_distance(const GapBody& a, const GapBody& b, const GapParams& para
   // Newton starts between the Euclidean witnesses, where a* and b* lie (fewer steps: 4.5 against
   // 5.7 on the paper's random polytopes).
   const Vec3 middle = 0.5 * (r.euclidean.witness_a + r.euclidean.witness_b);
-  solve_into(r, a, b, params, middle, middle, r.euclidean.witness_a);
+  solve_into(r, a, b, params, middle, nullptr, r.euclidean.witness_a);
   return r;
 }
 
@@ -108,7 +108,7 @@ GapResult gap_distance_warm(const GapBody& a, const GapBody& b, const GapParams&
     r.witness_a = r.witness_b = *common;
     return r;
   }
-  solve_into(r, a, b, params, start_a, start_b, start_a);
+  solve_into(r, a, b, params, start_a, &start_b, start_a);
   return r;
 }
 

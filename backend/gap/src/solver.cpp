@@ -4,6 +4,7 @@
 #include <Eigen/LU>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 namespace distlab {
 namespace {
@@ -84,7 +85,6 @@ struct Saddle {
 // nested method, which is globally convergent, takes over).
 bool joint_newton(const PointToSet& A, const PointToSet& B, Saddle& s, double tol, int max_iter,
                   int& iterations) {
-  const Mat3 I = Mat3::Identity();
   auto residual = [](const Saddle& x, Vec3& rb, Vec3& ra) {
     rb = x.b - x.a + x.eb.gradient;
     ra = x.a - x.b + x.ea.gradient;
@@ -92,32 +92,47 @@ bool joint_newton(const PointToSet& A, const PointToSet& B, Saddle& s, double to
   };
   Vec3 rb, ra;
   double merit = residual(s, rb, ra);
-  while (iterations < max_iter) {
-    const Mat3 Hb = s.eb.hessian - I, Ha = s.ea.hessian - I;
-    // (Hb δa + δb = −rb, δa + Ha δb = −ra)  =>  (I − Hb Ha) δb = −rb + Hb ra. The matrix is
-    // I − Sb Sa with Sa, Sb = I − ∂²E in (0, I], so its eigenvalues lie in [0, 1): the 3×3
-    // cofactor inverse (Eigen's closed form) is as accurate as pivoted LU here, at a third of
-    // the cost; an exactly singular matrix gives non-finite steps, caught below.
-    const Vec3 db = (I - Hb * Ha).inverse() * (Hb * ra - rb);
-    const Vec3 da = -ra - Ha * db;
-    if (!da.allFinite() || !db.allFinite()) return false;
-    if (std::max(da.norm(), db.norm()) < tol) return true;
+  Saddle trial[2] = {s, s};
+  Saddle* cur = &trial[0];
+  Saddle* next = &trial[1];
+  bool done = false;
+  while (!done && iterations < max_iter) {
+    // With Hb = ∂²E_B − I, Ha = ∂²E_A − I: (Hb δa + δb = −rb, δa + Ha δb = −ra), so
+    // (I − Hb Ha) δb = Hb ra − rb and δa = −ra − Ha δb. I − Hb Ha = I − Sb Sa with
+    // Sa, Sb = I − ∂²E in (0, I]: its eigenvalues lie in [0, 1), and the 3×3 cofactor inverse
+    // (Eigen's closed form) is as accurate as pivoted LU here at a third of the cost; an exactly
+    // singular matrix gives non-finite steps, caught below.
+    const Mat3& Eb = cur->eb.hessian;
+    const Mat3& Ea = cur->ea.hessian;
+    const Mat3 M = Eb + Ea - Eb * Ea;  // = I − Hb Ha
+    const Vec3 db = M.inverse() * (Eb * ra - ra - rb);
+    const Vec3 da = db - ra - Ea * db;
+    if (!da.allFinite() || !db.allFinite()) break;
+    if (std::max(da.squaredNorm(), db.squaredNorm()) < tol * tol) {
+      done = true;
+      break;
+    }
     ++iterations;
     double alpha = 1.0;
-    for (int ls = 0;; ++ls, alpha *= 0.5) {
-      if (ls == 6) return false;
-      Saddle n{s.a + alpha * da, s.b + alpha * db, {}, {}};
-      n.eb = B.strict(n.a, 2);
-      n.ea = A.strict(n.b, 2);
+    bool moved = false;
+    for (int ls = 0; ls < 6; ++ls, alpha *= 0.5) {
+      next->a = cur->a + alpha * da;
+      next->b = cur->b + alpha * db;
+      next->eb = B.strict(next->a, 2);
+      next->ea = A.strict(next->b, 2);
       Vec3 rbn, ran;
-      const double m = residual(n, rbn, ran);
+      const double m = residual(*next, rbn, ran);
       if (m < (1 - 1e-4 * alpha) * merit || m == 0.0) {
-        s = n, rb = rbn, ra = ran, merit = m;
+        std::swap(cur, next);
+        rb = rbn, ra = ran, merit = m;
+        moved = true;
         break;
       }
     }
+    if (!moved) break;
   }
-  return false;
+  s = *cur;
+  return done;
 }
 
 // Newton on Λ_B(a) = max_b Λ(a, b) (nested), from s.a with s.b warm.
@@ -161,8 +176,10 @@ bool nested_newton(const PointToSet& A, const PointToSet& B, Saddle& s, double t
 WitnessSolution solve_newton(const PointToSet& A, const PointToSet& B, const Vec3& a0, double tol,
                              int max_iter, const Vec3* b0) {
   WitnessSolution out;
-  Saddle s{a0, b0 ? *b0 : a0, {}, {}};
+  Saddle s{a0, a0, {}, {}};
   s.eb = B.strict(s.a, 2);
+  // Without a start for b, b0 = Π_B(a0): the first saddle equation then holds exactly.
+  s.b = b0 ? *b0 : Vec3(a0 - s.eb.gradient);
   s.ea = A.strict(s.b, 2);
   out.converged = joint_newton(A, B, s, tol, max_iter, out.iterations);
   if (!out.converged) {
