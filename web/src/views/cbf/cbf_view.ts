@@ -259,7 +259,7 @@ export class CbfView implements View, CbfHookSource {
     const tl = this.timeline!;
     const run = this.run!;
     const world = this.scene!.worlds[r.metric];
-    if (r.store && world.witnesses.shown.length === 0 && r.store.pairCount > 0) world.setPairs(r.store.pairCount);
+    if (r.store) world.setPairs(r.store.pairCount);
     const prevLength = tl.length;
     const length = Math.max(...run.rollouts.map((x) => x.store?.contiguous ?? 0));
     const total = Math.max(...run.rollouts.map((x) => x.stepsTotal));

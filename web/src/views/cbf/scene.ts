@@ -70,6 +70,7 @@ export class World {
   readonly name: THREE.Sprite;
   private readonly links: THREE.Mesh[] = [];
   witnesses: Witnesses;
+  private pairCapacity = 0;
   /** The pose currently drawn (step index, or -1 for q0). */
   step = -1;
 
@@ -108,7 +109,10 @@ export class World {
     this.target.matrix.copy(poseMatrix(sc.target));
   }
 
+  /** Makes room for `count` witness segments (a rollout's pair count). */
   setPairs(count: number): void {
+    if (count === this.pairCapacity) return;
+    this.pairCapacity = count;
     this.group.remove(this.witnesses);
     this.witnesses.traverse((o) => (o as THREE.Mesh).geometry?.dispose());
     this.witnesses = new Witnesses(COLORS[this.metric], count);
