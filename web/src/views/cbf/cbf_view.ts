@@ -479,7 +479,7 @@ export class CbfView implements View, CbfHookSource {
     }));
   }
   timings() {
-    return { arrivalToDrawnMs: [...this.latencies], drawMs: [...this.drawMs], plotRefreshes: this.plots?.refreshes ?? 0 };
+    return { arrivalToDrawnMs: [...this.latencies], drawMs: [...this.drawMs], plotRefreshes: this.plots?.refreshes ?? 0, plotRefreshMs: [...(this.plots?.refreshMs ?? [])] };
   }
   lastError(): string | null {
     return this.error;

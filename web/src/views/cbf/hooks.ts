@@ -15,7 +15,7 @@ export interface CbfHookSource {
   drawn(): Record<string, { step: number; poses: number[]; witnesses: number[] }>;
   plotData(): Record<string, { labels: string[]; x: number[]; y: Array<Array<number | null>> }>;
   table(): Array<{ metric: string; key: string; joint: number; value: number; text: string }>;
-  timings(): { arrivalToDrawnMs: number[]; drawMs: number[]; plotRefreshes: number };
+  timings(): { arrivalToDrawnMs: number[]; drawMs: number[]; plotRefreshes: number; plotRefreshMs: number[] };
   lastError(): string | null;
 }
 

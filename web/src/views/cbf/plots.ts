@@ -22,8 +22,9 @@ export class RolloutPlots {
   readonly error: Plot;
   private timer = 0;
   private dirty = false;
-  /** Times (performance.now) of plot refreshes, for measurements. */
+  /** Plot refreshes and their JS time (data copy + uPlot setData), for measurements. */
   refreshes = 0;
+  refreshMs: number[] = [];
 
   constructor(
     container: HTMLElement,
@@ -73,6 +74,7 @@ export class RolloutPlots {
   }
 
   refresh(sources: PlotSource[]): void {
+    const t0 = performance.now();
     this.dirty = false;
     this.refreshes++;
     const n = Math.max(0, ...sources.map((s) => s.store?.contiguous ?? 0));
@@ -97,6 +99,8 @@ export class RolloutPlots {
     }
     this.distance.setData(x, dist);
     this.error.setData(x, bySource.map((s) => pad(s, (st, len) => st.scalarSeries(st.taskError, len), true)));
+    this.refreshMs.push(performance.now() - t0);
+    if (this.refreshMs.length > 1000) this.refreshMs.splice(0, 500);
   }
 
   setTime(t: number | null): void {

@@ -197,6 +197,7 @@ export class Rollout {
       const s = await api.get<CbfRolloutStatus>(`/api/cbf/rollouts/${id}`);
       this.status = s;
       this.stepsDone = s.steps_done;
+      await this.drainStream(s.steps_done);
       await this.fillHoles(s.steps_done);
       if (s.state === "failed") {
         this.state = "failed";
@@ -212,6 +213,20 @@ export class Rollout {
     }
     this.times.ended = performance.now();
     if (!this.disposed) this.events.ended(this);
+  }
+
+  /** The end can be seen (poll) while frames are still on their way over the socket: wait for
+   *  them as long as they keep coming, so REST only fetches what the socket really lost. */
+  private async drainStream(done: number): Promise<void> {
+    const store = this.store!;
+    let last = store.received, since = performance.now();
+    while (!this.disposed && store.contiguous < done && socket.state === "open" && performance.now() - since < 1000) {
+      await new Promise((r) => setTimeout(r, 50));
+      if (store.received !== last) {
+        last = store.received;
+        since = performance.now();
+      }
+    }
   }
 
   private async fillHoles(done: number): Promise<void> {
