@@ -15,18 +15,12 @@
 
 #include "distlab/gap/validator.hpp"
 #include "distlab/geometry/polytope.hpp"
+#include "distlab/server/json_fields.hpp"
 
 namespace distlab::server {
 namespace {
 
 using json = nlohmann::json;
-
-std::string key_path(const std::string& base, const std::string& key) {
-  return base.empty() ? key : base + "." + key;
-}
-std::string index_path(const std::string& base, std::size_t i) {
-  return base + "[" + std::to_string(i) + "]";
-}
 
 // User-supplied names go into messages; keep them short (cut on a UTF-8 boundary).
 std::string shorten(const std::string& s, std::size_t max = 64) {
@@ -58,7 +52,7 @@ class Builder final : public json::json_sax_t {
   bool key(string_t& k) override {
     if (stack_.back().node->contains(k)) {
       invalid_ =
-          InvalidInput(key_path(stack_.back().path, k), "duplicate key \"" + shorten(k) + "\"");
+          InvalidInput(json_key_path(stack_.back().path, k), "duplicate key \"" + shorten(k) + "\"");
       return false;
     }
     key_ = std::move(k);
@@ -86,7 +80,7 @@ class Builder final : public json::json_sax_t {
   std::string next_path() const {
     if (stack_.empty()) return "";
     const Frame& f = stack_.back();
-    return f.node->is_array() ? index_path(f.path, f.node->size()) : key_path(f.path, key_);
+    return f.node->is_array() ? json_index_path(f.path, f.node->size()) : json_key_path(f.path, key_);
   }
   json* add(json&& v) {
     if (stack_.empty()) {
@@ -124,7 +118,7 @@ class Builder final : public json::json_sax_t {
 };
 
 // ---------------------------------------------------------------------------------------------
-// Typed accessors: every failure names the field.
+// Typed readers (json_fields.hpp) name the field of every failure; the schema's own checks too.
 
 [[noreturn]] void fail(const std::string& field, const std::string& message) {
   throw InvalidInput(field, message);
@@ -132,94 +126,19 @@ class Builder final : public json::json_sax_t {
 
 std::string type_of(const json& j) { return j.type_name(); }
 
-void require_object(const json& j, const std::string& field) {
-  if (!j.is_object()) fail(field, "expected an object, got " + type_of(j));
-}
-
-void check_keys(const json& j, const std::string& field,
-                std::initializer_list<std::string_view> allowed) {
-  for (const auto& [key, value] : j.items()) {
-    if (std::find(allowed.begin(), allowed.end(), key) != allowed.end()) continue;
-    std::string list;
-    for (std::string_view a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
-    fail(key_path(field, key), "unknown key \"" + shorten(key) + "\" (allowed here: " + list + ")");
-  }
-}
-
-const json& required(const json& j, const std::string& field, const std::string& key) {
-  const auto it = j.find(key);
-  if (it == j.end()) fail(key_path(field, key), "missing required key \"" + key + "\"");
-  return *it;
-}
-
-double number(const json& j, const std::string& field) {
-  if (!j.is_number()) fail(field, "expected a number, got " + type_of(j));
-  const double v = j.get<double>();
-  if (!std::isfinite(v)) fail(field, "expected a finite number");
-  return v;
-}
-
-double coordinate(const json& j, const std::string& field) {
-  const double v = number(j, field);
-  if (std::abs(v) > kMaxCoordinate)
-    fail(field, "magnitude above the limit of " + json(kMaxCoordinate).dump());
-  return v;
-}
-
-// A length that must be > 0 (sizes, radii, heights).
-double length(const json& j, const std::string& field) {
-  const double v = coordinate(j, field);
-  if (!(v > 0)) fail(field, "must be > 0, got " + json(v).dump());
-  return v;
-}
-
-int integer(const json& j, const std::string& field) {
-  if (!j.is_number()) fail(field, "expected an integer, got " + type_of(j));
-  const double v = j.get<double>();
-  if (j.is_number_float() && !(std::isfinite(v) && v == std::floor(v)))
-    fail(field, "expected an integer, got " + j.dump());
-  if (!(v >= std::numeric_limits<int>::min() && v <= std::numeric_limits<int>::max()))
-    fail(field, "integer out of range: " + j.dump());
-  return j.is_number_float() ? static_cast<int>(v) : j.get<int>();
-}
-
-bool boolean(const json& j, const std::string& field) {
-  if (!j.is_boolean()) fail(field, "expected true or false, got " + type_of(j));
-  return j.get<bool>();
-}
-
-const json& array(const json& j, const std::string& field, std::size_t max,
-                  const std::string& what) {
-  if (!j.is_array()) fail(field, "expected an array, got " + type_of(j));
-  if (j.size() > max)
-    fail(field,
-         std::to_string(j.size()) + " " + what + " exceed the limit of " + std::to_string(max));
-  return j;
-}
-
-template <class Element>
-Vec3 vec3(const json& j, const std::string& field, Element element) {
-  if (!j.is_array() || j.size() != 3)
-    fail(field, "expected an array of 3 numbers, got " +
-                    (j.is_array() ? std::to_string(j.size()) + " elements" : type_of(j)));
-  Vec3 v;
-  for (int i = 0; i < 3; ++i) v[i] = element(j[i], index_path(field, i));
-  return v;
-}
-
 Pose parse_pose(const json& j, const std::string& field) {
-  require_object(j, field);
-  check_keys(j, field, {"position", "quaternion"});
+  json_require_object(j, field);
+  json_check_keys(j, field, {"position", "quaternion"});
   Pose pose;
   if (const auto it = j.find("position"); it != j.end())
-    pose.position = vec3(*it, key_path(field, "position"), coordinate);
+    pose.position = json_vec3(*it, json_key_path(field, "position"), kMaxCoordinate);
   if (const auto it = j.find("quaternion"); it != j.end()) {
-    const std::string qf = key_path(field, "quaternion");
+    const std::string qf = json_key_path(field, "quaternion");
     if (!it->is_array() || it->size() != 4)
       fail(qf, "expected [w, x, y, z] (4 numbers), got " +
                    (it->is_array() ? std::to_string(it->size()) + " elements" : type_of(*it)));
     double q[4];
-    for (int i = 0; i < 4; ++i) q[i] = number((*it)[i], index_path(qf, i));
+    for (int i = 0; i < 4; ++i) q[i] = json_number((*it)[i], json_index_path(qf, i));
     const double norm = Eigen::Vector4d(q[0], q[1], q[2], q[3]).stableNorm();
     if (!(norm >= kMinQuaternionNorm))
       fail(qf, "quaternion has (near) zero norm; it must be a rotation");
@@ -236,25 +155,25 @@ Polytope checked_extent(Polytope P, const std::string& field) {
 }
 
 Polytope parse_polytope(const json& j, const std::string& field) {
-  const std::string af = key_path(field, "A"), bf = key_path(field, "b");
-  const json& A = array(required(j, field, "A"), af, kMaxPolytopeRows, "rows");
-  const json& b = array(required(j, field, "b"), bf, kMaxPolytopeRows, "offsets");
+  const std::string af = json_key_path(field, "A"), bf = json_key_path(field, "b");
+  const json& A = json_array(json_required(j, field, "A"), af, kMaxPolytopeRows, "rows");
+  const json& b = json_array(json_required(j, field, "b"), bf, kMaxPolytopeRows, "offsets");
   MatX3 Am(static_cast<Eigen::Index>(A.size()), 3);
   for (std::size_t i = 0; i < A.size(); ++i)
-    Am.row(static_cast<Eigen::Index>(i)) = vec3(A[i], index_path(af, i), number).transpose();
+    Am.row(static_cast<Eigen::Index>(i)) = json_vec3(A[i], json_index_path(af, i)).transpose();
   VecX bv(static_cast<Eigen::Index>(b.size()));
   for (std::size_t i = 0; i < b.size(); ++i)
-    bv[static_cast<Eigen::Index>(i)] = number(b[i], index_path(bf, i));
+    bv[static_cast<Eigen::Index>(i)] = json_number(b[i], json_index_path(bf, i));
   return checked_extent(make_polytope(Am, bv, field), field);
 }
 
 Polytope parse_hull(const json& j, const std::string& field) {
-  const std::string pf = key_path(field, "points");
-  const json& pts = array(required(j, field, "points"), pf, kMaxHullPoints, "points");
+  const std::string pf = json_key_path(field, "points");
+  const json& pts = json_array(json_required(j, field, "points"), pf, kMaxHullPoints, "points");
   std::vector<Vec3> points;
   points.reserve(pts.size());
   for (std::size_t i = 0; i < pts.size(); ++i)
-    points.push_back(vec3(pts[i], index_path(pf, i), coordinate));
+    points.push_back(json_vec3(pts[i], json_index_path(pf, i), kMaxCoordinate));
   Polytope P = polytope_from_points(points, field);
   if (static_cast<std::size_t>(P.rows()) > kMaxPolytopeRows)
     fail(pf, "the hull has " + std::to_string(P.rows()) + " facets, above the limit of " +
@@ -331,29 +250,29 @@ json parse_json_text(std::string_view text) {
 }
 
 ShapeSpec parse_shape(const json& j, const std::string& field) {
-  require_object(j, field);
-  const std::string tf = key_path(field, "type");
-  const json& type_j = required(j, field, "type");
+  json_require_object(j, field);
+  const std::string tf = json_key_path(field, "type");
+  const json& type_j = json_required(j, field, "type");
   if (!type_j.is_string()) fail(tf, "expected a string, got " + type_of(type_j));
   const std::string type = type_j.get<std::string>();
 
   ShapeSpec spec;
   if (type == "polytope") {
-    check_keys(j, field, {"type", "A", "b", "pose", "weights", "rho"});
+    json_check_keys(j, field, {"type", "A", "b", "pose", "weights", "rho"});
     spec.shape = parse_polytope(j, field);
   } else if (type == "convex_hull") {
-    check_keys(j, field, {"type", "points", "pose", "weights", "rho"});
+    json_check_keys(j, field, {"type", "points", "pose", "weights", "rho"});
     spec.shape = parse_hull(j, field);
   } else if (type == "box") {
-    check_keys(j, field, {"type", "size", "pose", "weights", "rho"});
-    spec.shape = Box{vec3(required(j, field, "size"), key_path(field, "size"), length)};
+    json_check_keys(j, field, {"type", "size", "pose", "weights", "rho"});
+    spec.shape = Box{json_vec<3>(json_required(j, field, "size"), json_key_path(field, "size"), kMaxCoordinate, true)};
   } else if (type == "sphere") {
-    check_keys(j, field, {"type", "radius", "pose", "rho"});
-    spec.shape = Sphere{length(required(j, field, "radius"), key_path(field, "radius"))};
+    json_check_keys(j, field, {"type", "radius", "pose", "rho"});
+    spec.shape = Sphere{json_positive(json_required(j, field, "radius"), json_key_path(field, "radius"), kMaxCoordinate)};
   } else if (type == "cylinder" || type == "capsule") {
-    check_keys(j, field, {"type", "radius", "height", "pose", "rho"});
-    const double r = length(required(j, field, "radius"), key_path(field, "radius"));
-    const double h = length(required(j, field, "height"), key_path(field, "height"));
+    json_check_keys(j, field, {"type", "radius", "height", "pose", "rho"});
+    const double r = json_positive(json_required(j, field, "radius"), json_key_path(field, "radius"), kMaxCoordinate);
+    const double h = json_positive(json_required(j, field, "height"), json_key_path(field, "height"), kMaxCoordinate);
     if (type == "cylinder")
       spec.shape = Cylinder{r, h};
     else
@@ -364,21 +283,21 @@ ShapeSpec parse_shape(const json& j, const std::string& field) {
   }
 
   if (const auto it = j.find("pose"); it != j.end())
-    spec.pose = parse_pose(*it, key_path(field, "pose"));
+    spec.pose = parse_pose(*it, json_key_path(field, "pose"));
   if (const auto it = j.find("weights"); it != j.end()) {
-    const std::string wf = key_path(field, "weights");
-    const json& w = array(*it, wf, kMaxPolytopeRows, "weights");
+    const std::string wf = json_key_path(field, "weights");
+    const json& w = json_array(*it, wf, kMaxPolytopeRows, "weights");
     VecX weights(static_cast<Eigen::Index>(w.size()));
     for (std::size_t i = 0; i < w.size(); ++i)
-      weights[static_cast<Eigen::Index>(i)] = number(w[i], index_path(wf, i));
+      weights[static_cast<Eigen::Index>(i)] = json_number(w[i], json_index_path(wf, i));
     spec.options.weights = weights;  // count and sign are checked by PointToSet
   }
   if (const auto it = j.find("rho"); it != j.end()) {
-    const std::string rf = key_path(field, "rho");
-    require_object(*it, rf);
-    check_keys(*it, rf, {"center", "radius"});
-    const Vec3 c = vec3(required(*it, rf, "center"), key_path(rf, "center"), coordinate);
-    const double r = length(required(*it, rf, "radius"), key_path(rf, "radius"));
+    const std::string rf = json_key_path(field, "rho");
+    json_require_object(*it, rf);
+    json_check_keys(*it, rf, {"center", "radius"});
+    const Vec3 c = json_vec3(json_required(*it, rf, "center"), json_key_path(rf, "center"), kMaxCoordinate);
+    const double r = json_positive(json_required(*it, rf, "radius"), json_key_path(rf, "radius"), kMaxCoordinate);
     spec.options.rho = Ball{c, r};
   }
   return spec;
@@ -390,8 +309,8 @@ GapRequestParams parse_params(const json& j, const std::string& field) {
     check_params(out.params);
     return out;
   }
-  require_object(j, field);
-  check_keys(j, field,
+  json_require_object(j, field);
+  json_check_keys(j, field,
              {"h", "k", "eps", "sigma", "weight_margin", "tol", "max_iter", "solver", "gradient",
               "validate"});
   GapParams& p = out.params;
@@ -399,14 +318,14 @@ GapRequestParams parse_params(const json& j, const std::string& field) {
     const auto it = j.find(key);
     return it == j.end() ? nullptr : &*it;
   };
-  const auto f = [&](const char* key) { return key_path(field, key); };
-  if (auto v = get("h")) p.h = number(*v, f("h"));
-  if (auto v = get("k")) p.k = integer(*v, f("k"));
-  if (auto v = get("eps")) p.eps = number(*v, f("eps"));
-  if (auto v = get("sigma")) p.sigma = number(*v, f("sigma"));
-  if (auto v = get("weight_margin")) p.weight_margin = number(*v, f("weight_margin"));
-  if (auto v = get("tol")) p.tol = number(*v, f("tol"));
-  if (auto v = get("max_iter")) p.max_iter = integer(*v, f("max_iter"));
+  const auto f = [&](const char* key) { return json_key_path(field, key); };
+  if (auto v = get("h")) p.h = json_number(*v, f("h"));
+  if (auto v = get("k")) p.k = json_integer(*v, f("k"));
+  if (auto v = get("eps")) p.eps = json_number(*v, f("eps"));
+  if (auto v = get("sigma")) p.sigma = json_number(*v, f("sigma"));
+  if (auto v = get("weight_margin")) p.weight_margin = json_number(*v, f("weight_margin"));
+  if (auto v = get("tol")) p.tol = json_number(*v, f("tol"));
+  if (auto v = get("max_iter")) p.max_iter = json_integer(*v, f("max_iter"));
   if (auto v = get("solver")) {
     if (!v->is_string())
       fail(f("solver"), "expected \"fixed_point\" or \"newton\", got " + type_of(*v));
@@ -418,8 +337,8 @@ GapRequestParams parse_params(const json& j, const std::string& field) {
     else
       fail(f("solver"), "unknown solver \"" + shorten(s) + "\" (expected fixed_point or newton)");
   }
-  if (auto v = get("gradient")) p.gradient = boolean(*v, f("gradient"));
-  if (auto v = get("validate")) out.validate = boolean(*v, f("validate"));
+  if (auto v = get("gradient")) p.gradient = json_bool(*v, f("gradient"));
+  if (auto v = get("validate")) out.validate = json_bool(*v, f("validate"));
   check_params(p);
   return out;
 }
@@ -446,8 +365,8 @@ json encode_result(const GapResult& r, bool gradient) {
 }
 
 json run_gap_request(const json& request) {
-  require_object(request, "");
-  check_keys(request, "", {"a", "b", "pairs", "params", "comment"});
+  json_require_object(request, "");
+  json_check_keys(request, "", {"a", "b", "pairs", "params", "comment"});
   if (const auto it = request.find("comment"); it != request.end() && !it->is_string())
     fail("comment", "expected a string, got " + type_of(*it));
   const bool batch = request.contains("pairs");
@@ -461,18 +380,18 @@ json run_gap_request(const json& request) {
   // Every shape instance in request order, with its path.
   std::vector<std::pair<const json*, std::string>> instances;
   if (batch) {
-    const json& pairs = array(request["pairs"], "pairs", kMaxPairs, "pairs");
+    const json& pairs = json_array(request["pairs"], "pairs", kMaxPairs, "pairs");
     instances.reserve(2 * pairs.size());
     for (std::size_t i = 0; i < pairs.size(); ++i) {
-      const std::string pf = index_path("pairs", i);
-      require_object(pairs[i], pf);
-      check_keys(pairs[i], pf, {"a", "b"});
-      instances.emplace_back(&required(pairs[i], pf, "a"), key_path(pf, "a"));
-      instances.emplace_back(&required(pairs[i], pf, "b"), key_path(pf, "b"));
+      const std::string pf = json_index_path("pairs", i);
+      json_require_object(pairs[i], pf);
+      json_check_keys(pairs[i], pf, {"a", "b"});
+      instances.emplace_back(&json_required(pairs[i], pf, "a"), json_key_path(pf, "a"));
+      instances.emplace_back(&json_required(pairs[i], pf, "b"), json_key_path(pf, "b"));
     }
   } else {
-    instances.emplace_back(&required(request, "", "a"), "a");
-    instances.emplace_back(&required(request, "", "b"), "b");
+    instances.emplace_back(&json_required(request, "", "a"), "a");
+    instances.emplace_back(&json_required(request, "", "b"), "b");
   }
 
   // Build each distinct shape once (a hull or a 1000-row polytope is costly to build and check),
@@ -482,7 +401,7 @@ json run_gap_request(const json& request) {
   std::vector<std::size_t> proto_of(instances.size());
   for (std::size_t i = 0; i < instances.size(); ++i) {
     const auto& [j, field] = instances[i];
-    require_object(*j, field);
+    json_require_object(*j, field);
     json key_json = *j;
     key_json.erase("pose");
     const auto [it, inserted] = seen.emplace(key_json.dump(), first_instance.size());
@@ -500,7 +419,7 @@ json run_gap_request(const json& request) {
   for (std::size_t i = 0; i < instances.size(); ++i) {
     const auto& [j, field] = instances[i];
     if (const auto pit = j->find("pose"); pit != j->end())
-      poses[i] = parse_pose(*pit, key_path(field, "pose"));
+      poses[i] = parse_pose(*pit, json_key_path(field, "pose"));
   }
 
   if (rp.validate) {
@@ -528,7 +447,7 @@ json run_gap_request(const json& request) {
   for (std::size_t i = 0; i < results.size(); ++i) {
     if (!finite(results[i]))
       throw std::runtime_error(
-          "non-finite result for " + (batch ? index_path("pairs", i) : std::string("the pair")) +
+          "non-finite result for " + (batch ? json_index_path("pairs", i) : std::string("the pair")) +
           "; refusing to report it" +
           (rp.validate ? "" : " (validate is off: parameters that break Property 2 can do this)"));
     json r = encode_result(results[i], params.gradient);

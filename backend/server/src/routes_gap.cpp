@@ -6,6 +6,7 @@
 #include "distlab/levelset/gap_fields.hpp"
 #include "distlab/server/frames.hpp"
 #include "distlab/server/gap_json.hpp"
+#include "distlab/server/json_fields.hpp"
 #include "distlab/server/service.hpp"
 
 namespace distlab::server {
@@ -14,42 +15,16 @@ using json = nlohmann::json;
 
 namespace {
 
-double num(const json& j, const std::string& field) {
-  if (!j.is_number()) throw InvalidInput(field, field + " must be a number");
-  const double v = j.get<double>();
-  if (!std::isfinite(v)) throw InvalidInput(field, field + " must be finite");
-  return v;
-}
-
-int integer(const json& j, const std::string& field, int lo, int hi) {
-  if (!j.is_number_integer()) throw InvalidInput(field, field + " must be an integer");
-  const auto v = j.get<std::int64_t>();
-  if (v < lo || v > hi)
-    throw InvalidInput(field, field + " must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
-  return static_cast<int>(v);
-}
-
-Vec3 vec3(const json& j, const std::string& field) {
-  if (!j.is_array() || j.size() != 3) throw InvalidInput(field, field + " must be an array of 3 numbers");
-  Vec3 v(num(j[0], field + "[0]"), num(j[1], field + "[1]"), num(j[2], field + "[2]"));
-  if (v.cwiseAbs().maxCoeff() > kMaxCoordinate) throw InvalidInput(field, field + " is out of range");
-  return v;
-}
-
-void only_keys(const json& j, const std::string& field, std::initializer_list<const char*> keys) {
-  if (!j.is_object()) throw InvalidInput(field, (field.empty() ? std::string("request") : field) + " must be an object");
-  for (const auto& [k, v] : j.items()) {
-    bool known = false;
-    for (const char* key : keys) known = known || k == key;
-    if (!known) throw InvalidInput(field.empty() ? k : field + "." + k, "unknown key \"" + k.substr(0, 64) + "\"");
-  }
+void only_keys(const json& j, const std::string& field, std::initializer_list<std::string_view> keys) {
+  json_require_object(j, field);
+  json_check_keys(j, field, keys);
 }
 
 std::vector<double> levels(const json& j, const std::string& field, std::size_t max) {
   if (!j.is_array()) throw InvalidInput(field, field + " must be an array of numbers");
   if (j.size() > max) throw ApiError(413, "too_many_levels", field + " has more than " + std::to_string(max) + " levels", field);
   std::vector<double> out;
-  for (std::size_t i = 0; i < j.size(); ++i) out.push_back(num(j[i], field + "[" + std::to_string(i) + "]"));
+  for (std::size_t i = 0; i < j.size(); ++i) out.push_back(json_number(j[i], field + "[" + std::to_string(i) + "]"));
   return out;
 }
 
@@ -85,34 +60,34 @@ void Service::register_gap_routes() {
     if (body.contains("grid")) {
       const json& g = body["grid"];
       only_keys(g, "grid", {"resolution", "padding", "bounds"});
-      if (g.contains("resolution")) o.resolution = integer(g["resolution"], "grid.resolution", 4, lim.max_grid_resolution);
-      if (g.contains("padding")) o.padding = num(g["padding"], "grid.padding");
+      if (g.contains("resolution")) o.resolution = json_integer(g["resolution"], "grid.resolution", 4, lim.max_grid_resolution);
+      if (g.contains("padding")) o.padding = json_number(g["padding"], "grid.padding");
       if (g.contains("bounds")) {
         only_keys(g["bounds"], "grid.bounds", {"min", "max"});
         if (!g["bounds"].contains("min") || !g["bounds"].contains("max"))
           throw InvalidInput("grid.bounds", "grid.bounds needs min and max");
-        o.bounds = std::make_pair(vec3(g["bounds"]["min"], "grid.bounds.min"), vec3(g["bounds"]["max"], "grid.bounds.max"));
+        o.bounds = std::make_pair(json_vec3(g["bounds"]["min"], "grid.bounds.min", kMaxCoordinate), json_vec3(g["bounds"]["max"], "grid.bounds.max", kMaxCoordinate));
       }
     }
     json plane_meta;
     if (body.contains("plane")) {
       const json& p = body["plane"];
       only_keys(p, "plane", {"center", "normal", "size", "resolution"});
-      const Vec3 c = p.contains("center") ? vec3(p["center"], "plane.center") : spec.pose.position;
-      const Vec3 n = p.contains("normal") ? vec3(p["normal"], "plane.normal") : Vec3::UnitZ();
+      const Vec3 c = p.contains("center") ? json_vec3(p["center"], "plane.center", kMaxCoordinate) : spec.pose.position;
+      const Vec3 n = p.contains("normal") ? json_vec3(p["normal"], "plane.normal", kMaxCoordinate) : Vec3::UnitZ();
       double su = 2, sv = 2;
       if (p.contains("size")) {
         if (!p["size"].is_array() || p["size"].size() != 2) throw InvalidInput("plane.size", "plane.size must be [width, height]");
-        su = num(p["size"][0], "plane.size[0]");
-        sv = num(p["size"][1], "plane.size[1]");
+        su = json_number(p["size"][0], "plane.size[0]");
+        sv = json_number(p["size"][1], "plane.size[1]");
         if (!(su > 0 && sv > 0 && su < kMaxCoordinate && sv < kMaxCoordinate)) throw InvalidInput("plane.size", "plane.size must be positive");
       }
       int nu = 128, nv = 128;
       if (p.contains("resolution")) {
         if (!p["resolution"].is_array() || p["resolution"].size() != 2)
           throw InvalidInput("plane.resolution", "plane.resolution must be [nu, nv]");
-        nu = integer(p["resolution"][0], "plane.resolution[0]", 2, lim.max_plane_resolution);
-        nv = integer(p["resolution"][1], "plane.resolution[1]", 2, lim.max_plane_resolution);
+        nu = json_integer(p["resolution"][0], "plane.resolution[0]", 2, lim.max_plane_resolution);
+        nv = json_integer(p["resolution"][1], "plane.resolution[1]", 2, lim.max_plane_resolution);
       }
       o.plane = levelset::plane_from_normal(c, n, su, sv, nu, nv);
       plane_meta = {{"center", {c.x(), c.y(), c.z()}},

@@ -31,14 +31,11 @@ bool valid_name(const std::string& s) {
   return true;
 }
 
-double num(const json& j, const std::string& field) { return json_number(j, field); }
-Vec3 vec3(const json& j, const std::string& field) { return json_vec3(j, field); }
-
 std::vector<double> parse_levels(const json& j, const std::string& field, std::size_t max) {
   if (!j.is_array()) throw InvalidInput(field, field + " must be an array of numbers");
   if (j.size() > max) throw ApiError(413, "too_many_levels", "at most " + std::to_string(max) + " levels", field);
   std::vector<double> out;
-  for (std::size_t i = 0; i < j.size(); ++i) out.push_back(num(j[i], field + "[" + std::to_string(i) + "]"));
+  for (std::size_t i = 0; i < j.size(); ++i) out.push_back(json_number(j[i], field + "[" + std::to_string(i) + "]"));
   return out;
 }
 
@@ -86,7 +83,7 @@ mesh::SurfaceMesh inline_mesh(const json& j, std::size_t max_triangles) {
   mesh::SurfaceMesh m;
   m.vertices.resize(static_cast<Eigen::Index>(v.size()), 3);
   for (std::size_t i = 0; i < v.size(); ++i) {
-    const Vec3 p = vec3(v[i], "mesh.vertices[" + std::to_string(i) + "]");
+    const Vec3 p = json_vec3(v[i], "mesh.vertices[" + std::to_string(i) + "]");
     if (p.cwiseAbs().maxCoeff() > kMaxCoordinate) throw InvalidInput("mesh.vertices[" + std::to_string(i) + "]", "coordinate out of range");
     m.vertices.row(static_cast<Eigen::Index>(i)) = p.transpose();
   }
@@ -126,12 +123,12 @@ json Service::create_object(const std::shared_ptr<Session>& session, const json&
   if (sources != 1) throw InvalidInput("", "give exactly one of asset, upload and mesh");
   if (!body.contains("lx")) throw InvalidInput("lx", "lx is required");
   kelvin::PrepareOptions options;
-  options.lx = num(body["lx"], "lx");
+  options.lx = json_number(body["lx"], "lx");
   if (!(options.lx > 0)) throw InvalidInput("lx", "lx must be positive");
   if (options.lx < lim.min_lx)
     throw ApiError(422, "over_budget", "lx must be at least " + std::to_string(lim.min_lx) + " on this server", "lx");
-  if (body.contains("center")) options.centre = vec3(body["center"], "center");
-  if (body.contains("far_radius")) options.far_radius = num(body["far_radius"], "far_radius");
+  if (body.contains("center")) options.centre = json_vec3(body["center"], "center");
+  if (body.contains("far_radius")) options.far_radius = json_number(body["far_radius"], "far_radius");
   json source = {{"lx", options.lx}};
   if (options.centre) source["center"] = {options.centre->x(), options.centre->y(), options.centre->z()};
   if (body.contains("far_radius")) source["far_radius"] = options.far_radius;
@@ -518,7 +515,7 @@ void Service::register_kelvin_routes() {
                   throw ApiError(413, "too_many_points", "at most " + std::to_string(config_.limits.max_query_points) + " points", "points");
                 std::vector<Vec3> points;
                 points.reserve(pts.size());
-                for (std::size_t i = 0; i < pts.size(); ++i) points.push_back(vec3(pts[i], "points[" + std::to_string(i) + "]"));
+                for (std::size_t i = 0; i < pts.size(); ++i) points.push_back(json_vec3(pts[i], "points[" + std::to_string(i) + "]"));
                 kelvin::SigmaSpec sigma;
                 std::string key;
                 std::uint64_t version;

@@ -35,6 +35,38 @@ inline double json_number(const nlohmann::json& j, const std::string& field,
   return v;
 }
 
+// A number > 0 (sizes, radii, heights), |v| <= max_abs.
+inline double json_positive(const nlohmann::json& j, const std::string& field,
+                            double max_abs = std::numeric_limits<double>::infinity()) {
+  const double v = json_number(j, field, max_abs);
+  if (!(v > 0)) throw InvalidInput(field, field + " must be > 0, got " + nlohmann::json(v).dump());
+  return v;
+}
+
+// An integer in [lo, hi]; a float with an integral value (e.g. 3.0) counts as one.
+inline int json_integer(const nlohmann::json& j, const std::string& field,
+                        long long lo = std::numeric_limits<int>::min(),
+                        long long hi = std::numeric_limits<int>::max()) {
+  if (!j.is_number()) throw InvalidInput(field, field + " must be an integer, got " + j.type_name());
+  const double v = j.get<double>();
+  if (j.is_number_float() && !(std::isfinite(v) && v == std::floor(v)))
+    throw InvalidInput(field, field + " must be an integer, got " + j.dump());
+  if (!(v >= static_cast<double>(lo) && v <= static_cast<double>(hi)))
+    throw InvalidInput(field, field + " must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got " +
+                                  j.dump());
+  return j.is_number_float() ? static_cast<int>(v) : static_cast<int>(j.get<long long>());
+}
+
+// An array of at most max elements (`what` names them in the message, e.g. "pairs").
+inline const nlohmann::json& json_array(const nlohmann::json& j, const std::string& field, std::size_t max,
+                                        const std::string& what = "elements") {
+  if (!j.is_array()) throw InvalidInput(field, field + " must be an array, got " + j.type_name());
+  if (j.size() > max)
+    throw InvalidInput(field, field + " has " + std::to_string(j.size()) + " " + what + ", above the limit of " +
+                                  std::to_string(max));
+  return j;
+}
+
 inline bool json_bool(const nlohmann::json& j, const std::string& field) {
   if (!j.is_boolean()) throw InvalidInput(field, field + " must be true or false, got " + j.type_name());
   return j.get<bool>();
@@ -45,16 +77,20 @@ inline std::string json_string(const nlohmann::json& j, const std::string& field
   return j.get<std::string>();
 }
 
-// A fixed-size vector of finite numbers.
+// A fixed-size vector of finite numbers (each > 0 when `positive`).
 template <int N>
 Eigen::Matrix<double, N, 1> json_vec(const nlohmann::json& j, const std::string& field,
-                                     double max_abs = std::numeric_limits<double>::infinity()) {
+                                     double max_abs = std::numeric_limits<double>::infinity(),
+                                     bool positive = false) {
   if (!j.is_array() || j.size() != N)
-    throw InvalidInput(field, field + " must be an array of " + std::to_string(N) + " numbers");
+    throw InvalidInput(field, field + " must be an array of " + std::to_string(N) + " numbers, got " +
+                                  (j.is_array() ? std::to_string(j.size()) + " elements" : j.type_name()));
   Eigen::Matrix<double, N, 1> v;
-  for (int i = 0; i < N; ++i)
-    v[i] = json_number(j[static_cast<std::size_t>(i)], json_index_path(field, static_cast<std::size_t>(i)),
-                       max_abs);
+  for (int i = 0; i < N; ++i) {
+    const auto& e = j[static_cast<std::size_t>(i)];
+    const std::string f = json_index_path(field, static_cast<std::size_t>(i));
+    v[i] = positive ? json_positive(e, f, max_abs) : json_number(e, f, max_abs);
+  }
   return v;
 }
 
@@ -81,8 +117,12 @@ inline const nlohmann::json& json_required(const nlohmann::json& j, const std::s
 template <class Range>
 void json_check_keys(const nlohmann::json& j, const std::string& field, const Range& allowed) {
   for (const auto& [key, value] : j.items())
-    if (std::find(std::begin(allowed), std::end(allowed), key) == std::end(allowed))
-      throw InvalidInput(json_key_path(field, key.substr(0, 64)), "unknown key \"" + key.substr(0, 64) + "\"");
+    if (std::find(std::begin(allowed), std::end(allowed), key) == std::end(allowed)) {
+      std::string list;
+      for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
+      throw InvalidInput(json_key_path(field, key.substr(0, 64)),
+                         "unknown key \"" + key.substr(0, 64) + "\" (allowed here: " + list + ")");
+    }
 }
 inline void json_check_keys(const nlohmann::json& j, const std::string& field,
                             std::initializer_list<std::string_view> allowed) {
