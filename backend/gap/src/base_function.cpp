@@ -65,28 +65,6 @@ inline double E(double beta, double x_beta, double L) {
 
 }  // namespace
 
-// Φ, Φ', Φ'' from the rational form, with L coefficients per polynomial (known at compile
-// time, so the four interleaved Horner chains are unrolled; they pair into SIMD lanes).
-template <int L>
-BaseFunction::Jet BaseFunction::rational_form(double s) const {
-  // Horner on positive terms at s > 0 loses about an ulp; so does the one division.
-  // Lanes (P_0, P_1) and (P_2, (1+s)^N) as two-double vectors (GCC vector extension: SSE2
-  // on x86-64, plain code elsewhere).
-  typedef double V2 __attribute__((vector_size(16)));
-  const V2* c = reinterpret_cast<const V2*>(r_.data());
-  const V2 t = {s, s};
-  V2 a = c[2 * (L - 1)], b = c[2 * (L - 1) + 1];
-#pragma GCC unroll 32
-  for (int i = L - 2; i >= 0; --i) {
-    a = a * t + c[2 * i];
-    b = b * t + c[2 * i + 1];
-  }
-  const double v0 = a[0], v1 = a[1], v2 = b[0], x = b[1];
-  double q = 1.0 / x;  // (1+s)^−N
-  for (int j = 1; j < k_; ++j) q *= s;  // s^(k−1) (1+s)^−N
-  return {q * (s * s * v0), q * (s * v1), q * v2};
-}
-
 namespace {
 
 template <int... T>
@@ -150,6 +128,7 @@ void BaseFunction::build_rational_form() {
   r_ = r;
   static constexpr auto table = rational_table(std::make_integer_sequence<int, kMaxDegree + 2>{});
   rational_ = table[N + 1];
+  rational_terms_ = N + 1;
 }
 
 BaseFunction::BaseFunction(double h, int k) : h_(h), k_(k) {

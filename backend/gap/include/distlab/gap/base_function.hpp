@@ -18,7 +18,11 @@ class BaseFunction {
   };
   Jet jet(double s) const {
     if (!(s > 0)) return {};
-    if (rational_ && s <= kRationalMaxS) return (this->*rational_)(s);
+    if (s <= kRationalMaxS) {
+      // k = 2, h = 0.1 (the paper's parameters and the default) inline; others by table.
+      if (rational_terms_ == 11) return rational_form<11>(s);
+      if (rational_) return (this->*rational_)(s);
+    }
     return general_jet(s);
   }
   double value(double s) const { return jet(s).value; }
@@ -53,8 +57,31 @@ class BaseFunction {
   static constexpr int kMaxDegree = 20;
   static constexpr double kRationalMaxS = 1e3;  // beyond it the closed form (no cancellation)
   RationalForm rational_ = nullptr;             // null: not available for this (h, k)
+  int rational_terms_ = 0;                      // N + 1 when rational_ is set
   // P_0, P_1, P_2 and (1+s)^N interleaved: r_[4 i + d] is the coefficient of s^i (.cpp).
   alignas(16) std::array<double, 4 * (kMaxDegree + 1)> r_{};
 };
+
+// Φ, Φ', Φ'' from the rational form, with L coefficients per polynomial (known at compile
+// time, so the four interleaved Horner chains are unrolled; they pair into SIMD lanes).
+template <int L>
+inline BaseFunction::Jet BaseFunction::rational_form(double s) const {
+  // Horner on positive terms at s > 0 loses about an ulp; so does the one division.
+  // Lanes (P_0, P_1) and (P_2, (1+s)^N) as two-double vectors (GCC vector extension: SSE2
+  // on x86-64, plain code elsewhere).
+  typedef double V2 __attribute__((vector_size(16)));
+  const V2* c = reinterpret_cast<const V2*>(r_.data());
+  const V2 t = {s, s};
+  V2 a = c[2 * (L - 1)], b = c[2 * (L - 1) + 1];
+#pragma GCC unroll 32
+  for (int i = L - 2; i >= 0; --i) {
+    a = a * t + c[2 * i];
+    b = b * t + c[2 * i + 1];
+  }
+  const double v0 = a[0], v1 = a[1], v2 = b[0], x = b[1];
+  double q = 1.0 / x;  // (1+s)^−N
+  for (int j = 1; j < k_; ++j) q *= s;  // s^(k−1) (1+s)^−N
+  return {q * (s * s * v0), q * (s * v1), q * v2};
+}
 
 }  // namespace distlab
