@@ -253,6 +253,7 @@ export class CbfView implements View, CbfHookSource {
     const what = current ? `${NAME[current.metric]} rollout` : "rollout";
     const steps = current ? ` ${current.stepsDone} / ${current.stepsTotal || "…"} steps` : "";
     this.host.progress(`${what}:${steps}`, run.fraction, () => void run.cancel());
+    this.host.status(`computing ${run.metrics.map((m) => NAME[m]).join(", then ")} — frames stream in as they are computed (Esc cancels)`);
   }
 
   private onFrames(r: Rollout, arrived: number): void {
