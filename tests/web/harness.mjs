@@ -25,7 +25,7 @@ export async function startServer({ extra = [], cacheDir, port: wanted = 0 } = {
   const proc = spawn(exe, args, { stdio: ["ignore", "pipe", "pipe"] });
   let log = "";
   const port = await new Promise((resolve, reject) => {
-    const timer = setTimeout(() => reject(new Error("server did not start in 30 s:\n" + log)), 30000);
+    const timer = setTimeout(() => reject(new Error("server did not start in 120 s:\n" + log)), 120000);
     const onData = (d) => {
       log += d.toString();
       const m = /listening on http:\/\/[^:]+:(\d+)\//.exec(log);
@@ -71,6 +71,8 @@ export async function launchBrowser() {
 /** A page on the given hash; console errors and failed requests are collected in page.problems. */
 export async function openView(browser, server, hash, { width = 1280, height = 800 } = {}) {
   const context = await browser.newContext({ viewport: { width, height }, acceptDownloads: true });
+  // Generous waits: CI's 2 cores render WebGL in software while other tests run (waits, not timings).
+  context.setDefaultTimeout(120000);
   const page = await context.newPage();
   page.problems = [];
   page.on("pageerror", (e) => page.problems.push(`pageerror: ${e.message}`));
@@ -78,7 +80,7 @@ export async function openView(browser, server, hash, { width = 1280, height = 8
     if (m.type() === "error") page.problems.push(`console: ${m.text()}`);
   });
   await page.goto(server.url + hash);
-  await page.waitForFunction(() => document.getElementById("connection")?.textContent === "connected", null, { timeout: 30000 });
+  await page.waitForFunction(() => document.getElementById("connection")?.textContent === "connected", null, { timeout: 120000 });
   return page;
 }
 

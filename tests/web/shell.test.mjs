@@ -41,8 +41,8 @@ test("the page reconnects after the server restarts on the same port", async () 
   const page = await openView(browser, server, "#/gap");
   const port = server.port;
   await server.stop({ keepCache: true });
-  await page.waitForFunction(() => document.getElementById("connection")?.textContent?.startsWith("offline"), null, { timeout: 15000 });
+  await page.waitForFunction(() => document.getElementById("connection")?.textContent?.startsWith("offline"), null, { timeout: 60000 });
   server = await startServer({ cacheDir: server.cacheDir, port });
   // A restart on another port cannot be followed by the page; the test restarts on the same one.
-  await page.waitForFunction(() => document.getElementById("connection")?.textContent === "connected", null, { timeout: 30000 });
+  await page.waitForFunction(() => document.getElementById("connection")?.textContent === "connected", null, { timeout: 120000 });
 });
