@@ -1,6 +1,10 @@
 // The service's API without Kelvin preparation: health, version, OpenAPI coverage, sessions,
 // GAP distance and level sets, static files, and every kind of bad input.
+#include <algorithm>
+#include <cctype>
+#include <chrono>
 #include <set>
+#include <thread>
 
 #include "distlab/server/frames.hpp"
 #include "distlab/server/service.hpp"
@@ -375,6 +379,62 @@ TEST(ApiLimits, WebSocketMessageSizeAndRate) {
     }
     EXPECT_FALSE(ws.read(m, 10));  // closed: message too big
   }
+  EXPECT_EQ(c.Get("/api/health")->status, 200);
+  EXPECT_EQ(server.stop(), 0);
+}
+
+// Every synchronous heavy request names the limits that bound it (GET /api/limits), each a real
+// limit; the time-bounded ones document 408 in the OpenAPI file; max_iter past the budget is 422.
+TEST_F(Api, EveryHeavyRequestIsBounded) {
+  const json limits = body_json(c.Get("/api/limits"));
+  const json doc = json::parse(body_json(c.Get("/api/openapi.json")).dump());
+  ASSERT_TRUE(limits["request_bounds"].is_object()) << limits.dump();
+  for (const char* route : {"POST /api/gap/distance", "POST /api/gap/levelsets", "POST /api/kelvin/uploads",
+                            "POST /api/kelvin/objects", "POST /api/kelvin/objects/{id}/query",
+                            "GET /api/kelvin/objects/{id}/isosurface", "GET /api/kelvin/objects/{id}/export"}) {
+    ASSERT_TRUE(limits["request_bounds"].contains(route)) << route;
+    EXPECT_FALSE(limits["request_bounds"][route].empty()) << route << " has no explicit bound";
+  }
+  for (const auto& [route, names] : limits["request_bounds"].items()) {
+    for (const auto& n : names) EXPECT_TRUE(limits.contains(n.get<std::string>())) << route << ": " << n;
+    const auto space = route.find(' ');
+    std::string method = route.substr(0, space);
+    std::transform(method.begin(), method.end(), method.begin(), [](unsigned char ch) { return std::tolower(ch); });
+    const json& op = doc["paths"][route.substr(space + 1)][method];
+    if (std::find(names.begin(), names.end(), "max_request_seconds") != names.end()) {
+      EXPECT_TRUE(op["responses"].contains("408")) << route << " is time-bounded but documents no 408";
+    }
+  }
+  json body = json::parse(kPair);
+  body["params"] = {{"max_iter", limits["max_gap_iterations"].get<long>() + 1}};
+  expect_error(c.Post("/api/gap/distance", body.dump(), "application/json"), 422, "over_budget", "params.max_iter");
+  body["params"] = {{"max_iter", limits["max_gap_iterations"].get<long>()}};
+  EXPECT_EQ(c.Post("/api/gap/distance", body.dump(), "application/json")->status, 200);
+}
+
+// With a tiny time per request, a GAP batch and a Kelvin query stop with 408 time_limit (their
+// checks run between chunks), and the server keeps serving.
+TEST(ApiLimits, TimeLimitPerRequest) {
+  ServerProcess server({"--max-request-seconds", "0.000001"});
+  auto c = server.client();
+  json pairs = json::array();
+  for (int i = 0; i < 200; ++i) pairs.push_back(json::parse(kPair));
+  auto r = c.Post("/api/gap/distance", json{{"pairs", pairs}}.dump(), "application/json");
+  expect_error(r, 408, "time_limit", "");
+  const std::string s = new_session(c);
+  r = c.Post("/api/kelvin/objects", session_headers(s), json{{"asset", "cube"}, {"lx", 0.3}}.dump(), "application/json");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 202) << r->body;
+  const std::string id = body_json(r)["object"]["id"];
+  std::string state;
+  for (int i = 0; i < 600 && state != "ready"; ++i) {
+    state = body_json(c.Get(("/api/kelvin/objects/" + id).c_str(), session_headers(s)))["state"];
+    if (state != "ready") std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  ASSERT_EQ(state, "ready");
+  r = c.Post(("/api/kelvin/objects/" + id + "/query").c_str(), session_headers(s),
+             json{{"points", {{1.0, 0, 0}, {1.5, 0, 0}}}}.dump(), "application/json");
+  expect_error(r, 408, "time_limit", "");
   EXPECT_EQ(c.Get("/api/health")->status, 200);
   EXPECT_EQ(server.stop(), 0);
 }

@@ -364,7 +364,10 @@ json encode_result(const GapResult& r, bool gradient) {
   return out;
 }
 
-json run_gap_request(const json& request) {
+json run_gap_request(const json& request, const std::function<void()>& checkpoint) {
+  const auto check = [&] {
+    if (checkpoint) checkpoint();
+  };
   json_require_object(request, "");
   json_check_keys(request, "", {"a", "b", "pairs", "params", "comment"});
   if (const auto it = request.find("comment"); it != request.end() && !it->is_string())
@@ -415,6 +418,7 @@ json run_gap_request(const json& request) {
     protos[k].emplace(
         Prototype{field, GapBody(spec.shape, Pose{}, params, spec.options, field), {}});
   });
+  check();
   std::vector<Pose> poses(instances.size());
   for (std::size_t i = 0; i < instances.size(); ++i) {
     const auto& [j, field] = instances[i];
@@ -427,6 +431,7 @@ json run_gap_request(const json& request) {
                  [&](std::size_t k) { protos[k]->report = validate_p2s(protos[k]->body.p2s()); });
     for (const auto& p : protos)
       if (!p->report->ok) fail(p->field, p->report->message);
+    check();
   }
 
   std::vector<GapBody> bodies;
@@ -439,9 +444,21 @@ json run_gap_request(const json& request) {
   for (std::size_t i = 0; i + 1 < bodies.size(); i += 2)
     pairs.emplace_back(&bodies[i], &bodies[i + 1]);
 
-  const std::vector<GapResult> results =
-      batch ? gap_distance_batch(pairs, params)
-            : std::vector<GapResult>{gap_distance(*pairs[0].first, *pairs[0].second, params)};
+  std::vector<GapResult> results;
+  if (!batch) {
+    results.push_back(gap_distance(*pairs[0].first, *pairs[0].second, params));
+  } else {
+    // In chunks (each on all cores), so the checkpoint runs while a long batch is under way.
+    constexpr std::size_t kChunk = 64;
+    results.reserve(pairs.size());
+    for (std::size_t begin = 0; begin < pairs.size(); begin += kChunk) {
+      check();
+      const std::vector<std::pair<const GapBody*, const GapBody*>> chunk(
+          pairs.begin() + static_cast<std::ptrdiff_t>(begin),
+          pairs.begin() + static_cast<std::ptrdiff_t>(std::min(pairs.size(), begin + kChunk)));
+      for (GapResult& r : gap_distance_batch(chunk, params)) results.push_back(std::move(r));
+    }
+  }
 
   json out = json::array();
   for (std::size_t i = 0; i < results.size(); ++i) {

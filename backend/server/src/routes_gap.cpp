@@ -4,6 +4,7 @@
 #include "distlab/geometry/error.hpp"
 #include "distlab/gap/point_to_set.hpp"
 #include "distlab/levelset/gap_fields.hpp"
+#include "distlab/server/deadline.hpp"
 #include "distlab/server/frames.hpp"
 #include "distlab/server/gap_json.hpp"
 #include "distlab/server/json_fields.hpp"
@@ -38,9 +39,23 @@ void Service::register_gap_routes() {
                      throw ApiError(413, "too_many_pairs",
                                     "at most " + std::to_string(config_.limits.max_gap_pairs) + " pairs per request",
                                     "pairs");
-                   return json_response(200, run_gap_request(body));
+                   const Limits& lim = config_.limits;
+                   if (body.is_object() && body.contains("params") && body["params"].is_object() &&
+                       body["params"].contains("max_iter")) {
+                     const int max_iter = json_integer(body["params"]["max_iter"], "params.max_iter");
+                     if (max_iter > lim.max_gap_iterations)
+                       throw ApiError(422, "over_budget",
+                                      "params.max_iter must be at most " + std::to_string(lim.max_gap_iterations) +
+                                          " on this server",
+                                      "params.max_iter");
+                   }
+                   const Deadline deadline(lim.max_request_seconds);
+                   return json_response(200, run_gap_request(body, [&] {
+                     deadline.check("send fewer pairs per request");
+                   }));
                  }};
   distance.heavy = true;
+  distance.bounds = {"max_body_bytes", "max_gap_pairs", "max_gap_iterations", "max_request_seconds"};
   router_.add(std::move(distance));
 
   Route levelsets{"POST", "/api/gap/levelsets", [this](Request& req) {
@@ -173,6 +188,7 @@ void Service::register_gap_routes() {
     return r;
   }};
   levelsets.heavy = true;
+  levelsets.bounds = {"max_body_bytes", "max_levels", "max_grid_resolution", "max_plane_resolution", "max_request_seconds"};
   router_.add(std::move(levelsets));
 }
 

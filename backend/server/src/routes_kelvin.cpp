@@ -10,6 +10,7 @@
 #include "distlab/kelvin/sigma.hpp"
 #include "distlab/mesh/primitives.hpp"
 #include "distlab/server/json_fields.hpp"
+#include "distlab/server/deadline.hpp"
 #include "distlab/server/frames.hpp"
 #include "distlab/server/gap_json.hpp"
 #include "distlab/server/kelvin_json.hpp"
@@ -427,6 +428,7 @@ void Service::register_kelvin_routes() {
                                             {"n_faces", up->surface.faces.rows()}});
                }};
   upload.heavy = true;
+  upload.bounds = {"max_upload_bytes", "max_upload_triangles", "max_uploads_per_session"};
   upload.body_limit = config_.limits.max_upload_bytes;
   router_.add(std::move(upload));
 
@@ -435,6 +437,7 @@ void Service::register_kelvin_routes() {
                  return json_response(202, create_object(session, parse_body(req)));
                }};
   create.heavy = true;
+  create.bounds = {"max_body_bytes", "max_upload_triangles", "min_lx", "max_vertex_estimate", "max_objects_per_session", "max_jobs_per_session", "max_jobs_total"};
   router_.add(std::move(create));
 
   router_.add({"GET", "/api/kelvin/objects", [this](Request& req) {
@@ -520,7 +523,20 @@ void Service::register_kelvin_routes() {
                 std::string key;
                 std::uint64_t version;
                 auto prepared = ready(object, sigma, key, version);
-                const auto samples = prepared->with_sigma(sigma, key, true, [&](const kelvin::Field& f) { return f.query(points); });
+                // In chunks, so the time limit is checked while a large query runs.
+                const Deadline deadline(config_.limits.max_request_seconds);
+                const std::size_t chunk = std::max<std::size_t>(1, config_.limits.query_chunk_points);
+                const auto samples = prepared->with_sigma(sigma, key, true, [&](const kelvin::Field& f) {
+                  std::vector<kelvin::Sample> out;
+                  out.reserve(points.size());
+                  for (std::size_t begin = 0; begin < points.size(); begin += chunk) {
+                    deadline.check("query fewer points per request");
+                    const std::vector<Vec3> part(points.begin() + static_cast<std::ptrdiff_t>(begin),
+                                                 points.begin() + static_cast<std::ptrdiff_t>(std::min(points.size(), begin + chunk)));
+                    for (const kelvin::Sample& x : f.query(part)) out.push_back(x);
+                  }
+                  return out;
+                });
                 json h = json::array(), grad = json::array(), inside = json::array();
                 for (const auto& s : samples) {
                   const bool ok = s.status == kelvin::Status::ok && std::isfinite(s.h);
@@ -531,6 +547,7 @@ void Service::register_kelvin_routes() {
                 return json_response(200, {{"h", h}, {"gradient", grad}, {"inside", inside}, {"sigma_version", version}});
               }};
   query.heavy = true;
+  query.bounds = {"max_body_bytes", "max_query_points", "max_request_seconds"};
   router_.add(std::move(query));
 
   Route iso{"GET", "/api/kelvin/objects/{id}/isosurface", [this, ready](Request& req) {
@@ -549,6 +566,7 @@ void Service::register_kelvin_routes() {
               return r;
             }};
   iso.heavy = true;
+  iso.bounds = {"max_vertex_estimate"};
   router_.add(std::move(iso));
 
   router_.add({"GET", "/api/kelvin/objects/{id}/surface", [this](Request& req) {
@@ -605,6 +623,7 @@ void Service::register_kelvin_routes() {
               return r;
             }};
   exp.heavy = true;
+  exp.bounds = {"max_vertex_estimate"};
   router_.add(std::move(exp));
 }
 

@@ -139,7 +139,7 @@ void Service::register_core_routes() {
                }});
   router_.add({"GET", "/api/limits", [this](Request&) {
                  const Limits& l = config_.limits;
-                 return json_response(200, {{"max_body_bytes", l.max_body_bytes},
+                 json limits = {{"max_body_bytes", l.max_body_bytes},
                                             {"max_upload_bytes", l.max_upload_bytes},
                                             {"max_upload_triangles", l.max_upload_triangles},
                                             {"min_lx", l.min_lx},
@@ -154,7 +154,16 @@ void Service::register_core_routes() {
                                             {"max_query_points", l.max_query_points},
                                             {"max_levels", l.max_levels},
                                             {"max_grid_resolution", l.max_grid_resolution},
-                                            {"max_gap_pairs", l.max_gap_pairs}});
+                                            {"max_gap_pairs", l.max_gap_pairs}};
+                 limits["max_uploads_per_session"] = l.max_uploads_per_session;
+                 limits["max_plane_resolution"] = l.max_plane_resolution;
+                 limits["max_gap_iterations"] = l.max_gap_iterations;
+                 // Every synchronous heavy request and the limits above that bound its work.
+                 json bounds = json::object();
+                 for (const Route& r : router_.routes())
+                   if (r.heavy) bounds[r.method + " " + r.pattern] = r.bounds;
+                 limits["request_bounds"] = bounds;
+                 return json_response(200, limits);
                }});
 
   router_.add({"POST", "/api/session", [this](Request&) {

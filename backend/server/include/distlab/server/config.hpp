@@ -30,6 +30,8 @@ struct Limits {
   int max_grid_resolution = 128;
   int max_plane_resolution = 512;
   std::size_t max_gap_pairs = 2000;
+  int max_gap_iterations = 1000000;  // params.max_iter of one GAP pair (0: the solver's default)
+  std::size_t query_chunk_points = 4096;  // Kelvin queries check the time limit this often
 };
 
 struct ServiceConfig {

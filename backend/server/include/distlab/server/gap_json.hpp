@@ -19,6 +19,7 @@
 // Errors:   {"error": {"code", "message", "field"}}; "field" is a path such as "pairs[2].b.size[1]"
 //           ("" for the request as a whole).
 #include <cstddef>
+#include <functional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -74,7 +75,9 @@ GapRequestParams parse_params(const nlohmann::json& j, const std::string& field 
 
 // Runs a whole request; throws InvalidInput (with the field) on bad input and
 // std::runtime_error on an internal failure (e.g. a non-finite result, which is never emitted).
-nlohmann::json run_gap_request(const nlohmann::json& request);
+// `checkpoint` (if given) is called between stages and between chunks of pairs; it may throw
+// to stop the work (the service's time limit).
+nlohmann::json run_gap_request(const nlohmann::json& request, const std::function<void()>& checkpoint = {});
 
 // Encodes one result (validation reports are added by run_gap_request).
 nlohmann::json encode_result(const GapResult& r, bool gradient);
