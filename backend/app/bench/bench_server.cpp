@@ -193,7 +193,7 @@ int main(int argc, char** argv) {
     for (int i = 1; i <= edits; ++i) {
       const auto t0 = Clock::now();
       // A new σ every time (no solve can be reused).
-      ws.write(net::buffer(json{{"type", "sigma"}, {"object", id}, {"sigma", {{"constant", 0.005 * i}}}}.dump()));
+      ws.write(net::buffer(json{{"type", "sigma"}, {"object", id}, {"sigma", {{"constant", 0.0005 * i}}}}.dump()));
       frame = read_until_frame(i);
       lat.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
       if (frame.contains("server_ms")) {
