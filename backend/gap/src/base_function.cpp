@@ -19,6 +19,9 @@
 #include "distlab/gap/base_function.hpp"
 
 #include <cmath>
+#include <map>
+#include <memory>
+#include <mutex>
 #include <string>
 #include <utility>
 
@@ -125,7 +128,15 @@ void BaseFunction::build_rational_form() {
     }
   }
   for (int j = 0; j <= N; ++j) r[4 * j + 3] = static_cast<double>(binom[N][j]);
-  r_ = r;
+  static std::mutex mutex;
+  static std::map<int, std::unique_ptr<Coefficients>> tables;  // key: 100 n + k
+  const std::lock_guard<std::mutex> lock(mutex);
+  auto& entry = tables[100 * n + k_];
+  if (!entry) {
+    entry = std::make_unique<Coefficients>();
+    entry->c = r;
+  }
+  r_ = entry->c.data();
   static constexpr auto table = rational_table(std::make_integer_sequence<int, kMaxDegree + 2>{});
   rational_ = table[N + 1];
   rational_terms_ = N + 1;

@@ -58,8 +58,13 @@ class BaseFunction {
   static constexpr double kRationalMaxS = 1e3;  // beyond it the closed form (no cancellation)
   RationalForm rational_ = nullptr;             // null: not available for this (h, k)
   int rational_terms_ = 0;                      // N + 1 when rational_ is set
-  // P_0, P_1, P_2 and (1+s)^N interleaved: r_[4 i + d] is the coefficient of s^i (.cpp).
-  alignas(16) std::array<double, 4 * (kMaxDegree + 1)> r_{};
+  // P_0, P_1, P_2 and (1+s)^N interleaved: r_[4 i + d] is the coefficient of s^i (.cpp). One
+  // table per (n, k), shared by every BaseFunction with those parameters and kept to the end
+  // of the program (at most a few dozen exist), so many shapes with the same h and k keep one table in cache.
+  struct alignas(16) Coefficients {
+    std::array<double, 4 * (kMaxDegree + 1)> c{};
+  };
+  const double* r_ = nullptr;
 };
 
 // Φ, Φ', Φ'' from the rational form, with L coefficients per polynomial (known at compile
@@ -70,7 +75,7 @@ inline BaseFunction::Jet BaseFunction::rational_form(double s) const {
   // Lanes (P_0, P_1) and (P_2, (1+s)^N) as two-double vectors (GCC vector extension: SSE2
   // on x86-64, plain code elsewhere).
   typedef double V2 __attribute__((vector_size(16)));
-  const V2* c = reinterpret_cast<const V2*>(r_.data());
+  const V2* c = reinterpret_cast<const V2*>(r_);
   const V2 t = {s, s};
   V2 a = c[2 * (L - 1)], b = c[2 * (L - 1) + 1];
 #pragma GCC unroll 32
