@@ -72,6 +72,8 @@ void solve_into(GapResult& r, const GapBody& a, const GapBody& b, const GapParam
 
 GapResult gap_distance(const GapBody& a, const GapBody& b, const GapParams& params) {
   GapResult r;
+  a.p2s().prefetch();  // the solver's rows arrive while FCL works
+  b.p2s().prefetch();
   if (!params.euclidean) {
     // FCL's raw answer is a good enough start; near contact (or FCL's "collision") the certified
     // path below decides overlap with libccd.
