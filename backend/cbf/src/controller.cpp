@@ -6,6 +6,7 @@
 
 #include "distlab/collision/euclidean.hpp"
 #include "distlab/gap/solver.hpp"
+#include "distlab/gap/warm_disjoint.hpp"
 
 namespace distlab::cbf {
 namespace {
@@ -46,30 +47,6 @@ bool separated_along(const Shape& sa, const Pose& pa, const Mat3& Ra, const Shap
 // Separation proved by a plane this far apart is far beyond the overlap test's own tolerances
 // (1e-9 in collision/placed.hpp), so that test would answer "no overlap" too.
 constexpr double kCertifiedGap = 1e-6;
-
-// gap_distance_warm for a pair known to be disjoint: the same solve without its overlap test
-// (libccd GJK plus a verifying GJK, the most expensive part of a warm call).
-GapResult warm_disjoint(const GapBody& a, const GapBody& b, const GapParams& params,
-                        const Vec3& start_a, const Vec3& start_b) {
-  GapResult r;
-  r.euclidean_computed = false;
-  const WitnessSolution s =
-      params.solver == GapSolver::newton
-          ? solve_newton(a.p2s(), b.p2s(), start_a, params.tol, params.iteration_limit(), &start_b)
-          : solve_fixed_point(a.p2s(), b.p2s(), start_a, params.tol, params.iteration_limit());
-  r.witness_a = s.a;
-  r.witness_b = s.b;
-  r.iterations = s.iterations;
-  r.converged = s.converged;
-  r.lambda = std::max(s.lambda, 0.0);
-  r.distance = std::sqrt(2.0 * r.lambda);
-  if (params.gradient && r.distance > 0) {
-    lambda_gradients(s.a, s.b, a.pose(), b.pose(), r.gradient_a, r.gradient_b);
-    r.gradient_a /= r.distance;  // dD = dΛ / D
-    r.gradient_b /= r.distance;
-  }
-  return r;
-}
 
 }  // namespace
 
@@ -181,7 +158,7 @@ void CbfController::compute_pairs(const Kinematics& k, std::vector<PairSample>& 
         const Mat3& Rb = pair.self ? m.robot_R[pair.b] : m.obstacle_R[pair.b];
         if (separated_along(prims[pair.a].shape, m.robot_pose[pair.a], m.robot_R[pair.a], sb, pb, Rb,
                             m.warm_b[p] - m.warm_a[p], kCertifiedGap)) {
-          g = warm_disjoint(A, B, scenario_.gap, m.warm_a[p], m.warm_b[p]);
+          g = gap_distance_warm_disjoint(A, B, scenario_.gap, m.warm_a[p], m.warm_b[p]);
         } else {
           g = gap_distance_warm(A, B, scenario_.gap, m.warm_a[p], m.warm_b[p]);
         }
