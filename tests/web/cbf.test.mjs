@@ -28,8 +28,8 @@ async function waitLoaded(page) {
 async function waitRunEnded(page, n, timeout = 120000) {
   await page.waitForFunction(
     (n) => {
-      const r = window.distlab.cbf.rollouts;
-      return r.length === n && r.every((x) => ["finished", "cancelled", "failed"].includes(x.state)) && document.getElementById("progress").hidden;
+      const r = window.distlab?.cbf?.rollouts; // undefined until the lazily loaded view mounts
+      return !!r && r.length === n && r.every((x) => ["finished", "cancelled", "failed"].includes(x.state)) && document.getElementById("progress").hidden;
     },
     n,
     { timeout, polling: 50 },
@@ -207,7 +207,7 @@ test("cancel stops a long rollout midway; what was computed stays playable", asy
   const page = await openView(browser, server, hash({ duration: 60, metric: "gap" }));
   await waitLoaded(page);
   await page.keyboard.press("r");
-  await page.waitForFunction(() => window.distlab.cbf.length > 0, null, { timeout: 30000, polling: 20 });
+  await page.waitForFunction(() => window.distlab?.cbf?.length > 0, null, { timeout: 30000, polling: 20 });
   await page.click("#progress-cancel");
   await waitRunEnded(page, 1, 60000);
   const [r] = await C(page, "c.rollouts");
@@ -225,7 +225,7 @@ test("cancel stops a long rollout midway; what was computed stays playable", asy
 
   // Leaving the view while a rollout runs cancels its job (the view stops what it started).
   await page.keyboard.press("r");
-  await page.waitForFunction(() => window.distlab.cbf.rollouts[0]?.id && window.distlab.cbf.rollouts[0].state === "running" && window.distlab.cbf.length > 0, null, { timeout: 30000, polling: 20 });
+  await page.waitForFunction(() => window.distlab.cbf.rollouts[0]?.id && window.distlab.cbf.rollouts[0].state === "running" && window.distlab?.cbf?.length > 0, null, { timeout: 30000, polling: 20 });
   const running = (await C(page, "c.rollouts"))[0];
   await page.evaluate(() => (location.hash = "#/gap"));
   await page.waitForFunction(

@@ -81,6 +81,9 @@ export async function openView(browser, server, hash, { width = 1280, height = 8
   });
   await page.goto(server.url + hash);
   await page.waitForFunction(() => document.getElementById("connection")?.textContent === "connected", null, { timeout: 120000 });
+  // Views load lazily: wait until the routed view has mounted its test hooks (window.distlab.<view>).
+  const view = /^#\/(gap|kelvin|cbf)\b/.exec(hash)?.[1];
+  if (view) await page.waitForFunction((v) => window.distlab?.[v] !== undefined, view, { timeout: 120000 });
   return page;
 }
 
