@@ -1,7 +1,14 @@
 // Issue 5's two front-end targets, measured in headless chromium (software WebGL, SwiftShader)
 // against the real server: σ stroke → iso-surface frame drawn at a ~25k-vertex field, and frame
 // times while orbiting a ~200k-triangle mesh. Prints JSON. Not a test (CTest runs *.test.mjs only).
-// Usage: DISTLAB_EXE=build/backend/app/distlab [LX=0.05 STROKES=10 MOVES=240] node tests/web/bench_kelvin_view.mjs
+// Usage: DISTLAB_EXE=build/backend/app/distlab [LX=0.05 STROKES=10 MOVES=240 SYNC=1 ORBIT=1 CACHE=dir] node tests/web/bench_kelvin_view.mjs
+// CACHE: a kept cache directory (the 200k-triangle sphere is prepared once, then loaded).
+// SYNC=1 (default): each frame waits for its pixels while σ latency is measured, so "drawn" means
+// rendered by the (software) GPU, not merely submitted. ORBIT=0 skips the 200k-triangle part.
+// Stages of stroke → drawn (medians, ms): wait (event → σ sent: the previous edit's frames are on
+// their way), ack (sent → server's acknowledgement), server (edit received → last frame sent, the
+// server's own clock), frames (sent → last frame arrived), decode + accept (frames → geometries),
+// raf_wait (geometries → the animation frame begins), render (that frame's render call).
 import { mkdtempSync, writeFileSync } from "node:fs";
 import { tmpdir } from "node:os";
 import path from "node:path";
@@ -28,18 +35,55 @@ function uvSphereStl(n) {
 const work = mkdtempSync(path.join(tmpdir(), "distlab-bench-web-"));
 const spherePath = path.join(work, "sphere200k.stl");
 writeFileSync(spherePath, uvSphereStl(316)); // 199,080 triangles
-const server = await startServer({ cacheDir: path.join(work, "cache") });
+const server = await startServer({ cacheDir: process.env.CACHE ?? path.join(work, "cache") });
 const browser = await launchBrowser();
 const med = (a) => { const s = [...a].sort((x, y) => x - y); return s.length ? s[Math.floor((s.length - 1) / 2)] : NaN; };
 const pct = (a, p) => { const s = [...a].sort((x, y) => x - y); return s[Math.min(s.length - 1, Math.floor(p * s.length))]; };
 const K = (page, e) => page.evaluate(`(() => { const k = window.distlab.kelvin; return ${e}; })()`);
 const out = {};
+
+/** Orbits with the real mouse (brush off): frame intervals, main-thread time per frame, long tasks,
+ *  GL uploads meanwhile; then renders 30 frames back to back, each waited for (SwiftShader's time). */
+async function orbit(p, moves) {
+  await p.keyboard.press("b"); // brush off: every drag orbits
+  await p.waitForTimeout(500);
+  const box = await p.locator("canvas.viewport-canvas").boundingBox();
+  await K(p, "k.resetFrameStats()");
+  const up0 = await K(p, "k.glUploads ? k.glUploads() : null");
+  await p.evaluate(() => {
+    window.__long = [];
+    new PerformanceObserver((l) => window.__long.push(...l.getEntries().map((x) => x.duration))).observe({ type: "longtask" });
+  });
+  const cx = box.x + box.width / 2, cy = box.y + box.height / 2;
+  await p.mouse.move(cx, cy);
+  await p.mouse.down();
+  const t0 = Date.now();
+  for (let i = 0; i < moves; i++) await p.mouse.move(cx + 200 * Math.sin(i / 20), cy + 60 * Math.cos(i / 30));
+  await p.mouse.up();
+  const secs = (Date.now() - t0) / 1000;
+  const fs = await K(p, "k.frameStats()");
+  const up1 = await K(p, "k.glUploads ? k.glUploads() : null");
+  const longTasks = await p.evaluate(() => window.__long);
+  const r = await K(p, "k.measureOrbit(30)");
+  return {
+    display_triangles: await K(p, "k.displayTriangles"), rendered_triangles: fs.triangles, px: [r.width, r.height], mouse_moves: moves, frames: fs.frames, seconds: secs,
+    frame_interval_ms: { median: fs.medianMs, p95: fs.p95Ms }, // rAF to rAF while dragging: bound by SwiftShader
+    main_thread_per_frame_ms: fs.cpuMedianMs === undefined ? null : { median: fs.cpuMedianMs, p95: fs.cpuP95Ms }, // hooks + render() call, no GPU wait
+    long_tasks: { count: longTasks.length, total_ms: longTasks.reduce((a, b) => a + b, 0), max_ms: Math.max(0, ...longTasks) },
+    gl_uploads_during_orbit: up0 && up1 ? { bufferData: up1.bufferData - up0.bufferData, bufferSubData: up1.bufferSubData - up0.bufferSubData, textures: up1.texImage2D + up1.texSubImage2D - up0.texImage2D - up0.texSubImage2D, bytes: up1.bytes - up0.bytes, geometries: [up0.geometries, up1.geometries], draw_calls: up1.calls } : null,
+    render_waited_ms: { median: med(r.times), p95: pct(r.times, 0.95) }, // one frame drawn by SwiftShader
+    swiftshader_fps_bound: Math.round(1000 / med(r.times)),
+    field_vertices: (await K(p, "k.object")).stats.n_verts,
+  };
+}
 try {
   // A: σ latency. Cube, l_x = 0.05 (about 24k field vertices).
   const lx = Number(process.env.LX ?? 0.05);
   const page = await openView(browser, server, `#/kelvin?s=${encodeURIComponent(JSON.stringify({ object: "cube", lx, levels: [0, 0.25] }))}`);
   await page.waitForFunction(() => window.distlab?.kelvin?.ready === true, null, { timeout: 300000, polling: 200 });
   const nverts = (await K(page, "k.object")).stats.n_verts;
+  const sync = process.env.SYNC !== "0";
+  const synced = await K(page, `k.syncRender ? (k.syncRender(${sync}), ${sync}) : false`);
   const strokes = Number(process.env.STROKES ?? 10);
   for (let s = 0; s < strokes; s++) {
     const y = -0.35 + (0.7 * s) / Math.max(1, strokes - 1);
@@ -54,37 +98,33 @@ try {
   }
   const t = await K(page, "k.timings");
   const e = t.strokeToFrameMs;
+  const m = (f) => med(e.map(f));
   out.sigma = {
     lx, field_vertices: nverts, edits: e.length,
     stroke_to_frame_ms: { median: med(e.map((x) => x.ms)), p95: pct(e.map((x) => x.ms), 0.95) },
-    breakdown_median_ms: { wait: med(e.map((x) => x.waitMs)), put: med(e.map((x) => x.putMs)), sent_to_frames: med(e.map((x) => x.framesMs)), draw: med(e.map((x) => x.drawMs)) },
+    sync_render: synced,
+    breakdown_median_ms: e[0]?.serverMs === undefined
+      ? { wait: m((x) => x.waitMs), put: m((x) => x.putMs), sent_to_frames: m((x) => x.framesMs), draw: m((x) => x.drawMs) }
+      : { wait: m((x) => x.waitMs), ack: m((x) => x.putMs), server: m((x) => x.serverMs), sent_to_frames: m((x) => x.framesMs), decode: m((x) => x.decodeMs), accept: m((x) => x.acceptMs), raf_wait: m((x) => x.rafWaitMs), render: m((x) => x.renderMs), ready_to_drawn: m((x) => x.drawMs) },
+    sent_to_drawn_ms: m((x) => x.ms - x.waitMs),
     stroke_to_colour_ms: { median: med(t.strokeToColourMs), p95: pct(t.strokeToColourMs, 0.95) },
     iso_faces: (await K(page, "k.shown")).map((f) => [f.level, f.n_faces]),
   };
-  const small = await K(page, "k.measureOrbit(30)");
-  out.orbit_cube = { triangles: small.triangles, px: [small.width, small.height], render_ms: { median: med(small.times), p95: pct(small.times, 0.95) } };
+  await K(page, "k.syncRender && k.syncRender(false)");
+  out.orbit_cube = await orbit(page, Number(process.env.MOVES ?? 240) / 2);
   await page.close();
+  console.error(JSON.stringify(out)); // the σ part, in case the 200k-triangle preparation times out
+  if (process.env.ORBIT === "0") {
+    console.log(JSON.stringify(out, null, 1));
+    process.exit(0);
+  }
 
   // B: orbiting a ~200k-triangle uploaded surface (UV sphere, 199,200 triangles).
   const p2 = await openView(browser, server, `#/kelvin?s=${encodeURIComponent(JSON.stringify({ object: "sphere", lx: 0.1, levels: [0.3] }))}`);
   await p2.waitForFunction(() => window.distlab?.kelvin?.ready === true, null, { timeout: 120000 });
   await p2.setInputFiles("input[data-testid=kelvin-upload]", spherePath); // keeps the sphere's l_x 0.1
-  await p2.waitForFunction(() => window.distlab.kelvin.object?.source?.upload && window.distlab.kelvin.ready, null, { timeout: 600000, polling: 500 });
-  await p2.keyboard.press("b"); // brush off: every drag orbits
-  await p2.waitForTimeout(500);
-  const box = await p2.locator("canvas.viewport-canvas").boundingBox();
-  await K(p2, "k.resetFrameStats()");
-  const cx = box.x + box.width / 2, cy = box.y + box.height / 2;
-  await p2.mouse.move(cx, cy);
-  await p2.mouse.down();
-  const t0 = Date.now();
-  for (let i = 0; i < Number(process.env.MOVES ?? 240); i++) await p2.mouse.move(cx + 200 * Math.sin(i / 20), cy + 60 * Math.cos(i / 30));
-  await p2.mouse.up();
-  const secs = (Date.now() - t0) / 1000;
-  const fs = await K(p2, "k.frameStats()");
-  const big = await K(p2, "k.measureOrbit(30)");
-  out.orbit_render = { triangles: big.triangles, px: [big.width, big.height], render_ms: { median: med(big.times), p95: pct(big.times, 0.95) } };
-  out.orbit = { display_triangles: await K(p2, "k.displayTriangles"), rendered_triangles: fs.triangles, frames: fs.frames, seconds: secs, frame_interval_ms: { median: fs.medianMs, p95: fs.p95Ms }, field_vertices: (await K(p2, "k.object")).stats.n_verts };
+  await p2.waitForFunction(() => window.distlab.kelvin.object?.source?.upload && window.distlab.kelvin.ready, null, { timeout: 1800000, polling: 500 });
+  out.orbit = await orbit(p2, Number(process.env.MOVES ?? 240));
   console.log(JSON.stringify(out, null, 1));
 } finally {
   await browser.close();

@@ -56,10 +56,23 @@ test("the cube is prepared with a progress bar; painting σ with the mouse chang
   const pixels0 = await canvasPixels(page);
   await screenshot(page, "kelvin-cube-before");
 
-  // Paint σ = 1 across the top face (z = 0.5 on the unit cube) with the real mouse.
+  // Paint σ = 1 across the top face (z = 0.5 on the unit cube) with the real mouse. The edits
+  // travel on the WebSocket: no HTTP request per edit.
   const v0 = await K(page, "k.sigma.version");
+  const puts = [];
+  const onRequest = (r) => r.method() === "PUT" && r.url().includes("/sigma") && puts.push(r.url());
+  page.on("request", onRequest);
   await stroke(page, [-0.35, -0.3, 0.5], [0.35, 0.3, 0.5]);
   await page.waitForFunction((v) => window.distlab.kelvin.sigma.version > v && window.distlab.kelvin.ready, v0, { timeout: 30000 });
+  page.off("request", onRequest);
+  assert.deepEqual(puts, [], "σ edits are sent on the socket");
+  // Every edit's way to the screen is traced stage by stage (what bench_kelvin_view.mjs reports).
+  await page.waitForFunction((v) => window.distlab.kelvin.timings.strokeToFrameMs.some((e) => e.version > v), v0, { timeout: 30000 });
+  for (const e of (await K(page, "k.timings")).strokeToFrameMs.filter((e) => e.version > v0)) {
+    for (const k of ["ms", "waitMs", "putMs", "serverMs", "framesMs", "decodeMs", "acceptMs", "rafWaitMs", "renderMs", "drawMs"])
+      assert.ok(Number.isFinite(e[k]) && e[k] >= 0, `${k} = ${e[k]}`);
+    assert.ok(e.ms >= e.waitMs + e.framesMs, "the stages lie within the whole");
+  }
   const sigma = await K(page, "k.sigma");
   assert.ok(sigma.body.brushes.length > 0, "the stroke made brush terms");
   assert.ok(sigma.body.brushes.every((b) => Math.abs(b.center[2] - 0.5) < 1e-3), "stamps lie on the face that was painted");

@@ -19,6 +19,8 @@ export class Socket {
   private retry = 0;
   private timer: number | undefined;
   state: ConnectionState = "closed";
+  /** performance.now() when the binary frame now being delivered arrived (before its decode). */
+  frameArrivedAt = 0;
 
   constructor(private readonly client: Api = api) {}
 
@@ -89,6 +91,7 @@ export class Socket {
         this.text.get(m.type)?.forEach((f) => f(m));
         this.text.get("*")?.forEach((f) => f(m));
       } else {
+        this.frameArrivedAt = performance.now();
         const frame = decode(new Uint8Array(ev.data as ArrayBuffer)) as BinaryFrame;
         this.binary.forEach((f) => f(frame));
       }

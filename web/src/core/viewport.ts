@@ -4,6 +4,25 @@
 import * as THREE from "three";
 import { OrbitControls } from "three/addons/controls/OrbitControls.js";
 
+let softwareRenderer: boolean | null = null;
+
+/** True when WebGL is rasterised on the CPU. */
+export function isSoftwareRenderer(): boolean {
+  if (softwareRenderer !== null) return softwareRenderer;
+  const gl = document.createElement("canvas").getContext("webgl2");
+  const ext = gl?.getExtension("WEBGL_debug_renderer_info");
+  const name = gl && ext ? String(gl.getParameter(ext.UNMASKED_RENDERER_WEBGL)) : "";
+  gl?.getExtension("WEBGL_lose_context")?.loseContext();
+  softwareRenderer = /swiftshader|llvmpipe|softpipe|software/i.test(name);
+  return softwareRenderer;
+}
+
+/** Antialiasing: on a GPU; off on a software renderer; localStorage "distlab.antialias" = "on"/"off" overrides. */
+function antialiasWanted(): boolean {
+  const forced = localStorage.getItem("distlab.antialias");
+  return forced === "on" ? true : forced === "off" ? false : !isSoftwareRenderer();
+}
+
 export class Viewport {
   readonly renderer: THREE.WebGLRenderer;
   readonly scene = new THREE.Scene();
@@ -14,11 +33,18 @@ export class Viewport {
   private raf = 0;
   private resizeObserver: ResizeObserver;
   private frameTimes: number[] = []; // ms between rendered frames while interacting
+  private cpuTimes: number[] = []; // main-thread ms per frame: before-render hooks + render() call
   private lastFrame = 0;
   private beforeRender = new Set<() => void>();
+  private afterRender = new Set<(renderMs: number) => void>();
+  /** Measuring only: read one pixel back after each frame so its time includes the GPU's (a stall). */
+  syncRender = false;
+  private readonly pixel = new Uint8Array(4);
 
   constructor(readonly container: HTMLElement, opts: { up?: "y" | "z" } = {}) {
-    this.renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
+    // MSAA quadruples a software rasteriser's per-pixel work (SwiftShader, llvmpipe: no GPU),
+    // where it makes every frame several times slower; a GPU does it almost for free.
+    this.renderer = new THREE.WebGLRenderer({ antialias: antialiasWanted(), preserveDrawingBuffer: true });
     this.renderer.setPixelRatio(Math.min(window.devicePixelRatio, 2));
     this.renderer.localClippingEnabled = true;
     this.renderer.domElement.classList.add("viewport-canvas");
@@ -47,11 +73,21 @@ export class Viewport {
       this.raf = requestAnimationFrame(loop);
       if (!this.dirty) return;
       this.dirty = false;
+      const t0 = performance.now();
       this.beforeRender.forEach((f) => f());
+      const t1 = performance.now();
       this.renderer.render(this.scene, this.camera);
+      if (this.syncRender) {
+        const gl = this.renderer.getContext();
+        gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, this.pixel); // waits for the frame (gl.finish does not in Chrome)
+      }
+      const t2 = performance.now();
+      this.afterRender.forEach((f) => f(t2 - t1));
       if (this.lastFrame && now - this.lastFrame < 250) {
         this.frameTimes.push(now - this.lastFrame);
+        this.cpuTimes.push(t2 - t0);
         if (this.frameTimes.length > 240) this.frameTimes.shift();
+        if (this.cpuTimes.length > 240) this.cpuTimes.shift();
       }
       this.lastFrame = now;
     };
@@ -67,14 +103,25 @@ export class Viewport {
     return () => this.beforeRender.delete(f);
   }
 
-  /** Median and 95th percentile frame interval (ms) of recent interactive frames. */
-  frameStats(): { frames: number; medianMs: number; p95Ms: number; triangles: number } {
-    const s = [...this.frameTimes].sort((a, b) => a - b);
-    const q = (p: number) => (s.length ? s[Math.min(s.length - 1, Math.floor(p * s.length))] : 0);
-    return { frames: s.length, medianMs: q(0.5), p95Ms: q(0.95), triangles: this.renderer.info.render.triangles };
+  /** Called after each rendered frame with the render's duration (ms; GPU included when syncRender). */
+  onAfterRender(f: (renderMs: number) => void): () => void {
+    this.afterRender.add(f);
+    return () => this.afterRender.delete(f);
+  }
+
+  /** Median and 95th percentile frame interval (ms) of recent interactive frames, and the main
+   *  thread's time per frame (hooks + render call, without waiting for the GPU). */
+  frameStats(): { frames: number; medianMs: number; p95Ms: number; cpuMedianMs: number; cpuP95Ms: number; triangles: number } {
+    const q = (a: number[], p: number) => {
+      const s = [...a].sort((x, y) => x - y);
+      return s.length ? s[Math.min(s.length - 1, Math.floor(p * s.length))] : 0;
+    };
+    const ft = this.frameTimes, ct = this.cpuTimes;
+    return { frames: ft.length, medianMs: q(ft, 0.5), p95Ms: q(ft, 0.95), cpuMedianMs: q(ct, 0.5), cpuP95Ms: q(ct, 0.95), triangles: this.renderer.info.render.triangles };
   }
   resetFrameStats(): void {
     this.frameTimes = [];
+    this.cpuTimes = [];
     this.lastFrame = 0;
   }
 

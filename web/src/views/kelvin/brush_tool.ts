@@ -84,7 +84,9 @@ export class BrushTool {
   }
 
   private move(ev: PointerEvent): void {
-    const h = this.enabled ? this.hit(ev) : null;
+    // A drag that is not painting orbits: no raycast per move (a 200k-triangle pick costs ms).
+    const orbiting = !this.painting && ev.buttons !== 0;
+    const h = this.enabled && !orbiting ? this.hit(ev) : null;
     this.showCursor(h);
     if (this.painting && h) this.paintAt(h.point, performance.now());
     if (!this.painting) this.host.hover(h ? h.point : null, ev);

@@ -98,7 +98,7 @@ export class IsoLayers {
       const zero = Math.abs(level) < 1e-12;
       m.color.copy(zero ? ZERO : OUTER.clone().lerp(new THREE.Color(0x9fd0ff), Math.max(0, Math.min(1, level / top))));
       m.opacity = zero ? Math.min(1, this.opacity + 0.15) : this.opacity * (1 - 0.5 * Math.max(0, Math.min(1, level / top)));
-      m.needsUpdate = true;
+      // Colour and opacity are uniforms: no needsUpdate (that re-derives the program every frame).
       // Transparent shells without depth writes: draw the outermost (largest level) first.
       s.mesh.renderOrder = 10 - this.levels.indexOf(level) / Math.max(1, this.levels.length);
     }

@@ -5,7 +5,7 @@ import * as THREE from "three";
 import { api, ApiError } from "../../core/api";
 import type { Shortcut } from "../../core/keys";
 import { isMeshFrame, type MeshFrame } from "../../core/meshframe";
-import { socket, type BinaryFrame } from "../../core/socket";
+import { socket, type BinaryFrame, type TextMessage } from "../../core/socket";
 import { showError, toast } from "../../core/toast";
 import type { View, ViewHost } from "../../core/view";
 import { Viewport } from "../../core/viewport";
@@ -21,6 +21,19 @@ import { SliceLayer } from "./slice_layer";
 import { SurfaceLayer } from "./surface_layer";
 import { installHooks, type Timings } from "./test_hooks";
 import "./kelvin.css";
+
+/** One σ edit on its way to the screen (performance.now times; ms sums). */
+interface EditTrace {
+  since: number; // its first mouse event
+  sent: number;
+  answered: number; // the server acknowledged its version
+  arrived: number; // the last of its frames arrived (before decode)
+  processed: number; // ... and was made a geometry
+  decodeMs: number;
+  acceptMs: number;
+  serverMs: number; // server: edit received → last frame sent (frame.server_ms.since_edit)
+  raf: number; // the animation frame that draws it began
+}
 
 interface Limits {
   max_query_points?: number;
@@ -49,9 +62,11 @@ export class KelvinView implements View {
   private frameLog: IsoFrameInfo[] = [];
   private waiters: Array<{ version: number; resolve: () => void }> = [];
   private unsentSince: number | null = null;
-  // σ version → times (performance.now) of its first mouse event, PUT sent, PUT answered.
-  private awaitingDraw = new Map<number, { since: number; sent: number; answered: number }>();
-  private lastArrival = 0; // the latest iso-surface frame's arrival
+  // σ version → the stages of its way to the screen (performance.now times, see Timings).
+  private awaitingDraw = new Map<number, EditTrace>();
+  private drawing: Array<[number, EditTrace]> = []; // complete in the frame being rendered
+  private sigmaAcks: Array<(m: TextMessage) => void> = []; // σ edits sent on the socket, in order
+  private inflight: EditTrace | null = null; // the edit sent and not yet acknowledged
   private localPending: number[] = []; // mouse events whose σ colours are not drawn yet
   readonly timings: Timings = { prepareMs: [], strokeToFrameMs: [], strokeToColourMs: [], sliceMs: [] };
   private sigmaSync = new Coalescer<void>(() => this.sendSigma());
@@ -116,7 +131,10 @@ export class KelvinView implements View {
     this.offs.push(
       socket.onFrame((f) => this.onFrame(f)),
       socket.onOpen(() => this.onSocketOpen()),
+      socket.on("sigma", (m) => this.sigmaAcks.shift()?.(m)),
+      socket.on("error", (m) => this.sigmaAcks.shift()?.(m)),
       vp.onBeforeRender(() => this.beforeRender()),
+      vp.onAfterRender((ms) => this.afterRender(ms)),
     );
     installHooks(this);
     this.restyle();
@@ -309,10 +327,22 @@ export class KelvinView implements View {
       if (this.unclaimed.length > 32) this.unclaimed.shift();
       return;
     }
+    const t0 = performance.now();
     const info = this.iso.accept(f, Number(f.level), Number(f.sigma_version ?? 0));
     if (!info) return;
+    // The frame completes this σ's edit, or an older one's that the server skipped for it.
+    const traces = [...this.awaitingDraw].filter(([v]) => v <= info.sigma_version).map(([, t]) => t);
+    if (this.inflight && info.sigma_version > this.sigmaVersion) traces.push(this.inflight);
+    const t1 = performance.now();
+    for (const trace of traces) {
+      trace.arrived = socket.frameArrivedAt;
+      trace.decodeMs += t0 - socket.frameArrivedAt;
+      trace.acceptMs += t1 - t0;
+      trace.processed = t1;
+      const server = f.server_ms as { since_edit?: number } | undefined;
+      trace.serverMs = Math.max(trace.serverMs, server?.since_edit ?? 0);
+    }
     this.frameLog.push(info);
-    this.lastArrival = info.receivedAt;
     if (this.frameLog.length > 500) this.frameLog.shift();
     this.viewport?.invalidate();
     this.checkWaiters();
@@ -343,22 +373,49 @@ export class KelvinView implements View {
     if (save) this.save();
   }
 
+  /** σ to the server: on the socket when open (no HTTP request per edit), else by PUT. The
+   *  server answers a socket edit with a "sigma" message carrying its version (or an error). */
+  private putSigma(id: string, body: SigmaBody): Promise<number> {
+    // The answer is an event of a later task, so registering for it after send() is in time.
+    if (socket.send({ type: "sigma", object: id, sigma: body }))
+      return new Promise<number>((resolve, reject) => {
+        const settle = (m: TextMessage) => {
+          window.clearTimeout(timer);
+          if (m.type === "sigma" && m.object === id) return resolve(Number(m.sigma_version));
+          const e = m.error as { code?: string; message?: string; field?: string } | undefined;
+          reject(new ApiError(Number(m.status ?? 500), e?.code ?? "error", e?.message ?? "σ not applied", e?.field));
+        };
+        const timer = window.setTimeout(() => {
+          this.sigmaAcks = this.sigmaAcks.filter((f) => f !== settle);
+          reject(new ApiError(504, "timeout", "the server did not acknowledge the σ edit"));
+        }, 10000);
+        this.sigmaAcks.push(settle);
+      });
+    return api.put<{ sigma_version: number }>(`/api/kelvin/objects/${id}/sigma`, body).then((r) => r.sigma_version);
+  }
+
   private async sendSigma(): Promise<void> {
     const id = this.objectId;
     if (!id) return;
     const since = this.unsentSince;
     this.unsentSince = null;
+    const sent = performance.now();
+    const trace: EditTrace = { since: since ?? sent, sent, answered: 0, arrived: 0, processed: 0, decodeMs: 0, acceptMs: 0, serverMs: 0, raf: 0 };
+    this.inflight = trace;
     try {
-      const sent = performance.now();
-      const r = await api.put<{ sigma_version: number }>(`/api/kelvin/objects/${id}/sigma`, this.sigmaBody());
+      const version = await this.putSigma(id, this.sigmaBody());
+      this.inflight = null;
       if (id !== this.objectId) return;
-      this.sigmaVersion = Math.max(this.sigmaVersion, r.sigma_version);
-      if (since !== null) this.awaitingDraw.set(r.sigma_version, { since, sent, answered: performance.now() });
+      trace.answered = performance.now();
+      if (since !== null) this.awaitingDraw.set(version, trace); // drawn at the next frame if its frames came first
+      this.sigmaVersion = Math.max(this.sigmaVersion, version);
+      this.viewport?.invalidate();
       this.slice?.refresh();
       // Wait for this σ's frames before sending the next edit: the server then always works on
       // the newest σ and the screen never lags behind a queue of stale edits.
-      await this.framesFor(r.sigma_version, 3000);
+      await this.framesFor(version, 3000);
     } catch (e) {
+      this.inflight = null;
       showError(e, "σ not applied");
     }
   }
@@ -390,20 +447,10 @@ export class KelvinView implements View {
 
   private beforeRender(): void {
     const now = performance.now();
-    for (const t of this.localPending) this.timings.strokeToColourMs.push(now - t);
-    this.localPending = [];
     for (const [version, t] of this.awaitingDraw)
       if (this.allShownAtLeast(version)) {
-        this.timings.strokeToFrameMs.push({
-          version,
-          ms: now - t.since,
-          waitMs: t.sent - t.since,
-          putMs: t.answered - t.sent,
-          framesMs: this.lastArrival - t.sent,
-          drawMs: now - Math.max(this.lastArrival, t.answered),
-          fieldVertices: this.status?.stats?.n_verts ?? 0,
-          lx: this.state.lx,
-        });
+        t.raf = now;
+        this.drawing.push([version, t]);
         this.awaitingDraw.delete(version);
       }
     // The slice follows σ: resample when it shows an older σ than the current one.
@@ -413,6 +460,31 @@ export class KelvinView implements View {
     }
     if (this.hoverEvent) this.hover(this.hoverEvent);
     this.hoverEvent = null;
+  }
+
+  private afterRender(renderMs: number): void {
+    const now = performance.now();
+    for (const t of this.localPending) this.timings.strokeToColourMs.push(now - t);
+    this.localPending = [];
+    for (const [version, t] of this.drawing) {
+      const ready = Math.max(t.processed, t.answered);
+      this.timings.strokeToFrameMs.push({
+        version,
+        ms: now - t.since,
+        waitMs: t.sent - t.since,
+        putMs: t.answered - t.sent,
+        serverMs: t.serverMs,
+        framesMs: t.arrived - t.sent,
+        decodeMs: t.decodeMs,
+        acceptMs: t.acceptMs,
+        rafWaitMs: t.raf - ready,
+        renderMs,
+        drawMs: now - ready,
+        fieldVertices: this.status?.stats?.n_verts ?? 0,
+        lx: this.state.lx,
+      });
+    }
+    this.drawing = [];
   }
 
   private applyPreset(): void {
@@ -532,6 +604,7 @@ export class KelvinView implements View {
     this.ticket++;
     void this.job?.cancel();
     this.sigmaSync.cancelPending();
+    this.sigmaAcks = [];
     this.offs.forEach((f) => f());
     this.offs = [];
     this.brush?.dispose();

@@ -7,11 +7,16 @@ export interface Timings {
   /** σ edit's first mouse event → the iso-surface frames of that σ drawn. */
   strokeToFrameMs: Array<{
     version: number;
-    ms: number; // the whole: mouse event → drawn
-    waitMs: number; // event → PUT sent (an earlier edit's frames still on their way)
-    putMs: number; // PUT round trip
-    framesMs: number; // PUT sent → the last frame of this σ arrived (server solve + iso + transfer)
-    drawMs: number; // arrival → drawn (decode, geometry upload, render)
+    ms: number; // the whole: mouse event → the frame showing it rendered
+    waitMs: number; // event → σ sent (an earlier edit's frames still on their way)
+    putMs: number; // sent → the server's acknowledgement (socket message, or PUT response)
+    serverMs: number; // server: edit received → its last frame sent (solve, iso-surfaces, queueing)
+    framesMs: number; // sent → the last frame of this σ arrived (server + transfer)
+    decodeMs: number; // msgpack decode of its frames (sum)
+    acceptMs: number; // frames → geometries (normals, bounds; sum)
+    rafWaitMs: number; // last geometry ready → the animation frame that draws it begins
+    renderMs: number; // that frame's render (GPU included when syncRender is set)
+    drawMs: number; // last geometry ready → rendered
     fieldVertices: number;
     lx: number;
   }>;
@@ -80,6 +85,31 @@ export function installHooks(view: KelvinView): void {
       return { times, triangles: vp.renderer.info.render.triangles, width: gl.drawingBufferWidth, height: gl.drawingBufferHeight };
     },
     resetFrameStats: () => view.view?.resetFrameStats(),
+    /** Measuring: make every frame wait for its pixels (its render time then includes the GPU's). */
+    syncRender: (on: boolean) => {
+      if (view.view) view.view.syncRender = on;
+    },
+    /** GL data uploads (buffers, textures) since the first call, and three.js's resource counts. */
+    glUploads: () => {
+      const vp = view.view;
+      if (!vp) return null;
+      const gl = vp.renderer.getContext() as WebGL2RenderingContext & { __uploads?: Record<string, number> };
+      if (!gl.__uploads) {
+        const counts: Record<string, number> = { bufferData: 0, bufferSubData: 0, texImage2D: 0, texSubImage2D: 0, bytes: 0 };
+        for (const name of ["bufferData", "bufferSubData", "texImage2D", "texSubImage2D"] as const) {
+          const f = (gl[name] as (...a: unknown[]) => unknown).bind(gl);
+          (gl as unknown as Record<string, unknown>)[name] = (...args: unknown[]) => {
+            counts[name]++;
+            const data = args.find((x) => ArrayBuffer.isView(x)) as ArrayBufferView | undefined;
+            counts.bytes += data?.byteLength ?? (typeof args[1] === "number" && name === "bufferData" ? args[1] : 0);
+            return f(...args);
+          };
+        }
+        gl.__uploads = counts;
+      }
+      const info = vp.renderer.info;
+      return { ...gl.__uploads, geometries: info.memory.geometries, textures: info.memory.textures, programs: info.programs?.length ?? 0, calls: info.render.calls, triangles: info.render.triangles };
+    },
     /** Canvas pixel position of a world point (tests aim the real mouse with it). */
     toScreen: (p: [number, number, number]) => {
       const vp = view.view;
