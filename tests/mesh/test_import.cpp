@@ -3,6 +3,11 @@
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "distlab/geometry/error.hpp"
 #include "distlab/mesh/checks.hpp"
@@ -59,6 +64,51 @@ TEST(MeshImport, MissingAndUnreadableFilesNameTheField) {
   const fs::path path = temp_dir() / "garbage.stl";
   std::ofstream(path) << "this is not a mesh";
   EXPECT_THROW(load_mesh(path.string()), InvalidInput);
+}
+
+// Garbage named .stl is called what it is (not a size-limit error from its "triangle count").
+TEST(MeshImport, BinaryStlMustBe84Plus50NBytes) {
+  const SurfaceMesh cube = box(Vec3(0.1, 0.2, 0.3));
+  const fs::path good = temp_dir() / "cube.stl";
+  save_mesh(cube, good.string(), "stl");
+  std::ifstream in(good, std::ios::binary);
+  const std::string bytes{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  ASSERT_EQ(bytes.size(), 84u + 50u * static_cast<std::size_t>(cube.faces.rows()));
+  EXPECT_EQ(binary_stl_triangles(bytes, "body"), static_cast<std::uint32_t>(cube.faces.rows()));
+  // A binary file whose header happens to start with "solid" is still binary.
+  std::string solid_header = bytes;
+  solid_header.replace(0, 5, "solid");
+  EXPECT_EQ(binary_stl_triangles(solid_header, "body"), static_cast<std::uint32_t>(cube.faces.rows()));
+  EXPECT_EQ(binary_stl_triangles("solid x\nfacet normal 0 0 1\n", "body"), std::nullopt);
+
+  std::string garbage(1000, '\0');
+  for (std::size_t i = 0; i < garbage.size(); ++i) garbage[i] = static_cast<char>((i * 7919u + 13u) % 251u);
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {garbage, "header says n = "},                 // a huge "n" from random bytes
+      {bytes + "x", "but the file has " + std::to_string(bytes.size() + 1)},  // one byte too many
+      {bytes.substr(0, bytes.size() - 50), "header says n = 12"},             // truncated
+      {"abc", "only 3 bytes"}};
+  for (const auto& [b, says] : bad) {
+    try {
+      binary_stl_triangles(b, "body");
+      ADD_FAILURE() << "accepted " << b.size() << " bytes";
+    } catch (const InvalidInput& e) {
+      EXPECT_EQ(e.field(), "body");
+      EXPECT_NE(std::string(e.what()).find("not a valid STL"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("84 + 50"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(says), std::string::npos) << e.what();
+    }
+    // The importer refuses the same file with the same message.
+    const fs::path path = temp_dir() / "bad.stl";
+    std::ofstream(path, std::ios::binary) << b;
+    try {
+      load_mesh(path.string(), "mesh.path");
+      ADD_FAILURE() << "load_mesh accepted " << b.size() << " bytes";
+    } catch (const InvalidInput& e) {
+      EXPECT_EQ(e.field(), "mesh.path");
+      EXPECT_NE(std::string(e.what()).find("not a valid STL"), std::string::npos) << e.what();
+    }
+  }
 }
 
 TEST(MeshExport, UnknownFormatIsRefused) {

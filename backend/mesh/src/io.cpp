@@ -4,8 +4,13 @@
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
+#include <algorithm>
 #include <array>
+#include <cctype>
+#include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <map>
 #include <memory>
 
@@ -14,9 +19,39 @@
 
 namespace distlab::mesh {
 
+std::optional<std::uint32_t> binary_stl_triangles(std::string_view bytes, const std::string& field) {
+  std::uint32_t n = 0;
+  if (bytes.size() >= 84) {
+    std::memcpy(&n, bytes.data() + 80, 4);  // little-endian, as the format and every target are
+    if (bytes.size() == 84 + 50 * static_cast<std::uint64_t>(n)) return n;  // some binary headers start with "solid"
+  }
+  const std::string_view head = bytes.substr(0, 1024);
+  const bool text = head.find_first_not_of(" \t\r\n") != std::string_view::npos &&
+                    head.substr(head.find_first_not_of(" \t\r\n")).rfind("solid", 0) == 0 &&
+                    std::none_of(head.begin(), head.end(), [](char c) {
+                      const auto u = static_cast<unsigned char>(c);
+                      return u < 0x20 && c != '\t' && c != '\r' && c != '\n';
+                    });
+  if (text) return std::nullopt;
+  std::string why = "not a valid STL file: an ASCII STL starts with \"solid\", and a binary STL is exactly 84 + 50·n bytes (n triangles)";
+  if (bytes.size() < 84)
+    why += ", but the file has only " + std::to_string(bytes.size()) + " bytes";
+  else
+    why += "; its header says n = " + std::to_string(n) + ", i.e. " + std::to_string(84 + 50 * static_cast<std::uint64_t>(n)) +
+           " bytes, but the file has " + std::to_string(bytes.size());
+  throw InvalidInput(field, why);
+}
+
 SurfaceMesh load_mesh(const std::string& path, const std::string& field) {
   if (!std::filesystem::is_regular_file(path))
     throw InvalidInput(field, "cannot read mesh file '" + path + "': no such file");
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (ext == ".stl") {
+    std::ifstream in(path, std::ios::binary);
+    const std::string bytes{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+    binary_stl_triangles(bytes, field);
+  }
   Assimp::Importer importer;
   // Meshes are welded across the whole scene below; drop every attribute but positions so that
   // assimp's JoinIdenticalVertices welds STL corners (per-face normals would keep them apart).
