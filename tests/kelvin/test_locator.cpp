@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <limits>
 #include <random>
 
 #include "locator.hpp"
@@ -32,7 +33,6 @@ TEST(KelvinLocator, SeededWalkAgreesWithTheScanOnRandomPoints) {
   const TetMesh& m = field().tet_mesh();
   Locator loc;
   loc.build(m);
-  EXPECT_GT(loc.boxes(), static_cast<size_t>(m.tets.rows()) / 4);
   const Vec3 lo = m.points.colwise().minCoeff().transpose(), hi = m.points.colwise().maxCoeff().transpose();
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> u(0, 1);
@@ -74,6 +74,89 @@ TEST(KelvinLocator, PointsOnVerticesEdgesAndFacesAreFoundInAnAdjacentCell) {
       EXPECT_GE(min_lambda(m, h.cell, y), -1e-12) << i;
     }
   }
+}
+
+TEST(KelvinLocator, EveryBoxSeedContainsTheBoxCentreUnlessItIsOffTheHull) {
+  // The grid's contract: box i holds a cell containing its centre (exact barycentric test), or,
+  // for a centre outside the triangulation, a hull cell (the scan agrees that it is outside).
+  const TetMesh& m = field().tet_mesh();
+  Locator loc;
+  loc.build(m);
+  // About one box per cell, in blocks (two levels), and a stated footprint.
+  EXPECT_GT(loc.boxes(), static_cast<size_t>(m.tets.rows()) / 2);
+  EXPECT_LT(loc.boxes(), static_cast<size_t>(m.tets.rows()) * 3);
+  EXPECT_LT(loc.blocks(), loc.boxes());
+  EXPECT_EQ(loc.bytes(), loc.boxes() * sizeof(int) + loc.blocks() * 8);
+  int off_hull = 0, checked_off = 0;
+  for (size_t i = 0; i < loc.boxes(); ++i) {
+    const Vec3 y = loc.box_centre(i);
+    const int c = loc.seed(y);
+    ASSERT_GE(c, 0) << i;
+    ASSERT_LT(c, m.tets.rows()) << i;
+    if (min_lambda(m, c, y) >= -1e-12) continue;
+    ++off_hull;
+    if (checked_off < 100) {  // the scan is O(cells): check a sample of them
+      ++checked_off;
+      EXPECT_TRUE(Locator::scan(m, y).outside_hull) << i;
+      // Its hull cell has a face on the hull (a neighbour -1).
+      EXPECT_TRUE((m.neighbours.row(c).array() < 0).any()) << i;
+    }
+  }
+  EXPECT_LT(off_hull, static_cast<int>(loc.boxes()));
+}
+
+TEST(KelvinLocator, SeedsAreValidCellsForAnyPoint) {
+  // Far outside the grid, on its faces and corners, and non-finite: a valid cell, never an
+  // out-of-range index.
+  const TetMesh& m = field().tet_mesh();
+  Locator loc;
+  loc.build(m);
+  const Vec3 lo = m.points.colwise().minCoeff().transpose(), hi = m.points.colwise().maxCoeff().transpose();
+  const double inf = std::numeric_limits<double>::infinity(), nan = std::numeric_limits<double>::quiet_NaN();
+  for (const Vec3& y : {lo, hi, Vec3(lo.x(), hi.y(), lo.z()), Vec3(1e300, -1e300, 0), Vec3(inf, -inf, 0),
+                        Vec3(nan, 0, 0), Vec3(nan, nan, nan), Vec3(hi + (hi - lo))}) {
+    const int c = loc.seed(y);
+    EXPECT_GE(c, 0);
+    EXPECT_LT(c, m.tets.rows());
+  }
+  // Points just outside the box, everywhere on its surface: located as outside, like the scan.
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> u(0, 1);
+  for (int i = 0; i < 200; ++i) {
+    Vec3 y = lo + (hi - lo).cwiseProduct(Vec3(u(rng), u(rng), u(rng)));
+    y[i % 3] = i % 2 ? hi[i % 3] + 1e-3 : lo[i % 3] - 1e-3;
+    EXPECT_TRUE(loc.locate(m, y, -1).outside_hull) << i;
+  }
+}
+
+TEST(KelvinLocator, GradedMeshAgreesWithTheScan) {
+  // The wrench meshed with its inversion centre at the origin: cells from l_x-scale near the
+  // object's surface (|y| large) to the far-field bound; the two-level grid adapts to both.
+  PrepareOptions o;
+  o.lx = 0.008;
+  o.centre = Vec3::Zero();
+  o.feature_angle = 180;
+  const Field f = Field::prepare(mesh::load_mesh(std::string(DISTLAB_ASSET_DIR) + "/wrench.stl"), o);
+  const TetMesh& m = f.tet_mesh();
+  Locator loc;
+  loc.build(m);
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<double> u(-0.12, 0.12);
+  int inside = 0;
+  for (int i = 0; i < 1500; ++i) {
+    const Vec3 x(u(rng), u(rng), u(rng));
+    const Vec3 y = x / x.squaredNorm();
+    const Location a = loc.locate(m, y, -1);
+    const Location s = Locator::scan(m, y);
+    ASSERT_EQ(a.outside_hull, s.outside_hull) << i;
+    if (a.outside_hull) continue;
+    ++inside;
+    EXPECT_GE(min_lambda(m, a.cell, y), -1e-12) << i;
+    if (a.cell != s.cell) {
+      EXPECT_NEAR(min_lambda(m, a.cell, y), min_lambda(m, s.cell, y), 1e-12) << i;
+    }
+  }
+  EXPECT_GT(inside, 1000);
 }
 
 TEST(KelvinLocator, HintlessQueriesEqualHintedQueries) {

@@ -23,47 +23,151 @@ void barycentric(const TetMesh& m, int c, const Vec3& y, double lambda[4]) {
   lambda[0] = 1.0 - lambda[1] - lambda[2] - lambda[3];
 }
 
+namespace {
+
+// Coarse blocks hold about this many cells each; a block with n cells is split into r³ boxes with
+// r = round(∛(kBoxesPerCell · n)), so the grid has about kBoxesPerCell boxes per cell in total.
+constexpr double kCellsPerBlock = 16;
+constexpr double kBoxesPerCell = 1;
+constexpr int kMaxBlocksPerAxis = 512, kMaxBoxesPerAxis = 32;
+// A box centre on a face shared by two cells is accepted by either (it only seeds a walk).
+constexpr double kInsideTolerance = 1e-12;
+
+// Grid coordinate (in blocks) of y along axis k, clamped into the grid; NaN maps to 0.
+double grid_coordinate(double y, double lo, double inv_step, int n) {
+  const double f = (y - lo) * inv_step, top = std::nextafter(static_cast<double>(n), 0.0);
+  return f > 0 ? (f < top ? f : top) : 0.0;
+}
+
+}  // namespace
+
 void Locator::build(const TetMesh& m) {
-  grid_.clear();
-  if (m.tets.rows() == 0) return;
+  blocks_.clear();
+  cells_.clear();
+  const long n_cells = static_cast<long>(m.tets.rows());
+  if (n_cells == 0) return;
   lo_ = m.points.colwise().minCoeff().transpose();
   const Vec3 hi = m.points.colwise().maxCoeff().transpose();
   const Vec3 extent = (hi - lo_).cwiseMax(1e-12);
-  // About one box per cell (a box then spans about one cell where cells are average-sized; the
-  // hull's outer cells are larger, the far-field cells near y = 0 smaller: a few walk steps).
-  const double box = std::cbrt(extent.prod() / static_cast<double>(m.tets.rows()));
+  const double block = std::cbrt(extent.prod() * kCellsPerBlock / static_cast<double>(n_cells));
   for (int k = 0; k < 3; ++k) {
-    n_[k] = std::clamp(static_cast<int>(std::ceil(extent[k] / box)), 1, 1024);
+    n_[k] = std::clamp(static_cast<int>(std::ceil(extent[k] / block)), 1, kMaxBlocksPerAxis);
     inv_step_[k] = n_[k] / extent[k];
   }
-  grid_.assign(static_cast<size_t>(n_[0]) * n_[1] * n_[2], -1);
-  // Box centres in row order, each walk starting from the previous box's cell (coherent: a few
-  // steps each). A centre outside the hull keeps the hull cell where the walk stopped.
-  int c = 0;
-  Vec3 y;
-  for (int z = 0; z < n_[2]; ++z) {
-    y.z() = lo_.z() + (z + 0.5) / inv_step_.z();
-    int row_start = c;
-    for (int yy = 0; yy < n_[1]; ++yy) {
-      y.y() = lo_.y() + (yy + 0.5) / inv_step_.y();
-      c = row_start;
-      for (int x = 0; x < n_[0]; ++x) {
-        y.x() = lo_.x() + (x + 0.5) / inv_step_.x();
-        const int found = walk(m, y, c).cell;
-        if (found >= 0) c = found;  // a cycling walk (rare) keeps its nearby start as the seed
-        if (x == 0) row_start = c;
-        grid_[(static_cast<size_t>(z) * n_[1] + yy) * n_[0] + x] = c;
-      }
+  const size_t n_blocks = static_cast<size_t>(n_[0]) * n_[1] * n_[2];
+  auto block_of = [&](const double f[3]) {
+    return (static_cast<size_t>(f[2]) * n_[1] + static_cast<size_t>(f[1])) * n_[0] + static_cast<size_t>(f[0]);
+  };
+
+  // Cells per block (by centroid) → boxes per block.
+  std::vector<std::uint32_t> count(n_blocks, 0);
+  for (long c = 0; c < n_cells; ++c) {
+    const auto* t = m.tets.row(c).data();
+    const Vec3 centroid = 0.25 * (Vec3(m.points.row(t[0])) + Vec3(m.points.row(t[1])) +
+                                  Vec3(m.points.row(t[2])) + Vec3(m.points.row(t[3])));
+    double f[3];
+    for (int k = 0; k < 3; ++k) f[k] = grid_coordinate(centroid[k], lo_[k], inv_step_[k], n_[k]);
+    ++count[block_of(f)];
+  }
+  blocks_.resize(n_blocks);
+  std::size_t total = 0;
+  for (size_t b = 0; b < n_blocks; ++b) {
+    const auto r = static_cast<std::uint32_t>(
+        std::clamp(std::lround(std::cbrt(kBoxesPerCell * count[b])), 1L, static_cast<long>(kMaxBoxesPerAxis)));
+    blocks_[b] = {static_cast<std::uint32_t>(total), r};
+    total += static_cast<std::size_t>(r) * r * r;
+    if (total > static_cast<std::size_t>(std::numeric_limits<int>::max()))
+      throw std::length_error("seeding grid: too many boxes");
+  }
+  cells_.assign(total, -1);
+
+  // Each cell writes itself into the boxes whose centres it contains (centres in its bounding box,
+  // exact barycentric test). Box (s0, s1, s2) of block (i0, i1, i2) with r boxes per axis has its
+  // centre at grid coordinate i + (s + 0.5) / r.
+  for (long c = 0; c < n_cells; ++c) {
+    const auto* t = m.tets.row(c).data();
+    const Vec3 a = m.points.row(t[0]);
+    const Vec3 e1 = Vec3(m.points.row(t[1])) - a, e2 = Vec3(m.points.row(t[2])) - a,
+               e3 = Vec3(m.points.row(t[3])) - a;
+    const Vec3 n1 = e2.cross(e3), n2 = e3.cross(e1), n3 = e1.cross(e2);
+    const double inv = 1.0 / e1.dot(n1);
+    const Vec3 cmin = a.cwiseMin(a + e1).cwiseMin(a + e2).cwiseMin(a + e3);
+    const Vec3 cmax = a.cwiseMax(a + e1).cwiseMax(a + e2).cwiseMax(a + e3);
+    double f_lo[3], f_hi[3];
+    int b_lo[3], b_hi[3];
+    for (int k = 0; k < 3; ++k) {
+      f_lo[k] = grid_coordinate(cmin[k], lo_[k], inv_step_[k], n_[k]);
+      f_hi[k] = grid_coordinate(cmax[k], lo_[k], inv_step_[k], n_[k]);
+      b_lo[k] = static_cast<int>(f_lo[k]);
+      b_hi[k] = static_cast<int>(f_hi[k]);
     }
-    c = grid_[static_cast<size_t>(z) * n_[1] * n_[0]];
+    for (int i2 = b_lo[2]; i2 <= b_hi[2]; ++i2)
+      for (int i1 = b_lo[1]; i1 <= b_hi[1]; ++i1)
+        for (int i0 = b_lo[0]; i0 <= b_hi[0]; ++i0) {
+          const int idx[3] = {i0, i1, i2};
+          const Block& blk = blocks_[(static_cast<size_t>(i2) * n_[1] + i1) * n_[0] + i0];
+          const int r = static_cast<int>(blk.r);
+          int s_lo[3], s_hi[3];
+          for (int k = 0; k < 3; ++k) {
+            s_lo[k] = std::max(0, static_cast<int>(std::ceil((f_lo[k] - idx[k]) * r - 0.5)));
+            s_hi[k] = std::min(r - 1, static_cast<int>(std::floor((f_hi[k] - idx[k]) * r - 0.5)));
+          }
+          for (int s2 = s_lo[2]; s2 <= s_hi[2]; ++s2)
+            for (int s1 = s_lo[1]; s1 <= s_hi[1]; ++s1)
+              for (int s0 = s_lo[0]; s0 <= s_hi[0]; ++s0) {
+                const size_t box = blk.first + (static_cast<size_t>(s2) * r + s1) * r + s0;
+                const int sub[3] = {s0, s1, s2};
+                const Vec3 q = centre(idx, sub, r) - a;
+                const double l1 = q.dot(n1) * inv, l2 = q.dot(n2) * inv, l3 = q.dot(n3) * inv;
+                if (std::min(std::min(l1, l2), std::min(l3, 1.0 - l1 - l2 - l3)) >= -kInsideTolerance)
+                  cells_[box] = static_cast<int>(c);
+              }
+        }
+  }
+  // Boxes whose centre no cell claimed: off the hull (or missed by rounding). Seed them with the
+  // cell a walk from the previous box ends in (the nearest hull cell on its way out).
+  int last = 0;
+  for (size_t b = 0; b < n_blocks; ++b) {
+    const int r = static_cast<int>(blocks_[b].r);
+    const int idx[3] = {static_cast<int>(b % n_[0]), static_cast<int>(b / n_[0] % n_[1]), static_cast<int>(b / n_[0] / n_[1])};
+    for (int s = 0; s < r * r * r; ++s) {
+      int& cell = cells_[blocks_[b].first + static_cast<size_t>(s)];
+      if (cell < 0) {
+        const int sub[3] = {s % r, s / r % r, s / r / r};
+        const int found = walk(m, centre(idx, sub, r), last).cell;
+        cell = found >= 0 ? found : last;  // a cycling walk (rare) keeps its nearby start
+      }
+      last = cell;
+    }
   }
 }
 
+Vec3 Locator::centre(const int idx[3], const int sub[3], int r) const {
+  Vec3 y;
+  for (int k = 0; k < 3; ++k) y[k] = lo_[k] + (idx[k] + (sub[k] + 0.5) / r) / inv_step_[k];
+  return y;
+}
+
+Vec3 Locator::box_centre(std::size_t box) const {
+  // The block holding box: the last block whose first box is ≤ box (blocks_ is sorted by first).
+  const auto it = std::upper_bound(blocks_.begin(), blocks_.end(), box,
+                                   [](std::size_t i, const Block& b) { return i < b.first; }) - 1;
+  const size_t b = static_cast<size_t>(it - blocks_.begin());
+  const int r = static_cast<int>(it->r);
+  const size_t s = box - it->first;
+  const int idx[3] = {static_cast<int>(b % n_[0]), static_cast<int>(b / n_[0] % n_[1]), static_cast<int>(b / n_[0] / n_[1])};
+  const int sub[3] = {static_cast<int>(s % r), static_cast<int>(s / r % r), static_cast<int>(s / r / r)};
+  return centre(idx, sub, r);
+}
+
 int Locator::seed(const Vec3& y) const {
-  int idx[3];
-  for (int k = 0; k < 3; ++k)
-    idx[k] = std::clamp(static_cast<int>((y[k] - lo_[k]) * inv_step_[k]), 0, n_[k] - 1);
-  return grid_[(static_cast<size_t>(idx[2]) * n_[1] + idx[1]) * n_[0] + idx[0]];
+  double f[3];
+  for (int k = 0; k < 3; ++k) f[k] = grid_coordinate(y[k], lo_[k], inv_step_[k], n_[k]);
+  const Block blk = blocks_[(static_cast<size_t>(f[2]) * n_[1] + static_cast<size_t>(f[1])) * n_[0] + static_cast<size_t>(f[0])];
+  const double r = blk.r;
+  int s[3];
+  for (int k = 0; k < 3; ++k) s[k] = std::min(static_cast<int>((f[k] - std::floor(f[k])) * r), static_cast<int>(blk.r) - 1);
+  return cells_[blk.first + (static_cast<size_t>(s[2]) * blk.r + s[1]) * blk.r + s[0]];
 }
 
 Location Locator::locate(const TetMesh& m, const Vec3& y, int start) const {
@@ -73,6 +177,34 @@ Location Locator::locate(const TetMesh& m, const Vec3& y, int start) const {
   return loc.cell >= 0 ? loc : scan(m, y);
 }
 
+// True when no walk from c can end: every cell reachable from c through faces with λ < −eps
+// (the only moves a walk makes) has such a face, and none of them is a hull face. Rounding in
+// nearly flat hull cells makes such closed cycles (three cells at l_x = 0.03 on the cube); the
+// walk would spin through its whole budget (4 · cells steps, ~1 s at 0.03) to give up. Only
+// small sets are explored (a long but healthy walk reaches many cells): false when unsure.
+static bool walk_is_trapped(const TetMesh& m, const Vec3& y, int c, double eps) {
+  constexpr int kMaxCells = 64;
+  int seen[kMaxCells], n_seen = 1, next = 0;
+  seen[0] = c;
+  double lambda[4];
+  while (next < n_seen) {
+    const int t = seen[next++];
+    barycentric(m, t, y, lambda);
+    bool moves = false;
+    for (int k = 0; k < 4; ++k) {
+      if (!(lambda[k] < -eps)) continue;
+      moves = true;
+      const int n = m.neighbours(t, k);
+      if (n < 0) return false;
+      if (std::find(seen, seen + n_seen, n) != seen + n_seen) continue;
+      if (n_seen == kMaxCells) return false;
+      seen[n_seen++] = n;
+    }
+    if (!moves) return false;
+  }
+  return true;
+}
+
 // Stochastic visibility walk; cell -1 when it did not end within its step budget.
 Location walk(const TetMesh& m, const Vec3& y, int c) {
   Location loc;
@@ -80,7 +212,13 @@ Location walk(const TetMesh& m, const Vec3& y, int c) {
   constexpr double eps = 1e-12;
   std::uint32_t rng = 2463534242u;
   const long max_steps = 4 * m.tets.rows() + 16;
+  long check = 1024;  // long walks are checked for a trap at steps 1024, 4096, 16384, …
   for (long step = 0; step < max_steps; ++step) {
+    if (step == check) {
+      check *= 4;
+      // Same outcome as spending the rest of the budget: cell -1.
+      if (walk_is_trapped(m, y, c, eps)) break;
+    }
     barycentric(m, c, y, loc.lambda);
     rng ^= rng << 13, rng ^= rng >> 17, rng ^= rng << 5;
     const int first = static_cast<int>(rng & 3u);

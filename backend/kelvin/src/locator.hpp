@@ -1,8 +1,14 @@
 #pragma once
 // Point location in the y-space triangulation: a stochastic visibility walk from a hint cell,
-// or from a seed cell taken from a uniform grid over the mesh (no walk from a fixed cell). Each
-// grid box holds the cell that contains the box's centre, located exactly when the grid is
-// built, so a hint-less walk starts within half a box diagonal of the point (about one cell).
+// or from a seed cell taken from a two-level grid over the mesh (no walk from a fixed cell).
+// The y-mesh is strongly graded (l_y = |y|² l_x, eq. 23, bounded below), so a uniform grid with
+// one box per cell on average has boxes several cells wide where most cells (and queries) are;
+// here each block of a coarse grid is split into r³ boxes, r chosen from the number of cells in
+// the block, so a box is about a cell everywhere. Each box holds the cell that contains its
+// centre (exact barycentric test when the grid is built): a hint-less walk starts within half a
+// box diagonal of the point, usually in its cell.
+#include <cstddef>
+#include <cstdint>
 #include <vector>
 
 #include "distlab/kelvin/tet_mesh.hpp"
@@ -22,12 +28,22 @@ class Locator {
   Location locate(const TetMesh& mesh, const Vec3& y, int start) const;
   // The cell of the scan fallback (for tests): the one y is most inside of.
   static Location scan(const TetMesh& mesh, const Vec3& y);
-  std::size_t boxes() const { return grid_.size(); }
+  std::size_t boxes() const { return cells_.size(); }
+  std::size_t blocks() const { return blocks_.size(); }
+  std::size_t bytes() const { return cells_.size() * sizeof(int) + blocks_.size() * sizeof(Block); }
+  // Centre of box i (for tests: the seed of a box centre contains it unless it is off the hull).
+  Vec3 box_centre(std::size_t i) const;
 
  private:
+  struct Block {
+    std::uint32_t first = 0;  // index of its first box in cells_
+    std::uint32_t r = 1;      // r × r × r boxes
+  };
+  Vec3 centre(const int block[3], const int sub[3], int r) const;
   Vec3 lo_ = Vec3::Zero(), inv_step_ = Vec3::Ones();
-  int n_[3] = {1, 1, 1};
-  std::vector<int> grid_;
+  int n_[3] = {1, 1, 1};  // blocks per axis
+  std::vector<Block> blocks_;
+  std::vector<int> cells_;  // per box, block by block, x fastest within a block
 };
 
 // Barycentric coordinates of y in cell c.
