@@ -1,6 +1,7 @@
 // Preparation pipeline (Section IV): invert (eq. 5), tetrahedralise (eq. 23), assemble the P1
 // Laplacian and reduce it (eqs. 19–21), factor (eq. 22); and the σ-dependent solve (eq. 17).
 #include <chrono>
+#include <future>
 #include <cmath>
 #include <algorithm>
 #include <map>
@@ -145,6 +146,8 @@ static std::unique_ptr<Field::Impl> mesh_stage(mesh::SurfaceMesh surface, const 
 
 void Field::Impl::build(const Progress& progress) {
   const auto t0 = std::chrono::steady_clock::now();
+  auto t_phase = t0;
+  build_phases.clear();
   progress("build", 0.0);
   const auto np = static_cast<size_t>(tm.points.rows());
   const auto nt = static_cast<int>(tm.tets.rows());
@@ -174,6 +177,8 @@ void Field::Impl::build(const Progress& progress) {
       interior.push_back(static_cast<int>(v));
     }
   }
+  build_phases.emplace_back("roles", seconds_since(t_phase));
+  t_phase = std::chrono::steady_clock::now();
   progress("build", 0.1);
 
   // P1 stiffness K_ij = Σ_t vol_t ∇φ_i·∇φ_j: the cotangent Laplacian [34, 35] of eq. 19.
@@ -208,14 +213,15 @@ void Field::Impl::build(const Progress& progress) {
     for (size_t i = 0; i < nd; ++i)
       for (int j = 0; j < 4; ++j) star[fill[static_cast<size_t>(tm.tets(domain_tets[i], j))]++] = static_cast<int>(4 * i + j);
   }
-  progress("build", 0.5);
+  build_phases.emplace_back("weights+stars", seconds_since(t_phase));
+  progress("build", 0.4);
   // Column of vertex v: rows are the interior vertices w of its star with accept(slot of w);
   // position[] maps a row to its place in the column being built (reset after each column).
   const auto ni = static_cast<Eigen::Index>(interior.size());
-  std::vector<int> position(static_cast<size_t>(ni), -1);
-  std::vector<std::pair<int, double>> column;
   auto assemble = [&](Eigen::SparseMatrix<double>& out, Eigen::Index rows, const std::vector<int>& columns,
                       bool lower) {
+    std::vector<int> position(static_cast<size_t>(ni), -1);
+    std::vector<std::pair<int, double>> column;
     std::vector<int> outer(columns.size() + 1, 0), inner;
     std::vector<double> values;
     inner.reserve(columns.size() * 16);
@@ -252,19 +258,33 @@ void Field::Impl::build(const Progress& progress) {
                                                         static_cast<Eigen::Index>(inner.size()), outer.data(),
                                                         inner.data(), values.data());
   };
-  assemble(a_oo_lower, ni, interior, true);
-  assemble(a_ob, ni, boundary, false);
-  progress("build", 0.85);
-
-  locator.build(tm);
-  // σ sampling: each boundary vertex maps back (eq. 5) onto the input surface.
+  // The rest reads only what is built above and writes disjoint members, so it runs on two
+  // threads: A_ΩΩ here; A_Ω∂, the seeding grid and the σ sampling on the other. Each result is
+  // computed by one thread in the same order as before: bit-identical, whatever the scheduling.
   if (!oracle) oracle = std::make_unique<SurfaceOracle>(surface);
-  boundary_face.resize(boundary.size());
-  boundary_weights.resize(boundary.size());
-  for (size_t b = 0; b < boundary.size(); ++b) {
-    const Vec3 y = tm.points.row(boundary[b]);
-    oracle->closest(centre + y / y.squaredNorm(), boundary_face[b], boundary_weights[b]);
-  }
+  std::vector<std::pair<const char*, double>> other_phases;
+  auto other = std::async(std::launch::async, [&] {
+    auto t = std::chrono::steady_clock::now();
+    assemble(a_ob, ni, boundary, false);
+    other_phases.emplace_back("assemble A_OB", seconds_since(t));
+    t = std::chrono::steady_clock::now();
+    locator.build(tm);
+    other_phases.emplace_back("locator", seconds_since(t));
+    // σ sampling: each boundary vertex maps back (eq. 5) onto the input surface.
+    t = std::chrono::steady_clock::now();
+    boundary_face.resize(boundary.size());
+    boundary_weights.resize(boundary.size());
+    for (size_t b = 0; b < boundary.size(); ++b) {
+      const Vec3 y = tm.points.row(boundary[b]);
+      oracle->closest(centre + y / y.squaredNorm(), boundary_face[b], boundary_weights[b]);
+    }
+    other_phases.emplace_back("sigma sampling", seconds_since(t));
+  });
+  t_phase = std::chrono::steady_clock::now();
+  assemble(a_oo_lower, ni, interior, true);
+  build_phases.emplace_back("assemble A_OO", seconds_since(t_phase));
+  other.get();
+  build_phases.insert(build_phases.end(), other_phases.begin(), other_phases.end());
   stats.t_build = seconds_since(t0);
   progress("build", 1.0);
 }

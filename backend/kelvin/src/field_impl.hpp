@@ -2,6 +2,7 @@
 // State of a prepared Field, shared by the translation units of distlab_kelvin.
 #include <Eigen/Sparse>
 #include <memory>
+#include <utility>
 #include <vector>
 
 #include "cholmod_solver.hpp"
@@ -41,6 +42,9 @@ struct Field::Impl {
   VecX V;      // per point
   MatX3 grad;  // per point, ∇_y V (vertex gradients)
   Stats stats;
+  // Seconds of each phase of the last build() (for the build profile; phases after the stars
+  // run on two threads, each timed on its own).
+  std::vector<std::pair<const char*, double>> build_phases;
 
   // Assembles everything derived from tm (t_build); factor() then factors A_ΩΩ (t_decomp).
   void build(const Progress& progress);
