@@ -361,9 +361,17 @@ TEST_F(KelvinApi, UploadsAndInlineMeshes) {
   EXPECT_EQ(r->status / 100, 4) << r->body;
   r = c.Post("/api/kelvin/uploads?format=exe", session_headers(s), "x", "application/octet-stream");
   EXPECT_EQ(r->status, 400);
-  // A binary STL announcing too many triangles.
+  // 84 bytes announcing 5M triangles is not an STL (a binary STL has 84 + 50·n bytes), not a big one.
   std::string huge(84, '\0');
-  const std::uint32_t n = 5000000;
+  std::uint32_t n = 5000000;
+  std::memcpy(huge.data() + 80, &n, 4);
+  r = c.Post("/api/kelvin/uploads?format=stl", session_headers(s), huge, "application/octet-stream");
+  EXPECT_EQ(r->status, 400);
+  EXPECT_EQ(body_json(r)["error"]["field"], "body");
+  EXPECT_NE(body_json(r)["error"]["message"].get<std::string>().find("not a valid STL"), std::string::npos) << r->body;
+  // A well-formed binary STL with one triangle more than the limit: refused before parsing.
+  n = 200001;
+  huge.assign(84 + 50 * std::size_t{n}, '\0');
   std::memcpy(huge.data() + 80, &n, 4);
   r = c.Post("/api/kelvin/uploads?format=stl", session_headers(s), huge, "application/octet-stream");
   EXPECT_EQ(r->status, 413);

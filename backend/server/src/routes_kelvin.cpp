@@ -401,13 +401,11 @@ void Service::register_kelvin_routes() {
                  if (format != "stl" && format != "obj" && format != "ply" && format != "glb" && format != "off")
                    throw InvalidInput("format", "format must be stl, obj, ply, glb or off");
                  if (req.body.empty()) throw ApiError(400, "empty_body", "the upload is empty");
-                 // Binary STL states its triangle count up front: refuse before parsing.
-                 if (format == "stl" && req.body.size() >= 84 && req.body.compare(0, 5, "solid") != 0) {
-                   std::uint32_t n = 0;
-                   std::memcpy(&n, req.body.data() + 80, 4);
-                   if (n > lim.max_upload_triangles)
+                 // Binary STL states its triangle count up front: refuse before parsing (after the
+                 // size check, so that garbage is called invalid rather than too large).
+                 if (format == "stl")
+                   if (const auto n = mesh::binary_stl_triangles(req.body, "body"); n && *n > lim.max_upload_triangles)
                      throw ApiError(413, "too_many_triangles", "at most " + std::to_string(lim.max_upload_triangles) + " triangles", "body");
-                 }
                  {
                    std::lock_guard lock(session->mutex);
                    if (session->uploads.size() >= lim.max_uploads_per_session)
