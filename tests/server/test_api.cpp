@@ -391,7 +391,9 @@ TEST_F(Api, EveryHeavyRequestIsBounded) {
   ASSERT_TRUE(limits["request_bounds"].is_object()) << limits.dump();
   for (const char* route : {"POST /api/gap/distance", "POST /api/gap/levelsets", "POST /api/kelvin/uploads",
                             "POST /api/kelvin/objects", "POST /api/kelvin/objects/{id}/query",
-                            "GET /api/kelvin/objects/{id}/isosurface", "GET /api/kelvin/objects/{id}/export"}) {
+                            "GET /api/kelvin/objects/{id}/isosurface", "GET /api/kelvin/objects/{id}/export",
+                            "POST /api/cbf/rollouts", "GET /api/cbf/rollouts/{id}/frames",
+                            "GET /api/cbf/rollouts/{id}/record"}) {
     ASSERT_TRUE(limits["request_bounds"].contains(route)) << route;
     EXPECT_FALSE(limits["request_bounds"][route].empty()) << route << " has no explicit bound";
   }
@@ -410,6 +412,23 @@ TEST_F(Api, EveryHeavyRequestIsBounded) {
   expect_error(c.Post("/api/gap/distance", body.dump(), "application/json"), 422, "over_budget", "params.max_iter");
   body["params"] = {{"max_iter", limits["max_gap_iterations"].get<long>()}};
   EXPECT_EQ(c.Post("/api/gap/distance", body.dump(), "application/json")->status, 200);
+}
+
+// Every limit GET /api/limits reports is documented in the OpenAPI schema of /api/limits, and the
+// schema names no limit the server does not report.
+TEST_F(Api, EveryLimitIsDocumented) {
+  const json limits = body_json(c.Get("/api/limits"));
+  const json doc = body_json(c.Get("/api/openapi.json"));
+  const json& props =
+      doc["paths"]["/api/limits"]["get"]["responses"]["200"]["content"]["application/json"]["schema"]["properties"];
+  ASSERT_TRUE(props.is_object());
+  std::set<std::string> reported, documented;
+  for (const auto& [k, v] : limits.items()) reported.insert(k);
+  for (const auto& [k, v] : props.items()) {
+    documented.insert(k);
+    EXPECT_TRUE(k == "request_bounds" || v.contains("description")) << k << " has no description";
+  }
+  EXPECT_EQ(reported, documented);
 }
 
 // With a tiny time per request, a GAP batch and a Kelvin query stop with 408 time_limit (their

@@ -6,7 +6,9 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <map>
 #include <memory>
+#include <set>
 
 #include "server/server_fixture.hpp"
 
@@ -186,6 +188,81 @@ TEST_F(CbfApi, BadInputIsRefusedWithTheField) {
   // Unknown rollouts and bad query parameters.
   expect_error(c.Get("/api/cbf/rollouts/0123", session_headers(s)), 404, "unknown_rollout");
   expect_error(c.Get("/api/cbf/rollouts/0123/record", session_headers(s)), 404, "unknown_rollout");
+}
+
+// GET /api/limits publishes the rollout limits (the same numbers as GET /api/cbf/scenarios) and
+// names them in request_bounds; each is enforced at exactly its published value.
+TEST_F(CbfApi, LimitsArePublishedAndEnforcedAtTheirValues) {
+  const json limits = get_json(c, "", "/api/limits");
+  const json published = get_json(c, "", "/api/cbf/scenarios")["limits"];
+  EXPECT_EQ(limits["max_cbf_steps"], published["max_steps"]);
+  EXPECT_EQ(limits["max_cbf_duration"], published["max_duration"]);
+  EXPECT_EQ(limits["max_cbf_pair_steps"], published["max_pair_steps"]);
+  EXPECT_EQ(limits["max_cbf_batch_steps"], published["max_batch_steps"]);
+  EXPECT_EQ(limits["max_cbf_frames_per_request"], published["max_frames_per_request"]);
+  EXPECT_EQ(limits["cbf_rollouts_kept_per_session"], published["kept_per_session"]);
+  EXPECT_GE(limits["cbf_rollouts_kept_total"].get<long>(), limits["cbf_rollouts_kept_per_session"].get<long>());
+  const json& bounds = limits["request_bounds"];
+  auto names = [&](const char* route) {
+    std::set<std::string> out;
+    for (const json& n : bounds[route]) out.insert(n.get<std::string>());
+    return out;
+  };
+  const std::set<std::string> post = names("POST /api/cbf/rollouts");
+  for (const char* n : {"max_body_bytes", "max_cbf_steps", "max_cbf_duration", "max_cbf_pair_steps", "max_cbf_batch_steps",
+                        "max_jobs_per_session", "max_jobs_total", "max_job_seconds", "cbf_rollouts_kept_per_session",
+                        "cbf_rollouts_kept_total"})
+    EXPECT_TRUE(post.count(n)) << n;
+  EXPECT_TRUE(names("GET /api/cbf/rollouts/{id}/frames").count("max_cbf_frames_per_request"));
+  EXPECT_TRUE(names("GET /api/cbf/rollouts/{id}/record").count("max_cbf_pair_steps"));
+
+  // An inline corridor without self-collision: pairs = robot primitives × obstacles, known here.
+  json sc = get_json(c, "", "/api/cbf/scenarios/corridor");
+  sc["self_collision"] = false;
+  const double dt = sc["dt"];
+  const long max_steps = limits["max_cbf_steps"], max_pair_steps = limits["max_cbf_pair_steps"];
+  const long primitives = static_cast<long>(get_json(c, "", "/api/cbf/robot")["primitives"].size());
+  auto with = [&](json scenario, double duration) {
+    scenario["duration"] = duration;
+    return json{{"scenario", scenario}, {"metric", "euclidean"}};
+  };
+  auto accepted_then_cancelled = [&](const json& body) {
+    const std::string s = new_session(c);
+    auto r = post_rollout(c, s, body);
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 202) << r->body;
+    EXPECT_EQ(c.Delete("/api/session", session_headers(s))->status, 204);  // cancels the rollout
+  };
+  const std::string s = new_session(c);
+  // Steps: max_cbf_steps is accepted, one more is 422 (pairs × steps stays under its own budget).
+  json one = sc;
+  one["obstacles"] = json::array({sc["obstacles"][0]});
+  ASSERT_LT(primitives * (max_steps + 1), max_pair_steps) << "the step limit must be the one that binds here";
+  accepted_then_cancelled(with(one, max_steps * dt));
+  expect_error(post_rollout(c, s, with(one, (max_steps + 1) * dt)), 422, "too_long", "scenario.duration");
+  // Pair-steps: four copies of the corridor's obstacles; the most steps that fit, then one more.
+  json many = sc;
+  many["obstacles"] = json::array();
+  for (int copy = 0; copy < 4; ++copy)
+    for (json o : sc["obstacles"]) {
+      o["name"] = o["name"].get<std::string>() + "_" + std::to_string(copy);
+      many["obstacles"].push_back(o);
+    }
+  const long pairs = primitives * static_cast<long>(many["obstacles"].size());
+  const long fit = max_pair_steps / pairs;
+  ASSERT_LT(fit + 1, max_steps) << "the pair-step limit must be the one that binds here";
+  accepted_then_cancelled(with(many, fit * dt));
+  auto r = post_rollout(c, s, with(many, (fit + 1) * dt));
+  expect_error(r, 422, "too_long", "scenario.duration");
+  EXPECT_NE(body_json(r)["error"]["message"].get<std::string>().find(std::to_string(max_pair_steps)), std::string::npos);
+  // Stream batches: the published maximum is accepted, one more is 400 with the field.
+  const int max_batch = limits["max_cbf_batch_steps"];
+  json tiny = with(one, 2 * dt);
+  tiny["stream"] = {{"batch_steps", max_batch + 1}};
+  expect_error(post_rollout(c, s, tiny), 400, "invalid_input", "stream.batch_steps");
+  tiny["stream"] = {{"batch_steps", max_batch}};
+  accepted_then_cancelled(tiny);
+  EXPECT_TRUE(get_json(c, s, "/api/cbf/rollouts")["rollouts"].empty()) << "refused requests start nothing";
 }
 
 TEST_F(CbfApi, FramesStreamAndMatchTheRecordAndTheRobotModel) {

@@ -1,6 +1,7 @@
 // Kelvin objects through the service: prepare jobs with progress over the WebSocket, σ in every
 // form, queries, iso-surface frames (WebSocket and REST), exports, uploads, limits, two sessions
 // editing σ at once, cancellation midway, and a restart that reloads from the cache.
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <map>
@@ -430,6 +431,48 @@ TEST_F(KelvinApi, Limits) {
   r = c.Post(path_of(id, "/query").c_str(), session_headers(s2), json{{"points", many}}.dump(), "application/json");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status / 100, 4);
+
+  // Levels: an iso-surface or export request extracts one level (GET /api/limits says so and names
+  // it in request_bounds); a repeated level is 413 naming the field, never silently the first one.
+  const json limits = body_json(c.Get("/api/limits"));
+  ASSERT_EQ(limits["isosurface_levels_per_request"], 1);
+  for (const char* route : {"GET /api/kelvin/objects/{id}/isosurface", "GET /api/kelvin/objects/{id}/export"}) {
+    const json& names = limits["request_bounds"][route];
+    EXPECT_NE(std::find(names.begin(), names.end(), "isosurface_levels_per_request"), names.end()) << route;
+    EXPECT_NE(std::find(names.begin(), names.end(), "max_vertex_estimate"), names.end()) << route;
+  }
+  auto expect_refused = [&](const std::string& target, int status, const std::string& code, const std::string& field) {
+    auto res = c.Get(target.c_str(), session_headers(s2));
+    ASSERT_TRUE(res);
+    EXPECT_EQ(res->status, status) << target << " " << res->body;
+    EXPECT_EQ(body_json(res)["error"]["code"], code) << target;
+    EXPECT_EQ(body_json(res)["error"]["field"], field) << target;
+  };
+  expect_refused(path_of(id, "/isosurface") + "?level=0.3&level=0.5", 413, "too_many_levels", "level");
+  expect_refused(path_of(id, "/export") + "?level=0.3&format=obj&level=0.5", 413, "too_many_levels", "level");
+  expect_refused(path_of(id, "/export") + "?level=0.3&format=obj&format=stl", 400, "invalid_input", "format");
+  r = c.Get((path_of(id, "/isosurface") + "?level=0.3").c_str(), session_headers(s2));
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200) << "one level is fine";
+  // Several levels go through PUT .../levels: max_levels is accepted, one more is 413 with the field.
+  const std::size_t max_levels = limits["max_levels"];
+  json levels = json::array();
+  for (std::size_t i = 0; i < max_levels; ++i) levels.push_back(0.05 * static_cast<double>(i + 1));
+  r = c.Put(path_of(id, "/levels").c_str(), session_headers(s2), json{{"levels", levels}}.dump(), "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200) << r->body;
+  EXPECT_EQ(body_json(r)["levels"].size(), max_levels);
+  levels.push_back(0.05 * static_cast<double>(max_levels + 1));
+  r = c.Put(path_of(id, "/levels").c_str(), session_headers(s2), json{{"levels", levels}}.dump(), "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 413) << r->body;
+  EXPECT_EQ(body_json(r)["error"]["code"], "too_many_levels");
+  EXPECT_EQ(body_json(r)["error"]["field"], "levels");
+  r = c.Post("/api/kelvin/objects", session_headers(s2), json{{"asset", "cube"}, {"lx", 0.2}, {"levels", levels}}.dump(),
+             "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 413) << r->body;
+  EXPECT_EQ(body_json(r)["error"]["field"], "levels");
 }
 
 TEST(KelvinRestart, ReloadsPreparedObjectFromCache) {

@@ -74,10 +74,12 @@ bool percent_decode(const std::string& in, std::string& out, bool plus_is_space)
   return true;
 }
 
-void split_target(const std::string& target, std::string& path, std::map<std::string, std::string>& query) {
+void split_target(const std::string& target, std::string& path, std::map<std::string, std::string>& query,
+                  std::set<std::string>* repeated) {
   const std::size_t q = target.find('?');
   path = target.substr(0, q);
   query.clear();
+  if (repeated) repeated->clear();
   if (q == std::string::npos) return;
   const std::string qs = target.substr(q + 1);
   std::size_t pos = 0;
@@ -90,7 +92,7 @@ void split_target(const std::string& target, std::string& path, std::map<std::st
       std::string key, value;
       if (percent_decode(item.substr(0, eq), key, true) &&
           (eq == std::string::npos || percent_decode(item.substr(eq + 1), value, true)))
-        query.emplace(key, value);
+        if (!query.emplace(key, value).second && repeated) repeated->insert(key);
     }
     pos = end + 1;
   }

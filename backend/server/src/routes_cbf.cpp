@@ -213,6 +213,11 @@ void Service::register_cbf_routes() {
                return json_response(202, {{"rollout", status}, {"job", job->to_json()}});
              }};
   post.heavy = true;  // reads a scenario file, builds the request
+  // The rollout is a job of the session (job limits); its length and memory are bounded by steps
+  // and pair-steps; finished rollouts past the kept counts are forgotten, oldest first.
+  post.bounds = {"max_body_bytes", "max_cbf_steps", "max_cbf_duration", "max_cbf_pair_steps", "max_cbf_batch_steps",
+                 "max_jobs_per_session", "max_jobs_total", "max_job_seconds", "cbf_rollouts_kept_per_session",
+                 "cbf_rollouts_kept_total"};
   router_.add(std::move(post));
 
   auto require_rollout = [this](const Request& req) {
@@ -244,6 +249,7 @@ void Service::register_cbf_routes() {
                  return json_response(200, cbf_frames_json(*r, from, count));
                }};
   frames.heavy = true;
+  frames.bounds = {"max_cbf_frames_per_request", "max_cbf_pair_steps"};
   router_.add(std::move(frames));
   Route record{"GET", "/api/cbf/rollouts/{id}/record", [require_rollout](Request& req) {
                  auto [session, r] = require_rollout(req);
@@ -260,6 +266,7 @@ void Service::register_cbf_routes() {
                  return json_response(200, encode_record(*rec, r->scenario_name, r->record_pairs));
                }};
   record.heavy = true;
+  record.bounds = {"max_cbf_steps", "max_cbf_pair_steps"};
   router_.add(std::move(record));
 }
 

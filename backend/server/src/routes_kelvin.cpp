@@ -40,7 +40,14 @@ std::vector<double> parse_levels(const json& j, const std::string& field, std::s
   return out;
 }
 
+// A query parameter given more than once is refused, not silently reduced to its first value.
+void single_query(const Request& req, const std::string& name) {
+  if (req.repeated_query.count(name))
+    throw InvalidInput(name, "query parameter " + name + " is given more than once");
+}
+
 double query_number(const Request& req, const std::string& name) {
+  single_query(req, name);
   auto it = req.query.find(name);
   if (it == req.query.end()) throw InvalidInput(name, "query parameter " + name + " is required");
   try {
@@ -51,6 +58,18 @@ double query_number(const Request& req, const std::string& name) {
   } catch (const std::exception&) {
     throw InvalidInput(name, "query parameter " + name + " must be a finite number");
   }
+}
+
+// The one level of GET .../isosurface and .../export (kIsosurfaceLevelsPerRequest): several levels
+// are refused with the field, pointing to PUT .../levels (max_levels), whose frames carry them all.
+double query_level(const Request& req) {
+  static_assert(kIsosurfaceLevelsPerRequest == 1);
+  if (req.repeated_query.count("level"))
+    throw ApiError(413, "too_many_levels",
+                   "one level per request; for several, PUT .../levels (at most max_levels) and read the "
+                   "WebSocket's isosurface frames",
+                   "level");
+  return query_number(req, "level");
 }
 
 // Reads a mesh file through assimp (it needs a path): written to a private temporary file.
@@ -551,7 +570,7 @@ void Service::register_kelvin_routes() {
   Route iso{"GET", "/api/kelvin/objects/{id}/isosurface", [this, ready](Request& req) {
               auto session = require_session(req);
               auto object = require_object(*session, req);
-              const double level = query_number(req, "level");
+              const double level = query_level(req);
               kelvin::SigmaSpec sigma;
               std::string key;
               std::uint64_t version;
@@ -564,7 +583,7 @@ void Service::register_kelvin_routes() {
               return r;
             }};
   iso.heavy = true;
-  iso.bounds = {"max_vertex_estimate"};
+  iso.bounds = {"max_vertex_estimate", "isosurface_levels_per_request"};
   router_.add(std::move(iso));
 
   router_.add({"GET", "/api/kelvin/objects/{id}/surface", [this](Request& req) {
@@ -587,7 +606,8 @@ void Service::register_kelvin_routes() {
   Route exp{"GET", "/api/kelvin/objects/{id}/export", [this, ready](Request& req) {
               auto session = require_session(req);
               auto object = require_object(*session, req);
-              const double level = query_number(req, "level");
+              const double level = query_level(req);
+              single_query(req, "format");
               auto it = req.query.find("format");
               const std::string format = it == req.query.end() ? "stl" : it->second;
               static const std::map<std::string, std::string> types = {
@@ -621,7 +641,7 @@ void Service::register_kelvin_routes() {
               return r;
             }};
   exp.heavy = true;
-  exp.bounds = {"max_vertex_estimate"};
+  exp.bounds = {"max_vertex_estimate", "isosurface_levels_per_request"};
   router_.add(std::move(exp));
 }
 

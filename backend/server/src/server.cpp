@@ -36,7 +36,7 @@ Request to_request(const http::request<http::string_body>& req) {
   Request r;
   r.method = std::string(req.method_string());
   r.target = std::string(req.target());
-  split_target(r.target, r.path, r.query);
+  split_target(r.target, r.path, r.query, &r.repeated_query);
   for (const auto& f : req) r.headers[lower(std::string(f.name_string()))] = std::string(f.value());
   r.body = req.body();
   return r;

@@ -5,6 +5,8 @@
 #include <thread>
 
 #include "distlab/geometry/error.hpp"
+#include "distlab/server/cbf_json.hpp"
+#include "distlab/server/cbf_rollouts.hpp"
 #include "distlab/server/frames.hpp"
 #include "distlab/server/gap_json.hpp"
 
@@ -158,6 +160,16 @@ void Service::register_core_routes() {
                  limits["max_uploads_per_session"] = l.max_uploads_per_session;
                  limits["max_plane_resolution"] = l.max_plane_resolution;
                  limits["max_gap_iterations"] = l.max_gap_iterations;
+                 limits["isosurface_levels_per_request"] = kIsosurfaceLevelsPerRequest;
+                 // The CBF rollout limits (also in GET /api/cbf/scenarios), named for request_bounds.
+                 const CbfLimits& cbf = cbf_rollouts_->limits();
+                 limits["max_cbf_steps"] = cbf.max_steps;
+                 limits["max_cbf_duration"] = kMaxScenarioDuration;
+                 limits["max_cbf_pair_steps"] = cbf.max_pair_steps;
+                 limits["max_cbf_batch_steps"] = cbf.max_batch_steps;
+                 limits["max_cbf_frames_per_request"] = cbf.max_frames_per_request;
+                 limits["cbf_rollouts_kept_per_session"] = cbf.kept_per_session;
+                 limits["cbf_rollouts_kept_total"] = cbf.kept_total;
                  // Every synchronous heavy request and the limits above that bound its work.
                  json bounds = json::object();
                  for (const Route& r : router_.routes())

@@ -5,6 +5,10 @@
 
 namespace distlab::server {
 
+// GET /api/kelvin/objects/{id}/isosurface and .../export extract one level each (a repeated level
+// is 413 too_many_levels); several levels at once go through PUT .../levels, bounded by max_levels.
+inline constexpr std::size_t kIsosurfaceLevelsPerRequest = 1;
+
 struct Limits {
   std::size_t max_body_bytes = std::size_t{8} << 20;     // JSON requests
   std::size_t max_upload_bytes = std::size_t{64} << 20;  // mesh uploads

@@ -2,6 +2,7 @@
 // Transport-neutral HTTP request/response values and the error type of the API: the Beast layer
 // converts to and from these, so the router and the endpoints can be tested without sockets.
 #include <map>
+#include <set>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -15,7 +16,8 @@ struct Request {
   std::string method;  // upper case: GET, POST, PUT, DELETE, HEAD, ...
   std::string target;  // as received: path + optional ?query
   std::string path;    // target without the query string, not percent-decoded
-  std::map<std::string, std::string> query;    // decoded query parameters
+  std::map<std::string, std::string> query;    // decoded query parameters (the first of repeats)
+  std::set<std::string> repeated_query;        // query parameters given more than once
   std::map<std::string, std::string> headers;  // lower-case names
   std::string body;
   std::map<std::string, std::string> params;  // path parameters filled in by the router
@@ -51,8 +53,10 @@ Response json_response(int status, const nlohmann::json& body);
 Response error_response(int status, const std::string& code, const std::string& message,
                         const std::string& field = "");
 
-// Splits "path?a=1&b=2" and percent-decodes the query ('+' is a space there).
-void split_target(const std::string& target, std::string& path, std::map<std::string, std::string>& query);
+// Splits "path?a=1&b=2" and percent-decodes the query ('+' is a space there). A repeated key keeps
+// its first value; its name goes to *repeated when given.
+void split_target(const std::string& target, std::string& path, std::map<std::string, std::string>& query,
+                  std::set<std::string>* repeated = nullptr);
 // Percent-decoding; returns false on a malformed escape or an encoded NUL.
 bool percent_decode(const std::string& in, std::string& out, bool plus_is_space = false);
 
