@@ -18,8 +18,10 @@ import { launchBrowser, openView, startServer } from "./harness.mjs";
 
 /** A closed UV sphere (radius 0.1 m) as binary STL with 2·n·(n−1) triangles. */
 function uvSphereStl(n) {
+  // Closed: the seam (j = n is j = 0) and the poles are the same floats, so the importer welds them.
   const P = (i, j) => {
-    const th = (Math.PI * i) / n, ph = (2 * Math.PI * j) / n;
+    if (i === 0 || i === n) return [0, 0, i === 0 ? 0.1 : -0.1];
+    const th = (Math.PI * i) / n, ph = (2 * Math.PI * (j % n)) / n;
     return [0.1 * Math.sin(th) * Math.cos(ph), 0.1 * Math.sin(th) * Math.sin(ph), 0.1 * Math.cos(th)];
   };
   const tris = [];
