@@ -300,11 +300,12 @@ void Field::Impl::factor(const Progress& progress) {
 void Field::Impl::finish_stats() {
   stats.n_verts = static_cast<long>(interior.size() + boundary.size());
   stats.n_tets = static_cast<long>(domain_tets.size());
-  // What a query server holds: points, cells, neighbours, vertex values and gradients, factor.
+  // What a query server holds: points, cells, neighbours, vertex values and gradients, seeding
+  // grid, factor.
   const double mesh_bytes = static_cast<double>(tm.points.size()) * 8 * 2 +  // points, gradients
                             static_cast<double>(tm.tets.size() + tm.neighbours.size()) * 4 +
                             static_cast<double>(tm.points.rows()) * 8;      // V
-  stats.size_mb = mesh_bytes / 1e6 + solver.factor_megabytes();
+  stats.size_mb = (mesh_bytes + static_cast<double>(locator.bytes())) / 1e6 + solver.factor_megabytes();
 }
 
 Field Field::prepare(const mesh::SurfaceMesh& surface, const PrepareOptions& options, const Progress& progress) {
