@@ -30,8 +30,6 @@ namespace {
 constexpr double kCellsPerBlock = 16;
 constexpr double kBoxesPerCell = 1;
 constexpr int kMaxBlocksPerAxis = 512, kMaxBoxesPerAxis = 32;
-// A box centre on a face shared by two cells is accepted by either (it only seeds a walk).
-constexpr double kInsideTolerance = 1e-12;
 
 // Grid coordinate (in blocks) of y along axis k, clamped into the grid; NaN maps to 0.
 double grid_coordinate(double y, double lo, double inv_step, int n) {
@@ -81,51 +79,9 @@ void Locator::build(const TetMesh& m) {
   }
   cells_.assign(total, -1);
 
-  // Each cell writes itself into the boxes whose centres it contains (centres in its bounding box,
-  // exact barycentric test). Box (s0, s1, s2) of block (i0, i1, i2) with r boxes per axis has its
-  // centre at grid coordinate i + (s + 0.5) / r.
-  for (long c = 0; c < n_cells; ++c) {
-    const auto* t = m.tets.row(c).data();
-    const Vec3 a = m.points.row(t[0]);
-    const Vec3 e1 = Vec3(m.points.row(t[1])) - a, e2 = Vec3(m.points.row(t[2])) - a,
-               e3 = Vec3(m.points.row(t[3])) - a;
-    const Vec3 n1 = e2.cross(e3), n2 = e3.cross(e1), n3 = e1.cross(e2);
-    const double inv = 1.0 / e1.dot(n1);
-    const Vec3 cmin = a.cwiseMin(a + e1).cwiseMin(a + e2).cwiseMin(a + e3);
-    const Vec3 cmax = a.cwiseMax(a + e1).cwiseMax(a + e2).cwiseMax(a + e3);
-    double f_lo[3], f_hi[3];
-    int b_lo[3], b_hi[3];
-    for (int k = 0; k < 3; ++k) {
-      f_lo[k] = grid_coordinate(cmin[k], lo_[k], inv_step_[k], n_[k]);
-      f_hi[k] = grid_coordinate(cmax[k], lo_[k], inv_step_[k], n_[k]);
-      b_lo[k] = static_cast<int>(f_lo[k]);
-      b_hi[k] = static_cast<int>(f_hi[k]);
-    }
-    for (int i2 = b_lo[2]; i2 <= b_hi[2]; ++i2)
-      for (int i1 = b_lo[1]; i1 <= b_hi[1]; ++i1)
-        for (int i0 = b_lo[0]; i0 <= b_hi[0]; ++i0) {
-          const int idx[3] = {i0, i1, i2};
-          const Block& blk = blocks_[(static_cast<size_t>(i2) * n_[1] + i1) * n_[0] + i0];
-          const int r = static_cast<int>(blk.r);
-          int s_lo[3], s_hi[3];
-          for (int k = 0; k < 3; ++k) {
-            s_lo[k] = std::max(0, static_cast<int>(std::ceil((f_lo[k] - idx[k]) * r - 0.5)));
-            s_hi[k] = std::min(r - 1, static_cast<int>(std::floor((f_hi[k] - idx[k]) * r - 0.5)));
-          }
-          for (int s2 = s_lo[2]; s2 <= s_hi[2]; ++s2)
-            for (int s1 = s_lo[1]; s1 <= s_hi[1]; ++s1)
-              for (int s0 = s_lo[0]; s0 <= s_hi[0]; ++s0) {
-                const size_t box = blk.first + (static_cast<size_t>(s2) * r + s1) * r + s0;
-                const int sub[3] = {s0, s1, s2};
-                const Vec3 q = centre(idx, sub, r) - a;
-                const double l1 = q.dot(n1) * inv, l2 = q.dot(n2) * inv, l3 = q.dot(n3) * inv;
-                if (std::min(std::min(l1, l2), std::min(l3, 1.0 - l1 - l2 - l3)) >= -kInsideTolerance)
-                  cells_[box] = static_cast<int>(c);
-              }
-        }
-  }
-  // Boxes whose centre no cell claimed: off the hull (or missed by rounding). Seed them with the
-  // cell a walk from the previous box ends in (the nearest hull cell on its way out).
+  // Each box holds the cell containing its centre, found by a walk from the previous box's cell
+  // (adjacent boxes: a step or two; cheaper than rasterizing the cells over the box centres, which
+  // measured 3x slower). A centre off the hull keeps the hull cell where the walk stopped.
   int last = 0;
   for (size_t b = 0; b < n_blocks; ++b) {
     const int r = static_cast<int>(blocks_[b].r);
