@@ -3,6 +3,9 @@
 // usage: distlab-bench-kelvin [--assets DIR] [--lx 0.2,0.15,...] [--grid 1000] [--lu-max 60000]
 //                             [--wrench-lx 0.002] [--wrench-features 180] [--json FILE]
 //                             [--table2-only 1] [--table1-only 1] [--sphere-rmse 0.1,0.05,...]
+//                             [--cache-dir DIR]
+// --cache-dir reuses prepared objects (Field::prepare_cached): t_mesh and t_decomp are then those
+// of the original preparation, t_build is measured again.
 // t_solve is σ → V (eqs. 17, 20, 21: what the paper times; mean and median of 100); t_grad, the
 // vertex gradients for ∇h, is reported beside it. "own dense" and chol_ms: the same factor's
 // solve with a dense right-hand side (all ones) by our supernodal solve and by CHOLMOD's
@@ -87,8 +90,8 @@ nlohmann::json to_json(const Row& r) {
 
 Row run(const mesh::SurfaceMesh& surface, const PrepareOptions& o, const std::vector<SigmaSpec>& sigmas,
         const std::vector<Vec3>& path, const std::vector<Vec3>& random, long lu_max,
-        std::optional<Field>* keep = nullptr) {
-  Field f = Field::prepare(surface, o);
+        const std::string& cache_dir, std::optional<Field>* keep = nullptr) {
+  Field f = cache_dir.empty() ? Field::prepare(surface, o) : Field::prepare_cached(surface, o, cache_dir);
   Row r;
   r.lx = o.lx;
   std::vector<double> t;
@@ -181,12 +184,18 @@ std::vector<double> parse_list(const std::string& s) {
 
 int main(int argc, char** argv) {
   std::vector<double> lxs = {0.2, 0.15, 0.1, 0.08, 0.06, 0.05, 0.04, 0.03, 0.02};
-  std::string assets = "assets", json_path = "bench_kelvin.json";
+  std::string assets = "assets", json_path = "bench_kelvin.json", cache_dir;
   int grid = 1000;
   long lu_max = 60000;
   double wrench_lx = 0.002, wrench_features = 180;
   bool table1 = true, table2 = true;
   std::vector<double> sphere_lxs;
+  if (argc == 2 && std::string(argv[1]) == "--help") {
+    std::puts("usage: distlab-bench-kelvin [--assets DIR] [--lx 0.2,0.15,...] [--grid 1000] [--lu-max 60000]\n"
+              "  [--wrench-lx 0.002] [--wrench-features 180] [--json FILE] [--table2-only 1] [--table1-only 1]\n"
+              "  [--sphere-rmse 0.1,0.05,...] [--cache-dir DIR (reuse prepared objects)]");
+    return 0;
+  }
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string k = argv[i], v = argv[i + 1];
     if (k == "--lx") lxs = parse_list(v);
@@ -196,6 +205,7 @@ int main(int argc, char** argv) {
     else if (k == "--wrench-lx") wrench_lx = std::stod(v);
     else if (k == "--wrench-features") wrench_features = std::stod(v);
     else if (k == "--json") json_path = v;
+    else if (k == "--cache-dir") cache_dir = v;
     else if (k == "--table2-only") table1 = v == "0";
     else if (k == "--table1-only") table2 = v == "0";
     else if (k == "--sphere-rmse") sphere_lxs = parse_list(v), table1 = table2 = false;
@@ -229,7 +239,7 @@ int main(int argc, char** argv) {
     std::optional<Field> kept;
     PrepareOptions o;
     o.lx = lx;
-    rows.push_back(run(cube, o, {zero}, path, random, lu_max, &kept));
+    rows.push_back(run(cube, o, {zero}, path, random, lu_max, cache_dir, &kept));
     const Field& f = *kept;
     std::vector<double> plane(static_cast<size_t>(grid) * grid);
     int hint = -1;
@@ -271,7 +281,7 @@ int main(int argc, char** argv) {
     o.centre = Vec3::Zero();
     o.feature_angle = wrench_features;
     std::fprintf(stderr, "wrench: lx %.4g, feature_angle %.0f\n", o.lx, o.feature_angle);
-    wrench_rows.push_back(run(wrench, o, cases, wpath, wrandom, lu_max));
+    wrench_rows.push_back(run(wrench, o, cases, wpath, wrandom, lu_max, cache_dir));
     for (const std::string& w : wrench_rows.back().stats.warnings) std::printf("warning: %s\n", w.c_str());
     print("Table II: combination wrench", wrench_rows);
     std::printf("t_solve per case (a), (b), (c): %.2f, %.2f, %.2f ms\n", wrench_rows[0].case_solve_ms[0],
