@@ -13,7 +13,7 @@ namespace distlab::kelvin {
 namespace {
 
 // Bump when the meshing or the file layout changes: old entries then simply miss.
-constexpr char kFormat[] = "distlab-kelvin-cache-v3";
+constexpr char kFormat[] = "distlab-kelvin-cache-v4";
 constexpr int kInputs = 6;  // requested lx, far_radius, feature_angle, centre
 
 struct Fnv64 {

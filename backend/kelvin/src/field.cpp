@@ -108,9 +108,8 @@ static std::unique_ptr<Field::Impl> mesh_stage(mesh::SurfaceMesh surface, const 
   auto impl = std::make_unique<Field::Impl>();
   const auto t0 = std::chrono::steady_clock::now();
   progress("invert", 0.0);
-  // Flat input faces invert to sphere patches: split long edges first so the inverted
-  // polyhedron follows them (chord error ≲ l_x²/(4|x|) mapped back).
-  mesh::SurfaceMesh inverted = split_long_edges(surface, o.lx);
+  // Flat input faces invert to sphere patches: the mesher bisects long edges (mesher.cpp).
+  mesh::SurfaceMesh inverted = surface;
   double r_max = 0;
   for (Eigen::Index v = 0; v < inverted.vertices.rows(); ++v) {
     const Vec3 p = Vec3(inverted.vertices.row(v)) - centre;

@@ -7,6 +7,7 @@
 #include <CGAL/Random.h>
 #include <CGAL/Surface_mesh.h>
 #include <CGAL/Mesh_error_code.h>
+#include <CGAL/Polygon_mesh_processing/remesh.h>
 #include <CGAL/make_mesh_3.h>
 
 #include <cmath>
@@ -61,17 +62,42 @@ struct Sizing {
 
 std::string whole(double v) { return std::to_string(static_cast<long long>(std::llround(v))); }
 
-// One Mesh_3 run; protect selects sharp-edge protection (params.feature_angle).
-TetMesh mesh_once(const mesh::SurfaceMesh& inverted, const MeshingParams& params, bool protect,
-                  Budget& budget, const Progress& progress) {
+// The polyhedron Mesh_3 meshes must follow the inverted surface, whose flat parts are sphere
+// patches in y. Edges are bisected in x (Φ is its own inverse; midpoints stay on the input
+// faces) until none is longer than max_length, then mapped to y. A flat triangle with edges ≤ c
+// inscribed in a sphere of radius R deviates from it by at most c²/(6R): in x that is
+// O(max_length²), below the element's own chord error when max_length ≤ l_x.
+// Longest edge first (CGAL's remesher with splits only), so angles stay within half of the
+// input's: a sliver's plane through three points of the sphere can be far from its tangent
+// plane, and detect_features then finds sharp edges inside flat faces. (Splitting each edge into
+// pieces and fanning, as PMP::split_long_edges does, left corner-to-corner triangles: the meshed
+// boundary bulged 0.18 m out of the unit cube at every l_x.)
+Polyhedron boundary_polyhedron(const mesh::SurfaceMesh& inverted, double max_length) {
   Polyhedron poly;
   std::vector<Polyhedron::Vertex_index> vi;
+  auto flip = [](const K::Point_3& p) {  // eq. 5 both ways
+    const double r2 = p.x() * p.x() + p.y() * p.y() + p.z() * p.z();
+    return K::Point_3(p.x() / r2, p.y() / r2, p.z() / r2);
+  };
   for (Eigen::Index v = 0; v < inverted.vertices.rows(); ++v)
-    vi.push_back(poly.add_vertex(K::Point_3(inverted.vertices(v, 0), inverted.vertices(v, 1),
-                                            inverted.vertices(v, 2))));
+    vi.push_back(poly.add_vertex(flip(K::Point_3(inverted.vertices(v, 0), inverted.vertices(v, 1),
+                                                 inverted.vertices(v, 2)))));
   for (Eigen::Index f = 0; f < inverted.faces.rows(); ++f)
     poly.add_face(vi[static_cast<size_t>(inverted.faces(f, 0))], vi[static_cast<size_t>(inverted.faces(f, 1))],
                   vi[static_cast<size_t>(inverted.faces(f, 2))]);
+  namespace PMP = CGAL::Polygon_mesh_processing;
+  // Splits edges longer than 4/3 of the target, i.e. max_length; no collapse, flip, smoothing.
+  PMP::isotropic_remeshing(faces(poly), 0.75 * max_length, poly,
+                           CGAL::parameters::number_of_iterations(1).do_collapse(false).do_flip(false)
+                               .number_of_relaxation_steps(0).do_project(false));
+  for (auto v : poly.vertices()) poly.point(v) = flip(poly.point(v));
+  return poly;
+}
+
+// One Mesh_3 run; protect selects sharp-edge protection (params.feature_angle).
+TetMesh mesh_once(const mesh::SurfaceMesh& inverted, const MeshingParams& params, bool protect,
+                  Budget& budget, const Progress& progress) {
+  Polyhedron poly = boundary_polyhedron(inverted, params.boundary_edge_length > 0 ? params.boundary_edge_length : params.lx);
 
   // Determinism: Mesh_3 and the domain draw from these generators; the default one is seeded
   // from the clock.

@@ -28,6 +28,8 @@ struct MeshingParams {
   double lx = 0.1;              // exterior element size l_x (eq. 23)
   double min_size = 0.0;        // lower bound of the interior sizing field l_y
   double feature_angle = 60.0;  // dihedral angle (degrees) below which edges are kept sharp
+  // Longest edge (in x) of the surface polyhedron handed to Mesh_3; 0: lx.
+  double boundary_edge_length = 0.0;
   // Limits that turn a runaway refinement into an error instead of a hang (deterministic: counts,
   // not wall time). See PrepareOptions.
   std::size_t max_vertices = 2'000'000;
