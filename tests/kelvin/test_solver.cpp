@@ -3,6 +3,8 @@
 // forward pass skips supernodes whose right-hand side is zero).
 #include <gtest/gtest.h>
 
+#include <dlfcn.h>
+
 #include <Eigen/SparseCholesky>
 #include <random>
 #include <sstream>
@@ -86,4 +88,28 @@ TEST(KelvinSolver, ReloadedFactorSolvesTheSame) {
   a.solve(x);
   b.solve(y);
   EXPECT_EQ((x - y).norm(), 0.0);
+}
+
+// Above 10k unknowns the factor is ordered by nested dissection (METIS) instead of AMD: the solve
+// must be as exact there; and the factorization, which runs CHOLMOD's OpenMP regions serially,
+// leaves the process's OpenMP setting (max-active-levels) as it found it.
+TEST(KelvinSolver, NestedDissectionOrderingSolvesAndRestoresOpenMP) {
+  const Eigen::SparseMatrix<double> lower = grid_matrix(22, 4);  // 10,648 unknowns
+  ASSERT_GE(lower.rows(), 10000);
+  using Get = int (*)();
+  using Set = void (*)(int);
+  const auto get = reinterpret_cast<Get>(::dlsym(RTLD_DEFAULT, "omp_get_max_active_levels"));
+  const auto set = reinterpret_cast<Set>(::dlsym(RTLD_DEFAULT, "omp_set_max_active_levels"));
+  if (set != nullptr) set(3);
+  CholmodSolver solver;
+  solver.factorize(lower);
+  if (get != nullptr) {
+    EXPECT_EQ(get(), 3);
+  }
+  const Eigen::SparseMatrix<double> full = lower.selfadjointView<Eigen::Lower>();
+  VecX b = VecX::LinSpaced(lower.rows(), -1, 2), x = b, y = b;
+  solver.solve(x);
+  solver.solve_cholmod(y);
+  EXPECT_LT((x - y).norm(), 1e-12 * y.norm());
+  EXPECT_LT((full * x - b).norm(), 1e-12 * b.norm());
 }
