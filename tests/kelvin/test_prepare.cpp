@@ -1,6 +1,8 @@
 // Preparation: refused inputs, progress and cancellation, and the cache round trip.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -89,6 +91,42 @@ TEST(KelvinPrepare, ReportsProgressAndCancels) {
     if (stage == "mesh" && f > 0) cancel = true;
   };
   EXPECT_THROW(Field::prepare(sphere_mesh(kSphere), sphere_options(0.2), progress), Cancelled);
+}
+
+// Without a given centre, the deepest-point search is most of "load" on a large surface: it
+// reports its progress and can be cancelled.
+TEST(KelvinPrepare, DeepestPointSearchReportsProgressAndCancels) {
+  std::vector<double> load;
+  Progress progress;
+  progress.report = [&](const std::string& stage, double f) {
+    if (stage == "load") load.push_back(f);
+  };
+  PrepareOptions o;
+  o.lx = 0.2;
+  Field::prepare(sphere_mesh(kSphere), o, progress);
+  ASSERT_GE(load.size(), 10u);
+  EXPECT_EQ(load.front(), 0.0);
+  EXPECT_EQ(load.back(), 1.0);
+  EXPECT_TRUE(std::is_sorted(load.begin(), load.end()));
+  EXPECT_GT(std::count_if(load.begin(), load.end(), [](double f) { return f > 0 && f < 1; }), 8);
+
+  std::atomic<bool> cancel{false};
+  progress.cancel = &cancel;
+  progress.report = [&](const std::string& stage, double f) {
+    if (stage == "load" && f > 0.5) cancel = true;
+  };
+  EXPECT_THROW(Field::prepare(sphere_mesh(kSphere), o, progress), Cancelled);
+}
+
+// An l_x as large as the object leaves no vertex off the inverted surface: a clear lx error,
+// not a failure inside the factorization.
+TEST(KelvinPrepare, LxWithoutInteriorVerticesIsRefusedNamingLx) {
+  const mesh::SurfaceMesh ball = mesh::icosphere(0.5, 2);
+  PrepareOptions o;
+  o.lx = 0.5;
+  const std::string r = refused_field(ball, o);
+  EXPECT_EQ(r.rfind("lx: ", 0), 0u) << r;
+  EXPECT_NE(r.find("no interior vertex"), std::string::npos) << r;
 }
 
 TEST(KelvinPrepare, CacheRoundTripAndCorruptionIsRebuilt) {

@@ -44,7 +44,7 @@ static std::pair<mesh::SurfaceMesh, Vec3> validated(const mesh::SurfaceMesh& inp
     if (!centre.allFinite()) throw InvalidInput("center", "center must be three finite numbers");
     if (!oracle->inside(centre)) throw InvalidInput("center", "center lies outside the object");
   } else {
-    centre = oracle->deepest_point();
+    centre = oracle->deepest_point([&](double f) { progress("load", 0.1 + 0.8 * f); });
   }
   const double r_max = (surface.vertices.rowwise() - centre.transpose()).rowwise().norm().maxCoeff();
   const double clearance = oracle->distance(centre);
@@ -176,6 +176,10 @@ void Field::Impl::build(const Progress& progress) {
       interior.push_back(static_cast<int>(v));
     }
   }
+  // Every vertex on the inverted surface: nothing to solve for (CHOLMOD would fail on 0 × 0).
+  if (interior.empty())
+    throw InvalidInput("lx", "lx is too coarse for this object: its tetrahedral mesh has no interior vertex (" +
+                                 std::to_string(boundary.size()) + " vertices, all on the surface); choose a smaller lx");
   build_phases.emplace_back("roles", seconds_since(t_phase));
   t_phase = std::chrono::steady_clock::now();
   progress("build", 0.1);

@@ -1,11 +1,12 @@
 // CGAL AABB tree and Polygon_mesh_processing on the input surface.
 #include "distlab/kelvin/surface_tools.hpp"
 
+#include <limits>
+
 #include <CGAL/AABB_face_graph_triangle_primitive.h>
 #include <CGAL/AABB_traits.h>
 #include <CGAL/AABB_tree.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
-#include <CGAL/Polygon_mesh_processing/remesh.h>
 #include <CGAL/Side_of_triangle_mesh.h>
 #include <CGAL/Surface_mesh.h>
 
@@ -70,7 +71,7 @@ void SurfaceOracle::closest(const Vec3& x, int& face, Vec3& weights) const {
   weights.z() = 1.0 - weights.x() - weights.y();
 }
 
-Vec3 SurfaceOracle::deepest_point() const {
+Vec3 SurfaceOracle::deepest_point(const std::function<void(double)>& tick) const {
   // Coarse grid over the bounding box, then a finer grid around the best point.
   const auto& v = impl_->indexed.vertices;
   Vec3 lo = v.colwise().minCoeff().transpose(), hi = v.colwise().maxCoeff().transpose();
@@ -79,37 +80,31 @@ Vec3 SurfaceOracle::deepest_point() const {
   for (int pass = 0; pass < 2; ++pass) {
     const int n = 24;
     const Vec3 step = (hi - lo) / n;
-    for (int i = 0; i < n; ++i)
-      for (int j = 0; j < n; ++j)
+    // The distance is 1-Lipschitz: along a row, d ≤ (last computed d) + (steps since)·step.z, and
+    // a point bounded below the best cannot win; skipping it changes nothing (margin for rounding).
+    const double margin = 1e-12 * (hi - lo).norm();
+    for (int i = 0; i < n; ++i) {
+      if (tick) tick((pass * n + i) / (2.0 * n));
+      for (int j = 0; j < n; ++j) {
+        double bound = std::numeric_limits<double>::infinity();
         for (int k = 0; k < n; ++k) {
           const Vec3 p = lo + Vec3((i + 0.5) * step.x(), (j + 0.5) * step.y(), (k + 0.5) * step.z());
-          if (!inside(p)) continue;
+          bound += step.z();
+          if (!inside(p)) {
+            bound = std::numeric_limits<double>::infinity();
+            continue;
+          }
+          if (bound + margin < best_d) continue;
           const double d = distance(p);
+          bound = d;
           if (d > best_d) best_d = d, best = p;
         }
+      }
+    }
     lo = best - 2 * step;
     hi = best + 2 * step;
   }
   return best;
-}
-
-mesh::SurfaceMesh split_long_edges(const mesh::SurfaceMesh& surface, double max_length) {
-  Mesh m = to_cgal(surface);
-  CGAL::Polygon_mesh_processing::split_long_edges(edges(m), max_length, m);
-  mesh::SurfaceMesh out;
-  out.vertices.resize(static_cast<Eigen::Index>(m.number_of_vertices()), 3);
-  for (auto v : m.vertices()) {
-    const auto& p = m.point(v);
-    out.vertices.row(v.idx()) << p.x(), p.y(), p.z();
-  }
-  out.faces.resize(static_cast<Eigen::Index>(m.number_of_faces()), 3);
-  Eigen::Index row = 0;
-  for (auto f : m.faces()) {
-    int k = 0;
-    for (auto v : vertices_around_face(m.halfedge(f), m)) out.faces(row, k++) = static_cast<int>(v.idx());
-    ++row;
-  }
-  return out;
 }
 
 }  // namespace distlab::kelvin

@@ -1,6 +1,7 @@
 #pragma once
-// Geometric queries on the input surface (x-space): inside test, closest point, deepest point,
-// and edge splitting before inversion (also the AABB-tree distance baseline of the benchmark).
+// Geometric queries on the input surface (x-space): inside test, closest point, deepest point
+// (also the AABB-tree distance baseline of the benchmark).
+#include <functional>
 #include <memory>
 
 #include "distlab/mesh/surface.hpp"
@@ -18,15 +19,14 @@ class SurfaceOracle {
   double distance(const Vec3& x) const;
   // Closest surface point as a face index and barycentric weights of its three vertices.
   void closest(const Vec3& x, int& face, Vec3& weights) const;
-  // A point far from the surface: the interior grid point with the largest clearance.
-  Vec3 deepest_point() const;
+  // A point far from the surface: the interior grid point with the largest clearance. tick(f)
+  // is called with the fraction done (f in [0, 1]); it may throw to cancel. On a large surface
+  // this is the slow part of loading (points deep inside are near-equidistant to many faces).
+  Vec3 deepest_point(const std::function<void(double)>& tick = {}) const;
 
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
-
-// Splits every edge longer than max_length (points stay on the original faces).
-mesh::SurfaceMesh split_long_edges(const mesh::SurfaceMesh& surface, double max_length);
 
 }  // namespace distlab::kelvin
