@@ -22,6 +22,18 @@ double min_lambda(const TetMesh& m, int c, const Vec3& y) {
   return std::min(std::min(l[0], l[1]), std::min(l[2], l[3]));
 }
 
+// Hint-less location of y agrees with the scan: both off the hull, or a containing cell that is
+// the scan's or shares its boundary point. Returns whether y is inside the hull.
+bool expect_agrees_with_scan(const TetMesh& m, const Locator& loc, const Vec3& y, int i) {
+  const Location a = loc.locate(m, y, -1);
+  const Location s = Locator::scan(m, y);
+  EXPECT_EQ(a.outside_hull, s.outside_hull) << i;
+  if (a.outside_hull || s.outside_hull) return false;
+  EXPECT_GE(min_lambda(m, a.cell, y), -1e-12) << i;
+  if (a.cell != s.cell) EXPECT_NEAR(min_lambda(m, a.cell, y), min_lambda(m, s.cell, y), 1e-12) << i;
+  return true;
+}
+
 const Field& field() {
   static const Field f = Field::prepare(sphere_mesh(Sphere{}), sphere_options(0.1));
   return f;
@@ -40,16 +52,7 @@ TEST(KelvinLocator, SeededWalkAgreesWithTheScanOnRandomPoints) {
   for (int i = 0; i < 3000; ++i) {
     // Slightly beyond the box too: points outside the hull.
     const Vec3 y = lo + (hi - lo).cwiseProduct(Vec3(u(rng), u(rng), u(rng)) * 1.1 - Vec3::Constant(0.05));
-    const Location a = loc.locate(m, y, -1);
-    const Location s = Locator::scan(m, y);
-    ASSERT_EQ(a.outside_hull, s.outside_hull) << i;
-    if (a.outside_hull) continue;
-    ++inside;
-    EXPECT_GE(min_lambda(m, a.cell, y), -1e-12) << i;
-    // Same cell, or y is on their common boundary.
-    if (a.cell != s.cell) {
-      EXPECT_NEAR(min_lambda(m, a.cell, y), min_lambda(m, s.cell, y), 1e-12) << i;
-    }
+    inside += expect_agrees_with_scan(m, loc, y, i);
   }
   EXPECT_GT(inside, 1000);
 }
@@ -145,16 +148,7 @@ TEST(KelvinLocator, GradedMeshAgreesWithTheScan) {
   int inside = 0;
   for (int i = 0; i < 1500; ++i) {
     const Vec3 x(u(rng), u(rng), u(rng));
-    const Vec3 y = x / x.squaredNorm();
-    const Location a = loc.locate(m, y, -1);
-    const Location s = Locator::scan(m, y);
-    ASSERT_EQ(a.outside_hull, s.outside_hull) << i;
-    if (a.outside_hull) continue;
-    ++inside;
-    EXPECT_GE(min_lambda(m, a.cell, y), -1e-12) << i;
-    if (a.cell != s.cell) {
-      EXPECT_NEAR(min_lambda(m, a.cell, y), min_lambda(m, s.cell, y), 1e-12) << i;
-    }
+    inside += expect_agrees_with_scan(m, loc, x / x.squaredNorm(), i);
   }
   EXPECT_GT(inside, 1000);
 }
