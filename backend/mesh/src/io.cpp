@@ -10,7 +10,6 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <iterator>
 #include <map>
 #include <memory>
 
@@ -19,13 +18,17 @@
 
 namespace distlab::mesh {
 
-std::optional<std::uint32_t> binary_stl_triangles(std::string_view bytes, const std::string& field) {
+namespace {
+
+// The STL check from the first bytes of a file (head: at least its first 1024 bytes, or all of
+// it) and its size: only the header, the count and the text test are needed.
+std::optional<std::uint32_t> stl_triangles(std::string_view head, std::uint64_t size, const std::string& field) {
   std::uint32_t n = 0;
-  if (bytes.size() >= 84) {
-    std::memcpy(&n, bytes.data() + 80, 4);  // little-endian, as the format and every target are
-    if (bytes.size() == 84 + 50 * static_cast<std::uint64_t>(n)) return n;  // some binary headers start with "solid"
+  if (size >= 84 && head.size() >= 84) {
+    std::memcpy(&n, head.data() + 80, 4);  // little-endian, as the format and every target are
+    if (size == 84 + 50 * static_cast<std::uint64_t>(n)) return n;  // some binary headers start with "solid"
   }
-  const std::string_view head = bytes.substr(0, 1024);
+  head = head.substr(0, 1024);
   const bool text = head.find_first_not_of(" \t\r\n") != std::string_view::npos &&
                     head.substr(head.find_first_not_of(" \t\r\n")).rfind("solid", 0) == 0 &&
                     std::none_of(head.begin(), head.end(), [](char c) {
@@ -34,12 +37,18 @@ std::optional<std::uint32_t> binary_stl_triangles(std::string_view bytes, const 
                     });
   if (text) return std::nullopt;
   std::string why = "not a valid STL file: an ASCII STL starts with \"solid\", and a binary STL is exactly 84 + 50·n bytes (n triangles)";
-  if (bytes.size() < 84)
-    why += ", but the file has only " + std::to_string(bytes.size()) + " bytes";
+  if (size < 84)
+    why += ", but the file has only " + std::to_string(size) + " bytes";
   else
     why += "; its header says n = " + std::to_string(n) + ", i.e. " + std::to_string(84 + 50 * static_cast<std::uint64_t>(n)) +
-           " bytes, but the file has " + std::to_string(bytes.size());
+           " bytes, but the file has " + std::to_string(size);
   throw InvalidInput(field, why);
+}
+
+}  // namespace
+
+std::optional<std::uint32_t> binary_stl_triangles(std::string_view bytes, const std::string& field) {
+  return stl_triangles(bytes, bytes.size(), field);
 }
 
 SurfaceMesh load_mesh(const std::string& path, const std::string& field) {
@@ -48,9 +57,12 @@ SurfaceMesh load_mesh(const std::string& path, const std::string& field) {
   std::string ext = std::filesystem::path(path).extension().string();
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   if (ext == ".stl") {
+    // Only the first bytes and the size are needed: the file is not read twice.
+    std::string head(1024, '\0');
     std::ifstream in(path, std::ios::binary);
-    const std::string bytes{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-    binary_stl_triangles(bytes, field);
+    in.read(head.data(), static_cast<std::streamsize>(head.size()));
+    head.resize(static_cast<std::size_t>(in.gcount()));
+    stl_triangles(head, std::filesystem::file_size(path), field);
   }
   Assimp::Importer importer;
   // Meshes are welded across the whole scene below; drop every attribute but positions so that
