@@ -60,10 +60,15 @@ Vec3 support(const Shape& s, const Vec3& d) {
   return std::visit(
       Overloaded{[&](const Polytope& p) {
                    if (p.vertices.empty()) return Vec3(Vec3::Zero());
-                   const auto best = std::max_element(
-                       p.vertices.begin(), p.vertices.end(),
-                       [&](const Vec3& a, const Vec3& b) { return d.dot(a) < d.dot(b); });
-                   return *best;
+                   // One dot product per vertex (GJK calls this in its inner loop); the first
+                   // maximiser wins, as with std::max_element.
+                   size_t best = 0;
+                   double best_dot = d.dot(p.vertices[0]);
+                   for (size_t i = 1; i < p.vertices.size(); ++i) {
+                     const double v = d.dot(p.vertices[i]);
+                     if (v > best_dot) best_dot = v, best = i;
+                   }
+                   return p.vertices[best];
                  },
                  [&](const Box& b) {
                    const Vec3 h = 0.5 * b.size;
