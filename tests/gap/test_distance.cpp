@@ -153,8 +153,9 @@ TEST(GapDistance, BatchEqualsSingleCalls) {
   }
 }
 
-// Starting from FCL's raw answer (no certified Euclidean result) changes nothing in GAP's output.
-TEST(GapDistance, RawFclStartGivesTheSameResult) {
+// Starting from the uncertified GJK answer (no certified Euclidean result) changes nothing in
+// GAP's output.
+TEST(GapDistance, UncertifiedGjkStartGivesTheSameResult) {
   GapParams certified = defaults(), raw = defaults();
   raw.euclidean = false;
   std::mt19937_64 rng(41);

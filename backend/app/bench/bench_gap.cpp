@@ -10,7 +10,8 @@
 //   distlab-bench-gap --pairs 2000 --newton-only --save-cases cases.json
 //   valgrind --tool=callgrind --toggle-collect='distlab::gap_distance(*' distlab-bench-gap
 //     --newton-only --load-cases cases.json     (instructions per pair = total / pairs)
-// Single thread. Times are per pair and include the Euclidean start (FCL), as in the paper.
+// Single thread. GAP times are per pair and include the Euclidean start, as in the paper; the
+// start is distlab's double-precision GJK (gjk_distance), timed alone in its own row.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -117,7 +118,7 @@ nlohmann::json run_json(const Run& r) {
           {"not_converged", r.not_converged}};
 }
 
-// Runs GAP with `params` on every case, timing FCL start + solver; relative error of D against a
+// Runs GAP with `params` on every case, timing start + solver; relative error of D against a
 // reference solved to 1e-13 with Newton.
 Run run_gap(std::vector<Case>& cases, const GapParams& params, const std::vector<double>& ref) {
   Run r;
@@ -139,6 +140,20 @@ Run run_fcl(std::vector<Case>& cases, bool certified = false) {
     r.us.push_back(time_us([&] {
       e = certified ? euclidean_distance(c.a.euclidean(), c.a.pose(), c.b.euclidean(), c.b.pose())
                     : fcl_distance(c.a.euclidean(), c.a.pose(), c.b.euclidean(), c.b.pose());
+    }));
+    r.iterations.push_back(0);
+  }
+  return r;
+}
+
+// The GAP solver's Euclidean start alone (gjk_distance, uncertified double GJK).
+Run run_start(std::vector<Case>& cases) {
+  Run r;
+  for (auto& c : cases) {
+    EuclideanResult e;
+    r.us.push_back(time_us([&] {
+      e = gjk_distance(c.a.p2s().shape(), c.a.pose(), c.b.p2s().shape(), c.b.pose(),
+                       c.a.radius() + c.b.radius());
     }));
     r.iterations.push_back(0);
   }
@@ -224,7 +239,7 @@ int main(int argc, char** argv) {
   // W_i = 1/6, eps = 0.01, sigma = 0.989; the plain iteration stops at ||a[k+1] − a[k]|| < 1e-3.
   GapParams paper;
   paper.h = 0.1, paper.k = 2, paper.eps = 0.01, paper.sigma = 0.989, paper.gradient = false;
-  paper.euclidean = false;  // start from FCL's raw answer, the same call as the baseline
+  paper.euclidean = false;  // start from the uncertified double GJK (gjk_distance)
   P2SOptions sixth;
   sixth.weights = VecX::Constant(10, 1.0 / 6);
   std::vector<Case> cases;
@@ -265,10 +280,11 @@ int main(int argc, char** argv) {
   GapParams plain_tight = plain;
   plain_tight.tol = 1e-10;
   if (newton_only) {
-    const Run fcl = run_fcl(cases), r_newton = run_gap(cases, newton, {});
+    const Run fcl = run_fcl(cases), start = run_start(cases), r_newton = run_gap(cases, newton, {});
     std::printf(kHeader, "method", "mean", "median", "p99", "max", "it mean", "it p99", "it max",
                 "err med", "err max", "unconv");
     print_row("FCL distance alone", fcl);
+    print_row("GAP's start alone (double GJK)", start);
     print_row("GAP Newton, tol 1e-10", r_newton);
     std::printf("  Newton/FCL time ratio: mean %.2f, median %.2f\n",
                 stats(r_newton.us).mean / stats(fcl.us).mean,
@@ -276,6 +292,7 @@ int main(int argc, char** argv) {
     if (!json_path.empty())
       std::ofstream(json_path) << nlohmann::json{{"pairs", pairs}, {"repeat", g_repeat},
                                                  {"fcl", run_json(fcl)},
+                                                 {"start_gjk", run_json(start)},
                                                  {"newton_tol_1e-10", run_json(r_newton)}}
                                       .dump(2)
                                << "\n";
@@ -284,17 +301,19 @@ int main(int argc, char** argv) {
   const std::vector<double> ref = reference(cases, paper);
   const Run fcl = run_fcl(cases);
   const Run fcl_certified = run_fcl(cases, true);
+  const Run start = run_start(cases);
   const Run r_plain = run_gap(cases, plain, ref);
   const Run r_newton = run_gap(cases, newton, ref);
   // The plain iteration at 1e-10 crawls (up to 1e5 steps near contact): a subset suffices.
   std::vector<Case> subset(cases.begin(), cases.begin() + std::min<size_t>(cases.size(), 5000));
   const Run r_tight = run_gap(subset, plain_tight, ref);
   std::printf("GAP benchmark 1: %d random pairs of 10-half-space polytopes, distance >= 5 cm, "
-              "single thread (times in us, including the FCL start)\n", pairs);
+              "single thread (times in us; GAP's include its Euclidean start)\n", pairs);
   std::printf(kHeader, "method", "mean", "median", "p99", "max", "it mean", "it p99", "it max",
               "err med", "err max", "unconv");
   print_row("FCL distance alone", fcl);
   print_row("Euclidean, certified (distlab)", fcl_certified);
+  print_row("GAP's start alone (double GJK)", start);
   print_row("GAP plain iteration, tol 1e-3", r_plain);
   print_row("GAP plain, tol 1e-10 (5000 pairs)", r_tight);
   print_row("GAP Newton, tol 1e-10", r_newton);
@@ -308,6 +327,7 @@ int main(int argc, char** argv) {
   out["polytopes"] = {{"pairs", pairs},
                       {"fcl", run_json(fcl)},
                       {"euclidean_certified", run_json(fcl_certified)},
+                      {"start_gjk", run_json(start)},
                       {"plain_tol_1e-3", run_json(r_plain)},
                       {"plain_tol_1e-10", run_json(r_tight)},
                       {"newton_tol_1e-10", run_json(r_newton)},
@@ -315,7 +335,7 @@ int main(int argc, char** argv) {
                       {"newton_over_fcl_median", ratio_median}};
 
   // 2. Boxes and cylinders, h from 0.01 to 0.08; the same pairs for GAP and FCL.
-  std::printf("GAP benchmark 2: %d box/cylinder pairs, h = 0.01 .. 0.08 (times in us, incl. FCL start)\n",
+  std::printf("GAP benchmark 2: %d box/cylinder pairs, h = 0.01 .. 0.08 (times in us, GAP's incl. its start)\n",
               box_pairs);
   std::printf("  %-6s %-22s %-22s %-22s %6s\n", "h", "FCL mean +- sd", "GAP plain 1e-3", "GAP Newton 1e-10", "unconv");
   nlohmann::json by_h = nlohmann::json::array();

@@ -83,6 +83,18 @@ EuclideanResult fcl_distance(const EuclideanShape& a, const Pose& pose_a, const 
   return r;
 }
 
+EuclideanResult gjk_distance(const Shape& a, const Pose& pose_a, const Shape& b,
+                             const Pose& pose_b, double scale) {
+  const Placed pa(a, pose_a), pb(b, pose_b);
+  const detail::GjkResult g = detail::gjk_closest_double(pa, pb, pb.t - pa.t, 1e-12 * scale,
+                                                         detail::kTouch);
+  EuclideanResult r;
+  r.witness_a = g.pa;
+  r.witness_b = g.pb;
+  r.distance = g.overlap ? 0.0 : g.upper;
+  return r;
+}
+
 EuclideanResult euclidean_distance(const EuclideanShape& a, const Pose& pose_a,
                                    const EuclideanShape& b, const Pose& pose_b) {
   const Placed pa(a.shape(), pose_a), pb(b.shape(), pose_b);

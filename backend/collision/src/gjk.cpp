@@ -2,7 +2,8 @@
 // candidate is an actual convex combination (weights clamped to >= 0), so witnesses always lie
 // in A and B and the smallest candidate wins (no fragile Voronoi-region tests). Near
 // convergence on curved shapes the simplices are long and thin (edges ~1e-6 against ~1), so the
-// arithmetic runs in long double; in double it stalls at gaps around 1e-11.
+// certified path runs in long double (in double it stalls at gaps around 1e-11); the GAP solver's
+// start only needs a nearby point and runs the same algorithm in double.
 #include "gjk.hpp"
 
 #include <algorithm>
@@ -12,7 +13,8 @@
 namespace distlab::detail {
 namespace {
 
-using Real = long double;
+template <class Real>
+struct Gjk {
 using V3 = Eigen::Matrix<Real, 3, 1>;
 using M3 = Eigen::Matrix<Real, 3, 3>;
 
@@ -26,12 +28,12 @@ struct Frame {
   V3 t;
   explicit Frame(const Placed& q) : p(q), R(q.R.cast<Real>()), t(q.t.cast<Real>()) {}
   V3 support(const V3& d) const {
-    const Vec3 local = distlab::support(*p.shape, p.R.transpose() * d.cast<double>());
-    return R * local.cast<Real>() + t;
+    const Vec3 local = distlab::support(*p.shape, p.R.transpose() * d.template cast<double>());
+    return R * local.template cast<Real>() + t;
   }
 };
 
-Vertex support(const Frame& a, const Frame& b, const V3& n) {
+static Vertex support(const Frame& a, const Frame& b, const V3& n) {
   Vertex v;
   v.a = a.support(n);
   v.b = b.support(-n);
@@ -41,7 +43,7 @@ Vertex support(const Frame& a, const Frame& b, const V3& n) {
 
 // Weights of the origin's projection onto the affine hull of the k points, clamped to >= 0 and
 // renormalised; false only if the hull is degenerate.
-bool project_origin(const V3* w, int k, Real* lam) {
+static bool project_origin(const V3* w, int k, Real* lam) {
   if (k == 1) {
     lam[0] = 1;
     return true;
@@ -82,7 +84,7 @@ bool project_origin(const V3* w, int k, Real* lam) {
 
 // Smallest-norm candidate over the subsets that contain the newest vertex (index n - 1); the
 // simplex keeps only the vertices with non-zero weight. Returns the squared norm.
-Real reduce(Vertex* s, int& n, Real* lam) {
+static Real reduce(Vertex* s, int& n, Real* lam) {
   Real best = std::numeric_limits<Real>::infinity();
   int best_mask = 0;
   Real best_lam[4] = {0, 0, 0, 0};
@@ -116,10 +118,8 @@ Real reduce(Vertex* s, int& n, Real* lam) {
   return best;
 }
 
-}  // namespace
-
-GjkResult gjk_closest(const Placed& pa, const Placed& pb, const Vec3& n0, double gap_tol,
-                      double zero_tol, int max_iter, double stop_above) {
+static GjkResult closest(const Placed& pa, const Placed& pb, const Vec3& n0, double gap_tol,
+                         double zero_tol, int max_iter, double stop_above) {
   const Frame a(pa), b(pb);
   Vertex s[4];
   Real lam[4] = {1, 0, 0, 0};
@@ -136,8 +136,8 @@ GjkResult gjk_closest(const Placed& pa, const Placed& pb, const Vec3& n0, double
       ca += lam[i] * s[i].a;
       cb += lam[i] * s[i].b;
     }
-    r.pa = ca.cast<double>();
-    r.pb = cb.cast<double>();
+    r.pa = ca.template cast<double>();
+    r.pb = cb.template cast<double>();
     const Real zn = z.norm();
     r.upper = static_cast<double>(zn);
     if (r.upper <= zero_tol) {
@@ -161,6 +161,20 @@ GjkResult gjk_closest(const Placed& pa, const Placed& pb, const Vec3& n0, double
     for (int i = 0; i < count; ++i) z += lam[i] * s[i].w;
   }
   return r;
+}
+};  // struct Gjk
+
+}  // namespace
+
+GjkResult gjk_closest(const Placed& a, const Placed& b, const Vec3& n0, double gap_tol,
+                      double zero_tol, int max_iter, double stop_above) {
+  return Gjk<long double>::closest(a, b, n0, gap_tol, zero_tol, max_iter, stop_above);
+}
+
+GjkResult gjk_closest_double(const Placed& a, const Placed& b, const Vec3& n0, double gap_tol,
+                             double zero_tol, int max_iter) {
+  return Gjk<double>::closest(a, b, n0, gap_tol, zero_tol, max_iter,
+                              std::numeric_limits<double>::infinity());
 }
 
 }  // namespace distlab::detail

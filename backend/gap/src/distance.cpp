@@ -76,9 +76,10 @@ GapResult gap_distance(const GapBody& a, const GapBody& b, const GapParams& para
   a.p2s().prefetch();  // the solver's rows arrive while FCL works
   b.p2s().prefetch();
   if (!params.euclidean) {
-    // FCL's raw answer is a good enough start; near contact (or FCL's "collision") the certified
-    // path below decides overlap with libccd.
-    r.euclidean = fcl_distance(a.euclidean(), a.pose(), b.euclidean(), b.pose());
+    // An uncertified GJK answer is a good enough start; near contact the certified path below
+    // decides overlap with libccd.
+    r.euclidean = gjk_distance(a.p2s().shape(), a.pose(), b.p2s().shape(), b.pose(),
+                               a.radius() + b.radius());
     if (r.euclidean.distance > 1e-6 * (a.radius() + b.radius())) {
       r.euclidean_computed = false;
       const Vec3 middle = 0.5 * (r.euclidean.witness_a + r.euclidean.witness_b);

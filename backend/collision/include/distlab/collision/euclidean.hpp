@@ -44,6 +44,14 @@ EuclideanResult euclidean_distance(const EuclideanShape& a, const Pose& pose_a,
 EuclideanResult fcl_distance(const EuclideanShape& a, const Pose& pose_a, const EuclideanShape& b,
                              const Pose& pose_b);
 
+// Nearest points by distlab's own GJK in double precision, started along the line between the
+// shapes' origins: no FCL call, no certification, no gradients; distance 0 when GJK finds the
+// shapes touching or overlapping. `scale` is a length of the pair's size (e.g. the sum of the
+// bounding radii): GJK stops when its duality gap is below 1e-12 scale. The GAP solver's start,
+// where a nearby point is all that is needed.
+EuclideanResult gjk_distance(const Shape& a, const Pose& pose_a, const Shape& b,
+                             const Pose& pose_b, double scale);
+
 // libccd intersection test (GJK). If the shapes intersect, returns a point common to both
 // (from MPR's penetration position, moved into the intersection); otherwise nullopt.
 std::optional<Vec3> common_point(const Shape& a, const Pose& pose_a, const Shape& b,

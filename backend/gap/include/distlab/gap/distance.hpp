@@ -26,7 +26,8 @@ struct GapParams {
   GapSolver solver = GapSolver::newton;
   bool gradient = true;
   // Also report the certified Euclidean distance (FCL checked by a duality gap). Off: the solver
-  // starts from FCL's raw answer and `euclidean` holds that raw answer (no gradients).
+  // starts from an uncertified double-precision GJK answer (gjk_distance), which `euclidean`
+  // then holds (no gradients).
   bool euclidean = true;
 
   int iteration_limit() const { return max_iter > 0 ? max_iter : (solver == GapSolver::newton ? 100 : 100000); }
@@ -61,7 +62,7 @@ struct GapResult {
   bool converged = true;
   bool overlap = false;
   EuclideanResult euclidean;
-  // false from gap_distance_warm (empty) and with params.euclidean off (FCL's raw answer)
+  // false from gap_distance_warm (empty) and with params.euclidean off (uncertified GJK answer)
   bool euclidean_computed = true;
   // dD/d(v, ω) of each shape, world frame, ω about the shape's own origin (zero on overlap).
   Vec6 gradient_a = Vec6::Zero();
