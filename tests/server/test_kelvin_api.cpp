@@ -234,13 +234,24 @@ TEST_F(KelvinApi, BurstOfEditsEndsAtTheLatestSigmaAndQueriesGetGradients) {
   const int edits = 12;
   for (int i = 1; i <= edits; ++i) ws.send({{"type", "sigma"}, {"object", id}, {"sigma", {{"constant", 0.05 * i}}}});
   std::map<double, int> last;  // level -> last sigma_version seen
-  int surfaces_at_last = 0;
+  int surfaces = 0, last_sigma_values = -1;
   Msg m;
   ASSERT_TRUE(ws.until(
       [&](const Msg& x) {
         if (!x.binary) return false;
         const int v = x.j["sigma_version"];
-        if (x.j["type"] == "surface" && v == edits) ++surfaces_at_last;
+        // The surface geometry went out when the object became ready (it may still be on its
+        // way); every σ version after that carries σ per vertex only.
+        if (x.j["type"] == "surface") ++surfaces;
+        if (x.j["type"] == "surface_sigma") {
+          EXPECT_GT(v, last_sigma_values) << "σ values went back in version";
+          last_sigma_values = v;
+          EXPECT_FALSE(x.j.contains("positions") || x.j.contains("indices"));
+          const auto values = server::read_float32(x.j["scalars"]);
+          EXPECT_EQ(values.size(), 8u);
+          EXPECT_EQ(x.j["n_vertices"], 8);
+          for (float value : values) EXPECT_FLOAT_EQ(value, static_cast<float>(0.05 * v));
+        }
         if (x.j["type"] != "isosurface") return false;
         const double level = x.j["level"];
         EXPECT_GE(v, last[level]) << "frames went back in version";
@@ -250,12 +261,13 @@ TEST_F(KelvinApi, BurstOfEditsEndsAtTheLatestSigmaAndQueriesGetGradients) {
         return last[0.3] == edits && last[0.6] == edits;
       },
       m, 120));
-  EXPECT_LE(surfaces_at_last, 1);
+  EXPECT_LE(surfaces, 1);
+  EXPECT_EQ(last_sigma_values, edits);
   // Levels only: iso-surface frames at the same σ version, and no surface frame.
   ws.send({{"type", "watch"}, {"object", id}, {"levels", {0.45}}});
   ASSERT_TRUE(ws.until(
       [&](const Msg& x) {
-        EXPECT_FALSE(x.binary && x.j["type"] == "surface") << "unchanged surface resent";
+        EXPECT_FALSE(x.binary && (x.j["type"] == "surface" || x.j["type"] == "surface_sigma")) << "unchanged σ resent";
         return x.binary && x.j["type"] == "isosurface" && x.j["level"] == 0.45;
       },
       m, 60));
@@ -274,6 +286,97 @@ TEST_F(KelvinApi, BurstOfEditsEndsAtTheLatestSigmaAndQueriesGetGradients) {
     EXPECT_EQ(after_frames["h"][i], fresh["h"][i]);
     EXPECT_EQ(after_frames["gradient"][i], fresh["gradient"][i]);
   }
+}
+
+// The surface geometry travels once per object and socket: a σ edit sends σ per vertex and the
+// iso-surfaces; a late joiner gets the surface with the current σ. Acknowledgements and errors
+// echo the request id to the sending socket only; another session sees none of it.
+TEST_F(KelvinApi, SurfaceSentOnceSigmaVersionsCarrySigmaOnlyRequestIdsEchoed) {
+  const std::string s = new_session(c), other = new_session(c);
+  WsClient ws(server_->port(), s), peer(server_->port(), s), stranger(server_->port(), other);
+  json body = kCube;
+  body["levels"] = {0.3};
+  const std::string id = create_ready(c, ws, s, body);
+  ASSERT_FALSE(id.empty());
+  Msg m;
+  // Ready: the surface (8 vertices of the cube, σ = 0) and the level's frame.
+  ASSERT_TRUE(peer.until([&](const Msg& x) { return x.binary && x.j["type"] == "surface" && x.j["object"] == id; }, m, 60));
+  EXPECT_EQ(m.j["n_vertices"], 8);
+  EXPECT_EQ(server::read_float32(m.j["positions"]).size(), 24u);
+  EXPECT_EQ(server::read_float32(m.j["scalars"]), std::vector<float>(8, 0.0f));
+  ASSERT_TRUE(peer.until([&](const Msg& x) { return x.binary && x.j["type"] == "isosurface" && x.j["sigma_version"] == 0; }, m, 60));
+
+  // An edit with a request id: the sender's acknowledgement echoes it, the other socket of the
+  // session gets the acknowledgement without it; then σ values (no geometry) and the iso-surface.
+  ws.send({{"type", "sigma"}, {"object", id}, {"sigma", {{"constant", 0.4}}}, {"request", "edit-1"}});
+  ASSERT_TRUE(ws.until([&](const Msg& x) { return !x.binary && x.j["type"] == "sigma"; }, m, 60));
+  EXPECT_EQ(m.j["request"], "edit-1");
+  EXPECT_EQ(m.j["sigma_version"], 1);
+  bool values = false;
+  ASSERT_TRUE(peer.until(
+      [&](const Msg& x) {
+        if (!x.binary && x.j["type"] == "sigma") {
+          EXPECT_FALSE(x.j.contains("request")) << x.data;
+        }
+        EXPECT_FALSE(x.binary && x.j["type"] == "surface") << "surface geometry resent on a σ edit";
+        if (x.binary && x.j["type"] == "surface_sigma") {
+          values = true;
+          EXPECT_EQ(x.j["sigma_version"], 1);
+          EXPECT_EQ(server::read_float32(x.j["scalars"]), std::vector<float>(8, 0.4f));
+          EXPECT_LT(x.data.size(), 200u);  // 8 float32 and the keys: no positions, no indices
+        }
+        return x.binary && x.j["type"] == "isosurface" && x.j["sigma_version"] == 1;
+      },
+      m, 60));
+  EXPECT_TRUE(values);
+
+  // Errors answer the request that caused them (an integer id here); a bad id is refused.
+  ws.send({{"type", "sigma"}, {"object", id}, {"sigma", {{"constant", "high"}}}, {"request", 7}});
+  ASSERT_TRUE(ws.until([&](const Msg& x) { return !x.binary && x.j["type"] == "error"; }, m, 60));
+  EXPECT_EQ(m.j["request"], 7);
+  EXPECT_EQ(m.j["error"]["field"], "sigma.constant");
+  ws.send({{"type", "sigma"}, {"object", "0123"}, {"sigma", {{"constant", 1}}}, {"request", "edit-3"}});
+  ASSERT_TRUE(ws.until([&](const Msg& x) { return !x.binary && x.j["type"] == "error"; }, m, 60));
+  EXPECT_EQ(m.j["request"], "edit-3");
+  EXPECT_EQ(m.j["error"]["code"], "unknown_object");
+  ws.send({{"type", "ping"}, {"request", {{"nested", true}}}});
+  ASSERT_TRUE(ws.until([&](const Msg& x) { return !x.binary && x.j["type"] == "error"; }, m, 60));
+  EXPECT_EQ(m.j["error"]["field"], "request");
+  EXPECT_FALSE(m.j.contains("request"));
+
+  // A late joiner: hello, then the surface once with the current σ, then the current frame.
+  ws.send({{"type", "sigma"}, {"object", id}, {"sigma", {{"constant", 0.7}}}, {"request", "edit-4"}});
+  ASSERT_TRUE(ws.until([&](const Msg& x) { return x.binary && x.j["type"] == "isosurface" && x.j["sigma_version"] == 2; }, m, 60));
+  WsClient late(server_->port(), s);
+  ASSERT_TRUE(late.read(m));
+  EXPECT_EQ(m.j["type"], "hello");
+  int surfaces = 0;
+  ASSERT_TRUE(late.until(
+      [&](const Msg& x) {
+        if (x.binary && x.j["type"] == "surface") {
+          ++surfaces;
+          EXPECT_EQ(x.j["sigma_version"], 2);
+          EXPECT_EQ(server::read_float32(x.j["scalars"]), std::vector<float>(8, 0.7f));
+          EXPECT_EQ(server::read_uint32(x.j["indices"]).size(), 36u);
+        }
+        return x.binary && x.j["type"] == "isosurface" && x.j["sigma_version"] == 2;
+      },
+      m, 60));
+  EXPECT_EQ(surfaces, 1);
+  // "state" (after a reconnect) sends the same again, to that socket only.
+  late.send({{"type", "state"}});
+  ASSERT_TRUE(late.until([&](const Msg& x) { return x.binary && x.j["type"] == "surface"; }, m, 60));
+  EXPECT_EQ(m.j["sigma_version"], 2);
+
+  // The other session saw none of this object's messages.
+  stranger.send({{"type", "ping"}});
+  ASSERT_TRUE(stranger.until(
+      [&](const Msg& x) {
+        EXPECT_FALSE(x.j.contains("object") && x.j["object"] == id) << x.data.substr(0, 200);
+        EXPECT_FALSE(x.j.contains("request")) << x.data.substr(0, 200);
+        return !x.binary && x.j["type"] == "pong";
+      },
+      m, 30));
 }
 
 TEST_F(KelvinApi, TwoSessionsEditSigmaAtOnceWithoutSeeingEachOther) {

@@ -94,6 +94,18 @@ test("the cube is prepared with a progress bar; painting σ with the mouse chang
   const local = await K(page, "k.localSigmaAtInputVertices()");
   assert.equal(fromServer.length, local.length);
   fromServer.forEach((s, i) => assert.ok(Math.abs(s - local[i]) < 1e-5, `σ at vertex ${i}: server ${s}, page ${local[i]}`));
+
+  // An error answering another message is not taken for a σ edit's answer: an unknown message
+  // sent just before an edit (reset σ: "r") is answered while the edit is in flight.
+  const v1 = await K(page, "k.sigma.version");
+  await page.evaluate(() => {
+    window.distlab.socket.send({ type: "no_such_message" });
+    window.dispatchEvent(new KeyboardEvent("keydown", { key: "r" }));
+  });
+  await page.waitForFunction((v) => window.distlab.kelvin.sigma.version > v && window.distlab.kelvin.ready, v1, { timeout: 30000 });
+  const errors = await page.locator(".toast-error").allTextContents();
+  assert.deepEqual(errors.filter((t) => /σ not applied/.test(t)), [], "the edit was applied and reported so");
+  assert.deepEqual((await K(page, "k.sigma")).body.brushes ?? [], [], "σ was reset");
   assert.deepEqual(page.problems, []);
 });
 

@@ -272,7 +272,7 @@ json Service::create_object(const std::shared_ptr<Session>& session, const json&
 }
 
 void Service::set_sigma(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,
-                        const json& sigma_json) {
+                        const json& sigma_json, WsSink* origin, const json& request) {
   kelvin::SigmaSpec spec = parse_sigma(sigma_json);
   kelvin::validate(spec, object->surface.vertices.rows());
   std::uint64_t version;
@@ -285,7 +285,14 @@ void Service::set_sigma(const std::shared_ptr<Session>& session, const std::shar
     object->sigma_at = std::chrono::steady_clock::now();
     ++object->frames_version;
   }
-  session->broadcast(json{{"type", "sigma"}, {"object", object->id}, {"sigma_version", version}}.dump(), false);
+  json ack{{"type", "sigma"}, {"object", object->id}, {"sigma_version", version}};
+  // The other sockets of the session learn of the new version; the sender's acknowledgement
+  // echoes its request id (ids are the sender's own: another tab may use the same ones).
+  session->broadcast(ack.dump(), false, origin);
+  if (origin != nullptr) {
+    if (!request.is_null()) ack["request"] = request;
+    origin->send(ack.dump(), false);
+  }
   schedule_frames(session, object);
 }
 
@@ -344,7 +351,7 @@ void Service::send_frames(const std::shared_ptr<Session>& session, const std::sh
   std::vector<double> levels;
   std::uint64_t version, frames_version;
   std::chrono::steady_clock::time_point sigma_at;
-  bool send_surface = only != nullptr;
+  bool send_surface = only != nullptr, send_sigma = false;
   {
     std::lock_guard lock(object->mutex);
     if (object->state != "ready" || !object->prepared) return;
@@ -355,10 +362,16 @@ void Service::send_frames(const std::shared_ptr<Session>& session, const std::sh
     version = object->sigma_version;
     frames_version = object->frames_version;
     sigma_at = object->sigma_at;
-    // The surface depends on σ only: a change of the watched levels does not resend it.
-    if (only == nullptr && object->surface_sent != static_cast<std::int64_t>(version)) {
-      send_surface = true;
-      object->surface_sent = static_cast<std::int64_t>(version);
+    // The geometry goes out once; then a new σ version sends σ per vertex only, and a change of
+    // the watched levels alone sends neither.
+    if (only == nullptr) {
+      if (!object->surface_sent) {
+        send_surface = object->surface_sent = true;
+        object->sigma_sent = static_cast<std::int64_t>(version);
+      } else if (object->sigma_sent != static_cast<std::int64_t>(version)) {
+        send_sigma = true;
+        object->sigma_sent = static_cast<std::int64_t>(version);
+      }
     }
   }
   auto send = [&](const json& frame) {
@@ -372,9 +385,13 @@ void Service::send_frames(const std::shared_ptr<Session>& session, const std::sh
     std::lock_guard lock(object->mutex);
     return object->frames_version != frames_version;
   };
-  if (send_surface) {
+  if (send_surface || send_sigma) {
     const std::vector<double> sigma_values = sigma_at_vertices(sigma, object->surface);
-    send(mesh_frame(object->surface, {{"type", "surface"}, {"object", object->id}, {"sigma_version", version}}, &sigma_values));
+    if (send_surface)
+      send(mesh_frame(object->surface, {{"type", "surface"}, {"object", object->id}, {"sigma_version", version}}, &sigma_values));
+    else
+      send({{"type", "surface_sigma"}, {"object", object->id}, {"sigma_version", version},
+            {"n_vertices", sigma_values.size()}, {"scalars", json::binary(float32_bytes(sigma_values))}});
   }
   for (std::size_t i = 0; i < levels.size(); ++i) {
     // A newer σ or level set supersedes this one: stop, the scheduler computes the latest.

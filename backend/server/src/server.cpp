@@ -128,10 +128,12 @@ class WsConnection : public WsSink, public std::enable_shared_from_this<WsConnec
       request_close(websocket::close_code::policy_error);
       return;
     } else {
-      send(nlohmann::json{{"type", "error"}, {"status", 429},
-                          {"error", {{"code", "rate_limited"}, {"message", "too many WebSocket messages; slow down"}, {"field", ""}}}}
-               .dump(),
-           false);
+      nlohmann::json e{{"type", "error"}, {"status", 429},
+                       {"error", {{"code", "rate_limited"}, {"message", "too many WebSocket messages; slow down"}, {"field", ""}}}};
+      // The refused message's request id, so that its sender can tell which request failed.
+      if (!binary)
+        if (nlohmann::json id = Service::request_id(data); !id.is_null()) e["request"] = std::move(id);
+      send(e.dump(), false);
     }
     do_read();
   }

@@ -261,14 +261,15 @@ void Service::send_state(const std::shared_ptr<Session>& session, const std::sha
   for (const auto& j : jobs_.list(session->id)) jobs.push_back(j->to_json());
   for (const auto& o : objects) objs.push_back(o->status_json());
   socket->send(json{{"type", "hello"}, {"session", session->id}, {"jobs", jobs}, {"objects", objs}}.dump(), false);
-  // Late joiners get the current frames of watched objects.
+  // Late joiners (and a reconnected client) get the current state of every ready object: its
+  // surface with the current σ, and the frames of its watched levels.
   for (const auto& o : objects) {
-    bool watched;
+    bool ready;
     {
       std::lock_guard lock(o->mutex);
-      watched = !o->levels.empty() && o->state == "ready";
+      ready = o->state == "ready";
     }
-    if (watched) {
+    if (ready) {
       auto weak = std::weak_ptr<WsSink>(socket);
       post_compute([this, session, o, weak] {
         if (auto s = weak.lock()) send_frames(session, o, s.get());
@@ -277,12 +278,26 @@ void Service::send_state(const std::shared_ptr<Session>& session, const std::sha
   }
 }
 
+json Service::request_id(const json& message) {
+  if (!message.is_object()) return nullptr;
+  const auto it = message.find("request");
+  if (it == message.end()) return nullptr;
+  if ((it->is_string() && it->get_ref<const std::string&>().size() <= 64) || it->is_number_integer()) return *it;
+  return nullptr;
+}
+
+json Service::request_id(const std::string& text) {
+  return request_id(json::parse(text, nullptr, false));
+}
+
 void Service::ws_message(const std::shared_ptr<Session>& session, const std::shared_ptr<WsSink>& socket,
                          const std::string& data, bool binary) {
   session->touch();
+  json request;  // the message's request id, echoed in its reply (null: none)
   auto reply_error = [&](int status, const std::string& code, const std::string& message, const std::string& field) {
-    socket->send(json{{"type", "error"}, {"status", status},
-                      {"error", {{"code", code}, {"message", message}, {"field", field}}}}.dump(), false);
+    json e{{"type", "error"}, {"status", status}, {"error", {{"code", code}, {"message", message}, {"field", field}}}};
+    if (!request.is_null()) e["request"] = request;
+    socket->send(e.dump(), false);
   };
   if (binary) return reply_error(400, "unsupported", "binary messages from clients are not part of the protocol", "");
   json msg;
@@ -296,6 +311,9 @@ void Service::ws_message(const std::shared_ptr<Session>& session, const std::sha
   const Response r = guarded([&]() -> Response {
     if (!msg.is_object() || !msg.contains("type") || !msg["type"].is_string())
       throw InvalidInput("type", "a message is an object with a string \"type\"");
+    request = request_id(msg);
+    if (msg.contains("request") && request.is_null())
+      throw InvalidInput("request", "request must be a string of at most 64 characters or an integer");
     const std::string type = msg["type"];
     auto object = [&]() {
       if (!msg.contains("object") || !msg["object"].is_string()) throw InvalidInput("object", "object must be an object id");
@@ -313,7 +331,7 @@ void Service::ws_message(const std::shared_ptr<Session>& session, const std::sha
       set_levels(session, object(), msg["levels"]);
     } else if (type == "sigma") {
       if (!msg.contains("sigma")) throw InvalidInput("sigma", "sigma is required");
-      set_sigma(session, object(), msg["sigma"]);
+      set_sigma(session, object(), msg["sigma"], socket.get(), request);
     } else if (type == "cancel") {
       if (!msg.contains("job") || !msg["job"].is_string()) throw InvalidInput("job", "job must be a job id");
       auto j = jobs_.find(session->id, msg["job"]);
@@ -328,8 +346,11 @@ void Service::ws_message(const std::shared_ptr<Session>& session, const std::sha
   });
   if (r.status != 200) {
     const json body = json::parse(r.body, nullptr, false);
-    if (body.is_object() && body.contains("error"))
-      socket->send(json{{"type", "error"}, {"status", r.status}, {"error", body["error"]}}.dump(), false);
+    if (body.is_object() && body.contains("error")) {
+      json e{{"type", "error"}, {"status", r.status}, {"error", body["error"]}};
+      if (!request.is_null()) e["request"] = request;
+      socket->send(e.dump(), false);
+    }
   }
 }
 

@@ -12,13 +12,13 @@ std::int64_t now_ms() {
 void Session::touch() { last_seen_ = now_ms(); }
 double Session::idle_seconds() const { return static_cast<double>(now_ms() - last_seen_.load()) / 1000.0; }
 
-void Session::broadcast(const std::string& data, bool binary) {
+void Session::broadcast(const std::string& data, bool binary, const WsSink* except) {
   std::vector<std::shared_ptr<WsSink>> live;
   {
     std::lock_guard lock(mutex);
     for (auto it = sockets.begin(); it != sockets.end();) {
       if (auto s = it->lock()) {
-        live.push_back(std::move(s));
+        if (s.get() != except) live.push_back(std::move(s));
         ++it;
       } else {
         it = sockets.erase(it);

@@ -1,6 +1,9 @@
 // The /ws connection: JSON text messages by "type", binary msgpack frames (meshes). Reconnects
 // with backoff after a server restart; before reconnecting it revalidates the session through the
 // REST client (which makes a new one if the server forgot it), then asks for the current state.
+// request() pairs a message with its reply by an id the server echoes (to this socket only), so
+// an unrelated message of the same type (another tab's edit, a broadcast error) is never taken
+// for the answer.
 import { decode } from "@msgpack/msgpack";
 import { api, Api } from "./api";
 
@@ -10,6 +13,15 @@ export type BinaryFrame = { type?: string; [key: string]: unknown };
 
 type Listener<T> = (m: T) => void;
 
+/** A request's reply did not come: not connected, timed out, or the connection closed first. */
+export class SocketRequestError extends Error {}
+
+interface Pending {
+  resolve: (m: TextMessage) => void;
+  reject: (e: Error) => void;
+  timer: number;
+}
+
 export class Socket {
   private ws: WebSocket | null = null;
   private text = new Map<string, Set<Listener<TextMessage>>>();
@@ -18,6 +30,8 @@ export class Socket {
   private openListeners = new Set<() => void>();
   private retry = 0;
   private timer: number | undefined;
+  private requests = 0;
+  private pending = new Map<string, Pending>();
   state: ConnectionState = "closed";
   /** performance.now() when the binary frame now being delivered arrived (before its decode). */
   frameArrivedAt = 0;
@@ -55,6 +69,38 @@ export class Socket {
     return true;
   }
 
+  /** Sends the message with a fresh request id; resolves with the server's reply echoing it (an
+   *  acknowledgement or an "error" message, both still delivered to on() listeners), or null
+   *  when the socket is not open (the caller may use REST instead). */
+  request(message: TextMessage, timeoutMs = 10000): Promise<TextMessage> | null {
+    const id = `q${++this.requests}`;
+    if (!this.send({ ...message, request: id })) return null;
+    return new Promise<TextMessage>((resolve, reject) => {
+      const timer = window.setTimeout(() => {
+        this.pending.delete(id);
+        reject(new SocketRequestError(`no answer to the ${message.type} request in ${timeoutMs / 1000} s`));
+      }, timeoutMs);
+      this.pending.set(id, { resolve, reject, timer });
+    });
+  }
+
+  private settle(m: TextMessage): void {
+    if (typeof m.request !== "string") return;
+    const p = this.pending.get(m.request);
+    if (!p) return;
+    this.pending.delete(m.request);
+    window.clearTimeout(p.timer);
+    p.resolve(m);
+  }
+
+  private dropPending(): void {
+    for (const p of this.pending.values()) {
+      window.clearTimeout(p.timer);
+      p.reject(new SocketRequestError("the connection closed before the server answered"));
+    }
+    this.pending.clear();
+  }
+
   private setState(s: ConnectionState): void {
     this.state = s;
     this.stateListeners.forEach((f) => f(s));
@@ -88,6 +134,7 @@ export class Socket {
         } catch {
           return;
         }
+        this.settle(m);
         this.text.get(m.type)?.forEach((f) => f(m));
         this.text.get("*")?.forEach((f) => f(m));
       } else {
@@ -99,6 +146,7 @@ export class Socket {
     ws.onclose = () => {
       if (this.ws !== ws) return;
       this.ws = null;
+      this.dropPending();
       this.scheduleReconnect();
     };
   }

@@ -5,7 +5,7 @@ import * as THREE from "three";
 import { api, ApiError } from "../../core/api";
 import type { Shortcut } from "../../core/keys";
 import { isMeshFrame, type MeshFrame } from "../../core/meshframe";
-import { socket, type BinaryFrame, type TextMessage } from "../../core/socket";
+import { socket, SocketRequestError, type BinaryFrame } from "../../core/socket";
 import { showError, toast } from "../../core/toast";
 import type { View, ViewHost } from "../../core/view";
 import { Viewport } from "../../core/viewport";
@@ -65,7 +65,6 @@ export class KelvinView implements View {
   // σ version → the stages of its way to the screen (performance.now times, see Timings).
   private awaitingDraw = new Map<number, EditTrace>();
   private drawing: Array<[number, EditTrace]> = []; // complete in the frame being rendered
-  private sigmaAcks: Array<(m: TextMessage) => void> = []; // σ edits sent on the socket, in order
   private inflight: EditTrace | null = null; // the edit sent and not yet acknowledged
   private localPending: number[] = []; // mouse events whose σ colours are not drawn yet
   readonly timings: Timings = { prepareMs: [], strokeToFrameMs: [], strokeToColourMs: [], sliceMs: [] };
@@ -131,8 +130,6 @@ export class KelvinView implements View {
     this.offs.push(
       socket.onFrame((f) => this.onFrame(f)),
       socket.onOpen(() => this.onSocketOpen()),
-      socket.on("sigma", (m) => this.sigmaAcks.shift()?.(m)),
-      socket.on("error", (m) => this.sigmaAcks.shift()?.(m)),
       vp.onBeforeRender(() => this.beforeRender()),
       vp.onAfterRender((ms) => this.afterRender(ms)),
     );
@@ -374,23 +371,21 @@ export class KelvinView implements View {
   }
 
   /** σ to the server: on the socket when open (no HTTP request per edit), else by PUT. The
-   *  server answers a socket edit with a "sigma" message carrying its version (or an error). */
-  private putSigma(id: string, body: SigmaBody): Promise<number> {
-    // The answer is an event of a later task, so registering for it after send() is in time.
-    if (socket.send({ type: "sigma", object: id, sigma: body }))
-      return new Promise<number>((resolve, reject) => {
-        const settle = (m: TextMessage) => {
-          window.clearTimeout(timer);
-          if (m.type === "sigma" && m.object === id) return resolve(Number(m.sigma_version));
-          const e = m.error as { code?: string; message?: string; field?: string } | undefined;
-          reject(new ApiError(Number(m.status ?? 500), e?.code ?? "error", e?.message ?? "σ not applied", e?.field));
-        };
-        const timer = window.setTimeout(() => {
-          this.sigmaAcks = this.sigmaAcks.filter((f) => f !== settle);
-          reject(new ApiError(504, "timeout", "the server did not acknowledge the σ edit"));
-        }, 10000);
-        this.sigmaAcks.push(settle);
-      });
+   *  server answers a socket edit with a "sigma" message carrying its version, or an error, both
+   *  echoing the edit's request id. A σ is a whole state, so an edit whose answer was lost with
+   *  the connection is simply sent again by PUT. */
+  private async putSigma(id: string, body: SigmaBody): Promise<number> {
+    const answer = socket.request({ type: "sigma", object: id, sigma: body });
+    if (answer) {
+      try {
+        const m = await answer;
+        if (m.type === "sigma" && m.object === id) return Number(m.sigma_version);
+        const e = m.error as { code?: string; message?: string; field?: string } | undefined;
+        throw new ApiError(Number(m.status ?? 500), e?.code ?? "error", e?.message ?? "σ not applied", e?.field);
+      } catch (e) {
+        if (!(e instanceof SocketRequestError)) throw e;
+      }
+    }
     return api.put<{ sigma_version: number }>(`/api/kelvin/objects/${id}/sigma`, body).then((r) => r.sigma_version);
   }
 
@@ -604,7 +599,6 @@ export class KelvinView implements View {
     this.ticket++;
     void this.job?.cancel();
     this.sigmaSync.cancelPending();
-    this.sigmaAcks = [];
     this.offs.forEach((f) => f());
     this.offs = [];
     this.brush?.dispose();

@@ -103,7 +103,10 @@ struct KelvinObject {
   std::vector<double> levels;  // watched iso-levels: frames are pushed over the WebSocket
   bool computing = false;      // a frame task is queued or running
   std::uint64_t frames_version = 0;  // bumped on every σ or levels change
-  std::int64_t surface_sent = -1;    // sigma_version of the last surface frame broadcast
+  // The surface geometry goes out once per object (a late joiner gets its own copy); after that
+  // a σ version carries only σ per vertex (surface_sigma frame).
+  bool surface_sent = false;         // the surface frame was broadcast
+  std::int64_t sigma_sent = -1;      // sigma_version of the last σ values broadcast
 
   nlohmann::json status_json();  // locks
 };

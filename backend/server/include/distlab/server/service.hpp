@@ -6,11 +6,14 @@
 //   client -> server (JSON text): {"type": "ping"} | {"type": "watch", "object", "levels": [...]}
 //     | {"type": "sigma", "object", "sigma": {...}} | {"type": "cancel", "job"}
 //     | {"type": "state"} (resend the current state) | {"type": "cbf_replay", "rollout", "from"?}
+//     Any message may carry "request" (a string of at most 64 characters or an integer): the
+//     reply to it (sigma's acknowledgement, or an error) echoes it, to the sending socket only.
 //   server -> client: text {"type": "hello"|"pong"|"job"|"object"|"sigma"|"cbf_frames"|"error", ...};
-//     binary msgpack frames {"type": "isosurface"|"surface", "object", "level", "sigma_version",
-//     "positions", "indices"[, "scalars"]} (see frames.hpp).
-//   A client joining late gets "hello" with the session's jobs and objects, then the current
-//   frames of every watched object.
+//     binary msgpack frames (see frames.hpp): "surface" (positions, indices, scalars = σ per
+//     vertex; once per object and socket), "surface_sigma" (scalars only: every later σ version),
+//     "isosurface" (level, index, count, sigma_version, positions, indices).
+//   A client joining late (or reconnecting) gets "hello" with the session's jobs and objects,
+//   then every ready object's surface with the current σ and the frames of its watched levels.
 #include <atomic>
 #include <functional>
 #include <memory>
@@ -58,6 +61,10 @@ class Service {
   void ws_open(const std::shared_ptr<Session>& session, const std::shared_ptr<WsSink>& socket);
   void ws_message(const std::shared_ptr<Session>& session, const std::shared_ptr<WsSink>& socket,
                   const std::string& data, bool binary);
+  // A client message's "request" id (a string of at most 64 characters or an integer), echoed in
+  // the reply to that message; null when absent or not such an id.
+  static nlohmann::json request_id(const nlohmann::json& message);
+  static nlohmann::json request_id(const std::string& text);
 
   void shutdown();  // cancels jobs, stops the pools (idempotent)
 
@@ -75,8 +82,9 @@ class Service {
 
   // Kelvin helpers (routes_kelvin.cpp).
   nlohmann::json create_object(const std::shared_ptr<Session>& session, const nlohmann::json& body);
+  // origin: the socket that sent the edit (gets the acknowledgement with its request id).
   void set_sigma(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,
-                 const nlohmann::json& sigma);
+                 const nlohmann::json& sigma, WsSink* origin = nullptr, const nlohmann::json& request = nullptr);
   void set_levels(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,
                   const nlohmann::json& levels);
   void schedule_frames(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object);

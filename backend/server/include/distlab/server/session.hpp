@@ -42,8 +42,8 @@ class Session {
 
   void touch();
   double idle_seconds() const;
-  // Sends to every open socket of this session (text JSON or binary msgpack).
-  void broadcast(const std::string& data, bool binary);
+  // Sends to every open socket of this session (text JSON or binary msgpack), but `except`.
+  void broadcast(const std::string& data, bool binary, const WsSink* except = nullptr);
 
  private:
   std::atomic<std::int64_t> last_seen_{0};
