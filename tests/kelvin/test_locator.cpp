@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <limits>
 #include <random>
 
@@ -16,17 +18,44 @@ using namespace distlab::kelvin::testing;
 
 namespace {
 
+// Mean face crossings of a seeded walk that the grid must beat (measured: see SeededWalksAreShort).
+constexpr double kMaxMeanSeededSteps = 1.2;
+
 double min_lambda(const TetMesh& m, int c, const Vec3& y) {
   double l[4];
   barycentric(m, c, y, l);
   return std::min(std::min(l[0], l[1]), std::min(l[2], l[3]));
 }
 
+// Brute force on the TetMesh itself (not the locator's packed copy): the cell y is most inside of.
+Location scan_tet_mesh(const TetMesh& m, const Vec3& y) {
+  Location best;
+  double best_min = -std::numeric_limits<double>::infinity();
+  for (int c = 0; c < static_cast<int>(m.tets.rows()); ++c) {
+    double l[4];
+    barycentric(m, c, y, l);
+    const double lo = std::min(std::min(l[0], l[1]), std::min(l[2], l[3]));
+    if (lo > best_min) {
+      best_min = lo;
+      best.cell = c;
+      std::copy(l, l + 4, best.lambda);
+    }
+  }
+  return best;
+}
+
+// A locator over a tet mesh, as Field builds it.
+struct Located {
+  PackedMesh packed;
+  Locator locator;
+  explicit Located(const TetMesh& m) : packed(m) { locator.build(packed); }
+};
+
 // Hint-less location of y agrees with the scan: both off the hull, or a containing cell that is
 // the scan's or shares its boundary point. Returns whether y is inside the hull.
-bool expect_agrees_with_scan(const TetMesh& m, const Locator& loc, const Vec3& y, int i) {
-  const Location a = loc.locate(m, y, -1);
-  const Location s = Locator::scan(m, y);
+bool expect_agrees_with_scan(const TetMesh& m, const PackedMesh& pm, const Locator& loc, const Vec3& y, int i) {
+  const Location a = loc.locate(pm, y, -1);
+  const Location s = Locator::scan(pm, y);
   EXPECT_EQ(a.outside_hull, s.outside_hull) << i;
   if (a.outside_hull || s.outside_hull) return false;
   EXPECT_GE(min_lambda(m, a.cell, y), -1e-12) << i;
@@ -45,8 +74,9 @@ const Field& field() {
 
 TEST(KelvinLocator, SeededWalkAgreesWithTheScanOnRandomPoints) {
   const TetMesh& m = field().tet_mesh();
-  Locator loc;
-  loc.build(m);
+  const Located located(m);
+  const Locator& loc = located.locator;
+  const PackedMesh& pm = located.packed;
   const Vec3 lo = m.points.colwise().minCoeff().transpose(), hi = m.points.colwise().maxCoeff().transpose();
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> u(0, 1);
@@ -54,15 +84,16 @@ TEST(KelvinLocator, SeededWalkAgreesWithTheScanOnRandomPoints) {
   for (int i = 0; i < 3000; ++i) {
     // Slightly beyond the box too: points outside the hull.
     const Vec3 y = lo + (hi - lo).cwiseProduct(Vec3(u(rng), u(rng), u(rng)) * 1.1 - Vec3::Constant(0.05));
-    inside += expect_agrees_with_scan(m, loc, y, i);
+    inside += expect_agrees_with_scan(m, pm, loc, y, i);
   }
   EXPECT_GT(inside, 1000);
 }
 
 TEST(KelvinLocator, PointsOnVerticesEdgesAndFacesAreFoundInAnAdjacentCell) {
   const TetMesh& m = field().tet_mesh();
-  Locator loc;
-  loc.build(m);
+  const Located located(m);
+  const Locator& loc = located.locator;
+  const PackedMesh& pm = located.packed;
   std::mt19937 rng(5);
   std::uniform_int_distribution<int> cell(0, static_cast<int>(m.tets.rows()) - 1);
   std::uniform_int_distribution<int> corner(0, 3);
@@ -71,11 +102,11 @@ TEST(KelvinLocator, PointsOnVerticesEdgesAndFacesAreFoundInAnAdjacentCell) {
     const Vec3 a = m.points.row(m.tets(c, corner(rng))), b = m.points.row(m.tets(c, corner(rng))),
                d = m.points.row(m.tets(c, corner(rng)));
     for (const Vec3& y : {a, Vec3(0.5 * (a + b)), Vec3((a + b + d) / 3.0)}) {
-      const Location l = loc.locate(m, y, -1);
+      const Location l = loc.locate(pm, y, -1);
       ASSERT_FALSE(l.outside_hull) << i;
       EXPECT_GE(min_lambda(m, l.cell, y), -1e-12) << i;
       // With a far hint as well.
-      const Location h = loc.locate(m, y, cell(rng));
+      const Location h = loc.locate(pm, y, cell(rng));
       EXPECT_GE(min_lambda(m, h.cell, y), -1e-12) << i;
     }
   }
@@ -85,8 +116,9 @@ TEST(KelvinLocator, EveryBoxSeedContainsTheBoxCentreUnlessItIsOffTheHull) {
   // The grid's contract: box i holds a cell containing its centre (exact barycentric test), or,
   // for a centre outside the triangulation, a hull cell (the scan agrees that it is outside).
   const TetMesh& m = field().tet_mesh();
-  Locator loc;
-  loc.build(m);
+  const Located located(m);
+  const Locator& loc = located.locator;
+  const PackedMesh& pm = located.packed;
   // About one box per cell, in blocks (two levels), and a stated footprint.
   EXPECT_GT(loc.boxes(), static_cast<size_t>(m.tets.rows()) / 2);
   EXPECT_LT(loc.boxes(), static_cast<size_t>(m.tets.rows()) * 3);
@@ -102,7 +134,7 @@ TEST(KelvinLocator, EveryBoxSeedContainsTheBoxCentreUnlessItIsOffTheHull) {
     ++off_hull;
     if (checked_off < 100) {  // the scan is O(cells): check a sample of them
       ++checked_off;
-      EXPECT_TRUE(Locator::scan(m, y).outside_hull) << i;
+      EXPECT_TRUE(Locator::scan(pm, y).outside_hull) << i;
       // Its hull cell has a face on the hull (a neighbour -1).
       EXPECT_TRUE((m.neighbours.row(c).array() < 0).any()) << i;
     }
@@ -114,8 +146,9 @@ TEST(KelvinLocator, SeedsAreValidCellsForAnyPoint) {
   // Far outside the grid, on its faces and corners, and non-finite: a valid cell, never an
   // out-of-range index.
   const TetMesh& m = field().tet_mesh();
-  Locator loc;
-  loc.build(m);
+  const Located located(m);
+  const Locator& loc = located.locator;
+  const PackedMesh& pm = located.packed;
   const Vec3 lo = m.points.colwise().minCoeff().transpose(), hi = m.points.colwise().maxCoeff().transpose();
   const double inf = std::numeric_limits<double>::infinity(), nan = std::numeric_limits<double>::quiet_NaN();
   for (const Vec3& y : {lo, hi, Vec3(lo.x(), hi.y(), lo.z()), Vec3(1e300, -1e300, 0), Vec3(inf, -inf, 0),
@@ -130,7 +163,7 @@ TEST(KelvinLocator, SeedsAreValidCellsForAnyPoint) {
   for (int i = 0; i < 200; ++i) {
     Vec3 y = lo + (hi - lo).cwiseProduct(Vec3(u(rng), u(rng), u(rng)));
     y[i % 3] = i % 2 ? hi[i % 3] + 1e-3 : lo[i % 3] - 1e-3;
-    EXPECT_TRUE(loc.locate(m, y, -1).outside_hull) << i;
+    EXPECT_TRUE(loc.locate(pm, y, -1).outside_hull) << i;
   }
 }
 
@@ -143,32 +176,86 @@ TEST(KelvinLocator, GradedMeshAgreesWithTheScan) {
   o.feature_angle = 180;
   const Field f = Field::prepare(mesh::load_mesh(std::string(DISTLAB_ASSET_DIR) + "/wrench.stl"), o);
   const TetMesh& m = f.tet_mesh();
-  Locator loc;
-  loc.build(m);
+  const Located located(m);
+  const Locator& loc = located.locator;
+  const PackedMesh& pm = located.packed;
   std::mt19937 rng(13);
   std::uniform_real_distribution<double> u(-0.12, 0.12);
   int inside = 0;
   for (int i = 0; i < 1500; ++i) {
     const Vec3 x(u(rng), u(rng), u(rng));
-    inside += expect_agrees_with_scan(m, loc, x / x.squaredNorm(), i);
+    inside += expect_agrees_with_scan(m, pm, loc, x / x.squaredNorm(), i);
   }
   EXPECT_GT(inside, 1000);
 }
 
-TEST(KelvinLocator, HintlessQueriesEqualHintedQueries) {
-  // h at random exterior points: the seeded location and a walk from the scan's cell give the
-  // same interpolated value (the field is continuous across faces).
+TEST(KelvinLocator, HintlessQueriesEqualHintedQueriesAndTheScanBitForBit) {
+  // h and ∇h at random exterior points: the seeded location, a walk from the scan's cell, and h
+  // interpolated by hand from the vertex values in the scan's cell. A point clearly inside one
+  // cell is answered from that cell whatever the route, so the answers are identical bit for bit
+  // (the seeding grid, the walk's prefetches and the packed (V, ∇V) records change no number).
+  // On a shared face the cells may differ: then the field is continuous to rounding.
   Field f = Field::prepare(sphere_mesh(Sphere{}), sphere_options(0.1));
   f.set_sigma(constant_sigma(0.3));
+  const TetMesh& m = f.tet_mesh();
+  int interior = 0;
   for (const Vec3& x : shell_points(Sphere{}, 1.02, 8.0, 2000, 11)) {
     const Vec3 p = x - f.centre();
-    int hint = Locator::scan(f.tet_mesh(), p / p.squaredNorm()).cell;
+    const Vec3 y = p / p.squaredNorm();
+    const Location s = scan_tet_mesh(m, y);
+    int hint = s.cell;
     const Sample a = f.query(x), b = f.query(x, &hint);
     ASSERT_EQ(a.status, Status::ok);
     ASSERT_EQ(b.status, Status::ok);
-    EXPECT_NEAR(a.h, b.h, 1e-12 * std::max(1.0, std::abs(a.h)));
-    EXPECT_LT((a.gradient - b.gradient).norm(), 1e-10 * b.gradient.norm());
+    if (min_lambda(m, s.cell, y) > 1e-9 && m.in_domain[static_cast<size_t>(s.cell)]) {
+      ++interior;
+      EXPECT_EQ(hint, s.cell);
+      double v = 0;  // same sum, same order as the query's interpolation
+      for (int k = 0; k < 4; ++k) v += s.lambda[k] * f.vertex_values()[m.tets(s.cell, k)];
+      EXPECT_EQ(a.h, -std::log(std::sqrt(y.squaredNorm()) * v));
+      EXPECT_EQ(a.h, b.h);
+      for (int k = 0; k < 3; ++k) EXPECT_EQ(a.gradient[k], b.gradient[k]);
+    } else {
+      EXPECT_NEAR(a.h, b.h, 1e-12 * std::max(1.0, std::abs(a.h)));
+      EXPECT_LT((a.gradient - b.gradient).norm(), 1e-10 * b.gradient.norm());
+    }
   }
+  EXPECT_GT(interior, 1900);
+  // Without gradients (set_sigma(…, false): no (V, ∇V) records) h is the same, ∇h NaN.
+  std::vector<Vec3> xs = shell_points(Sphere{}, 1.02, 8.0, 300, 12);
+  const std::vector<Sample> with = f.query(xs);
+  f.set_sigma(constant_sigma(0.3), false);
+  const std::vector<Sample> without = f.query(xs);
+  for (size_t i = 0; i < xs.size(); ++i) {
+    EXPECT_EQ(with[i].h, without[i].h) << i;
+    EXPECT_TRUE(std::isnan(without[i].gradient.x())) << i;
+  }
+}
+
+TEST(KelvinLocator, SeededWalksAreShort) {
+  // The seeding grid's purpose: a hint-less walk starts in or next to the point's cell. Each step
+  // is a chain of cache misses on large meshes, so the mean step count is the query's cost.
+  const TetMesh& m = field().tet_mesh();
+  const Located located(m);
+  const Locator& loc = located.locator;
+  const PackedMesh& pm = located.packed;
+  const Vec3 lo = m.points.colwise().minCoeff().transpose(), hi = m.points.colwise().maxCoeff().transpose();
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<double> u(0, 1);
+  long steps = 0, n = 0, longest = 0;
+  for (int i = 0; i < 5000; ++i) {
+    const Vec3 y = lo + (hi - lo).cwiseProduct(Vec3(u(rng), u(rng), u(rng)));
+    const Location l = loc.locate(pm, y, -1);
+    if (l.outside_hull) continue;
+    steps += l.steps;
+    longest = std::max<long>(longest, l.steps);
+    ++n;
+  }
+  ASSERT_GT(n, 2000);
+  const double mean = static_cast<double>(steps) / static_cast<double>(n);
+  std::printf("seeded walks: %.3f steps on average, longest %ld (%ld points)\n", mean, longest, n);
+  EXPECT_LT(mean, kMaxMeanSeededSteps);
+  EXPECT_LT(longest, 20);
 }
 
 TEST(KelvinLocator, BoundaryVerticesQueriedFromAnOutsideCellGiveSigma) {

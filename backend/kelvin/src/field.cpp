@@ -271,7 +271,8 @@ void Field::Impl::build(const Progress& progress) {
     assemble(a_ob, ni, boundary, false);
     other_phases.emplace_back("assemble A_OB", seconds_since(t));
     t = std::chrono::steady_clock::now();
-    locator.build(tm);
+    packed = PackedMesh(tm);
+    locator.build(packed);
     other_phases.emplace_back("locator", seconds_since(t));
     // σ sampling: each boundary vertex maps back (eq. 5) onto the input surface.
     t = std::chrono::steady_clock::now();
@@ -303,12 +304,12 @@ void Field::Impl::factor(const Progress& progress) {
 void Field::Impl::finish_stats() {
   stats.n_verts = static_cast<long>(interior.size() + boundary.size());
   stats.n_tets = static_cast<long>(domain_tets.size());
-  // What a query server holds: points, cells, neighbours, vertex values and gradients, seeding
-  // grid, factor.
-  const double mesh_bytes = static_cast<double>(tm.points.size()) * 8 * 2 +  // points, gradients
+  // What a query server holds: points, cells, neighbours, vertex values, the packed copy of
+  // the mesh for queries (with V and ∇V), seeding grid, factor.
+  const double mesh_bytes = static_cast<double>(tm.points.size()) * 8 +
                             static_cast<double>(tm.tets.size() + tm.neighbours.size()) * 4 +
-                            static_cast<double>(tm.points.rows()) * 8;      // V
-  stats.size_mb = (mesh_bytes + static_cast<double>(locator.bytes())) / 1e6 + solver.factor_megabytes();
+                            static_cast<double>(tm.points.rows()) * 8;  // V
+  stats.size_mb = (mesh_bytes + static_cast<double>(packed.bytes() + locator.bytes())) / 1e6 + solver.factor_megabytes();
 }
 
 Field Field::prepare(const mesh::SurfaceMesh& surface, const PrepareOptions& options, const Progress& progress) {
@@ -349,20 +350,23 @@ void Field::set_sigma(const SigmaSpec& sigma, bool gradients) {
   for (size_t i = 0; i < m.interior.size(); ++i) m.V[m.interior[i]] = rhs[static_cast<Eigen::Index>(i)];
   for (size_t b = 0; b < m.boundary.size(); ++b) m.V[m.boundary[b]] = v_bnd[static_cast<Eigen::Index>(b)];
   m.stats.t_solve = seconds_since(t0);
-  m.grad.resize(0, 3);
+  for (Eigen::Index v = 0; v < np; ++v) m.packed.vertices[static_cast<size_t>(v)].value = m.V[v];
+  m.has_gradients = false;
   m.stats.t_gradient = 0;
   if (!gradients) return;
   const auto t1 = std::chrono::steady_clock::now();
   // Vertex gradients: volume-weighted average of the cell gradients over each star [36].
-  m.grad = MatX3::Zero(np, 3);
+  for (VertexRecord& r : m.packed.vertices) r.gradient[0] = r.gradient[1] = r.gradient[2] = 0;
+  auto gradient = [&](Eigen::Index v) { return Eigen::Map<Eigen::RowVector3d>(m.packed.vertices[static_cast<size_t>(v)].gradient); };
   for (size_t i = 0; i < m.domain_tets.size(); ++i) {
     const int c = m.domain_tets[i];
     const Eigen::Vector4d vals(m.V[m.tm.tets(c, 0)], m.V[m.tm.tets(c, 1)], m.V[m.tm.tets(c, 2)], m.V[m.tm.tets(c, 3)]);
     const Eigen::RowVector3d g = vals.transpose() * m.grad_weights[i];  // vol · ∇V_t
-    for (int k = 0; k < 4; ++k) m.grad.row(m.tm.tets(c, k)) += g;
+    for (int k = 0; k < 4; ++k) gradient(m.tm.tets(c, k)) += g;
   }
   for (Eigen::Index v = 0; v < np; ++v)
-    if (m.star_volume[v] > 0) m.grad.row(v) /= m.star_volume[v];
+    if (m.star_volume[v] > 0) gradient(v) /= m.star_volume[v];
+  m.has_gradients = true;
   m.stats.t_gradient = seconds_since(t1);
 }
 

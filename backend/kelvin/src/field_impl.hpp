@@ -32,6 +32,7 @@ struct Field::Impl {
   VecX star_volume;                                        // per point
   Eigen::SparseMatrix<double> a_ob;                        // A_Ω∂
   Eigen::SparseMatrix<double> a_oo_lower;                  // lower triangle of A_ΩΩ
+  PackedMesh packed;  // tm repacked for queries (packed_mesh.hpp)
   Locator locator;
   std::unique_ptr<SurfaceOracle> oracle;
   std::vector<int> boundary_face;
@@ -39,8 +40,8 @@ struct Field::Impl {
 
   // State for the current σ.
   VecX boundary_sigma;
-  VecX V;      // per point
-  MatX3 grad;  // per point, ∇_y V (vertex gradients)
+  VecX V;  // per point (V and ∇V are also in packed.vertices, beside the positions)
+  bool has_gradients = false;  // set_sigma(…, gradients = false) leaves ∇V out
   Stats stats;
   // Seconds of each phase of the last build() (for the build profile; phases after the stars
   // run on two threads, each timed on its own).

@@ -8,19 +8,12 @@
 
 namespace distlab::kelvin {
 
-Location walk(const TetMesh& m, const Vec3& y, int c);
+Location walk(const PackedMesh& m, const Vec3& y, int c);
 
 void barycentric(const TetMesh& m, int c, const Vec3& y, double lambda[4]) {
   const auto* t = m.tets.row(c).data();
-  const Vec3 a = m.points.row(t[0]);
-  const Vec3 e1 = Vec3(m.points.row(t[1])) - a, e2 = Vec3(m.points.row(t[2])) - a,
-             e3 = Vec3(m.points.row(t[3])) - a, q = y - a;
-  const Vec3 n1 = e2.cross(e3), n2 = e3.cross(e1), n3 = e1.cross(e2);
-  const double inv = 1.0 / e1.dot(n1);
-  lambda[1] = q.dot(n1) * inv;
-  lambda[2] = q.dot(n2) * inv;
-  lambda[3] = q.dot(n3) * inv;
-  lambda[0] = 1.0 - lambda[1] - lambda[2] - lambda[3];
+  const auto p = [&](int k) { return m.points.row(t[k]).data(); };
+  barycentric(p(0), p(1), p(2), p(3), y, lambda);
 }
 
 namespace {
@@ -39,13 +32,17 @@ double grid_coordinate(double y, double lo, double inv_step, int n) {
 
 }  // namespace
 
-void Locator::build(const TetMesh& m) {
+void Locator::build(const PackedMesh& m) {
   blocks_.clear();
   cells_.clear();
-  const long n_cells = static_cast<long>(m.tets.rows());
+  const long n_cells = static_cast<long>(m.cells.size());
   if (n_cells == 0) return;
-  lo_ = m.points.colwise().minCoeff().transpose();
-  const Vec3 hi = m.points.colwise().maxCoeff().transpose();
+  lo_ = Vec3::Constant(std::numeric_limits<double>::infinity());
+  Vec3 hi = -lo_;
+  for (const VertexRecord& v : m.vertices) {
+    lo_ = lo_.cwiseMin(Eigen::Map<const Vec3>(v.y));
+    hi = hi.cwiseMax(Eigen::Map<const Vec3>(v.y));
+  }
   const Vec3 extent = (hi - lo_).cwiseMax(1e-12);
   const double block = std::cbrt(extent.prod() * kCellsPerBlock / static_cast<double>(n_cells));
   for (int k = 0; k < 3; ++k) {
@@ -60,9 +57,9 @@ void Locator::build(const TetMesh& m) {
   // Cells per block (by centroid) → boxes per block.
   std::vector<std::uint32_t> count(n_blocks, 0);
   for (long c = 0; c < n_cells; ++c) {
-    const auto* t = m.tets.row(c).data();
-    const Vec3 centroid = 0.25 * (Vec3(m.points.row(t[0])) + Vec3(m.points.row(t[1])) +
-                                  Vec3(m.points.row(t[2])) + Vec3(m.points.row(t[3])));
+    const int* t = m.cells[static_cast<size_t>(c)].v;
+    const auto p = [&](int k) { return Vec3(Eigen::Map<const Vec3>(m.vertices[static_cast<size_t>(t[k])].y)); };
+    const Vec3 centroid = 0.25 * (p(0) + p(1) + p(2) + p(3));
     double f[3];
     for (int k = 0; k < 3; ++k) f[k] = grid_coordinate(centroid[k], lo_[k], inv_step_[k], n_[k]);
     ++count[block_of(f)];
@@ -126,8 +123,9 @@ int Locator::seed(const Vec3& y) const {
   return cells_[blk.first + (static_cast<size_t>(s[2]) * blk.r + s[1]) * blk.r + s[0]];
 }
 
-Location Locator::locate(const TetMesh& m, const Vec3& y, int start) const {
-  Location loc = walk(m, y, start >= 0 && start < m.tets.rows() ? start : seed(y));
+Location Locator::locate(const PackedMesh& m, const Vec3& y, int start) const {
+  const bool valid = start >= 0 && static_cast<size_t>(start) < m.cells.size();
+  Location loc = walk(m, y, valid ? start : seed(y));
   // The walk cycled (seen at l_x = 0.03 on the cube: rounding in the barycentric coordinates of
   // nearly flat cells). Fall back to a scan of every cell: slow, rare, and it always ends.
   return loc.cell >= 0 ? loc : scan(m, y);
@@ -138,7 +136,7 @@ Location Locator::locate(const TetMesh& m, const Vec3& y, int start) const {
 // nearly flat hull cells makes such closed cycles (three cells at l_x = 0.03 on the cube); the
 // walk would spin through its whole budget (4 · cells steps, ~1 s at 0.03) to give up. Only
 // small sets are explored (a long but healthy walk reaches many cells): false when unsure.
-static bool walk_is_trapped(const TetMesh& m, const Vec3& y, int c, double eps) {
+static bool walk_is_trapped(const PackedMesh& m, const Vec3& y, int c, double eps) {
   constexpr int kMaxCells = 64;
   int seen[kMaxCells], n_seen = 1, next = 0;
   seen[0] = c;
@@ -150,7 +148,7 @@ static bool walk_is_trapped(const TetMesh& m, const Vec3& y, int c, double eps) 
     for (int k = 0; k < 4; ++k) {
       if (!(lambda[k] < -eps)) continue;
       moves = true;
-      const int n = m.neighbours(t, k);
+      const int n = m.cells[static_cast<size_t>(t)].n[k];
       if (n < 0) return false;
       if (std::find(seen, seen + n_seen, n) != seen + n_seen) continue;
       if (n_seen == kMaxCells) return false;
@@ -161,13 +159,22 @@ static bool walk_is_trapped(const TetMesh& m, const Vec3& y, int c, double eps) 
   return true;
 }
 
+// Prefetches what the walk reads after c's vertices: the in-domain flag (read by the query if c
+// is the last cell) and the records of c's face neighbours (one of them is the next cell), so
+// they load in parallel with the vertices instead of after them.
+static void prefetch_around(const PackedMesh& m, int c) {
+  __builtin_prefetch(&m.in_domain[static_cast<std::size_t>(c)]);
+  for (const int n : m.cells[static_cast<std::size_t>(c)].n)
+    if (n >= 0) __builtin_prefetch(&m.cells[static_cast<std::size_t>(n)]);
+}
+
 // Stochastic visibility walk; cell -1 when it did not end within its step budget.
-Location walk(const TetMesh& m, const Vec3& y, int c) {
+Location walk(const PackedMesh& m, const Vec3& y, int c) {
   Location loc;
   // Tolerance so a point on a shared face is accepted by either cell instead of ping-ponging.
   constexpr double eps = 1e-12;
   std::uint32_t rng = 2463534242u;
-  const long max_steps = 4 * m.tets.rows() + 16;
+  const long max_steps = 4 * static_cast<long>(m.cells.size()) + 16;
   long check = 1024;  // long walks are checked for a trap at steps 1024, 4096, 16384, …
   for (long step = 0; step < max_steps; ++step) {
     if (step == check) {
@@ -175,6 +182,7 @@ Location walk(const TetMesh& m, const Vec3& y, int c) {
       // Same outcome as spending the rest of the budget: cell -1.
       if (walk_is_trapped(m, y, c, eps)) break;
     }
+    prefetch_around(m, c);
     barycentric(m, c, y, loc.lambda);
     rng ^= rng << 13, rng ^= rng >> 17, rng ^= rng << 5;
     const int first = static_cast<int>(rng & 3u);
@@ -184,8 +192,9 @@ Location walk(const TetMesh& m, const Vec3& y, int c) {
       if (loc.lambda[i] < -eps) exit = i;
     }
     loc.cell = c;
+    loc.steps = static_cast<int>(step);
     if (exit < 0) return loc;
-    const int next = m.neighbours(c, exit);
+    const int next = m.cells[static_cast<size_t>(c)].n[exit];
     if (next < 0) {
       loc.outside_hull = true;
       return loc;
@@ -197,11 +206,11 @@ Location walk(const TetMesh& m, const Vec3& y, int c) {
 }
 
 // Every cell, keeping the one the point is most inside of (largest smallest barycentric).
-Location Locator::scan(const TetMesh& m, const Vec3& y) {
+Location Locator::scan(const PackedMesh& m, const Vec3& y) {
   Location loc;
   double best = -std::numeric_limits<double>::infinity();
   double lambda[4];
-  for (int k = 0; k < static_cast<int>(m.tets.rows()); ++k) {
+  for (int k = 0; k < static_cast<int>(m.cells.size()); ++k) {
     barycentric(m, k, y, lambda);
     const double worst = std::min(std::min(lambda[0], lambda[1]), std::min(lambda[2], lambda[3]));
     if (std::isfinite(worst) && worst > best) {

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "distlab/kelvin/tet_mesh.hpp"
+#include "packed_mesh.hpp"
 
 namespace distlab::kelvin {
 
@@ -19,15 +20,17 @@ struct Location {
   int cell = -1;
   double lambda[4] = {0, 0, 0, 0};  // barycentric coordinates of the point in cell
   bool outside_hull = false;        // the walk left the triangulation (cell: last hull cell)
+  int steps = 0;                    // face crossings of the walk (for tests and profiling)
 };
 
+// Seeding grid and walks over a PackedMesh (the caller keeps it alive and unchanged in shape).
 class Locator {
  public:
-  void build(const TetMesh& mesh);
+  void build(const PackedMesh& mesh);
   int seed(const Vec3& y) const;
-  Location locate(const TetMesh& mesh, const Vec3& y, int start) const;
+  Location locate(const PackedMesh& mesh, const Vec3& y, int start) const;
   // The cell of the scan fallback (for tests): the one y is most inside of.
-  static Location scan(const TetMesh& mesh, const Vec3& y);
+  static Location scan(const PackedMesh& mesh, const Vec3& y);
   std::size_t boxes() const { return cells_.size(); }
   std::size_t blocks() const { return blocks_.size(); }
   std::size_t bytes() const { return cells_.size() * sizeof(int) + blocks_.size() * sizeof(Block); }
@@ -46,7 +49,7 @@ class Locator {
   std::vector<int> cells_;  // per box, block by block, x fastest within a block
 };
 
-// Barycentric coordinates of y in cell c.
+// Barycentric coordinates of y in cell c (the formula of packed_mesh.hpp).
 void barycentric(const TetMesh& mesh, int c, const Vec3& y, double lambda[4]);
 
 }  // namespace distlab::kelvin

@@ -17,11 +17,11 @@ Sample undefined(Status status) {
 Sample evaluate(const Field::Impl& m, int c, const double lambda[4], const Vec3& p, const Vec3& y) {
   double v = 0;
   Vec3 gv = Vec3::Zero();
-  const bool with_gradient = m.grad.rows() > 0;  // set_sigma(…, gradients = false) skips them
+  const bool with_gradient = m.has_gradients;  // set_sigma(…, gradients = false) skips them
   for (int k = 0; k < 4; ++k) {
-    const int i = m.tm.tets(c, k);
-    v += lambda[k] * m.V[i];
-    if (with_gradient) gv += lambda[k] * Vec3(m.grad.row(i));
+    const VertexRecord& r = m.packed.vertices[static_cast<size_t>(m.packed.cells[static_cast<size_t>(c)].v[k])];
+    v += lambda[k] * r.value;
+    if (with_gradient) gv += lambda[k] * Vec3(Eigen::Map<const Vec3>(r.gradient));
   }
   if (!(v > 0)) return undefined(Status::nonpositive);
   const double y2 = y.squaredNorm();
@@ -43,9 +43,9 @@ Sample Field::query(const Vec3& x, int* hint) const {
   const double p2 = p.squaredNorm();
   if (!(p2 > 0)) return undefined(Status::inside);
   const Vec3 y = p / p2;  // eq. 5
-  const Location loc = m.locator.locate(m.tm, y, hint ? *hint : -1);
+  const Location loc = m.locator.locate(m.packed, y, hint ? *hint : -1);
   if (hint) *hint = loc.cell;
-  if (!loc.outside_hull && m.tm.in_domain[static_cast<size_t>(loc.cell)]) return evaluate(m, loc.cell, loc.lambda, p, y);
+  if (!loc.outside_hull && m.packed.in_domain[static_cast<size_t>(loc.cell)]) return evaluate(m, loc.cell, loc.lambda, p, y);
   // Not in a domain cell: either on the domain's boundary (a point on a shared face, edge or
   // vertex, located in the outside cell by rounding), inside the object, or in a sliver between
   // the input surface and the mesher's piecewise-flat boundary. A domain cell that shares the
@@ -56,7 +56,7 @@ Sample Field::query(const Vec3& x, int* hint) const {
   double best_lambda[4] = {0, 0, 0, 0}, best_min = -1e300;
   auto consider = [&](int n) {
     double lambda[4];
-    barycentric(m.tm, n, y, lambda);
+    barycentric(m.packed, n, y, lambda);
     const double lo = std::min(std::min(lambda[0], lambda[1]), std::min(lambda[2], lambda[3]));
     if (lo > best_min) best = n, best_min = lo, std::copy_n(lambda, 4, best_lambda);
   };

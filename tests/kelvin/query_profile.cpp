@@ -1,0 +1,179 @@
+// distlab-kelvin-query-profile: hint-less and hinted query times on the unit cube of Table I,
+// with a fingerprint of the answers, without the rest of the benchmark (solves, SparseLU, RMSE).
+// usage: distlab-kelvin-query-profile --cache-dir DIR [--lx 0.05,0.02] [--rounds 5] [--n 100000]
+//                                     [--only-seeded 1 (one pass over the bench's 1000 points,
+//                                      for callgrind --toggle-collect)]
+// The bench's 1000 random points (same generator) are timed one query at a time, as
+// bench_kelvin does, in `rounds` passes; before each pass the caches are flushed by streaming a
+// buffer larger than the L3 (the bench queries right after its solves have done the same), so
+// every pass sees cold caches like the bench's single pass; the medians of all passes' times
+// are reported. "fingerprint" is an FNV-1a
+// hash of the bits of h and ∇h at the 1000 points and at n more random points (hint-less), and
+// of h and ∇h along the bench's coherent path (hinted): two builds answer bit for bit alike iff
+// their fingerprints match. Uses only the public API, so it builds against older versions too.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "distlab/kelvin/field.hpp"
+#include "distlab/mesh/primitives.hpp"
+
+using namespace distlab;
+using namespace distlab::kelvin;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+struct Fnv64 {
+  std::uint64_t h = 1469598103934665603ull;
+  void add(double d) {
+    unsigned char b[8];
+    std::memcpy(b, &d, 8);
+    for (unsigned char c : b) h = (h ^ c) * 1099511628211ull;
+  }
+  void add(const Sample& s) {
+    add(s.h);
+    for (int k = 0; k < 3; ++k) add(s.gradient[k]);
+    add(static_cast<double>(s.status));
+  }
+};
+
+double percentile(std::vector<double> v, double q) {
+  const auto k = static_cast<long>(q * static_cast<double>(v.size() - 1));
+  std::nth_element(v.begin(), v.begin() + k, v.end());
+  return v[static_cast<size_t>(k)];
+}
+
+std::vector<double> parse_list(const std::string& s) {
+  std::vector<double> out;
+  std::stringstream in(s);
+  for (std::string item; std::getline(in, item, ',');) out.push_back(std::stod(item));
+  return out;
+}
+
+// Evicts the caches (and most TLB entries): writes and reads a 256 MB buffer.
+double flush_caches() {
+  static std::vector<double> junk(std::size_t{32} << 20, 1.0);
+  double sum = 0;
+  for (double& d : junk) sum += (d += 1.0);
+  return sum;
+}
+
+double since_us(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count() * 1e6; }
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::vector<double> lxs = {0.05, 0.02};
+  std::string cache_dir;
+  int rounds = 5;
+  long n_more = 100000;
+  bool only_seeded = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string k = argv[i];
+    if (k == "--help") {
+      std::puts("usage: distlab-kelvin-query-profile --cache-dir DIR [--lx 0.05,0.02] [--rounds 5] [--n 100000] "
+                "[--only-seeded 1]");
+      return 0;
+    }
+    if (i + 1 >= argc) {
+      std::fprintf(stderr, "option %s needs a value\n", k.c_str());
+      return 2;
+    }
+    const std::string v = argv[++i];
+    if (k == "--lx") lxs = parse_list(v);
+    else if (k == "--cache-dir") cache_dir = v;
+    else if (k == "--rounds") rounds = std::max(1, std::stoi(v));
+    else if (k == "--n") n_more = std::max(0L, std::stol(v));
+    else if (k == "--only-seeded") only_seeded = v != "0";
+    else {
+      std::fprintf(stderr, "unknown option %s\n", k.c_str());
+      return 2;
+    }
+  }
+  if (cache_dir.empty()) {
+    std::fputs("--cache-dir DIR is required (meshes are stored there once)\n", stderr);
+    return 2;
+  }
+  std::filesystem::create_directories(cache_dir);
+  // The bench's query sets (bench_kelvin.cpp): a coherent path and 1000 random points.
+  std::mt19937 rng(1);
+  std::uniform_real_distribution<double> u(-3, 3);
+  std::vector<Vec3> path, random, more;
+  for (int i = 0; i < 1000; ++i) {
+    const double t = 2 * M_PI * i / 1000;
+    path.emplace_back(1.5 * std::cos(t), 1.5 * std::sin(t), 0.4 * std::sin(3 * t));
+  }
+  while (random.size() < 1000) {
+    const Vec3 x(u(rng), u(rng), u(rng));
+    if (x.cwiseAbs().maxCoeff() > 0.5) random.push_back(x);
+  }
+  std::mt19937 rng2(7);
+  while (static_cast<long>(more.size()) < n_more) {
+    const Vec3 x(u(rng2), u(rng2), u(rng2));
+    if (x.cwiseAbs().maxCoeff() > 0.5) more.push_back(x);
+  }
+
+  const mesh::SurfaceMesh cube = mesh::box(Vec3::Ones());
+  if (!only_seeded)
+    std::printf("| l_x | N_verts | N_tets | size_mb | q_hint med | q_seed med | q_seed p90 | q_seed med (n more) | fingerprint |\n"
+                "|---|---|---|---|---|---|---|---|---|\n");
+  for (double lx : lxs) {
+    PrepareOptions o;
+    o.lx = lx;
+    Field f = Field::prepare_cached(cube, o, cache_dir);
+    f.set_sigma(SigmaSpec{}, true);
+    double sink = 0;
+    if (only_seeded) {
+      for (const Vec3& x : random) sink += f.query(x).h;
+      std::printf("l_x %g: sum h %.17g\n", lx, sink);
+      continue;
+    }
+    Fnv64 print;
+    std::vector<double> hinted, seeded, seeded_more;
+    std::mt19937 shuffle(11);
+    for (int r = 0; r < rounds; ++r) {
+      int hint = -1;
+      for (const Vec3& x : path) {
+        const auto t0 = Clock::now();
+        const Sample s = f.query(x, &hint);
+        hinted.push_back(since_us(t0));
+        if (r == 0) print.add(s);
+      }
+      std::vector<int> order(random.size());
+      for (size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
+      if (r > 0) std::shuffle(order.begin(), order.end(), shuffle);
+      std::vector<Sample> answers(random.size());
+      sink += flush_caches();
+      for (int i : order) {
+        const auto t0 = Clock::now();
+        answers[static_cast<size_t>(i)] = f.query(random[static_cast<size_t>(i)]);
+        seeded.push_back(since_us(t0));
+      }
+      if (r == 0)
+        for (const Sample& s : answers) print.add(s);
+    }
+    sink += flush_caches();
+    for (const Vec3& x : more) {  // each once: a larger sample (later ones meet warmer caches)
+      const auto t0 = Clock::now();
+      const Sample s = f.query(x);
+      seeded_more.push_back(since_us(t0));
+      print.add(s);
+      sink += s.h;
+    }
+    const Stats& st = f.stats();
+    std::printf("| %g | %ld | %ld | %.1f | %.3f | %.3f | %.3f | %.3f | %016llx |\n", lx, st.n_verts, st.n_tets, st.size_mb,
+                percentile(hinted, 0.5), percentile(seeded, 0.5), percentile(seeded, 0.9),
+                seeded_more.empty() ? 0.0 : percentile(seeded_more, 0.5), static_cast<unsigned long long>(print.h));
+    std::fflush(stdout);
+    if (sink == 12345.678) std::puts("");
+  }
+  return 0;
+}
