@@ -69,6 +69,12 @@ class SerialOpenMP {
 // factorization and in every solve (each reads the factor twice).
 constexpr long kNestedDissectionMin = 10000;
 
+// Supernodes of at most this many factor entries are solved by Eigen's inlined kernels, larger
+// ones by BLAS: for a small block a BLAS call's fixed cost exceeds its arithmetic.
+constexpr long kSmallBlock = 1024;
+using Stride = Eigen::OuterStride<>;
+using Block = Eigen::Map<const Eigen::MatrixXd, 0, Stride>;
+
 }  // namespace
 
 struct CholmodSolver::Impl {
@@ -83,12 +89,11 @@ struct CholmodSolver::Impl {
     cholmod_start(&common);
     common.supernodal = CHOLMOD_SUPERNODAL;
     common.print = 0;
-    // One ordering, chosen by size in factorize(): on these 3D meshes AMD's factor has about
-    // twice the nonzeros at 23k vertices (9.9M against 5.3M), and the solve time is the time to
-    // read the factor twice. CHOLMOD's default would try AMD first and keep it unless its
-    // fill is very large.
+    // One ordering, set by size in factorize() (AMD or METIS; see kNestedDissectionMin): on
+    // these 3D meshes AMD's factor has about twice the nonzeros at 23k vertices (9.9M against
+    // 5.3M), and the solve time is the time to read the factor twice. CHOLMOD's default would
+    // try AMD first and keep it unless its fill is very large.
     common.nmethods = 1;
-    common.method[0].ordering = CHOLMOD_METIS;
   }
   ~Impl() {
     cholmod_free_dense(&x, &common);
@@ -156,7 +161,8 @@ void CholmodSolver::solve(VecX& b) const {
   t.resize(n);
   for (size_t k = 0; k < n; ++k) w[k] = b[perm[k]];
   double skipped = 0;
-  // Forward: L y = P b. Dense blocks through BLAS (dtrsv, dgemv), one thread (see above).
+  // Forward: L y = P b. Dense blocks through BLAS (dtrsv, dgemv; one thread, see above) or, if
+  // small, Eigen (kSmallBlock).
   set_blas_threads(1);
   const int one = 1;
   const double p1 = 1, m1 = -1, zero0 = 0;
@@ -170,10 +176,17 @@ void CholmodSolver::solve(VecX& b) const {
     }
     const double* block = lx + px[k];
     double* y = w.data() + c0;
-    dtrsv_("L", "N", "N", &ncol, block, &nrow, y, &one);
-    if (nbelow == 0) continue;
-    dgemv_("N", &nbelow, &ncol, &p1, block + ncol, &nrow, y, &one, &zero0, t.data(), &one);
     const int* r = rows + pi[k] + ncol;
+    if (static_cast<long>(nrow) * ncol <= kSmallBlock) {
+      const Block d(block, ncol, ncol, Stride(nrow)), l(block + ncol, nbelow, ncol, Stride(nrow));
+      Eigen::Map<VecX> ym(y, ncol);
+      d.triangularView<Eigen::Lower>().solveInPlace(ym);
+      Eigen::Map<VecX>(t.data(), nbelow).noalias() = l * ym;
+    } else {
+      dtrsv_("L", "N", "N", &ncol, block, &nrow, y, &one);
+      if (nbelow == 0) continue;
+      dgemv_("N", &nbelow, &ncol, &p1, block + ncol, &nrow, y, &one, &zero0, t.data(), &one);
+    }
     for (int i = 0; i < nbelow; ++i) w[static_cast<size_t>(r[i])] -= t[static_cast<size_t>(i)];
   }
   // Back: Lᵀ x = y, every supernode, last to first.
@@ -181,11 +194,16 @@ void CholmodSolver::solve(VecX& b) const {
     const int c0 = super[k], ncol = super[k + 1] - c0, nrow = pi[k + 1] - pi[k], nbelow = nrow - ncol;
     const double* block = lx + px[k];
     double* y = w.data() + c0;
-    if (nbelow > 0) {
-      const int* r = rows + pi[k] + ncol;
-      for (int i = 0; i < nbelow; ++i) t[static_cast<size_t>(i)] = w[static_cast<size_t>(r[i])];
-      dgemv_("T", &nbelow, &ncol, &m1, block + ncol, &nrow, t.data(), &one, &p1, y, &one);
+    const int* r = rows + pi[k] + ncol;
+    for (int i = 0; i < nbelow; ++i) t[static_cast<size_t>(i)] = w[static_cast<size_t>(r[i])];
+    if (static_cast<long>(nrow) * ncol <= kSmallBlock) {
+      const Block d(block, ncol, ncol, Stride(nrow)), l(block + ncol, nbelow, ncol, Stride(nrow));
+      Eigen::Map<VecX> ym(y, ncol);
+      ym.noalias() -= l.transpose() * Eigen::Map<const VecX>(t.data(), nbelow);
+      d.transpose().triangularView<Eigen::Upper>().solveInPlace(ym);
+      continue;
     }
+    if (nbelow > 0) dgemv_("T", &nbelow, &ncol, &m1, block + ncol, &nrow, t.data(), &one, &p1, y, &one);
     dtrsv_("L", "T", "N", &ncol, block, &nrow, y, &one);
   }
   for (size_t k = 0; k < n; ++k) b[perm[k]] = w[k];
