@@ -129,10 +129,11 @@ VecX eq20_rhs(const Field& f, const Eigen::SparseMatrix<double>& a, VecX& x) {
 // the same way. Right-hand sides: eq. 20's for the σ last set (what t_solve solves; zero away
 // from the boundary, which CholmodSolver's forward pass skips), and b = 1 (dense). Decomposition: every repeat builds a fresh one on both sides, fill-reducing
 // ordering included (cholmod_analyze + cholmod_factorize; SparseLU::compute = analyzePattern with
-// COLAMD + factorize). Solve: one b → x on each side per repeat. The sides alternate which goes
-// first, so neither runs on caches the other warmed, and the medians of the repeats are compared
-// (a single run of ~100 µs is noise on a shared machine). Repeats: as many as fit in about half a
-// second per step, at least 5 (decomposition) and 21 (solve), at most 31 and 201.
+// COLAMD + factorize), the sides alternating which goes first. Solve: blocks of 5 solves b → x on
+// one side then on the other (each on its own warm factor, as repeated σ → V solves run), the
+// blocks alternating which side goes first. The medians of the repeats are compared (a single
+// run of ~100 µs is noise on a shared machine). Repeats: as many as fit in about half a second
+// per step, at least 5 decompositions and 25 solves per side, at most 31 and 205.
 void compare_with_sparselu(const Field& f, Row& r) {
   const Eigen::SparseMatrix<double> a = f.reduced_matrix();
   const Eigen::SparseMatrix<double> lower = a.triangularView<Eigen::Lower>();
@@ -163,29 +164,35 @@ void compare_with_sparselu(const Field& f, Row& r) {
   for (int i = 1; i < decomp_reps; ++i) decompose(i % 2 == 0);
   std::vector<double> sc, sl, sc1, sl1;
   double diff = 0;
+  // A block of kBlock solves of one b on one side, then on the other: each side solves on its
+  // own warm factor, as in repeated σ → V solves.
+  constexpr int kBlock = 5;
   auto solve = [&](const VecX& b, bool cholmod_first, std::vector<double>& c, std::vector<double>& l) {
-    VecX x = b, y;
-    for (int side = 0; side < 2; ++side) {
-      const auto t0 = Clock::now();
-      if ((side == 0) == cholmod_first) {
-        chol.solve(x);
-        c.push_back(since(t0) * 1e3);
-      } else {
-        y = lu.solve(b);
-        l.push_back(since(t0) * 1e3);
+    VecX x, y;
+    for (int side = 0; side < 2; ++side)
+      for (int k = 0; k < kBlock; ++k) {
+        const auto t0 = Clock::now();
+        if ((side == 0) == cholmod_first) {
+          x = b;
+          chol.solve(x);
+          c.push_back(since(t0) * 1e3);
+        } else {
+          y = lu.solve(b);
+          l.push_back(since(t0) * 1e3);
+        }
       }
-    }
     diff = std::max(diff, (x - y).norm() / y.norm());
     return x;
   };
   const VecX x = solve(b20, true, sc, sl);
   diff = std::max(diff, (x - x20).norm() / x20.norm());  // eq. 20's b solves to the field's values
   solve(ones, true, sc1, sl1);
-  const int solve_reps = std::clamp(static_cast<int>(0.25e3 / (sc[0] + sl[0])), 21, 201) | 1;
-  for (int i = 1; i < solve_reps; ++i) {
+  const int solve_blocks = std::clamp(static_cast<int>(0.25e3 / (median(sc) + median(sl)) / kBlock), 5, 41) | 1;
+  for (int i = 1; i < solve_blocks; ++i) {
     solve(b20, i % 2 == 0, sc, sl);
     solve(ones, i % 2 == 1, sc1, sl1);
   }
+  const int solve_reps = solve_blocks * kBlock;
   if (diff > 1e-9) throw std::runtime_error("SparseLU, CHOLMOD and the field disagree on A_OO x = b");
   r.solve_ones_ms = median(sc1);
   r.lu_solve_ones_ms = median(sl1);
