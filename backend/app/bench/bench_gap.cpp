@@ -1,9 +1,11 @@
 // GAP benchmark (issue 2): the paper's Section IV-A experiments, with FCL in the same run.
 //   distlab-bench-gap [--pairs N] [--box-pairs N] [--seed S] [--json FILE] [--newton-only]
-//   [--repeat R] [--save-cases FILE | --load-cases FILE]
+//   [--repeat R] [--passes P] [--save-cases FILE | --load-cases FILE]
 // --repeat R: each pair is timed R times back to back and the fastest call counts (same for FCL
 // and GAP; default 1). That is a warm-cache measure, not the paper's protocol: FCL's second
 // call on a pair is about twice as fast as its first (1.2 against 2.4 us), GAP's about 1.7x.
+// --passes P: P whole passes over benchmark 1's pairs, the fastest pass per pair counts (cold
+// calls every time; only scheduler interruptions drop out). Default 1.
 // --newton-only: benchmark 1's FCL and Newton runs alone (no reference, no plain iteration, no
 // benchmark 2), for profiling. --save-cases/--load-cases FILE: benchmark 1's polytope pairs as
 // JSON, so they can be loaded without CGAL (whose interval arithmetic breaks under valgrind):
@@ -92,6 +94,22 @@ struct Case {
 
 // Calls per pair; the fastest counts (--repeat; warm cache after the first call).
 int g_repeat = 1;
+// Whole passes over the pairs; per pair the fastest pass counts (--passes). Every pass meets a
+// pair cold (the other 50,000 pairs have evicted it), so this keeps the paper's cold-call
+// protocol and only drops the calls that the shared machine's scheduler interrupted.
+int g_passes = 1;
+
+// `run` once per pass; times are per-pair minima over the passes, the rest (identical in every
+// pass) from the first.
+template <class F>
+auto best_of_passes(F&& run) {
+  auto best = run();
+  for (int p = 1; p < g_passes; ++p) {
+    const auto next = run();
+    for (size_t i = 0; i < best.us.size(); ++i) best.us[i] = std::min(best.us[i], next.us[i]);
+  }
+  return best;
+}
 
 template <class F>
 double time_us(F&& f) {
@@ -225,10 +243,11 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[i], "--json")) json_path = next();
     else if (!std::strcmp(argv[i], "--newton-only")) newton_only = true;
     else if (!std::strcmp(argv[i], "--repeat")) g_repeat = std::max(1, std::atoi(next()));
+    else if (!std::strcmp(argv[i], "--passes")) g_passes = std::max(1, std::atoi(next()));
     else if (!std::strcmp(argv[i], "--save-cases")) save_path = next();
     else if (!std::strcmp(argv[i], "--load-cases")) load_path = next();
     else {
-      std::fprintf(stderr, "usage: %s [--pairs N] [--box-pairs N] [--seed S] [--json FILE] [--newton-only] [--repeat R] [--save-cases FILE | --load-cases FILE]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--pairs N] [--box-pairs N] [--seed S] [--json FILE] [--newton-only] [--repeat R] [--passes P] [--save-cases FILE | --load-cases FILE]\n", argv[0]);
       return 2;
     }
   }
@@ -280,7 +299,9 @@ int main(int argc, char** argv) {
   GapParams plain_tight = plain;
   plain_tight.tol = 1e-10;
   if (newton_only) {
-    const Run fcl = run_fcl(cases), start = run_start(cases), r_newton = run_gap(cases, newton, {});
+    const Run fcl = best_of_passes([&] { return run_fcl(cases); });
+    const Run start = best_of_passes([&] { return run_start(cases); });
+    const Run r_newton = best_of_passes([&] { return run_gap(cases, newton, {}); });
     std::printf(kHeader, "method", "mean", "median", "p99", "max", "it mean", "it p99", "it max",
                 "err med", "err max", "unconv");
     print_row("FCL distance alone", fcl);
@@ -290,7 +311,7 @@ int main(int argc, char** argv) {
                 stats(r_newton.us).mean / stats(fcl.us).mean,
                 stats(r_newton.us).median / stats(fcl.us).median);
     if (!json_path.empty())
-      std::ofstream(json_path) << nlohmann::json{{"pairs", pairs}, {"repeat", g_repeat},
+      std::ofstream(json_path) << nlohmann::json{{"pairs", pairs}, {"repeat", g_repeat}, {"passes", g_passes},
                                                  {"fcl", run_json(fcl)},
                                                  {"start_gjk", run_json(start)},
                                                  {"newton_tol_1e-10", run_json(r_newton)}}
@@ -299,11 +320,11 @@ int main(int argc, char** argv) {
     return 0;
   }
   const std::vector<double> ref = reference(cases, paper);
-  const Run fcl = run_fcl(cases);
-  const Run fcl_certified = run_fcl(cases, true);
-  const Run start = run_start(cases);
-  const Run r_plain = run_gap(cases, plain, ref);
-  const Run r_newton = run_gap(cases, newton, ref);
+  const Run fcl = best_of_passes([&] { return run_fcl(cases); });
+  const Run fcl_certified = best_of_passes([&] { return run_fcl(cases, true); });
+  const Run start = best_of_passes([&] { return run_start(cases); });
+  const Run r_plain = best_of_passes([&] { return run_gap(cases, plain, ref); });
+  const Run r_newton = best_of_passes([&] { return run_gap(cases, newton, ref); });
   // The plain iteration at 1e-10 crawls (up to 1e5 steps near contact): a subset suffices.
   std::vector<Case> subset(cases.begin(), cases.begin() + std::min<size_t>(cases.size(), 5000));
   const Run r_tight = run_gap(subset, plain_tight, ref);
@@ -324,6 +345,7 @@ int main(int argc, char** argv) {
   std::printf("  (err: relative error of D against Newton at tol 1e-13; paper: mean 70 us, max 200 us, "
               "mean 22.42 and max 295 iterations)\n\n");
   out["repeat"] = g_repeat;
+  out["passes"] = g_passes;
   out["polytopes"] = {{"pairs", pairs},
                       {"fcl", run_json(fcl)},
                       {"euclidean_certified", run_json(fcl_certified)},
