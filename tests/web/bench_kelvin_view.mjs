@@ -16,13 +16,14 @@ import { tmpdir } from "node:os";
 import path from "node:path";
 import { launchBrowser, openView, startServer } from "./harness.mjs";
 
-/** A closed UV sphere (radius 0.1 m) as binary STL with 2·n·(n−1) triangles. */
-function uvSphereStl(n) {
+/** A closed UV sphere (radius 0.5 m: at the view's l_x 0.1 its mesh has interior vertices, which a
+ *  0.1 m sphere has not, and the server refuses it) as binary STL with 2·n·(n−1) triangles. */
+function uvSphereStl(n, r = 0.5) {
   // Closed: the seam (j = n is j = 0) and the poles are the same floats, so the importer welds them.
   const P = (i, j) => {
-    if (i === 0 || i === n) return [0, 0, i === 0 ? 0.1 : -0.1];
+    if (i === 0 || i === n) return [0, 0, i === 0 ? r : -r];
     const th = (Math.PI * i) / n, ph = (2 * Math.PI * (j % n)) / n;
-    return [0.1 * Math.sin(th) * Math.cos(ph), 0.1 * Math.sin(th) * Math.sin(ph), 0.1 * Math.cos(th)];
+    return [r * Math.sin(th) * Math.cos(ph), r * Math.sin(th) * Math.sin(ph), r * Math.cos(th)];
   };
   const tris = [];
   for (let i = 0; i < n; i++)
@@ -110,7 +111,10 @@ try {
     breakdown_median_ms: e[0]?.serverMs === undefined
       ? { wait: m((x) => x.waitMs), put: m((x) => x.putMs), sent_to_frames: m((x) => x.framesMs), draw: m((x) => x.drawMs) }
       : { wait: m((x) => x.waitMs), ack: m((x) => x.putMs), server: m((x) => x.serverMs), sent_to_frames: m((x) => x.framesMs), decode: m((x) => x.decodeMs), accept: m((x) => x.acceptMs), raf_wait: m((x) => x.rafWaitMs), render: m((x) => x.renderMs), ready_to_drawn: m((x) => x.drawMs) },
+    breakdown_p95_ms: { wait: pct(e.map((x) => x.waitMs), 0.95), ack: pct(e.map((x) => x.putMs), 0.95), server: pct(e.map((x) => x.serverMs), 0.95), sent_to_frames: pct(e.map((x) => x.framesMs), 0.95), raf_wait: pct(e.map((x) => x.rafWaitMs), 0.95) },
     sent_to_drawn_ms: m((x) => x.ms - x.waitMs),
+    // Every edit: [whole, wait, ack, server, sent → frames, rAF wait] (ms), in order.
+    per_edit: e.map((x) => [x.ms, x.waitMs, x.putMs, x.serverMs, x.framesMs, x.rafWaitMs].map((v) => Math.round(v))),
     stroke_to_colour_ms: { median: med(t.strokeToColourMs), p95: pct(t.strokeToColourMs, 0.95) },
     iso_faces: (await K(page, "k.shown")).map((f) => [f.level, f.n_faces]),
   };
@@ -130,6 +134,9 @@ async function orbitLarge() {
   const p2 = await openView(browser, server, `#/kelvin?s=${encodeURIComponent(JSON.stringify({ object: "sphere", lx: 0.1, levels: [0.3] }))}`);
   await p2.waitForFunction(() => window.distlab?.kelvin?.ready === true, null, { timeout: 120000 });
   await p2.setInputFiles("input[data-testid=kelvin-upload]", spherePath); // keeps the sphere's l_x 0.1
-  await p2.waitForFunction(() => window.distlab.kelvin.object?.source?.upload && window.distlab.kelvin.ready, null, { timeout: 1800000, polling: 500 });
+  // Ready, or the server's refusal shown as an error (reported instead of waiting for the timeout).
+  await p2.waitForFunction(() => (window.distlab.kelvin.object?.source?.upload && window.distlab.kelvin.ready) || document.querySelector(".toast-error"), null, { timeout: 1800000, polling: 500 });
+  const refused = await p2.locator(".toast-error").allTextContents();
+  if (refused.length) throw new Error(`the 200k-triangle upload was not prepared: ${refused.join("; ")}`);
   out.orbit = await orbit(p2, Number(process.env.MOVES ?? 240));
 }

@@ -59,7 +59,7 @@ export async function launchBrowser() {
     headless: true,
     args: [
       "--no-sandbox",
-      "--disable-gpu",
+      ...(process.env.GPU_COMPOSITING === "1" ? [] : ["--disable-gpu"]),
       "--disable-background-networking",
       "--disable-component-update",
       "--enable-unsafe-swiftshader", // WebGL on the CPU (no GPU here)

@@ -1,6 +1,7 @@
 // One three.js viewport per view: renderer, perspective camera, orbit controls, lights, grid.
-// Renders on demand (invalidate()) so an idle tab costs nothing; frame statistics are kept for
-// the status bar and the browser tests (window.distlab.stats()).
+// Renders on demand: invalidate() (camera moved, new data, resize, an animation step) asks for
+// one animation frame, so an idle tab runs no frame callbacks at all. Frame statistics are kept
+// for the status bar and the browser tests (window.distlab.stats()).
 import * as THREE from "three";
 import { OrbitControls } from "three/addons/controls/OrbitControls.js";
 
@@ -23,14 +24,31 @@ function antialiasWanted(): boolean {
   return forced === "on" ? true : forced === "off" ? false : !isSoftwareRenderer();
 }
 
+/** Pixel-ratio factor of the frames drawn while the user drags or paints: 0.5 on a software
+ *  renderer, where a frame's cost grows with its fragments (a quarter of them here), 1 on a GPU;
+ *  localStorage "distlab.interactiveScale" (0 < x <= 1) overrides. */
+function interactiveScaleWanted(): number {
+  const forced = Number(localStorage.getItem("distlab.interactiveScale"));
+  return forced > 0 && forced <= 1 ? forced : isSoftwareRenderer() ? 0.5 : 1;
+}
+
+/** After the last interactive frame, this long without one brings the full resolution back. */
+const SETTLE_MS = 250;
+
 export class Viewport {
   readonly renderer: THREE.WebGLRenderer;
   readonly scene = new THREE.Scene();
   readonly camera: THREE.PerspectiveCamera;
   readonly controls: OrbitControls;
   readonly grid: THREE.GridHelper;
-  private dirty = true;
-  private raf = 0;
+  private raf = 0; // the requested animation frame (0: none)
+  private disposed = false;
+  private readonly fullRatio = Math.min(window.devicePixelRatio, 2);
+  private readonly interactiveScale = interactiveScaleWanted();
+  private interactiveUntil = 0; // performance.now() until which frames use the interactive scale
+  private settleTimer = 0;
+  private lowRes = false;
+  private dragging = false; // the orbit controls are between their start and end events
   private resizeObserver: ResizeObserver;
   private frameTimes: number[] = []; // ms between rendered frames while interacting
   private cpuTimes: number[] = []; // main-thread ms per frame: before-render hooks + render() call
@@ -45,7 +63,7 @@ export class Viewport {
     // MSAA quadruples a software rasteriser's per-pixel work (SwiftShader, llvmpipe: no GPU),
     // where it makes every frame several times slower; a GPU does it almost for free.
     this.renderer = new THREE.WebGLRenderer({ antialias: antialiasWanted(), preserveDrawingBuffer: true });
-    this.renderer.setPixelRatio(Math.min(window.devicePixelRatio, 2));
+    this.renderer.setPixelRatio(this.fullRatio);
     this.renderer.localClippingEnabled = true;
     this.renderer.domElement.classList.add("viewport-canvas");
     container.appendChild(this.renderer.domElement);
@@ -56,7 +74,9 @@ export class Viewport {
     this.camera.position.set(1.6, 1.2, 1.6);
     this.controls = new OrbitControls(this.camera, this.renderer.domElement);
     this.controls.enableDamping = false;
-    this.controls.addEventListener("change", () => this.invalidate());
+    this.controls.addEventListener("start", () => (this.dragging = true));
+    this.controls.addEventListener("end", () => (this.dragging = false));
+    this.controls.addEventListener("change", () => (this.dragging ? this.interacting() : this.invalidate()));
 
     this.scene.add(new THREE.HemisphereLight(0xffffff, 0x334455, 1.6));
     const sun = new THREE.DirectionalLight(0xffffff, 1.8);
@@ -69,33 +89,56 @@ export class Viewport {
     this.resizeObserver = new ResizeObserver(() => this.resize());
     this.resizeObserver.observe(container);
     this.resize();
-    const loop = (now: number) => {
-      this.raf = requestAnimationFrame(loop);
-      if (!this.dirty) return;
-      this.dirty = false;
-      const t0 = performance.now();
-      this.beforeRender.forEach((f) => f());
-      const t1 = performance.now();
-      this.renderer.render(this.scene, this.camera);
-      if (this.syncRender) {
-        const gl = this.renderer.getContext();
-        gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, this.pixel); // waits for the frame (gl.finish does not in Chrome)
-      }
-      const t2 = performance.now();
-      this.afterRender.forEach((f) => f(t2 - t1));
-      if (this.lastFrame && now - this.lastFrame < 250) {
-        this.frameTimes.push(now - this.lastFrame);
-        this.cpuTimes.push(t2 - t0);
-        if (this.frameTimes.length > 240) this.frameTimes.shift();
-        if (this.cpuTimes.length > 240) this.cpuTimes.shift();
-      }
-      this.lastFrame = now;
-    };
-    this.raf = requestAnimationFrame(loop);
   }
 
+  /** Something visible changed: draw it at the next animation frame (once, however often called). */
   invalidate(): void {
-    this.dirty = true;
+    if (this.raf || this.disposed) return;
+    this.raf = requestAnimationFrame((now) => this.draw(now));
+  }
+
+  /** The user is interacting (orbiting, painting): draw at the next animation frame at the
+   *  interactive resolution, and at full resolution once it has been quiet for SETTLE_MS. */
+  interacting(): void {
+    if (this.interactiveScale < 1 && !this.disposed) {
+      this.interactiveUntil = performance.now() + SETTLE_MS;
+      window.clearTimeout(this.settleTimer);
+      this.settleTimer = window.setTimeout(() => this.invalidate(), SETTLE_MS + 10);
+    }
+    this.invalidate();
+  }
+
+  /** True while frames are drawn at the interactive (reduced) resolution. */
+  get interactiveResolution(): boolean {
+    return this.lowRes;
+  }
+
+  private setLowRes(low: boolean): void {
+    if (low === this.lowRes) return;
+    this.lowRes = low;
+    this.renderer.setPixelRatio(this.fullRatio * (low ? this.interactiveScale : 1)); // keeps the CSS size
+  }
+
+  private draw(now: number): void {
+    this.raf = 0;
+    this.setLowRes(performance.now() < this.interactiveUntil);
+    const t0 = performance.now();
+    this.beforeRender.forEach((f) => f());
+    const t1 = performance.now();
+    this.renderer.render(this.scene, this.camera);
+    if (this.syncRender) {
+      const gl = this.renderer.getContext();
+      gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, this.pixel); // waits for the frame (gl.finish does not in Chrome)
+    }
+    const t2 = performance.now();
+    this.afterRender.forEach((f) => f(t2 - t1));
+    if (this.lastFrame && now - this.lastFrame < 250) {
+      this.frameTimes.push(now - this.lastFrame);
+      this.cpuTimes.push(t2 - t0);
+      if (this.frameTimes.length > 240) this.frameTimes.shift();
+      if (this.cpuTimes.length > 240) this.cpuTimes.shift();
+    }
+    this.lastFrame = now;
   }
 
   onBeforeRender(f: () => void): () => void {
@@ -142,6 +185,7 @@ export class Viewport {
 
   /** PNG of the current view. */
   screenshot(): Promise<Blob> {
+    this.setLowRes(false);
     this.renderer.render(this.scene, this.camera);
     return new Promise((resolve, reject) =>
       this.renderer.domElement.toBlob((b) => (b ? resolve(b) : reject(new Error("screenshot failed"))), "image/png"),
@@ -158,7 +202,9 @@ export class Viewport {
   }
 
   dispose(): void {
+    this.disposed = true;
     cancelAnimationFrame(this.raf);
+    window.clearTimeout(this.settleTimer);
     this.resizeObserver.disconnect();
     this.controls.dispose();
     this.scene.traverse((o) => {

@@ -110,7 +110,7 @@ export class KelvinView implements View {
       strokeEnd: () => this.save(),
       hover: (_p, ev) => {
         this.hoverEvent = ev;
-        vp.invalidate();
+        vp.interacting();
       },
     });
     this.brush.enabled = this.state.brush.on;
@@ -357,7 +357,7 @@ export class KelvinView implements View {
     this.surface.addBrush(b);
     this.localPending.push(eventTime);
     this.unsentSince ??= eventTime;
-    this.viewport?.invalidate();
+    this.viewport?.interacting();
     this.sigmaSync.push();
   }
 
