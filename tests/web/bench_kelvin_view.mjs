@@ -6,7 +6,11 @@
 // SYNC=1: each frame waits for its pixels while σ latency is measured ("drawn" = rasterised, not
 // merely submitted); that stalls the page's thread for the whole software render, so it slows
 // everything else down: the default (0) reports submitted frames, and the orbit part reports what
-// one frame costs SwiftShader (render_waited_ms). ORBIT=0 skips the 200k-triangle part.
+// one frame costs SwiftShader (render_waited_ms, at full resolution; frames while dragging use the
+// software renderer's interactive resolution). ORBIT=0 skips the 200k-triangle part.
+// GPU_COMPOSITING=1 (harness.mjs): chromium without --disable-gpu composites in its GPU process as
+// on a machine with a GPU; by default the software compositor reads every WebGL frame back on the
+// page's main thread, which blocks it (and the WebSocket's messages) for the whole SwiftShader render.
 // Stages of stroke → drawn (medians, ms): wait (event → σ sent: the previous edit's frames are on
 // their way), ack (sent → server's acknowledgement), server (edit received → last frame sent, the
 // server's own clock), frames (sent → last frame arrived), decode + accept (frames → geometries),
@@ -69,6 +73,7 @@ async function orbit(p, moves) {
   const fs = await K(p, "k.frameStats()");
   const up1 = await K(p, "k.glUploads ? k.glUploads() : null");
   const longTasks = await p.evaluate(() => window.__long);
+  await p.waitForTimeout(600); // past the interactive resolution's settle time: full-resolution frames
   const r = await K(p, "k.measureOrbit(30)");
   return {
     display_triangles: await K(p, "k.displayTriangles"), rendered_triangles: fs.triangles, px: [r.width, r.height], mouse_moves: moves, frames: fs.frames, seconds: secs,
