@@ -2,7 +2,8 @@
 // with a fingerprint of the answers, without the rest of the benchmark (solves, SparseLU, RMSE).
 // usage: distlab-kelvin-query-profile --cache-dir DIR [--lx 0.05,0.02] [--rounds 5] [--n 100000]
 //                                     [--only-seeded 1 (one pass over the bench's 1000 points,
-//                                      for callgrind --toggle-collect)]
+//                                      for callgrind --toggle-collect)] [--dump FILE (every answer
+//                                      of the fingerprint, one line each, to diff two builds)]
 // The bench's 1000 random points (same generator) are timed one query at a time, as
 // bench_kelvin does, in `rounds` passes; before each pass the caches are flushed by streaming a
 // buffer larger than the L3 (the bench queries right after its solves have done the same), so
@@ -33,12 +34,15 @@ namespace {
 
 struct Fnv64 {
   std::uint64_t h = 1469598103934665603ull;
+  std::FILE* dump = nullptr;
   void add(double d) {
     unsigned char b[8];
     std::memcpy(b, &d, 8);
     for (unsigned char c : b) h = (h ^ c) * 1099511628211ull;
   }
   void add(const Sample& s) {
+    if (dump)
+      std::fprintf(dump, "%a %a %a %a %d\n", s.h, s.gradient[0], s.gradient[1], s.gradient[2], static_cast<int>(s.status));
     add(s.h);
     for (int k = 0; k < 3; ++k) add(s.gradient[k]);
     add(static_cast<double>(s.status));
@@ -76,6 +80,7 @@ int main(int argc, char** argv) {
   int rounds = 5;
   long n_more = 100000;
   bool only_seeded = false;
+  std::string dump_path;
   for (int i = 1; i < argc; ++i) {
     const std::string k = argv[i];
     if (k == "--help") {
@@ -93,6 +98,7 @@ int main(int argc, char** argv) {
     else if (k == "--rounds") rounds = std::max(1, std::stoi(v));
     else if (k == "--n") n_more = std::max(0L, std::stol(v));
     else if (k == "--only-seeded") only_seeded = v != "0";
+    else if (k == "--dump") dump_path = v;
     else {
       std::fprintf(stderr, "unknown option %s\n", k.c_str());
       return 2;
@@ -137,6 +143,7 @@ int main(int argc, char** argv) {
       continue;
     }
     Fnv64 print;
+    if (!dump_path.empty()) print.dump = std::fopen((dump_path + "-" + std::to_string(lx)).c_str(), "w");
     std::vector<double> hinted, seeded, seeded_more;
     std::mt19937 shuffle(11);
     for (int r = 0; r < rounds; ++r) {
@@ -168,6 +175,7 @@ int main(int argc, char** argv) {
       print.add(s);
       sink += s.h;
     }
+    if (print.dump) std::fclose(print.dump);
     const Stats& st = f.stats();
     std::printf("| %g | %ld | %ld | %.1f | %.3f | %.3f | %.3f | %.3f | %016llx |\n", lx, st.n_verts, st.n_tets, st.size_mb,
                 percentile(hinted, 0.5), percentile(seeded, 0.5), percentile(seeded, 0.9),

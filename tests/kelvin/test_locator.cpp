@@ -123,7 +123,7 @@ TEST(KelvinLocator, EveryBoxSeedContainsTheBoxCentreUnlessItIsOffTheHull) {
   EXPECT_GT(loc.boxes(), static_cast<size_t>(m.tets.rows()) / 2);
   EXPECT_LT(loc.boxes(), static_cast<size_t>(m.tets.rows()) * 3);
   EXPECT_LT(loc.blocks(), loc.boxes());
-  EXPECT_EQ(loc.bytes(), loc.boxes() * sizeof(int) + loc.blocks() * 8);
+  EXPECT_EQ(loc.bytes(), loc.boxes() * (sizeof(int) + 4 * sizeof(int)) + loc.blocks() * 8);  // cell + its vertex ids
   int off_hull = 0, checked_off = 0;
   for (size_t i = 0; i < loc.boxes(); ++i) {
     const Vec3 y = loc.box_centre(i);

@@ -8,7 +8,7 @@
 
 namespace distlab::kelvin {
 
-Location walk(const PackedMesh& m, const Vec3& y, int c);
+Location walk(const PackedMesh& m, const Vec3& y, int c, const int* first_vertices = nullptr);
 
 void barycentric(const TetMesh& m, int c, const Vec3& y, double lambda[4]) {
   const auto* t = m.tets.row(c).data();
@@ -35,6 +35,7 @@ double grid_coordinate(double y, double lo, double inv_step, int n) {
 void Locator::build(const PackedMesh& m) {
   blocks_.clear();
   cells_.clear();
+  seed_vertices_.clear();
   const long n_cells = static_cast<long>(m.cells.size());
   if (n_cells == 0) return;
   lo_ = Vec3::Constant(std::numeric_limits<double>::infinity());
@@ -93,6 +94,9 @@ void Locator::build(const PackedMesh& m) {
       last = cell;
     }
   }
+  seed_vertices_.resize(total);
+  for (size_t i = 0; i < total; ++i)
+    std::copy_n(m.cells[static_cast<size_t>(cells_[i])].v, 4, seed_vertices_[i].begin());
 }
 
 Vec3 Locator::centre(const int idx[3], const int sub[3], int r) const {
@@ -113,19 +117,26 @@ Vec3 Locator::box_centre(std::size_t box) const {
   return centre(idx, sub, r);
 }
 
-int Locator::seed(const Vec3& y) const {
+int Locator::seed(const Vec3& y) const { return cells_[box(y)]; }
+
+std::size_t Locator::box(const Vec3& y) const {
   double f[3];
   for (int k = 0; k < 3; ++k) f[k] = grid_coordinate(y[k], lo_[k], inv_step_[k], n_[k]);
   const Block blk = blocks_[(static_cast<size_t>(f[2]) * n_[1] + static_cast<size_t>(f[1])) * n_[0] + static_cast<size_t>(f[0])];
   const double r = blk.r;
   int s[3];
   for (int k = 0; k < 3; ++k) s[k] = std::min(static_cast<int>((f[k] - std::floor(f[k])) * r), static_cast<int>(blk.r) - 1);
-  return cells_[blk.first + (static_cast<size_t>(s[2]) * blk.r + s[1]) * blk.r + s[0]];
+  return blk.first + (static_cast<size_t>(s[2]) * blk.r + s[1]) * blk.r + s[0];
 }
 
 Location Locator::locate(const PackedMesh& m, const Vec3& y, int start) const {
-  const bool valid = start >= 0 && static_cast<size_t>(start) < m.cells.size();
-  Location loc = walk(m, y, valid ? start : seed(y));
+  Location loc;
+  if (start >= 0 && static_cast<size_t>(start) < m.cells.size()) {
+    loc = walk(m, y, start);
+  } else {
+    const std::size_t b = box(y);
+    loc = walk(m, y, cells_[b], seed_vertices_[b].data());
+  }
   // The walk cycled (seen at l_x = 0.03 on the cube: rounding in the barycentric coordinates of
   // nearly flat cells). Fall back to a scan of every cell: slow, rare, and it always ends.
   return loc.cell >= 0 ? loc : scan(m, y);
@@ -169,7 +180,8 @@ static void prefetch_around(const PackedMesh& m, int c) {
 }
 
 // Stochastic visibility walk; cell -1 when it did not end within its step budget.
-Location walk(const PackedMesh& m, const Vec3& y, int c) {
+// first_vertices: c's vertex ids if the caller has them at hand (the seeding grid's copy).
+Location walk(const PackedMesh& m, const Vec3& y, int c, const int* first_vertices) {
   Location loc;
   // Tolerance so a point on a shared face is accepted by either cell instead of ping-ponging.
   constexpr double eps = 1e-12;
@@ -183,7 +195,7 @@ Location walk(const PackedMesh& m, const Vec3& y, int c) {
       if (walk_is_trapped(m, y, c, eps)) break;
     }
     prefetch_around(m, c);
-    barycentric(m, c, y, loc.lambda);
+    barycentric(m, step == 0 && first_vertices ? first_vertices : m.cells[static_cast<size_t>(c)].v, y, loc.lambda);
     rng ^= rng << 13, rng ^= rng >> 17, rng ^= rng << 5;
     const int first = static_cast<int>(rng & 3u);
     int exit = -1;

@@ -6,7 +6,10 @@
 // here each block of a coarse grid is split into r³ boxes, r chosen from the number of cells in
 // the block, so a box is about a cell everywhere. Each box holds the cell that contains its
 // centre (exact barycentric test when the grid is built): a hint-less walk starts within half a
-// box diagonal of the point, usually in its cell.
+// box diagonal of the point, usually in its cell. The box also keeps a copy of that cell's four
+// vertex ids, so the walk's first barycentric test reads the vertices without waiting for the
+// cell's record: one dependent cache miss less per hint-less query (16 bytes more per box).
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -33,7 +36,9 @@ class Locator {
   static Location scan(const PackedMesh& mesh, const Vec3& y);
   std::size_t boxes() const { return cells_.size(); }
   std::size_t blocks() const { return blocks_.size(); }
-  std::size_t bytes() const { return cells_.size() * sizeof(int) + blocks_.size() * sizeof(Block); }
+  std::size_t bytes() const {
+    return cells_.size() * (sizeof(int) + sizeof(Vertices)) + blocks_.size() * sizeof(Block);
+  }
   // Centre of box i (for tests: the seed of a box centre contains it unless it is off the hull).
   Vec3 box_centre(std::size_t i) const;
 
@@ -42,11 +47,14 @@ class Locator {
     std::uint32_t first = 0;  // index of its first box in cells_
     std::uint32_t r = 1;      // r × r × r boxes
   };
+  using Vertices = std::array<int, 4>;
+  std::size_t box(const Vec3& y) const;  // index of the box holding y (clamped into the grid)
   Vec3 centre(const int block[3], const int sub[3], int r) const;
   Vec3 lo_ = Vec3::Zero(), inv_step_ = Vec3::Ones();
   int n_[3] = {1, 1, 1};  // blocks per axis
-  std::vector<Block> blocks_;
-  std::vector<int> cells_;  // per box, block by block, x fastest within a block
+  HugePageVector<Block> blocks_;
+  HugePageVector<int> cells_;  // per box, block by block, x fastest within a block
+  HugePageVector<Vertices> seed_vertices_;  // per box, the vertices of its cell
 };
 
 // Barycentric coordinates of y in cell c (the formula of packed_mesh.hpp).

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "distlab/kelvin/tet_mesh.hpp"
+#include "huge_pages.hpp"
 
 namespace distlab::kelvin {
 
@@ -27,9 +28,9 @@ struct alignas(64) VertexRecord {
 };
 
 struct PackedMesh {
-  std::vector<CellRecord> cells;
-  std::vector<VertexRecord> vertices;
-  std::vector<std::uint8_t> in_domain;  // as TetMesh::in_domain
+  HugePageVector<CellRecord> cells;
+  HugePageVector<VertexRecord> vertices;
+  HugePageVector<std::uint8_t> in_domain;  // as TetMesh::in_domain
 
   PackedMesh() = default;
   explicit PackedMesh(const TetMesh& m);
@@ -53,10 +54,14 @@ inline void barycentric(const double* pa, const double* pb, const double* pc, co
   lambda[0] = 1.0 - lambda[1] - lambda[2] - lambda[3];
 }
 
-inline void barycentric(const PackedMesh& m, int c, const Vec3& y, double lambda[4]) {
-  const int* t = m.cells[static_cast<std::size_t>(c)].v;
+// In the tet of vertices t (a cell's, or the seeding grid's copy of them).
+inline void barycentric(const PackedMesh& m, const int t[4], const Vec3& y, double lambda[4]) {
   const auto p = [&](int k) { return m.vertices[static_cast<std::size_t>(t[k])].y; };
   barycentric(p(0), p(1), p(2), p(3), y, lambda);
+}
+
+inline void barycentric(const PackedMesh& m, int c, const Vec3& y, double lambda[4]) {
+  barycentric(m, m.cells[static_cast<std::size_t>(c)].v, y, lambda);
 }
 
 }  // namespace distlab::kelvin
