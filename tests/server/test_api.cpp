@@ -352,10 +352,19 @@ TEST(ApiLimits, WebSocketMessageSizeAndRate) {
     WsClient::Message m;
     ASSERT_TRUE(ws.read(m));  // hello
     int errors = 0, pongs = 0;
-    for (int i = 0; i < 20; ++i) ws.send({{"type", "ping"}});
+    for (int i = 0; i < 20; ++i) ws.send({{"type", "ping"}, {"request", i}});
+    std::set<int> refused;  // request ids of the refused messages: each names its message
     for (int i = 0; i < 20 && ws.read(m, 5); ++i) {
       if (m.j["type"] == "pong") ++pongs;
-      if (m.j["type"] == "error" && m.j["error"]["code"] == "rate_limited") ++errors;
+      if (m.j["type"] == "error" && m.j["error"]["code"] == "rate_limited") {
+        ++errors;
+        ASSERT_TRUE(m.j.contains("request")) << m.data;
+        refused.insert(m.j["request"].get<int>());
+      }
+    }
+    EXPECT_EQ(refused.size(), static_cast<std::size_t>(errors));
+    if (!refused.empty()) {
+      EXPECT_GE(*refused.begin(), 4);  // the burst's first messages were served
     }
     EXPECT_GE(pongs, 4);
     EXPECT_LE(pongs, 8);
