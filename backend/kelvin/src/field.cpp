@@ -349,8 +349,8 @@ void Field::set_sigma(const SigmaSpec& sigma, bool gradients) {
   m.V = VecX::Constant(np, std::numeric_limits<double>::quiet_NaN());
   for (size_t i = 0; i < m.interior.size(); ++i) m.V[m.interior[i]] = rhs[static_cast<Eigen::Index>(i)];
   for (size_t b = 0; b < m.boundary.size(); ++b) m.V[m.boundary[b]] = v_bnd[static_cast<Eigen::Index>(b)];
+  for (Eigen::Index v = 0; v < np; ++v) m.packed.vertices[static_cast<size_t>(v)].value = m.V[v];  // for queries
   m.stats.t_solve = seconds_since(t0);
-  for (Eigen::Index v = 0; v < np; ++v) m.packed.vertices[static_cast<size_t>(v)].value = m.V[v];
   m.has_gradients = false;
   m.stats.t_gradient = 0;
   if (!gradients) return;
