@@ -12,7 +12,6 @@
 #include <vector>
 
 #include "distlab/kelvin/tet_mesh.hpp"
-#include "huge_pages.hpp"
 
 namespace distlab::kelvin {
 
@@ -28,9 +27,9 @@ struct alignas(64) VertexRecord {
 };
 
 struct PackedMesh {
-  HugePageVector<CellRecord> cells;
-  HugePageVector<VertexRecord> vertices;
-  HugePageVector<std::uint8_t> in_domain;  // as TetMesh::in_domain
+  std::vector<CellRecord> cells;
+  std::vector<VertexRecord> vertices;
+  std::vector<std::uint8_t> in_domain;  // as TetMesh::in_domain
 
   PackedMesh() = default;
   explicit PackedMesh(const TetMesh& m);
