@@ -16,6 +16,13 @@ using Msg = WsClient::Message;
 
 std::string path_of(const std::string& id, const std::string& tail = "") { return "/api/kelvin/objects/" + id + tail; }
 
+// Waits for the socket's "hello": from then on the server has registered it, so the session's job
+// events reach it (a socket still registering could miss them).
+void await_hello(WsClient& ws) {
+  Msg m;
+  ASSERT_TRUE(ws.until([](const Msg& x) { return !x.binary && x.j["type"] == "hello"; }, m, 60)) << "no hello";
+}
+
 // Creates an object and waits (over the WebSocket) for its job to finish; returns the object id.
 std::string create_ready(httplib::Client& c, WsClient& ws, const std::string& session, const json& body,
                          std::vector<std::string>* stages = nullptr, json* final_job = nullptr) {
@@ -72,6 +79,7 @@ TEST_F(KelvinApi, AssetsListed) {
 TEST_F(KelvinApi, PrepareQuerySigmaIsosurfaceExport) {
   const std::string s = new_session(c);
   WsClient ws(server_->port(), s);
+  await_hello(ws);
   std::vector<std::string> stages;
   json job;
   const std::string id = create_ready(c, ws, s, kCube, &stages, &job);
@@ -179,6 +187,7 @@ TEST_F(KelvinApi, PrepareQuerySigmaIsosurfaceExport) {
 TEST_F(KelvinApi, SigmaEditAnsweredByIsosurfaceFrame) {
   const std::string s = new_session(c);
   WsClient ws(server_->port(), s);
+  await_hello(ws);
   json body = kCube;
   body["levels"] = {0.3};
   auto created = c.Post("/api/kelvin/objects", session_headers(s), body.dump(), "application/json");
@@ -394,6 +403,8 @@ TEST_F(KelvinApi, SurfaceSentOnceSigmaVersionsCarrySigmaOnlyRequestIdsEchoed) {
 TEST_F(KelvinApi, TwoSessionsEditSigmaAtOnceWithoutSeeingEachOther) {
   const std::string a = new_session(c), b = new_session(c);
   WsClient wa(server_->port(), a), wb(server_->port(), b);
+  await_hello(wa);
+  await_hello(wb);
   const std::string ia = create_ready(c, wa, a, kCube);
   const std::string ib = create_ready(c, wb, b, kCube);
   // The second preparation is shared with the first (same content).
@@ -427,6 +438,7 @@ TEST_F(KelvinApi, TwoSessionsEditSigmaAtOnceWithoutSeeingEachOther) {
 TEST_F(KelvinApi, JobCancelledMidway) {
   const std::string s = new_session(c);
   WsClient ws(server_->port(), s);
+  await_hello(ws);
   // Fine enough to take seconds (not cached: an unusual lx).
   auto r = c.Post("/api/kelvin/objects", session_headers(s), json{{"asset", "sphere"}, {"lx", 0.0613}}.dump(), "application/json");
   ASSERT_TRUE(r);
@@ -451,6 +463,7 @@ TEST_F(KelvinApi, JobCancelledMidway) {
 TEST_F(KelvinApi, UploadsAndInlineMeshes) {
   const std::string s = new_session(c);
   WsClient ws(server_->port(), s);
+  await_hello(ws);
   std::ifstream f(std::string(DISTLAB_SOURCE_DIR) + "/assets/cube.stl", std::ios::binary);
   const std::string stl((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
   auto r = c.Post("/api/kelvin/uploads?format=stl", session_headers(s), stl, "application/octet-stream");
@@ -540,6 +553,7 @@ TEST_F(KelvinApi, Limits) {
   // Not ready yet → 409 is covered by JobCancelledMidway; the query point limit:
   const std::string s2 = new_session(c);
   WsClient ws(server_->port(), s2);
+  await_hello(ws);
   const std::string id = create_ready(c, ws, s2, kCube);
   json many = json::array();
   for (int i = 0; i < 100001; ++i) many.push_back({2, 0, 0});
@@ -600,6 +614,7 @@ TEST(KelvinRestart, ReloadsPreparedObjectFromCache) {
     auto c = server.client();
     const std::string s = new_session(c);
     WsClient ws(server.port(), s);
+    await_hello(ws);
     const std::string id = create_ready(c, ws, s, kCube);
     first_stats = body_json(c.Get(path_of(id).c_str(), session_headers(s)))["stats"];
     EXPECT_FALSE(first_stats["cache_hit"].get<bool>());
@@ -611,6 +626,7 @@ TEST(KelvinRestart, ReloadsPreparedObjectFromCache) {
     auto c = server.client();
     const std::string s = new_session(c);
     WsClient ws(server.port(), s);
+    await_hello(ws);
     const std::string id = create_ready(c, ws, s, kCube);
     const json stats = body_json(c.Get(path_of(id).c_str(), session_headers(s)))["stats"];
     EXPECT_TRUE(stats["cache_hit"].get<bool>());
