@@ -10,18 +10,26 @@ namespace {
 using detail::gjk_closest;
 using detail::Placed;
 
+// 30 random poses of a pair: B's origin `offset` from A's, in a random direction.
+template <class F>
+void for_random_poses(std::mt19937_64& rng, double offset, F&& f) {
+  for (int k = 0; k < 30; ++k) {
+    const Pose pa = test::random_pose(rng, 1.0);
+    Pose pb = test::random_pose(rng, 1.0);
+    pb.position = pa.position + offset * test::random_unit(rng);
+    f(pa, pb);
+  }
+}
+
 TEST(Gjk, SeparatedPairsBracketTheDistance) {
   const auto zoo = test::shape_zoo();
   for (const auto& [na, a] : zoo) {
     for (const auto& [nb, b] : zoo) {
       SCOPED_TRACE(na + " vs " + nb);
       std::mt19937_64 rng(31);
-      for (int k = 0; k < 30; ++k) {
-        const Pose pa = test::random_pose(rng, 1.0);
-        Pose pb = test::random_pose(rng, 1.0);
-        pb.position = pa.position + 2.5 * test::random_unit(rng);
+      for_random_poses(rng, 2.5, [&](const Pose& pa, const Pose& pb) {
         const EuclideanResult ref = euclidean_distance(EuclideanShape(a), pa, EuclideanShape(b), pb);
-        if (ref.distance < 0.05) continue;
+        if (ref.distance < 0.05) return;
         // Cold start from an arbitrary direction, tight tolerance.
         const auto g = gjk_closest(Placed(a, pa), Placed(b, pb), Vec3::UnitX(), 1e-13, 1e-12, 128);
         EXPECT_FALSE(g.overlap);
@@ -31,7 +39,7 @@ TEST(Gjk, SeparatedPairsBracketTheDistance) {
         EXPECT_NEAR((g.pb - g.pa).norm(), g.upper, 1e-12);
         EXPECT_NEAR(test::world_signed_distance(a, pa, g.pa), 0, 1e-9);
         EXPECT_NEAR(test::world_signed_distance(b, pb, g.pb), 0, 1e-9);
-      }
+      });
     }
   }
 }
@@ -42,16 +50,13 @@ TEST(Gjk, OverlapGivesACommonPoint) {
     for (const auto& [nb, b] : zoo) {
       SCOPED_TRACE(na + " vs " + nb);
       std::mt19937_64 rng(32);
-      for (int k = 0; k < 30; ++k) {
-        const Pose pa = test::random_pose(rng, 1.0);
-        Pose pb = test::random_pose(rng, 1.0);
-        pb.position = pa.position + 0.2 * test::random_unit(rng);
+      for_random_poses(rng, 0.2, [&](const Pose& pa, const Pose& pb) {
         const auto g = gjk_closest(Placed(a, pa), Placed(b, pb), Vec3::UnitY(), 0, 1e-12, 128);
         ASSERT_TRUE(g.overlap);
         const Vec3 p = 0.5 * (g.pa + g.pb);
         EXPECT_LE(test::world_signed_distance(a, pa, p), 1e-12);
         EXPECT_LE(test::world_signed_distance(b, pb, p), 1e-12);
-      }
+      });
     }
   }
 }
@@ -66,12 +71,6 @@ TEST(Gjk, StopsOnceSeparationIsProved) {
   EXPECT_FALSE(g.overlap);
 }
 
-}  // namespace
-}  // namespace distlab
-
-namespace distlab {
-namespace {
-
 // The double-precision start (gjk_distance): on every shape pair, points of A and B whose
 // distance is the certified one to ~1e-9 (stalls on curved shapes stop it a little early).
 TEST(GjkDistance, MatchesTheCertifiedDistanceOnEveryShapePair) {
@@ -81,12 +80,9 @@ TEST(GjkDistance, MatchesTheCertifiedDistanceOnEveryShapePair) {
       SCOPED_TRACE(na + " vs " + nb);
       std::mt19937_64 rng(33);
       int separated = 0;
-      for (int k = 0; k < 30; ++k) {
-        const Pose pa = test::random_pose(rng, 1.0);
-        Pose pb = test::random_pose(rng, 1.0);
-        pb.position = pa.position + 2.5 * test::random_unit(rng);
+      for_random_poses(rng, 2.5, [&](const Pose& pa, const Pose& pb) {
         const EuclideanResult ref = euclidean_distance(EuclideanShape(a), pa, EuclideanShape(b), pb);
-        if (ref.distance < 0.05) continue;
+        if (ref.distance < 0.05) return;
         ++separated;
         const double scale = bounding_ball(a).radius + bounding_ball(b).radius;
         const EuclideanResult g = gjk_distance(a, pa, b, pb, scale);
@@ -94,7 +90,7 @@ TEST(GjkDistance, MatchesTheCertifiedDistanceOnEveryShapePair) {
         EXPECT_NEAR((g.witness_b - g.witness_a).norm(), g.distance, 1e-12);
         EXPECT_NEAR(test::world_signed_distance(a, pa, g.witness_a), 0, 1e-9);
         EXPECT_NEAR(test::world_signed_distance(b, pb, g.witness_b), 0, 1e-9);
-      }
+      });
       EXPECT_GT(separated, 10);
     }
   }
@@ -106,12 +102,9 @@ TEST(GjkDistance, OverlapGivesZero) {
     for (const auto& [nb, b] : zoo) {
       SCOPED_TRACE(na + " vs " + nb);
       std::mt19937_64 rng(34);
-      for (int k = 0; k < 30; ++k) {
-        const Pose pa = test::random_pose(rng, 1.0);
-        Pose pb = test::random_pose(rng, 1.0);
-        pb.position = pa.position + 0.2 * test::random_unit(rng);
+      for_random_poses(rng, 0.2, [&](const Pose& pa, const Pose& pb) {
         EXPECT_EQ(gjk_distance(a, pa, b, pb, 1.0).distance, 0.0);
-      }
+      });
     }
   }
 }

@@ -23,6 +23,7 @@
 #include <string>
 #include <vector>
 
+#include "../../backend/app/bench/query_sets.hpp"
 #include "distlab/kelvin/field.hpp"
 #include "distlab/mesh/primitives.hpp"
 
@@ -110,18 +111,10 @@ int main(int argc, char** argv) {
   }
   std::filesystem::create_directories(cache_dir);
   // The bench's query sets (bench_kelvin.cpp): a coherent path and 1000 random points.
-  std::mt19937 rng(1);
-  std::uniform_real_distribution<double> u(-3, 3);
-  std::vector<Vec3> path, random, more;
-  for (int i = 0; i < 1000; ++i) {
-    const double t = 2 * M_PI * i / 1000;
-    path.emplace_back(1.5 * std::cos(t), 1.5 * std::sin(t), 0.4 * std::sin(3 * t));
-  }
-  while (random.size() < 1000) {
-    const Vec3 x(u(rng), u(rng), u(rng));
-    if (x.cwiseAbs().maxCoeff() > 0.5) random.push_back(x);
-  }
+  const auto [path, random] = bench::kelvin_query_sets();
+  std::vector<Vec3> more;
   std::mt19937 rng2(7);
+  std::uniform_real_distribution<double> u(-3, 3);
   while (static_cast<long>(more.size()) < n_more) {
     const Vec3 x(u(rng2), u(rng2), u(rng2));
     if (x.cwiseAbs().maxCoeff() > 0.5) more.push_back(x);

@@ -29,6 +29,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "query_sets.hpp"
 #include "cholmod_solver.hpp"  // private to distlab_kelvin: the factorization Field::prepare runs
 #include "distlab/kelvin/field.hpp"
 #include "distlab/kelvin/surface_tools.hpp"
@@ -346,19 +347,8 @@ int main(int argc, char** argv) {
   const mesh::SurfaceMesh cube = mesh::box(Vec3::Ones());
   SigmaSpec zero;  // u_∂ = 1, as in Fig. 3
 
-  // Query sets: a smooth path around the cube (hinted) and uniform random points in [−3, 3]³
-  // outside it; the AABB baseline uses the random set.
-  std::mt19937 rng(1);
-  std::uniform_real_distribution<double> u(-3, 3);
-  std::vector<Vec3> path, random;
-  for (int i = 0; i < 1000; ++i) {
-    const double t = 2 * M_PI * i / 1000;
-    path.emplace_back(1.5 * std::cos(t), 1.5 * std::sin(t), 0.4 * std::sin(3 * t));
-  }
-  while (random.size() < 1000) {
-    const Vec3 x(u(rng), u(rng), u(rng));
-    if (x.cwiseAbs().maxCoeff() > 0.5) random.push_back(x);
-  }
+  // Query sets (hinted path, hint-less random points; the AABB baseline uses the random set).
+  const auto [path, random] = bench::kelvin_query_sets();
 
   // Table I. RMSE of h against the finest l_x on a grid × grid plane z = 0 in [−3, 3]² (the
   // paper's definition; points inside the cube have no h and are left out). Beside it two exact

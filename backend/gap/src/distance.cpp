@@ -73,7 +73,7 @@ void solve_into(GapResult& r, const GapBody& a, const GapBody& b, const GapParam
 
 GapResult gap_distance(const GapBody& a, const GapBody& b, const GapParams& params) {
   GapResult r;
-  a.p2s().prefetch();  // the solver's rows arrive while FCL works
+  a.p2s().prefetch();  // the solver's rows arrive while the Euclidean start is computed
   b.p2s().prefetch();
   if (!params.euclidean) {
     // An uncertified GJK answer is a good enough start; near contact the certified path below
