@@ -11,6 +11,8 @@ import path from "node:path";
 const source = process.env.DISTLAB_SOURCE_DIR ?? path.resolve(import.meta.dirname, "../..");
 const require = createRequire(path.join(source, "web", "package.json"));
 const { chromium } = require("playwright-core");
+/** msgpack bytes → value (the server's binary WebSocket frames). */
+export const decodeMsgpack = require("@msgpack/msgpack").decode;
 
 export const artifacts = process.env.DISTLAB_ARTIFACTS ?? path.join(source, "build", "web-artifacts");
 mkdirSync(artifacts, { recursive: true });
@@ -68,8 +70,9 @@ export async function launchBrowser() {
   });
 }
 
-/** A page on the given hash; console errors and failed requests are collected in page.problems. */
-export async function openView(browser, server, hash, { width = 1280, height = 800 } = {}) {
+/** A page on the given hash; console errors and failed requests are collected in page.problems.
+ *  `setup(page)` runs before the page loads (to listen to its requests and sockets from the start). */
+export async function openView(browser, server, hash, { width = 1280, height = 800, setup } = {}) {
   const context = await browser.newContext({ viewport: { width, height }, acceptDownloads: true });
   // Generous waits: CI's 2 cores render WebGL in software while other tests run (waits, not timings).
   context.setDefaultTimeout(120000);
@@ -79,6 +82,7 @@ export async function openView(browser, server, hash, { width = 1280, height = 8
   page.on("console", (m) => {
     if (m.type() === "error") page.problems.push(`console: ${m.text()}`);
   });
+  await setup?.(page);
   await page.goto(server.url + hash);
   await page.waitForFunction(() => document.getElementById("connection")?.textContent === "connected", null, { timeout: 120000 });
   // Views load lazily: wait until the routed view has mounted its test hooks (window.distlab.<view>).

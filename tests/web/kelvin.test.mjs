@@ -4,7 +4,7 @@
 // restores the state, the wrench presets apply, and the object comes back after a restart.
 import { test, after, before } from "node:test";
 import assert from "node:assert/strict";
-import { canvasPixels, differentBytes, launchBrowser, openView, screenshot, startServer } from "./harness.mjs";
+import { canvasPixels, decodeMsgpack, differentBytes, launchBrowser, openView, screenshot, startServer } from "./harness.mjs";
 
 let server, browser;
 before(async () => {
@@ -31,6 +31,26 @@ async function stroke(page, from, to, steps = 12) {
   await page.mouse.down();
   for (let i = 1; i <= steps; i++) await page.mouse.move(a.x + ((b.x - a.x) * i) / steps, a.y + ((b.y - a.y) * i) / steps);
   await page.mouse.up();
+}
+
+/** Counts the page's surface downloads per object id: REST GETs of .../surface, the socket's
+ *  "surface" frames (positions + indices + σ) and its σ-only "surface_sigma" frames. */
+function watchSurfaces(page) {
+  const counts = { rest: {}, socket: {}, sigma: {} };
+  const inc = (m, id) => (m[id] = (m[id] ?? 0) + 1);
+  page.on("request", (r) => {
+    const m = /\/api\/kelvin\/objects\/([^/?]+)\/surface(\?|$)/.exec(r.url());
+    if (m && r.method() === "GET") inc(counts.rest, m[1]);
+  });
+  page.on("websocket", (ws) =>
+    ws.on("framereceived", ({ payload }) => {
+      if (typeof payload === "string") return;
+      const f = decodeMsgpack(payload);
+      if (f?.type === "surface") inc(counts.socket, f.object);
+      else if (f?.type === "surface_sigma") inc(counts.sigma, f.object);
+    }),
+  );
+  return counts;
 }
 
 async function errorToast(page) {
@@ -106,6 +126,51 @@ test("the cube is prepared with a progress bar; painting σ with the mouse chang
   const errors = await page.locator(".toast-error").allTextContents();
   assert.deepEqual(errors.filter((t) => /σ not applied/.test(t)), [], "the edit was applied and reported so");
   assert.deepEqual((await K(page, "k.sigma")).body.brushes ?? [], [], "σ was reset");
+  assert.deepEqual(page.problems, []);
+});
+
+test("the surface is downloaded once, as the socket's frame (no REST fetch beside it); a σ edit sends σ only", async () => {
+  let counts;
+  // An l_x no other test uses: the object is prepared after the socket has joined (a socket
+  // joining just as an object becomes ready may legitimately get the surface twice).
+  const page = await openView(browser, server, hash({ object: "cube", lx: 0.12, levels: [0], base: -0.5 }), { setup: (p) => (counts = watchSurfaces(p)) });
+  await waitReady(page);
+  const id = await K(page, "k.objectId");
+  const v = await K(page, "k.sigma.version");
+  await page.evaluate(() => window.dispatchEvent(new KeyboardEvent("keydown", { key: "r" }))); // reset σ: a new σ version
+  await page.waitForFunction((v) => window.distlab.kelvin.sigma.version > v && window.distlab.kelvin.ready, v, { timeout: 30000 });
+  await page.waitForTimeout(500); // a second copy, were one sent, would have arrived
+  assert.equal(counts.socket[id] ?? 0, 1, "exactly one surface frame");
+  assert.equal(counts.rest[id] ?? 0, 0, "no REST download of the surface");
+  assert.equal(await K(page, "k.surfaceSource"), "socket");
+  assert.ok((counts.sigma[id] ?? 0) >= 1, "the new σ came as a σ-only frame");
+  assert.deepEqual(page.problems, []);
+});
+
+test("if the socket's surface frame does not come, the surface is fetched by REST, once", async () => {
+  let counts, dropped = 0;
+  const page = await openView(browser, server, hash({ object: "cube", lx: 0.13, levels: [0] }), {
+    setup: async (p) => {
+      counts = watchSurfaces(p);
+      // The socket passes everything but the surface frames.
+      await p.routeWebSocket(/\/ws\b/, (ws) => {
+        const real = ws.connectToServer();
+        ws.onMessage((m) => real.send(m));
+        real.onMessage((m) => {
+          if (typeof m !== "string" && decodeMsgpack(m)?.type === "surface") return void dropped++;
+          ws.send(m);
+        });
+        ws.onClose((code, reason) => real.close({ code, reason }));
+        real.onClose((code, reason) => ws.close({ code, reason }));
+      });
+    },
+  });
+  await waitReady(page);
+  const id = await K(page, "k.objectId");
+  assert.ok(dropped >= 1, "the server sent the surface on the socket");
+  assert.equal(counts.rest[id] ?? 0, 1, "one REST download");
+  assert.equal(await K(page, "k.surfaceSource"), "rest");
+  assert.ok((await K(page, "k.displayTriangles")) > 0, "the surface is shown");
   assert.deepEqual(page.problems, []);
 });
 
@@ -225,7 +290,8 @@ test("the wrench presets (a), (b), (c) apply the case files' σ; switching betwe
 });
 
 test("after a server restart the page re-creates its object (from the server's cache) with its σ", async () => {
-  const page = await openView(browser, server, hash({ object: "cube", lx: 0.1, levels: [0, 0.25], base: -0.3 }));
+  let counts;
+  const page = await openView(browser, server, hash({ object: "cube", lx: 0.1, levels: [0, 0.25], base: -0.3 }), { setup: (p) => (counts = watchSurfaces(p)) });
   await waitReady(page);
   const id = await K(page, "k.objectId");
   const port = server.port;
@@ -235,6 +301,8 @@ test("after a server restart the page re-creates its object (from the server's c
   await page.waitForFunction((id) => window.distlab.kelvin.objectId && window.distlab.kelvin.objectId !== id && window.distlab.kelvin.ready, id, { timeout: 120000 });
   const o = await K(page, "k.object");
   assert.equal(o.stats.cache_hit, true, "prepared object reloaded from the cache");
+  await page.waitForTimeout(500);
+  assert.equal((counts.socket[o.id] ?? 0) + (counts.rest[o.id] ?? 0), 1, "the re-created object's surface came once");
   assert.deepEqual((await K(page, "k.sigma")).body, { constant: -0.3 });
   assert.deepEqual(page.problems.filter((p) => !p.includes("Failed to load resource") && !p.includes("WebSocket")), []);
 });

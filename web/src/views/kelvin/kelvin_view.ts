@@ -35,6 +35,12 @@ interface EditTrace {
   raf: number; // the animation frame that draws it began
 }
 
+/** How long a ready object's surface is awaited on the socket before it is fetched by REST. The
+ *  server sends it right after the "ready" message (before any iso-surface); this only covers a
+ *  frame that cannot come (the socket closed meanwhile) without fetching ~4 MB twice when it is
+ *  merely queued behind other work on the server. */
+const SURFACE_SOCKET_WAIT_MS = 10000;
+
 interface Limits {
   max_query_points?: number;
   min_lx?: number;
@@ -72,6 +78,11 @@ export class KelvinView implements View {
   private hoverEvent: PointerEvent | null = null;
   private firstOpen = true;
   private unclaimed: MeshFrame[] = [];
+  // The surface frame pushed on the socket for the object being prepared, until load() takes it.
+  private socketSurface: MeshFrame | null = null;
+  private surfaceWaiter: { id: string; take: (f: MeshFrame) => void; cancel: () => void } | null = null;
+  /** Where the shown surface came from: the socket's frame, or REST when that did not come. */
+  surfaceSource: "socket" | "rest" | null = null;
   private sliceAtVersion = -1;
 
   async mount(host: ViewHost, raw: Record<string, unknown>): Promise<void> {
@@ -192,6 +203,9 @@ export class KelvinView implements View {
     this.objectId = this.pendingId = null;
     this.status = null;
     this.dropSurface();
+    this.socketSurface = null;
+    this.surfaceWaiter?.cancel();
+    this.surfaceSource = null;
     this.iso.clear();
     this.iso.setLevels(this.state.levels);
     this.slice?.setObject(null, new THREE.Box3());
@@ -224,15 +238,57 @@ export class KelvinView implements View {
     this.status = status;
     this.objectId = status.id;
     try {
-      const frame = await api.get<MeshFrame>(`/api/kelvin/objects/${status.id}/surface`);
+      const frame = await this.surfaceOf(status.id);
       if (ticket !== this.ticket) return;
-      if (!isMeshFrame(frame)) throw new Error("the server's surface is not a mesh frame");
       this.showSurface(frame);
     } catch (e) {
       if (ticket === this.ticket) showError(e, "cannot fetch the surface");
     }
     this.host.progress(null);
     this.updateStats();
+  }
+
+  /** The ready object's surface: the frame the server pushes on the socket once per object (it
+   *  may have come already); by REST only when the socket is closed or the frame does not come. */
+  private surfaceOf(id: string): Promise<MeshFrame> {
+    const pushed = this.socketSurface;
+    this.socketSurface = null;
+    if (pushed?.object === id) {
+      this.surfaceSource = "socket";
+      return Promise.resolve(pushed);
+    }
+    return new Promise<MeshFrame>((resolve, reject) => {
+      let settled = false;
+      const settle = (f: MeshFrame | null, e?: unknown) => {
+        if (settled) return;
+        settled = true;
+        window.clearTimeout(timer);
+        if (this.surfaceWaiter === waiter) this.surfaceWaiter = null;
+        if (f) resolve(f);
+        else reject(e);
+      };
+      const waiter = {
+        id,
+        take: (f: MeshFrame) => {
+          if (!settled) this.surfaceSource = "socket";
+          settle(f);
+        },
+        cancel: () => settle(null, new ApiError(0, "cancelled", "another object was chosen")),
+      };
+      const fromRest = () => {
+        if (settled) return;
+        api.get<MeshFrame>(`/api/kelvin/objects/${id}/surface`).then(
+          (f) => {
+            if (!isMeshFrame(f)) return settle(null, new Error("the server's surface is not a mesh frame"));
+            if (!settled) this.surfaceSource = "rest";
+            settle(f);
+          },
+          (e) => settle(null, e),
+        );
+      };
+      this.surfaceWaiter = waiter;
+      const timer = window.setTimeout(fromRest, socket.state === "open" ? SURFACE_SOCKET_WAIT_MS : 0);
+    });
   }
 
   private adopt(id: string): void {
@@ -296,11 +352,13 @@ export class KelvinView implements View {
       return;
     }
     // After a reconnect: the server may have restarted (sessions are in memory). The prepared
-    // object comes back from its cache when re-created with the same inputs.
+    // object comes back from its cache when re-created with the same inputs. If it still knows
+    // the object, joining already sent this socket its surface and frames (no "state" request:
+    // that would send the whole surface a second time).
     const id = this.objectId;
     if (!id) return;
     api.get<ObjectStatus>(`/api/kelvin/objects/${id}`).then(
-      () => socket.send({ type: "state" }),
+      () => undefined,
       (e) => {
         if (id !== this.objectId) return;
         if (e instanceof ApiError && e.status === 404) {
@@ -316,12 +374,21 @@ export class KelvinView implements View {
   }
 
   private onFrame(f: BinaryFrame): void {
-    if (f.type !== "isosurface" || !isMeshFrame(f)) return;
+    if ((f.type !== "isosurface" && f.type !== "surface") || !isMeshFrame(f)) return;
     if (f.object !== this.objectId && f.object !== this.pendingId) {
       // A prepared object shared from the server's memory is ready (and its frames pushed)
       // before our POST has returned its id: keep a few unclaimed frames for adopt().
       this.unclaimed.push(f);
       if (this.unclaimed.length > 32) this.unclaimed.shift();
+      return;
+    }
+    if (f.type === "surface") {
+      // Once per object (again after a reconnect, with the current σ, which the page computes
+      // itself): only the first is used.
+      if (this.surface || f.object !== (this.objectId ?? this.pendingId)) return;
+      const waiter = this.surfaceWaiter;
+      if (waiter && waiter.id === f.object) waiter.take(f);
+      else this.socketSurface = f;
       return;
     }
     const t0 = performance.now();
@@ -599,6 +666,7 @@ export class KelvinView implements View {
     this.ticket++;
     void this.job?.cancel();
     this.sigmaSync.cancelPending();
+    this.surfaceWaiter?.cancel();
     this.offs.forEach((f) => f());
     this.offs = [];
     this.brush?.dispose();

@@ -37,6 +37,10 @@ export function installHooks(view: KelvinView): void {
     get ready() {
       return view.ready;
     },
+    /** "socket" when the shown surface is the frame the socket pushed, "rest" when fetched. */
+    get surfaceSource() {
+      return view.surfaceSource;
+    },
     /** Every iso-surface frame accepted (level, sigma_version, vertex/face counts, hash). */
     get frames() {
       return copy(view.frames);
