@@ -7,7 +7,8 @@
 // --cache-dir reuses prepared objects (Field::prepare_cached): t_mesh and t_decomp are then those
 // of the original preparation, t_build is measured again.
 // t_solve is σ → V (eqs. 17, 20, 21: what the paper times; mean and median of 100); t_grad, the
-// vertex gradients for ∇h, is reported beside it. "own dense" and chol_ms: the same factor's
+// vertex gradients for ∇h, is reported beside it; "1 thread med" is the σ solve on one thread
+// (blocks of 10 alternating with two threads). "own dense" and chol_ms: the same factor's
 // solve with a dense right-hand side (all ones) by our supernodal solve and by CHOLMOD's
 // cholmod_solve2; LU_*: Eigen SparseLU on the same matrix and right-hand side.
 // The SparseLU comparison (decomp med, LU_decomp; solve b, LU_solve) is made in the run itself,
@@ -78,7 +79,7 @@ std::tuple<double, double, double> query_times(const Field& f, const std::vector
 struct Row {
   double lx = 0;
   Stats stats;
-  double solve_ms = 0, solve_med = 0, solve_sd = 0, grad_ms = 0, chol_solve_ms = 0, dense_solve_ms = 0, q_seed_p90 = 0, rmse = -1, q_hint = 0, q_seed = 0;
+  double solve_ms = 0, solve_med = 0, solve_1t_med = 0, solve_sd = 0, grad_ms = 0, chol_solve_ms = 0, dense_solve_ms = 0, q_seed_p90 = 0, rmse = -1, q_hint = 0, q_seed = 0;
   std::vector<double> case_solve_ms;  // Table II: one per σ case
   double lu_decomp = -1, lu_solve_ms = -1, aabb_us = 0;
   double decomp_med = -1, solve_b_ms = -1;  // CHOLMOD's side of the SparseLU comparison
@@ -209,7 +210,7 @@ nlohmann::json to_json(const Row& r) {
   return {{"lx", r.lx}, {"n_verts", r.stats.n_verts}, {"n_tets", r.stats.n_tets}, {"size_mb", r.stats.size_mb},
           {"rmse", r.rmse}, {"t_mesh", r.stats.t_mesh}, {"t_build", r.stats.t_build}, {"t_decomp", r.stats.t_decomp},
           {"t_solve_ms", r.solve_ms}, {"t_solve_sd_ms", r.solve_sd}, {"t_grad_ms", r.grad_ms},
-          {"t_solve_median_ms", r.solve_med}, {"t_cholmod_solve_ms", r.chol_solve_ms},
+          {"t_solve_median_ms", r.solve_med}, {"t_solve_one_thread_median_ms", r.solve_1t_med}, {"t_cholmod_solve_ms", r.chol_solve_ms},
           {"t_own_dense_solve_ms", r.dense_solve_ms}, {"t_query_nohint_p90_us", r.q_seed_p90}, {"t_solve_cases_ms", r.case_solve_ms},
           {"t_query_hint_us", r.q_hint}, {"t_query_nohint_us", r.q_seed}, {"t_sparselu_decomp", r.lu_decomp},
           {"t_sparselu_solve_ms", r.lu_solve_ms}, {"t_aabb_distance_us", r.aabb_us},
@@ -245,6 +246,18 @@ Row run(const mesh::SurfaceMesh& surface, const PrepareOptions& o, const std::ve
   for (double v : t) sq += (v - mean) * (v - mean) / t.size();
   r.solve_ms = mean;
   r.solve_med = median(t);
+  {  // The same σ solve on one thread, in blocks alternating with the default (two on 2+ cores).
+    std::vector<double> one;
+    for (int block = 0; block < 10; ++block)
+      for (int threads : {1, 2})
+        for (int i = 0; i < 10; ++i) {
+          f.set_solve_threads(threads);
+          f.set_sigma(sigmas.front(), false);
+          if (threads == 1) one.push_back(f.stats().t_solve * 1e3);
+        }
+    f.set_solve_threads(2);
+    r.solve_1t_med = median(one);
+  }
   r.solve_sd = std::sqrt(sq);
   r.stats = f.stats();
   const Eigen::SparseMatrix<double> a = f.reduced_matrix();
@@ -280,13 +293,13 @@ Row run(const mesh::SurfaceMesh& surface, const PrepareOptions& o, const std::ve
 }
 
 void print(const char* title, const std::vector<Row>& rows) {
-  std::printf("\n%s\n| l_x | N_verts | N_tets | MB | RMSE | t_mesh | t_build | t_decomp | t_solve | t_solve med | t_grad | "
+  std::printf("\n%s\n| l_x | N_verts | N_tets | MB | RMSE | t_mesh | t_build | t_decomp | t_solve | t_solve med | 1 thread med | t_grad | "
               "own dense | chol_ms | q_hint | q_seed | q_seed p90 | decomp med | LU_decomp | solve b | LU_solve | AABB |\n|%s\n", title,
-              "---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+              "---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
   for (const Row& r : rows)
-    std::printf("| %.3g | %ld | %ld | %.2f | %.4f | %.2f | %.3f | %.3f | %.2f ± %.2f | %.2f | %.2f | %.2f | %.2f | %.3f | %.3f | %.3f | %.3g | %.3g | %.3g | %.3g | %.3f |\n",
+    std::printf("| %.3g | %ld | %ld | %.2f | %.4f | %.2f | %.3f | %.3f | %.2f ± %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.3f | %.3f | %.3f | %.3g | %.3g | %.3g | %.3g | %.3f |\n",
                 r.lx, r.stats.n_verts, r.stats.n_tets, r.stats.size_mb, r.rmse, r.stats.t_mesh, r.stats.t_build,
-                r.stats.t_decomp, r.solve_ms, r.solve_sd, r.solve_med, r.grad_ms, r.dense_solve_ms, r.chol_solve_ms,
+                r.stats.t_decomp, r.solve_ms, r.solve_sd, r.solve_med, r.solve_1t_med, r.grad_ms, r.dense_solve_ms, r.chol_solve_ms,
                 r.q_hint, r.q_seed, r.q_seed_p90, r.decomp_med, r.lu_decomp, r.solve_b_ms, r.lu_solve_ms, r.aabb_us);
   // The comparison's convention, and its ratios (issue 3 targets: decomposition ≥ 10×, solve ≥ 3×).
   std::printf("SparseLU comparison (same A_ΩΩ, same b, both timed the same way, sides alternating; medians): "

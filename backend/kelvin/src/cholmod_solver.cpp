@@ -8,17 +8,12 @@
 #include <istream>
 #include <ostream>
 #include <stdexcept>
+#include <thread>
 #include <vector>
 
-namespace distlab::kelvin {
+#include "supernodal_solve.hpp"
 
-extern "C" {
-// Fortran BLAS (the system's: OpenBLAS), as CHOLMOD's own supernodal solve uses it.
-void dtrsv_(const char* uplo, const char* trans, const char* diag, const int* n, const double* a, const int* lda,
-            double* x, const int* incx);
-void dgemv_(const char* trans, const int* m, const int* n, const double* alpha, const double* a, const int* lda,
-            const double* x, const int* incx, const double* beta, double* y, const int* incy);
-}
+namespace distlab::kelvin {
 
 namespace {
 
@@ -69,11 +64,9 @@ class SerialOpenMP {
 // factorization and in every solve (each reads the factor twice).
 constexpr long kNestedDissectionMin = 10000;
 
-// Supernodes of at most this many factor entries are solved by Eigen's inlined kernels, larger
-// ones by BLAS: for a small block a BLAS call's fixed cost exceeds its arithmetic.
-constexpr long kSmallBlock = 1024;
-using Stride = Eigen::OuterStride<>;
-using Block = Eigen::Map<const Eigen::MatrixXd, 0, Stride>;
+// Factors of at least this many entries are solved on two threads (see supernodal_solve.hpp);
+// below, a thread's start and join cost more than half the solve.
+constexpr double kTwoLaneMin = 1e6;
 
 }  // namespace
 
@@ -83,8 +76,16 @@ struct CholmodSolver::Impl {
   mutable cholmod_dense* x = nullptr;  // workspaces reused by cholmod_solve2
   mutable cholmod_dense* y = nullptr;
   mutable cholmod_dense* e = nullptr;
-  mutable std::vector<double> work, below;  // solve(): permuted vector, one supernode's rows below
+  mutable std::vector<double> work;  // solve(): the permuted vector
+  mutable SolveWorkspace workspace;
+  SolvePlan plan;
+  int solve_threads = std::thread::hardware_concurrency() >= 2 ? 2 : 1;
   mutable double read_fraction = 1;
+  SupernodalFactor view() const {
+    return {static_cast<int>(factor->n), static_cast<int>(factor->nsuper), static_cast<const int*>(factor->super),
+            static_cast<const int*>(factor->pi), static_cast<const int*>(factor->px),
+            static_cast<const int*>(factor->s), static_cast<const double*>(factor->x)};
+  }
   Impl() {
     cholmod_start(&common);
     common.supernodal = CHOLMOD_SUPERNODAL;
@@ -137,6 +138,7 @@ void CholmodSolver::factorize(const Eigen::SparseMatrix<double>& lower) {
   if (impl_->common.status == CHOLMOD_NOT_POSDEF)
     throw std::runtime_error("stiffness matrix is not positive definite (degenerate tetrahedra?)");
   if (impl_->common.status < CHOLMOD_OK) throw std::runtime_error("CHOLMOD factorization failed");
+  if (impl_->factor->is_super) impl_->plan = plan_two_lanes(impl_->view());
 }
 
 void CholmodSolver::solve(VecX& b) const {
@@ -146,70 +148,22 @@ void CholmodSolver::solve(VecX& b) const {
     solve_cholmod(b);
     return;
   }
-  // Supernode k: columns super[k] … super[k+1]−1; its rows s[pi[k]] … (the first ncol are its
-  // own columns), values x[px[k]] … as a dense column-major nrow × ncol block.
-  const int* super = static_cast<const int*>(f->super);
-  const int* pi = static_cast<const int*>(f->pi);
-  const int* px = static_cast<const int*>(f->px);
-  const int* rows = static_cast<const int*>(f->s);
   const int* perm = static_cast<const int*>(f->Perm);
-  const double* lx = static_cast<const double*>(f->x);
-  const auto n = static_cast<size_t>(f->n), nsuper = static_cast<size_t>(f->nsuper);
+  const auto n = static_cast<size_t>(f->n);
   std::vector<double>& w = impl_->work;
-  std::vector<double>& t = impl_->below;
   w.resize(n);
-  t.resize(n);
   for (size_t k = 0; k < n; ++k) w[k] = b[perm[k]];
-  double skipped = 0;
-  // Forward: L y = P b. Dense blocks through BLAS (dtrsv, dgemv; one thread, see above) or, if
-  // small, Eigen (kSmallBlock).
   set_blas_threads(1);
-  const int one = 1;
-  const double p1 = 1, m1 = -1, zero0 = 0;
-  for (size_t k = 0; k < nsuper; ++k) {
-    const int c0 = super[k], ncol = super[k + 1] - c0, nrow = pi[k + 1] - pi[k], nbelow = nrow - ncol;
-    bool zero = true;
-    for (int j = 0; j < ncol && zero; ++j) zero = w[static_cast<size_t>(c0 + j)] == 0.0;
-    if (zero) {  // nothing flows out of this supernode
-      skipped += static_cast<double>(nrow) * ncol;
-      continue;
-    }
-    const double* block = lx + px[k];
-    double* y = w.data() + c0;
-    const int* r = rows + pi[k] + ncol;
-    if (static_cast<long>(nrow) * ncol <= kSmallBlock) {
-      const Block d(block, ncol, ncol, Stride(nrow)), l(block + ncol, nbelow, ncol, Stride(nrow));
-      Eigen::Map<VecX> ym(y, ncol);
-      d.triangularView<Eigen::Lower>().solveInPlace(ym);
-      Eigen::Map<VecX>(t.data(), nbelow).noalias() = l * ym;
-    } else {
-      dtrsv_("L", "N", "N", &ncol, block, &nrow, y, &one);
-      if (nbelow == 0) continue;
-      dgemv_("N", &nbelow, &ncol, &p1, block + ncol, &nrow, y, &one, &zero0, t.data(), &one);
-    }
-    for (int i = 0; i < nbelow; ++i) w[static_cast<size_t>(r[i])] -= t[static_cast<size_t>(i)];
-  }
-  // Back: Lᵀ x = y, every supernode, last to first.
-  for (size_t k = nsuper; k-- > 0;) {
-    const int c0 = super[k], ncol = super[k + 1] - c0, nrow = pi[k + 1] - pi[k], nbelow = nrow - ncol;
-    const double* block = lx + px[k];
-    double* y = w.data() + c0;
-    const int* r = rows + pi[k] + ncol;
-    for (int i = 0; i < nbelow; ++i) t[static_cast<size_t>(i)] = w[static_cast<size_t>(r[i])];
-    if (static_cast<long>(nrow) * ncol <= kSmallBlock) {
-      const Block d(block, ncol, ncol, Stride(nrow)), l(block + ncol, nbelow, ncol, Stride(nrow));
-      Eigen::Map<VecX> ym(y, ncol);
-      ym.noalias() -= l.transpose() * Eigen::Map<const VecX>(t.data(), nbelow);
-      d.transpose().triangularView<Eigen::Upper>().solveInPlace(ym);
-      continue;
-    }
-    if (nbelow > 0) dgemv_("T", &nbelow, &ncol, &m1, block + ncol, &nrow, t.data(), &one, &p1, y, &one);
-    dtrsv_("L", "T", "N", &ncol, block, &nrow, y, &one);
-  }
+  const bool threads = impl_->solve_threads > 1 && static_cast<double>(f->xsize) >= kTwoLaneMin;
+  const double skipped = solve_supernodal(impl_->view(), impl_->plan, w.data(), impl_->workspace, threads);
   for (size_t k = 0; k < n; ++k) b[perm[k]] = w[k];
   const double total = static_cast<double>(f->xsize);
   impl_->read_fraction = total > 0 ? (2 * total - skipped) / (2 * total) : 1;
 }
+
+void CholmodSolver::set_solve_threads(int threads) { impl_->solve_threads = std::clamp(threads, 1, 2); }
+
+double CholmodSolver::critical_share() const { return impl_->plan.critical_share; }
 
 double CholmodSolver::last_read_fraction() const { return impl_->read_fraction; }
 
@@ -312,6 +266,7 @@ bool CholmodSolver::load(std::istream& in) {
   const int* s = static_cast<const int*>(f->s);
   for (std::uint64_t k = 0; k < ssize; ++k)
     if (s[k] < 0 || static_cast<std::uint64_t>(s[k]) >= n) return false;
+  impl_->plan = plan_two_lanes(impl_->view());
   return true;
 }
 

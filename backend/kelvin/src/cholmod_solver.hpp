@@ -21,7 +21,14 @@ class CholmodSolver {
   // Solves A x = b in place (b must have size n): forward and back substitution over the
   // supernodal factor, skipping in the forward pass every supernode whose part of the permuted
   // right-hand side is still zero (b = −A_Ω∂ V_∂ of eq. 20 is nonzero only next to the boundary).
+  // Large factors are solved on two threads, two lanes of the elimination tree
+  // (supernodal_solve.hpp); the answer is the same bit for bit on one thread.
   void solve(VecX& b) const;
+  // 1 or 2 (the default on a machine with two or more hardware threads).
+  void set_solve_threads(int threads);
+  // (heavier lane + the rest) / all, in factor entries read: the two-thread solve's share of the
+  // one-thread time if reading entries is the cost (1: one lane).
+  double critical_share() const;
   // The same through CHOLMOD's own cholmod_solve2 (reference and benchmark baseline).
   void solve_cholmod(VecX& b) const;
   // Share of the factor's entries read by the last solve() (forward and back together, in [0.5, 1]).

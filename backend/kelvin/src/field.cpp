@@ -387,6 +387,8 @@ void Field::solve_reduced(VecX& rhs, bool cholmod_reference) const {
   }
 }
 
+void Field::set_solve_threads(int threads) { impl_->solver.set_solve_threads(threads); }
+
 const Stats& Field::stats() const { return impl_->stats; }
 const TetMesh& Field::tet_mesh() const { return impl_->tm; }
 const mesh::SurfaceMesh& Field::surface() const { return impl_->surface; }

@@ -107,6 +107,9 @@ class Field {
   // solve set_sigma uses or (cholmod_reference) by CHOLMOD's own cholmod_solve2.
   Eigen::SparseMatrix<double> reduced_matrix() const;
   void solve_reduced(VecX& rhs, bool cholmod_reference = false) const;
+  // Threads of each σ solve: 1, or 2 (the default with two or more hardware threads; the
+  // answer is the same bit for bit).
+  void set_solve_threads(int threads);
 
   struct Impl;
 

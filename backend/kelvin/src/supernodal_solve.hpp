@@ -1,0 +1,51 @@
+#pragma once
+// Forward and back substitution over a supernodal Cholesky factor (CHOLMOD's layout), split over
+// two lanes of the elimination tree so that two cores can share one solve.
+//
+// Disjoint subtrees of the supernodal elimination tree are independent in both passes: a
+// supernode's forward update only reaches its ancestors, and its back substitution only reads
+// them. So the plan deals subtrees to two lanes, balanced by the factor entries they read, and
+// keeps the rest (the top separators, the ancestors of every dealt subtree) for one lane after
+// them (forward) or before them (back). The only shared writes are lane 1's forward updates of
+// top rows: they go to a private buffer, subtracted afterwards. The arithmetic is the same
+// whether lane 1 runs on a second thread or after lane 0, so the result does not depend on the
+// number of threads.
+#include <array>
+#include <utility>
+#include <vector>
+
+namespace distlab::kelvin {
+
+// The arrays of a supernodal factor L (CHOLMOD names): supernode k owns columns
+// super[k] … super[k+1]−1; its rows are s[pi[k]] … s[pi[k+1]−1] (its own columns first); its
+// values are the dense column-major block x[px[k]] … with pi[k+1]−pi[k] rows.
+struct SupernodalFactor {
+  int n = 0, nsuper = 0;
+  const int *super = nullptr, *pi = nullptr, *px = nullptr, *s = nullptr;
+  const double* x = nullptr;
+};
+
+struct SolvePlan {
+  std::array<std::vector<std::pair<int, int>>, 2> lanes;  // supernode ranges [begin, end), ascending
+  std::vector<int> top;                                    // the other supernodes, ascending
+  std::vector<unsigned char> top_column;                   // 1 for the columns of top supernodes
+  // (heavier lane + top) / all, in factor entries: the two-thread time as a share of one's.
+  double critical_share = 1;
+};
+
+// Falls back to a single lane holding every supernode if the factor is not postordered.
+SolvePlan plan_two_lanes(const SupernodalFactor& f);
+SolvePlan plan_one_lane(const SupernodalFactor& f);
+
+struct SolveWorkspace {
+  std::array<std::vector<double>, 2> below;  // one supernode's rows below its diagonal block, per lane
+  std::vector<double> lane1_top;             // lane 1's forward updates of top rows
+};
+
+// Solves L Lᵀ w = w in place (w permuted, size n). The forward pass skips every supernode whose
+// part of w is still zero. Lane 1 runs on a second thread if `threads` is true.
+// Returns the number of factor entries skipped.
+double solve_supernodal(const SupernodalFactor& f, const SolvePlan& plan, double* w, SolveWorkspace& ws,
+                        bool threads);
+
+}  // namespace distlab::kelvin
