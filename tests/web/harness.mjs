@@ -20,7 +20,7 @@ mkdirSync(artifacts, { recursive: true });
 /** Starts `distlab serve --port 0` and resolves once it prints the port it listens on. */
 export async function startServer({ extra = [], cacheDir, port: wanted = 0 } = {}) {
   const exe = process.env.DISTLAB_EXE ?? path.join(source, "build", "backend", "app", "distlab");
-  const web = path.join(source, "web", "dist");
+  const web = process.env.DISTLAB_WEB_DIST ?? path.join(source, "web", "dist"); // another front-end build (A/B)
   if (!existsSync(path.join(web, "index.html"))) throw new Error(`no front-end build at ${web} (run npm run build in web/)`);
   const cache = cacheDir ?? mkdtempSync(path.join(tmpdir(), "distlab-web-cache-"));
   const args = ["serve", "--host", "127.0.0.1", "--port", String(wanted), "--assets", path.join(source, "assets"), "--web", web, "--cache-dir", cache, ...extra];

@@ -314,9 +314,24 @@ export class KelvinView implements View {
     this.restyle();
     const view = s.bounds.clone().expandByScalar(size * 0.2);
     vp.frame(view);
+    this.warmUp();
     this.slice?.setObject(this.objectId, s.bounds);
     this.probe?.setObject(this.objectId, s.bounds);
     this.sliceChanged();
+  }
+
+  /** The brush cursor and the probe stay hidden until the pointer first hovers or paints. Their
+   *  programs are linked now, while the object loads, and used once in a frame drawn over at
+   *  once: on a software renderer the first use's synchronous GL queries wait for the GPU
+   *  process to finish the frame before (measured 50-125 ms each in the first stroke). */
+  private warmUp(): void {
+    const vp = this.viewport;
+    if (!vp || !this.brush || !this.probe) return;
+    const hidden = [this.brush.object3d, this.probe.arrow, this.probe.marker].filter((o) => !o.visible);
+    hidden.forEach((o) => (o.visible = true));
+    vp.renderer.render(vp.scene, vp.camera);
+    hidden.forEach((o) => (o.visible = false));
+    vp.renderer.render(vp.scene, vp.camera); // what the user sees (the drawing buffer is preserved)
   }
 
   private dropSurface(): void {
