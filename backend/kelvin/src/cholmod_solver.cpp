@@ -64,9 +64,12 @@ class SerialOpenMP {
 // factorization and in every solve (each reads the factor twice).
 constexpr long kNestedDissectionMin = 10000;
 
-// Factors of at least this many entries are solved on two threads (see supernodal_solve.hpp);
-// below, a thread's start and join cost more than half the solve.
+// Factors of at least this many entries are solved on two threads (see supernodal_solve.hpp)
+// if the two lanes cut the entries read on the critical path to at most kTwoLaneMaxShare: on
+// the cube at l_x 0.08 (AMD ordering, 1 thread med 0.71 ms) the top supernodes held 43% of the
+// entries, and two threads took 0.77 ms; at 0.06 (METIS, share 0.66) 3.07 against 4.07 ms.
 constexpr double kTwoLaneMin = 1e6;
+constexpr double kTwoLaneMaxShare = 0.7;
 
 }  // namespace
 
@@ -154,7 +157,8 @@ void CholmodSolver::solve(VecX& b) const {
   w.resize(n);
   for (size_t k = 0; k < n; ++k) w[k] = b[perm[k]];
   set_blas_threads(1);
-  const bool threads = impl_->solve_threads > 1 && static_cast<double>(f->xsize) >= kTwoLaneMin;
+  const bool threads = impl_->solve_threads > 1 && static_cast<double>(f->xsize) >= kTwoLaneMin &&
+                       impl_->plan.critical_share <= kTwoLaneMaxShare;
   const double skipped = solve_supernodal(impl_->view(), impl_->plan, w.data(), impl_->workspace, threads);
   for (size_t k = 0; k < n; ++k) b[perm[k]] = w[k];
   const double total = static_cast<double>(f->xsize);
