@@ -3,6 +3,7 @@
 #include <Eigen/Core>
 #include <algorithm>
 #include <numeric>
+#include <system_error>
 #include <thread>
 
 namespace distlab::kelvin {
@@ -189,14 +190,16 @@ double solve_supernodal(const SupernodalFactor& f, const SolvePlan& plan, double
       for (int k = r->second; k-- > r->first;) backward(f, k, w, ws.below[lane].data());
   };
   auto both = [&](auto&& pass) {
+    std::thread second;
     if (threads && !plan.lanes[1].empty()) {
-      std::thread second([&] { pass(size_t{1}); });
-      pass(size_t{0});
-      second.join();
-    } else {
-      pass(size_t{0});
-      pass(size_t{1});
+      try {
+        second = std::thread([&] { pass(size_t{1}); });
+      } catch (const std::system_error&) {  // no thread to be had: lane 1 runs here, after lane 0
+      }
     }
+    pass(size_t{0});
+    if (second.joinable()) second.join();
+    else pass(size_t{1});
   };
   both(forward_lane);
   for (int k : plan.top)
