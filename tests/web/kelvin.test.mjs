@@ -53,6 +53,18 @@ function watchSurfaces(page) {
   return counts;
 }
 
+/** Records every label the progress bar shows (window.__progressLabels), from the page's start. */
+function recordProgress(page) {
+  return page.addInitScript(() => {
+    const seen = (window.__progressLabels = []);
+    new MutationObserver(() => {
+      const box = document.getElementById("progress");
+      const label = document.getElementById("progress-label")?.textContent ?? "";
+      if (box && !box.hidden && seen[seen.length - 1] !== label) seen.push(label);
+    }).observe(document, { subtree: true, childList: true, attributes: true, characterData: true });
+  });
+}
+
 async function errorToast(page) {
   const el = page.locator(".toast-error").last();
   await el.waitFor({ timeout: 30000 });
@@ -60,11 +72,12 @@ async function errorToast(page) {
 }
 
 test("the cube is prepared with a progress bar; painting σ with the mouse changes the iso-surface and the picture", async () => {
-  const page = await openView(browser, server, hash({ object: "cube", lx: 0.1, levels: [0, 0.25], base: -0.5 }));
-  await page.waitForSelector("#progress:not([hidden])", { timeout: 20000 });
-  const label = await page.textContent("#progress-label");
-  assert.match(label, /preparing cube/);
+  // The progress bar's labels are recorded from the page's start: the cube at l_x 0.1 can be
+  // prepared before openView returns (waiting for the bar to appear then raced with it).
+  const page = await openView(browser, server, hash({ object: "cube", lx: 0.1, levels: [0, 0.25], base: -0.5 }), { setup: recordProgress });
   await waitReady(page);
+  const labels = await page.evaluate(() => window.__progressLabels);
+  assert.ok(labels.some((l) => /preparing cube/.test(l)), `progress labels shown: ${JSON.stringify(labels)}`);
   assert.equal(await page.isHidden("#progress"), true, "the progress bar goes away");
   const stats = await page.textContent(".kelvin-stats");
   assert.match(stats, /n_verts \/ n_tets\s*\d+ \/ \d+/);
