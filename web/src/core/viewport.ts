@@ -113,6 +113,12 @@ export class Viewport {
     return this.lowRes;
   }
 
+  /** Resizes the drawing buffer. On SwiftShader that makes setSize wait for the GPU process
+   *  (synchronous GetGLError / CheckFramebufferStatus, 6-77 ms, twice per σ stroke; Chrome trace).
+   *  Tried instead: a fixed-size canvas with interactive frames drawn into a half-size render
+   *  target and blitted up. No waits, but slower overall (the full-size blit and compositing):
+   *  stroke → frame median 78 → 102 ms (--disable-gpu), 82 → 93 ms (GPU compositing), orbit
+   *  frame interval 33 → 50 ms; so the canvas is still resized. */
   private setLowRes(low: boolean): void {
     if (low === this.lowRes) return;
     this.lowRes = low;
