@@ -85,7 +85,7 @@ TEST(MeshImport, BinaryStlMustBe84Plus50NBytes) {
   for (std::size_t i = 0; i < garbage.size(); ++i) garbage[i] = static_cast<char>((i * 7919u + 13u) % 251u);
   const std::vector<std::pair<std::string, std::string>> bad = {
       {garbage, "header says n = "},                 // a huge "n" from random bytes
-      {bytes + "x", "but the file has " + std::to_string(bytes.size() + 1)},  // one byte too many
+      {bytes + "x", "but the file has " + std::to_string(bytes.size() + 1) + " bytes"},  // one byte too many
       {bytes.substr(0, bytes.size() - 50), "header says n = 12"},             // truncated
       {"abc", "only 3 bytes"}};
   for (const auto& [b, says] : bad) {

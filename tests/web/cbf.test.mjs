@@ -260,6 +260,7 @@ test("a bad inline scenario shows the server's message and field", async () => {
   await page.waitForFunction(() => /✗/.test(document.querySelector("[data-testid=cbf-verdict]")?.textContent ?? ""), null, { timeout: 30000 });
   const verdict = await page.textContent("[data-testid=cbf-verdict]");
   assert.ok(verdict.includes(expected.field) && verdict.includes(expected.message), `verdict "${verdict}" names ${expected.field}: ${expected.message}`);
+  assert.ok(!verdict.includes(`${expected.field}: ${expected.field}`), `verdict "${verdict}" repeats the field`);
   const toast = await page.locator(".toast-error").last().textContent();
   assert.ok(toast.includes(expected.message));
   await screenshot(page, "cbf-bad-scenario");

@@ -41,7 +41,7 @@ std::optional<std::uint32_t> stl_triangles(std::string_view head, std::uint64_t 
     why += ", but the file has only " + std::to_string(size) + " bytes";
   else
     why += "; its header says n = " + std::to_string(n) + ", i.e. " + std::to_string(84 + 50 * static_cast<std::uint64_t>(n)) +
-           " bytes, but the file has " + std::to_string(size);
+           " bytes, but the file has " + std::to_string(size) + " bytes";
   throw InvalidInput(field, why);
 }
 

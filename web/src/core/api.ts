@@ -12,9 +12,9 @@ export class ApiError extends Error {
   ) {
     super(message);
   }
-  /** "field: message" as shown to the user. */
+  /** "field: message" as shown to the user (the message alone if it already names the field). */
   get readable(): string {
-    return this.field ? `${this.field}: ${this.message}` : this.message;
+    return this.field && !this.message.includes(this.field) ? `${this.field}: ${this.message}` : this.message;
   }
 }
 
