@@ -12,9 +12,9 @@ export class ApiError extends Error {
   ) {
     super(message);
   }
-  /** "field: message" as shown to the user (the message alone if it already names the field). */
+  /** "field: message" as shown to the user (the message alone if it starts with the field). */
   get readable(): string {
-    return this.field && !this.message.includes(this.field) ? `${this.field}: ${this.message}` : this.message;
+    return this.field && !this.message.startsWith(this.field) ? `${this.field}: ${this.message}` : this.message;
   }
 }
 
