@@ -209,6 +209,13 @@ class WsClient {
   boost::beast::error_code error_;
 };
 
+// Waits for the socket's "hello": from then on the server has registered it, so the session's
+// broadcasts and job events reach it (a socket still registering could miss them).
+inline void await_hello(WsClient& ws) {
+  WsClient::Message m;
+  ASSERT_TRUE(ws.until([](const WsClient::Message& x) { return !x.binary && x.j["type"] == "hello"; }, m, 60)) << "no hello";
+}
+
 // Raw HTTP over a socket, for requests a client library would normalise (traversal attempts).
 inline std::string raw_http(int port, const std::string& request) {
   namespace net = boost::asio;

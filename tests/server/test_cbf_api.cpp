@@ -44,8 +44,7 @@ void expect_error(const httplib::Result& r, int status, const std::string& code,
 // A WebSocket of session s, after its "hello" (the server has registered it: broadcasts reach it).
 std::unique_ptr<WsClient> connect(int port, const std::string& s) {
   auto ws = std::make_unique<WsClient>(port, s);
-  Msg m;
-  EXPECT_TRUE(ws->until([](const Msg& x) { return !x.binary && x.j["type"] == "hello"; }, m, 60)) << "no hello";
+  await_hello(*ws);
   return ws;
 }
 

@@ -16,13 +16,6 @@ using Msg = WsClient::Message;
 
 std::string path_of(const std::string& id, const std::string& tail = "") { return "/api/kelvin/objects/" + id + tail; }
 
-// Waits for the socket's "hello": from then on the server has registered it, so the session's job
-// events reach it (a socket still registering could miss them).
-void await_hello(WsClient& ws) {
-  Msg m;
-  ASSERT_TRUE(ws.until([](const Msg& x) { return !x.binary && x.j["type"] == "hello"; }, m, 60)) << "no hello";
-}
-
 // Creates an object and waits (over the WebSocket) for its job to finish; returns the object id.
 std::string create_ready(httplib::Client& c, WsClient& ws, const std::string& session, const json& body,
                          std::vector<std::string>* stages = nullptr, json* final_job = nullptr) {

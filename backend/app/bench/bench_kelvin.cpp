@@ -246,6 +246,7 @@ Row run(const mesh::SurfaceMesh& surface, const PrepareOptions& o, const std::ve
   for (double v : t) sq += (v - mean) * (v - mean) / t.size();
   r.solve_ms = mean;
   r.solve_med = median(t);
+  r.solve_sd = std::sqrt(sq);
   {  // The same σ solve on one thread, in blocks alternating with the default (two on 2+ cores).
     std::vector<double> one;
     for (int block = 0; block < 10; ++block)
@@ -258,7 +259,6 @@ Row run(const mesh::SurfaceMesh& surface, const PrepareOptions& o, const std::ve
     f.set_solve_threads(2);
     r.solve_1t_med = median(one);
   }
-  r.solve_sd = std::sqrt(sq);
   r.stats = f.stats();
   const Eigen::SparseMatrix<double> a = f.reduced_matrix();
   const VecX b = VecX::Ones(a.rows());

@@ -135,10 +135,7 @@ int breakdown(const std::string& assets, const std::string& cache, double lx, in
   std::size_t sigma_bytes = 0;
   const double t_surface = median_ms(reps, [&](int i) {
     const auto values = server::sigma_at_vertices(sigma(i), surface);
-    sigma_bytes = server::to_msgpack(nlohmann::json{{"type", "surface_sigma"},
-                                                    {"n_vertices", values.size()},
-                                                    {"scalars", server::float32_bytes(values)}})
-                      .size();
+    sigma_bytes = server::to_msgpack(server::scalars_frame(values, {{"type", "surface_sigma"}})).size();
   });
   {  // checksum of the iso-surface (orientation-sensitive), so two builds can be compared
     double sum = 0;

@@ -26,6 +26,14 @@ json::binary_t float32_bytes(const double* values, std::size_t count) {
 
 json::binary_t float32_bytes(const std::vector<double>& values) { return float32_bytes(values.data(), values.size()); }
 
+json scalars_frame(const std::vector<double>& scalars, json meta) {
+  json frame = std::move(meta);
+  if (!frame.is_object()) frame = json::object();
+  frame["n_vertices"] = scalars.size();
+  frame["scalars"] = json::binary(float32_bytes(scalars));
+  return frame;
+}
+
 json mesh_frame(const mesh::SurfaceMesh& m, json meta, const std::vector<double>* scalars) {
   json::binary_t pos, idx;
   pos.reserve(static_cast<std::size_t>(m.vertices.rows()) * 12);

@@ -390,8 +390,7 @@ void Service::send_frames(const std::shared_ptr<Session>& session, const std::sh
     if (send_surface)
       send(mesh_frame(object->surface, {{"type", "surface"}, {"object", object->id}, {"sigma_version", version}}, &sigma_values));
     else
-      send({{"type", "surface_sigma"}, {"object", object->id}, {"sigma_version", version},
-            {"n_vertices", sigma_values.size()}, {"scalars", json::binary(float32_bytes(sigma_values))}});
+      send(scalars_frame(sigma_values, {{"type", "surface_sigma"}, {"object", object->id}, {"sigma_version", version}}));
   }
   for (std::size_t i = 0; i < levels.size(); ++i) {
     // A newer σ or level set supersedes this one: stop, the scheduler computes the latest.

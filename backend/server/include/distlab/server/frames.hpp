@@ -19,6 +19,10 @@ nlohmann::json::binary_t float32_bytes(const std::vector<double>& values);
 nlohmann::json mesh_frame(const mesh::SurfaceMesh& mesh, nlohmann::json meta,
                           const std::vector<double>* scalars = nullptr);
 
+// {"n_vertices", "scalars"} (+ the given metadata): σ per surface vertex without the mesh, for
+// every σ version after the surface frame.
+nlohmann::json scalars_frame(const std::vector<double>& scalars, nlohmann::json meta);
+
 std::string to_msgpack(const nlohmann::json& frame);
 
 // Reverse of float32_bytes/indices (for tests and the benchmark client).
