@@ -6,6 +6,7 @@
 #include <dlfcn.h>
 
 #include <Eigen/SparseCholesky>
+#include <cstring>
 #include <random>
 #include <sstream>
 
@@ -169,4 +170,28 @@ TEST(KelvinSolver, TwoLaneSolveOfAForest) {
   solver.solve_cholmod(ref);
   EXPECT_EQ((one - two).norm(), 0.0);
   EXPECT_LT((two - ref).norm(), 1e-12 * ref.norm());
+}
+
+// A saved factor whose supernode layout is inconsistent (one block one entry longer than its
+// rows × columns) is refused on load: the solve would otherwise read other supernodes' values.
+TEST(KelvinSolver, LoadRefusesAnInconsistentSupernodeLayout) {
+  CholmodSolver a, b;
+  a.factorize(grid_matrix(8, 9));
+  std::stringstream io;
+  a.save(io);
+  std::string bytes = io.str();
+  std::uint64_t sizes[8];
+  std::memcpy(sizes, bytes.data(), sizeof sizes);
+  const std::size_t n = sizes[0], nsuper = sizes[1];
+  ASSERT_GE(nsuper, 2u);
+  // Layout: sizes, Perm (n), ColCount (n), super, pi, px (nsuper + 1 each), s, x.
+  const std::size_t px1 = sizeof sizes + 4 * (2 * n + 2 * (nsuper + 1) + 1);
+  int px;
+  std::memcpy(&px, bytes.data() + px1, 4);
+  std::stringstream good(bytes);
+  ASSERT_TRUE(b.load(good));
+  ++px;
+  std::memcpy(bytes.data() + px1, &px, 4);
+  std::stringstream bad(bytes);
+  EXPECT_FALSE(b.load(bad));
 }

@@ -260,8 +260,11 @@ bool CholmodSolver::load(std::istream& in) {
   if (super[0] != 0 || super[nsuper] != static_cast<int>(n) || pi[0] != 0 || px[0] != 0 ||
       static_cast<std::uint64_t>(pi[nsuper]) > ssize || static_cast<std::uint64_t>(px[nsuper]) > xsize)
     return false;
-  for (std::uint64_t k = 0; k < nsuper; ++k)
-    if (super[k + 1] <= super[k] || pi[k + 1] < pi[k] || px[k + 1] < px[k]) return false;
+  // Each supernode's rows include its own columns, and its values are its dense rows × columns block.
+  for (std::uint64_t k = 0; k < nsuper; ++k) {
+    const long ncol = super[k + 1] - super[k], nrow = pi[k + 1] - pi[k];
+    if (ncol <= 0 || nrow < ncol || px[k + 1] - px[k] != nrow * ncol) return false;
+  }
   std::vector<char> seen(n, 0);
   for (std::uint64_t k = 0; k < n; ++k) {
     if (perm[k] < 0 || static_cast<std::uint64_t>(perm[k]) >= n || seen[static_cast<size_t>(perm[k])]) return false;
