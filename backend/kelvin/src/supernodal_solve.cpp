@@ -168,8 +168,8 @@ SolvePlan plan_two_lanes(const SupernodalFactor& f) {
   for (auto& lane : plan.lanes) std::sort(lane.begin(), lane.end());
   for (int k = 0; k < f.nsuper; ++k)
     if (in_lane[static_cast<size_t>(k)] == 0) plan.top.push_back(k);
-  const double total = weight.empty() ? 0 : std::accumulate(roots.begin(), roots.end(), 0.0,
-                                                            [&](double a, int r) { return a + weight[size_t(r)]; });
+  const double total =
+      std::accumulate(roots.begin(), roots.end(), 0.0, [&](double a, int r) { return a + weight[size_t(r)]; });
   plan.critical_share = total > 0 ? (std::max(load[0], load[1]) + total - load[0] - load[1]) / total : 1;
   return plan;
 }
@@ -177,13 +177,15 @@ SolvePlan plan_two_lanes(const SupernodalFactor& f) {
 double solve_supernodal(const SupernodalFactor& f, const SolvePlan& plan, double* w, SolveWorkspace& ws,
                         bool threads) {
   for (auto& b : ws.below) b.resize(static_cast<size_t>(f.n));
-  ws.lane1_top.assign(static_cast<size_t>(f.n), 0.0);
+  if (ws.lane1_top.size() != static_cast<size_t>(f.n)) ws.lane1_top.assign(static_cast<size_t>(f.n), 0.0);  // kept zero
   std::array<double, 2> skipped{0, 0};
   auto forward_lane = [&](size_t lane) {
     const unsigned char* top_column = lane == 1 ? plan.top_column.data() : nullptr;
+    double lane_skipped = 0;  // summed here: the two lanes' counters would share a cache line
     for (const auto& [begin, end] : plan.lanes[lane])
       for (int k = begin; k < end; ++k)
-        skipped[lane] += forward(f, k, w, ws.below[lane].data(), top_column, ws.lane1_top.data());
+        lane_skipped += forward(f, k, w, ws.below[lane].data(), top_column, ws.lane1_top.data());
+    skipped[lane] = lane_skipped;
   };
   auto backward_lane = [&](size_t lane) {
     for (auto r = plan.lanes[lane].rbegin(); r != plan.lanes[lane].rend(); ++r)
@@ -203,7 +205,10 @@ double solve_supernodal(const SupernodalFactor& f, const SolvePlan& plan, double
   };
   both(forward_lane);
   for (int k : plan.top)
-    for (int c = f.super[k]; c < f.super[k + 1]; ++c) w[c] -= ws.lane1_top[static_cast<size_t>(c)];
+    for (int c = f.super[k]; c < f.super[k + 1]; ++c) {
+      w[c] -= ws.lane1_top[static_cast<size_t>(c)];
+      ws.lane1_top[static_cast<size_t>(c)] = 0;
+    }
   for (int k : plan.top) skipped[0] += forward(f, k, w, ws.below[0].data(), nullptr, nullptr);
   for (auto k = plan.top.rbegin(); k != plan.top.rend(); ++k) backward(f, *k, w, ws.below[0].data());
   both(backward_lane);

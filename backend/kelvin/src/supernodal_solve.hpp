@@ -39,7 +39,7 @@ SolvePlan plan_one_lane(const SupernodalFactor& f);
 
 struct SolveWorkspace {
   std::array<std::vector<double>, 2> below;  // one supernode's rows below its diagonal block, per lane
-  std::vector<double> lane1_top;             // lane 1's forward updates of top rows
+  std::vector<double> lane1_top;             // lane 1's forward updates of top rows (zero between solves)
 };
 
 // Solves L Lᵀ w = w in place (w permuted, size n). The forward pass skips every supernode whose
