@@ -3,6 +3,7 @@
 // as artifacts. Environment (set by tests/web/CMakeLists.txt): DISTLAB_EXE, DISTLAB_SOURCE_DIR,
 // DISTLAB_ARTIFACTS, CHROMIUM.
 import { spawn } from "node:child_process";
+import { after, before } from "node:test";
 import { mkdirSync, mkdtempSync, rmSync, existsSync } from "node:fs";
 import { createRequire } from "node:module";
 import { tmpdir } from "node:os";
@@ -68,6 +69,21 @@ export async function launchBrowser() {
       "--use-angle=swiftshader",
     ],
   });
+}
+
+/** The server and browser a test file shares: registers node:test hooks that start both before its
+ *  tests and close both after them. A test may replace `.server` (a restart); the current one is stopped. */
+export function serverAndBrowser() {
+  const env = { server: null, browser: null };
+  before(async () => {
+    env.server = await startServer();
+    env.browser = await launchBrowser();
+  });
+  after(async () => {
+    await env.browser?.close();
+    await env.server?.stop();
+  });
+  return env;
 }
 
 /** A page on the given hash; console errors and failed requests are collected in page.problems.

@@ -2,19 +2,11 @@
 // a real mouse stroke paints σ and the pushed iso-surface and the picture change, an export is
 // read back by the server's importer, a bad upload shows the server's message, a shared URL
 // restores the state, the wrench presets apply, and the object comes back after a restart.
-import { test, after, before } from "node:test";
+import { test } from "node:test";
 import assert from "node:assert/strict";
-import { canvasPixels, decodeMsgpack, differentBytes, launchBrowser, openView, screenshot, startServer } from "./harness.mjs";
+import { canvasPixels, decodeMsgpack, differentBytes, openView, screenshot, serverAndBrowser, startServer } from "./harness.mjs";
 
-let server, browser;
-before(async () => {
-  server = await startServer();
-  browser = await launchBrowser();
-});
-after(async () => {
-  await browser?.close();
-  await server?.stop();
-});
+const env = serverAndBrowser();
 
 const hash = (state) => `#/kelvin?s=${encodeURIComponent(JSON.stringify(state))}`;
 const K = (page, expr) => page.evaluate(`(() => { const k = window.distlab.kelvin; return ${expr}; })()`);
@@ -74,7 +66,7 @@ async function errorToast(page) {
 test("the cube is prepared with a progress bar; painting σ with the mouse changes the iso-surface and the picture", async () => {
   // The progress bar's labels are recorded from the page's start: the cube at l_x 0.1 can be
   // prepared before openView returns (waiting for the bar to appear then raced with it).
-  const page = await openView(browser, server, hash({ object: "cube", lx: 0.1, levels: [0, 0.25], base: -0.5 }), { setup: recordProgress });
+  const page = await openView(env.browser, env.server, hash({ object: "cube", lx: 0.1, levels: [0, 0.25], base: -0.5 }), { setup: recordProgress });
   await waitReady(page);
   const labels = await page.evaluate(() => window.__progressLabels);
   assert.ok(labels.some((l) => /preparing cube/.test(l)), `progress labels shown: ${JSON.stringify(labels)}`);
@@ -146,7 +138,7 @@ test("the surface is downloaded once, as the socket's frame (no REST fetch besid
   let counts;
   // An l_x no other test uses: the object is prepared after the socket has joined (a socket
   // joining just as an object becomes ready may legitimately get the surface twice).
-  const page = await openView(browser, server, hash({ object: "cube", lx: 0.12, levels: [0], base: -0.5 }), { setup: (p) => (counts = watchSurfaces(p)) });
+  const page = await openView(env.browser, env.server, hash({ object: "cube", lx: 0.12, levels: [0], base: -0.5 }), { setup: (p) => (counts = watchSurfaces(p)) });
   await waitReady(page);
   const id = await K(page, "k.objectId");
   const v = await K(page, "k.sigma.version");
@@ -162,7 +154,7 @@ test("the surface is downloaded once, as the socket's frame (no REST fetch besid
 
 test("if the socket's surface frame does not come, the surface is fetched by REST, once", async () => {
   let counts, dropped = 0;
-  const page = await openView(browser, server, hash({ object: "cube", lx: 0.13, levels: [0] }), {
+  const page = await openView(env.browser, env.server, hash({ object: "cube", lx: 0.13, levels: [0] }), {
     setup: async (p) => {
       counts = watchSurfaces(p);
       // The socket passes everything but the surface frames.
@@ -188,7 +180,7 @@ test("if the socket's surface frame does not come, the surface is fetched by RES
 });
 
 test("a shared URL restores object, σ strokes, levels and slice: the same iso-surfaces come back", async () => {
-  const page = await openView(browser, server, hash({ object: "cube", lx: 0.1, levels: [0, 0.3], slice: { show: true, axis: "x", offset: 0 } }));
+  const page = await openView(env.browser, env.server, hash({ object: "cube", lx: 0.1, levels: [0, 0.3], slice: { show: true, axis: "x", offset: 0 } }));
   await waitReady(page);
   await page.waitForFunction(() => window.distlab.kelvin.sliceSigmaVersion >= 0, null, { timeout: 30000 });
   const v0 = await K(page, "k.sigma.version");
@@ -201,7 +193,7 @@ test("a shared URL restores object, σ strokes, levels and slice: the same iso-s
   const shown = await K(page, "k.shown");
   await screenshot(page, "kelvin-slice-and-stroke");
 
-  const again = await openView(browser, server, shared);
+  const again = await openView(env.browser, env.server, shared);
   await waitReady(again);
   const sigma2 = await K(again, "k.sigma.body");
   assert.equal(sigma2.brushes.length, sigma.brushes.length);
@@ -224,7 +216,7 @@ test("a shared URL restores object, σ strokes, levels and slice: the same iso-s
 });
 
 test("export downloads every shown level, and the server's importer reads each file back", async () => {
-  const page = await openView(browser, server, hash({ object: "sphere", lx: 0.1, levels: [0, 0.4], format: "ply" }));
+  const page = await openView(env.browser, env.server, hash({ object: "sphere", lx: 0.1, levels: [0, 0.4], format: "ply" }));
   await waitReady(page);
   const downloads = [];
   page.on("download", (d) => downloads.push(d));
@@ -232,11 +224,11 @@ test("export downloads every shown level, and the server's importer reads each f
   await page.waitForFunction(() => true);
   for (let i = 0; i < 50 && downloads.length < 2; i++) await page.waitForTimeout(200);
   assert.equal(downloads.length, 2, "one file per shown level");
-  const session = (await (await fetch(server.url + "api/session", { method: "POST" })).json()).session;
+  const session = (await (await fetch(env.server.url + "api/session", { method: "POST" })).json()).session;
   for (const d of downloads) {
     assert.match(d.suggestedFilename(), /^sphere-h(0|0\.4)\.ply$/);
     const bytes = await (await import("node:fs/promises")).readFile(await d.path());
-    const r = await fetch(`${server.url}api/kelvin/uploads?format=ply`, { method: "POST", headers: { "X-Distlab-Session": session, "Content-Type": "application/octet-stream" }, body: bytes });
+    const r = await fetch(`${env.server.url}api/kelvin/uploads?format=ply`, { method: "POST", headers: { "X-Distlab-Session": session, "Content-Type": "application/octet-stream" }, body: bytes });
     const body = await r.json();
     assert.equal(r.status, 201, JSON.stringify(body));
     assert.ok(body.n_faces > 100, `${d.suggestedFilename()} has ${body.n_faces} triangles`);
@@ -245,11 +237,11 @@ test("export downloads every shown level, and the server's importer reads each f
 });
 
 test("bad uploads show the server's message readably", async () => {
-  const page = await openView(browser, server, hash({ object: "sphere", lx: 0.1, levels: [0] }));
+  const page = await openView(env.browser, env.server, hash({ object: "sphere", lx: 0.1, levels: [0] }));
   await waitReady(page);
-  const session = (await (await fetch(server.url + "api/session", { method: "POST" })).json()).session;
+  const session = (await (await fetch(env.server.url + "api/session", { method: "POST" })).json()).session;
   const serverSays = async (bytes, format) => {
-    const r = await fetch(`${server.url}api/kelvin/uploads?format=${format}`, { method: "POST", headers: { "X-Distlab-Session": session }, body: bytes });
+    const r = await fetch(`${env.server.url}api/kelvin/uploads?format=${format}`, { method: "POST", headers: { "X-Distlab-Session": session }, body: bytes });
     return r.status >= 400 ? (await r.json()).error.message : null;
   };
   // Garbage bytes named .stl: not a valid STL (its bytes 80..83 read as a huge triangle count).
@@ -277,7 +269,7 @@ test("the wrench presets (a), (b), (c) apply the case files' σ; switching betwe
   const root = new URL("../../assets/", import.meta.url);
   const cases = {};
   for (const c of ["a", "b", "c"]) cases[c] = JSON.parse(await fs.readFile(new URL(`wrench_case_${c}.json`, root), "utf8")).sigma;
-  const page = await openView(browser, server, hash({ object: "cube", lx: 0.1, levels: [0, 0.5] }));
+  const page = await openView(env.browser, env.server, hash({ object: "cube", lx: 0.1, levels: [0, 0.5] }));
   await waitReady(page);
   const preset = page.locator(".lil-controller:has(.lil-name:text-is('preset')) select");
   await preset.selectOption({ index: 1 }); // (a)
@@ -304,13 +296,13 @@ test("the wrench presets (a), (b), (c) apply the case files' σ; switching betwe
 
 test("after a server restart the page re-creates its object (from the server's cache) with its σ", async () => {
   let counts;
-  const page = await openView(browser, server, hash({ object: "cube", lx: 0.1, levels: [0, 0.25], base: -0.3 }), { setup: (p) => (counts = watchSurfaces(p)) });
+  const page = await openView(env.browser, env.server, hash({ object: "cube", lx: 0.1, levels: [0, 0.25], base: -0.3 }), { setup: (p) => (counts = watchSurfaces(p)) });
   await waitReady(page);
   const id = await K(page, "k.objectId");
-  const port = server.port;
-  await server.stop({ keepCache: true });
+  const port = env.server.port;
+  await env.server.stop({ keepCache: true });
   await page.waitForFunction(() => document.getElementById("connection")?.textContent?.startsWith("offline"), null, { timeout: 15000 });
-  server = await startServer({ cacheDir: server.cacheDir, port });
+  env.server = await startServer({ cacheDir: env.server.cacheDir, port });
   await page.waitForFunction((id) => window.distlab.kelvin.objectId && window.distlab.kelvin.objectId !== id && window.distlab.kelvin.ready, id, { timeout: 120000 });
   const o = await K(page, "k.object");
   assert.equal(o.stats.cache_hit, true, "prepared object reloaded from the cache");
