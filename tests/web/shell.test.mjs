@@ -1,21 +1,13 @@
 // The shell loads from the real server, talks to it, routes between views, and reconnects after
 // a server restart.
-import { test, after, before } from "node:test";
+import { test } from "node:test";
 import assert from "node:assert/strict";
-import { launchBrowser, openView, screenshot, startServer } from "./harness.mjs";
+import { openView, screenshot, serverAndBrowser, startServer } from "./harness.mjs";
 
-let server, browser;
-before(async () => {
-  server = await startServer();
-  browser = await launchBrowser();
-});
-after(async () => {
-  await browser?.close();
-  await server?.stop();
-});
+const env = serverAndBrowser();
 
 test("the shell loads, has WebGL, and routes between the three views", async () => {
-  const page = await openView(browser, server, "#/gap");
+  const page = await openView(env.browser, env.server, "#/gap");
   const gl = await page.evaluate(() => !!document.createElement("canvas").getContext("webgl2"));
   assert.ok(gl, "WebGL2 is available in headless chromium");
   for (const [id, title] of [["gap", "GAP explorer"], ["kelvin", "Semantic distance"], ["cbf", "CBF rollouts"]]) {
@@ -30,7 +22,7 @@ test("the shell loads, has WebGL, and routes between the three views", async () 
 });
 
 test("an unknown route falls back to the first view; keyboard 2 opens the second", async () => {
-  const page = await openView(browser, server, "#/nonsense?s=%7Bbroken");
+  const page = await openView(env.browser, env.server, "#/nonsense?s=%7Bbroken");
   await page.waitForFunction(() => location.hash.startsWith("#/gap"));
   await page.keyboard.press("2");
   await page.waitForFunction(() => location.hash.startsWith("#/kelvin"));
@@ -38,11 +30,11 @@ test("an unknown route falls back to the first view; keyboard 2 opens the second
 });
 
 test("the page reconnects after the server restarts on the same port", async () => {
-  const page = await openView(browser, server, "#/gap");
-  const port = server.port;
-  await server.stop({ keepCache: true });
+  const page = await openView(env.browser, env.server, "#/gap");
+  const port = env.server.port;
+  await env.server.stop({ keepCache: true });
   await page.waitForFunction(() => document.getElementById("connection")?.textContent?.startsWith("offline"), null, { timeout: 60000 });
-  server = await startServer({ cacheDir: server.cacheDir, port });
+  env.server = await startServer({ cacheDir: env.server.cacheDir, port });
   // A restart on another port cannot be followed by the page; the test restarts on the same one.
   await page.waitForFunction(() => document.getElementById("connection")?.textContent === "connected", null, { timeout: 120000 });
 });
