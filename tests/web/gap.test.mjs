@@ -3,19 +3,11 @@
 // parameters show the server's message, the sweep plot holds GAP and Euclidean series (and its
 // derivative is the derivative of D), a shared URL restores the same D. Measurements (drag →
 // readout latency, frame intervals while orbiting) are printed, never asserted.
-import { test, after, before } from "node:test";
+import { test } from "node:test";
 import assert from "node:assert/strict";
-import { canvasPixels, differentBytes, launchBrowser, openView, screenshot, startServer } from "./harness.mjs";
+import { canvasPixels, differentBytes, openView, screenshot, serverAndBrowser } from "./harness.mjs";
 
-let server, browser;
-before(async () => {
-  server = await startServer();
-  browser = await launchBrowser();
-});
-after(async () => {
-  await browser?.close();
-  await server?.stop();
-});
+const env = serverAndBrowser();
 
 const hook = (page, expr) => page.evaluate(`window.distlab.gap.${expr}`);
 const median = (a) => [...a].sort((x, y) => x - y)[Math.floor(a.length / 2)];
@@ -53,7 +45,7 @@ async function urlState(page) {
 
 async function direct(state) {
   const p = state.params;
-  const r = await fetch(server.url + "api/gap/distance", {
+  const r = await fetch(env.server.url + "api/gap/distance", {
     method: "POST",
     headers: { "Content-Type": "application/json" },
     body: JSON.stringify({ a: shapeFromUrl(state.a), b: shapeFromUrl(state.b), params: { h: p.h, k: p.k, eps: p.eps, sigma: p.sigma, solver: p.solver } }),
@@ -97,7 +89,7 @@ async function grabGizmo(page, axis = "X") {
 }
 
 test("the explorer loads: live GAP and Euclidean numbers, verdict, level sets, sweep", async () => {
-  const page = await openView(browser, server, "#/gap");
+  const page = await openView(env.browser, env.server, "#/gap");
   await settled(page);
   const r = await hook(page, "result()");
   assert.ok(r.distance > 0 && r.euclidean.distance > r.distance, "default pair is separated; GAP D is below the Euclidean distance here");
@@ -132,7 +124,7 @@ test("the explorer loads: live GAP and Euclidean numbers, verdict, level sets, s
 });
 
 test("a real drag on the gizmo changes D; the readout equals a direct POST for the URL's state; latency", async () => {
-  const page = await openView(browser, server, "#/gap");
+  const page = await openView(env.browser, env.server, "#/gap");
   await settled(page);
   const before = await hook(page, "result()");
   const requests0 = await hook(page, "requests()");
@@ -176,7 +168,7 @@ test("a real drag on the gizmo changes D; the readout equals a direct POST for t
 
 test("measurement: drag → readout latency with the iso-surfaces hidden (rendering out of the way)", async () => {
   const light = { iso: { surfaces: "none", slice: "none" } };
-  const page = await openView(browser, server, `#/gap?s=${encodeURIComponent(JSON.stringify(light))}`);
+  const page = await openView(env.browser, env.server, `#/gap?s=${encodeURIComponent(JSON.stringify(light))}`);
   await settled(page);
   const D0 = await hook(page, "D()");
   const n0 = (await hook(page, "latencies()")).length, r0 = (await hook(page, "roundTrips()")).length;
@@ -200,7 +192,7 @@ test("measurement: drag → readout latency with the iso-surfaces hidden (render
 });
 
 test("refused parameters show the server's message; a good value turns the verdict green again", async () => {
-  const page = await openView(browser, server, "#/gap");
+  const page = await openView(env.browser, env.server, "#/gap");
   await settled(page);
   const input = (name) => page.locator(".lil-gui .lil-controller", { has: page.locator(".lil-name", { hasText: name }) }).locator("input");
   const verdict = page.locator("[data-testid=gap-verdict]");
@@ -238,7 +230,7 @@ test("rotation sweep of parallel boxes: dD/ds is the derivative of D; the Euclid
     b: { type: "box", size: [0.3, 0.3, 0.3], position: [0.6, 0.05, 0], quaternion: [1, 0, 0, 0] },
     sweep: { motion: "rotate", axis: "z", range: 0.3, samples: 121 },
   };
-  const page = await openView(browser, server, `#/gap?s=${encodeURIComponent(JSON.stringify(state))}`);
+  const page = await openView(env.browser, env.server, `#/gap?s=${encodeURIComponent(JSON.stringify(state))}`);
   await settled(page);
   await page.waitForFunction(() => window.distlab.gap.sweep().data !== null, null, { timeout: 30000 });
   const { data } = await hook(page, "sweep()");
@@ -262,7 +254,7 @@ test("rotation sweep of parallel boxes: dD/ds is the derivative of D; the Euclid
 });
 
 test("a shared URL restores the same shapes and D; frames while orbiting", async () => {
-  const page = await openView(browser, server, "#/gap");
+  const page = await openView(env.browser, env.server, "#/gap");
   await settled(page);
   // Change something the URL must carry: B's type and size, the pose by keyboard nudges, σ.
   await page.locator(".lil-gui .lil-controller", { has: page.locator(".lil-name", { hasText: "radius (pentagon)" }) }).locator("input").fill("0.22");
@@ -278,7 +270,7 @@ test("a shared URL restores the same shapes and D; frames while orbiting", async
   const D = await hook(page, "D()");
   const text = await hook(page, "readout()");
 
-  const page2 = await openView(browser, server, url.slice(url.indexOf("#")));
+  const page2 = await openView(env.browser, env.server, url.slice(url.indexOf("#")));
   await settled(page2);
   assert.deepEqual(await hook(page2, "state()"), await hook(page, "state()"));
   assert.equal(await hook(page2, "D()"), D);
