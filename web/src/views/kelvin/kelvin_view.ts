@@ -5,41 +5,26 @@ import * as THREE from "three";
 import { api, ApiError } from "../../core/api";
 import type { Shortcut } from "../../core/keys";
 import { isMeshFrame, type MeshFrame } from "../../core/meshframe";
-import { socket, SocketRequestError, type BinaryFrame } from "../../core/socket";
+import { socket, type BinaryFrame } from "../../core/socket";
 import { showError, toast } from "../../core/toast";
 import type { View, ViewHost } from "../../core/view";
 import { Viewport } from "../../core/viewport";
 import { BrushTool } from "./brush_tool";
-import { Coalescer } from "./coalesce";
+import { EditTracer } from "./edit_trace";
+import { downloadIsoSurfaces } from "./iso_export";
 import { IsoLayers, type IsoFrameInfo } from "./iso_layers";
 import { DEFAULT_BASE, defaultLx, readState, writeStateJson, type KelvinState } from "./kelvin_state";
 import { ObjectJob, uploadMesh, type ObjectStatus, type Source } from "./object_source";
+import { statsRows, statusLine } from "./object_stats";
 import { Panel } from "./panel";
 import { Probe } from "./probe";
 import { composeSigma, evaluateAll, evaluateAt, presets, type Brush, type SigmaBody } from "./sigma";
+import { SigmaSync } from "./sigma_sync";
 import { SliceLayer } from "./slice_layer";
 import { SurfaceLayer } from "./surface_layer";
+import { SurfaceSource } from "./surface_source";
 import { installHooks, type Timings } from "./test_hooks";
 import "./kelvin.css";
-
-/** One σ edit on its way to the screen (performance.now times; ms sums). */
-interface EditTrace {
-  since: number; // its first mouse event
-  sent: number;
-  answered: number; // the server acknowledged its version
-  arrived: number; // the last of its frames arrived (before decode)
-  processed: number; // ... and was made a geometry
-  decodeMs: number;
-  acceptMs: number;
-  serverMs: number; // server: edit received → last frame sent (frame.server_ms.since_edit)
-  raf: number; // the animation frame that draws it began
-}
-
-/** How long a ready object's surface is awaited on the socket before it is fetched by REST. The
- *  server sends it right after the "ready" message (before any iso-surface); this only covers a
- *  frame that cannot come (the socket closed meanwhile) without fetching ~4 MB twice when it is
- *  merely queued behind other work on the server. */
-const SURFACE_SOCKET_WAIT_MS = 10000;
 
 interface Limits {
   max_query_points?: number;
@@ -66,23 +51,20 @@ export class KelvinView implements View {
   private strokes: number[] = []; // brushes.length at each stroke's start (undo)
   private sigmaVersion = 0;
   private frameLog: IsoFrameInfo[] = [];
-  private waiters: Array<{ version: number; resolve: () => void }> = [];
-  private unsentSince: number | null = null;
-  // σ version → the stages of its way to the screen (performance.now times, see Timings).
-  private awaitingDraw = new Map<number, EditTrace>();
-  private drawing: Array<[number, EditTrace]> = []; // complete in the frame being rendered
-  private inflight: EditTrace | null = null; // the edit sent and not yet acknowledged
-  private localPending: number[] = []; // mouse events whose σ colours are not drawn yet
-  readonly timings: Timings = { prepareMs: [], strokeToFrameMs: [], strokeToColourMs: [], sliceMs: [] };
-  private sigmaSync = new Coalescer<void>(() => this.sendSigma());
+  private readonly timings: Timings = { prepareMs: [], strokeToFrameMs: [], strokeToColourMs: [], sliceMs: [] };
+  private edits = new EditTracer(this.timings);
+  private sigmaSync = new SigmaSync(
+    {
+      objectId: () => this.objectId,
+      body: () => this.sigmaBody(),
+      applied: (version) => this.sigmaApplied(version),
+      shownAtLeast: (version) => this.allShownAtLeast(version),
+    },
+    this.edits,
+  );
+  private surfaces = new SurfaceSource();
   private hoverEvent: PointerEvent | null = null;
   private firstOpen = true;
-  private unclaimed: MeshFrame[] = [];
-  // The surface frame pushed on the socket for the object being prepared, until load() takes it.
-  private socketSurface: MeshFrame | null = null;
-  private surfaceWaiter: { id: string; take: (f: MeshFrame) => void; cancel: () => void } | null = null;
-  /** Where the shown surface came from: the socket's frame, or REST when that did not come. */
-  surfaceSource: "socket" | "rest" | null = null;
   private sliceAtVersion = -1;
 
   async mount(host: ViewHost, raw: Record<string, unknown>): Promise<void> {
@@ -144,53 +126,27 @@ export class KelvinView implements View {
       vp.onBeforeRender(() => this.beforeRender()),
       vp.onAfterRender((ms) => this.afterRender(ms)),
     );
-    installHooks(this);
+    installHooks({
+      viewport: () => this.viewport,
+      objectId: () => this.objectId,
+      status: () => this.status,
+      ready: () => Boolean(this.objectId && this.surface) && this.allShownAtLeast(this.sigmaVersion),
+      surfaceSource: () => this.surfaces.origin,
+      frames: () => this.frameLog,
+      shown: () => this.iso.shown(),
+      sigma: () => ({ body: this.sigmaBody(), version: this.sigmaVersion }),
+      stateJson: () => writeStateJson(this.state),
+      timings: () => this.timings,
+      sliceSigmaVersion: () => this.slice?.lastSigmaVersion ?? -1,
+      probe: () => this.probe?.last ?? null,
+      displayTriangles: () => this.surface?.displayTriangles ?? 0,
+      localSigmaAtInputVertices: () => {
+        const pos = this.surface?.pickMesh.geometry.getAttribute("position").array as Float32Array | undefined;
+        return pos ? Array.from(evaluateAll(this.sigmaBody(), pos)) : [];
+      },
+    });
     this.restyle();
     await this.load();
-  }
-
-  // ---- read-only views for the test hooks ----
-  get currentObjectId(): string | null {
-    return this.objectId;
-  }
-  get currentStatus(): ObjectStatus | null {
-    return this.status;
-  }
-  get frames(): IsoFrameInfo[] {
-    return this.frameLog;
-  }
-  get shownFrames(): IsoFrameInfo[] {
-    return this.iso.shown();
-  }
-  get sigma(): { body: SigmaBody; version: number } {
-    return { body: this.sigmaBody(), version: this.sigmaVersion };
-  }
-  get stateJson(): Record<string, unknown> {
-    return writeStateJson(this.state);
-  }
-  get view(): Viewport | null {
-    return this.viewport;
-  }
-  get displayTriangles(): number {
-    return this.surface?.displayTriangles ?? 0;
-  }
-  /** σ at the input mesh's vertices, evaluated here (the server sends the same as surface scalars). */
-  localSigmaAtInputVertices(): number[] {
-    if (!this.surface) return [];
-    const pos = this.surface.pickMesh.geometry.getAttribute("position").array as Float32Array;
-    return Array.from(evaluateAll(this.sigmaBody(), pos));
-  }
-  /** True once the object is ready and every watched level has a frame for the current σ. */
-  get ready(): boolean {
-    if (!this.objectId || !this.surface) return false;
-    const shown = this.iso.shown();
-    return this.state.levels.every((l) => shown.some((s) => s.level === l && s.sigma_version >= this.sigmaVersion));
-  }
-  get sliceSigmaVersion(): number {
-    return this.slice?.lastSigmaVersion ?? -1;
-  }
-  get probeReading() {
-    return this.probe?.last ?? null;
   }
 
   // ---- the object ----
@@ -203,9 +159,7 @@ export class KelvinView implements View {
     this.objectId = this.pendingId = null;
     this.status = null;
     this.dropSurface();
-    this.socketSurface = null;
-    this.surfaceWaiter?.cancel();
-    this.surfaceSource = null;
+    this.surfaces.reset();
     this.iso.clear();
     this.iso.setLevels(this.state.levels);
     this.slice?.setObject(null, new THREE.Box3());
@@ -213,7 +167,7 @@ export class KelvinView implements View {
     this.sigmaVersion = 0;
     this.save();
     const source: Source = this.state.object === "upload" && this.upload ? this.upload : { asset: this.state.object };
-    const name = "asset" in source ? source.asset : source.name;
+    const name = this.objectName();
     const job = (this.job = new ObjectJob());
     const t0 = performance.now();
     const label = (stage: string) => `preparing ${name} (l_x = ${this.state.lx})${stage ? ": " + stage : ""}`;
@@ -238,7 +192,7 @@ export class KelvinView implements View {
     this.status = status;
     this.objectId = status.id;
     try {
-      const frame = await this.surfaceOf(status.id);
+      const frame = await this.surfaces.of(status.id);
       if (ticket !== this.ticket) return;
       this.showSurface(frame);
     } catch (e) {
@@ -248,54 +202,9 @@ export class KelvinView implements View {
     this.updateStats();
   }
 
-  /** The ready object's surface: the frame the server pushes on the socket once per object (it
-   *  may have come already); by REST only when the socket is closed or the frame does not come. */
-  private surfaceOf(id: string): Promise<MeshFrame> {
-    const pushed = this.socketSurface;
-    this.socketSurface = null;
-    if (pushed?.object === id) {
-      this.surfaceSource = "socket";
-      return Promise.resolve(pushed);
-    }
-    return new Promise<MeshFrame>((resolve, reject) => {
-      let settled = false;
-      const settle = (f: MeshFrame | null, e?: unknown) => {
-        if (settled) return;
-        settled = true;
-        window.clearTimeout(timer);
-        if (this.surfaceWaiter === waiter) this.surfaceWaiter = null;
-        if (f) resolve(f);
-        else reject(e);
-      };
-      const waiter = {
-        id,
-        take: (f: MeshFrame) => {
-          if (!settled) this.surfaceSource = "socket";
-          settle(f);
-        },
-        cancel: () => settle(null, new ApiError(0, "cancelled", "another object was chosen")),
-      };
-      const fromRest = () => {
-        if (settled) return;
-        api.get<MeshFrame>(`/api/kelvin/objects/${id}/surface`).then(
-          (f) => {
-            if (!isMeshFrame(f)) return settle(null, new Error("the server's surface is not a mesh frame"));
-            if (!settled) this.surfaceSource = "rest";
-            settle(f);
-          },
-          (e) => settle(null, e),
-        );
-      };
-      this.surfaceWaiter = waiter;
-      const timer = window.setTimeout(fromRest, socket.state === "open" ? SURFACE_SOCKET_WAIT_MS : 0);
-    });
-  }
-
   private adopt(id: string): void {
     this.pendingId = id;
-    const mine = this.unclaimed.filter((f) => f.object === id);
-    this.unclaimed = this.unclaimed.filter((f) => f.object !== id);
-    mine.forEach((f) => this.onFrame(f));
+    this.surfaces.claim(id).forEach((f) => this.onFrame(f));
   }
 
   private showSurface(frame: MeshFrame): void {
@@ -312,8 +221,7 @@ export class KelvinView implements View {
       this.panel?.refresh();
     }
     this.restyle();
-    const view = s.bounds.clone().expandByScalar(size * 0.2);
-    vp.frame(view);
+    this.frameObject();
     this.warmUp();
     this.slice?.setObject(this.objectId, s.bounds);
     this.probe?.setObject(this.objectId, s.bounds);
@@ -332,6 +240,11 @@ export class KelvinView implements View {
     vp.renderer.render(vp.scene, vp.camera);
     hidden.forEach((o) => (o.visible = false));
     vp.renderer.render(vp.scene, vp.camera); // what the user sees (the drawing buffer is preserved)
+  }
+
+  private frameObject(): void {
+    const b = this.surface?.bounds;
+    if (b) this.viewport?.frame(b.clone().expandByScalar(b.getSize(new THREE.Vector3()).length() * 0.2));
   }
 
   private dropSurface(): void {
@@ -390,41 +303,21 @@ export class KelvinView implements View {
 
   private onFrame(f: BinaryFrame): void {
     if ((f.type !== "isosurface" && f.type !== "surface") || !isMeshFrame(f)) return;
-    if (f.object !== this.objectId && f.object !== this.pendingId) {
-      // A prepared object shared from the server's memory is ready (and its frames pushed)
-      // before our POST has returned its id: keep a few unclaimed frames for adopt().
-      this.unclaimed.push(f);
-      if (this.unclaimed.length > 32) this.unclaimed.shift();
-      return;
-    }
+    if (f.object !== this.objectId && f.object !== this.pendingId) return this.surfaces.keepUnclaimed(f); // perhaps ours soon
     if (f.type === "surface") {
       // Once per object (again after a reconnect, with the current σ, which the page computes
       // itself): only the first is used.
-      if (this.surface || f.object !== (this.objectId ?? this.pendingId)) return;
-      const waiter = this.surfaceWaiter;
-      if (waiter && waiter.id === f.object) waiter.take(f);
-      else this.socketSurface = f;
+      if (!this.surface && f.object === (this.objectId ?? this.pendingId)) this.surfaces.surfacePushed(f);
       return;
     }
     const t0 = performance.now();
     const info = this.iso.accept(f, Number(f.level), Number(f.sigma_version ?? 0));
     if (!info) return;
-    // The frame completes this σ's edit, or an older one's that the server skipped for it.
-    const traces = [...this.awaitingDraw].filter(([v]) => v <= info.sigma_version).map(([, t]) => t);
-    if (this.inflight && info.sigma_version > this.sigmaVersion) traces.push(this.inflight);
-    const t1 = performance.now();
-    for (const trace of traces) {
-      trace.arrived = socket.frameArrivedAt;
-      trace.decodeMs += t0 - socket.frameArrivedAt;
-      trace.acceptMs += t1 - t0;
-      trace.processed = t1;
-      const server = f.server_ms as { since_edit?: number } | undefined;
-      trace.serverMs = Math.max(trace.serverMs, server?.since_edit ?? 0);
-    }
+    this.edits.frameAccepted(f, info.sigma_version, this.sigmaVersion, t0);
     this.frameLog.push(info);
     if (this.frameLog.length > 500) this.frameLog.shift();
     this.viewport?.invalidate();
-    this.checkWaiters();
+    this.sigmaSync.framesShown();
   }
 
   // ---- σ ----
@@ -437,8 +330,7 @@ export class KelvinView implements View {
     if (strokeStart) this.strokes.push(this.state.brushes.length);
     this.state.brushes.push(b);
     this.surface.addBrush(b);
-    this.localPending.push(eventTime);
-    this.unsentSince ??= eventTime;
+    this.edits.stamped(eventTime);
     this.viewport?.interacting();
     this.sigmaSync.push();
   }
@@ -446,67 +338,16 @@ export class KelvinView implements View {
   /** Whole-σ changes (preset, base, reset, undo). */
   private sigmaEdited(save: boolean): void {
     this.surface?.setSigma(this.sigmaBody());
-    this.unsentSince ??= performance.now();
+    this.edits.edited(performance.now());
     this.viewport?.invalidate();
     this.sigmaSync.push();
     if (save) this.save();
   }
 
-  /** σ to the server: on the socket when open (no HTTP request per edit), else by PUT. The
-   *  server answers a socket edit with a "sigma" message carrying its version, or an error, both
-   *  echoing the edit's request id. A σ is a whole state, so an edit whose answer was lost with
-   *  the connection is simply sent again by PUT. */
-  private async putSigma(id: string, body: SigmaBody): Promise<number> {
-    const answer = socket.request({ type: "sigma", object: id, sigma: body });
-    if (answer) {
-      try {
-        const m = await answer;
-        if (m.type === "sigma" && m.object === id) return Number(m.sigma_version);
-        const e = m.error as { code?: string; message?: string; field?: string } | undefined;
-        throw new ApiError(Number(m.status ?? 500), e?.code ?? "error", e?.message ?? "σ not applied", e?.field);
-      } catch (e) {
-        if (!(e instanceof SocketRequestError)) throw e;
-      }
-    }
-    return api.put<{ sigma_version: number }>(`/api/kelvin/objects/${id}/sigma`, body).then((r) => r.sigma_version);
-  }
-
-  private async sendSigma(): Promise<void> {
-    const id = this.objectId;
-    if (!id) return;
-    const since = this.unsentSince;
-    this.unsentSince = null;
-    const sent = performance.now();
-    const trace: EditTrace = { since: since ?? sent, sent, answered: 0, arrived: 0, processed: 0, decodeMs: 0, acceptMs: 0, serverMs: 0, raf: 0 };
-    this.inflight = trace;
-    try {
-      const version = await this.putSigma(id, this.sigmaBody());
-      this.inflight = null;
-      if (id !== this.objectId) return;
-      trace.answered = performance.now();
-      if (since !== null) this.awaitingDraw.set(version, trace); // drawn at the next frame if its frames came first
-      this.sigmaVersion = Math.max(this.sigmaVersion, version);
-      this.viewport?.invalidate();
-      this.slice?.refresh();
-      // Wait for this σ's frames before sending the next edit: the server then always works on
-      // the newest σ and the screen never lags behind a queue of stale edits.
-      await this.framesFor(version, 3000);
-    } catch (e) {
-      this.inflight = null;
-      showError(e, "σ not applied");
-    }
-  }
-
-  private framesFor(version: number, timeoutMs: number): Promise<void> {
-    return new Promise((resolve) => {
-      const w = { version, resolve };
-      this.waiters.push(w);
-      window.setTimeout(() => {
-        this.waiters = this.waiters.filter((x) => x !== w);
-        resolve();
-      }, timeoutMs);
-      this.checkWaiters();
-    });
+  private sigmaApplied(version: number): void {
+    this.sigmaVersion = Math.max(this.sigmaVersion, version);
+    this.viewport?.invalidate();
+    this.slice?.refresh();
   }
 
   private allShownAtLeast(version: number): boolean {
@@ -514,22 +355,8 @@ export class KelvinView implements View {
     return this.state.levels.every((l) => shown.some((s) => s.level === l && s.sigma_version >= version));
   }
 
-  private checkWaiters(): void {
-    this.waiters = this.waiters.filter((w) => {
-      if (!this.allShownAtLeast(w.version)) return true;
-      w.resolve();
-      return false;
-    });
-  }
-
   private beforeRender(): void {
-    const now = performance.now();
-    for (const [version, t] of this.awaitingDraw)
-      if (this.allShownAtLeast(version)) {
-        t.raf = now;
-        this.drawing.push([version, t]);
-        this.awaitingDraw.delete(version);
-      }
+    this.edits.beforeRender((version) => this.allShownAtLeast(version));
     // The slice follows σ: resample when it shows an older σ than the current one.
     if (this.slice && this.state.slice.show && this.sliceAtVersion !== this.sigmaVersion && this.slice.lastSigmaVersion >= 0) {
       this.sliceAtVersion = this.sigmaVersion;
@@ -540,28 +367,7 @@ export class KelvinView implements View {
   }
 
   private afterRender(renderMs: number): void {
-    const now = performance.now();
-    for (const t of this.localPending) this.timings.strokeToColourMs.push(now - t);
-    this.localPending = [];
-    for (const [version, t] of this.drawing) {
-      const ready = Math.max(t.processed, t.answered);
-      this.timings.strokeToFrameMs.push({
-        version,
-        ms: now - t.since,
-        waitMs: t.sent - t.since,
-        putMs: t.answered - t.sent,
-        serverMs: t.serverMs,
-        framesMs: t.arrived - t.sent,
-        decodeMs: t.decodeMs,
-        acceptMs: t.acceptMs,
-        rafWaitMs: t.raf - ready,
-        renderMs,
-        drawMs: now - ready,
-        fieldVertices: this.status?.stats?.n_verts ?? 0,
-        lx: this.state.lx,
-      });
-    }
-    this.drawing = [];
+    this.edits.afterRender(renderMs, this.status?.stats?.n_verts ?? 0, this.state.lx);
   }
 
   private applyPreset(): void {
@@ -637,23 +443,11 @@ export class KelvinView implements View {
     if (hit) this.probe.at(hit.point);
   }
 
-  // ---- export ----
   private async exportShown(): Promise<void> {
     const id = this.objectId;
     if (!id) return void toast("no object yet", "info");
-    const name = this.state.object === "upload" && this.upload && "name" in this.upload ? this.upload.name.replace(/\.[^.]+$/, "") : this.state.object;
-    for (const level of this.state.levels) {
-      try {
-        const { blob } = await api.binary(`/api/kelvin/objects/${id}/export?level=${level}&format=${this.state.format}`);
-        const a = document.createElement("a");
-        a.href = URL.createObjectURL(blob);
-        a.download = `${name}-h${level}.${this.state.format}`;
-        a.click();
-        window.setTimeout(() => URL.revokeObjectURL(a.href), 2000);
-      } catch (e) {
-        showError(e, `export of level ${level}`);
-      }
-    }
+    const name = this.state.object === "upload" ? this.objectName().replace(/\.[^.]+$/, "") : this.state.object; // the file's stem
+    await downloadIsoSurfaces(id, name, this.state.levels, this.state.format);
   }
 
   // ---- bookkeeping ----
@@ -661,27 +455,23 @@ export class KelvinView implements View {
     this.host.saveState(writeStateJson(this.state));
   }
 
+  /** The object's name as shown: the uploaded file's, or the asset's. */
+  private objectName(): string {
+    return this.state.object === "upload" && this.upload && "name" in this.upload ? this.upload.name : this.state.object;
+  }
+
   private updateStats(): void {
     const st = this.status?.stats ?? {};
-    const f = (x: unknown, d = 3) => (typeof x === "number" ? x.toFixed(d) : "–");
-    const name = this.state.object === "upload" && this.upload && "name" in this.upload ? this.upload.name : this.state.object;
-    this.panel?.setStats([
-      ["object", `${name}, l_x = ${this.state.lx}`],
-      ["input surface", `${this.surface?.inputVertices ?? "–"} vertices`],
-      ["n_verts / n_tets", `${st.n_verts ?? "–"} / ${st.n_tets ?? "–"}`],
-      ["size", `${f(st.size_mb, 1)} MB`],
-      ["t_mesh / t_build / t_decomp", `${f(st.t_mesh)} / ${f(st.t_build)} / ${f(st.t_decomp)} s`],
-      ["cache", st.cache_hit ? `hit (load ${f(st.t_load)} s)` : st.shared ? "shared in memory" : "computed"],
-      ["prepared in", `${f((this.timings.prepareMs.at(-1) ?? NaN) / 1000, 2)} s (this page)`],
-    ]);
-    this.host.status(`${name} · ${st.n_verts ?? "?"} field vertices · drag on the surface paints σ, elsewhere orbits (b: brush off)`);
+    const name = this.objectName();
+    this.panel?.setStats(statsRows(name, this.state.lx, st, this.surface?.inputVertices, this.timings.prepareMs.at(-1)));
+    this.host.status(statusLine(name, st));
   }
 
   unmount(): void {
     this.ticket++;
     void this.job?.cancel();
     this.sigmaSync.cancelPending();
-    this.surfaceWaiter?.cancel();
+    this.surfaces.reset();
     this.offs.forEach((f) => f());
     this.offs = [];
     this.brush?.dispose();
@@ -709,7 +499,7 @@ export class KelvinView implements View {
       { key: "e", description: "export the shown iso-surfaces", run: () => void this.exportShown() },
       { key: "[", description: "smaller brush", run: toggle(() => ((this.state.brush.radius *= 0.8), this.restyle())) },
       { key: "]", description: "larger brush", run: toggle(() => ((this.state.brush.radius *= 1.25), this.restyle())) },
-      { key: "f", description: "frame the object", run: () => this.surface && this.viewport?.frame(this.surface.bounds.clone().expandByScalar(this.surface.bounds.getSize(new THREE.Vector3()).length() * 0.2)) },
+      { key: "f", description: "frame the object", run: () => this.frameObject() },
     ];
   }
 

@@ -1,6 +1,11 @@
 // window.distlab.kelvin: read-only views of what the page shows and how long things took, for
 // the browser tests and for measuring (nothing here changes the view's state).
-import type { KelvinView } from "./kelvin_view";
+import type { Viewport } from "../../core/viewport";
+import type { IsoFrameInfo } from "./iso_layers";
+import type { ObjectStatus } from "./object_source";
+import type { ProbeReading } from "./probe";
+import type { SigmaBody } from "./sigma";
+import type { SurfaceOrigin } from "./surface_source";
 
 export interface Timings {
   prepareMs: number[];
@@ -25,53 +30,72 @@ export interface Timings {
   sliceMs: number[];
 }
 
-export function installHooks(view: KelvinView): void {
+export interface KelvinHookSource {
+  viewport(): Viewport | null;
+  objectId(): string | null;
+  status(): ObjectStatus | null;
+  /** The object is ready and every watched level has a frame for the current σ. */
+  ready(): boolean;
+  surfaceSource(): SurfaceOrigin | null;
+  frames(): IsoFrameInfo[];
+  shown(): IsoFrameInfo[];
+  sigma(): { body: SigmaBody; version: number };
+  stateJson(): Record<string, unknown>;
+  timings(): Timings;
+  sliceSigmaVersion(): number;
+  probe(): ProbeReading | null;
+  displayTriangles(): number;
+  /** σ at the input mesh's vertices, evaluated here (the server sends the same as surface scalars). */
+  localSigmaAtInputVertices(): number[];
+}
+
+export function installHooks(view: KelvinHookSource): void {
   const copy = <T>(x: T): T => structuredClone(x);
   const hooks = Object.freeze({
     get objectId() {
-      return view.currentObjectId;
+      return view.objectId();
     },
     get object() {
-      return copy(view.currentStatus);
+      return copy(view.status());
     },
     get ready() {
-      return view.ready;
+      return view.ready();
     },
     /** "socket" when the shown surface is the frame the socket pushed, "rest" when fetched. */
     get surfaceSource() {
-      return view.surfaceSource;
+      return view.surfaceSource();
     },
     /** Every iso-surface frame accepted (level, sigma_version, vertex/face counts, hash). */
     get frames() {
-      return copy(view.frames);
+      return copy(view.frames());
     },
     get shown() {
-      return copy(view.shownFrames);
+      return copy(view.shown());
     },
     get sigma() {
-      return copy(view.sigma);
+      return copy(view.sigma());
     },
     get state() {
-      return copy(view.stateJson);
+      return copy(view.stateJson());
     },
     get timings() {
-      return copy(view.timings);
+      return copy(view.timings());
     },
     get sliceSigmaVersion() {
-      return view.sliceSigmaVersion;
+      return view.sliceSigmaVersion();
     },
     get probe() {
-      return copy(view.probeReading);
+      return copy(view.probe());
     },
     get displayTriangles() {
-      return view.displayTriangles;
+      return view.displayTriangles();
     },
     localSigmaAtInputVertices: () => view.localSigmaAtInputVertices(),
-    frameStats: () => view.view?.frameStats() ?? null,
+    frameStats: () => view.viewport()?.frameStats() ?? null,
     /** Orbits the camera through n frames rendered back to back (each waited for by reading a pixel back)
      *  and puts it back; returns per-frame render times (ms) and the triangles drawn. */
     measureOrbit: (n = 30) => {
-      const vp = view.view;
+      const vp = view.viewport();
       if (!vp) return null;
       const cam = vp.camera, saved = cam.position.clone(), target = vp.controls.target;
       const gl = vp.renderer.getContext(), times: number[] = [], px = new Uint8Array(4);
@@ -88,14 +112,15 @@ export function installHooks(view: KelvinView): void {
       vp.invalidate();
       return { times, triangles: vp.renderer.info.render.triangles, width: gl.drawingBufferWidth, height: gl.drawingBufferHeight };
     },
-    resetFrameStats: () => view.view?.resetFrameStats(),
+    resetFrameStats: () => view.viewport()?.resetFrameStats(),
     /** Measuring: make every frame wait for its pixels (its render time then includes the GPU's). */
     syncRender: (on: boolean) => {
-      if (view.view) view.view.syncRender = on;
+      const vp = view.viewport();
+      if (vp) vp.syncRender = on;
     },
     /** GL data uploads (buffers, textures) since the first call, and three.js's resource counts. */
     glUploads: () => {
-      const vp = view.view;
+      const vp = view.viewport();
       if (!vp) return null;
       const gl = vp.renderer.getContext() as WebGL2RenderingContext & { __uploads?: Record<string, number> };
       if (!gl.__uploads) {
@@ -116,7 +141,7 @@ export function installHooks(view: KelvinView): void {
     },
     /** Canvas pixel position of a world point (tests aim the real mouse with it). */
     toScreen: (p: [number, number, number]) => {
-      const vp = view.view;
+      const vp = view.viewport();
       if (!vp) return null;
       const r = vp.renderer.domElement.getBoundingClientRect();
       const v = vp.camera.position.clone().set(p[0], p[1], p[2]).project(vp.camera);
