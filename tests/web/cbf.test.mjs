@@ -3,19 +3,11 @@
 // picture changes); both metrics' series are plotted and equal the record; the smoothness table
 // shows the record's numbers; a shared URL re-runs and returns to its time; cancel stops the job
 // midway; a bad inline scenario shows the server's message. Screenshots are kept as artifacts.
-import { test, after, before } from "node:test";
+import { test } from "node:test";
 import assert from "node:assert/strict";
-import { canvasPixels, differentBytes, launchBrowser, openView, screenshot, startServer } from "./harness.mjs";
+import { canvasPixels, differentBytes, openView, screenshot, serverAndBrowser } from "./harness.mjs";
 
-let server, browser;
-before(async () => {
-  server = await startServer();
-  browser = await launchBrowser();
-});
-after(async () => {
-  await browser?.close();
-  await server?.stop();
-});
+const env = serverAndBrowser();
 
 const hash = (state) => `#/cbf?s=${encodeURIComponent(JSON.stringify(state))}`;
 const C = (page, expr) => page.evaluate(`(() => { const c = window.distlab.cbf; return ${expr}; })()`);
@@ -51,7 +43,7 @@ function samePoses(d, server, what) {
 const close = (a, b, tol) => Math.abs(a - b) <= tol * Math.max(1, Math.abs(b));
 
 test("a short GAP-and-Euclidean rollout streams in, plays, scrubs and shows the record's numbers", async () => {
-  const page = await openView(browser, server, hash({ duration: 2.5 }));
+  const page = await openView(env.browser, env.server, hash({ duration: 2.5 }));
   await waitLoaded(page);
   assert.equal(await C(page, "c.length"), 0);
   await page.waitForTimeout(300);
@@ -193,7 +185,7 @@ test("a short GAP-and-Euclidean rollout streams in, plays, scrubs and shows the 
   await page.waitForTimeout(400); // the URL is written debounced
   const shared = await page.evaluate(() => location.hash);
   assert.match(decodeURIComponent(shared), /"run":true/);
-  const again = await openView(browser, server, shared);
+  const again = await openView(env.browser, env.server, shared);
   await waitRunEnded(again, 2);
   assert.equal(await C(again, "c.step"), 123);
   assert.equal((await C(again, "c.state")).layout, "side");
@@ -204,7 +196,7 @@ test("a short GAP-and-Euclidean rollout streams in, plays, scrubs and shows the 
 });
 
 test("cancel stops a long rollout midway; what was computed stays playable", async () => {
-  const page = await openView(browser, server, hash({ duration: 60, metric: "gap" }));
+  const page = await openView(env.browser, env.server, hash({ duration: 60, metric: "gap" }));
   await waitLoaded(page);
   await page.keyboard.press("r");
   await page.waitForFunction(() => window.distlab?.cbf?.length > 0, null, { timeout: 30000, polling: 20 });
@@ -240,12 +232,12 @@ test("cancel stops a long rollout midway; what was computed stays playable", asy
 });
 
 test("a bad inline scenario shows the server's message and field", async () => {
-  const page = await openView(browser, server, hash({ duration: 1 }));
+  const page = await openView(env.browser, env.server, hash({ duration: 1 }));
   await waitLoaded(page);
   const scenario = await page.evaluate(() => window.distlab.api.get("/api/cbf/scenarios/corridor"));
   scenario.obstacles[1].shape.size[2] = -0.9;
-  const session = (await (await fetch(server.url + "api/session", { method: "POST" })).json()).session;
-  const direct = await fetch(server.url + "api/cbf/rollouts", {
+  const session = (await (await fetch(env.server.url + "api/session", { method: "POST" })).json()).session;
+  const direct = await fetch(env.server.url + "api/cbf/rollouts", {
     method: "POST",
     headers: { "X-Distlab-Session": session, "Content-Type": "application/json" },
     body: JSON.stringify({ scenario, metric: "gap", params: { duration: 1 } }),
