@@ -18,6 +18,11 @@ export class ApiError extends Error {
   }
 }
 
+/** Any thrown value as the user reads it (an API error as "field: message"). */
+export function errorText(e: unknown): string {
+  return e instanceof ApiError ? e.readable : e instanceof Error ? e.message : String(e);
+}
+
 type Json = unknown;
 const SESSION_KEY = "distlab.session";
 

@@ -1,5 +1,5 @@
 // Readable messages in a corner: API errors ("field: message"), progress notes, successes.
-import { ApiError } from "./api";
+import { errorText } from "./api";
 
 export type ToastKind = "error" | "info" | "ok";
 
@@ -17,7 +17,7 @@ export function toast(message: string, kind: ToastKind = "info", ms = kind === "
 
 /** Shows any thrown value as a readable error; returns its text. */
 export function showError(e: unknown, context?: string): string {
-  const text = e instanceof ApiError ? e.readable : e instanceof Error ? e.message : String(e);
+  const text = errorText(e);
   const full = context ? `${context}: ${text}` : text;
   toast(full, "error");
   console.warn(full);
