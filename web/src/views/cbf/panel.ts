@@ -7,7 +7,8 @@ import { METRIC_CHOICES, SPEEDS, WITNESS_MODES, type CbfState } from "./state";
 export interface PanelActions {
   run(): void;
   cancel(): void;
-  runEdited(text: string): void;
+  /** The editor's text parsed as a JSON object (the panel refuses anything else itself). */
+  runEdited(scenario: Record<string, unknown>): void;
   revertEdited(): void;
   changed(what: "scenario" | "metric" | "duration" | "speed" | "draw" | "joint" | "layout"): void;
   frame(): void;
@@ -19,7 +20,7 @@ export class Panel {
   private scenarioCtrl: Controller;
   private readonly runCtrl: Controller;
   private readonly cancelCtrl: Controller;
-  readonly editor: HTMLTextAreaElement;
+  private readonly editor: HTMLTextAreaElement;
   readonly verdict: HTMLDivElement;
   readonly extra: HTMLDivElement;
   private readonly proxy: { scenario: string; joint: string };
@@ -68,7 +69,7 @@ export class Panel {
     const runB = document.createElement("button");
     runB.textContent = "run this scenario";
     runB.dataset.testid = "cbf-run-edited";
-    runB.addEventListener("click", () => actions.runEdited(this.editor.value));
+    runB.addEventListener("click", () => this.runEdited());
     const revB = document.createElement("button");
     revB.textContent = "revert";
     revB.addEventListener("click", () => actions.revertEdited());
@@ -94,6 +95,26 @@ export class Panel {
     // Keep it first in its folder.
     this.folder.$children.prepend(c.domElement);
     return c;
+  }
+
+  /** Shows a scenario in the editor. */
+  showScenario(sc: unknown): void {
+    this.editor.value = formatJson(sc);
+  }
+
+  private runEdited(): void {
+    let v: unknown;
+    try {
+      v = JSON.parse(this.editor.value);
+    } catch (e) {
+      this.setVerdict("bad", `not valid JSON: ${e instanceof Error ? e.message : String(e)}`);
+      return;
+    }
+    if (!v || typeof v !== "object" || Array.isArray(v)) {
+      this.setVerdict("bad", "the scenario must be a JSON object");
+      return;
+    }
+    this.actions.runEdited(v as Record<string, unknown>);
   }
 
   /** Rebuilds the scenario list (e.g. "(edited)" appears or goes). */
@@ -123,4 +144,9 @@ export class Panel {
     this.gui.destroy();
     this.extra.remove();
   }
+}
+
+/** Indented JSON with arrays of numbers kept on one line (the editor stays readable). */
+function formatJson(v: unknown): string {
+  return JSON.stringify(v, null, 1).replace(/\[\s*(-?[\d.eE+-]+(?:,\s*-?[\d.eE+-]+)*)\s*\]/g, (_m, inner: string) => `[${inner.replace(/\s+/g, " ")}]`);
 }

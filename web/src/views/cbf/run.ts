@@ -2,7 +2,7 @@
 // (so each one's per-step timing is measured without the other competing for the 2 cores), with
 // a combined progress, one cancel for all, and the first API error reported (the rest not sent).
 import { Rollout, type RolloutEvents, type RolloutRequest } from "./rollout";
-import type { Metric } from "./types";
+import { METRIC_NAMES as NAME, type Metric } from "./types";
 
 export interface RunEvents {
   frames(r: Rollout, added: number, arrived: number): void;
@@ -96,4 +96,22 @@ export class Run {
       r.dispose();
     }
   }
+}
+
+/** The progress bar's label: the rollout being computed and its steps. */
+export function progressLabel(run: Run): string {
+  const current = run.rollouts.find((r) => r.running && r.id) ?? run.rollouts.find((r) => r.running);
+  const what = current ? `${NAME[current.metric]} rollout` : "rollout";
+  const steps = current ? ` ${current.stepsDone} / ${current.stepsTotal || "…"} steps` : "";
+  return `${what}:${steps}`;
+}
+
+/** The status line while a run computes. */
+export function runningStatus(run: Run): string {
+  return `computing ${run.metrics.map((m) => NAME[m]).join(", then ")} — frames stream in as they are computed (Esc cancels)`;
+}
+
+/** The status line after a run: how each rollout ended and whether it reached the target. */
+export function endedStatus(run: Run): string {
+  return run.rollouts.map((r) => `${NAME[r.metric]} ${r.state}${r.record ? (r.record.summary.reached ? ", reached the target" : ", target not reached") : ""}`).join(" · ");
 }

@@ -2,6 +2,7 @@
 // scenario's obstacles (transparent), the target frame (axes) and the witness segments of the
 // pairs. Overlay puts both robots in one corridor; side by side moves the Euclidean world along y.
 import * as THREE from "three";
+import type { FrameStore } from "./frames";
 import { shapeGeometry } from "./geometry";
 import { poseMatrix } from "./kinematics";
 import type { CbfRobot, CbfScenario, Metric } from "./types";
@@ -129,6 +130,20 @@ export class World {
       m.matrix.compose(p, q, one);
       m.matrixWorldNeedsUpdate = true;
     });
+  }
+
+  /** Draws step k of a rollout: its primitives' poses and the witness segments of `pairs`. */
+  showStep(store: FrameStore, k: number, pairs: number[]): void {
+    this.setPoses(store.poses.data, k * store.primitiveCount * 7);
+    this.step = k;
+    this.witnesses.set(pairs, store.witnessA.data, store.witnessB.data, k * store.pairCount);
+  }
+
+  /** Draws the robot at q0 (its primitives' poses, if known), without witnesses. */
+  showQ0(poses: Float32Array | null): void {
+    if (poses) this.setPoses(poses);
+    this.step = -1;
+    this.witnesses.set([], new Float32Array(0), new Float32Array(0), 0);
   }
 
   setOpacity(opacity: number): void {

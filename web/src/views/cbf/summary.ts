@@ -1,6 +1,8 @@
 // The numbers of the finished rollouts, from their records: per joint the total variation of u and
 // the largest |Δu|/dt (paper Fig. 4), GAP beside Euclidean with their ratio; the mean compute time
 // per control step and its parts; whether the target was reached and the smallest clearance.
+import { errorText } from "../../core/api";
+import type { Rollout } from "./rollout";
 import type { CbfRecord, Metric } from "./types";
 
 const NAME: Record<Metric, string> = { gap: "GAP", euclidean: "Eucl." };
@@ -16,6 +18,13 @@ function cell(tag: "td" | "th", text: string, cls?: string): HTMLElement {
   c.textContent = text;
   if (cls) c.className = cls;
   return c;
+}
+
+/** Why a rollout has no numbers, or what its numbers cover (undefined: a whole finished run). */
+export function rolloutNote(r: Rollout): string | undefined {
+  if (!r.id) return r.state === "failed" && r.error ? `refused — ${errorText(r.error)}` : "not run";
+  if (r.state === "cancelled") return `cancelled after ${r.stepsDone} of ${r.stepsTotal} steps (numbers over those)`;
+  return r.error ? r.error.message : undefined;
 }
 
 export class Summary {

@@ -2,6 +2,7 @@
 // radians, seconds; quaternions [w, x, y, z]; positions in the world frame (= robot base).
 export const METRICS = ["gap", "euclidean"] as const;
 export type Metric = (typeof METRICS)[number];
+export const METRIC_NAMES: Record<Metric, string> = { gap: "GAP", euclidean: "Euclidean" };
 
 export interface PoseJson {
   position: [number, number, number];

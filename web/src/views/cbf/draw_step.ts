@@ -1,0 +1,20 @@
+// One metric's world at a step of the timeline: the robot posed from its rollout's frames (at q0
+// before they come), the witness pairs the state asks for, and the readout line of that step.
+import { q0Line, stepLine } from "./overlay";
+import type { Rollout } from "./rollout";
+import type { World } from "./scene";
+import type { CbfState } from "./state";
+
+/** Draws `world` at `step` of rollout `r` and returns its readout line. */
+export function drawStep(world: World, r: Rollout | undefined, step: number, q0Poses: Float32Array | null, state: Pick<CbfState, "witnesses" | "closest">): string {
+  const store = r?.store ?? null;
+  if (!store || store.contiguous === 0 || !store.hasPoses) {
+    world.showQ0(q0Poses);
+    return q0Line(world.metric, r);
+  }
+  const k = Math.min(step, store.contiguous - 1);
+  const mode = state.witnesses;
+  const pairs = !store.hasPairs || mode === "none" ? [] : mode === "all" ? store.closestPairs(k) : store.closestPairs(k).slice(0, state.closest);
+  world.showStep(store, k, pairs);
+  return stepLine(world.metric, k, store, pairs[0] !== undefined ? (r?.status?.pairs[pairs[0]]?.name ?? "") : "");
+}
