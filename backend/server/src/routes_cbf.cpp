@@ -1,7 +1,6 @@
 // CBF endpoints: scenarios, the robot description, rollouts as jobs whose steps stream over the
 // WebSocket ("cbf_frames"), their status, frames and full record (same JSON as `distlab cbf`).
 #include <algorithm>
-#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -11,6 +10,7 @@
 #include "distlab/server/cbf_rollouts.hpp"
 #include "distlab/server/json_fields.hpp"
 #include "distlab/server/service.hpp"
+#include "request_params.hpp"
 
 namespace distlab::server {
 
@@ -18,22 +18,6 @@ using json = nlohmann::json;
 namespace fs = std::filesystem;
 
 namespace {
-
-bool valid_name(const std::string& s) {
-  if (s.empty() || s.size() > 64) return false;
-  for (char c : s)
-    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_' && c != '-') return false;
-  return true;
-}
-
-std::size_t query_index(const Request& req, const std::string& name, std::size_t fallback) {
-  auto it = req.query.find(name);
-  if (it == req.query.end()) return fallback;
-  const std::string& v = it->second;
-  if (v.empty() || v.size() > 9 || v.find_first_not_of("0123456789") != std::string::npos)
-    throw InvalidInput(name, "query parameter " + name + " must be a whole number below 10^9");
-  return static_cast<std::size_t>(std::stoul(v));
-}
 
 CbfStreamOptions parse_stream(const json& j, const CbfLimits& limits) {
   CbfStreamOptions s;

@@ -80,7 +80,7 @@ class Service {
   std::shared_ptr<Session> require_session(const Request& request);
   std::shared_ptr<KelvinObject> require_object(const Session& session, const Request& request);
 
-  // Kelvin helpers (routes_kelvin.cpp).
+  // Kelvin objects (kelvin_service.cpp) and their frames (kelvin_frames.cpp).
   nlohmann::json create_object(const std::shared_ptr<Session>& session, const nlohmann::json& body);
   // origin: the socket that sent the edit (gets the acknowledgement with its request id).
   void set_sigma(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,

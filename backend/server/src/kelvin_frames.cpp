@@ -1,0 +1,116 @@
+// The Service's streaming of a Kelvin object's msgpack frames to its session's sockets: one
+// computation at a time per object, restarted while σ or the levels change (frames.hpp).
+#include <chrono>
+
+#include "distlab/server/frames.hpp"
+#include "distlab/server/service.hpp"
+
+namespace distlab::server {
+
+using json = nlohmann::json;
+
+void Service::schedule_frames(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object) {
+  {
+    std::lock_guard lock(object->mutex);
+    if (object->state != "ready" || object->computing) return;
+    object->computing = true;
+  }
+  std::weak_ptr<Session> weak = session;
+  const bool posted = compute_.post([this, weak, object] {
+    for (;;) {
+      std::uint64_t version;
+      {
+        std::lock_guard lock(object->mutex);
+        version = object->frames_version;
+      }
+      if (auto s = weak.lock()) {
+        try {
+          send_frames(s, object);
+        } catch (const std::exception& e) {
+          s->broadcast(json{{"type", "error"}, {"status", 500},
+                            {"error", {{"code", "frame_failed"}, {"message", e.what()}, {"field", ""}}}}.dump(), false);
+        }
+      }
+      std::lock_guard lock(object->mutex);
+      if (object->frames_version == version || weak.expired()) {
+        object->computing = false;
+        return;
+      }
+    }
+  });
+  if (!posted) {
+    std::lock_guard lock(object->mutex);
+    object->computing = false;
+  }
+}
+
+void Service::send_frames(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,
+                          WsSink* only) {
+  using Ms = std::chrono::duration<double, std::milli>;
+  std::shared_ptr<PreparedField> prepared;
+  kelvin::SigmaSpec sigma;
+  std::string key;
+  std::vector<double> levels;
+  std::uint64_t version, frames_version;
+  std::chrono::steady_clock::time_point sigma_at;
+  bool send_surface = only != nullptr, send_sigma = false;
+  {
+    std::lock_guard lock(object->mutex);
+    if (object->state != "ready" || !object->prepared) return;
+    prepared = object->prepared;
+    sigma = object->sigma;
+    key = object->sigma_key;
+    levels = object->levels;
+    version = object->sigma_version;
+    frames_version = object->frames_version;
+    sigma_at = object->sigma_at;
+    // The geometry goes out once; then a new σ version sends σ per vertex only, and a change of
+    // the watched levels alone sends neither.
+    if (only == nullptr) {
+      if (!object->surface_sent) {
+        send_surface = object->surface_sent = true;
+        object->sigma_sent = static_cast<std::int64_t>(version);
+      } else if (object->sigma_sent != static_cast<std::int64_t>(version)) {
+        send_sigma = true;
+        object->sigma_sent = static_cast<std::int64_t>(version);
+      }
+    }
+  }
+  auto send = [&](const json& frame) {
+    const std::string bytes = to_msgpack(frame);
+    if (only != nullptr)
+      only->send(bytes, true);
+    else
+      session->broadcast(bytes, true);
+  };
+  auto stale = [&] {
+    std::lock_guard lock(object->mutex);
+    return object->frames_version != frames_version;
+  };
+  if (send_surface || send_sigma) {
+    const std::vector<double> sigma_values = sigma_at_vertices(sigma, object->surface);
+    if (send_surface)
+      send(mesh_frame(object->surface, {{"type", "surface"}, {"object", object->id}, {"sigma_version", version}}, &sigma_values));
+    else
+      send(scalars_frame(sigma_values, {{"type", "surface_sigma"}, {"object", object->id}, {"sigma_version", version}}));
+  }
+  for (std::size_t i = 0; i < levels.size(); ++i) {
+    // A newer σ or level set supersedes this one: stop, the scheduler computes the latest.
+    if (stale()) return;
+    const auto t0 = std::chrono::steady_clock::now();
+    auto t1 = t0;
+    mesh::SurfaceMesh iso = prepared->with_sigma(sigma, key, false, [&](const kelvin::Field& f) {
+      t1 = std::chrono::steady_clock::now();
+      return f.isosurface(levels[i]);
+    });
+    const auto t2 = std::chrono::steady_clock::now();
+    json frame = mesh_frame(iso, {{"type", "isosurface"}, {"object", object->id}, {"level", levels[i]}, {"index", i},
+                                  {"count", levels.size()}, {"sigma_version", version}});
+    frame["server_ms"] = {{"solve", Ms(t1 - t0).count()}, {"isosurface", Ms(t2 - t1).count()}};
+    // From the σ edit's arrival to this frame (queueing included); 0 for the initial σ.
+    if (version > 0) frame["server_ms"]["since_edit"] = Ms(std::chrono::steady_clock::now() - sigma_at).count();
+    send(frame);
+  }
+}
+
+}  // namespace distlab::server

@@ -1,0 +1,31 @@
+#pragma once
+// Inputs of the Kelvin endpoints that are not the σ codec (kelvin_json.hpp): mesh sources (asset
+// extensions, uploaded bytes, inline meshes), iso-levels, and the one level of a GET.
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "distlab/mesh/surface.hpp"
+#include "distlab/server/http.hpp"
+
+namespace distlab::server {
+
+// The mesh formats an asset or upload may have (what assimp reads here).
+inline constexpr const char* kMeshExtensions[] = {".stl", ".ply", ".obj", ".glb", ".off"};
+
+// An array of at most max finite numbers; more is 413 too_many_levels.
+std::vector<double> parse_levels(const nlohmann::json& j, const std::string& field, std::size_t max);
+
+// The one level of GET .../isosurface and .../export (kIsosurfaceLevelsPerRequest): several levels
+// are refused with the field, pointing to PUT .../levels (max_levels), whose frames carry them all.
+double query_level(const Request& req);
+
+// Reads a mesh file through assimp (it needs a path): written to a private temporary file in dir.
+mesh::SurfaceMesh load_bytes(const std::string& bytes, const std::string& format, const std::string& dir);
+
+// {"vertices": [[x, y, z], ...], "faces": [[i, j, k], ...]} (field "mesh"), at most max_triangles.
+mesh::SurfaceMesh inline_mesh(const nlohmann::json& j, std::size_t max_triangles);
+
+}  // namespace distlab::server

@@ -1,0 +1,205 @@
+// The Service's Kelvin objects: creation (from an asset, an upload or an inline mesh; prepared
+// as a job), lookup, and edits of σ and of the watched iso-levels (which reschedule the frames).
+#include <chrono>
+#include <filesystem>
+
+#include "distlab/geometry/error.hpp"
+#include "distlab/kelvin/progress.hpp"
+#include "distlab/kelvin/sigma.hpp"
+#include "distlab/server/json_fields.hpp"
+#include "distlab/server/gap_json.hpp"
+#include "distlab/server/kelvin_json.hpp"
+#include "distlab/server/service.hpp"
+#include "kelvin_inputs.hpp"
+#include "request_params.hpp"
+
+namespace distlab::server {
+
+using json = nlohmann::json;
+namespace fs = std::filesystem;
+
+std::shared_ptr<KelvinObject> Service::require_object(const Session& session, const Request& request) {
+  auto& s = const_cast<Session&>(session);
+  std::lock_guard lock(s.mutex);
+  auto it = s.objects.find(request.params.at("id"));
+  if (it == s.objects.end()) throw ApiError(404, "unknown_object", "no such object in this session");
+  return it->second;
+}
+
+json Service::create_object(const std::shared_ptr<Session>& session, const json& body) {
+  const Limits& lim = config_.limits;
+  if (!body.is_object()) throw InvalidInput("", "the request must be an object");
+  for (const auto& [k, v] : body.items())
+    if (k != "asset" && k != "upload" && k != "mesh" && k != "lx" && k != "center" && k != "far_radius" &&
+        k != "sigma" && k != "levels" && k != "comment")
+      throw InvalidInput(k, "unknown key \"" + k.substr(0, 64) + "\"");
+  const int sources = static_cast<int>(body.contains("asset")) + static_cast<int>(body.contains("upload")) +
+                      static_cast<int>(body.contains("mesh"));
+  if (sources != 1) throw InvalidInput("", "give exactly one of asset, upload and mesh");
+  if (!body.contains("lx")) throw InvalidInput("lx", "lx is required");
+  kelvin::PrepareOptions options;
+  options.lx = json_number(body["lx"], "lx");
+  if (!(options.lx > 0)) throw InvalidInput("lx", "lx must be positive");
+  if (options.lx < lim.min_lx)
+    throw ApiError(422, "over_budget", "lx must be at least " + std::to_string(lim.min_lx) + " on this server", "lx");
+  if (body.contains("center")) options.centre = json_vec3(body["center"], "center");
+  if (body.contains("far_radius")) options.far_radius = json_number(body["far_radius"], "far_radius");
+  json source = {{"lx", options.lx}};
+  if (options.centre) source["center"] = {options.centre->x(), options.centre->y(), options.centre->z()};
+  if (body.contains("far_radius")) source["far_radius"] = options.far_radius;
+
+  mesh::SurfaceMesh surface;
+  if (body.contains("asset")) {
+    if (!body["asset"].is_string() || !valid_name(body["asset"])) throw InvalidInput("asset", "asset must be an asset name");
+    const std::string name = body["asset"];
+    std::string path;
+    for (const char* ext : kMeshExtensions) {
+      const fs::path p = fs::path(config_.assets_dir) / (name + ext);
+      std::error_code ec;
+      if (fs::is_regular_file(p, ec)) {
+        path = p.string();
+        break;
+      }
+    }
+    if (path.empty()) throw ApiError(404, "unknown_asset", "no asset named \"" + name + "\"", "asset");
+    surface = mesh::load_mesh(path, "asset");
+    source["asset"] = name;
+  } else if (body.contains("upload")) {
+    if (!body["upload"].is_string()) throw InvalidInput("upload", "upload must be an upload id");
+    std::lock_guard lock(session->mutex);
+    auto it = session->uploads.find(body["upload"].get<std::string>());
+    if (it == session->uploads.end()) throw ApiError(404, "unknown_upload", "no such upload in this session", "upload");
+    surface = it->second->surface;
+    source["upload"] = it->first;
+  } else {
+    surface = inline_mesh(body["mesh"], lim.max_upload_triangles);
+    source["mesh"] = "inline";
+  }
+  if (static_cast<std::size_t>(surface.faces.rows()) > lim.max_upload_triangles)
+    throw ApiError(413, "too_many_triangles", "at most " + std::to_string(lim.max_upload_triangles) + " triangles", "mesh");
+  const double estimate = estimate_vertices(surface, options.lx);
+  if (estimate > static_cast<double>(lim.max_vertex_estimate))
+    throw ApiError(422, "over_budget",
+                   "lx " + std::to_string(options.lx) + " would make about " + std::to_string(static_cast<long>(estimate)) +
+                       " vertices, over this server's budget of " + std::to_string(lim.max_vertex_estimate) + "; use a larger lx",
+                   "lx");
+  source["vertex_estimate"] = static_cast<long>(estimate);
+
+  auto object = std::make_shared<KelvinObject>();
+  object->id = random_id();
+  object->key = content_key(surface, options);
+  object->source = source;
+  object->surface = surface;
+  if (body.contains("sigma")) {
+    object->sigma = parse_sigma(body["sigma"]);
+    kelvin::validate(object->sigma, surface.vertices.rows());
+    object->sigma_json = body["sigma"];
+    object->sigma_key = body["sigma"].dump();
+  }
+  if (body.contains("levels")) object->levels = parse_levels(body["levels"], "levels", lim.max_levels);
+  {
+    std::lock_guard lock(session->mutex);
+    if (session->objects.size() >= lim.max_objects_per_session)
+      throw ApiError(429, "too_many_objects",
+                     "this session already has " + std::to_string(lim.max_objects_per_session) + " objects; delete one first");
+    session->objects.emplace(object->id, object);
+  }
+  std::weak_ptr<Session> weak_session = session;
+  std::shared_ptr<Job> job;
+  try {
+    job = jobs_.submit(session->id, "kelvin_prepare", {{"object", object->id}}, [this, object, options, weak_session](Job& j) {
+      auto announce = [&] {
+        if (auto s = weak_session.lock()) s->broadcast(json{{"type", "object"}, {"object", object->status_json()}}.dump(), false);
+      };
+      try {
+        kelvin::Progress progress;
+        progress.report = [&j](const std::string& stage, double fraction) { j.report(stage, fraction); };
+        progress.cancel = &j.cancel;
+        j.report("load", 0.0);
+        bool from_memory = false;
+        auto prepared = registry_.acquire(object->surface, options, progress, &from_memory);
+        {
+          std::lock_guard lock(object->mutex);
+          object->prepared = prepared;
+          object->shared = from_memory;
+          object->state = "ready";
+        }
+        j.report("ready", 1.0);
+        announce();
+        if (auto s = weak_session.lock()) schedule_frames(s, object);
+        const json status = object->status_json();
+        return json{{"object", object->id}, {"stats", status.value("stats", json::object())}};
+      } catch (const kelvin::Cancelled&) {
+        {
+          std::lock_guard lock(object->mutex);
+          object->state = "cancelled";
+        }
+        announce();
+        throw;
+      } catch (const InvalidInput& e) {
+        {
+          std::lock_guard lock(object->mutex);
+          object->state = j.cancelled() ? "cancelled" : "failed";
+          object->error = {{"code", "invalid_input"}, {"message", e.what()}, {"field", e.field()}};
+        }
+        announce();
+        throw;
+      } catch (const std::exception& e) {
+        {
+          std::lock_guard lock(object->mutex);
+          object->state = j.cancelled() ? "cancelled" : "failed";
+          object->error = {{"code", "job_failed"}, {"message", e.what()}, {"field", ""}};
+        }
+        announce();
+        throw;
+      }
+    });
+  } catch (...) {
+    std::lock_guard lock(session->mutex);
+    session->objects.erase(object->id);
+    throw;
+  }
+  {
+    std::lock_guard lock(object->mutex);
+    object->job = job->id;
+  }
+  return {{"object", object->status_json()}, {"job", job->to_json()}};
+}
+
+void Service::set_sigma(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,
+                        const json& sigma_json, WsSink* origin, const json& request) {
+  kelvin::SigmaSpec spec = parse_sigma(sigma_json);
+  kelvin::validate(spec, object->surface.vertices.rows());
+  std::uint64_t version;
+  {
+    std::lock_guard lock(object->mutex);
+    object->sigma = std::move(spec);
+    object->sigma_json = sigma_json;
+    object->sigma_key = sigma_json.dump();
+    version = ++object->sigma_version;
+    object->sigma_at = std::chrono::steady_clock::now();
+    ++object->frames_version;
+  }
+  json ack{{"type", "sigma"}, {"object", object->id}, {"sigma_version", version}};
+  // The other sockets of the session learn of the new version; the sender's acknowledgement
+  // echoes its request id (ids are the sender's own: another tab may use the same ones).
+  session->broadcast(ack.dump(), false, origin);
+  if (origin != nullptr) {
+    if (!request.is_null()) ack["request"] = request;
+    origin->send(ack.dump(), false);
+  }
+  schedule_frames(session, object);
+}
+
+void Service::set_levels(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,
+                         const json& levels) {
+  std::vector<double> parsed = parse_levels(levels, "levels", config_.limits.max_levels);
+  {
+    std::lock_guard lock(object->mutex);
+    object->levels = std::move(parsed);
+    ++object->frames_version;
+  }
+  schedule_frames(session, object);
+}
+
+}  // namespace distlab::server
