@@ -1,7 +1,8 @@
 // three.js geometry for a GAP shape as the server describes it (box, sphere, cylinder, capsule,
-// polytope A x ≤ b, convex_hull points). Round shapes have their axis along local z.
+// polytope A x ≤ b, convex_hull points). Round shapes have their axis along local z (core/solids).
 import * as THREE from "three";
 import { ConvexGeometry } from "three/addons/geometries/ConvexGeometry.js";
+import { capsuleAlongZ, cylinderAlongZ } from "../../core/solids";
 import type { ShapeJson } from "./types";
 
 /** Vertices of {x : A x ≤ b} (bounded): feasible intersections of every three planes. */
@@ -21,18 +22,15 @@ export function polytopeVertices(A: number[][], b: number[]): THREE.Vector3[] {
 }
 
 export function shapeGeometry(s: ShapeJson): THREE.BufferGeometry {
-  let g: THREE.BufferGeometry;
   switch (s.type) {
     case "box":
       return new THREE.BoxGeometry(...(s.size ?? [0.1, 0.1, 0.1]));
     case "sphere":
       return new THREE.SphereGeometry(s.radius ?? 0.05, 32, 16);
     case "cylinder":
-      g = new THREE.CylinderGeometry(s.radius, s.radius, s.height, 40);
-      break;
+      return cylinderAlongZ(s.radius, s.height, 40);
     case "capsule":
-      g = new THREE.CapsuleGeometry(s.radius, s.height, 8, 32);
-      break;
+      return capsuleAlongZ(s.radius, s.height, 8, 32);
     case "polytope":
       return new ConvexGeometry(polytopeVertices(s.A ?? [], s.b ?? []));
     case "convex_hull":
@@ -40,6 +38,4 @@ export function shapeGeometry(s: ShapeJson): THREE.BufferGeometry {
     default:
       return new THREE.BoxGeometry(0.02, 0.02, 0.02);
   }
-  g.rotateX(Math.PI / 2);
-  return g;
 }

@@ -3,6 +3,7 @@
 // Shapes live in their own frame with their axis along local z (as in distlab's geometry module).
 import * as THREE from "three";
 import { ConvexGeometry } from "three/addons/geometries/ConvexGeometry.js";
+import { capsuleAlongZ, cylinderAlongZ } from "../../core/solids";
 
 export const SHAPE_TYPES = ["polytope", "box", "cylinder", "sphere", "capsule"] as const;
 export type ShapeType = (typeof SHAPE_TYPES)[number];
@@ -63,25 +64,20 @@ export function shapeRequest(s: ShapeState): Record<string, unknown> {
   return { ...shapeBody(s), pose: { position: [...s.position], quaternion: [...s.quaternion] } };
 }
 
-/** A three.js geometry of the solid (three's round primitives have their axis along y: turn it to z). */
+/** A three.js geometry of the solid (round ones turned to z by core/solids). */
 export function shapeGeometry(s: ShapeState): THREE.BufferGeometry {
-  let g: THREE.BufferGeometry;
   switch (s.type) {
     case "box":
       return new THREE.BoxGeometry(...s.size);
     case "sphere":
       return new THREE.SphereGeometry(s.radius, 48, 24);
     case "cylinder":
-      g = new THREE.CylinderGeometry(s.radius, s.radius, s.height, 64);
-      break;
+      return cylinderAlongZ(s.radius, s.height, 64);
     case "capsule":
-      g = new THREE.CapsuleGeometry(s.radius, s.height, 12, 48);
-      break;
+      return capsuleAlongZ(s.radius, s.height, 12, 48);
     case "polytope":
       return new ConvexGeometry(pentagonalPrism(s.radius, s.height).vertices);
   }
-  g.rotateX(Math.PI / 2);
-  return g;
 }
 
 /** Radius of a ball around the shape's origin that contains it (for framing and plane sizes). */
