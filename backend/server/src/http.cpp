@@ -41,6 +41,13 @@ Response json_response(int status, const nlohmann::json& body) {
   return r;
 }
 
+Response no_content_response() {
+  Response r;
+  r.status = 204;
+  r.content_type.clear();
+  return r;
+}
+
 Response error_response(int status, const std::string& code, const std::string& message,
                         const std::string& field) {
   return json_response(status, {{"error", {{"code", code}, {"message", message}, {"field", field}}}});

@@ -108,10 +108,7 @@ void Service::register_kelvin_routes() {
                    std::lock_guard lock(session->mutex);
                    session->objects.erase(object->id);
                  }
-                 Response r;
-                 r.status = 204;
-                 r.content_type.clear();
-                 return r;
+                 return no_content_response();
                }});
   router_.add({"GET", "/api/kelvin/objects/{id}/sigma", [this](Request& req) {
                  auto session = require_session(req);

@@ -200,10 +200,7 @@ void Service::register_core_routes() {
                  auto s = require_session(req);
                  jobs_.cancel_session(s->id);
                  sessions_.erase(s->id);
-                 Response r;
-                 r.status = 204;
-                 r.content_type.clear();
-                 return r;
+                 return no_content_response();
                }});
 
   router_.add({"GET", "/api/jobs", [this](Request& req) {

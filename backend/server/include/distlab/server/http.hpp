@@ -50,6 +50,8 @@ class ApiError : public std::runtime_error {
 };
 
 Response json_response(int status, const nlohmann::json& body);
+// 204 No Content: no body and no Content-Type (the answer to a DELETE).
+Response no_content_response();
 Response error_response(int status, const std::string& code, const std::string& message,
                         const std::string& field = "");
 
