@@ -12,7 +12,6 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -21,6 +20,7 @@
 #include "distlab/kelvin/field.hpp"
 #include "distlab/mesh/primitives.hpp"
 #include "field_impl.hpp"
+#include "profile_args.hpp"
 
 using namespace distlab;
 using namespace distlab::kelvin;
@@ -72,14 +72,6 @@ std::uint64_t fingerprint(const Field::Impl& m) {
   return f.h;
 }
 
-std::vector<double> parse_list(const std::string& s) {
-  std::vector<double> out;
-  std::stringstream in(s);
-  std::string item;
-  while (std::getline(in, item, ',')) out.push_back(std::stod(item));
-  return out;
-}
-
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   return v[v.size() / 2];
@@ -91,30 +83,14 @@ int main(int argc, char** argv) {
   std::vector<double> lxs = {0.05, 0.04, 0.03, 0.02};
   std::string cache_dir, json_path;
   int repeat = 5;
-  for (int i = 1; i < argc; ++i) {
-    const std::string k = argv[i];
-    if (k == "--help") {
-      std::puts("usage: distlab-kelvin-build-profile --cache-dir DIR [--lx 0.05,0.04,0.03,0.02] [--repeat 5] [--json FILE]");
-      return 0;
-    }
-    if (i + 1 >= argc) {
-      std::fprintf(stderr, "option %s needs a value\n", k.c_str());
-      return 2;
-    }
-    const std::string v = argv[++i];
-    if (k == "--lx") lxs = parse_list(v);
-    else if (k == "--cache-dir") cache_dir = v;
-    else if (k == "--repeat") repeat = std::max(1, std::stoi(v));
-    else if (k == "--json") json_path = v;
-    else {
-      std::fprintf(stderr, "unknown option %s\n", k.c_str());
-      return 2;
-    }
-  }
-  if (cache_dir.empty()) {
-    std::fputs("--cache-dir DIR is required (meshes are stored there once)\n", stderr);
-    return 2;
-  }
+  if (const int code = kelvin_profile::parse_profile_args(
+          argc, argv,
+          "usage: distlab-kelvin-build-profile --cache-dir DIR [--lx 0.05,0.04,0.03,0.02] [--repeat 5] [--json FILE]",
+          cache_dir, lxs,
+          {{"--repeat", [&](const std::string& v) { repeat = std::max(1, std::stoi(v)); }},
+           {"--json", [&](const std::string& v) { json_path = v; }}});
+      code >= 0)
+    return code;
   const mesh::SurfaceMesh cube = mesh::box(Vec3::Ones());
   nlohmann::json out = nlohmann::json::array();
   const char* names[] = {"roles", "weights+stars", "assemble A_OO", "assemble A_OB", "locator", "sigma sampling"};

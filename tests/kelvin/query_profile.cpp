@@ -19,13 +19,13 @@
 #include <cstring>
 #include <filesystem>
 #include <random>
-#include <sstream>
 #include <string>
 #include <vector>
 
 #include "../../backend/app/bench/query_sets.hpp"
 #include "distlab/kelvin/field.hpp"
 #include "distlab/mesh/primitives.hpp"
+#include "profile_args.hpp"
 
 using namespace distlab;
 using namespace distlab::kelvin;
@@ -56,13 +56,6 @@ double percentile(std::vector<double> v, double q) {
   return v[static_cast<size_t>(k)];
 }
 
-std::vector<double> parse_list(const std::string& s) {
-  std::vector<double> out;
-  std::stringstream in(s);
-  for (std::string item; std::getline(in, item, ',');) out.push_back(std::stod(item));
-  return out;
-}
-
 // Evicts the caches (and most TLB entries): writes and reads a 256 MB buffer.
 double flush_caches() {
   static std::vector<double> junk(std::size_t{32} << 20, 1.0);
@@ -82,33 +75,17 @@ int main(int argc, char** argv) {
   long n_more = 100000;
   bool only_seeded = false;
   std::string dump_path;
-  for (int i = 1; i < argc; ++i) {
-    const std::string k = argv[i];
-    if (k == "--help") {
-      std::puts("usage: distlab-kelvin-query-profile --cache-dir DIR [--lx 0.05,0.02] [--rounds 5] [--n 100000] "
-                "[--only-seeded 1]");
-      return 0;
-    }
-    if (i + 1 >= argc) {
-      std::fprintf(stderr, "option %s needs a value\n", k.c_str());
-      return 2;
-    }
-    const std::string v = argv[++i];
-    if (k == "--lx") lxs = parse_list(v);
-    else if (k == "--cache-dir") cache_dir = v;
-    else if (k == "--rounds") rounds = std::max(1, std::stoi(v));
-    else if (k == "--n") n_more = std::max(0L, std::stol(v));
-    else if (k == "--only-seeded") only_seeded = v != "0";
-    else if (k == "--dump") dump_path = v;
-    else {
-      std::fprintf(stderr, "unknown option %s\n", k.c_str());
-      return 2;
-    }
-  }
-  if (cache_dir.empty()) {
-    std::fputs("--cache-dir DIR is required (meshes are stored there once)\n", stderr);
-    return 2;
-  }
+  if (const int code = kelvin_profile::parse_profile_args(
+          argc, argv,
+          "usage: distlab-kelvin-query-profile --cache-dir DIR [--lx 0.05,0.02] [--rounds 5] [--n 100000] "
+          "[--only-seeded 1]",
+          cache_dir, lxs,
+          {{"--rounds", [&](const std::string& v) { rounds = std::max(1, std::stoi(v)); }},
+           {"--n", [&](const std::string& v) { n_more = std::max(0L, std::stol(v)); }},
+           {"--only-seeded", [&](const std::string& v) { only_seeded = v != "0"; }},
+           {"--dump", [&](const std::string& v) { dump_path = v; }}});
+      code >= 0)
+    return code;
   std::filesystem::create_directories(cache_dir);
   // The bench's query sets (bench_kelvin.cpp): a coherent path and 1000 random points.
   const auto [path, random] = bench::kelvin_query_sets();
