@@ -77,10 +77,7 @@ constexpr std::array<std::string_view, 12> kSettings = {
     "goal_tolerance", "slack_weight", "margins", "gap"};
 
 void apply_settings(const json& j, const std::string& field, cbf::Scenario& s) {
-  auto get = [&](const char* key) -> const json* {
-    const auto it = j.find(key);
-    return it == j.end() ? nullptr : &*it;
-  };
+  const auto get = [&](const char* key) { return json_optional(j, key); };
   const auto f = [&](const char* key) { return key_path(field, key); };
   if (auto v = get("dt")) s.dt = number(*v, f("dt"));
   if (auto v = get("duration")) {

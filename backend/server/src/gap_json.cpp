@@ -314,10 +314,7 @@ GapRequestParams parse_params(const json& j, const std::string& field) {
              {"h", "k", "eps", "sigma", "weight_margin", "tol", "max_iter", "solver", "gradient",
               "validate"});
   GapParams& p = out.params;
-  auto get = [&](const char* key) -> const json* {
-    const auto it = j.find(key);
-    return it == j.end() ? nullptr : &*it;
-  };
+  const auto get = [&](const char* key) { return json_optional(j, key); };
   const auto f = [&](const char* key) { return json_key_path(field, key); };
   if (auto v = get("h")) p.h = json_number(*v, f("h"));
   if (auto v = get("k")) p.k = json_integer(*v, f("k"));

@@ -113,6 +113,12 @@ inline const nlohmann::json& json_required(const nlohmann::json& j, const std::s
   return *it;
 }
 
+// &j[key], or nullptr when the optional key is absent.
+inline const nlohmann::json* json_optional(const nlohmann::json& j, const std::string& key) {
+  const auto it = j.find(key);
+  return it == j.end() ? nullptr : &*it;
+}
+
 // Refuses keys outside `allowed` (strict schemas catch typos such as "duraton").
 template <class Range>
 void json_check_keys(const nlohmann::json& j, const std::string& field, const Range& allowed) {
