@@ -32,6 +32,14 @@ function interactiveScaleWanted(): number {
   return forced > 0 && forced <= 1 ? forced : isSoftwareRenderer() ? 0.5 : 1;
 }
 
+/** Triangles of the stand-in drawn for a large mesh while the camera is dragged (stand_in.ts):
+ *  25k on a software renderer, none on a GPU (0); localStorage "distlab.standInTriangles" overrides. */
+function standInTrianglesWanted(): number {
+  const forced = localStorage.getItem("distlab.standInTriangles");
+  if (forced !== null && Number(forced) >= 0) return Math.floor(Number(forced));
+  return isSoftwareRenderer() ? 25_000 : 0;
+}
+
 /** After the last interactive frame, this long without one brings the full resolution back. */
 const SETTLE_MS = 250;
 
@@ -49,6 +57,11 @@ export class Viewport {
   private settleTimer = 0;
   private lowRes = false;
   private dragging = false; // the orbit controls are between their start and end events
+  /** Stand-in size for large meshes while orbiting (0: stand-ins are not used). */
+  readonly standInTriangles = standInTrianglesWanted();
+  private standIns = new Map<THREE.Mesh, THREE.BufferGeometry>();
+  private standInFrames = 0; // frames drawn with the stand-ins
+  private standInFrameTriangles = 0; // triangles drawn in the last of them
   private resizeObserver: ResizeObserver;
   private frameTimes: number[] = []; // ms between rendered frames while interacting
   private cpuTimes: number[] = []; // main-thread ms per frame: before-render hooks + render() call
@@ -75,7 +88,10 @@ export class Viewport {
     this.controls = new OrbitControls(this.camera, this.renderer.domElement);
     this.controls.enableDamping = false;
     this.controls.addEventListener("start", () => (this.dragging = true));
-    this.controls.addEventListener("end", () => (this.dragging = false));
+    this.controls.addEventListener("end", () => {
+      this.dragging = false;
+      this.invalidate(); // the full meshes again (at once when there is no settle frame)
+    });
     this.controls.addEventListener("change", () => (this.dragging ? this.interacting() : this.invalidate()));
 
     this.scene.add(new THREE.HemisphereLight(0xffffff, 0x334455, 1.6));
@@ -125,13 +141,32 @@ export class Viewport {
     this.renderer.setPixelRatio(this.fullRatio * (low ? this.interactiveScale : 1)); // keeps the CSS size
   }
 
+  /** While the camera is dragged, `mesh` is drawn as `standIn` (a simplification sharing its
+   *  vertex attributes); null removes it. The caller owns and disposes both geometries. */
+  setStandIn(mesh: THREE.Mesh, standIn: THREE.BufferGeometry | null): void {
+    if (standIn) this.standIns.set(mesh, standIn);
+    else this.standIns.delete(mesh);
+  }
+
   private draw(now: number): void {
     this.raf = 0;
     this.setLowRes(performance.now() < this.interactiveUntil);
     const t0 = performance.now();
     this.beforeRender.forEach((f) => f());
     const t1 = performance.now();
+    const swapped: Array<[THREE.Mesh, THREE.BufferGeometry]> = [];
+    if (this.dragging)
+      for (const [mesh, standIn] of this.standIns)
+        if (mesh.parent) {
+          swapped.push([mesh, mesh.geometry]);
+          mesh.geometry = standIn;
+        }
     this.renderer.render(this.scene, this.camera);
+    swapped.forEach(([mesh, full]) => (mesh.geometry = full));
+    if (swapped.length) {
+      this.standInFrames++;
+      this.standInFrameTriangles = this.renderer.info.render.triangles;
+    }
     if (this.syncRender) {
       const gl = this.renderer.getContext();
       gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, this.pixel); // waits for the frame (gl.finish does not in Chrome)
@@ -160,15 +195,19 @@ export class Viewport {
 
   /** Median and 95th percentile frame interval (ms) of recent interactive frames, and the main
    *  thread's time per frame (hooks + render call, without waiting for the GPU). */
-  frameStats(): { frames: number; medianMs: number; p95Ms: number; cpuMedianMs: number; cpuP95Ms: number; triangles: number } {
+  frameStats(): { frames: number; medianMs: number; p95Ms: number; cpuMedianMs: number; cpuP95Ms: number; triangles: number; standInFrames: number; standInFrameTriangles: number } {
     const q = (a: number[], p: number) => {
       const s = [...a].sort((x, y) => x - y);
       return s.length ? s[Math.min(s.length - 1, Math.floor(p * s.length))] : 0;
     };
     const ft = this.frameTimes, ct = this.cpuTimes;
-    return { frames: ft.length, medianMs: q(ft, 0.5), p95Ms: q(ft, 0.95), cpuMedianMs: q(ct, 0.5), cpuP95Ms: q(ct, 0.95), triangles: this.renderer.info.render.triangles };
+    return {
+      frames: ft.length, medianMs: q(ft, 0.5), p95Ms: q(ft, 0.95), cpuMedianMs: q(ct, 0.5), cpuP95Ms: q(ct, 0.95),
+      triangles: this.renderer.info.render.triangles, standInFrames: this.standInFrames, standInFrameTriangles: this.standInFrameTriangles,
+    };
   }
   resetFrameStats(): void {
+    this.standInFrames = this.standInFrameTriangles = 0;
     this.frameTimes = [];
     this.cpuTimes = [];
     this.lastFrame = 0;

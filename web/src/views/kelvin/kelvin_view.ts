@@ -140,6 +140,7 @@ export class KelvinView implements View {
       sliceSigmaVersion: () => this.slice?.lastSigmaVersion ?? -1,
       probe: () => this.probe?.last ?? null,
       displayTriangles: () => this.surface?.displayTriangles ?? 0,
+      surface: () => this.surface,
       localSigmaAtInputVertices: () => {
         const pos = this.surface?.pickMesh.geometry.getAttribute("position").array as Float32Array | undefined;
         return pos ? Array.from(evaluateAll(this.sigmaBody(), pos)) : [];
@@ -214,6 +215,10 @@ export class KelvinView implements View {
     s.setScale(this.state.sigmaScale);
     s.setSigma(this.sigmaBody());
     vp.scene.add(s.mesh);
+    // A large surface gets a simplified stand-in for the frames drawn while orbiting (once made).
+    void s.makeStandIn(vp.standInTriangles).then((standIn) => {
+      if (standIn && this.surface === s) vp.setStandIn(s.mesh, standIn.geometry);
+    });
     const size = s.bounds.getSize(new THREE.Vector3()).length();
     if (this.state.brush.radius <= 0) {
       this.state.brush.radius = Number((size * 0.08).toPrecision(2));
@@ -250,6 +255,7 @@ export class KelvinView implements View {
   private dropSurface(): void {
     if (!this.surface) return;
     this.viewport?.scene.remove(this.surface.mesh);
+    this.viewport?.setStandIn(this.surface.mesh, null);
     this.surface.dispose();
     this.surface = null;
   }

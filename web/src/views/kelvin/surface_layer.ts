@@ -6,6 +6,7 @@ import * as THREE from "three";
 import { mergeVertices, toCreasedNormals } from "three/addons/utils/BufferGeometryUtils.js";
 import { diverging } from "../../core/colormap";
 import { floats, uints, type MeshFrame } from "../../core/meshframe";
+import { simplifiedStandIn, type StandIn } from "../../core/stand_in";
 import { addBrush, evaluateAll, type Brush, type SigmaBody } from "./sigma";
 
 const MAX_DISPLAY_TRIANGLES = 250_000;
@@ -20,6 +21,9 @@ export class SurfaceLayer {
   private sigma: Float32Array;
   private colors: THREE.BufferAttribute;
   private scale = 1;
+  private disposed = false;
+  /** The coarse mesh drawn while orbiting, once made (null for small surfaces). */
+  standIn: StandIn | null = null;
 
   constructor(frame: MeshFrame) {
     const input = new THREE.BufferGeometry();
@@ -48,6 +52,15 @@ export class SurfaceLayer {
   get displayTriangles(): number {
     const g = this.mesh.geometry;
     return (g.index ? g.index.count : this.positions.length / 3) / 3;
+  }
+
+  /** Makes the stand-in of at most `triangles` triangles for a surface with more than twice as
+   *  many (off the page's thread); resolves to it, or null. */
+  async makeStandIn(triangles: number): Promise<StandIn | null> {
+    const s = triangles > 0 ? await simplifiedStandIn(this.mesh.geometry, triangles) : null;
+    if (this.disposed) s?.geometry.dispose();
+    else this.standIn = s;
+    return this.standIn;
   }
 
   /** Recomputes σ everywhere (preset, reset, load). */
@@ -88,6 +101,9 @@ export class SurfaceLayer {
   }
 
   dispose(): void {
+    this.disposed = true;
+    this.standIn?.geometry.dispose();
+    this.standIn = null;
     this.mesh.geometry.dispose();
     this.mesh.material.dispose();
     this.pickMesh.geometry.dispose();

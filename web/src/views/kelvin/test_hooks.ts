@@ -6,6 +6,7 @@ import type { ObjectStatus } from "./object_source";
 import type { ProbeReading } from "./probe";
 import type { SigmaBody } from "./sigma";
 import type { SurfaceOrigin } from "./surface_source";
+import type { SurfaceLayer } from "./surface_layer";
 
 export interface Timings {
   prepareMs: number[];
@@ -45,6 +46,7 @@ export interface KelvinHookSource {
   sliceSigmaVersion(): number;
   probe(): ProbeReading | null;
   displayTriangles(): number;
+  surface(): SurfaceLayer | null;
   /** σ at the input mesh's vertices, evaluated here (the server sends the same as surface scalars). */
   localSigmaAtInputVertices(): number[];
 }
@@ -90,6 +92,28 @@ export function installHooks(view: KelvinHookSource): void {
     get displayTriangles() {
       return view.displayTriangles();
     },
+    /** The surface's stand-in while orbiting: its triangles, the simplifier's error bound (m), the
+     *  bounds of the vertices it uses, and the largest vertex index against the vertex count. */
+    get standIn() {
+      const s = view.surface()?.standIn;
+      if (!s) return null;
+      const index = s.geometry.getIndex()!.array, pos = s.geometry.getAttribute("position");
+      const lo = [Infinity, Infinity, Infinity], hi = [-Infinity, -Infinity, -Infinity];
+      let maxIndex = 0;
+      for (let i = 0; i < index.length; i++) {
+        const v = index[i];
+        maxIndex = Math.max(maxIndex, v);
+        for (let c = 0; c < 3; c++) (lo[c] = Math.min(lo[c], pos.getComponent(v, c))), (hi[c] = Math.max(hi[c], pos.getComponent(v, c)));
+      }
+      return { triangles: s.triangles, error: s.error, min: lo, max: hi, maxIndex, vertices: pos.count };
+    },
+    /** The stand-in's triangles as corner coordinates (9 numbers each), for geometric checks. */
+    standInTriangles: () => {
+      const g = view.surface()?.standIn?.geometry;
+      if (!g) return null;
+      const index = g.getIndex()!.array, pos = g.getAttribute("position");
+      return Array.from(index, (v) => [pos.getX(v), pos.getY(v), pos.getZ(v)]).flat();
+    },
     localSigmaAtInputVertices: () => view.localSigmaAtInputVertices(),
     frameStats: () => view.viewport()?.frameStats() ?? null,
     /** Orbits the camera through n frames rendered back to back (each waited for by reading a pixel back)
@@ -113,6 +137,35 @@ export function installHooks(view: KelvinHookSource): void {
       return { times, triangles: vp.renderer.info.render.triangles, width: gl.drawingBufferWidth, height: gl.drawingBufferHeight };
     },
     resetFrameStats: () => view.viewport()?.resetFrameStats(),
+    /** Drags the camera around the object through n animation frames, as the orbit controls do
+     *  (start, a camera step per frame, end), without the mouse, whose events (a CDP round trip
+     *  each) would pace the frames; resolves to the frame statistics of the drag. */
+    orbitDrive: (n = 120) =>
+      new Promise((resolve) => {
+        const vp = view.viewport();
+        if (!vp) return resolve(null);
+        const cam = vp.camera, target = vp.controls.target;
+        vp.resetFrameStats();
+        vp.controls.dispatchEvent({ type: "start" });
+        let i = 0;
+        const step = () => {
+          if (i++ === n) {
+            const stats = vp.frameStats();
+            vp.controls.dispatchEvent({ type: "end" });
+            return resolve(stats);
+          }
+          cam.position.sub(target).applyAxisAngle(cam.up, (2 * Math.PI) / n).add(target);
+          cam.lookAt(target);
+          vp.interacting();
+          requestAnimationFrame(step);
+        };
+        requestAnimationFrame(step);
+      }),
+    /** Measuring (A/B in one run): orbit with the surface's stand-in, or with the full surface. */
+    useStandIn: (on: boolean) => {
+      const vp = view.viewport(), s = view.surface();
+      if (vp && s) vp.setStandIn(s.mesh, on ? (s.standIn?.geometry ?? null) : null);
+    },
     /** Measuring: make every frame wait for its pixels (its render time then includes the GPU's). */
     syncRender: (on: boolean) => {
       const vp = view.viewport();
