@@ -7,7 +7,9 @@
 // merely submitted); that stalls the page's thread for the whole software render, so it slows
 // everything else down: the default (0) reports submitted frames, and the orbit part reports what
 // one frame costs SwiftShader (render_waited_ms, at full resolution; frames while dragging use the
-// software renderer's interactive resolution). ORBIT=0 skips the 200k-triangle part.
+// software renderer's interactive resolution). ORBIT=0 skips the 200k-triangle part, which orbits
+// twice: with the surface's stand-in (STAND_IN=n triangles; the page's default when unset), then
+// with the full surface.
 // GPU_COMPOSITING=1 (harness.mjs): chromium without --disable-gpu composites in its GPU process as
 // on a machine with a GPU; by default the software compositor reads every WebGL frame back on the
 // page's main thread, which blocks it (and the WebSocket's messages) for the whole SwiftShader render.
@@ -80,12 +82,17 @@ async function orbit(p, moves) {
   const longTasks = await p.evaluate(() => window.__long);
   await p.waitForTimeout(600); // past the interactive resolution's settle time: full-resolution frames
   const r = await K(p, "k.measureOrbit(30)");
+  const driven = await K(p, "k.orbitDrive ? k.orbitDrive(120) : null");
   return {
-    display_triangles: await K(p, "k.displayTriangles"), rendered_triangles: fs.triangles, px: [r.width, r.height], mouse_moves: moves, frames: fs.frames, seconds: secs,
+    display_triangles: await K(p, "k.displayTriangles"), rendered_triangles: fs.triangles,
+    stand_in: fs.standInFrames ? { ...(await K(p, "k.standIn")), frames: fs.standInFrames, frame_triangles: fs.standInFrameTriangles } : null, px: [r.width, r.height], mouse_moves: moves, frames: fs.frames, seconds: secs,
     frame_interval_ms: { median: fs.medianMs, p95: fs.p95Ms }, // rAF to rAF while dragging: bound by SwiftShader
     main_thread_per_frame_ms: fs.cpuMedianMs === undefined ? null : { median: fs.cpuMedianMs, p95: fs.cpuP95Ms }, // hooks + render() call, no GPU wait
     long_tasks: { count: longTasks.length, total_ms: longTasks.reduce((a, b) => a + b, 0), max_ms: Math.max(0, ...longTasks) },
     gl_uploads_during_orbit: up0 && up1 ? { bufferData: up1.bufferData - up0.bufferData, bufferSubData: up1.bufferSubData - up0.bufferSubData, textures: up1.texImage2D + up1.texSubImage2D - up0.texImage2D - up0.texSubImage2D, bytes: up1.bytes - up0.bytes, geometries: [up0.geometries, up1.geometries], draw_calls: up1.calls } : null,
+    // The same drag driven from inside the page, one camera step per animation frame: what the
+    // renderer sustains (≥ 16.7 ms: the display's frame), not the test's mouse events' pace.
+    driven_frame_interval_ms: driven ? { median: driven.medianMs, p95: driven.p95Ms, frames: driven.frames, stand_in_frames: driven.standInFrames } : null,
     render_waited_ms: { median: med(r.times), p95: pct(r.times, 0.95) }, // one frame drawn by SwiftShader
     swiftshader_fps_bound: Math.round(1000 / med(r.times)),
     field_vertices: (await K(p, "k.object")).stats.n_verts,
@@ -150,12 +157,20 @@ try {
 }
 
 async function orbitLarge() {
-  const p2 = await openView(browser, server, `#/kelvin?s=${encodeURIComponent(JSON.stringify({ object: "sphere", lx: 0.1, levels: [0.3] }))}`);
+  const standIn = process.env.STAND_IN; // the stand-in's triangles (the page's default when unset)
+  const setup = (page) => standIn !== undefined && page.addInitScript((n) => localStorage.setItem("distlab.standInTriangles", n), standIn);
+  const p2 = await openView(browser, server, `#/kelvin?s=${encodeURIComponent(JSON.stringify({ object: "sphere", lx: 0.1, levels: [0.3] }))}`, { setup });
   await p2.waitForFunction(() => window.distlab?.kelvin?.ready === true, null, { timeout: 120000 });
   await p2.setInputFiles("input[data-testid=kelvin-upload]", spherePath); // keeps the sphere's l_x 0.1
   // Ready, or the server's refusal shown as an error (reported instead of waiting for the timeout).
   await p2.waitForFunction(() => (window.distlab.kelvin.object?.source?.upload && window.distlab.kelvin.ready) || document.querySelector(".toast-error"), null, { timeout: 1800000, polling: 500 });
   const refused = await p2.locator(".toast-error").allTextContents();
   if (refused.length) throw new Error(`the 200k-triangle upload was not prepared: ${refused.join("; ")}`);
+  // Side by side in one run: orbiting with the surface's stand-in (the default on a software
+  // renderer), then with the full surface.
+  await p2.waitForFunction(() => window.distlab.kelvin.standIn !== null, null, { timeout: 60000 }).catch(() => undefined);
   out.orbit = await orbit(p2, Number(process.env.MOVES ?? 240));
+  await K(p2, "k.useStandIn(false)");
+  await p2.keyboard.press("b"); // orbit() turns the brush off again
+  out.orbit_full_surface = await orbit(p2, Number(process.env.MOVES ?? 240));
 }
