@@ -90,7 +90,8 @@ export class Viewport {
     this.controls.addEventListener("start", () => (this.dragging = true));
     this.controls.addEventListener("end", () => {
       this.dragging = false;
-      this.invalidate(); // the full meshes again (at once when there is no settle frame)
+      // The full meshes again: the settle frame draws them, or at once when there is none.
+      if (this.interactiveScale >= 1) this.invalidate();
     });
     this.controls.addEventListener("change", () => (this.dragging ? this.interacting() : this.invalidate()));
 
