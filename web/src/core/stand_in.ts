@@ -21,9 +21,10 @@ export async function simplifiedStandIn(full: THREE.BufferGeometry, triangles: n
   const index = full.getIndex();
   const position = full.getAttribute("position");
   if (!index || !(position instanceof THREE.BufferAttribute) || index.count / 3 <= 2 * triangles) return null;
+  // Copies, handed over to the worker.
   const request: SimplifyRequest = {
-    positions: Float32Array.from(position.array as ArrayLike<number>),
-    index: Uint32Array.from(index.array as ArrayLike<number>),
+    positions: new Float32Array(position.array as ArrayLike<number>),
+    index: new Uint32Array(index.array as ArrayLike<number>),
     targetTriangles: triangles,
     targetError: MAX_RELATIVE_ERROR,
   };

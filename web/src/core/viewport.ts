@@ -35,8 +35,8 @@ function interactiveScaleWanted(): number {
 /** Triangles of the stand-in drawn for a large mesh while the camera is dragged (stand_in.ts):
  *  25k on a software renderer, none on a GPU (0); localStorage "distlab.standInTriangles" overrides. */
 function standInTrianglesWanted(): number {
-  const forced = localStorage.getItem("distlab.standInTriangles");
-  if (forced !== null && Number(forced) >= 0) return Math.floor(Number(forced));
+  const forced = Number(localStorage.getItem("distlab.standInTriangles")?.trim() || NaN); // unset, "" or junk: NaN
+  if (forced >= 0) return Math.floor(forced);
   return isSoftwareRenderer() ? 25_000 : 0;
 }
 

@@ -51,6 +51,13 @@ export interface KelvinHookSource {
   localSigmaAtInputVertices(): number[];
 }
 
+/** Turns the camera about its up axis around the orbit target. */
+function orbitStep(vp: Viewport, angle: number): void {
+  const cam = vp.camera, target = vp.controls.target;
+  cam.position.sub(target).applyAxisAngle(cam.up, angle).add(target);
+  cam.lookAt(target);
+}
+
 export function installHooks(view: KelvinHookSource): void {
   const copy = <T>(x: T): T => structuredClone(x);
   const hooks = Object.freeze({
@@ -92,22 +99,13 @@ export function installHooks(view: KelvinHookSource): void {
     get displayTriangles() {
       return view.displayTriangles();
     },
-    /** The surface's stand-in while orbiting: its triangles, the simplifier's error bound (m), the
-     *  bounds of the vertices it uses, and the largest vertex index against the vertex count. */
+    /** The surface's stand-in while orbiting: its triangles and the simplifier's error bound (m). */
     get standIn() {
       const s = view.surface()?.standIn;
-      if (!s) return null;
-      const index = s.geometry.getIndex()!.array, pos = s.geometry.getAttribute("position");
-      const lo = [Infinity, Infinity, Infinity], hi = [-Infinity, -Infinity, -Infinity];
-      let maxIndex = 0;
-      for (let i = 0; i < index.length; i++) {
-        const v = index[i];
-        maxIndex = Math.max(maxIndex, v);
-        for (let c = 0; c < 3; c++) (lo[c] = Math.min(lo[c], pos.getComponent(v, c))), (hi[c] = Math.max(hi[c], pos.getComponent(v, c)));
-      }
-      return { triangles: s.triangles, error: s.error, min: lo, max: hi, maxIndex, vertices: pos.count };
+      return s ? { triangles: s.triangles, error: s.error } : null;
     },
-    /** The stand-in's triangles as corner coordinates (9 numbers each), for geometric checks. */
+    /** The stand-in's triangles as corner coordinates (9 numbers each; an index past the
+     *  surface's vertices reads as null), for geometric checks. */
     standInTriangles: () => {
       const g = view.surface()?.standIn?.geometry;
       if (!g) return null;
@@ -124,8 +122,7 @@ export function installHooks(view: KelvinHookSource): void {
       const cam = vp.camera, saved = cam.position.clone(), target = vp.controls.target;
       const gl = vp.renderer.getContext(), times: number[] = [], px = new Uint8Array(4);
       for (let i = 0; i < n; i++) {
-        cam.position.sub(target).applyAxisAngle(cam.up, (2 * Math.PI) / n).add(target);
-        cam.lookAt(target);
+        orbitStep(vp, (2 * Math.PI) / n);
         const t = performance.now();
         vp.renderer.render(vp.scene, cam);
         gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, px); // waits for the frame (gl.finish does not in Chrome)
@@ -144,7 +141,6 @@ export function installHooks(view: KelvinHookSource): void {
       new Promise((resolve) => {
         const vp = view.viewport();
         if (!vp) return resolve(null);
-        const cam = vp.camera, target = vp.controls.target;
         vp.resetFrameStats();
         vp.controls.dispatchEvent({ type: "start" });
         let i = 0;
@@ -154,8 +150,7 @@ export function installHooks(view: KelvinHookSource): void {
             vp.controls.dispatchEvent({ type: "end" });
             return resolve(stats);
           }
-          cam.position.sub(target).applyAxisAngle(cam.up, (2 * Math.PI) / n).add(target);
-          cam.lookAt(target);
+          orbitStep(vp, (2 * Math.PI) / n);
           vp.interacting();
           requestAnimationFrame(step);
         };
