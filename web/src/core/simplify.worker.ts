@@ -15,11 +15,15 @@ export interface SimplifyAnswer {
 }
 
 self.onmessage = async (e: MessageEvent<SimplifyRequest>) => {
-  await MeshoptSimplifier.ready;
-  const { positions, index, targetTriangles, targetError } = e.data;
-  // LockBorder: the display mesh is split along creases; both sides keep their border vertices,
-  // so the stand-in has no cracks there.
-  const [out, relativeError] = MeshoptSimplifier.simplify(index, positions, 3, 3 * targetTriangles, targetError, ["LockBorder"]);
-  const answer: SimplifyAnswer = { index: out, relativeError, scale: MeshoptSimplifier.getScale(positions, 3) };
-  self.postMessage(answer, { transfer: [out.buffer] });
+  try {
+    await MeshoptSimplifier.ready;
+    const { positions, index, targetTriangles, targetError } = e.data;
+    // LockBorder: the display mesh is split along creases; both sides keep their border vertices,
+    // so the stand-in has no cracks there.
+    const [out, relativeError] = MeshoptSimplifier.simplify(index, positions, 3, 3 * targetTriangles, targetError, ["LockBorder"]);
+    const answer: SimplifyAnswer = { index: out, relativeError, scale: MeshoptSimplifier.getScale(positions, 3) };
+    self.postMessage(answer, { transfer: [out.buffer] });
+  } catch {
+    self.postMessage(null); // an async failure fires no error event: the page would wait forever
+  }
 };

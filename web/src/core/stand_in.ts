@@ -31,7 +31,7 @@ export async function simplifiedStandIn(full: THREE.BufferGeometry, triangles: n
   const answer = await new Promise<SimplifyAnswer | null>((resolve) => {
     const worker = new Worker(new URL("./simplify.worker.ts", import.meta.url), { type: "module" });
     const done = (a: SimplifyAnswer | null) => (worker.terminate(), resolve(a));
-    worker.onmessage = (e: MessageEvent<SimplifyAnswer>) => done(e.data);
+    worker.onmessage = (e: MessageEvent<SimplifyAnswer | null>) => done(e.data);
     worker.onerror = () => done(null);
     worker.postMessage(request, { transfer: [request.positions.buffer, request.index.buffer] });
   });
