@@ -64,6 +64,8 @@ class PointToSet {
   const Ball& rho_ball() const { return rho_; }      // shape frame
   const Shape& shape() const { return shape_; }
   const StrictParams& strict_params() const { return strict_; }
+  const BaseFunction& phi() const { return phi_; }
+  double round_weight() const { return round_weight_; }  // round shapes' weight
 
  private:
   P2SValue weak_local(const Vec3& p, int order) const;
