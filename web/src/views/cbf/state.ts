@@ -15,7 +15,8 @@ export interface CbfState {
   /** An edited scenario posted inline (null: the named one). */
   inline: Record<string, unknown> | null;
   metric: MetricChoice;
-  duration: number;
+  /** Seconds to run; null: the scenario's own duration. */
+  duration: number | null;
   t: number;
   speed: number;
   witnesses: (typeof WITNESS_MODES)[number];
@@ -27,7 +28,7 @@ export interface CbfState {
 }
 
 export function defaultState(): CbfState {
-  return { scenario: "corridor", inline: null, metric: "both", duration: 10, t: 0, speed: 1, witnesses: "closest", closest: 4, layout: "overlay", joint: 0, run: false };
+  return { scenario: "corridor", inline: null, metric: "both", duration: null, t: 0, speed: 1, witnesses: "closest", closest: 4, layout: "overlay", joint: 0, run: false };
 }
 
 export function metricsOf(c: MetricChoice): Metric[] {
@@ -41,7 +42,8 @@ export function parseState(raw: Record<string, unknown>): CbfState {
     scenario: typeof raw.scenario === "string" && /^[A-Za-z0-9_-]{1,64}$/.test(raw.scenario) ? raw.scenario : d.scenario,
     inline,
     metric: str(raw.metric, METRIC_CHOICES, d.metric),
-    duration: num(raw.duration, d.duration, 0.01, 1e6), // the server states its own limit
+    // The server states its own limit; absent: the scenario's own duration.
+    duration: typeof raw.duration === "number" ? num(raw.duration, 35, 0.01, 1e6) : null,
     t: num(raw.t, 0, 0, 1e6),
     speed: num(raw.speed, d.speed, 0.01, 100),
     witnesses: str(raw.witnesses, WITNESS_MODES, d.witnesses),
