@@ -65,10 +65,10 @@ P2SOptions published_options(const Shape& shape) {
   return o;
 }
 
-// The published distance (gap.mode as_published): plain iteration (eq. 2) from B's centre, stopped at the first step
-// below tol or after max_iter; D = sqrt(max(d_AB² + d_BA² − ‖a − b‖², 0)) = sqrt(max(2Λ, 0)) at
-// that iterate (d_AB² = 2 E_B(a), d_BA² = 2 E_A(b)); its gradient by the envelope formulas at
-// the same iterate (dD = dΛ / D).
+// The published distance (gap.mode as_published): plain iteration (eq. 2) from B's centre,
+// stopped at the first step below tol or after max_iter; D = sqrt(max(d_AB² + d_BA² − ‖a − b‖², 0))
+// = sqrt(max(2Λ, 0)) at that iterate (d_AB² = 2 E_B(a), d_BA² = 2 E_A(b)); its gradient by the
+// envelope formulas at the same iterate (dD = dΛ / D).
 GapResult published_distance(const GapBody& A, const GapBody& B, const GapParams& params) {
   const Vec3 centre_b = B.pose().position + B.pose().R() * B.p2s().rho_ball().center;
   const WitnessSolution w = solve_fixed_point(A.p2s(), B.p2s(), centre_b, params.tol, params.max_iter);
