@@ -128,7 +128,7 @@ export function stopReason(final: CbfFinalState | undefined, reached: boolean): 
     });
   const limits = final.active.filter((a) => a.kind === "joint_limit").map((a) => a.name);
   const held = [...rows, ...limits];
-  return `${where}${held.length && !reached ? `, held by ${held.join(", ")}` : ""}`;
+  return `${where}${held.length && !reached ? `; active rows: ${held.join(", ")}` : ""}`;
 }
 
 /** What the exact target allows (POST /api/cbf/feasibility). */
