@@ -287,3 +287,15 @@ test("the duration is the scenario's own unless set; after a run the status line
   assert.match(status, /exact target: best clearance 2\.65 cm \(link5_cylinder\/wall1\) < Euclidean δ 3\.00 cm/);
   await screenshot(short, "cbf-status-line");
 });
+
+test("the GAP distance switch runs the published package's iteration (gap.mode as_published in the record)", async () => {
+  const page = await openView(env.browser, env.server, hash({ scenario: "corridor", metric: "gap", gapMode: "as_published_real", duration: 0.3 }));
+  await waitLoaded(page);
+  await page.keyboard.press("r");
+  await waitRunEnded(page, 1);
+  const [r] = await C(page, "c.rollouts");
+  assert.equal(r.state, "finished");
+  const record = await page.evaluate((id) => window.distlab.api.get(`/api/cbf/rollouts/${id}/record`), r.id);
+  assert.equal(record.gap_mode, "as_published");
+  assert.equal(record.steps, 30);
+});

@@ -18,7 +18,7 @@ import { stopRouting, type Rollout } from "./rollout";
 import { endedStatus, progressLabel, Run, runningStatus } from "./run";
 import { CbfScene } from "./scene";
 import { cbfShortcuts } from "./shortcuts";
-import { metricsOf, parseState, stateJson, type CbfState } from "./state";
+import { gapParams, metricsOf, parseState, stateJson, type CbfState } from "./state";
 import { Timeline } from "./timeline";
 import { DrawTimings } from "./timings";
 import { METRIC_NAMES as NAME, METRICS, type CbfFeasibility, type CbfRobot, type CbfScenario, type Metric } from "./types";
@@ -155,7 +155,7 @@ export class CbfView implements View {
     this.save();
   }
 
-  private changed(what: "scenario" | "metric" | "duration" | "speed" | "draw" | "joint" | "layout"): void {
+  private changed(what: "scenario" | "metric" | "gap" | "duration" | "speed" | "draw" | "joint" | "layout"): void {
     switch (what) {
       case "scenario":
         this.state.duration = null; // each scenario runs for its own duration unless set
@@ -173,6 +173,9 @@ export class CbfView implements View {
       }
       case "duration":
         if (this.run) this.host.status("press r to run with the new duration");
+        break;
+      case "gap":
+        if (this.run) this.host.status("press r to run GAP with the chosen distance");
         break;
       case "speed":
         this.timeline!.setSpeed(this.state.speed);
@@ -227,7 +230,7 @@ export class CbfView implements View {
       progress: (x) => this.onProgress(x),
       ended: (r) => this.onEnded(r),
       done: (x, err) => this.onDone(x, err),
-    }));
+    }, gapParams(this.state.gapMode)));
     this.panel!.setRunning(true);
     this.onProgress(run);
     this.draw(0);

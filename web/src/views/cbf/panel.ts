@@ -2,7 +2,7 @@
 // duration), playback and drawing options, an editor for the scenario JSON (posted inline, the
 // server's verdict shown under it), and the numbers of the finished run (Summary) below.
 import GUI, { type Controller } from "lil-gui";
-import { METRIC_CHOICES, SPEEDS, WITNESS_MODES, type CbfState } from "./state";
+import { METRIC_CHOICES, SPEEDS, WITNESS_MODES, type CbfState, type GapModeChoice } from "./state";
 
 export interface PanelActions {
   run(): void;
@@ -10,7 +10,7 @@ export interface PanelActions {
   /** The editor's text parsed as a JSON object (the panel refuses anything else itself). */
   runEdited(scenario: Record<string, unknown>): void;
   revertEdited(): void;
-  changed(what: "scenario" | "metric" | "duration" | "speed" | "draw" | "joint" | "layout"): void;
+  changed(what: "scenario" | "metric" | "gap" | "duration" | "speed" | "draw" | "joint" | "layout"): void;
   frame(): void;
   copyLink(): void;
 }
@@ -37,6 +37,9 @@ export class Panel {
       .name("metric")
       .onChange(() => actions.changed("metric"));
     // No upper bound here: the server states its limit (and refuses more with a readable message).
+    r.add(state, "gapMode", { "exact (converged)": "exact", "as published, 2e-4 / 300": "as_published_sim", "as published, 5e-4 / 20": "as_published_real" } satisfies Record<string, GapModeChoice>)
+      .name("GAP distance")
+      .onChange(() => actions.changed("gap"));
     // Shows the scenario's own duration until the user sets one (state.duration null).
     const dur = { own: 35 } as { own: number; duration: number };
     Object.defineProperty(dur, "duration", {

@@ -25,6 +25,7 @@ export class Run {
     readonly duration: number,
     primitiveCount: number,
     private readonly events: RunEvents,
+    gap: Record<string, unknown> | null = null,
   ) {
     const ev: RolloutEvents = {
       frames: (r, added, arrived) => !this.disposed && events.frames(r, added, arrived),
@@ -32,7 +33,7 @@ export class Run {
       ended: (r) => !this.disposed && this.onEnded(r),
       error: () => undefined, // reported through ended/done
     };
-    this.rollouts = metrics.map((metric) => new Rollout({ scenario, metric, duration }, primitiveCount, ev));
+    this.rollouts = metrics.map((metric) => new Rollout({ scenario, metric, duration, gap }, primitiveCount, ev));
   }
 
   get running(): boolean {
