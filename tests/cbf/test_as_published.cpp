@@ -91,6 +91,7 @@ TEST(AsPublished, MatchesAHandComputedColdStartIteration) {
         break;
       }
     }
+    EXPECT_GE(it, 2);  // a real iteration, not a first step below tol
     const Vec3 b = B.project(a);
     const double D = std::sqrt(std::max(2 * B.E(a).first + 2 * A.E(b).first - (a - b).squaredNorm(), 0.0));
 
@@ -106,6 +107,36 @@ TEST(AsPublished, MatchesAHandComputedColdStartIteration) {
     EXPECT_LT((g.witness_a - a).norm(), 1e-12);
     EXPECT_LT((g.witness_b - b).norm(), 1e-12);
     EXPECT_GT(D, 0.0);
+  }
+}
+
+// The controller in gap.mode as_published computes every pair with published_distance on the
+// published construction, and records beside it the converged D of the same functions.
+TEST(AsPublished, ControllerRowsAreThePublishedDistances) {
+  Scenario sc = corridor_narrow_scenario();
+  sc.self_collision = false;
+  sc.gap_mode = GapMode::as_published;
+  sc.gap.tol = 5e-4;
+  sc.gap.max_iter = 20;
+  CbfController c(sc, Metric::gap);
+  std::vector<PairSample> samples;
+  Eigen::Matrix<double, Eigen::Dynamic, kDof> grad;
+  c.distances(sc.q0, samples, grad);
+  const Panda& robot = c.robot();
+  const Kinematics k = robot.forward(sc.q0);
+  GapParams exact = sc.gap;
+  exact.solver = GapSolver::newton;
+  exact.tol = 1e-10;
+  exact.max_iter = 0;
+  ASSERT_EQ(samples.size(), c.pairs().size());
+  for (std::size_t p = 0; p < samples.size(); ++p) {
+    const PairInfo& pair = c.pairs()[p];
+    const LinkPrimitive& prim = robot.primitives()[pair.a];
+    const Obstacle& o = sc.obstacles[pair.b];
+    const GapBody a(prim.shape, robot.primitive_pose(k, pair.a), sc.gap, published_options(prim.shape), "a");
+    const GapBody b(o.shape, o.pose, sc.gap, published_options(o.shape), "b");
+    EXPECT_EQ(samples[p].distance, published_distance(a, b, sc.gap).distance) << pair.name;
+    EXPECT_NEAR(samples[p].converged_distance, gap_distance(a, b, exact).distance, 1e-9) << pair.name;
   }
 }
 
