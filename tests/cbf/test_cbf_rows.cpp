@@ -16,7 +16,7 @@ using Grad = Eigen::Matrix<double, Eigen::Dynamic, kDof>;
 // controller has stalled at ‖r‖ ≈ 0.19 with five distance rows active: link5_cylinder/wall2,
 // link6_cylinder/wall1, link7_box/roof, link7_gripper/wall1, link5_cylinder/link7_gripper).
 std::vector<VecQ> configurations() {
-  Scenario sc = corridor_scenario();
+  Scenario sc = corridor_narrow_scenario();
   sc.duration = 25.01;
   RolloutOptions opt;
   opt.record_pairs = false;
@@ -26,7 +26,7 @@ std::vector<VecQ> configurations() {
 }
 
 void check_rows(Metric metric, double tol) {
-  CbfController c(corridor_scenario(), metric);
+  CbfController c(corridor_narrow_scenario(), metric);
   std::mt19937_64 rng(5);
   std::normal_distribution<double> g;
   const double tau = 1e-6;

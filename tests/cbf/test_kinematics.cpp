@@ -103,7 +103,7 @@ TEST(Kinematics, PrimitivePosesFollowTheirLinks) {
 
 TEST(Task, JacobianMatchesDifferencesOfR) {
   const Panda robot;
-  const Scenario sc = corridor_scenario();
+  const Scenario sc = corridor_narrow_scenario();
   std::mt19937_64 rng(11);
   const double h = 1e-6;
   for (int trial = 0; trial < 20; ++trial) {

@@ -16,6 +16,7 @@
 #include <gtest/gtest.h>
 
 #include "distlab/cbf/controller.hpp"
+#include "distlab/cbf/feasibility.hpp"
 #include "distlab/collision/euclidean.hpp"
 
 namespace distlab::cbf {
@@ -59,7 +60,7 @@ TEST(TargetFeasibility, FrameSixAtTheTargetMatchesForwardKinematics) {
 }
 
 TEST(TargetFeasibility, LinkFiveCylinderCannotKeepTheEuclideanMarginAtTheTarget) {
-  const Scenario sc = corridor_scenario();
+  const Scenario sc = corridor_narrow_scenario();
   const Panda robot;
   const int cyl = index_of(robot, "link5_cylinder");
   ASSERT_GE(cyl, 0);
@@ -99,7 +100,7 @@ TEST(TargetFeasibility, LinkFiveCylinderCannotKeepTheEuclideanMarginAtTheTarget)
 }
 
 TEST(TargetFeasibility, GapMarginsAreViolatedAtTheTarget) {
-  const Scenario sc = corridor_scenario();
+  const Scenario sc = corridor_narrow_scenario();
   CbfController c(sc, Metric::gap);
   const Panda& robot = c.robot();
   // The best configuration of the test above, completed to the target pose by the controller's
@@ -136,6 +137,42 @@ TEST(TargetFeasibility, GapMarginsAreViolatedAtTheTarget) {
   EXPECT_LT(D("link7_gripper/roof"), delta);  // 0.00127 at 4.04 cm
   EXPECT_LT(D("link5_cylinder/wall1"), delta);  // ≈ 2e-5 at 1.15 cm
   EXPECT_LT(D("link5_cylinder/wall2"), delta);
+}
+
+}  // namespace
+}  // namespace distlab::cbf
+
+namespace distlab::cbf {
+namespace {
+
+// target_feasibility (the callable behind `distlab cbf --feasibility` and the API) against the
+// bound above: at the target, the link-5 cylinder's clearance is at most 1.152 cm for every q7,
+// so the best over the redundancy cannot exceed it; and the configuration it returns must reach
+// the target exactly, within the joint limits.
+TEST(TargetFeasibility, BestClearanceOverTheRedundancyMeetsTheCylinderBound) {
+  const Scenario sc = corridor_narrow_scenario();
+  const Feasibility f = target_feasibility(sc);
+  ASSERT_TRUE(f.reachable);
+  const Panda robot;
+  EXPECT_LT(task_function(robot.forward(f.q), robot, sc.target).r.norm(), 1e-8);
+  for (int i = 0; i < kDof; ++i) {
+    EXPECT_GE(f.q[i], robot.q_min()[i]);
+    EXPECT_LE(f.q[i], robot.q_max()[i]);
+  }
+  EXPECT_LE(f.clearance, 0.01152 + 1e-5);
+  EXPECT_GT(f.clearance, 0.0110);  // franka-corridor.md: 1.15 cm, by an independent scan
+  EXPECT_EQ(f.limiting_pair.rfind("link5_cylinder/wall", 0), 0u) << f.limiting_pair;
+  EXPECT_FALSE(f.euclidean_feasible);
+  EXPECT_FALSE(f.gap_feasible);
+  // The clearance is the minimum over the obstacle pairs at f.q, recomputed here.
+  CbfController c(sc, Metric::euclidean);
+  std::vector<PairSample> s;
+  Eigen::Matrix<double, Eigen::Dynamic, kDof> grad;
+  c.distances(f.q, s, grad);
+  double m = 1e9;
+  for (std::size_t p = 0; p < s.size(); ++p)
+    if (!c.pairs()[p].self) m = std::min(m, s[p].clearance);
+  EXPECT_DOUBLE_EQ(m, f.clearance);
 }
 
 }  // namespace

@@ -96,13 +96,19 @@ json get_json(httplib::Client& c, const std::string& s, const std::string& path,
   return body_json(r);
 }
 
+std::string flag_text(const std::vector<std::string>& flags) {
+  std::string t;
+  for (const std::string& f : flags) t += " " + f;
+  return t;
+}
+
 // `distlab cbf` on the same request.
-json run_cli(const json& request) {
+json run_cli(const json& request, const std::vector<std::string>& flags = {}) {
   const std::string dir = temp_dir("distlab-cbf-cli");
   const std::string in = dir + "/request.json", out = dir + "/record.json";
   std::ofstream(in) << request.dump();
   const std::string cmd = "DISTLAB_ASSETS='" + std::string(DISTLAB_SOURCE_DIR) + "/assets' '" + DISTLAB_EXE +
-                          "' cbf < '" + in + "' > '" + out + "'";
+                          "' cbf" + flag_text(flags) + " < '" + in + "' > '" + out + "'";
   const int rc = std::system(cmd.c_str());
   EXPECT_EQ(rc, 0) << cmd;
   std::ifstream f(out);
@@ -176,6 +182,21 @@ TEST_F(CbfApi, BadInputIsRefusedWithTheField) {
   bad = get_json(c, "", "/api/cbf/scenarios/corridor");
   bad["target"]["quaternion"] = {0, 0, 0, 0};
   expect_error(post_rollout(c, s, {{"scenario", bad}}), 400, "invalid_input", "scenario.target.quaternion");
+  // Solver mode and velocity limits, in params and inline.
+  expect_error(post_rollout(c, s, {{"scenario", "corridor"}, {"params", {{"gap", {{"mode", "published"}}}}}}), 400,
+               "invalid_input", "params.gap.mode");
+  expect_error(post_rollout(c, s, {{"scenario", "corridor"}, {"params", {{"gap", {{"mode", "as_published"}, {"max_iter", 0}}}}}}),
+               400, "invalid_input", "params.gap.max_iter");
+  expect_error(post_rollout(c, s, {{"scenario", "corridor"}, {"params", {{"velocity_limit", {1, 1, 1, 1, 1, 1}}}}}), 400,
+               "invalid_input", "params.velocity_limit");
+  expect_error(post_rollout(c, s, {{"scenario", "corridor"}, {"params", {{"velocity_limit", {1, 1, 1, 1, -1, 1, 1}}}}}),
+               400, "invalid_input", "params.velocity_limit[4]");
+  bad = get_json(c, "", "/api/cbf/scenarios/corridor_real");
+  bad["velocity_limit"][6] = 0;
+  expect_error(post_rollout(c, s, {{"scenario", bad}}), 400, "invalid_input", "scenario.velocity_limit[6]");
+  bad = get_json(c, "", "/api/cbf/scenarios/corridor");
+  bad["self_collision"] = "on";
+  expect_error(post_rollout(c, s, {{"scenario", bad}}), 400, "invalid_input", "scenario.self_collision");
   // Stream options.
   expect_error(post_rollout(c, s, {{"scenario", "corridor"}, {"stream", {{"batch_steps", 0}}}}), 400, "invalid_input",
                "stream.batch_steps");
@@ -465,4 +486,19 @@ TEST_F(CbfApi, CancelMidwayAndOtherSessionsSeeNothing) {
 }
 
 }  // namespace
+// POST /api/cbf/feasibility is `distlab cbf --feasibility`: the same numbers for the same request.
+TEST_F(CbfApi, TargetFeasibilityIsTheCliAnswer) {
+  const json request = {{"scenario", "corridor_narrow"}};
+  const auto r = c.Post("/api/cbf/feasibility", request.dump(), "application/json");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200) << r->body;
+  const json api = json::parse(r->body);
+  EXPECT_TRUE(api["reachable"].get<bool>());
+  EXPECT_FALSE(api["euclidean_feasible"].get<bool>());
+  EXPECT_EQ(api["q"].size(), 7u);
+  EXPECT_EQ(api, run_cli(request, {"--feasibility"}));
+  expect_error(c.Post("/api/cbf/feasibility", R"({"scenario": "nowhere"})", "application/json"), 400, "invalid_input",
+               "scenario");
+}
+
 }  // namespace distlab::test

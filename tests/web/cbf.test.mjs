@@ -263,3 +263,39 @@ test("a bad inline scenario shows the server's message and field", async () => {
   assert.match(await page.textContent("[data-testid=cbf-verdict]"), /not valid JSON/);
   assert.deepEqual(page.problems.filter((p) => !p.includes("the server responded with a status of 400")), []);
 });
+
+test("the duration is the scenario's own unless set; after a run the status line says why the arm stopped", async () => {
+  const page = await openView(env.browser, env.server, hash({ scenario: "corridor_real", metric: "euclidean" }));
+  await waitLoaded(page);
+  assert.equal((await C(page, "c.state")).duration, null, "no duration in the link: the scenario's own");
+  const shown = await page.evaluate(() => {
+    const row = [...document.querySelectorAll(".lil-controller")].find((c) => c.textContent.includes("duration (s)"));
+    return row?.querySelector("input")?.value;
+  });
+  assert.equal(Number(shown), 20, "the panel shows corridor_real's 20 s");
+
+  const short = await openView(env.browser, env.server, hash({ scenario: "corridor", metric: "euclidean", duration: 0.5 }));
+  await waitLoaded(short);
+  await short.keyboard.press("r");
+  await waitRunEnded(short, 1);
+  // The rollout's own line, then the exact target's feasibility (POST /api/cbf/feasibility).
+  await short.waitForFunction(() => /exact target: best clearance/.test(document.getElementById("status")?.textContent ?? ""), null, {
+    timeout: 60000,
+  });
+  const status = await short.evaluate(() => document.getElementById("status").textContent);
+  assert.match(status, /Eucl\S* finished: stopped \d+\.\d+ cm from the target/);
+  assert.match(status, /exact target: best clearance 2\.65 cm \(link5_cylinder\/wall1\) < Euclidean δ 3\.00 cm/);
+  await screenshot(short, "cbf-status-line");
+});
+
+test("the GAP distance switch runs the published package's iteration (gap.mode as_published in the record)", async () => {
+  const page = await openView(env.browser, env.server, hash({ scenario: "corridor", metric: "gap", gapMode: "as_published_real", duration: 0.3 }));
+  await waitLoaded(page);
+  await page.keyboard.press("r");
+  await waitRunEnded(page, 1);
+  const [r] = await C(page, "c.rollouts");
+  assert.equal(r.state, "finished");
+  const record = await page.evaluate((id) => window.distlab.api.get(`/api/cbf/rollouts/${id}/record`), r.id);
+  assert.equal(record.gap_mode, "as_published");
+  assert.equal(record.steps, 30);
+});

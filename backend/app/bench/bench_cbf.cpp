@@ -1,9 +1,14 @@
 // distlab-bench-cbf: the corridor experiment (paper Section IV-B) with both metrics in one run:
 // goal reached?, true clearance, smoothness of u per joint (paper Fig. 4), per-step times.
-// usage: distlab-bench-cbf [--scenario FILE] [--duration S] [--repeat N] [--no-audit] [--json FILE]
+// usage: distlab-bench-cbf [--scenario NAME|FILE] [--params JSON] [--duration S] [--repeat N]
+//                          [--no-audit] [--json FILE]
+// NAME: assets/scenarios/NAME.json (default corridor_narrow); --params: the request's "params"
+// (e.g. '{"gap": {"mode": "as_published", "tol": 2e-4, "max_iter": 300}}'), applied to both
+// metrics.
 // With --repeat N the two metrics run N times each, alternating (so both see the same machine
 // load), and the times are medians over the runs; "step p50" is the median step of a run.
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -66,7 +71,7 @@ double median_of(std::vector<RunTimes> runs, double RunTimes::*field) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string scenario_file, json_file;
+  std::string scenario_file = "corridor_narrow", json_file, params = "{}";
   double duration = -1;
   int repeat = 1;
   bool audit = true;
@@ -74,21 +79,33 @@ int main(int argc, char** argv) {
     const std::string a = argv[i];
     if (a == "--scenario" && i + 1 < argc) scenario_file = argv[++i];
     else if (a == "--json" && i + 1 < argc) json_file = argv[++i];
+    else if (a == "--params" && i + 1 < argc) params = argv[++i];
     else if (a == "--duration" && i + 1 < argc) duration = std::stod(argv[++i]);
     else if (a == "--repeat" && i + 1 < argc) repeat = std::max(1, std::atoi(argv[++i]));
     else if (a == "--no-audit") audit = false;
     else {
-      std::fprintf(stderr, "usage: %s [--scenario FILE] [--duration S] [--repeat N] [--no-audit] [--json FILE]\n",
+      std::fprintf(stderr,
+                   "usage: %s [--scenario NAME|FILE] [--params JSON] [--duration S] [--repeat N] [--no-audit] "
+                   "[--json FILE]\n",
                    argv[0]);
       return 2;
     }
   }
-  Scenario sc = corridor_scenario();
-  if (!scenario_file.empty()) {
-    std::ifstream in(scenario_file);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    sc = distlab::server::parse_scenario(distlab::server::parse_json_text(ss.str()), "scenario");
+  Scenario sc;
+  try {
+    json scenario = scenario_file;
+    if (scenario_file.find('/') != std::string::npos || scenario_file.find(".json") != std::string::npos) {
+      std::ifstream in(scenario_file);
+      std::stringstream ss;
+      ss << in.rdbuf();
+      scenario = distlab::server::parse_json_text(ss.str());
+    }
+    sc = distlab::server::parse_cbf_request(
+             {{"scenario", scenario}, {"params", distlab::server::parse_json_text(params)}})
+             .scenario;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "%s: %s\n", argv[0], e.what());
+    return 2;
   }
   if (duration > 0) sc.duration = duration;
 
@@ -133,6 +150,27 @@ int main(int argc, char** argv) {
   std::printf("  35 s rollout wall time: GAP %.3f s, Euclidean %.3f s (target < 1 s; includes the\n"
               "  per-pair record%s)\n", g.wall_seconds, e.wall_seconds,
               audit ? " and the GAP run's Euclidean clearance audit" : "");
+  for (const RolloutRecord* r : {&g, &e}) {
+    const FinalState& f = r->final_state;
+    std::printf("  %-9s ends at (%.4f, %.4f, %.4f), |p - p_d| = %.2f cm, min clearance there %.2f cm (%s), "
+                "clipped steps %d\n", to_string(r->metric), f.ee_position.x(), f.ee_position.y(), f.ee_position.z(),
+                100 * f.position_error, 100 * f.min_clearance, f.closest_pair.c_str(), r->clipped_steps);
+    for (std::size_t k = 0; k < std::min<std::size_t>(f.active.size(), 4); ++k) {
+      const ActiveConstraint& a = f.active[k];
+      std::printf("    active %-26s D %.6f  delta %.6f  clearance %.4f  multiplier %.3g", a.name.c_str(), a.distance,
+                  a.margin, a.clearance, a.multiplier);
+      if (std::isfinite(a.converged_distance)) std::printf("  converged D %.6f", a.converged_distance);
+      std::printf("\n");
+    }
+  }
+  double tv_g = 0, tv_e = 0, tv_g57 = 0, tv_e57 = 0;
+  for (int j = 0; j < kDof; ++j) {
+    const double a = smoothness(g, j).total_variation, b = smoothness(e, j).total_variation;
+    tv_g += a, tv_e += b;
+    if (j >= 4) tv_g57 += a, tv_e57 += b;
+  }
+  std::printf("  total variation of u: GAP %.3f (joints 5-7 %.3f), Euclidean %.3f (joints 5-7 %.3f)\n", tv_g, tv_g57,
+              tv_e, tv_e57);
   print_smoothness(g, e, 0, 5);
   print_smoothness(g, e, 0, 1e300);
 
@@ -145,6 +183,7 @@ int main(int argc, char** argv) {
           {"min_clearance", r->min_clearance},
           {"infeasible_steps", r->infeasible_steps.size()},
           {"cold_solves", r->cold_solves},
+          {"final", distlab::server::encode_final_state(r->final_state)},
           {"timing_us", {{"kinematics", r->timing.kinematics}, {"distance", r->timing.distance},
                          {"qp", r->timing.qp}, {"step", r->timing.step}, {"audit", r->timing.audit}}},
           {"wall_seconds", r->wall_seconds},

@@ -12,22 +12,30 @@ namespace {
 
 namespace server = distlab::server;
 
-constexpr const char* kHelp = R"(usage: distlab cbf [--pretty] < request.json
+constexpr const char* kHelp = R"(usage: distlab cbf [--pretty] [--feasibility] < request.json
 
 Runs one CBF-QP rollout of the Franka Panda (paper Section IV-B) and writes its record.
+With --feasibility: the best robot-obstacle clearance reachable at the scenario's exact target
+pose over the arm's redundancy (q7 scanned, joints 1-6 solved), the configuration and the pair
+that limit it, the GAP D there, and whether each metric's margin delta_obs can hold there.
 
 request   {"scenario": NAME | SCENARIO, "metric": "gap" | "euclidean", "params": {...}}
-          NAME: assets/scenarios/NAME.json (e.g. "corridor"); SCENARIO: the same object inline
+          NAME: assets/scenarios/NAME.json (corridor, corridor_real, corridor_narrow,
+          corridor_fine_margin); SCENARIO: the same object inline
 params    overrides: dt, duration, q0, task_gain, damping, eta, eta_joint, self_collision,
-          goal_tolerance, slack_weight, margins {gap|euclidean: {obstacle, self}},
-          gap {h, k, eps, sigma, weight_margin, tol, max_iter, solver}; output:
+          goal_tolerance, slack_weight, velocity_limit (null | rad/s | [7]),
+          margins {gap|euclidean: {obstacle, self}},
+          gap {h, k, eps, sigma, weight_margin, tol, max_iter, solver,
+               mode: "exact" | "as_published"}; output:
           record_pairs (true: per-step distance and witnesses of every pair),
           audit (true: true Euclidean clearance per step, needed for min_distance with GAP)
 response  "t", "q", "u", "task_error", "min_distance" (per step), "infeasible_steps", "slack",
           "pairs", ["distance", "witness_a", "witness_b"], "timing" {"step_us_mean",
           "kinematics_us_mean", "distance_us_mean", "qp_us_mean", "audit_us_mean", "wall_s"},
           "summary" {"reached", "final_task_error", "min_distance", "cancelled", "cold_solves",
-          "q_final"}
+          "clipped_steps", "q_final", "final" {"ee_position", "position_error", "min_clearance",
+          "closest_pair", "active": [{"name", "kind", "distance", "margin", "clearance",
+          "converged_distance", "multiplier"}]}}, "gap_mode", ["converged_distance"]
 errors    {"error": {"code", "message", "field"}}
 exit      0 ok, 2 invalid input, 65 malformed JSON, 70 internal error
 )";
@@ -35,8 +43,11 @@ exit      0 ok, 2 invalid input, 65 malformed JSON, 70 internal error
 int run_cbf(const std::vector<std::string>& args, std::istream& in, std::ostream& out,
             std::ostream& err) {
   return distlab::app::run_json_command(
-      {"cbf", kHelp, {}}, args, in, out, err,
-      [](const nlohmann::json& request, const auto&) { return server::run_cbf_request(request); });
+      {"cbf", kHelp, {"--feasibility"}}, args, in, out, err,
+      [](const nlohmann::json& request, const auto& flags) {
+        return flags.count("--feasibility") ? server::run_cbf_feasibility(request)
+                                            : server::run_cbf_request(request);
+      });
 }
 
 const distlab::app::RegisterCommand kRegister(

@@ -32,6 +32,63 @@ P2SOptions gap_options(const Shape& shape, P2SOptions options, double weight_mar
   return options;
 }
 
+}  // namespace
+
+// The published package's P2S construction (franka-corridor.md, last section): box half-spaces
+// with weight 1, round shapes' terms with weight 1, polytope rows 1/(⌊N/2⌋ + 1), and the ρ ball
+// centred on the bounding box with R² = 1.2 × (its half diagonal)².
+P2SOptions published_options(const Shape& shape) {
+  P2SOptions o;
+  Vec3 lo, hi;
+  if (const auto* box = std::get_if<Box>(&shape)) {
+    o.weights = VecX::Ones(6);
+    hi = box->size / 2;
+    lo = -hi;
+  } else if (const auto* poly = std::get_if<Polytope>(&shape)) {
+    o.weights = VecX::Constant(poly->A.rows(), 1.0 / (static_cast<double>(poly->A.rows() / 2) + 1));
+    lo = hi = poly->vertices.front();
+    for (const Vec3& v : poly->vertices) {
+      lo = lo.cwiseMin(v);
+      hi = hi.cwiseMax(v);
+    }
+  } else {
+    o.round_weight = 1.0;
+    double r = 0, half_z = 0;
+    if (const auto* c = std::get_if<Cylinder>(&shape)) r = c->radius, half_z = c->height / 2;
+    if (const auto* c = std::get_if<Capsule>(&shape)) r = c->radius, half_z = c->height / 2 + c->radius;
+    if (const auto* c = std::get_if<Sphere>(&shape)) r = half_z = c->radius;
+    hi = Vec3(r, r, half_z);
+    lo = -hi;
+  }
+  const double half_diagonal2 = ((hi - lo) / 2).squaredNorm();
+  o.rho = Ball{(lo + hi) / 2, std::sqrt(1.2 * half_diagonal2)};
+  return o;
+}
+
+// The published distance (gap.mode as_published): plain iteration (eq. 2) from B's centre,
+// stopped at the first step below tol or after max_iter; D = sqrt(max(d_AB² + d_BA² − ‖a − b‖², 0))
+// = sqrt(max(2Λ, 0)) at that iterate (d_AB² = 2 E_B(a), d_BA² = 2 E_A(b)); its gradient by the
+// envelope formulas at the same iterate (dD = dΛ / D).
+GapResult published_distance(const GapBody& A, const GapBody& B, const GapParams& params) {
+  const Vec3 centre_b = B.pose().position + B.pose().R() * B.p2s().rho_ball().center;
+  const WitnessSolution w = solve_fixed_point(A.p2s(), B.p2s(), centre_b, params.tol, params.max_iter);
+  GapResult g;
+  g.lambda = w.lambda;
+  g.distance = std::sqrt(std::max(2.0 * w.lambda, 0.0));
+  g.witness_a = w.a;
+  g.witness_b = w.b;
+  g.iterations = w.iterations;
+  g.converged = w.converged;
+  if (g.distance > 0) {
+    lambda_gradients(w.a, w.b, A.pose(), B.pose(), g.gradient_a, g.gradient_b);
+    g.gradient_a /= g.distance;
+    g.gradient_b /= g.distance;
+  }
+  return g;
+}
+
+namespace {
+
 // A plane normal to n (from A towards B) with A on one side and B on the other, at least `gap`
 // apart: a proof that A and B do not overlap, from two support points.
 bool separated_along(const Shape& sa, const Pose& pa, const Mat3& Ra, const Shape& sb, const Pose& pb,
@@ -74,6 +131,7 @@ struct CbfController::Impl {
   std::vector<Jac> robot_jac;  // Jacobian of each primitive's origin, fixed to its link
   std::vector<Vec3> warm_a, warm_b;
   std::vector<char> warm_ok;
+  GapParams exact_params;  // the converged solve (as_published: its reference)
   QpSolver qp;
   Eigen::MatrixXd H, C, C_relaxed, H_relaxed;
   Eigen::VectorXd f, d, f_relaxed, d_relaxed;
@@ -92,11 +150,20 @@ CbfController::CbfController(const Scenario& scenario, Metric metric)
       pairs_.push_back({prims[i].name + "/" + prims[j].name, i, j, true});
 
   Impl& m = *impl_;
+  const bool published = scenario_.gap_mode == GapMode::as_published;
+  // as_published: the Newton reference (converged D) runs on the published functions too.
+  m.exact_params = scenario_.gap;
+  if (published) {
+    m.exact_params.solver = GapSolver::newton;
+    m.exact_params.tol = 1e-10;
+    m.exact_params.max_iter = 0;
+  }
   for (std::size_t i = 0; i < prims.size(); ++i) {
     m.robot_euclid.emplace_back(prims[i].shape);
     if (metric_ == Metric::gap)
       m.robot_gap.emplace_back(prims[i].shape, Pose{}, scenario_.gap,
-                               gap_options(prims[i].shape, {}, scenario_.gap.weight_margin),
+                               published ? published_options(prims[i].shape)
+                                         : gap_options(prims[i].shape, {}, scenario_.gap.weight_margin),
                                "robot." + prims[i].name);
   }
   for (std::size_t j = 0; j < scenario_.obstacles.size(); ++j) {
@@ -106,7 +173,8 @@ CbfController::CbfController(const Scenario& scenario, Metric metric)
     m.obstacle_R.push_back(o.pose.R());
     if (metric_ == Metric::gap)
       m.obstacle_gap.emplace_back(o.shape, o.pose, scenario_.gap,
-                                  gap_options(o.shape, o.options, scenario_.gap.weight_margin),
+                                  published ? published_options(o.shape)
+                                            : gap_options(o.shape, o.options, scenario_.gap.weight_margin),
                                   "obstacles[" + std::to_string(j) + "]");
   }
   m.robot_pose.resize(prims.size());
@@ -158,13 +226,13 @@ void CbfController::compute_pairs(const Kinematics& k, std::vector<PairSample>& 
         const Mat3& Rb = pair.self ? m.robot_R[pair.b] : m.obstacle_R[pair.b];
         if (separated_along(prims[pair.a].shape, m.robot_pose[pair.a], m.robot_R[pair.a], sb, pb, Rb,
                             m.warm_b[p] - m.warm_a[p], kCertifiedGap)) {
-          g = gap_distance_warm_disjoint(A, B, scenario_.gap, m.warm_a[p], m.warm_b[p]);
+          g = gap_distance_warm_disjoint(A, B, m.exact_params, m.warm_a[p], m.warm_b[p]);
         } else {
-          g = gap_distance_warm(A, B, scenario_.gap, m.warm_a[p], m.warm_b[p]);
+          g = gap_distance_warm(A, B, m.exact_params, m.warm_a[p], m.warm_b[p]);
         }
       }
       if (!m.warm_ok[p] || !g.converged) {
-        g = gap_distance(A, B, scenario_.gap);
+        g = gap_distance(A, B, m.exact_params);
         s.cold = true;
         s.clearance = g.euclidean.distance;
       } else {
@@ -173,6 +241,12 @@ void CbfController::compute_pairs(const Kinematics& k, std::vector<PairSample>& 
       m.warm_ok[p] = !g.overlap;
       m.warm_a[p] = g.witness_a;
       m.warm_b[p] = g.witness_b;
+      if (scenario_.gap_mode == GapMode::as_published) {
+        s.converged_distance = g.distance;
+        const bool overlap = g.overlap;
+        g = published_distance(A, B, scenario_.gap);
+        g.overlap = overlap;
+      }
       s.distance = g.distance;
       s.witness_a = g.witness_a;
       s.witness_b = g.witness_b;
@@ -257,6 +331,17 @@ StepOutput CbfController::step(const VecQ& q, bool audit) {
     }
   }
   out.active_rows = static_cast<int>(res.active.size());
+  for (int row : res.active)
+    if (row < rows) {  // not the relaxation's s ≥ 0
+      out.active.push_back(row);
+      out.multiplier.push_back(res.lambda[row]);
+    }
+  if (!(scenario_.velocity_limit.array() == std::numeric_limits<double>::infinity()).all()) {
+    // Clipped per joint, as the robot's interface does (franka-corridor.md, the real-robot run).
+    const VecQ clipped = out.u.cwiseMax(-scenario_.velocity_limit).cwiseMin(scenario_.velocity_limit);
+    out.clipped = clipped != out.u;
+    out.u = clipped;
+  }
   const auto t3 = Clock::now();
 
   out.r = task.r;

@@ -8,13 +8,14 @@
 namespace distlab::cbf {
 
 const char* to_string(Metric m) { return m == Metric::gap ? "gap" : "euclidean"; }
+const char* to_string(GapMode m) { return m == GapMode::exact ? "exact" : "as_published"; }
 
 int Scenario::steps() const { return static_cast<int>(std::lround(duration / dt)); }
 
-Scenario corridor_scenario() {
+Scenario corridor_narrow_scenario() {
   constexpr double pi = std::numbers::pi;
   Scenario s;
-  s.name = "corridor";
+  s.name = "corridor_narrow";
   auto box = [](const char* name, Vec3 c, Vec3 size) {
     Obstacle o{name, Box{size}, Pose{}, P2SOptions{}};
     o.pose.position = c;
@@ -65,6 +66,15 @@ void validate(const Scenario& s) {
   } catch (const InvalidInput& e) {  // "params.h" -> "gap.h"
     const std::string f = e.field();
     throw InvalidInput(f.rfind("params.", 0) == 0 ? "gap." + f.substr(7) : f, e.what());
+  }
+  if (s.gap_mode == GapMode::as_published && s.gap.max_iter < 1)
+    throw InvalidInput("gap.max_iter", "gap.mode \"as_published\" needs gap.max_iter >= 1 (its "
+                                       "iteration cap, e.g. 20 on the real robot, 300 in simulation)");
+  for (int i = 0; i < kDof; ++i) {
+    const std::string f = "velocity_limit[" + std::to_string(i) + "]";
+    if (std::isnan(s.velocity_limit[i]) || !(s.velocity_limit[i] > 0))
+      throw InvalidInput(f, f + " must be > 0 (or absent: no limit), got " +
+                                std::to_string(s.velocity_limit[i]));
   }
   const Panda robot;
   for (int i = 0; i < kDof; ++i) {

@@ -91,6 +91,8 @@ PointToSet::PointToSet(const Shape& shape, const BaseFunction& phi, const Strict
     box_halfspaces(*box, A_local_, b_local_);
   }
   const auto rows = A_local_.rows();
+  if (options.round_weight && rows > 0)
+    throw InvalidInput(field + ".round_weight", "round_weight applies only to round shapes");
   if (options.weights) {
     if (rows == 0)
       throw InvalidInput(field + ".weights", "weights apply only to polytopes and boxes");
@@ -110,6 +112,10 @@ PointToSet::PointToSet(const Shape& shape, const BaseFunction& phi, const Strict
       throw InvalidInput("params.weight_margin", "weight_margin must be finite and > 0");
     const int m = max_violated_halfspaces(A_local_);
     weights_ = VecX::Constant(rows, 1.0 / (m + options.weight_margin));
+  } else if (options.round_weight) {
+    if (!(*options.round_weight > 0 && *options.round_weight <= 1))
+      throw InvalidInput(field + ".round_weight", "round_weight must be in (0, 1]");
+    round_weight_ = *options.round_weight;
   } else {
     // Round shapes: their terms act on orthogonal directions, so m = 1.
     round_weight_ = 1.0 / (1.0 + options.weight_margin);

@@ -72,9 +72,9 @@ cbf::Margins parse_margins(const json& j, const std::string& field, cbf::Margins
 }
 
 // The settings a scenario and a request's params share.
-constexpr std::array<std::string_view, 12> kSettings = {
+constexpr std::array<std::string_view, 13> kSettings = {
     "dt", "duration", "q0", "task_gain", "damping", "eta", "eta_joint", "self_collision",
-    "goal_tolerance", "slack_weight", "margins", "gap"};
+    "goal_tolerance", "slack_weight", "margins", "gap", "velocity_limit"};
 
 void apply_settings(const json& j, const std::string& field, cbf::Scenario& s) {
   const auto get = [&](const char* key) { return json_optional(j, key); };
@@ -93,6 +93,12 @@ void apply_settings(const json& j, const std::string& field, cbf::Scenario& s) {
   if (auto v = get("self_collision")) s.self_collision = boolean(*v, f("self_collision"));
   if (auto v = get("goal_tolerance")) s.goal_tolerance = number(*v, f("goal_tolerance"));
   if (auto v = get("slack_weight")) s.slack_weight = number(*v, f("slack_weight"));
+  if (auto v = get("velocity_limit")) {
+    // null: no limit; one number: every joint; an array: per joint (rad/s).
+    if (v->is_null()) s.velocity_limit.setConstant(std::numeric_limits<double>::infinity());
+    else if (v->is_number()) s.velocity_limit.setConstant(number(*v, f("velocity_limit")));
+    else s.velocity_limit = vec<cbf::kDof>(*v, f("velocity_limit"));
+  }
   if (auto v = get("margins")) {
     require_object(*v, f("margins"));
     check_keys(*v, f("margins"), {"gap", "euclidean"});
@@ -106,12 +112,19 @@ void apply_settings(const json& j, const std::string& field, cbf::Scenario& s) {
     const std::string gf = f("gap");
     require_object(*v, gf);
     // gradient and validate are not settings here: the controller needs gradients.
-    check_keys(*v, gf, {"h", "k", "eps", "sigma", "weight_margin", "tol", "max_iter", "solver"});
+    check_keys(*v, gf, {"h", "k", "eps", "sigma", "weight_margin", "tol", "max_iter", "solver", "mode"});
     json merged = {{"h", s.gap.h}, {"k", s.gap.k}, {"eps", s.gap.eps}, {"sigma", s.gap.sigma},
                    {"weight_margin", s.gap.weight_margin}, {"tol", s.gap.tol},
                    {"max_iter", s.gap.max_iter},
                    {"solver", s.gap.solver == GapSolver::newton ? "newton" : "fixed_point"}};
     merged.update(*v);
+    if (auto m = merged.find("mode"); m != merged.end()) {
+      const std::string mode = string(*m, key_path(gf, "mode"));
+      if (mode == "exact") s.gap_mode = cbf::GapMode::exact;
+      else if (mode == "as_published") s.gap_mode = cbf::GapMode::as_published;
+      else fail(key_path(gf, "mode"), "expected \"exact\" or \"as_published\"");
+      merged.erase(m);
+    }
     try {
       s.gap = parse_params(merged, gf).params;
     } catch (const InvalidInput& e) {  // check_params names "params.<x>"
@@ -257,11 +270,29 @@ json encode_smoothness(const cbf::RolloutRecord& rec) {
   return {{"total_variation", tv}, {"max_rate", rate}};
 }
 
+json encode_final_state(const cbf::FinalState& f) {
+  auto finite_or_null = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
+  json active = json::array();
+  for (const cbf::ActiveConstraint& a : f.active)
+    active.push_back({{"name", a.name},
+                      {"kind", a.pair ? "pair" : "joint_limit"},
+                      {"distance", a.distance},
+                      {"margin", a.margin},
+                      {"clearance", finite_or_null(a.clearance)},
+                      {"converged_distance", finite_or_null(a.converged_distance)},
+                      {"multiplier", a.multiplier}});
+  return {{"ee_position", vec_json(f.ee_position)},
+          {"position_error", f.position_error},
+          {"min_clearance", finite_or_null(f.min_clearance)},
+          {"closest_pair", f.closest_pair},
+          {"active", active}};
+}
+
 json encode_record(const cbf::RolloutRecord& rec, const std::string& scenario_name, bool with_pairs) {
   json t = json::array(), q = json::array(), u = json::array(), err = json::array(),
        mind = json::array(), slack = json::object();
   const bool pairs = with_pairs && !rec.steps.empty() && !rec.steps.front().pairs.empty();
-  json dist = json::array(), wa = json::array(), wb = json::array();
+  json dist = json::array(), wa = json::array(), wb = json::array(), conv = json::array();
   auto finite_or_null = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
   for (std::size_t i = 0; i < rec.steps.size(); ++i) {
     const cbf::StepRecord& s = rec.steps[i];
@@ -273,13 +304,15 @@ json encode_record(const cbf::RolloutRecord& rec, const std::string& scenario_na
     if (s.relaxed || s.held)
       slack[std::to_string(i)] = s.held ? json("held") : json(s.slack);
     if (pairs) {
-      json d = json::array(), a = json::array(), b = json::array();
+      json d = json::array(), a = json::array(), b = json::array(), c = json::array();
       for (const cbf::PairSample& p : s.pairs) {
         d.push_back(p.distance);
+        c.push_back(finite_or_null(p.converged_distance));
         a.push_back(vec_json(p.witness_a));
         b.push_back(vec_json(p.witness_b));
       }
       dist.push_back(std::move(d));
+      conv.push_back(std::move(c));
       wa.push_back(std::move(a));
       wb.push_back(std::move(b));
     }
@@ -312,13 +345,41 @@ json encode_record(const cbf::RolloutRecord& rec, const std::string& scenario_na
                 {"min_distance", finite_or_null(rec.min_clearance)},
                 {"cancelled", rec.cancelled},
                 {"cold_solves", rec.cold_solves},
-                {"q_final", vec_json(rec.q_final)}}}};
+                {"clipped_steps", rec.clipped_steps},
+                {"q_final", vec_json(rec.q_final)},
+                {"final", encode_final_state(rec.final_state)}}}};
+  out["gap_mode"] = cbf::to_string(rec.gap_mode);
   if (pairs) {
+    if (rec.gap_mode == cbf::GapMode::as_published && rec.metric == cbf::Metric::gap)
+      out["converged_distance"] = std::move(conv);
     out["distance"] = std::move(dist);
     out["witness_a"] = std::move(wa);
     out["witness_b"] = std::move(wb);
   }
   return out;
+}
+
+json encode_feasibility(const cbf::Feasibility& f, const cbf::Scenario& s) {
+  auto finite_or_null = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
+  if (!f.reachable)
+    return {{"scenario", s.name}, {"reachable", false}, {"configurations", f.configurations}};
+  return {{"scenario", s.name},
+          {"reachable", true},
+          {"q", vec_json(f.q)},
+          {"clearance", f.clearance},
+          {"limiting_pair", f.limiting_pair},
+          {"self_clearance", finite_or_null(f.self_clearance)},
+          {"gap_distance", f.gap_distance},
+          {"gap_limiting_pair", f.gap_limiting_pair},
+          {"margins", {{"euclidean", s.euclidean_margins.obstacle}, {"gap", s.gap_margins.obstacle}}},
+          {"euclidean_feasible", f.euclidean_feasible},
+          {"gap_feasible", f.gap_feasible},
+          {"configurations", f.configurations}};
+}
+
+json run_cbf_feasibility(const json& request, const std::string& assets_dir) {
+  const CbfRequest r = parse_cbf_request(request, assets_dir);
+  return encode_feasibility(cbf::target_feasibility(r.scenario), r.scenario);
 }
 
 json run_cbf_request(const json& request) {

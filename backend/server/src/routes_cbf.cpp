@@ -137,6 +137,26 @@ void Service::register_cbf_routes() {
                  return json_response(200, read_scenario_file(path.string()));
                }});
   router_.add({"GET", "/api/cbf/robot", [](Request&) { return json_response(200, cbf_robot_json()); }});
+  // Is the scenario's exact target inside the safe set? (cbf::target_feasibility, well under a
+  // second: a q7 grid with IK per point.)
+  Route feasibility{"POST", "/api/cbf/feasibility", [this, limits](Request& req) {
+                      const json body = parse_body(req);
+                      const CbfRequest parsed = parse_cbf_request(body, config_.assets_dir);
+                      // About 4000 IK configurations are examined, each against every pair.
+                      const cbf::Panda robot;
+                      const std::size_t pairs = robot.primitives().size() * parsed.scenario.obstacles.size() +
+                                                (parsed.scenario.self_collision ? robot.self_pairs().size() : 0);
+                      if (pairs * 4000 > limits.max_pair_steps)
+                        throw ApiError(422, "too_large",
+                                       std::to_string(pairs) + " pairs: the feasibility scan allows at most " +
+                                           std::to_string(limits.max_pair_steps / 4000) + " on this server",
+                                       "scenario.obstacles");
+                      return json_response(200, encode_feasibility(cbf::target_feasibility(parsed.scenario),
+                                                                   parsed.scenario));
+                    }};
+  feasibility.heavy = true;
+  feasibility.bounds = {"max_body_bytes", "max_cbf_pair_steps"};
+  router_.add(std::move(feasibility));
 
   Route post{"POST", "/api/cbf/rollouts", [this, limits](Request& req) {
                auto session = require_session(req);

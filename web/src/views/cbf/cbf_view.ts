@@ -18,10 +18,10 @@ import { stopRouting, type Rollout } from "./rollout";
 import { endedStatus, progressLabel, Run, runningStatus } from "./run";
 import { CbfScene } from "./scene";
 import { cbfShortcuts } from "./shortcuts";
-import { metricsOf, parseState, stateJson, type CbfState } from "./state";
+import { gapParams, metricsOf, parseState, stateJson, type CbfState } from "./state";
 import { Timeline } from "./timeline";
 import { DrawTimings } from "./timings";
-import { METRIC_NAMES as NAME, METRICS, type CbfRobot, type CbfScenario, type Metric } from "./types";
+import { METRIC_NAMES as NAME, METRICS, type CbfFeasibility, type CbfRobot, type CbfScenario, type Metric } from "./types";
 
 export class CbfView implements View {
   private viewport: Viewport | null = null;
@@ -119,6 +119,7 @@ export class CbfView implements View {
     }
     this.scenario = sc;
     this.panel!.showScenario(sc);
+    this.panel!.showDuration(this.duration());
     this.showScenario(sc);
   }
 
@@ -141,6 +142,7 @@ export class CbfView implements View {
     this.panel!.setVerdict("", "sent…");
     this.dropRun();
     this.scenario = v as CbfScenario;
+    this.panel!.showDuration(this.duration());
     this.showScenario(this.scenario);
     void this.start();
   }
@@ -153,9 +155,10 @@ export class CbfView implements View {
     this.save();
   }
 
-  private changed(what: "scenario" | "metric" | "duration" | "speed" | "draw" | "joint" | "layout"): void {
+  private changed(what: "scenario" | "metric" | "gap" | "duration" | "speed" | "draw" | "joint" | "layout"): void {
     switch (what) {
       case "scenario":
+        this.state.duration = null; // each scenario runs for its own duration unless set
         void this.loadScenario();
         break;
       case "metric": {
@@ -170,6 +173,9 @@ export class CbfView implements View {
       }
       case "duration":
         if (this.run) this.host.status("press r to run with the new duration");
+        break;
+      case "gap":
+        if (this.run) this.host.status("press r to run GAP with the chosen distance");
         break;
       case "speed":
         this.timeline!.setSpeed(this.state.speed);
@@ -201,6 +207,12 @@ export class CbfView implements View {
     this.results?.clear();
   }
 
+  /** The duration to run: the one set in the panel or link, else the scenario's own. */
+  private duration(): number {
+    const own = this.scenario && typeof this.scenario.duration === "number" ? this.scenario.duration : 35;
+    return this.state.duration ?? own;
+  }
+
   private async start(): Promise<void> {
     if (!this.robot || !this.scene) return;
     this.dropRun();
@@ -213,12 +225,12 @@ export class CbfView implements View {
     this.state.run = true;
     this.save();
     const scenario = this.state.inline ?? this.state.scenario;
-    const run = (this.run = new Run(scenario, metrics, this.state.duration, this.robot.primitives.length, {
+    const run = (this.run = new Run(scenario, metrics, this.duration(), this.robot.primitives.length, {
       frames: (r, _added, arrived) => this.onFrames(r, arrived),
       progress: (x) => this.onProgress(x),
       ended: (r) => this.onEnded(r),
       done: (x, err) => this.onDone(x, err),
-    }));
+    }, gapParams(this.state.gapMode)));
     this.panel!.setRunning(true);
     this.onProgress(run);
     this.draw(0);
@@ -271,6 +283,14 @@ export class CbfView implements View {
     this.draw(this.timeline!.step);
     if (error) return; // the status line shows the error
     this.host.status(endedStatus(run));
+    // Then what the exact target allows, so a rollout that stops short says why.
+    const scenario = this.state.inline ?? this.state.scenario;
+    void api
+      .post<CbfFeasibility>("/api/cbf/feasibility", { scenario })
+      .then((f) => {
+        if (run === this.run) this.host.status(endedStatus(run, f));
+      })
+      .catch(() => undefined);
   }
 
   /** Returns to the time of a shared link (once: when it is computed, or at the end of the run). */

@@ -2,7 +2,7 @@
 // duration), playback and drawing options, an editor for the scenario JSON (posted inline, the
 // server's verdict shown under it), and the numbers of the finished run (Summary) below.
 import GUI, { type Controller } from "lil-gui";
-import { METRIC_CHOICES, SPEEDS, WITNESS_MODES, type CbfState } from "./state";
+import { METRIC_CHOICES, SPEEDS, WITNESS_MODES, type CbfState, type GapModeChoice } from "./state";
 
 export interface PanelActions {
   run(): void;
@@ -10,7 +10,7 @@ export interface PanelActions {
   /** The editor's text parsed as a JSON object (the panel refuses anything else itself). */
   runEdited(scenario: Record<string, unknown>): void;
   revertEdited(): void;
-  changed(what: "scenario" | "metric" | "duration" | "speed" | "draw" | "joint" | "layout"): void;
+  changed(what: "scenario" | "metric" | "gap" | "duration" | "speed" | "draw" | "joint" | "layout"): void;
   frame(): void;
   copyLink(): void;
 }
@@ -25,6 +25,8 @@ export class Panel {
   readonly extra: HTMLDivElement;
   private readonly proxy: { scenario: string; joint: string };
   private readonly folder: GUI;
+  private readonly duration: { own: number; duration: number };
+  private readonly durationCtrl: Controller;
 
   constructor(container: HTMLElement, private readonly state: CbfState, scenarios: string[], private readonly actions: PanelActions) {
     this.gui = new GUI({ container, title: "CBF rollouts — Panda (paper IV-B)" });
@@ -35,7 +37,24 @@ export class Panel {
       .name("metric")
       .onChange(() => actions.changed("metric"));
     // No upper bound here: the server states its limit (and refuses more with a readable message).
-    r.add(state, "duration").min(0.01).step(0.01).name("duration (s)").onFinishChange(() => actions.changed("duration"));
+    r.add(state, "gapMode", { "exact (converged)": "exact", "as published, 2e-4 / 300": "as_published_sim", "as published, 5e-4 / 20": "as_published_real" } satisfies Record<string, GapModeChoice>)
+      .name("GAP distance")
+      .onChange(() => actions.changed("gap"));
+    // Shows the scenario's own duration until the user sets one (state.duration null).
+    const dur = { own: 35 } as { own: number; duration: number };
+    Object.defineProperty(dur, "duration", {
+      get: () => state.duration ?? dur.own,
+      set: (v: number) => {
+        state.duration = v;
+      },
+    });
+    this.duration = dur;
+    this.durationCtrl = r
+      .add(dur, "duration")
+      .min(0.01)
+      .step(0.01)
+      .name("duration (s)")
+      .onFinishChange(() => actions.changed("duration"));
     this.runCtrl = r.add(actions, "run").name("▶ run (r)");
     this.cancelCtrl = r.add(actions, "cancel").name("cancel (Esc)");
     this.cancelCtrl.disable();
@@ -95,6 +114,12 @@ export class Panel {
     // Keep it first in its folder.
     this.folder.$children.prepend(c.domElement);
     return c;
+  }
+
+  /** The duration the panel shows when none is set: the scenario's own. */
+  showDuration(own: number): void {
+    this.duration.own = own;
+    this.durationCtrl.updateDisplay();
   }
 
   /** Shows a scenario in the editor. */

@@ -46,6 +46,8 @@ export interface RolloutRequest {
   scenario: string | Record<string, unknown>;
   metric: Metric;
   duration: number;
+  /** params.gap of the GAP rollout (gap.mode as_published and its stopping rule), or null. */
+  gap?: Record<string, unknown> | null;
 }
 
 export interface RolloutEvents {
@@ -100,7 +102,12 @@ export class Rollout {
     const body = {
       scenario: this.request.scenario,
       metric: this.request.metric,
-      params: { duration: this.request.duration, record_pairs: false, audit: true },
+      params: {
+        duration: this.request.duration,
+        record_pairs: false,
+        audit: true,
+        ...(this.request.metric === "gap" && this.request.gap ? { gap: this.request.gap } : {}),
+      },
       stream: { batch_steps: 25, pairs: true, poses: true },
     };
     let r: { rollout: CbfRolloutStatus; job: JobJson };

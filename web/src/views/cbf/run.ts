@@ -2,7 +2,7 @@
 // (so each one's per-step timing is measured without the other competing for the 2 cores), with
 // a combined progress, one cancel for all, and the first API error reported (the rest not sent).
 import { Rollout, type RolloutEvents, type RolloutRequest } from "./rollout";
-import { METRIC_NAMES as NAME, type Metric } from "./types";
+import { METRIC_NAMES as NAME, type CbfFeasibility, type CbfFinalState, type Metric } from "./types";
 
 export interface RunEvents {
   frames(r: Rollout, added: number, arrived: number): void;
@@ -25,6 +25,7 @@ export class Run {
     readonly duration: number,
     primitiveCount: number,
     private readonly events: RunEvents,
+    gap: Record<string, unknown> | null = null,
   ) {
     const ev: RolloutEvents = {
       frames: (r, added, arrived) => !this.disposed && events.frames(r, added, arrived),
@@ -32,7 +33,7 @@ export class Run {
       ended: (r) => !this.disposed && this.onEnded(r),
       error: () => undefined, // reported through ended/done
     };
-    this.rollouts = metrics.map((metric) => new Rollout({ scenario, metric, duration }, primitiveCount, ev));
+    this.rollouts = metrics.map((metric) => new Rollout({ scenario, metric, duration, gap }, primitiveCount, ev));
   }
 
   get running(): boolean {
@@ -111,7 +112,42 @@ export function runningStatus(run: Run): string {
   return `computing ${run.metrics.map((m) => NAME[m]).join(", then ")} — frames stream in as they are computed (Esc cancels)`;
 }
 
-/** The status line after a run: how each rollout ended and whether it reached the target. */
-export function endedStatus(run: Run): string {
-  return run.rollouts.map((r) => `${NAME[r.metric]} ${r.state}${r.record ? (r.record.summary.reached ? ", reached the target" : ", target not reached") : ""}`).join(" · ");
+const cm = (m: number): string => `${(100 * m).toFixed(2)} cm`;
+const num = (v: number): string => (Math.abs(v) < 1e-3 && v !== 0 ? v.toExponential(2) : v.toPrecision(3));
+
+/** Why a rollout stopped where it did: its distance to the target and the rows holding it. */
+export function stopReason(final: CbfFinalState | undefined, reached: boolean): string {
+  if (!final) return reached ? "reached the target" : "target not reached";
+  const where = reached ? "reached the target" : `stopped ${cm(final.position_error)} from the target`;
+  const rows = final.active
+    .filter((a) => a.kind === "pair")
+    .slice(0, 2)
+    .map((a) => {
+      const conv = a.converged_distance !== null ? `, converged D ${num(a.converged_distance)}` : "";
+      const clear = a.clearance !== null ? `, clearance ${cm(a.clearance)}` : "";
+      return `${a.name} (D ${num(a.distance)} vs δ ${num(a.margin)}${clear}${conv})`;
+    });
+  const limits = final.active.filter((a) => a.kind === "joint_limit").map((a) => a.name);
+  const held = [...rows, ...limits];
+  return `${where}${held.length && !reached ? `; active rows: ${held.join(", ")}` : ""}`;
+}
+
+/** What the exact target allows (POST /api/cbf/feasibility). */
+export function feasibilityText(f: CbfFeasibility | null): string {
+  if (!f) return "";
+  if (!f.reachable) return "exact target: no configuration within the joint limits reaches it";
+  const m = f.margins!;
+  return (
+    `exact target: best clearance ${cm(f.clearance!)} (${f.limiting_pair}) ${f.euclidean_feasible ? "≥" : "<"} Euclidean δ ${cm(m.euclidean)}; ` +
+    `GAP D there ${num(f.gap_distance!)} ${f.gap_feasible ? "≥" : "<"} δ ${num(m.gap)}`
+  );
+}
+
+/** The status line after a run: how each rollout ended, whether it reached the target and if not why. */
+export function endedStatus(run: Run, feasibility: CbfFeasibility | null = null): string {
+  const parts = run.rollouts.map(
+    (r) => `${NAME[r.metric]} ${r.state}${r.record ? ": " + stopReason(r.record.summary.final, r.record.summary.reached) : ""}`,
+  );
+  const f = feasibilityText(feasibility);
+  return [...parts, ...(f ? [f] : [])].join(" · ");
 }

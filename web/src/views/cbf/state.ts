@@ -9,13 +9,26 @@ export const METRIC_CHOICES = ["both", "gap", "euclidean"] as const;
 export type MetricChoice = (typeof METRIC_CHOICES)[number];
 export const WITNESS_MODES = ["closest", "all", "none"] as const;
 export const SPEEDS = [0.1, 0.25, 0.5, 1, 2, 4, 10] as const;
+/** How the GAP rollout computes D (scenario field gap.mode; franka-corridor.md): converged, or as
+ * the published package did with its simulation (2e-4 / 300) or real-robot (5e-4 / 20) stopping rule. */
+export const GAP_MODES = ["exact", "as_published_sim", "as_published_real"] as const;
+export type GapModeChoice = (typeof GAP_MODES)[number];
+
+/** The request's params.gap for a GAP mode (null: the scenario's own, exact by default). */
+export function gapParams(mode: GapModeChoice): Record<string, unknown> | null {
+  if (mode === "as_published_sim") return { mode: "as_published", tol: 2e-4, max_iter: 300 };
+  if (mode === "as_published_real") return { mode: "as_published", tol: 5e-4, max_iter: 20 };
+  return null;
+}
 
 export interface CbfState {
   scenario: string;
   /** An edited scenario posted inline (null: the named one). */
   inline: Record<string, unknown> | null;
   metric: MetricChoice;
-  duration: number;
+  gapMode: GapModeChoice;
+  /** Seconds to run; null: the scenario's own duration. */
+  duration: number | null;
   t: number;
   speed: number;
   witnesses: (typeof WITNESS_MODES)[number];
@@ -27,7 +40,7 @@ export interface CbfState {
 }
 
 export function defaultState(): CbfState {
-  return { scenario: "corridor", inline: null, metric: "both", duration: 10, t: 0, speed: 1, witnesses: "closest", closest: 4, layout: "overlay", joint: 0, run: false };
+  return { scenario: "corridor", inline: null, metric: "both", gapMode: "exact", duration: null, t: 0, speed: 1, witnesses: "closest", closest: 4, layout: "overlay", joint: 0, run: false };
 }
 
 export function metricsOf(c: MetricChoice): Metric[] {
@@ -41,7 +54,9 @@ export function parseState(raw: Record<string, unknown>): CbfState {
     scenario: typeof raw.scenario === "string" && /^[A-Za-z0-9_-]{1,64}$/.test(raw.scenario) ? raw.scenario : d.scenario,
     inline,
     metric: str(raw.metric, METRIC_CHOICES, d.metric),
-    duration: num(raw.duration, d.duration, 0.01, 1e6), // the server states its own limit
+    gapMode: str(raw.gapMode, GAP_MODES, d.gapMode),
+    // The server states its own limit; absent: the scenario's own duration.
+    duration: typeof raw.duration === "number" ? num(raw.duration, 35, 0.01, 1e6) : null,
     t: num(raw.t, 0, 0, 1e6),
     speed: num(raw.speed, d.speed, 0.01, 100),
     witnesses: str(raw.witnesses, WITNESS_MODES, d.witnesses),

@@ -135,5 +135,47 @@ export interface CbfRecord {
   infeasible_steps: number[];
   smoothness: { total_variation: number[]; max_rate: number[] };
   timing: CbfTiming;
-  summary: { reached: boolean; final_task_error: number; min_distance: number | null; cancelled: boolean; cold_solves?: number; q_final: number[] };
+  summary: {
+    reached: boolean;
+    final_task_error: number;
+    min_distance: number | null;
+    cancelled: boolean;
+    cold_solves?: number;
+    q_final: number[];
+    final?: CbfFinalState;
+  };
+}
+
+/** One QP row active at the rollout's final state (a pair's distance row or a joint limit). */
+export interface CbfActiveRow {
+  name: string;
+  kind: "pair" | "joint_limit";
+  distance: number;
+  margin: number;
+  clearance: number | null;
+  converged_distance: number | null;
+  multiplier: number;
+}
+
+/** Where a rollout ends and which constraints hold it there (summary.final of the record). */
+export interface CbfFinalState {
+  ee_position: number[];
+  position_error: number;
+  min_clearance: number | null;
+  closest_pair: string;
+  active: CbfActiveRow[];
+}
+
+/** POST /api/cbf/feasibility: the best clearance reachable at the exact target pose. */
+export interface CbfFeasibility {
+  scenario: string;
+  reachable: boolean;
+  q?: number[];
+  clearance?: number;
+  limiting_pair?: string;
+  gap_distance?: number;
+  gap_limiting_pair?: string;
+  margins?: { euclidean: number; gap: number };
+  euclidean_feasible?: boolean;
+  gap_feasible?: boolean;
 }

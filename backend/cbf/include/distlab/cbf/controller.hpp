@@ -4,6 +4,7 @@
 //   s.t. ∇_q D_ij · u ≥ −η (D_ij − δ)   for robot–obstacle and self-collision pairs (eq. 7),
 //        u ≥ −η_q (q − q_min),  −u ≥ −η_q (q_max − q)   (joint limits),
 // with D the GAP distance sqrt(2Λ) or the Euclidean distance (FCL).
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -29,6 +30,9 @@ struct PairSample {
   int iterations = 0;    // GAP solver iterations (0 for Euclidean)
   bool converged = true;
   bool cold = false;     // GAP: solved from the Euclidean witnesses instead of warm-started
+  // gap.mode as_published: the converged D of the same P2S functions (Newton), beside the
+  // early-stopped `distance` the controller used; NaN in the other modes.
+  double converged_distance = std::numeric_limits<double>::quiet_NaN();
 };
 
 struct StepTiming {  // microseconds, steady_clock
@@ -50,6 +54,10 @@ struct StepOutput {
   bool held = false;      // even the relaxation failed; u = 0
   double slack = 0;
   int active_rows = 0;
+  std::vector<int> active;        // active QP rows: pair p is row p, then u_i ≥ … (lower joint
+                                  // limit of joint i) at pairs + i, upper at pairs + 7 + i
+  std::vector<double> multiplier; // the active rows' multipliers, same order
+  bool clipped = false;           // u was clipped to the scenario's velocity limits
   StepTiming timing;
 };
 
@@ -59,6 +67,13 @@ struct Task {
   Eigen::Matrix<double, 6, kDof> J;
 };
 Task task_function(const Kinematics& k, const Panda& robot, const Pose& target);
+
+// gap.mode as_published (scenario.hpp): the published package's P2S options for a shape, and
+// its distance: plain iteration from B's centre (the ρ ball's centre), stopped at the first
+// step below params.tol or after params.max_iter, D = sqrt(max(2Λ, 0)) at that iterate, with
+// the envelope gradients there.
+P2SOptions published_options(const Shape& shape);
+GapResult published_distance(const GapBody& a, const GapBody& b, const GapParams& params);
 
 class CbfController {
  public:
@@ -80,6 +95,7 @@ class CbfController {
                  Eigen::Matrix<double, Eigen::Dynamic, kDof>& grad);
 
   void reset_warm_start();
+  const Scenario& scenario() const { return scenario_; }
 
  private:
   struct Impl;

@@ -2,6 +2,7 @@
 // A CBF rollout scenario: the scene, the target, the start and every controller constant
 // (franka-corridor.md gives the corridor's values, which are the defaults here).
 // Transport-free: the JSON codec lives in distlab_server (cbf_json).
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -12,6 +13,17 @@ namespace distlab::cbf {
 
 enum class Metric { gap, euclidean };
 const char* to_string(Metric m);
+
+// How the GAP rows are computed (scenario field gap.mode).
+// - exact: the project's P2S functions, Newton warm-started from the previous step, converged.
+// - as_published: what the published package computed (franka-corridor.md, "What the authors'
+//   code actually computed"): its P2S construction (box half-spaces with weight 1, cylinder
+//   Φ(√(x²+y²) − r) + Φ(z − h/2) + Φ(−z − h/2) with weight 1, ρ ball with R² = 1.2 × half
+//   diagonal² of the bounding box) and the plain iteration a ← Π_A(Π_B(a)) (eq. 2) cold-started
+//   at B's centre every step, stopped at the first step below gap.tol or after gap.max_iter,
+//   D = sqrt(max(2Λ, 0)) at that iterate. The converged D of the same functions is recorded too.
+enum class GapMode { exact, as_published };
+const char* to_string(GapMode m);
 
 struct Obstacle {
   std::string name;
@@ -43,6 +55,10 @@ struct Scenario {
   // previous step's witnesses is the default solver (exact to 1e-10, 2–4 steps per pair);
   // {fixed_point, tol 2e-4, max_iter 300} reproduces the published package.
   GapParams gap;
+  GapMode gap_mode = GapMode::exact;
+  // |u_i| ≤ velocity_limit[i] by clipping the QP's u per joint (what the real robot's interface
+  // did, franka-corridor.md); +inf (the default) means no clipping.
+  VecQ velocity_limit = VecQ::Constant(std::numeric_limits<double>::infinity());
   // Goal test of a rollout: ‖r‖ at the last step below this counts as reached.
   double goal_tolerance = 1e-3;
   // Relaxed QP of an infeasible step: one slack s ≥ 0 on every distance row, cost ½·w·s².
@@ -54,8 +70,9 @@ struct Scenario {
   int steps() const;  // round(duration / dt)
 };
 
-// The corridor of franka-corridor.md (also assets/scenarios/corridor.json).
-Scenario corridor_scenario();
+// The narrow corridor of franka-corridor.md (`corridor_narrow`, also
+// assets/scenarios/corridor_narrow.json; the other scenarios are data only).
+Scenario corridor_narrow_scenario();
 
 // Throws InvalidInput naming the field ("dt", "q0[3]", "obstacles[1].pose.position[2]",
 // "gap.tol", ...) for a value out of range.

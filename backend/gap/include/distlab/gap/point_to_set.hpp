@@ -26,6 +26,9 @@ struct P2SOptions {
   std::optional<VecX> weights;  // polytopes/boxes: W_i; default 1/(m + weight_margin)
   double weight_margin = 0.01;  // the small positive number in W_i = 1/(m + ε), Section III-B
   std::optional<Ball> rho;      // ball of ρ in the shape frame; default: bounding ball scaled
+  // Round shapes (sphere, cylinder, capsule): the weight of their terms, in (0, 1]; default
+  // 1/(1 + weight_margin). The published package uses 1 (Φ'' < 1 keeps Property 2 of e_S).
+  std::optional<double> round_weight;
 };
 
 // A value with optional first and second derivatives (world or local frame as stated).

@@ -5,7 +5,9 @@
 //            "target": {"position", "quaternion" [w, x, y, z]}, "q0": [7], "dt", "duration",
 //            "task_gain", "damping", "eta", "eta_joint", "self_collision", "goal_tolerance",
 //            "slack_weight", "margins": {"gap"|"euclidean": {"obstacle", "self"}},
-//            "gap": {h, k, eps, sigma, weight_margin, tol, max_iter, solver}}
+//            "gap": {h, k, eps, sigma, weight_margin, tol, max_iter, solver,
+//                    mode: "exact" | "as_published"},
+//            "velocity_limit": null | number | [7] (rad/s, u clipped per joint)}
 //            (SHAPE as in gap_json, pose in the world; every key but obstacles/target/q0 optional,
 //            defaults from cbf::Scenario).
 // Request:  {"scenario": NAME | SCENARIO, "metric": "gap" | "euclidean", "params": {...}?,
@@ -21,6 +23,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "distlab/cbf/feasibility.hpp"
 #include "distlab/cbf/rollout.hpp"
 #include "distlab/server/gap_json.hpp"
 
@@ -52,13 +55,26 @@ CbfRequest parse_cbf_request(const nlohmann::json& request, const std::string& a
 //  "distance": [[per pair]...], "witness_a"/"witness_b": [[[x,y,z] per pair]...] (record_pairs),
 //  "timing": {"kinematics_us_mean", "step_us_mean", "distance_us_mean", "qp_us_mean",
 //             "audit_us_mean", "wall_s"}, "summary": {"reached", "final_task_error",
-//  "min_distance", "cancelled", "cold_solves", "q_final"}}.
+//  "min_distance", "cancelled", "cold_solves", "clipped_steps", "q_final", "final":
+//  encode_final_state}, "gap_mode", and with gap.mode as_published and record_pairs
+//  "converged_distance": [[per pair]...] (the converged D beside the early-stopped one).
 // with_pairs = false leaves out "distance"/"witness_a"/"witness_b" even if the record has them.
 nlohmann::json encode_record(const cbf::RolloutRecord& record, const std::string& scenario_name,
                              bool with_pairs = true);
 nlohmann::json encode_smoothness(const cbf::RolloutRecord& record);
+// {"ee_position", "position_error", "min_clearance", "closest_pair", "active": [{"name", "kind"
+//  ("pair" | "joint_limit"), "distance", "margin", "clearance", "converged_distance",
+//  "multiplier"}]}: where the arm ends and which constraints hold it there.
+nlohmann::json encode_final_state(const cbf::FinalState& state);
 
 // Parse, run, encode; throws InvalidInput on bad input.
 nlohmann::json run_cbf_request(const nlohmann::json& request);
+
+// Target feasibility of a request's scenario (cbf::target_feasibility; "metric" is ignored):
+// {"scenario", "reachable", "q": [7], "clearance", "limiting_pair", "self_clearance",
+//  "gap_distance", "gap_limiting_pair", "margins": {"euclidean", "gap"}, "euclidean_feasible",
+//  "gap_feasible", "configurations"}.
+nlohmann::json encode_feasibility(const cbf::Feasibility& f, const cbf::Scenario& scenario);
+nlohmann::json run_cbf_feasibility(const nlohmann::json& request, const std::string& assets_dir = "");
 
 }  // namespace distlab::server

@@ -1,0 +1,73 @@
+// The narrow corridor (franka-corridor.md, `corridor_narrow`, the scene of issue 6) is a hard case
+// kept as it is: its record must stay bit-for-bit what the code computed before scenarios,
+// solver modes and velocity limits were added. The pinned values are exact doubles (hex float)
+// from that code (commit 7c024e7, `distlab cbf` on the then corridor.json, whose JSON numbers
+// round-trip), for both metrics: the final q and u at two steps. The trajectory amplifies any
+// change in any step, so equal final states mean an equal record.
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+#include <gtest/gtest.h>
+
+#include "distlab/server/cbf_json.hpp"
+
+namespace distlab::cbf {
+namespace {
+
+Scenario narrow() {
+  std::ifstream f(std::string(DISTLAB_SOURCE_DIR) + "/assets/scenarios/corridor_narrow.json");
+  std::stringstream text;
+  text << f.rdbuf();
+  return server::parse_scenario(server::parse_json_text(text.str()));
+}
+
+struct Pin {
+  double q_final[kDof];
+  int step;
+  double u[kDof];
+  int last_step;
+  double u_last[kDof];
+  std::size_t infeasible;
+};
+
+void expect_bits(const RolloutRecord& r, const Pin& p, const char* what) {
+  ASSERT_EQ(r.steps.size(), 3500u);
+  for (int j = 0; j < kDof; ++j) {
+    EXPECT_EQ(r.q_final[j], p.q_final[j]) << what << " q_final[" << j << "] = " << std::hexfloat
+                                          << r.q_final[j];
+    EXPECT_EQ(r.steps[p.step].u[j], p.u[j]) << what << " u[" << p.step << "][" << j << "] = "
+                                            << std::hexfloat << r.steps[p.step].u[j];
+    EXPECT_EQ(r.steps[p.last_step].u[j], p.u_last[j])
+        << what << " u[" << p.last_step << "][" << j << "] = " << std::hexfloat
+        << r.steps[p.last_step].u[j];
+  }
+  EXPECT_EQ(r.infeasible_steps.size(), p.infeasible) << what;
+}
+
+TEST(CorridorNarrow, GapRecordIsUnchanged) {
+  const Pin pin = {{0x1.48d1a42c6700dp+0, -0x1.194cae9771258p+0, -0x1.50cfc8f7caf20p-1, -0x1.1c98bea881e0cp+1, -0x1.08491a922702ap+1, 0x1.11a9cd9b58dd6p+1, 0x1.d7f18492079c7p-2},
+                   300,
+                   {0x1.228b849922918p-6, -0x1.656a614900598p-8, -0x1.beb62d6d6c21ap-4, -0x1.c3e7e047b9769p-5, -0x1.137365f14ce8fp-3, 0x1.97863f27cf154p-4, 0x1.a2102c68949d2p-5},
+                   3499,
+                   {-0x1.4344ed2c7fea0p-12, 0x1.f8b4e1c278560p-13, 0x1.58fbd5059bb80p-15, 0x1.bf38800fb6080p-15, 0x1.d26839f3f7800p-13, 0x1.b50dcb55eb700p-13, 0x1.ea3d069e59c4cp-23},
+                   0};
+  RolloutOptions o;
+  o.record_pairs = false;
+  expect_bits(rollout(narrow(), Metric::gap, o), pin, "gap");
+}
+
+TEST(CorridorNarrow, EuclideanRecordIsUnchanged) {
+  const Pin pin = {{0x1.2d6834ce9bfd0p+0, -0x1.3a6c30a6d2008p-3, -0x1.2b93797d1641ep+0, -0x1.9a4f0333c4846p+0, -0x1.b6720e06565c4p+0, 0x1.826c000f2788dp+1, 0x1.54498192274f5p-1},
+                   300,
+                   {-0x1.2a3d253f48350p-5, 0x1.3dde90eabda68p-5, -0x1.cc7bb17195f34p-4, -0x1.59b201c44086ep-5, -0x1.04c0ffd46f0f3p-2, 0x1.18a96b19b725ap-5, 0x1.4b597187635f7p-3},
+                   3499,
+                   {-0x1.f7a12870dd4c8p-11, 0x1.1e9a32c3b7208p-6, -0x1.2f4191bd82bbap-7, 0x1.81bfcab25c407p-7, -0x1.447f4798c070ep-6, 0x1.3fa64525c932ep-6, 0x1.adced40b20160p-13},
+                   0};
+  RolloutOptions o;
+  o.record_pairs = false;
+  expect_bits(rollout(narrow(), Metric::euclidean, o), pin, "euclidean");
+}
+
+}  // namespace
+}  // namespace distlab::cbf
