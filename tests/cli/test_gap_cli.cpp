@@ -31,7 +31,7 @@ struct CliRun {
   json body() const { return json::parse(out); }
 };
 
-// Temporary files, not pipes: no deadlock however much either side writes, and the 64 MiB test
+// Temporary files, not pipes: no deadlock however much either side writes, and the max_body_bytes test
 // needs no writer thread.
 std::string temp_file(const std::string& content) {
   char path[] = "/tmp/distlab_cli_XXXXXX";
@@ -439,7 +439,7 @@ TEST(GapCli, SizeLimits) {
   json pairs = json::array();
   const json one = {{"a", {{"type", "sphere"}, {"radius", 1}}},
                     {"b", {{"type", "sphere"}, {"radius", 1}}}};
-  for (std::size_t i = 0; i <= distlab::server::kMaxPairs; ++i) pairs.push_back(one);
+  for (std::size_t i = 0; i <= distlab::server::Limits{}.max_gap_pairs; ++i) pairs.push_back(one);
   expect_error(run_distlab(json{{"pairs", pairs}}.dump()), 2, "invalid_input", "pairs");
   // More polytope rows than allowed.
   json rows = json::array(), offsets = json::array();
@@ -451,8 +451,8 @@ TEST(GapCli, SizeLimits) {
   const json poly = {{"a", {{"type", "polytope"}, {"A", rows}, {"b", offsets}}},
                      {"b", box(1, 1, 1)}};
   expect_error(run_distlab(poly.dump()), 2, "invalid_input", "a.A");
-  // A request over 64 MiB.
-  const CliRun big = run_distlab(std::string(distlab::server::kMaxRequestBytes + 1, ' ') + "{}");
+  // A request over max_body_bytes.
+  const CliRun big = run_distlab(std::string(distlab::server::Limits{}.max_body_bytes + 1, ' ') + "{}");
   expect_error(big, 2, "invalid_input", "");
   EXPECT_NE(big.body()["error"]["message"].get<std::string>().find("request too large"),
             std::string::npos);

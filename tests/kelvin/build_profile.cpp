@@ -115,7 +115,7 @@ int main(int argc, char** argv) {
     std::uint64_t print = 0;
     long n_verts = 0, n_tets = 0, n_bnd = 0;
     for (int r = 0; r < repeat; ++r) {
-      auto impl = load_prepared(path, key, field.surface(), requested);
+      auto impl = load_prepared(path, key, field.surface(), requested, cache_mac_key(dir));
       if (!impl) {
         std::fprintf(stderr, "cache entry %s did not load\n", path.c_str());
         return 1;

@@ -5,12 +5,15 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "distlab/geometry/error.hpp"
+#include "distlab/kelvin/digest.hpp"
 #include "distlab/mesh/surface.hpp"
 #include "sphere_fixture.hpp"
 
@@ -36,6 +39,20 @@ fs::path fresh_dir(const std::string& name) {
   fs::path dir = fs::temp_directory_path() / ("distlab_kelvin_" + name + "_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   return dir;
+}
+
+// The cache entries (*.kelvin) of a directory; the MAC key lives beside them in cache.key.
+std::vector<fs::path> cache_entries(const fs::path& dir) {
+  std::vector<fs::path> files;
+  for (const auto& entry : fs::directory_iterator(dir))
+    if (entry.path().extension() == ".kelvin") files.push_back(entry.path());
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+std::string read_file(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
 }
 
 }  // namespace
@@ -151,8 +168,9 @@ TEST(KelvinPrepare, CacheRoundTripAndCorruptionIsRebuilt) {
 
   std::vector<fs::path> files;
   for (const auto& entry : fs::directory_iterator(dir)) files.push_back(entry.path());
-  ASSERT_EQ(files.size(), 1u);  // no temporary file left behind
-  const fs::path file = files[0];
+  ASSERT_EQ(files.size(), 2u);  // the entry and cache.key: no temporary file left behind
+  ASSERT_EQ(cache_entries(dir).size(), 1u);
+  const fs::path file = cache_entries(dir)[0];
 
   // Truncated, one flipped byte, trailing garbage: each is detected, rebuilt and rewritten.
   for (int damage = 0; damage < 3; ++damage) {
@@ -181,31 +199,25 @@ TEST(KelvinPrepare, CacheRoundTripAndCorruptionIsRebuilt) {
   fs::remove_all(dir);
 }
 
-// The file name is a 128-bit FNV digest of the inputs, not a cryptographic one. A file that
-// carries the right name and key but was prepared from other inputs (a digest collision, forged
-// here by rewriting the key and checksum of another entry) must not be served: the stored inputs
-// are compared with the request. Layout: u64 size, payload (format tag, u64 key length, key, ...),
-// u64 FNV-1a checksum of the payload.
+// A file that carries the right name and key but was prepared from other inputs (a digest
+// collision, forged here by rewriting the key of another entry and MACing it again with the
+// directory's own key) must not be served: the stored inputs are compared with the request.
+// Layout: u64 size, payload (format tag, u64 key length, key, ...), HMAC-SHA256 of the payload.
 std::string forged_entry(const fs::path& from, const std::string& key) {
-  std::ifstream in(from, std::ios::binary);
-  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  const size_t key_at = 8 + sizeof("distlab-kelvin-cache-v4") + 8;
-  EXPECT_EQ(bytes.compare(8, 23, "distlab-kelvin-cache-v4"), 0);
+  std::string bytes = read_file(from);
+  const std::string mac_key = read_file(from.parent_path() / "cache.key");
+  const size_t key_at = 8 + sizeof("distlab-kelvin-cache-v5") + 8;
+  EXPECT_EQ(bytes.compare(8, 23, "distlab-kelvin-cache-v5"), 0);
   bytes.replace(key_at, key.size(), key);
-  std::uint64_t h = 1469598103934665603ull;
-  for (size_t i = 8; i + 8 < bytes.size(); ++i) h = (h ^ static_cast<unsigned char>(bytes[i])) * 1099511628211ull;
-  bytes.replace(bytes.size() - 8, 8, reinterpret_cast<const char*>(&h), 8);
+  const Digest mac = hmac_sha256(mac_key, std::string_view(bytes).substr(8, bytes.size() - 8 - 32));
+  bytes.replace(bytes.size() - 32, 32, reinterpret_cast<const char*>(mac.data()), 32);
   return bytes;
 }
 
 TEST(KelvinPrepare, CacheEntryWithACollidingNameIsNotServed) {
   const fs::path dir = fresh_dir("collide");
   const auto surface = sphere_mesh(kSphere);
-  auto entries = [&] {
-    std::vector<fs::path> files;
-    for (const auto& entry : fs::directory_iterator(dir)) files.push_back(entry.path());
-    return files;
-  };
+  auto entries = [&] { return cache_entries(dir); };
   bool hit = true;
   Field::prepare_cached(surface, sphere_options(0.2), dir.string(), {}, &hit);
   const fs::path file_a = entries().at(0);
@@ -235,11 +247,93 @@ TEST(KelvinPrepare, CacheEntryWithACollidingNameIsNotServed) {
   std::ofstream(file_c, std::ios::binary | std::ios::trunc) << forged_entry(file_a, file_c.stem().string());
   Field::prepare_cached(surface, sphere_options(0.25), dir.string(), {}, &hit);
   EXPECT_FALSE(hit);
-  // The forgery itself is well formed: under its own name it is served.
+  // The forgery itself is well formed (it has the directory's key): under its own name it is served.
   const std::string same = forged_entry(file_a, file_a.stem().string());
   std::ofstream(file_a, std::ios::binary | std::ios::trunc) << same;
   Field::prepare_cached(surface, sphere_options(0.2), dir.string(), {}, &hit);
   EXPECT_TRUE(hit);
+  fs::remove_all(dir);
+}
+
+// Whoever can write the cache directory but cannot read its key cannot make an entry that is
+// served: a value changed on disk with the checksum recomputed (the FNV-1a checksum of the earlier
+// format, over the payload, where that checksum stood), or with an unkeyed SHA-256 of the payload
+// in place of the MAC, is detected and rebuilt, and h is the truth's.
+TEST(KelvinPrepare, CacheEntryChangedWithoutTheKeyIsRebuilt) {
+  const auto surface = sphere_mesh(kSphere);
+  const fs::path truth_dir = fresh_dir("truth");
+  Field truth = Field::prepare_cached(surface, sphere_options(0.2), truth_dir.string());
+  truth.set_sigma(constant_sigma(0.2));
+  const fs::path dir = fresh_dir("forged");
+  bool hit = true;
+  Field::prepare_cached(surface, sphere_options(0.2), dir.string(), {}, &hit);
+  const fs::path file = cache_entries(dir).at(0);
+  const std::string original = read_file(file);
+  std::uint64_t size = 0;
+  std::memcpy(&size, original.data(), sizeof size);
+  ASSERT_GE(original.size(), 8 + size + 8);
+  // The first tet-mesh point: after the tag, the key and the surface, inputs and parameters.
+  const auto nv = static_cast<size_t>(surface.vertices.rows()), nf = static_cast<size_t>(surface.faces.rows());
+  const std::string name = file.stem().string();
+  const size_t points_at = 8 + sizeof("distlab-kelvin-cache-v5") + 8 + name.size() + 8 + 24 * nv + 8 + 12 * nf + 6 * 8 + 3 * 8 + 8;
+  ASSERT_LT(points_at + 8 * 30, 8 + size);
+  for (int attack = 0; attack < 2; ++attack) {
+    std::string bytes = original;
+    for (size_t k = 0; k < 10; ++k) bytes[points_at + 8 * 3 * k + 6] ^= 0x08;  // x of ten points, high mantissa bits
+    const std::string_view payload = std::string_view(bytes).substr(8, size);
+    if (attack == 0) {
+      std::uint64_t h = 1469598103934665603ull;
+      for (const char c : payload) h = (h ^ static_cast<unsigned char>(c)) * 1099511628211ull;
+      bytes.replace(8 + size, 8, reinterpret_cast<const char*>(&h), 8);
+    } else {
+      Sha256 sha;
+      sha.add(payload.data(), payload.size());
+      const Digest d = sha.digest();
+      bytes.replace(8 + size, d.size(), reinterpret_cast<const char*>(d.data()), d.size());
+    }
+    std::ofstream(file, std::ios::binary | std::ios::trunc) << bytes;
+    Field c = Field::prepare_cached(surface, sphere_options(0.2), dir.string(), {}, &hit);
+    EXPECT_FALSE(hit) << attack;
+    c.set_sigma(constant_sigma(0.2));
+    for (const Vec3& x : shell_points(kSphere, 1.05, 7, 50)) EXPECT_EQ(c.query(x).h, truth.query(x).h) << attack;
+    Field::prepare_cached(surface, sphere_options(0.2), dir.string(), {}, &hit);
+    EXPECT_TRUE(hit) << attack;  // the rebuilt entry is written under the key again
+  }
+  fs::remove_all(dir);
+  fs::remove_all(truth_dir);
+}
+
+// The key file is created with mode 0600 and 32 bytes; one with another mode or size is not
+// trusted: it is replaced by a new key, and entries written under the old one are rebuilt.
+TEST(KelvinPrepare, CacheKeyIsPrivateAndReplacedWhenNotTrusted) {
+  const fs::path dir = fresh_dir("key");
+  const auto surface = sphere_mesh(kSphere);
+  const fs::path key = dir / "cache.key";
+  auto mode = [&] {
+    struct stat st {};
+    EXPECT_EQ(::stat(key.c_str(), &st), 0);
+    return st.st_mode & 07777;
+  };
+  bool hit = true;
+  Field::prepare_cached(surface, sphere_options(0.2), dir.string(), {}, &hit);
+  EXPECT_FALSE(hit);
+  EXPECT_EQ(mode(), 0600u);
+  EXPECT_EQ(fs::file_size(key), 32u);
+  std::string previous = read_file(key);
+  Field::prepare_cached(surface, sphere_options(0.2), dir.string(), {}, &hit);
+  EXPECT_TRUE(hit);
+  for (int damage = 0; damage < 2; ++damage) {
+    if (damage == 0) fs::permissions(key, fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read | fs::perms::others_read);
+    if (damage == 1) fs::resize_file(key, 16);
+    Field::prepare_cached(surface, sphere_options(0.2), dir.string(), {}, &hit);
+    EXPECT_FALSE(hit) << damage;
+    EXPECT_EQ(mode(), 0600u) << damage;
+    EXPECT_EQ(fs::file_size(key), 32u) << damage;
+    EXPECT_NE(read_file(key), previous) << damage;
+    previous = read_file(key);
+    Field::prepare_cached(surface, sphere_options(0.2), dir.string(), {}, &hit);
+    EXPECT_TRUE(hit) << damage;
+  }
   fs::remove_all(dir);
 }
 

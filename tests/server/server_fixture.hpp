@@ -4,6 +4,7 @@
 // sanitizer report or a crash fails the test). Plus a small Beast WebSocket client.
 #include <fcntl.h>
 #include <signal.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -39,8 +40,10 @@ inline std::string temp_dir(const std::string& prefix) {
 
 class ServerProcess {
  public:
-  // extra: more `distlab serve` options (limits). cache_dir "" makes a fresh one.
-  explicit ServerProcess(std::vector<std::string> extra = {}, std::string cache_dir = "") {
+  // extra: more `distlab serve` options (limits). cache_dir "" makes a fresh one. max_open_files:
+  // the server's RLIMIT_NOFILE (0: inherited).
+  explicit ServerProcess(std::vector<std::string> extra = {}, std::string cache_dir = "", rlim_t max_open_files = 0)
+      : max_open_files_(max_open_files) {
     ::signal(SIGPIPE, SIG_IGN);  // a server closing on a refused upload must not kill the test
     cache_dir_ = cache_dir.empty() ? temp_dir("distlab-test-cache") : cache_dir;
     own_cache_ = cache_dir.empty();
@@ -62,6 +65,7 @@ class ServerProcess {
   ServerProcess& operator=(const ServerProcess&) = delete;
 
   int port() const { return port_; }
+  pid_t pid() const { return pid_; }
   const std::string& cache_dir() const { return cache_dir_; }
   const std::string& web_dir() const { return web_dir_; }
   httplib::Client client() const {
@@ -105,6 +109,10 @@ class ServerProcess {
       // Sanitized builds: known third-party leaks only (see lsan.supp).
       const std::string lsan = "suppressions=" + std::string(DISTLAB_SOURCE_DIR) + "/tests/server/lsan.supp";
       ::setenv("LSAN_OPTIONS", lsan.c_str(), 0);
+      if (max_open_files_ > 0) {
+        const rlimit lim{max_open_files_, max_open_files_};
+        ::setrlimit(RLIMIT_NOFILE, &lim);
+      }
       ::dup2(fds[1], 1);
       ::close(fds[0]);
       ::close(fds[1]);
@@ -130,6 +138,7 @@ class ServerProcess {
     FAIL() << "no /api/health";
   }
 
+  rlim_t max_open_files_ = 0;
   pid_t pid_ = -1;
   FILE* out_ = nullptr;
   int port_ = 0;

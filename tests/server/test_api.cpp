@@ -476,12 +476,28 @@ TEST(ApiLimits, SmallBodyLimitAndSessionLimit) {
   if (r) {
     EXPECT_EQ(r->status, 413);
   }
+  const std::string first = new_session(c);
+  EXPECT_FALSE(first.empty());
   EXPECT_FALSE(new_session(c).empty());
-  EXPECT_FALSE(new_session(c).empty());
+  // Full: the least recently used session of the address holding the most (here the only one)
+  // makes room; a session with an open WebSocket is never evicted, so then it is 429.
+  const std::string third = new_session(c);
+  EXPECT_FALSE(third.empty());
+  EXPECT_EQ(c.Get("/api/session", session_headers(first))->status, 404);
+  std::vector<std::unique_ptr<WsClient>> sockets;
+  sockets.push_back(std::make_unique<WsClient>(server.port(), third));
+  WsClient::Message hello;
+  ASSERT_TRUE(sockets.back()->read(hello));
+  const std::string fourth = new_session(c);  // evicts the second (no socket), not the third
+  EXPECT_FALSE(fourth.empty());
+  EXPECT_EQ(c.Get("/api/session", session_headers(third))->status, 200);
+  sockets.push_back(std::make_unique<WsClient>(server.port(), fourth));
+  ASSERT_TRUE(sockets.back()->read(hello));
   auto r3 = c.Post("/api/session", "", "application/json");
   ASSERT_TRUE(r3);
   EXPECT_EQ(r3->status, 429);
   EXPECT_EQ(body_json(r3)["error"]["code"], "too_many_sessions");
+  sockets.clear();
   EXPECT_EQ(server.stop(), 0);
 }
 

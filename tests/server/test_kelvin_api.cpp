@@ -498,16 +498,13 @@ TEST_F(KelvinApi, UploadsAndInlineMeshes) {
   r = c.Post("/api/kelvin/uploads?format=stl", session_headers(s), huge, "application/octet-stream");
   EXPECT_EQ(r->status, 413);
   EXPECT_EQ(body_json(r)["error"]["code"], "too_many_triangles");
-  // An open inline mesh: the job fails with the mesh checker's message, the server lives on.
+  // An open inline mesh: refused with the mesh checker's message before a job starts.
   r = c.Post("/api/kelvin/objects", session_headers(s),
              json{{"mesh", {{"vertices", {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}}}, {"faces", {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {0, 3, 2}}}}}, {"lx", 0.3}}.dump(),
              "application/json");
-  ASSERT_EQ(r->status, 202) << r->body;
-  const std::string job = body_json(r)["job"]["id"];
-  Msg m;
-  ASSERT_TRUE(ws.until([&](const Msg& x) { return !x.binary && x.j["type"] == "job" && x.j["job"]["id"] == job && (x.j["job"]["state"] == "failed" || x.j["job"]["state"] == "succeeded"); }, m, 60));
-  EXPECT_EQ(m.j["job"]["state"], "failed");
-  EXPECT_EQ(m.j["job"]["error"]["code"], "invalid_input");
+  ASSERT_EQ(r->status, 400) << r->body;
+  EXPECT_EQ(body_json(r)["error"]["code"], "invalid_input");
+  EXPECT_EQ(body_json(r)["error"]["field"], "mesh");
   // Bad inline meshes are refused at once.
   r = c.Post("/api/kelvin/objects", session_headers(s), json{{"mesh", {{"vertices", {{0, 0, 0}}}, {"faces", {{0, 0, 9}}}}}, {"lx", 0.3}}.dump(), "application/json");
   EXPECT_EQ(r->status, 400);

@@ -17,7 +17,7 @@ constexpr const char* kHelp = R"(usage: distlab gap [--pretty] < request.json
 Reads one JSON request on stdin, writes the JSON response on stdout (compact; --pretty indents).
 
 request   {"a": SHAPE, "b": SHAPE, "params": PARAMS}
-          {"pairs": [{"a": SHAPE, "b": SHAPE}, ...], "params": PARAMS}   (at most 10000 pairs)
+          {"pairs": [{"a": SHAPE, "b": SHAPE}, ...], "params": PARAMS}   (at most 2000: max_gap_pairs)
           an optional top-level "comment" string is ignored
 SHAPE     {"type": "polytope", "A": [[x,y,z], ...], "b": [...]}         (at most 1000 rows)
           {"type": "box", "size": [x, y, z]}                            (full edge lengths)

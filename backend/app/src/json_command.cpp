@@ -56,7 +56,7 @@ int run_json_command(const JsonCommandSpec& spec, const std::vector<std::string>
     // Read at most one byte past the limit, so a huge stream is refused without buffering it.
     std::string text;
     char buf[1 << 16];
-    while (text.size() <= server::kMaxRequestBytes && in.read(buf, sizeof buf).gcount() > 0)
+    while (text.size() <= server::Limits{}.max_body_bytes && in.read(buf, sizeof buf).gcount() > 0)
       text.append(buf, static_cast<std::size_t>(in.gcount()));
     if (in.bad()) throw std::runtime_error("cannot read stdin");
     emit(handler(server::parse_json_text(text), flags));

@@ -1,8 +1,11 @@
 // `distlab serve`: the HTTP + WebSocket service on one port (REST under /api, the WebSocket at
 // /ws, the front end's static files from --web). Stops gracefully on SIGINT/SIGTERM: the
 // listener closes, running jobs are cancelled, WebSocket clients get a close frame.
+#include <cmath>
 #include <csignal>
 #include <cstdlib>
+#include <cstring>
+#include <type_traits>
 #include <filesystem>
 #include <iostream>
 #include <string>
@@ -29,7 +32,8 @@ const char* kUsage =
     "  --max-body-bytes N  --max-upload-bytes N  --max-upload-triangles N  --min-lx X\n"
     "  --max-vertices N  --max-sessions N  --max-objects-per-session N  --max-jobs-per-session N\n"
     "  --max-jobs N  --max-job-seconds X  --max-request-seconds X  --max-ws-message-bytes N\n"
-    "  --ws-rate X  --ws-burst X\n";
+    "  --ws-rate X  --ws-burst X\n"
+    "  --limit NAME=VALUE       any limit of GET /api/limits by its name (e.g. max_connections=64)\n";
 
 std::string default_assets() {
   if (const char* env = std::getenv("DISTLAB_ASSETS")) return env;
@@ -88,7 +92,23 @@ int run_serve(const std::vector<std::string>& args, std::istream&, std::ostream&
       else if (a == "--max-ws-message-bytes") lim.max_ws_message_bytes = count();
       else if (a == "--ws-rate") lim.ws_messages_per_second = std::stod(v);
       else if (a == "--ws-burst") lim.ws_burst = std::stod(v);
-      else {
+      else if (a == "--limit") {
+        const std::size_t eq = v.find('=');
+        bool found = false;
+        server::for_each_limit(lim, [&](const char* name, auto& field) {
+          if (eq == std::string::npos || v.compare(0, eq, name) != 0 || eq != std::strlen(name)) return;
+          std::size_t used = 0;
+          const std::string value = v.substr(eq + 1);
+          const double x = std::stod(value, &used);
+          if (used != value.size() || !(x >= 0 && x <= 1e15)) throw std::invalid_argument(name);
+          field = static_cast<std::remove_reference_t<decltype(field)>>(x);
+          found = true;
+        });
+        if (!found) {
+          err << "distlab serve: --limit " << v << ": no such limit (see GET /api/limits)\n";
+          return 2;
+        }
+      } else {
         err << "distlab serve: unknown option '" << a << "'\n" << kUsage;
         return 2;
       }

@@ -55,10 +55,11 @@ void validate(const Scenario& s) {
   positive(s.damping, "damping");
   positive(s.eta, "eta");
   positive(s.eta_joint, "eta_joint");
-  nonnegative(s.gap_margins.obstacle, "gap_margins.obstacle");
-  nonnegative(s.gap_margins.self, "gap_margins.self");
-  nonnegative(s.euclidean_margins.obstacle, "euclidean_margins.obstacle");
-  nonnegative(s.euclidean_margins.self, "euclidean_margins.self");
+  // Named by their path in a scenario's JSON ("margins": {"gap": {...}, "euclidean": {...}}).
+  nonnegative(s.gap_margins.obstacle, "margins.gap.obstacle");
+  nonnegative(s.gap_margins.self, "margins.gap.self");
+  nonnegative(s.euclidean_margins.obstacle, "margins.euclidean.obstacle");
+  nonnegative(s.euclidean_margins.self, "margins.euclidean.self");
   positive(s.goal_tolerance, "goal_tolerance");
   positive(s.slack_weight, "slack_weight");
   try {

@@ -1,4 +1,8 @@
-// On-disk cache of prepared objects: content-hash names, checksummed, written atomically.
+// On-disk cache of prepared objects: SHA-256 content names, authenticated with HMAC-SHA256
+// under a key private to the cache directory, written atomically.
+#include <fcntl.h>
+#include <sys/random.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cstring>
@@ -7,23 +11,62 @@
 #include <limits>
 #include <sstream>
 
+#include "distlab/kelvin/digest.hpp"
 #include "field_impl.hpp"
 
 namespace distlab::kelvin {
 namespace {
 
 // Bump when the meshing or the file layout changes: old entries then simply miss.
-constexpr char kFormat[] = "distlab-kelvin-cache-v4";
+constexpr char kFormat[] = "distlab-kelvin-cache-v5";
 constexpr int kInputs = 6;  // requested lx, far_radius, feature_angle, centre
+constexpr size_t kKeyBytes = 32;
+constexpr char kKeyFile[] = "cache.key";
 
-struct Fnv64 {
-  std::uint64_t h;
-  explicit Fnv64(std::uint64_t basis = 1469598103934665603ull) : h(basis) {}
-  void add(const void* data, size_t n) {
-    const auto* p = static_cast<const unsigned char*>(data);
-    for (size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 1099511628211ull;
+// A fresh key, written to a private temporary file and renamed over the key file.
+std::string new_mac_key(const std::string& path) {
+  std::string key(kKeyBytes, '\0');
+  for (size_t got = 0; got < key.size();) {
+    const ssize_t n = ::getrandom(key.data() + got, key.size() - got, 0);
+    if (n <= 0) throw std::runtime_error("cannot read random bytes for the cache key");
+    got += static_cast<size_t>(n);
   }
-};
+  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_NOFOLLOW | O_CLOEXEC, 0600);
+  if (fd < 0) throw std::runtime_error("cannot create the cache key " + tmp + ": " + std::strerror(errno));
+  const bool ok = ::fchmod(fd, 0600) == 0 && ::write(fd, key.data(), key.size()) == static_cast<ssize_t>(key.size()) &&
+                  ::fsync(fd) == 0;
+  ::close(fd);
+  if (!ok || ::rename(tmp.c_str(), path.c_str()) != 0) {
+    ::unlink(tmp.c_str());
+    throw std::runtime_error("cannot write the cache key " + path);
+  }
+  return key;
+}
+
+}  // namespace
+
+// The key is trusted only as a regular file (not a link) of this user, mode 0600, of exactly 32
+// bytes. Anything else (another owner or mode, a truncated file) is replaced by a new key rather
+// than refused: the cache is only a cache, so a new key costs one rebuild of each entry, while an
+// error would stop a server over a file it can repair itself.
+std::string cache_mac_key(const std::string& dir) {
+  std::filesystem::create_directories(dir);
+  const std::string path = (std::filesystem::path(dir) / kKeyFile).string();
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC);
+  if (fd >= 0) {
+    struct stat st {};
+    std::string key(kKeyBytes, '\0');
+    const bool ok = ::fstat(fd, &st) == 0 && S_ISREG(st.st_mode) && st.st_uid == ::geteuid() &&
+                    (st.st_mode & 07777) == 0600 && st.st_size == static_cast<off_t>(kKeyBytes) &&
+                    ::read(fd, key.data(), key.size()) == static_cast<ssize_t>(key.size());
+    ::close(fd);
+    if (ok) return key;
+  }
+  return new_mac_key(path);
+}
+
+namespace {
 
 class Writer {
  public:
@@ -58,21 +101,19 @@ class Reader {
 }  // namespace
 
 std::string prepare_key(const mesh::SurfaceMesh& s, const PrepareOptions& o, const Vec3& centre) {
-  // Two 64-bit FNV-1a streams with different bases give a 128-bit name.
-  Fnv64 a, b(0x9e3779b97f4a7c15ull);
-  auto add = [&](const void* p, size_t n) { a.add(p, n); b.add(p, n); };
-  add(kFormat, sizeof(kFormat));
-  add(s.vertices.data(), sizeof(double) * static_cast<size_t>(s.vertices.size()));
-  add(s.faces.data(), sizeof(int) * static_cast<size_t>(s.faces.size()));
+  Sha256 h;
+  h.add(kFormat, sizeof(kFormat));
+  const std::int64_t rows[2] = {s.vertices.rows(), s.faces.rows()};
+  h.add(rows, sizeof(rows));
+  h.add(s.vertices.data(), sizeof(double) * static_cast<size_t>(s.vertices.size()));
+  h.add(s.faces.data(), sizeof(int) * static_cast<size_t>(s.faces.size()));
   const double params[6] = {o.lx, o.far_radius, o.feature_angle, centre.x(), centre.y(), centre.z()};
-  add(params, sizeof(params));
-  char text[33];
-  std::snprintf(text, sizeof(text), "%016llx%016llx", static_cast<unsigned long long>(a.h),
-                static_cast<unsigned long long>(b.h));
-  return text;
+  h.add(params, sizeof(params));
+  return h.hex();
 }
 
-void save_prepared(const Field::Impl& m, const std::string& path, const std::string& key) {
+void save_prepared(const Field::Impl& m, const std::string& path, const std::string& key,
+                   const std::string& mac_key) {
   Writer w;
   w.raw(kFormat, sizeof(kFormat));
   w.array(key.data(), key.size());
@@ -89,8 +130,7 @@ void save_prepared(const Field::Impl& m, const std::string& path, const std::str
   w.array(m.tm.in_domain.data(), static_cast<std::uint64_t>(m.tm.in_domain.size()));
   m.solver.save(w.out);
   std::string payload = w.out.str();
-  Fnv64 sum;
-  sum.add(payload.data(), payload.size());
+  const Digest mac = hmac_sha256(mac_key, payload);
   const std::uint64_t size = payload.size();
 
   // Write a private temporary file, flush it to disk, then rename over the final name: readers
@@ -101,7 +141,7 @@ void save_prepared(const Field::Impl& m, const std::string& path, const std::str
     std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
     f.write(reinterpret_cast<const char*>(&size), sizeof(size));
     f.write(payload.data(), static_cast<std::streamsize>(payload.size()));
-    f.write(reinterpret_cast<const char*>(&sum.h), sizeof(sum.h));
+    f.write(reinterpret_cast<const char*>(mac.data()), static_cast<std::streamsize>(mac.size()));
     f.flush();
     if (!f) {
       std::filesystem::remove(tmp);
@@ -116,19 +156,20 @@ void save_prepared(const Field::Impl& m, const std::string& path, const std::str
 }
 
 std::unique_ptr<Field::Impl> load_prepared(const std::string& path, const std::string& key,
-                                           const mesh::SurfaceMesh& surface, const PrepareOptions& requested) {
+                                           const mesh::SurfaceMesh& surface, const PrepareOptions& requested,
+                                           const std::string& mac_key) {
   if (!requested.centre) return nullptr;
   std::ifstream f(path, std::ios::binary);
   if (!f) return nullptr;
-  std::uint64_t size = 0, stored = 0;
+  std::uint64_t size = 0;
+  Digest stored{};
   if (!f.read(reinterpret_cast<char*>(&size), sizeof(size)) || size > (1ull << 36)) return nullptr;
   std::string payload(size, '\0');
   if (!f.read(payload.data(), static_cast<std::streamsize>(size)) ||
-      !f.read(reinterpret_cast<char*>(&stored), sizeof(stored)) || f.peek() != EOF)
+      !f.read(reinterpret_cast<char*>(stored.data()), static_cast<std::streamsize>(stored.size())) || f.peek() != EOF)
     return nullptr;  // truncated or trailing garbage
-  Fnv64 sum;
-  sum.add(payload.data(), payload.size());
-  if (sum.h != stored) return nullptr;  // corrupt
+  // Corrupt, or written by someone without the key (an unkeyed checksum could be recomputed).
+  if (!same_digest(hmac_sha256(mac_key, payload), stored)) return nullptr;
 
   Reader r(std::move(payload));
   char format[sizeof(kFormat)];
@@ -143,8 +184,7 @@ std::unique_ptr<Field::Impl> load_prepared(const std::string& path, const std::s
   if (!r.matrix(m->surface.vertices, 3, max_rows) || !r.matrix(m->surface.faces, 3, max_rows) ||
       !r.raw(inputs, sizeof(inputs)) || !r.raw(params, sizeof(params)))
     return nullptr;
-  // The name is only a 128-bit FNV digest: the stored inputs themselves must equal the request,
-  // bit for bit (memcmp: -0.0 and NaN payloads count as different, as they hash differently).
+  // The name is a digest: the stored inputs themselves must equal the request, bit for bit (memcmp: -0.0 and NaN payloads count as different, as they hash differently).
   const Vec3 c = requested.centre.value_or(Vec3::Constant(std::numeric_limits<double>::quiet_NaN()));
   const double wanted[kInputs] = {requested.lx, requested.far_radius, requested.feature_angle, c.x(), c.y(), c.z()};
   const auto same = [](const auto& a, const auto& b) {

@@ -25,15 +25,22 @@ Field::Field(Field&&) noexcept = default;
 Field& Field::operator=(Field&&) noexcept = default;
 Field::~Field() = default;
 
+static void check_options(const PrepareOptions& o) {
+  if (!std::isfinite(o.lx) || o.lx <= 0) throw InvalidInput("lx", "lx must be a positive number of metres");
+  if (!std::isfinite(o.feature_angle) || o.feature_angle <= 0 || o.feature_angle > 180)
+    throw InvalidInput("feature_angle", "feature_angle must be in (0, 180] degrees");
+  if (!std::isfinite(o.far_radius) || o.far_radius < 0.5 || o.far_radius > kMaxFarRadius)
+    throw InvalidInput("far_radius", "far_radius must be in [0.5, " + std::to_string(static_cast<int>(kMaxFarRadius)) + "]");
+  if (o.max_vertices < 100) throw InvalidInput("max_vertices", "max_vertices must be at least 100");
+  if (!(o.max_protection_steps >= 0) || !(o.max_refinement_steps >= 1000))  // NaN fails too
+    throw InvalidInput("max_refinement_steps", "meshing step limits must be positive (refinement at least 1000)");
+}
+
 // Validation shared by prepare and prepare_cached: returns the validated surface and centre.
 static std::pair<mesh::SurfaceMesh, Vec3> validated(const mesh::SurfaceMesh& input, const PrepareOptions& o,
                                                     std::unique_ptr<SurfaceOracle>& oracle,
                                                     const Progress& progress) {
-  if (!std::isfinite(o.lx) || o.lx <= 0) throw InvalidInput("lx", "lx must be a positive number of metres");
-  if (!std::isfinite(o.feature_angle) || o.feature_angle <= 0 || o.feature_angle > 180)
-    throw InvalidInput("feature_angle", "feature_angle must be in (0, 180] degrees");
-  if (!std::isfinite(o.far_radius) || o.far_radius < 0.5)
-    throw InvalidInput("far_radius", "far_radius must be at least 0.5");
+  check_options(o);
   progress("load", 0.0);
   mesh::SurfaceMesh surface = input;
   mesh::require_closed_manifold(surface, "mesh");
@@ -56,16 +63,24 @@ static std::pair<mesh::SurfaceMesh, Vec3> validated(const mesh::SurfaceMesh& inp
   if (o.lx > r_max) throw InvalidInput("lx", "lx is larger than the object (" + std::to_string(r_max) + " m)");
   // Rough vertex estimate: ~1 vertex per 1.5 l_x³ of the uniform region, capped for safety.
   const double region = 4.18879 * std::pow(o.far_radius * r_max, 3);
-  if (o.max_vertices < 100) throw InvalidInput("max_vertices", "max_vertices must be at least 100");
-  if (!(o.max_protection_steps >= 0) || !(o.max_refinement_steps >= 1000))  // NaN fails too
-    throw InvalidInput("max_refinement_steps", "meshing step limits must be positive (refinement at least 1000)");
   const double estimate = region / (1.5 * std::pow(o.lx, 3));
   if (estimate > static_cast<double>(o.max_vertices))
-    throw InvalidInput("lx", "lx is too small for this object: about " + std::to_string(static_cast<long long>(estimate)) +
+    throw InvalidInput("lx", "lx is too small for this object: about " + std::to_string(estimate) +  // no int cast: may be inf
                                  " vertices expected, more than the limit of " + std::to_string(o.max_vertices) +
                                  " (max_vertices)");
   progress("load", 1.0);
   return {std::move(surface), centre};
+}
+
+void check_prepare_inputs(const mesh::SurfaceMesh& surface, const PrepareOptions& options) {
+  if (options.centre) {  // everything prepare checks first; no deepest-point search is needed
+    std::unique_ptr<SurfaceOracle> oracle;
+    validated(surface, options, oracle, {});
+    return;
+  }
+  check_options(options);
+  mesh::SurfaceMesh copy = surface;
+  mesh::require_closed_manifold(copy, "mesh");
 }
 
 // Sharp-edge protection places balls of radius ~ the edge size along the feature edges; a
@@ -414,12 +429,13 @@ Field Field::prepare_cached(const mesh::SurfaceMesh& surface, const PrepareOptio
   std::unique_ptr<SurfaceOracle> oracle;
   auto [valid, centre] = validated(surface, options, oracle, progress);
   const std::string key = prepare_key(valid, options, centre);
+  const std::string mac_key = cache_mac_key(cache_dir);
   const std::string path = cache_dir + "/" + key + ".kelvin";
   progress("cache", 0.0);
   const auto t0 = std::chrono::steady_clock::now();
   PrepareOptions requested = options;
   requested.centre = centre;
-  if (auto cached = load_prepared(path, key, valid, requested)) {
+  if (auto cached = load_prepared(path, key, valid, requested, mac_key)) {
     cached->oracle = std::make_unique<SurfaceOracle>(cached->surface);
     cached->build(progress);  // cheap; derived data are not stored
     // The factor must fit the rebuilt system, or the entry is not trusted.
@@ -439,7 +455,7 @@ Field Field::prepare_cached(const mesh::SurfaceMesh& surface, const PrepareOptio
   impl->factor(progress);
   impl->finish_stats();
   progress("cache", 0.5);
-  save_prepared(*impl, path, key);
+  save_prepared(*impl, path, key, mac_key);
   progress("cache", 1.0);
   if (hit) *hit = false;
   return Field(std::move(impl));

@@ -53,13 +53,18 @@ struct Field::Impl {
   void finish_stats();
 };
 
-// Content hash of everything that determines a prepared object.
+// Content hash (SHA-256, hex) of everything that determines a prepared object.
 std::string prepare_key(const mesh::SurfaceMesh& surface, const PrepareOptions& options, const Vec3& centre);
-// Cache I/O; load returns nullptr (and removes nothing) when the file is absent, not intact, or
-// prepared from other inputs than (surface, requested): the file stores its full inputs and they
-// are compared byte for byte, so a colliding name can never serve a wrong object.
+// HMAC key of a cache directory (<dir>/cache.key, 32 bytes, mode 0600, created at first use).
+std::string cache_mac_key(const std::string& dir);
+// Cache I/O. A file is u64 payload size, payload, HMAC-SHA256(mac_key, payload). load returns
+// nullptr (and removes nothing) when the file is absent, not intact, not written under mac_key,
+// or prepared from other inputs than (surface, requested): the file stores its full inputs and
+// they are compared byte for byte, so a colliding name can never serve a wrong object.
 std::unique_ptr<Field::Impl> load_prepared(const std::string& path, const std::string& key,
-                                           const mesh::SurfaceMesh& surface, const PrepareOptions& requested);
-void save_prepared(const Field::Impl& impl, const std::string& path, const std::string& key);
+                                           const mesh::SurfaceMesh& surface, const PrepareOptions& requested,
+                                           const std::string& mac_key);
+void save_prepared(const Field::Impl& impl, const std::string& path, const std::string& key,
+                   const std::string& mac_key);
 
 }  // namespace distlab::kelvin

@@ -236,10 +236,10 @@ struct Prototype {
 
 // ---------------------------------------------------------------------------------------------
 
-json parse_json_text(std::string_view text) {
-  if (text.size() > kMaxRequestBytes)
+json parse_json_text(std::string_view text, std::size_t max_bytes) {
+  if (text.size() > max_bytes)
     fail("", "request too large: " + std::to_string(text.size()) + " bytes, the limit is " +
-                 std::to_string(kMaxRequestBytes) + " (64 MiB)");
+                 std::to_string(max_bytes) + " (max_body_bytes)");
   json root;
   Builder builder(root);
   const bool ok = json::sax_parse(text.begin(), text.end(), &builder);
@@ -361,7 +361,7 @@ json encode_result(const GapResult& r, bool gradient) {
   return out;
 }
 
-json run_gap_request(const json& request, const std::function<void()>& checkpoint) {
+json run_gap_request(const json& request, const std::function<void()>& checkpoint, std::size_t max_pairs) {
   const auto check = [&] {
     if (checkpoint) checkpoint();
   };
@@ -380,7 +380,7 @@ json run_gap_request(const json& request, const std::function<void()>& checkpoin
   // Every shape instance in request order, with its path.
   std::vector<std::pair<const json*, std::string>> instances;
   if (batch) {
-    const json& pairs = json_array(request["pairs"], "pairs", kMaxPairs, "pairs");
+    const json& pairs = json_array(request["pairs"], "pairs", max_pairs, "pairs");
     instances.reserve(2 * pairs.size());
     for (std::size_t i = 0; i < pairs.size(); ++i) {
       const std::string pf = json_index_path("pairs", i);

@@ -108,7 +108,8 @@ void split_target(const std::string& target, std::string& path, std::map<std::st
 nlohmann::json parse_body(const Request& request) {
   if (request.body.empty()) throw ApiError(400, "empty_body", "the request needs a JSON body");
   try {
-    return parse_json_text(request.body);
+    // The transport already held the body to its route's limit (Service::body_limit).
+    return parse_json_text(request.body, request.body.size());
   } catch (const JsonSyntaxError& e) {
     throw ApiError(400, "malformed_json", "malformed JSON at byte " + std::to_string(e.byte()));
   }

@@ -1,8 +1,10 @@
 #include "distlab/server/kelvin_objects.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
+#include "distlab/kelvin/digest.hpp"
 #include "distlab/kelvin/progress.hpp"
 #include "distlab/kelvin/sigma.hpp"
 
@@ -11,15 +13,6 @@ namespace distlab::server {
 using json = nlohmann::json;
 
 namespace {
-
-struct Fnv64 {
-  std::uint64_t h;
-  explicit Fnv64(std::uint64_t basis) : h(basis) {}
-  void add(const void* data, std::size_t n) {
-    const auto* p = static_cast<const unsigned char*>(data);
-    for (std::size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 1099511628211ull;
-  }
-};
 
 bool same_options(const kelvin::PrepareOptions& a, const kelvin::PrepareOptions& b) {
   return a.lx == b.lx && a.far_radius == b.far_radius && a.feature_angle == b.feature_angle &&
@@ -34,22 +27,15 @@ bool same_surface(const mesh::SurfaceMesh& a, const mesh::SurfaceMesh& b) {
 }  // namespace
 
 std::string content_key(const mesh::SurfaceMesh& s, const kelvin::PrepareOptions& o) {
-  Fnv64 a(1469598103934665603ull), b(0x9e3779b97f4a7c15ull);
-  auto add = [&](const void* p, std::size_t n) {
-    a.add(p, n);
-    b.add(p, n);
-  };
+  kelvin::Sha256 h;
   const std::int64_t rows[2] = {s.vertices.rows(), s.faces.rows()};
-  add(rows, sizeof rows);
-  add(s.vertices.data(), sizeof(double) * static_cast<std::size_t>(s.vertices.size()));
-  add(s.faces.data(), sizeof(int) * static_cast<std::size_t>(s.faces.size()));
+  h.add(rows, sizeof rows);
+  h.add(s.vertices.data(), sizeof(double) * static_cast<std::size_t>(s.vertices.size()));
+  h.add(s.faces.data(), sizeof(int) * static_cast<std::size_t>(s.faces.size()));
   const Vec3 c = o.centre.value_or(Vec3::Constant(std::nan("")));
   const double params[7] = {o.lx, o.far_radius, o.feature_angle, c.x(), c.y(), c.z(), o.centre ? 1.0 : 0.0};
-  add(params, sizeof params);
-  char text[33];
-  std::snprintf(text, sizeof text, "%016llx%016llx", static_cast<unsigned long long>(a.h),
-                static_cast<unsigned long long>(b.h));
-  return text;
+  h.add(params, sizeof params);
+  return h.hex();
 }
 
 PreparedRegistry::Entry* PreparedRegistry::find_locked(const std::string& key, const mesh::SurfaceMesh& s,
@@ -154,12 +140,12 @@ std::vector<double> sigma_at_vertices(const kelvin::SigmaSpec& sigma, const mesh
   return out;
 }
 
-double estimate_vertices(const mesh::SurfaceMesh& surface, double lx) {
+double estimate_vertices(const mesh::SurfaceMesh& surface, double lx, double far_radius) {
   if (surface.vertices.rows() == 0 || !(lx > 0)) return 0;
   const Vec3 lo = surface.vertices.colwise().minCoeff().transpose();
   const Vec3 hi = surface.vertices.colwise().maxCoeff().transpose();
   const double r = 0.5 * (hi - lo).norm();
-  const double ratio = r / lx;
+  const double ratio = std::max(1.0, far_radius) * r / lx;
   return kVertexEstimateConstant * ratio * ratio * ratio + static_cast<double>(surface.vertices.rows());
 }
 

@@ -1,6 +1,8 @@
 // The Service's Kelvin objects: creation (from an asset, an upload or an inline mesh; prepared
 // as a job), lookup, and edits of σ and of the watched iso-levels (which reschedule the frames).
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 
 #include "distlab/geometry/error.hpp"
@@ -42,8 +44,11 @@ json Service::create_object(const std::shared_ptr<Session>& session, const json&
   if (!(options.lx > 0)) throw InvalidInput("lx", "lx must be positive");
   if (options.lx < lim.min_lx)
     throw ApiError(422, "over_budget", "lx must be at least " + std::to_string(lim.min_lx) + " on this server", "lx");
-  if (body.contains("center")) options.centre = json_vec3(body["center"], "center");
-  if (body.contains("far_radius")) options.far_radius = json_number(body["far_radius"], "far_radius");
+  if (body.contains("center")) options.centre = json_vec3(body["center"], "center", kMaxCoordinate);
+  if (body.contains("far_radius")) {
+    options.far_radius = json_number(body["far_radius"], "far_radius", kelvin::kMaxFarRadius);
+    if (!(options.far_radius >= 0.5)) throw InvalidInput("far_radius", "far_radius must be in [0.5, 1000]");
+  }
   json source = {{"lx", options.lx}};
   if (options.centre) source["center"] = {options.centre->x(), options.centre->y(), options.centre->z()};
   if (body.contains("far_radius")) source["far_radius"] = options.far_radius;
@@ -77,13 +82,23 @@ json Service::create_object(const std::shared_ptr<Session>& session, const json&
   }
   if (static_cast<std::size_t>(surface.faces.rows()) > lim.max_upload_triangles)
     throw ApiError(413, "too_many_triangles", "at most " + std::to_string(lim.max_upload_triangles) + " triangles", "mesh");
-  const double estimate = estimate_vertices(surface, options.lx);
-  if (estimate > static_cast<double>(lim.max_vertex_estimate))
+  // The budget counts every parameter that grows the mesh (lx and far_radius); the field named
+  // is far_radius when the request would fit with the default far radius.
+  const auto budget = static_cast<double>(lim.max_vertex_estimate);
+  const double estimate = estimate_vertices(surface, options.lx, options.far_radius);
+  if (estimate > budget) {
+    const bool far = estimate_vertices(surface, options.lx) <= budget;
     throw ApiError(422, "over_budget",
-                   "lx " + std::to_string(options.lx) + " would make about " + std::to_string(static_cast<long>(estimate)) +
-                       " vertices, over this server's budget of " + std::to_string(lim.max_vertex_estimate) + "; use a larger lx",
-                   "lx");
-  source["vertex_estimate"] = static_cast<long>(estimate);
+                   std::string(far ? "far_radius " + json(options.far_radius).dump() : "lx " + json(options.lx).dump()) +
+                       " would make about " + json(std::round(estimate)).dump() + " vertices, over this server's budget of " +
+                       std::to_string(lim.max_vertex_estimate) + (far ? "; use a smaller far_radius" : "; use a larger lx"),
+                   far ? "far_radius" : "lx");
+  }
+  source["vertex_estimate"] = std::llround(estimate);
+  // The job's meshing cap is the same budget, and whatever prepare would refuse (a surface that
+  // is not closed, a centre outside or too near the surface) is refused now, before a job starts.
+  options.max_vertices = std::max<std::size_t>(100, lim.max_vertex_estimate);
+  kelvin::check_prepare_inputs(surface, options);
 
   auto object = std::make_shared<KelvinObject>();
   object->id = random_id();

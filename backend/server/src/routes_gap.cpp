@@ -52,7 +52,7 @@ void Service::register_gap_routes() {
                    const Deadline deadline(lim.max_request_seconds);
                    return json_response(200, run_gap_request(body, [&] {
                      deadline.check("send fewer pairs per request");
-                   }));
+                   }, lim.max_gap_pairs));
                  }};
   distance.heavy = true;
   distance.bounds = {"max_body_bytes", "max_gap_pairs", "max_gap_iterations", "max_request_seconds"};
@@ -95,7 +95,7 @@ void Service::register_gap_routes() {
         if (!p["size"].is_array() || p["size"].size() != 2) throw InvalidInput("plane.size", "plane.size must be [width, height]");
         su = json_number(p["size"][0], "plane.size[0]");
         sv = json_number(p["size"][1], "plane.size[1]");
-        if (!(su > 0 && sv > 0 && su < kMaxCoordinate && sv < kMaxCoordinate)) throw InvalidInput("plane.size", "plane.size must be positive");
+        if (!(su > 0 && sv > 0 && su < kMaxCoordinate && sv < kMaxCoordinate)) throw InvalidInput("plane.size", "plane.size must be two numbers in (0, " + json(kMaxCoordinate).dump() + ")");
       }
       int nu = 128, nv = 128;
       if (p.contains("resolution")) {

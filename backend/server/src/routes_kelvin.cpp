@@ -127,7 +127,9 @@ void Service::register_kelvin_routes() {
                  auto session = require_session(req);
                  auto object = require_object(*session, req);
                  const json body = parse_body(req);
-                 if (!body.is_object() || !body.contains("levels")) throw InvalidInput("levels", "levels is required");
+                 json_require_object(body, "");
+                 json_check_keys(body, "", {"levels", "comment"});
+                 if (!body.contains("levels")) throw InvalidInput("levels", "levels is required");
                  set_levels(session, object, body["levels"]);
                  std::lock_guard lock(object->mutex);
                  return json_response(200, {{"levels", object->levels}});
@@ -148,7 +150,9 @@ void Service::register_kelvin_routes() {
                 auto session = require_session(req);
                 auto object = require_object(*session, req);
                 const json body = parse_body(req);
-                if (!body.is_object() || !body.contains("points") || !body["points"].is_array())
+                json_require_object(body, "");
+                json_check_keys(body, "", {"points", "comment"});
+                if (!body.contains("points") || !body["points"].is_array())
                   throw InvalidInput("points", "points must be an array of [x, y, z]");
                 const json& pts = body["points"];
                 if (pts.size() > config_.limits.max_query_points)

@@ -4,10 +4,14 @@
 #include <boost/asio/dispatch.hpp>
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/signal_set.hpp>
+#include <boost/asio/steady_timer.hpp>
 #include <boost/asio/strand.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
 #include <boost/beast/websocket.hpp>
+#include <algorithm>
+#include <atomic>
+#include <cerrno>
 #include <chrono>
 #include <cstdio>
 #include <deque>
@@ -24,16 +28,36 @@ using tcp = net::ip::tcp;
 
 namespace {
 
-constexpr auto kReadTimeout = std::chrono::seconds(30);
 constexpr std::size_t kHeaderLimit = 16 * 1024;
+
+std::chrono::steady_clock::duration read_timeout(const Service& service) {
+  return std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+      std::chrono::duration<double>(service.config().limits.read_timeout_seconds));
+}
+
+// One open connection counted against max_connections for as long as it is held (the HTTP
+// connection, then its WebSocket).
+class ConnectionSlot {
+ public:
+  explicit ConnectionSlot(std::atomic<std::size_t>& open) : open_(open) {}
+  ~ConnectionSlot() { --open_; }
+  ConnectionSlot(const ConnectionSlot&) = delete;
+  ConnectionSlot& operator=(const ConnectionSlot&) = delete;
+
+ private:
+  std::atomic<std::size_t>& open_;
+};
 
 std::string lower(std::string s) {
   for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   return s;
 }
 
-Request to_request(const http::request<http::string_body>& req) {
+Request to_request(const http::request<http::string_body>& req, const tcp::socket& socket) {
   Request r;
+  beast::error_code ec;
+  const auto remote = socket.remote_endpoint(ec);
+  if (!ec) r.remote_address = remote.address().to_string();
   r.method = std::string(req.method_string());
   r.target = std::string(req.target());
   split_target(r.target, r.path, r.query, &r.repeated_query);
@@ -62,8 +86,9 @@ http::response<http::string_body> to_beast(const Response& res, unsigned version
 
 class WsConnection : public WsSink, public std::enable_shared_from_this<WsConnection> {
  public:
-  WsConnection(tcp::socket&& socket, Service& service, std::shared_ptr<Session> session)
-      : ws_(std::move(socket)), service_(service), session_(std::move(session)),
+  WsConnection(tcp::socket&& socket, Service& service, std::shared_ptr<Session> session,
+               std::shared_ptr<ConnectionSlot> slot)
+      : ws_(std::move(socket)), service_(service), session_(std::move(session)), slot_(std::move(slot)),
         tokens_(service.config().limits.ws_burst), last_refill_(std::chrono::steady_clock::now()) {}
 
   void start(http::request<http::string_body> req) {
@@ -175,6 +200,7 @@ class WsConnection : public WsSink, public std::enable_shared_from_this<WsConnec
   beast::flat_buffer buffer_;
   Service& service_;
   std::shared_ptr<Session> session_;
+  std::shared_ptr<ConnectionSlot> slot_;
   std::deque<std::pair<std::string, bool>> queue_;
   bool closed_ = false, accepted_ = false, writing_ = false;
   std::optional<websocket::close_code> close_code_;
@@ -187,7 +213,8 @@ class WsConnection : public WsSink, public std::enable_shared_from_this<WsConnec
 
 class HttpConnection : public std::enable_shared_from_this<HttpConnection> {
  public:
-  HttpConnection(tcp::socket&& socket, Service& service) : stream_(std::move(socket)), service_(service) {}
+  HttpConnection(tcp::socket&& socket, Service& service, std::shared_ptr<ConnectionSlot> slot)
+      : stream_(std::move(socket)), service_(service), slot_(std::move(slot)) {}
 
   void start() { net::dispatch(stream_.get_executor(), beast::bind_front_handler(&HttpConnection::do_read, shared_from_this())); }
 
@@ -196,7 +223,8 @@ class HttpConnection : public std::enable_shared_from_this<HttpConnection> {
     parser_.emplace();
     parser_->header_limit(kHeaderLimit);
     parser_->body_limit(service_.config().limits.max_upload_bytes);
-    stream_.expires_after(kReadTimeout);
+    // The whole header must arrive within the timeout (an idle or slowloris client is closed).
+    stream_.expires_after(read_timeout(service_));
     http::async_read_header(stream_, buffer_, *parser_, beast::bind_front_handler(&HttpConnection::on_header, shared_from_this()));
   }
 
@@ -212,12 +240,12 @@ class HttpConnection : public std::enable_shared_from_this<HttpConnection> {
     }
     auto& req = parser_->get();
     if (websocket::is_upgrade(req)) {
-      Request r = to_request(req);
+      Request r = to_request(req, stream_.socket());
       Response refusal;
       auto session = service_.ws_authorize(r, refusal);
       if (!session) return fail_and_close(refusal.status, refusal.body);
       stream_.expires_never();
-      std::make_shared<WsConnection>(stream_.release_socket(), service_, session)->start(parser_->release());
+      std::make_shared<WsConnection>(stream_.release_socket(), service_, session, slot_)->start(parser_->release());
       return;
     }
     std::string path;
@@ -230,6 +258,7 @@ class HttpConnection : public std::enable_shared_from_this<HttpConnection> {
         return fail_and_close(413, "body_too_large", "the request body exceeds " + std::to_string(limit_) + " bytes");
       parser_->body_limit(limit_);
     }
+    stream_.expires_after(read_timeout(service_));  // and the body within the timeout too
     http::async_read(stream_, buffer_, *parser_, beast::bind_front_handler(&HttpConnection::on_read, shared_from_this()));
   }
 
@@ -242,7 +271,7 @@ class HttpConnection : public std::enable_shared_from_this<HttpConnection> {
       return;
     }
     auto req = parser_->release();
-    auto request = std::make_shared<Request>(to_request(req));
+    auto request = std::make_shared<Request>(to_request(req, stream_.socket()));
     const unsigned version = req.version();
     const bool keep_alive = req.keep_alive();
     const bool head = req.method() == http::verb::head;
@@ -275,7 +304,7 @@ class HttpConnection : public std::enable_shared_from_this<HttpConnection> {
   void write(http::response<http::string_body>&& res) {
     auto sp = std::make_shared<http::response<http::string_body>>(std::move(res));
     response_ = sp;
-    stream_.expires_after(kReadTimeout);
+    stream_.expires_after(read_timeout(service_));
     http::async_write(stream_, *sp, [self = shared_from_this(), sp](beast::error_code ec, std::size_t) {
       self->response_.reset();
       if (ec) return;
@@ -295,6 +324,7 @@ class HttpConnection : public std::enable_shared_from_this<HttpConnection> {
   std::optional<http::request_parser<http::string_body>> parser_;
   std::shared_ptr<void> response_;
   std::size_t limit_ = 0;
+  std::shared_ptr<ConnectionSlot> slot_;
 };
 
 }  // namespace
@@ -308,17 +338,41 @@ struct HttpServer::Impl {
   unsigned threads;
   std::atomic<bool> stopping{false};
   std::thread stopper;
+  std::atomic<std::size_t> open{0};  // connections held (max_connections)
+  net::steady_timer backoff;         // accepting again after running out of descriptors
+  std::chrono::milliseconds pause{0};
 
-  Impl(Service& s, unsigned n) : service(s), ioc(static_cast<int>(n)), acceptor(net::make_strand(ioc)), threads(n) {}
+  Impl(Service& s, unsigned n)
+      : service(s), ioc(static_cast<int>(n)), acceptor(net::make_strand(ioc)), threads(n),
+        backoff(acceptor.get_executor()) {}
 
   void accept() {
     acceptor.async_accept(net::make_strand(ioc), [this](beast::error_code ec, tcp::socket socket) {
       if (ec == net::error::operation_aborted || !acceptor.is_open()) return;
+      if (ec == net::error::no_descriptors || ec == net::error::no_buffer_space || ec == net::error::no_memory ||
+          ec.value() == ENFILE) {
+        // The pending connection stays queued, so accepting again at once fails again (a busy
+        // loop): wait, 10 ms doubling to 1 s, until a descriptor is free.
+        pause = std::min(std::chrono::milliseconds(1000), std::max(std::chrono::milliseconds(10), 2 * pause));
+        backoff.expires_after(pause);
+        backoff.async_wait([this](beast::error_code wait_ec) {
+          if (!wait_ec && acceptor.is_open()) accept();
+        });
+        return;
+      }
+      pause = std::chrono::milliseconds(0);
       if (!ec) {
-        // Small messages (σ acknowledgements, frames' headers) must not wait for a delayed ACK.
-        beast::error_code nd;
-        socket.set_option(tcp::no_delay(true), nd);
-        std::make_shared<HttpConnection>(std::move(socket), service)->start();
+        if (open.fetch_add(1) >= service.config().limits.max_connections) {
+          --open;  // over the cap: closed at once (the socket's destructor)
+          beast::error_code ignored;
+          socket.shutdown(tcp::socket::shutdown_both, ignored);
+        } else {
+          auto slot = std::make_shared<ConnectionSlot>(open);
+          // Small messages (σ acknowledgements, frames' headers) must not wait for a delayed ACK.
+          beast::error_code nd;
+          socket.set_option(tcp::no_delay(true), nd);
+          std::make_shared<HttpConnection>(std::move(socket), service, std::move(slot))->start();
+        }
       }
       accept();
     });
@@ -372,6 +426,7 @@ void HttpServer::stop() {
   net::post(m.acceptor.get_executor(), [&m] {
     beast::error_code ec;
     m.acceptor.close(ec);
+    m.backoff.cancel();
   });
   // Finish the service's work first (jobs are cancelled, sockets get a close frame), then give
   // pending writes a moment before the loop stops.

@@ -2,6 +2,7 @@
 #include "distlab/server/service.hpp"
 
 #include <filesystem>
+#include <functional>
 #include <thread>
 
 #include "distlab/geometry/error.hpp"
@@ -53,7 +54,7 @@ Service::Service(ServiceConfig config)
     : config_(std::move(config)),
       cache_dir_(make_cache_dir(config_.cache_dir, temp_cache_)),
       static_files_(config_.web_dir),
-      sessions_(config_.limits.max_sessions, config_.limits.session_idle_seconds),
+      sessions_(config_.limits.max_sessions, config_.limits.max_sessions_per_address, config_.limits.session_idle_seconds),
       registry_(cache_dir_),
       compute_(config_.compute_threads),
       jobs_(job_options(config_), [this](const std::string& session_id, const json& event) {
@@ -121,6 +122,46 @@ std::shared_ptr<Session> Service::require_session(const Request& request) {
   return s;
 }
 
+// Every limit of the table (config.hpp for_each_limit), the CBF rollout limits (also in GET
+// /api/cbf/scenarios) and request_bounds: for each synchronous heavy route, the limits bounding it.
+json Service::limits_json() const {
+  json limits = json::object();
+  for_each_limit(config_.limits, [&](const char* name, auto value) { limits[name] = value; });
+  limits["isosurface_levels_per_request"] = kIsosurfaceLevelsPerRequest;
+  const CbfLimits& cbf = cbf_rollouts_->limits();
+  limits["max_cbf_steps"] = cbf.max_steps;
+  limits["max_cbf_duration"] = kMaxScenarioDuration;
+  limits["max_cbf_pair_steps"] = cbf.max_pair_steps;
+  limits["max_cbf_batch_steps"] = cbf.max_batch_steps;
+  limits["max_cbf_frames_per_request"] = cbf.max_frames_per_request;
+  limits["cbf_rollouts_kept_per_session"] = cbf.kept_per_session;
+  limits["cbf_rollouts_kept_total"] = cbf.kept_total;
+  json bounds = json::object();
+  for (const Route& r : router_.routes())
+    if (r.heavy) bounds[r.method + " " + r.pattern] = r.bounds;
+  limits["request_bounds"] = bounds;
+  return limits;
+}
+
+// The OpenAPI document with this server's limits: a schema node {"x-limit": {"maxItems":
+// "max_gap_pairs"}} gets maxItems = limits.max_gap_pairs (the checked-in values are the defaults).
+json openapi_with_limits(const json& limits) {
+  json doc = json::parse(openapi_text());
+  std::function<void(json&)> walk = [&](json& node) {
+    if (node.is_object()) {
+      if (const auto it = node.find("x-limit"); it != node.end() && it->is_object()) {
+        const json bounds = *it;
+        for (const auto& [keyword, name] : bounds.items()) node[keyword] = limits.at(name.get<std::string>());
+      }
+      for (auto& [key, child] : node.items()) walk(child);
+    } else if (node.is_array()) {
+      for (auto& child : node) walk(child);
+    }
+  };
+  walk(doc);
+  return doc;
+}
+
 // --------------------------------------------------------------------------------------------
 // Core routes: health, version, OpenAPI, sessions, jobs.
 
@@ -134,52 +175,15 @@ void Service::register_core_routes() {
                  return json_response(200, {{"name", "distlab"}, {"version", version_string()},
                                             {"api", "1"}, {"modules", modules}});
                }});
-  router_.add({"GET", "/api/openapi.json", [](Request&) {
+  router_.add({"GET", "/api/openapi.json", [this](Request&) {
                  Response r;
-                 r.body = openapi_text();
+                 r.body = openapi_with_limits(limits_json()).dump(1);
                  return r;
                }});
-  router_.add({"GET", "/api/limits", [this](Request&) {
-                 const Limits& l = config_.limits;
-                 json limits = {{"max_body_bytes", l.max_body_bytes},
-                                            {"max_upload_bytes", l.max_upload_bytes},
-                                            {"max_upload_triangles", l.max_upload_triangles},
-                                            {"min_lx", l.min_lx},
-                                            {"max_vertex_estimate", l.max_vertex_estimate},
-                                            {"max_objects_per_session", l.max_objects_per_session},
-                                            {"max_jobs_per_session", l.max_jobs_per_session},
-                                            {"max_jobs_total", l.max_jobs_total},
-                                            {"max_job_seconds", l.max_job_seconds},
-                                            {"max_request_seconds", l.max_request_seconds},
-                                            {"max_ws_message_bytes", l.max_ws_message_bytes},
-                                            {"ws_messages_per_second", l.ws_messages_per_second},
-                                            {"max_query_points", l.max_query_points},
-                                            {"max_levels", l.max_levels},
-                                            {"max_grid_resolution", l.max_grid_resolution},
-                                            {"max_gap_pairs", l.max_gap_pairs}};
-                 limits["max_uploads_per_session"] = l.max_uploads_per_session;
-                 limits["max_plane_resolution"] = l.max_plane_resolution;
-                 limits["max_gap_iterations"] = l.max_gap_iterations;
-                 limits["isosurface_levels_per_request"] = kIsosurfaceLevelsPerRequest;
-                 // The CBF rollout limits (also in GET /api/cbf/scenarios), named for request_bounds.
-                 const CbfLimits& cbf = cbf_rollouts_->limits();
-                 limits["max_cbf_steps"] = cbf.max_steps;
-                 limits["max_cbf_duration"] = kMaxScenarioDuration;
-                 limits["max_cbf_pair_steps"] = cbf.max_pair_steps;
-                 limits["max_cbf_batch_steps"] = cbf.max_batch_steps;
-                 limits["max_cbf_frames_per_request"] = cbf.max_frames_per_request;
-                 limits["cbf_rollouts_kept_per_session"] = cbf.kept_per_session;
-                 limits["cbf_rollouts_kept_total"] = cbf.kept_total;
-                 // Every synchronous heavy request and the limits above that bound its work.
-                 json bounds = json::object();
-                 for (const Route& r : router_.routes())
-                   if (r.heavy) bounds[r.method + " " + r.pattern] = r.bounds;
-                 limits["request_bounds"] = bounds;
-                 return json_response(200, limits);
-               }});
+  router_.add({"GET", "/api/limits", [this](Request&) { return json_response(200, limits_json()); }});
 
-  router_.add({"POST", "/api/session", [this](Request&) {
-                 auto s = sessions_.create();
+  router_.add({"POST", "/api/session", [this](Request& req) {
+                 auto s = sessions_.create(req.remote_address);
                  Response r = json_response(201, {{"session", s->id}});
                  r.headers.emplace_back("Set-Cookie", "distlab_session=" + s->id + "; Path=/; HttpOnly; SameSite=Strict");
                  return r;
@@ -299,7 +303,7 @@ void Service::ws_message(const std::shared_ptr<Session>& session, const std::sha
   if (binary) return reply_error(400, "unsupported", "binary messages from clients are not part of the protocol", "");
   json msg;
   try {
-    msg = parse_json_text(data);
+    msg = parse_json_text(data, data.size());  // held to max_ws_message_bytes by the socket
   } catch (const JsonSyntaxError& e) {
     return reply_error(400, "malformed_json", "malformed JSON at byte " + std::to_string(e.byte()), "");
   } catch (const InvalidInput& e) {

@@ -15,6 +15,8 @@
 
 namespace distlab::kelvin {
 
+inline constexpr double kMaxFarRadius = 1000;  // PrepareOptions::far_radius is in [0.5, this]
+
 struct PrepareOptions {
   double lx = 0.1;            // exterior element size l_x, metres (eq. 23)
   std::optional<Vec3> centre;  // inversion centre; default: a deep interior point
@@ -63,6 +65,12 @@ struct Sample {
   Vec3 gradient = Vec3::Zero();
   Status status = Status::ok;
 };
+
+// The checks prepare makes before any meshing (options, a closed manifold surface, and a given
+// centre: inside, clear of the surface, lx and the vertex estimate), without the deepest-point
+// search of a default centre. Throws InvalidInput naming the field; a server runs it before it
+// accepts a job.
+void check_prepare_inputs(const mesh::SurfaceMesh& surface, const PrepareOptions& options);
 
 class Field {
  public:

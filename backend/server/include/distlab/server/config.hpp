@@ -17,6 +17,7 @@ struct Limits {
   double min_lx = 0.005;             // absolute floor of l_x, metres
   std::size_t max_vertex_estimate = 150000;  // vertex budget of one prepared object (estimated)
   std::size_t max_sessions = 1000;
+  std::size_t max_sessions_per_address = 32;  // one client address cannot hold the others' sessions
   double session_idle_seconds = 3600;
   std::size_t max_objects_per_session = 16;
   std::size_t max_jobs_per_session = 4;   // queued + running
@@ -36,7 +37,47 @@ struct Limits {
   std::size_t max_gap_pairs = 2000;
   int max_gap_iterations = 1000000;  // params.max_iter of one GAP pair (0: the solver's default)
   std::size_t query_chunk_points = 4096;  // Kelvin queries check the time limit this often
+  // Connections: beyond max_connections a new one is closed at once; a client that sends no
+  // complete header (idle or slowloris) or body within read_timeout_seconds is closed.
+  std::size_t max_connections = 512;
+  double read_timeout_seconds = 30;
 };
+
+// The one table of limits: f(name, field) for each field of Limits (L: Limits or const Limits).
+// GET /api/limits, the OpenAPI bounds ("x-limit" annotations) and `distlab serve --limit
+// NAME=VALUE` are all generated from it.
+template <class L, class F>
+void for_each_limit(L& l, F&& f) {
+  f("max_body_bytes", l.max_body_bytes);
+  f("max_upload_bytes", l.max_upload_bytes);
+  f("max_upload_triangles", l.max_upload_triangles);
+  f("max_uploads_per_session", l.max_uploads_per_session);
+  f("min_lx", l.min_lx);
+  f("max_vertex_estimate", l.max_vertex_estimate);
+  f("max_sessions", l.max_sessions);
+  f("max_sessions_per_address", l.max_sessions_per_address);
+  f("session_idle_seconds", l.session_idle_seconds);
+  f("max_objects_per_session", l.max_objects_per_session);
+  f("max_jobs_per_session", l.max_jobs_per_session);
+  f("max_jobs_total", l.max_jobs_total);
+  f("max_finished_jobs_kept", l.max_finished_jobs_kept);
+  f("max_job_seconds", l.max_job_seconds);
+  f("max_request_seconds", l.max_request_seconds);
+  f("max_pending_requests", l.max_pending_requests);
+  f("max_ws_message_bytes", l.max_ws_message_bytes);
+  f("ws_messages_per_second", l.ws_messages_per_second);
+  f("ws_burst", l.ws_burst);
+  f("max_ws_queue", l.max_ws_queue);
+  f("max_query_points", l.max_query_points);
+  f("max_levels", l.max_levels);
+  f("max_grid_resolution", l.max_grid_resolution);
+  f("max_plane_resolution", l.max_plane_resolution);
+  f("max_gap_pairs", l.max_gap_pairs);
+  f("max_gap_iterations", l.max_gap_iterations);
+  f("query_chunk_points", l.query_chunk_points);
+  f("max_connections", l.max_connections);
+  f("read_timeout_seconds", l.read_timeout_seconds);
+}
 
 struct ServiceConfig {
   std::string web_dir = "web/dist";

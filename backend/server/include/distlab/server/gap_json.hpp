@@ -28,13 +28,13 @@
 
 #include "distlab/gap/distance.hpp"
 #include "distlab/geometry/error.hpp"
+#include "distlab/server/config.hpp"
 
 namespace distlab::server {
 
-// Limits, so one request cannot pin the machine or the parser.
-inline constexpr std::size_t kMaxRequestBytes = std::size_t{64} << 20;  // 64 MiB of JSON text
+// Limits of the codec itself, so one request cannot pin the parser. The request size and the
+// pairs per batch are Limits (config.hpp): the CLI uses their defaults, the server its own.
 inline constexpr int kMaxJsonDepth = 64;               // the schema needs 6 levels
-inline constexpr std::size_t kMaxPairs = 10000;        // pairs per batch
 inline constexpr std::size_t kMaxPolytopeRows = 1000;  // rows of a polytope, facets of a hull
 inline constexpr std::size_t kMaxHullPoints = 100000;  // input points of a convex_hull
 // Largest |coordinate| of positions, sizes, vertices and ρ balls: keeps squares and sums far
@@ -54,9 +54,9 @@ class JsonSyntaxError : public std::runtime_error {
 };
 
 // Parses JSON text with the limits above. Throws JsonSyntaxError for malformed text, and
-// InvalidInput for text over kMaxRequestBytes, nesting deeper than kMaxJsonDepth, a duplicate
-// key, or a number that overflows a double (e.g. 1e999; the field names where it is).
-nlohmann::json parse_json_text(std::string_view text);
+// InvalidInput for text over max_bytes, nesting deeper than kMaxJsonDepth, a duplicate key, or a
+// number that overflows a double (e.g. 1e999; the field names where it is).
+nlohmann::json parse_json_text(std::string_view text, std::size_t max_bytes = Limits{}.max_body_bytes);
 
 // A shape of the request, parsed and checked (not yet built into P2S functions).
 struct ShapeSpec {
@@ -77,7 +77,9 @@ GapRequestParams parse_params(const nlohmann::json& j, const std::string& field 
 // std::runtime_error on an internal failure (e.g. a non-finite result, which is never emitted).
 // `checkpoint` (if given) is called between stages and between chunks of pairs; it may throw
 // to stop the work (the service's time limit).
-nlohmann::json run_gap_request(const nlohmann::json& request, const std::function<void()>& checkpoint = {});
+// At most max_pairs pairs (InvalidInput "pairs" beyond).
+nlohmann::json run_gap_request(const nlohmann::json& request, const std::function<void()>& checkpoint = {},
+                               std::size_t max_pairs = Limits{}.max_gap_pairs);
 
 // Encodes one result (validation reports are added by run_gap_request).
 nlohmann::json encode_result(const GapResult& r, bool gradient);

@@ -21,6 +21,7 @@ struct Request {
   std::map<std::string, std::string> headers;  // lower-case names
   std::string body;
   std::map<std::string, std::string> params;  // path parameters filled in by the router
+  std::string remote_address;  // the client's IP address ("" when not on a socket)
 
   std::string header(const std::string& lower_name) const;
   // The client session id: header X-Distlab-Session, else cookie distlab_session, else the query

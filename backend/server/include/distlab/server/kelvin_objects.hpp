@@ -52,8 +52,8 @@ struct PreparedField {
   bool gradients_ = false;  // `field` holds vertex gradients for solved_
 };
 
-// Content key of a preparation: 128-bit FNV-1a of the surface and options (hex). Entries with
-// the same key are also compared exactly before they are shared.
+// Content key of a preparation: SHA-256 of the surface and options (hex, kelvin/digest.hpp).
+// Entries with the same key are also compared exactly before they are shared.
 std::string content_key(const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& options);
 
 class PreparedRegistry {
@@ -115,9 +115,11 @@ struct KelvinObject {
 std::vector<double> sigma_at_vertices(const kelvin::SigmaSpec& sigma, const mesh::SurfaceMesh& surface);
 
 // A rough vertex count of the preparation, for the vertex budget: the exterior mesh has element
-// size l_x near the object, so the count grows like (R / l_x)³ for bounding radius R. The
-// constant is fitted to the cube asset (1608 vertices at l_x 0.2, 11891 at 0.1).
+// size l_x up to far_radius · R (R: the bounding radius), and beyond it the mesh of the inverted
+// ball |y| < 1 / (far_radius · R) has the same order of vertices, so the count grows like
+// (far_radius · R / l_x)³ (far_radius below 1 counts as 1). The constant is fitted to the cube
+// asset (1608 vertices at l_x 0.2, 11891 at 0.1); measured ratios are in the notes of issue 15.
 inline constexpr double kVertexEstimateConstant = 20.0;
-double estimate_vertices(const mesh::SurfaceMesh& surface, double lx);
+double estimate_vertices(const mesh::SurfaceMesh& surface, double lx, double far_radius = 1.0);
 
 }  // namespace distlab::server

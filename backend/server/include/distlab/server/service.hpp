@@ -36,6 +36,8 @@ class CbfRolloutStore;  // cbf_rollouts.hpp
 
 // The OpenAPI document (backend/server/openapi.json, embedded at build time).
 const std::string& openapi_text();
+// The document with the bounds of its "x-limit" annotations set from `limits` (GET /api/limits).
+nlohmann::json openapi_with_limits(const nlohmann::json& limits);
 std::string version_string();
 
 class Service {
@@ -47,6 +49,7 @@ class Service {
 
   const ServiceConfig& config() const { return config_; }
   const Router& router() const { return router_; }
+  nlohmann::json limits_json() const;  // GET /api/limits
 
   // Any HTTP request (API or static file). May block for heavy routes: call it from the
   // compute pool when heavy() says so.

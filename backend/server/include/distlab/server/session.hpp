@@ -32,8 +32,10 @@ struct Upload {
 
 class Session {
  public:
-  explicit Session(std::string session_id) : id(std::move(session_id)) { touch(); }
+  Session(std::string session_id, std::string client_address)
+      : id(std::move(session_id)), address(std::move(client_address)) { touch(); }
   const std::string id;
+  const std::string address;  // the client address that created it (its per-address quota)
 
   std::mutex mutex;  // guards the maps and the socket list
   std::map<std::string, std::shared_ptr<KelvinObject>> objects;
@@ -42,6 +44,7 @@ class Session {
 
   void touch();
   double idle_seconds() const;
+  bool has_socket();  // an open WebSocket (locks)
   // Sends to every open socket of this session (text JSON or binary msgpack), but `except`.
   void broadcast(const std::string& data, bool binary, const WsSink* except = nullptr);
 
@@ -49,12 +52,16 @@ class Session {
   std::atomic<std::int64_t> last_seen_{0};
 };
 
+// Sessions are bounded in total and per client address, so that one client cannot deny the
+// others: a client at its address's quota loses its own least recently used session; a full
+// store first drops sessions idle past idle_seconds, then the least recently used session of the
+// address holding the most. Sessions with an open WebSocket are never evicted.
 class SessionStore {
  public:
-  SessionStore(std::size_t max_sessions, double idle_seconds)
-      : max_sessions_(max_sessions), idle_seconds_(idle_seconds) {}
-  // Throws ApiError 429 when full (after dropping idle sessions).
-  std::shared_ptr<Session> create();
+  SessionStore(std::size_t max_sessions, std::size_t max_per_address, double idle_seconds)
+      : max_sessions_(max_sessions), max_per_address_(max_per_address), idle_seconds_(idle_seconds) {}
+  // Throws ApiError 429 when no session can be evicted for it.
+  std::shared_ptr<Session> create(const std::string& address);
   std::shared_ptr<Session> find(const std::string& id);  // nullptr if unknown
   void erase(const std::string& id);
   std::size_t size() const;
@@ -62,9 +69,14 @@ class SessionStore {
 
  private:
   void sweep_locked();
+  // Evicts the least recently used session without a socket among those of `address` (any
+  // address when nullptr); false if there is none.
+  bool evict_lru_locked(const std::string* address);
+  void erase_locked(std::map<std::string, std::shared_ptr<Session>>::iterator it);
   mutable std::mutex mutex_;
   std::map<std::string, std::shared_ptr<Session>> sessions_;
-  std::size_t max_sessions_;
+  std::map<std::string, std::size_t> per_address_;  // sessions held by each client address
+  std::size_t max_sessions_, max_per_address_;
   double idle_seconds_;
 };
 

@@ -1,0 +1,52 @@
+// SHA-256 and HMAC-SHA256 through OpenSSL (digest.hpp).
+#include "distlab/kelvin/digest.hpp"
+
+#include <openssl/crypto.h>
+#include <openssl/evp.h>
+#include <openssl/hmac.h>
+
+#include <cstdio>
+#include <stdexcept>
+
+namespace distlab::kelvin {
+
+Sha256::Sha256() : ctx_(EVP_MD_CTX_new()) {
+  if (ctx_ == nullptr || EVP_DigestInit_ex(static_cast<EVP_MD_CTX*>(ctx_), EVP_sha256(), nullptr) != 1)
+    throw std::runtime_error("OpenSSL: cannot start a SHA-256 digest");
+}
+
+Sha256::~Sha256() { EVP_MD_CTX_free(static_cast<EVP_MD_CTX*>(ctx_)); }
+
+void Sha256::add(const void* data, std::size_t size) {
+  if (EVP_DigestUpdate(static_cast<EVP_MD_CTX*>(ctx_), data, size) != 1)
+    throw std::runtime_error("OpenSSL: SHA-256 update failed");
+}
+
+Digest Sha256::digest() {
+  Digest out{};
+  unsigned int n = 0;
+  if (EVP_DigestFinal_ex(static_cast<EVP_MD_CTX*>(ctx_), out.data(), &n) != 1 || n != out.size())
+    throw std::runtime_error("OpenSSL: SHA-256 final failed");
+  return out;
+}
+
+std::string Sha256::hex() {
+  const Digest d = digest();
+  std::string out(2 * d.size(), '0');
+  for (std::size_t i = 0; i < d.size(); ++i) std::snprintf(&out[2 * i], 3, "%02x", d[i]);
+  return out;
+}
+
+Digest hmac_sha256(std::string_view key, std::string_view data) {
+  Digest out{};
+  unsigned int n = 0;
+  if (HMAC(EVP_sha256(), key.data(), static_cast<int>(key.size()), reinterpret_cast<const unsigned char*>(data.data()),
+           data.size(), out.data(), &n) == nullptr ||
+      n != out.size())
+    throw std::runtime_error("OpenSSL: HMAC-SHA256 failed");
+  return out;
+}
+
+bool same_digest(const Digest& a, const Digest& b) { return CRYPTO_memcmp(a.data(), b.data(), a.size()) == 0; }
+
+}  // namespace distlab::kelvin
