@@ -1,6 +1,6 @@
 // GAP benchmark (issue 2): the paper's Section IV-A experiments, with FCL in the same run.
 //   distlab-bench-gap [--pairs N] [--box-pairs N] [--seed S] [--json FILE] [--newton-only]
-//   [--repeat R] [--passes P] [--save-cases FILE | --load-cases FILE]
+//   [--repeat R] [--passes P] [--save-cases FILE | --load-cases FILE] [--validate N]
 // --repeat R: each pair is timed R times back to back and the fastest call counts (same for FCL
 // and GAP; default 1). That is a warm-cache measure, not the paper's protocol: FCL's second
 // call on a pair is about twice as fast as its first (1.2 against 2.4 us), GAP's about 1.7x.
@@ -12,6 +12,9 @@
 //   distlab-bench-gap --pairs 2000 --newton-only --save-cases cases.json
 //   valgrind --tool=callgrind --toggle-collect='distlab::gap_distance(*' distlab-bench-gap
 //     --newton-only --load-cases cases.json     (instructions per pair = total / pairs)
+// --validate N: the Property 2 validator on the shapes of benchmark 1's first N pairs (the
+// paper's parameters): time of the first call per shape and of a repeated call (answered by the
+// verdict cache), the fraction refused, and the GAP Newton solve per pair beside them; nothing else.
 // Single thread. GAP times are per pair and include the Euclidean start, as in the paper; the
 // start is distlab's double-precision GJK (gjk_distance), timed alone in its own row.
 #include <algorithm>
@@ -19,6 +22,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <ctime>
 #include <fstream>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -26,6 +30,7 @@
 #include <string>
 
 #include "distlab/gap/distance.hpp"
+#include "distlab/gap/validator.hpp"
 #include "distlab/geometry/error.hpp"
 
 using namespace distlab;
@@ -235,6 +240,7 @@ int main(int argc, char** argv) {
   std::string json_path;
   bool newton_only = false;
   std::string save_path, load_path;
+  int validate_pairs = 0;
   for (int i = 1; i < argc; ++i) {
     auto next = [&] { return i + 1 < argc ? argv[++i] : ""; };
     if (!std::strcmp(argv[i], "--pairs")) pairs = std::atoi(next());
@@ -246,8 +252,9 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[i], "--passes")) g_passes = std::max(1, std::atoi(next()));
     else if (!std::strcmp(argv[i], "--save-cases")) save_path = next();
     else if (!std::strcmp(argv[i], "--load-cases")) load_path = next();
+    else if (!std::strcmp(argv[i], "--validate")) validate_pairs = std::max(1, std::atoi(next()));
     else {
-      std::fprintf(stderr, "usage: %s [--pairs N] [--box-pairs N] [--seed S] [--json FILE] [--newton-only] [--repeat R] [--passes P] [--save-cases FILE | --load-cases FILE]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--pairs N] [--box-pairs N] [--seed S] [--json FILE] [--newton-only] [--repeat R] [--passes P] [--save-cases FILE | --load-cases FILE] [--validate N]\n", argv[0]);
       return 2;
     }
   }
@@ -298,6 +305,54 @@ int main(int argc, char** argv) {
   newton.solver = GapSolver::newton, newton.tol = 1e-10;
   GapParams plain_tight = plain;
   plain_tight.tol = 1e-10;
+  if (validate_pairs > 0) {
+    // Thread CPU time: this machine is shared, and wall time then mostly measures the others.
+    const auto cpu_us = [](auto&& f) {
+      timespec t0, t1;
+      clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t0);
+      f();
+      clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t1);
+      return 1e6 * double(t1.tv_sec - t0.tv_sec) + 1e-3 * double(t1.tv_nsec - t0.tv_nsec);
+    };
+    const std::size_t n = std::min<std::size_t>(static_cast<std::size_t>(validate_pairs), cases.size());
+    Run first, again, solve;
+    int refused = 0;
+    double worst = 0;
+    for (std::size_t i = 0; i < 2 * n; ++i) {
+      const GapBody& body = i % 2 ? cases[i / 2].b : cases[i / 2].a;
+      ValidationReport rep;
+      first.us.push_back(cpu_us([&] { rep = validate_p2s(body.p2s()); }));
+      // A repeated shape: 100 calls per measure (a single one is below the clock's resolution).
+      again.us.push_back(cpu_us([&] {
+                           for (int k = 0; k < 100; ++k) validate_p2s(body.p2s());
+                         }) / 100);
+      if (!rep.ok) ++refused;
+      worst = std::max(worst, rep.max_eigenvalue);
+    }
+    for (std::size_t i = 0; i < n; ++i)
+      solve.us.push_back(cpu_us([&] {
+                           for (int k = 0; k < 100; ++k) gap_distance(cases[i].a, cases[i].b, newton);
+                         }) / 100);
+    std::printf("Property 2 validation of %zu shapes (benchmark 1's first %zu pairs, eps %g, sigma %g, "
+                "W_i = 1/6), single thread, thread CPU time in us\n", 2 * n, n, paper.eps, paper.sigma);
+    std::printf(kHeader, "method", "mean", "median", "p99", "max", "", "", "", "", "", "");
+    print_row("validate, first call per shape", first);
+    print_row("validate, repeated shape", again);
+    print_row("GAP Newton solve per pair", solve);
+    std::printf("  refused: %d of %zu shapes (%.1f%%); largest eigenvalue found %.4g\n", refused, 2 * n,
+                100.0 * refused / (2 * n), worst);
+    if (!json_path.empty())
+      std::ofstream(json_path) << nlohmann::json{{"shapes", 2 * n},
+                                                 {"refused", refused},
+                                                 {"refused_fraction", double(refused) / (2 * n)},
+                                                 {"largest_eigenvalue", worst},
+                                                 {"validate_first_us", to_json(stats(first.us))},
+                                                 {"validate_repeated_us", to_json(stats(again.us))},
+                                                 {"newton_solve_us", to_json(stats(solve.us))}}
+                                      .dump(2)
+                               << "\n";
+    return 0;
+  }
   if (newton_only) {
     const Run fcl = best_of_passes([&] { return run_fcl(cases); });
     const Run start = best_of_passes([&] { return run_start(cases); });

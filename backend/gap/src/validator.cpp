@@ -160,9 +160,12 @@ std::vector<Vec3> boundary_features(const Shape& shape) {
             }
             std::sort(edges.begin(), edges.end());
             edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+            // Three points per edge; only the midpoint on large polytopes (hulls up to 1000
+            // facets), whose edges are short.
+            const std::vector<double> along =
+                edges.size() <= 300 ? std::vector<double>{0.25, 0.5, 0.75} : std::vector<double>{0.5};
             for (const auto& [i, j] : edges)
-              for (double t : {0.25, 0.5, 0.75})
-                f.push_back((1 - t) * p.vertices[i] + t * p.vertices[j]);
+              for (double t : along) f.push_back((1 - t) * p.vertices[i] + t * p.vertices[j]);
           },
           [&](const Box& b) {
             const Vec3 h = b.size / 2;
@@ -381,10 +384,12 @@ ValidationReport Search::run(int samples, std::uint64_t seed) {
       tangent.push_back({evaluate(p), p});
     }
   };
+  // 16 directions per plane, fewer on large polytopes (at least 4).
+  const int per_plane = std::clamp(2048 / static_cast<int>(planes.size()), 4, 16);
   for (const auto& [u, b] : planes) {
     const Vec3 t1 = u.unitOrthogonal(), t2 = u.cross(t1);
-    for (int a = 0; a < 16; ++a) {
-      const double angle = 2 * M_PI * a / 16;
+    for (int a = 0; a < per_plane; ++a) {
+      const double angle = 2 * M_PI * a / per_plane;
       add_tangent(std::cos(angle) * t1 + std::sin(angle) * t2, {{u, b}});
     }
   }
