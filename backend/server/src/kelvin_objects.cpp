@@ -33,7 +33,10 @@ bool same_surface(const mesh::SurfaceMesh& a, const mesh::SurfaceMesh& b) {
 
 }  // namespace
 
-std::string content_key(const mesh::SurfaceMesh& s, const kelvin::PrepareOptions& o) {
+namespace {
+
+// The surface, then (if given) the preparation options, hashed by two FNV-1a streams.
+std::string surface_hash(const mesh::SurfaceMesh& s, const kelvin::PrepareOptions* o) {
   Fnv64 a(1469598103934665603ull), b(0x9e3779b97f4a7c15ull);
   auto add = [&](const void* p, std::size_t n) {
     a.add(p, n);
@@ -43,14 +46,22 @@ std::string content_key(const mesh::SurfaceMesh& s, const kelvin::PrepareOptions
   add(rows, sizeof rows);
   add(s.vertices.data(), sizeof(double) * static_cast<std::size_t>(s.vertices.size()));
   add(s.faces.data(), sizeof(int) * static_cast<std::size_t>(s.faces.size()));
-  const Vec3 c = o.centre.value_or(Vec3::Constant(std::nan("")));
-  const double params[7] = {o.lx, o.far_radius, o.feature_angle, c.x(), c.y(), c.z(), o.centre ? 1.0 : 0.0};
-  add(params, sizeof params);
+  if (o != nullptr) {
+    const Vec3 c = o->centre.value_or(Vec3::Constant(std::nan("")));
+    const double params[7] = {o->lx, o->far_radius, o->feature_angle, c.x(), c.y(), c.z(), o->centre ? 1.0 : 0.0};
+    add(params, sizeof params);
+  }
   char text[33];
   std::snprintf(text, sizeof text, "%016llx%016llx", static_cast<unsigned long long>(a.h),
                 static_cast<unsigned long long>(b.h));
   return text;
 }
+
+}  // namespace
+
+std::string content_key(const mesh::SurfaceMesh& s, const kelvin::PrepareOptions& o) { return surface_hash(s, &o); }
+
+std::string mesh_digest(const mesh::SurfaceMesh& s) { return surface_hash(s, nullptr); }
 
 PreparedRegistry::Entry* PreparedRegistry::find_locked(const std::string& key, const mesh::SurfaceMesh& s,
                                                        const kelvin::PrepareOptions& o) {
@@ -129,6 +140,7 @@ json KelvinObject::status_json() {
   std::lock_guard lock(mutex);
   json j = {{"id", id}, {"state", state}, {"job", job}, {"source", source},
             {"n_input_vertices", surface.vertices.rows()}, {"n_input_faces", surface.faces.rows()},
+            {"n_welded_vertices", welded.vertices.rows()},
             {"sigma_version", sigma_version}, {"levels", levels}, {"key", key}};
   if (!error.is_null()) j["error"] = error;
   if (prepared) {
@@ -152,6 +164,16 @@ std::vector<double> sigma_at_vertices(const kelvin::SigmaSpec& sigma, const mesh
     for (const auto& b : sigma.brushes) s += kelvin::evaluate(b, x);
   }
   return out;
+}
+
+kelvin::SigmaSpec field_sigma(const kelvin::SigmaSpec& user, const mesh::SurfaceMesh& surface,
+                              const std::vector<int>& to_welded, Eigen::Index n_welded) {
+  kelvin::SigmaSpec welded = kelvin::weld_sigma(user, to_welded, n_welded);
+  const std::vector<double> total = sigma_at_vertices(user, surface);
+  for (std::size_t v = 0; v < total.size(); ++v)
+    kelvin::require_sigma_in_range(total[v], surface.vertices.row(static_cast<Eigen::Index>(v)).transpose(),
+                                   "vertex " + std::to_string(v));
+  return welded;
 }
 
 double estimate_vertices(const mesh::SurfaceMesh& surface, double lx) {

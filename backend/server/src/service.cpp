@@ -161,6 +161,7 @@ void Service::register_core_routes() {
                  limits["max_plane_resolution"] = l.max_plane_resolution;
                  limits["max_gap_iterations"] = l.max_gap_iterations;
                  limits["isosurface_levels_per_request"] = kIsosurfaceLevelsPerRequest;
+                 limits["max_abs_sigma"] = kelvin::kMaxAbsSigma;  // a property of the method (sigma.hpp)
                  // The CBF rollout limits (also in GET /api/cbf/scenarios), named for request_bounds.
                  const CbfLimits& cbf = cbf_rollouts_->limits();
                  limits["max_cbf_steps"] = cbf.max_steps;
