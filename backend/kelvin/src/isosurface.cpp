@@ -31,7 +31,7 @@ class Builder {
     values_[i] = static_cast<int>(points_.size());
     Vec3 y = m_.tm.points.row(a);
     if (a != b) {
-      const double t = (level_ - u_[a]) / (u_[b] - u_[a]);
+      const double t = std::clamp((level_ - u_[a]) / (u_[b] - u_[a]), 0.0, 1.0);  // in() snaps
       y += t * (Vec3(m_.tm.points.row(b)) - y);
     }
     ys_.push_back(y);
@@ -48,7 +48,11 @@ class Builder {
     else tris_.emplace_back(i, j, k);
   }
 
-  bool in(int v) const { return u_[v] <= level_; }
+  // Values within 1e-9 (relative) of the level count as in: on the boundary U = |y| · e^(−σ)/|y|
+  // equals e^(−σ) only to rounding, and at the level σ itself (the object's surface for constant
+  // σ, the web's zero level for σ = 0) those last bits made slivers of crossing triangles that
+  // overlapped the surface facets with the opposite orientation.
+  bool in(int v) const { return u_[v] <= level_ * (1 + 1e-9); }
 
   mesh::SurfaceMesh take() {
     mesh::SurfaceMesh out;

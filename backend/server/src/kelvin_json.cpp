@@ -190,7 +190,7 @@ json run_kelvin_request(const json& r, const kelvin::Progress& progress) {
       if (iso.faces.rows() == 0)
         throw InvalidInput("isosurfaces.levels[" + std::to_string(i) + "]",
                            "the field never takes h = " + json(levels[i]).dump() + ": its smallest value is h = " +
-                               json(field.minimum()).dump() + ", and {h = level} is empty at or below it");
+                               json(field.minimum()).dump() + ", and {h = level} is empty below it");
       mesh::save_mesh(iso, file.string(), iso_format, "isosurfaces.format");
       files.push_back({{"level", levels[i]}, {"path", file.string()}, {"n_verts", iso.vertices.rows()},
                        {"n_faces", iso.faces.rows()}, {"digest", mesh_digest(iso)}});

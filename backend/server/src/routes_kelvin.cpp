@@ -155,7 +155,7 @@ void Service::register_kelvin_routes() {
     if (m.faces.rows() == 0)
       throw ApiError(422, "empty_isosurface",
                      "the field never takes h = " + json(level).dump() + ": its smallest value is h = " + json(minimum).dump() +
-                         " (where σ is smallest on the surface), and {h = level} is empty for every level at or below it",
+                         " (where σ is smallest on the surface), and {h = level} is empty for every level below it",
                      "level");
     return m;
   };
