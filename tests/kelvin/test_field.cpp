@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include "distlab/mesh/checks.hpp"
+#include "distlab/mesh/weld.hpp"
 #include "sphere_fixture.hpp"
 
 using namespace distlab;
@@ -107,10 +108,14 @@ TEST(KelvinField, IsoSurfaceOfTheSphereIsASphere) {
     // Outward (towards increasing h) orientation encloses a positive volume near (4/3)πr³.
     EXPECT_NEAR(mesh::signed_volume(iso), 4.18879 * r * r * r, 0.03 * 4.18879 * r * r * r);
   }
-  // Below σ everywhere the level set is the object's surface itself.
-  mesh::SurfaceMesh zero = field.isosurface(0.0);
-  EXPECT_EQ(mesh::topology_defect(zero), "");
-  EXPECT_NEAR(mesh::signed_volume(zero), 4.18879 * 0.125, 0.01 * 4.18879 * 0.125);
+  // h ≥ σ: a level below it is never taken, and its iso-surface is empty (not the object's
+  // surface, the boundary of {h ≥ level}); at the level σ it is the object's surface.
+  const mesh::SurfaceMesh below = field.isosurface(0.0);
+  EXPECT_EQ(below.faces.rows(), 0);
+  EXPECT_EQ(below.vertices.rows(), 0);
+  const mesh::SurfaceMesh at = field.isosurface(sigma);
+  EXPECT_EQ(mesh::topology_defect(at), "");
+  EXPECT_NEAR(mesh::signed_volume(at), 4.18879 * 0.125, 0.01 * 4.18879 * 0.125);
 }
 
 TEST(KelvinField, IsoSurfaceExportsReadBackClosed) {
@@ -123,7 +128,7 @@ TEST(KelvinField, IsoSurfaceExportsReadBackClosed) {
   for (const char* format : {"stl", "obj", "ply", "glb"}) {
     const std::string path = (dir / (std::string("iso.") + format)).string();
     mesh::save_mesh(iso, path, format);
-    const mesh::SurfaceMesh back = mesh::load_mesh(path);  // assimp, welded
+    const mesh::SurfaceMesh back = mesh::weld(mesh::load_mesh(path)).surface;  // assimp, then welded
     EXPECT_EQ(back.vertices.rows(), iso.vertices.rows()) << format;
     EXPECT_EQ(back.faces.rows(), iso.faces.rows()) << format;
     EXPECT_EQ(mesh::topology_defect(back), "") << format;

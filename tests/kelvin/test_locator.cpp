@@ -10,6 +10,7 @@
 
 #include "locator.hpp"
 #include "distlab/mesh/surface.hpp"
+#include "distlab/mesh/weld.hpp"
 #include "sphere_fixture.hpp"
 
 using namespace distlab;
@@ -174,7 +175,7 @@ TEST(KelvinLocator, GradedMeshAgreesWithTheScan) {
   o.lx = 0.008;
   o.centre = Vec3::Zero();
   o.feature_angle = 180;
-  const Field f = Field::prepare(mesh::load_mesh(std::string(DISTLAB_ASSET_DIR) + "/wrench.stl"), o);
+  const Field f = Field::prepare(mesh::weld(mesh::load_mesh(std::string(DISTLAB_ASSET_DIR) + "/wrench.stl")).surface, o);
   const TetMesh& m = f.tet_mesh();
   const Located located(m);
   const Locator& loc = located.locator;
@@ -267,7 +268,7 @@ TEST(KelvinLocator, BoundaryVerticesQueriedFromAnOutsideCellGiveSigma) {
   o.lx = 0.006;
   o.centre = Vec3::Zero();
   o.feature_angle = 180;
-  Field f = Field::prepare(mesh::load_mesh(std::string(DISTLAB_ASSET_DIR) + "/wrench.stl"), o);
+  Field f = Field::prepare(mesh::weld(mesh::load_mesh(std::string(DISTLAB_ASSET_DIR) + "/wrench.stl")).surface, o);
   f.set_sigma(constant_sigma(0.3));
   const TetMesh& m = f.tet_mesh();
   int checked = 0;

@@ -14,6 +14,7 @@
 
 #include "distlab/geometry/error.hpp"
 #include "distlab/kelvin/digest.hpp"
+#include "distlab/mesh/weld.hpp"
 #include "distlab/mesh/surface.hpp"
 #include "sphere_fixture.hpp"
 
@@ -341,7 +342,7 @@ TEST(KelvinPrepare, CacheKeyIsPrivateAndReplacedWhenNotTrusted) {
 // edge protection (see PrepareOptions::feature_angle), centre of inversion at its centre as in
 // the paper, and h = σ holds on its surface for the σ of case (c) (eq. 24).
 TEST(KelvinPrepare, WrenchMeshesAndMatchesSigma) {
-  const mesh::SurfaceMesh wrench = mesh::load_mesh(std::string(DISTLAB_ASSET_DIR) + "/wrench.stl");
+  const mesh::SurfaceMesh wrench = mesh::weld(mesh::load_mesh(std::string(DISTLAB_ASSET_DIR) + "/wrench.stl")).surface;
   PrepareOptions o;
   o.lx = 0.006;
   o.centre = Vec3::Zero();
@@ -371,7 +372,7 @@ TEST(KelvinPrepare, WrenchMeshesAndMatchesSigma) {
 // where CGAL's refine_balls does not converge) the wrench is meshed without protection,
 // deterministically, with a warning saying so. Here the budget is made small to force that path.
 TEST(KelvinPrepare, WrenchWithDefaultOptionsMeshes) {
-  const mesh::SurfaceMesh wrench = mesh::load_mesh(std::string(DISTLAB_ASSET_DIR) + "/wrench.stl");
+  const mesh::SurfaceMesh wrench = mesh::weld(mesh::load_mesh(std::string(DISTLAB_ASSET_DIR) + "/wrench.stl")).surface;
   for (const bool force_fallback : {false, true}) {
     PrepareOptions o;
     o.lx = 0.006;
@@ -413,7 +414,7 @@ TEST(KelvinPrepare, WrenchWithDefaultOptionsMeshes) {
 // protection): it ends. Since the surface is refined by longest-edge bisection (no slivers whose
 // inverted planes fake sharp edges inside flat faces), edge protection converges here too.
 TEST(KelvinPrepare, WrenchThinPlateDoesNotHang) {
-  const mesh::SurfaceMesh wrench = mesh::load_mesh(std::string(DISTLAB_ASSET_DIR) + "/wrench.stl");
+  const mesh::SurfaceMesh wrench = mesh::weld(mesh::load_mesh(std::string(DISTLAB_ASSET_DIR) + "/wrench.stl")).surface;
   PrepareOptions o;
   o.lx = 0.004;
   o.centre = Vec3::Zero();
@@ -425,7 +426,7 @@ TEST(KelvinPrepare, WrenchThinPlateDoesNotHang) {
 // An absurd element size fails at once with an error naming lx, for every asset shape; and the
 // vertex budget also stops Mesh_3 itself (a budget below what the estimate lets through).
 TEST(KelvinPrepare, TinyLxFailsQuicklyNamingLx) {
-  const mesh::SurfaceMesh wrench = mesh::load_mesh(std::string(DISTLAB_ASSET_DIR) + "/wrench.stl");
+  const mesh::SurfaceMesh wrench = mesh::weld(mesh::load_mesh(std::string(DISTLAB_ASSET_DIR) + "/wrench.stl")).surface;
   PrepareOptions o;
   o.lx = 1e-5;
   const auto t0 = std::chrono::steady_clock::now();
@@ -444,7 +445,7 @@ TEST(KelvinPrepare, TinyLxFailsQuicklyNamingLx) {
 
 // The knife (Fig. 1) meshes with the default options at a coarse l_x and h = σ on its surface.
 TEST(KelvinPrepare, KnifeMeshesAndMatchesSigma) {
-  const mesh::SurfaceMesh knife = mesh::load_mesh(std::string(DISTLAB_ASSET_DIR) + "/knife.stl");
+  const mesh::SurfaceMesh knife = mesh::weld(mesh::load_mesh(std::string(DISTLAB_ASSET_DIR) + "/knife.stl")).surface;
   PrepareOptions o;
   o.lx = 0.03;
   Field f = Field::prepare(knife, o);

@@ -86,7 +86,20 @@ TEST_F(KelvinApi, PrepareQuerySigmaIsosurfaceExport) {
   json st = body_json(r);
   EXPECT_EQ(st["state"], "ready");
   EXPECT_GT(st["stats"]["n_tets"].get<long>(), 100);
-  EXPECT_EQ(st["n_input_vertices"], 8);
+  // The cube's 8 corners; the file's vertex list (an STL lists each facet's three) is the one
+  // per-vertex arrays are indexed by.
+  EXPECT_EQ(st["n_welded_vertices"], 8);
+  const std::size_t n_input = st["n_input_vertices"];
+  EXPECT_GE(n_input, 8u);
+  // σ per listed vertex, a function of its position (listed vertices at one corner agree).
+  json per_vertex = json::array();
+  {
+    auto sr = c.Get(path_of(id, "/surface").c_str(), session_headers(s));
+    ASSERT_TRUE(sr);
+    const auto pos = server::read_float32(json::from_msgpack(sr->body)["positions"]);
+    ASSERT_EQ(pos.size(), 3 * n_input);
+    for (std::size_t v = 0; v < n_input; ++v) per_vertex.push_back(0.4 + 0.1 * pos[3 * v] + 0.2 * pos[3 * v + 1] + 0.3 * pos[3 * v + 2]);
+  }
 
   // h and ∇h: outside points defined, inside not; h grows away from the cube.
   json q = query(c, s, id, {{1.0, 0, 0}, {1.5, 0, 0}, {0, 0, 0}});
@@ -101,7 +114,7 @@ TEST_F(KelvinApi, PrepareQuerySigmaIsosurfaceExport) {
   // σ in every form; each bumps the version and changes h near the surface.
   const std::vector<json> sigmas = {
       {{"constant", 0.5}},
-      {{"per_vertex", {0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8}}},
+      {{"per_vertex", per_vertex}},
       {{"axis", {{"axis", {1, 0, 0}}, {"d0", 0.2}, {"sigma_nom", 1.0}}}},
       {{"axis", {{{"axis", {0, 1, 0}}, {"d0", 0.1}, {"sigma_nom", 0.5}, {"origin", {0, 0, 0}}, {"width", 0.5}}}}},
       {{"brushes", {{{"center", {0.5, 0, 0}}, {"radius", 0.2}, {"value", 1.0}, {"falloff", 0.1}}}}},
@@ -131,8 +144,8 @@ TEST_F(KelvinApi, PrepareQuerySigmaIsosurfaceExport) {
   bad_sigma({{"brushes", {{{"center", {0, 0}}, {"radius", 1}, {"value", 1}}}}}, "sigma.brushes[0].center");
   bad_sigma({{"colour", 1}}, "sigma.colour");
 
-  // Iso-surface as a REST msgpack download.
-  r = c.Get((path_of(id, "/isosurface") + "?level=0.3").c_str(), session_headers(s));
+  // Iso-surface as a REST msgpack download (σ = 0.5: h ≥ 0.5 everywhere, h = 0.8 is taken).
+  r = c.Get((path_of(id, "/isosurface") + "?level=0.8").c_str(), session_headers(s));
   ASSERT_TRUE(r);
   ASSERT_EQ(r->status, 200) << r->body;
   EXPECT_EQ(r->get_header_value("Content-Type"), "application/msgpack");
@@ -151,12 +164,12 @@ TEST_F(KelvinApi, PrepareQuerySigmaIsosurfaceExport) {
   ASSERT_TRUE(r);
   frame = json::from_msgpack(r->body);
   const auto scal = server::read_float32(frame["scalars"]);
-  ASSERT_EQ(scal.size(), 8u);
+  ASSERT_EQ(scal.size(), n_input);
   EXPECT_FLOAT_EQ(scal[0], 0.5f);
 
   // Exports in every format.
   for (const std::string fmt : {"stl", "obj", "ply", "glb"}) {
-    r = c.Get((path_of(id, "/export") + "?level=0.3&format=" + fmt).c_str(), session_headers(s));
+    r = c.Get((path_of(id, "/export") + "?level=0.8&format=" + fmt).c_str(), session_headers(s));
     ASSERT_TRUE(r);
     ASSERT_EQ(r->status, 200) << fmt << " " << r->body;
     EXPECT_GT(r->body.size(), 200u) << fmt;
@@ -168,9 +181,47 @@ TEST_F(KelvinApi, PrepareQuerySigmaIsosurfaceExport) {
       EXPECT_EQ(r->body.substr(0, 3), "ply");
     }
   }
-  bad = c.Get((path_of(id, "/export") + "?level=0.3&format=dwg").c_str(), session_headers(s));
+  bad = c.Get((path_of(id, "/export") + "?level=0.8&format=dwg").c_str(), session_headers(s));
   ASSERT_TRUE(bad);
   EXPECT_EQ(bad->status, 400);
+
+  // Levels the field never takes (below its minimum, σ = 0.5 on the surface): 422, never the
+  // object's boundary; the level σ itself is the object's surface.
+  for (const std::string level : {"-1000", "0.3", "0.49"})
+    for (const std::string route : {"/isosurface?level=", "/export?format=stl&level="}) {
+      bad = c.Get((path_of(id, route) + level).c_str(), session_headers(s));
+      ASSERT_TRUE(bad);
+      EXPECT_EQ(bad->status, 422) << route << level << " " << bad->body.substr(0, 200);
+      EXPECT_EQ(body_json(bad)["error"]["code"], "empty_isosurface") << bad->body.substr(0, 200);
+      EXPECT_EQ(body_json(bad)["error"]["field"], "level");
+    }
+  r = c.Get((path_of(id, "/isosurface") + "?level=0.5").c_str(), session_headers(s));
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200) << r->body;
+  {
+    const json at_sigma = json::from_msgpack(r->body);
+    EXPECT_GT(at_sigma["n_faces"].get<long>(), 0);
+    // On the unit cube [−0.5, 0.5]³, or next to it where the discrete h dips below σ near edges
+    // (no discrete maximum principle on obtuse cells; measured up to 0.0083 off at l_x = 0.2).
+    const auto pos = server::read_float32(at_sigma["positions"]);
+    for (std::size_t v = 0; v + 2 < pos.size(); v += 3)
+      EXPECT_NEAR(std::max({std::abs(pos[v]), std::abs(pos[v + 1]), std::abs(pos[v + 2])}), 0.5f, 0.02f);
+  }
+  // Two exports of the same surface carry the same digest; another level, another digest.
+  std::map<std::string, std::string> digest;
+  for (const std::string level : {"0.8", "0.9"})
+    for (int k = 0; k < 2; ++k) {
+      r = c.Get((path_of(id, "/export") + "?format=stl&level=" + level).c_str(), session_headers(s));
+      ASSERT_TRUE(r);
+      ASSERT_EQ(r->status, 200);
+      const std::string d = r->get_header_value("X-Distlab-Isosurface-Digest");
+      EXPECT_EQ(d.size(), 32u);
+      if (k == 1) {
+        EXPECT_EQ(d, digest[level]);
+      }
+      digest[level] = d;
+    }
+  EXPECT_NE(digest["0.8"], digest["0.9"]);
 
   // Delete.
   EXPECT_EQ(c.Delete(path_of(id).c_str(), session_headers(s))->status, 204);
@@ -206,9 +257,12 @@ TEST_F(KelvinApi, SigmaEditAnsweredByIsosurfaceFrame) {
   ws.send({{"type", "sigma"}, {"object", id}, {"sigma", {{"constant", 1.0}}}});
   ASSERT_TRUE(ws.until([&](const Msg& x) { return x.binary && x.j["type"] == "isosurface" && x.j["sigma_version"] == 1; }, m, 60));
   EXPECT_EQ(m.j["level"], 0.3);
-  EXPECT_GT(m.j["n_faces"].get<long>(), 0);
-  // With σ = 1 > level the surface runs along the object: a different mesh.
-  EXPECT_NE(m.j["n_vertices"].get<long>(), before);
+  // With σ = 1 > level everywhere, h ≥ 1: the field never takes the level, and the frame is
+  // empty and says so (it used to be the object's boundary).
+  EXPECT_GT(before, 0);
+  EXPECT_EQ(m.j["n_faces"], 0);
+  EXPECT_EQ(m.j["empty"], true);
+  EXPECT_NEAR(m.j["h_min"].get<double>(), 1.0, 1e-6);
   // REST edits answer over the WebSocket too; watch adds levels.
   ws.send({{"type", "watch"}, {"object", id}, {"levels", {0.3, 0.6}}});
   ASSERT_TRUE(ws.until([&](const Msg& x) { return x.binary && x.j["type"] == "isosurface" && x.j["level"] == 0.6; }, m, 60));
@@ -237,6 +291,7 @@ TEST_F(KelvinApi, BurstOfEditsEndsAtTheLatestSigmaAndQueriesGetGradients) {
   ASSERT_EQ(m.j["type"], "hello");
   const std::string id = create_ready(c, ws, s, body);
   ASSERT_FALSE(id.empty());
+  const std::size_t n_input = body_json(c.Get(path_of(id).c_str(), session_headers(s)))["n_input_vertices"];
   const int edits = 12;
   for (int i = 1; i <= edits; ++i) ws.send({{"type", "sigma"}, {"object", id}, {"sigma", {{"constant", 0.05 * i}}}});
   std::map<double, int> last;  // level -> last sigma_version seen
@@ -256,8 +311,8 @@ TEST_F(KelvinApi, BurstOfEditsEndsAtTheLatestSigmaAndQueriesGetGradients) {
             EXPECT_FALSE(x.j.contains("positions") || x.j.contains("indices"));
           }
           const auto values = server::read_float32(x.j["scalars"]);
-          EXPECT_EQ(values.size(), 8u);
-          EXPECT_EQ(x.j["n_vertices"], 8);
+          EXPECT_EQ(values.size(), n_input);
+          EXPECT_EQ(x.j["n_vertices"], n_input);
           for (float value : values) EXPECT_FLOAT_EQ(value, static_cast<float>(0.05 * v));
         }
         if (x.j["type"] != "isosurface") return false;
@@ -315,9 +370,10 @@ TEST_F(KelvinApi, SurfaceSentOnceSigmaVersionsCarrySigmaOnlyRequestIdsEchoed) {
   ASSERT_FALSE(id.empty());
   // Ready: the surface (8 vertices of the cube, σ = 0) and the level's frame.
   ASSERT_TRUE(peer.until([&](const Msg& x) { return x.binary && x.j["type"] == "surface" && x.j["object"] == id; }, m, 60));
-  EXPECT_EQ(m.j["n_vertices"], 8);
-  EXPECT_EQ(server::read_float32(m.j["positions"]).size(), 24u);
-  EXPECT_EQ(server::read_float32(m.j["scalars"]), std::vector<float>(8, 0.0f));
+  const std::size_t n_input = body_json(c.Get(path_of(id).c_str(), session_headers(s)))["n_input_vertices"];
+  EXPECT_EQ(m.j["n_vertices"], n_input);
+  EXPECT_EQ(server::read_float32(m.j["positions"]).size(), 3 * n_input);
+  EXPECT_EQ(server::read_float32(m.j["scalars"]), std::vector<float>(n_input, 0.0f));
   ASSERT_TRUE(peer.until([&](const Msg& x) { return x.binary && x.j["type"] == "isosurface" && x.j["sigma_version"] == 0; }, m, 60));
 
   // An edit with a request id: the sender's acknowledgement echoes it, the other socket of the
@@ -336,7 +392,7 @@ TEST_F(KelvinApi, SurfaceSentOnceSigmaVersionsCarrySigmaOnlyRequestIdsEchoed) {
         if (x.binary && x.j["type"] == "surface_sigma") {
           values = true;
           EXPECT_EQ(x.j["sigma_version"], 1);
-          EXPECT_EQ(server::read_float32(x.j["scalars"]), std::vector<float>(8, 0.4f));
+          EXPECT_EQ(server::read_float32(x.j["scalars"]), std::vector<float>(n_input, 0.4f));
           EXPECT_LT(x.data.size(), 200u);  // 8 float32 and the keys: no positions, no indices
         }
         return x.binary && x.j["type"] == "isosurface" && x.j["sigma_version"] == 1;
@@ -370,7 +426,7 @@ TEST_F(KelvinApi, SurfaceSentOnceSigmaVersionsCarrySigmaOnlyRequestIdsEchoed) {
         if (x.binary && x.j["type"] == "surface") {
           ++surfaces;
           EXPECT_EQ(x.j["sigma_version"], 2);
-          EXPECT_EQ(server::read_float32(x.j["scalars"]), std::vector<float>(8, 0.7f));
+          EXPECT_EQ(server::read_float32(x.j["scalars"]), std::vector<float>(n_input, 0.7f));
           EXPECT_EQ(server::read_uint32(x.j["indices"]).size(), 36u);
         }
         return x.binary && x.j["type"] == "isosurface" && x.j["sigma_version"] == 2;
@@ -509,6 +565,64 @@ TEST_F(KelvinApi, UploadsAndInlineMeshes) {
   r = c.Post("/api/kelvin/objects", session_headers(s), json{{"mesh", {{"vertices", {{0, 0, 0}}}, {"faces", {{0, 0, 9}}}}}, {"lx", 0.3}}.dump(), "application/json");
   EXPECT_EQ(r->status, 400);
   EXPECT_EQ(c.Get("/api/health")->status, 200);
+}
+
+// σ has a finite range, published in /api/limits: each term and their sum at every vertex; a
+// value outside is a 400 naming the field, and the ends of the range give finite h and frames.
+TEST_F(KelvinApi, SigmaRangeKeepsEveryNumberFinite) {
+  const std::string s = new_session(c);
+  WsClient ws(server_->port(), s);
+  await_hello(ws);
+  json body = kCube;
+  body["levels"] = {301.0};
+  const std::string id = create_ready(c, ws, s, body);
+  ASSERT_FALSE(id.empty());
+  const double max_abs = body_json(c.Get("/api/limits"))["max_abs_sigma"];
+  EXPECT_EQ(max_abs, 300);
+  auto refused = [&](const json& sg, const std::string& field) {
+    auto r = c.Put(path_of(id, "/sigma").c_str(), session_headers(s), sg.dump(), "application/json");
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 400) << sg.dump() << " " << r->body;
+    EXPECT_EQ(body_json(r)["error"]["field"], field) << r->body;
+  };
+  refused({{"constant", 1e300}}, "sigma.constant");
+  refused({{"constant", 1e39}}, "sigma.constant");
+  refused({{"constant", -300.5}}, "sigma.constant");
+  const std::size_t n_input = body_json(c.Get(path_of(id).c_str(), session_headers(s)))["n_input_vertices"];
+  json per_vertex(json::array());
+  for (std::size_t v = 0; v < n_input; ++v) per_vertex.push_back(0.0);
+  per_vertex[3] = -1e39;
+  refused({{"per_vertex", per_vertex}}, "sigma.per_vertex[3]");
+  refused({{"brushes", {{{"center", {0.5, 0, 0}}, {"radius", 0.2}, {"value", 1e39}}}}}, "sigma.brushes[0].value");
+  refused({{"axis", {{{"axis", {1, 0, 0}}, {"sigma_nom", 400}}}}}, "sigma.axis[0].sigma_nom");
+  // Terms each in range whose sum is not, at a vertex of the cube.
+  refused({{"constant", 200}, {"brushes", {{{"center", {0.5, 0.5, 0.5}}, {"radius", 0.1}, {"value", 200}}}}}, "sigma");
+  // Nothing changed: the object still holds σ = 0.
+  EXPECT_EQ(body_json(c.Get(path_of(id, "/sigma").c_str(), session_headers(s)))["sigma_version"], 0);
+
+  // At the ends of the range h is σ plus the σ = 0 field (eq. 17 is linear in e^(−σ)), every
+  // number finite; the surface and iso-surface frames too.
+  const json pts = {{0.8, 0.1, 0}, {0, 0.9, 0.2}, {0.7, 0.7, 0.7}, {3, 2, 1}};
+  const json zero = query(c, s, id, pts);
+  for (const double sg : {max_abs, -max_abs}) {
+    auto r = c.Put(path_of(id, "/sigma").c_str(), session_headers(s), json{{"constant", sg}}.dump(), "application/json");
+    ASSERT_EQ(r->status, 200) << r->body;
+    const json q = query(c, s, id, pts);
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+      ASSERT_TRUE(q["h"][i].is_number()) << q.dump();
+      EXPECT_NEAR(q["h"][i].get<double>() - zero["h"][i].get<double>(), sg, 1e-9 * max_abs);
+      for (int k = 0; k < 3; ++k)
+        EXPECT_NEAR(q["gradient"][i][k].get<double>(), zero["gradient"][i][k].get<double>(), 1e-9);
+    }
+    r = c.Get(path_of(id, "/surface").c_str(), session_headers(s));
+    for (const float v : server::read_float32(json::from_msgpack(r->body)["scalars"])) EXPECT_EQ(v, static_cast<float>(sg));
+  }
+  // σ = 300 everywhere: h ≥ 300, the watched level 301 is taken; its frame is finite.
+  ASSERT_EQ(c.Put(path_of(id, "/sigma").c_str(), session_headers(s), json{{"constant", max_abs}}.dump(), "application/json")->status, 200);
+  Msg m;
+  ASSERT_TRUE(ws.until([&](const Msg& x) { return x.binary && x.j["type"] == "isosurface" && x.j["sigma_version"] == 3; }, m, 60));
+  EXPECT_GT(m.j["n_faces"].get<long>(), 0);
+  for (const float v : server::read_float32(m.j["positions"])) EXPECT_TRUE(std::isfinite(v));
 }
 
 TEST_F(KelvinApi, Limits) {

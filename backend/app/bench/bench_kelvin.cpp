@@ -33,6 +33,7 @@
 #include "query_sets.hpp"
 #include "cholmod_solver.hpp"  // private to distlab_kelvin: the factorization Field::prepare runs
 #include "distlab/kelvin/field.hpp"
+#include "distlab/mesh/weld.hpp"
 #include "distlab/kelvin/surface_tools.hpp"
 #include "distlab/mesh/primitives.hpp"
 #include "distlab/mesh/surface.hpp"
@@ -436,7 +437,7 @@ int main(int argc, char** argv) {
   // of Section V-B (eq. 24, as in assets/wrench_case_*.json); t_solve of case (a).
   std::vector<Row> wrench_rows;
   if (table2) try {
-    const mesh::SurfaceMesh wrench = mesh::load_mesh(assets + "/wrench.stl");
+    const mesh::SurfaceMesh wrench = mesh::weld(mesh::load_mesh(assets + "/wrench.stl")).surface;
     std::vector<SigmaSpec> cases(3);
     cases[0].axis.push_back({Vec3::UnitX(), Vec3::Zero(), 0.03, -1.0, 0.003});
     cases[1].constant = -1.0;

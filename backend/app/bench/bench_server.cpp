@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "distlab/kelvin/field.hpp"
+#include "distlab/mesh/weld.hpp"
 #include "distlab/mesh/surface.hpp"
 #include "distlab/server/frames.hpp"
 #include "distlab/server/kelvin_objects.hpp"
@@ -113,7 +114,7 @@ double median_ms(int reps, Fn&& fn) {
 // In-process: where the time of one σ edit goes, stage by stage (same field as the service).
 int breakdown(const std::string& assets, const std::string& cache, double lx, int reps) {
   using namespace distlab;
-  const mesh::SurfaceMesh surface = mesh::load_mesh(assets + "/cube.stl", "asset");
+  const mesh::SurfaceMesh surface = mesh::weld(mesh::load_mesh(assets + "/cube.stl", "asset")).surface;
   kelvin::PrepareOptions options;
   options.lx = lx;
   kelvin::Field field = kelvin::Field::prepare_cached(surface, options, cache);

@@ -355,6 +355,8 @@ void Field::set_sigma(const SigmaSpec& sigma, bool gradients) {
     }
     for (const auto& a : sigma.axis) s += evaluate(a, x);
     for (const auto& br : sigma.brushes) s += evaluate(br, x);
+    // The terms are each in range (validate); their sum must be too, where it is used.
+    require_sigma_in_range(s, x, "the surface point");
     m.boundary_sigma[b] = s;
     v_bnd[b] = std::exp(-s) / y.norm();  // eq. 17: V_∂ = U_∂ / G with U_∂ = e^(−σ), G = |y|
   }

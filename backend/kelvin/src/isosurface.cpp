@@ -1,5 +1,6 @@
 // Marching tetrahedra on U = |y| V (so the vertex at y = 0, i.e. infinity, needs no special
 // case): the boundary of {h ≥ level} = {U ≤ e^(−level)}, mapped back by eq. 5.
+#include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -30,7 +31,7 @@ class Builder {
     values_[i] = static_cast<int>(points_.size());
     Vec3 y = m_.tm.points.row(a);
     if (a != b) {
-      const double t = (level_ - u_[a]) / (u_[b] - u_[a]);
+      const double t = std::clamp((level_ - u_[a]) / (u_[b] - u_[a]), 0.0, 1.0);  // in() snaps
       y += t * (Vec3(m_.tm.points.row(b)) - y);
     }
     ys_.push_back(y);
@@ -47,7 +48,11 @@ class Builder {
     else tris_.emplace_back(i, j, k);
   }
 
-  bool in(int v) const { return u_[v] <= level_; }
+  // Values within 1e-9 (relative) of the level count as in: on the boundary U = |y| · e^(−σ)/|y|
+  // equals e^(−σ) only to rounding, and at the level σ itself (the object's surface for constant
+  // σ, the web's zero level for σ = 0) those last bits made slivers of crossing triangles that
+  // overlapped the surface facets with the opposite orientation.
+  bool in(int v) const { return u_[v] <= level_ * (1 + 1e-9); }
 
   mesh::SurfaceMesh take() {
     mesh::SurfaceMesh out;
@@ -102,11 +107,13 @@ mesh::SurfaceMesh Field::isosurface(double level) const {
   Builder out(m, u, std::exp(-level));
 
   std::vector<int> touching;  // cells with a corner in the region: only they can clip a facet
+  bool crosses = false;       // some cell has the level inside: the field takes it
   for (int c : m.domain_tets) {
     int v[4], n_in = 0;
     for (int k = 0; k < 4; ++k) n_in += out.in(v[k] = m.tm.tets(c, k));
     if (n_in > 0) touching.push_back(c);
     if (n_in == 0 || n_in == 4) continue;
+    crosses = true;
     // −∇U in this cell points into {h ≥ level}.
     // ∇U solves D ∇U = ΔU (rows of D: edges from v[0]); D⁻¹ has columns (d_j × d_k) / det D.
     Mat3 d;
@@ -129,6 +136,14 @@ mesh::SurfaceMesh Field::isosurface(double level) const {
       out.triangle(a, e, f, into);
     }
   }
+  // Every vertex in {h ≥ level} (U(y = 0) = 0 is always in it): level ≤ minimum(). Below it
+  // the field never takes the level (empty); at it (to rounding: U = |y| · e^(−σ)/|y| on the
+  // boundary) {h = level} is where the surface has its smallest σ, e.g. the object itself for
+  // constant σ = level, and the facets below are that set.
+  if (!crosses) {
+    const double lowest = minimum();
+    if (level < lowest - 1e-9 * std::max(1.0, std::abs(lowest))) return {};
+  }
   // Where the region reaches the object's surface, the surface itself closes it.
   for (int c : touching)
     for (int k = 0; k < 4; ++k) {
@@ -149,6 +164,18 @@ mesh::SurfaceMesh Field::isosurface(double level) const {
       for (int i = 2; i < n; ++i) out.triangle(poly[0], poly[i - 1], poly[i], into);
     }
   return out.take();
+}
+
+double Field::minimum() const {
+  const Impl& m = *impl_;
+  if (m.V.size() == 0) throw std::logic_error("minimum before set_sigma");
+  double u_max = 0;  // h = −ln U is smallest where U = |y| V is largest
+  for (int c : m.domain_tets)
+    for (int k = 0; k < 4; ++k) {
+      const int v = m.tm.tets(c, k);
+      u_max = std::max(u_max, m.tm.points.row(v).norm() * m.V[v]);
+    }
+  return -std::log(u_max);
 }
 
 }  // namespace distlab::kelvin

@@ -1,7 +1,10 @@
 // σ terms (eq. 24 and brushes) and their validation.
 #include "distlab/kelvin/sigma.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <limits>
 #include <string>
 
 #include "distlab/geometry/error.hpp"
@@ -26,17 +29,31 @@ void finite(double v, const std::string& field) {
   if (!std::isfinite(v)) throw InvalidInput(field, field + " must be a finite number");
 }
 
+std::string number_text(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.6g", v);
+  return buf;
+}
+
+// A value that is σ itself (not a position or a width): finite and within the range.
+void sigma_value(double v, const std::string& field) {
+  finite(v, field);
+  if (std::abs(v) > kMaxAbsSigma)
+    throw InvalidInput(field, field + " = " + number_text(v) + " is outside the range of σ, [−" +
+                                  number_text(kMaxAbsSigma) + ", " + number_text(kMaxAbsSigma) + "]");
+}
+
 }  // namespace
 
 void validate(const SigmaSpec& s, Eigen::Index n_vertices) {
-  finite(s.constant, "sigma.constant");
+  sigma_value(s.constant, "sigma.constant");
   if (s.per_vertex) {
     if (s.per_vertex->size() != n_vertices)
       throw InvalidInput("sigma.per_vertex", "sigma.per_vertex has " + std::to_string(s.per_vertex->size()) +
                                                  " values but the mesh has " + std::to_string(n_vertices) +
-                                                 " vertices (after welding)");
+                                                 " vertices (one value per vertex of the mesh as given, in its order)");
     for (Eigen::Index i = 0; i < n_vertices; ++i)
-      finite((*s.per_vertex)[i], "sigma.per_vertex[" + std::to_string(i) + "]");
+      sigma_value((*s.per_vertex)[i], "sigma.per_vertex[" + std::to_string(i) + "]");
   }
   for (size_t i = 0; i < s.axis.size(); ++i) {
     const std::string f = "sigma.axis[" + std::to_string(i) + "]";
@@ -45,7 +62,7 @@ void validate(const SigmaSpec& s, Eigen::Index n_vertices) {
     if (!a.origin.allFinite()) throw InvalidInput(f + ".origin", f + ".origin must be finite");
     finite(a.d0, f + ".d0");
     if (a.d0 < 0) throw InvalidInput(f + ".d0", f + ".d0 must be ≥ 0");
-    finite(a.sigma_nom, f + ".sigma_nom");
+    sigma_value(a.sigma_nom, f + ".sigma_nom");
     finite(a.width, f + ".width");
     if (a.width <= 0) throw InvalidInput(f + ".width", f + ".width must be positive");
   }
@@ -54,11 +71,45 @@ void validate(const SigmaSpec& s, Eigen::Index n_vertices) {
     const auto& b = s.brushes[i];
     if (!b.centre.allFinite()) throw InvalidInput(f + ".centre", f + ".centre must be finite");
     finite(b.radius, f + ".radius");
-    finite(b.value, f + ".value");
+    sigma_value(b.value, f + ".value");
     finite(b.falloff, f + ".falloff");
     if (b.radius < 0) throw InvalidInput(f + ".radius", f + ".radius must be ≥ 0");
     if (b.falloff < 0) throw InvalidInput(f + ".falloff", f + ".falloff must be ≥ 0");
   }
+}
+
+void require_sigma_in_range(double total, const Vec3& x, const std::string& where) {
+  if (std::abs(total) <= kMaxAbsSigma) return;  // NaN cannot arise: every term is finite
+  throw InvalidInput("sigma", "the terms of sigma add up to " + number_text(total) + " at " + where + " (" +
+                                  number_text(x.x()) + ", " + number_text(x.y()) + ", " + number_text(x.z()) +
+                                  "), outside the range of σ, [−" + number_text(kMaxAbsSigma) + ", " +
+                                  number_text(kMaxAbsSigma) + "]");
+}
+
+SigmaSpec weld_sigma(const SigmaSpec& user, const std::vector<int>& to_welded, Eigen::Index n_welded) {
+  validate(user, static_cast<Eigen::Index>(to_welded.size()));
+  SigmaSpec out = user;
+  if (!user.per_vertex) return out;
+  const VecX& in = *user.per_vertex;
+  VecX welded = VecX::Constant(n_welded, std::numeric_limits<double>::quiet_NaN());
+  std::vector<Eigen::Index> first(static_cast<std::size_t>(n_welded), -1);
+  for (Eigen::Index i = 0; i < in.size(); ++i) {
+    const int w = to_welded[static_cast<std::size_t>(i)];
+    if (w < 0) continue;
+    Eigen::Index& f = first[static_cast<std::size_t>(w)];
+    if (f < 0) {
+      f = i;
+      welded[w] = in[i];
+    } else if (std::abs(in[i] - welded[w]) > 1e-9 * std::max(1.0, std::abs(welded[w]))) {
+      const std::string field = "sigma.per_vertex[" + std::to_string(i) + "]";
+      throw InvalidInput(field, field + " = " + number_text(in[i]) + " differs from sigma.per_vertex[" +
+                                    std::to_string(f) + "] = " + number_text(welded[w]) +
+                                    ": vertices " + std::to_string(f) + " and " + std::to_string(i) +
+                                    " have the same position, and one point of the surface has one σ");
+    }
+  }
+  out.per_vertex = welded;
+  return out;
 }
 
 }  // namespace distlab::kelvin

@@ -48,7 +48,7 @@ void Service::send_frames(const std::shared_ptr<Session>& session, const std::sh
                           WsSink* only) {
   using Ms = std::chrono::duration<double, std::milli>;
   std::shared_ptr<PreparedField> prepared;
-  kelvin::SigmaSpec sigma;
+  kelvin::SigmaSpec sigma, solved;  // per user vertex (values out), per welded vertex (field)
   std::string key;
   std::vector<double> levels;
   std::uint64_t version, frames_version;
@@ -59,6 +59,7 @@ void Service::send_frames(const std::shared_ptr<Session>& session, const std::sh
     if (object->state != "ready" || !object->prepared) return;
     prepared = object->prepared;
     sigma = object->sigma;
+    solved = object->field_sigma;
     key = object->sigma_key;
     levels = object->levels;
     version = object->sigma_version;
@@ -99,13 +100,18 @@ void Service::send_frames(const std::shared_ptr<Session>& session, const std::sh
     if (stale()) return;
     const auto t0 = std::chrono::steady_clock::now();
     auto t1 = t0;
-    mesh::SurfaceMesh iso = prepared->with_sigma(sigma, key, false, [&](const kelvin::Field& f) {
+    double minimum = 0;
+    mesh::SurfaceMesh iso = prepared->with_sigma(solved, key, false, [&](const kelvin::Field& f) {
       t1 = std::chrono::steady_clock::now();
-      return f.isosurface(levels[i]);
+      mesh::SurfaceMesh out = f.isosurface(levels[i]);
+      if (out.faces.rows() == 0) minimum = f.minimum();
+      return out;
     });
     const auto t2 = std::chrono::steady_clock::now();
     json frame = mesh_frame(iso, {{"type", "isosurface"}, {"object", object->id}, {"level", levels[i]}, {"index", i},
-                                  {"count", levels.size()}, {"sigma_version", version}});
+                                  {"count", levels.size()}, {"sigma_version", version}, {"digest", mesh_digest(iso)}});
+    // A level the field never takes: no geometry, and the smallest h it does take.
+    if (iso.faces.rows() == 0) frame["empty"] = true, frame["h_min"] = minimum;
     frame["server_ms"] = {{"solve", Ms(t1 - t0).count()}, {"isosurface", Ms(t2 - t1).count()}};
     // From the σ edit's arrival to this frame (queueing included); 0 for the initial σ.
     if (version > 0) frame["server_ms"]["since_edit"] = Ms(std::chrono::steady_clock::now() - sigma_at).count();

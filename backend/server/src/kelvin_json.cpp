@@ -9,6 +9,8 @@
 
 #include "distlab/geometry/error.hpp"
 #include "distlab/mesh/surface.hpp"
+#include "distlab/mesh/weld.hpp"
+#include "distlab/server/kelvin_objects.hpp"
 
 namespace distlab::server {
 namespace {
@@ -147,12 +149,16 @@ json run_kelvin_request(const json& r, const kelvin::Progress& progress) {
     iso_path = text(iso["path"], "isosurfaces.path");
   }
 
+  // The file's vertices in the file's order: σ per_vertex is indexed by them; the field is
+  // prepared on the welded surface (mesh/weld.hpp).
   const mesh::SurfaceMesh surface = mesh::load_mesh(path, m.contains("path") ? "mesh.path" : "mesh.asset");
+  const mesh::Welded welded = mesh::weld(surface);
+  const kelvin::SigmaSpec solved = field_sigma(sigma, surface, welded.to_welded, welded.surface.vertices.rows());
   bool hit = false;
   kelvin::Field field = r.contains("cache")
-                            ? kelvin::Field::prepare_cached(surface, options, text(r["cache"], "cache"), progress, &hit)
-                            : kelvin::Field::prepare(surface, options, progress);
-  field.set_sigma(sigma);
+                            ? kelvin::Field::prepare_cached(welded.surface, options, text(r["cache"], "cache"), progress, &hit)
+                            : kelvin::Field::prepare(welded.surface, options, progress);
+  field.set_sigma(solved);
 
   json out;
   const kelvin::Stats& st = field.stats();
@@ -163,6 +169,8 @@ json run_kelvin_request(const json& r, const kelvin::Progress& progress) {
   if (hit) out["stats"]["t_load"] = st.t_load;
   // Fallbacks taken while preparing (e.g. edge protection skipped on thin features).
   if (!st.warnings.empty()) out["warnings"] = st.warnings;
+  out["mesh"] = {{"n_vertices", surface.vertices.rows()}, {"n_faces", surface.faces.rows()},
+                 {"n_welded_vertices", welded.surface.vertices.rows()}};
   json h = json::array(), grad = json::array(), inside = json::array();
   int hint = -1;
   for (const Vec3& x : points) {
@@ -179,9 +187,13 @@ json run_kelvin_request(const json& r, const kelvin::Progress& progress) {
       if (levels.size() > 1)
         file = file.parent_path() / (file.stem().string() + "_" + std::to_string(i) + file.extension().string());
       const mesh::SurfaceMesh iso = field.isosurface(levels[i]);
+      if (iso.faces.rows() == 0)
+        throw InvalidInput("isosurfaces.levels[" + std::to_string(i) + "]",
+                           "the field never takes h = " + json(levels[i]).dump() + ": its smallest value is h = " +
+                               json(field.minimum()).dump() + ", and {h = level} is empty below it");
       mesh::save_mesh(iso, file.string(), iso_format, "isosurfaces.format");
       files.push_back({{"level", levels[i]}, {"path", file.string()}, {"n_verts", iso.vertices.rows()},
-                       {"n_faces", iso.faces.rows()}});
+                       {"n_faces", iso.faces.rows()}, {"digest", mesh_digest(iso)}});
     }
     out["isosurfaces"] = files;
   }

@@ -24,19 +24,26 @@ bool same_surface(const mesh::SurfaceMesh& a, const mesh::SurfaceMesh& b) {
          a.vertices == b.vertices && a.faces == b.faces;
 }
 
-}  // namespace
-
-std::string content_key(const mesh::SurfaceMesh& s, const kelvin::PrepareOptions& o) {
+// The surface, then (if given) the preparation options: the content key of the shared registry.
+std::string surface_hash(const mesh::SurfaceMesh& s, const kelvin::PrepareOptions* o) {
   kelvin::Sha256 h;
   const std::int64_t rows[2] = {s.vertices.rows(), s.faces.rows()};
   h.add(rows, sizeof rows);
   h.add(s.vertices.data(), sizeof(double) * static_cast<std::size_t>(s.vertices.size()));
   h.add(s.faces.data(), sizeof(int) * static_cast<std::size_t>(s.faces.size()));
-  const Vec3 c = o.centre.value_or(Vec3::Constant(std::nan("")));
-  const double params[7] = {o.lx, o.far_radius, o.feature_angle, c.x(), c.y(), c.z(), o.centre ? 1.0 : 0.0};
-  h.add(params, sizeof params);
+  if (o != nullptr) {
+    const Vec3 c = o->centre.value_or(Vec3::Constant(std::nan("")));
+    const double params[7] = {o->lx, o->far_radius, o->feature_angle, c.x(), c.y(), c.z(), o->centre ? 1.0 : 0.0};
+    h.add(params, sizeof params);
+  }
   return h.hex();
 }
+
+}  // namespace
+
+std::string content_key(const mesh::SurfaceMesh& s, const kelvin::PrepareOptions& o) { return surface_hash(s, &o); }
+
+std::string mesh_digest(const mesh::SurfaceMesh& s) { return surface_hash(s, nullptr); }
 
 PreparedRegistry::Entry* PreparedRegistry::find_locked(const std::string& key, const mesh::SurfaceMesh& s,
                                                        const kelvin::PrepareOptions& o) {
@@ -115,6 +122,7 @@ json KelvinObject::status_json() {
   std::lock_guard lock(mutex);
   json j = {{"id", id}, {"state", state}, {"job", job}, {"source", source},
             {"n_input_vertices", surface.vertices.rows()}, {"n_input_faces", surface.faces.rows()},
+            {"n_welded_vertices", welded.vertices.rows()},
             {"sigma_version", sigma_version}, {"levels", levels}, {"key", key}};
   if (!error.is_null()) j["error"] = error;
   if (prepared) {
@@ -138,6 +146,16 @@ std::vector<double> sigma_at_vertices(const kelvin::SigmaSpec& sigma, const mesh
     for (const auto& b : sigma.brushes) s += kelvin::evaluate(b, x);
   }
   return out;
+}
+
+kelvin::SigmaSpec field_sigma(const kelvin::SigmaSpec& user, const mesh::SurfaceMesh& surface,
+                              const std::vector<int>& to_welded, Eigen::Index n_welded) {
+  kelvin::SigmaSpec welded = kelvin::weld_sigma(user, to_welded, n_welded);
+  const std::vector<double> total = sigma_at_vertices(user, surface);
+  for (std::size_t v = 0; v < total.size(); ++v)
+    kelvin::require_sigma_in_range(total[v], surface.vertices.row(static_cast<Eigen::Index>(v)).transpose(),
+                                   "vertex " + std::to_string(v));
+  return welded;
 }
 
 double estimate_vertices(const mesh::SurfaceMesh& surface, double lx, double far_radius) {

@@ -8,6 +8,7 @@
 #include "distlab/geometry/error.hpp"
 #include "distlab/kelvin/progress.hpp"
 #include "distlab/kelvin/sigma.hpp"
+#include "distlab/mesh/weld.hpp"
 #include "distlab/server/json_fields.hpp"
 #include "distlab/server/gap_json.hpp"
 #include "distlab/server/kelvin_json.hpp"
@@ -82,12 +83,14 @@ json Service::create_object(const std::shared_ptr<Session>& session, const json&
   }
   if (static_cast<std::size_t>(surface.faces.rows()) > lim.max_upload_triangles)
     throw ApiError(413, "too_many_triangles", "at most " + std::to_string(lim.max_upload_triangles) + " triangles", "mesh");
-  // The budget counts every parameter that grows the mesh (lx and far_radius); the field named
-  // is far_radius when the request would fit with the default far radius.
+  // The user's mesh keeps its vertex order for the API; the field is prepared on the weld. The
+  // budget counts every parameter that grows the mesh (lx and far_radius); the field named is
+  // far_radius when the request would fit with the default far radius.
+  mesh::Welded welded = mesh::weld(surface);
   const auto budget = static_cast<double>(lim.max_vertex_estimate);
-  const double estimate = estimate_vertices(surface, options.lx, options.far_radius);
+  const double estimate = estimate_vertices(welded.surface, options.lx, options.far_radius);
   if (estimate > budget) {
-    const bool far = estimate_vertices(surface, options.lx) <= budget;
+    const bool far = estimate_vertices(welded.surface, options.lx) <= budget;
     throw ApiError(422, "over_budget",
                    std::string(far ? "far_radius " + json(options.far_radius).dump() : "lx " + json(options.lx).dump()) +
                        " would make about " + json(std::round(estimate)).dump() + " vertices, over this server's budget of " +
@@ -98,18 +101,22 @@ json Service::create_object(const std::shared_ptr<Session>& session, const json&
   // The job's meshing cap is the same budget, and whatever prepare would refuse (a surface that
   // is not closed, a centre outside or too near the surface) is refused now, before a job starts.
   options.max_vertices = std::max<std::size_t>(100, lim.max_vertex_estimate);
-  kelvin::check_prepare_inputs(surface, options);
+  kelvin::check_prepare_inputs(welded.surface, options);
 
   auto object = std::make_shared<KelvinObject>();
   object->id = random_id();
-  object->key = content_key(surface, options);
+  object->key = content_key(welded.surface, options);
   object->source = source;
-  object->surface = surface;
+  object->surface = std::move(surface);
+  object->welded = std::move(welded.surface);
+  object->to_welded = std::move(welded.to_welded);
+  object->surface_digest = mesh_digest(object->surface);
+  object->sigma_key = sigma_key(*object, json::object());
   if (body.contains("sigma")) {
     object->sigma = parse_sigma(body["sigma"]);
-    kelvin::validate(object->sigma, surface.vertices.rows());
+    object->field_sigma = field_sigma(object->sigma, object->surface, object->to_welded, object->welded.vertices.rows());
     object->sigma_json = body["sigma"];
-    object->sigma_key = body["sigma"].dump();
+    object->sigma_key = sigma_key(*object, body["sigma"]);
   }
   if (body.contains("levels")) object->levels = parse_levels(body["levels"], "levels", lim.max_levels);
   {
@@ -132,7 +139,7 @@ json Service::create_object(const std::shared_ptr<Session>& session, const json&
         progress.cancel = &j.cancel;
         j.report("load", 0.0);
         bool from_memory = false;
-        auto prepared = registry_.acquire(object->surface, options, progress, &from_memory);
+        auto prepared = registry_.acquire(object->welded, options, progress, &from_memory);
         {
           std::lock_guard lock(object->mutex);
           object->prepared = prepared;
@@ -184,13 +191,15 @@ json Service::create_object(const std::shared_ptr<Session>& session, const json&
 void Service::set_sigma(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,
                         const json& sigma_json, WsSink* origin, const json& request) {
   kelvin::SigmaSpec spec = parse_sigma(sigma_json);
-  kelvin::validate(spec, object->surface.vertices.rows());
+  // surface, welded and to_welded are set at creation and never change: no lock needed.
+  kelvin::SigmaSpec solved = field_sigma(spec, object->surface, object->to_welded, object->welded.vertices.rows());
   std::uint64_t version;
   {
     std::lock_guard lock(object->mutex);
     object->sigma = std::move(spec);
+    object->field_sigma = std::move(solved);
     object->sigma_json = sigma_json;
-    object->sigma_key = sigma_json.dump();
+    object->sigma_key = sigma_key(*object, sigma_json);
     version = ++object->sigma_version;
     object->sigma_at = std::chrono::steady_clock::now();
     ++object->frames_version;

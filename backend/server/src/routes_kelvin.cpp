@@ -140,10 +140,26 @@ void Service::register_kelvin_routes() {
     std::lock_guard lock(o->mutex);
     if (o->state != "ready" || !o->prepared)
       throw ApiError(409, "not_ready", "the object is " + o->state + ", not ready");
-    sigma = o->sigma;
+    sigma = o->field_sigma;
     key = o->sigma_key;
     version = o->sigma_version;
     return o->prepared;
+  };
+
+  // The iso-surface of one level, or 422 empty_isosurface when the field never takes it.
+  auto isosurface = [](PreparedField& prepared, const kelvin::SigmaSpec& sigma, const std::string& key, double level) {
+    double minimum = 0;
+    mesh::SurfaceMesh m = prepared.with_sigma(sigma, key, false, [&](const kelvin::Field& f) {
+      mesh::SurfaceMesh out = f.isosurface(level);
+      if (out.faces.rows() == 0) minimum = f.minimum();
+      return out;
+    });
+    if (m.faces.rows() == 0)
+      throw ApiError(422, "empty_isosurface",
+                     "the field never takes h = " + json(level).dump() + ": its smallest value is h = " + json(minimum).dump() +
+                         " (where σ is smallest on the surface), and {h = level} is empty for every level below it",
+                     "level");
+    return m;
   };
 
   Route query{"POST", "/api/kelvin/objects/{id}/query", [this, ready](Request& req) {
@@ -191,7 +207,7 @@ void Service::register_kelvin_routes() {
   query.bounds = {"max_body_bytes", "max_query_points", "max_request_seconds"};
   router_.add(std::move(query));
 
-  Route iso{"GET", "/api/kelvin/objects/{id}/isosurface", [this, ready](Request& req) {
+  Route iso{"GET", "/api/kelvin/objects/{id}/isosurface", [this, ready, isosurface](Request& req) {
               auto session = require_session(req);
               auto object = require_object(*session, req);
               const double level = query_level(req);
@@ -199,11 +215,12 @@ void Service::register_kelvin_routes() {
               std::string key;
               std::uint64_t version;
               auto prepared = ready(object, sigma, key, version);
-              const mesh::SurfaceMesh m = prepared->with_sigma(sigma, key, false, [&](const kelvin::Field& f) { return f.isosurface(level); });
+              const mesh::SurfaceMesh m = isosurface(*prepared, sigma, key, level);
               Response r;
               r.content_type = "application/msgpack";
               r.body = to_msgpack(mesh_frame(m, {{"type", "isosurface"}, {"object", object->id}, {"level", level},
-                                                 {"index", 0}, {"count", 1}, {"sigma_version", version}}));
+                                                 {"index", 0}, {"count", 1}, {"sigma_version", version},
+                                                 {"digest", mesh_digest(m)}}));
               return r;
             }};
   iso.heavy = true;
@@ -227,7 +244,7 @@ void Service::register_kelvin_routes() {
                  return r;
                }});
 
-  Route exp{"GET", "/api/kelvin/objects/{id}/export", [this, ready](Request& req) {
+  Route exp{"GET", "/api/kelvin/objects/{id}/export", [this, ready, isosurface](Request& req) {
               auto session = require_session(req);
               auto object = require_object(*session, req);
               const double level = query_level(req);
@@ -241,8 +258,7 @@ void Service::register_kelvin_routes() {
               std::string key;
               std::uint64_t version;
               auto prepared = ready(object, sigma, key, version);
-              const mesh::SurfaceMesh m = prepared->with_sigma(sigma, key, false, [&](const kelvin::Field& f) { return f.isosurface(level); });
-              if (m.faces.rows() == 0) throw ApiError(422, "empty_isosurface", "the iso-surface at this level is empty", "level");
+              const mesh::SurfaceMesh m = isosurface(*prepared, sigma, key, level);
               const fs::path dir = fs::path(registry_cache_dir()) / ("export-" + random_id());
               fs::create_directories(dir);
               Response r;
@@ -261,6 +277,8 @@ void Service::register_kelvin_routes() {
               std::error_code ec;
               fs::remove_all(dir, ec);
               r.content_type = types.at(format);
+              // Equal digests: the same surface (e.g. two levels of one export session); see openapi.json.
+              r.headers.emplace_back("X-Distlab-Isosurface-Digest", mesh_digest(m));
               r.headers.emplace_back("Content-Disposition", "attachment; filename=\"isosurface-" + object->id.substr(0, 8) + "." + format + "\"");
               return r;
             }};

@@ -128,6 +128,7 @@ json Service::limits_json() const {
   json limits = json::object();
   for_each_limit(config_.limits, [&](const char* name, auto value) { limits[name] = value; });
   limits["isosurface_levels_per_request"] = kIsosurfaceLevelsPerRequest;
+  limits["max_abs_sigma"] = kelvin::kMaxAbsSigma;  // a property of the method (sigma.hpp)
   const CbfLimits& cbf = cbf_rollouts_->limits();
   limits["max_cbf_steps"] = cbf.max_steps;
   limits["max_cbf_duration"] = kMaxScenarioDuration;

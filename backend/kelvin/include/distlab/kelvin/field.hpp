@@ -93,13 +93,21 @@ class Field {
   void set_sigma(const SigmaSpec& sigma, bool gradients = true);
 
   // h(x) and ∇h(x) (Algorithm 1). hint: the cell of a previous query (updated), or nullptr
-  // to locate through the seeding grid.
+  // to locate through the seeding grid. ∇h is the paper's smoothed gradient: vertex gradients of
+  // V (volume-weighted over each star [36]) interpolated like V, then eq. 18. It is continuous,
+  // whereas h (V interpolated linearly per cell) has a derivative that jumps across faces; the two
+  // differ by O(l_x), and the smoothed one is the closer to the exact ∇h (test_gradient.cpp).
   Sample query(const Vec3& x, int* hint = nullptr) const;
   std::vector<Sample> query(const std::vector<Vec3>& points) const;  // coherent order helps
 
   // Closed, oriented boundary of {h ≥ level} (marching tetrahedra mapped back by eq. 5),
   // normals pointing to increasing h. Where σ > level it runs along the object's surface.
+  // Empty (no vertices, no faces) when the field never takes the level, i.e. level < minimum()
+  // (to 1e-9 relative): {h ≥ level} is then the whole exterior, and its boundary, the object's
+  // surface, is no level set of h.
   mesh::SurfaceMesh isosurface(double level) const;
+  // The smallest h of the discrete field (at a mesh vertex; h grows without bound far away).
+  double minimum() const;
 
   const Stats& stats() const;
   const TetMesh& tet_mesh() const;           // y-space cells

@@ -2,6 +2,7 @@
 // The semantic state σ on the object's surface (Section III): σ > 0 where contact is allowed.
 // A SigmaSpec is a sum of terms, evaluated at surface points x (object coordinates, metres).
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "distlab/geometry/types.hpp"
@@ -25,9 +26,20 @@ struct BrushSigma {
   double falloff = 0;
 };
 
+// The range of σ, of every term and of their sum anywhere on the surface: |σ| ≤ kMaxAbsSigma.
+// The boundary values are V_∂ = e^(−σ)/|y| (eq. 17) and h = −ln(|y| V) (eq. 16), so σ = 1e39
+// made V ≡ 0 (h = +inf, float32 frames got inf) and σ = 1e300 made h null. e^(±300) ≈ 10^(±130)
+// leaves more than 10^170 of double's normal range (10^(±308)) on each side for |y| and the
+// stiffness entries of any mesh the coordinate limits allow, so V_∂, the right-hand side
+// −A_Ω∂ V_∂ and V neither overflow nor become subnormal, h is finite wherever V > 0, and σ and h
+// fit float32 frames. No use is lost: e^(−300) is 10^(−130) of e^0.
+inline constexpr double kMaxAbsSigma = 300;
+
 struct SigmaSpec {
   double constant = 0;
-  std::optional<VecX> per_vertex;  // one value per input-mesh vertex, linear over faces
+  // One value per vertex, linear over faces. At the API: per user (file) vertex; inside Field:
+  // per welded vertex (weld_sigma maps one to the other).
+  std::optional<VecX> per_vertex;
   std::vector<AxisSigma> axis;
   std::vector<BrushSigma> brushes;
 };
@@ -35,8 +47,19 @@ struct SigmaSpec {
 double evaluate(const AxisSigma& term, const Vec3& x);
 double evaluate(const BrushSigma& term, const Vec3& x);
 
-// Throws InvalidInput naming the offending field (prefix "sigma") on bad values; n_vertices is
-// the input mesh's vertex count.
+// Throws InvalidInput naming the offending field (prefix "sigma") on bad values, including any
+// term outside [−kMaxAbsSigma, kMaxAbsSigma]; n_vertices is the length per_vertex must have.
 void validate(const SigmaSpec& sigma, Eigen::Index n_vertices);
+
+// The one check of the summed σ (all terms) at surface point x: InvalidInput("sigma") naming x
+// and the sum when |σ| > kMaxAbsSigma. where: how x is known to the user ("vertex 12", …).
+void require_sigma_in_range(double total, const Vec3& x, const std::string& where);
+
+// σ given per user vertex (to_welded.size() values, see mesh/weld.hpp) as σ per welded vertex.
+// Validates (field names index user vertices). User vertices at one position (same welded vertex)
+// must carry the same value to 1e-9 · max(1, |σ|): they are one point of the surface, and a
+// silent average would hide a σ array that belongs to another mesh or order. Unused vertices
+// (to_welded −1) are validated and otherwise ignored.
+SigmaSpec weld_sigma(const SigmaSpec& user, const std::vector<int>& to_welded, Eigen::Index n_welded);
 
 }  // namespace distlab::kelvin

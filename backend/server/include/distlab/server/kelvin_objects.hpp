@@ -86,7 +86,13 @@ struct KelvinObject {
   std::string id;
   std::string key;          // content key
   nlohmann::json source;    // how it was made: asset/upload/mesh, lx, center, far_radius
-  mesh::SurfaceMesh surface;  // the welded input surface
+  // The mesh as the user gave it (the file's vertices in the file's order, duplicated positions
+  // kept): every per-vertex array of the API (σ per_vertex in, σ values and the surface frame
+  // out) is indexed like its vertices. The field is prepared on `welded` (mesh/weld.hpp).
+  mesh::SurfaceMesh surface;
+  mesh::SurfaceMesh welded;
+  std::vector<int> to_welded;  // user vertex -> welded vertex (−1: used by no face)
+  std::string surface_digest;  // mesh_digest(surface)
 
   std::mutex mutex;  // guards everything below
   std::string state = "preparing";  // preparing | ready | failed | cancelled
@@ -95,9 +101,12 @@ struct KelvinObject {
   std::shared_ptr<PreparedField> prepared;
   bool shared = false;  // the preparation was found in memory (another session or object)
 
-  kelvin::SigmaSpec sigma;
+  kelvin::SigmaSpec sigma;        // as given: per_vertex per user vertex
+  kelvin::SigmaSpec field_sigma;  // what the field solves: per_vertex per welded vertex
   nlohmann::json sigma_json = nlohmann::json::object();
-  std::string sigma_key = "{}";
+  // Identifies the solved σ in the shared field: the σ JSON and the user mesh it is indexed by
+  // (objects sharing a preparation may number their vertices differently).
+  std::string sigma_key;
   std::uint64_t sigma_version = 0;
   std::chrono::steady_clock::time_point sigma_at{};  // when the last σ edit arrived
   std::vector<double> levels;  // watched iso-levels: frames are pushed over the WebSocket
@@ -113,6 +122,20 @@ struct KelvinObject {
 
 // σ at each input vertex (constant + per-vertex + axis + brush terms).
 std::vector<double> sigma_at_vertices(const kelvin::SigmaSpec& sigma, const mesh::SurfaceMesh& surface);
+
+// σ as the user gave it, checked against the object (every term, per_vertex's length and its
+// duplicated positions, the sum at every user vertex: InvalidInput naming the field), as the
+// field solves it (per welded vertex).
+kelvin::SigmaSpec field_sigma(const kelvin::SigmaSpec& user, const mesh::SurfaceMesh& surface,
+                              const std::vector<int>& to_welded, Eigen::Index n_welded);
+
+// 128-bit FNV-1a of a mesh's vertices and faces (hex): equal for equal surfaces, so that a client
+// sees when two levels gave the same iso-surface.
+std::string mesh_digest(const mesh::SurfaceMesh& surface);
+
+inline std::string sigma_key(const KelvinObject& o, const nlohmann::json& sigma) {
+  return o.surface_digest + sigma.dump();
+}
 
 // A rough vertex count of the preparation, for the vertex budget: the exterior mesh has element
 // size l_x up to far_radius · R (R: the bounding radius), and beyond it the mesh of the inverted
