@@ -179,7 +179,9 @@ class PyField {
     d["t_decomp"] = s.t_decomp;
     d["t_solve"] = s.t_solve;
     d["cache_hit"] = cache_hit_;
-    d["warnings"] = s.warnings;
+    py::list warnings;
+    for (const std::string& w : s.warnings) warnings.append(w);
+    d["warnings"] = warnings;
     return d;
   }
 

@@ -23,7 +23,7 @@ def run_cli(command, request, *flags):
 
 def plain(x):
     """Nested lists/dicts of Python scalars; NaN (a null of the JSON) becomes None."""
-    if isinstance(x, np.ndarray):
+    if isinstance(x, (np.ndarray, np.generic)):
         return plain(x.tolist())
     if isinstance(x, dict):
         return {k: plain(v) for k, v in x.items()}
@@ -41,6 +41,8 @@ def assert_same(ours, cli, path="", skip=()):
 
 
 def _same(a, b, path, skip):
+    if b is None and isinstance(a, list) and all(v is None for v in a):
+        return  # a null row of the JSON is a NaN row of the numpy array
     if isinstance(b, dict):
         assert isinstance(a, dict) and set(a) == set(b), f"{path}: keys {sorted(a)} != {sorted(b)}"
         for k in b:

@@ -38,7 +38,7 @@ def test_exception_in_progress_stops_the_rollout():
             raise RuntimeError("enough")
 
     with pytest.raises(RuntimeError, match="enough"):
-        cbf.rollout("corridor", "gap", {"duration": 5.0}, progress=stop)
+        cbf.rollout("corridor", "gap", {"duration": 5.0}, progress=stop, every=1)
 
 
 @pytest.mark.parametrize("request_,field", [
