@@ -28,9 +28,10 @@ def main():
     R = 0.5
     field = kelvin.Field.prepare(ASSETS / "sphere.stl", lx=args.lx, center=[0.05, -0.03, 0.02],
                                  progress=lambda stage, f: None)
-    # σ = 0.4 on the half x > 0 (per vertex, the file's order), 0 elsewhere.
+    # σ = 0.4 on the half x > 0, −0.3 on the other (per vertex, the file's order): the zero level
+    # set leaves the surface on the negative half.
     V, _ = field.surface
-    field.set_sigma(per_vertex=np.where(V[:, 0] > 0, 0.4, 0.0))
+    field.set_sigma(per_vertex=np.where(V[:, 0] > 0, 0.4, -0.3))
     g = np.linspace(-1.5, 1.5, args.grid)
     X, Y = np.meshgrid(g, g)
     pts = np.stack([X.ravel(), Y.ravel(), np.zeros(X.size)], axis=1)
@@ -44,10 +45,10 @@ def main():
 
     fig, ax = plt.subplots(1, 2, figsize=(11, 4.5))
     im = ax[0].pcolormesh(X, Y, H, shading="auto", cmap="viridis")
-    ax[0].contour(X, Y, np.nan_to_num(H, nan=-1), levels=[0.0], colors="red")
+    ax[0].contour(X, Y, np.ma.masked_invalid(H), levels=[0.0], colors="red")
     ax[0].add_patch(plt.Circle((0, 0), R, fill=False, color="white"))
     ax[0].set_aspect("equal")
-    ax[0].set_title("h on z = 0, σ = 0.4 on x > 0 (red: h = 0)")
+    ax[0].set_title("h on z = 0; σ 0.4 (x > 0), −0.3 (x < 0); red: h = 0", fontsize=9)
     fig.colorbar(im, ax=ax[0])
     ax[1].plot(r, hr, label="Kelvin field, σ = 0.3")
     ax[1].plot(r, exact, "--", label="σ + ln(r / R)")
