@@ -124,21 +124,25 @@ GapResult gap_distance_warm_disjoint(const GapBody& a, const GapBody& b, const G
   return r;
 }
 
-std::vector<GapResult> gap_distance_batch(
-    const std::vector<std::pair<const GapBody*, const GapBody*>>& pairs, const GapParams& params,
-    unsigned threads) {
-  std::vector<GapResult> out(pairs.size());
+void parallel_indices(std::size_t n, unsigned threads, const std::function<void(std::size_t)>& fn) {
   if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
-  threads = std::min<unsigned>(threads, std::max<size_t>(1, pairs.size()));
+  threads = std::min<unsigned>(threads, std::max<size_t>(1, n));
   std::atomic<size_t> next{0};
   auto work = [&] {
-    for (size_t i; (i = next.fetch_add(1)) < pairs.size();)
-      out[i] = gap_distance(*pairs[i].first, *pairs[i].second, params);
+    for (size_t i; (i = next.fetch_add(1)) < n;) fn(i);
   };
   std::vector<std::thread> pool;
   for (unsigned t = 1; t < threads; ++t) pool.emplace_back(work);
   work();
   for (auto& t : pool) t.join();
+}
+
+std::vector<GapResult> gap_distance_batch(
+    const std::vector<std::pair<const GapBody*, const GapBody*>>& pairs, const GapParams& params,
+    unsigned threads) {
+  std::vector<GapResult> out(pairs.size());
+  parallel_indices(pairs.size(), threads,
+                   [&](std::size_t i) { out[i] = gap_distance(*pairs[i].first, *pairs[i].second, params); });
   return out;
 }
 

@@ -1,6 +1,7 @@
 #pragma once
 // The GAP metric between two posed shapes: Λ (eq. 3), D = sqrt(2Λ), differentiable witness
 // points, gradients with respect to both poses, and the Euclidean baseline beside it.
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -76,6 +77,10 @@ GapResult gap_distance(const GapBody& a, const GapBody& b, const GapParams& para
 // `euclidean` is left empty (euclidean_computed = false).
 GapResult gap_distance_warm(const GapBody& a, const GapBody& b, const GapParams& params,
                             const Vec3& start_a, const Vec3& start_b);
+
+// Calls fn(i) once for each i < n on `threads` threads (0: hardware concurrency, never more
+// than n), indices handed out in order; the fan-out of gap_distance_batch. fn must not throw.
+void parallel_indices(std::size_t n, unsigned threads, const std::function<void(std::size_t)>& fn);
 
 // Many pairs on all cores (threads = 0: hardware concurrency). Results in input order.
 std::vector<GapResult> gap_distance_batch(

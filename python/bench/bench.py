@@ -1,0 +1,132 @@
+"""Benchmarks of distlab from Python, beside the C++ benchmark programs; prints a table and JSON.
+
+  PYTHONPATH=build/python /usr/bin/python3 python/bench/bench.py [--pairs 100000] [--json FILE]
+
+1. Batched GAP per pair (distlab.gap.distance over N poses) on the pairs of distlab-bench-gap's
+   benchmark 1 (10-half-space polytopes, W_i = 1/6, k = 2, h = 0.1, ε = 0.01, σ = 0.989, Newton
+   tol 1e-10, no gradient, uncertified GJK start, true distance >= 5 cm): one thread and two
+   threads, against distlab-bench-gap --newton-only's per-pair Newton time and FCL's distance.
+   The polytope pairs are those the C++ program saves (--save-cases); each is evaluated at
+   N / cases random poses of B drawn as the C++ program draws them.
+2. Kelvin batched query per point (Field.query), with and without hints, on a prepared cube.
+"""
+
+import argparse
+import json
+import os
+import pathlib
+import subprocess
+import tempfile
+import time
+
+import numpy as np
+
+from distlab import gap, kelvin
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+
+
+def random_rotations(rng, n):
+    q = rng.standard_normal((n, 4))
+    return q / np.linalg.norm(q, axis=1, keepdims=True)
+
+
+def best_time(f, repeat):
+    best = float("inf")
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        f()
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def bench_gap(args, exe):
+    with tempfile.TemporaryDirectory() as tmp:
+        cases_path, json_path = os.path.join(tmp, "cases.json"), os.path.join(tmp, "gap.json")
+        subprocess.run([exe, "--pairs", str(args.cpp_pairs), "--newton-only", "--passes", str(args.repeat),
+                        "--save-cases", cases_path, "--json", json_path], check=True, capture_output=True)
+        cpp = json.load(open(json_path))
+        cases = json.load(open(cases_path))[: args.cases]
+    params = gap.Params(sigma=0.989, gradient=False, validate=False, euclidean=False)
+    rng = np.random.default_rng(1)
+    per_case = args.pairs // len(cases)
+    work = []
+    for c in cases:
+        a = gap.Polytope(c["a"]["A"], c["a"]["b"], weights=[1 / 6] * 10)
+        b = gap.Polytope(c["b"]["A"], c["b"]["b"], weights=[1 / 6] * 10)
+        pa = np.array(c["a"]["position"] + c["a"]["quaternion"]) if "position" in c["a"] else None
+        # B's poses as the C++ program draws them: uniform in [-0.5, 0.5]^3, random rotation,
+        # kept when the true distance is at least 5 cm.
+        poses = np.empty((0, 7))
+        while len(poses) < per_case:
+            cand = np.hstack([rng.uniform(-0.5, 0.5, (2 * per_case, 3)), random_rotations(rng, 2 * per_case)])
+            d = gap.distance(a, pa, b, cand, gap.Params(sigma=0.989, gradient=False, validate=False)).euclidean_distance
+            poses = np.vstack([poses, cand[d >= 0.05]])
+        work.append((a, pa, b, np.ascontiguousarray(poses[:per_case])))
+    n = per_case * len(work)
+
+    def run(threads):
+        for a, pa, b, poses in work:
+            gap.distance(a, pa, b, poses, params, threads=threads)
+
+    t1 = best_time(lambda: run(1), args.repeat) / n * 1e6
+    t2 = best_time(lambda: run(2), args.repeat) / n * 1e6
+    newton = cpp["newton_tol_1e-10"]["time_us"]["mean"]
+    fcl = cpp["fcl"]["time_us"]["mean"]
+    return {"pairs": n, "python_1_thread_us_per_pair": t1, "python_2_threads_us_per_pair": t2,
+            "throughput_2_threads_over_1": t1 / t2, "cpp_newton_us_per_pair": newton,
+            "python_over_cpp": t1 / newton, "fcl_distance_us_per_pair": fcl}
+
+
+def bench_kelvin(args):
+    field = kelvin.Field.prepare(ROOT / "assets" / "cube.stl", lx=args.lx)
+    field.set_sigma(constant=0.2)
+    rng = np.random.default_rng(2)
+    # Coherent order (as a slice or a grid is queried): points along lines; random order without hints.
+    m = int(round(args.points ** (1 / 3)))
+    g = np.linspace(-1.5, 1.5, m)
+    grid = np.stack(np.meshgrid(g, g, g, indexing="ij"), axis=-1).reshape(-1, 3)
+    grid = grid[np.abs(grid).max(axis=1) > 0.6]
+    shuffled = grid[rng.permutation(len(grid))]
+    with_hints = best_time(lambda: field.query(grid, hints=True), args.repeat) / len(grid) * 1e6
+    without = best_time(lambda: field.query(shuffled, hints=False), args.repeat) / len(grid) * 1e6
+    return {"points": len(grid), "lx": args.lx, "n_verts": field.stats["n_verts"],
+            "query_us_per_point_hints": with_hints, "query_us_per_point_no_hints": without}
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--pairs", type=int, default=100_000, help="GAP pairs from Python")
+    ap.add_argument("--cases", type=int, default=20, help="polytope pairs (each at pairs/cases poses)")
+    ap.add_argument("--cpp-pairs", type=int, default=20_000, help="pairs of the C++ benchmark")
+    ap.add_argument("--points", type=int, default=200_000, help="Kelvin query points (about)")
+    ap.add_argument("--lx", type=float, default=0.1)
+    ap.add_argument("--repeat", type=int, default=3, help="best of this many runs")
+    ap.add_argument("--bench-gap", default=str(ROOT / "build" / "backend" / "app" / "distlab-bench-gap"))
+    ap.add_argument("--json", default=None, help="also write the JSON here")
+    args = ap.parse_args()
+
+    g = bench_gap(args, args.bench_gap)
+    k = bench_kelvin(args)
+    rows = [
+        ("GAP Newton per pair, Python batched, 1 thread", g["python_1_thread_us_per_pair"], "us"),
+        ("GAP Newton per pair, C++ (distlab-bench-gap)", g["cpp_newton_us_per_pair"], "us"),
+        ("  Python / C++", g["python_over_cpp"], "x"),
+        ("GAP per pair, Python batched, 2 threads", g["python_2_threads_us_per_pair"], "us"),
+        ("  throughput 2 threads / 1 thread", g["throughput_2_threads_over_1"], "x"),
+        ("FCL distance per pair (C++)", g["fcl_distance_us_per_pair"], "us"),
+        ("Kelvin query per point, hints, grid order", k["query_us_per_point_hints"], "us"),
+        ("Kelvin query per point, no hints, random order", k["query_us_per_point_no_hints"], "us"),
+    ]
+    print(f"GAP: {g['pairs']} pairs; Kelvin: cube, lx {k['lx']}, {k['n_verts']} vertices, {k['points']} points")
+    for name, value, unit in rows:
+        print(f"  {name:<50} {value:9.3f} {unit}")
+    result = {"gap": g, "kelvin": k}
+    print(json.dumps(result, indent=2))
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(result, f, indent=2)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,308 @@
+"""A client for ``distlab serve``: sessions, GAP, Kelvin objects and CBF rollouts.
+
+Responses come back as dicts whose numeric arrays are numpy arrays; mesh frames (msgpack) are
+decoded into numpy arrays that view the received bytes (no copy). Errors of the service
+(``{"error": {"code", "message", "field"}}``, 4xx) raise :class:`ServiceError`, a
+:class:`distlab.InvalidInput` naming the field."""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from typing import Any, Callable, Dict, Iterator, Mapping, Optional, Tuple, Union
+from urllib.parse import urlsplit, urlunsplit
+
+import msgpack
+import numpy as np
+import requests
+import websocket
+
+from .errors import InvalidInput
+
+__all__ = ["Client", "KelvinObject", "ServiceError", "decode_mesh_frame"]
+
+
+class ServiceError(InvalidInput):
+    """An error answer of the service: ``status`` (HTTP), ``code`` (e.g. ``invalid_input``,
+    ``time_limit``), ``field`` and ``message``."""
+
+    def __init__(self, status: int, code: str, field: str, message: str):
+        super().__init__(field, f"{message} (HTTP {status} {code})")
+        self.status, self.code = status, code
+
+
+def _arrays(x):
+    """JSON values with numeric lists as numpy arrays (float64, or int64 for integers; None as NaN),
+    as distlab.gap.solve returns them."""
+    if isinstance(x, dict):
+        return {k: _arrays(v) for k, v in x.items()}
+    if isinstance(x, list):
+        if x and all(isinstance(v, bool) for v in x):
+            return np.array(x, dtype=bool)
+        try:
+            flat = np.array(x, dtype=object)
+        except ValueError:
+            flat = None
+        if flat is not None and flat.size and flat.dtype == object and all(
+                v is None or (isinstance(v, (int, float)) and not isinstance(v, bool)) for v in flat.ravel()):
+            ints = all(isinstance(v, int) for v in flat.ravel())
+            return np.array([[np.nan if v is None else v] for v in flat.ravel()],
+                            dtype=np.int64 if ints else np.float64).reshape(flat.shape)
+        return [_arrays(v) for v in x]
+    return x
+
+
+def decode_mesh_frame(data: bytes) -> dict:
+    """A msgpack mesh frame: ``positions`` (n, 3) float32, ``indices`` (m, 3) uint32, ``scalars``
+    (n,) float32 when present (views of ``data``), the other keys as sent."""
+    frame = msgpack.unpackb(data, raw=False)
+    out = dict(frame)
+    if "positions" in frame:
+        out["positions"] = np.frombuffer(frame["positions"], dtype="<f4").reshape(-1, 3)
+    if "indices" in frame:
+        out["indices"] = np.frombuffer(frame["indices"], dtype="<u4").reshape(-1, 3)
+    for key in ("scalars", "sigma"):
+        if isinstance(frame.get(key), (bytes, bytearray)):
+            out[key] = np.frombuffer(frame[key], dtype="<f4")
+    return out
+
+
+class Client:
+    """The service at ``url`` (e.g. ``http://127.0.0.1:8080``) with a new session (or ``session``)."""
+
+    def __init__(self, url: str, session: Optional[str] = None, timeout: float = 60.0):
+        self.url = url.rstrip("/")
+        self.timeout = timeout
+        self.http = requests.Session()
+        self.session = session or self._request("POST", "/api/session")["session"]
+        self.http.headers["X-Distlab-Session"] = self.session
+
+    # -- plumbing -------------------------------------------------------------------------------
+
+    def _request(self, method: str, path: str, *, raw: bool = False, **kwargs):
+        r = self.http.request(method, self.url + path, timeout=self.timeout, **kwargs)
+        if r.status_code >= 400:
+            try:
+                e = r.json()["error"]
+            except (ValueError, KeyError, TypeError):
+                r.raise_for_status()
+            if r.status_code >= 500:
+                raise RuntimeError(f"{e.get('code')}: {e.get('message')} (HTTP {r.status_code})")
+            raise ServiceError(r.status_code, e.get("code", ""), e.get("field", ""), e.get("message", ""))
+        if raw:
+            return r.content
+        return r.json() if r.content else None
+
+    def _ws(self) -> websocket.WebSocket:
+        parts = urlsplit(self.url)
+        scheme = "wss" if parts.scheme == "https" else "ws"
+        ws = websocket.create_connection(urlunsplit((scheme, parts.netloc, "/ws", f"session={self.session}", "")),
+                                         timeout=self.timeout)
+        return ws
+
+    def health(self) -> dict:
+        """GET /api/health."""
+        return self._request("GET", "/api/health")
+
+    def limits(self) -> dict:
+        """The service's limits (GET /api/limits)."""
+        return self._request("GET", "/api/limits")
+
+    def close(self) -> None:
+        """Ends the session (its jobs are cancelled)."""
+        self._request("DELETE", "/api/session")
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    # -- GAP ------------------------------------------------------------------------------------
+
+    def gap_distance(self, request: Mapping[str, Any]) -> dict:
+        """POST /api/gap/distance with the CLI's request (see distlab.gap.solve)."""
+        return _arrays(self._request("POST", "/api/gap/distance", json=_plain(request)))
+
+    # -- jobs -----------------------------------------------------------------------------------
+
+    def job(self, job_id: str) -> dict:
+        return self._request("GET", f"/api/jobs/{job_id}")
+
+    def cancel(self, job_id: str) -> None:
+        self._request("POST", f"/api/jobs/{job_id}/cancel")
+
+    def wait(self, job_id: str, progress: Optional[Callable[[str, float], Any]] = None,
+             poll: float = 0.05, timeout: float = 3600) -> dict:
+        """Waits for a job, calling ``progress(stage, fraction)`` as it advances; Ctrl-C cancels
+        the job on the server and re-raises. Raises ServiceError if the job failed."""
+        end = time.monotonic() + timeout
+        try:
+            while True:
+                job = self.job(job_id)
+                if progress is not None and "stage" in job:
+                    progress(job["stage"], job.get("fraction", 0.0))
+                if job["state"] in ("succeeded", "failed", "cancelled"):
+                    break
+                if time.monotonic() > end:
+                    raise TimeoutError(f"job {job_id} still {job['state']} after {timeout} s")
+                time.sleep(poll)
+        except KeyboardInterrupt:
+            self.cancel(job_id)
+            raise
+        if job["state"] != "succeeded":
+            e = job.get("error") or {}
+            raise ServiceError(422, e.get("code", job["state"]), e.get("field", ""), e.get("message", job["state"]))
+        return job
+
+    # -- Kelvin ---------------------------------------------------------------------------------
+
+    def upload(self, mesh: Union[str, os.PathLike, bytes], format: Optional[str] = None) -> str:
+        """Uploads a mesh file (path or bytes; ``format`` from the extension by default); its id."""
+        if not isinstance(mesh, (bytes, bytearray)):
+            format = format or os.path.splitext(os.fspath(mesh))[1].lstrip(".").lower()
+            with open(mesh, "rb") as f:
+                mesh = f.read()
+        return self._request("POST", "/api/kelvin/uploads", params={"format": format}, data=bytes(mesh))["upload"]
+
+    def kelvin_object(self, *, asset: Optional[str] = None, upload: Optional[str] = None,
+                      mesh: Optional[Tuple[Any, Any]] = None, lx: float, center=None, far_radius=None,
+                      sigma: Optional[Mapping[str, Any]] = None, levels=None,
+                      progress: Optional[Callable[[str, float], Any]] = None, wait: bool = True) -> "KelvinObject":
+        """Creates a Kelvin object from a built-in ``asset``, an ``upload`` id or ``mesh`` =
+        (vertices, faces); with ``wait`` waits for its preparation (``progress(stage, fraction)``)."""
+        body: Dict[str, Any] = {"lx": lx}
+        if asset is not None:
+            body["asset"] = asset
+        if upload is not None:
+            body["upload"] = upload
+        if mesh is not None:
+            body["mesh"] = {"vertices": np.asarray(mesh[0]).tolist(), "faces": np.asarray(mesh[1]).tolist()}
+        for key, value in (("center", center), ("far_radius", far_radius), ("sigma", sigma), ("levels", levels)):
+            if value is not None:
+                body[key] = _plain(value)
+        answer = self._request("POST", "/api/kelvin/objects", json=body)
+        obj = KelvinObject(self, answer["object"]["id"], answer["job"]["id"])
+        if wait:
+            self.wait(obj.job, progress)
+        return obj
+
+    # -- CBF ------------------------------------------------------------------------------------
+
+    def cbf_rollout(self, scenario: Union[str, Mapping[str, Any]], metric: str = "gap",
+                    params: Optional[Mapping[str, Any]] = None, batch_steps: int = 50) -> Iterator[dict]:
+        """Starts a rollout and yields its steps as they stream over the WebSocket (each a dict:
+        ``i``, ``t``, ``q`` (7,), ``u`` (7,), ``distance``, ``witness_a`` ..., numpy arrays), in
+        order, each once; stops after the last step. A failed rollout raises ServiceError; closing
+        the iterator early cancels the job."""
+        ws = self._ws()
+        job_id = None
+        try:
+            hello = json.loads(ws.recv())
+            assert hello.get("type") == "hello", hello
+            body: Dict[str, Any] = {"scenario": _plain(scenario), "metric": metric,
+                                    "stream": {"batch_steps": batch_steps}}
+            if params is not None:
+                body["params"] = _plain(params)
+            answer = self._request("POST", "/api/cbf/rollouts", json=body)
+            rollout_id, job_id = answer["rollout"]["id"], answer["job"]["id"]
+            nxt, total, final = 0, None, None
+            while total is None or nxt < total:
+                message = ws.recv()
+                if isinstance(message, bytes):
+                    continue  # mesh frames of Kelvin objects
+                m = json.loads(message)
+                if m.get("type") == "cbf_frames" and m.get("rollout") == rollout_id:
+                    total = m.get("steps_total", total)
+                    for frame in m["frames"]:
+                        if frame["i"] == nxt:
+                            nxt += 1
+                            yield _arrays(frame)
+                elif m.get("type") == "job" and m["job"]["id"] == job_id and \
+                        m["job"]["state"] in ("succeeded", "failed", "cancelled"):
+                    final = m["job"]
+                    break
+            if final is not None:  # the job ended: the rest from the REST record of its frames
+                if final["state"] != "succeeded":
+                    e = final.get("error") or {}
+                    raise ServiceError(422, e.get("code", final["state"]), e.get("field", ""),
+                                       e.get("message", final["state"]))
+                while True:
+                    page = self._request("GET", f"/api/cbf/rollouts/{rollout_id}/frames", params={"from": nxt})
+                    if not page["frames"]:
+                        break
+                    for frame in page["frames"]:
+                        if frame["i"] == nxt:
+                            nxt += 1
+                            yield _arrays(frame)
+            job_id = None
+        finally:
+            if job_id is not None:
+                try:
+                    self.cancel(job_id)
+                except Exception:  # noqa: BLE001  (best effort on the way out)
+                    pass
+            ws.close()
+
+
+class KelvinObject:
+    """A Kelvin object of the client's session."""
+
+    def __init__(self, client: Client, object_id: str, job: str):
+        self.client, self.id, self.job = client, object_id, job
+
+    def _path(self, tail: str = "") -> str:
+        return f"/api/kelvin/objects/{self.id}{tail}"
+
+    def info(self) -> dict:
+        """State, stats, sigma_version, levels."""
+        return _arrays(self.client._request("GET", self._path()))
+
+    def set_sigma(self, per_vertex=None, *, constant: Optional[float] = None, axis=None, brushes=None) -> dict:
+        """PUT σ (the terms add up; per_vertex in the file's vertex order); the new sigma state."""
+        body: Dict[str, Any] = {}
+        for key, value in (("per_vertex", per_vertex), ("constant", constant), ("axis", axis), ("brushes", brushes)):
+            if value is not None:
+                body[key] = _plain(value)
+        return self.client._request("PUT", self._path("/sigma"), json=body)
+
+    def query(self, points) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """h (N,), ∇h (N, 3) (NaN where undefined) and inside (N,) at points (N, 3)."""
+        p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        r = self.client._request("POST", self._path("/query"), json={"points": p.tolist()})
+        h = np.array([np.nan if v is None else v for v in r["h"]], dtype=np.float64)
+        g = np.array([[np.nan] * 3 if v is None else v for v in r["gradient"]], dtype=np.float64).reshape(-1, 3)
+        return h, g, np.array(r["inside"], dtype=bool)
+
+    def isosurface(self, level: float) -> Tuple[np.ndarray, np.ndarray]:
+        """The iso-surface {h = level}: vertices (n, 3) float32, faces (m, 3) uint32."""
+        f = decode_mesh_frame(self.client._request("GET", self._path("/isosurface"), params={"level": level}, raw=True))
+        return f["positions"], f["indices"]
+
+    def surface(self) -> dict:
+        """The object's surface frame (positions, indices, σ per vertex as scalars)."""
+        return decode_mesh_frame(self.client._request("GET", self._path("/surface"), raw=True))
+
+    def export(self, path: Union[str, os.PathLike], level: float, format: Optional[str] = None) -> None:
+        """Downloads the iso-surface {h = level} as STL, OBJ, PLY or GLB into ``path``."""
+        fmt = format or os.path.splitext(os.fspath(path))[1].lstrip(".").lower()
+        data = self.client._request("GET", self._path("/export"), params={"level": level, "format": fmt}, raw=True)
+        with open(path, "wb") as f:
+            f.write(data)
+
+    def delete(self) -> None:
+        self.client._request("DELETE", self._path())
+
+
+def _plain(x):
+    """numpy arrays and scalars as JSON-ready lists and numbers."""
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    if isinstance(x, np.generic):
+        return x.item()
+    if isinstance(x, Mapping):
+        return {k: _plain(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_plain(v) for v in x]
+    return x

@@ -1,0 +1,30 @@
+"""Exceptions of distlab: bad input names the offending field, as the CLI and the service do."""
+
+import re
+
+__all__ = ["InvalidInput", "InvalidInputType", "invalid_input"]
+
+
+class InvalidInput(ValueError):
+    """Bad input. ``field`` is the path of the offending value (``"a.size[1]"``, ``"params.h"``;
+    ``""`` for the request as a whole), as in the service's ``{"error": {"field"}}``."""
+
+    def __init__(self, field: str, message: str):
+        super().__init__(f"{field}: {message}" if field else message)
+        self.field = field
+        self.message = message
+
+
+class InvalidInputType(InvalidInput, TypeError):
+    """Bad input whose value has the wrong type (a string where a number belongs, ...): both a
+    ValueError (as every InvalidInput) and a TypeError."""
+
+
+# The JSON readers (backend/server json_fields.hpp) end a type mismatch with ", got <JSON type>".
+_TYPE_MISMATCH = re.compile(r"got (null|object|array|string|boolean|number)$")
+
+
+def invalid_input(field: str, message: str) -> InvalidInput:
+    """The exception for the C++ InvalidInput(field, message) (called by the extension)."""
+    cls = InvalidInputType if _TYPE_MISMATCH.search(message) else InvalidInput
+    return cls(field, message)

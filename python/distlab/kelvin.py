@@ -1,0 +1,113 @@
+"""The semantics-aware distance h(x) of an object by the Kelvin transformation.
+
+Prepare once (σ-independent: inversion, tetrahedral mesh, factorization), then set σ on the
+surface and query h and ∇h, extract or export iso-surfaces of h."""
+
+from __future__ import annotations
+
+import os
+from typing import Any, Callable, Mapping, Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+from . import _core
+
+__all__ = ["solve", "Field", "INSIDE", "NONPOSITIVE"]
+
+#: status codes of :meth:`Field.query` (0: ok)
+INSIDE = 1
+NONPOSITIVE = 2
+
+
+def solve(request: Mapping[str, Any], progress: Optional[Callable[[str, float], Any]] = None) -> dict:
+    """Runs a ``distlab kelvin`` request (``{"mesh", "lx", "sigma", "query", "isosurfaces", ...}``)
+    and returns its response as a dict (numeric arrays as numpy arrays; ``null`` h as NaN): the
+    CLI's numbers, bit for bit. ``progress(stage, fraction)`` as for :meth:`Field.prepare`."""
+    return _core.kelvin_solve(dict(request), progress)
+
+
+class Field:
+    """A prepared object. Make one with :meth:`prepare`."""
+
+    def __init__(self, core):
+        self._core = core
+
+    @classmethod
+    def prepare(
+        cls,
+        mesh: Union[str, os.PathLike, Tuple[Any, Any]],
+        lx: float,
+        center: Optional[Sequence[float]] = None,
+        far_radius: Optional[float] = None,
+        feature_angle: Optional[float] = None,
+        max_vertices: Optional[int] = None,
+        cache_dir: Optional[Union[str, os.PathLike]] = None,
+        progress: Optional[Callable[[str, float], Any]] = None,
+    ) -> "Field":
+        """Prepares ``mesh``: a file path (STL, OBJ, PLY, GLB, OFF) or ``(vertices (n, 3), faces
+        (m, 3))`` arrays of a closed, oriented surface, with exterior element size ``lx`` (metres).
+        ``center``: inversion centre (default a deep interior point); ``far_radius``,
+        ``feature_angle``, ``max_vertices``: as in the CLI request. ``cache_dir``: saves the
+        prepared field there (by content) and loads it on the next call with the same input.
+        ``progress(stage, fraction)`` is called as work advances; Ctrl-C (KeyboardInterrupt), or an
+        exception raised by ``progress``, cancels the preparation cleanly and propagates. σ starts
+        at 0 everywhere."""
+        options = {"lx": lx, "center": center, "far_radius": far_radius, "feature_angle": feature_angle,
+                   "max_vertices": max_vertices}
+        cache = None if cache_dir is None else os.fspath(cache_dir)
+        if isinstance(mesh, (str, os.PathLike)):
+            core = _core.KelvinField.prepare(None, None, os.fspath(mesh), options, cache, progress)
+        else:
+            vertices, faces = mesh
+            core = _core.KelvinField.prepare(np.asarray(vertices, dtype=np.float64), np.asarray(faces), None,
+                                             options, cache, progress)
+        return cls(core)
+
+    def set_sigma(self, per_vertex=None, *, constant: float = 0.0, axis=None, brushes=None,
+                  gradients: bool = True) -> None:
+        """Sets σ on the surface: the sum of ``per_vertex`` (one value per vertex of the input
+        mesh, in the file's vertex order after identical positions are welded, linear over faces),
+        ``constant``, ``axis`` terms (eq. 24: dicts ``{"axis", "d0", "sigma_nom", "origin",
+        "width"}``) and ``brushes`` (``{"center", "radius", "value", "falloff"}``). Then solves for
+        the field (and its vertex gradients unless ``gradients`` is False)."""
+        spec: dict = {"constant": constant}
+        if per_vertex is not None:
+            spec["per_vertex"] = np.asarray(per_vertex, dtype=np.float64)
+        if axis is not None:
+            spec["axis"] = axis
+        if brushes is not None:
+            spec["brushes"] = brushes
+        self._core.set_sigma(spec, gradients)
+
+    def query(self, points, hints: bool = True) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """h (N,), ∇h (N, 3) and status (N,) (0 ok, INSIDE, NONPOSITIVE; h and ∇h NaN there) at
+        ``points`` (N, 3). With ``hints`` each point's search starts at the previous point's cell
+        (fast for coherent orders such as lines and grids)."""
+        p = np.ascontiguousarray(np.asarray(points, dtype=np.float64).reshape(-1, 3))
+        return self._core.query(p, hints)
+
+    def isosurface(self, level: float) -> Tuple[np.ndarray, np.ndarray]:
+        """The closed surface {h = level}: vertices (n, 3) float64, faces (m, 3) int32."""
+        return self._core.isosurface(float(level))
+
+    def export(self, path: Union[str, os.PathLike], level: float, format: Optional[str] = None) -> None:
+        """Writes the iso-surface {h = level} to ``path`` (``format`` stl, obj, ply or glb; default
+        from the file's extension)."""
+        path = os.fspath(path)
+        fmt = format or os.path.splitext(path)[1].lstrip(".").lower()
+        self._core.export(path, float(level), fmt)
+
+    @property
+    def stats(self) -> dict:
+        """Sizes and timings: n_verts, n_tets, size_mb, t_mesh, t_build, t_decomp, t_solve, cache_hit."""
+        return self._core.stats()
+
+    @property
+    def surface(self) -> Tuple[np.ndarray, np.ndarray]:
+        """The validated input surface (vertices, faces), in the order σ's per_vertex follows."""
+        return self._core.surface()
+
+    @property
+    def center(self) -> np.ndarray:
+        """The inversion centre."""
+        return self._core.centre()

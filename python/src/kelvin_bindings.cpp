@@ -1,0 +1,215 @@
+// distlab.kelvin: the CLI's request (solve) and a prepared Field held in Python.
+#include <cmath>
+#include <memory>
+#include <string>
+
+#include <pybind11/numpy.h>
+
+#include "bindings.hpp"
+#include "convert.hpp"
+#include "interrupt.hpp"
+#include "distlab/kelvin/field.hpp"
+#include "distlab/mesh/surface.hpp"
+#include "distlab/server/gap_json.hpp"
+#include "distlab/server/json_fields.hpp"
+#include "distlab/server/kelvin_json.hpp"
+
+namespace py = pybind11;
+using json = nlohmann::json;
+
+namespace distlab::python {
+namespace {
+
+using Doubles = py::array_t<double, py::array::c_style | py::array::forcecast>;
+using Ints = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>;
+
+py::object kelvin_solve(const py::object& request, const py::object& progress) {
+  const json j = to_json(request);
+  Interruptible interrupt(progress);
+  kelvin::Progress p;
+  p.cancel = interrupt.flag();
+  p.report = [&](const std::string& stage, double f) { interrupt.report(stage, f); };
+  json response;
+  try {
+    py::gil_scoped_release release;
+    response = server::run_kelvin_request(j, p);
+  } catch (const kelvin::Cancelled&) {
+    interrupt.raise();
+  }
+  return to_python(response);
+}
+
+mesh::SurfaceMesh mesh_from_arrays(const py::object& vertices, const py::object& faces) {
+  const auto V = Doubles::ensure(vertices);
+  const auto F = Ints::ensure(faces);
+  if (!V || V.ndim() != 2 || V.shape(1) != 3) throw InvalidInput("vertices", "vertices must have shape (n, 3)");
+  if (!F || F.ndim() != 2 || F.shape(1) != 3) throw InvalidInput("faces", "faces must have shape (m, 3)");
+  mesh::SurfaceMesh m;
+  m.vertices.resize(V.shape(0), 3);
+  m.faces.resize(F.shape(0), 3);
+  for (py::ssize_t i = 0; i < V.shape(0); ++i)
+    for (int k = 0; k < 3; ++k) {
+      const double v = V.at(i, k);
+      if (!(std::abs(v) <= server::kMaxCoordinate))
+        throw InvalidInput(server::json_index_path("vertices", static_cast<std::size_t>(i)),
+                           "vertices must be finite and within the coordinate limit");
+      m.vertices(i, k) = v;
+    }
+  for (py::ssize_t i = 0; i < F.shape(0); ++i)
+    for (int k = 0; k < 3; ++k) {
+      const std::int64_t f = F.at(i, k);
+      if (f < 0 || f >= V.shape(0))
+        throw InvalidInput(server::json_index_path("faces", static_cast<std::size_t>(i)),
+                           "face index " + std::to_string(f) + " is not a vertex (0 to " +
+                               std::to_string(V.shape(0) - 1) + ")");
+      m.faces(i, k) = static_cast<int>(f);
+    }
+  return m;
+}
+
+class PyField {
+ public:
+  // options: lx, center, far_radius, feature_angle, max_vertices (as the CLI request's keys).
+  static std::unique_ptr<PyField> prepare(const py::object& vertices, const py::object& faces, const py::object& path,
+                                          const py::dict& options, const py::object& cache_dir,
+                                          const py::object& progress) {
+    const json o = to_json(options);
+    kelvin::PrepareOptions po;
+    po.lx = server::json_number(server::json_required(o, "", "lx"), "lx");
+    if (auto c = server::json_optional(o, "center"); c && !c->is_null()) po.centre = server::json_vec3(*c, "center");
+    if (auto v = server::json_optional(o, "far_radius"); v && !v->is_null())
+      po.far_radius = server::json_positive(*v, "far_radius");
+    if (auto v = server::json_optional(o, "feature_angle"); v && !v->is_null())
+      po.feature_angle = server::json_number(*v, "feature_angle");
+    if (auto v = server::json_optional(o, "max_vertices"); v && !v->is_null())
+      po.max_vertices = static_cast<std::size_t>(server::json_integer(*v, "max_vertices", 100, 100000000));
+    mesh::SurfaceMesh surface;
+    std::string cache;
+    if (!cache_dir.is_none()) cache = py::str(cache_dir);
+    if (!path.is_none()) {
+      const std::string p = py::str(path);
+      py::gil_scoped_release release;
+      surface = mesh::load_mesh(p, "path");
+    } else {
+      surface = mesh_from_arrays(vertices, faces);
+    }
+    Interruptible interrupt(progress);
+    kelvin::Progress pr;
+    pr.cancel = interrupt.flag();
+    pr.report = [&](const std::string& stage, double f) { interrupt.report(stage, f); };
+    try {
+      py::gil_scoped_release release;
+      bool hit = false;
+      auto field = std::make_unique<PyField>(cache.empty() ? kelvin::Field::prepare(surface, po, pr)
+                                                           : kelvin::Field::prepare_cached(surface, po, cache, pr, &hit));
+      field->cache_hit_ = hit;
+      field->field_.set_sigma(kelvin::SigmaSpec{});
+      return field;
+    } catch (const kelvin::Cancelled&) {
+      interrupt.raise();
+    }
+  }
+
+  explicit PyField(kelvin::Field f) : field_(std::move(f)) {}
+
+  void set_sigma(const py::dict& sigma, bool gradients) {
+    const kelvin::SigmaSpec spec = server::parse_sigma(to_json(sigma, "sigma"));
+    py::gil_scoped_release release;
+    field_.set_sigma(spec, gradients);
+  }
+
+  py::tuple query(const Doubles& points, bool hints) const {
+    if (points.ndim() != 2 || points.shape(1) != 3) throw InvalidInput("points", "points must have shape (n, 3)");
+    const py::ssize_t n = points.shape(0);
+    const double* p = points.data();
+    for (py::ssize_t i = 0; i < 3 * n; ++i)
+      if (!std::isfinite(p[i]))
+        throw InvalidInput(server::json_index_path("points", static_cast<std::size_t>(i / 3)), "points must be finite");
+    py::array_t<double> h(n), grad({n, py::ssize_t{3}});
+    py::array_t<std::int8_t> status(n);
+    double* hp = h.mutable_data();
+    double* gp = grad.mutable_data();
+    std::int8_t* sp = status.mutable_data();
+    {
+      py::gil_scoped_release release;
+      int hint = -1;
+      for (py::ssize_t i = 0; i < n; ++i) {
+        const kelvin::Sample s = field_.query(Vec3(p[3 * i], p[3 * i + 1], p[3 * i + 2]), hints ? &hint : nullptr);
+        const bool ok = s.status == kelvin::Status::ok;
+        hp[i] = ok ? s.h : std::nan("");
+        for (int k = 0; k < 3; ++k) gp[3 * i + k] = ok ? s.gradient[k] : std::nan("");
+        sp[i] = static_cast<std::int8_t>(s.status);
+      }
+    }
+    return py::make_tuple(h, grad, status);
+  }
+
+  static py::tuple arrays(const mesh::SurfaceMesh& m) {
+    py::array_t<double> V({static_cast<py::ssize_t>(m.vertices.rows()), py::ssize_t{3}});
+    py::array_t<std::int32_t> F({static_cast<py::ssize_t>(m.faces.rows()), py::ssize_t{3}});
+    std::copy(m.vertices.data(), m.vertices.data() + m.vertices.size(), V.mutable_data());
+    std::copy(m.faces.data(), m.faces.data() + m.faces.size(), F.mutable_data());
+    return py::make_tuple(V, F);
+  }
+
+  py::tuple isosurface(double level) const {
+    server::json_number(json(level), "level");
+    mesh::SurfaceMesh m;
+    {
+      py::gil_scoped_release release;
+      m = field_.isosurface(level);
+    }
+    return arrays(m);
+  }
+
+  void export_mesh(const std::string& path, double level, const std::string& format) const {
+    server::json_number(json(level), "level");
+    py::gil_scoped_release release;
+    mesh::save_mesh(field_.isosurface(level), path, format, "format");
+  }
+
+  py::dict stats() const {
+    const kelvin::Stats& s = field_.stats();
+    py::dict d;
+    d["n_verts"] = s.n_verts;
+    d["n_tets"] = s.n_tets;
+    d["size_mb"] = s.size_mb;
+    d["t_mesh"] = s.t_mesh;
+    d["t_build"] = s.t_build;
+    d["t_decomp"] = s.t_decomp;
+    d["t_solve"] = s.t_solve;
+    d["cache_hit"] = cache_hit_;
+    py::list warnings;
+    for (const std::string& w : s.warnings) warnings.append(w);
+    d["warnings"] = warnings;
+    return d;
+  }
+
+  py::tuple surface() const { return arrays(field_.surface()); }
+  py::array_t<double> centre() const {
+    const Vec3 c = field_.centre();
+    return py::array_t<double>(3, c.data());
+  }
+
+ private:
+  kelvin::Field field_;
+  bool cache_hit_ = false;
+};
+
+}  // namespace
+
+void bind_kelvin(py::module_& m) {
+  m.def("kelvin_solve", &kelvin_solve, py::arg("request"), py::arg("progress") = py::none());
+  py::class_<PyField>(m, "KelvinField")
+      .def_static("prepare", &PyField::prepare, py::arg("vertices"), py::arg("faces"), py::arg("path"),
+                  py::arg("options"), py::arg("cache_dir"), py::arg("progress"))
+      .def("set_sigma", &PyField::set_sigma, py::arg("sigma"), py::arg("gradients") = true)
+      .def("query", &PyField::query, py::arg("points"), py::arg("hints") = true)
+      .def("isosurface", &PyField::isosurface, py::arg("level"))
+      .def("export", &PyField::export_mesh, py::arg("path"), py::arg("level"), py::arg("format"))
+      .def("stats", &PyField::stats)
+      .def("surface", &PyField::surface)
+      .def("centre", &PyField::centre);
+}
+
+}  // namespace distlab::python

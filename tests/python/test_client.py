@@ -1,0 +1,90 @@
+"""distlab.Client against the real `distlab serve` on a free port: the same numbers as in-process."""
+
+import json
+import re
+import signal
+import subprocess
+import tempfile
+import time
+
+import numpy as np
+import pytest
+
+import distlab
+from distlab import gap, kelvin
+from distlab.client import ServiceError
+from conftest import EXE, ROOT, assert_same
+
+
+@pytest.fixture(scope="module")
+def server(exe):
+    with tempfile.TemporaryDirectory() as cache, tempfile.TemporaryDirectory() as web:
+        proc = subprocess.Popen([exe, "serve", "--host", "127.0.0.1", "--port", "0", "--cache-dir", cache,
+                                 "--web", web, "--assets", str(ROOT / "assets"), "--threads", "2"],
+                                stdout=subprocess.PIPE, text=True)
+        line = proc.stdout.readline()  # "... 127.0.0.1:PORT ...": the port it got
+        m = re.search(r"127\.0\.0\.1:(\d+)", line)
+        assert m, line
+        url = f"http://127.0.0.1:{m.group(1)}"
+        try:
+            for _ in range(100):
+                try:
+                    distlab.Client(url).health()
+                    break
+                except Exception:  # noqa: BLE001  (not up yet)
+                    time.sleep(0.05)
+            yield url
+        finally:
+            proc.send_signal(signal.SIGTERM)
+            assert proc.wait(timeout=30) == 0
+
+
+def test_gap_equals_in_process(server):
+    request = json.loads((ROOT / "assets" / "gap" / "example.json").read_text())
+    c = distlab.Client(server)
+    assert_same(c.gap_distance(request), gap.solve(request))
+
+
+def test_bad_input_names_the_field(server):
+    c = distlab.Client(server)
+    with pytest.raises(ServiceError) as info:
+        c.gap_distance({"a": {"type": "box", "size": [1, -1, 1]}, "b": {"type": "sphere", "radius": 1}})
+    assert info.value.field == "a.size[1]" and info.value.status == 400
+    assert isinstance(info.value, ValueError)
+
+
+def test_kelvin_object(server, tmp_path):
+    c = distlab.Client(server)
+    stages = []
+    upload = c.upload(ROOT / "assets" / "cube.stl")
+    obj = c.kelvin_object(upload=upload, lx=0.25, progress=lambda s, f: stages.append(s))
+    assert obj.info()["state"] == "ready" and stages
+    obj.set_sigma(constant=0.2)
+    points = np.array([[1.0, 0.2, 0.1], [0.0, 0.0, 0.0], [-2.0, 1.0, 0.5]])
+    h, g, inside = obj.query(points)
+    # In process, the same preparation and σ give the same numbers (JSON carries doubles exactly).
+    field = kelvin.Field.prepare(ROOT / "assets" / "cube.stl", lx=0.25)
+    field.set_sigma(constant=0.2)
+    h2, g2, status = field.query(points)
+    np.testing.assert_array_equal(h, h2)
+    np.testing.assert_array_equal(g, g2)
+    np.testing.assert_array_equal(inside, status == kelvin.INSIDE)
+    V, F = obj.isosurface(0.3)
+    assert V.dtype == np.float32 and F.dtype == np.uint32 and F.max() < len(V)
+    V2, F2 = field.isosurface(0.3)
+    assert len(V) == len(V2) and len(F) == len(F2)
+    obj.export(tmp_path / "iso.stl", 0.3)
+    assert (tmp_path / "iso.stl").stat().st_size == 84 + 50 * len(F)
+    surface = obj.surface()
+    np.testing.assert_allclose(surface["scalars"], 0.2, rtol=0, atol=1e-6)
+
+
+def test_cbf_rollout_streams_every_step(server):
+    c = distlab.Client(server)
+    params = {"duration": 0.5}
+    frames = list(c.cbf_rollout("corridor", "gap", params, batch_steps=7))
+    assert [f["i"] for f in frames] == list(range(len(frames)))
+    record = distlab.cbf.rollout("corridor", "gap", params)
+    assert len(frames) == len(record["t"])
+    np.testing.assert_array_equal(np.array([f["q"] for f in frames]), record["q"])
+    np.testing.assert_array_equal(np.array([f["u"] for f in frames]), record["u"])

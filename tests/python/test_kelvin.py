@@ -1,0 +1,134 @@
+"""distlab.kelvin against the CLI (bit for bit), the sphere's closed form, and bad input."""
+
+import os
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import distlab
+from distlab import kelvin
+from conftest import ROOT, assert_same, run_cli
+
+SPHERE = str(ROOT / "assets" / "sphere.stl")  # radius 0.5 at the origin
+
+
+def test_solve_equals_cli(exe, tmp_path):
+    request = {"mesh": {"asset": "cube"}, "lx": 0.25, "sigma": {"constant": 0.2},
+               "query": [[1.0, 0.2, 0.1], [0.0, 0.0, 0.0], [0.6, 0.6, 0.7], [-2.0, 1.0, 0.5]]}
+    code, cli = run_cli("kelvin", request)
+    assert code == 0, cli
+    ours = kelvin.solve(request)
+    assert_same(ours, cli, skip={"t_mesh", "t_build", "t_decomp", "t_solve", "size_mb"})
+    assert np.isnan(ours["query"]["h"][1])  # inside: null in JSON
+
+
+@pytest.fixture(scope="module")
+def sphere_field():
+    # Inversion centre off the sphere's centre, so V is not trivially exact (as in the C++ test).
+    return kelvin.Field.prepare(SPHERE, lx=0.15, center=[0.1, -0.05, 0.08])
+
+
+def test_sphere_matches_closed_form(sphere_field):
+    sigma = 0.3
+    sphere_field.set_sigma(constant=sigma)
+    rng = np.random.default_rng(2)
+    d = rng.standard_normal((500, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    r = rng.uniform(0.6, 2.0, (500, 1))
+    x = d * r
+    h, g, status = sphere_field.query(x)
+    assert (status == 0).all()
+    exact = sigma + np.log(r[:, 0] / 0.5)  # h = σ + ln(|x| / R)
+    np.testing.assert_allclose(h, exact, atol=0.03)
+    np.testing.assert_allclose(g, d / r, atol=0.15)
+    h_nohint, g_nohint, _ = sphere_field.query(x, hints=False)
+    np.testing.assert_array_equal(h_nohint, h)
+    np.testing.assert_array_equal(g_nohint, g)
+    _, _, inside = sphere_field.query([[0.0, 0.0, 0.0]])
+    assert inside[0] == kelvin.INSIDE
+
+
+def test_isosurface_and_export(sphere_field, tmp_path):
+    sphere_field.set_sigma(constant=0.3)
+    V, F = sphere_field.isosurface(0.5)
+    radii = np.linalg.norm(V, axis=1)
+    np.testing.assert_allclose(radii, 0.5 * np.exp(0.2), rtol=0.05)  # σ + ln(r/R) = 0.5
+    assert F.shape[1] == 3 and F.max() < len(V)
+    path = tmp_path / "iso.stl"
+    sphere_field.export(path, 0.5)
+    assert path.stat().st_size == 84 + 50 * len(F)
+
+
+def test_per_vertex_sigma_follows_the_surface(sphere_field):
+    V, _ = sphere_field.surface
+    sphere_field.set_sigma(per_vertex=np.full(len(V), 0.3))
+    h1, _, _ = sphere_field.query([[1.0, 0.0, 0.0]])
+    sphere_field.set_sigma(constant=0.3)
+    h2, _, _ = sphere_field.query([[1.0, 0.0, 0.0]])
+    np.testing.assert_allclose(h1, h2, rtol=0, atol=1e-12)
+
+
+def test_prepare_from_arrays_and_cache(tmp_path):
+    V = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]], float) - 0.5
+    F = np.array([[0, 2, 1], [0, 3, 2], [4, 5, 6], [4, 6, 7], [0, 1, 5], [0, 5, 4],
+                  [1, 2, 6], [1, 6, 5], [2, 3, 7], [2, 7, 6], [3, 0, 4], [3, 4, 7]])
+    stages = []
+    f1 = kelvin.Field.prepare((V, F), lx=0.3, cache_dir=tmp_path, progress=lambda s, f: stages.append(s))
+    assert stages and not f1.stats["cache_hit"]
+    f2 = kelvin.Field.prepare((V, F), lx=0.3, cache_dir=tmp_path)
+    assert f2.stats["cache_hit"]
+    x = [[1.0, 0.3, 0.2]]
+    assert f1.query(x)[0][0] == f2.query(x)[0][0]
+
+
+def test_an_exception_in_progress_cancels():
+    class Stop(Exception):
+        pass
+
+    def progress(stage, fraction):
+        raise Stop()
+
+    with pytest.raises(Stop):
+        kelvin.Field.prepare(SPHERE, lx=0.05, progress=progress)
+
+
+def test_keyboard_interrupt_cancels_preparation():
+    import _thread
+
+    timer = threading.Timer(0.3, _thread.interrupt_main)
+    timer.start()
+    t0 = time.monotonic()
+    with pytest.raises(KeyboardInterrupt):
+        kelvin.Field.prepare(SPHERE, lx=0.02, progress=lambda s, f: None)
+    timer.cancel()
+    assert time.monotonic() - t0 < 120  # stopped, not run to completion (generous: a shared machine)
+
+
+BAD = [
+    (lambda: kelvin.Field.prepare(SPHERE, lx=-1), distlab.InvalidInput, "lx"),
+    (lambda: kelvin.Field.prepare(SPHERE, lx="a"), distlab.InvalidInputType, "lx"),
+    (lambda: kelvin.Field.prepare("/nonexistent.stl", lx=0.1), distlab.InvalidInput, "path"),
+    (lambda: kelvin.Field.prepare((np.zeros((3, 3)), [[0, 1, 5]]), lx=0.1), distlab.InvalidInput, "faces[0]"),
+    (lambda: kelvin.Field.prepare((np.zeros((3, 2)), [[0, 1, 2]]), lx=0.1), distlab.InvalidInput, "vertices"),
+    (lambda: kelvin.Field.prepare(SPHERE, lx=0.2, center=[0, 0]), distlab.InvalidInput, "center"),
+    (lambda: kelvin.solve({"mesh": {"asset": "nope"}, "lx": 0.1}), distlab.InvalidInput, "mesh.asset"),
+    (lambda: kelvin.solve({"mesh": {"asset": "cube"}, "lx": 0.1, "extra": 1}), distlab.InvalidInput, "extra"),
+]
+
+
+@pytest.mark.parametrize("call,error,field", BAD)
+def test_bad_input_raises_naming_the_field(call, error, field):
+    with pytest.raises(error) as info:
+        call()
+    assert info.value.field == field, str(info.value)
+
+
+def test_bad_sigma_raises_naming_the_field(sphere_field):
+    with pytest.raises(distlab.InvalidInput) as info:
+        sphere_field.set_sigma(per_vertex=[0.1, 0.2])
+    assert info.value.field.startswith("sigma.per_vertex")
+    with pytest.raises(distlab.InvalidInput) as info:
+        sphere_field.query([[np.nan, 0, 0]])
+    assert info.value.field == "points[0]"
