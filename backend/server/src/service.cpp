@@ -160,6 +160,8 @@ void Service::register_core_routes() {
                  limits["max_uploads_per_session"] = l.max_uploads_per_session;
                  limits["max_plane_resolution"] = l.max_plane_resolution;
                  limits["max_gap_iterations"] = l.max_gap_iterations;
+                 limits["import_memory_bytes"] = l.import_memory_bytes;
+                 limits["import_seconds"] = l.import_seconds;
                  limits["isosurface_levels_per_request"] = kIsosurfaceLevelsPerRequest;
                  // The CBF rollout limits (also in GET /api/cbf/scenarios), named for request_bounds.
                  const CbfLimits& cbf = cbf_rollouts_->limits();

@@ -36,6 +36,10 @@ struct Limits {
   std::size_t max_gap_pairs = 2000;
   int max_gap_iterations = 1000000;  // params.max_iter of one GAP pair (0: the solver's default)
   std::size_t query_chunk_points = 4096;  // Kelvin queries check the time limit this often
+  // An upload is parsed in a child process (distlab import-mesh) with this address-space limit
+  // and this CPU and wall-clock time; beyond either it is refused (400, field body).
+  std::size_t import_memory_bytes = std::size_t{1} << 30;
+  double import_seconds = 20;
 };
 
 struct ServiceConfig {
