@@ -101,7 +101,7 @@ SurfaceMesh decode(const std::string& data, const std::string& field, const std:
 
 int import_mesh_child(const std::vector<std::string>& args, std::ostream& out) {
   if (args.size() != 3) return 2;
-  const std::size_t memory = std::stoull(args[1]);
+  [[maybe_unused]] const std::size_t memory = std::stoull(args[1]);  // unused under ASan
   const double seconds = std::stod(args[2]);
   set_limit(RLIMIT_CORE, 0, 0);
   const auto cpu = static_cast<rlim_t>(std::ceil(std::max(seconds, 1.0)));
