@@ -1,9 +1,16 @@
 // Import, welding and export round trips through assimp for every supported format.
 #include <gtest/gtest.h>
+#include <sys/resource.h>
+#include <unistd.h>
 
+#include <algorithm>
+#include <array>
+#include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <optional>
 #include <string>
 #include <utility>
@@ -13,10 +20,12 @@
 #include "distlab/mesh/checks.hpp"
 #include "distlab/mesh/primitives.hpp"
 #include "distlab/mesh/surface.hpp"
+#include "mesh/hostile_meshes.hpp"
 
 namespace fs = std::filesystem;
 using namespace distlab;
 using namespace distlab::mesh;
+using namespace distlab::test;
 
 namespace {
 
@@ -117,5 +126,118 @@ TEST(MeshExport, UnknownFormatIsRefused) {
     FAIL();
   } catch (const InvalidInput& e) {
     EXPECT_EQ(e.field(), "format");
+  }
+}
+
+namespace {
+
+std::string slurp(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+fs::path write_file(const std::string& name, const std::string& bytes) {
+  const fs::path path = temp_dir() / name;
+  std::ofstream(path, std::ios::binary) << bytes;
+  return path;
+}
+
+void expect_file_order(const SurfaceMesh& m, const std::string& format) {
+  ASSERT_EQ(m.vertices.rows(), static_cast<Eigen::Index>(kFileVertices.size())) << format << ": duplicates kept, nothing welded";
+  for (std::size_t v = 0; v < kFileVertices.size(); ++v)
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(m.vertices(static_cast<Eigen::Index>(v), k), kFileVertices[v][static_cast<std::size_t>(k)]) << format << " vertex " << v;
+  ASSERT_EQ(m.faces.rows(), static_cast<Eigen::Index>(kFileFaces.size())) << format;
+  for (std::size_t f = 0; f < kFileFaces.size(); ++f)
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(m.faces(static_cast<Eigen::Index>(f), k), kFileFaces[f][static_cast<std::size_t>(k)]) << format << " face " << f;
+}
+
+}  // namespace
+
+// Per-vertex arrays are given in the file's vertex order: the loader must return exactly the
+// file's vertices in that order, duplicates included, not the order the faces meet them.
+TEST(MeshImport, KeepsTheFilesVertexOrderAndDuplicates) {
+  expect_file_order(load_mesh(write_file("order.obj", obj_text()).string()), "obj");
+  expect_file_order(load_mesh(write_file("order.off", off_text()).string()), "off");
+  expect_file_order(load_mesh(write_file("order.ply", ply_ascii()).string()), "ascii ply");
+  expect_file_order(load_mesh(write_file("order_b.ply", ply_binary()).string()), "binary ply");
+}
+
+// Polygons become fans around their first vertex, with the file's vertex ids.
+TEST(MeshImport, PolygonsAreFannedWithFileIds) {
+  const SurfaceMesh m = load_mesh(write_file("quad.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 9 9 9\nf 4 3 2 1\n").string());
+  ASSERT_EQ(m.vertices.rows(), 5);
+  ASSERT_EQ(m.faces.rows(), 2);
+  EXPECT_EQ(m.faces.row(0), Eigen::RowVector3i(3, 2, 1));
+  EXPECT_EQ(m.faces.row(1), Eigen::RowVector3i(3, 1, 0));
+}
+
+// Indexed formats written by save_mesh come back in the same order (PLY, and glTF's accessors).
+TEST(MeshImport, IndexedRoundTripKeepsOrder) {
+  const SurfaceMesh sphere = icosphere(0.25, 2);
+  for (const std::string format : {"ply", "glb"}) {
+    const fs::path path = temp_dir() / ("order." + format);
+    save_mesh(sphere, path.string(), format);
+    const SurfaceMesh back = load_mesh(path.string());
+    ASSERT_EQ(back.vertices.rows(), sphere.vertices.rows()) << format;
+    EXPECT_EQ(back.vertices, sphere.vertices.cast<float>().cast<double>()) << format;
+    EXPECT_EQ(back.faces, sphere.faces) << format;
+  }
+}
+
+// STL has no vertex list: its vertices are the distinct corner positions in order of first
+// appearance, facet by facet (the contract in surface.hpp), read here from the bytes directly.
+TEST(MeshImport, StlVerticesAreCornersInOrderOfFirstAppearance) {
+  const fs::path path = temp_dir() / "box.stl";
+  save_mesh(box(Vec3(0.1, 0.2, 0.3)), path.string(), "stl");
+  const std::string bytes = slurp(path);
+  std::vector<std::array<float, 3>> first;
+  std::vector<int> corner_ids;
+  for (std::size_t c = 0; c < (bytes.size() - 84) / 50 * 3; ++c) {
+    std::array<float, 3> p;
+    std::memcpy(p.data(), bytes.data() + 84 + 50 * (c / 3) + 12 * (1 + c % 3), 12);
+    auto it = std::find(first.begin(), first.end(), p);
+    corner_ids.push_back(static_cast<int>(it - first.begin()));
+    if (it == first.end()) first.push_back(p);
+  }
+  const SurfaceMesh m = load_mesh(path.string());
+  ASSERT_EQ(m.vertices.rows(), static_cast<Eigen::Index>(first.size()));
+  for (std::size_t v = 0; v < first.size(); ++v)
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(m.vertices(static_cast<Eigen::Index>(v), k), first[v][static_cast<std::size_t>(k)]);
+  for (std::size_t c = 0; c < corner_ids.size(); ++c) EXPECT_EQ(m.faces(static_cast<Eigen::Index>(c / 3), static_cast<int>(c % 3)), corner_ids[c]);
+}
+
+// Each hostile file is refused with InvalidInput naming the field, without a crash and without
+// allocating what the file declares (peak RSS grows by less than 200 MB over all of them).
+TEST(MeshImport, HostileFilesAreRefusedWithoutExhaustion) {
+  rusage before{};
+  ::getrusage(RUSAGE_SELF, &before);
+  int i = 0;
+  for (const auto& [format, bytes] : hostile_meshes()) {
+    const fs::path path = write_file("hostile" + std::to_string(i++) + "." + format, bytes);
+    try {
+      const SurfaceMesh m = load_mesh(path.string(), "upload");
+      ADD_FAILURE() << "accepted hostile file " << i - 1 << " (" << format << ", " << m.vertices.rows() << " vertices)";
+    } catch (const InvalidInput& e) {
+      std::printf("hostile %d (%s): %s\n", i - 1, format.c_str(), e.what());
+      EXPECT_EQ(e.field(), "upload") << e.what();
+      EXPECT_EQ(std::string(e.what()).find(temp_dir().string()), std::string::npos) << "message reveals the path: " << e.what();
+    }
+  }
+  rusage after{};
+  ::getrusage(RUSAGE_SELF, &after);
+  EXPECT_LT(after.ru_maxrss - before.ru_maxrss, 200 * 1024) << "KB of peak RSS";
+}
+
+// Non-finite coordinates are named as such (not as a parse failure).
+TEST(MeshImport, NonFiniteCoordinatesAreNamed) {
+  const auto files = hostile_meshes();
+  for (std::size_t k = files.size() - 2; k < files.size(); ++k) {
+    const fs::path path = write_file("nonfinite" + std::to_string(k) + "." + files[k].first, files[k].second);
+    try {
+      load_mesh(path.string(), "upload");
+      ADD_FAILURE() << files[k].first;
+    } catch (const InvalidInput& e) {
+      EXPECT_NE(std::string(e.what()).find("non-finite"), std::string::npos) << e.what();
+    }
   }
 }

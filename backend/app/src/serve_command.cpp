@@ -32,7 +32,7 @@ const char* kUsage =
     "  --max-body-bytes N  --max-upload-bytes N  --max-upload-triangles N  --min-lx X\n"
     "  --max-vertices N  --max-sessions N  --max-objects-per-session N  --max-jobs-per-session N\n"
     "  --max-jobs N  --max-job-seconds X  --max-request-seconds X  --max-ws-message-bytes N\n"
-    "  --ws-rate X  --ws-burst X\n"
+    "  --ws-rate X  --ws-burst X  --import-memory-bytes N  --import-seconds X\n"
     "  --limit NAME=VALUE       any limit of GET /api/limits by its name (e.g. max_connections=64)\n";
 
 std::string default_assets() {
@@ -92,6 +92,8 @@ int run_serve(const std::vector<std::string>& args, std::istream&, std::ostream&
       else if (a == "--max-ws-message-bytes") lim.max_ws_message_bytes = count();
       else if (a == "--ws-rate") lim.ws_messages_per_second = std::stod(v);
       else if (a == "--ws-burst") lim.ws_burst = std::stod(v);
+      else if (a == "--import-memory-bytes") lim.import_memory_bytes = count();
+      else if (a == "--import-seconds") lim.import_seconds = std::stod(v);
       else if (a == "--limit") {
         const std::size_t eq = v.find('=');
         bool found = false;

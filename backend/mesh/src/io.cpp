@@ -1,4 +1,12 @@
-// assimp import/export of indexed triangle meshes.
+// Mesh import in the file's own vertex order (CGAL's polygon-soup readers; assimp for glTF), and
+// export through assimp. Counts declared in headers are checked against the file's size before a
+// reader allocates anything, and every index and coordinate is checked before it is used.
+#include <CGAL/IO/OBJ.h>
+#include <CGAL/IO/OFF.h>
+#include <CGAL/IO/PLY.h>
+#include <CGAL/IO/STL.h>
+#include <CGAL/Simple_cartesian.h>
+#include <assimp/DefaultIOSystem.h>
 #include <assimp/Exporter.hpp>
 #include <assimp/Importer.hpp>
 #include <assimp/postprocess.h>
@@ -7,11 +15,16 @@
 #include <algorithm>
 #include <array>
 #include <cctype>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <memory>
+#include <sstream>
+#include <utility>
+#include <vector>
 
 #include "distlab/geometry/error.hpp"
 #include "distlab/mesh/surface.hpp"
@@ -19,6 +32,9 @@
 namespace distlab::mesh {
 
 namespace {
+
+using Point = CGAL::Simple_cartesian<double>::Point_3;
+using Soup = std::vector<std::vector<std::size_t>>;
 
 // The STL check from the first bytes of a file (head: at least its first 1024 bytes, or all of
 // it) and its size: only the header, the count and the text test are needed.
@@ -45,6 +61,289 @@ std::optional<std::uint32_t> stl_triangles(std::string_view head, std::uint64_t 
   throw InvalidInput(field, why);
 }
 
+std::string read_all(const std::string& path) {
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
+  std::string bytes(static_cast<std::size_t>(std::max<std::streamoff>(in.tellg(), 0)), '\0');
+  in.seekg(0);
+  in.read(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  bytes.resize(static_cast<std::size_t>(in.gcount()));
+  return bytes;
+}
+
+// A declared count that the file's bytes cannot hold is refused before any reader sizes a buffer
+// by it (a 34-byte OFF declaring 1e9 vertices must not allocate 24 GB).
+void require_room(const std::string& what, std::uint64_t need, std::uint64_t have, const std::string& field) {
+  if (need > have)
+    throw InvalidInput(field, "the file declares " + what + ", which needs at least " + std::to_string(need) +
+                                  " bytes, but it has only " + std::to_string(have));
+}
+
+// Parses a decimal count; refuses anything that is not one, or does not fit an int index.
+std::uint64_t count(const std::string& token, const std::string& what, const std::string& field) {
+  if (token.empty() || token.size() > 19 || !std::all_of(token.begin(), token.end(), [](char c) { return c >= '0' && c <= '9'; }))
+    throw InvalidInput(field, "the " + what + " count '" + token.substr(0, 20) + "' is not a non-negative integer");
+  const std::uint64_t n = std::stoull(token);
+  if (n > static_cast<std::uint64_t>(std::numeric_limits<int>::max()))
+    throw InvalidInput(field, "the file declares " + token + " " + what + "s (at most " +
+                                  std::to_string(std::numeric_limits<int>::max()) + ")");
+  return n;
+}
+
+bool is_index(std::string_view t) {
+  return !t.empty() && t.size() <= 10 && std::all_of(t.begin(), t.end(), [](char c) { return c >= '0' && c <= '9'; });
+}
+
+std::vector<std::string_view> words(std::string_view line) {
+  std::vector<std::string_view> out;
+  for (std::size_t at = 0; (at = line.find_first_not_of(" \t\r\f\v", at)) != std::string_view::npos;) {
+    const std::size_t end = std::min(line.find_first_of(" \t\r\f\v", at), line.size());
+    out.push_back(line.substr(at, end - at));
+    at = end;
+  }
+  return out;
+}
+
+// OFF: "[ST][C][N][4]OFF" then "nv nf ne". An ASCII vertex takes at least 6 bytes ("0 0 0\n"), a
+// triangle at least 8 ("3 0 1 2\n"). Then the body is walked the way CGAL's scanner reads it (one
+// vertex or face per line, '#' comments): CGAL sizes a face by its declared vertex count and
+// casts it from a double, so every face line must hold the count it declares, all of them
+// integer indices below nv.
+void check_off(const std::string& bytes, const std::string& field) {
+  std::istringstream in(bytes);
+  std::string token;
+  auto next = [&]() {
+    while (in >> token) {
+      if (token[0] != '#') return true;
+      std::getline(in, token);
+    }
+    return false;
+  };
+  if (!next() || token.size() < 3 || token.substr(token.size() - 3) != "OFF" ||
+      token.find_first_not_of("STCN4") < token.size() - 3)
+    throw InvalidInput(field, "not an OFF file: it must start with OFF (or COFF, NOFF, STOFF, 4OFF)");
+  std::array<std::string, 3> counts;
+  for (auto& c : counts)
+    if (!next()) throw InvalidInput(field, "the OFF header must give the numbers of vertices, faces and edges");
+    else c = token;
+  if (counts[0] == "BINARY") throw InvalidInput(field, "binary OFF is not supported; use ASCII OFF, PLY or STL");
+  const std::uint64_t nv = count(counts[0], "vertex", field), nf = count(counts[1], "face", field);
+  count(counts[2], "edge", field);
+  std::size_t at = in.eof() ? bytes.size() : static_cast<std::size_t>(in.tellg());
+  require_room(std::to_string(nv) + " vertices and " + std::to_string(nf) + " faces", nv * 6 + nf * 8,
+               bytes.size() - at + 1, field);
+
+  const std::string_view body(bytes);
+  at = std::min(body.find('\n', at), body.size() - 1) + 1;  // past the rest of the counts' line
+  auto next_line = [&]() -> std::optional<std::vector<std::string_view>> {
+    while (at < body.size()) {
+      const std::size_t end = std::min(body.find('\n', at), body.size());
+      std::string_view line = body.substr(at, end - at);
+      at = end + 1;
+      line = line.substr(0, line.find('#'));
+      if (auto w = words(line); !w.empty()) return w;
+    }
+    return std::nullopt;
+  };
+  for (std::uint64_t v = 0; v < nv; ++v)
+    if (!next_line()) throw InvalidInput(field, "the OFF file ends before its " + std::to_string(nv) + " vertices");
+  for (std::uint64_t f = 0; f < nf; ++f) {
+    const auto w = next_line();
+    if (!w) throw InvalidInput(field, "the OFF file ends before its " + std::to_string(nf) + " faces");
+    const std::string face = "face " + std::to_string(f);
+    if (!is_index((*w)[0])) throw InvalidInput(field, face + ": its vertex count is not a non-negative integer");
+    const std::uint64_t k = std::stoull(std::string((*w)[0]));
+    if (k + 1 > w->size())
+      throw InvalidInput(field, face + " declares " + std::to_string(k) + " vertices but lists " + std::to_string(w->size() - 1));
+    for (std::size_t j = 1; j <= k; ++j)
+      if (!is_index((*w)[j]) || std::stoull(std::string((*w)[j])) >= nv)
+        throw InvalidInput(field, face + " has a vertex index out of range (the file has " + std::to_string(nv) + " vertices)");
+  }
+}
+
+// PLY: every element's count times its smallest record (ASCII: 2 bytes per scalar or list count,
+// binary: the scalar sizes and the list count's size) must fit in the body. Then the body is
+// walked record by record: every list must fit in what is left of the file before CGAL's reader
+// sizes a buffer by its count (a binary uint count can say 4294967295).
+void check_ply(const std::string& bytes, const std::string& field) {
+  const std::size_t end = bytes.find("end_header");
+  if (bytes.rfind("ply", 0) != 0 || end == std::string::npos)
+    throw InvalidInput(field, "not a PLY file: it must start with \"ply\" and have an end_header line");
+  const std::size_t newline = bytes.find('\n', end);
+  std::istringstream in(bytes.substr(0, end));
+  static const std::map<std::string, std::uint64_t> sizes = {
+      {"char", 1},  {"uchar", 1},  {"int8", 1},   {"uint8", 1},   {"short", 2},  {"ushort", 2},
+      {"int16", 2}, {"uint16", 2}, {"int", 4},    {"uint", 4},    {"int32", 4},  {"uint32", 4},
+      {"float", 4}, {"float32", 4}, {"double", 8}, {"float64", 8}};
+  struct Property { std::uint64_t count_size = 0, size = 0; };  // count_size 0: a scalar
+  struct Element { std::string name; std::uint64_t items = 0; std::vector<Property> properties; };
+  std::vector<Element> elements;
+  bool ascii = true, big_endian = false;
+  std::string line;
+  while (std::getline(in, line)) {
+    std::istringstream w(line);
+    std::string key;
+    w >> key;
+    if (key == "format") {
+      std::string f;
+      w >> f;
+      if (f != "ascii" && f != "binary_little_endian" && f != "binary_big_endian")
+        throw InvalidInput(field, "unknown PLY format '" + f.substr(0, 32) + "'");
+      ascii = f == "ascii";
+      big_endian = f == "binary_big_endian";
+    } else if (key == "element") {
+      std::string n;
+      elements.emplace_back();
+      w >> elements.back().name >> n;
+      elements.back().name = elements.back().name.substr(0, 32);
+      elements.back().items = count(n, "PLY '" + elements.back().name + "' element", field);
+    } else if (key == "property") {
+      if (elements.empty()) throw InvalidInput(field, "a PLY property comes before any element");
+      std::string type, counted, item;
+      w >> type;
+      if (type == "list") w >> counted >> item;
+      else item = counted = type;
+      const auto count_size = sizes.find(counted), item_size = sizes.find(item);
+      if (count_size == sizes.end() || item_size == sizes.end())
+        throw InvalidInput(field, "unknown PLY property type in '" + line.substr(0, 64) + "'");
+      elements.back().properties.push_back({type == "list" ? count_size->second : 0, item_size->second});
+    }
+  }
+  const std::uint64_t have = newline == std::string::npos ? 0 : bytes.size() - newline - 1;
+  std::uint64_t need = 0;
+  for (const Element& e : elements) {
+    std::uint64_t record = 0;
+    for (const Property& p : e.properties) record += ascii ? 2 : (p.count_size ? p.count_size : p.size);
+    if (e.items > 0 && record > (std::uint64_t{1} << 40) / e.items)
+      throw InvalidInput(field, "the PLY element '" + e.name + "' is too large for the file");
+    need += e.items * record;
+  }
+  require_room("its PLY elements", ascii && need > 0 ? need - 1 : need, have, field);
+
+  std::size_t at = newline == std::string::npos ? bytes.size() : newline + 1;
+  const std::string_view body(bytes);
+  auto token = [&]() -> std::string_view {
+    at = std::min(body.find_first_not_of(" \t\r\n\f\v", at), body.size());
+    const std::size_t stop = std::min(body.find_first_of(" \t\r\n\f\v", at), body.size());
+    const std::string_view t = body.substr(at, stop - at);
+    at = stop;
+    return t;
+  };
+  auto binary_count = [&](std::uint64_t size) {
+    std::uint64_t n = 0;
+    for (std::uint64_t b = 0; b < size; ++b) {
+      const auto byte = static_cast<unsigned char>(body[at + (big_endian ? b : size - 1 - b)]);
+      n = (n << 8) | byte;
+    }
+    at += size;
+    return n;
+  };
+  const auto truncated = [&](const Element& e) {
+    return InvalidInput(field, "the PLY file ends inside its '" + e.name + "' elements");
+  };
+  for (const Element& e : elements)
+    for (std::uint64_t i = 0; i < e.items; ++i)
+      for (const Property& p : e.properties) {
+        if (ascii) {
+          const std::string_view t = token();
+          if (t.empty()) throw truncated(e);
+          if (p.count_size == 0) continue;
+          if (!is_index(t)) throw InvalidInput(field, "a PLY list length '" + std::string(t.substr(0, 12)) + "' is not a count");
+          const std::uint64_t n = std::stoull(std::string(t));
+          if (n > (body.size() - at) / 2 + 1)
+            throw InvalidInput(field, "a PLY '" + e.name + "' list of " + std::to_string(n) + " values does not fit in the file");
+          for (std::uint64_t k = 0; k < n; ++k)
+            if (token().empty()) throw truncated(e);
+        } else {
+          const std::uint64_t size = p.count_size ? p.count_size : p.size;
+          if (body.size() - at < size) throw truncated(e);
+          if (p.count_size == 0) {
+            at += size;
+            continue;
+          }
+          const std::uint64_t n = binary_count(size);
+          if (n > (body.size() - at) / p.size)
+            throw InvalidInput(field, "a PLY '" + e.name + "' list of " + std::to_string(n) + " values does not fit in the file");
+          at += n * p.size;
+        }
+      }
+}
+
+// Binary STL has no shared vertices: corners with the same position are welded, each taking the
+// index of its first appearance (corner order: facet by facet, three corners each), as CGAL's
+// ASCII STL reader does.
+void read_binary_stl(const std::string& bytes, std::uint32_t n, std::vector<Point>& points, Soup& soup,
+                     const std::string& field) {
+  std::map<std::array<float, 3>, std::size_t> first;
+  soup.reserve(n);
+  for (std::uint32_t f = 0; f < n; ++f) {
+    std::vector<std::size_t> corners;
+    for (int c = 0; c < 3; ++c) {
+      std::array<float, 3> p;
+      std::memcpy(p.data(), bytes.data() + 84 + 50 * static_cast<std::size_t>(f) + 12 * (1 + c), 12);
+      if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+        throw InvalidInput(field, "triangle " + std::to_string(f) + " has a non-finite coordinate (NaN or infinity)");
+      auto [it, inserted] = first.emplace(p, points.size());
+      if (inserted) points.emplace_back(p[0], p[1], p[2]);
+      corners.push_back(it->second);
+    }
+    soup.push_back(std::move(corners));
+  }
+}
+
+// Opens the one file being imported and nothing else: a glTF buffer's "uri" must not make the
+// server read its own files into a mesh.
+class OnlyThisFile : public Assimp::DefaultIOSystem {
+ public:
+  explicit OnlyThisFile(std::string path) : path_(std::move(path)) {}
+  using DefaultIOSystem::Exists;
+  using DefaultIOSystem::Open;
+  bool Exists(const char* file) const override { return path_ == file && DefaultIOSystem::Exists(file); }
+  Assimp::IOStream* Open(const char* file, const char* mode) override {
+    return path_ == file && std::strchr(mode, 'w') == nullptr ? DefaultIOSystem::Open(file, mode) : nullptr;
+  }
+
+ private:
+  std::string path_;
+};
+
+// glTF/GLB through assimp (no post-processing that moves vertices): each mesh's vertices in its
+// accessor's order, meshes in the order the node tree (depth first) places them, with the
+// nodes' transforms applied.
+void read_gltf(const std::string& path, std::vector<Point>& points, Soup& soup, const std::string& field) {
+  Assimp::Importer importer;
+  importer.SetIOHandler(new OnlyThisFile(path));  // owned by the importer
+  const aiScene* scene = importer.ReadFile(path, aiProcess_ValidateDataStructure);
+  if (scene == nullptr || scene->mRootNode == nullptr) {
+    // assimp's message may quote the path (a server temp name): say "the file" instead.
+    std::string why = importer.GetErrorString();
+    for (const std::string& name : {path, std::filesystem::path(path).filename().string()})
+      for (std::size_t at; !name.empty() && (at = why.find(name)) != std::string::npos;) why.replace(at, name.size(), "the file");
+    throw InvalidInput(field, "cannot read the glTF file: " + why);
+  }
+  std::vector<std::pair<const aiNode*, aiMatrix4x4>> stack{{scene->mRootNode, scene->mRootNode->mTransformation}};
+  while (!stack.empty()) {
+    auto [node, transform] = stack.back();
+    stack.pop_back();
+    for (unsigned i = 0; i < node->mNumMeshes; ++i) {
+      const aiMesh* mesh = scene->mMeshes[node->mMeshes[i]];  // validated by assimp
+      const std::size_t base = points.size();
+      for (unsigned v = 0; v < mesh->mNumVertices; ++v) {
+        const aiVector3D p = transform * mesh->mVertices[v];
+        points.emplace_back(p.x, p.y, p.z);
+      }
+      for (unsigned f = 0; f < mesh->mNumFaces; ++f) {
+        const aiFace& face = mesh->mFaces[f];
+        if (face.mNumIndices < 3) continue;  // points and lines
+        soup.emplace_back();
+        for (unsigned k = 0; k < face.mNumIndices; ++k) soup.back().push_back(base + face.mIndices[k]);
+      }
+    }
+    // Children pushed in reverse so that they are visited in order.
+    for (unsigned c = node->mNumChildren; c-- > 0;)
+      stack.emplace_back(node->mChildren[c], transform * node->mChildren[c]->mTransformation);
+  }
+}
+
 }  // namespace
 
 std::optional<std::uint32_t> binary_stl_triangles(std::string_view bytes, const std::string& field) {
@@ -52,62 +351,71 @@ std::optional<std::uint32_t> binary_stl_triangles(std::string_view bytes, const 
 }
 
 SurfaceMesh load_mesh(const std::string& path, const std::string& field) {
-  if (!std::filesystem::is_regular_file(path))
-    throw InvalidInput(field, "cannot read mesh file '" + path + "': no such file");
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec))
+    throw InvalidInput(field, "cannot read the mesh file: no such file");
   std::string ext = std::filesystem::path(path).extension().string();
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  if (ext == ".stl") {
-    // Only the first bytes and the size are needed: the file is not read twice.
-    std::string head(1024, '\0');
-    std::ifstream in(path, std::ios::binary);
-    in.read(head.data(), static_cast<std::streamsize>(head.size()));
-    head.resize(static_cast<std::size_t>(in.gcount()));
-    stl_triangles(head, std::filesystem::file_size(path), field);
-  }
-  Assimp::Importer importer;
-  // Meshes are welded across the whole scene below; drop every attribute but positions so that
-  // assimp's JoinIdenticalVertices welds STL corners (per-face normals would keep them apart).
-  importer.SetPropertyInteger(AI_CONFIG_PP_RVC_FLAGS,
-                              aiComponent_NORMALS | aiComponent_TANGENTS_AND_BITANGENTS |
-                                  aiComponent_COLORS | aiComponent_TEXCOORDS |
-                                  aiComponent_BONEWEIGHTS | aiComponent_ANIMATIONS |
-                                  aiComponent_TEXTURES | aiComponent_LIGHTS |
-                                  aiComponent_CAMERAS | aiComponent_MATERIALS);
-  const aiScene* scene = importer.ReadFile(
-      path, aiProcess_RemoveComponent | aiProcess_DropNormals | aiProcess_Triangulate |
-                aiProcess_JoinIdenticalVertices | aiProcess_PreTransformVertices |
-                aiProcess_SortByPType);
-  if (scene == nullptr)
-    throw InvalidInput(field, "cannot read mesh file '" + path + "': " + importer.GetErrorString());
 
-  // Concatenate the triangle meshes, welding identical positions across meshes too.
-  std::vector<Vec3> points;
-  std::vector<Eigen::Vector3i> tris;
-  std::map<std::array<double, 3>, int> index;
-  for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
-    const aiMesh* mesh = scene->mMeshes[m];
-    if ((mesh->mPrimitiveTypes & aiPrimitiveType_TRIANGLE) == 0) continue;
-    std::vector<int> local(mesh->mNumVertices);
-    for (unsigned v = 0; v < mesh->mNumVertices; ++v) {
-      const aiVector3D& p = mesh->mVertices[v];
-      std::array<double, 3> key{p.x, p.y, p.z};
-      auto [it, inserted] = index.emplace(key, static_cast<int>(points.size()));
-      if (inserted) points.emplace_back(p.x, p.y, p.z);
-      local[v] = it->second;
+  std::vector<Point> points;
+  Soup soup;
+  bool ok = true;
+  try {
+    const auto quiet = CGAL::parameters::verbose(false);
+    if (ext == ".stl") {
+      const std::string bytes = read_all(path);
+      if (const auto n = stl_triangles(bytes, bytes.size(), field))
+        read_binary_stl(bytes, *n, points, soup, field);
+      else
+        ok = CGAL::IO::read_STL(path, points, soup, quiet.use_binary_mode(false));
+    } else if (ext == ".off") {
+      check_off(read_all(path), field);
+      ok = CGAL::IO::read_OFF(path, points, soup, quiet);
+    } else if (ext == ".ply") {
+      check_ply(read_all(path), field);
+      ok = CGAL::IO::read_PLY(path, points, soup, quiet);
+    } else if (ext == ".obj") {
+      ok = CGAL::IO::read_OBJ(path, points, soup, quiet);
+    } else if (ext == ".gltf" || ext == ".glb") {
+      read_gltf(path, points, soup, field);
+    } else {
+      throw InvalidInput(field, "unsupported mesh format '" + ext + "' (use stl, obj, ply, off, gltf or glb)");
     }
-    for (unsigned f = 0; f < mesh->mNumFaces; ++f) {
-      const aiFace& face = mesh->mFaces[f];
-      if (face.mNumIndices != 3) continue;
-      tris.emplace_back(local[face.mIndices[0]], local[face.mIndices[1]],
-                        local[face.mIndices[2]]);
-    }
+  } catch (const CGAL::Failure_exception&) {
+    ok = false;  // a CGAL precondition on malformed input (debug builds)
   }
-  if (tris.empty()) throw InvalidInput(field, "mesh file '" + path + "' contains no triangles");
+  const std::string format = ext.substr(std::min<std::size_t>(1, ext.size()));
+  if (!ok)  // CGAL's OBJ reader refuses out-of-range indices itself, with the same answer
+    throw InvalidInput(field, "cannot read the " + format + " file: it is malformed or truncated" +
+                                  (format == "obj" ? ", or a face index is out of range" : ""));
+
+  // Faces index the file's vertices; polygons become fans around their first vertex.
+  const std::size_t nv = points.size();
+  if (nv > static_cast<std::size_t>(std::numeric_limits<int>::max()))
+    throw InvalidInput(field, "the file has too many vertices");
+  std::size_t triangles = 0;
+  for (std::size_t f = 0; f < soup.size(); ++f) {
+    if (soup[f].size() < 3) throw InvalidInput(field, "face " + std::to_string(f) + " has fewer than 3 vertices");
+    for (const std::size_t i : soup[f])
+      if (i >= nv)
+        throw InvalidInput(field, "face " + std::to_string(f) + " has a vertex index out of range (the file has " +
+                                      std::to_string(nv) + " vertices)");
+    triangles += soup[f].size() - 2;
+  }
+  if (triangles == 0) throw InvalidInput(field, "the mesh file contains no triangles");
   SurfaceMesh out;
-  out.vertices.resize(static_cast<Eigen::Index>(points.size()), 3);
-  for (size_t i = 0; i < points.size(); ++i) out.vertices.row(static_cast<Eigen::Index>(i)) = points[i];
-  out.faces.resize(static_cast<Eigen::Index>(tris.size()), 3);
-  for (size_t i = 0; i < tris.size(); ++i) out.faces.row(static_cast<Eigen::Index>(i)) = tris[i];
+  out.vertices.resize(static_cast<Eigen::Index>(nv), 3);
+  for (std::size_t v = 0; v < nv; ++v) {
+    const Point& p = points[v];
+    if (!std::isfinite(p.x()) || !std::isfinite(p.y()) || !std::isfinite(p.z()))
+      throw InvalidInput(field, "vertex " + std::to_string(v) + " has a non-finite coordinate (NaN or infinity)");
+    out.vertices.row(static_cast<Eigen::Index>(v)) << p.x(), p.y(), p.z();
+  }
+  out.faces.resize(static_cast<Eigen::Index>(triangles), 3);
+  Eigen::Index t = 0;
+  for (const auto& polygon : soup)
+    for (std::size_t k = 1; k + 1 < polygon.size(); ++k)
+      out.faces.row(t++) << static_cast<int>(polygon[0]), static_cast<int>(polygon[k]), static_cast<int>(polygon[k + 1]);
   return out;
 }
 

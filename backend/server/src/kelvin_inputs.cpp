@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "distlab/geometry/error.hpp"
+#include "distlab/mesh/isolated_import.hpp"
 #include "distlab/server/config.hpp"
 #include "distlab/server/gap_json.hpp"
 #include "distlab/server/json_fields.hpp"
@@ -35,7 +36,8 @@ double query_level(const Request& req) {
   return query_number(req, "level");
 }
 
-mesh::SurfaceMesh load_bytes(const std::string& bytes, const std::string& format, const std::string& dir) {
+mesh::SurfaceMesh load_bytes(const std::string& bytes, const std::string& format, const std::string& dir,
+                             const Limits& limits) {
   const fs::path path = fs::path(dir) / ("upload-" + random_id() + "." + format);
   {
     std::ofstream f(path, std::ios::binary);
@@ -43,7 +45,9 @@ mesh::SurfaceMesh load_bytes(const std::string& bytes, const std::string& format
     if (!f) throw std::runtime_error("cannot write a temporary upload file");
   }
   try {
-    mesh::SurfaceMesh m = mesh::load_mesh(path.string(), "body");
+    // Parsed in a child process: a parser's crash or memory bomb costs this request a 400.
+    mesh::SurfaceMesh m = mesh::load_mesh_isolated(path.string(), "body", "the uploaded " + format + " file",
+                                                   {limits.import_memory_bytes, limits.import_seconds});
     fs::remove(path);
     return m;
   } catch (...) {

@@ -54,7 +54,7 @@ void Service::register_kelvin_routes() {
                      throw ApiError(429, "too_many_uploads", "this session has too many uploads");
                  }
                  auto up = std::make_shared<Upload>();
-                 up->surface = load_bytes(req.body, format, registry_cache_dir());
+                 up->surface = load_bytes(req.body, format, registry_cache_dir(), lim);
                  up->format = format;
                  up->bytes = req.body.size();
                  if (static_cast<std::size_t>(up->surface.faces.rows()) > lim.max_upload_triangles)
@@ -68,7 +68,7 @@ void Service::register_kelvin_routes() {
                                             {"n_faces", up->surface.faces.rows()}});
                }};
   upload.heavy = true;
-  upload.bounds = {"max_upload_bytes", "max_upload_triangles", "max_uploads_per_session"};
+  upload.bounds = {"max_upload_bytes", "max_upload_triangles", "max_uploads_per_session", "import_memory_bytes", "import_seconds"};
   upload.body_limit = config_.limits.max_upload_bytes;
   router_.add(std::move(upload));
 

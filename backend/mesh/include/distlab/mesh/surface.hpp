@@ -17,8 +17,19 @@ struct SurfaceMesh {
   FacesX3 faces;   // counter-clockwise seen from outside (outward normals)
 };
 
-// Reads STL, OBJ, PLY, glTF/GLB, OFF (by extension and content) with assimp, triangulates and
-// welds identical positions. Throws InvalidInput(field) if the file cannot be read or is empty.
+// Reads OFF, OBJ, PLY, STL (CGAL's polygon-soup readers) and glTF/GLB (assimp), chosen by the
+// file's extension. The vertices are the file's own, in the file's order: a position listed twice
+// keeps both entries (nothing is welded here), and faces index them. Polygons with more than three
+// vertices become fans around their first vertex. Per format, "the file's vertices" are:
+//   OFF, OBJ, PLY: the vertex list (OBJ "v" lines, the PLY "vertex" element) in order;
+//   STL: which has none, the distinct corner positions in order of first appearance (facet by
+//        facet, three corners each): corners at the same position are one vertex;
+//   glTF/GLB: each primitive's POSITION accessor in order, primitives in the order the node tree
+//        (depth first) places them, node transforms applied.
+// Declared counts (OFF header, PLY elements, binary STL) are checked against the file's size
+// before anything is read, every face index is bounds-checked and every coordinate must be
+// finite. Throws InvalidInput(field) for anything else; messages never quote the path.
+// Untrusted files: load_mesh_isolated (isolated_import.hpp) runs this in a child process.
 SurfaceMesh load_mesh(const std::string& path, const std::string& field = "mesh.path");
 
 // The bytes of an .stl file: a binary STL (80-byte header, uint32 n, n records of 50 bytes) is

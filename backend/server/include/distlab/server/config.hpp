@@ -41,6 +41,10 @@ struct Limits {
   // complete header (idle or slowloris) or body within read_timeout_seconds is closed.
   std::size_t max_connections = 512;
   double read_timeout_seconds = 30;
+  // An upload is parsed in a child process (distlab import-mesh) with this address-space limit
+  // and this CPU and wall-clock time; beyond either it is refused (400, field body).
+  std::size_t import_memory_bytes = std::size_t{1} << 30;
+  double import_seconds = 20;
 };
 
 // The one table of limits: f(name, field) for each field of Limits (L: Limits or const Limits).
@@ -77,6 +81,8 @@ void for_each_limit(L& l, F&& f) {
   f("query_chunk_points", l.query_chunk_points);
   f("max_connections", l.max_connections);
   f("read_timeout_seconds", l.read_timeout_seconds);
+  f("import_memory_bytes", l.import_memory_bytes);
+  f("import_seconds", l.import_seconds);
 }
 
 struct ServiceConfig {

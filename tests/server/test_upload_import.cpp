@@ -1,0 +1,62 @@
+// Mesh uploads are parsed in a child process (distlab import-mesh): every hostile file is a 4xx
+// JSON error naming field body, the server keeps answering, and an upload's vertices are the
+// file's own, duplicates included.
+#include "mesh/hostile_meshes.hpp"
+#include "server/server_fixture.hpp"
+
+namespace distlab::test {
+namespace {
+
+class UploadImport : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() { server_ = new ServerProcess(); }
+  static void TearDownTestSuite() {
+    EXPECT_EQ(server_->stop(), 0);
+    delete server_;
+  }
+  static ServerProcess* server_;
+  httplib::Client c = server_->client();
+};
+ServerProcess* UploadImport::server_ = nullptr;
+
+TEST_F(UploadImport, HostileFilesAre4xxAndTheServerLivesOn) {
+  const std::string s = new_session(c);
+  int i = 0;
+  for (const auto& [format, bytes] : hostile_meshes()) {
+    SCOPED_TRACE("hostile file " + std::to_string(i++) + " (" + format + ")");
+    auto r = c.Post(("/api/kelvin/uploads?format=" + format).c_str(), session_headers(s), bytes, "application/octet-stream");
+    ASSERT_TRUE(r) << "no response: the server died";
+    EXPECT_EQ(r->status, 400) << r->body;
+    const json e = body_json(r)["error"];
+    EXPECT_EQ(e["field"], "body") << r->body;
+    const std::string message = e["message"];
+    EXPECT_NE(message.find("the uploaded " + format + " file"), std::string::npos) << message;
+    EXPECT_EQ(message.find(server_->cache_dir()), std::string::npos) << message;
+    EXPECT_EQ(message.find("upload-"), std::string::npos) << "temporary name in " << message;
+    auto h = c.Get("/api/health");
+    ASSERT_TRUE(h);
+    EXPECT_EQ(h->status, 200);
+  }
+}
+
+TEST_F(UploadImport, AnUploadKeepsTheFilesVerticesAndDuplicates) {
+  const std::string s = new_session(c);
+  for (const auto& [format, bytes] : std::vector<std::pair<std::string, std::string>>{
+           {"obj", obj_text()}, {"off", off_text()}, {"ply", ply_ascii()}, {"ply", ply_binary()}}) {
+    auto r = c.Post(("/api/kelvin/uploads?format=" + format).c_str(), session_headers(s), bytes, "application/octet-stream");
+    ASSERT_TRUE(r);
+    ASSERT_EQ(r->status, 201) << format << ": " << r->body;
+    EXPECT_EQ(body_json(r)["n_vertices"], kFileVertices.size()) << format;
+    EXPECT_EQ(body_json(r)["n_faces"], kFileFaces.size()) << format;
+  }
+}
+
+TEST_F(UploadImport, ImportLimitsArePublished) {
+  const json limits = body_json(c.Get("/api/limits"));
+  EXPECT_EQ(limits["import_memory_bytes"], std::size_t{1} << 30);
+  EXPECT_EQ(limits["import_seconds"], 20);
+  EXPECT_EQ(limits["request_bounds"]["POST /api/kelvin/uploads"].size(), 5u) << limits.dump();
+}
+
+}  // namespace
+}  // namespace distlab::test
