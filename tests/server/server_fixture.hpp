@@ -62,6 +62,7 @@ class ServerProcess {
   ServerProcess& operator=(const ServerProcess&) = delete;
 
   int port() const { return port_; }
+  pid_t pid() const { return pid_; }
   const std::string& cache_dir() const { return cache_dir_; }
   const std::string& web_dir() const { return web_dir_; }
   httplib::Client client() const {
@@ -169,6 +170,11 @@ class WsClient {
 
   void send(const json& j) { ws_.write(boost::asio::buffer(j.dump())); }
   void send_raw(const std::string& s) { ws_.write(boost::asio::buffer(s)); }
+  void send_binary(const std::string& s) {
+    ws_.binary(true);
+    ws_.write(boost::asio::buffer(s));
+    ws_.binary(false);
+  }
 
   // Next message, or false after timeout seconds / on close (error() then says why).
   bool read(Message& m, double timeout = 30) {
