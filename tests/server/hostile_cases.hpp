@@ -245,8 +245,9 @@ inline void framing_cases(std::vector<Case>& out) {
   raw("header_obs_fold", "GET /api/health HTTP/1.1\r\n" + H + "X-A: a\r\n  folded\r\n\r\n", Expect::any);
   raw("header_17k", "GET /api/health HTTP/1.1\r\n" + H + "X-Big: " + std::string(17 * 1024, 'x') + "\r\n\r\n");
   raw("header_1m", "GET /api/health HTTP/1.1\r\n" + H + "X-Big: " + std::string(1 << 20, 'x') + "\r\n\r\n");
-  raw("headers_2000", "GET /api/health HTTP/1.1\r\n" + H + repeat("X-A: b\r\n", 2000) + "\r\n");
-  raw("host_16k", "GET /api/health HTTP/1.1\r\nHost: " + std::string(16000, 'h') + "\r\nConnection: close\r\n\r\n");
+  raw("headers_3000", "GET /api/health HTTP/1.1\r\n" + H + repeat("X-A: b\r\n", 3000) + "\r\n", Expect::any);
+  raw("headers_100k", "GET /api/health HTTP/1.1\r\n" + H + repeat("X-A: b\r\n", 100000) + "\r\n");
+  raw("host_17k", "GET /api/health HTTP/1.1\r\nHost: " + std::string(17000, 'h') + "\r\nConnection: close\r\n\r\n");
   raw("session_header_10k", "GET /api/session HTTP/1.1\r\n" + H + "X-Distlab-Session: " + std::string(10000, 'a') + "\r\n\r\n");
   raw("cookie_many", "GET /api/session HTTP/1.1\r\n" + H + "Cookie: " + repeat("a=b; ", 2000) + "distlab_session=zz\r\n\r\n");
   const std::string post = "POST /api/gap/distance HTTP/1.1\r\n" + H;
@@ -421,7 +422,7 @@ inline void json_cases(std::vector<Case>& out) {
   // Extreme but legal numbers: underflow to 0 (a radius 0 is refused), huge integers.
   text("number_1e-999", [&] { std::string s = valid.dump(); s.replace(s.find("0.3"), 3, "1e-999"); return s; }());
   text("number_int_40_digits", [&] { std::string s = valid.dump(); s.replace(s.find("0.3"), 3, std::string(40, '9')); return s; }());
-  text("number_denormal", [&] { std::string s = valid.dump(); s.replace(s.find("0.3"), 3, "4.9e-324"); return s; }());
+  text("number_denormal", [&] { std::string s = valid.dump(); s.replace(s.find("0.3"), 3, "4.9e-324"); return s; }(), Expect::any);
   text("number_1000_digits", [&] { std::string s = valid.dump(); s.replace(s.find("0.3"), 3, "0." + std::string(1000, '3')); return s; }(),
        Expect::any);
   text("deep_array_100k", std::string(100000, '['));
@@ -637,7 +638,8 @@ inline void levelset_cases(std::vector<Case>& out) {
   ls("grid_fraction", {{"grid", {{"resolution", 8.5}}}}, Expect::client);
   ls("grid_string", {{"grid", {{"resolution", "8"}}}}, Expect::client);
   ls("padding_negative", {{"grid", {{"resolution", 8}, {"padding", -10}}}}, Expect::client);
-  ls("padding_huge", {{"grid", {{"resolution", 8}, {"padding", 1e300}}}}, Expect::client);
+  ls("padding_huge", {{"grid", {{"resolution", 8}, {"padding", 1e300}}}}, Expect::client,
+     "new: padding takes the grid past the coordinate limit that bounds refuse");
   ls("bounds_inverted", {{"grid", {{"resolution", 8}, {"bounds", {{"min", {1, 1, 1}}, {"max", {-1, -1, -1}}}}}}}, Expect::client);
   ls("bounds_empty", {{"grid", {{"resolution", 8}, {"bounds", {{"min", {0, 0, 0}}, {"max", {0, 0, 0}}}}}}}, Expect::client);
   ls("bounds_huge", {{"grid", {{"resolution", 8}, {"bounds", {{"min", {-1e7, 0, 0}}, {"max", {1e7, 1, 1}}}}}}}, Expect::client);
@@ -766,15 +768,16 @@ inline void kelvin_cases(std::vector<Case>& out) {
   sigma("axis_width_zero", {{"axis", {{"axis", {0, 0, 1}}, {"width", 0}}}});
   sigma("axis_width_negative", {{"axis", {{"axis", {0, 0, 1}}, {"width", -1}}}});
   sigma("axis_sigma_nom_1e300", {{"axis", {{"axis", {0, 0, 1}}, {"sigma_nom", 1e300}}}}, Expect::client, "5 σ range");
-  sigma("axis_huge_axis", {{"axis", {{"axis", {1e300, 0, 0}}}}});
+  sigma("axis_huge_axis", {{"axis", {{"axis", {1e300, 0, 0}}}}}, Expect::any);  // a direction
   sigma("axis_tiny_axis", {{"axis", {{"axis", {1e-300, 0, 0}}}}});
   sigma("axis_1000", {{"axis", std::vector<json>(1000, json{{"axis", {0, 0, 1}}})}}, Expect::any);
   sigma("axis_unknown", {{"axis", {{"axis", {0, 0, 1}}, {"tilt", 1}}}});
-  sigma("brush_radius_zero", {{"brushes", {{{"center", {0, 0, 0}}, {"radius", 0}, {"value", 1}}}}});
+  sigma("brush_radius_zero", {{"brushes", {{{"center", {0, 0, 0}}, {"radius", 0}, {"value", 1}}}}}, Expect::client, "new: brush radius 0 accepted");
   sigma("brush_radius_negative", {{"brushes", {{{"center", {0, 0, 0}}, {"radius", -1}, {"value", 1}}}}});
   sigma("brush_value_1e300", {{"brushes", {{{"center", {0, 0, 0}}, {"radius", 1}, {"value", 1e300}}}}}, Expect::client, "5 σ range");
   sigma("brush_falloff_negative", {{"brushes", {{{"center", {0, 0, 0}}, {"radius", 1}, {"value", 1}, {"falloff", -1}}}}});
-  sigma("brush_center_huge", {{"brushes", {{{"center", {1e300, 0, 0}}, {"radius", 1}, {"value", 1}}}}});
+  sigma("brush_center_huge", {{"brushes", {{{"center", {1e300, 0, 0}}, {"radius", 1}, {"value", 1}}}}}, Expect::client,
+        "new: brush center beyond the coordinate limit accepted");
   sigma("brush_missing_value", {{"brushes", {{{"center", {0, 0, 0}}, {"radius", 1}}}}});
   sigma("brushes_10000", {{"brushes", std::vector<json>(10000, json{{"center", {0, 0, 0}}, {"radius", 0.1}, {"value", 0.01}})}}, Expect::any);
   sigma("brushes_not_array", {{"brushes", {{"center", {0, 0, 0}}}}});
@@ -836,9 +839,9 @@ inline void kelvin_cases(std::vector<Case>& out) {
     g("level_inf", "?level=inf");
     g("level_minus_inf", "?level=-inf");
     g("level_1e999", "?level=1e999");
-    g("level_hex", "?level=0x10");
+    g("level_hex", "?level=0x10", Expect::any);  // strtod reads 16: then a level like any other
     g("level_trailing", "?level=0.3abc");
-    g("level_space", "?level=%200.3");
+    g("level_space", "?level=%200.3", Expect::any);
     g("level_nul", "?level=0.3%00");
     g("level_repeated", "?level=0.3&level=0.4");
     g("level_never_taken_low", "?level=-1000", Expect::client, "4 empty_isosurface");
@@ -941,7 +944,7 @@ inline void upload_cases(std::vector<Case>& out) {
       ++ctx.uploads_in_session;
       return http("POST", "/api/kelvin/uploads?format=" + format, bytes, ctx.upload_session);
     }, e, why);
-    c.timeout = 60;
+    c.timeout = 30;
     out.push_back(c);
   };
   const std::vector<float> tv = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
@@ -957,10 +960,11 @@ inline void upload_cases(std::vector<Case>& out) {
   up("binary_count_zero_empty", "stl", binary_stl(0, {}));
   up("binary_truncated_header", "stl", std::string(40, 'x'));
   up("binary_84_bytes", "stl", binary_stl(0, {}));
-  up("binary_nan", "stl", binary_stl(4, {{qnan, 0, 0, 0, 1, 0, 1, 0, 0}, tstl[1], tstl[2], tstl[3]}));
-  up("binary_inf", "stl", binary_stl(4, {{pinf, 0, 0, 0, 1, 0, 1, 0, 0}, tstl[1], tstl[2], tstl[3]}));
-  up("binary_huge_coords", "stl", binary_stl(4, {{1e30f, 0, 0, 0, 1, 0, 1, 0, 0}, tstl[1], tstl[2], tstl[3]}));
-  up("binary_degenerate", "stl", binary_stl(4, std::vector<std::array<float, 9>>(4, {0, 0, 0, 0, 0, 0, 0, 0, 0})));
+  up("binary_nan", "stl", binary_stl(4, {{qnan, 0, 0, 0, 1, 0, 1, 0, 0}, tstl[1], tstl[2], tstl[3]}), Expect::client, "6/7 importer: non-finite coordinates accepted");
+  up("binary_inf", "stl", binary_stl(4, {{pinf, 0, 0, 0, 1, 0, 1, 0, 0}, tstl[1], tstl[2], tstl[3]}), Expect::client, "6/7 importer: non-finite coordinates accepted");
+  up("binary_huge_coords", "stl", binary_stl(4, {{1e30f, 0, 0, 0, 1, 0, 1, 0, 0}, tstl[1], tstl[2], tstl[3]}), Expect::client,
+     "new: uploads skip the coordinate limit inline meshes have");
+  up("binary_degenerate", "stl", binary_stl(4, std::vector<std::array<float, 9>>(4, {0, 0, 0, 0, 0, 0, 0, 0, 0})), Expect::any);  // refused at upload or at creation
   up("binary_header_solid", "stl", binary_stl(4, tstl, "solid trick"), Expect::ok);
   up("binary_over_triangles", "stl", binary_stl(200001, {}) + std::string(200001 * 50, '\0'));
   up("ascii_valid", "stl", "solid t\n" + [&] {
@@ -975,8 +979,8 @@ inline void upload_cases(std::vector<Case>& out) {
   up("ascii_only_solid", "stl", "solid\n");
   up("ascii_no_vertices", "stl", "solid t\nfacet normal 0 0 1\nouter loop\nendloop\nendfacet\nendsolid t\n");
   up("ascii_two_vertices", "stl", "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nendloop\nendfacet\nendsolid t\n");
-  up("ascii_nan", "stl", "solid t\nfacet normal 0 0 1\nouter loop\nvertex nan 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid t\n");
-  up("ascii_1e999", "stl", "solid t\nfacet normal 0 0 1\nouter loop\nvertex 1e999 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid t\n");
+  up("ascii_nan", "stl", "solid t\nfacet normal 0 0 1\nouter loop\nvertex nan 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid t\n", Expect::client, "6/7 importer: non-finite coordinates accepted");
+  up("ascii_1e999", "stl", "solid t\nfacet normal 0 0 1\nouter loop\nvertex 1e999 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid t\n", Expect::client, "6/7 importer: non-finite coordinates accepted");
   up("ascii_text_garbage", "stl", "solid " + repeat("vertex vertex facet ", 5000));
   up("ascii_long_line", "stl", "solid t\nfacet normal " + std::string(1 << 20, '1') + "\n");
   up("not_stl", "stl", "hello world, this is not a mesh");
@@ -989,19 +993,19 @@ inline void upload_cases(std::vector<Case>& out) {
   up("index_huge", "obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4294967297\n");
   up("index_negative_out", "obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf -9 -8 -7\n");
   up("index_negative_ok", "obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf -4 -2 -3\nf -4 -3 -1\nf -4 -1 -2\nf -3 -2 -1\n", Expect::ok);
-  up("texture_index_out", "obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nvt 0 0\nf 1/9 3/9 2/9\nf 1 2 4\nf 1 4 3\nf 2 3 4\n");
-  up("normal_index_out", "obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nvn 0 0 1\nf 1//7 3//7 2//7\nf 1 2 4\nf 1 4 3\nf 2 3 4\n");
+  up("texture_index_out", "obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nvt 0 0\nf 1/9 3/9 2/9\nf 1 2 4\nf 1 4 3\nf 2 3 4\n", Expect::any);  // positions are right
+  up("normal_index_out", "obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nvn 0 0 1\nf 1//7 3//7 2//7\nf 1 2 4\nf 1 4 3\nf 2 3 4\n", Expect::any);
   up("face_two_vertices", "obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2\n");
-  up("face_300_vertices", "obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf " + repeat("1 2 3 4 ", 75) + "\n");
+  up("face_300_vertices", "obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf " + repeat("1 2 3 4 ", 75) + "\n", Expect::any);
   up("only_vertices", "obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n");
   up("no_vertices", "obj", "f 1 2 3\n");
-  up("vertex_nan", "obj", "v nan 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n");
-  up("vertex_inf", "obj", "v inf 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n");
-  up("vertex_1e999", "obj", "v 1e999 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n");
+  up("vertex_nan", "obj", "v nan 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n", Expect::client, "6/7 importer: non-finite coordinates accepted");
+  up("vertex_inf", "obj", "v inf 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n", Expect::client, "6/7 importer: non-finite coordinates accepted");
+  up("vertex_1e999", "obj", "v 1e999 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n", Expect::client, "6/7 importer: non-finite coordinates accepted");
   up("vertex_missing_coords", "obj", "v 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n");
   up("mtllib_traversal", "obj", std::string("mtllib ../../../../etc/passwd\nusemtl x\n") + kTetraObj, Expect::any);
   up("mtllib_dev_zero", "obj", std::string("mtllib /dev/zero\n") + kTetraObj, Expect::any);
-  up("long_line", "obj", "v " + std::string(1 << 20, '1') + " 0 0\n" + kTetraObj);
+  up("long_line", "obj", "v " + std::string(1 << 20, '1') + " 0 0\n" + kTetraObj, Expect::client, "6/7 importer: non-finite coordinates accepted");
   up("no_newline", "obj", "v 0 0 0 v 1 0 0 f 1 2 3");
   up("binary_junk", "obj", std::string("\x00\xff\x10\x80v f", 8) + std::string(500, '\x01'));
   up("deep_groups", "obj", repeat("g a\no b\n", 5000) + kTetraObj, Expect::any);
@@ -1020,7 +1024,7 @@ inline void upload_cases(std::vector<Case>& out) {
   up("binary_index_negative", "ply", ply_binary("4", "4", tv, {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {-5, 2, 3}}), Expect::client, "6 importer SIGSEGV");
   up("binary_index_out_of_range", "ply", ply_binary("4", "4", tv, {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 1000000}}), Expect::client, "6 importer SIGSEGV");
   up("binary_list_count_255", "ply", ply_binary("4", "4", tv, tf, "uchar", "int", 255), Expect::client, "6 importer SIGSEGV");
-  up("binary_list_count_0", "ply", ply_binary("4", "4", tv, {{}, {}, {}, {}}), Expect::client);
+  up("binary_list_count_0", "ply", ply_binary("4", "4", tv, {{}, {}, {}, {}}), Expect::client, "6/7 importer hang");
   up("binary_list_count_uint_huge", "ply", ply_binary("4", "1", tv, {{0, 1, 2}}, "uint", "int", 0x7fffffff), Expect::client, "7 declared counts");
   up("vertex_count_4294967295", "ply", ply_binary("4294967295", "4", tv, tf), Expect::client, "7 declared counts");
   up("vertex_count_1e9", "ply", ply_binary("1000000000", "4", tv, tf), Expect::client, "7 declared counts");
@@ -1028,19 +1032,19 @@ inline void upload_cases(std::vector<Case>& out) {
   up("vertex_count_negative", "ply", ply_binary("-4", "4", tv, tf));
   up("vertex_count_text", "ply", ply_binary("four", "4", tv, tf));
   up("ascii_vertex_count_1e9", "ply", ply_ascii("1000000000", "4", tetra_ascii), Expect::client, "7 declared counts");
-  up("truncated_data", "ply", ply_binary("4", "4", tv, tf).substr(0, 250));
-  up("no_end_header", "ply", "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\n");
+  up("truncated_data", "ply", ply_binary("4", "4", tv, tf).substr(0, 250), Expect::client, "6 importer crash");
+  up("no_end_header", "ply", "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\n", Expect::client, "6/7 importer hang");
   up("big_endian", "ply", [&] {
         std::string s = ply_binary("4", "4", tv, tf);
         s.replace(s.find("binary_little_endian"), 20, "binary_big_endian");
         return s;
-      }(), Expect::any);
+      }(), Expect::any, "6 importer crash");
   up("format_unknown", "ply", "ply\nformat weird 9.0\nelement vertex 0\nend_header\n");
   up("ushort_index", "ply", ply_binary("4", "4", tv, tf, "uchar", "ushort"), Expect::any);
   up("face_before_vertex", "ply", "ply\nformat ascii 1.0\nelement face 4\nproperty list uchar int vertex_indices\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nend_header\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n", Expect::any);
   up("no_faces", "ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n1 0 0\n0 1 0\n");
-  up("property_list_list", "ply", "ply\nformat ascii 1.0\nelement vertex 4\nproperty list uchar float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n1 0 0 0\n1 1 0 0\n1 0 1 0\n1 0 0 1\n3 0 1 2\n");
-  up("ascii_nan", "ply", ply_ascii("4", "4", "nan 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n"));
+  up("property_list_list", "ply", "ply\nformat ascii 1.0\nelement vertex 4\nproperty list uchar float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n1 0 0 0\n1 1 0 0\n1 0 1 0\n1 0 0 1\n3 0 1 2\n", Expect::any);
+  up("ascii_nan", "ply", ply_ascii("4", "4", "nan 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n"), Expect::client, "6/7 importer: non-finite coordinates accepted");
   up("header_only_magic", "ply", "ply\n");
   up("many_elements", "ply", "ply\nformat ascii 1.0\n" + repeat("element junk 0\nproperty float a\n", 5000) + "end_header\n");
 
@@ -1054,9 +1058,9 @@ inline void upload_cases(std::vector<Case>& out) {
   up("index_out_of_range", "off", "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 77\n", Expect::client, "6 importer SIGSEGV");
   up("index_negative", "off", "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 -1 2 3\n", Expect::client, "6 importer SIGSEGV");
   up("face_255_vertices", "off", "OFF\n4 1 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n255 " + repeat("0 1 2 ", 85) + "\n");
-  up("face_count_lies", "off", "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n9 0 2 1\n");
-  up("face_missing", "off", "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n");
-  up("vertex_nan", "off", "OFF\n4 4 0\nnan 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n");
+  up("face_count_lies", "off", "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n9 0 2 1\n", Expect::client, "7 declared counts");
+  up("face_missing", "off", "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n", Expect::client, "6 importer crash");
+  up("vertex_nan", "off", "OFF\n4 4 0\nnan 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n", Expect::client, "6/7 importer: non-finite coordinates accepted");
   up("header_only", "off", "OFF\n");
   up("coff", "off", "COFF\n4 4 0\n0 0 0 1 1 1 1\n1 0 0 1 1 1 1\n0 1 0 1 1 1 1\n0 0 1 1 1 1 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n", Expect::any);
   up("noff_short", "off", "NOFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n", Expect::any);
@@ -1070,14 +1074,14 @@ inline void upload_cases(std::vector<Case>& out) {
   const std::vector<std::uint32_t> ti = {0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3};
   up("valid", "glb", glb(tv, ti, 4, 12), Expect::ok);
   up("bad_magic", "glb", glb(tv, ti, 4, 12, "", true));
-  up("length_too_big", "glb", glb(tv, ti, 4, 12, "", false, 100000));
-  up("length_too_small", "glb", glb(tv, ti, 4, 12, "", false, -40));
+  up("length_too_big", "glb", glb(tv, ti, 4, 12, "", false, 100000), Expect::any);  // chunks read right
+  up("length_too_small", "glb", glb(tv, ti, 4, 12, "", false, -40), Expect::any);
   up("index_out_of_range", "glb", glb(tv, {0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 99}, 4, 12), Expect::client, "7 bounds-checked indices");
   up("index_huge", "glb", glb(tv, {0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 0xFFFFFFFFu}, 4, 12), Expect::client, "7 bounds-checked indices");
   up("position_count_huge", "glb", glb(tv, ti, 1000000000, 12), Expect::client, "7 declared counts");
   up("index_count_huge", "glb", glb(tv, ti, 4, 1000000000), Expect::client, "7 declared counts");
-  up("index_count_not_multiple_of_3", "glb", glb(tv, ti, 4, 11));
-  up("position_nan", "glb", glb({qnan, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1}, ti, 4, 12));
+  up("index_count_not_multiple_of_3", "glb", glb(tv, ti, 4, 11), Expect::any);
+  up("position_nan", "glb", glb({qnan, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1}, ti, 4, 12), Expect::client, "6/7 importer: non-finite coordinates accepted");
   up("external_uri_traversal", "glb", [&] {
         std::string s = glb(tv, ti, 4, 12);
         const std::string from = "\"buffers\":[{\"byteLength\":";
@@ -1259,11 +1263,13 @@ inline void ws_cases(std::vector<Case>& out) {
         WsClient w(ctx.port, ctx.session);
         WsClient::Message m;
         send(w, ctx);
+        // A ping after it: a pong first means the message was accepted without a word.
+        if (want_type != "pong" && want_type != "close") w.send_raw("{\"type\":\"ping\"}");
         const bool got = w.until(
             [&](const WsClient::Message& x) {
               if (x.binary) return false;
               const std::string t = x.j.is_object() ? x.j.value("type", "") : "";
-              return t == "error" || t == "sigma" || t == want_type || x.j.is_discarded();
+              return t == "error" || t == "sigma" || t == "pong" || t == want_type || x.j.is_discarded();
             },
             m, 20);
         if (!got) {
@@ -1273,7 +1279,7 @@ inline void ws_cases(std::vector<Case>& out) {
         if (has_nonfinite_token(m.data)) o.problem += " NaN/Infinity in a reply;";
         if (m.j.is_discarded()) o.problem += " a reply is not JSON;";
         const std::string t = m.j.value("type", "");
-        if (want_type == "error" && t == "error") {
+        if ((want_type == "error" || want_type == "close") && t == "error") {
           const int st = m.j.value("status", 0);
           if (st < 400 || st >= 500) o.problem += " error status " + std::to_string(st) + ";";
         } else if (t != want_type) {
@@ -1296,7 +1302,8 @@ inline void ws_cases(std::vector<Case>& out) {
   ws("number_1e999", text("{\"type\":\"ping\",\"x\":1e999}"), "error");
   ws("deep", text(std::string(5000, '[')), "error");
   ws("duplicate_key", text("{\"type\":\"ping\",\"type\":\"state\"}"), "error");
-  ws("invalid_utf8", text("{\"type\":\"\xff\"}"), "error");
+  // Invalid UTF-8 in a text frame fails the connection (RFC 6455 8.1): a close, not an answer.
+  ws("invalid_utf8", text("{\"type\":\"\xff\"}"), "close");
   ws("request_id_long", text("{\"type\":\"ping\",\"request\":\"" + std::string(100, 'r') + "\"}"), "error");
   ws("request_id_object", text("{\"type\":\"ping\",\"request\":{}}"), "error");
   ws("ping", text("{\"type\":\"ping\"}"), "pong");

@@ -276,6 +276,12 @@ struct Case {
   std::string why;  // the defect a failure points to (issue item), for the report
 };
 
+// The start of an answer for the report (binary answers by their type and size).
+inline std::string excerpt(const Reply& r) {
+  if (r.content_type.find("json") != std::string::npos || r.content_type.rfind("text/", 0) == 0) return r.body.substr(0, 160);
+  return "<" + (r.content_type.empty() ? std::string("no type") : r.content_type) + ", " + std::to_string(r.body.size()) + " bytes>";
+}
+
 inline std::string category(const std::string& name) { return name.substr(0, name.find('/')); }
 
 struct Tally {
@@ -335,7 +341,7 @@ class Runner {
       if (!fits && !o.timed_out && o.replies.empty())
         problem += " no answer;";
       else if (!fits && !o.timed_out && !(st >= 500))
-        problem += " answered " + std::to_string(st) + " (" + o.replies.front().body.substr(0, 160) + ");";
+        problem += " answered " + std::to_string(st) + " (" + excerpt(o.replies.front()) + ");";
       if (c.check && !o.replies.empty() && st > 0 && st < 500) problem += c.check(o.replies.front(), ctx_);
       // A request that started a job the suite does not need: stop it at once, forget its object.
       if (!o.replies.empty() && st == 202 && c.expect != Expect::ok) cancel_started(o.replies.front());
@@ -385,7 +391,7 @@ class Runner {
     EXPECT_EQ(tally_.wrong.size(), 0u);
   }
 
-  int health_status(double timeout = 15) {
+  int health_status(double timeout = 10) {
     for (int attempt = 0; attempt < 2; ++attempt) {
       const auto r = exchange(ctx_.port, http("GET", "/api/health"), timeout);
       if (!r.empty() && r.front().status == 200) return 200;
@@ -411,7 +417,7 @@ class Runner {
  private:
   static std::string first_status(const Outcome& o) {
     for (const auto& r : o.replies)
-      if (r.status >= 500) return std::to_string(r.status) + " " + r.body.substr(0, 160);
+      if (r.status >= 500) return std::to_string(r.status) + " " + excerpt(r);
     return "";
   }
 
