@@ -29,7 +29,9 @@ for t in mesh_load:mesh gap_request:gap cbf_request:cbf; do
   echo "== $target: ${seconds} s"
   # -malloc_limit_mb: one allocation over 2 GB (a declared count trusted) is a finding.
   set +e
+  # Leaks: the server tests' suppressions (assimp's own leak when a malformed file makes it throw).
   UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1" ASAN_OPTIONS="detect_leaks=1" \
+    LSAN_OPTIONS="suppressions=$PWD/tests/server/lsan.supp" \
     "$build/tests/fuzz/$target" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=3072 -malloc_limit_mb=2048 \
     -max_len=65536 -print_final_stats=1 -artifact_prefix="$findings/" "$corpus" >"$build/$target.log" 2>&1
   rc=$?
