@@ -26,6 +26,8 @@ for t in mesh_load:mesh gap_request:gap cbf_request:cbf; do
   findings="$build/findings/$target"
   mkdir -p "$corpus" "$findings"
   cp -n "$seeds/${t##*:}"/* "$corpus"/
+  # Inputs that found defects stay in the corpus (run first): they fail until the defect is fixed.
+  if [ -d "tests/fuzz/regressions/${t##*:}" ]; then cp -n "tests/fuzz/regressions/${t##*:}"/* "$corpus"/; fi
   echo "== $target: ${seconds} s"
   # -malloc_limit_mb: one allocation over 2 GB (a declared count trusted) is a finding.
   set +e
