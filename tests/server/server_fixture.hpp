@@ -178,6 +178,11 @@ class WsClient {
 
   void send(const json& j) { ws_.write(boost::asio::buffer(j.dump())); }
   void send_raw(const std::string& s) { ws_.write(boost::asio::buffer(s)); }
+  void send_binary(const std::string& s) {
+    ws_.binary(true);
+    ws_.write(boost::asio::buffer(s));
+    ws_.binary(false);
+  }
 
   // Next message, or false after timeout seconds / on close (error() then says why).
   bool read(Message& m, double timeout = 30) {

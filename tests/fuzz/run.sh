@@ -1,0 +1,48 @@
+#!/usr/bin/env bash
+# Builds the libFuzzer targets with clang into build-fuzz (DISTLAB_FUZZ=ON: ASan + UBSan + coverage)
+# and runs each for a bounded time on a seed corpus written by code. A crash, a sanitizer report, an
+# allocation over the malloc limit or a slow input fails the run; its reproducer is left in
+# build-fuzz/findings/<target>/ (replay: build-fuzz/tests/fuzz/<target> <file>).
+# Environment: FUZZ_SECONDS (per target, default 60), FUZZ_JOBS (build parallelism, default nproc).
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/../.."
+seconds="${FUZZ_SECONDS:-60}"
+build=build-fuzz
+launcher=()
+if command -v ccache >/dev/null; then launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache); fi
+start=$(date +%s)
+cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
+  -DDISTLAB_FUZZ=ON -DDISTLAB_TESTS=OFF -DDISTLAB_PYTHON=OFF -DDISTLAB_WERROR=OFF "${launcher[@]}" >/dev/null
+cmake --build "$build" --target fuzz_targets --parallel "${FUZZ_JOBS:-$(nproc)}"
+echo "fuzz build: $(( $(date +%s) - start )) s"
+
+seeds="$build/seeds"
+rm -rf "$seeds"
+"$build/tests/fuzz/fuzz_make_seeds" . "$seeds"
+status=0
+for t in mesh_load:mesh gap_request:gap cbf_request:cbf; do
+  target="fuzz_${t%%:*}"
+  corpus="$build/corpus/${t%%:*}"
+  findings="$build/findings/$target"
+  mkdir -p "$corpus" "$findings"
+  cp -n "$seeds/${t##*:}"/* "$corpus"/
+  # Inputs that found defects stay in the corpus (run first): they fail until the defect is fixed.
+  if [ -d "tests/fuzz/regressions/${t##*:}" ]; then cp -n "tests/fuzz/regressions/${t##*:}"/* "$corpus"/; fi
+  echo "== $target: ${seconds} s"
+  # -malloc_limit_mb: one allocation over 2 GB (a declared count trusted) is a finding.
+  set +e
+  # Leaks: the server tests' suppressions (assimp's own leak when a malformed file makes it throw).
+  UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1" ASAN_OPTIONS="detect_leaks=1" \
+    LSAN_OPTIONS="suppressions=$PWD/tests/server/lsan.supp" \
+    "$build/tests/fuzz/$target" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=3072 -malloc_limit_mb=2048 \
+    -max_len=65536 -print_final_stats=1 -artifact_prefix="$findings/" "$corpus" >"$build/$target.log" 2>&1
+  rc=$?
+  set -e
+  grep -E "^(#[0-9]+ +DONE|stat::number_of_executed_units|stat::peak_rss_mb|SUMMARY|==[0-9]+==ERROR|Test unit written|artifact_prefix)" \
+    "$build/$target.log" || true
+  if [ "$rc" != 0 ]; then
+    echo "!! $target: finding, exit $rc (reproducer in $findings, log $build/$target.log)"
+    status=1
+  fi
+done
+exit $status

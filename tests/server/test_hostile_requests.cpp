@@ -1,0 +1,44 @@
+// The hostile-request corpus against the real server (hostile_cases.hpp): after every case the
+// server must still answer, with no crash, hang, NaN/inf, 5xx or wrong class of answer. Three
+// groups with a server each, so that ctest can run them side by side.
+#include "server/hostile_cases.hpp"
+
+namespace distlab::test::hostile {
+namespace {
+
+// Heavy requests stop at the request time limit (408), which keeps the suite bounded.
+const std::vector<std::string> kServerOptions = {"--max-request-seconds", "10"};
+
+TEST(Hostile, Protocol) {
+  std::vector<Case> cases;
+  framing_cases(cases);
+  json_cases(cases);
+  static_cases(cases);
+  session_cases(cases);
+  ws_cases(cases);
+  Runner runner(kServerOptions, standard_setup);
+  runner.run_all(cases);
+  runner.report("HTTP framing, JSON text, static paths, sessions, WebSocket");
+}
+
+TEST(Hostile, Domains) {
+  std::vector<Case> cases;
+  gap_cases(cases);
+  levelset_cases(cases);
+  kelvin_cases(cases);
+  cbf_cases(cases);
+  Runner runner(kServerOptions, standard_setup);
+  runner.run_all(cases);
+  runner.report("GAP, level sets, Kelvin, CBF domain values");
+}
+
+TEST(Hostile, Uploads) {
+  std::vector<Case> cases;
+  upload_cases(cases);
+  Runner runner(kServerOptions, standard_setup);
+  runner.run_all(cases);
+  runner.report("uploads (STL, OBJ, PLY, OFF, GLB)");
+}
+
+}  // namespace
+}  // namespace distlab::test::hostile
