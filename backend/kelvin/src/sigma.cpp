@@ -75,6 +75,8 @@ void validate(const SigmaSpec& s, Eigen::Index n_vertices) {
     finite(b.falloff, f + ".falloff");
     if (b.radius < 0) throw InvalidInput(f + ".radius", f + ".radius must be ≥ 0");
     if (b.falloff < 0) throw InvalidInput(f + ".falloff", f + ".falloff must be ≥ 0");
+    // A brush of radius and falloff 0 paints nothing (only its centre): a mistake, not a no-op.
+    if (!(b.radius + b.falloff > 0)) throw InvalidInput(f + ".radius", f + ".radius + falloff must be > 0");
   }
 }
 

@@ -49,6 +49,12 @@ mesh::SurfaceMesh load_bytes(const std::string& bytes, const std::string& format
     mesh::SurfaceMesh m = mesh::load_mesh_isolated(path.string(), "body", "the uploaded " + format + " file",
                                                    {limits.import_memory_bytes, limits.import_seconds});
     fs::remove(path);
+    // The coordinate bound of every request (inline meshes too), in the file's vertex numbering.
+    for (Eigen::Index i = 0; i < m.vertices.rows(); ++i)
+      if (m.vertices.row(i).cwiseAbs().maxCoeff() > kMaxCoordinate)
+        throw InvalidInput("body", "vertex " + std::to_string(i) + " of the uploaded " + format +
+                                       " file has a coordinate beyond " + json(kMaxCoordinate).dump() +
+                                       " (metres): out of range");
     return m;
   } catch (...) {
     std::error_code ec;

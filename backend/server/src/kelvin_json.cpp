@@ -24,8 +24,11 @@ void object_with(const json& j, const std::string& field, std::set<std::string> 
     if (!keys.count(k)) throw InvalidInput(field.empty() ? k : field + "." + k, "unknown key \"" + k + "\"");
 }
 
+// Lengths and positions of σ terms and preparation options are coordinates (kMaxCoordinate);
+// σ values are bounded by kelvin::validate (max_abs_sigma) with their own message.
 double number(const json& j, const std::string& field) { return json_number(j, field); }
-Vec3 vec3(const json& j, const std::string& field) { return json_vec3(j, field); }
+double length(const json& j, const std::string& field) { return json_number(j, field, kMaxCoordinate); }
+Vec3 vec3(const json& j, const std::string& field) { return json_vec3(j, field, kMaxCoordinate); }
 
 std::string text(const json& j, const std::string& field) {
   if (!j.is_string() || j.get<std::string>().empty()) throw InvalidInput(field, field + " must be a non-empty string");
@@ -37,10 +40,10 @@ kelvin::AxisSigma parse_axis(const json& j, const std::string& f) {
   kelvin::AxisSigma a;
   if (!j.contains("axis")) throw InvalidInput(f + ".axis", f + ".axis is required");
   a.axis = vec3(j["axis"], f + ".axis");
-  a.d0 = j.contains("d0") ? number(j["d0"], f + ".d0") : 0.0;
+  a.d0 = j.contains("d0") ? length(j["d0"], f + ".d0") : 0.0;
   a.sigma_nom = j.contains("sigma_nom") ? number(j["sigma_nom"], f + ".sigma_nom") : 1.0;
   if (j.contains("origin")) a.origin = vec3(j["origin"], f + ".origin");
-  if (j.contains("width")) a.width = number(j["width"], f + ".width");
+  if (j.contains("width")) a.width = length(j["width"], f + ".width");
   return a;
 }
 
@@ -78,9 +81,9 @@ kelvin::SigmaSpec parse_sigma(const json& j) {
       if (!b[i].contains("center") || !b[i].contains("radius") || !b[i].contains("value"))
         throw InvalidInput(f, f + " needs center, radius and value");
       br.centre = vec3(b[i]["center"], f + ".center");
-      br.radius = number(b[i]["radius"], f + ".radius");
+      br.radius = length(b[i]["radius"], f + ".radius");
       br.value = number(b[i]["value"], f + ".value");
-      if (b[i].contains("falloff")) br.falloff = number(b[i]["falloff"], f + ".falloff");
+      if (b[i].contains("falloff")) br.falloff = length(b[i]["falloff"], f + ".falloff");
       s.brushes.push_back(br);
     }
   }

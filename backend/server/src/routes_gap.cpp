@@ -12,6 +12,10 @@
 
 namespace distlab::server {
 
+// grid.padding is relative to the shape's bounding radius; beyond this the grid box is no longer
+// a picture of the shape (and 1e300 would reach infinite coordinates).
+constexpr double kMaxGridPadding = 100;
+
 using json = nlohmann::json;
 
 namespace {
@@ -76,7 +80,7 @@ void Service::register_gap_routes() {
       const json& g = body["grid"];
       only_keys(g, "grid", {"resolution", "padding", "bounds"});
       if (g.contains("resolution")) o.resolution = json_integer(g["resolution"], "grid.resolution", 4, lim.max_grid_resolution);
-      if (g.contains("padding")) o.padding = json_number(g["padding"], "grid.padding");
+      if (g.contains("padding")) o.padding = json_number(g["padding"], "grid.padding", kMaxGridPadding);
       if (g.contains("bounds")) {
         only_keys(g["bounds"], "grid.bounds", {"min", "max"});
         if (!g["bounds"].contains("min") || !g["bounds"].contains("max"))

@@ -29,6 +29,7 @@
 #include "distlab/gap/distance.hpp"
 #include "distlab/geometry/error.hpp"
 #include "distlab/server/config.hpp"
+#include "distlab/server/json_fields.hpp"
 
 namespace distlab::server {
 
@@ -37,9 +38,6 @@ namespace distlab::server {
 inline constexpr int kMaxJsonDepth = 64;               // the schema needs 6 levels
 inline constexpr std::size_t kMaxPolytopeRows = 1000;  // rows of a polytope, facets of a hull
 inline constexpr std::size_t kMaxHullPoints = 100000;  // input points of a convex_hull
-// Largest |coordinate| of positions, sizes, vertices and ρ balls: keeps squares and sums far
-// from overflow, so a huge input is refused instead of producing an inf downstream.
-inline constexpr double kMaxCoordinate = 1e6;
 inline constexpr double kMinQuaternionNorm = 1e-9;
 
 // Malformed JSON text (a syntax error); `byte` is the 1-based offset nlohmann reports.

@@ -24,6 +24,11 @@ inline std::string json_index_path(const std::string& base, std::size_t i) {
   return base + "[" + std::to_string(i) + "]";
 }
 
+// Largest |coordinate| of positions, sizes, vertices, centres and ρ balls in any request: keeps
+// squares and sums far from overflow, so a huge input is refused instead of producing an inf
+// downstream.
+inline constexpr double kMaxCoordinate = 1e6;
+
 // A finite number; |v| <= max_abs when given (e.g. kMaxCoordinate keeps squares finite).
 inline double json_number(const nlohmann::json& j, const std::string& field,
                           double max_abs = std::numeric_limits<double>::infinity()) {
