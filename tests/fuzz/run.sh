@@ -4,6 +4,8 @@
 # allocation over the malloc limit or a slow input fails the run; its reproducer is left in
 # build-fuzz/findings/<target>/ (replay: build-fuzz/tests/fuzz/<target> <file>).
 # Environment: FUZZ_SECONDS (per target, default 60), FUZZ_JOBS (build parallelism, default nproc).
+# A fixed seed: every run walks the same sequence of inputs (a faster machine walks further), so a
+# finding reproduces and CI does not fail by chance on one run and pass on the next.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/../.."
 seconds="${FUZZ_SECONDS:-60}"
@@ -34,7 +36,7 @@ for t in mesh_load:mesh gap_request:gap cbf_request:cbf; do
   # Leaks: the server tests' suppressions (assimp's own leak when a malformed file makes it throw).
   UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1" ASAN_OPTIONS="detect_leaks=1" \
     LSAN_OPTIONS="suppressions=$PWD/tests/server/lsan.supp" \
-    "$build/tests/fuzz/$target" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=3072 -malloc_limit_mb=2048 \
+    "$build/tests/fuzz/$target" -seed=1 -max_total_time="$seconds" -timeout=10 -rss_limit_mb=3072 -malloc_limit_mb=2048 \
     -max_len=65536 -print_final_stats=1 -artifact_prefix="$findings/" "$corpus" >"$build/$target.log" 2>&1
   rc=$?
   set -e

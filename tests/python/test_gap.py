@@ -29,7 +29,10 @@ def batch_request():
         {"type": "sphere", "radius": 0.08},
         {"type": "cylinder", "radius": 0.05, "height": 0.2},
         {"type": "capsule", "radius": 0.04, "height": 0.1},
-        {"type": "convex_hull", "points": (rng.standard_normal((20, 3)) * 0.05).tolist()},
+        # The hull of a box's corners: random hulls often break Property 2 with the paper's eps and
+        # sigma (the validator refuses them), and this test is about equality with the CLI.
+        {"type": "convex_hull", "points": [[x, y, z] for x in (-0.05, 0.05) for y in (-0.04, 0.04)
+                                            for z in (-0.03, 0.03)]},
         {"type": "polytope", "A": [[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]],
          "b": [0.1, 0.1, 0.05, 0.05, 0.08, 0.08]},
     ]

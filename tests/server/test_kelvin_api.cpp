@@ -215,7 +215,7 @@ TEST_F(KelvinApi, PrepareQuerySigmaIsosurfaceExport) {
       ASSERT_TRUE(r);
       ASSERT_EQ(r->status, 200);
       const std::string d = r->get_header_value("X-Distlab-Isosurface-Digest");
-      EXPECT_EQ(d.size(), 32u);
+      EXPECT_EQ(d.size(), 64u);  // SHA-256, hex
       if (k == 1) {
         EXPECT_EQ(d, digest[level]);
       }

@@ -81,6 +81,11 @@ void check_prepare_inputs(const mesh::SurfaceMesh& surface, const PrepareOptions
   check_options(options);
   mesh::SurfaceMesh copy = surface;
   mesh::require_closed_manifold(copy, "mesh");
+  // prepare refuses lx > r_max (the farthest vertex from the centre it will find); r_max is at
+  // most the bounding box's diagonal, so a larger lx is refused now without that search.
+  const double diagonal = (surface.vertices.colwise().maxCoeff() - surface.vertices.colwise().minCoeff()).norm();
+  if (options.lx > diagonal)
+    throw InvalidInput("lx", "lx is larger than the object (its bounding box's diagonal is " + std::to_string(diagonal) + " m)");
 }
 
 // Sharp-edge protection places balls of radius ~ the edge size along the feature edges; a

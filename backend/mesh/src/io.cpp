@@ -12,6 +12,8 @@
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
+#include <nlohmann/json.hpp>
+
 #include <algorithm>
 #include <array>
 #include <cctype>
@@ -306,6 +308,44 @@ class OnlyThisFile : public Assimp::DefaultIOSystem {
   std::string path_;
 };
 
+// The triangles each glTF primitive declares (its indices' count / 3, or its positions' without
+// indices), in the order in which assimp makes one aiMesh per primitive; nullopt where the mode
+// is not triangles. assimp drops a triangle with an out-of-range index and only logs it: this
+// count is how such a file is refused instead of silently losing faces. Empty if unreadable.
+std::vector<std::optional<std::size_t>> gltf_declared_triangles(const std::string& bytes) {
+  std::string_view text = bytes;
+  if (bytes.size() >= 20 && bytes.compare(0, 4, "glTF") == 0) {  // GLB: header, then the JSON chunk
+    std::uint32_t length = 0, type = 0;
+    std::memcpy(&length, bytes.data() + 12, 4);
+    std::memcpy(&type, bytes.data() + 16, 4);
+    if (type != 0x4E4F534Au || length > bytes.size() - 20) return {};
+    text = std::string_view(bytes).substr(20, length);
+  }
+  const nlohmann::json doc = nlohmann::json::parse(text, nullptr, false);
+  std::vector<std::optional<std::size_t>> out;
+  if (!doc.is_object() || !doc.contains("meshes") || !doc["meshes"].is_array() || !doc.contains("accessors")) return out;
+  const nlohmann::json& accessors = doc["accessors"];
+  auto count = [&](const nlohmann::json& index) -> std::optional<std::size_t> {
+    if (!index.is_number_unsigned() || !accessors.is_array() || index.get<std::size_t>() >= accessors.size()) return std::nullopt;
+    const nlohmann::json& a = accessors[index.get<std::size_t>()];
+    if (!a.is_object() || !a.contains("count") || !a["count"].is_number_unsigned()) return std::nullopt;
+    return a["count"].get<std::size_t>();
+  };
+  for (const nlohmann::json& mesh : doc["meshes"]) {
+    if (!mesh.is_object() || !mesh.contains("primitives") || !mesh["primitives"].is_array()) return {};
+    for (const nlohmann::json& p : mesh["primitives"]) {
+      if (!p.is_object()) return {};
+      const bool triangles = !p.contains("mode") || p["mode"] == 4;
+      std::optional<std::size_t> n;
+      if (p.contains("indices")) n = count(p["indices"]);
+      else if (p.contains("attributes") && p["attributes"].is_object() && p["attributes"].contains("POSITION"))
+        n = count(p["attributes"]["POSITION"]);
+      out.push_back(triangles && n ? std::optional<std::size_t>(*n / 3) : std::nullopt);
+    }
+  }
+  return out;
+}
+
 // glTF/GLB through assimp (no post-processing that moves vertices): each mesh's vertices in its
 // accessor's order, meshes in the order the node tree (depth first) places them, with the
 // nodes' transforms applied.
@@ -320,6 +360,14 @@ void read_gltf(const std::string& path, std::vector<Point>& points, Soup& soup, 
       for (std::size_t at; !name.empty() && (at = why.find(name)) != std::string::npos;) why.replace(at, name.size(), "the file");
     throw InvalidInput(field, "cannot read the glTF file: " + why);
   }
+  const auto declared = gltf_declared_triangles(read_all(path));
+  if (declared.size() == scene->mNumMeshes)
+    for (unsigned m = 0; m < scene->mNumMeshes; ++m)
+      if (declared[m] && *declared[m] != scene->mMeshes[m]->mNumFaces)
+        throw InvalidInput(field, "primitive " + std::to_string(m) + " of the glTF file declares " +
+                                      std::to_string(*declared[m]) + " triangles, of which " +
+                                      std::to_string(*declared[m] - std::min<std::size_t>(*declared[m], scene->mMeshes[m]->mNumFaces)) +
+                                      " index a vertex out of range");
   std::vector<std::pair<const aiNode*, aiMatrix4x4>> stack{{scene->mRootNode, scene->mRootNode->mTransformation}};
   while (!stack.empty()) {
     auto [node, transform] = stack.back();
@@ -396,6 +444,14 @@ SurfaceMesh load_mesh(const std::string& path, const std::string& field) {
   std::size_t triangles = 0;
   for (std::size_t f = 0; f < soup.size(); ++f) {
     if (soup[f].size() < 3) throw InvalidInput(field, "face " + std::to_string(f) + " has fewer than 3 vertices");
+    // A polygon (over 3 vertices) that lists a vertex twice is no polygon, and its fan would make
+    // triangles that are not in the file; a degenerate triangle is left to the surface checks.
+    if (soup[f].size() > 3) {
+      std::vector<std::size_t> ids = soup[f];
+      std::sort(ids.begin(), ids.end());
+      if (std::adjacent_find(ids.begin(), ids.end()) != ids.end())
+        throw InvalidInput(field, "face " + std::to_string(f) + " is a polygon that lists a vertex more than once");
+    }
     for (const std::size_t i : soup[f])
       if (i >= nv)
         throw InvalidInput(field, "face " + std::to_string(f) + " has a vertex index out of range (the file has " +

@@ -280,6 +280,7 @@ void Service::cbf_ws_message(const std::shared_ptr<Session>& session, const std:
                              const json& msg) {
   const std::string type = msg["type"].get<std::string>();
   if (type != "cbf_replay") throw InvalidInput("type", "unknown message type \"" + type.substr(0, 32) + "\"");
+  json_check_keys(msg, "", {"type", "request", "rollout", "from"});
   if (!msg.contains("rollout") || !msg["rollout"].is_string())
     throw InvalidInput("rollout", "rollout must be a rollout id");
   std::size_t from = 0;

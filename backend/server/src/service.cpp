@@ -10,6 +10,7 @@
 #include "distlab/server/cbf_rollouts.hpp"
 #include "distlab/server/frames.hpp"
 #include "distlab/server/gap_json.hpp"
+#include "distlab/server/json_fields.hpp"
 
 namespace distlab::server {
 
@@ -325,16 +326,21 @@ void Service::ws_message(const std::shared_ptr<Session>& session, const std::sha
       return it->second;
     };
     if (type == "ping") {
+      json_check_keys(msg, "", {"type", "request"});
       socket->send(json{{"type", "pong"}}.dump(), false);
     } else if (type == "state") {
+      json_check_keys(msg, "", {"type", "request"});
       send_state(session, socket);
     } else if (type == "watch") {
+      json_check_keys(msg, "", {"type", "request", "object", "levels"});
       if (!msg.contains("levels")) throw InvalidInput("levels", "levels is required");
       set_levels(session, object(), msg["levels"]);
     } else if (type == "sigma") {
+      json_check_keys(msg, "", {"type", "request", "object", "sigma"});
       if (!msg.contains("sigma")) throw InvalidInput("sigma", "sigma is required");
       set_sigma(session, object(), msg["sigma"], socket.get(), request);
     } else if (type == "cancel") {
+      json_check_keys(msg, "", {"type", "request", "job"});
       if (!msg.contains("job") || !msg["job"].is_string()) throw InvalidInput("job", "job must be a job id");
       auto j = jobs_.find(session->id, msg["job"]);
       if (!j) throw ApiError(404, "unknown_job", "no such job in this session", "job");
