@@ -3,9 +3,9 @@
 # and runs each for a bounded time on a seed corpus written by code. A crash, a sanitizer report, an
 # allocation over the malloc limit or a slow input fails the run; its reproducer is left in
 # build-fuzz/findings/<target>/ (replay: build-fuzz/tests/fuzz/<target> <file>).
-# Environment: FUZZ_SECONDS (per target, default 60), FUZZ_JOBS (build parallelism, default nproc).
-# A fixed seed: every run walks the same sequence of inputs (a faster machine walks further), so a
-# finding reproduces and CI does not fail by chance on one run and pass on the next.
+# Environment: FUZZ_SECONDS (per target, default 60), FUZZ_RUNS, FUZZ_JOBS (build parallelism).
+# A fixed seed and execution count: every run tries the same inputs, so a finding reproduces and CI
+# does not fail by chance on one run and pass on the next (FUZZ_RUNS=-1 for open-ended fuzzing).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/../.."
 seconds="${FUZZ_SECONDS:-60}"
@@ -22,7 +22,10 @@ seeds="$build/seeds"
 rm -rf "$seeds"
 "$build/tests/fuzz/fuzz_make_seeds" . "$seeds"
 status=0
-for t in mesh_load:mesh gap_request:gap cbf_request:cbf; do
+# target:seed folder:executions (FUZZ_SECONDS caps a slow machine).
+for t in mesh_load:mesh:20000 gap_request:gap:15000 cbf_request:cbf:250000; do
+  runs="${FUZZ_RUNS:-${t##*:}}"
+  t="${t%:*}"
   target="fuzz_${t%%:*}"
   corpus="$build/corpus/${t%%:*}"
   findings="$build/findings/$target"
@@ -36,7 +39,7 @@ for t in mesh_load:mesh gap_request:gap cbf_request:cbf; do
   # Leaks: the server tests' suppressions (assimp's own leak when a malformed file makes it throw).
   UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1" ASAN_OPTIONS="detect_leaks=1" \
     LSAN_OPTIONS="suppressions=$PWD/tests/server/lsan.supp" \
-    "$build/tests/fuzz/$target" -seed=1 -max_total_time="$seconds" -timeout=10 -rss_limit_mb=3072 -malloc_limit_mb=2048 \
+    "$build/tests/fuzz/$target" -seed=1 -runs="$runs" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=3072 -malloc_limit_mb=2048 \
     -max_len=65536 -print_final_stats=1 -artifact_prefix="$findings/" "$corpus" >"$build/$target.log" 2>&1
   rc=$?
   set -e

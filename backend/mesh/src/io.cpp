@@ -166,11 +166,48 @@ void check_off(const std::string& bytes, const std::string& field) {
 // binary: the scalar sizes and the list count's size) must fit in the body. Then the body is
 // walked record by record: every list must fit in what is left of the file before CGAL's reader
 // sizes a buffer by its count (a binary uint count can say 4294967295).
+// A binary glTF: a 12-byte header (magic, version 2, total length) and chunks (length, type, data);
+// every length must fit in the file before assimp sizes a buffer from it.
+void check_glb(const std::string& bytes, const std::string& field) {
+  if (bytes.rfind("glTF", 0) != 0) return;  // a text .gltf (JSON), or not glTF: assimp says which
+  auto u32 = [&](std::size_t at) {
+    std::uint32_t v = 0;
+    std::memcpy(&v, bytes.data() + at, 4);  // little-endian, as the format and every target are
+    return v;
+  };
+  require_room("a GLB header", 12, bytes.size(), field);
+  if (u32(4) != 2)
+    throw InvalidInput(field, "this GLB is glTF version " + std::to_string(u32(4)) + "; only glTF 2.0 binaries are supported");
+  require_room("a GLB of " + std::to_string(u32(8)) + " bytes", u32(8), bytes.size(), field);
+  for (std::size_t at = 12; at + 8 <= bytes.size();) {
+    const std::uint64_t length = u32(at);
+    require_room("a GLB chunk of " + std::to_string(length) + " bytes", at + 8 + length, bytes.size(), field);
+    at += 8 + length;
+  }
+}
+
 void check_ply(const std::string& bytes, const std::string& field) {
-  const std::size_t end = bytes.find("end_header");
-  if (bytes.rfind("ply", 0) != 0 || end == std::string::npos)
-    throw InvalidInput(field, "not a PLY file: it must start with \"ply\" and have an end_header line");
-  const std::size_t newline = bytes.find('\n', end);
+  // The header as CGAL's reader walks it: whole lines, keyed by their first word, up to the first
+  // line whose first word is end_header; any other keyword is refused (CGAL would misread it).
+  if (bytes.rfind("ply", 0) != 0) throw InvalidInput(field, "not a PLY file: it must start with \"ply\"");
+  std::size_t end = std::string::npos, newline = std::string::npos, line_number = 1;
+  for (std::size_t at = 0; at < bytes.size();) {
+    const std::size_t stop = std::min(bytes.find('\n', at), bytes.size());
+    std::istringstream w(bytes.substr(at, stop - at));
+    std::string key;
+    w >> key;
+    if (key == "end_header") {
+      end = at;
+      newline = stop == bytes.size() ? std::string::npos : stop;
+      break;
+    }
+    if (key != "ply" && key != "format" && key != "comment" && key != "obj_info" && key != "element" && key != "property")
+      throw InvalidInput(field, "not a valid PLY header: line " + std::to_string(line_number) +
+                                    " is not a PLY header line (ply, format, comment, obj_info, element, property, end_header)");
+    at = stop + 1;
+    ++line_number;
+  }
+  if (end == std::string::npos) throw InvalidInput(field, "not a PLY file: its header has no end_header line");
   std::istringstream in(bytes.substr(0, end));
   static const std::map<std::string, std::uint64_t> sizes = {
       {"char", 1},  {"uchar", 1},  {"int8", 1},   {"uint8", 1},   {"short", 2},  {"ushort", 2},
@@ -425,6 +462,7 @@ SurfaceMesh load_mesh(const std::string& path, const std::string& field) {
     } else if (ext == ".obj") {
       ok = CGAL::IO::read_OBJ(path, points, soup, quiet);
     } else if (ext == ".gltf" || ext == ".glb") {
+      if (ext == ".glb") check_glb(read_all(path), field);
       read_gltf(path, points, soup, field);
     } else {
       throw InvalidInput(field, "unsupported mesh format '" + ext + "' (use stl, obj, ply, off, gltf or glb)");
