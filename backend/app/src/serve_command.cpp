@@ -41,6 +41,7 @@ std::string default_assets() {
   std::error_code ec;
   for (fs::path p = fs::read_symlink("/proc/self/exe", ec).parent_path(); !ec && !p.empty(); p = p.parent_path()) {
     if (fs::is_directory(p / "assets")) return (p / "assets").string();
+    if (fs::is_directory(p / "share/distlab/assets")) return (p / "share/distlab/assets").string();  // installed
     if (p == p.root_path()) break;
   }
   return "assets";
