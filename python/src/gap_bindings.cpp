@@ -1,6 +1,8 @@
 // distlab.gap: the CLI's request (solve) and batched distances over arrays of poses.
 #include <algorithm>
 #include <atomic>
+#include <chrono>
+#include <thread>
 #include <cmath>
 #include <optional>
 #include <string>
@@ -10,6 +12,7 @@
 
 #include "bindings.hpp"
 #include "convert.hpp"
+#include "interrupt.hpp"
 #include "distlab/gap/distance.hpp"
 #include "distlab/gap/validator.hpp"
 #include "distlab/server/gap_json.hpp"
@@ -33,28 +36,28 @@ std::vector<Pose> read_poses(const Poses& a, const std::string& field) {
   const double* d = a.data();
   std::vector<Pose> poses(n);
   for (std::size_t i = 0; i < n; ++i) {
-    const std::string f = server::json_index_path(field, i);
+    const auto f = [&] { return server::json_index_path(field, i); };  // built only for an error
     const double* p = d + i * (matrices ? 16 : 7);
     for (int k = 0; k < (matrices ? 16 : 7); ++k)
-      if (!std::isfinite(p[k])) throw InvalidInput(f, f + " must be finite");
+      if (!std::isfinite(p[k])) throw InvalidInput(f(), f() + " must be finite");
     Pose& pose = poses[i];
     if (!matrices) {
       pose.position = Vec3(p[0], p[1], p[2]);
       const double norm = Eigen::Vector4d(p[3], p[4], p[5], p[6]).stableNorm();
       if (!(norm >= server::kMinQuaternionNorm))
-        throw InvalidInput(f, "quaternion has (near) zero norm; it must be a rotation");
+        throw InvalidInput(f(), "quaternion has (near) zero norm; it must be a rotation");
       pose.rotation = Quat(p[3] / norm, p[4] / norm, p[5] / norm, p[6] / norm);
     } else {
       const Eigen::Map<const Eigen::Matrix<double, 4, 4, Eigen::RowMajor>> M(p);
       const Mat3 R = M.topLeftCorner<3, 3>();
       if ((R.transpose() * R - Mat3::Identity()).cwiseAbs().maxCoeff() > 1e-6 || R.determinant() <= 0 ||
           M.row(3) != Eigen::RowVector4d(0, 0, 0, 1))
-        throw InvalidInput(f, f + " must be a rigid transform (orthonormal rotation, det +1, last row 0 0 0 1)");
+        throw InvalidInput(f(), f() + " must be a rigid transform (orthonormal rotation, det +1, last row 0 0 0 1)");
       pose.position = M.topRightCorner<3, 1>();
       pose.rotation = Quat(R).normalized();
     }
     if (!(pose.position.cwiseAbs().maxCoeff() <= server::kMaxCoordinate))
-      throw InvalidInput(f, f + " position must have magnitude <= " + json(server::kMaxCoordinate).dump());
+      throw InvalidInput(f(), f() + " position must have magnitude <= " + json(server::kMaxCoordinate).dump());
   }
   return poses;
 }
@@ -85,7 +88,8 @@ GapBody build_body(const py::dict& shape, const server::GapRequestParams& rp, co
 
 py::dict gap_batch(const py::dict& shape_a, const Poses& poses_a, const py::dict& shape_b,
                    const Poses& poses_b, const py::object& params_dict, unsigned threads,
-                   const py::object& warm_a, const py::object& warm_b, bool euclidean) {
+                   const py::object& warm_a, const py::object& warm_b, bool euclidean,
+                   const py::object& progress) {
   server::GapRequestParams rp = server::parse_params(to_json(params_dict, "params"));
   rp.params.euclidean = euclidean;  // off: an uncertified GJK start, no FCL (as distlab-bench-gap)
   const std::vector<Pose> pa = read_poses(poses_a, "pose_a"), pb = read_poses(poses_b, "pose_b");
@@ -121,12 +125,23 @@ py::dict gap_batch(const py::dict& shape_a, const Poses& poses_a, const py::dict
       grad_b.mutable_data(), egrad_a.mutable_data(),  egrad_b.mutable_data(), iterations.mutable_data(),
       converged.mutable_data(), overlap.mutable_data()};
 
-  std::atomic<std::size_t> first_bad{n};
+  std::atomic<std::size_t> first_bad{n}, done{0};
+  Interruptible interrupt(progress);
   {
     py::gil_scoped_release release;
-    // Blocks of pairs, each with its own copies of the two bodies (set_pose moves them).
+    // Blocks of pairs, each with its own copies of the two bodies (set_pose moves them). Between
+    // blocks the calling thread (which takes a share) runs Ctrl-C's handler and, every 0.1 s,
+    // progress(done, n); once cancelled the remaining blocks are skipped.
     constexpr std::size_t kBlock = 256;
+    auto last_report = std::chrono::steady_clock::now();
+    const auto caller = std::this_thread::get_id();
     parallel_indices((n + kBlock - 1) / kBlock, threads, [&](std::size_t block) {
+      if (!interrupt.poll()) return;
+      if (!progress.is_none() && std::this_thread::get_id() == caller &&
+          std::chrono::steady_clock::now() - last_report > std::chrono::milliseconds(100)) {
+        last_report = std::chrono::steady_clock::now();
+        if (!interrupt.report(done.load(), n)) return;
+      }
       GapBody a = proto_a, b = proto_b;
       const double nan = std::nan("");
       for (std::size_t i = block * kBlock; i < std::min(n, (block + 1) * kBlock); ++i) {
@@ -157,8 +172,11 @@ py::dict gap_batch(const py::dict& shape_a, const Poses& poses_a, const py::dict
           for (std::size_t f = first_bad.load(); i < f && !first_bad.compare_exchange_weak(f, i);) {
           }
       }
+      done.fetch_add(std::min(n, (block + 1) * kBlock) - block * kBlock);
     });
   }
+  if (interrupt.cancelled()) interrupt.raise();
+  if (!progress.is_none() && !interrupt.report(n, n)) interrupt.raise();
   if (first_bad.load() < n)
     throw std::runtime_error("non-finite result for pair " + std::to_string(first_bad.load()) +
                              "; refusing to report it" +
@@ -213,7 +231,7 @@ void bind_gap(py::module_& m) {
   m.def("gap_solve", &gap_solve, py::arg("request"));
   m.def("gap_batch", &gap_batch, py::arg("shape_a"), py::arg("poses_a"), py::arg("shape_b"), py::arg("poses_b"),
         py::arg("params"), py::arg("threads"), py::arg("warm_a"), py::arg("warm_b"),
-        py::arg("euclidean") = true);
+        py::arg("euclidean") = true, py::arg("progress") = py::none());
   m.def("gap_default_params", &default_params);
 }
 
