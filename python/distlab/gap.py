@@ -143,9 +143,7 @@ class Params:
 
     def to_dict(self) -> dict:
         """The CLI's "params" object."""
-        d = dataclasses.asdict(self)
-        del d["euclidean"]
-        return d
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "euclidean"}
 
 
 class Result(dict):
