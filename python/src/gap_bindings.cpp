@@ -5,6 +5,7 @@
 #include <thread>
 #include <cmath>
 #include <list>
+#include <unordered_map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -78,18 +79,19 @@ std::vector<Vec3> read_points(const py::object& o, std::size_t n, const std::str
 
 // A shape dict of the JSON schema, parsed, built and (with validate) checked as the CLI does.
 // Building costs far more than a pair (the base function's series, hulls, FCL geometry: 0.3 to
-// 3 ms), so the last few bodies are kept by their JSON and parameters: a loop calling distance()
+// 3 ms), so the last 256 bodies are kept by their JSON and parameters: a loop calling distance()
 // with the same shapes builds them once. Only touched with the GIL held.
 std::shared_ptr<const GapBody> build_body(const json& shape, const json& params, const server::GapRequestParams& rp,
                                           const std::string& field) {
-  static std::list<std::pair<std::string, std::shared_ptr<const GapBody>>> recent;
-  constexpr std::size_t kKept = 16;
-  const std::string key = field + '\n' + shape.dump() + '\n' + params.dump();
-  for (auto it = recent.begin(); it != recent.end(); ++it)
-    if (it->first == key) {
-      recent.splice(recent.begin(), recent, it);
-      return it->second;
-    }
+  using Recent = std::list<std::pair<std::string, std::shared_ptr<const GapBody>>>;
+  static Recent recent;  // most recent first
+  static std::unordered_map<std::string, Recent::iterator> index;
+  constexpr std::size_t kKept = 256;  // e.g. a robot's links and the obstacles around them
+  std::string key = field + '\n' + shape.dump() + '\n' + params.dump();
+  if (const auto it = index.find(key); it != index.end()) {
+    recent.splice(recent.begin(), recent, it->second);
+    return it->second->second;
+  }
   const server::ShapeSpec spec = server::parse_shape(shape, field);
   auto body = std::make_shared<const GapBody>(spec.shape, Pose{}, rp.params, spec.options, field);
   if (rp.validate) {
@@ -97,7 +99,11 @@ std::shared_ptr<const GapBody> build_body(const json& shape, const json& params,
     if (!report.ok) throw InvalidInput(field, report.message);
   }
   recent.emplace_front(key, body);
-  if (recent.size() > kKept) recent.pop_back();
+  index.emplace(std::move(key), recent.begin());
+  if (recent.size() > kKept) {
+    index.erase(recent.back().first);
+    recent.pop_back();
+  }
   return body;
 }
 
