@@ -1,28 +1,21 @@
 """The Panda corridor rollout (paper Fig. 4): joint velocities with GAP and Euclidean distances.
 Run: PYTHONPATH=build/python /usr/bin/python3 examples/cbf_corridor.py [--duration 35] [--out DIR]
-(or its notebook: examples/notebook.py makes it; options then from $DISTLAB_EXAMPLE_ARGS).
+(or its notebook: examples/notebook.py makes it, options then from $DISTLAB_EXAMPLE_ARGS).
 """
 
 # %%
 import argparse
 import os
-import shlex
-import sys
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
 
-IN_NOTEBOOK = "ipykernel" in sys.modules
-if not IN_NOTEBOOK:
-    matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from distlab import cbf  # noqa: E402
+from distlab import cbf
 
 ap = argparse.ArgumentParser(description="The Panda corridor rollout, GAP against Euclidean")
 ap.add_argument("--duration", type=float, default=None, help="simulated seconds (default: the scenario's)")
 ap.add_argument("--out", default=".", help="folder for the figure")
-args = ap.parse_args(shlex.split(os.environ.get("DISTLAB_EXAMPLE_ARGS", "")) if IN_NOTEBOOK else None)
+args = ap.parse_args()
 params = {} if args.duration is None else {"duration": args.duration}
 
 # %% [markdown]

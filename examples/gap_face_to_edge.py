@@ -4,29 +4,22 @@ A box slides past the corner of another one: first its face faces the other's fa
 Euclidean nearest points jump along a whole face), then the nearest feature becomes an edge. The
 GAP distance D and its gradient stay smooth; the Euclidean gradient switches direction abruptly.
 Run: PYTHONPATH=build/python /usr/bin/python3 examples/gap_face_to_edge.py [--n 400] [--out DIR]
-(or its notebook: examples/notebook.py makes it; options then from $DISTLAB_EXAMPLE_ARGS).
+(or its notebook: examples/notebook.py makes it, options then from $DISTLAB_EXAMPLE_ARGS).
 """
 
 # %%
 import argparse
 import os
-import shlex
-import sys
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
 
-IN_NOTEBOOK = "ipykernel" in sys.modules
-if not IN_NOTEBOOK:
-    matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from distlab import gap  # noqa: E402
+from distlab import gap
 
 ap = argparse.ArgumentParser(description="GAP against Euclidean from face to edge contact")
 ap.add_argument("--n", type=int, default=400, help="poses along the path")
 ap.add_argument("--out", default=".", help="folder for the figure")
-args = ap.parse_args(shlex.split(os.environ.get("DISTLAB_EXAMPLE_ARGS", "")) if IN_NOTEBOOK else None)
+args = ap.parse_args()
 
 # %% [markdown]
 # B (a 0.1 m cube) at x = 0.2, a 0.05 m gap to A's +x face, slides along y past A's edge and

@@ -1,31 +1,24 @@
 """The Kelvin field around a sphere: σ painted on half of it, a slice of h with the zero level set,
 and constant σ against the closed form h = σ + ln(|x| / R).
 Run: PYTHONPATH=build/python /usr/bin/python3 examples/kelvin_sphere_slice.py [--lx 0.1] [--out DIR]
-(or its notebook: examples/notebook.py makes it; options then from $DISTLAB_EXAMPLE_ARGS).
+(or its notebook: examples/notebook.py makes it, options then from $DISTLAB_EXAMPLE_ARGS).
 """
 
 # %%
 import argparse
 import os
-import shlex
-import sys
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
 
-IN_NOTEBOOK = "ipykernel" in sys.modules
-if not IN_NOTEBOOK:
-    matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-import distlab  # noqa: E402
-from distlab import kelvin  # noqa: E402
+import distlab
+from distlab import kelvin
 
 ap = argparse.ArgumentParser(description="The Kelvin field around a sphere")
 ap.add_argument("--lx", type=float, default=0.08, help="exterior element size (m)")
 ap.add_argument("--grid", type=int, default=160, help="slice resolution")
 ap.add_argument("--out", default=".", help="folder for the figure")
-args = ap.parse_args(shlex.split(os.environ.get("DISTLAB_EXAMPLE_ARGS", "")) if IN_NOTEBOOK else None)
+args = ap.parse_args()
 
 # %% [markdown]
 # Prepare once (σ-independent), then σ = 0.4 on the half x > 0 and −0.3 on the other (per vertex,

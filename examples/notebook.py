@@ -1,6 +1,7 @@
 """Writes the notebook of an example script: the scripts are the one source, their notebooks are
-generated. The module docstring becomes a markdown cell, then each `# %%` section a code cell
-(`# %% [markdown]` sections a markdown cell, without the comments' `# `).
+generated. The module docstring becomes a markdown cell, a cell sets sys.argv from
+$DISTLAB_EXAMPLE_ARGS (so the script's argparse reads it), then each `# %%` section becomes a code
+cell (`# %% [markdown]` sections a markdown cell, without the comments' `# `).
 
   /usr/bin/python3 examples/notebook.py examples/gap_face_to_edge.py build/examples/gap_face_to_edge.ipynb
 """
@@ -30,7 +31,12 @@ def main():
         sys.exit(__doc__)
     with open(sys.argv[1], encoding="utf-8") as f:
         source = f.read()
-    nb = nbformat.v4.new_notebook(cells=list(cells(source)))
+    # The script's command line, in the notebook: $DISTLAB_EXAMPLE_ARGS (CI runs them small).
+    argv = nbformat.v4.new_code_cell(
+        "import os, shlex, sys\n"
+        f"sys.argv = [{sys.argv[1].rsplit('/', 1)[-1]!r}] + shlex.split(os.environ.get('DISTLAB_EXAMPLE_ARGS', ''))")
+    body = list(cells(source))
+    nb = nbformat.v4.new_notebook(cells=body[:1] + [argv] + body[1:])
     nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
     nbformat.write(nb, sys.argv[2])
 
