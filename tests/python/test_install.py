@@ -5,8 +5,13 @@ installed assets and CLI."""
 import json
 import os
 import pathlib
+import re
+import signal
 import subprocess
 import sys
+import time
+
+import requests
 
 from conftest import assert_same
 
@@ -69,3 +74,36 @@ def test_installed_package_works_from_a_fresh_shell(tmp_path):
     assert_same(out["kelvin"], out["kelvin_cli"], skip=skip)
     assert out["kelvin"]["query"]["h"][0] is not None
     assert out["cbf_steps"] > 1 and out["cbf_scenario"] == "corridor"
+
+
+def test_installed_server_finds_its_data(tmp_path):
+    prefix = tmp_path / "prefix"
+    subprocess.run([CMAKE, "--install", BUILD, "--prefix", str(prefix)], check=True, capture_output=True)
+    work = tmp_path / "elsewhere"
+    work.mkdir()
+    env = {"PATH": "/usr/bin:/bin", "HOME": str(tmp_path)}
+    proc = subprocess.Popen([str(prefix / "bin" / "distlab"), "serve", "--host", "127.0.0.1", "--port", "0",
+                             "--cache-dir", str(tmp_path / "cache")], cwd=work, env=env, stdout=subprocess.PIPE,
+                            text=True)
+    try:
+        line = proc.stdout.readline()
+        m = re.search(r"127\.0\.0\.1:(\d+)", line)
+        assert m, line
+        url = f"http://127.0.0.1:{m.group(1)}"
+        for _ in range(100):
+            try:
+                requests.get(url + "/api/health", timeout=5)
+                break
+            except requests.ConnectionError:
+                time.sleep(0.05)
+        # The built-in meshes come from the prefix's share/distlab/assets, as does the front end.
+        assets = requests.get(url + "/api/kelvin/assets", timeout=30).json()
+        names = {a["name"] if isinstance(a, dict) else a for a in (assets["assets"] if isinstance(assets, dict) else assets)}
+        assert {"cube", "sphere"} <= names, assets
+        assert f"assets {prefix}/share/distlab/assets" in line, line
+        if (prefix / "share" / "distlab" / "web" / "index.html").exists():
+            assert f"web {prefix}/share/distlab/web" in line, line
+            assert requests.get(url + "/", timeout=30).status_code == 200
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(timeout=30) == 0
