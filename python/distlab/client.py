@@ -141,9 +141,11 @@ class Client:
     # -- jobs -----------------------------------------------------------------------------------
 
     def job(self, job_id: str) -> dict:
+        """A job's state (GET /api/jobs/ID): state, stage, fraction, error."""
         return self._request("GET", f"/api/jobs/{job_id}")
 
     def cancel(self, job_id: str) -> None:
+        """Asks the service to cancel a job (it stops at its next checkpoint)."""
         self._request("POST", f"/api/jobs/{job_id}/cancel")
 
     def wait(self, job_id: str, progress: Optional[Callable[[str, float], Any]] = None,
@@ -284,6 +286,7 @@ class Live:
         self.close()
 
     def close(self) -> None:
+        """Closes the WebSocket (the session stays)."""
         self.ws.close()
 
     def _receive(self) -> dict:
@@ -387,6 +390,7 @@ class KelvinObject:
             f.write(data)
 
     def delete(self) -> None:
+        """Deletes the object from the session."""
         self.client._request("DELETE", self._path())
 
 
