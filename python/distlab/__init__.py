@@ -5,10 +5,35 @@ in-process (numpy in, numpy out, through the same C++ code and request validatio
 Modules: :mod:`distlab.gap`, :mod:`distlab.kelvin`, :mod:`distlab.cbf`, :mod:`distlab.client`.
 """
 
-from . import cbf, gap, kelvin
-from .errors import InvalidInput, InvalidInputType
+import os as _os
 
-__all__ = ["gap", "kelvin", "cbf", "Client", "InvalidInput", "InvalidInputType"]
+from . import _paths
+
+
+def _resolve(relative: str) -> str:
+    return _os.path.normpath(_os.path.join(_os.path.dirname(_os.path.abspath(__file__)), relative))
+
+
+#: The built-in meshes and CBF scenarios (the source tree's assets/, or share/distlab/assets when
+#: installed); the C++ core looks there unless $DISTLAB_ASSETS says otherwise.
+assets_dir = _resolve(_paths.ASSETS)
+#: The front end's static files (``distlab serve --web``), the shaders, the programs' directory.
+web_dir = _resolve(_paths.WEB)
+shaders_dir = _resolve(_paths.SHADERS)
+bin_dir = _resolve(_paths.BIN)
+_os.environ.setdefault("DISTLAB_ASSETS", assets_dir)
+
+
+def executable(name: str = "distlab") -> str:
+    """The path of the ``distlab`` CLI (``distlab serve`` is the service) beside this package."""
+    return _os.path.join(bin_dir, name)
+
+
+from . import cbf, gap, kelvin  # noqa: E402  (after DISTLAB_ASSETS is set)
+from .errors import InvalidInput, InvalidInputType  # noqa: E402
+
+__all__ = ["gap", "kelvin", "cbf", "Client", "InvalidInput", "InvalidInputType", "assets_dir", "web_dir",
+           "shaders_dir", "bin_dir", "executable"]
 __version__ = "0.1.0"
 
 

@@ -20,7 +20,7 @@ import websocket
 
 from .errors import InvalidInput
 
-__all__ = ["Client", "KelvinObject", "ServiceError", "decode_mesh_frame"]
+__all__ = ["Client", "KelvinObject", "Live", "ServiceError", "decode_mesh_frame"]
 
 
 class ServiceError(InvalidInput):
@@ -53,18 +53,31 @@ def _arrays(x):
     return x
 
 
+# The arrays of mesh frames (frames.hpp): little-endian float32 / uint32, and their row widths.
+_FRAME_ARRAYS = {"positions": ("<f4", 3), "indices": ("<u4", 3), "scalars": ("<f4", 1), "sigma": ("<f4", 1)}
+_BIN_HEADER = {0xC4: 2, 0xC5: 3, 0xC6: 5}  # msgpack bin 8/16/32: type byte + length bytes
+
+
 def decode_mesh_frame(data: bytes) -> dict:
-    """A msgpack mesh frame: ``positions`` (n, 3) float32, ``indices`` (m, 3) uint32, ``scalars``
-    (n,) float32 when present (views of ``data``), the other keys as sent."""
-    frame = msgpack.unpackb(data, raw=False)
-    out = dict(frame)
-    if "positions" in frame:
-        out["positions"] = np.frombuffer(frame["positions"], dtype="<f4").reshape(-1, 3)
-    if "indices" in frame:
-        out["indices"] = np.frombuffer(frame["indices"], dtype="<u4").reshape(-1, 3)
-    for key in ("scalars", "sigma"):
-        if isinstance(frame.get(key), (bytes, bytearray)):
-            out[key] = np.frombuffer(frame[key], dtype="<f4")
+    """A msgpack mesh frame (a WebSocket binary message or a REST download): ``positions`` (n, 3)
+    float32, ``indices`` (m, 3) uint32, ``scalars`` (n,) float32 when present, as read-only numpy
+    views of ``data`` itself (no copy: their offsets are found by walking the map), the other keys
+    as sent."""
+    unpacker = msgpack.Unpacker(raw=False, max_buffer_size=max(len(data), 1))
+    unpacker.feed(data)
+    out = {}
+    for _ in range(unpacker.read_map_header()):
+        key = unpacker.unpack()
+        start = unpacker.tell()
+        header = _BIN_HEADER.get(data[start]) if key in _FRAME_ARRAYS else None
+        if header is None:
+            out[key] = unpacker.unpack()
+            continue
+        unpacker.skip()
+        dtype, width = _FRAME_ARRAYS[key]
+        count = (unpacker.tell() - start - header) // np.dtype(dtype).itemsize
+        a = np.frombuffer(data, dtype=dtype, count=count, offset=start + header)
+        out[key] = a.reshape(-1, width) if width > 1 else a
     return out
 
 
@@ -128,9 +141,11 @@ class Client:
     # -- jobs -----------------------------------------------------------------------------------
 
     def job(self, job_id: str) -> dict:
+        """A job's state (GET /api/jobs/ID): state, stage, fraction, error."""
         return self._request("GET", f"/api/jobs/{job_id}")
 
     def cancel(self, job_id: str) -> None:
+        """Asks the service to cancel a job (it stops at its next checkpoint)."""
         self._request("POST", f"/api/jobs/{job_id}/cancel")
 
     def wait(self, job_id: str, progress: Optional[Callable[[str, float], Any]] = None,
@@ -187,6 +202,10 @@ class Client:
         if wait:
             self.wait(obj.job, progress)
         return obj
+
+    def live(self) -> "Live":
+        """The session's WebSocket: σ edits and the mesh frames they produce (see :class:`Live`)."""
+        return Live(self)
 
     # -- CBF ------------------------------------------------------------------------------------
 
@@ -246,6 +265,85 @@ class Client:
             ws.close()
 
 
+class Live:
+    """The session's WebSocket (``with client.live() as live: ...``). :meth:`watch` chooses an
+    object's iso-levels, :meth:`set_sigma` sends a σ edit and waits for its acknowledgement (the
+    new σ version); :meth:`messages` yields what the service pushes: mesh frames (binary msgpack,
+    decoded by :func:`decode_mesh_frame` into numpy views without copies) and JSON messages as dicts
+    (``job``, ``object``, ``sigma``, ``cbf_frames`` ...). ``hello`` is the service's first message."""
+
+    def __init__(self, client: Client):
+        self.client = client
+        self.ws = client._ws()
+        self.hello = json.loads(self.ws.recv())
+        self._pending: list = []
+        self._request = 0
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def close(self) -> None:
+        """Closes the WebSocket (the session stays)."""
+        self.ws.close()
+
+    def _receive(self) -> dict:
+        message = self.ws.recv()
+        if isinstance(message, bytes):
+            return decode_mesh_frame(message)
+        return json.loads(message)
+
+    def _call(self, message: dict) -> dict:
+        """Sends a message with a fresh request id; its reply (other messages wait in order)."""
+        self._request += 1
+        message["request"] = self._request
+        self.ws.send(json.dumps(message))
+        while True:
+            m = self._receive()
+            if m.get("request") == self._request:
+                if m.get("type") == "error":
+                    e = m["error"]
+                    raise ServiceError(m.get("status", 400), e.get("code", ""), e.get("field", ""), e.get("message", ""))
+                return m
+            self._pending.append(m)
+
+    def watch(self, obj: "KelvinObject", levels) -> None:
+        """Iso-surfaces {h = level} of ``obj`` for each level, pushed as frames after each σ."""
+        self.ws.send(json.dumps({"type": "watch", "object": obj.id, "levels": _plain(levels)}))
+
+    def set_sigma(self, obj: "KelvinObject", per_vertex=None, *, constant: Optional[float] = None, axis=None,
+                  brushes=None) -> int:
+        """A σ edit over the WebSocket (as :meth:`KelvinObject.set_sigma`); its σ version once
+        accepted. A refused σ raises ServiceError naming the field."""
+        sigma: Dict[str, Any] = {}
+        for key, value in (("per_vertex", per_vertex), ("constant", constant), ("axis", axis), ("brushes", brushes)):
+            if value is not None:
+                sigma[key] = _plain(value)
+        return self._call({"type": "sigma", "object": obj.id, "sigma": sigma})["sigma_version"]
+
+    def messages(self) -> Iterator[dict]:
+        """What the service pushes, in order of arrival (blocks; the client's timeout applies)."""
+        while True:
+            yield self._pending.pop(0) if self._pending else self._receive()
+
+    def isosurfaces(self, obj: "KelvinObject", sigma_version: int) -> Dict[float, dict]:
+        """Waits for the iso-surface frames of every watched level of ``obj`` at ``sigma_version``
+        (a newer σ supersedes them: then raises RuntimeError); {level: frame}."""
+        frames: Dict[float, dict] = {}
+        for m in self.messages():
+            if m.get("type") != "isosurface" or m.get("object") != obj.id:
+                continue
+            if m["sigma_version"] > sigma_version:
+                raise RuntimeError(f"σ version {m['sigma_version']} superseded {sigma_version}")
+            if m["sigma_version"] == sigma_version:
+                frames[m["level"]] = m
+                if len(frames) == m["count"]:
+                    return frames
+        raise AssertionError("unreachable")
+
+
 class KelvinObject:
     """A Kelvin object of the client's session."""
 
@@ -292,6 +390,7 @@ class KelvinObject:
             f.write(data)
 
     def delete(self) -> None:
+        """Deletes the object from the session."""
         self.client._request("DELETE", self._path())
 
 

@@ -9,7 +9,7 @@ Poses: arrays of 7 numbers ``[x, y, z, qw, qx, qy, qz]`` or 4x4 rigid transforms
 from __future__ import annotations
 
 import dataclasses
-from typing import Any, Mapping, Optional, Sequence
+from typing import Any, Callable, Mapping, Optional, Sequence
 
 import numpy as np
 
@@ -143,9 +143,7 @@ class Params:
 
     def to_dict(self) -> dict:
         """The CLI's "params" object."""
-        d = dataclasses.asdict(self)
-        del d["euclidean"]
-        return d
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "euclidean"}
 
 
 class Result(dict):
@@ -182,13 +180,16 @@ def _poses(pose, field: str):
 
 
 def distance(a, pose_a, b, pose_b, params: Optional[Params] = None, *, threads: int = 0,
-             warm_start: Optional[Mapping[str, Any]] = None) -> Result:
+             warm_start: Optional[Mapping[str, Any]] = None,
+             progress: Optional[Callable[[int, int], Any]] = None) -> Result:
     """The GAP distance between shape ``a`` at ``pose_a`` and ``b`` at ``pose_b``.
 
     One pose each gives one result; ``(N, 7)`` or ``(N, 4, 4)`` poses give N results (a single
     pose on one side is shared by all N). Batches run on ``threads`` threads (0: all cores) with
     the GIL released. ``warm_start``: a previous Result (or ``{"witness_a", "witness_b"}`` arrays
     of the same N): Newton starts at those witnesses and skips FCL, for sequences of nearby poses.
+    ``progress(done, total)`` is called about every 0.1 s and at the end; Ctrl-C
+    (KeyboardInterrupt), or an exception raised by ``progress``, stops the batch and propagates.
     Bad input raises :class:`distlab.InvalidInput` (a ValueError; also a TypeError for a wrong
     type) naming the field."""
     pa, single_a = _poses(pose_a, "pose_a")
@@ -200,7 +201,8 @@ def distance(a, pose_a, b, pose_b, params: Optional[Params] = None, *, threads: 
     if warm_start is not None:
         wa = np.asarray(warm_start["witness_a"], dtype=np.float64).reshape(-1, 3)
         wb = np.asarray(warm_start["witness_b"], dtype=np.float64).reshape(-1, 3)
-    out = _core.gap_batch(_shape_spec(a, "a"), pa, _shape_spec(b, "b"), pb, pdict, int(threads), wa, wb, euclidean)
+    out = _core.gap_batch(_shape_spec(a, "a"), pa, _shape_spec(b, "b"), pb, pdict, int(threads), wa, wb, euclidean,
+                          progress)
     if single_a and single_b:
         out = {k: (None if v is None else (v[0].item() if v.ndim == 1 else v[0])) for k, v in out.items()}
     return Result(out)

@@ -20,7 +20,7 @@ py::object cbf_rollout(const py::object& request, const py::object& progress, in
   const int stride = every > 0 ? every : 1;
   r.options.cancel = interrupt.flag();
   r.options.progress = [&](int step, const cbf::StepRecord& s) {
-    return step % stride != 0 || interrupt.report(step, s.t);
+    return step % stride != 0 ? interrupt.poll() : interrupt.report(step, s.t);
   };
   json response;
   {

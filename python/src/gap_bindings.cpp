@@ -1,7 +1,12 @@
 // distlab.gap: the CLI's request (solve) and batched distances over arrays of poses.
 #include <algorithm>
 #include <atomic>
+#include <chrono>
+#include <thread>
 #include <cmath>
+#include <list>
+#include <unordered_map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -10,6 +15,7 @@
 
 #include "bindings.hpp"
 #include "convert.hpp"
+#include "interrupt.hpp"
 #include "distlab/gap/distance.hpp"
 #include "distlab/gap/validator.hpp"
 #include "distlab/server/gap_json.hpp"
@@ -33,28 +39,28 @@ std::vector<Pose> read_poses(const Poses& a, const std::string& field) {
   const double* d = a.data();
   std::vector<Pose> poses(n);
   for (std::size_t i = 0; i < n; ++i) {
-    const std::string f = server::json_index_path(field, i);
+    const auto f = [&] { return server::json_index_path(field, i); };  // built only for an error
     const double* p = d + i * (matrices ? 16 : 7);
     for (int k = 0; k < (matrices ? 16 : 7); ++k)
-      if (!std::isfinite(p[k])) throw InvalidInput(f, f + " must be finite");
+      if (!std::isfinite(p[k])) throw InvalidInput(f(), f() + " must be finite");
     Pose& pose = poses[i];
     if (!matrices) {
       pose.position = Vec3(p[0], p[1], p[2]);
       const double norm = Eigen::Vector4d(p[3], p[4], p[5], p[6]).stableNorm();
       if (!(norm >= server::kMinQuaternionNorm))
-        throw InvalidInput(f, "quaternion has (near) zero norm; it must be a rotation");
+        throw InvalidInput(f(), "quaternion has (near) zero norm; it must be a rotation");
       pose.rotation = Quat(p[3] / norm, p[4] / norm, p[5] / norm, p[6] / norm);
     } else {
       const Eigen::Map<const Eigen::Matrix<double, 4, 4, Eigen::RowMajor>> M(p);
       const Mat3 R = M.topLeftCorner<3, 3>();
       if ((R.transpose() * R - Mat3::Identity()).cwiseAbs().maxCoeff() > 1e-6 || R.determinant() <= 0 ||
           M.row(3) != Eigen::RowVector4d(0, 0, 0, 1))
-        throw InvalidInput(f, f + " must be a rigid transform (orthonormal rotation, det +1, last row 0 0 0 1)");
+        throw InvalidInput(f(), f() + " must be a rigid transform (orthonormal rotation, det +1, last row 0 0 0 1)");
       pose.position = M.topRightCorner<3, 1>();
       pose.rotation = Quat(R).normalized();
     }
     if (!(pose.position.cwiseAbs().maxCoeff() <= server::kMaxCoordinate))
-      throw InvalidInput(f, f + " position must have magnitude <= " + json(server::kMaxCoordinate).dump());
+      throw InvalidInput(f(), f() + " position must have magnitude <= " + json(server::kMaxCoordinate).dump());
   }
   return poses;
 }
@@ -72,12 +78,31 @@ std::vector<Vec3> read_points(const py::object& o, std::size_t n, const std::str
 }
 
 // A shape dict of the JSON schema, parsed, built and (with validate) checked as the CLI does.
-GapBody build_body(const py::dict& shape, const server::GapRequestParams& rp, const std::string& field) {
-  const server::ShapeSpec spec = server::parse_shape(to_json(shape, field), field);
-  GapBody body(spec.shape, Pose{}, rp.params, spec.options, field);
+// Building costs far more than a pair (the base function's series, hulls, FCL geometry: 0.3 to
+// 3 ms), so the last 256 bodies are kept by their JSON and parameters: a loop calling distance()
+// with the same shapes builds them once. Only touched with the GIL held.
+std::shared_ptr<const GapBody> build_body(const json& shape, const json& params, const server::GapRequestParams& rp,
+                                          const std::string& field) {
+  using Recent = std::list<std::pair<std::string, std::shared_ptr<const GapBody>>>;
+  static Recent recent;  // most recent first
+  static std::unordered_map<std::string, Recent::iterator> index;
+  constexpr std::size_t kKept = 256;  // e.g. a robot's links and the obstacles around them
+  std::string key = field + '\n' + shape.dump() + '\n' + params.dump();
+  if (const auto it = index.find(key); it != index.end()) {
+    recent.splice(recent.begin(), recent, it->second);
+    return it->second->second;
+  }
+  const server::ShapeSpec spec = server::parse_shape(shape, field);
+  auto body = std::make_shared<const GapBody>(spec.shape, Pose{}, rp.params, spec.options, field);
   if (rp.validate) {
-    const ValidationReport report = validate_p2s(body.p2s());
+    const ValidationReport report = validate_p2s(body->p2s());
     if (!report.ok) throw InvalidInput(field, report.message);
+  }
+  recent.emplace_front(key, body);
+  index.emplace(std::move(key), recent.begin());
+  if (recent.size() > kKept) {
+    index.erase(recent.back().first);
+    recent.pop_back();
   }
   return body;
 }
@@ -85,14 +110,20 @@ GapBody build_body(const py::dict& shape, const server::GapRequestParams& rp, co
 
 py::dict gap_batch(const py::dict& shape_a, const Poses& poses_a, const py::dict& shape_b,
                    const Poses& poses_b, const py::object& params_dict, unsigned threads,
-                   const py::object& warm_a, const py::object& warm_b, bool euclidean) {
-  server::GapRequestParams rp = server::parse_params(to_json(params_dict, "params"));
+                   const py::object& warm_a, const py::object& warm_b, bool euclidean,
+                   const py::object& progress) {
+  const json params_json = to_json(params_dict, "params");
+  // Parsing checks h and k by building a base function (0.1 ms): the last parameters are kept.
+  static std::optional<std::pair<json, server::GapRequestParams>> last_params;
+  if (!last_params || last_params->first != params_json)
+    last_params.emplace(params_json, server::parse_params(params_json));
+  server::GapRequestParams rp = last_params->second;
   rp.params.euclidean = euclidean;  // off: an uncertified GJK start, no FCL (as distlab-bench-gap)
   const std::vector<Pose> pa = read_poses(poses_a, "pose_a"), pb = read_poses(poses_b, "pose_b");
   if (pa.size() != pb.size() && pa.size() != 1 && pb.size() != 1)
     throw InvalidInput("pose_b", "pose_a has " + std::to_string(pa.size()) + " poses and pose_b " +
                                      std::to_string(pb.size()) + " (give as many, or one of either)");
-  const std::size_t n = std::max(pa.size(), pb.size());
+  const std::size_t n = pa.empty() || pb.empty() ? 0 : std::max(pa.size(), pb.size());
   const bool warm = !warm_a.is_none() || !warm_b.is_none();
   std::vector<Vec3> wa, wb;
   if (warm) {
@@ -101,7 +132,8 @@ py::dict gap_batch(const py::dict& shape_a, const Poses& poses_a, const py::dict
     wa = read_points(warm_a, n, "warm_start.witness_a");
     wb = read_points(warm_b, n, "warm_start.witness_b");
   }
-  const GapBody proto_a = build_body(shape_a, rp, "a"), proto_b = build_body(shape_b, rp, "b");
+  const auto proto_a = build_body(to_json(shape_a, "a"), params_json, rp, "a");
+  const auto proto_b = build_body(to_json(shape_b, "b"), params_json, rp, "b");
   const GapParams& params = rp.params;
 
   const auto sn = static_cast<py::ssize_t>(n);
@@ -121,13 +153,24 @@ py::dict gap_batch(const py::dict& shape_a, const Poses& poses_a, const py::dict
       grad_b.mutable_data(), egrad_a.mutable_data(),  egrad_b.mutable_data(), iterations.mutable_data(),
       converged.mutable_data(), overlap.mutable_data()};
 
-  std::atomic<std::size_t> first_bad{n};
+  std::atomic<std::size_t> first_bad{n}, done{0};
+  Interruptible interrupt(progress);
   {
     py::gil_scoped_release release;
-    // Blocks of pairs, each with its own copies of the two bodies (set_pose moves them).
+    // Blocks of pairs, each with its own copies of the two bodies (set_pose moves them). Between
+    // blocks the calling thread (which takes a share) runs Ctrl-C's handler and, every 0.1 s,
+    // progress(done, n); once cancelled the remaining blocks are skipped.
     constexpr std::size_t kBlock = 256;
+    auto last_report = std::chrono::steady_clock::now();
+    const auto caller = std::this_thread::get_id();
     parallel_indices((n + kBlock - 1) / kBlock, threads, [&](std::size_t block) {
-      GapBody a = proto_a, b = proto_b;
+      if (!interrupt.poll()) return;
+      if (!progress.is_none() && std::this_thread::get_id() == caller &&
+          std::chrono::steady_clock::now() - last_report > std::chrono::milliseconds(100)) {
+        last_report = std::chrono::steady_clock::now();
+        if (!interrupt.report(done.load(), n)) return;
+      }
+      GapBody a = *proto_a, b = *proto_b;
       const double nan = std::nan("");
       for (std::size_t i = block * kBlock; i < std::min(n, (block + 1) * kBlock); ++i) {
         a.set_pose(pa[pa.size() == 1 ? 0 : i]);
@@ -157,8 +200,11 @@ py::dict gap_batch(const py::dict& shape_a, const Poses& poses_a, const py::dict
           for (std::size_t f = first_bad.load(); i < f && !first_bad.compare_exchange_weak(f, i);) {
           }
       }
+      done.fetch_add(std::min(n, (block + 1) * kBlock) - block * kBlock);
     });
   }
+  if (interrupt.cancelled()) interrupt.raise();
+  if (!progress.is_none() && !interrupt.report(n, n)) interrupt.raise();
   if (first_bad.load() < n)
     throw std::runtime_error("non-finite result for pair " + std::to_string(first_bad.load()) +
                              "; refusing to report it" +
@@ -213,7 +259,7 @@ void bind_gap(py::module_& m) {
   m.def("gap_solve", &gap_solve, py::arg("request"));
   m.def("gap_batch", &gap_batch, py::arg("shape_a"), py::arg("poses_a"), py::arg("shape_b"), py::arg("poses_b"),
         py::arg("params"), py::arg("threads"), py::arg("warm_a"), py::arg("warm_b"),
-        py::arg("euclidean") = true);
+        py::arg("euclidean") = true, py::arg("progress") = py::none());
   m.def("gap_default_params", &default_params);
 }
 

@@ -30,12 +30,7 @@ py::object kelvin_solve(const py::object& request, const py::object& progress) {
   p.cancel = interrupt.flag();
   p.report = [&](const std::string& stage, double f) { interrupt.report(stage, f); };
   json response;
-  try {
-    py::gil_scoped_release release;
-    response = server::run_kelvin_request(j, p);
-  } catch (const kelvin::Cancelled&) {
-    interrupt.raise();
-  }
+  interrupt.run([&] { response = server::run_kelvin_request(j, p); });
   return to_python(response);
 }
 
@@ -97,17 +92,15 @@ class PyField {
     kelvin::Progress pr;
     pr.cancel = interrupt.flag();
     pr.report = [&](const std::string& stage, double f) { interrupt.report(stage, f); };
-    try {
-      py::gil_scoped_release release;
+    std::unique_ptr<PyField> field;
+    interrupt.run([&] {
       bool hit = false;
-      auto field = std::make_unique<PyField>(cache.empty() ? kelvin::Field::prepare(surface, po, pr)
-                                                           : kelvin::Field::prepare_cached(surface, po, cache, pr, &hit));
+      field = std::make_unique<PyField>(cache.empty() ? kelvin::Field::prepare(surface, po, pr)
+                                                      : kelvin::Field::prepare_cached(surface, po, cache, pr, &hit));
       field->cache_hit_ = hit;
       field->field_.set_sigma(kelvin::SigmaSpec{});
-      return field;
-    } catch (const kelvin::Cancelled&) {
-      interrupt.raise();
-    }
+    });
+    return field;
   }
 
   explicit PyField(kelvin::Field f) : field_(std::move(f)) {}

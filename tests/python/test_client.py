@@ -88,3 +88,52 @@ def test_cbf_rollout_streams_every_step(server):
     assert len(frames) == len(record["t"])
     np.testing.assert_array_equal(np.array([f["q"] for f in frames]), record["q"])
     np.testing.assert_array_equal(np.array([f["u"] for f in frames]), record["u"])
+
+
+def root_base(a):
+    while isinstance(a, np.ndarray):
+        a = a.base
+    return a
+
+
+def test_sigma_edits_over_the_websocket(server):
+    c = distlab.Client(server)
+    obj = c.kelvin_object(asset="cube", lx=0.25)
+    levels = [0.3, 0.5]
+    with c.live() as live:
+        live.watch(obj, levels)
+        v1 = live.set_sigma(obj, constant=0.1)
+        v2 = live.set_sigma(obj, constant=0.2)
+        assert v2 == v1 + 1
+        frames = live.isosurfaces(obj, v2)
+        assert sorted(frames) == levels
+        # Each pushed frame is the REST iso-surface of the same σ, and the in-process field's
+        # (float32 of its doubles); its arrays view the received message (no copy).
+        field = kelvin.Field.prepare(ROOT / "assets" / "cube.stl", lx=0.25)
+        field.set_sigma(constant=0.2)
+        for level, frame in frames.items():
+            V, F = obj.isosurface(level)
+            np.testing.assert_array_equal(frame["positions"], V)
+            np.testing.assert_array_equal(frame["indices"], F)
+            V2, F2 = field.isosurface(level)
+            np.testing.assert_array_equal(frame["positions"], V2.astype(np.float32))
+            np.testing.assert_array_equal(frame["indices"], F2)
+            assert isinstance(root_base(frame["positions"]), bytes)
+            assert root_base(frame["positions"]) is root_base(frame["indices"])
+        # A bad σ is refused over the socket too, naming the field.
+        with pytest.raises(ServiceError) as info:
+            live.set_sigma(obj, per_vertex=[0.1, 0.2])
+        assert info.value.field.startswith("sigma.per_vertex") or info.value.field.startswith("per_vertex")
+
+
+def test_mesh_frames_decode_without_copies(server):
+    c = distlab.Client(server)
+    obj = c.kelvin_object(asset="cube", lx=0.25, sigma={"constant": 0.3})
+    data = c._request("GET", obj._path("/surface"), raw=True)
+    frame = distlab.client.decode_mesh_frame(data)
+    assert root_base(frame["positions"]) is data and root_base(frame["scalars"]) is data
+    assert not frame["positions"].flags.writeable
+    V, F = kelvin.Field.prepare(ROOT / "assets" / "cube.stl", lx=0.25).surface
+    np.testing.assert_array_equal(frame["positions"], V.astype(np.float32))
+    np.testing.assert_array_equal(frame["indices"], F)
+    np.testing.assert_array_equal(frame["scalars"], np.float32(0.3))

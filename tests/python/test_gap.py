@@ -166,6 +166,26 @@ def test_warm_start_matches_cold_start():
     assert np.isnan(warm.euclidean_distance).all()
 
 
+def test_empty_batches_give_empty_arrays():
+    a, b = gap.Box([0.2, 0.1, 0.15]), gap.Sphere(0.06)
+    r = gap.distance(a, [0.5, 0, 0, 1, 0, 0, 0], b, np.zeros((0, 7)))
+    assert r.distance.shape == (0,) and r.witness_a.shape == (0, 3) and r.gradient_b.shape == (0, 6)
+
+
+def test_kept_bodies_follow_the_shape_and_parameters():
+    # Bodies are kept between calls by their JSON and parameters: a changed shape or parameter
+    # must give the result of a fresh process (the CLI), never the kept body's.
+    pose = [0.4, 0.05, 0.02, 1, 0, 0, 0]
+    for size, k in (([0.2, 0.1, 0.15], 2), ([0.3, 0.1, 0.15], 2), ([0.3, 0.1, 0.15], 3), ([0.2, 0.1, 0.15], 2)):
+        ours = gap.distance(gap.Box(size), None, gap.Sphere(0.06), pose, gap.Params(k=k))
+        code, cli = run_cli("gap", {"a": {"type": "box", "size": size},
+                                    "b": {"type": "sphere", "radius": 0.06,
+                                          "pose": {"position": pose[:3], "quaternion": pose[3:]}},
+                                    "params": {"k": k}})
+        assert code == 0
+        assert ours.distance == cli["distance"] and list(ours.witness_a) == cli["witness_a"]
+
+
 def test_params_defaults_are_the_core_defaults():
     assert gap.default_params() == gap.Params()
 

@@ -26,7 +26,7 @@ const char* kUsage =
     "  --port N                 port (default 8080; 0 picks a free one, printed on stdout)\n"
     "  --assets DIR             built-in meshes (default: $DISTLAB_ASSETS, ./assets or assets/ above the binary)\n"
     "  --cache-dir DIR          prepared Kelvin objects (default: $XDG_CACHE_HOME/distlab or ~/.cache/distlab)\n"
-    "  --web DIR                static front end (default web/dist)\n"
+    "  --web DIR                static front end (default: ./web/dist, or web/dist or share/distlab/web above the binary)\n"
     "  --threads N              compute and job threads each (default: all cores)\n"
     "limits (defaults in GET /api/limits):\n"
     "  --max-body-bytes N  --max-upload-bytes N  --max-upload-triangles N  --min-lx X\n"
@@ -35,15 +35,22 @@ const char* kUsage =
     "  --ws-rate X  --ws-burst X  --import-memory-bytes N  --import-seconds X\n"
     "  --limit NAME=VALUE       any limit of GET /api/limits by its name (e.g. max_connections=64)\n";
 
-std::string default_assets() {
-  if (const char* env = std::getenv("DISTLAB_ASSETS")) return env;
-  if (fs::is_directory("assets")) return "assets";
+// ./LOCAL, else LOCAL or share/distlab/INSTALLED in a directory above the binary (the source
+// tree's layout and cmake --install's); LOCAL when none exists.
+std::string data_dir(const std::string& local, const std::string& installed) {
+  if (fs::is_directory(local)) return local;
   std::error_code ec;
   for (fs::path p = fs::read_symlink("/proc/self/exe", ec).parent_path(); !ec && !p.empty(); p = p.parent_path()) {
-    if (fs::is_directory(p / "assets")) return (p / "assets").string();
+    if (fs::is_directory(p / local)) return (p / local).string();
+    if (fs::is_directory(p / "share/distlab" / installed)) return (p / "share/distlab" / installed).string();
     if (p == p.root_path()) break;
   }
-  return "assets";
+  return local;
+}
+
+std::string default_assets() {
+  if (const char* env = std::getenv("DISTLAB_ASSETS")) return env;
+  return data_dir("assets", "assets");
 }
 
 std::string default_cache() {
@@ -57,6 +64,7 @@ int run_serve(const std::vector<std::string>& args, std::istream&, std::ostream&
   unsigned long port = 8080;
   server::ServiceConfig config;
   config.assets_dir = default_assets();
+  config.web_dir = data_dir(config.web_dir, "web");
   config.cache_dir = default_cache();
   server::Limits& lim = config.limits;
   try {

@@ -100,6 +100,7 @@ std::string asset_path(const std::string& name) {
   std::error_code ec;
   for (fs::path p = fs::read_symlink("/proc/self/exe", ec).parent_path(); !ec && !p.empty(); p = p.parent_path()) {
     roots.push_back(p / "assets");
+    roots.push_back(p / "share/distlab/assets");  // cmake --install's layout
     if (p == p.root_path()) break;
   }
   for (const auto& root : roots)
