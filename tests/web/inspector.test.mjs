@@ -73,7 +73,13 @@ test("Kelvin: switching the object sets l_x and the brush from its size, with th
       }).observe(document, { subtree: true, childList: true, attributes: true, characterData: true });
     });
     await page.locator(".lil-controller:has(.lil-name:text-is('built-in')) select").selectOption("wrench");
-    await page.waitForFunction(() => window.distlab.kelvin.object?.source?.asset === "wrench" && window.distlab.kelvin.ready, null, { timeout: 300000, polling: 200 });
+    // Ready, or refused (with the cube's l_x, the wrench was "lx larger than the object").
+    await page.waitForFunction(
+      () => (window.distlab.kelvin.object?.source?.asset === "wrench" && window.distlab.kelvin.ready) || document.querySelector(".toast-error") !== null,
+      null,
+      { timeout: 300000, polling: 200 },
+    );
+    assert.deepEqual(await page.locator(".toast-error").allTextContents(), [], "the wrench is prepared without an error");
     const st = await page.evaluate(() => window.distlab.kelvin.state);
     assert.equal(st.lx, 0.005, "the wrench's own l_x, not the cube's 0.1 (larger than the wrench)");
     const diagonal = 0.0986; // the wrench asset's bounding-box diagonal (m)
