@@ -1,9 +1,6 @@
 // The service's command lines: `distlab serve` finds --assets and --web by one rule and says
 // clearly when one is missing (exit 2, before listening); `distlab-bench-server --help` prints its
 // usage without connecting anywhere.
-#include <spawn.h>
-#include <sys/wait.h>
-#include <fcntl.h>
 #include <unistd.h>
 
 #include <cstdio>
@@ -14,7 +11,7 @@
 
 #include <gtest/gtest.h>
 
-extern char** environ;
+#include "cli/run_process.hpp"
 
 namespace {
 
@@ -36,23 +33,8 @@ Outcome run(const std::string& exe, std::vector<std::string> args, const std::st
   const std::string err = "/tmp/distlab_serve_opts_err_" + std::to_string(::getpid());
   std::vector<std::string> full = {"/usr/bin/timeout", "20", exe};
   full.insert(full.end(), args.begin(), args.end());
-  posix_spawn_file_actions_t fa;
-  posix_spawn_file_actions_init(&fa);
-  posix_spawn_file_actions_addopen(&fa, 0, "/dev/null", O_RDONLY, 0);
-  posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
-  posix_spawn_file_actions_addopen(&fa, 2, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
-  posix_spawn_file_actions_addchdir_np(&fa, cwd.c_str());
-  std::vector<char*> argv;
-  for (auto& a : full) argv.push_back(a.data());
-  argv.push_back(nullptr);
   Outcome r;
-  pid_t pid = 0;
-  if (posix_spawn(&pid, full[0].c_str(), &fa, nullptr, argv.data(), environ) == 0) {
-    int status = 0;
-    waitpid(pid, &status, 0);
-    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  }
-  posix_spawn_file_actions_destroy(&fa);
+  r.code = distlab::test::run_process(full, "/dev/null", out, err, cwd.c_str());
   r.out = slurp(out);
   r.err = slurp(err);
   std::remove(out.c_str());
