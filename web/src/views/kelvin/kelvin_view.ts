@@ -182,7 +182,9 @@ export class KelvinView implements View {
     if (ticket !== this.ticket) return;
     this.panel?.setEstimate(estimateText(est), est.problem);
     if (est.problem) {
+      // l_x is flagged under its field; a refused mesh is an error of its own.
       const text = `${name} at l_x = ${this.state.lx}: ${est.problem.message}`;
+      if (est.problem.field !== "lx") showError(new ApiError(422, "invalid_input", est.problem.message, est.problem.field), `cannot prepare ${name}`);
       this.host.status(text);
       this.panel?.setStats([["object", text]]);
       return;
