@@ -207,7 +207,7 @@ json Service::estimate_json(const mesh::SurfaceMesh& welded, kelvin::PrepareOpti
   if (const double rate = prepare_seconds_per_vertex_.load(); rate > 0) out["seconds_estimate"] = rate * estimate;
   try {
     if (estimate > budget)
-      throw InvalidInput("lx", "about " + json(std::round(estimate)).dump() + " vertices, over this server's budget of " +
+      throw InvalidInput("lx", "about " + std::to_string(std::llround(estimate)) + " vertices, over this server's budget of " +
                                    std::to_string(lim.max_vertex_estimate) + "; use a larger lx");
     options.max_vertices = std::max<std::size_t>(100, lim.max_vertex_estimate);
     kelvin::check_prepare_inputs(welded, options);

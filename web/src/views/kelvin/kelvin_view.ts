@@ -176,7 +176,10 @@ export class KelvinView implements View {
     try {
       est = await estimate(source, this.state.lx);
     } catch (e) {
-      if (ticket === this.ticket) this.panel?.setEstimate(showError(e, `cannot estimate ${name}`), null);
+      if (ticket !== this.ticket) return;
+      // A refused l_x (below the server's minimum) is shown under the field; anything else is an error.
+      if (e instanceof ApiError && e.field === "lx") this.panel?.setEstimate(`cannot prepare ${name}: ${e.readable}`, { field: "lx", message: e.message });
+      else this.panel?.setEstimate(showError(e, `cannot estimate ${name}`), null);
       return;
     }
     if (ticket !== this.ticket) return;
