@@ -18,6 +18,7 @@
 
 #include "distlab/gap/distance.hpp"
 #include "distlab/server/gap_json.hpp"
+#include "cli/run_process.hpp"
 
 extern char** environ;
 
@@ -56,23 +57,9 @@ std::string slurp(const std::string& path) {
 
 CliRun run_distlab(const std::string& input, std::vector<std::string> args = {}) {
   const std::string in = temp_file(input), out = temp_file(""), err = temp_file("");
-  posix_spawn_file_actions_t fa;
-  posix_spawn_file_actions_init(&fa);
-  posix_spawn_file_actions_addopen(&fa, 0, in.c_str(), O_RDONLY, 0);
-  posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_TRUNC, 0);
-  posix_spawn_file_actions_addopen(&fa, 2, err.c_str(), O_WRONLY | O_TRUNC, 0);
   args.insert(args.begin(), {DISTLAB_EXE, "gap"});
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  pid_t pid = 0;
   CliRun r;
-  if (posix_spawn(&pid, DISTLAB_EXE, &fa, nullptr, argv.data(), environ) == 0) {
-    int status = 0;
-    waitpid(pid, &status, 0);
-    r.code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  }
-  posix_spawn_file_actions_destroy(&fa);
+  r.code = distlab::test::run_process(args, in, out, err);
   r.out = slurp(out);
   r.err = slurp(err);
   for (const auto& p : {in, out, err}) std::remove(p.c_str());

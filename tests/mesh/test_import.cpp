@@ -50,6 +50,11 @@ TEST(MeshImport, RoundTripEveryFormatWeldsAndStaysClosed) {
     EXPECT_NO_THROW(require_closed_manifold(back)) << format;
     EXPECT_NEAR(signed_volume(back), signed_volume(sphere), 1e-6) << format;
   }
+  // OBJ is one file: no material library is written or referenced.
+  std::ifstream obj(temp_dir() / "sphere.obj");
+  const std::string text((std::istreambuf_iterator<char>(obj)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(text.find("mtllib"), std::string::npos);
+  EXPECT_FALSE(fs::exists(temp_dir() / "sphere.mtl"));
 }
 
 TEST(MeshImport, ReadsOffText) {

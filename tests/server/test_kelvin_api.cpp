@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <fstream>
 #include <map>
 
 #include "distlab/server/frames.hpp"
@@ -179,6 +180,10 @@ TEST_F(KelvinApi, PrepareQuerySigmaIsosurfaceExport) {
     }
     if (fmt == "ply") {
       EXPECT_EQ(r->body.substr(0, 3), "ply");
+    }
+    if (fmt == "obj") {  // one file: no reference to a material file that the download lacks
+      EXPECT_EQ(r->body.find("mtllib"), std::string::npos);
+      EXPECT_NE(r->body.find("\nf "), std::string::npos);
     }
   }
   bad = c.Get((path_of(id, "/export") + "?level=0.8&format=dwg").c_str(), session_headers(s));
@@ -623,6 +628,45 @@ TEST_F(KelvinApi, SigmaRangeKeepsEveryNumberFinite) {
   ASSERT_TRUE(ws.until([&](const Msg& x) { return x.binary && x.j["type"] == "isosurface" && x.j["sigma_version"] == 3; }, m, 60));
   EXPECT_GT(m.j["n_faces"].get<long>(), 0);
   for (const float v : server::read_float32(m.j["positions"])) EXPECT_TRUE(std::isfinite(v));
+}
+
+// POST /api/kelvin/estimate answers what creating would cost, with the estimate creation itself
+// uses, and creates nothing; the paper's wrench cases (l_x 0.002) are within this server's limits.
+TEST_F(KelvinApi, EstimateBeforePreparing) {
+  const std::string s = new_session(c);
+  const auto h = session_headers(s);
+  auto estimate = [&](const json& b) {
+    auto r = c.Post("/api/kelvin/estimate", h, b.dump(), "application/json");
+    EXPECT_EQ(r->status, 200) << r->body;
+    return body_json(r);
+  };
+  for (const char* name : {"wrench_case_a", "wrench_case_b", "wrench_case_c"}) {
+    std::ifstream f(std::string(DISTLAB_SOURCE_DIR) + "/assets/" + name + ".json");
+    const json wrench_case = json::parse(f);
+    const json e = estimate({{"asset", wrench_case["mesh"]["asset"]}, {"lx", wrench_case["lx"]}});
+    EXPECT_TRUE(e["problem"].is_null()) << name << ": " << e.dump();
+    EXPECT_LE(e["vertex_estimate"].get<double>(), e["max_vertex_estimate"].get<double>()) << name;
+  }
+  // The smallest l_x within the budget is at the budget's edge: 1% finer is over it, and named.
+  const json cube = estimate({{"asset", "cube"}, {"lx", 0.2}});
+  EXPECT_TRUE(cube["problem"].is_null());
+  EXPECT_NEAR(cube["diagonal"].get<double>(), std::sqrt(3.0), 1e-6);
+  const double edge = cube["lx_for_budget"];
+  EXPECT_TRUE(estimate({{"asset", "cube"}, {"lx", edge * 1.001}})["problem"].is_null());
+  const json over = estimate({{"asset", "cube"}, {"lx", edge * 0.99}});
+  ASSERT_TRUE(over["problem"].is_object()) << over.dump();
+  EXPECT_EQ(over["problem"]["field"], "lx");
+  EXPECT_GT(over["vertex_estimate"].get<double>(), over["max_vertex_estimate"].get<double>());
+  // l_x beyond the object and bad inputs: the same answers as creation.
+  EXPECT_EQ(estimate({{"asset", "cube"}, {"lx", 2.0}})["problem"]["field"], "lx");
+  auto bad = c.Post("/api/kelvin/estimate", h, json{{"asset", "cube"}, {"lx", "fine"}}.dump(), "application/json");
+  EXPECT_EQ(bad->status, 400);
+  EXPECT_EQ(body_json(bad)["error"]["field"], "lx");
+  // Nothing was created; the object then created reports the same estimate.
+  EXPECT_TRUE(body_json(c.Get("/api/kelvin/objects", h))["objects"].empty());
+  auto created = c.Post("/api/kelvin/objects", h, json{{"asset", "cube"}, {"lx", 0.2}}.dump(), "application/json");
+  ASSERT_EQ(created->status, 202) << created->body;
+  EXPECT_EQ(body_json(created)["object"]["source"]["vertex_estimate"], cube["vertex_estimate"]);
 }
 
 TEST_F(KelvinApi, Limits) {

@@ -4,7 +4,7 @@ import "./style.css";
 import { api } from "./core/api";
 import { allShortcuts, installKeyHandler, registerGlobal, setViewShortcuts } from "./core/keys";
 import { socket } from "./core/socket";
-import { showError } from "./core/toast";
+import { setToastScope, showError } from "./core/toast";
 import { hashFor, parseHash, writeState } from "./core/urlstate";
 import type { View, ViewEntry, ViewHost } from "./core/view";
 
@@ -54,6 +54,7 @@ async function route(): Promise<void> {
   }
   if (current?.id === entry.id) return; // state edits within a view do not remount it
   const ticket = ++mounting;
+  setToastScope(entry.id);
   current?.view.unmount();
   current = null;
   host.canvas.replaceChildren();

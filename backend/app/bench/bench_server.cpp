@@ -156,20 +156,47 @@ int breakdown(const std::string& assets, const std::string& cache, double lx, in
 
 }  // namespace
 
+const char* kUsage =
+    "usage: distlab-bench-server [options]   (start `distlab serve` first; loopback only)\n"
+    "  --host ADDR        server address (default 127.0.0.1)\n"
+    "  --port N           server port (default 8080)\n"
+    "  --lx X             l_x of the cube's Kelvin field (default 0.06)\n"
+    "  --edits N          σ edits timed edit -> iso-surface frame (default 40)\n"
+    "  --clients N        concurrent query clients (default 50)\n"
+    "  --seconds X        length of the load phase (default 30)\n"
+    "  --breakdown DIR    no server: time each stage of an edit in-process on DIR's cube asset\n"
+    "  --cache-dir DIR    field cache of --breakdown (default /tmp/distlab-bench-cache)\n"
+    "  --help             this text\n";
+
 int main(int argc, char** argv) {
   double lx = 0.06, seconds = 30;
   int edits = 40, clients = 50;
   std::string breakdown_assets, cache = "/tmp/distlab-bench-cache";
-  for (int i = 1; i + 1 < argc; i += 2) {
-    const std::string k = argv[i], v = argv[i + 1];
-    if (k == "--port") g_port = v;
-    else if (k == "--host") g_host = v;
-    else if (k == "--lx") lx = std::stod(v);
-    else if (k == "--edits") edits = std::clamp(std::stoi(v), 1, 10000);
-    else if (k == "--clients") clients = std::clamp(std::stoi(v), 1, 500);
-    else if (k == "--seconds") seconds = std::clamp(std::stod(v), 1.0, 600.0);
-    else if (k == "--breakdown") breakdown_assets = v;
-    else if (k == "--cache-dir") cache = v;
+  static const std::vector<std::string> known = {"--port", "--host", "--lx", "--edits", "--clients", "--seconds", "--breakdown", "--cache-dir"};
+  for (int i = 1; i < argc; i += 2) {
+    const std::string k = argv[i];
+    if (k == "--help" || k == "-h") {
+      std::fputs(kUsage, stdout);
+      return 0;
+    }
+    if (std::find(known.begin(), known.end(), k) == known.end() || i + 1 >= argc) {
+      std::fprintf(stderr, "distlab-bench-server: %s is unknown or needs a value\n%s", k.c_str(), kUsage);
+      return 2;
+    }
+    const std::string v = argv[i + 1];
+    try {
+      if (k == "--port") g_port = v;
+      else if (k == "--host") g_host = v;
+      else if (k == "--lx") lx = std::stod(v);
+      else if (k == "--edits") edits = std::clamp(std::stoi(v), 1, 10000);
+      else if (k == "--clients") clients = std::clamp(std::stoi(v), 1, 500);
+      else if (k == "--seconds") seconds = std::clamp(std::stod(v), 1.0, 600.0);
+      else if (k == "--breakdown") breakdown_assets = v;
+      else if (k == "--cache-dir") cache = v;
+    } catch (const std::exception&) {
+      std::fprintf(stderr, "distlab-bench-server: %s %s: not a number\n", k.c_str(), v.c_str());
+      return 2;
+    }
   }
   if (!breakdown_assets.empty()) return breakdown(breakdown_assets, cache, lx, edits);
   try {

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "command.hpp"
+#include "distlab/server/data_dirs.hpp"
 #include "distlab/server/server.hpp"
 #include "distlab/server/service.hpp"
 
@@ -24,9 +25,11 @@ const char* kUsage =
     "usage: distlab serve [options]\n"
     "  --host ADDR              address to bind (default 127.0.0.1)\n"
     "  --port N                 port (default 8080; 0 picks a free one, printed on stdout)\n"
-    "  --assets DIR             built-in meshes (default: $DISTLAB_ASSETS, ./assets or assets/ above the binary)\n"
+    "  --assets DIR             built-in meshes (default: $DISTLAB_ASSETS, ./assets, or assets or\n"
+    "                           share/distlab/assets beside the binary or above it; a given DIR must exist)\n"
     "  --cache-dir DIR          prepared Kelvin objects (default: $XDG_CACHE_HOME/distlab or ~/.cache/distlab)\n"
-    "  --web DIR                static front end (default: ./web/dist, or web/dist or share/distlab/web above the binary)\n"
+    "  --web DIR                static front end (default: $DISTLAB_WEB, ./web/dist, or web/dist or\n"
+    "                           share/distlab/web beside the binary or above it; a given DIR must exist)\n"
     "  --threads N              compute and job threads each (default: all cores)\n"
     "limits (defaults in GET /api/limits):\n"
     "  --max-body-bytes N  --max-upload-bytes N  --max-upload-triangles N  --min-lx X\n"
@@ -34,24 +37,6 @@ const char* kUsage =
     "  --max-jobs N  --max-job-seconds X  --max-request-seconds X  --max-ws-message-bytes N\n"
     "  --ws-rate X  --ws-burst X  --import-memory-bytes N  --import-seconds X\n"
     "  --limit NAME=VALUE       any limit of GET /api/limits by its name (e.g. max_connections=64)\n";
-
-// ./LOCAL, else LOCAL or share/distlab/INSTALLED in a directory above the binary (the source
-// tree's layout and cmake --install's); LOCAL when none exists.
-std::string data_dir(const std::string& local, const std::string& installed) {
-  if (fs::is_directory(local)) return local;
-  std::error_code ec;
-  for (fs::path p = fs::read_symlink("/proc/self/exe", ec).parent_path(); !ec && !p.empty(); p = p.parent_path()) {
-    if (fs::is_directory(p / local)) return (p / local).string();
-    if (fs::is_directory(p / "share/distlab" / installed)) return (p / "share/distlab" / installed).string();
-    if (p == p.root_path()) break;
-  }
-  return local;
-}
-
-std::string default_assets() {
-  if (const char* env = std::getenv("DISTLAB_ASSETS")) return env;
-  return data_dir("assets", "assets");
-}
 
 std::string default_cache() {
   if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg != nullptr && *xdg) return std::string(xdg) + "/distlab";
@@ -63,8 +48,7 @@ int run_serve(const std::vector<std::string>& args, std::istream&, std::ostream&
   std::string host = "127.0.0.1";
   unsigned long port = 8080;
   server::ServiceConfig config;
-  config.assets_dir = default_assets();
-  config.web_dir = data_dir(config.web_dir, "web");
+  std::string assets_dir, web_dir;  // as given; found by find_data_dir below
   config.cache_dir = default_cache();
   server::Limits& lim = config.limits;
   try {
@@ -82,9 +66,9 @@ int run_serve(const std::vector<std::string>& args, std::istream&, std::ostream&
       auto count = [&] { return static_cast<std::size_t>(std::stoull(v)); };
       if (a == "--host") host = v;
       else if (a == "--port") port = std::stoul(v);
-      else if (a == "--assets") config.assets_dir = v;
+      else if (a == "--assets") assets_dir = v;
       else if (a == "--cache-dir") config.cache_dir = v;
-      else if (a == "--web") config.web_dir = v;
+      else if (a == "--web") web_dir = v;
       else if (a == "--threads") config.compute_threads = config.job_threads = static_cast<unsigned>(std::stoul(v));
       else if (a == "--max-body-bytes") lim.max_body_bytes = count();
       else if (a == "--max-upload-bytes") lim.max_upload_bytes = count();
@@ -125,6 +109,13 @@ int run_serve(const std::vector<std::string>& args, std::istream&, std::ostream&
     }
   } catch (const std::exception&) {
     err << "distlab serve: bad option value\n" << kUsage;
+    return 2;
+  }
+  try {
+    config.assets_dir = server::find_data_dir("--assets", "DISTLAB_ASSETS", "assets", "assets", assets_dir);
+    config.web_dir = server::find_data_dir("--web", "DISTLAB_WEB", "web/dist", "web", web_dir);
+  } catch (const std::exception& e) {
+    err << "distlab serve: " << e.what() << "\n";
     return 2;
   }
   if (port > 65535) {

@@ -515,8 +515,9 @@ SurfaceMesh load_mesh(const std::string& path, const std::string& field) {
 
 void save_mesh(const SurfaceMesh& mesh, const std::string& path, const std::string& format,
                const std::string& field) {
+  // OBJ without a material file: the mesh has no material, and a download is one file.
   static const std::map<std::string, std::string> ids = {
-      {"stl", "stlb"}, {"obj", "obj"}, {"ply", "plyb"}, {"glb", "glb2"}};
+      {"stl", "stlb"}, {"obj", "objnomtl"}, {"ply", "plyb"}, {"glb", "glb2"}};
   auto id = ids.find(format);
   if (id == ids.end())
     throw InvalidInput(field, "unknown mesh format '" + format + "' (use stl, obj, ply or glb)");

@@ -1,6 +1,7 @@
 // CBF scenarios and rollout requests as JSON: strict parsing with field paths, and the record.
 #include "distlab/server/cbf_json.hpp"
 
+#include "distlab/server/data_dirs.hpp"
 #include "distlab/server/json_fields.hpp"
 
 #include <algorithm>
@@ -188,21 +189,9 @@ std::string scenario_path(const std::string& name, const std::string& assets_dir
   for (char c : name)
     if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_' && c != '-')
       fail("scenario", "scenario names are letters, digits, '_' and '-'");
-  std::vector<fs::path> roots;
-  if (!assets_dir.empty()) {
-    roots.emplace_back(assets_dir);
-  } else {
-    if (const char* env = std::getenv("DISTLAB_ASSETS")) roots.emplace_back(env);
-    roots.emplace_back("assets");
-    std::error_code ec;
-    for (fs::path p = fs::read_symlink("/proc/self/exe", ec).parent_path(); !ec && !p.empty();
-         p = p.parent_path()) {
-      roots.push_back(p / "assets");
-      roots.push_back(p / "share/distlab/assets");  // cmake --install's layout
-      if (p == p.root_path()) break;
-    }
-  }
-  for (const auto& root : roots)
+  const std::vector<std::string> roots =
+      assets_dir.empty() ? data_dir_candidates("DISTLAB_ASSETS", "assets", "assets") : std::vector<std::string>{assets_dir};
+  for (const fs::path root : roots)
     if (fs::is_regular_file(root / "scenarios" / (name + ".json")))
       return (root / "scenarios" / (name + ".json")).string();
   fail("scenario", "unknown scenario \"" + name + "\" (looked for scenarios/" + name +

@@ -10,6 +10,7 @@
 #include "distlab/geometry/error.hpp"
 #include "distlab/mesh/surface.hpp"
 #include "distlab/mesh/weld.hpp"
+#include "distlab/server/data_dirs.hpp"
 #include "distlab/server/kelvin_objects.hpp"
 
 namespace distlab::server {
@@ -94,16 +95,7 @@ std::string asset_path(const std::string& name) {
   for (char c : name)
     if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_' && c != '-')
       throw InvalidInput("mesh.asset", "asset names are letters, digits, '_' and '-'");
-  std::vector<fs::path> roots;
-  if (const char* env = std::getenv("DISTLAB_ASSETS")) roots.emplace_back(env);
-  roots.emplace_back("assets");
-  std::error_code ec;
-  for (fs::path p = fs::read_symlink("/proc/self/exe", ec).parent_path(); !ec && !p.empty(); p = p.parent_path()) {
-    roots.push_back(p / "assets");
-    roots.push_back(p / "share/distlab/assets");  // cmake --install's layout
-    if (p == p.root_path()) break;
-  }
-  for (const auto& root : roots)
+  for (const fs::path root : data_dir_candidates("DISTLAB_ASSETS", "assets", "assets"))
     for (const char* ext : {".stl", ".ply", ".obj", ".glb", ".off"})
       if (fs::is_regular_file(root / (name + ext))) return (root / (name + ext)).string();
   throw InvalidInput("mesh.asset", "unknown asset \"" + name + "\" (looked in $DISTLAB_ASSETS and assets/)");

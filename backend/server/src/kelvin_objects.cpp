@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 
 #include "distlab/kelvin/digest.hpp"
 #include "distlab/kelvin/progress.hpp"
@@ -165,6 +166,16 @@ double estimate_vertices(const mesh::SurfaceMesh& surface, double lx, double far
   const double r = 0.5 * (hi - lo).norm();
   const double ratio = std::max(1.0, far_radius) * r / lx;
   return kVertexEstimateConstant * ratio * ratio * ratio + static_cast<double>(surface.vertices.rows());
+}
+
+double lx_within(const mesh::SurfaceMesh& surface, double budget, double far_radius) {
+  // estimate_vertices solved for lx at the budget (the input's own vertices count too).
+  const double room = budget - static_cast<double>(surface.vertices.rows());
+  if (surface.vertices.rows() == 0 || !(room > 0)) return std::numeric_limits<double>::infinity();
+  const Vec3 lo = surface.vertices.colwise().minCoeff().transpose();
+  const Vec3 hi = surface.vertices.colwise().maxCoeff().transpose();
+  const double r = 0.5 * (hi - lo).norm();
+  return std::max(1.0, far_radius) * r / std::cbrt(room / kVertexEstimateConstant);
 }
 
 }  // namespace distlab::server

@@ -29,7 +29,7 @@ std::shared_ptr<KelvinObject> Service::require_object(const Session& session, co
   return it->second;
 }
 
-json Service::create_object(const std::shared_ptr<Session>& session, const json& body) {
+json Service::create_object(const std::shared_ptr<Session>& session, const json& body, bool estimate_only) {
   const Limits& lim = config_.limits;
   if (!body.is_object()) throw InvalidInput("", "the request must be an object");
   for (const auto& [k, v] : body.items())
@@ -89,6 +89,7 @@ json Service::create_object(const std::shared_ptr<Session>& session, const json&
   mesh::Welded welded = mesh::weld(surface);
   const auto budget = static_cast<double>(lim.max_vertex_estimate);
   const double estimate = estimate_vertices(welded.surface, options.lx, options.far_radius);
+  if (estimate_only) return estimate_json(welded.surface, options, estimate);
   if (estimate > budget) {
     const bool far = estimate_vertices(welded.surface, options.lx) <= budget;
     throw ApiError(422, "over_budget",
@@ -150,6 +151,7 @@ json Service::create_object(const std::shared_ptr<Session>& session, const json&
         announce();
         if (auto s = weak_session.lock()) schedule_frames(s, object);
         const json status = object->status_json();
+        record_prepare_time(status.value("stats", json::object()));
         return json{{"object", object->id}, {"stats", status.value("stats", json::object())}};
       } catch (const kelvin::Cancelled&) {
         {
@@ -186,6 +188,40 @@ json Service::create_object(const std::shared_ptr<Session>& session, const json&
     object->job = job->id;
   }
   return {{"object", object->status_json()}, {"job", job->to_json()}};
+}
+
+// What POST /api/kelvin/objects would do with these inputs, without doing it: the server's vertex
+// estimate against its budget, the smallest l_x within the budget, the time the last computed
+// preparation here suggests (linear in vertices: a rough guide), and the refusal, if any.
+json Service::estimate_json(const mesh::SurfaceMesh& welded, kelvin::PrepareOptions options, double estimate) const {
+  const Limits& lim = config_.limits;
+  const auto budget = static_cast<double>(lim.max_vertex_estimate);
+  const Vec3 lo = welded.vertices.colwise().minCoeff().transpose(), hi = welded.vertices.colwise().maxCoeff().transpose();
+  json out = {{"vertex_estimate", std::llround(estimate)},
+              {"max_vertex_estimate", lim.max_vertex_estimate},
+              {"min_lx", lim.min_lx},
+              {"diagonal", (hi - lo).norm()},
+              {"lx_for_budget", std::max(lim.min_lx, lx_within(welded, budget, options.far_radius))},
+              {"seconds_estimate", nullptr},
+              {"problem", nullptr}};
+  if (const double rate = prepare_seconds_per_vertex_.load(); rate > 0) out["seconds_estimate"] = rate * estimate;
+  try {
+    if (estimate > budget)
+      throw InvalidInput("lx", "about " + std::to_string(std::llround(estimate)) + " vertices, over this server's budget of " +
+                                   std::to_string(lim.max_vertex_estimate) + "; use a larger lx");
+    options.max_vertices = std::max<std::size_t>(100, lim.max_vertex_estimate);
+    kelvin::check_prepare_inputs(welded, options);
+  } catch (const InvalidInput& e) {
+    out["problem"] = {{"field", e.field()}, {"message", e.what()}};
+  }
+  return out;
+}
+
+void Service::record_prepare_time(const json& stats) {
+  if (stats.value("cache_hit", false) || stats.value("shared", false)) return;
+  const double seconds = stats.value("t_mesh", 0.0) + stats.value("t_build", 0.0) + stats.value("t_decomp", 0.0);
+  const double n = stats.value("n_verts", 0.0);
+  if (seconds > 0 && n > 0) prepare_seconds_per_vertex_.store(seconds / n);
 }
 
 void Service::set_sigma(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,

@@ -80,6 +80,14 @@ void Service::register_kelvin_routes() {
   create.bounds = {"max_body_bytes", "max_upload_triangles", "min_lx", "max_vertex_estimate", "max_objects_per_session", "max_jobs_per_session", "max_jobs_total"};
   router_.add(std::move(create));
 
+  Route estimate{"POST", "/api/kelvin/estimate", [this](Request& req) {
+                   auto session = require_session(req);
+                   return json_response(200, create_object(session, parse_body(req), true));
+                 }};
+  estimate.heavy = true;
+  estimate.bounds = {"max_body_bytes", "max_upload_triangles", "min_lx", "max_vertex_estimate"};
+  router_.add(std::move(estimate));
+
   router_.add({"GET", "/api/kelvin/objects", [this](Request& req) {
                  auto session = require_session(req);
                  std::vector<std::shared_ptr<KelvinObject>> objects;

@@ -3,7 +3,8 @@
 // place and report what kind of change happened; the view decides what to recompute.
 import GUI, { type Controller } from "lil-gui";
 import { SHAPE_TYPES, type ShapeState } from "./shapes";
-import { AXES, FIELDS, MOTIONS, SOLVERS, SURFACES, formatLevels, parseLevels, type GapState } from "./state";
+import { exactNumbers } from "../../core/exact_number";
+import { AXES, FIELDS, MOTIONS, SOLVERS, SURFACES, formatLevels, parseLevels, sigmaOfEps, type GapState } from "./state";
 
 export type Change = "shape-a" | "shape-b" | "params" | "iso" | "slice-style" | "sweep" | "gizmo";
 
@@ -19,6 +20,7 @@ export class GapPanel {
   private readonly levelsText = { weak: "", strict: "" };
   private readonly levelCtrls: Controller[] = [];
   private readonly sizeCtrls: { a: Controller[]; b: Controller[] } = { a: [], b: [] };
+  private readonly sigmaCtrl: Controller;
 
   constructor(
     parent: HTMLElement,
@@ -38,10 +40,19 @@ export class GapPanel {
 
     const p = this.gui.addFolder("GAP parameters");
     // No min/max: what the server refuses is the validator's verdict, shown below.
+    // Typed values are sent exactly (exactNumbers below); ε drives σ = √(1 − 2ε) unless unlinked.
     p.add(state.params, "h").name("h (eq. 4)").step(0.005).onFinishChange(() => changed("params"));
     p.add(state.params, "k").name("k").step(1).onFinishChange(() => changed("params"));
-    p.add(state.params, "eps").name("ε (eq. 6)").step(0.001).onFinishChange(() => changed("params"));
-    p.add(state.params, "sigma").name("σ (eq. 6)").step(0.001).onFinishChange(() => changed("params"));
+    p.add(state.params, "eps").name("ε (eq. 6)").step(0.001).onFinishChange(() => {
+      this.followEps();
+      changed("params");
+    });
+    this.sigmaCtrl = p.add(state.params, "sigma").name("σ (eq. 6)").step(0.001).onFinishChange(() => changed("params"));
+    p.add(state.params, "coupled").name("σ = √(1 − 2ε)").onChange(() => {
+      this.followEps();
+      changed("params");
+    });
+    this.followEps();
     p.add(state.params, "solver", SOLVERS).onChange(() => changed("params"));
     this.verdict = document.createElement("div");
     this.verdict.className = "gap-verdict";
@@ -83,6 +94,16 @@ export class GapPanel {
     a.add(actions, "frame").name("frame both (f)");
     a.add(actions, "copyLink").name("copy link");
     a.add(actions, "reset").name("reset");
+    exactNumbers(this.gui);
+  }
+
+  /** Coupled: σ is √(1 − 2ε) and not editable (unchanged where 1 − 2ε < 0: the verdict says why). */
+  private followEps(): void {
+    const p = this.state.params;
+    this.sigmaCtrl.disable(p.coupled);
+    const s = p.coupled ? sigmaOfEps(p.eps) : null;
+    if (s !== null) p.sigma = s;
+    this.sigmaCtrl.updateDisplay();
   }
 
   onLevelError?: (message: string) => void;
@@ -119,6 +140,7 @@ export class GapPanel {
     this.levelsText.weak = formatLevels(this.state.iso.weak);
     this.levelsText.strict = formatLevels(this.state.iso.strict);
     this.gui.controllersRecursive().forEach((c) => c.updateDisplay());
+    this.followEps();
     this.showSizes("a");
     this.showSizes("b");
   }

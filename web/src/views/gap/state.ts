@@ -16,7 +16,14 @@ export interface GapParams {
   k: number;
   eps: number;
   sigma: number;
+  /** σ follows ε as σ = √(1 − 2ε) (the paper's default); false: σ as set by the user. */
+  coupled: boolean;
   solver: (typeof SOLVERS)[number];
+}
+
+/** The default σ of a given ε (eq. 6's pairing), or null where 1 − 2ε < 0. */
+export function sigmaOfEps(eps: number): number | null {
+  return 1 - 2 * eps >= 0 ? Math.sqrt(1 - 2 * eps) : null;
 }
 
 export interface IsoState {
@@ -53,7 +60,7 @@ export function defaultState(): GapState {
   return {
     a: { type: "polytope", size: [0.4, 0.4, 0.4], radius: 0.25, height: 0.3, position: [0, 0, 0], quaternion: [1, 0, 0, 0] },
     b: { type: "box", size: [0.3, 0.3, 0.3], radius: 0.15, height: 0.3, position: [0.55, 0.1, 0], quaternion: [1, 0, 0, 0] },
-    params: { h: 0.1, k: 2, eps: 0.01, sigma: Math.sqrt(1 - 2 * 0.01), solver: "newton" },
+    params: { h: 0.1, k: 2, eps: 0.01, sigma: Math.sqrt(1 - 2 * 0.01), coupled: true, solver: "newton" },
     iso: { around: "a", surfaces: "strict", weak: [0.002, 0.008], strict: [0.002, 0.008], slice: "strict", normal: "z", offset: 0, spacing: 0.003 },
     sweep: { motion: "translate", axis: "y", range: 0.8, samples: 121 },
   };
@@ -87,14 +94,18 @@ export function parseState(raw: Record<string, unknown>): GapState {
   const p = obj(raw.params);
   const iso = obj(raw.iso);
   const sw = obj(raw.sweep);
+  const eps = num(p.eps, d.params.eps);
+  const sigma = num(p.sigma, sigmaOfEps(eps) ?? d.params.sigma);
   return {
     a: shape(raw.a, d.a),
     b: shape(raw.b, d.b),
     params: {
       h: num(p.h, d.params.h),
       k: num(p.k, d.params.k),
-      eps: num(p.eps, d.params.eps),
-      sigma: num(p.sigma, d.params.sigma),
+      eps,
+      sigma,
+      // A link from before the coupling, or with σ set apart from ε, keeps its σ.
+      coupled: p.coupled === undefined ? sigma === sigmaOfEps(eps) : p.coupled === true,
       solver: str(p.solver, SOLVERS, d.params.solver),
     },
     iso: {

@@ -14,7 +14,7 @@ import { EditTracer } from "./edit_trace";
 import { downloadIsoSurfaces } from "./iso_export";
 import { IsoLayers, type IsoFrameInfo } from "./iso_layers";
 import { DEFAULT_BASE, defaultLx, readState, writeStateJson, type KelvinState } from "./kelvin_state";
-import { ObjectJob, uploadMesh, type ObjectStatus, type Source } from "./object_source";
+import { ObjectJob, estimate, estimateText, uploadMesh, type Estimate, type ObjectStatus, type Source } from "./object_source";
 import { statsRows, statusLine } from "./object_stats";
 import { Panel } from "./panel";
 import { Probe } from "./probe";
@@ -109,7 +109,8 @@ export class KelvinView implements View {
     this.brush.enabled = this.state.brush.on;
     vp.scene.add(this.brush.object3d);
     this.panel = new Panel(host.panel, this.state, assets, {
-      objectChanged: () => void this.load(),
+      objectChanged: () => this.objectSwitched(),
+      lxChanged: () => void this.load(),
       upload: (f) => void this.uploadFile(f),
       sigmaChanged: () => this.sigmaEdited(true),
       presetChosen: () => this.applyPreset(),
@@ -120,6 +121,7 @@ export class KelvinView implements View {
       sliceChanged: () => this.sliceChanged(),
       exportShown: () => void this.exportShown(),
     });
+    if (limits.min_lx !== undefined) this.panel.setMinLx(limits.min_lx);
     this.offs.push(
       socket.onFrame((f) => this.onFrame(f)),
       socket.onOpen(() => this.onSocketOpen()),
@@ -169,6 +171,27 @@ export class KelvinView implements View {
     this.save();
     const source: Source = this.state.object === "upload" && this.upload ? this.upload : { asset: this.state.object };
     const name = this.objectName();
+    this.panel?.setEstimate("estimating…", null);
+    let est: Estimate;
+    try {
+      est = await estimate(source, this.state.lx);
+    } catch (e) {
+      if (ticket !== this.ticket) return;
+      // A refused l_x (below the server's minimum) is shown under the field; anything else is an error.
+      if (e instanceof ApiError && e.field === "lx") this.panel?.setEstimate(`cannot prepare ${name}: ${e.readable}`, { field: "lx", message: e.message });
+      else this.panel?.setEstimate(showError(e, `cannot estimate ${name}`), null);
+      return;
+    }
+    if (ticket !== this.ticket) return;
+    this.panel?.setEstimate(estimateText(est), est.problem);
+    if (est.problem) {
+      // l_x is flagged under its field; a refused mesh is an error of its own.
+      const text = `${name} at l_x = ${this.state.lx}: ${est.problem.message}`;
+      if (est.problem.field !== "lx") showError(new ApiError(422, "invalid_input", est.problem.message, est.problem.field), `cannot prepare ${name}`);
+      this.host.status(text);
+      this.panel?.setStats([["object", text]]);
+      return;
+    }
     const job = (this.job = new ObjectJob());
     const t0 = performance.now();
     const label = (stage: string) => `preparing ${name} (l_x = ${this.state.lx})${stage ? ": " + stage : ""}`;
@@ -201,6 +224,14 @@ export class KelvinView implements View {
     }
     this.host.progress(null);
     this.updateStats();
+  }
+
+  /** Another object: l_x and the brush follow its size (the previous object's would not fit). */
+  private objectSwitched(): void {
+    this.state.lx = defaultLx[this.state.object] ?? this.state.lx;
+    this.state.brush.radius = 0; // chosen from the new surface's size when it arrives
+    this.panel?.refresh();
+    void this.load();
   }
 
   private adopt(id: string): void {
@@ -266,6 +297,11 @@ export class KelvinView implements View {
       const r = await uploadMesh(file);
       toast(`${file.name}: ${r.n_vertices} vertices, ${r.n_faces} triangles`, "ok");
       this.upload = { upload: r.upload, name: file.name };
+      // l_x from the file's size: a thirtieth of its diagonal, coarser if over the budget.
+      const e = await estimate(this.upload, this.state.lx);
+      const lx = Math.max(e.lx_for_budget, e.diagonal / 30);
+      const unit = 10 ** (Math.floor(Math.log10(lx)) - 1); // two significant digits, rounded up
+      this.state.lx = Number((Math.ceil(lx / unit) * unit).toPrecision(12));
       this.state.object = "upload";
       this.state.preset = "none";
       this.state.brushes = [];

@@ -47,6 +47,32 @@ export async function uploadMesh(file: File): Promise<{ upload: string; n_vertic
   return api.upload(`/api/kelvin/uploads?format=${ext}`, await file.arrayBuffer());
 }
 
+/** POST /api/kelvin/estimate: the server's own vertex estimate and budget for these inputs. */
+export interface Estimate {
+  vertex_estimate: number;
+  max_vertex_estimate: number;
+  min_lx: number;
+  diagonal: number;
+  lx_for_budget: number;
+  seconds_estimate: number | null;
+  problem: { field: string; message: string } | null;
+}
+
+export function sourceBody(source: Source, lx: number): Record<string, unknown> {
+  return "asset" in source ? { asset: source.asset, lx } : { upload: source.upload, lx };
+}
+
+export function estimate(source: Source, lx: number): Promise<Estimate> {
+  return api.post<Estimate>("/api/kelvin/estimate", sourceBody(source, lx) as never);
+}
+
+/** What the panel says before preparing: the expected size and time against the budget. */
+export function estimateText(e: Estimate): string {
+  const n = e.vertex_estimate.toLocaleString("en");
+  const time = e.seconds_estimate === null ? "time unknown until a preparation has run on this server" : `≈ ${e.seconds_estimate < 10 ? e.seconds_estimate.toFixed(1) : Math.round(e.seconds_estimate)} s`;
+  return `expected ≈ ${n} field vertices of this server's budget of ${e.max_vertex_estimate.toLocaleString("en")} · ${time}`;
+}
+
 export interface PrepareCallbacks {
   progress(stage: string, fraction: number | undefined, cancel: () => void): void;
   /** The object's id, as soon as the server has accepted the job (frames may follow before ready). */
@@ -62,9 +88,7 @@ export class ObjectJob {
   /** Creates the object and resolves when it is ready (rejects on failure or cancel). */
   async prepare(source: Source, lx: number, extra: Record<string, unknown>, cb: PrepareCallbacks): Promise<ObjectStatus> {
     const cancel = () => void this.cancel();
-    const body: Record<string, unknown> = { ...extra, lx };
-    if ("asset" in source) body.asset = source.asset;
-    else body.upload = source.upload;
+    const body: Record<string, unknown> = { ...extra, ...sourceBody(source, lx) };
     let settle: ((s: ObjectStatus) => void) | null = null;
     const done = new Promise<ObjectStatus>((r) => (settle = r));
     const offs = [

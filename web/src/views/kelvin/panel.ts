@@ -2,12 +2,14 @@
 // iso-levels, slice, export, and a statistics table. It edits the KelvinState in place and calls
 // back; the view decides what that means for the server.
 import GUI, { type Controller } from "lil-gui";
+import { exactNumber, exactNumbers, recheck, setFieldMessage } from "../../core/exact_number";
 import { presets } from "./sigma";
 import { exportFormats, type KelvinState } from "./kelvin_state";
 import { sliceAxes } from "./slice_layer";
 
 export interface PanelActions {
   objectChanged(): void;
+  lxChanged(): void;
   upload(file: File): void;
   sigmaChanged(): void;
   presetChosen(): void;
@@ -25,13 +27,20 @@ export class Panel {
   private levelsText: { levels: string };
   private controllers: Controller[] = [];
   private fileInput: HTMLInputElement;
+  private readonly lx: Controller;
+  private readonly estimate: HTMLDivElement;
 
   constructor(container: HTMLElement, state: KelvinState, assets: string[], a: PanelActions) {
     this.gui = new GUI({ container, title: "Semantic distance", width: 300 });
     const obj = this.gui.addFolder("Object");
     const names = assets.includes(state.object) || state.object === "upload" ? assets : [...assets, state.object];
     this.add(obj.add(state, "object", state.object === "upload" ? [...names, "upload"] : names).name("built-in").onChange(() => a.objectChanged()));
-    this.add(obj.add(state, "lx", 0.001, 1, 0.001).name("l_x").onFinishChange(() => a.objectChanged()));
+    this.lx = this.add(obj.add(state, "lx", 0.001, 1, 0.001).name("l_x").onFinishChange(() => a.lxChanged()));
+    // What preparing will cost (the server's estimate), shown before the job starts.
+    this.estimate = document.createElement("div");
+    this.estimate.className = "kelvin-estimate";
+    this.estimate.dataset.testid = "kelvin-estimate";
+    obj.$children.appendChild(this.estimate);
     this.fileInput = document.createElement("input");
     this.fileInput.type = "file";
     this.fileInput.accept = ".stl,.obj,.ply,.glb,.off";
@@ -82,6 +91,7 @@ export class Panel {
     this.add(ex.add(state, "format", exportFormats).name("format"));
     ex.add({ go: () => a.exportShown() }, "go").name("export shown levels (e)");
 
+    exactNumbers(this.gui);
     this.stats = document.createElement("table");
     this.stats.className = "kelvin-stats";
     container.appendChild(this.stats);
@@ -96,6 +106,20 @@ export class Panel {
   refresh(levels?: number[]): void {
     if (levels) this.levelsText.levels = levels.join(", ");
     this.controllers.forEach((c) => c.updateDisplay());
+  }
+
+  /** The smallest l_x this server accepts: typed values below it are flagged at once. */
+  setMinLx(minLx: number): void {
+    exactNumber(this.lx, (v) => (v < minLx ? `l_x must be at least ${minLx} m on this server` : null));
+    recheck(this.lx);
+  }
+
+  /** The expected cost before preparing; a refusal the server would give is shown under l_x too. */
+  setEstimate(text: string, problem: { field: string; message: string } | null): void {
+    this.estimate.textContent = text;
+    this.estimate.classList.toggle("bad", problem !== null);
+    if (problem?.field === "lx") setFieldMessage(this.lx, problem.message);
+    else recheck(this.lx);
   }
 
   setStats(rows: Array<[string, string]>): void {

@@ -144,5 +144,7 @@ inline std::string sigma_key(const KelvinObject& o, const nlohmann::json& sigma)
 // asset (1608 vertices at l_x 0.2, 11891 at 0.1); measured ratios are in the notes of issue 15.
 inline constexpr double kVertexEstimateConstant = 20.0;
 double estimate_vertices(const mesh::SurfaceMesh& surface, double lx, double far_radius = 1.0);
+// The smallest lx whose estimate_vertices is within budget (infinity when none is).
+double lx_within(const mesh::SurfaceMesh& surface, double budget, double far_radius = 1.0);
 
 }  // namespace distlab::server

@@ -84,7 +84,11 @@ class Service {
   std::shared_ptr<KelvinObject> require_object(const Session& session, const Request& request);
 
   // Kelvin objects (kelvin_service.cpp) and their frames (kelvin_frames.cpp).
-  nlohmann::json create_object(const std::shared_ptr<Session>& session, const nlohmann::json& body);
+  // estimate_only: checks the inputs and answers estimate_json, creating nothing.
+  nlohmann::json create_object(const std::shared_ptr<Session>& session, const nlohmann::json& body,
+                               bool estimate_only = false);
+  nlohmann::json estimate_json(const mesh::SurfaceMesh& welded, kelvin::PrepareOptions options, double estimate) const;
+  void record_prepare_time(const nlohmann::json& stats);
   // origin: the socket that sent the edit (gets the acknowledgement with its request id).
   void set_sigma(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,
                  const nlohmann::json& sigma, WsSink* origin = nullptr, const nlohmann::json& request = nullptr);
@@ -106,6 +110,7 @@ class Service {
   JobManager jobs_;
   std::shared_ptr<CbfRolloutStore> cbf_rollouts_;
   std::atomic<bool> stopped_{false};
+  std::atomic<double> prepare_seconds_per_vertex_{0};  // of the last computed preparation
 };
 
 }  // namespace distlab::server
