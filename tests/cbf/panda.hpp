@@ -1,0 +1,16 @@
+#pragma once
+// The Panda of the tests: assets/robots/panda.urdf, and the DH frame i as a link index.
+#include <memory>
+#include <string>
+
+#include "distlab/cbf/scenario.hpp"
+
+namespace distlab::cbf::test {
+
+inline std::shared_ptr<const Robot> panda() {
+  return Robot::load(std::string(DISTLAB_SOURCE_DIR) + "/assets/robots/panda.urdf");
+}
+inline int dh_frame(const Robot& robot, int i) { return robot.link_index("panda_link" + std::to_string(i)); }
+inline Scenario narrow() { return corridor_narrow_scenario(panda()); }
+
+}  // namespace distlab::cbf::test
