@@ -60,22 +60,9 @@ TEST(Kinematics, PointJacobiansMatchCentralDifferences) {
   for (int trial = 0; trial < 20; ++trial) {
     const VecQ q = random_q(rng, robot);
     const Kinematics k = robot.forward(q);
-    for (int i = 1; i <= 7; ++i) {
-      const int link = test::dh_frame(robot, i);
-      const Vec3 local(0.1 * (trial % 3) - 0.1, 0.05, -0.07);  // a point fixed to the link
-      const Vec3 p = k.frames[link].to_world(local);
-      const Jac J = robot.point_jacobian(k, link, p);
-      for (int j = 0; j < 7; ++j) {
-        VecQ qp = q, qm = q;
-        qp[j] += h;
-        qm[j] -= h;
-        const Kinematics kp = robot.forward(qp), km = robot.forward(qm);
-        const Vec3 v = (kp.frames[link].to_world(local) - km.frames[link].to_world(local)) / (2 * h);
-        const Vec3 w = rotvec(kp.R[link] * km.R[link].transpose()) / (2 * h);
-        EXPECT_LT((J.block<3, 1>(0, j) - v).norm(), 1e-8) << "link " << link << " joint " << j;
-        EXPECT_LT((J.block<3, 1>(3, j) - w).norm(), 1e-8) << "link " << link << " joint " << j;
-      }
-    }
+    for (int i = 1; i <= 7; ++i)  // a point fixed to each DH frame
+      test::expect_jacobian_matches_differences(robot, q, test::dh_frame(robot, i),
+                                                Vec3(0.1 * (trial % 3) - 0.1, 0.05, -0.07));
     // End effector (frame 7 · Rz(−π/4)): same point, same angular part.
     const Jac Je = robot.ee_jacobian(k);
     for (int j = 0; j < 7; ++j) {
