@@ -158,6 +158,7 @@ struct CbfController::Impl {
   Eigen::MatrixXd H, C, C_relaxed, H_relaxed;
   Eigen::VectorXd f, d, f_relaxed, d_relaxed;
   GradQ grad;
+  Kinematics kinematics;  // reused every step
 };
 
 CbfController::CbfController(const Scenario& scenario, Metric metric)
@@ -300,7 +301,8 @@ StepOutput CbfController::step(const VecQ& q, bool audit) {
   const auto t0 = Clock::now();
   const Robot& robot = *robot_;
   const int dof = robot.dof();
-  const Kinematics k = robot.forward(q);
+  Kinematics& k = m.kinematics;
+  robot.forward(q, k);
   const Task task = task_function(k, robot, scenario_.target);
   const auto t1 = Clock::now();
   compute_pairs(k, out.pairs, m.grad);

@@ -314,13 +314,22 @@ std::vector<std::string> Robot::joint_names() const {
 // Rz(q)·Rx(α) and Rz(q)·(a, 0, d) first, then the previous frame).
 Kinematics Robot::forward(const VecQ& q) const {
   Kinematics k;
+  forward(q, k);
+  return k;
+}
+
+void Robot::forward(const VecQ& q, Kinematics& k) const {
   const int nl = static_cast<int>(links_.size());
-  k.frames.assign(nl, Pose{});
-  k.R.assign(nl, Mat3::Identity());
-  k.axis.assign(dof(), Vec3::Zero());
-  k.origin.assign(dof(), Vec3::Zero());
-  std::vector<Mat3> local_R(joints_.size());
-  std::vector<Vec3> local_t(joints_.size());
+  k.frames.resize(nl);
+  k.R.resize(nl);
+  for (int l = 0; l < nl; ++l)
+    if (parent_joint_[l] < 0) k.frames[l] = Pose{}, k.R[l] = Mat3::Identity();
+  k.axis.resize(dof());
+  k.origin.resize(dof());
+  k.local_R.resize(joints_.size());
+  k.local_t.resize(joints_.size());
+  std::vector<Mat3>& local_R = k.local_R;
+  std::vector<Vec3>& local_t = k.local_t;
   for (std::size_t ji = 0; ji < joints_.size(); ++ji) {
     const RobotJoint& j = joints_[ji];
     Mat3 R = j.origin_R;
@@ -351,7 +360,6 @@ Kinematics Robot::forward(const VecQ& q) const {
   }
   k.ee = k.frames[ee_link_];
   k.ee_R = k.R[ee_link_];
-  return k;
 }
 
 Jac Robot::point_jacobian(const Kinematics& k, int link, const Vec3& p) const {

@@ -50,6 +50,8 @@ struct Kinematics {
   std::vector<Vec3> origin;   // per revolute joint, world
   Pose ee;
   Mat3 ee_R = Mat3::Identity();
+  std::vector<Mat3> local_R;  // scratch of forward(): per joint, its transform from the base used
+  std::vector<Vec3> local_t;
 };
 
 class Robot {
@@ -76,6 +78,8 @@ class Robot {
   const std::vector<std::pair<int, int>>& self_pairs() const { return self_pairs_; }
 
   Kinematics forward(const VecQ& q) const;
+  // The same into `k`, reusing its storage (the controller's per-step call: no allocation).
+  void forward(const VecQ& q, Kinematics& k) const;
   // Geometric Jacobian of the world point p, fixed to link `link`: column j of every revolute
   // joint j between the base and the link is [a_j × (p − o_j); a_j], the others are zero.
   Jac point_jacobian(const Kinematics& k, int link, const Vec3& p) const;
