@@ -11,6 +11,8 @@
 
 #include <gtest/gtest.h>
 
+#include "panda.hpp"
+
 #include "distlab/cbf/controller.hpp"
 
 namespace distlab::cbf {
@@ -113,16 +115,16 @@ TEST(AsPublished, MatchesAHandComputedColdStartIteration) {
 // The controller in gap.mode as_published computes every pair with published_distance on the
 // published construction, and records beside it the converged D of the same functions.
 TEST(AsPublished, ControllerRowsAreThePublishedDistances) {
-  Scenario sc = corridor_narrow_scenario();
+  Scenario sc = test::narrow();
   sc.self_collision = false;
   sc.gap_mode = GapMode::as_published;
   sc.gap.tol = 5e-4;
   sc.gap.max_iter = 20;
   CbfController c(sc, Metric::gap);
   std::vector<PairSample> samples;
-  Eigen::Matrix<double, Eigen::Dynamic, kDof> grad;
+  GradQ grad;
   c.distances(sc.q0, samples, grad);
-  const Panda& robot = c.robot();
+  const Robot& robot = c.robot();
   const Kinematics k = robot.forward(sc.q0);
   GapParams exact = sc.gap;
   exact.solver = GapSolver::newton;

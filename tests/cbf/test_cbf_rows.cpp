@@ -5,18 +5,20 @@
 
 #include <gtest/gtest.h>
 
+#include "panda.hpp"
+
 #include "distlab/cbf/rollout.hpp"
 
 namespace distlab::cbf {
 namespace {
 
-using Grad = Eigen::Matrix<double, Eigen::Dynamic, kDof>;
+using Grad = GradQ;
 
 // Configurations the corridor rollout visits (q0, 2.5 s, 5 s, 10 s, and 25 s, where the GAP
 // controller has stalled at ‖r‖ ≈ 0.19 with five distance rows active: link5_cylinder/wall2,
 // link6_cylinder/wall1, link7_box/roof, link7_gripper/wall1, link5_cylinder/link7_gripper).
 std::vector<VecQ> configurations() {
-  Scenario sc = corridor_narrow_scenario();
+  Scenario sc = test::narrow();
   sc.duration = 25.01;
   RolloutOptions opt;
   opt.record_pairs = false;
@@ -26,15 +28,15 @@ std::vector<VecQ> configurations() {
 }
 
 void check_rows(Metric metric, double tol) {
-  CbfController c(corridor_narrow_scenario(), metric);
+  CbfController c(test::narrow(), metric);
   std::mt19937_64 rng(5);
   std::normal_distribution<double> g;
   const double tau = 1e-6;
   int checked = 0;
   for (const VecQ& q : configurations()) {
     for (int trial = 0; trial < 3; ++trial) {
-      VecQ u;
-      for (int i = 0; i < kDof; ++i) u[i] = g(rng);
+      VecQ u(7);
+      for (int i = 0; i < 7; ++i) u[i] = g(rng);
       std::vector<PairSample> s0, sp, sm;
       Grad grad, unused;
       c.distances(q, s0, grad);

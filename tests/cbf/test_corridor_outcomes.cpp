@@ -11,6 +11,8 @@
 
 #include <gtest/gtest.h>
 
+#include "panda.hpp"
+
 #include "distlab/server/cbf_json.hpp"
 
 namespace distlab::cbf {
@@ -71,7 +73,7 @@ TEST(Corridor, RealRunHasNoSelfRowsAndIsTwentySeconds) {
   EXPECT_EQ(r.steps.size(), 2000u);
   EXPECT_EQ(r.pairs.size(), 27u);  // 9 primitives × 3 boxes, no self pairs
   for (const StepRecord& s : r.steps)
-    for (int j = 0; j < kDof; ++j) ASSERT_LE(std::abs(s.u[j]), j < 4 ? 2.175 : 2.61);
+    for (int j = 0; j < 7; ++j) ASSERT_LE(std::abs(s.u[j]), j < 4 ? 2.175 : 2.61);
 }
 
 // With converged D the paper's margin 0.002 stops the arm inside the slot but short of the
@@ -124,7 +126,7 @@ TEST(Corridor, GapIsSmootherThanEuclidean) {
     SCOPED_TRACE(params.dump());
     const RolloutRecord& g = run("corridor", "gap", params);
     double sum_g = 0, sum_e = 0;
-    for (int j = 0; j < kDof; ++j) {
+    for (int j = 0; j < 7; ++j) {
       const Smoothness sg = smoothness(g, j), se = smoothness(e, j);
       sum_g += sg.total_variation;
       sum_e += se.total_variation;

@@ -10,6 +10,8 @@
 
 #include <gtest/gtest.h>
 
+#include "panda.hpp"
+
 #include "distlab/server/cbf_json.hpp"
 
 namespace distlab::cbf {
@@ -23,17 +25,17 @@ Scenario narrow() {
 }
 
 struct Pin {
-  double q_final[kDof];
+  double q_final[7];
   int step;
-  double u[kDof];
+  double u[7];
   int last_step;
-  double u_last[kDof];
+  double u_last[7];
   std::size_t infeasible;
 };
 
 void expect_bits(const RolloutRecord& r, const Pin& p, const char* what) {
   ASSERT_EQ(r.steps.size(), 3500u);
-  for (int j = 0; j < kDof; ++j) {
+  for (int j = 0; j < 7; ++j) {
     EXPECT_EQ(r.q_final[j], p.q_final[j]) << what << " q_final[" << j << "] = " << std::hexfloat
                                           << r.q_final[j];
     EXPECT_EQ(r.steps[p.step].u[j], p.u[j]) << what << " u[" << p.step << "][" << j << "] = "

@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include "panda.hpp"
+
 #include "distlab/cbf/rollout.hpp"
 
 namespace distlab::cbf {
@@ -12,10 +14,10 @@ namespace {
 // One rollout per metric and process (ctest runs each test in its own process).
 const RolloutRecord& run(Metric m) {
   if (m == Metric::gap) {
-    static const RolloutRecord gap = rollout(corridor_narrow_scenario(), Metric::gap);
+    static const RolloutRecord gap = rollout(test::narrow(), Metric::gap);
     return gap;
   }
-  static const RolloutRecord euclid = rollout(corridor_narrow_scenario(), Metric::euclidean);
+  static const RolloutRecord euclid = rollout(test::narrow(), Metric::euclidean);
   return euclid;
 }
 

@@ -15,6 +15,8 @@
 
 #include <gtest/gtest.h>
 
+#include "panda.hpp"
+
 #include "distlab/cbf/controller.hpp"
 #include "distlab/cbf/feasibility.hpp"
 #include "distlab/collision/euclidean.hpp"
@@ -34,7 +36,7 @@ Pose tz(double d) {
   p.position = Vec3(0, 0, d);
   return p;
 }
-int index_of(const Panda& robot, const std::string& name) {
+int index_of(const Robot& robot, const std::string& name) {
   for (std::size_t i = 0; i < robot.primitives().size(); ++i)
     if (robot.primitives()[i].name == name) return static_cast<int>(i);
   return -1;
@@ -46,22 +48,22 @@ Pose frame7_at_target(const Scenario& sc) { return compose(sc.target, rz(kPi / 4
 TEST(TargetFeasibility, FrameSixAtTheTargetMatchesForwardKinematics) {
   // The construction below (frame 6 = frame 7 · Rz(−q7) · Tz(−0.177), frame 5 origin = o6 − 0.088 x6,
   // z5 = y6) checked against FK at an IK-free configuration: any q, "target" = its own EE pose.
-  const Panda robot;
-  VecQ q;
+  const Robot& robot = *test::panda();
+  VecQ q(7);
   q << 0.3, -0.5, 0.2, -1.8, 0.4, 1.9, -0.7;
   const Kinematics k = robot.forward(q);
   const Pose f7 = compose(k.ee, rz(kPi / 4));
-  EXPECT_LT((f7.position - k.frames[7].position).norm(), 1e-12);
+  EXPECT_LT((f7.position - k.frames[test::dh_frame(robot, 7)].position).norm(), 1e-12);
   const Pose f6 = compose(compose(f7, rz(-q[6])), tz(-0.177));
-  EXPECT_LT((f6.position - k.frames[6].position).norm(), 1e-12);
-  EXPECT_LT((f6.R() - k.R[6]).norm(), 1e-12);
-  EXPECT_LT((f6.position - 0.088 * f6.R().col(0) - k.frames[5].position).norm(), 1e-12);
-  EXPECT_LT((f6.R().col(1) - k.R[5].col(2)).norm(), 1e-12);
+  EXPECT_LT((f6.position - k.frames[test::dh_frame(robot, 6)].position).norm(), 1e-12);
+  EXPECT_LT((f6.R() - k.R[test::dh_frame(robot, 6)]).norm(), 1e-12);
+  EXPECT_LT((f6.position - 0.088 * f6.R().col(0) - k.frames[test::dh_frame(robot, 5)].position).norm(), 1e-12);
+  EXPECT_LT((f6.R().col(1) - k.R[test::dh_frame(robot, 5)].col(2)).norm(), 1e-12);
 }
 
 TEST(TargetFeasibility, LinkFiveCylinderCannotKeepTheEuclideanMarginAtTheTarget) {
-  const Scenario sc = corridor_narrow_scenario();
-  const Panda robot;
+  const Scenario sc = test::narrow();
+  const Robot& robot = *test::panda();
   const int cyl = index_of(robot, "link5_cylinder");
   ASSERT_GE(cyl, 0);
   const Pose f7 = frame7_at_target(sc);
@@ -100,12 +102,12 @@ TEST(TargetFeasibility, LinkFiveCylinderCannotKeepTheEuclideanMarginAtTheTarget)
 }
 
 TEST(TargetFeasibility, GapMarginsAreViolatedAtTheTarget) {
-  const Scenario sc = corridor_narrow_scenario();
+  const Scenario sc = test::narrow();
   CbfController c(sc, Metric::gap);
-  const Panda& robot = c.robot();
+  const Robot& robot = c.robot();
   // The best configuration of the test above, completed to the target pose by the controller's
   // own kinematics (an IK solution found by a null-space sweep of the target's self-motion).
-  VecQ q;
+  VecQ q(7);
   q << -0.0119, -0.0350, -0.0481, -1.7792, -0.3354, 3.3249, -0.4569;
   // Polish onto the target pose (Gauss–Newton on position and rotation vector).
   for (int it = 0; it < 50; ++it) {
@@ -118,12 +120,12 @@ TEST(TargetFeasibility, GapMarginsAreViolatedAtTheTarget) {
     q -= J.transpose() * (J * J.transpose()).ldlt().solve(e);
   }
   ASSERT_LT(task_function(robot.forward(q), robot, sc.target).r.norm(), 1e-9);
-  for (int i = 0; i < kDof; ++i) {
+  for (int i = 0; i < 7; ++i) {
     ASSERT_GT(q[i], robot.q_min()[i]);
     ASSERT_LT(q[i], robot.q_max()[i]);
   }
   std::vector<PairSample> s;
-  Eigen::Matrix<double, Eigen::Dynamic, kDof> grad;
+  GradQ grad;
   c.distances(q, s, grad);
   auto D = [&](const std::string& name) -> double {
     for (std::size_t p = 0; p < s.size(); ++p)
@@ -150,12 +152,12 @@ namespace {
 // so the best over the redundancy cannot exceed it; and the configuration it returns must reach
 // the target exactly, within the joint limits.
 TEST(TargetFeasibility, BestClearanceOverTheRedundancyMeetsTheCylinderBound) {
-  const Scenario sc = corridor_narrow_scenario();
+  const Scenario sc = test::narrow();
   const Feasibility f = target_feasibility(sc);
   ASSERT_TRUE(f.reachable);
-  const Panda robot;
+  const Robot& robot = *test::panda();
   EXPECT_LT(task_function(robot.forward(f.q), robot, sc.target).r.norm(), 1e-8);
-  for (int i = 0; i < kDof; ++i) {
+  for (int i = 0; i < 7; ++i) {
     EXPECT_GE(f.q[i], robot.q_min()[i]);
     EXPECT_LE(f.q[i], robot.q_max()[i]);
   }
@@ -167,7 +169,7 @@ TEST(TargetFeasibility, BestClearanceOverTheRedundancyMeetsTheCylinderBound) {
   // The clearance is the minimum over the obstacle pairs at f.q, recomputed here.
   CbfController c(sc, Metric::euclidean);
   std::vector<PairSample> s;
-  Eigen::Matrix<double, Eigen::Dynamic, kDof> grad;
+  GradQ grad;
   c.distances(f.q, s, grad);
   double m = 1e9;
   for (std::size_t p = 0; p < s.size(); ++p)

@@ -131,17 +131,21 @@ TEST_F(CbfApi, ScenariosAndRobot) {
   expect_error(c.Get("/api/cbf/scenarios/..%2Fsecret"), 400, "invalid_input", "name");
 
   const json robot = get_json(c, "", "/api/cbf/robot");
-  ASSERT_EQ(robot["dh"].size(), 7u);
+  ASSERT_EQ(robot["dof"], 7);
   ASSERT_EQ(robot["q_min"].size(), 7u);
   ASSERT_EQ(robot["primitives"].size(), 9u);
+  const long links = static_cast<long>(robot["links"].size());
   for (const json& p : robot["primitives"]) {
     EXPECT_GE(p["link"].get<int>(), 1);
-    EXPECT_LE(p["link"].get<int>(), 7);
+    EXPECT_LT(p["link"].get<int>(), links);
     EXPECT_TRUE(p["shape"]["type"] == "box" || p["shape"]["type"] == "cylinder") << p;
     EXPECT_EQ(p["pose"]["quaternion"].size(), 4u);
   }
   EXPECT_EQ(robot["primitives"][4]["name"], "link5_box");
   EXPECT_EQ(robot["primitives"][4]["shape"]["size"], json::array({0.08, 0.05, 0.23}));
+  EXPECT_EQ(get_json(c, "", "/api/cbf/robot?name=ur5e")["dof"], 6);
+  expect_error(c.Get("/api/cbf/robot?name=nowhere"), 400, "invalid_input", "name");
+  expect_error(c.Get("/api/cbf/robot?name=..%2Fsecret"), 400, "invalid_input", "name");
 }
 
 TEST_F(CbfApi, BadInputIsRefusedWithTheField) {
@@ -328,17 +332,21 @@ TEST_F(CbfApi, FramesStreamAndMatchTheRecordAndTheRobotModel) {
     ASSERT_EQ(f["poses"].size(), 9u);
   }
 
-  // The streamed primitive poses follow from q and GET /api/cbf/robot alone (standard DH).
+  // The streamed primitive poses follow from q and GET /api/cbf/robot alone (its URDF joints).
   const json robot = get_json(c, "", "/api/cbf/robot");
   for (std::size_t i : {0ul, 57ul, 99ul}) {
     const json& f = frames[i];
-    std::vector<Eigen::Isometry3d> T(8, Eigen::Isometry3d::Identity());
-    for (int k = 0; k < 7; ++k) {
-      const json& row = robot["dh"][k];
-      T[k + 1] = T[k] * Eigen::AngleAxisd(f["q"][k].get<double>(), Eigen::Vector3d::UnitZ()) *
-                 Eigen::Translation3d(0, 0, row["d"].get<double>()) *
-                 Eigen::AngleAxisd(row["alpha"].get<double>(), Eigen::Vector3d::UnitX()) *
-                 Eigen::Translation3d(row["a"].get<double>(), 0, 0);
+    std::vector<Eigen::Isometry3d> T(robot["links"].size(), Eigen::Isometry3d::Identity());
+    for (const json& jt : robot["joints"]) {
+      const json& o = jt["origin"];
+      Eigen::Isometry3d origin = Eigen::Isometry3d::Identity();
+      origin.translate(Eigen::Vector3d(o["position"][0], o["position"][1], o["position"][2]));
+      origin.rotate(Eigen::Quaterniond(o["quaternion"][0], o["quaternion"][1], o["quaternion"][2], o["quaternion"][3]));
+      Eigen::Isometry3d t = T[jt["parent"].get<int>()] * origin;
+      if (jt["q"].get<int>() >= 0)
+        t = t * Eigen::AngleAxisd(f["q"][jt["q"].get<int>()].get<double>(),
+                                  Eigen::Vector3d(jt["axis"][0], jt["axis"][1], jt["axis"][2]));
+      T[jt["child"].get<int>()] = t;
     }
     for (std::size_t p = 0; p < 9; ++p) {
       const json& prim = robot["primitives"][p];

@@ -30,7 +30,7 @@ using nlohmann::json;
 
 json smooth_json(const RolloutRecord& r, double t0, double t1) {
   json tv = json::array(), rate = json::array();
-  for (int j = 0; j < kDof; ++j) {
+  for (int j = 0; j < r.q_final.size(); ++j) {
     const Smoothness s = smoothness(r, j, t0, t1);
     tv.push_back(s.total_variation);
     rate.push_back(s.max_rate);
@@ -42,7 +42,7 @@ void print_smoothness(const RolloutRecord& g, const RolloutRecord& e, double t0,
   std::printf("\nSmoothness of u, t in [%.1f, %.1f] s (paper Fig. 4: GAP smooth, Euclidean chatters)\n",
               t0, std::min(t1, g.steps.size() * g.dt));
   std::printf("  joint | TV(u) GAP  TV(u) Eucl  ratio E/G | max|du|/dt GAP  Eucl   ratio E/G\n");
-  for (int j = 0; j < kDof; ++j) {
+  for (int j = 0; j < g.q_final.size(); ++j) {
     const Smoothness a = smoothness(g, j, t0, t1), b = smoothness(e, j, t0, t1);
     std::printf("  %5d | %9.4f  %10.4f  %9.2f | %14.3f  %6.3f %8.2f\n", j + 1, a.total_variation,
                 b.total_variation, b.total_variation / a.total_variation, a.max_rate, b.max_rate,
@@ -164,7 +164,7 @@ int main(int argc, char** argv) {
     }
   }
   double tv_g = 0, tv_e = 0, tv_g57 = 0, tv_e57 = 0;
-  for (int j = 0; j < kDof; ++j) {
+  for (int j = 0; j < g.q_final.size(); ++j) {
     const double a = smoothness(g, j).total_variation, b = smoothness(e, j).total_variation;
     tv_g += a, tv_e += b;
     if (j >= 4) tv_g57 += a, tv_e57 += b;

@@ -14,16 +14,19 @@ namespace server = distlab::server;
 
 constexpr const char* kHelp = R"(usage: distlab cbf [--pretty] [--feasibility] < request.json
 
-Runs one CBF-QP rollout of the Franka Panda (paper Section IV-B) and writes its record.
+Runs one CBF-QP rollout of a URDF arm (assets/robots; the paper's Franka Panda, Section IV-B) and
+writes its record.
 With --feasibility: the best robot-obstacle clearance reachable at the scenario's exact target
-pose over the arm's redundancy (q7 scanned, joints 1-6 solved), the configuration and the pair
-that limit it, the GAP D there, and whether each metric's margin delta_obs can hold there.
+pose over the arm's redundancy (last joint scanned if dof > 6, joints 1-6 solved), the
+configuration and the pair that limit it, the GAP D there, and whether each metric's margin
+delta_obs can hold there.
 
 request   {"scenario": NAME | SCENARIO, "metric": "gap" | "euclidean", "params": {...}}
           NAME: assets/scenarios/NAME.json (corridor, corridor_real, corridor_narrow,
-          corridor_fine_margin); SCENARIO: the same object inline
+          corridor_fine_margin, ur5e_reach); SCENARIO: the same object inline ("robot": NAME of
+          assets/robots/NAME.urdf, default panda)
 params    overrides: dt, duration, q0, task_gain, damping, eta, eta_joint, self_collision,
-          goal_tolerance, slack_weight, velocity_limit (null | rad/s | [7]),
+          goal_tolerance, slack_weight, velocity_limit (null | rad/s | [dof] | "robot"),
           margins {gap|euclidean: {obstacle, self}},
           gap {h, k, eps, sigma, weight_margin, tol, max_iter, solver,
                mode: "exact" | "as_published"}; output:

@@ -107,10 +107,11 @@ constexpr double kCertifiedGap = 1e-6;
 
 }  // namespace
 
-Task task_function(const Kinematics& k, const Panda& robot, const Pose& target) {
+Task task_function(const Kinematics& k, const Robot& robot, const Pose& target) {
   const Jac Je = robot.ee_jacobian(k);
   const Mat3 Rd = target.R();
   Task t;
+  t.J.resize(6, Je.cols());
   t.r.head<3>() = k.ee.position - target.position;
   t.J.topRows<3>() = Je.topRows<3>();
   for (int i = 0; i < 3; ++i) {
@@ -122,6 +123,27 @@ Task task_function(const Kinematics& k, const Panda& robot, const Pose& target) 
   }
   return t;
 }
+
+namespace {
+
+// H = J_rᵀJ_r + λI, f = J_rᵀ K r. Fixed-size products for 6 and 7 joints: faster, and Eigen sums
+// them in another order than its dynamic-size kernels, so a 7-joint arm keeps the records of the
+// fixed-size code that came before robots as data (tests/cbf/test_record_regression.cpp).
+template <int N>
+void objective_n(const Task& t, double damping, double gain, Eigen::MatrixXd& H, Eigen::VectorXd& f) {
+  const Eigen::Matrix<double, 6, N> J = t.J;
+  H = J.transpose() * J + damping * Eigen::MatrixXd::Identity(J.cols(), J.cols());
+  f = J.transpose() * (gain * t.r);
+}
+void task_objective(const Task& t, double damping, double gain, Eigen::MatrixXd& H, Eigen::VectorXd& f) {
+  switch (t.J.cols()) {
+    case 7: return objective_n<7>(t, damping, gain, H, f);
+    case 6: return objective_n<6>(t, damping, gain, H, f);
+    default: return objective_n<Eigen::Dynamic>(t, damping, gain, H, f);
+  }
+}
+
+}  // namespace
 
 struct CbfController::Impl {
   std::vector<GapBody> robot_gap, obstacle_gap;  // GAP metric only
@@ -135,18 +157,20 @@ struct CbfController::Impl {
   QpSolver qp;
   Eigen::MatrixXd H, C, C_relaxed, H_relaxed;
   Eigen::VectorXd f, d, f_relaxed, d_relaxed;
-  Eigen::Matrix<double, Eigen::Dynamic, kDof> grad;
+  GradQ grad;
+  Kinematics kinematics;  // reused every step
 };
 
 CbfController::CbfController(const Scenario& scenario, Metric metric)
     : scenario_(scenario), metric_(metric), impl_(std::make_unique<Impl>()) {
   validate(scenario_);
-  const auto& prims = robot_.primitives();
+  robot_ = scenario_.robot;
+  const auto& prims = robot_->primitives();
   for (int i = 0; i < static_cast<int>(prims.size()); ++i)
     for (int j = 0; j < static_cast<int>(scenario_.obstacles.size()); ++j)
       pairs_.push_back({prims[i].name + "/" + scenario_.obstacles[j].name, i, j, false});
   if (scenario_.self_collision)
-    for (const auto& [i, j] : robot_.self_pairs())
+    for (const auto& [i, j] : robot_->self_pairs())
       pairs_.push_back({prims[i].name + "/" + prims[j].name, i, j, true});
 
   Impl& m = *impl_;
@@ -191,23 +215,21 @@ void CbfController::reset_warm_start() {
   impl_->warm_ok.assign(pairs_.size(), 0);
 }
 
-void CbfController::distances(const VecQ& q, std::vector<PairSample>& samples,
-                              Eigen::Matrix<double, Eigen::Dynamic, kDof>& grad) {
-  compute_pairs(robot_.forward(q), samples, grad);
+void CbfController::distances(const VecQ& q, std::vector<PairSample>& samples, GradQ& grad) {
+  compute_pairs(robot_->forward(q), samples, grad);
 }
 
-void CbfController::compute_pairs(const Kinematics& k, std::vector<PairSample>& samples,
-                                  Eigen::Matrix<double, Eigen::Dynamic, kDof>& grad) {
+void CbfController::compute_pairs(const Kinematics& k, std::vector<PairSample>& samples, GradQ& grad) {
   Impl& m = *impl_;
-  const auto& prims = robot_.primitives();
+  const auto& prims = robot_->primitives();
   for (std::size_t i = 0; i < prims.size(); ++i) {
-    m.robot_pose[i] = robot_.primitive_pose(k, static_cast<int>(i));
+    m.robot_pose[i] = robot_->primitive_pose(k, static_cast<int>(i));
     m.robot_R[i] = m.robot_pose[i].R();
-    m.robot_jac[i] = robot_.point_jacobian(k, prims[i].link, m.robot_pose[i].position);
+    m.robot_jac[i] = robot_->point_jacobian(k, prims[i].link, m.robot_pose[i].position);
     if (metric_ == Metric::gap) m.robot_gap[i].set_pose(m.robot_pose[i]);
   }
   samples.resize(pairs_.size());
-  grad.resize(static_cast<Eigen::Index>(pairs_.size()), kDof);
+  grad.resize(static_cast<Eigen::Index>(pairs_.size()), robot_->dof());
   for (std::size_t p = 0; p < pairs_.size(); ++p) {
     const PairInfo& pair = pairs_[p];
     PairSample& s = samples[p];
@@ -275,33 +297,36 @@ void CbfController::compute_pairs(const Kinematics& k, std::vector<PairSample>& 
 StepOutput CbfController::step(const VecQ& q, bool audit) {
   Impl& m = *impl_;
   StepOutput out;
+  out.u = VecQ::Zero(robot_->dof());
   const auto t0 = Clock::now();
-  const Kinematics k = robot_.forward(q);
-  const Task task = task_function(k, robot_, scenario_.target);
+  const Robot& robot = *robot_;
+  const int dof = robot.dof();
+  Kinematics& k = m.kinematics;
+  robot.forward(q, k);
+  const Task task = task_function(k, robot, scenario_.target);
   const auto t1 = Clock::now();
   compute_pairs(k, out.pairs, m.grad);
   const auto t2 = Clock::now();
 
   // Rows C u ≥ d: eq. (7) for every pair, then the joint limits.
   const int np = static_cast<int>(pairs_.size());
-  const int rows = np + 2 * kDof;
+  const int rows = np + 2 * dof;
   const Margins& margin = scenario_.margins(metric_);
-  m.C.resize(rows, kDof);
+  m.C.resize(rows, dof);
   m.d.resize(rows);
   for (int p = 0; p < np; ++p) {
     const double delta = pairs_[p].self ? margin.self : margin.obstacle;
     m.C.row(p) = m.grad.row(p);
     m.d[p] = -scenario_.eta * (out.pairs[p].distance - delta);
   }
-  m.C.bottomRows(2 * kDof).setZero();
-  for (int i = 0; i < kDof; ++i) {
+  m.C.bottomRows(2 * dof).setZero();
+  for (int i = 0; i < dof; ++i) {
     m.C(np + i, i) = 1;
-    m.d[np + i] = -scenario_.eta_joint * (q[i] - robot_.q_min()[i]);
-    m.C(np + kDof + i, i) = -1;
-    m.d[np + kDof + i] = -scenario_.eta_joint * (robot_.q_max()[i] - q[i]);
+    m.d[np + i] = -scenario_.eta_joint * (q[i] - robot.q_min()[i]);
+    m.C(np + dof + i, i) = -1;
+    m.d[np + dof + i] = -scenario_.eta_joint * (robot.q_max()[i] - q[i]);
   }
-  m.H = task.J.transpose() * task.J + scenario_.damping * Eigen::MatrixXd::Identity(kDof, kDof);
-  m.f = task.J.transpose() * (scenario_.task_gain * task.r);
+  task_objective(task, scenario_.damping, scenario_.task_gain, m.H, m.f);
   QpResult res = m.qp.solve(m.H, m.f, m.C, m.d);
   out.status = res.status;
   if (res.status == QpStatus::optimal) {
@@ -310,22 +335,22 @@ StepOutput CbfController::step(const VecQ& q, bool audit) {
     // Infeasible (or stalled): relax every distance row by one slack s ≥ 0 with cost ½ w s².
     // Always feasible: the joint-limit rows alone are (q_min < q_max), and s absorbs the rest.
     out.relaxed = true;
-    m.H_relaxed = Eigen::MatrixXd::Zero(kDof + 1, kDof + 1);
-    m.H_relaxed.topLeftCorner(kDof, kDof) = m.H;
-    m.H_relaxed(kDof, kDof) = scenario_.slack_weight;
-    m.f_relaxed = Eigen::VectorXd::Zero(kDof + 1);
-    m.f_relaxed.head(kDof) = m.f;
-    m.C_relaxed = Eigen::MatrixXd::Zero(rows + 1, kDof + 1);
-    m.C_relaxed.topLeftCorner(rows, kDof) = m.C;
-    m.C_relaxed.col(kDof).head(np).setOnes();
-    m.C_relaxed(rows, kDof) = 1;
+    m.H_relaxed = Eigen::MatrixXd::Zero(dof + 1, dof + 1);
+    m.H_relaxed.topLeftCorner(dof, dof) = m.H;
+    m.H_relaxed(dof, dof) = scenario_.slack_weight;
+    m.f_relaxed = Eigen::VectorXd::Zero(dof + 1);
+    m.f_relaxed.head(dof) = m.f;
+    m.C_relaxed = Eigen::MatrixXd::Zero(rows + 1, dof + 1);
+    m.C_relaxed.topLeftCorner(rows, dof) = m.C;
+    m.C_relaxed.col(dof).head(np).setOnes();
+    m.C_relaxed(rows, dof) = 1;
     m.d_relaxed.resize(rows + 1);
     m.d_relaxed.head(rows) = m.d;
     m.d_relaxed[rows] = 0;
     res = m.qp.solve(m.H_relaxed, m.f_relaxed, m.C_relaxed, m.d_relaxed);
     if (res.status == QpStatus::optimal) {
-      out.u = res.x.head(kDof);
-      out.slack = res.x[kDof];
+      out.u = res.x.head(dof);
+      out.slack = res.x[dof];
     } else {
       out.held = true;  // u stays 0
     }
@@ -336,7 +361,8 @@ StepOutput CbfController::step(const VecQ& q, bool audit) {
       out.active.push_back(row);
       out.multiplier.push_back(res.lambda[row]);
     }
-  if (!(scenario_.velocity_limit.array() == std::numeric_limits<double>::infinity()).all()) {
+  if (scenario_.velocity_limit.size() == dof &&
+      !(scenario_.velocity_limit.array() == std::numeric_limits<double>::infinity()).all()) {
     // Clipped per joint, as the robot's interface does (franka-corridor.md, the real-robot run).
     const VecQ clipped = out.u.cwiseMax(-scenario_.velocity_limit).cwiseMin(scenario_.velocity_limit);
     out.clipped = clipped != out.u;

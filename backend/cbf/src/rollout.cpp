@@ -9,7 +9,7 @@ namespace distlab::cbf {
 
 FinalState final_state(CbfController& controller, const VecQ& q) {
   FinalState f;
-  const Panda& robot = controller.robot();
+  const Robot& robot = controller.robot();
   const Scenario& sc = controller.scenario();
   f.ee_position = robot.forward(q).ee.position;
   f.position_error = (f.ee_position - sc.target.position).norm();
@@ -35,8 +35,8 @@ FinalState final_state(CbfController& controller, const VecQ& q) {
       a.clearance = s.clearance;
       a.converged_distance = s.converged_distance;
     } else {
-      const int i = (row - np) % kDof;
-      const bool lower = row - np < kDof;
+      const int i = (row - np) % robot.dof();
+      const bool lower = row - np < robot.dof();
       a.pair = false;
       a.name = std::to_string(i + 1);  // appended in steps: GCC 12's -Wrestrict misfires on "q" + …
       a.name.insert(0, 1, 'q');
@@ -106,7 +106,7 @@ RolloutRecord rollout(const Scenario& scenario, Metric metric, const RolloutOpti
   rec.timing.audit /= count;
   if (!options.audit_clearance) rec.min_clearance = std::numeric_limits<double>::quiet_NaN();
   rec.q_final = q;
-  const Panda& robot = controller.robot();
+  const Robot& robot = controller.robot();
   rec.final_task_error = task_function(robot.forward(q), robot, scenario.target).r.norm();
   rec.reached = !rec.cancelled && rec.final_task_error < scenario.goal_tolerance;
   rec.final_state = final_state(controller, q);

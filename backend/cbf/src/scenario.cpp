@@ -12,10 +12,11 @@ const char* to_string(GapMode m) { return m == GapMode::exact ? "exact" : "as_pu
 
 int Scenario::steps() const { return static_cast<int>(std::lround(duration / dt)); }
 
-Scenario corridor_narrow_scenario() {
+Scenario corridor_narrow_scenario(std::shared_ptr<const Robot> panda) {
   constexpr double pi = std::numbers::pi;
   Scenario s;
   s.name = "corridor_narrow";
+  s.robot = std::move(panda);
   auto box = [](const char* name, Vec3 c, Vec3 size) {
     Obstacle o{name, Box{size}, Pose{}, P2SOptions{}};
     o.pose.position = c;
@@ -27,6 +28,7 @@ Scenario corridor_narrow_scenario() {
   s.target.position = Vec3(0.64, 0, 0.75);
   s.target.rotation = Quat(Eigen::AngleAxisd(pi / 2, Vec3::UnitY())) *
                       Quat(Eigen::AngleAxisd(pi / 2, Vec3::UnitZ()));
+  s.q0.resize(7);
   s.q0 << 1.0582, -1.3811, 0.3629, -1.9647, -0.959, 1.4881, -0.1534;
   return s;
 }
@@ -71,14 +73,21 @@ void validate(const Scenario& s) {
   if (s.gap_mode == GapMode::as_published && s.gap.max_iter < 1)
     throw InvalidInput("gap.max_iter", "gap.mode \"as_published\" needs gap.max_iter >= 1 (its "
                                        "iteration cap, e.g. 20 on the real robot, 300 in simulation)");
-  for (int i = 0; i < kDof; ++i) {
+  if (!s.robot) throw InvalidInput("robot", "no robot");
+  const Robot& robot = *s.robot;
+  const int dof = robot.dof();
+  if (s.q0.size() != dof)
+    throw InvalidInput("q0", "q0 needs " + std::to_string(dof) + " entries (robot \"" + robot.name() +
+                                 "\"), got " + std::to_string(s.q0.size()));
+  if (s.velocity_limit.size() != 0 && s.velocity_limit.size() != dof)
+    throw InvalidInput("velocity_limit", "velocity_limit needs " + std::to_string(dof) + " entries");
+  for (int i = 0; i < s.velocity_limit.size(); ++i) {
     const std::string f = "velocity_limit[" + std::to_string(i) + "]";
     if (std::isnan(s.velocity_limit[i]) || !(s.velocity_limit[i] > 0))
       throw InvalidInput(f, f + " must be > 0 (or absent: no limit), got " +
                                 std::to_string(s.velocity_limit[i]));
   }
-  const Panda robot;
-  for (int i = 0; i < kDof; ++i) {
+  for (int i = 0; i < dof; ++i) {
     const std::string f = "q0[" + std::to_string(i) + "]";
     if (!std::isfinite(s.q0[i]))
       throw InvalidInput(f, f + " must be finite");

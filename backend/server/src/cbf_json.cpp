@@ -86,7 +86,8 @@ void apply_settings(const json& j, const std::string& field, cbf::Scenario& s) {
     if (s.duration > kMaxScenarioDuration)
       fail(f("duration"), "at most " + std::to_string(kMaxScenarioDuration) + " s per request");
   }
-  if (auto v = get("q0")) s.q0 = vec<cbf::kDof>(*v, f("q0"));
+  const int dof = s.robot->dof();
+  if (auto v = get("q0")) s.q0 = json_vecx(*v, f("q0"), dof, kMaxCoordinate);
   if (auto v = get("task_gain")) s.task_gain = number(*v, f("task_gain"));
   if (auto v = get("damping")) s.damping = number(*v, f("damping"));
   if (auto v = get("eta")) s.eta = number(*v, f("eta"));
@@ -96,9 +97,10 @@ void apply_settings(const json& j, const std::string& field, cbf::Scenario& s) {
   if (auto v = get("slack_weight")) s.slack_weight = number(*v, f("slack_weight"));
   if (auto v = get("velocity_limit")) {
     // null: no limit; one number: every joint; an array: per joint (rad/s).
-    if (v->is_null()) s.velocity_limit.setConstant(std::numeric_limits<double>::infinity());
-    else if (v->is_number()) s.velocity_limit.setConstant(number(*v, f("velocity_limit")));
-    else s.velocity_limit = vec<cbf::kDof>(*v, f("velocity_limit"));
+    if (v->is_null()) s.velocity_limit.setConstant(dof, std::numeric_limits<double>::infinity());
+    else if (v->is_number()) s.velocity_limit.setConstant(dof, number(*v, f("velocity_limit")));
+    else if (v->is_string() && v->get<std::string>() == "robot") s.velocity_limit = s.robot->velocity_max();
+    else s.velocity_limit = json_vecx(*v, f("velocity_limit"), dof, kMaxCoordinate);
   }
   if (auto v = get("margins")) {
     require_object(*v, f("margins"));
@@ -147,7 +149,7 @@ void validated(const cbf::Scenario& s, const std::string& field) {
 
 }  // namespace
 
-cbf::Scenario parse_scenario(const json& j, const std::string& field) {
+cbf::Scenario parse_scenario(const json& j, const std::string& field, const std::string& assets_dir) {
   require_object(j, field);
   for (const auto& [key, value] : j.items()) {
     static const std::initializer_list<std::string_view> own = {"name", "comment", "robot",
@@ -160,8 +162,8 @@ cbf::Scenario parse_scenario(const json& j, const std::string& field) {
   s.name = "inline";
   if (auto it = j.find("name"); it != j.end()) s.name = string(*it, key_path(field, "name"));
   if (auto it = j.find("comment"); it != j.end()) string(*it, key_path(field, "comment"));
-  if (auto it = j.find("robot"); it != j.end() && string(*it, key_path(field, "robot")) != "panda")
-    fail(key_path(field, "robot"), "only \"panda\" is supported");
+  if (auto it = j.find("robot"); it != j.end()) s.robot_name = string(*it, key_path(field, "robot"));
+  s.robot = load_robot(s.robot_name, assets_dir, key_path(field, "robot"));
   const std::string of = key_path(field, "obstacles");
   const json& obstacles = required(j, field, "obstacles");
   if (!obstacles.is_array()) fail(of, "expected an array of obstacles");
@@ -184,18 +186,38 @@ cbf::Scenario parse_scenario(const json& j, const std::string& field) {
   return s;
 }
 
-std::string scenario_path(const std::string& name, const std::string& assets_dir) {
-  if (name.empty() || name.size() > 64) fail("scenario", "scenario names have 1 to 64 characters");
+namespace {
+
+// assets/KIND/NAME.EXT under the roots of scenario_path.
+std::string asset_path(const std::string& kind, const std::string& name, const std::string& ext,
+                       const std::string& assets_dir, const std::string& field) {
+  const std::string what = kind == "scenarios" ? "scenario" : "robot";
+  if (name.empty() || name.size() > 64) fail(field, what + " names have 1 to 64 characters");
   for (char c : name)
     if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_' && c != '-')
-      fail("scenario", "scenario names are letters, digits, '_' and '-'");
+      fail(field, what + " names are letters, digits, '_' and '-'");
   const std::vector<std::string> roots =
       assets_dir.empty() ? data_dir_candidates("DISTLAB_ASSETS", "assets", "assets") : std::vector<std::string>{assets_dir};
   for (const fs::path root : roots)
-    if (fs::is_regular_file(root / "scenarios" / (name + ".json")))
-      return (root / "scenarios" / (name + ".json")).string();
-  fail("scenario", "unknown scenario \"" + name + "\" (looked for scenarios/" + name +
-                       ".json in $DISTLAB_ASSETS and assets/)");
+    if (fs::is_regular_file(root / kind / (name + ext))) return (root / kind / (name + ext)).string();
+  fail(field, "unknown " + what + " \"" + name + "\" (looked for " + kind + "/" + name + ext +
+                  " in $DISTLAB_ASSETS and assets/)");
+}
+
+}  // namespace
+
+std::string scenario_path(const std::string& name, const std::string& assets_dir) {
+  return asset_path("scenarios", name, ".json", assets_dir, "scenario");
+}
+
+std::shared_ptr<const cbf::Robot> load_robot(const std::string& name, const std::string& assets_dir,
+                                             const std::string& field) {
+  const std::string path = asset_path("robots", name, ".urdf", assets_dir, field);
+  try {
+    return cbf::Robot::load(path, field);
+  } catch (const InvalidInput& e) {  // a broken asset is the server's fault, not the caller's
+    throw std::runtime_error("robot file " + name + ".urdf: " + e.what());
+  }
 }
 
 nlohmann::json read_scenario_file(const std::string& path) {
@@ -206,7 +228,8 @@ nlohmann::json read_scenario_file(const std::string& path) {
   // A broken asset is an internal error, not the caller's.
   try {
     json j = parse_json_text(text.str());
-    parse_scenario(j, "scenario");
+    // The scenario's robot from the same assets directory.
+    parse_scenario(j, "scenario", fs::path(path).parent_path().parent_path().string());
     return j;
   } catch (const std::exception& e) {
     throw std::runtime_error("scenario file " + path + ": " + e.what());
@@ -220,9 +243,11 @@ CbfRequest parse_cbf_request(const json& r, const std::string& assets_dir) {
   CbfRequest out;
   const json& sj = required(r, "", "scenario");
   if (sj.is_string()) {
-    out.scenario = parse_scenario(read_scenario_file(scenario_path(sj.get<std::string>(), assets_dir)));
+    const std::string path = scenario_path(sj.get<std::string>(), assets_dir);
+    out.scenario = parse_scenario(read_scenario_file(path), "scenario",
+                                  fs::path(path).parent_path().parent_path().string());
   } else {
-    out.scenario = parse_scenario(sj, "scenario");
+    out.scenario = parse_scenario(sj, "scenario", assets_dir);
   }
   if (auto it = r.find("metric"); it != r.end()) {
     const std::string m = string(*it, "metric");
@@ -252,7 +277,7 @@ CbfRequest parse_cbf_request(const json& r, const std::string& assets_dir) {
 
 json encode_smoothness(const cbf::RolloutRecord& rec) {
   json tv = json::array(), rate = json::array();
-  for (int j = 0; j < cbf::kDof; ++j) {
+  for (int j = 0; j < rec.q_final.size(); ++j) {
     const cbf::Smoothness s = cbf::smoothness(rec, j);
     tv.push_back(s.total_variation);
     rate.push_back(s.max_rate);

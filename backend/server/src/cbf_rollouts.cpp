@@ -45,11 +45,6 @@ json shape_json(const Shape& shape) {
       shape);
 }
 
-const cbf::Panda& panda() {
-  static const cbf::Panda robot;
-  return robot;
-}
-
 bool ended(const std::string& state) { return state != "queued" && state != "running"; }
 
 }  // namespace
@@ -66,6 +61,7 @@ json CbfRollout::status_json() const {
   json j = {{"id", id},
             {"scenario", scenario_name},
             {"metric", cbf::to_string(metric)},
+            {"robot", scenario.robot_name},
             {"dt", scenario.dt},
             {"steps_total", steps_total},
             {"pairs", pair_list},
@@ -86,7 +82,7 @@ json CbfRollout::status_json() const {
 }
 
 json cbf_frames_json(const CbfRollout& r, std::size_t first, std::size_t count) {
-  const cbf::Panda& robot = panda();
+  const cbf::Robot& robot = *r.scenario.robot;
   json frames = json::array();
   std::size_t done;
   {
@@ -135,26 +131,33 @@ json cbf_frames_json(const CbfRollout& r, std::size_t first, std::size_t count) 
           {"steps_done", done}, {"steps_total", r.steps_total}, {"frames", std::move(frames)}};
 }
 
-json cbf_robot_json() {
-  const cbf::Panda& robot = panda();
-  json dh = json::array();
-  for (const cbf::DhRow& row : robot.dh()) dh.push_back({{"d", row.d}, {"alpha", row.alpha}, {"a", row.a}});
+json cbf_robot_json(const cbf::Robot& robot) {
+  json joints = json::array();
+  for (const cbf::RobotJoint& jt : robot.joints()) {
+    Pose origin;
+    origin.position = jt.origin_t;
+    origin.rotation = Quat(jt.origin_R);
+    joints.push_back({{"name", jt.name}, {"parent", jt.parent}, {"child", jt.child}, {"q", jt.q},
+                      {"origin", pose_json(origin)}, {"axis", vec_json(jt.axis)}});
+  }
   json prims = json::array();
   for (const cbf::LinkPrimitive& p : robot.primitives())
     prims.push_back({{"name", p.name}, {"link", p.link}, {"shape", shape_json(p.shape)}, {"pose", pose_json(p.pose)}});
   json self = json::array();
   for (const auto& [i, j] : robot.self_pairs()) self.push_back({i, j});
-  Pose ee;
-  ee.rotation = Quat(Eigen::AngleAxisd(-std::numbers::pi / 4, Vec3::UnitZ()));
-  return {{"name", "panda"},
-          {"dof", cbf::kDof},
+  return {{"name", robot.name()},
+          {"dof", robot.dof()},
           {"convention",
-           "standard DH: frame i = frame i-1 · Rz(q_i) · Tz(d_i) · Rx(alpha_i) · Tx(a_i), frame 0 = world; "
-           "a primitive's world pose is frame[link] · pose; quaternions are [w, x, y, z]"},
-          {"dh", dh},
+           "URDF: joints in evaluation order (parents first); child frame = parent frame · origin · "
+           "Rot(axis, q[q]) (q = -1: fixed), the base link is the world; a primitive's world pose is "
+           "frame[link] · pose; quaternions are [w, x, y, z]"},
+          {"links", robot.links()},
+          {"joints", joints},
+          {"joint_names", robot.joint_names()},
           {"q_min", vec_json(robot.q_min())},
           {"q_max", vec_json(robot.q_max())},
-          {"end_effector", {{"link", cbf::kDof}, {"pose", pose_json(ee)}}},
+          {"velocity_max", vec_json(robot.velocity_max())},
+          {"end_effector", {{"link", robot.ee_link()}}},
           {"primitives", prims},
           {"self_pairs", self}};
 }

@@ -136,14 +136,19 @@ void Service::register_cbf_routes() {
                    throw ApiError(404, "unknown_scenario", "no scenario named \"" + name + "\"", "name");
                  return json_response(200, read_scenario_file(path.string()));
                }});
-  router_.add({"GET", "/api/cbf/robot", [](Request&) { return json_response(200, cbf_robot_json()); }});
+  // ?name=NAME (default panda): assets/robots/NAME.urdf as the view draws it.
+  router_.add({"GET", "/api/cbf/robot", [this](Request& req) {
+                 auto it = req.query.find("name");
+                 const std::string name = it == req.query.end() ? "panda" : it->second;
+                 return json_response(200, cbf_robot_json(*load_robot(name, config_.assets_dir, "name")));
+               }});
   // Is the scenario's exact target inside the safe set? (cbf::target_feasibility, well under a
   // second: a q7 grid with IK per point.)
   Route feasibility{"POST", "/api/cbf/feasibility", [this, limits](Request& req) {
                       const json body = parse_body(req);
                       const CbfRequest parsed = parse_cbf_request(body, config_.assets_dir);
                       // About 4000 IK configurations are examined, each against every pair.
-                      const cbf::Panda robot;
+                      const cbf::Robot& robot = *parsed.scenario.robot;
                       const std::size_t pairs = robot.primitives().size() * parsed.scenario.obstacles.size() +
                                                 (parsed.scenario.self_collision ? robot.self_pairs().size() : 0);
                       if (pairs * 4000 > limits.max_pair_steps)
@@ -175,7 +180,7 @@ void Service::register_cbf_routes() {
                                 "duration / dt = " + std::to_string(steps) + " steps; at most " +
                                     std::to_string(limits.max_steps) + " per rollout on this server",
                                 duration_field(body));
-               const cbf::Panda robot;
+               const cbf::Robot& robot = *sc.robot;
                const std::size_t pairs = robot.primitives().size() * sc.obstacles.size() +
                                          (sc.self_collision ? robot.self_pairs().size() : 0);
                if (pairs * static_cast<std::size_t>(steps) > limits.max_pair_steps)

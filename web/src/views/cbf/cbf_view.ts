@@ -117,6 +117,18 @@ export class CbfView implements View {
       this.reportError(e, `scenario "${this.state.scenario}"`);
       return;
     }
+    // The scenario's robot (assets/robots/NAME.urdf) draws the arm: another one replaces the worlds.
+    const robotName = sc.robot ?? "panda";
+    if (this.robot && this.viewport && robotName !== this.robot.name) {
+      try {
+        this.robot = await api.get<CbfRobot>(`/api/cbf/robot?name=${encodeURIComponent(robotName)}`);
+      } catch (e) {
+        this.reportError(e, `robot "${robotName}"`);
+        return;
+      }
+      this.scene!.remove();
+      this.scene = new CbfScene(this.viewport.scene, this.robot);
+    }
     this.scenario = sc;
     this.panel!.showScenario(sc);
     this.panel!.showDuration(this.duration());

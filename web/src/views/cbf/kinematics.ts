@@ -1,5 +1,5 @@
-// Forward kinematics from GET /api/cbf/robot (standard DH, as its "convention" states), used only
-// to draw the robot at q0 before any rollout exists; frames carry the server's world poses.
+// Forward kinematics from GET /api/cbf/robot (its URDF joint tree, as its "convention" states),
+// used only to draw the robot at q0 before any rollout exists; frames carry the server's world poses.
 import * as THREE from "three";
 import type { CbfRobot, PoseJson } from "./types";
 
@@ -8,18 +8,15 @@ export function poseMatrix(p: PoseJson): THREE.Matrix4 {
   return new THREE.Matrix4().compose(new THREE.Vector3(...p.position), new THREE.Quaternion(x, y, z, w).normalize(), new THREE.Vector3(1, 1, 1));
 }
 
-/** Frames T_0 … T_dof: T_i = T_{i−1} · Rz(q_i) · Tz(d_i) · Rx(α_i) · Tx(a_i). */
+/** World frame of every link: child = parent · origin · Rot(axis, q[joint.q]) (joints are listed parents first). */
 export function linkFrames(robot: CbfRobot, q: number[]): THREE.Matrix4[] {
-  const out = [new THREE.Matrix4()];
+  const out = robot.links.map(() => new THREE.Matrix4());
   const m = new THREE.Matrix4();
-  robot.dh.forEach((row, i) => {
-    const T = out[i].clone();
-    T.multiply(m.makeRotationZ(q[i] ?? 0));
-    T.multiply(m.makeTranslation(0, 0, row.d));
-    T.multiply(m.makeRotationX(row.alpha));
-    T.multiply(m.makeTranslation(row.a, 0, 0));
-    out.push(T);
-  });
+  for (const j of robot.joints) {
+    const T = out[j.parent].clone().multiply(poseMatrix(j.origin));
+    if (j.q >= 0) T.multiply(m.makeRotationAxis(new THREE.Vector3(...j.axis).normalize(), q[j.q] ?? 0));
+    out[j.child] = T;
+  }
   return out;
 }
 

@@ -165,6 +165,12 @@ export class CbfScene {
     scene.add(this.root);
   }
 
+  /** Takes the worlds out of the scene (another robot replaces them). */
+  remove(): void {
+    this.root.removeFromParent();
+    this.root.traverse((o) => (o as THREE.Mesh).geometry?.dispose());
+  }
+
   setScenario(sc: Pick<CbfScenario, "obstacles" | "target">): void {
     this.worlds.gap.setScenario(sc);
     this.worlds.euclidean.setScenario(sc);

@@ -2,6 +2,7 @@
 // the largest |Δu|/dt (paper Fig. 4), GAP beside Euclidean with their ratio; the mean compute time
 // per control step and its parts; whether the target was reached and the smallest clearance.
 import { errorText } from "../../core/api";
+import { downloadLinks } from "./download";
 import type { Rollout } from "./rollout";
 import type { CbfRecord, Metric } from "./types";
 
@@ -62,7 +63,7 @@ export class Summary {
     thead.appendChild(head);
     table.appendChild(thead);
     const body = document.createElement("tbody");
-    for (let j = 0; j < 7; j++) {
+    for (let j = 0; j < done[0].record.smoothness.total_variation.length; j++) {
       const tr = document.createElement("tr");
       tr.append(cell("td", String(j + 1)));
       for (const key of ["total_variation", "max_rate"] as const)
@@ -127,6 +128,7 @@ export class Summary {
       p.textContent = `GAP step / Euclidean step = ${ratio.toFixed(2)}× (one after the other in this server, on a shared machine: a rough comparison; distlab-bench-cbf measures it properly).`;
       this.root.appendChild(p);
     }
+    for (const r of done) this.root.appendChild(downloadLinks(r.metric, NAME[r.metric], r.record));
     this.notes(records);
   }
 

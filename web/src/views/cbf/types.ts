@@ -25,16 +25,22 @@ export interface ShapeJson {
 export interface CbfRobot {
   name: string;
   dof: number;
-  dh: Array<{ d: number; alpha: number; a: number }>;
+  links: string[];
+  /** URDF joints, parents first; q = −1 for a fixed joint. */
+  joints: Array<{ name: string; parent: number; child: number; q: number; origin: PoseJson; axis: [number, number, number] }>;
+  joint_names: string[];
   q_min: number[];
   q_max: number[];
-  end_effector: { link: number; pose: PoseJson };
+  velocity_max: number[];
+  end_effector: { link: number };
   primitives: Array<{ name: string; link: number; shape: ShapeJson; pose: PoseJson }>;
   self_pairs: Array<[number, number]>;
 }
 
 export interface CbfScenario {
   name?: string;
+  /** assets/robots/NAME.urdf; "panda" when absent. */
+  robot?: string;
   obstacles: Array<{ name?: string; shape: ShapeJson }>;
   target: PoseJson;
   q0: number[];
@@ -129,6 +135,7 @@ export interface CbfRecord {
   steps: number;
   pairs: string[];
   t: number[];
+  q?: number[][];
   u: number[][];
   task_error: number[];
   min_distance: Array<number | null>;

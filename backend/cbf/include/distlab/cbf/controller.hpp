@@ -44,7 +44,7 @@ struct StepTiming {  // microseconds, steady_clock
 };
 
 struct StepOutput {
-  VecQ u = VecQ::Zero();
+  VecQ u;
   Vec6 r = Vec6::Zero();
   double task_error = 0;  // ‖r‖
   std::vector<PairSample> pairs;
@@ -55,7 +55,7 @@ struct StepOutput {
   double slack = 0;
   int active_rows = 0;
   std::vector<int> active;        // active QP rows: pair p is row p, then u_i ≥ … (lower joint
-                                  // limit of joint i) at pairs + i, upper at pairs + 7 + i
+                                  // limit of joint i) at pairs + i, upper at pairs + dof + i
   std::vector<double> multiplier; // the active rows' multipliers, same order
   bool clipped = false;           // u was clipped to the scenario's velocity limits
   StepTiming timing;
@@ -64,9 +64,9 @@ struct StepOutput {
 // Task function r(q) and its Jacobian (franka-corridor.md, "Controller").
 struct Task {
   Vec6 r;
-  Eigen::Matrix<double, 6, kDof> J;
+  Eigen::Matrix<double, 6, Eigen::Dynamic> J;
 };
-Task task_function(const Kinematics& k, const Panda& robot, const Pose& target);
+Task task_function(const Kinematics& k, const Robot& robot, const Pose& target);
 
 // gap.mode as_published (scenario.hpp): the published package's P2S options for a shape, and
 // its distance: plain iteration from B's centre (the ρ ball's centre), stopped at the first
@@ -83,7 +83,7 @@ class CbfController {
   CbfController& operator=(const CbfController&) = delete;
 
   const std::vector<PairInfo>& pairs() const { return pairs_; }
-  const Panda& robot() const { return robot_; }
+  const Robot& robot() const { return *robot_; }
   Metric metric() const { return metric_; }
 
   // One control step at q. `audit`: also compute the true Euclidean clearance of every pair
@@ -91,19 +91,17 @@ class CbfController {
   StepOutput step(const VecQ& q, bool audit = true);
 
   // The distance rows at q without the QP (for tests): row i is ∇_q D of pair i.
-  void distances(const VecQ& q, std::vector<PairSample>& samples,
-                 Eigen::Matrix<double, Eigen::Dynamic, kDof>& grad);
+  void distances(const VecQ& q, std::vector<PairSample>& samples, GradQ& grad);
 
   void reset_warm_start();
   const Scenario& scenario() const { return scenario_; }
 
  private:
   struct Impl;
-  void compute_pairs(const Kinematics& k, std::vector<PairSample>& samples,
-                     Eigen::Matrix<double, Eigen::Dynamic, kDof>& grad);
+  void compute_pairs(const Kinematics& k, std::vector<PairSample>& samples, GradQ& grad);
   Scenario scenario_;
   Metric metric_;
-  Panda robot_;
+  std::shared_ptr<const Robot> robot_;
   std::vector<PairInfo> pairs_;
   std::unique_ptr<Impl> impl_;
 };

@@ -20,7 +20,7 @@ struct FeasibilityOptions {
 
 struct Feasibility {
   bool reachable = false;     // some configuration within the joint limits reaches the pose
-  VecQ q = VecQ::Zero();      // the best one
+  VecQ q;                     // the best one
   double clearance = 0;       // its minimum robot–obstacle Euclidean clearance
   std::string limiting_pair;  // the pair that sets it
   double self_clearance = 0;  // its minimum self-collision clearance (self pairs of the scenario)

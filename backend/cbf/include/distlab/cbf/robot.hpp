@@ -1,9 +1,13 @@
 #pragma once
-// The Franka Emika Panda of the corridor experiment (franka-corridor.md): standard DH kinematics
-// (frame i = frame i-1 · Rz(q_i) · Tz(d_i) · Rx(α_i) · Tx(a_i), base = world), joint limits,
-// collision primitives per link, forward kinematics and geometric Jacobians.
-#include <array>
+// A robot arm as data: a URDF file (assets/robots/NAME.urdf) parsed with urdfdom. Revolute
+// joints (any number, a tree rooted at one base link fixed in the world), their limits and
+// velocity limits, collision boxes, cylinders and spheres per link (capsules: a documented
+// extension, see robot.cpp), the end effector (the one leaf link, or <distlab:end_effector
+// link="..."/>). Forward kinematics, geometric Jacobians and the self-collision pairs (primitives
+// of links at least two revolute joints apart in the tree) all come from that description.
+#include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -13,15 +17,11 @@
 
 namespace distlab::cbf {
 
-inline constexpr int kDof = 7;
-using VecQ = Eigen::Matrix<double, kDof, 1>;
-using Jac = Eigen::Matrix<double, 6, kDof>;  // rows: linear velocity, angular velocity
+using VecQ = Eigen::VectorXd;                // one entry per revolute joint, in file order
+using Jac = Eigen::Matrix<double, 6, Eigen::Dynamic>;  // rows: linear velocity, angular velocity
+using GradQ = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic>;  // rows: ∇_q of each pair
 
-struct DhRow {
-  double d, alpha, a;
-};
-
-// A convex primitive fixed to link frame `link` (1..7) at `pose` (in that frame).
+// A convex primitive fixed to link `link` (index into Robot::links()) at `pose` in that frame.
 struct LinkPrimitive {
   std::string name;
   int link;
@@ -29,35 +29,72 @@ struct LinkPrimitive {
   Pose pose;
 };
 
-// World poses of frames 0..7 (0 = base) and of the end effector (frame 7 · Rz(−π/4)).
-struct Kinematics {
-  std::array<Pose, kDof + 1> frames;
-  std::array<Mat3, kDof + 1> R;  // rotation matrices of `frames`, cached
-  Pose ee;
-  Mat3 ee_R = Mat3::Identity();
+// A joint of the tree. Child frame = parent frame · origin · Rot(axis, q) (revolute) or
+// parent · origin (fixed).
+struct RobotJoint {
+  std::string name;
+  int parent = -1, child = -1;  // link indices
+  int q = -1;                   // index into VecQ, −1 for a fixed joint
+  Mat3 origin_R = Mat3::Identity();
+  Vec3 origin_t = Vec3::Zero();
+  bool origin_rotated = false;  // origin_R is not the identity
+  Vec3 axis = Vec3::UnitZ();
 };
 
-class Panda {
+// World frames of every link, the world axis and origin of every revolute joint, and the end
+// effector.
+struct Kinematics {
+  std::vector<Pose> frames;   // per link
+  std::vector<Mat3> R;        // rotation matrices of `frames`
+  std::vector<Vec3> axis;     // per revolute joint (VecQ order), world
+  std::vector<Vec3> origin;   // per revolute joint, world
+  Pose ee;
+  Mat3 ee_R = Mat3::Identity();
+  std::vector<Mat3> local_R;  // scratch of forward(): per joint, its transform from the base used
+  std::vector<Vec3> local_t;
+};
+
+class Robot {
  public:
-  Panda();
-  const std::array<DhRow, kDof>& dh() const { return dh_; }
+  // Throws InvalidInput(field, ...) for a URDF that cannot be parsed or is outside the subset
+  // above (the message names the URDF element).
+  static std::shared_ptr<const Robot> from_urdf(const std::string& xml, const std::string& field = "robot");
+  // Reads and parses a file once per path (cached; robots are immutable).
+  static std::shared_ptr<const Robot> load(const std::string& path, const std::string& field = "robot");
+
+  const std::string& name() const { return name_; }
+  int dof() const { return static_cast<int>(q_joint_.size()); }
+  const std::vector<std::string>& links() const { return links_; }
+  int link_index(const std::string& name) const;  // −1 if there is none
+  const std::vector<RobotJoint>& joints() const { return joints_; }
+  // Names of the revolute joints in VecQ order.
+  std::vector<std::string> joint_names() const;
   const VecQ& q_min() const { return q_min_; }
   const VecQ& q_max() const { return q_max_; }
+  const VecQ& velocity_max() const { return velocity_max_; }  // URDF <limit velocity>
+  int ee_link() const { return ee_link_; }
   const std::vector<LinkPrimitive>& primitives() const { return primitives_; }
-  // Self-collision pairs (indices into primitives()): links i and j with j ≥ i + 2.
+  // Self-collision pairs (indices into primitives(), i < j): links ≥ 2 revolute joints apart.
   const std::vector<std::pair<int, int>>& self_pairs() const { return self_pairs_; }
 
   Kinematics forward(const VecQ& q) const;
-  // Geometric Jacobian of the world point p, taken as fixed to link frame `link` (0..7):
-  // column j ≤ link is [z_{j−1} × (p − o_{j−1}); z_{j−1}], later columns are zero.
+  // The same into `k`, reusing its storage (the controller's per-step call: no allocation).
+  void forward(const VecQ& q, Kinematics& k) const;
+  // Geometric Jacobian of the world point p, fixed to link `link`: column j of every revolute
+  // joint j between the base and the link is [a_j × (p − o_j); a_j], the others are zero.
   Jac point_jacobian(const Kinematics& k, int link, const Vec3& p) const;
-  Jac ee_jacobian(const Kinematics& k) const { return point_jacobian(k, kDof, k.ee.position); }
-  // World pose of primitive i.
+  Jac ee_jacobian(const Kinematics& k) const { return point_jacobian(k, ee_link_, k.ee.position); }
   Pose primitive_pose(const Kinematics& k, int i) const;
 
  private:
-  std::array<DhRow, kDof> dh_;
-  VecQ q_min_, q_max_;
+  std::string name_;
+  std::vector<std::string> links_;
+  std::vector<RobotJoint> joints_;       // evaluation order: a parent link before its children
+  std::vector<int> parent_joint_;        // per link, index into joints_ (−1 for the base)
+  std::vector<int> q_joint_;             // per VecQ entry, index into joints_
+  std::vector<std::vector<int>> moved_by_;  // per link, the VecQ indices of its revolute ancestors
+  VecQ q_min_, q_max_, velocity_max_;
+  int ee_link_ = -1;
   std::vector<LinkPrimitive> primitives_;
   std::vector<std::pair<int, int>> self_pairs_;
 };

@@ -12,8 +12,8 @@ namespace distlab::cbf {
 
 struct StepRecord {
   double t = 0;
-  VecQ q = VecQ::Zero();  // the state the step was computed at
-  VecQ u = VecQ::Zero();
+  VecQ q;  // the state the step was computed at
+  VecQ u;
   double task_error = 0;
   double min_clearance = 0;  // smallest true Euclidean clearance over all pairs
   bool relaxed = false;      // infeasible QP, relaxed with a slack
@@ -55,7 +55,7 @@ struct RolloutRecord {
   std::vector<PairInfo> pairs;
   std::vector<StepRecord> steps;
   std::vector<int> infeasible_steps;  // indices of relaxed or held steps
-  VecQ q_final = VecQ::Zero();
+  VecQ q_final;
   double final_task_error = 0;  // ‖r‖ at q_final
   bool reached = false;         // final_task_error < scenario.goal_tolerance
   double min_clearance = 0;     // over the whole rollout

@@ -3,6 +3,7 @@
 // (franka-corridor.md gives the corridor's values, which are the defaults here).
 // Transport-free: the JSON codec lives in distlab_server (cbf_json).
 #include <limits>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -39,9 +40,12 @@ struct Margins {
 
 struct Scenario {
   std::string name = "custom";
+  // The arm (assets/robots/NAME.urdf); q0 and velocity_limit have one entry per joint.
+  std::shared_ptr<const Robot> robot;
+  std::string robot_name = "panda";
   std::vector<Obstacle> obstacles;
   Pose target;  // end-effector target pose
-  VecQ q0 = VecQ::Zero();
+  VecQ q0;
   double dt = 0.01;
   double duration = 35.0;
   double task_gain = 0.4;   // K = task_gain · I₆
@@ -57,8 +61,8 @@ struct Scenario {
   GapParams gap;
   GapMode gap_mode = GapMode::exact;
   // |u_i| ≤ velocity_limit[i] by clipping the QP's u per joint (what the real robot's interface
-  // did, franka-corridor.md); +inf (the default) means no clipping.
-  VecQ velocity_limit = VecQ::Constant(std::numeric_limits<double>::infinity());
+  // did, franka-corridor.md); +inf or empty (the default) means no clipping.
+  VecQ velocity_limit;
   // Goal test of a rollout: ‖r‖ at the last step below this counts as reached.
   double goal_tolerance = 1e-3;
   // Relaxed QP of an infeasible step: one slack s ≥ 0 on every distance row, cost ½·w·s².
@@ -71,8 +75,8 @@ struct Scenario {
 };
 
 // The narrow corridor of franka-corridor.md (`corridor_narrow`, also
-// assets/scenarios/corridor_narrow.json; the other scenarios are data only).
-Scenario corridor_narrow_scenario();
+// assets/scenarios/corridor_narrow.json; the other scenarios are data only) for the Panda.
+Scenario corridor_narrow_scenario(std::shared_ptr<const Robot> panda);
 
 // Throws InvalidInput naming the field ("dt", "q0[3]", "obstacles[1].pose.position[2]",
 // "gap.tol", ...) for a value out of range.

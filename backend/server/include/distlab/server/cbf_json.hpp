@@ -1,13 +1,14 @@
 #pragma once
 // CBF rollouts as JSON, shared by `distlab cbf` and (later) the HTTP service.
 //
-// Scenario: {"name", "comment"?, "robot": "panda"?, "obstacles": [{"name", "shape": SHAPE}],
-//            "target": {"position", "quaternion" [w, x, y, z]}, "q0": [7], "dt", "duration",
+// Scenario: {"name", "comment"?, "robot": NAME? (assets/robots/NAME.urdf, default "panda"), "obstacles": [{"name", "shape": SHAPE}],
+//            "target": {"position", "quaternion" [w, x, y, z]}, "q0": [dof], "dt", "duration",
 //            "task_gain", "damping", "eta", "eta_joint", "self_collision", "goal_tolerance",
 //            "slack_weight", "margins": {"gap"|"euclidean": {"obstacle", "self"}},
 //            "gap": {h, k, eps, sigma, weight_margin, tol, max_iter, solver,
 //                    mode: "exact" | "as_published"},
-//            "velocity_limit": null | number | [7] (rad/s, u clipped per joint)}
+//            "velocity_limit": null | number | [dof] | "robot" (rad/s, u clipped per joint;
+//            "robot": the URDF's limit velocity)}
 //            (SHAPE as in gap_json, pose in the world; every key but obstacles/target/q0 optional,
 //            defaults from cbf::Scenario).
 // Request:  {"scenario": NAME | SCENARIO, "metric": "gap" | "euclidean", "params": {...}?,
@@ -31,8 +32,14 @@ namespace distlab::server {
 
 inline constexpr double kMaxScenarioDuration = 600.0;  // seconds of simulated time per request
 
-// Throws InvalidInput naming the field (prefixed with `field`, e.g. "scenario.q0[2]").
-cbf::Scenario parse_scenario(const nlohmann::json& j, const std::string& field = "scenario");
+// Throws InvalidInput naming the field (prefixed with `field`, e.g. "scenario.q0[2]"). The robot
+// ("robot": NAME, default "panda") is assets/robots/NAME.urdf, looked up as scenario_path does.
+cbf::Scenario parse_scenario(const nlohmann::json& j, const std::string& field = "scenario",
+                             const std::string& assets_dir = "");
+// assets/robots/NAME.urdf, parsed once (an unknown name is InvalidInput(field); a broken file is
+// std::runtime_error).
+std::shared_ptr<const cbf::Robot> load_robot(const std::string& name, const std::string& assets_dir = "",
+                                             const std::string& field = "robot");
 
 // Looks for NAME.json in ASSETS_DIR/scenarios when assets_dir is given (the service), else in
 // $DISTLAB_ASSETS/scenarios, ./assets/scenarios and assets/scenarios above the executable.

@@ -58,14 +58,15 @@ struct CbfRollout {
   std::size_t steps_done() const;
   const std::vector<cbf::StepRecord>& steps_locked() const { return record ? record->steps : steps; }
   // {"id", "state", "scenario", "metric", "steps_total", "steps_done", "dt", "pairs": [{"name",
-  //  "a", "b", "self"}], "obstacles", "target", "stream"} (+ "summary" when ended).
+  //  "a", "b", "self"}], "obstacles", "target", "stream", "robot"} (+ "summary" when ended).
   nlohmann::json status_json() const;
 };
 
 // A "cbf_frames" message of steps [first, first + count) (clamped to what exists).
 nlohmann::json cbf_frames_json(const CbfRollout& rollout, std::size_t first, std::size_t count);
-// GET /api/cbf/robot: DH table, joint limits, end-effector offset, every collision primitive.
-nlohmann::json cbf_robot_json();
+// GET /api/cbf/robot?name=: the URDF as data: links, joints (origin, axis), limits, end effector,
+// every collision primitive and the self-collision pairs.
+nlohmann::json cbf_robot_json(const cbf::Robot& robot);
 
 class CbfRolloutStore {
  public:

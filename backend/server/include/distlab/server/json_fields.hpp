@@ -99,6 +99,18 @@ Eigen::Matrix<double, N, 1> json_vec(const nlohmann::json& j, const std::string&
   return v;
 }
 
+// A vector of exactly n finite numbers (n known at run time: a robot's joints).
+inline Eigen::VectorXd json_vecx(const nlohmann::json& j, const std::string& field, int n,
+                                 double max_abs = std::numeric_limits<double>::infinity()) {
+  if (!j.is_array() || j.size() != static_cast<std::size_t>(n))
+    throw InvalidInput(field, field + " must be an array of " + std::to_string(n) + " numbers, got " +
+                                  (j.is_array() ? std::to_string(j.size()) + " elements" : j.type_name()));
+  Eigen::VectorXd v(n);
+  for (int i = 0; i < n; ++i)
+    v[i] = json_number(j[static_cast<std::size_t>(i)], json_index_path(field, static_cast<std::size_t>(i)), max_abs);
+  return v;
+}
+
 inline Vec3 json_vec3(const nlohmann::json& j, const std::string& field,
                       double max_abs = std::numeric_limits<double>::infinity()) {
   return json_vec<3>(j, field, max_abs);

@@ -1,0 +1,75 @@
+// The Panda's records must not change when the robot becomes data (assets/robots/panda.urdf):
+// every scenario file, both metrics and the GAP mode as_published, with every pair's distance
+// and witnesses per step. Each record is encoded as `distlab cbf` writes it (JSON numbers
+// round-trip, so equal text means equal doubles), the run-dependent "timing" left out, and its
+// SHA-256 compared with tests/cbf/data/records.sha256, written by the code before the change
+// (the Panda as C++ constants). Set DISTLAB_PRINT_RECORD_DIGESTS=1 to print the digests.
+#include <cstdlib>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include <gtest/gtest.h>
+
+#include "distlab/kelvin/digest.hpp"
+#include "distlab/server/cbf_json.hpp"
+
+namespace distlab::cbf {
+namespace {
+
+// The record's keys as they were when the digests were taken (keys added later are not hashed).
+const char* const kKeys[] = {"converged_distance", "distance", "dt", "gap_mode", "infeasible_steps",
+                             "metric", "min_distance", "pairs", "q", "scenario", "slack",
+                             "smoothness", "steps", "summary", "t", "task_error", "u",
+                             "witness_a", "witness_b"};
+
+std::string record_digest(const std::string& scenario, const std::string& run) {
+  nlohmann::json request = {{"scenario", scenario},
+                            {"metric", run == "euclidean" ? "euclidean" : "gap"},
+                            {"params", {{"record_pairs", true}}}};
+  if (run == "published")
+    request["params"]["gap"] = {
+        {"mode", "as_published"}, {"solver", "fixed_point"}, {"tol", 2e-4}, {"max_iter", 300}};
+  const nlohmann::json record = server::run_cbf_request(request);
+  nlohmann::json kept = nlohmann::json::object();
+  for (const char* key : kKeys)
+    if (record.contains(key)) kept[key] = record[key];
+  const std::string text = kept.dump();
+  kelvin::Sha256 h;
+  h.add(text.data(), text.size());
+  return h.hex();
+}
+
+std::map<std::string, std::string> pinned() {
+  std::ifstream f(std::string(DISTLAB_SOURCE_DIR) + "/tests/cbf/data/records.sha256");
+  std::map<std::string, std::string> out;
+  std::string digest, name;
+  while (f >> digest >> name) out[name] = digest;
+  return out;
+}
+
+class RecordRegression : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(RecordRegression, EveryRunIsBitForBitUnchanged) {
+  setenv("DISTLAB_ASSETS", DISTLAB_SOURCE_DIR "/assets", 1);
+  const auto pins = pinned();
+  const bool print = std::getenv("DISTLAB_PRINT_RECORD_DIGESTS") != nullptr;
+  if (!print) {
+    ASSERT_FALSE(pins.empty()) << "tests/cbf/data/records.sha256 missing";
+  }
+  for (const char* run : {"gap", "euclidean", "published"}) {
+    const std::string name = std::string(GetParam()) + "." + run;
+    const std::string d = record_digest(GetParam(), run);
+    if (print) std::printf("%s %s\n", d.c_str(), name.c_str());
+    if (print) continue;
+    ASSERT_TRUE(pins.count(name)) << name;
+    EXPECT_EQ(d, pins.at(name)) << name << ": the record changed";
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Scenarios, RecordRegression,
+                         ::testing::Values("corridor", "corridor_real", "corridor_narrow",
+                                           "corridor_fine_margin"));
+
+}  // namespace
+}  // namespace distlab::cbf

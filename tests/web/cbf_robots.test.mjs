@@ -1,0 +1,73 @@
+// The CBF view and robots as data: a scenario of another robot (ur5e_reach, assets/robots/ur5e.urdf)
+// draws that robot from its URDF joints at q0, the same poses the server streams for step 0; and a
+// finished rollout's record downloads as JSON (the server's record) and CSV (its per-step series).
+import { test } from "node:test";
+import assert from "node:assert/strict";
+import { readFileSync } from "node:fs";
+import { openView, screenshot, serverAndBrowser } from "./harness.mjs";
+
+const env = serverAndBrowser();
+const hash = (state) => `#/cbf?s=${encodeURIComponent(JSON.stringify(state))}`;
+const C = (page, expr) => page.evaluate(`(() => { const c = window.distlab.cbf; return ${expr}; })()`);
+
+async function runEnded(page, n) {
+  await page.waitForFunction(
+    (n) => {
+      const r = window.distlab?.cbf?.rollouts;
+      return !!r && r.length === n && r.every((x) => ["finished", "cancelled", "failed"].includes(x.state)) && document.getElementById("progress").hidden;
+    },
+    n,
+    { timeout: 120000, polling: 50 },
+  );
+}
+
+test("a UR5e scenario draws the UR5e from its URDF, as the server poses it", async () => {
+  const page = await openView(env.browser, env.server, hash({ scenario: "ur5e_reach", duration: 0.2, metric: "gap" }));
+  await page.waitForFunction(() => window.distlab?.cbf && /press r/.test(document.getElementById("status")?.textContent ?? ""), null, { timeout: 60000 });
+  const atQ0 = (await C(page, "c.drawn()")).gap;
+  assert.equal(atQ0.poses.length, 6 * 7, "six primitives of the UR5e drawn (not the Panda's nine)");
+  await page.keyboard.press("r");
+  await runEnded(page, 1);
+  const id = (await C(page, "c.rollouts"))[0].id;
+  const server = await page.evaluate(async (id) => (await window.distlab.api.get(`/api/cbf/rollouts/${id}/frames?from=0&count=1`)).frames[0].poses.flat(), id);
+  assert.equal(server.length, atQ0.poses.length);
+  for (let p = 0; p < server.length; p += 7) {
+    for (let k = 0; k < 3; k++) assert.ok(Math.abs(atQ0.poses[p + k] - server[p + k]) < 1e-5, `primitive ${p / 7} position ${k}`);
+    const dot = [3, 4, 5, 6].reduce((s, k) => s + atQ0.poses[p + k] * server[p + k], 0);
+    assert.ok(Math.abs(Math.abs(dot) - 1) < 1e-5, `primitive ${p / 7} rotation`);
+  }
+  await screenshot(page, "cbf-ur5e");
+  await page.context().close();
+});
+
+test("a finished rollout's record downloads as JSON and CSV", async () => {
+  const page = await openView(env.browser, env.server, hash({ duration: 0.3, metric: "gap" }));
+  await page.waitForFunction(() => window.distlab?.cbf && /press r|finished|rollout/.test(document.getElementById("status")?.textContent ?? ""), null, { timeout: 60000 });
+  await page.keyboard.press("r");
+  await runEnded(page, 1);
+  const rec = await C(page, 'c.record("gap")');
+  const fetchFile = async (testid) => {
+    const [download] = await Promise.all([page.waitForEvent("download"), page.click(`[data-testid=${testid}]`)]);
+    return { name: download.suggestedFilename(), text: readFileSync(await download.path(), "utf8") };
+  };
+  const json = await fetchFile("cbf-download-gap-json");
+  assert.equal(json.name, "corridor-gap.json");
+  assert.deepEqual(JSON.parse(json.text), rec);
+  const csv = await fetchFile("cbf-download-gap-csv");
+  assert.equal(csv.name, "corridor-gap.csv");
+  const rows = csv.text.trim().split("\n").map((l) => l.split(","));
+  assert.deepEqual(rows[0].slice(0, 2), ["t", "q1"]);
+  assert.equal(rows[0].length, 1 + 7 + 7 + 2);
+  assert.equal(rows.length, 1 + rec.t.length);
+  rec.t.forEach((t, i) => {
+    const row = rows[i + 1].map(Number);
+    assert.equal(row[0], t);
+    for (let j = 0; j < 7; j++) {
+      assert.equal(row[1 + j], rec.q[i][j], `q${j + 1} at step ${i}`);
+      assert.equal(row[8 + j], rec.u[i][j], `u${j + 1} at step ${i}`);
+    }
+    assert.equal(row[15], rec.task_error[i]);
+    assert.equal(row[16], rec.min_distance[i]);
+  });
+  await page.context().close();
+});
