@@ -3,14 +3,15 @@
 // usage: distlab-bench-kelvin [--assets DIR] [--lx 0.2,0.15,...] [--grid 1000] [--lu-max 60000]
 //                             [--wrench-lx 0.002] [--wrench-features 180] [--json FILE]
 //                             [--table2-only 1] [--table1-only 1] [--sphere-rmse 0.1,0.05,...]
-//                             [--cache-dir DIR]
+//                             [--cache-dir DIR] [--far-radius 1]
 // --cache-dir reuses prepared objects (Field::prepare_cached): t_mesh and t_decomp are then those
 // of the original preparation, t_build is measured again.
 // t_solve is σ → V (eqs. 17, 20, 21: what the paper times; mean and median of 100); t_grad, the
 // vertex gradients for ∇h, is reported beside it; "1 thread med" is the σ solve on one thread
 // (blocks of 10 alternating with two threads). "own dense" and chol_ms: the same factor's
 // solve with a dense right-hand side (all ones) by our supernodal solve and by CHOLMOD's
-// cholmod_solve2; LU_*: Eigen SparseLU on the same matrix and right-hand side.
+// cholmod_solve2; LU_*: Eigen SparseLU on the same matrix and right-hand side. The bandwidth
+// table sets the dense solve's bytes per second against a read stream measured in the same run.
 // The SparseLU comparison (decomp med, LU_decomp; solve b, LU_solve) is made in the run itself,
 // both sides the same way: see compare_with_sparselu.
 #include <Eigen/SparseLU>
@@ -25,6 +26,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <tuple>
 #include <vector>
 
@@ -59,6 +61,33 @@ double percentile(std::vector<double> v, double q) {
   return v[static_cast<size_t>(k)];
 }
 
+// Read bandwidth of this machine as a triangular solve uses it (a stream of doubles, summed):
+// the best of 5 passes over 256 MB split between `threads` threads, in GB/s.
+double stream_read_gbps(int threads) {
+  static std::vector<double> data(std::size_t{32} << 20, 1.0);
+  const size_t chunk = data.size() / static_cast<size_t>(threads);
+  std::vector<double> sums(static_cast<size_t>(threads));
+  double best = 0;
+  for (int rep = 0; rep < 5; ++rep) {
+    const auto t0 = Clock::now();
+    std::vector<std::thread> pool;
+    for (int t = 0; t < threads; ++t)
+      pool.emplace_back([&, t] {
+        const double* p = data.data() + static_cast<size_t>(t) * chunk;
+        double acc[8] = {0, 0, 0, 0, 0, 0, 0, 0};  // independent sums: bound by memory, not by add latency
+        for (size_t i = 0; i + 8 <= chunk; i += 8)
+          for (int k = 0; k < 8; ++k) acc[k] += p[i + static_cast<size_t>(k)];
+        sums[static_cast<size_t>(t)] = acc[0] + acc[1] + acc[2] + acc[3] + acc[4] + acc[5] + acc[6] + acc[7];
+      });
+    for (std::thread& th : pool) th.join();
+    best = std::max(best, 8.0 * static_cast<double>(chunk) * threads / since(t0) / 1e9);
+  }
+  double total = 0;
+  for (double v : sums) total += v;
+  if (total != static_cast<double>(chunk) * threads) throw std::runtime_error("stream: wrong sum");
+  return best;
+}
+
 std::tuple<double, double, double> query_times(const Field& f, const std::vector<Vec3>& path, const std::vector<Vec3>& random) {
   std::vector<double> hinted, seeded;
   int hint = -1;
@@ -81,10 +110,14 @@ struct Row {
   double lx = 0;
   Stats stats;
   double solve_ms = 0, solve_med = 0, solve_1t_med = 0, solve_sd = 0, grad_ms = 0, chol_solve_ms = 0, dense_solve_ms = 0, q_seed_p90 = 0, rmse = -1, q_hint = 0, q_seed = 0;
+  double dense_1t_ms = 0;             // "own dense" on one thread
   std::vector<double> case_solve_ms;  // Table II: one per σ case
   double lu_decomp = -1, lu_solve_ms = -1, aabb_us = 0;
   double decomp_med = -1, solve_b_ms = -1;  // CHOLMOD's side of the SparseLU comparison
   double solve_ones_ms = -1, lu_solve_ones_ms = -1;  // the same with b = 1
+  // A local σ edit by linearity (see compare_with_sparselu): the stroke's solve and the share of
+  // the factor each solve reads.
+  double stroke_ms = -1, stroke_read = -1, full_read = -1;
   int decomp_reps = 0, solve_reps = 0;
 };
 
@@ -92,7 +125,8 @@ struct Row {
 // its interior vertices in its order (used by a domain cell, on no boundary face; ascending), and
 // b = A_ΩΩ x with x their values, exactly 0 where the vertex shares no cell with the boundary
 // (as −A_Ω∂ V_∂ is). Checked by the caller: solving it gives x back.
-VecX eq20_rhs(const Field& f, const Eigen::SparseMatrix<double>& a, VecX& x) {
+// positions (if given): each interior vertex mapped back to x (eq. 5).
+VecX eq20_rhs(const Field& f, const Eigen::SparseMatrix<double>& a, VecX& x, std::vector<Vec3>* positions = nullptr) {
   const TetMesh& m = f.tet_mesh();
   const auto np = static_cast<size_t>(m.points.rows());
   std::vector<char> used(np, 0), on_boundary(np, 0);
@@ -124,6 +158,11 @@ VecX eq20_rhs(const Field& f, const Eigen::SparseMatrix<double>& a, VecX& x) {
   VecX b = a * x;
   for (size_t i = 0; i < interior.size(); ++i)
     if (!touches[i]) b[static_cast<Eigen::Index>(i)] = 0;
+  if (positions)
+    for (size_t v : interior) {
+      const Vec3 y = m.points.row(static_cast<Eigen::Index>(v));
+      positions->push_back(f.centre() + y / y.squaredNorm());
+    }
   return b;
 }
 
@@ -141,7 +180,25 @@ void compare_with_sparselu(const Field& f, Row& r) {
   const Eigen::SparseMatrix<double> a = f.reduced_matrix();
   const Eigen::SparseMatrix<double> lower = a.triangularView<Eigen::Lower>();
   VecX x20;
-  const VecX b20 = eq20_rhs(f, a, x20), ones = VecX::Ones(a.rows());
+  std::vector<Vec3> at;
+  const VecX b20 = eq20_rhs(f, a, x20, &at), ones = VecX::Ones(a.rows());
+  // A brush stroke over 5% of the surface changes V_∂ there only; by linearity the change of V
+  // solves A_ΩΩ ΔV = −A_Ω∂ ΔV_∂, nonzero in the rows of b20 next to the stroke: the 5% of b20's
+  // nonzero rows nearest (in x) to one of them. Its forward pass skips every supernode off their
+  // elimination-tree paths; the back pass reads the whole factor (ΔV, harmonic, is nonzero
+  // everywhere), so such a solve reads at least half of what a full one reads.
+  VecX stroke = VecX::Zero(a.rows());
+  {
+    std::vector<std::pair<double, Eigen::Index>> rows;
+    Eigen::Index first = -1;
+    for (Eigen::Index i = 0; i < b20.size(); ++i)
+      if (b20[i] != 0) {
+        if (first < 0) first = i;
+        rows.emplace_back((at[static_cast<size_t>(i)] - at[static_cast<size_t>(first)]).norm(), i);
+      }
+    std::sort(rows.begin(), rows.end());
+    for (size_t k = 0; k < (rows.size() + 19) / 20; ++k) stroke[rows[k].second] = b20[rows[k].second];
+  }
   CholmodSolver chol;
   Eigen::SparseLU<Eigen::SparseMatrix<double>> lu;
   std::vector<double> tc, tl;
@@ -190,11 +247,28 @@ void compare_with_sparselu(const Field& f, Row& r) {
   const VecX x = solve(b20, true, sc, sl);
   diff = std::max(diff, (x - x20).norm() / x20.norm());  // eq. 20's b solves to the field's values
   solve(ones, true, sc1, sl1);
+  std::vector<double> ss;  // the stroke's solve, in the blocks of eq. 20's
+  VecX w;
+  auto stroke_solve = [&] {
+    for (int k = 0; k < kBlock; ++k) {
+      w = stroke;
+      const auto t0 = Clock::now();
+      chol.solve(w);
+      ss.push_back(since(t0) * 1e3);
+    }
+    r.stroke_read = chol.last_read_fraction();
+    w = b20;
+    chol.solve(w);
+    r.full_read = chol.last_read_fraction();
+  };
+  stroke_solve();
   const int solve_blocks = std::clamp(static_cast<int>(0.25e3 / (median(sc) + median(sl)) / kBlock), 5, 41) | 1;
   for (int i = 1; i < solve_blocks; ++i) {
     solve(b20, i % 2 == 0, sc, sl);
     solve(ones, i % 2 == 1, sc1, sl1);
+    stroke_solve();
   }
+  r.stroke_ms = median(ss);
   const int solve_reps = solve_blocks * kBlock;
   if (diff > 1e-9) throw std::runtime_error("SparseLU, CHOLMOD and the field disagree on A_OO x = b");
   r.solve_ones_ms = median(sc1);
@@ -217,7 +291,9 @@ nlohmann::json to_json(const Row& r) {
           {"t_sparselu_solve_ms", r.lu_solve_ms}, {"t_aabb_distance_us", r.aabb_us},
           {"t_decomp_median", r.decomp_med}, {"t_solve_b_ms", r.solve_b_ms}, {"t_solve_ones_ms", r.solve_ones_ms},
           {"t_sparselu_solve_ones_ms", r.lu_solve_ones_ms}, {"sparselu_decomp_repeats", r.decomp_reps},
-          {"sparselu_solve_repeats", r.solve_reps}};
+          {"sparselu_solve_repeats", r.solve_reps}, {"factor_mb", r.stats.factor_mb},
+          {"t_own_dense_solve_one_thread_ms", r.dense_1t_ms}, {"t_stroke_solve_ms", r.stroke_ms},
+          {"stroke_read_fraction", r.stroke_read}, {"full_read_fraction", r.full_read}};
 }
 
 Row run(const mesh::SurfaceMesh& surface, const PrepareOptions& o, const std::vector<SigmaSpec>& sigmas,
@@ -264,18 +340,24 @@ Row run(const mesh::SurfaceMesh& surface, const PrepareOptions& o, const std::ve
   const Eigen::SparseMatrix<double> a = f.reduced_matrix();
   const VecX b = VecX::Ones(a.rows());
   {
-    std::vector<double> ts, tc;
+    std::vector<double> ts, tc, t1;
     for (int i = 0; i < 20; ++i) {
-      VecX x = b, y = b;
+      VecX x = b, y = b, z = b;
       auto t0 = Clock::now();
       f.solve_reduced(x);
       ts.push_back(since(t0) * 1e3);
       t0 = Clock::now();
       f.solve_reduced(y, true);
       tc.push_back(since(t0) * 1e3);
+      f.set_solve_threads(1);
+      t0 = Clock::now();
+      f.solve_reduced(z);
+      t1.push_back(since(t0) * 1e3);
+      f.set_solve_threads(2);
     }
     r.dense_solve_ms = median(ts);
     r.chol_solve_ms = median(tc);
+    r.dense_1t_ms = median(t1);
   }
   if (r.stats.n_verts <= lu_max) compare_with_sparselu(f, r);
   std::tie(r.q_hint, r.q_seed, r.q_seed_p90) = query_times(f, path, random);
@@ -316,6 +398,32 @@ void print(const char* title, const std::vector<Row>& rows) {
   std::fflush(stdout);
 }
 
+// A dense solve (b = 1) reads every factor entry twice (forward and back substitution): its
+// achieved bandwidth is 2 · factor bytes / time, set against this machine's read stream.
+nlohmann::json print_bandwidth(const std::vector<Row>& rows, double stream_1t, double stream_2t) {
+  std::printf("\nTriangular solves against memory bandwidth (stream: sum of 256 MB of doubles, best of 5: "
+              "%.2f GB/s on 1 thread, %.2f GB/s on 2)\n| l_x | N_verts | factor MB | dense 1 thread ms | GB/s | "
+              "of stream | dense 2 threads ms | GB/s | of stream |\n|---|---|---|---|---|---|---|---|---|\n",
+              stream_1t, stream_2t);
+  nlohmann::json out;
+  for (const Row& r : rows) {
+    const double gb = 2 * r.stats.factor_mb / 1e3, bw1 = gb / (r.dense_1t_ms / 1e3), bw2 = gb / (r.dense_solve_ms / 1e3);
+    std::printf("| %.3g | %ld | %.1f | %.2f | %.2f | %.0f%% | %.2f | %.2f | %.0f%% |\n", r.lx, r.stats.n_verts, r.stats.factor_mb,
+                r.dense_1t_ms, bw1, 100 * bw1 / stream_1t, r.dense_solve_ms, bw2, 100 * bw2 / stream_2t);
+    out.push_back({{"lx", r.lx}, {"factor_mb", r.stats.factor_mb}, {"solve_gbps_one_thread", bw1},
+                   {"solve_gbps_two_threads", bw2}, {"stream_gbps_one_thread", stream_1t}, {"stream_gbps_two_threads", stream_2t}});
+  }
+  std::printf("\nLocal σ edit by linearity (a stroke over 5%% of the surface; same factor, medians): the stroke's "
+              "solve against eq. 20's full one, and the share of the factor's entries each reads\n"
+              "| l_x | N_verts | full solve b ms | stroke solve ms | ratio | full reads | stroke reads |\n|---|---|---|---|---|---|---|\n");
+  for (const Row& r : rows)
+    if (r.stroke_ms > 0)
+      std::printf("| %.3g | %ld | %.3f | %.3f | %.2f | %.3f | %.3f |\n", r.lx, r.stats.n_verts, r.solve_b_ms, r.stroke_ms,
+                  r.stroke_ms / r.solve_b_ms, r.full_read, r.stroke_read);
+  std::fflush(stdout);
+  return out;
+}
+
 std::vector<double> parse_list(const std::string& s) {
   std::vector<double> out;
   std::stringstream ss(s);
@@ -330,13 +438,13 @@ int main(int argc, char** argv) {
   std::string assets = "assets", json_path = "bench_kelvin.json", cache_dir;
   int grid = 1000;
   long lu_max = 60000;
-  double wrench_lx = 0.002, wrench_features = 180;
+  double wrench_lx = 0.002, wrench_features = 180, far_radius = 1.0;
   bool table1 = true, table2 = true;
   std::vector<double> sphere_lxs;
   if (argc == 2 && std::string(argv[1]) == "--help") {
     std::puts("usage: distlab-bench-kelvin [--assets DIR] [--lx 0.2,0.15,...] [--grid 1000] [--lu-max 60000]\n"
               "  [--wrench-lx 0.002] [--wrench-features 180] [--json FILE] [--table2-only 1] [--table1-only 1]\n"
-              "  [--sphere-rmse 0.1,0.05,...] [--cache-dir DIR (reuse prepared objects)]");
+              "  [--sphere-rmse 0.1,0.05,...] [--cache-dir DIR (reuse prepared objects)] [--far-radius 1]");
     return 0;
   }
   for (int i = 1; i + 1 < argc; i += 2) {
@@ -349,6 +457,7 @@ int main(int argc, char** argv) {
     else if (k == "--wrench-features") wrench_features = std::stod(v);
     else if (k == "--json") json_path = v;
     else if (k == "--cache-dir") cache_dir = v;
+    else if (k == "--far-radius") far_radius = std::stod(v);  // PrepareOptions::far_radius of the cube and sphere
     else if (k == "--table2-only") table1 = v == "0";
     else if (k == "--table1-only") table2 = v == "0";
     else if (k == "--sphere-rmse") sphere_lxs = parse_list(v), table1 = table2 = false;
@@ -382,6 +491,7 @@ int main(int argc, char** argv) {
     std::optional<Field> kept;
     PrepareOptions o;
     o.lx = lx;
+    o.far_radius = far_radius;
     rows.push_back(run(cube, o, {zero}, path, random, lu_max, cache_dir, &kept));
     const Field& f = *kept;
     std::vector<double> plane(static_cast<size_t>(grid) * grid);
@@ -410,6 +520,8 @@ int main(int argc, char** argv) {
   }
   if (table1) std::printf("\nRMSE of h against l_x = %.3g on a %d × %d grid in [−3, 3]² (z = 0)\n", lxs.back(), grid, grid);
   if (table1) print("Table I: unit cube (times in s; t_solve, t_grad, chol_ms, LU_solve in ms; q_*, AABB in µs)", rows);
+  const double stream_1t = stream_read_gbps(1), stream_2t = stream_read_gbps(2);
+  nlohmann::json bandwidth = table1 ? print_bandwidth(rows, stream_1t, stream_2t) : nlohmann::json();
   // Observed orders between consecutive rows: log(e_k / e_k+1) / log(l_x,k / l_x,k+1). The RMSE
   // against the finest mesh carries that mesh's own error, so its order is biased low near it.
   nlohmann::json accuracy;
@@ -453,6 +565,7 @@ int main(int argc, char** argv) {
     wrench_rows.push_back(run(wrench, o, cases, wpath, wrandom, lu_max, cache_dir));
     for (const std::string& w : wrench_rows.back().stats.warnings) std::printf("warning: %s\n", w.c_str());
     print("Table II: combination wrench", wrench_rows);
+    print_bandwidth(wrench_rows, stream_1t, stream_2t);
     std::printf("t_solve per case (a), (b), (c): %.2f, %.2f, %.2f ms\n", wrench_rows[0].case_solve_ms[0],
                 wrench_rows[0].case_solve_ms[1], wrench_rows[0].case_solve_ms[2]);
   } catch (const std::exception& e) {
@@ -470,6 +583,7 @@ int main(int argc, char** argv) {
     for (double lx : sphere_lxs) {
       PrepareOptions o;
       o.lx = lx;
+      o.far_radius = far_radius;
       o.centre = Vec3(0.12, -0.07, 0.05);
       Field f = Field::prepare(sphere, o);
       f.set_sigma(SigmaSpec{});
@@ -516,6 +630,7 @@ int main(int argc, char** argv) {
   if (!sphere_json.is_null()) out["sphere_rmse"] = sphere_json;
   for (const Row& r : rows) out["table1"].push_back(to_json(r));
   if (!accuracy.is_null()) out["table1_accuracy"] = accuracy;
+  if (!bandwidth.is_null()) out["table1_bandwidth"] = bandwidth;
   for (const Row& r : wrench_rows) out["table2"].push_back(to_json(r));
   std::ofstream(json_path) << out.dump(2) << "\n";
   std::printf("\nwrote %s\n", json_path.c_str());

@@ -329,7 +329,8 @@ void Field::Impl::finish_stats() {
   const double mesh_bytes = static_cast<double>(tm.points.size()) * 8 +
                             static_cast<double>(tm.tets.size() + tm.neighbours.size()) * 4 +
                             static_cast<double>(tm.points.rows()) * 8;  // V
-  stats.size_mb = (mesh_bytes + static_cast<double>(packed.bytes() + locator.bytes())) / 1e6 + solver.factor_megabytes();
+  stats.factor_mb = solver.factor_megabytes();
+  stats.size_mb = (mesh_bytes + static_cast<double>(packed.bytes() + locator.bytes())) / 1e6 + stats.factor_mb;
 }
 
 Field Field::prepare(const mesh::SurfaceMesh& surface, const PrepareOptions& options, const Progress& progress) {

@@ -52,9 +52,9 @@ class Locator {
   Vec3 centre(const int block[3], const int sub[3], int r) const;
   Vec3 lo_ = Vec3::Zero(), inv_step_ = Vec3::Ones();
   int n_[3] = {1, 1, 1};  // blocks per axis
-  std::vector<Block> blocks_;
-  std::vector<int> cells_;  // per box, block by block, x fastest within a block
-  std::vector<Vertices> seed_vertices_;  // per box, the vertices of its cell
+  HugeVector<Block> blocks_;  // huge pages: huge_pages.hpp
+  HugeVector<int> cells_;    // per box, block by block, x fastest within a block
+  HugeVector<Vertices> seed_vertices_;  // per box, the vertices of its cell
 };
 
 // Barycentric coordinates of y in cell c (the formula of packed_mesh.hpp).

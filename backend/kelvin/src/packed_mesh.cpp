@@ -6,7 +6,7 @@
 namespace distlab::kelvin {
 
 PackedMesh::PackedMesh(const TetMesh& m)
-    : cells(static_cast<std::size_t>(m.tets.rows())), vertices(static_cast<std::size_t>(m.points.rows())), in_domain(m.in_domain) {
+    : cells(static_cast<std::size_t>(m.tets.rows())), vertices(static_cast<std::size_t>(m.points.rows())), in_domain(m.in_domain.begin(), m.in_domain.end()) {
   for (std::size_t c = 0; c < cells.size(); ++c)
     for (int k = 0; k < 4; ++k) {
       cells[c].v[k] = m.tets(static_cast<Eigen::Index>(c), k);

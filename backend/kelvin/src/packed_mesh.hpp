@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "distlab/kelvin/tet_mesh.hpp"
+#include "huge_pages.hpp"
 
 namespace distlab::kelvin {
 
@@ -27,9 +28,9 @@ struct alignas(64) VertexRecord {
 };
 
 struct PackedMesh {
-  std::vector<CellRecord> cells;
-  std::vector<VertexRecord> vertices;
-  std::vector<std::uint8_t> in_domain;  // as TetMesh::in_domain
+  HugeVector<CellRecord> cells;  // huge pages: huge_pages.hpp
+  HugeVector<VertexRecord> vertices;
+  HugeVector<std::uint8_t> in_domain;  // as TetMesh::in_domain
 
   PackedMesh() = default;
   explicit PackedMesh(const TetMesh& m);
