@@ -73,6 +73,8 @@ void solve_into(GapResult& r, const GapBody& a, const GapBody& b, const GapParam
 
 GapResult gap_distance(const GapBody& a, const GapBody& b, const GapParams& params) {
   GapResult r;
+  a.p2s().prefetch_vertices();  // the start's first support points need them at once
+  b.p2s().prefetch_vertices();
   a.p2s().prefetch();  // the solver's rows arrive while the Euclidean start is computed
   b.p2s().prefetch();
   if (!params.euclidean) {
