@@ -81,7 +81,8 @@ struct Saddle {
 //   r_b = b − Π_B(a) = 0,  r_a = a − Π_A(b) = 0,
 // Jacobian [[∂²E_B − I, I], [I, ∂²E_A − I]], eliminated to one 3×3 solve. Two P2S evaluations a
 // step; backtracking on ‖r‖. Stops, without evaluating again, when the next Newton step is below
-// tol (the error is then of order tol), or after a full step predicted to leave less than tol.
+// tol (the error is then of order tol), or after a full step predicted to leave less than tol
+// (the same order of error).
 // Returns false if it cannot make progress (then the nested method, which is globally
 // convergent, takes over).
 bool joint_newton(const PointToSet& A, const PointToSet& B, Saddle& s, double tol, int max_iter,
@@ -124,7 +125,7 @@ bool joint_newton(const PointToSet& A, const PointToSet& B, Saddle& s, double to
                                  ? step * step * (step / (last_step * last_step))
                                  : std::numeric_limits<double>::infinity();
     last_step = step;
-    if (predicted < 0.01 * tol) {
+    if (predicted < tol) {
       next->a = cur->a + da;
       next->b = cur->b + db;
       next->eb = B.strict(next->a, 1);
