@@ -81,10 +81,8 @@ struct Saddle {
 //   r_b = b − Π_B(a) = 0,  r_a = a − Π_A(b) = 0,
 // Jacobian [[∂²E_B − I, I], [I, ∂²E_A − I]], eliminated to one 3×3 solve. Two P2S evaluations a
 // step; backtracking on ‖r‖. Stops, without evaluating again, when the next Newton step is below
-// tol (the error is then of order tol), or after a full step predicted to leave less than tol
-// (the same order of error).
-// Returns false if it cannot make progress (then the nested method, which is globally
-// convergent, takes over).
+// tol (the error is then of order tol). Returns false if it cannot make progress (then the
+// nested method, which is globally convergent, takes over).
 bool joint_newton(const PointToSet& A, const PointToSet& B, Saddle& s, double tol, int max_iter,
                   int& iterations) {
   auto residual = [](const Saddle& x, Vec3& rb, Vec3& ra) {
@@ -98,7 +96,6 @@ bool joint_newton(const PointToSet& A, const PointToSet& B, Saddle& s, double to
   Saddle* cur = &trial[0];
   Saddle* next = &trial[1];
   bool done = false;
-  double last_step = std::numeric_limits<double>::infinity();
   while (!done && iterations < max_iter) {
     // With Hb = ∂²E_B − I, Ha = ∂²E_A − I: (Hb δa + δb = −rb, δa + Ha δb = −ra), so
     // (I − Hb Ha) δb = Hb ra − rb and δa = −ra − Ha δb. I − Hb Ha = I − Sb Sa with
@@ -111,32 +108,11 @@ bool joint_newton(const PointToSet& A, const PointToSet& B, Saddle& s, double to
     const Vec3 db = M.inverse() * (Eb * ra - ra - rb);
     const Vec3 da = db - ra - Ea * db;
     if (!da.allFinite() || !db.allFinite()) break;
-    const double step = std::sqrt(std::max(da.squaredNorm(), db.squaredNorm()));
-    if (step < tol) {
+    if (std::max(da.squaredNorm(), db.squaredNorm()) < tol * tol) {
       done = true;
       break;
     }
     ++iterations;
-    // Quadratic convergence, step_{k+1} ≈ C step_k² with C = step_k / step_{k−1}²: when the
-    // predicted next step is far below tol, the full step lands where the stop rule above would
-    // end one evaluation later. Take it and check only that the residual fell (gradients, no
-    // Hessians); otherwise the line search below runs as usual.
-    const double predicted = std::isfinite(last_step)
-                                 ? step * step * (step / (last_step * last_step))
-                                 : std::numeric_limits<double>::infinity();
-    last_step = step;
-    if (predicted < tol) {
-      next->a = cur->a + da;
-      next->b = cur->b + db;
-      next->eb = B.strict(next->a, 1);
-      next->ea = A.strict(next->b, 1);
-      Vec3 rbn, ran;
-      if (residual(*next, rbn, ran) < merit) {
-        std::swap(cur, next);
-        done = true;
-        break;
-      }
-    }
     double alpha = 1.0;
     bool moved = false;
     for (int ls = 0; ls < 6; ++ls, alpha *= 0.5) {
@@ -150,7 +126,6 @@ bool joint_newton(const PointToSet& A, const PointToSet& B, Saddle& s, double to
         std::swap(cur, next);
         rb = rbn, ra = ran, merit = m;
         moved = true;
-        if (alpha < 1) last_step = std::numeric_limits<double>::infinity();  // no rate known
         break;
       }
     }

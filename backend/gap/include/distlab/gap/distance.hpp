@@ -72,10 +72,8 @@ struct GapResult {
 
 GapResult gap_distance(const GapBody& a, const GapBody& b, const GapParams& params);
 
-// For tracking a moving pair (CBF rollouts): no FCL call; Newton starts at the given points
-// (e.g. the previous step's witnesses), so it needs few steps. Overlap is ruled out by a plane
-// normal to start_b − start_a that separates the shapes by more than 1e-6 (two support points),
-// else decided by libccd.
+// For tracking a moving pair (CBF rollouts): no FCL call; overlap decided by libccd; Newton
+// starts at the given points (e.g. the previous step's witnesses), so it needs few steps.
 // `euclidean` is left empty (euclidean_computed = false).
 GapResult gap_distance_warm(const GapBody& a, const GapBody& b, const GapParams& params,
                             const Vec3& start_a, const Vec3& start_b);
