@@ -1,6 +1,8 @@
 // GAP benchmark (issue 2): the paper's Section IV-A experiments, with FCL in the same run.
 //   distlab-bench-gap [--pairs N] [--box-pairs N] [--seed S] [--json FILE] [--newton-only]
 //   [--repeat R] [--passes P] [--save-cases FILE | --load-cases FILE] [--validate N]
+//   [--tracking SEQUENCES]
+// --tracking S: benchmark 3's number of sequences of 100 nearby poses (default 200; 0: none).
 // --repeat R: each pair is timed R times back to back and the fastest call counts (same for FCL
 // and GAP; default 1). That is a warm-cache measure, not the paper's protocol: FCL's second
 // call on a pair is about twice as fast as its first (1.2 against 2.4 us), GAP's about 1.7x.
@@ -193,6 +195,68 @@ std::vector<double> reference(std::vector<Case>& cases, GapParams params) {
   return d;
 }
 
+const char* kHeader =
+    "  %-30s %8s %8s %8s %9s | %7s %7s %7s | %9s %9s %6s\n";
+
+// Benchmark 3, tracking (a control loop): `sequences` pairs of benchmark 1, B moved `steps`
+// times by at most 1 mm and 1 degree; GAP warm-started from the previous step's witnesses
+// (gap_distance_warm, with gradients) against FCL's cold call on the same poses, interleaved step
+// by step; each step's time is the fastest of 3 back-to-back calls for both (the control loop's
+// cache is warm anyway; this drops the shared machine's interruptions). Relative error of D
+// against a cold solve at tol 1e-13.
+struct Tracking {
+  Run fcl, warm;
+};
+
+Tracking run_tracking(const std::vector<Case>& cases, GapParams params, int sequences, int steps,
+                      std::mt19937_64& rng) {
+  params.gradient = true;
+  GapParams ref = params;
+  ref.tol = 1e-13, ref.euclidean = true;
+  std::uniform_real_distribution<double> unit(0, 1);
+  Tracking t;
+  for (int q = 0; q < std::min<int>(sequences, static_cast<int>(cases.size())); ++q) {
+    Case c = cases[static_cast<size_t>(q)];
+    GapResult prev = gap_distance(c.a, c.b, params);
+    Pose pose = c.b.pose();
+    for (int k = 0; k < steps; ++k) {
+      pose.position += random_unit(rng) * (1e-3 * unit(rng));
+      pose.rotation = (Quat(Eigen::AngleAxisd(unit(rng) * M_PI / 180, random_unit(rng))) * pose.rotation)
+                          .normalized();
+      c.b.set_pose(pose);
+      EuclideanResult e;
+      GapResult w;
+      const int repeat = g_repeat;
+      g_repeat = std::max(repeat, 3);
+      t.fcl.us.push_back(time_us([&] { e = fcl_distance(c.a.euclidean(), c.a.pose(), c.b.euclidean(), pose); }));
+      t.fcl.iterations.push_back(0);
+      t.warm.us.push_back(time_us([&] { w = gap_distance_warm(c.a, c.b, params, prev.witness_a, prev.witness_b); }));
+      g_repeat = repeat;
+      t.warm.iterations.push_back(w.iterations);
+      if (!w.converged) ++t.warm.not_converged;
+      const double d = gap_distance(c.a, c.b, ref).distance;
+      t.warm.rel_error.push_back(d > 0 ? std::abs(w.distance - d) / d : std::abs(w.distance));
+      prev = w;
+    }
+  }
+  return t;
+}
+
+void print_tracking(const Tracking& t, int sequences, int steps, nlohmann::json& out) {
+  std::printf("GAP benchmark 3, tracking: %d sequences of %d steps (<= 1 mm, <= 1 deg each) of benchmark 1's "
+              "pairs, single thread (times in us)\n", sequences, steps);
+  std::printf(kHeader, "method", "mean", "median", "p99", "max", "it mean", "it p99", "it max",
+              "err med", "err max", "unconv");
+  print_row("FCL distance, cold", t.fcl);
+  print_row("GAP Newton warm, tol 1e-10", t.warm);
+  const double ratio = stats(t.warm.us).mean / stats(t.fcl.us).mean;
+  const double ratio_median = stats(t.warm.us).median / stats(t.fcl.us).median;
+  std::printf("  warm GAP/FCL time ratio: mean %.2f, median %.2f\n\n", ratio, ratio_median);
+  out["tracking"] = {{"sequences", sequences}, {"steps", steps}, {"fcl", run_json(t.fcl)},
+                     {"newton_warm_tol_1e-10", run_json(t.warm)},
+                     {"warm_over_fcl_mean", ratio}, {"warm_over_fcl_median", ratio_median}};
+}
+
 // A pair of benchmark 1 as stored by --save-cases.
 struct PolytopePair {
   Polytope a, b;
@@ -229,9 +293,6 @@ std::pair<Polytope, Pose> polytope_from_json(const nlohmann::json& j) {
   return {p, Pose{Vec3(t[0], t[1], t[2]), Quat(q[0], q[1], q[2], q[3])}};
 }
 
-const char* kHeader =
-    "  %-30s %8s %8s %8s %9s | %7s %7s %7s | %9s %9s %6s\n";
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -241,6 +302,7 @@ int main(int argc, char** argv) {
   bool newton_only = false;
   std::string save_path, load_path;
   int validate_pairs = 0;
+  int tracking_sequences = 200, tracking_steps = 100;
   for (int i = 1; i < argc; ++i) {
     auto next = [&] { return i + 1 < argc ? argv[++i] : ""; };
     if (!std::strcmp(argv[i], "--pairs")) pairs = std::atoi(next());
@@ -253,8 +315,9 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[i], "--save-cases")) save_path = next();
     else if (!std::strcmp(argv[i], "--load-cases")) load_path = next();
     else if (!std::strcmp(argv[i], "--validate")) validate_pairs = std::max(1, std::atoi(next()));
+    else if (!std::strcmp(argv[i], "--tracking")) tracking_sequences = std::max(0, std::atoi(next()));
     else {
-      std::fprintf(stderr, "usage: %s [--pairs N] [--box-pairs N] [--seed S] [--json FILE] [--newton-only] [--repeat R] [--passes P] [--save-cases FILE | --load-cases FILE] [--validate N]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--pairs N] [--box-pairs N] [--seed S] [--json FILE] [--newton-only] [--repeat R] [--passes P] [--save-cases FILE | --load-cases FILE] [--validate N] [--tracking SEQUENCES]\n", argv[0]);
       return 2;
     }
   }
@@ -362,16 +425,15 @@ int main(int argc, char** argv) {
     print_row("FCL distance alone", fcl);
     print_row("GAP's start alone (double GJK)", start);
     print_row("GAP Newton, tol 1e-10", r_newton);
-    std::printf("  Newton/FCL time ratio: mean %.2f, median %.2f\n",
+    std::printf("  Newton/FCL time ratio: mean %.2f, median %.2f\n\n",
                 stats(r_newton.us).mean / stats(fcl.us).mean,
                 stats(r_newton.us).median / stats(fcl.us).median);
-    if (!json_path.empty())
-      std::ofstream(json_path) << nlohmann::json{{"pairs", pairs}, {"repeat", g_repeat}, {"passes", g_passes},
-                                                 {"fcl", run_json(fcl)},
-                                                 {"start_gjk", run_json(start)},
-                                                 {"newton_tol_1e-10", run_json(r_newton)}}
-                                      .dump(2)
-                               << "\n";
+    nlohmann::json j{{"pairs", pairs}, {"repeat", g_repeat}, {"passes", g_passes},
+                     {"fcl", run_json(fcl)}, {"start_gjk", run_json(start)},
+                     {"newton_tol_1e-10", run_json(r_newton)}};
+    print_tracking(run_tracking(cases, newton, tracking_sequences, tracking_steps, rng),
+                   tracking_sequences, tracking_steps, j);
+    if (!json_path.empty()) std::ofstream(json_path) << j.dump(2) << "\n";
     return 0;
   }
   const std::vector<double> ref = reference(cases, paper);
@@ -410,6 +472,9 @@ int main(int argc, char** argv) {
                       {"newton_tol_1e-10", run_json(r_newton)},
                       {"newton_over_fcl_mean", ratio},
                       {"newton_over_fcl_median", ratio_median}};
+
+  print_tracking(run_tracking(cases, newton, tracking_sequences, tracking_steps, rng),
+                 tracking_sequences, tracking_steps, out);
 
   // 2. Boxes and cylinders, h from 0.01 to 0.08; the same pairs for GAP and FCL.
   std::printf("GAP benchmark 2: %d box/cylinder pairs, h = 0.01 .. 0.08 (times in us, GAP's incl. its start)\n",

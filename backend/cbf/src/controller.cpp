@@ -6,7 +6,6 @@
 
 #include "distlab/collision/euclidean.hpp"
 #include "distlab/gap/solver.hpp"
-#include "distlab/gap/warm_disjoint.hpp"
 
 namespace distlab::cbf {
 namespace {
@@ -87,26 +86,6 @@ GapResult published_distance(const GapBody& A, const GapBody& B, const GapParams
   return g;
 }
 
-namespace {
-
-// A plane normal to n (from A towards B) with A on one side and B on the other, at least `gap`
-// apart: a proof that A and B do not overlap, from two support points.
-bool separated_along(const Shape& sa, const Pose& pa, const Mat3& Ra, const Shape& sb, const Pose& pb,
-                     const Mat3& Rb, Vec3 n, double gap) {
-  const double len = n.norm();
-  if (!(len > 0) || !std::isfinite(len)) return false;
-  n /= len;
-  const double a_max = n.dot(Ra * support(sa, Ra.transpose() * n) + pa.position);
-  const double b_min = n.dot(Rb * support(sb, Rb.transpose() * -n) + pb.position);
-  return b_min - a_max > gap;
-}
-
-// Separation proved by a plane this far apart is far beyond the overlap test's own tolerances
-// (1e-9 in collision/placed.hpp), so that test would answer "no overlap" too.
-constexpr double kCertifiedGap = 1e-6;
-
-}  // namespace
-
 Task task_function(const Kinematics& k, const Robot& robot, const Pose& target) {
   const Jac Je = robot.ee_jacobian(k);
   const Mat3 Rd = target.R();
@@ -149,7 +128,6 @@ struct CbfController::Impl {
   std::vector<GapBody> robot_gap, obstacle_gap;  // GAP metric only
   std::vector<EuclideanShape> robot_euclid, obstacle_euclid;
   std::vector<Pose> robot_pose, obstacle_pose;
-  std::vector<Mat3> robot_R, obstacle_R;  // rotation matrices of the poses
   std::vector<Jac> robot_jac;  // Jacobian of each primitive's origin, fixed to its link
   std::vector<Vec3> warm_a, warm_b;
   std::vector<char> warm_ok;
@@ -194,7 +172,6 @@ CbfController::CbfController(const Scenario& scenario, Metric metric)
     const Obstacle& o = scenario_.obstacles[j];
     m.obstacle_euclid.emplace_back(o.shape);
     m.obstacle_pose.push_back(o.pose);
-    m.obstacle_R.push_back(o.pose.R());
     if (metric_ == Metric::gap)
       m.obstacle_gap.emplace_back(o.shape, o.pose, scenario_.gap,
                                   published ? published_options(o.shape)
@@ -202,7 +179,6 @@ CbfController::CbfController(const Scenario& scenario, Metric metric)
                                   "obstacles[" + std::to_string(j) + "]");
   }
   m.robot_pose.resize(prims.size());
-  m.robot_R.resize(prims.size());
   m.robot_jac.resize(prims.size());
   reset_warm_start();
 }
@@ -224,7 +200,6 @@ void CbfController::compute_pairs(const Kinematics& k, std::vector<PairSample>& 
   const auto& prims = robot_->primitives();
   for (std::size_t i = 0; i < prims.size(); ++i) {
     m.robot_pose[i] = robot_->primitive_pose(k, static_cast<int>(i));
-    m.robot_R[i] = m.robot_pose[i].R();
     m.robot_jac[i] = robot_->point_jacobian(k, prims[i].link, m.robot_pose[i].position);
     if (metric_ == Metric::gap) m.robot_gap[i].set_pose(m.robot_pose[i]);
   }
@@ -240,18 +215,9 @@ void CbfController::compute_pairs(const Kinematics& k, std::vector<PairSample>& 
       const GapBody& B = pair.self ? m.robot_gap[pair.b] : m.obstacle_gap[pair.b];
       GapResult g;
       if (m.warm_ok[p]) {
-        // Tracking: Newton from the previous step's witnesses converges in a few steps. The
-        // previous witnesses' direction usually still separates the shapes; then the overlap test
-        // is skipped (same result: the separated branch of gap_distance_warm).
-        const Shape& sb = pair.self ? prims[pair.b].shape : scenario_.obstacles[pair.b].shape;
-        const Pose& pb = pair.self ? m.robot_pose[pair.b] : m.obstacle_pose[pair.b];
-        const Mat3& Rb = pair.self ? m.robot_R[pair.b] : m.obstacle_R[pair.b];
-        if (separated_along(prims[pair.a].shape, m.robot_pose[pair.a], m.robot_R[pair.a], sb, pb, Rb,
-                            m.warm_b[p] - m.warm_a[p], kCertifiedGap)) {
-          g = gap_distance_warm_disjoint(A, B, m.exact_params, m.warm_a[p], m.warm_b[p]);
-        } else {
-          g = gap_distance_warm(A, B, m.exact_params, m.warm_a[p], m.warm_b[p]);
-        }
+        // Tracking: Newton from the previous step's witnesses converges in a few steps (their
+        // direction usually still separates the shapes, which spares the overlap test).
+        g = gap_distance_warm(A, B, m.exact_params, m.warm_a[p], m.warm_b[p]);
       }
       if (!m.warm_ok[p] || !g.converged) {
         g = gap_distance(A, B, m.exact_params);
