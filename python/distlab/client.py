@@ -173,21 +173,45 @@ class Client:
 
     # -- Kelvin ---------------------------------------------------------------------------------
 
-    def upload(self, mesh: Union[str, os.PathLike, bytes], format: Optional[str] = None) -> str:
-        """Uploads a mesh file (path or bytes; ``format`` from the extension by default); its id."""
+    def upload(self, mesh: Union[str, os.PathLike, bytes], format: Optional[str] = None, *,
+               unit: Optional[str] = None, scale: Optional[float] = None, info: bool = False) -> Any:
+        """Uploads a mesh file (path or bytes; ``format`` from the extension by default) in its
+        ``unit`` ("m", "cm", "mm", "in") or ``scale`` (metres per file unit); its id, or with
+        ``info`` the whole answer (``bounding_box``, ``lx_range``, ``lx_fraction_range``, ...)."""
+        if unit is not None and scale is not None:
+            raise ValueError("give unit or scale, not both")
         if not isinstance(mesh, (bytes, bytearray)):
             format = format or os.path.splitext(os.fspath(mesh))[1].lstrip(".").lower()
             with open(mesh, "rb") as f:
                 mesh = f.read()
-        return self._request("POST", "/api/kelvin/uploads", params={"format": format}, data=bytes(mesh))["upload"]
+        params: Dict[str, Any] = {"format": format}
+        if unit is not None:
+            params["unit"] = unit
+        if scale is not None:
+            params["scale"] = repr(float(scale))
+        answer = self._request("POST", "/api/kelvin/uploads", params=params, data=bytes(mesh))
+        return answer if info else answer["upload"]
 
     def kelvin_object(self, *, asset: Optional[str] = None, upload: Optional[str] = None,
-                      mesh: Optional[Tuple[Any, Any]] = None, lx: float, center=None, far_radius=None,
-                      sigma: Optional[Mapping[str, Any]] = None, levels=None,
+                      mesh: Optional[Tuple[Any, Any]] = None, lx: Optional[float] = None,
+                      lx_fraction: Optional[float] = None, center=None, far_radius=None,
+                      sigma: Optional[Mapping[str, Any]] = None, levels=None, repair: str = "none",
+                      repair_options: Optional[Mapping[str, Any]] = None,
                       progress: Optional[Callable[[str, float], Any]] = None, wait: bool = True) -> "KelvinObject":
         """Creates a Kelvin object from a built-in ``asset``, an ``upload`` id or ``mesh`` =
-        (vertices, faces); with ``wait`` waits for its preparation (``progress(stage, fraction)``)."""
-        body: Dict[str, Any] = {"lx": lx}
+        (vertices, faces), with ``lx`` (metres) or ``lx_fraction`` (of the bounding-box diagonal);
+        ``repair`` "fix" or "wrap" (``repair_options``: max_hole_edges; alpha, offset) makes an open
+        or non-manifold mesh closed first. With ``wait`` waits for its preparation
+        (``progress(stage, fraction)``)."""
+        if (lx is None) == (lx_fraction is None):
+            raise ValueError("give lx or lx_fraction, exactly one")
+        if repair not in ("none", "fix", "wrap"):
+            raise ValueError("repair must be 'none', 'fix' or 'wrap'")
+        body: Dict[str, Any] = {"lx": lx} if lx is not None else {"lx_fraction": lx_fraction}
+        if repair != "none":
+            body["repair"] = repair
+        if repair_options is not None:
+            body["repair_options"] = _plain(repair_options)
         if asset is not None:
             body["asset"] = asset
         if upload is not None:

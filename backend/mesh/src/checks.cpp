@@ -28,7 +28,10 @@ int find(std::vector<int>& parent, int i) {
 
 }  // namespace
 
-std::string topology_defect(const SurfaceMesh& mesh) {
+std::string topology_defect(const SurfaceMesh& mesh, const std::vector<int>& names) {
+  const auto name = [&](std::uint64_t v) {
+    return std::to_string(v < names.size() ? static_cast<std::uint64_t>(names[v]) : v);
+  };
   const auto nv = static_cast<int>(mesh.vertices.rows());
   const auto nf = static_cast<int>(mesh.faces.rows());
   if (nf == 0) return "mesh has no triangles";
@@ -61,14 +64,12 @@ std::string topology_defect(const SurfaceMesh& mesh) {
       flipped = key, have_flipped = true;
     }
   }
-  auto edge_name = [](std::uint64_t key) {
-    return "(" + std::to_string(key >> 32) + ", " + std::to_string(key & 0xffffffffu) + ")";
-  };
+  auto edge_name = [&](std::uint64_t key) { return "(" + name(key >> 32) + ", " + name(key & 0xffffffffu) + ")"; };
   if (boundary > 0)
     return std::to_string(boundary) + " boundary edge" + (boundary > 1 ? "s" : "") +
            " (not closed), first at edge " + edge_name(first_boundary);
   if (have_non_manifold)
-    return "non-manifold edge at vertex " + std::to_string(non_manifold >> 32) + " (edge " +
+    return "non-manifold edge at vertex " + name(non_manifold >> 32) + " (edge " +
            edge_name(non_manifold) + " has more than two faces)";
   if (have_flipped)
     return "inconsistently oriented faces at edge " + edge_name(flipped);
@@ -94,7 +95,7 @@ std::string topology_defect(const SurfaceMesh& mesh) {
     const int root = find(parent, 0);
     for (size_t i = 1; i < faces.size(); ++i)
       if (find(parent, static_cast<int>(i)) != root)
-        return "non-manifold vertex " + std::to_string(v) + " (two surface sheets touch there)";
+        return "non-manifold vertex " + name(static_cast<std::uint64_t>(v)) + " (two surface sheets touch there)";
   }
   return {};
 }

@@ -86,7 +86,7 @@ std::uint64_t count(const std::string& token, const std::string& what, const std
     throw InvalidInput(field, "the " + what + " count '" + token.substr(0, 20) + "' is not a non-negative integer");
   const std::uint64_t n = std::stoull(token);
   if (n > static_cast<std::uint64_t>(std::numeric_limits<int>::max()))
-    throw InvalidInput(field, "the file declares " + token + " " + what + "s (at most " +
+    throw InvalidInput(field, "the file declares " + token + " " + (what == "vertex" ? std::string("vertices") : what + "s") + " (at most " +
                                   std::to_string(std::numeric_limits<int>::max()) + ")");
   return n;
 }
@@ -160,6 +160,48 @@ void check_off(const std::string& bytes, const std::string& field) {
       if (!is_index((*w)[j]) || std::stoull(std::string((*w)[j])) >= nv)
         throw InvalidInput(field, face + " has a vertex index out of range (the file has " + std::to_string(nv) + " vertices)");
   }
+}
+
+// OBJ text as CGAL's reader takes it: UTF-16 (a byte-order mark) is transcoded when every
+// character is ASCII, as OBJ keywords and numbers are; point ("p") and line ("l") records, which
+// CGAL's reader refuses, are dropped; a file without any face ("f") is a point cloud or a set of
+// lines, refused as such.
+std::string obj_text(std::string bytes, const std::string& field) {
+  const bool le = bytes.rfind("\xFF\xFE", 0) == 0, be = bytes.rfind("\xFE\xFF", 0) == 0;
+  if (le || be) {
+    if (bytes.size() % 2 != 0) throw InvalidInput(field, "this UTF-16 OBJ file has an odd number of bytes: it is truncated");
+    std::string ascii;
+    ascii.reserve(bytes.size() / 2);
+    for (std::size_t at = 2; at + 1 < bytes.size(); at += 2) {
+      const auto hi = static_cast<unsigned char>(bytes[at + (le ? 1 : 0)]), lo = static_cast<unsigned char>(bytes[at + (le ? 0 : 1)]);
+      if (hi != 0 || lo >= 0x80)
+        throw InvalidInput(field, "this UTF-16 OBJ file has a non-ASCII character at byte " + std::to_string(at) +
+                                      "; save it as ASCII or UTF-8");
+      ascii.push_back(static_cast<char>(lo));
+    }
+    bytes = std::move(ascii);
+  } else if (bytes.size() >= 2 && (bytes[0] == '\0' || bytes[1] == '\0')) {
+    throw InvalidInput(field, "this OBJ file looks like UTF-16 without a byte-order mark; save it as ASCII or UTF-8");
+  }
+  std::string out;
+  out.reserve(bytes.size());
+  std::size_t vertices = 0, faces = 0, dropped = 0;
+  for (std::size_t at = 0; at < bytes.size();) {
+    const std::size_t end = std::min(bytes.find('\n', at), bytes.size());
+    const std::string_view line = std::string_view(bytes).substr(at, end - at);
+    const auto w = words(line);
+    const std::string_view key = w.empty() ? std::string_view() : w[0];
+    if (key == "v") ++vertices;
+    if (key == "f") ++faces;
+    if (key == "p" || key == "l") ++dropped;
+    else out.append(line).push_back('\n');
+    at = end + 1;
+  }
+  if (faces == 0)
+    throw InvalidInput(field, "the OBJ file has " + std::to_string(vertices) + " vertices" +
+                                  (dropped ? " and " + std::to_string(dropped) + " point or line records" : std::string()) +
+                                  " but no faces: a point cloud or a set of lines is not a surface");
+  return out;
 }
 
 // PLY: every element's count times its smallest record (ASCII: 2 bytes per scalar or list count,
@@ -389,7 +431,13 @@ std::vector<std::optional<std::size_t>> gltf_declared_triangles(const std::strin
 void read_gltf(const std::string& path, std::vector<Point>& points, Soup& soup, const std::string& field) {
   Assimp::Importer importer;
   importer.SetIOHandler(new OnlyThisFile(path));  // owned by the importer
-  const aiScene* scene = importer.ReadFile(path, aiProcess_ValidateDataStructure);
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  // A path without the extension (an upload's anonymous file) is a self-contained GLB: read from
+  // memory with the format as assimp's hint.
+  const std::string bytes = ext == ".glb" || ext == ".gltf" ? std::string() : read_all(path);
+  const aiScene* scene = bytes.empty() ? importer.ReadFile(path, aiProcess_ValidateDataStructure)
+                                       : importer.ReadFileFromMemory(bytes.data(), bytes.size(), aiProcess_ValidateDataStructure, "glb");
   if (scene == nullptr || scene->mRootNode == nullptr) {
     // assimp's message may quote the path (a server temp name): say "the file" instead.
     std::string why = importer.GetErrorString();
@@ -397,14 +445,15 @@ void read_gltf(const std::string& path, std::vector<Point>& points, Soup& soup, 
       for (std::size_t at; !name.empty() && (at = why.find(name)) != std::string::npos;) why.replace(at, name.size(), "the file");
     throw InvalidInput(field, "cannot read the glTF file: " + why);
   }
-  const auto declared = gltf_declared_triangles(read_all(path));
-  if (declared.size() == scene->mNumMeshes)
-    for (unsigned m = 0; m < scene->mNumMeshes; ++m)
-      if (declared[m] && *declared[m] != scene->mMeshes[m]->mNumFaces)
-        throw InvalidInput(field, "primitive " + std::to_string(m) + " of the glTF file declares " +
-                                      std::to_string(*declared[m]) + " triangles, of which " +
-                                      std::to_string(*declared[m] - std::min<std::size_t>(*declared[m], scene->mMeshes[m]->mNumFaces)) +
-                                      " index a vertex out of range");
+  // Totals, not primitive by primitive: assimp does not keep the file's primitive order.
+  const auto declared = gltf_declared_triangles(bytes.empty() ? read_all(path) : bytes);
+  if (declared.size() == scene->mNumMeshes && std::all_of(declared.begin(), declared.end(), [](auto& d) { return d.has_value(); })) {
+    std::size_t want = 0, got = 0;
+    for (unsigned m = 0; m < scene->mNumMeshes; ++m) want += *declared[m], got += scene->mMeshes[m]->mNumFaces;
+    if (got < want)
+      throw InvalidInput(field, "the glTF file declares " + std::to_string(want) + " triangles, of which " +
+                                    std::to_string(want - got) + " index a vertex out of range");
+  }
   std::vector<std::pair<const aiNode*, aiMatrix4x4>> stack{{scene->mRootNode, scene->mRootNode->mTransformation}};
   while (!stack.empty()) {
     auto [node, transform] = stack.back();
@@ -435,12 +484,13 @@ std::optional<std::uint32_t> binary_stl_triangles(std::string_view bytes, const 
   return stl_triangles(bytes, bytes.size(), field);
 }
 
-SurfaceMesh load_mesh(const std::string& path, const std::string& field) {
+SurfaceMesh load_mesh(const std::string& path, const std::string& field, const std::string& format_in) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec))
     throw InvalidInput(field, "cannot read the mesh file: no such file");
-  std::string ext = std::filesystem::path(path).extension().string();
+  std::string ext = format_in.empty() ? std::filesystem::path(path).extension().string() : "." + format_in;
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (std::filesystem::file_size(path, ec) == 0 && !ec) throw InvalidInput(field, "the file is empty");
 
   std::vector<Point> points;
   Soup soup;
@@ -460,7 +510,8 @@ SurfaceMesh load_mesh(const std::string& path, const std::string& field) {
       check_ply(read_all(path), field);
       ok = CGAL::IO::read_PLY(path, points, soup, quiet);
     } else if (ext == ".obj") {
-      ok = CGAL::IO::read_OBJ(path, points, soup, quiet);
+      std::istringstream text(obj_text(read_all(path), field));
+      ok = CGAL::IO::read_OBJ(text, points, soup, quiet);
     } else if (ext == ".gltf" || ext == ".glb") {
       if (ext == ".glb") check_glb(read_all(path), field);
       read_gltf(path, points, soup, field);
@@ -496,6 +547,8 @@ SurfaceMesh load_mesh(const std::string& path, const std::string& field) {
                                       std::to_string(nv) + " vertices)");
     triangles += soup[f].size() - 2;
   }
+  if (soup.empty())
+    throw InvalidInput(field, "the file has " + std::to_string(nv) + " vertices but no faces: a point cloud is not a surface");
   if (triangles == 0) throw InvalidInput(field, "the mesh file contains no triangles");
   SurfaceMesh out;
   out.vertices.resize(static_cast<Eigen::Index>(nv), 3);

@@ -9,6 +9,7 @@
 #include <poll.h>
 #include <signal.h>
 #include <spawn.h>
+#include <sys/mman.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -100,7 +101,7 @@ SurfaceMesh decode(const std::string& data, const std::string& field, const std:
 }  // namespace
 
 int import_mesh_child(const std::vector<std::string>& args, std::ostream& out) {
-  if (args.size() != 3) return 2;
+  if (args.size() != 3 && args.size() != 4) return 2;
   [[maybe_unused]] const std::size_t memory = std::stoull(args[1]);  // unused under ASan
   const double seconds = std::stod(args[2]);
   set_limit(RLIMIT_CORE, 0, 0);
@@ -110,7 +111,7 @@ int import_mesh_child(const std::vector<std::string>& args, std::ostream& out) {
   set_limit(RLIMIT_AS, memory, memory);  // ASan reserves terabytes of address space up front
 #endif
   try {
-    const SurfaceMesh m = load_mesh(args[0], "mesh");
+    const SurfaceMesh m = load_mesh(args[0], "mesh", args.size() == 4 ? args[3] : "");
     const std::uint64_t nv = static_cast<std::uint64_t>(m.vertices.rows()), nf = static_cast<std::uint64_t>(m.faces.rows());
     out.write(kMeshMagic, kMagic);
     out.write(reinterpret_cast<const char*>(&nv), 8);
@@ -139,8 +140,11 @@ int import_mesh_child(const std::vector<std::string>& args, std::ostream& out) {
   }
 }
 
-SurfaceMesh load_mesh_isolated(const std::string& path, const std::string& field, const std::string& name,
-                               const ImportLimits& limits, const std::string& exe_in) {
+namespace {
+
+// Runs `exe import-mesh path memory seconds [format]`; file >= 0 is passed as the child's fd 3.
+SurfaceMesh run_importer(const std::string& path, int file, const std::string& format, const std::string& field,
+                         const std::string& name, const ImportLimits& limits, const std::string& exe_in) {
   // /proc/self/exe is this process's binary even if its file was replaced since it started.
   const std::string exe = exe_in.empty() ? "/proc/self/exe" : exe_in;
   int fds[2];
@@ -151,7 +155,8 @@ SurfaceMesh load_mesh_isolated(const std::string& path, const std::string& field
   ::posix_spawn_file_actions_adddup2(&actions, fds[1], 1);  // dup2 clears close-on-exec
   ::posix_spawn_file_actions_addopen(&actions, 0, "/dev/null", O_RDONLY, 0);
   ::posix_spawn_file_actions_addopen(&actions, 2, "/dev/null", O_WRONLY, 0);  // parsers chatter
-  ::posix_spawn_file_actions_addclosefrom_np(&actions, 3);  // no listening socket or session file
+  if (file >= 0) ::posix_spawn_file_actions_adddup2(&actions, file, 3);
+  ::posix_spawn_file_actions_addclosefrom_np(&actions, file >= 0 ? 4 : 3);  // no listening socket or session file
   ::posix_spawnattr_init(&attr);
   sigset_t none, defaults;
   sigemptyset(&none);
@@ -162,6 +167,7 @@ SurfaceMesh load_mesh_isolated(const std::string& path, const std::string& field
   ::posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF);
   std::vector<std::string> args = {"distlab", "import-mesh", path, std::to_string(limits.memory_bytes),
                                    std::to_string(limits.seconds)};
+  if (!format.empty()) args.push_back(format);
   std::vector<char*> argv;
   for (auto& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
@@ -197,6 +203,34 @@ SurfaceMesh load_mesh_isolated(const std::string& path, const std::string& field
   if (code == 0) return decode(data, field, name);
   if (data.empty() && code == 2) throw std::runtime_error("the mesh importer is not available (" + exe + " import-mesh)");
   throw InvalidInput(field, name + " could not be imported: the importer failed on it (exit " + std::to_string(code) + ")");
+}
+
+}  // namespace
+
+SurfaceMesh load_mesh_isolated(const std::string& path, const std::string& field, const std::string& name,
+                               const ImportLimits& limits, const std::string& exe) {
+  return run_importer(path, -1, "", field, name, limits, exe);
+}
+
+SurfaceMesh load_bytes_isolated(const std::string& bytes, const std::string& format, const std::string& field,
+                                const std::string& name, const ImportLimits& limits, const std::string& exe) {
+  // An anonymous file: nothing in any directory, so nothing is left behind if the server dies.
+  const int file = ::memfd_create("distlab-upload", MFD_CLOEXEC);
+  if (file < 0) throw std::runtime_error(std::string("cannot create an in-memory file: ") + std::strerror(errno));
+  try {
+    for (std::size_t at = 0; at < bytes.size();) {
+      const ssize_t n = ::write(file, bytes.data() + at, bytes.size() - at);
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0) throw std::runtime_error(std::string("cannot write an in-memory file: ") + std::strerror(errno));
+      at += static_cast<std::size_t>(n);
+    }
+    SurfaceMesh m = run_importer("/dev/fd/3", file, format, field, name, limits, exe);
+    ::close(file);
+    return m;
+  } catch (...) {
+    ::close(file);
+    throw;
+  }
 }
 
 }  // namespace distlab::mesh

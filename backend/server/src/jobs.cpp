@@ -1,5 +1,7 @@
 #include "distlab/server/jobs.hpp"
 
+#include <cstdio>
+
 #include <cmath>
 
 #include "distlab/geometry/error.hpp"
@@ -126,8 +128,10 @@ void JobManager::run(const std::shared_ptr<Job>& job, const std::function<json(J
     final_state = job->cancelled() ? JobState::cancelled : JobState::failed;
     error = {{"code", "invalid_input"}, {"message", e.what()}, {"field", e.field()}};
   } catch (const std::exception& e) {
+    // Not the client's input: its text may name server files, so it goes to the log only.
     final_state = job->cancelled() ? JobState::cancelled : JobState::failed;
-    error = {{"code", "job_failed"}, {"message", e.what()}, {"field", ""}};
+    std::fprintf(stderr, "distlab serve: job %s failed: %s\n", job->kind.c_str(), e.what());
+    error = {{"code", "job_failed"}, {"message", "internal error (logged on the server)"}, {"field", ""}};
   }
   if (final_state == JobState::cancelled) {
     std::lock_guard lock(job->mutex_);

@@ -1,7 +1,9 @@
 // The Service's streaming of a Kelvin object's msgpack frames to its session's sockets: one
 // computation at a time per object, restarted while σ or the levels change (frames.hpp).
+#include <cstdio>
 #include <chrono>
 
+#include "distlab/geometry/error.hpp"
 #include "distlab/server/frames.hpp"
 #include "distlab/server/service.hpp"
 
@@ -26,9 +28,13 @@ void Service::schedule_frames(const std::shared_ptr<Session>& session, const std
       if (auto s = weak.lock()) {
         try {
           send_frames(s, object);
+        } catch (const InvalidInput& e) {
+          s->broadcast(json{{"type", "error"}, {"status", 400},
+                            {"error", {{"code", "invalid_input"}, {"message", e.what()}, {"field", e.field()}}}}.dump(), false);
         } catch (const std::exception& e) {
+          std::fprintf(stderr, "distlab serve: frames failed: %s\n", e.what());  // may name server files
           s->broadcast(json{{"type", "error"}, {"status", 500},
-                            {"error", {{"code", "frame_failed"}, {"message", e.what()}, {"field", ""}}}}.dump(), false);
+                            {"error", {{"code", "frame_failed"}, {"message", "internal error (logged on the server)"}, {"field", ""}}}}.dump(), false);
         }
       }
       std::lock_guard lock(object->mutex);

@@ -2,8 +2,6 @@
 // (kelvin_inputs.hpp).
 #include "kelvin_inputs.hpp"
 
-#include <filesystem>
-#include <fstream>
 #include <stdexcept>
 
 #include "distlab/geometry/error.hpp"
@@ -16,7 +14,6 @@
 namespace distlab::server {
 
 using json = nlohmann::json;
-namespace fs = std::filesystem;
 
 std::vector<double> parse_levels(const json& j, const std::string& field, std::size_t max) {
   if (!j.is_array()) throw InvalidInput(field, field + " must be an array of numbers");
@@ -36,31 +33,18 @@ double query_level(const Request& req) {
   return query_number(req, "level");
 }
 
-mesh::SurfaceMesh load_bytes(const std::string& bytes, const std::string& format, const std::string& dir,
-                             const Limits& limits) {
-  const fs::path path = fs::path(dir) / ("upload-" + random_id() + "." + format);
-  {
-    std::ofstream f(path, std::ios::binary);
-    f.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    if (!f) throw std::runtime_error("cannot write a temporary upload file");
-  }
-  try {
-    // Parsed in a child process: a parser's crash or memory bomb costs this request a 400.
-    mesh::SurfaceMesh m = mesh::load_mesh_isolated(path.string(), "body", "the uploaded " + format + " file",
-                                                   {limits.import_memory_bytes, limits.import_seconds});
-    fs::remove(path);
-    // The coordinate bound of every request (inline meshes too), in the file's vertex numbering.
-    for (Eigen::Index i = 0; i < m.vertices.rows(); ++i)
-      if (m.vertices.row(i).cwiseAbs().maxCoeff() > kMaxCoordinate)
-        throw InvalidInput("body", "vertex " + std::to_string(i) + " of the uploaded " + format +
-                                       " file has a coordinate beyond " + json(kMaxCoordinate).dump() +
-                                       " (metres): out of range");
-    return m;
-  } catch (...) {
-    std::error_code ec;
-    fs::remove(path, ec);
-    throw;
-  }
+mesh::SurfaceMesh load_bytes(const std::string& bytes, const std::string& format, const Limits& limits, double scale) {
+  // Parsed in a child process: a parser's crash or memory bomb costs this request a 400.
+  mesh::SurfaceMesh m = mesh::load_bytes_isolated(bytes, format, "body", "the uploaded " + format + " file",
+                                                  {limits.import_memory_bytes, limits.import_seconds});
+  m.vertices *= scale;
+  // The coordinate bound of every request (inline meshes too), in the file's vertex numbering.
+  for (Eigen::Index i = 0; i < m.vertices.rows(); ++i)
+    if (m.vertices.row(i).cwiseAbs().maxCoeff() > kMaxCoordinate)
+      throw InvalidInput("body", "vertex " + std::to_string(i) + " of the uploaded " + format +
+                                     " file has a coordinate beyond " + json(kMaxCoordinate).dump() +
+                                     " metres (in the file's unit times the scale): out of range; give the file's unit (unit=mm, cm or in) or a scale");
+  return m;
 }
 
 mesh::SurfaceMesh inline_mesh(const json& j, std::size_t max_triangles) {

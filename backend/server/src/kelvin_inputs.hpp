@@ -23,10 +23,10 @@ std::vector<double> parse_levels(const nlohmann::json& j, const std::string& fie
 // are refused with the field, pointing to PUT .../levels (max_levels), whose frames carry them all.
 double query_level(const Request& req);
 
-// Reads uploaded mesh bytes (written to a private temporary file in dir) in a child process
-// limited by limits.import_memory_bytes and import_seconds. Vertices in the file's order.
-mesh::SurfaceMesh load_bytes(const std::string& bytes, const std::string& format, const std::string& dir,
-                             const Limits& limits);
+// Reads uploaded mesh bytes (an anonymous in-memory file, never a file in a directory) in a child
+// process limited by limits.import_memory_bytes and import_seconds. Vertices in the file's order,
+// multiplied by scale (metres per file unit).
+mesh::SurfaceMesh load_bytes(const std::string& bytes, const std::string& format, const Limits& limits, double scale = 1.0);
 
 // {"vertices": [[x, y, z], ...], "faces": [[i, j, k], ...]} (field "mesh"), at most max_triangles.
 mesh::SurfaceMesh inline_mesh(const nlohmann::json& j, std::size_t max_triangles);

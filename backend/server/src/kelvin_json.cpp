@@ -103,7 +103,8 @@ std::string asset_path(const std::string& name) {
 
 json run_kelvin_request(const json& r, const kelvin::Progress& progress) {
   object_with(r, "", {"mesh", "lx", "center", "far_radius", "feature_angle", "max_vertices", "cache", "sigma", "query",
-                      "isosurfaces", "comment"});
+                      "isosurfaces", "repair", "repair_options", "comment"});
+  const RepairRequest repair = parse_repair(r, Limits{});
   if (!r.contains("mesh")) throw InvalidInput("mesh", "mesh is required");
   const json& m = r["mesh"];
   object_with(m, "mesh", {"path", "asset"});
@@ -149,11 +150,22 @@ json run_kelvin_request(const json& r, const kelvin::Progress& progress) {
   // prepared on the welded surface (mesh/weld.hpp).
   const mesh::SurfaceMesh surface = mesh::load_mesh(path, m.contains("path") ? "mesh.path" : "mesh.asset");
   const mesh::Welded welded = mesh::weld(surface);
-  const kelvin::SigmaSpec solved = field_sigma(sigma, surface, welded.to_welded, welded.surface.vertices.rows());
+  kelvin::SigmaSpec solved = field_sigma(sigma, surface, welded.to_welded, welded.surface.vertices.rows());
+  // "fix" / "wrap": the field is prepared on the repaired surface, σ carried to it (repair.hpp).
+  json repair_report;
+  mesh::SurfaceMesh repaired;
+  if (repair.kind != "none") {
+    progress("repair", 0.0);
+    auto [result, report] = run_repair_request(surface, repair, Limits{}.max_repair_faces);
+    repaired = std::move(result.surface);
+    repair_report = std::move(report);
+    solved = carry_sigma(std::move(solved), sigma, mesh::nearest_face_transfer(surface, repaired.vertices));
+  }
+  const mesh::SurfaceMesh& prepared = repair.kind == "none" ? welded.surface : repaired;
   bool hit = false;
   kelvin::Field field = r.contains("cache")
-                            ? kelvin::Field::prepare_cached(welded.surface, options, text(r["cache"], "cache"), progress, &hit)
-                            : kelvin::Field::prepare(welded.surface, options, progress);
+                            ? kelvin::Field::prepare_cached(prepared, options, text(r["cache"], "cache"), progress, &hit)
+                            : kelvin::Field::prepare(prepared, options, progress);
   field.set_sigma(solved);
 
   json out;
@@ -167,6 +179,7 @@ json run_kelvin_request(const json& r, const kelvin::Progress& progress) {
   if (!st.warnings.empty()) out["warnings"] = st.warnings;
   out["mesh"] = {{"n_vertices", surface.vertices.rows()}, {"n_faces", surface.faces.rows()},
                  {"n_welded_vertices", welded.surface.vertices.rows()}};
+  if (!repair_report.is_null()) out["repair"] = repair_report;
   json h = json::array(), grad = json::array(), inside = json::array();
   int hint = -1;
   for (const Vec3& x : points) {

@@ -7,7 +7,9 @@
 
 #include "distlab/kelvin/digest.hpp"
 #include "distlab/kelvin/progress.hpp"
+#include "distlab/geometry/error.hpp"
 #include "distlab/kelvin/sigma.hpp"
+#include "distlab/server/json_fields.hpp"
 
 namespace distlab::server {
 
@@ -123,9 +125,10 @@ json KelvinObject::status_json() {
   std::lock_guard lock(mutex);
   json j = {{"id", id}, {"state", state}, {"job", job}, {"source", source},
             {"n_input_vertices", surface.vertices.rows()}, {"n_input_faces", surface.faces.rows()},
-            {"n_welded_vertices", welded.vertices.rows()},
+            {"n_welded_vertices", welded.vertices.rows()}, {"repair", repair},
             {"sigma_version", sigma_version}, {"levels", levels}, {"key", key}};
   if (!error.is_null()) j["error"] = error;
+  if (!repair_report.is_null()) j["repair_report"] = repair_report;
   if (prepared) {
     const kelvin::Stats& st = prepared->field.stats();
     j["stats"] = {{"n_verts", st.n_verts}, {"n_tets", st.n_tets}, {"size_mb", st.size_mb},
@@ -159,6 +162,77 @@ kelvin::SigmaSpec field_sigma(const kelvin::SigmaSpec& user, const mesh::Surface
   return welded;
 }
 
+kelvin::SigmaSpec carry_sigma(kelvin::SigmaSpec solved, const kelvin::SigmaSpec& user, const mesh::Transfer& to_repaired) {
+  if (!user.per_vertex) return solved;
+  const std::vector<double> values(user.per_vertex->data(), user.per_vertex->data() + user.per_vertex->size());
+  const std::vector<double> carried = to_repaired.apply(values);
+  solved.per_vertex = VecX(Eigen::Map<const VecX>(carried.data(), static_cast<Eigen::Index>(carried.size())));
+  return solved;
+}
+
+kelvin::SigmaSpec field_sigma(const kelvin::SigmaSpec& user, const KelvinObject& o) {
+  kelvin::SigmaSpec out = field_sigma(user, o.surface, o.to_welded, o.welded.vertices.rows());
+  return o.repair == "none" ? out : carry_sigma(std::move(out), user, o.to_repaired);
+}
+
+// "repair": "none" | "fix" | "wrap" and its "repair_options" (fix: max_hole_edges; wrap: alpha and
+// offset in metres), each bounded by the limits table.
+RepairRequest parse_repair(const json& body, const Limits& lim) {
+  RepairRequest r;
+  if (body.contains("repair")) {
+    if (!body["repair"].is_string() || (body["repair"] != "none" && body["repair"] != "fix" && body["repair"] != "wrap"))
+      throw InvalidInput("repair", "repair must be \"none\", \"fix\" or \"wrap\"");
+    r.kind = body["repair"];
+  }
+  if (!body.contains("repair_options")) return r;
+  const json& o = body["repair_options"];
+  json_require_object(o, "repair_options");
+  if (r.kind == "none") throw InvalidInput("repair_options", "repair_options needs repair \"fix\" or \"wrap\"");
+  if (r.kind == "fix") {
+    json_check_keys(o, "repair_options", {"max_hole_edges"});
+    if (o.contains("max_hole_edges")) {
+      const json& m = o["max_hole_edges"];
+      if (!m.is_number_integer() || m.get<std::int64_t>() < 0 || m.get<std::int64_t>() > static_cast<std::int64_t>(lim.max_hole_edges))
+        throw InvalidInput("repair_options.max_hole_edges", "max_hole_edges must be a whole number in [0, " + std::to_string(lim.max_hole_edges) + "]");
+      r.options["max_hole_edges"] = m;
+    }
+  } else {
+    json_check_keys(o, "repair_options", {"alpha", "offset"});
+    for (const char* k : {"alpha", "offset"})
+      if (o.contains(k)) {
+        const double v = json_number(o[k], std::string("repair_options.") + k, kMaxCoordinate);
+        if (!(v > 0)) throw InvalidInput(std::string("repair_options.") + k, std::string(k) + " must be positive (metres)");
+        r.options[k] = v;
+      }
+  }
+  return r;
+}
+
+std::pair<mesh::RepairResult, json> run_repair_request(const mesh::SurfaceMesh& user, const RepairRequest& request,
+                                                       std::size_t max_faces) {
+  mesh::RepairResult r;
+  json report;
+  if (request.kind == "fix") {
+    mesh::FixOptions f;
+    f.max_hole_edges = request.options.value("max_hole_edges", 0);
+    r = mesh::fix(user, f, "repair");
+    json steps = json::object();
+    for (const auto& [name, n] : r.steps) steps[name] = n;
+    report = {{"kind", "fix"}, {"steps", steps}};
+  } else {
+    mesh::WrapOptions w;
+    w.alpha = request.options.value("alpha", 0.0);
+    w.offset = request.options.value("offset", 0.0);
+    r = mesh::wrap(user, w, max_faces, "repair_options");
+    report = {{"kind", "wrap"}, {"alpha", r.alpha}, {"offset", r.offset},
+              {"hausdorff", {{"input_to_wrap", r.input_to_result}, {"wrap_to_input", r.result_to_input}}}};
+  }
+  report["n_vertices"] = r.surface.vertices.rows();
+  report["n_faces"] = r.surface.faces.rows();
+  return {std::move(r), std::move(report)};
+}
+
+
 double estimate_vertices(const mesh::SurfaceMesh& surface, double lx, double far_radius) {
   if (surface.vertices.rows() == 0 || !(lx > 0)) return 0;
   const Vec3 lo = surface.vertices.colwise().minCoeff().transpose();
@@ -168,14 +242,35 @@ double estimate_vertices(const mesh::SurfaceMesh& surface, double lx, double far
   return kVertexEstimateConstant * ratio * ratio * ratio + static_cast<double>(surface.vertices.rows());
 }
 
-double lx_within(const mesh::SurfaceMesh& surface, double budget, double far_radius) {
-  // estimate_vertices solved for lx at the budget (the input's own vertices count too).
+double smallest_lx_within(const mesh::SurfaceMesh& surface, double budget, double far_radius) {
   const double room = budget - static_cast<double>(surface.vertices.rows());
   if (surface.vertices.rows() == 0 || !(room > 0)) return std::numeric_limits<double>::infinity();
   const Vec3 lo = surface.vertices.colwise().minCoeff().transpose();
   const Vec3 hi = surface.vertices.colwise().maxCoeff().transpose();
   const double r = 0.5 * (hi - lo).norm();
-  return std::max(1.0, far_radius) * r / std::cbrt(room / kVertexEstimateConstant);
+  // C (f r / l_x)^3 + n <= budget  <=>  l_x >= f r (C / (budget - n))^(1/3); rounded up a little
+  // so that the estimate at the answer is within the budget despite rounding.
+  return std::max(1.0, far_radius) * r * std::cbrt(kVertexEstimateConstant / room) * (1 + 1e-9);
+}
+
+// The range's top is half the largest extent, not the diagonal (see below).
+json size_report(const mesh::SurfaceMesh& welded, const Limits& limits) {
+  const Vec3 lo = welded.vertices.colwise().minCoeff().transpose();
+  const Vec3 hi = welded.vertices.colwise().maxCoeff().transpose();
+  const double diagonal = (hi - lo).norm();
+  const double smallest = std::max(limits.min_lx, smallest_lx_within(welded, static_cast<double>(limits.max_vertex_estimate)));
+  json out = {{"bounding_box", {{"min", {lo.x(), lo.y(), lo.z()}}, {"max", {hi.x(), hi.y(), hi.z()}}, {"diagonal", diagonal}}}};
+  // Preparation refuses l_x beyond the object's radius about its centre, which is at least half
+  // the largest extent (two surface points that far apart are both within the radius).
+  const double largest = 0.5 * (hi - lo).maxCoeff();
+  if (smallest <= largest && diagonal > 0) {
+    out["lx_range"] = {{"min", smallest}, {"max", largest}};
+    out["lx_fraction_range"] = {{"min", smallest / diagonal}, {"max", largest / diagonal}};
+  } else {
+    out["lx_range"] = nullptr;
+    out["lx_fraction_range"] = nullptr;
+  }
+  return out;
 }
 
 }  // namespace distlab::server

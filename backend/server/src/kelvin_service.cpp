@@ -8,6 +8,8 @@
 #include "distlab/geometry/error.hpp"
 #include "distlab/kelvin/progress.hpp"
 #include "distlab/kelvin/sigma.hpp"
+#include "distlab/mesh/checks.hpp"
+#include "distlab/mesh/repair.hpp"
 #include "distlab/mesh/weld.hpp"
 #include "distlab/server/json_fields.hpp"
 #include "distlab/server/gap_json.hpp"
@@ -21,6 +23,31 @@ namespace distlab::server {
 using json = nlohmann::json;
 namespace fs = std::filesystem;
 
+namespace {
+
+// Repairs or wraps the object's user mesh and sets everything that depends on the result, under
+// the object's lock: the surface to prepare, the σ transfer, the report, the content key.
+void run_repair(KelvinObject& o, const kelvin::PrepareOptions& options, const Limits& lim) {
+  auto [r, report] = run_repair_request(o.surface, {o.repair, o.repair_options}, lim.max_repair_faces);
+  // What prepare would refuse (a centre outside, a surface over budget), refused now by name.
+  const double estimate = estimate_vertices(r.surface, options.lx, options.far_radius);
+  if (estimate > static_cast<double>(lim.max_vertex_estimate))
+    throw InvalidInput("lx", "the repaired surface at lx " + json(options.lx).dump() + " would make about " +
+                                 json(std::round(estimate)).dump() + " vertices, over this server's budget of " +
+                                 std::to_string(lim.max_vertex_estimate) + "; use a larger lx");
+  kelvin::check_prepare_inputs(r.surface, options);
+  mesh::Transfer transfer = mesh::nearest_face_transfer(o.surface, r.surface.vertices);
+  std::lock_guard lock(o.mutex);
+  o.repaired = std::move(r.surface);
+  o.to_repaired = std::move(transfer);
+  o.repair_report = report;
+  o.key = content_key(o.repaired, options);
+  o.field_sigma = field_sigma(o.sigma, o);
+  o.state = "preparing";
+}
+
+}  // namespace
+
 std::shared_ptr<KelvinObject> Service::require_object(const Session& session, const Request& request) {
   auto& s = const_cast<Session&>(session);
   std::lock_guard lock(s.mutex);
@@ -33,24 +60,30 @@ json Service::create_object(const std::shared_ptr<Session>& session, const json&
   const Limits& lim = config_.limits;
   if (!body.is_object()) throw InvalidInput("", "the request must be an object");
   for (const auto& [k, v] : body.items())
-    if (k != "asset" && k != "upload" && k != "mesh" && k != "lx" && k != "center" && k != "far_radius" &&
-        k != "sigma" && k != "levels" && k != "comment")
+    if (k != "asset" && k != "upload" && k != "mesh" && k != "lx" && k != "lx_fraction" && k != "center" && k != "far_radius" &&
+        k != "sigma" && k != "levels" && k != "repair" && k != "repair_options" && k != "comment")
       throw InvalidInput(k, "unknown key \"" + k.substr(0, 64) + "\"");
   const int sources = static_cast<int>(body.contains("asset")) + static_cast<int>(body.contains("upload")) +
                       static_cast<int>(body.contains("mesh"));
   if (sources != 1) throw InvalidInput("", "give exactly one of asset, upload and mesh");
-  if (!body.contains("lx")) throw InvalidInput("lx", "lx is required");
+  if (body.contains("lx") == body.contains("lx_fraction"))
+    throw InvalidInput("lx", "give lx (metres) or lx_fraction (of the bounding box's diagonal), exactly one");
   kelvin::PrepareOptions options;
-  options.lx = json_number(body["lx"], "lx");
-  if (!(options.lx > 0)) throw InvalidInput("lx", "lx must be positive");
-  if (options.lx < lim.min_lx)
-    throw ApiError(422, "over_budget", "lx must be at least " + std::to_string(lim.min_lx) + " on this server", "lx");
+  double lx_fraction = 0;
+  if (body.contains("lx")) {
+    options.lx = json_number(body["lx"], "lx");
+    if (!(options.lx > 0)) throw InvalidInput("lx", "lx must be positive");
+  } else {
+    lx_fraction = json_number(body["lx_fraction"], "lx_fraction");
+    if (!(lx_fraction > 0) || lx_fraction > 1) throw InvalidInput("lx_fraction", "lx_fraction must be in (0, 1]");
+  }
   if (body.contains("center")) options.centre = json_vec3(body["center"], "center", kMaxCoordinate);
   if (body.contains("far_radius")) {
     options.far_radius = json_number(body["far_radius"], "far_radius", kelvin::kMaxFarRadius);
     if (!(options.far_radius >= 0.5)) throw InvalidInput("far_radius", "far_radius must be in [0.5, 1000]");
   }
-  json source = {{"lx", options.lx}};
+  const RepairRequest repair = parse_repair(body, lim);
+  json source = json::object();
   if (options.centre) source["center"] = {options.centre->x(), options.centre->y(), options.centre->z()};
   if (body.contains("far_radius")) source["far_radius"] = options.far_radius;
 
@@ -87,22 +120,48 @@ json Service::create_object(const std::shared_ptr<Session>& session, const json&
   // budget counts every parameter that grows the mesh (lx and far_radius); the field named is
   // far_radius when the request would fit with the default far radius.
   mesh::Welded welded = mesh::weld(surface);
+  const std::string lx_field = body.contains("lx") ? "lx" : "lx_fraction";
+  const double diagonal = (welded.surface.vertices.colwise().maxCoeff() - welded.surface.vertices.colwise().minCoeff()).norm();
+  if (body.contains("lx_fraction")) {
+    options.lx = lx_fraction * diagonal;
+    source["lx_fraction"] = lx_fraction;
+  }
+  source["lx"] = options.lx;
+  if (options.lx < lim.min_lx)
+    throw ApiError(422, "over_budget", lx_field + " gives lx " + json(options.lx).dump() + " m, but lx must be at least " +
+                                          json(lim.min_lx).dump() + " m on this server", lx_field);
   const auto budget = static_cast<double>(lim.max_vertex_estimate);
   const double estimate = estimate_vertices(welded.surface, options.lx, options.far_radius);
   if (estimate_only) return estimate_json(welded.surface, options, estimate);
   if (estimate > budget) {
     const bool far = estimate_vertices(welded.surface, options.lx) <= budget;
+    const double fits = std::max(lim.min_lx, smallest_lx_within(welded.surface, budget, options.far_radius));
+    const std::string advice =
+        far ? "; use a smaller far_radius"
+        : fits <= diagonal ? "; lx " + json(fits).dump() + " m or larger fits (lx_fraction " + json(fits / diagonal).dump() + ")"
+                           : "; no lx up to the bounding box's diagonal (" + json(diagonal).dump() + " m) fits: the surface has too many vertices";
     throw ApiError(422, "over_budget",
                    std::string(far ? "far_radius " + json(options.far_radius).dump() : "lx " + json(options.lx).dump()) +
                        " would make about " + json(std::round(estimate)).dump() + " vertices, over this server's budget of " +
-                       std::to_string(lim.max_vertex_estimate) + (far ? "; use a smaller far_radius" : "; use a larger lx"),
-                   far ? "far_radius" : "lx");
+                       std::to_string(lim.max_vertex_estimate) + advice,
+                   far ? "far_radius" : lx_field);
   }
   source["vertex_estimate"] = std::llround(estimate);
   // The job's meshing cap is the same budget, and whatever prepare would refuse (a surface that
   // is not closed, a centre outside or too near the surface) is refused now, before a job starts.
   options.max_vertices = std::max<std::size_t>(100, lim.max_vertex_estimate);
-  kelvin::check_prepare_inputs(welded.surface, options);
+  if (repair.kind == "none") {
+    // Topology first, named in the file's numbering: a welded vertex is its first file vertex.
+    std::vector<int> names(static_cast<std::size_t>(welded.surface.vertices.rows()), -1);
+    for (std::size_t i = 0; i < welded.to_welded.size(); ++i)
+      if (const int w = welded.to_welded[i]; w >= 0 && names[static_cast<std::size_t>(w)] < 0) names[static_cast<std::size_t>(w)] = static_cast<int>(i);
+    if (const std::string defect = mesh::topology_defect(welded.surface, names); !defect.empty())
+      throw InvalidInput(body.contains("upload") ? "upload" : body.contains("asset") ? "asset" : "mesh",
+                         "the mesh is not a closed manifold surface: " + defect +
+                             " (vertex and face numbers are the file's); \"repair\": \"fix\" or \"wrap\" can make it one");
+    kelvin::check_prepare_inputs(welded.surface, options);
+  }
+  source["repair"] = repair.kind;
 
   auto object = std::make_shared<KelvinObject>();
   object->id = random_id();
@@ -111,6 +170,9 @@ json Service::create_object(const std::shared_ptr<Session>& session, const json&
   object->surface = std::move(surface);
   object->welded = std::move(welded.surface);
   object->to_welded = std::move(welded.to_welded);
+  object->repair = repair.kind;
+  object->repair_options = repair.options;
+  if (repair.kind != "none") object->state = "repairing";
   object->surface_digest = mesh_digest(object->surface);
   object->sigma_key = sigma_key(*object, json::object());
   if (body.contains("sigma")) {
@@ -138,9 +200,16 @@ json Service::create_object(const std::shared_ptr<Session>& session, const json&
         kelvin::Progress progress;
         progress.report = [&j](const std::string& stage, double fraction) { j.report(stage, fraction); };
         progress.cancel = &j.cancel;
+        if (object->repair != "none") {
+          // The long part of a repair request: the user's mesh is already imported and checked.
+          j.report("repair", 0.0);
+          run_repair(*object, options, config_.limits);
+          if (j.cancelled()) throw kelvin::Cancelled();
+          announce();
+        }
         j.report("load", 0.0);
         bool from_memory = false;
-        auto prepared = registry_.acquire(object->welded, options, progress, &from_memory);
+        auto prepared = registry_.acquire(object->repair == "none" ? object->welded : object->repaired, options, progress, &from_memory);
         {
           std::lock_guard lock(object->mutex);
           object->prepared = prepared;
@@ -172,7 +241,7 @@ json Service::create_object(const std::shared_ptr<Session>& session, const json&
         {
           std::lock_guard lock(object->mutex);
           object->state = j.cancelled() ? "cancelled" : "failed";
-          object->error = {{"code", "job_failed"}, {"message", e.what()}, {"field", ""}};
+          object->error = {{"code", "job_failed"}, {"message", "internal error (logged on the server)"}, {"field", ""}};
         }
         announce();
         throw;
@@ -201,7 +270,7 @@ json Service::estimate_json(const mesh::SurfaceMesh& welded, kelvin::PrepareOpti
               {"max_vertex_estimate", lim.max_vertex_estimate},
               {"min_lx", lim.min_lx},
               {"diagonal", (hi - lo).norm()},
-              {"lx_for_budget", std::max(lim.min_lx, lx_within(welded, budget, options.far_radius))},
+              {"lx_for_budget", std::max(lim.min_lx, smallest_lx_within(welded, budget, options.far_radius))},
               {"seconds_estimate", nullptr},
               {"problem", nullptr}};
   if (const double rate = prepare_seconds_per_vertex_.load(); rate > 0) out["seconds_estimate"] = rate * estimate;
@@ -232,6 +301,8 @@ void Service::set_sigma(const std::shared_ptr<Session>& session, const std::shar
   std::uint64_t version;
   {
     std::lock_guard lock(object->mutex);
+    // A repaired object carries σ to its repaired surface once that exists (the job does it then).
+    if (object->repair != "none" && object->state != "repairing") solved = field_sigma(spec, *object);
     object->sigma = std::move(spec);
     object->field_sigma = std::move(solved);
     object->sigma_json = sigma_json;

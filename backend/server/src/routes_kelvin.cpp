@@ -5,6 +5,8 @@
 #include <sstream>
 
 #include "distlab/geometry/error.hpp"
+#include "distlab/mesh/repair.hpp"
+#include "distlab/mesh/weld.hpp"
 #include "distlab/server/json_fields.hpp"
 #include "distlab/server/deadline.hpp"
 #include "distlab/server/frames.hpp"
@@ -53,8 +55,24 @@ void Service::register_kelvin_routes() {
                    if (session->uploads.size() >= lim.max_uploads_per_session)
                      throw ApiError(429, "too_many_uploads", "this session has too many uploads");
                  }
+                 // The file's unit: a name or a factor to metres (not both); metres by default.
+                 static const std::map<std::string, double> units = {{"m", 1.0}, {"cm", 0.01}, {"mm", 0.001}, {"in", 0.0254}};
+                 if (req.query.count("unit") && req.query.count("scale"))
+                   throw InvalidInput("scale", "give unit or scale, not both");
+                 double scale = 1.0;
+                 std::string unit = "m";
+                 if (auto u = req.query.find("unit"); u != req.query.end()) {
+                   single_query(req, "unit");
+                   if (!units.count(u->second)) throw InvalidInput("unit", "unit must be m, cm, mm or in");
+                   unit = u->second;
+                   scale = units.at(unit);
+                 } else if (req.query.count("scale")) {
+                   scale = query_number(req, "scale");
+                   if (!(scale > 0) || scale > kMaxCoordinate) throw InvalidInput("scale", "scale must be in (0, 1e6] (metres per file unit)");
+                   unit = "";
+                 }
                  auto up = std::make_shared<Upload>();
-                 up->surface = load_bytes(req.body, format, registry_cache_dir(), lim);
+                 up->surface = load_bytes(req.body, format, lim, scale);
                  up->format = format;
                  up->bytes = req.body.size();
                  if (static_cast<std::size_t>(up->surface.faces.rows()) > lim.max_upload_triangles)
@@ -64,8 +82,11 @@ void Service::register_kelvin_routes() {
                    std::lock_guard lock(session->mutex);
                    session->uploads.emplace(id, up);
                  }
-                 return json_response(201, {{"upload", id}, {"n_vertices", up->surface.vertices.rows()},
-                                            {"n_faces", up->surface.faces.rows()}});
+                 json answer = {{"upload", id}, {"n_vertices", up->surface.vertices.rows()},
+                                {"n_faces", up->surface.faces.rows()}, {"scale", scale}};
+                 if (!unit.empty()) answer["unit"] = unit;
+                 answer.update(size_report(mesh::weld(up->surface).surface, lim));
+                 return json_response(201, answer);
                }};
   upload.heavy = true;
   upload.bounds = {"max_upload_bytes", "max_upload_triangles", "max_uploads_per_session", "import_memory_bytes", "import_seconds"};
@@ -77,7 +98,7 @@ void Service::register_kelvin_routes() {
                  return json_response(202, create_object(session, parse_body(req)));
                }};
   create.heavy = true;
-  create.bounds = {"max_body_bytes", "max_upload_triangles", "min_lx", "max_vertex_estimate", "max_objects_per_session", "max_jobs_per_session", "max_jobs_total"};
+  create.bounds = {"max_body_bytes", "max_upload_triangles", "min_lx", "max_vertex_estimate", "max_objects_per_session", "max_jobs_per_session", "max_jobs_total", "max_hole_edges", "max_repair_faces"};
   router_.add(std::move(create));
 
   Route estimate{"POST", "/api/kelvin/estimate", [this](Request& req) {
@@ -238,17 +259,34 @@ void Service::register_kelvin_routes() {
   router_.add({"GET", "/api/kelvin/objects/{id}/surface", [this](Request& req) {
                  auto session = require_session(req);
                  auto object = require_object(*session, req);
-                 kelvin::SigmaSpec sigma;
+                 // of=input (default): the user's mesh; of=repaired: the surface the field is
+                 // prepared on (after "fix" or "wrap"), with σ as the field solves it.
+                 single_query(req, "of");
+                 const auto of_it = req.query.find("of");
+                 const std::string of = of_it == req.query.end() ? "input" : of_it->second;
+                 if (of != "input" && of != "repaired") throw InvalidInput("of", "of must be input or repaired");
+                 kelvin::SigmaSpec sigma, solved;
                  std::uint64_t version;
+                 bool repaired = false;
                  {
                    std::lock_guard lock(object->mutex);
                    sigma = object->sigma;
+                   solved = object->field_sigma;
                    version = object->sigma_version;
+                   repaired = object->repair != "none" && object->state != "repairing";
                  }
-                 const std::vector<double> values = sigma_at_vertices(sigma, object->surface);
+                 if (of == "repaired" && !repaired)
+                   throw ApiError(409, "not_repaired", "this object has no repaired surface (repair none, or still repairing)", "of");
+                 // A repaired object's σ at the user's vertices is what the field solves, read back
+                 // by the same nearest-face rule that carried it there (repair.hpp).
+                 std::vector<double> values;
+                 if (!repaired) values = sigma_at_vertices(sigma, object->surface);
+                 else if (of == "repaired") values = sigma_at_vertices(solved, object->repaired);
+                 else values = mesh::nearest_face_transfer(object->repaired, object->surface.vertices).apply(sigma_at_vertices(solved, object->repaired));
+                 const mesh::SurfaceMesh& shown = of == "repaired" ? object->repaired : object->surface;
                  Response r;
                  r.content_type = "application/msgpack";
-                 r.body = to_msgpack(mesh_frame(object->surface, {{"type", "surface"}, {"object", object->id}, {"sigma_version", version}}, &values));
+                 r.body = to_msgpack(mesh_frame(shown, {{"type", "surface"}, {"object", object->id}, {"of", of}, {"sigma_version", version}}, &values));
                  return r;
                }});
 

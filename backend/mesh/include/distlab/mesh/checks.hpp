@@ -2,6 +2,7 @@
 // Validation of solid boundaries: a closed, manifold, consistently oriented, non-self-intersecting
 // triangle mesh. Each failure throws InvalidInput whose message names the defect.
 #include <string>
+#include <vector>
 
 #include "distlab/mesh/surface.hpp"
 
@@ -17,7 +18,8 @@ void require_closed_manifold(SurfaceMesh& mesh, const std::string& field = "mesh
                              const CheckOptions& options = {});
 
 // Topology only (boundary edges, non-manifold edges/vertices, orientation): for meshes we produce.
-// Returns an empty string when fine, else the defect.
-std::string topology_defect(const SurfaceMesh& mesh);
+// Returns an empty string when fine, else the defect. names[v]: how vertex v is numbered in the
+// message (e.g. the user's first file vertex of a welded vertex); empty: v itself.
+std::string topology_defect(const SurfaceMesh& mesh, const std::vector<int>& names = {});
 
 }  // namespace distlab::mesh

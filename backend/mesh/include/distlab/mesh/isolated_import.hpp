@@ -23,7 +23,13 @@ struct ImportLimits {
 SurfaceMesh load_mesh_isolated(const std::string& path, const std::string& field, const std::string& name,
                                const ImportLimits& limits, const std::string& exe = "");
 
-// The child's side: args = {path, memory_bytes, seconds}. Sets its own limits, then writes the
+// The same for a file's bytes (an upload) read as `format` (stl, obj, ply, off, glb): they are
+// handed to the child as an anonymous in-memory file (memfd), so no temporary file exists in any
+// directory, and none is left behind if the server dies during the import.
+SurfaceMesh load_bytes_isolated(const std::string& bytes, const std::string& format, const std::string& field,
+                                const std::string& name, const ImportLimits& limits, const std::string& exe = "");
+
+// The child's side: args = {path, memory_bytes, seconds[, format]}. Sets its own limits, then writes the
 // mesh or the error message to out. Returns the exit code.
 int import_mesh_child(const std::vector<std::string>& args, std::ostream& out);
 

@@ -30,7 +30,8 @@ struct SurfaceMesh {
 // before anything is read, every face index is bounds-checked and every coordinate must be
 // finite. Throws InvalidInput(field) for anything else; messages never quote the path.
 // Untrusted files: load_mesh_isolated (isolated_import.hpp) runs this in a child process.
-SurfaceMesh load_mesh(const std::string& path, const std::string& field = "mesh.path");
+// format ("stl", "obj", ...): read as that format whatever the path's extension ("": by extension).
+SurfaceMesh load_mesh(const std::string& path, const std::string& field = "mesh.path", const std::string& format = "");
 
 // The bytes of an .stl file: a binary STL (80-byte header, uint32 n, n records of 50 bytes) is
 // exactly 84 + 50·n bytes; returns n. An ASCII STL (starts with "solid", no binary bytes):

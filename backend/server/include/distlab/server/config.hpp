@@ -47,6 +47,10 @@ struct Limits {
   // and this CPU and wall-clock time; beyond either it is refused (400, field body).
   std::size_t import_memory_bytes = std::size_t{1} << 30;
   double import_seconds = 20;
+  // "repair": "fix" fills holes of at most max_hole_edges edges; "wrap" refuses an α that would
+  // make more than max_repair_faces faces (CGAL's wrapping cannot be interrupted: this bounds it).
+  std::size_t max_hole_edges = 1000;
+  std::size_t max_repair_faces = 200000;
 };
 
 // The one table of limits: f(name, field) for each field of Limits (L: Limits or const Limits).
@@ -85,6 +89,8 @@ void for_each_limit(L& l, F&& f) {
   f("read_timeout_seconds", l.read_timeout_seconds);
   f("import_memory_bytes", l.import_memory_bytes);
   f("import_seconds", l.import_seconds);
+  f("max_hole_edges", l.max_hole_edges);
+  f("max_repair_faces", l.max_repair_faces);
 }
 
 struct ServiceConfig {

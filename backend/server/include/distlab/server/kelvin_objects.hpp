@@ -18,7 +18,9 @@
 #include <nlohmann/json.hpp>
 
 #include "distlab/kelvin/field.hpp"
+#include "distlab/mesh/repair.hpp"
 #include "distlab/mesh/surface.hpp"
+#include "distlab/server/config.hpp"
 
 namespace distlab::server {
 
@@ -93,9 +95,17 @@ struct KelvinObject {
   mesh::SurfaceMesh welded;
   std::vector<int> to_welded;  // user vertex -> welded vertex (−1: used by no face)
   std::string surface_digest;  // mesh_digest(surface)
+  // "fix" or "wrap" (repair.hpp): the field is prepared on `repaired` instead of `welded`, and
+  // σ per user vertex reaches it by `to_repaired` (the nearest-face rule). Both are set by the
+  // preparation job under `mutex` while state is "repairing", and never change afterwards.
+  std::string repair = "none";
+  nlohmann::json repair_options = nlohmann::json::object();
+  mesh::SurfaceMesh repaired;
+  mesh::Transfer to_repaired;
+  nlohmann::json repair_report;
 
   std::mutex mutex;  // guards everything below
-  std::string state = "preparing";  // preparing | ready | failed | cancelled
+  std::string state = "preparing";  // repairing | preparing | ready | failed | cancelled
   std::string job;
   nlohmann::json error;
   std::shared_ptr<PreparedField> prepared;
@@ -128,6 +138,24 @@ std::vector<double> sigma_at_vertices(const kelvin::SigmaSpec& sigma, const mesh
 // field solves it (per welded vertex).
 kelvin::SigmaSpec field_sigma(const kelvin::SigmaSpec& user, const mesh::SurfaceMesh& surface,
                               const std::vector<int>& to_welded, Eigen::Index n_welded);
+// The same for an object repaired or wrapped: per_vertex carried to the repaired surface by
+// to_repaired (call with the object's mutex held, after the repair).
+kelvin::SigmaSpec field_sigma(const kelvin::SigmaSpec& user, const KelvinObject& object);
+// σ as solved (field_sigma) with per_vertex replaced by the user's values carried to a repaired
+// surface by to_repaired (mesh::nearest_face_transfer from the user's mesh).
+kelvin::SigmaSpec carry_sigma(kelvin::SigmaSpec solved, const kelvin::SigmaSpec& user, const mesh::Transfer& to_repaired);
+
+// "repair": "none" | "fix" | "wrap" and "repair_options" of a request (fix: max_hole_edges; wrap:
+// alpha and offset in metres), checked against the limits (InvalidInput naming the field).
+struct RepairRequest {
+  std::string kind = "none";
+  nlohmann::json options = nlohmann::json::object();
+};
+RepairRequest parse_repair(const nlohmann::json& body, const Limits& limits);
+// Runs mesh::fix or mesh::wrap on the user's mesh; the result and its report (fix: steps; wrap:
+// alpha, offset and the Hausdorff distances; both: n_vertices, n_faces).
+std::pair<mesh::RepairResult, nlohmann::json> run_repair_request(const mesh::SurfaceMesh& user, const RepairRequest& request,
+                                                                 std::size_t max_faces);
 
 // 128-bit FNV-1a of a mesh's vertices and faces (hex): equal for equal surfaces, so that a client
 // sees when two levels gave the same iso-surface.
@@ -144,7 +172,14 @@ inline std::string sigma_key(const KelvinObject& o, const nlohmann::json& sigma)
 // asset (1608 vertices at l_x 0.2, 11891 at 0.1); measured ratios are in the notes of issue 15.
 inline constexpr double kVertexEstimateConstant = 20.0;
 double estimate_vertices(const mesh::SurfaceMesh& surface, double lx, double far_radius = 1.0);
-// The smallest lx whose estimate_vertices is within budget (infinity when none is).
-double lx_within(const mesh::SurfaceMesh& surface, double budget, double far_radius = 1.0);
+// The smallest l_x whose estimate fits `budget` vertices (the estimate above solved for l_x);
+// +infinity when none does (the surface alone has budget vertices or more).
+double smallest_lx_within(const mesh::SurfaceMesh& surface, double budget, double far_radius = 1.0);
+
+// What a client needs to choose l_x for a surface: {"bounding_box": {"min", "max", "diagonal"},
+// "lx_range": {"min", "max"} or null when no l_x fits, "lx_fraction_range": the same over the
+// diagonal}. The range is [max(min_lx, smallest_lx_within), half the largest extent] at the
+// default far radius.
+nlohmann::json size_report(const mesh::SurfaceMesh& welded, const Limits& limits);
 
 }  // namespace distlab::server

@@ -1,0 +1,225 @@
+// Repair and wrapping of user meshes, and the nearest-face transfer rule (repair.hpp).
+#include "distlab/mesh/repair.hpp"
+
+#include <CGAL/AABB_traits.h>
+#include <CGAL/AABB_tree.h>
+#include <CGAL/AABB_triangle_primitive.h>
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Polygon_mesh_processing/border.h>
+#include <CGAL/Polygon_mesh_processing/distance.h>
+#include <CGAL/Polygon_mesh_processing/orient_polygon_soup.h>
+#include <CGAL/Polygon_mesh_processing/orientation.h>
+#include <CGAL/Polygon_mesh_processing/polygon_soup_to_polygon_mesh.h>
+#include <CGAL/Polygon_mesh_processing/repair_degeneracies.h>
+#include <CGAL/Polygon_mesh_processing/repair_polygon_soup.h>
+#include <CGAL/Polygon_mesh_processing/stitch_borders.h>
+#include <CGAL/Polygon_mesh_processing/triangulate_hole.h>
+#include <CGAL/Surface_mesh.h>
+#include <CGAL/alpha_wrap_3.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "distlab/geometry/error.hpp"
+#include "distlab/mesh/checks.hpp"
+
+namespace distlab::mesh {
+namespace {
+
+using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+using Point = K::Point_3;
+using Mesh = CGAL::Surface_mesh<Point>;
+namespace PMP = CGAL::Polygon_mesh_processing;
+
+std::vector<Point> points_of(const SurfaceMesh& m) {
+  std::vector<Point> out;
+  out.reserve(static_cast<std::size_t>(m.vertices.rows()));
+  for (Eigen::Index v = 0; v < m.vertices.rows(); ++v) out.emplace_back(m.vertices(v, 0), m.vertices(v, 1), m.vertices(v, 2));
+  return out;
+}
+
+std::vector<std::vector<std::size_t>> triangles_of(const SurfaceMesh& m) {
+  std::vector<std::vector<std::size_t>> out;
+  out.reserve(static_cast<std::size_t>(m.faces.rows()));
+  for (Eigen::Index f = 0; f < m.faces.rows(); ++f)
+    out.push_back({static_cast<std::size_t>(m.faces(f, 0)), static_cast<std::size_t>(m.faces(f, 1)), static_cast<std::size_t>(m.faces(f, 2))});
+  return out;
+}
+
+SurfaceMesh from_cgal(const Mesh& sm) {
+  SurfaceMesh out;
+  std::vector<int> index(sm.number_of_vertices() + sm.number_of_removed_vertices(), -1);
+  out.vertices.resize(static_cast<Eigen::Index>(sm.number_of_vertices()), 3);
+  int n = 0;
+  for (auto v : sm.vertices()) {
+    const Point& p = sm.point(v);
+    out.vertices.row(n) << p.x(), p.y(), p.z();
+    index[v.idx()] = n++;
+  }
+  out.faces.resize(static_cast<Eigen::Index>(sm.number_of_faces()), 3);
+  Eigen::Index f = 0;
+  for (auto face : sm.faces()) {
+    int k = 0;
+    for (auto v : CGAL::vertices_around_face(sm.halfedge(face), sm)) out.faces(f, std::min(k++, 2)) = index[v.idx()];
+    ++f;
+  }
+  return out;
+}
+
+double diagonal(const SurfaceMesh& m) { return (m.vertices.colwise().maxCoeff() - m.vertices.colwise().minCoeff()).norm(); }
+
+// The largest distance from a to the surface b, sampled on a by CGAL's sample_triangle_soup on a
+// grid (deterministic) of about 50 points per face, plus every face's corners.
+double one_sided_distance(const SurfaceMesh& a, const SurfaceMesh& b) {
+  double area = 0;
+  for (Eigen::Index f = 0; f < a.faces.rows(); ++f) {
+    const Vec3 p = a.vertices.row(a.faces(f, 0)), q = a.vertices.row(a.faces(f, 1)), r = a.vertices.row(a.faces(f, 2));
+    area += 0.5 * (q - p).cross(r - p).norm();
+  }
+  std::vector<Point> samples;
+  if (area > 0)
+    PMP::sample_triangle_soup(points_of(a), triangles_of(a), std::back_inserter(samples),
+                              PMP::parameters::use_grid_sampling(true).grid_spacing(std::sqrt(area / (50.0 * static_cast<double>(a.faces.rows())))));
+  MatX3 at(static_cast<Eigen::Index>(samples.size()), 3);
+  for (std::size_t i = 0; i < samples.size(); ++i) at.row(static_cast<Eigen::Index>(i)) << samples[i].x(), samples[i].y(), samples[i].z();
+  const Transfer t = nearest_face_transfer(b, at);
+  return t.distances.empty() ? 0.0 : *std::max_element(t.distances.begin(), t.distances.end());
+}
+
+}  // namespace
+
+RepairResult fix(const SurfaceMesh& user, const FixOptions& options, const std::string& field) {
+  RepairResult out;
+  std::vector<Point> points = points_of(user);
+  auto polygons = triangles_of(user);
+  const auto count = [&](const char* step, std::size_t n) { out.steps.emplace_back(step, static_cast<long long>(n)); };
+  count("merged_duplicate_vertices", PMP::merge_duplicate_points_in_polygon_soup(points, polygons));
+  std::size_t before = polygons.size();
+  PMP::internal::simplify_polygons_in_polygon_soup<K>(points, polygons);
+  PMP::internal::remove_invalid_polygons_in_polygon_soup(points, polygons);
+  count("removed_degenerate_faces", before - polygons.size());
+  count("removed_duplicate_faces", PMP::merge_duplicate_polygons_in_polygon_soup(points, polygons));
+  PMP::remove_isolated_points_in_polygon_soup(points, polygons);
+  const std::size_t points_before_orient = points.size();
+  if (polygons.empty()) throw InvalidInput(field, "repair left no faces: every face was degenerate");
+  PMP::orient_polygon_soup(points, polygons);
+  count("split_non_manifold_vertices", points.size() - points_before_orient);
+  Mesh sm;
+  PMP::polygon_soup_to_polygon_mesh(points, polygons, sm);
+  count("stitched_edges", PMP::stitch_borders(sm));
+  before = sm.number_of_faces();
+  PMP::remove_degenerate_faces(sm);
+  sm.collect_garbage();
+  count("removed_zero_area_faces", before - sm.number_of_faces());
+  std::size_t filled = 0;
+  if (options.max_hole_edges > 0) {
+    std::vector<Mesh::Halfedge_index> borders;
+    PMP::extract_boundary_cycles(sm, std::back_inserter(borders));
+    for (const auto h : borders) {
+      std::size_t edges = 0;
+      for ([[maybe_unused]] auto e : CGAL::halfedges_around_face(h, sm)) ++edges;
+      if (edges > static_cast<std::size_t>(options.max_hole_edges)) continue;
+      std::vector<Mesh::Face_index> patch;
+      PMP::triangulate_hole(sm, h, std::back_inserter(patch));
+      filled += !patch.empty();
+    }
+  }
+  count("filled_holes", filled);
+  if (CGAL::is_closed(sm) && !PMP::is_outward_oriented(sm)) {
+    PMP::reverse_face_orientations(sm);
+    count("reversed_orientation", 1);
+  } else {
+    count("reversed_orientation", 0);
+  }
+  out.surface = from_cgal(sm);
+  // The surface checks name what is left (boundary edges, non-manifold parts, self-intersections).
+  try {
+    require_closed_manifold(out.surface, field);
+  } catch (const InvalidInput& e) {
+    throw InvalidInput(field, std::string("repair is not enough (try \"wrap\"): after it, ") + e.what());
+  }
+  return out;
+}
+
+RepairResult wrap(const SurfaceMesh& user, const WrapOptions& options, std::size_t max_faces, const std::string& field) {
+  RepairResult out;
+  const double d = diagonal(user);
+  out.alpha = options.alpha > 0 ? options.alpha : d / 20;
+  out.offset = options.offset > 0 ? options.offset : out.alpha / 30;
+  if (!(out.alpha > 0) || !(out.offset > 0)) throw InvalidInput(field, "the mesh has no extent to wrap");
+  // The wrap has about area / α² faces (a few per α-sized patch): refuse before wrapping.
+  double area = 0;
+  for (Eigen::Index f = 0; f < user.faces.rows(); ++f) {
+    const Vec3 a = user.vertices.row(user.faces(f, 0)), b = user.vertices.row(user.faces(f, 1)), c = user.vertices.row(user.faces(f, 2));
+    area += 0.5 * (b - a).cross(c - a).norm();
+  }
+  const double expected = 4 * area / (out.alpha * out.alpha);
+  if (expected > static_cast<double>(max_faces))
+    throw InvalidInput(field + ".alpha", "α " + std::to_string(out.alpha) + " m would make about " + std::to_string(std::llround(expected)) +
+                                             " faces, over this server's " + std::to_string(max_faces) + "; use a larger α");
+  const std::vector<Point> points = points_of(user);
+  const auto triangles = triangles_of(user);
+  Mesh wrapped;
+  CGAL::alpha_wrap_3(points, triangles, out.alpha, out.offset, wrapped);
+  out.surface = from_cgal(wrapped);
+  if (static_cast<std::size_t>(out.surface.faces.rows()) > max_faces)
+    throw InvalidInput(field + ".alpha", "the wrap has " + std::to_string(out.surface.faces.rows()) + " faces, over this server's " +
+                                             std::to_string(max_faces) + "; use a larger α");
+  if (out.surface.faces.rows() == 0) throw InvalidInput(field, "wrapping produced no surface");
+  if (signed_volume(out.surface) < 0) out.surface.faces.col(1).swap(out.surface.faces.col(2));
+  out.input_to_result = one_sided_distance(user, out.surface);
+  out.result_to_input = one_sided_distance(out.surface, user);
+  return out;
+}
+
+std::vector<double> Transfer::apply(const std::vector<double>& values) const {
+  std::vector<double> out(vertices.size());
+  for (std::size_t i = 0; i < vertices.size(); ++i)
+    for (int k = 0; k < 3; ++k) out[i] += weights[i][k] * values[static_cast<std::size_t>(vertices[i][k])];
+  return out;
+}
+
+Transfer nearest_face_transfer(const SurfaceMesh& from, const MatX3& points) {
+  using Triangle = K::Triangle_3;
+  using Iterator = std::vector<Triangle>::const_iterator;
+  using Tree = CGAL::AABB_tree<CGAL::AABB_traits<K, CGAL::AABB_triangle_primitive<K, Iterator>>>;
+  std::vector<Triangle> triangles;
+  triangles.reserve(static_cast<std::size_t>(from.faces.rows()));
+  const auto corner = [&](Eigen::Index f, int k) {
+    return Point(from.vertices(from.faces(f, k), 0), from.vertices(from.faces(f, k), 1), from.vertices(from.faces(f, k), 2));
+  };
+  for (Eigen::Index f = 0; f < from.faces.rows(); ++f) triangles.emplace_back(corner(f, 0), corner(f, 1), corner(f, 2));
+  Tree tree(triangles.cbegin(), triangles.cend());
+  tree.accelerate_distance_queries();
+  Transfer t;
+  const auto n = static_cast<std::size_t>(points.rows());
+  t.vertices.resize(n);
+  t.weights.resize(n);
+  t.distances.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const Point q(points(static_cast<Eigen::Index>(i), 0), points(static_cast<Eigen::Index>(i), 1), points(static_cast<Eigen::Index>(i), 2));
+    const auto [p, primitive] = tree.closest_point_and_primitive(q);
+    const auto f = static_cast<Eigen::Index>(primitive - triangles.cbegin());
+    const Vec3 x(p.x(), p.y(), p.z());
+    const Vec3 a = from.vertices.row(from.faces(f, 0)), b = from.vertices.row(from.faces(f, 1)), c = from.vertices.row(from.faces(f, 2));
+    // Barycentric coordinates of x in (a, b, c) from the sub-triangle areas; a degenerate
+    // triangle gives its nearest corner the whole weight.
+    const Vec3 normal = (b - a).cross(c - a);
+    const double area2 = normal.squaredNorm();
+    std::array<double, 3> w{};
+    if (area2 > 0) {
+      w[0] = (c - b).cross(x - b).dot(normal) / area2;
+      w[1] = (a - c).cross(x - c).dot(normal) / area2;
+      w[2] = 1 - w[0] - w[1];
+    } else {
+      const double da = (x - a).norm(), db = (x - b).norm(), dc = (x - c).norm();
+      w[da <= db && da <= dc ? 0 : db <= dc ? 1 : 2] = 1;
+    }
+    t.vertices[i] = {from.faces(f, 0), from.faces(f, 1), from.faces(f, 2)};
+    t.weights[i] = w;
+    t.distances[i] = std::sqrt(CGAL::squared_distance(p, q));
+  }
+  return t;
+}
+
+}  // namespace distlab::mesh

@@ -1,0 +1,149 @@
+// Repair and wrapping of user meshes, and the nearest-face transfer rule (mesh/repair.hpp).
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Polygon_mesh_processing/distance.h>
+#include <CGAL/Surface_mesh.h>
+#include <gtest/gtest.h>
+
+#include <cstdio>
+
+#include <cmath>
+
+#include "distlab/geometry/error.hpp"
+#include "distlab/mesh/checks.hpp"
+#include "distlab/mesh/primitives.hpp"
+#include "distlab/mesh/repair.hpp"
+
+using namespace distlab;
+using namespace distlab::mesh;
+
+namespace {
+
+using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+using Mesh = CGAL::Surface_mesh<K::Point_3>;
+
+long long step(const RepairResult& r, const std::string& name) {
+  for (const auto& [n, c] : r.steps)
+    if (n == name) return c;
+  ADD_FAILURE() << "no step " << name;
+  return -1;
+}
+
+// The unit sphere (icosphere level 3) without the faces whose centroid has z > 0.8: one hole.
+SurfaceMesh sphere_with_hole() {
+  const SurfaceMesh s = icosphere(1.0, 3);
+  std::vector<Eigen::Index> keep;
+  for (Eigen::Index f = 0; f < s.faces.rows(); ++f)
+    if ((s.vertices(s.faces(f, 0), 2) + s.vertices(s.faces(f, 1), 2) + s.vertices(s.faces(f, 2), 2)) / 3 <= 0.8) keep.push_back(f);
+  SurfaceMesh out{s.vertices, FacesX3(static_cast<Eigen::Index>(keep.size()), 3)};
+  for (std::size_t i = 0; i < keep.size(); ++i) out.faces.row(static_cast<Eigen::Index>(i)) = s.faces.row(keep[i]);
+  return out;
+}
+
+}  // namespace
+
+// A unit box as an STL gives it (three vertices per face), one face listed twice, one face with
+// a repeated vertex, one face missing (a 3-edge hole): each step counts what it changed, and the
+// result is the closed box of volume 1 again.
+TEST(Fix, EachStepCountsAndTheBoxIsClosedAgain) {
+  const SurfaceMesh b = box(Vec3(1, 1, 1));
+  SurfaceMesh soup;
+  const Eigen::Index n = b.faces.rows() - 1;  // face 11 left out
+  soup.vertices.resize(3 * n, 3);
+  soup.faces.resize(n + 2, 3);
+  for (Eigen::Index f = 0; f < n; ++f)
+    for (int k = 0; k < 3; ++k) {
+      soup.vertices.row(3 * f + k) = b.vertices.row(b.faces(f, k));
+      soup.faces(f, k) = static_cast<int>(3 * f + k);
+    }
+  soup.faces.row(n) = soup.faces.row(0);           // duplicate of face 0
+  soup.faces.row(n + 1) << 0, 0, 1;                // repeated vertex
+  FixOptions options;
+  options.max_hole_edges = 3;
+  const RepairResult r = fix(soup, options);
+  EXPECT_EQ(step(r, "merged_duplicate_vertices"), 3 * n - 8);  // the 8 corners remain
+  EXPECT_EQ(step(r, "removed_duplicate_faces"), 1);
+  EXPECT_EQ(step(r, "removed_degenerate_faces"), 1);
+  EXPECT_EQ(step(r, "filled_holes"), 1);
+  EXPECT_EQ(r.surface.faces.rows(), 12);
+  EXPECT_EQ(topology_defect(r.surface), "");
+  EXPECT_NEAR(signed_volume(r.surface), 1.0, 1e-12);
+}
+
+TEST(Fix, ALargeHoleIsRefusedWithTheRemainingDefect) {
+  try {
+    fix(sphere_with_hole(), FixOptions{4}, "repair");
+    FAIL() << "a sphere with a large hole was accepted";
+  } catch (const InvalidInput& e) {
+    EXPECT_EQ(e.field(), "repair");
+    EXPECT_NE(std::string(e.what()).find("boundary edge"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Fix, FillingTheHoleClosesTheSphere) {
+  const RepairResult r = fix(sphere_with_hole(), FixOptions{1000});
+  EXPECT_EQ(step(r, "filled_holes"), 1);
+  EXPECT_EQ(topology_defect(r.surface), "");
+  EXPECT_GT(signed_volume(r.surface), 0);
+}
+
+Mesh to_cgal(const SurfaceMesh& m) {
+  Mesh sm;
+  std::vector<Mesh::Vertex_index> v;
+  for (Eigen::Index i = 0; i < m.vertices.rows(); ++i) v.push_back(sm.add_vertex(K::Point_3(m.vertices(i, 0), m.vertices(i, 1), m.vertices(i, 2))));
+  for (Eigen::Index f = 0; f < m.faces.rows(); ++f) sm.add_face(v[m.faces(f, 0)], v[m.faces(f, 1)], v[m.faces(f, 2)]);
+  return sm;
+}
+
+// The wrap of the open sphere is closed and manifold; its one-sided distances (grid samples)
+// agree with CGAL's approximate_Hausdorff_distance (random samples, 4000 per m²) within 10 %,
+// and wrap → input is at least the offset (the wrap's vertices lie on the offset surface).
+TEST(Wrap, AnOpenSphereIsWrappedAndItsDistancesAgreeWithCgal) {
+  const SurfaceMesh open = sphere_with_hole();
+  const RepairResult r = wrap(open, {0.2, 0.01}, 200000);
+  EXPECT_EQ(topology_defect(r.surface), "");
+  EXPECT_GT(signed_volume(r.surface), 0);
+  const Mesh a = to_cgal(open), b = to_cgal(r.surface);
+  namespace PMP = CGAL::Polygon_mesh_processing;
+  const double in_to_wrap = PMP::approximate_Hausdorff_distance<CGAL::Sequential_tag>(a, b, PMP::parameters::number_of_points_per_area_unit(4000));
+  const double wrap_to_in = PMP::approximate_Hausdorff_distance<CGAL::Sequential_tag>(b, a, PMP::parameters::number_of_points_per_area_unit(4000));
+  std::printf("input→wrap %.4f (CGAL %.4f), wrap→input %.4f (CGAL %.4f)\n", r.input_to_result, in_to_wrap, r.result_to_input, wrap_to_in);
+  EXPECT_NEAR(r.input_to_result, in_to_wrap, 0.1 * in_to_wrap);
+  EXPECT_NEAR(r.result_to_input, wrap_to_in, 0.1 * wrap_to_in);
+  EXPECT_GE(r.result_to_input, 0.009);
+  EXPECT_THROW(wrap(open, {0.001, 0.0001}, 10000), InvalidInput);  // too many faces for the limit
+}
+
+// The transfer of a mesh onto its own vertices is the identity.
+TEST(Transfer, OntoItsOwnVerticesIsTheIdentity) {
+  const SurfaceMesh s = icosphere(0.5, 2);
+  const Transfer t = nearest_face_transfer(s, s.vertices);
+  std::vector<double> values;
+  for (Eigen::Index v = 0; v < s.vertices.rows(); ++v) values.push_back(std::sin(3 * v));
+  const std::vector<double> back = t.apply(values);
+  for (std::size_t v = 0; v < values.size(); ++v) EXPECT_NEAR(back[v], values[v], 1e-9);
+}
+
+// σ = z on the sphere with a hole, carried to its wrap and back: barycentric interpolation is
+// exact for a linear function, so each carried value is z at the closest point, and differs from
+// z at the point itself by at most the distance to that closest point. Both directions reproduce
+// the closed form within the measured distances (and within the offset plus the chord error).
+TEST(Transfer, SigmaLinearInZRoundTripsThroughTheWrap) {
+  const SurfaceMesh open = sphere_with_hole();
+  const RepairResult r = wrap(open, {0.2, 0.01}, 200000);
+  std::vector<double> z_user(static_cast<std::size_t>(open.vertices.rows()));
+  for (std::size_t v = 0; v < z_user.size(); ++v) z_user[v] = open.vertices(static_cast<Eigen::Index>(v), 2);
+  const Transfer forward = nearest_face_transfer(open, r.surface.vertices);
+  const std::vector<double> on_wrap = forward.apply(z_user);
+  for (std::size_t j = 0; j < on_wrap.size(); ++j)
+    EXPECT_LE(std::abs(on_wrap[j] - r.surface.vertices(static_cast<Eigen::Index>(j), 2)), forward.distances[j] + 1e-12) << j;
+  const Transfer back = nearest_face_transfer(r.surface, open.vertices);
+  const std::vector<double> on_user = back.apply(on_wrap);
+  std::vector<bool> used(on_user.size(), false);  // the cap's vertices are in no face
+  for (Eigen::Index f = 0; f < open.faces.rows(); ++f)
+    for (int k = 0; k < 3; ++k) used[static_cast<std::size_t>(open.faces(f, k))] = true;
+  double worst = 0;
+  for (std::size_t i = 0; i < on_user.size(); ++i)
+    if (used[i]) worst = std::max(worst, std::abs(on_user[i] - z_user[i]));
+  EXPECT_LE(worst, r.input_to_result + r.result_to_input);
+  EXPECT_LT(worst, 0.1);
+}
