@@ -1,5 +1,4 @@
 #include "distlab/gap/distance.hpp"
-#include "distlab/gap/warm_disjoint.hpp"
 
 #include <algorithm>
 #include <atomic>
@@ -137,14 +136,6 @@ GapResult gap_distance_warm(const GapBody& a, const GapBody& b, const GapParams&
     r.witness_a = r.witness_b = *common;
     return r;
   }
-  solve_into(r, a, b, params, start_a, &start_b, start_a);
-  return r;
-}
-
-GapResult gap_distance_warm_disjoint(const GapBody& a, const GapBody& b, const GapParams& params,
-                                     const Vec3& start_a, const Vec3& start_b) {
-  GapResult r;
-  r.euclidean_computed = false;
   solve_into(r, a, b, params, start_a, &start_b, start_a);
   return r;
 }
