@@ -62,11 +62,15 @@ Vec3 support(const Shape& s, const Vec3& d) {
                    if (p.vertices.empty()) return Vec3(Vec3::Zero());
                    // One dot product per vertex (GJK calls this in its inner loop); the first
                    // maximiser wins, as with std::max_element.
+                   // Selects without a branch: the running maximum changes at random
+                   // vertices, and each change was a mispredicted jump.
                    size_t best = 0;
                    double best_dot = d.dot(p.vertices[0]);
                    for (size_t i = 1; i < p.vertices.size(); ++i) {
                      const double v = d.dot(p.vertices[i]);
-                     if (v > best_dot) best_dot = v, best = i;
+                     const bool more = v > best_dot;
+                     best = more ? i : best;
+                     best_dot = more ? v : best_dot;
                    }
                    return p.vertices[best];
                  },
