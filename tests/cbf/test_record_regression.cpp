@@ -4,6 +4,8 @@
 // round-trip, so equal text means equal doubles), the run-dependent "timing" left out, and its
 // SHA-256 compared with tests/cbf/data/records.sha256, written by the code before the change
 // (the Panda as C++ constants). Set DISTLAB_PRINT_RECORD_DIGESTS=1 to print the digests.
+// The gap and published digests were retaken with Estrin's evaluation of Φ (more accurate Φ
+// and Φ': tests/gap/test_base_function.cpp); the Euclidean ones are those of the Panda change.
 #include <cstdlib>
 #include <fstream>
 #include <map>

@@ -1,6 +1,7 @@
 // Φ (eq. 4) against long-double quadrature of Φ'' and against the Definition 4 properties.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "distlab/gap/base_function.hpp"
@@ -106,6 +107,32 @@ TEST(BaseFunction, RationalFormAgreesWithTheGeneralPath) {
         EXPECT_NEAR(a.d2, b.d2, rel * b.d2) << "h=" << h << " k=" << k << " s=" << s;
       }
     }
+}
+
+// The paper's parameters (k = 2, h = 0.1) have a closed form in elementary functions:
+// Φ'' = 1 − (1+s)^−10, Φ' = s − (1 − (1+s)^−9)/9, Φ = s²/2 − s/9 + (1 − (1+s)^−8)/72. In long
+// double (expm1 of a log1p) it loses at most ~30× long double's epsilon to cancellation for
+// s >= 0.01, a few hundredths of a double ulp: an exact reference for the rational form's
+// rounding. Estrin's evaluation keeps Φ and Φ' within 7 ulp (5.2 here; Horner's chain: 9.1) and
+// Φ'' within 6 (5.6; Horner: 3.2, but Φ'' only shapes Newton's steps, not where they stop).
+TEST(BaseFunction, RationalFormIsWithinAFewUlpOfTheClosedForm) {
+  const BaseFunction phi(0.1, 2);
+  double worst[3] = {0, 0, 0};
+  for (double s = 0.01; s < 1e3; s *= 1.0001) {
+    const long double sl = s, L = std::log1p(sl);
+    const long double want[3] = {sl * sl / 2 - sl / 9 - std::expm1(-8 * L) / 72,
+                                 sl + std::expm1(-9 * L) / 9, -std::expm1(-10 * L)};
+    const auto j = phi.jet(s);
+    const double got[3] = {j.value, j.d1, j.d2};
+    for (int d = 0; d < 3; ++d) {
+      const double r = static_cast<double>(want[d]);
+      const double ulp = std::nextafter(std::abs(r), INFINITY) - std::abs(r);
+      worst[d] = std::max(worst[d], static_cast<double>(std::abs(got[d] - want[d])) / ulp);
+    }
+  }
+  EXPECT_LE(worst[0], 7.0) << "Φ";
+  EXPECT_LE(worst[1], 7.0) << "Φ'";
+  EXPECT_LE(worst[2], 6.0) << "Φ''";
 }
 
 TEST(BaseFunction, Definition4Properties) {

@@ -68,25 +68,37 @@ class BaseFunction {
 };
 
 // Φ, Φ', Φ'' from the rational form, with L coefficients per polynomial (known at compile
-// time, so the four interleaved Horner chains are unrolled; they pair into SIMD lanes).
+// time, so the evaluation is unrolled; the four polynomials pair into SIMD lanes).
 template <int L>
 inline BaseFunction::Jet BaseFunction::rational_form(double s) const {
-  // Horner on positive terms at s > 0 loses about an ulp; so does the one division.
+  // Estrin's scheme: x_{2i} + x_{2i+1} t pairwise, t squared each level, so the dependency
+  // chain is log2(L) multiply-adds long instead of Horner's L − 1 (the solver's P2S evaluations
+  // wait on it). All terms are positive at s > 0: a few ulp, as Horner; so does the one division.
   // Lanes (P_0, P_1) and (P_2, (1+s)^N) as two-double vectors (GCC vector extension: SSE2
   // on x86-64, plain code elsewhere).
   typedef double V2 __attribute__((vector_size(16)));
-  const V2* c = reinterpret_cast<const V2*>(r_);
-  const V2 t = {s, s};
-  V2 a = c[2 * (L - 1)], b = c[2 * (L - 1) + 1];
+  if constexpr (L < 1) return {};  // not a polynomial (table slot never selected)
+  else {
+    const V2* c = reinterpret_cast<const V2*>(r_);
+    V2 t = {s, s};
+    V2 a[L], b[L];
 #pragma GCC unroll 32
-  for (int i = L - 2; i >= 0; --i) {
-    a = a * t + c[2 * i];
-    b = b * t + c[2 * i + 1];
+    for (int i = 0; i < L; ++i) a[i] = c[2 * i], b[i] = c[2 * i + 1];
+#pragma GCC unroll 8
+    for (int n = L; n > 1; n = (n + 1) / 2) {
+#pragma GCC unroll 16
+      for (int i = 0; i < n / 2; ++i) {
+        a[i] = a[2 * i] + a[2 * i + 1] * t;
+        b[i] = b[2 * i] + b[2 * i + 1] * t;
+      }
+      if (n % 2) a[n / 2] = a[n - 1], b[n / 2] = b[n - 1];
+      t = t * t;
+    }
+    const double v0 = a[0][0], v1 = a[0][1], v2 = b[0][0], x = b[0][1];
+    double q = 1.0 / x;  // (1+s)^−N
+    for (int j = 1; j < k_; ++j) q *= s;  // s^(k−1) (1+s)^−N
+    return Jet{q * (s * s * v0), q * (s * v1), q * v2};
   }
-  const double v0 = a[0], v1 = a[1], v2 = b[0], x = b[1];
-  double q = 1.0 / x;  // (1+s)^−N
-  for (int j = 1; j < k_; ++j) q *= s;  // s^(k−1) (1+s)^−N
-  return {q * (s * s * v0), q * (s * v1), q * v2};
 }
 
 }  // namespace distlab
