@@ -11,11 +11,11 @@
 // exponents 1 and 2 need n <= 2) that vanishes to order k+1−d at s = 0, so
 //   Φ^(d)(s) = s^(k+1−d) P_d(s) / (1+s)^N,
 // and P_d, built once in exact integer arithmetic, turns out to have positive coefficients
-// (checked when built; otherwise this form is not used). Horner on positive terms and one
+// (checked when built; otherwise this form is not used). Sums of positive terms and one
 // division have no cancellation anywhere, so this replaces both the series and the closed form
-// (log1p, exp, expm1) with four short Horner chains. k = 2, n = 10: Φ'' = s Σ_{j<10} C(10, j+1)
-// s^j / (1+s)^10. Against 50-digit references the error is at most a few ulp (the closed form
-// lost up to ~500 ulp in Φ near the series limit).
+// (log1p, exp, expm1) with four short polynomials (Estrin's scheme, base_function.hpp).
+// k = 2, n = 10: Φ'' = s Σ_{j<10} C(10, j+1) s^j / (1+s)^10. Against 50-digit references the
+// error is at most a few ulp (the closed form lost up to ~500 ulp in Φ near the series limit).
 #include "distlab/gap/base_function.hpp"
 
 #include <cmath>
