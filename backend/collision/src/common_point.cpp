@@ -173,8 +173,9 @@ std::optional<Penetration> penetration(const Placed& a, const Placed& b, double 
   Placed moved = b;
   moved.t += (p.depth - 0.5 * kTouch) * n;
   if (const auto w = common_point(a, moved)) {
-    p.witness_a = *w;
-    p.witness_b = *w - p.depth * n;
+    // Within kInside of both: onto A's supporting plane exactly (B's then follows).
+    p.witness_a = *w + n.dot(a.support(n) - *w) * n;
+    p.witness_b = p.witness_a - p.depth * n;
   } else {
     p.witness_a = a.support(n);
     p.witness_b = b.support(-n);
