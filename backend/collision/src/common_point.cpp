@@ -93,7 +93,7 @@ Vec3 refine_direction(const Placed& a, const Placed& b, Vec3 n, double scale) {
   for (int it = 0; it < 300; ++it) {
     Placed moved = b;
     moved.t += (overlap_along(a, b, m) + 1e-3 * scale) * m;
-    const GjkResult g = gjk_closest(a, moved, m, 1e-14 * scale, 1e-12 * scale, 128);
+    const GjkResult g = gjk_closest_double(a, moved, m, 1e-13 * scale, 1e-12 * scale, 128);
     Vec3 next = (g.pb - g.pa).normalized();
     if (g.overlap || !next.allFinite()) break;
     const double change = (next - m).norm();
