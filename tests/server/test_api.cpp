@@ -138,6 +138,55 @@ TEST_F(Api, GapDistanceOnePairAndBatch) {
   EXPECT_DOUBLE_EQ(j["results"][0]["distance"].get<double>(), j["results"][2]["distance"].get<double>());
 }
 
+// The Euclidean signed distance beside Λ, against closed forms: overlapping spheres (depth
+// r1 + r2 - |c1 - c2| along the centre line), axis-aligned boxes (depth the smallest overlap of
+// the extents, along that axis), and apart shapes (signed distance = distance, no penetration).
+TEST_F(Api, GapDistancePenetrationClosedForms) {
+  const auto vec = [](const json& v) { return Vec3(v[0].get<double>(), v[1].get<double>(), v[2].get<double>()); };
+  const Vec3 c1(0.1, -0.2, 0.3), e = Vec3(1, 2, -2) / 3.0;
+  const double r1 = 0.5, r2 = 0.45, L = 0.6;  // (a sphere of radius 0.7 fails Property 2 at the default ε)
+  const Vec3 c2 = c1 + L * e;
+  const json spheres = {{"a", {{"type", "sphere"}, {"radius", r1}, {"pose", {{"position", {c1.x(), c1.y(), c1.z()}}}}}},
+                        {"b", {{"type", "sphere"}, {"radius", r2}, {"pose", {{"position", {c2.x(), c2.y(), c2.z()}}}}}}};
+  // Boxes 1 x 0.8 x 0.6 and 0.6 x 0.6 x 0.6 with centres (0.7, -0.1, 0.05) apart: overlaps of the
+  // extents 0.8 - 0.7 = 0.1 (x), 0.7 - 0.1 = 0.6 (y), 0.6 - 0.05 = 0.55 (z); depth 0.1 along +x.
+  const json boxes = {{"a", {{"type", "box"}, {"size", {1.0, 0.8, 0.6}}}},
+                      {"b", {{"type", "box"}, {"size", {0.6, 0.6, 0.6}}, {"pose", {{"position", {0.7, -0.1, 0.05}}}}}}};
+  const json apart = json::parse(kPair);
+  const json batch = {{"pairs", json::array({spheres, boxes, apart})}};
+  auto r = c.Post("/api/gap/distance", batch.dump(), "application/json");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200) << r->body;
+  const json res = body_json(r)["results"];
+  ASSERT_EQ(res.size(), 3u);
+
+  const json& s = res[0];
+  EXPECT_TRUE(s["overlap"].get<bool>());
+  EXPECT_EQ(s["euclidean"]["distance"].get<double>(), 0.0);
+  const json& sp = s["euclidean"]["penetration"];
+  EXPECT_NEAR(sp["depth"].get<double>(), r1 + r2 - L, 1e-9);
+  EXPECT_DOUBLE_EQ(s["euclidean"]["signed_distance"].get<double>(), -sp["depth"].get<double>());
+  EXPECT_LT((vec(sp["direction"]) - e).norm(), 1e-6);
+  EXPECT_LT((vec(sp["witness_a"]) - (c1 + r1 * e)).norm(), 1e-6);
+  EXPECT_LT((vec(sp["witness_b"]) - (c2 - r2 * e)).norm(), 1e-6);
+
+  const json& b = res[1];
+  EXPECT_TRUE(b["overlap"].get<bool>());
+  const json& bp = b["euclidean"]["penetration"];
+  EXPECT_NEAR(bp["depth"].get<double>(), 0.1, 1e-12);
+  EXPECT_NEAR(b["euclidean"]["signed_distance"].get<double>(), -0.1, 1e-12);
+  EXPECT_LT((vec(bp["direction"]) - Vec3::UnitX()).norm(), 1e-12);
+  EXPECT_NEAR(vec(bp["witness_a"]).x(), 0.5, 1e-12);   // A's +x face
+  EXPECT_NEAR(vec(bp["witness_b"]).x(), 0.4, 1e-12);   // B's -x face
+  EXPECT_LT((vec(bp["witness_a"]) - vec(bp["witness_b"]) - 0.1 * Vec3::UnitX()).norm(), 1e-12);
+
+  const json& a = res[2];
+  EXPECT_FALSE(a["overlap"].get<bool>());
+  EXPECT_FALSE(a["euclidean"].contains("penetration"));
+  EXPECT_DOUBLE_EQ(a["euclidean"]["signed_distance"].get<double>(), a["euclidean"]["distance"].get<double>());
+  EXPECT_NEAR(a["euclidean"]["signed_distance"].get<double>(), 1.0, 1e-9);
+}
+
 TEST_F(Api, GapBadInputs) {
   expect_error(c.Post("/api/gap/distance", "{\"a\": ", "application/json"), 400, "malformed_json");
   expect_error(c.Post("/api/gap/distance", "", "application/json"), 400, "empty_body");

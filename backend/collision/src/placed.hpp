@@ -2,6 +2,7 @@
 // Internal: a shape at a pose, with world-frame support points and an inside test.
 #include <optional>
 
+#include "distlab/collision/euclidean.hpp"
 #include "distlab/geometry/shape.hpp"
 
 namespace distlab::detail {
@@ -35,5 +36,8 @@ inline double inside_violation(const Placed& a, const Vec3& x) {
 
 // A point within kInside of both shapes if libccd finds them intersecting (common_point.cpp).
 std::optional<Vec3> common_point(const Placed& a, const Placed& b);
+
+// Penetration of overlapping shapes (common_point.cpp); `scale` a length of the pair's size.
+std::optional<Penetration> penetration(const Placed& a, const Placed& b, double scale);
 
 }  // namespace distlab::detail

@@ -340,10 +340,16 @@ GapRequestParams parse_params(const json& j, const std::string& field) {
   return out;
 }
 
-json encode_result(const GapResult& r, bool gradient) {
+json encode_result(const GapResult& r, bool gradient, const std::optional<Penetration>& pen) {
   json euclid = {{"distance", r.euclidean.distance},
+                 {"signed_distance", pen ? -pen->depth : r.euclidean.distance},
                  {"witness_a", vec_json(r.euclidean.witness_a)},
                  {"witness_b", vec_json(r.euclidean.witness_b)}};
+  if (pen)
+    euclid["penetration"] = {{"depth", pen->depth},
+                             {"direction", vec_json(pen->direction)},
+                             {"witness_a", vec_json(pen->witness_a)},
+                             {"witness_b", vec_json(pen->witness_b)}};
   json out = {{"lambda", r.lambda},
               {"distance", r.distance},
               {"witness_a", vec_json(r.witness_a)},
@@ -457,14 +463,23 @@ json run_gap_request(const json& request, const std::function<void()>& checkpoin
     }
   }
 
+  // Overlapping pairs: the Euclidean penetration (depth, direction, witness points) beside Λ = 0.
+  std::vector<std::optional<Penetration>> pens(results.size());
+  parallel_for(results.size(), [&](std::size_t i) {
+    if (results[i].euclidean_computed && results[i].euclidean.distance == 0)
+      pens[i] = penetration(pairs[i].first->euclidean(), pairs[i].first->pose(),
+                            pairs[i].second->euclidean(), pairs[i].second->pose());
+  });
   json out = json::array();
   for (std::size_t i = 0; i < results.size(); ++i) {
-    if (!finite(results[i]))
+    if (!finite(results[i]) || (pens[i] && !(std::isfinite(pens[i]->depth) &&
+                                             pens[i]->witness_a.allFinite() &&
+                                             pens[i]->witness_b.allFinite())))
       throw std::runtime_error(
           "non-finite result for " + (batch ? json_index_path("pairs", i) : std::string("the pair")) +
           "; refusing to report it" +
           (rp.validate ? "" : " (validate is off: parameters that break Property 2 can do this)"));
-    json r = encode_result(results[i], params.gradient);
+    json r = encode_result(results[i], params.gradient, pens[i]);
     if (rp.validate) {
       auto summary = [](const ValidationReport& rep) {
         return json{

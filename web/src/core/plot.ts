@@ -17,6 +17,9 @@ export interface PlotSeries {
 
 export interface PlotOptions {
   title?: string;
+  /** One sentence under the plot saying what each curve is. */
+  caption: string;
+  /** Axis labels carry their unit, e.g. "t (s)". */
   xLabel: string;
   yLabel?: string;
   /** Label of the right axis; only drawn when a series uses scale "y2". */
@@ -35,6 +38,23 @@ const logRange: uPlot.Range.Function = (_u, min, max) =>
   min !== null && max !== null && min > 0 && max > 0 ? uPlot.rangeLog(min, max, 10, true) : [0.01, 1];
 
 const AXIS = { stroke: "#8b949e", grid: { stroke: "#2c323a", width: 1 }, ticks: { stroke: "#2c323a", width: 1 } };
+/** The strip's plots are short: tick labels every 18 px (uPlot's 30 leaves one label, no scale). */
+const Y_TICKS = { space: 18, font: "10px system-ui, sans-serif" };
+
+/** Every plot on the page, for the test hook window.distlab.plots(). */
+const live = new Set<Plot>();
+
+/** What a reader sees of each plot on the page: title, axes (label, tick labels), legend, caption. */
+function describePlots() {
+  return [...live]
+    .filter((p) => p.root.isConnected)
+    .map((p) => ({
+      title: p.root.querySelector(".u-title")?.textContent ?? "",
+      axes: p.axes(),
+      legend: [...p.root.querySelectorAll(".u-legend .u-series th")].map((e) => e.textContent ?? "").filter((t) => t),
+      caption: p.root.querySelector(".plot-caption")?.textContent ?? "",
+    }));
+}
 
 export class Plot {
   readonly root: HTMLDivElement;
@@ -49,14 +69,15 @@ export class Plot {
     this.root.className = "plot";
     this.root.style.cssText = "flex: 1; min-width: 0; min-height: 0; position: relative;";
     container.appendChild(this.root);
+    this.root.setAttribute("role", "figure");
     const digits = options.digits ?? 4;
     const fmt = (_u: uPlot, v: number | null) => (v === null || v === undefined ? "—" : v.toFixed(digits));
     const usesY2 = options.series.some((s) => s.scale === "y2");
     const axes: uPlot.Axis[] = [
       { ...AXIS, label: options.xLabel },
-      { ...AXIS, label: options.yLabel ?? "", scale: "y" },
+      { ...AXIS, ...Y_TICKS, label: options.yLabel ?? "", scale: "y" },
     ];
-    if (usesY2) axes.push({ ...AXIS, label: options.y2Label ?? "", scale: "y2", side: 1, grid: { show: false } });
+    if (usesY2) axes.push({ ...AXIS, ...Y_TICKS, label: options.y2Label ?? "", scale: "y2", side: 1, grid: { show: false } });
     const opts: uPlot.Options = {
       title: options.title,
       width: 400,
@@ -81,6 +102,15 @@ export class Plot {
       hooks: { draw: [(u) => this.drawMarker(u)] },
     };
     this.u = new uPlot(opts, [[], ...options.series.map(() => [])], this.root);
+    const caption = document.createElement("p");
+    caption.className = "plot-caption";
+    caption.style.cssText = "margin: 0 4px 2px; font-size: 10px; line-height: 1.25; color: var(--muted);";
+    caption.textContent = options.caption;
+    this.root.appendChild(caption);
+    this.describe();
+    live.add(this);
+    const w = window as unknown as { distlab?: Record<string, unknown> };
+    w.distlab = Object.assign(w.distlab ?? {}, { plots: describePlots });
     this.observer = new ResizeObserver(() => this.resize());
     this.observer.observe(this.root);
   }
@@ -121,11 +151,35 @@ export class Plot {
   setTitle(text: string): void {
     const t = this.root.querySelector<HTMLElement>(".u-title");
     if (t) t.textContent = text;
+    this.describe();
+  }
+
+  /** Relabels an axis (0: x, 1: left y, 2: right y), e.g. when the x unit changes. */
+  setAxisLabel(axis: number, label: string): void {
+    const a = this.u.axes[axis];
+    if (!a || a.label === label) return;
+    a.label = label;
+    this.describe();
+    if (this.xs.length > 0) this.u.redraw(false, true);
+  }
+
+  /** The axes as drawn: label and tick labels of each shown axis (for tests). */
+  axes(): Array<{ label: string; ticks: string[] }> {
+    type Drawn = uPlot.Axis & { _values?: Array<string | number | null> | null };
+    return (this.u.axes as Drawn[])
+      .filter((a) => a.show !== false)
+      .map((a) => ({ label: String(a.label ?? ""), ticks: (a._values ?? []).filter((v) => v !== null && v !== "").map(String) }));
   }
 
   /** What is plotted (for tests and exports). */
   data(): { labels: string[]; x: number[]; y: Array<Array<number | null>> } {
     return { labels: this.options.series.map((s) => s.label), x: [...this.xs], y: this.ys.map((a) => [...a]) };
+  }
+
+  /** The figure's accessible name: title, axis labels and the caption. */
+  private describe(): void {
+    const labels = this.u.axes.map((a) => a.label).filter((l) => l);
+    this.root.setAttribute("aria-label", [this.u.root.querySelector(".u-title")?.textContent ?? "", `axes: ${labels.join("; ")}`, this.options.caption].filter((t) => t).join(". "));
   }
 
   private drawMarker(u: uPlot): void {
@@ -146,12 +200,14 @@ export class Plot {
   private resize(): void {
     const legend = this.root.querySelector<HTMLElement>(".u-legend")?.offsetHeight ?? 0;
     const title = this.root.querySelector<HTMLElement>(".u-title")?.offsetHeight ?? 0;
+    const caption = this.root.querySelector<HTMLElement>(".plot-caption")?.offsetHeight ?? 0;
     const w = Math.max(120, this.root.clientWidth);
-    const h = Math.max(80, this.root.clientHeight - legend - title);
+    const h = Math.max(80, this.root.clientHeight - legend - title - caption);
     if (w !== this.u.width || h !== this.u.height) this.u.setSize({ width: w, height: h });
   }
 
   dispose(): void {
+    live.delete(this);
     this.observer.disconnect();
     this.u.destroy();
     this.root.remove();

@@ -36,18 +36,19 @@ export class RolloutPlots {
     for (let j = 0; j < 7; j++)
       for (const m of metrics)
         vSeries.push({ label: `u${j + 1} ${SHORT[m]}`, color: JOINT_COLORS[j], dash: dash(m), width: m === "gap" ? 1.6 : 1.2, show: joint === 0 || joint === j + 1 });
-    this.velocity = new Plot(container, { title: metrics.length === 2 ? "joint velocities u (rad/s) — GAP solid, Euclidean dashed" : `joint velocities u (rad/s) — ${metrics[0] === "gap" ? "GAP" : "Euclidean"}`, xLabel: "t (s)", yLabel: "u", series: vSeries, digits: 4, legendValues: false });
+    this.velocity = new Plot(container, { title: metrics.length === 2 ? "joint velocities u (rad/s) — GAP solid, Euclidean dashed" : `joint velocities u (rad/s) — ${metrics[0] === "gap" ? "GAP" : "Euclidean"}`, caption: "Each joint's velocity command u_j from the controller's QP, one colour per joint.", xLabel: "t (s)", yLabel: "u (rad/s)", series: vSeries, digits: 4, legendValues: false });
     this.velocity.root.style.flex = "2.2";
     const dSeries: PlotSeries[] = [];
     for (const m of metrics) {
       dSeries.push({ label: `clearance ${SHORT[m]}`, color: METRIC_COLOR[m], width: 2 });
       dSeries.push({ label: `min D ${SHORT[m]}`, color: METRIC_COLOR[m], dash: [2, 3], width: 1.2 });
     }
-    this.distance = new Plot(container, { title: "distance (m)", xLabel: "t (s)", yLabel: "m", series: dSeries, digits: 5, legendValues: false });
+    this.distance = new Plot(container, { title: "distance (m)", caption: "clearance (solid): the true Euclidean distance between robot and obstacles; min D (dotted): the smallest distance over the controller's pairs (GAP D or Euclidean d), on one axis.", xLabel: "t (s)", yLabel: "distance (m)", series: dSeries, digits: 5, legendValues: false });
     this.error = new Plot(container, {
       title: "task error ‖r‖",
       xLabel: "t (s)",
-      yLabel: "‖r‖",
+      caption: "The norm of the task error r (end-effector position in m, orientation as 1 − cos), log scale.",
+      yLabel: "‖r‖ (m, 1 − cos)",
       yLog: true,
       series: metrics.map((m) => ({ label: `‖r‖ ${SHORT[m]}`, color: METRIC_COLOR[m], dash: dash(m), width: 1.6 })),
       digits: 5,

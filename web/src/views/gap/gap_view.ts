@@ -165,6 +165,7 @@ export class GapView implements View {
       this.validatedKey = ""; // the next request checks Property 2 again (and re-colours the verdict)
       this.scene.gap.set(null, null);
       this.scene.euclid.set(null, null);
+      this.scene.pen.set(null, null);
       const text = this.reportError(r.error, "distance");
       this.readout.error(text);
       this.host.status(`refused or failed — see the readout (${r.error instanceof ApiError && r.error.field ? r.error.field : "error"})`);
@@ -177,6 +178,8 @@ export class GapView implements View {
     this.host.status(statusLine(res, r.input.params.solver));
     this.scene.gap.set(res.witness_a, res.witness_b);
     this.scene.euclid.set(res.euclidean.witness_a, res.euclidean.witness_b);
+    const pen = res.euclidean.penetration;
+    this.scene.pen.set(pen?.witness_a ?? null, pen?.witness_b ?? null);
     const va = res.validation?.a, vb = res.validation?.b;
     if (va && vb)
       this.panel.setVerdict(
@@ -302,6 +305,8 @@ export class GapView implements View {
       D: () => this.result?.distance ?? null,
       lambda: () => this.result?.lambda ?? null,
       euclidean: () => this.result?.euclidean.distance ?? null,
+      /** Witness points drawn in the 3D view (null: hidden). */
+      drawn: () => ({ gap: this.scene.gap.ends, euclid: this.scene.euclid.ends, pen: this.scene.pen.ends }),
       requests: () => this.distance.sent,
       inFlight: () => this.distance.inFlight,
       readout: () => this.readout.text(),
@@ -381,6 +386,7 @@ function legend(): HTMLElement {
   const items: Array<[string, string]> = [
     [hex(COLORS.gap), "● GAP witness points a, b"],
     [hex(COLORS.euclid), "● Euclidean nearest points"],
+    [hex(COLORS.pen), "● Euclidean penetration witness points (overlap)"],
     ["#5b9bd5", "■ e_S iso-surfaces (weak, eq. 5)"],
     ["#f0a050", "■ E_S iso-surfaces (strict, eq. 6)"],
   ];

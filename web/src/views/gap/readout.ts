@@ -15,7 +15,17 @@ export interface GapResult {
   iterations: number;
   converged: boolean;
   overlap: boolean;
-  euclidean: { distance: number; witness_a: number[]; witness_b: number[]; gradient_a?: number[]; gradient_b?: number[] };
+  euclidean: {
+    distance: number;
+    /** distance when apart, −penetration.depth when overlapping. */
+    signed_distance: number;
+    witness_a: number[];
+    witness_b: number[];
+    gradient_a?: number[];
+    gradient_b?: number[];
+    /** Overlapping shapes: moving B by depth along direction (unit, A → B) separates them. */
+    penetration?: { depth: number; direction: number[]; witness_a: number[]; witness_b: number[] };
+  };
   gradient_a?: number[];
   gradient_b?: number[];
   validation?: { a?: Validation; b?: Validation };
@@ -40,12 +50,17 @@ export class Readout {
   }
 
   show(r: GapResult, solver: string): void {
+    const pen = r.euclidean.penetration;
     this.el.classList.remove("stale");
     this.el.replaceChildren(
       this.line("legend-gap", `● GAP        D = ${fmt(r.distance)} m`, "gap-d"),
       this.line("legend-gap", `             Λ = ${fmt(r.lambda)} m²`, "gap-lambda"),
       this.line("legend-gap", `             ${r.iterations} iterations (${solver})${r.converged ? "" : " — not converged"}`, "gap-iter"),
       this.line("legend-euclid", `● Euclidean  d = ${fmt(r.euclidean.distance)} m`, "euclid-d"),
+      this.line("legend-euclid", `             signed d = ${fmt(r.euclidean.signed_distance)} m`, "euclid-signed"),
+      ...(pen
+        ? [this.line("legend-pen", `● penetration depth = ${fmt(pen.depth)} m along (${pen.direction.map((v) => v.toFixed(3)).join(", ")})`, "euclid-pen")]
+        : []),
       this.line(r.overlap ? "legend-bad" : "muted", r.overlap ? "overlap: the shapes intersect (Λ = 0)" : "no overlap", "overlap"),
     );
   }
@@ -72,5 +87,5 @@ export class Readout {
 }
 
 export function statusLine(r: GapResult, solver: string): string {
-  return `GAP D = ${fmt(r.distance)} m · Λ = ${fmt(r.lambda)} · ${r.iterations} it (${solver}) · Euclidean d = ${fmt(r.euclidean.distance)} m${r.overlap ? " · overlap" : ""}`;
+  return `GAP D = ${fmt(r.distance)} m · Λ = ${fmt(r.lambda)} · ${r.iterations} it (${solver}) · Euclidean d = ${fmt(r.euclidean.distance)} m${r.euclidean.penetration ? ` · penetration ${fmt(r.euclidean.penetration.depth)} m` : ""}${r.overlap ? " · overlap" : ""}`;
 }

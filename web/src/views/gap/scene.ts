@@ -1,6 +1,7 @@
 // Scene objects of the explorer: the two shapes (each a group posed like the shape, so
 // iso-surfaces computed in the shape frame ride along as children) and the witness points and
-// segments of GAP and of the Euclidean distance, drawn on top of everything.
+// segments of GAP and of the Euclidean distance (or, on overlap, its penetration), drawn on top
+// of everything.
 import * as THREE from "three";
 import { poseOf, shapeGeometry, type ShapeState } from "./shapes";
 
@@ -9,10 +10,13 @@ export const COLORS = {
   b: 0xc77dff,
   gap: 0xffb347, // = --gap in style.css
   euclid: 0x6ad1a3, // = --euclid
+  pen: 0xff7eb6, // = .legend-pen in gap.css: penetration witness points
 };
 
 class Segment extends THREE.Group {
   private readonly p = [new THREE.Mesh(), new THREE.Mesh()];
+  /** The points drawn (null when hidden), for tests. */
+  ends: number[][] | null = null;
   private readonly line: THREE.Line<THREE.BufferGeometry, THREE.LineBasicMaterial>;
 
   constructor(color: number, radius: number) {
@@ -36,9 +40,11 @@ class Segment extends THREE.Group {
   set(a: number[] | null, b: number[] | null): void {
     if (!a || !b) {
       this.visible = false;
+      this.ends = null;
       return;
     }
     this.visible = true;
+    this.ends = [a.slice(0, 3), b.slice(0, 3)];
     this.p[0].position.set(a[0], a[1], a[2]);
     this.p[1].position.set(b[0], b[1], b[2]);
     const pos = this.line.geometry.getAttribute("position") as THREE.BufferAttribute;
@@ -54,6 +60,7 @@ export class GapScene {
   readonly meshes: { a: THREE.Mesh; b: THREE.Mesh };
   readonly gap = new Segment(COLORS.gap, 0.011);
   readonly euclid = new Segment(COLORS.euclid, 0.01);
+  readonly pen = new Segment(COLORS.pen, 0.012);
 
   constructor(scene: THREE.Scene) {
     const make = (color: number) =>
@@ -68,7 +75,7 @@ export class GapScene {
       this.groups[k].add(this.meshes[k]);
       scene.add(this.groups[k]);
     }
-    scene.add(this.gap, this.euclid);
+    scene.add(this.gap, this.euclid, this.pen);
   }
 
   /** Rebuilds a shape's geometry (type or size changed) and applies its pose. */

@@ -63,20 +63,22 @@ export class Sweep {
   last: SweepData | null = null;
 
   constructor(container: HTMLElement, private readonly onDone: (error: unknown | null) => void) {
+    // D and d are both lengths (D = √(2Λ) ≤ d for separated shapes): one axis, so they compare.
     this.dPlot = new Plot(container, {
       title: "D along the motion of B",
-      xLabel: "s",
-      yLabel: "GAP D (m)",
-      y2Label: "Euclidean d (m)",
+      caption: "GAP D = √(2Λ) (orange) and the Euclidean signed distance d (green, below 0 the penetration depth) against the motion s of B.",
+      xLabel: "s (m)",
+      yLabel: "distance (m)",
       series: [
         { label: "GAP D", color: "#ffb347", width: 2 },
-        { label: "Euclidean d", color: "#6ad1a3", scale: "y2", width: 2 },
+        { label: "Euclidean d", color: "#6ad1a3", width: 2 },
       ],
     });
     this.derivPlot = new Plot(container, {
       title: "dD/ds",
-      xLabel: "s",
-      yLabel: "dD/ds",
+      caption: "The derivatives along the motion: GAP dD/ds (orange, smooth) and Euclidean dd/ds (green, jumps where its witness points switch).",
+      xLabel: "s (m)",
+      yLabel: "dD/ds (m/m)",
       series: [
         { label: "GAP dD/ds", color: "#ffb347", width: 2 },
         { label: "Euclidean dd/ds", color: "#6ad1a3", width: 2 },
@@ -102,7 +104,7 @@ export class Sweep {
     return {
       s: poses.map((p) => p.s),
       gap: res.map((x) => x.distance),
-      euclid: res.map((x) => x.euclidean.distance),
+      euclid: res.map((x) => x.euclidean.signed_distance),
       dGap: res.map((x) => along(x.gradient_b, i.sweep)),
       dEuclid: res.map((x) => along(x.euclidean.gradient_b, i.sweep)),
     };
@@ -118,6 +120,9 @@ export class Sweep {
     const unit = r.input.sweep.motion === "translate" ? `B moves along ${r.input.sweep.axis} by s (m)` : `B turns about ${r.input.sweep.axis} by s (rad)`;
     this.dPlot.setTitle(`D — ${unit}`);
     this.derivPlot.setTitle(`dD/ds — ${unit}`);
+    const su = r.input.sweep.motion === "translate" ? "m" : "rad";
+    for (const p of [this.dPlot, this.derivPlot]) p.setAxisLabel(0, `s (${su})`);
+    this.derivPlot.setAxisLabel(1, `dD/ds (m/${su})`);
     this.dPlot.setData(d.s, [d.gap, d.euclid]);
     this.derivPlot.setData(d.s, [d.dGap, d.dEuclid]);
     this.dPlot.setMarker(0);

@@ -52,6 +52,20 @@ EuclideanResult fcl_distance(const EuclideanShape& a, const Pose& pose_a, const 
 EuclideanResult gjk_distance(const Shape& a, const Pose& pose_a, const Shape& b,
                              const Pose& pose_b, double scale);
 
+// Overlapping shapes: the smallest translation of B (depth along direction, a unit vector from A
+// towards B) that separates them, with witness points (A's deepest point inside B, B's inside A;
+// direction . (witness_a - witness_b) = depth). libccd's EPA, its direction refined for round
+// shapes; depth is the overlap measured along the direction reported, so moving B by it makes the
+// shapes touch. nullopt when the shapes do not overlap (or only touch).
+struct Penetration {
+  double depth = 0;
+  Vec3 direction = Vec3::Zero();
+  Vec3 witness_a = Vec3::Zero();
+  Vec3 witness_b = Vec3::Zero();
+};
+std::optional<Penetration> penetration(const EuclideanShape& a, const Pose& pose_a,
+                                       const EuclideanShape& b, const Pose& pose_b);
+
 // libccd intersection test (GJK). If the shapes intersect, returns a point common to both
 // (from MPR's penetration position, moved into the intersection); otherwise nullopt.
 std::optional<Vec3> common_point(const Shape& a, const Pose& pose_a, const Shape& b,

@@ -13,13 +13,16 @@
 //           gradient, validate; defaults are GapParams's, validate defaults to true.
 // Response: one pair -> the pair's object; a batch -> {"results": [...]}. Per pair: "lambda",
 //           "distance", "witness_a", "witness_b", "iterations", "converged", "overlap",
-//           "euclidean" {"distance", "witness_a", "witness_b"[, "gradient_a", "gradient_b"]},
+//           "euclidean" {"distance", "signed_distance", "witness_a", "witness_b"[, "gradient_a",
+//           "gradient_b"][, "penetration" {"depth", "direction", "witness_a", "witness_b"}]},
+//           signed_distance = -penetration.depth when the shapes overlap,
 //           [, "gradient_a", "gradient_b" (6 numbers: d distance / d (v, ω), world frame)]
 //           [, "validation" {"a": {"ok", "max_eigenvalue", "samples"}, "b": {...}}].
 // Errors:   {"error": {"code", "message", "field"}}; "field" is a path such as "pairs[2].b.size[1]"
 //           ("" for the request as a whole).
 #include <cstddef>
 #include <functional>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -79,8 +82,10 @@ GapRequestParams parse_params(const nlohmann::json& j, const std::string& field 
 nlohmann::json run_gap_request(const nlohmann::json& request, const std::function<void()>& checkpoint = {},
                                std::size_t max_pairs = Limits{}.max_gap_pairs);
 
-// Encodes one result (validation reports are added by run_gap_request).
-nlohmann::json encode_result(const GapResult& r, bool gradient);
+// Encodes one result (validation reports are added by run_gap_request). `pen`: the Euclidean
+// penetration of an overlapping pair (euclidean.penetration, and signed_distance = -depth).
+nlohmann::json encode_result(const GapResult& r, bool gradient,
+                             const std::optional<Penetration>& pen = std::nullopt);
 
 // {"error": {"code": "invalid_input", "message", "field"}}.
 nlohmann::json error_json(const InvalidInput& e);
