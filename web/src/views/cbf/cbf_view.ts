@@ -1,6 +1,6 @@
-// View 3, CBF rollouts (issue 6, paper Section IV-B): the Panda's collision primitives in the
-// scenario's obstacles, rollouts computed by the server streaming in step by step (GAP beside
-// Euclidean), a timeline to play and scrub, witness segments of the closest pairs, plots of the
+// View 3, CBF rollouts (issue 6, paper Section IV-B): the robot of the scenario (its URDF's
+// collision primitives and joints) in the scenario's obstacles, rollouts computed by the server
+// streaming in step by step (GAP beside Euclidean, or any two rollouts overlaid), a timeline to play and scrub, witness segments of the closest pairs, plots of the
 // joint velocities, distances and task error, and the records' smoothness and timing numbers.
 import { api, ApiError, errorText } from "../../core/api";
 import type { Shortcut } from "../../core/keys";
@@ -11,17 +11,18 @@ import "./cbf.css";
 import { drawStep } from "./draw_step";
 import { installHooks } from "./hooks";
 import { primitivePoses } from "./kinematics";
-import { addOverlay } from "./overlay";
+import { addOverlay, showLegend } from "./overlay";
 import { Panel } from "./panel";
 import { Results } from "./results";
 import { stopRouting, type Rollout } from "./rollout";
 import { endedStatus, progressLabel, Run, runningStatus } from "./run";
 import { CbfScene } from "./scene";
 import { cbfShortcuts } from "./shortcuts";
-import { gapParams, metricsOf, parseState, stateJson, type CbfState } from "./state";
+import { runSpecs, sameSpecs, type RolloutSpec } from "./specs";
+import { parseState, stateJson, type CbfState } from "./state";
 import { Timeline } from "./timeline";
 import { DrawTimings } from "./timings";
-import { METRIC_NAMES as NAME, METRICS, type CbfFeasibility, type CbfRobot, type CbfScenario, type Metric } from "./types";
+import type { CbfFeasibility, CbfRobot, CbfScenario } from "./types";
 
 export class CbfView implements View {
   private viewport: Viewport | null = null;
@@ -36,8 +37,9 @@ export class CbfView implements View {
   private results: Results | null = null;
   private run: Run | null = null;
   private readout: HTMLDivElement | null = null;
+  private legend: HTMLDivElement | null = null;
   private q0Poses: Float32Array | null = null;
-  private shown: Metric[] = [];
+  private shown: RolloutSpec[] = [];
   private error: string | null = null;
   private restoreT: number | null = null;
   private readonly timings = new DrawTimings();
@@ -52,7 +54,7 @@ export class CbfView implements View {
     vp.camera.position.set(2.1, -1.7, 1.5);
     vp.controls.target.set(0.3, 0, 0.45);
     vp.controls.update();
-    this.readout = addOverlay(host.canvas);
+    ({ readout: this.readout, legend: this.legend } = addOverlay(host.canvas));
     this.timeline = new Timeline(host.canvas, (s) => this.draw(s), (speed) => {
       this.state.speed = speed;
       this.save();
@@ -85,10 +87,10 @@ export class CbfView implements View {
       this.timeline!.pause();
       this.timeline!.seek(t / (this.timeline!.dt || 0.01));
     });
-    this.results.build(metricsOf(this.state.metric), this.state.joint);
+    this.setRobot(this.robot);
     this.cleanup.push(
       installHooks(() => ({
-        viewport: this.viewport, state: this.state, timeline: this.timeline, run: this.run, scene: this.scene, shown: this.shown,
+        viewport: this.viewport, state: this.state, timeline: this.timeline, run: this.run, scene: this.scene, shown: this.shown, robot: this.robot,
         results: this.results, timings: this.timings, error: this.error,
       })),
       vp.onBeforeRender(() => this.timings.beforeRender()),
@@ -128,11 +130,19 @@ export class CbfView implements View {
       }
       this.scene!.remove();
       this.scene = new CbfScene(this.viewport.scene, this.robot);
+      this.setRobot(this.robot);
     }
     this.scenario = sc;
     this.panel!.showScenario(sc);
     this.panel!.showDuration(this.duration());
     this.showScenario(sc);
+  }
+
+  /** The robot's joints name the panel's joint list and the plots' series (any number of joints). */
+  private setRobot(robot: CbfRobot): void {
+    if (this.state.joint > robot.dof) this.state.joint = 0;
+    this.panel!.setRobot(robot.name, robot.joint_names);
+    this.results!.build(runSpecs(this.state), robot.dof, this.state.joint);
   }
 
   /** Draws obstacles, target and the robot at q0 (a malformed edited scenario draws what it can). */
@@ -143,8 +153,14 @@ export class CbfView implements View {
     } catch {
       /* the server names what is wrong when it is run */
     }
-    this.shown = metricsOf(this.state.metric);
-    this.scene!.arrange(this.shown, this.state.layout);
+    this.show(runSpecs(this.state));
+  }
+
+  /** Shows these rollouts' worlds and names them in the legend. */
+  private show(specs: RolloutSpec[]): void {
+    this.shown = specs;
+    this.scene!.arrange(specs, this.state.layout);
+    showLegend(this.legend!, specs);
     this.draw(this.timeline!.step);
   }
 
@@ -167,27 +183,25 @@ export class CbfView implements View {
     this.save();
   }
 
-  private changed(what: "scenario" | "metric" | "gap" | "duration" | "speed" | "draw" | "joint" | "layout"): void {
+  private changed(what: "scenario" | "metric" | "gap" | "compare" | "duration" | "speed" | "draw" | "joint" | "layout"): void {
     switch (what) {
       case "scenario":
         this.state.duration = null; // each scenario runs for its own duration unless set
         void this.loadScenario();
         break;
-      case "metric": {
-        const want = metricsOf(this.state.metric);
-        if (this.run && want.every((m) => this.run!.metrics.includes(m))) {
-          this.shown = want; // the run has them: just show those
-          this.scene!.arrange(this.shown, this.state.layout);
-          this.draw(this.timeline!.step);
-        } else if (this.run) this.host.status("press r to run the chosen metric(s)");
+      case "metric":
+      case "gap":
+      case "compare": {
+        const want = runSpecs(this.state);
+        const run = this.run;
+        const have = run ? want.map((w) => run.specs.find((s) => sameSpecs([s], [w]))) : [];
+        if (run && have.every((s) => s)) this.show(have as RolloutSpec[]); // the run has them: just show those
+        else if (run) this.host.status("press r to run the chosen rollouts");
         else this.showScenario(this.scenario ?? { obstacles: [], target: { position: [0, 0, 0] }, q0: [] });
         break;
       }
       case "duration":
         if (this.run) this.host.status("press r to run with the new duration");
-        break;
-      case "gap":
-        if (this.run) this.host.status("press r to run GAP with the chosen distance");
         break;
       case "speed":
         this.timeline!.setSpeed(this.state.speed);
@@ -228,23 +242,22 @@ export class CbfView implements View {
   private async start(): Promise<void> {
     if (!this.robot || !this.scene) return;
     this.dropRun();
-    const metrics = metricsOf(this.state.metric);
-    this.shown = metrics;
+    const specs = runSpecs(this.state);
     this.error = null;
-    this.results!.build(metrics, this.state.joint);
-    this.scene.arrange(metrics, this.state.layout);
-    this.results!.started(metrics);
+    this.results!.build(specs, this.robot.dof, this.state.joint);
+    this.results!.started(specs);
     this.state.run = true;
     this.save();
     const scenario = this.state.inline ?? this.state.scenario;
-    const run = (this.run = new Run(scenario, metrics, this.duration(), this.robot.primitives.length, {
+    const run = (this.run = new Run(scenario, specs, this.duration(), { primitives: this.robot.primitives.length, dof: this.robot.dof }, {
       frames: (r, _added, arrived) => this.onFrames(r, arrived),
       progress: (x) => this.onProgress(x),
       ended: (r) => this.onEnded(r),
       done: (x, err) => this.onDone(x, err),
-    }, gapParams(this.state.gapMode)));
+    }));
     this.panel!.setRunning(true);
     this.onProgress(run);
+    this.show(specs);
     this.draw(0);
     await run.start();
   }
@@ -258,7 +271,7 @@ export class CbfView implements View {
   private onFrames(r: Rollout, arrived: number): void {
     const tl = this.timeline!;
     const run = this.run!;
-    const world = this.scene!.worlds[r.metric];
+    const world = this.scene!.world(r.spec);
     if (r.store) world.setPairs(r.store.pairCount);
     const prevLength = tl.length;
     const length = Math.max(...run.rollouts.map((x) => x.store?.contiguous ?? 0));
@@ -275,7 +288,7 @@ export class CbfView implements View {
   }
 
   private onEnded(r: Rollout): void {
-    if (r.state === "failed" && r.error) this.reportError(r.error, `${NAME[r.metric]} rollout`);
+    if (r.state === "failed" && r.error) this.reportError(r.error, `${r.spec.label} rollout`);
     if (this.run) this.results!.ended(this.run);
   }
 
@@ -319,7 +332,7 @@ export class CbfView implements View {
     if (!this.scene || !vp) return;
     const t0 = performance.now();
     const dt = this.timeline!.dt;
-    const lines = METRICS.filter((m) => this.shown.includes(m)).map((m) => drawStep(this.scene!.worlds[m], this.run?.rollout(m), step, this.q0Poses, this.state));
+    const lines = this.shown.map((s) => drawStep(this.scene!.world(s), this.run?.rollout(s.key), step, this.q0Poses, this.state));
     if (this.readout) this.readout.textContent = lines.join("\n");
     this.results?.setTime(this.timeline!.length ? step * dt : null);
     if (this.run) {
@@ -364,6 +377,7 @@ export class CbfView implements View {
       state: () => this.state,
       refreshPanel: () => this.panel?.refresh(),
       save: () => this.save(),
+      dof: () => this.robot?.dof ?? 0,
       changed: (what) => this.changed(what),
       run: () => void this.start(),
       cancel: () => void this.run?.cancel(),
@@ -386,6 +400,7 @@ export class CbfView implements View {
     this.results?.dispose();
     this.panel?.dispose();
     this.readout?.remove();
+    this.legend?.remove();
     this.viewport?.dispose();
     this.viewport = null;
     this.host?.progress(null);
