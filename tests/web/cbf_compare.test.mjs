@@ -4,22 +4,10 @@
 // legends, the readout and the legend over the view naming each, every series equal to its record.
 import { test } from "node:test";
 import assert from "node:assert/strict";
+import { C, hash, runEnded } from "./cbf_page.mjs";
 import { openView, screenshot, serverAndBrowser } from "./harness.mjs";
 
 const env = serverAndBrowser();
-const hash = (state) => `#/cbf?s=${encodeURIComponent(JSON.stringify(state))}`;
-const C = (page, expr) => page.evaluate(`(() => { const c = window.distlab.cbf; return ${expr}; })()`);
-
-async function runEnded(page, n) {
-  await page.waitForFunction(
-    (n) => {
-      const r = window.distlab?.cbf?.rollouts;
-      return !!r && r.length === n && r.every((x) => ["finished", "cancelled", "failed"].includes(x.state)) && document.getElementById("progress").hidden;
-    },
-    n,
-    { timeout: 120000, polling: 50 },
-  );
-}
 
 /** Poses equal within float32 storage (a quaternion and its negative are one rotation). */
 function samePoses(d, server, what) {

@@ -5,22 +5,10 @@
 import { test } from "node:test";
 import assert from "node:assert/strict";
 import { readFileSync } from "node:fs";
+import { C, hash, runEnded } from "./cbf_page.mjs";
 import { openView, screenshot, serverAndBrowser } from "./harness.mjs";
 
 const env = serverAndBrowser();
-const hash = (state) => `#/cbf?s=${encodeURIComponent(JSON.stringify(state))}`;
-const C = (page, expr) => page.evaluate(`(() => { const c = window.distlab.cbf; return ${expr}; })()`);
-
-async function runEnded(page, n) {
-  await page.waitForFunction(
-    (n) => {
-      const r = window.distlab?.cbf?.rollouts;
-      return !!r && r.length === n && r.every((x) => ["finished", "cancelled", "failed"].includes(x.state)) && document.getElementById("progress").hidden;
-    },
-    n,
-    { timeout: 120000, polling: 50 },
-  );
-}
 
 test("a UR5e scenario draws the UR5e from its URDF, as the server poses it", async () => {
   const page = await openView(env.browser, env.server, hash({ scenario: "ur5e_reach", duration: 0.2, metric: "gap" }));

@@ -18,7 +18,8 @@ import { stopRouting, type Rollout } from "./rollout";
 import { endedStatus, progressLabel, Run, runningStatus } from "./run";
 import { CbfScene } from "./scene";
 import { cbfShortcuts } from "./shortcuts";
-import { runSpecs, sameSpecs, type RolloutSpec } from "./specs";
+import { runSpecs, sameSpecs, specGapParams, type RolloutSpec } from "./specs";
+import { parseValues, runSweep, SweepPlot, type SweepJson } from "./sweep";
 import { parseState, stateJson, type CbfState } from "./state";
 import { Timeline } from "./timeline";
 import { DrawTimings } from "./timings";
@@ -43,6 +44,9 @@ export class CbfView implements View {
   private error: string | null = null;
   private restoreT: number | null = null;
   private readonly timings = new DrawTimings();
+  private sweep: SweepJson | null = null;
+  private sweepPlot: SweepPlot | null = null;
+  private sweepRunning = false;
   private cleanup: Array<() => void> = [];
 
   async mount(host: ViewHost, raw: Record<string, unknown>): Promise<void> {
@@ -80,6 +84,7 @@ export class CbfView implements View {
       runEdited: (scenario) => this.runEdited(scenario),
       revertEdited: () => this.revertEdited(),
       changed: (what) => this.changed(what),
+      sweep: (parameter, values) => this.blurThen(() => void this.startSweep(parameter, values)),
       frame: () => this.blurThen(() => this.frameAll()),
       copyLink: () => void navigator.clipboard?.writeText(location.href).then(() => toast("link copied", "ok")),
     });
@@ -91,7 +96,7 @@ export class CbfView implements View {
     this.cleanup.push(
       installHooks(() => ({
         viewport: this.viewport, state: this.state, timeline: this.timeline, run: this.run, scene: this.scene, shown: this.shown, robot: this.robot,
-        results: this.results, timings: this.timings, error: this.error,
+        results: this.results, timings: this.timings, error: this.error, sweep: this.sweep, sweepPlot: this.sweepPlot,
       })),
       vp.onBeforeRender(() => this.timings.beforeRender()),
     );
@@ -318,6 +323,49 @@ export class CbfView implements View {
       .catch(() => undefined);
   }
 
+  /** A sweep of the first rollout's settings over one params key: one job, then its plot. */
+  private async startSweep(parameter: string, text: string): Promise<void> {
+    const values = parseValues(text);
+    if (!values) {
+      showError(new Error("sweep values: numbers separated by commas"), "sweep");
+      return;
+    }
+    if (this.sweepRunning) return;
+    const [first] = runSpecs(this.state);
+    const gap = specGapParams(first);
+    const body = {
+      scenario: this.state.inline ?? this.state.scenario,
+      metric: first.metric,
+      params: { duration: this.duration(), record_pairs: false, ...(gap ? { gap } : {}) },
+      sweep: { parameter, values },
+    };
+    this.sweepRunning = true;
+    this.sweep = null;
+    let id = "";
+    try {
+      const s = await runSweep(
+        body,
+        (x) => {
+          id = x.id;
+          this.sweep = x;
+          const job = x.job;
+          this.host.progress(`sweep of ${parameter}: ${job?.stage ?? "queued"}`, job?.fraction ?? 0, () => void api.post(`/api/jobs/${id}/cancel`).catch(() => undefined));
+        },
+        () => !this.viewport,
+      );
+      this.sweep = s;
+      if (!this.viewport) return;
+      this.sweepPlot?.dispose();
+      this.sweepPlot = new SweepPlot(this.host.bottom, s);
+      this.host.status(`sweep ${s.job?.state ?? "ended"}: ${s.entries.length} of ${s.values.length} runs of ${first.label} over ${parameter}`);
+    } catch (e) {
+      this.reportError(e, "sweep");
+    } finally {
+      this.sweepRunning = false;
+      this.host.progress(null);
+    }
+  }
+
   /** Returns to the time of a shared link (once: when it is computed, or at the end of the run). */
   private restoreTime(): void {
     const tl = this.timeline!;
@@ -401,6 +449,7 @@ export class CbfView implements View {
     this.panel?.dispose();
     this.readout?.remove();
     this.legend?.remove();
+    this.sweepPlot?.dispose();
     this.viewport?.dispose();
     this.viewport = null;
     this.host?.progress(null);

@@ -8,6 +8,7 @@ import type { Run } from "./run";
 import type { CbfScene } from "./scene";
 import type { RolloutSpec } from "./specs";
 import type { CbfState } from "./state";
+import type { SweepJson, SweepPlot } from "./sweep";
 import type { Timeline } from "./timeline";
 import type { DrawTimings } from "./timings";
 import type { CbfRobot } from "./types";
@@ -24,6 +25,8 @@ export interface CbfParts {
   results: Results | null;
   timings: DrawTimings;
   error: string | null;
+  sweep: SweepJson | null;
+  sweepPlot: SweepPlot | null;
 }
 
 export function installHooks(parts: () => CbfParts): () => void {
@@ -74,6 +77,8 @@ export function installHooks(parts: () => CbfParts): () => void {
       const p = results?.plots;
       return copy({ arrivalToDrawnMs: t.arrivalToDrawnMs, drawMs: t.drawMs, plotRefreshes: p?.refreshes ?? 0, plotRefreshMs: p?.refreshMs ?? [] });
     },
+    /** The last sweep as the server answered it, and what its plot shows. */
+    sweep: () => copy({ sweep: parts().sweep, plot: parts().sweepPlot?.plot.data() ?? null }),
     frameStats: () => parts().viewport?.frameStats() ?? null,
     resetFrameStats: () => parts().viewport?.resetFrameStats(),
   });

@@ -11,6 +11,8 @@ export interface PanelActions {
   runEdited(scenario: Record<string, unknown>): void;
   revertEdited(): void;
   changed(what: "scenario" | "metric" | "gap" | "compare" | "duration" | "speed" | "draw" | "joint" | "layout"): void;
+  /** A sweep of one params key over these values (as typed), with the first rollout's settings. */
+  sweep(parameter: string, values: string): void;
   frame(): void;
   copyLink(): void;
 }
@@ -77,6 +79,13 @@ export class Panel {
     p.add(state, "closest", 1, 60, 1).name("closest how many").onChange(() => actions.changed("draw"));
     p.add(actions, "frame").name("frame the scene (f)");
     p.add(actions, "copyLink").name("copy link");
+
+    const sw = this.gui.addFolder("Parameter sweep (one server job)");
+    const sweep = { parameter: "margins.gap.obstacle", values: "0.002, 0.0005, 0.0002, 0.0001", run: () => actions.sweep(sweep.parameter, sweep.values) };
+    sw.add(sweep, "parameter").name("params key");
+    sw.add(sweep, "values").name("values");
+    sw.add(sweep, "run").name("▶ run sweep");
+    sw.close();
 
     const e = this.gui.addFolder("Scenario JSON (edit and run inline)");
     e.close();
