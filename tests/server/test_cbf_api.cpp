@@ -96,6 +96,15 @@ json get_json(httplib::Client& c, const std::string& s, const std::string& path,
   return body_json(r);
 }
 
+// POST /api/jobs/{id}/cancel as session s; true when accepted.
+bool cancel_job(httplib::Client& c, const std::string& s, const std::string& id) {
+  auto r = c.Post(("/api/jobs/" + id + "/cancel").c_str(), session_headers(s), "", "application/json");
+  EXPECT_TRUE(r);
+  if (!r) return false;
+  EXPECT_EQ(r->status, 202) << r->body;
+  return r->status == 202;
+}
+
 std::string flag_text(const std::vector<std::string>& flags) {
   std::string t;
   for (const std::string& f : flags) t += " " + f;
@@ -470,10 +479,7 @@ TEST_F(CbfApi, CancelMidwayAndOtherSessionsSeeNothing) {
   bool cancel_sent = false;
   const std::string state = follow(ws, id, frames, nullptr, [&](const json& msg) {
     if (cancel_sent || msg["steps_done"].get<int>() < 100) return;
-    auto r = c.Post(("/api/jobs/" + id + "/cancel").c_str(), session_headers(s), "", "application/json");
-    ASSERT_TRUE(r);
-    EXPECT_EQ(r->status, 202);
-    cancel_sent = true;
+    cancel_sent = cancel_job(c, s, id);
   });
   EXPECT_TRUE(cancel_sent);
   EXPECT_EQ(state, "cancelled");
@@ -620,10 +626,7 @@ TEST_F(CbfApi, SweepRefusalsAndCancel) {
   bool cancel_sent = false;
   const std::string state = follow_job(*ws_owner, id, progress, [&](const json& job) {
     if (cancel_sent || job.value("stage", "") != "run 2 of 3" || job.value("fraction", 0.0) < 0.35) return;
-    auto x = c.Post(("/api/jobs/" + id + "/cancel").c_str(), session_headers(s), "", "application/json");
-    ASSERT_TRUE(x);
-    EXPECT_EQ(x->status, 202);
-    cancel_sent = true;
+    cancel_sent = cancel_job(c, s, id);
   });
   EXPECT_TRUE(cancel_sent);
   EXPECT_EQ(state, "cancelled");
