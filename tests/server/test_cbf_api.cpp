@@ -96,6 +96,15 @@ json get_json(httplib::Client& c, const std::string& s, const std::string& path,
   return body_json(r);
 }
 
+// POST /api/jobs/{id}/cancel as session s; true when accepted.
+bool cancel_job(httplib::Client& c, const std::string& s, const std::string& id) {
+  auto r = c.Post(("/api/jobs/" + id + "/cancel").c_str(), session_headers(s), "", "application/json");
+  EXPECT_TRUE(r);
+  if (!r) return false;
+  EXPECT_EQ(r->status, 202) << r->body;
+  return r->status == 202;
+}
+
 std::string flag_text(const std::vector<std::string>& flags) {
   std::string t;
   for (const std::string& f : flags) t += " " + f;
@@ -470,10 +479,7 @@ TEST_F(CbfApi, CancelMidwayAndOtherSessionsSeeNothing) {
   bool cancel_sent = false;
   const std::string state = follow(ws, id, frames, nullptr, [&](const json& msg) {
     if (cancel_sent || msg["steps_done"].get<int>() < 100) return;
-    auto r = c.Post(("/api/jobs/" + id + "/cancel").c_str(), session_headers(s), "", "application/json");
-    ASSERT_TRUE(r);
-    EXPECT_EQ(r->status, 202);
-    cancel_sent = true;
+    cancel_sent = cancel_job(c, s, id);
   });
   EXPECT_TRUE(cancel_sent);
   EXPECT_EQ(state, "cancelled");
@@ -491,6 +497,144 @@ TEST_F(CbfApi, CancelMidwayAndOtherSessionsSeeNothing) {
   EXPECT_EQ(rec["summary"]["reached"], false);
   // The other session's socket saw none of it.
   while (spy.read(m, 0.2)) EXPECT_NE(m.j["type"], "cbf_frames");
+}
+
+// Reads WebSocket messages until the job `id` ends; collects its progress events.
+std::string follow_job(WsClient& ws, const std::string& id, std::vector<json>& progress,
+                       const std::function<void(const json&)>& on_progress = {}) {
+  Msg m;
+  std::string final_state;
+  const bool ok = ws.until(
+      [&](const Msg& x) {
+        if (x.binary || x.j["type"] != "job" || x.j["job"]["id"] != id) return false;
+        const std::string st = x.j["job"]["state"];
+        if (st == "succeeded" || st == "failed" || st == "cancelled") final_state = st;
+        else {
+          progress.push_back(x.j["job"]);
+          if (on_progress) on_progress(x.j["job"]);
+        }
+        return !final_state.empty();
+      },
+      m, 300);
+  EXPECT_TRUE(ok) << "no final job event for " << id;
+  return final_state;
+}
+
+// A sweep of the GAP obstacle margin over the published corridor (35 s): one job with progress,
+// each entry exactly the record of the single run with that margin (`distlab cbf`, bit for bit:
+// JSON numbers round-trip), and the outcome: the paper's margin 0.002 stops far short,
+// 0.0002 reaches within 2 cm. `distlab cbf` with the same "sweep" gives the same entries.
+TEST_F(CbfApi, SweepEntriesAreTheSingleRuns) {
+  const std::string s = new_session(c);
+  auto ws_owner = connect(server_->port(), s);
+  const json values = {0.002, 0.0002};
+  const json request = {{"scenario", "corridor"}, {"metric", "gap"},
+                        {"sweep", {{"parameter", "margins.gap.obstacle"}, {"values", values}}}};
+  auto r = c.Post("/api/cbf/sweeps", session_headers(s), request.dump(), "application/json");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 202) << r->body;
+  const json posted = body_json(r);
+  const std::string id = posted["sweep"]["id"];
+  EXPECT_EQ(posted["job"]["id"], id);
+  EXPECT_EQ(posted["job"]["kind"], "cbf_sweep");
+  std::vector<json> progress;
+  ASSERT_EQ(follow_job(*ws_owner, id, progress), "succeeded");
+  double last = 0;
+  std::set<std::string> stages;
+  for (const json& p : progress) {
+    if (!p.contains("fraction")) continue;
+    EXPECT_GE(p["fraction"].get<double>(), last);
+    last = p["fraction"];
+    stages.insert(p.value("stage", ""));
+  }
+  EXPECT_TRUE(stages.count("run 2 of 2")) << json(progress).dump().substr(0, 400);
+
+  const json sweep = get_json(c, s, "/api/cbf/sweeps/" + id);
+  EXPECT_EQ(sweep["job"]["state"], "succeeded");
+  EXPECT_EQ(sweep["parameter"], "margins.gap.obstacle");
+  EXPECT_EQ(sweep["values"], values);
+  ASSERT_EQ(sweep["entries"].size(), 2u);
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    const json& e = sweep["entries"][i];
+    EXPECT_EQ(e["value"], values[i]);
+    // The single run, written out independently of the sweep's own request building.
+    const json single = {{"scenario", "corridor"}, {"metric", "gap"},
+                         {"params", {{"margins", {{"gap", {{"obstacle", values[i]}}}}}, {"audit", true}}}};
+    const json rec = run_cli(single);
+    ASSERT_TRUE(rec.contains("summary")) << rec.dump().substr(0, 300);
+    EXPECT_EQ(e["summary"], rec["summary"]) << "value " << values[i];
+    EXPECT_EQ(e["smoothness"], rec["smoothness"]);
+    EXPECT_EQ(e["gap_mode"], rec["gap_mode"]);
+    EXPECT_EQ(e["steps"], rec["steps"]);
+    EXPECT_EQ(e["infeasible_steps"], rec["infeasible_steps"].size());
+    EXPECT_EQ(e["position_error"], rec["summary"]["final"]["position_error"]);
+    EXPECT_EQ(e["min_clearance"], rec["summary"]["min_distance"]);
+    double tv = 0;
+    for (const json& v : rec["smoothness"]["total_variation"]) tv += v.get<double>();
+    EXPECT_EQ(e["total_variation"].get<double>(), tv);
+  }
+  // franka-corridor.md: with converged D the paper's margin settles ~16 cm short, 0.0002 ~1.5 cm.
+  EXPECT_GT(sweep["entries"][0]["position_error"].get<double>(), 0.10);
+  EXPECT_LE(sweep["entries"][1]["position_error"].get<double>(), 0.02);
+  for (const json& e : sweep["entries"]) EXPECT_GT(e["min_clearance"].get<double>(), 0.0);
+
+  json cli = run_cli(request);
+  ASSERT_TRUE(cli.contains("entries")) << cli.dump().substr(0, 300);
+  json api_entries = sweep["entries"];
+  for (json* list : {&cli["entries"], &api_entries})
+    for (json& e : *list) e.erase("step_us_mean");  // a timing
+  EXPECT_EQ(cli["entries"], api_entries);
+  EXPECT_EQ(cli["parameter"], "margins.gap.obstacle");
+}
+
+// Bad sweeps are refused before any job, naming the field; a running sweep cancels with the
+// job vocabulary and keeps the runs it finished; another session sees nothing.
+TEST_F(CbfApi, SweepRefusalsAndCancel) {
+  const std::string s = new_session(c), other = new_session(c);
+  auto post = [&](const json& body) { return c.Post("/api/cbf/sweeps", session_headers(s), body.dump(), "application/json"); };
+  const json base = {{"scenario", "corridor"}, {"metric", "gap"}};
+  auto with = [&](const json& sweep) {
+    json b = base;
+    b["sweep"] = sweep;
+    return b;
+  };
+  expect_error(post(base), 400, "invalid_input", "sweep");
+  expect_error(post(with({{"parameter", "task_gain"}})), 400, "invalid_input", "sweep.values");
+  expect_error(post(with({{"parameter", "task_gain"}, {"values", json::array()}})), 400, "invalid_input", "sweep.values");
+  json many = json::array();
+  for (int i = 0; i <= 16; ++i) many.push_back(0.1 + 0.01 * i);
+  expect_error(post(with({{"parameter", "task_gain"}, {"values", many}})), 400, "invalid_input", "sweep.values");
+  expect_error(post(with({{"parameter", "task_gain"}, {"values", {0.4}}, {"steps", 3}})), 400, "invalid_input", "sweep.steps");
+  expect_error(post(with({{"parameter", "no_such_setting"}, {"values", {1}}})), 400, "invalid_input", "sweep.parameter");
+  expect_error(post(with({{"parameter", "margins.gap.nope"}, {"values", {1}}})), 400, "invalid_input", "sweep.parameter");
+  expect_error(post(with({{"parameter", "audit"}, {"values", {false}}})), 400, "invalid_input", "sweep.parameter");
+  expect_error(post(with({{"parameter", "margins.gap.obstacle"}, {"values", {0.002, -1}}})), 400, "invalid_input",
+               "sweep.values[1]");
+  expect_error(post(with({{"parameter", "duration"}, {"values", {1, 1e5}}})), 400, "invalid_input", "sweep.values[1]");
+
+  auto ws_owner = connect(server_->port(), s);
+  // A short run, then two 150 s ones: seconds of work, cancelled during the second.
+  json body = with({{"parameter", "duration"}, {"values", {0.2, 150, 150}}});
+  body["params"] = {{"record_pairs", false}};
+  auto r = post(body);
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 202) << r->body;
+  const std::string id = body_json(r)["sweep"]["id"];
+  expect_error(c.Get(("/api/cbf/sweeps/" + id).c_str(), session_headers(other)), 404, "unknown_sweep");
+  expect_error(c.Post(("/api/jobs/" + id + "/cancel").c_str(), session_headers(other), "", "application/json"), 404, "unknown_job");
+  std::vector<json> progress;
+  bool cancel_sent = false;
+  const std::string state = follow_job(*ws_owner, id, progress, [&](const json& job) {
+    if (cancel_sent || job.value("stage", "") != "run 2 of 3" || job.value("fraction", 0.0) < 0.35) return;
+    cancel_sent = cancel_job(c, s, id);
+  });
+  EXPECT_TRUE(cancel_sent);
+  EXPECT_EQ(state, "cancelled");
+  const json sweep = get_json(c, s, "/api/cbf/sweeps/" + id);
+  EXPECT_EQ(sweep["job"]["state"], "cancelled");
+  ASSERT_EQ(sweep["entries"].size(), 1u) << "the finished first run is kept, the cancelled one is not";
+  EXPECT_EQ(sweep["entries"][0]["value"], 0.2);
+  EXPECT_EQ(sweep["entries"][0]["steps"], 20);
 }
 
 }  // namespace

@@ -1,25 +1,14 @@
 // The CBF view and robots as data: a scenario of another robot (ur5e_reach, assets/robots/ur5e.urdf)
 // draws that robot from its URDF joints at q0, the same poses the server streams for step 0; and a
-// finished rollout's record downloads as JSON (the server's record) and CSV (its per-step series).
+// finished rollout's record downloads as JSON (the server's record) and CSV (its per-step series);
+// the plots, readout, joint list and shortcuts follow the robot's own joints (six for the UR5e).
 import { test } from "node:test";
 import assert from "node:assert/strict";
 import { readFileSync } from "node:fs";
+import { C, hash, runEnded } from "./cbf_page.mjs";
 import { openView, screenshot, serverAndBrowser } from "./harness.mjs";
 
 const env = serverAndBrowser();
-const hash = (state) => `#/cbf?s=${encodeURIComponent(JSON.stringify(state))}`;
-const C = (page, expr) => page.evaluate(`(() => { const c = window.distlab.cbf; return ${expr}; })()`);
-
-async function runEnded(page, n) {
-  await page.waitForFunction(
-    (n) => {
-      const r = window.distlab?.cbf?.rollouts;
-      return !!r && r.length === n && r.every((x) => ["finished", "cancelled", "failed"].includes(x.state)) && document.getElementById("progress").hidden;
-    },
-    n,
-    { timeout: 120000, polling: 50 },
-  );
-}
 
 test("a UR5e scenario draws the UR5e from its URDF, as the server poses it", async () => {
   const page = await openView(env.browser, env.server, hash({ scenario: "ur5e_reach", duration: 0.2, metric: "gap" }));
@@ -37,6 +26,45 @@ test("a UR5e scenario draws the UR5e from its URDF, as the server poses it", asy
     assert.ok(Math.abs(Math.abs(dot) - 1) < 1e-5, `primitive ${p / 7} rotation`);
   }
   await screenshot(page, "cbf-ur5e");
+  await page.context().close();
+});
+
+test("the UR5e scenario plays with its six joints: plots, readout, joint list and j follow the robot", async () => {
+  const page = await openView(env.browser, env.server, hash({ scenario: "ur5e_reach", duration: 0.3, metric: "gap", joint: 7 }));
+  await page.waitForFunction(() => window.distlab?.cbf?.drawn().gap?.poses.length === 6 * 7 && /press r/.test(document.getElementById("status")?.textContent ?? ""), null, { timeout: 60000 });
+  const server = await page.evaluate(() => window.distlab.api.get("/api/cbf/robot?name=ur5e"));
+  assert.equal(server.joint_names.length, 6);
+  // The joint list: "all" and the robot's six joints by name.
+  const options = await page.locator(".lil-controller:has(.lil-name:text-is('plot joints (j)')) option").allTextContents();
+  assert.deepEqual(options, ["all", ...server.joint_names.map((n, j) => `${j + 1} (${n})`)]);
+  assert.equal((await C(page, "c.state")).joint, 0, "joint 7 does not exist on this robot: all joints plotted");
+  const robot = await C(page, "c.robot");
+  assert.equal(robot.dof, 6);
+  assert.deepEqual(robot.joint_names, server.joint_names);
+
+  await page.keyboard.press("r");
+  await runEnded(page, 1);
+  const rec = await C(page, 'c.record("gap")');
+  assert.equal(rec.u[0].length, 6);
+  const plots = await C(page, "c.plots()");
+  assert.deepEqual(plots.velocity.labels, [1, 2, 3, 4, 5, 6].map((j) => `u${j} GAP`));
+  plots.velocity.y.forEach((y, j) => y.forEach((v, i) => assert.equal(v, rec.u[i][j], `u${j + 1} at step ${i}`)));
+  const last = rec.steps - 1;
+  const f = await C(page, `c.frame("gap", ${last})`);
+  assert.deepEqual(f.q, rec.q[last]);
+  assert.deepEqual(f.u, rec.u[last]);
+  const readout = await page.locator("[data-testid=cbf-readout]").textContent();
+  assert.match(readout, / u6 -?\d/, "the readout shows the last joint's velocity");
+  assert.doesNotMatch(readout, /u7/);
+  // j cycles all → 1 → … → 6 → all.
+  const seen = [];
+  for (let k = 0; k < 7; k++) {
+    await page.keyboard.press("j");
+    seen.push((await C(page, "c.state")).joint);
+  }
+  assert.deepEqual(seen, [1, 2, 3, 4, 5, 6, 0]);
+  assert.deepEqual(page.problems, []);
+  await screenshot(page, "cbf-ur5e-joints");
   await page.context().close();
 });
 

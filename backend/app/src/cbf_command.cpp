@@ -21,7 +21,8 @@ pose over the arm's redundancy (last joint scanned if dof > 6, joints 1-6 solved
 configuration and the pair that limit it, the GAP D there, and whether each metric's margin
 delta_obs can hold there.
 
-request   {"scenario": NAME | SCENARIO, "metric": "gap" | "euclidean", "params": {...}}
+request   {"scenario": NAME | SCENARIO, "metric": "gap" | "euclidean", "params": {...},
+           "sweep": {"parameter": PATH, "values": [...]}?}
           NAME: assets/scenarios/NAME.json (corridor, corridor_real, corridor_narrow,
           corridor_fine_margin, ur5e_reach); SCENARIO: the same object inline ("robot": NAME of
           assets/robots/NAME.urdf, default panda)
@@ -39,6 +40,12 @@ response  "t", "q", "u", "task_error", "min_distance" (per step), "infeasible_st
           "clipped_steps", "q_final", "final" {"ee_position", "position_error", "min_clearance",
           "closest_pair", "active": [{"name", "kind", "distance", "margin", "clearance",
           "converged_distance", "multiplier"}]}}, "gap_mode", ["converged_distance"]
+sweep     one run per value with params.PATH = value (PATH a dotted key of params, e.g.
+          margins.gap.obstacle, gap.tol, duration; at most 16 values; audit on by default);
+          response {"scenario", "metric", "parameter", "values", "entries": [{"value",
+          "position_error", "min_clearance", "total_variation", "infeasible_steps", "steps",
+          "step_us_mean", "gap_mode", "summary", "smoothness"}]} (summary and smoothness as the
+          record of the single run with that value)
 errors    {"error": {"code", "message", "field"}}
 exit      0 ok, 2 invalid input, 65 malformed JSON, 70 internal error
 )";
@@ -48,8 +55,9 @@ int run_cbf(const std::vector<std::string>& args, std::istream& in, std::ostream
   return distlab::app::run_json_command(
       {"cbf", kHelp, {"--feasibility"}}, args, in, out, err,
       [](const nlohmann::json& request, const auto& flags) {
-        return flags.count("--feasibility") ? server::run_cbf_feasibility(request)
-                                            : server::run_cbf_request(request);
+        if (flags.count("--feasibility")) return server::run_cbf_feasibility(request);
+        return request.is_object() && request.contains("sweep") ? server::run_cbf_sweep(request)
+                                                                : server::run_cbf_request(request);
       });
 }
 

@@ -402,4 +402,88 @@ json run_cbf_request(const json& request) {
   return encode_record(cbf::rollout(r.scenario, r.metric, r.options), r.scenario.name);
 }
 
+CbfSweep parse_cbf_sweep(const json& request, const std::string& assets_dir, std::size_t max_values) {
+  require_object(request, "");
+  const json& sw = required(request, "", "sweep");
+  require_object(sw, "sweep");
+  check_keys(sw, "sweep", {"parameter", "values"});
+  CbfSweep out;
+  out.parameter = string(required(sw, "sweep", "parameter"), "sweep.parameter");
+  std::vector<std::string> path;
+  for (std::size_t b = 0;;) {
+    const std::size_t e = out.parameter.find('.', b);
+    path.push_back(out.parameter.substr(b, e == std::string::npos ? std::string::npos : e - b));
+    if (path.back().empty() || path.back().size() > 64) fail("sweep.parameter", "expected a dotted key of params, e.g. \"margins.gap.obstacle\"");
+    if (e == std::string::npos) break;
+    b = e + 1;
+  }
+  if (path.front() == "record_pairs" || path.front() == "audit")
+    fail("sweep.parameter", "\"" + path.front() + "\" sets the output, not the run");
+  out.values = required(sw, "sweep", "values");
+  if (!out.values.is_array() || out.values.empty() || out.values.size() > max_values)
+    fail("sweep.values", "expected an array of 1 to " + std::to_string(max_values) + " values");
+  json base = request;
+  base.erase("sweep");
+  json& params = base["params"];
+  if (params.is_null()) params = json::object();
+  require_object(params, "params");
+  if (!params.contains("audit")) params["audit"] = true;  // min clearance for each run
+  const std::string pf = "params." + out.parameter;
+  for (std::size_t i = 0; i < out.values.size(); ++i) {
+    json r = base;
+    json* node = &r["params"];
+    for (std::size_t k = 0; k + 1 < path.size(); ++k) {
+      node = &(*node)[path[k]];
+      if (node->is_null()) *node = json::object();
+      if (!node->is_object()) fail("sweep.parameter", "params." + path[k] + " is not an object");
+    }
+    (*node)[path.back()] = out.values[i];
+    const std::string vf = "sweep.values[" + std::to_string(i) + "]";
+    try {
+      out.runs.push_back(parse_cbf_request(r, assets_dir));
+    } catch (const InvalidInput& e) {
+      const std::string& f = e.field();
+      // An unknown key at or on the way to the parameter: the path names no parameter.
+      if (std::string_view(e.what()).starts_with("unknown key") && (f == pf || pf.starts_with(f + ".")))
+        throw InvalidInput("sweep.parameter", std::string("sweep.parameter: ") + e.what());
+      if (f == pf || f.starts_with(pf + ".") || f.starts_with(pf + "["))
+        throw InvalidInput(vf, vf + " = " + out.values[i].dump().substr(0, 64) + ": " + e.what());
+      throw;
+    }
+    out.requests.push_back(std::move(r));
+  }
+  return out;
+}
+
+json encode_sweep_entry(const json& value, const cbf::RolloutRecord& rec, const std::string& scenario_name) {
+  json record = encode_record(rec, scenario_name, false);
+  double tv = 0;
+  for (const json& v : record["smoothness"]["total_variation"]) tv += v.get<double>();
+  return {{"value", value},
+          {"summary", record["summary"]},
+          {"smoothness", record["smoothness"]},
+          {"gap_mode", record["gap_mode"]},
+          {"position_error", record["summary"]["final"]["position_error"]},
+          {"min_clearance", record["summary"]["min_distance"]},
+          {"total_variation", tv},
+          {"infeasible_steps", rec.infeasible_steps.size()},
+          {"steps", rec.steps.size()},
+          {"step_us_mean", rec.timing.step}};
+}
+
+json run_cbf_sweep(const json& request) {
+  const CbfSweep sweep = parse_cbf_sweep(request);
+  json entries = json::array();
+  for (std::size_t i = 0; i < sweep.runs.size(); ++i) {
+    const CbfRequest& r = sweep.runs[i];
+    entries.push_back(encode_sweep_entry(sweep.values[i], cbf::rollout(r.scenario, r.metric, r.options), r.scenario.name));
+  }
+  const CbfRequest& first = sweep.runs.front();
+  return {{"scenario", first.scenario.name},
+          {"metric", cbf::to_string(first.metric)},
+          {"parameter", sweep.parameter},
+          {"values", sweep.values},
+          {"entries", entries}};
+}
+
 }  // namespace distlab::server

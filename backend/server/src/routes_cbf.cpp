@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <mutex>
 
 #include "distlab/geometry/error.hpp"
 #include "distlab/server/cbf_json.hpp"
@@ -102,6 +103,62 @@ json run_rollout(const std::shared_ptr<CbfRollout>& r, cbf::RolloutOptions optio
   return {{"rollout", r->id}, {"summary", summary}};
 }
 
+// A parameter sweep (one job): the runs' entries as they finish, so a cancelled sweep still shows
+// the runs it completed. Owner only, like rollouts; the oldest are forgotten past kept_total.
+struct CbfSweepRun {
+  std::string id, session;
+  json head;  // scenario, metric, parameter, values
+  std::mutex mutex;
+  json entries = json::array();
+};
+
+class CbfSweepStore {
+ public:
+  explicit CbfSweepStore(std::size_t kept) : kept_(kept) {}
+  void add(std::shared_ptr<CbfSweepRun> s) {
+    std::lock_guard lock(mutex_);
+    sweeps_.push_back(std::move(s));
+    if (sweeps_.size() > kept_) sweeps_.erase(sweeps_.begin());
+  }
+  std::shared_ptr<CbfSweepRun> find(const std::string& session, const std::string& id) const {
+    std::lock_guard lock(mutex_);
+    for (const auto& s : sweeps_)
+      if (s->id == id && s->session == session) return s;
+    return nullptr;
+  }
+
+ private:
+  std::size_t kept_;
+  mutable std::mutex mutex_;
+  std::vector<std::shared_ptr<CbfSweepRun>> sweeps_;
+};
+
+// The sweep's job: each run in turn (progress over all runs' steps, the job's cancel flag stops
+// the run in progress and the sweep).
+json run_sweep(const std::shared_ptr<CbfSweepRun>& s, const CbfSweep& sweep, Job& job) {
+  const std::size_t n = sweep.runs.size();
+  for (std::size_t i = 0; i < n && !job.cancelled(); ++i) {
+    const CbfRequest& r = sweep.runs[i];
+    cbf::RolloutOptions options = r.options;
+    options.cancel = &job.cancel;
+    const std::string stage = "run " + std::to_string(i + 1) + " of " + std::to_string(n);
+    const double steps = std::max(1, r.scenario.steps());
+    options.progress = [&](int k, const cbf::StepRecord&) {
+      job.report(stage, (static_cast<double>(i) + (k + 1) / steps) / static_cast<double>(n));
+      return !job.cancelled();
+    };
+    const cbf::RolloutRecord rec = cbf::rollout(r.scenario, r.metric, options);
+    if (rec.cancelled) break;
+    json entry = encode_sweep_entry(sweep.values[i], rec, r.scenario.name);
+    std::lock_guard lock(s->mutex);
+    s->entries.push_back(std::move(entry));
+  }
+  json out = s->head;
+  std::lock_guard lock(s->mutex);
+  out["entries"] = s->entries;
+  return out;
+}
+
 }  // namespace
 
 void Service::register_cbf_routes() {
@@ -124,7 +181,8 @@ void Service::register_cbf_routes() {
                                               {"max_pair_steps", limits.max_pair_steps},
                                               {"max_batch_steps", limits.max_batch_steps},
                                               {"max_frames_per_request", limits.max_frames_per_request},
-                                              {"kept_per_session", limits.kept_per_session}}}});
+                                              {"kept_per_session", limits.kept_per_session},
+                                              {"max_sweep_values", limits.max_sweep_values}}}});
                }});
   router_.add({"GET", "/api/cbf/scenarios/{name}", [scenarios_dir](Request& req) {
                  const std::string name = req.params["name"];
@@ -228,6 +286,62 @@ void Service::register_cbf_routes() {
                  "max_jobs_per_session", "max_jobs_total", "max_job_seconds", "cbf_rollouts_kept_per_session",
                  "cbf_rollouts_kept_total"};
   router_.add(std::move(post));
+
+  // POST /api/cbf/sweeps: a rollout request with "sweep": {"parameter", "values"} (cbf_json.hpp),
+  // every run checked before the job starts; GET .../{id}: the entries so far and the job.
+  auto sweeps = std::make_shared<CbfSweepStore>(limits.kept_total);
+  Route sweep_post{"POST", "/api/cbf/sweeps", [this, limits, sweeps](Request& req) {
+                     auto session = require_session(req);
+                     const json body = parse_body(req);
+                     auto sweep = std::make_shared<CbfSweep>(parse_cbf_sweep(body, config_.assets_dir, limits.max_sweep_values));
+                     for (std::size_t i = 0; i < sweep->runs.size(); ++i) {
+                       const cbf::Scenario& sc = sweep->runs[i].scenario;
+                       const std::size_t steps = static_cast<std::size_t>(sc.steps());
+                       const std::size_t pairs = sc.robot->primitives().size() * sc.obstacles.size() +
+                                                 (sc.self_collision ? sc.robot->self_pairs().size() : 0);
+                       if (steps > static_cast<std::size_t>(limits.max_steps) || pairs * steps > limits.max_pair_steps)
+                         throw ApiError(422, "too_long",
+                                        "run " + std::to_string(i) + ": " + std::to_string(steps) + " steps × " +
+                                            std::to_string(pairs) + " pairs is over this server's " +
+                                            std::to_string(limits.max_steps) + " steps or " +
+                                            std::to_string(limits.max_pair_steps) + " pair-steps per rollout",
+                                        "sweep.values[" + std::to_string(i) + "]");
+                     }
+                     auto s = std::make_shared<CbfSweepRun>();
+                     s->session = session->id;
+                     s->head = {{"scenario", sweep->runs.front().scenario.name},
+                                {"metric", cbf::to_string(sweep->runs.front().metric)},
+                                {"parameter", sweep->parameter},
+                                {"values", sweep->values}};
+                     auto job = jobs_.submit(session->id, "cbf_sweep", {{"parameter", sweep->parameter}},
+                                             [s, sweep](Job& j) { return run_sweep(s, *sweep, j); });
+                     s->id = job->id;
+                     sweeps->add(s);
+                     json status = s->head;
+                     status["id"] = job->id;
+                     status["entries"] = json::array();
+                     return json_response(202, {{"sweep", status}, {"job", job->to_json()}});
+                   }};
+  sweep_post.heavy = true;  // parses every run's request
+  sweep_post.bounds = {"max_body_bytes", "max_cbf_steps", "max_cbf_pair_steps", "max_jobs_per_session",
+                       "max_jobs_total", "max_job_seconds"};
+  router_.add(std::move(sweep_post));
+  router_.add({"GET", "/api/cbf/sweeps/{id}", [this, sweeps](Request& req) {
+                 auto session = require_session(req);
+                 auto s = sweeps->find(session->id, req.params.at("id"));
+                 if (!s) throw ApiError(404, "unknown_sweep", "no such sweep in this session");
+                 json out = s->head;
+                 out["id"] = s->id;
+                 {
+                   std::lock_guard lock(s->mutex);
+                   out["entries"] = s->entries;
+                 }
+                 if (auto j = jobs_.find(session->id, s->id)) {
+                   out["job"] = j->to_json();
+                   out["job"].erase("result");  // the entries are above
+                 }
+                 return json_response(200, out);
+               }});
 
   auto require_rollout = [this](const Request& req) {
     auto session = require_session(req);

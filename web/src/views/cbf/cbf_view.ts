@@ -1,6 +1,6 @@
-// View 3, CBF rollouts (issue 6, paper Section IV-B): the Panda's collision primitives in the
-// scenario's obstacles, rollouts computed by the server streaming in step by step (GAP beside
-// Euclidean), a timeline to play and scrub, witness segments of the closest pairs, plots of the
+// View 3, CBF rollouts (issue 6, paper Section IV-B): the robot of the scenario (its URDF's
+// collision primitives and joints) in the scenario's obstacles, rollouts computed by the server
+// streaming in step by step (GAP beside Euclidean, or any two rollouts overlaid), a timeline to play and scrub, witness segments of the closest pairs, plots of the
 // joint velocities, distances and task error, and the records' smoothness and timing numbers.
 import { api, ApiError, errorText } from "../../core/api";
 import type { Shortcut } from "../../core/keys";
@@ -11,17 +11,19 @@ import "./cbf.css";
 import { drawStep } from "./draw_step";
 import { installHooks } from "./hooks";
 import { primitivePoses } from "./kinematics";
-import { addOverlay } from "./overlay";
+import { addOverlay, showLegend } from "./overlay";
 import { Panel } from "./panel";
 import { Results } from "./results";
 import { stopRouting, type Rollout } from "./rollout";
 import { endedStatus, progressLabel, Run, runningStatus } from "./run";
 import { CbfScene } from "./scene";
 import { cbfShortcuts } from "./shortcuts";
-import { gapParams, metricsOf, parseState, stateJson, type CbfState } from "./state";
+import { runSpecs, sameSpecs, specGapParams, type RolloutSpec } from "./specs";
+import { parseValues, runSweep, SweepPlot, type SweepJson } from "./sweep";
+import { parseState, stateJson, type CbfState } from "./state";
 import { Timeline } from "./timeline";
 import { DrawTimings } from "./timings";
-import { METRIC_NAMES as NAME, METRICS, type CbfFeasibility, type CbfRobot, type CbfScenario, type Metric } from "./types";
+import type { CbfFeasibility, CbfRobot, CbfScenario } from "./types";
 
 export class CbfView implements View {
   private viewport: Viewport | null = null;
@@ -36,11 +38,15 @@ export class CbfView implements View {
   private results: Results | null = null;
   private run: Run | null = null;
   private readout: HTMLDivElement | null = null;
+  private legend: HTMLDivElement | null = null;
   private q0Poses: Float32Array | null = null;
-  private shown: Metric[] = [];
+  private shown: RolloutSpec[] = [];
   private error: string | null = null;
   private restoreT: number | null = null;
   private readonly timings = new DrawTimings();
+  private sweep: SweepJson | null = null;
+  private sweepPlot: SweepPlot | null = null;
+  private sweepRunning = false;
   private cleanup: Array<() => void> = [];
 
   async mount(host: ViewHost, raw: Record<string, unknown>): Promise<void> {
@@ -52,7 +58,7 @@ export class CbfView implements View {
     vp.camera.position.set(2.1, -1.7, 1.5);
     vp.controls.target.set(0.3, 0, 0.45);
     vp.controls.update();
-    this.readout = addOverlay(host.canvas);
+    ({ readout: this.readout, legend: this.legend } = addOverlay(host.canvas));
     this.timeline = new Timeline(host.canvas, (s) => this.draw(s), (speed) => {
       this.state.speed = speed;
       this.save();
@@ -78,6 +84,7 @@ export class CbfView implements View {
       runEdited: (scenario) => this.runEdited(scenario),
       revertEdited: () => this.revertEdited(),
       changed: (what) => this.changed(what),
+      sweep: (parameter, values) => this.blurThen(() => void this.startSweep(parameter, values)),
       frame: () => this.blurThen(() => this.frameAll()),
       copyLink: () => void navigator.clipboard?.writeText(location.href).then(() => toast("link copied", "ok")),
     });
@@ -85,11 +92,11 @@ export class CbfView implements View {
       this.timeline!.pause();
       this.timeline!.seek(t / (this.timeline!.dt || 0.01));
     });
-    this.results.build(metricsOf(this.state.metric), this.state.joint);
+    this.setRobot(this.robot);
     this.cleanup.push(
       installHooks(() => ({
-        viewport: this.viewport, state: this.state, timeline: this.timeline, run: this.run, scene: this.scene, shown: this.shown,
-        results: this.results, timings: this.timings, error: this.error,
+        viewport: this.viewport, state: this.state, timeline: this.timeline, run: this.run, scene: this.scene, shown: this.shown, robot: this.robot,
+        results: this.results, timings: this.timings, error: this.error, sweep: this.sweep, sweepPlot: this.sweepPlot,
       })),
       vp.onBeforeRender(() => this.timings.beforeRender()),
     );
@@ -128,11 +135,19 @@ export class CbfView implements View {
       }
       this.scene!.remove();
       this.scene = new CbfScene(this.viewport.scene, this.robot);
+      this.setRobot(this.robot);
     }
     this.scenario = sc;
     this.panel!.showScenario(sc);
     this.panel!.showDuration(this.duration());
     this.showScenario(sc);
+  }
+
+  /** The robot's joints name the panel's joint list and the plots' series (any number of joints). */
+  private setRobot(robot: CbfRobot): void {
+    if (this.state.joint > robot.dof) this.state.joint = 0;
+    this.panel!.setRobot(robot.name, robot.joint_names);
+    this.results!.build(runSpecs(this.state), robot.dof, this.state.joint);
   }
 
   /** Draws obstacles, target and the robot at q0 (a malformed edited scenario draws what it can). */
@@ -143,8 +158,14 @@ export class CbfView implements View {
     } catch {
       /* the server names what is wrong when it is run */
     }
-    this.shown = metricsOf(this.state.metric);
-    this.scene!.arrange(this.shown, this.state.layout);
+    this.show(runSpecs(this.state));
+  }
+
+  /** Shows these rollouts' worlds and names them in the legend. */
+  private show(specs: RolloutSpec[]): void {
+    this.shown = specs;
+    this.scene!.arrange(specs, this.state.layout);
+    showLegend(this.legend!, specs);
     this.draw(this.timeline!.step);
   }
 
@@ -167,27 +188,25 @@ export class CbfView implements View {
     this.save();
   }
 
-  private changed(what: "scenario" | "metric" | "gap" | "duration" | "speed" | "draw" | "joint" | "layout"): void {
+  private changed(what: "scenario" | "metric" | "gap" | "compare" | "duration" | "speed" | "draw" | "joint" | "layout"): void {
     switch (what) {
       case "scenario":
         this.state.duration = null; // each scenario runs for its own duration unless set
         void this.loadScenario();
         break;
-      case "metric": {
-        const want = metricsOf(this.state.metric);
-        if (this.run && want.every((m) => this.run!.metrics.includes(m))) {
-          this.shown = want; // the run has them: just show those
-          this.scene!.arrange(this.shown, this.state.layout);
-          this.draw(this.timeline!.step);
-        } else if (this.run) this.host.status("press r to run the chosen metric(s)");
+      case "metric":
+      case "gap":
+      case "compare": {
+        const want = runSpecs(this.state);
+        const run = this.run;
+        const have = run ? want.map((w) => run.specs.find((s) => sameSpecs([s], [w]))) : [];
+        if (run && have.every((s) => s)) this.show(have as RolloutSpec[]); // the run has them: just show those
+        else if (run) this.host.status("press r to run the chosen rollouts");
         else this.showScenario(this.scenario ?? { obstacles: [], target: { position: [0, 0, 0] }, q0: [] });
         break;
       }
       case "duration":
         if (this.run) this.host.status("press r to run with the new duration");
-        break;
-      case "gap":
-        if (this.run) this.host.status("press r to run GAP with the chosen distance");
         break;
       case "speed":
         this.timeline!.setSpeed(this.state.speed);
@@ -228,23 +247,22 @@ export class CbfView implements View {
   private async start(): Promise<void> {
     if (!this.robot || !this.scene) return;
     this.dropRun();
-    const metrics = metricsOf(this.state.metric);
-    this.shown = metrics;
+    const specs = runSpecs(this.state);
     this.error = null;
-    this.results!.build(metrics, this.state.joint);
-    this.scene.arrange(metrics, this.state.layout);
-    this.results!.started(metrics);
+    this.results!.build(specs, this.robot.dof, this.state.joint);
+    this.results!.started(specs);
     this.state.run = true;
     this.save();
     const scenario = this.state.inline ?? this.state.scenario;
-    const run = (this.run = new Run(scenario, metrics, this.duration(), this.robot.primitives.length, {
+    const run = (this.run = new Run(scenario, specs, this.duration(), { primitives: this.robot.primitives.length, dof: this.robot.dof }, {
       frames: (r, _added, arrived) => this.onFrames(r, arrived),
       progress: (x) => this.onProgress(x),
       ended: (r) => this.onEnded(r),
       done: (x, err) => this.onDone(x, err),
-    }, gapParams(this.state.gapMode)));
+    }));
     this.panel!.setRunning(true);
     this.onProgress(run);
+    this.show(specs);
     this.draw(0);
     await run.start();
   }
@@ -258,7 +276,7 @@ export class CbfView implements View {
   private onFrames(r: Rollout, arrived: number): void {
     const tl = this.timeline!;
     const run = this.run!;
-    const world = this.scene!.worlds[r.metric];
+    const world = this.scene!.world(r.spec);
     if (r.store) world.setPairs(r.store.pairCount);
     const prevLength = tl.length;
     const length = Math.max(...run.rollouts.map((x) => x.store?.contiguous ?? 0));
@@ -275,7 +293,7 @@ export class CbfView implements View {
   }
 
   private onEnded(r: Rollout): void {
-    if (r.state === "failed" && r.error) this.reportError(r.error, `${NAME[r.metric]} rollout`);
+    if (r.state === "failed" && r.error) this.reportError(r.error, `${r.spec.label} rollout`);
     if (this.run) this.results!.ended(this.run);
   }
 
@@ -305,6 +323,49 @@ export class CbfView implements View {
       .catch(() => undefined);
   }
 
+  /** A sweep of the first rollout's settings over one params key: one job, then its plot. */
+  private async startSweep(parameter: string, text: string): Promise<void> {
+    const values = parseValues(text);
+    if (!values) {
+      showError(new Error("sweep values: numbers separated by commas"), "sweep");
+      return;
+    }
+    if (this.sweepRunning) return;
+    const [first] = runSpecs(this.state);
+    const gap = specGapParams(first);
+    const body = {
+      scenario: this.state.inline ?? this.state.scenario,
+      metric: first.metric,
+      params: { duration: this.duration(), record_pairs: false, ...(gap ? { gap } : {}) },
+      sweep: { parameter, values },
+    };
+    this.sweepRunning = true;
+    this.sweep = null;
+    let id = "";
+    try {
+      const s = await runSweep(
+        body,
+        (x) => {
+          id = x.id;
+          this.sweep = x;
+          const job = x.job;
+          this.host.progress(`sweep of ${parameter}: ${job?.stage ?? "queued"}`, job?.fraction ?? 0, () => void api.post(`/api/jobs/${id}/cancel`).catch(() => undefined));
+        },
+        () => !this.viewport,
+      );
+      this.sweep = s;
+      if (!this.viewport) return;
+      this.sweepPlot?.dispose();
+      this.sweepPlot = new SweepPlot(this.host.bottom, s);
+      this.host.status(`sweep ${s.job?.state ?? "ended"}: ${s.entries.length} of ${s.values.length} runs of ${first.label} over ${parameter}`);
+    } catch (e) {
+      this.reportError(e, "sweep");
+    } finally {
+      this.sweepRunning = false;
+      this.host.progress(null);
+    }
+  }
+
   /** Returns to the time of a shared link (once: when it is computed, or at the end of the run). */
   private restoreTime(): void {
     const tl = this.timeline!;
@@ -319,7 +380,7 @@ export class CbfView implements View {
     if (!this.scene || !vp) return;
     const t0 = performance.now();
     const dt = this.timeline!.dt;
-    const lines = METRICS.filter((m) => this.shown.includes(m)).map((m) => drawStep(this.scene!.worlds[m], this.run?.rollout(m), step, this.q0Poses, this.state));
+    const lines = this.shown.map((s) => drawStep(this.scene!.world(s), this.run?.rollout(s.key), step, this.q0Poses, this.state));
     if (this.readout) this.readout.textContent = lines.join("\n");
     this.results?.setTime(this.timeline!.length ? step * dt : null);
     if (this.run) {
@@ -364,6 +425,7 @@ export class CbfView implements View {
       state: () => this.state,
       refreshPanel: () => this.panel?.refresh(),
       save: () => this.save(),
+      dof: () => this.robot?.dof ?? 0,
       changed: (what) => this.changed(what),
       run: () => void this.start(),
       cancel: () => void this.run?.cancel(),
@@ -386,6 +448,8 @@ export class CbfView implements View {
     this.results?.dispose();
     this.panel?.dispose();
     this.readout?.remove();
+    this.legend?.remove();
+    this.sweepPlot?.dispose();
     this.viewport?.dispose();
     this.viewport = null;
     this.host?.progress(null);

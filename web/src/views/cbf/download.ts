@@ -1,6 +1,6 @@
 // A finished rollout's record as files: the JSON the server returned (GET
 // /api/cbf/rollouts/{id}/record, as `distlab cbf` writes it) and a CSV of its per-step series.
-import type { CbfRecord, Metric } from "./types";
+import type { CbfRecord } from "./types";
 
 /** One row per step: t, q_1…q_n, u_1…u_n, task_error, min_distance (empty when not audited). */
 export function recordCsv(record: CbfRecord): string {
@@ -22,12 +22,12 @@ function save(name: string, type: string, text: string): void {
   window.setTimeout(() => URL.revokeObjectURL(a.href), 2000);
 }
 
-/** "GAP: JSON · CSV" links that download the record. */
-export function downloadLinks(metric: Metric, label: string, record: CbfRecord): HTMLElement {
+/** "GAP exact record: JSON · CSV" links that download the record of the rollout `key`. */
+export function downloadLinks(key: string, label: string, record: CbfRecord): HTMLElement {
   const p = document.createElement("p");
   p.className = "cbf-download";
   p.append(`${label} record: `);
-  const base = `${record.scenario}-${metric}`;
+  const base = `${record.scenario}-${key}`;
   for (const [what, make] of [
     ["JSON", () => save(`${base}.json`, "application/json", JSON.stringify(record))],
     ["CSV", () => save(`${base}.csv`, "text/csv", recordCsv(record))],
@@ -35,7 +35,7 @@ export function downloadLinks(metric: Metric, label: string, record: CbfRecord):
     const b = document.createElement("button");
     b.type = "button";
     b.textContent = what;
-    b.dataset.testid = `cbf-download-${metric}-${what.toLowerCase()}`;
+    b.dataset.testid = `cbf-download-${key}-${what.toLowerCase()}`;
     b.addEventListener("click", make);
     p.append(b, " ");
   }

@@ -1,4 +1,4 @@
-// One metric's world at a step of the timeline: the robot posed from its rollout's frames (at q0
+// One rollout's world at a step of the timeline: the robot posed from its rollout's frames (at q0
 // before they come), the witness pairs the state asks for, and the readout line of that step.
 import { q0Line, stepLine } from "./overlay";
 import type { Rollout } from "./rollout";
@@ -10,11 +10,11 @@ export function drawStep(world: World, r: Rollout | undefined, step: number, q0P
   const store = r?.store ?? null;
   if (!store || store.contiguous === 0 || !store.hasPoses) {
     world.showQ0(q0Poses);
-    return q0Line(world.metric, r);
+    return q0Line(world.spec, r);
   }
   const k = Math.min(step, store.contiguous - 1);
   const mode = state.witnesses;
   const pairs = !store.hasPairs || mode === "none" ? [] : mode === "all" ? store.closestPairs(k) : store.closestPairs(k).slice(0, state.closest);
   world.showStep(store, k, pairs);
-  return stepLine(world.metric, k, store, pairs[0] !== undefined ? (r?.status?.pairs[pairs[0]]?.name ?? "") : "");
+  return stepLine(world.spec, k, store, pairs[0] !== undefined ? (r?.status?.pairs[pairs[0]]?.name ?? "") : "");
 }

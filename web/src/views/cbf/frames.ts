@@ -2,9 +2,8 @@
 // thousands of small JSON objects): q, u, task error, true clearance, per-pair distance and
 // witnesses, primitive poses. Steps may arrive twice (live batches and a replay) or out of order
 // after a reconnect: each index is stored once; `contiguous` is the prefix without holes.
+// The number of joints is the robot's (GET /api/cbf/robot: dof).
 import type { CbfFrame } from "./types";
-
-const DOF = 7;
 
 class Grow<T extends Float64Array | Float32Array> {
   data: T;
@@ -25,8 +24,8 @@ class Grow<T extends Float64Array | Float32Array> {
 }
 
 export class FrameStore {
-  readonly q = new Grow((n) => new Float64Array(n), DOF);
-  readonly u = new Grow((n) => new Float64Array(n), DOF);
+  readonly q: Grow<Float64Array>;
+  readonly u: Grow<Float64Array>;
   readonly taskError = new Grow((n) => new Float64Array(n), 1);
   readonly minDistance = new Grow((n) => new Float64Array(n), 1); // true clearance (NaN = none)
   readonly minD = new Grow((n) => new Float64Array(n), 1); // min over pairs of the controller's D
@@ -48,7 +47,10 @@ export class FrameStore {
     readonly pairCount: number,
     readonly primitiveCount: number,
     readonly dt: number,
+    readonly dof: number,
   ) {
+    this.q = new Grow((n) => new Float64Array(n), dof);
+    this.u = new Grow((n) => new Float64Array(n), dof);
     this.distance = new Grow((n) => new Float64Array(n), pairCount);
     this.witnessA = new Grow((n) => new Float32Array(n), pairCount * 3);
     this.witnessB = new Grow((n) => new Float32Array(n), pairCount * 3);
@@ -65,8 +67,9 @@ export class FrameStore {
       if (this.present[i]) continue;
       this.present[i] = 1;
       added++;
-      this.q.data.set(f.q.slice(0, DOF), i * DOF);
-      this.u.data.set(f.u.slice(0, DOF), i * DOF);
+      const n = this.dof;
+      this.q.data.set(f.q.slice(0, n), i * n);
+      this.u.data.set(f.u.slice(0, n), i * n);
       this.taskError.data[i] = f.task_error;
       this.minDistance.data[i] = f.min_distance ?? NaN;
       this.flags.data[i] = f.held ? 2 : f.relaxed ? 1 : 0;
@@ -121,7 +124,7 @@ export class FrameStore {
   /** Joint j's velocity over [0, n). */
   uSeries(j: number, n: number): Float64Array {
     const out = new Float64Array(n);
-    for (let i = 0; i < n; i++) out[i] = this.u.data[i * DOF + j];
+    for (let i = 0; i < n; i++) out[i] = this.u.data[i * this.dof + j];
     return out;
   }
   scalarSeries(g: Grow<Float64Array>, n: number): Float64Array {
@@ -138,11 +141,12 @@ export class FrameStore {
   frame(i: number): { i: number; t: number; q: number[]; u: number[]; task_error: number; min_distance: number | null } | null {
     if (!this.has(i)) return null;
     const md = this.minDistance.data[i];
+    const n = this.dof;
     return {
       i,
       t: i * this.dt,
-      q: Array.from(this.q.data.subarray(i * DOF, i * DOF + DOF)),
-      u: Array.from(this.u.data.subarray(i * DOF, i * DOF + DOF)),
+      q: Array.from(this.q.data.subarray(i * n, i * n + n)),
+      u: Array.from(this.u.data.subarray(i * n, i * n + n)),
       task_error: this.taskError.data[i],
       min_distance: Number.isFinite(md) ? md : null,
     };

@@ -6,10 +6,12 @@ import type { Viewport } from "../../core/viewport";
 import type { Results } from "./results";
 import type { Run } from "./run";
 import type { CbfScene } from "./scene";
+import type { RolloutSpec } from "./specs";
 import type { CbfState } from "./state";
+import type { SweepJson, SweepPlot } from "./sweep";
 import type { Timeline } from "./timeline";
 import type { DrawTimings } from "./timings";
-import type { Metric } from "./types";
+import type { CbfRobot } from "./types";
 
 /** The view's parts as they are now (read at every hook access: they change with each run). */
 export interface CbfParts {
@@ -18,15 +20,19 @@ export interface CbfParts {
   timeline: Timeline | null;
   run: Run | null;
   scene: CbfScene | null;
-  shown: Metric[];
+  shown: RolloutSpec[];
+  robot: CbfRobot | null;
   results: Results | null;
   timings: DrawTimings;
   error: string | null;
+  sweep: SweepJson | null;
+  sweepPlot: SweepPlot | null;
 }
 
 export function installHooks(parts: () => CbfParts): () => void {
   const copy = <T>(x: T): T => structuredClone(x);
-  const store = (m: Metric) => parts().run?.rollout(m)?.store;
+  // Rollouts by key: "gap", "euclidean", or "gap2" / "euclidean2" for a second one of a metric.
+  const store = (k: string) => parts().run?.rollout(k)?.store;
   const hooks = Object.freeze({
     get state() {
       return copy(parts().state as unknown as Record<string, unknown>);
@@ -47,9 +53,18 @@ export function installHooks(parts: () => CbfParts): () => void {
     get lastError() {
       return parts().error;
     },
-    record: (m: Metric) => copy(parts().run?.rollout(m)?.record ?? null),
-    frame: (m: Metric, i: number) => copy(store(m)?.frame(i) ?? null),
-    /** Per metric: the step drawn, the primitives' world poses and the pairs whose witnesses are shown. */
+    /** The robot drawn: its name and joints (as GET /api/cbf/robot names them). */
+    get robot() {
+      const r = parts().robot;
+      return r ? { name: r.name, dof: r.dof, joint_names: [...r.joint_names] } : null;
+    },
+    /** The rollouts shown: key, label (as in the legends) and colour. */
+    get shown() {
+      return parts().shown.map((s) => ({ key: s.key, metric: s.metric, gapMode: s.gapMode, short: s.short, label: s.label, color: s.color }));
+    },
+    record: (k: string) => copy(parts().run?.rollout(k)?.record ?? null),
+    frame: (k: string, i: number) => copy(store(k)?.frame(i) ?? null),
+    /** Per rollout key: the step drawn, the primitives' world poses and the pairs whose witnesses are shown. */
     drawn: () => copy(drawn(parts())),
     plots: () => {
       const p = parts().results?.plots;
@@ -62,6 +77,8 @@ export function installHooks(parts: () => CbfParts): () => void {
       const p = results?.plots;
       return copy({ arrivalToDrawnMs: t.arrivalToDrawnMs, drawMs: t.drawMs, plotRefreshes: p?.refreshes ?? 0, plotRefreshMs: p?.refreshMs ?? [] });
     },
+    /** The last sweep as the server answered it, and what its plot shows. */
+    sweep: () => copy({ sweep: parts().sweep, plot: parts().sweepPlot?.plot.data() ?? null }),
     frameStats: () => parts().viewport?.frameStats() ?? null,
     resetFrameStats: () => parts().viewport?.resetFrameStats(),
   });
@@ -75,6 +92,8 @@ export function installHooks(parts: () => CbfParts): () => void {
 
 function rollouts(run: Run | null) {
   return (run?.rollouts ?? []).map((r) => ({
+    key: r.spec.key,
+    label: r.spec.label,
     metric: r.metric,
     id: r.id,
     state: r.state,
@@ -89,17 +108,17 @@ function rollouts(run: Run | null) {
 }
 
 function drawn({ scene, shown }: CbfParts) {
-  const out: Record<string, { step: number; poses: number[]; witnesses: number[] }> = {};
+  const out: Record<string, { step: number; poses: number[]; witnesses: number[]; visible: boolean; color: number | null }> = {};
   if (!scene) return out;
-  for (const m of shown) {
-    const w = scene.worlds[m];
+  for (const spec of shown) {
+    const w = scene.world(spec);
     const poses: number[] = [];
     const p = new THREE.Vector3(), q = new THREE.Quaternion(), s = new THREE.Vector3();
     w.robot.children.forEach((c) => {
       c.matrix.decompose(p, q, s);
       poses.push(p.x, p.y, p.z, q.w, q.x, q.y, q.z);
     });
-    out[m] = { step: w.step, poses, witnesses: [...w.witnesses.shown] };
+    out[spec.key] = { step: w.step, poses, witnesses: [...w.witnesses.shown], visible: w.group.visible, color: w.robotColor() };
   }
   return out;
 }

@@ -1,8 +1,8 @@
-// The control panel (lil-gui in host.panel): the rollout to run (scenario, metric or both,
-// duration), playback and drawing options, an editor for the scenario JSON (posted inline, the
+// The control panel (lil-gui in host.panel): the rollout to run (scenario, metric or both, the
+// rollout compared with it, duration), playback and drawing options, an editor for the scenario JSON (posted inline, the
 // server's verdict shown under it), and the numbers of the finished run (Summary) below.
 import GUI, { type Controller } from "lil-gui";
-import { METRIC_CHOICES, SPEEDS, WITNESS_MODES, type CbfState, type GapModeChoice } from "./state";
+import { METRIC_CHOICES, SPEEDS, WITNESS_MODES, type CbfState, type CompareChoice, type GapModeChoice } from "./state";
 
 export interface PanelActions {
   run(): void;
@@ -10,7 +10,9 @@ export interface PanelActions {
   /** The editor's text parsed as a JSON object (the panel refuses anything else itself). */
   runEdited(scenario: Record<string, unknown>): void;
   revertEdited(): void;
-  changed(what: "scenario" | "metric" | "gap" | "duration" | "speed" | "draw" | "joint" | "layout"): void;
+  changed(what: "scenario" | "metric" | "gap" | "compare" | "duration" | "speed" | "draw" | "joint" | "layout"): void;
+  /** A sweep of one params key over these values (as typed), with the first rollout's settings. */
+  sweep(parameter: string, values: string): void;
   frame(): void;
   copyLink(): void;
 }
@@ -27,9 +29,11 @@ export class Panel {
   private readonly folder: GUI;
   private readonly duration: { own: number; duration: number };
   private readonly durationCtrl: Controller;
+  private readonly playback: GUI;
+  private jointCtrl: Controller | null = null;
 
   constructor(container: HTMLElement, private readonly state: CbfState, scenarios: string[], private readonly actions: PanelActions) {
-    this.gui = new GUI({ container, title: "CBF rollouts — Panda (paper IV-B)" });
+    this.gui = new GUI({ container, title: "CBF rollouts (paper IV-B)" });
     const r = (this.folder = this.gui.addFolder("Rollout"));
     this.proxy = { scenario: state.inline ? "(edited)" : state.scenario, joint: state.joint === 0 ? "all" : String(state.joint) };
     this.scenarioCtrl = this.scenarioSelect(scenarios);
@@ -40,6 +44,15 @@ export class Panel {
     r.add(state, "gapMode", { "exact (converged)": "exact", "as published, 2e-4 / 300": "as_published_sim", "as published, 5e-4 / 20": "as_published_real" } satisfies Record<string, GapModeChoice>)
       .name("GAP distance")
       .onChange(() => actions.changed("gap"));
+    r.add(state, "compare", {
+      "nothing": "none",
+      Euclidean: "euclidean",
+      "GAP exact": "gap_exact",
+      "GAP as published, 2e-4 / 300": "gap_as_published_sim",
+      "GAP as published, 5e-4 / 20": "gap_as_published_real",
+    } satisfies Record<string, CompareChoice>)
+      .name("compare with")
+      .onChange(() => actions.changed("compare"));
     // Shows the scenario's own duration until the user sets one (state.duration null).
     const dur = { own: 35 } as { own: number; duration: number };
     Object.defineProperty(dur, "duration", {
@@ -59,19 +72,20 @@ export class Panel {
     this.cancelCtrl = r.add(actions, "cancel").name("cancel (Esc)");
     this.cancelCtrl.disable();
 
-    const p = this.gui.addFolder("Playback and drawing");
+    const p = (this.playback = this.gui.addFolder("Playback and drawing"));
     p.add(state, "speed", [...SPEEDS]).name("speed").onChange(() => actions.changed("speed"));
     p.add(state, "layout", { overlay: "overlay", "side by side": "side" }).name("two robots").onChange(() => actions.changed("layout"));
     p.add(state, "witnesses", [...WITNESS_MODES]).name("witness pairs (w)").onChange(() => actions.changed("draw"));
     p.add(state, "closest", 1, 60, 1).name("closest how many").onChange(() => actions.changed("draw"));
-    p.add(this.proxy, "joint", ["all", "1", "2", "3", "4", "5", "6", "7"])
-      .name("plot joints (j)")
-      .onChange((v: string) => {
-        state.joint = v === "all" ? 0 : Number(v);
-        actions.changed("joint");
-      });
     p.add(actions, "frame").name("frame the scene (f)");
     p.add(actions, "copyLink").name("copy link");
+
+    const sw = this.gui.addFolder("Parameter sweep (one server job)");
+    const sweep = { parameter: "margins.gap.obstacle", values: "0.002, 0.0005, 0.0002, 0.0001", run: () => actions.sweep(sweep.parameter, sweep.values) };
+    sw.add(sweep, "parameter").name("params key");
+    sw.add(sweep, "values").name("values");
+    sw.add(sweep, "run").name("▶ run sweep");
+    sw.close();
 
     const e = this.gui.addFolder("Scenario JSON (edit and run inline)");
     e.close();
@@ -114,6 +128,24 @@ export class Panel {
     // Keep it first in its folder.
     this.folder.$children.prepend(c.domElement);
     return c;
+  }
+
+  /** The robot of the scenario: its name in the title, its joints in the joint list. */
+  setRobot(name: string, jointNames: string[]): void {
+    this.gui.title(`CBF rollouts — ${name} (paper IV-B)`);
+    this.jointCtrl?.destroy();
+    const options: Record<string, string> = { all: "all" };
+    jointNames.forEach((n, j) => (options[`${j + 1} (${n})`] = String(j + 1)));
+    this.proxy.joint = this.state.joint === 0 ? "all" : String(this.state.joint);
+    this.jointCtrl = this.playback
+      .add(this.proxy, "joint", options)
+      .name("plot joints (j)")
+      .onChange((v: string) => {
+        this.state.joint = v === "all" ? 0 : Number(v);
+        this.actions.changed("joint");
+      });
+    this.jointCtrl.domElement.dataset.testid = "cbf-joint-select";
+    this.playback.$children.insertBefore(this.jointCtrl.domElement, this.playback.$children.children[4] ?? null);
   }
 
   /** The duration the panel shows when none is set: the scenario's own. */

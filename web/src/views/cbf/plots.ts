@@ -1,18 +1,18 @@
 // The rollout plots in the bottom strip (paper Fig. 4 and friends): joint velocities u_j(t), the
 // distances over time (true clearance and the controller's smallest D), the task error ‖r‖; every
-// metric of the run in the same plot (GAP solid, Euclidean dashed), a line at the current time,
-// a click seeks there. Rebuilt per run (the series depend on the metrics run).
+// rollout of the run in the same plot (the first solid, the second dashed), one velocity series per
+// joint of the run's robot, a line at the current time, a click seeks there. Rebuilt per run (the
+// series depend on the rollouts and the robot).
 import { Plot, type PlotSeries } from "../../core/plot";
 import type { FrameStore } from "./frames";
-import type { Metric } from "./types";
+import type { RolloutSpec } from "./specs";
 
-const JOINT_COLORS = ["#4e79a7", "#f28e2b", "#e15759", "#76b7b2", "#59a14f", "#edc948", "#b07aa1"];
-const METRIC_COLOR: Record<Metric, string> = { gap: "#ffb347", euclidean: "#6ad1a3" };
-const SHORT: Record<Metric, string> = { gap: "GAP", euclidean: "Eucl" };
-const dash = (m: Metric) => (m === "euclidean" ? [5, 3] : undefined);
+const JOINT_COLORS = ["#4e79a7", "#f28e2b", "#e15759", "#76b7b2", "#59a14f", "#edc948", "#b07aa1", "#ff9da7", "#9c755f"];
+const hex = (c: number) => `#${c.toString(16).padStart(6, "0")}`;
+const dash = (k: number) => (k > 0 ? [5, 3] : undefined);
 
 export interface PlotSource {
-  metric: Metric;
+  key: string;
   store: FrameStore | null;
 }
 
@@ -28,20 +28,24 @@ export class RolloutPlots {
 
   constructor(
     container: HTMLElement,
-    readonly metrics: Metric[],
+    readonly specs: RolloutSpec[],
+    /** The robot's joints (one velocity series each per rollout). */
+    readonly dof: number,
     joint: number,
     onPick: (t: number) => void,
   ) {
     const vSeries: PlotSeries[] = [];
-    for (let j = 0; j < 7; j++)
-      for (const m of metrics)
-        vSeries.push({ label: `u${j + 1} ${SHORT[m]}`, color: JOINT_COLORS[j], dash: dash(m), width: m === "gap" ? 1.6 : 1.2, show: joint === 0 || joint === j + 1 });
-    this.velocity = new Plot(container, { title: metrics.length === 2 ? "joint velocities u (rad/s) — GAP solid, Euclidean dashed" : `joint velocities u (rad/s) — ${metrics[0] === "gap" ? "GAP" : "Euclidean"}`, caption: "Each joint's velocity command u_j from the controller's QP, one colour per joint.", xLabel: "t (s)", yLabel: "u (rad/s)", series: vSeries, digits: 4, legendValues: false });
+    for (let j = 0; j < dof; j++)
+      specs.forEach((s, k) =>
+        vSeries.push({ label: `u${j + 1} ${s.short}`, color: JOINT_COLORS[j % JOINT_COLORS.length], dash: dash(k), width: k === 0 ? 1.6 : 1.2, show: joint === 0 || joint === j + 1 }),
+      );
+    const title = specs.length === 2 ? `${specs[0].label} solid, ${specs[1].label} dashed` : (specs[0]?.label ?? "");
+    this.velocity = new Plot(container, { title: `joint velocities u (rad/s) — ${title}`, caption: "Each joint's velocity command u_j from the controller's QP, one colour per joint.", xLabel: "t (s)", yLabel: "u (rad/s)", series: vSeries, digits: 4, legendValues: false });
     this.velocity.root.style.flex = "2.2";
     const dSeries: PlotSeries[] = [];
-    for (const m of metrics) {
-      dSeries.push({ label: `clearance ${SHORT[m]}`, color: METRIC_COLOR[m], width: 2 });
-      dSeries.push({ label: `min D ${SHORT[m]}`, color: METRIC_COLOR[m], dash: [2, 3], width: 1.2 });
+    for (const s of specs) {
+      dSeries.push({ label: `clearance ${s.short}`, color: hex(s.color), width: 2 });
+      dSeries.push({ label: `min D ${s.short}`, color: hex(s.color), dash: [2, 3], width: 1.2 });
     }
     this.distance = new Plot(container, { title: "distance (m)", caption: "clearance (solid): the true Euclidean distance between robot and obstacles; min D (dotted): the smallest distance over the controller's pairs (GAP D or Euclidean d), on one axis.", xLabel: "t (s)", yLabel: "distance (m)", series: dSeries, digits: 5, legendValues: false });
     this.error = new Plot(container, {
@@ -50,7 +54,7 @@ export class RolloutPlots {
       caption: "The norm of the task error r (end-effector position in m, orientation as 1 − cos), log scale.",
       yLabel: "‖r‖ (m, 1 − cos)",
       yLog: true,
-      series: metrics.map((m) => ({ label: `‖r‖ ${SHORT[m]}`, color: METRIC_COLOR[m], dash: dash(m), width: 1.6 })),
+      series: specs.map((s, k) => ({ label: `‖r‖ ${s.short}`, color: hex(s.color), dash: dash(k), width: 1.6 })),
       digits: 5,
       legendValues: false,
     });
@@ -58,10 +62,10 @@ export class RolloutPlots {
     for (const p of [this.velocity, this.distance, this.error]) p.onPick(onPick);
   }
 
-  /** Only joint j (1…7) or all (0). */
+  /** Only joint j (1 … dof) or all (0). */
   showJoint(joint: number): void {
     let i = 0;
-    for (let j = 0; j < 7; j++) for (let k = 0; k < this.metrics.length; k++) this.velocity.setShown(i++, joint === 0 || joint === j + 1);
+    for (let j = 0; j < this.dof; j++) for (let k = 0; k < this.specs.length; k++) this.velocity.setShown(i++, joint === 0 || joint === j + 1);
   }
 
   /** Coalesced: at most ~8 refreshes a second while frames stream in. */
@@ -81,7 +85,7 @@ export class RolloutPlots {
     const n = Math.max(0, ...sources.map((s) => s.store?.contiguous ?? 0));
     const dt = sources.find((s) => s.store)?.store?.dt ?? 0.01;
     const x = Float64Array.from({ length: n }, (_, i) => i * dt);
-    const bySource = this.metrics.map((m) => sources.find((s) => s.metric === m)?.store ?? null);
+    const bySource = this.specs.map((sp) => sources.find((s) => s.key === sp.key)?.store ?? null);
     const pad = (store: FrameStore | null, f: (s: FrameStore, len: number) => ArrayLike<number>, positive = false): Array<number | null> => {
       const len = store?.contiguous ?? 0;
       const out: Array<number | null> = new Array(n).fill(null);
@@ -91,7 +95,7 @@ export class RolloutPlots {
       return out;
     };
     const vel: Array<Array<number | null>> = [];
-    for (let j = 0; j < 7; j++) for (const s of bySource) vel.push(pad(s, (st, len) => st.uSeries(j, len)));
+    for (let j = 0; j < this.dof; j++) for (const s of bySource) vel.push(pad(s, (st, len) => st.uSeries(j, len)));
     this.velocity.setData(x, vel);
     const dist: Array<Array<number | null>> = [];
     for (const s of bySource) {

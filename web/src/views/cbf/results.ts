@@ -2,8 +2,8 @@
 // series depend on the metrics run) and the summary in the panel, kept up with the streaming run.
 import { RolloutPlots } from "./plots";
 import type { Run } from "./run";
+import type { RolloutSpec } from "./specs";
 import { rolloutNote, Summary } from "./summary";
-import type { Metric } from "./types";
 
 export class Results {
   plots: RolloutPlots | null = null;
@@ -18,10 +18,10 @@ export class Results {
     this.summary = new Summary(panelExtra);
   }
 
-  /** Empty plots for these metrics, showing joint `joint` (0 = all). */
-  build(metrics: Metric[], joint: number): void {
+  /** Empty plots for these rollouts of a robot with `dof` joints, showing joint `joint` (0 = all). */
+  build(specs: RolloutSpec[], dof: number, joint: number): void {
     this.plots?.dispose();
-    this.plots = new RolloutPlots(this.bottom, metrics, joint, this.pick);
+    this.plots = new RolloutPlots(this.bottom, specs, dof, joint, this.pick);
   }
 
   /** No run: nothing plotted, no numbers. */
@@ -30,9 +30,9 @@ export class Results {
     this.summary.show([]);
   }
 
-  /** A run of these metrics started: their numbers come when each rollout ends. */
-  started(metrics: Metric[]): void {
-    this.summary.show(metrics.map((metric) => ({ metric, record: null })));
+  /** A run of these rollouts started: their numbers come when each rollout ends. */
+  started(specs: RolloutSpec[]): void {
+    this.summary.show(specs.map((spec) => ({ spec, record: null })));
   }
 
   /** New frames streamed in (the plots coalesce their refreshes). */
@@ -43,7 +43,7 @@ export class Results {
   /** A rollout ended: every frame plotted, and its record's numbers (or why there are none). */
   ended(run: Run): void {
     this.plots?.refresh(sources(run));
-    this.summary.show(run.rollouts.map((r) => ({ metric: r.metric, record: r.record, note: rolloutNote(r) })));
+    this.summary.show(run.rollouts.map((r) => ({ spec: r.spec, record: r.record, note: rolloutNote(r) })));
   }
 
   setTime(t: number | null): void {
@@ -61,5 +61,5 @@ export class Results {
 }
 
 function sources(run: Run) {
-  return run.rollouts.map((r) => ({ metric: r.metric, store: r.store }));
+  return run.rollouts.map((r) => ({ key: r.spec.key, store: r.store }));
 }

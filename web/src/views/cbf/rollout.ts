@@ -5,6 +5,7 @@
 import { api, ApiError } from "../../core/api";
 import { socket, type TextMessage } from "../../core/socket";
 import { FrameStore } from "./frames";
+import { specGapParams, type RolloutSpec } from "./specs";
 import type { CbfFramesMessage, CbfRecord, CbfRolloutStatus, JobJson, Metric, RolloutState } from "./types";
 
 /** Frames whose rollout id the page does not know yet (the POST answer is still on its way). */
@@ -44,10 +45,15 @@ function startRouting(): void {
 
 export interface RolloutRequest {
   scenario: string | Record<string, unknown>;
-  metric: Metric;
+  /** Its metric and GAP distance (gap.mode as_published and its stopping rule). */
+  spec: RolloutSpec;
   duration: number;
-  /** params.gap of the GAP rollout (gap.mode as_published and its stopping rule), or null. */
-  gap?: Record<string, unknown> | null;
+}
+
+/** What the page needs of the robot to keep frames: its primitive and joint counts. */
+export interface RobotSize {
+  primitives: number;
+  dof: number;
 }
 
 export interface RolloutEvents {
@@ -80,12 +86,15 @@ export class Rollout {
 
   constructor(
     readonly request: RolloutRequest,
-    readonly primitiveCount: number,
+    readonly robot: RobotSize,
     private readonly events: RolloutEvents,
   ) {}
 
   get metric(): Metric {
-    return this.request.metric;
+    return this.request.spec.metric;
+  }
+  get spec(): RolloutSpec {
+    return this.request.spec;
   }
   get running(): boolean {
     return this.state === "queued" || this.state === "running";
@@ -99,14 +108,15 @@ export class Rollout {
       socket.onOpen(() => this.replay()),
     );
     this.times.posted = performance.now();
+    const gap = specGapParams(this.spec);
     const body = {
       scenario: this.request.scenario,
-      metric: this.request.metric,
+      metric: this.metric,
       params: {
         duration: this.request.duration,
         record_pairs: false,
         audit: true,
-        ...(this.request.metric === "gap" && this.request.gap ? { gap: this.request.gap } : {}),
+        ...(gap ? { gap } : {}),
       },
       stream: { batch_steps: 25, pairs: true, poses: true },
     };
@@ -127,7 +137,7 @@ export class Rollout {
     this.status = r.rollout;
     this.state = r.rollout.state;
     this.stepsTotal = r.rollout.steps_total;
-    this.store = new FrameStore(r.rollout.pairs.length, this.primitiveCount, r.rollout.dt);
+    this.store = new FrameStore(r.rollout.pairs.length, this.robot.primitives, r.rollout.dt, this.robot.dof);
     owners.set(this.id, this);
     const early = unclaimed.get(this.id) ?? [];
     unclaimed.delete(this.id);

@@ -1,8 +1,9 @@
-// One press of "run": a rollout per metric of the same scenario and duration, one after the other
+// One press of "run": a rollout per spec (metric and GAP distance) of the same scenario and duration, one after the other
 // (so each one's per-step timing is measured without the other competing for the 2 cores), with
 // a combined progress, one cancel for all, and the first API error reported (the rest not sent).
-import { Rollout, type RolloutEvents, type RolloutRequest } from "./rollout";
-import { METRIC_NAMES as NAME, type CbfFeasibility, type CbfFinalState, type Metric } from "./types";
+import { Rollout, type RobotSize, type RolloutEvents, type RolloutRequest } from "./rollout";
+import type { RolloutSpec } from "./specs";
+import type { CbfFeasibility, CbfFinalState } from "./types";
 
 export interface RunEvents {
   frames(r: Rollout, added: number, arrived: number): void;
@@ -21,11 +22,10 @@ export class Run {
 
   constructor(
     readonly scenario: RolloutRequest["scenario"],
-    readonly metrics: Metric[],
+    readonly specs: RolloutSpec[],
     readonly duration: number,
-    primitiveCount: number,
+    robot: RobotSize,
     private readonly events: RunEvents,
-    gap: Record<string, unknown> | null = null,
   ) {
     const ev: RolloutEvents = {
       frames: (r, added, arrived) => !this.disposed && events.frames(r, added, arrived),
@@ -33,7 +33,7 @@ export class Run {
       ended: (r) => !this.disposed && this.onEnded(r),
       error: () => undefined, // reported through ended/done
     };
-    this.rollouts = metrics.map((metric) => new Rollout({ scenario, metric, duration, gap }, primitiveCount, ev));
+    this.rollouts = specs.map((spec) => new Rollout({ scenario, spec, duration }, robot, ev));
   }
 
   get running(): boolean {
@@ -47,8 +47,9 @@ export class Run {
     return total > 0 ? done / total : 0;
   }
 
-  rollout(metric: Metric): Rollout | undefined {
-    return this.rollouts.find((r) => r.metric === metric);
+  /** The rollout of a spec's key ("gap", "euclidean", "gap2", …). */
+  rollout(key: string): Rollout | undefined {
+    return this.rollouts.find((r) => r.spec.key === key);
   }
 
   async start(): Promise<void> {
@@ -102,14 +103,14 @@ export class Run {
 /** The progress bar's label: the rollout being computed and its steps. */
 export function progressLabel(run: Run): string {
   const current = run.rollouts.find((r) => r.running && r.id) ?? run.rollouts.find((r) => r.running);
-  const what = current ? `${NAME[current.metric]} rollout` : "rollout";
+  const what = current ? `${current.spec.label} rollout` : "rollout";
   const steps = current ? ` ${current.stepsDone} / ${current.stepsTotal || "…"} steps` : "";
   return `${what}:${steps}`;
 }
 
 /** The status line while a run computes. */
 export function runningStatus(run: Run): string {
-  return `computing ${run.metrics.map((m) => NAME[m]).join(", then ")} — frames stream in as they are computed (Esc cancels)`;
+  return `computing ${run.specs.map((s) => s.label).join(", then ")} — frames stream in as they are computed (Esc cancels)`;
 }
 
 const cm = (m: number): string => `${(100 * m).toFixed(2)} cm`;
@@ -146,7 +147,7 @@ export function feasibilityText(f: CbfFeasibility | null): string {
 /** The status line after a run: how each rollout ended, whether it reached the target and if not why. */
 export function endedStatus(run: Run, feasibility: CbfFeasibility | null = null): string {
   const parts = run.rollouts.map(
-    (r) => `${NAME[r.metric]} ${r.state}${r.record ? ": " + stopReason(r.record.summary.final, r.record.summary.reached) : ""}`,
+    (r) => `${r.spec.label} ${r.state}${r.record ? ": " + stopReason(r.record.summary.final, r.record.summary.reached) : ""}`,
   );
   const f = feasibilityText(feasibility);
   return [...parts, ...(f ? [f] : [])].join(" · ");

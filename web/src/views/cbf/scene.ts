@@ -1,14 +1,14 @@
-// The 3D scene, z up: per metric a "world" group holding the robot's collision primitives, the
-// scenario's obstacles (transparent), the target frame (axes) and the witness segments of the
-// pairs. Overlay puts both robots in one corridor; side by side moves the Euclidean world along y.
+// The 3D scene, z up: per rollout of the run a "world" group holding the robot's collision
+// primitives, the scenario's obstacles (transparent), the target frame (axes) and the witness
+// segments of the pairs. Overlay puts both robots in one corridor; side by side moves the second
+// world along y.
 import * as THREE from "three";
 import type { FrameStore } from "./frames";
 import { shapeGeometry } from "./geometry";
 import { poseMatrix } from "./kinematics";
-import type { CbfRobot, CbfScenario, Metric } from "./types";
+import type { RolloutSpec } from "./specs";
+import type { CbfRobot, CbfScenario } from "./types";
 
-export const COLORS: Record<Metric, number> = { gap: 0xffb347, euclidean: 0x6ad1a3 }; // = --gap, --euclid
-const ROBOT: Record<Metric, number> = { gap: 0xf0a040, euclidean: 0x40c8a0 };
 export const SIDE_OFFSET = 1.4; // m along y between the worlds in "side by side"
 
 export type Layout = "overlay" | "side";
@@ -76,10 +76,10 @@ export class World {
   step = -1;
 
   constructor(
-    readonly metric: Metric,
+    readonly spec: RolloutSpec,
     robot: CbfRobot,
   ) {
-    const mat = new THREE.MeshStandardMaterial({ color: ROBOT[metric], roughness: 0.5, metalness: 0.1, transparent: true, opacity: 1 });
+    const mat = new THREE.MeshStandardMaterial({ color: spec.robotColor, roughness: 0.5, metalness: 0.1, transparent: true, opacity: 1 });
     for (const p of robot.primitives) {
       const m = new THREE.Mesh(shapeGeometry(p.shape), mat);
       m.name = p.name;
@@ -87,8 +87,8 @@ export class World {
       this.links.push(m);
       this.robot.add(m);
     }
-    this.witnesses = new Witnesses(COLORS[metric], 0);
-    this.name = label(metric === "gap" ? "GAP" : "Euclidean", COLORS[metric]);
+    this.witnesses = new Witnesses(spec.color, 0);
+    this.name = label(spec.short, spec.color);
     this.name.position.set(0, 0, 1.25);
     this.group.add(this.robot, this.obstacles, this.target, this.witnesses, this.name);
   }
@@ -116,7 +116,7 @@ export class World {
     this.pairCapacity = count;
     this.group.remove(this.witnesses);
     this.witnesses.traverse((o) => (o as THREE.Mesh).geometry?.dispose());
-    this.witnesses = new Witnesses(COLORS[this.metric], count);
+    this.witnesses = new Witnesses(this.spec.color, count);
     this.group.add(this.witnesses);
   }
 
@@ -146,6 +146,11 @@ export class World {
     this.witnesses.set([], new Float32Array(0), new Float32Array(0), 0);
   }
 
+  /** The colour the robot is drawn in (null: a robot without primitives). */
+  robotColor(): number | null {
+    return (this.links[0]?.material as THREE.MeshStandardMaterial | undefined)?.color.getHex() ?? null;
+  }
+
   setOpacity(opacity: number): void {
     const mat = this.links[0]?.material as THREE.MeshStandardMaterial | undefined;
     if (mat) {
@@ -156,13 +161,33 @@ export class World {
 }
 
 export class CbfScene {
-  readonly worlds: Record<Metric, World>;
+  /** A world per rollout key, made when a run first needs it. */
+  readonly worlds = new Map<string, World>();
   readonly root = new THREE.Group();
+  private scenario: Pick<CbfScenario, "obstacles" | "target"> | null = null;
 
-  constructor(scene: THREE.Scene, robot: CbfRobot) {
-    this.worlds = { gap: new World("gap", robot), euclidean: new World("euclidean", robot) };
-    this.root.add(this.worlds.gap.group, this.worlds.euclidean.group);
+  constructor(
+    scene: THREE.Scene,
+    private readonly robot: CbfRobot,
+  ) {
     scene.add(this.root);
+  }
+
+  /** The world of a rollout (a new one when its key is new or now names another rollout). */
+  world(spec: RolloutSpec): World {
+    let w = this.worlds.get(spec.key);
+    if (w && w.spec.label !== spec.label) {
+      this.root.remove(w.group);
+      w.group.traverse((o) => (o as THREE.Mesh).geometry?.dispose());
+      w = undefined;
+    }
+    if (!w) {
+      w = new World(spec, this.robot);
+      if (this.scenario) w.setScenario(this.scenario);
+      this.worlds.set(spec.key, w);
+      this.root.add(w.group);
+    }
+    return w;
   }
 
   /** Takes the worlds out of the scene (another robot replaces them). */
@@ -172,30 +197,31 @@ export class CbfScene {
   }
 
   setScenario(sc: Pick<CbfScenario, "obstacles" | "target">): void {
-    this.worlds.gap.setScenario(sc);
-    this.worlds.euclidean.setScenario(sc);
+    this.scenario = sc;
+    for (const w of this.worlds.values()) w.setScenario(sc);
   }
 
-  /** Which worlds are visible and where. */
-  arrange(shown: Metric[], layout: Layout): void {
+  /** Which worlds are visible and where: the rollouts shown, overlaid or side by side. */
+  arrange(shown: RolloutSpec[], layout: Layout): void {
     const both = shown.length === 2;
     const side = both && layout === "side";
-    for (const m of ["gap", "euclidean"] as const) {
-      const w = this.worlds[m];
-      w.group.visible = shown.includes(m);
-      w.group.position.set(0, side && m === "euclidean" ? -SIDE_OFFSET : 0, 0);
-      const second = both && !side && m === "euclidean";
+    for (const w of this.worlds.values()) w.group.visible = false;
+    shown.forEach((spec, k) => {
+      const w = this.world(spec);
+      w.group.visible = true;
+      w.group.position.set(0, side && k === 1 ? -SIDE_OFFSET : 0, 0);
+      const second = both && !side && k === 1;
       w.obstacles.visible = !second;
       w.target.visible = !second;
       w.name.visible = side;
       w.setOpacity(both && !side ? 0.7 : 1);
-    }
+    });
   }
 
   bounds(): THREE.Box3 {
     const box = new THREE.Box3();
     this.root.updateMatrixWorld(true);
-    for (const w of Object.values(this.worlds)) {
+    for (const w of this.worlds.values()) {
       if (!w.group.visible) continue;
       box.expandByObject(w.obstacles);
       box.expandByObject(w.robot);

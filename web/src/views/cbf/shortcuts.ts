@@ -10,6 +10,8 @@ export interface ShortcutTarget {
   /** The panel shows the state as it is now. */
   refreshPanel(): void;
   save(): void;
+  /** The robot's joint count (j cycles all → 1 → … → dof). */
+  dof(): number;
   changed(what: "draw" | "joint" | "layout"): void;
   run(): void;
   cancel(): void;
@@ -54,7 +56,7 @@ export function cbfShortcuts(v: ShortcutTarget): Shortcut[] {
       description: "witness pairs: closest → all → none",
       run: cycle((s) => (s.witnesses = WITNESS_MODES[(WITNESS_MODES.indexOf(s.witnesses) + 1) % WITNESS_MODES.length]), "draw"),
     },
-    { key: "j", description: "plot joints: all → 1 → … → 7", run: cycle((s) => (s.joint = (s.joint + 1) % 8), "joint") },
+    { key: "j", description: "plot joints: all → 1 → … → the last", run: cycle((s) => (s.joint = (s.joint + 1) % (v.dof() + 1)), "joint") },
     { key: "l", description: "two robots: overlay / side by side", run: cycle((s) => (s.layout = s.layout === "overlay" ? "side" : "overlay"), "layout") },
     { key: "f", description: "frame the scene", run: () => v.frame() },
   ];

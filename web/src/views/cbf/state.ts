@@ -3,7 +3,6 @@
 // the rollout(s) on load and returns to `t`.
 import { num, str } from "../../core/urlstate";
 import type { Layout } from "./scene";
-import type { Metric } from "./types";
 
 export const METRIC_CHOICES = ["both", "gap", "euclidean"] as const;
 export type MetricChoice = (typeof METRIC_CHOICES)[number];
@@ -13,6 +12,10 @@ export const SPEEDS = [0.1, 0.25, 0.5, 1, 2, 4, 10] as const;
  * the published package did with its simulation (2e-4 / 300) or real-robot (5e-4 / 20) stopping rule. */
 export const GAP_MODES = ["exact", "as_published_sim", "as_published_real"] as const;
 export type GapModeChoice = (typeof GAP_MODES)[number];
+
+/** The second rollout of a run, drawn over the first on the same plots and robot. */
+export const COMPARE_CHOICES = ["none", "euclidean", "gap_exact", "gap_as_published_sim", "gap_as_published_real"] as const;
+export type CompareChoice = (typeof COMPARE_CHOICES)[number];
 
 /** The request's params.gap for a GAP mode (null: the scenario's own, exact by default). */
 export function gapParams(mode: GapModeChoice): Record<string, unknown> | null {
@@ -27,6 +30,8 @@ export interface CbfState {
   inline: Record<string, unknown> | null;
   metric: MetricChoice;
   gapMode: GapModeChoice;
+  /** The rollout compared with the first (metric "both" compares GAP with Euclidean itself). */
+  compare: CompareChoice;
   /** Seconds to run; null: the scenario's own duration. */
   duration: number | null;
   t: number;
@@ -34,17 +39,13 @@ export interface CbfState {
   witnesses: (typeof WITNESS_MODES)[number];
   closest: number;
   layout: Layout;
-  /** The first joint plotted alone, or 0 = all joints. */
+  /** The joint plotted alone (1 … the robot's dof), or 0 = all joints. */
   joint: number;
   run: boolean;
 }
 
 export function defaultState(): CbfState {
-  return { scenario: "corridor", inline: null, metric: "both", gapMode: "exact", duration: null, t: 0, speed: 1, witnesses: "closest", closest: 4, layout: "overlay", joint: 0, run: false };
-}
-
-export function metricsOf(c: MetricChoice): Metric[] {
-  return c === "both" ? ["gap", "euclidean"] : [c];
+  return { scenario: "corridor", inline: null, metric: "both", gapMode: "exact", compare: "none", duration: null, t: 0, speed: 1, witnesses: "closest", closest: 4, layout: "overlay", joint: 0, run: false };
 }
 
 export function parseState(raw: Record<string, unknown>): CbfState {
@@ -55,6 +56,7 @@ export function parseState(raw: Record<string, unknown>): CbfState {
     inline,
     metric: str(raw.metric, METRIC_CHOICES, d.metric),
     gapMode: str(raw.gapMode, GAP_MODES, d.gapMode),
+    compare: str(raw.compare, COMPARE_CHOICES, d.compare),
     // The server states its own limit; absent: the scenario's own duration.
     duration: typeof raw.duration === "number" ? num(raw.duration, 35, 0.01, 1e6) : null,
     t: num(raw.t, 0, 0, 1e6),
@@ -62,7 +64,8 @@ export function parseState(raw: Record<string, unknown>): CbfState {
     witnesses: str(raw.witnesses, WITNESS_MODES, d.witnesses),
     closest: Math.round(num(raw.closest, d.closest, 1, 1000)),
     layout: str(raw.layout, ["overlay", "side"] as const, d.layout),
-    joint: Math.round(num(raw.joint, d.joint, 0, 7)),
+    // Clamped to the robot's joints once it is known (the view's setRobot).
+    joint: Math.round(num(raw.joint, d.joint, 0, 64)),
     run: raw.run === true,
   };
 }

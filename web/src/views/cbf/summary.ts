@@ -1,12 +1,14 @@
 // The numbers of the finished rollouts, from their records: per joint the total variation of u and
 // the largest |Δu|/dt (paper Fig. 4), GAP beside Euclidean with their ratio; the mean compute time
-// per control step and its parts; whether the target was reached and the smallest clearance.
+// per control step and its parts; whether the target was reached and the smallest clearance. One
+// column per rollout of the run (named as in the plots' legends).
 import { errorText } from "../../core/api";
 import { downloadLinks } from "./download";
 import type { Rollout } from "./rollout";
-import type { CbfRecord, Metric } from "./types";
+import type { RolloutSpec } from "./specs";
+import type { CbfRecord } from "./types";
 
-const NAME: Record<Metric, string> = { gap: "GAP", euclidean: "Eucl." };
+const colorCss = (s: RolloutSpec) => `#${s.color.toString(16).padStart(6, "0")}`;
 
 function fmt(v: number | null | undefined, digits = 4): string {
   if (v === null || v === undefined || !Number.isFinite(v)) return "—";
@@ -14,10 +16,10 @@ function fmt(v: number | null | undefined, digits = 4): string {
   return a !== 0 && (a < 1e-3 || a >= 1e5) ? v.toExponential(digits - 1) : v.toPrecision(digits);
 }
 
-function cell(tag: "td" | "th", text: string, cls?: string): HTMLElement {
+function cell(tag: "td" | "th", text: string, spec?: RolloutSpec): HTMLElement {
   const c = document.createElement(tag);
   c.textContent = text;
-  if (cls) c.className = cls;
+  if (spec) c.style.color = colorCss(spec);
   return c;
 }
 
@@ -39,12 +41,12 @@ export class Summary {
     this.show([]);
   }
 
-  show(records: Array<{ metric: Metric; record: CbfRecord | null; note?: string }>): void {
+  show(records: Array<{ spec: RolloutSpec; record: CbfRecord | null; note?: string }>): void {
     this.root.replaceChildren();
     const h = document.createElement("h3");
     h.textContent = "Smoothness of u (paper Fig. 4)";
     this.root.appendChild(h);
-    const done = records.filter((r) => r.record) as Array<{ metric: Metric; record: CbfRecord }>;
+    const done = records.filter((r) => r.record) as Array<{ spec: RolloutSpec; record: CbfRecord }>;
     if (done.length === 0) {
       const p = document.createElement("p");
       p.className = "cbf-muted";
@@ -58,7 +60,7 @@ export class Summary {
     table.dataset.testid = "cbf-smoothness";
     const head = document.createElement("tr");
     head.append(cell("th", "joint"));
-    for (const what of ["TV", "max|Δu|/dt"]) for (const r of done) head.append(cell("th", `${what} ${NAME[r.metric]}`, `cbf-${r.metric}`));
+    for (const what of ["TV", "max|Δu|/dt"]) for (const r of done) head.append(cell("th", `${what} ${r.spec.short}`, r.spec));
     const thead = document.createElement("thead");
     thead.appendChild(head);
     table.appendChild(thead);
@@ -69,9 +71,9 @@ export class Summary {
       for (const key of ["total_variation", "max_rate"] as const)
         for (const r of done) {
           const v = r.record.smoothness[key][j];
-          const c = cell("td", fmt(v), `cbf-${r.metric}`);
+          const c = cell("td", fmt(v), r.spec);
           c.dataset.value = String(v); // the record's number, unrounded (tests compare it)
-          c.dataset.metric = r.metric;
+          c.dataset.metric = r.spec.key;
           c.dataset.key = key;
           c.dataset.joint = String(j);
           tr.append(c);
@@ -92,7 +94,7 @@ export class Summary {
     t.className = "cbf-timing";
     t.dataset.testid = "cbf-timing";
     const th = document.createElement("tr");
-    th.append(cell("th", ""), ...done.map((r) => cell("th", NAME[r.metric], `cbf-${r.metric}`)));
+    th.append(cell("th", ""), ...done.map((r) => cell("th", r.spec.short, r.spec)));
     t.appendChild(th);
     const rows: Array<[string, (r: CbfRecord) => number | null, number?]> = [
       ["whole step", (r) => r.timing.step_us_mean, 1],
@@ -113,7 +115,7 @@ export class Summary {
       for (const r of done) {
         const v = get(r.record);
         const text = name === "reached the target" ? (v ? "yes" : "no") : fixed !== undefined && v !== null ? v.toFixed(fixed) : fmt(v);
-        const c = cell("td", text, `cbf-${r.metric}`);
+        const c = cell("td", text, r.spec);
         if (v !== null) c.dataset.value = String(v);
         tr.append(c);
       }
@@ -121,23 +123,23 @@ export class Summary {
     }
     this.root.appendChild(t);
     if (done.length === 2) {
-      const [g, e] = [done.find((r) => r.metric === "gap")!, done.find((r) => r.metric === "euclidean")!];
+      const [a, b] = done;
       const p = document.createElement("p");
       p.className = "cbf-muted";
-      const ratio = g.record.timing.step_us_mean / e.record.timing.step_us_mean;
-      p.textContent = `GAP step / Euclidean step = ${ratio.toFixed(2)}× (one after the other in this server, on a shared machine: a rough comparison; distlab-bench-cbf measures it properly).`;
+      const ratio = a.record.timing.step_us_mean / b.record.timing.step_us_mean;
+      p.textContent = `${a.spec.label} step / ${b.spec.label} step = ${ratio.toFixed(2)}× (one after the other in this server, on a shared machine: a rough comparison; distlab-bench-cbf measures it properly).`;
       this.root.appendChild(p);
     }
-    for (const r of done) this.root.appendChild(downloadLinks(r.metric, NAME[r.metric], r.record));
+    for (const r of done) this.root.appendChild(downloadLinks(r.spec.key, r.spec.label, r.record));
     this.notes(records);
   }
 
-  private notes(records: Array<{ metric: Metric; note?: string }>): void {
+  private notes(records: Array<{ spec: RolloutSpec; note?: string }>): void {
     for (const r of records) {
       if (!r.note) continue;
       const p = document.createElement("p");
       p.className = "cbf-note";
-      p.textContent = `${NAME[r.metric]}: ${r.note}`;
+      p.textContent = `${r.spec.label}: ${r.note}`;
       this.root.appendChild(p);
     }
   }

@@ -21,6 +21,7 @@
 #include <atomic>
 #include <functional>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -76,6 +77,28 @@ nlohmann::json encode_final_state(const cbf::FinalState& state);
 
 // Parse, run, encode; throws InvalidInput on bad input.
 nlohmann::json run_cbf_request(const nlohmann::json& request);
+
+// A parameter sweep: one request with "sweep": {"parameter": PATH, "values": [...]}, PATH a
+// dotted key of params (e.g. "margins.gap.obstacle", "gap.tol", "duration"). Run i is the request
+// with params.PATH = values[i] (audit on unless params.audit says otherwise), so each entry is
+// what `distlab cbf` returns for that request. A bad value is InvalidInput("sweep.values[i]"), a
+// path that is no parameter InvalidInput("sweep.parameter").
+inline constexpr std::size_t kMaxSweepValues = 16;
+struct CbfSweep {
+  std::string parameter;
+  nlohmann::json values;  // as given
+  std::vector<nlohmann::json> requests;  // one per value (no "sweep")
+  std::vector<CbfRequest> runs;
+};
+CbfSweep parse_cbf_sweep(const nlohmann::json& request, const std::string& assets_dir = "",
+                         std::size_t max_values = kMaxSweepValues);
+// One run of a sweep: {"value", "summary" and "smoothness" (as the run's record), "gap_mode",
+// "position_error", "min_clearance", "total_variation" (Σ over joints), "infeasible_steps" (count),
+// "steps", "step_us_mean"}.
+nlohmann::json encode_sweep_entry(const nlohmann::json& value, const cbf::RolloutRecord& record,
+                                  const std::string& scenario_name);
+// `distlab cbf` with "sweep": {"scenario", "metric", "parameter", "values", "entries": [...]}.
+nlohmann::json run_cbf_sweep(const nlohmann::json& request);
 
 // Target feasibility of a request's scenario (cbf::target_feasibility; "metric" is ignored):
 // {"scenario", "reachable", "q": [7], "clearance", "limiting_pair", "self_clearance",

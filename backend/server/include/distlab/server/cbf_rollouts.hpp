@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "distlab/cbf/rollout.hpp"
+#include "distlab/server/cbf_json.hpp"
 
 namespace distlab::server {
 
@@ -25,7 +26,8 @@ struct CbfLimits {
   int max_batch_steps = 500;              // steps per "cbf_frames" message
   std::size_t max_frames_per_request = 2000;  // steps per GET .../frames
   std::size_t kept_per_session = 4;       // most recent rollouts kept (older finished ones go)
-  std::size_t kept_total = 32;
+  std::size_t kept_total = 32;           // also: sweeps kept (all sessions)
+  std::size_t max_sweep_values = kMaxSweepValues;  // runs of one POST /api/cbf/sweeps
 };
 
 struct CbfStreamOptions {

@@ -1,0 +1,73 @@
+// A parameter sweep from the view (POST /api/cbf/sweeps): one params key over a list of values as
+// one server job (progress and cancel in the shell's progress box), then each run's final distance
+// to the target, smallest clearance and total variation of u plotted against the parameter.
+import { api } from "../../core/api";
+import { Plot } from "../../core/plot";
+import type { JobJson } from "./types";
+
+export interface SweepEntry {
+  value: number;
+  position_error: number;
+  min_clearance: number | null;
+  total_variation: number;
+  infeasible_steps: number;
+}
+
+export interface SweepJson {
+  id: string;
+  parameter: string;
+  values: unknown[];
+  entries: SweepEntry[];
+  job?: JobJson;
+}
+
+const ENDED = ["succeeded", "failed", "cancelled"];
+
+/** Posts the sweep and follows its job until it ends (progress(stage, fraction) meanwhile). */
+export async function runSweep(body: Record<string, unknown>, progress: (s: SweepJson) => void, stopped: () => boolean): Promise<SweepJson> {
+  const r = await api.post<{ sweep: SweepJson; job: JobJson }>("/api/cbf/sweeps", body);
+  let s: SweepJson = { ...r.sweep, job: r.job };
+  for (let guard = 0; guard < 100000 && !stopped(); guard++) {
+    progress(s);
+    if (s.job && ENDED.includes(s.job.state)) return s;
+    await new Promise((res) => setTimeout(res, 300));
+    s = await api.get<SweepJson>(`/api/cbf/sweeps/${s.id}`);
+  }
+  return s;
+}
+
+/** Values as typed: numbers separated by commas or spaces (null: something else is there). */
+export function parseValues(text: string): number[] | null {
+  const parts = text.split(/[\s,;]+/).filter((p) => p !== "");
+  const v = parts.map(Number);
+  return v.length && v.every(Number.isFinite) ? v : null;
+}
+
+/** The sweep's plot in the bottom strip: cm against the parameter, total variation on the right axis. */
+export class SweepPlot {
+  readonly plot: Plot;
+  constructor(container: HTMLElement, s: SweepJson) {
+    this.plot = new Plot(container, {
+      title: `sweep of ${s.parameter} (${s.entries.length} of ${s.values.length} runs)`,
+      xLabel: s.parameter,
+      yLabel: "cm",
+      y2Label: "TV of u (rad/s)",
+      series: [
+        { label: "final |p − p_d| (cm)", color: "#ffb347", width: 2 },
+        { label: "min clearance (cm)", color: "#6ad1a3", width: 2 },
+        { label: "Σ TV of u", color: "#8ab4ff", scale: "y2", dash: [5, 3], width: 1.6 },
+      ],
+      digits: 4,
+    });
+    this.plot.root.dataset.testid = "cbf-sweep-plot";
+    this.plot.root.style.flex = "1.4";
+    const e = [...s.entries].sort((a, b) => a.value - b.value);
+    this.plot.setData(
+      e.map((x) => x.value),
+      [e.map((x) => 100 * x.position_error), e.map((x) => (x.min_clearance === null ? null : 100 * x.min_clearance)), e.map((x) => x.total_variation)],
+    );
+  }
+  dispose(): void {
+    this.plot.dispose();
+  }
+}
