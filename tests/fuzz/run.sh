@@ -1,21 +1,17 @@
 #!/usr/bin/env bash
-# Builds the libFuzzer targets with clang into build-fuzz (DISTLAB_FUZZ=ON: ASan + UBSan + coverage)
-# and runs each for a bounded time on a seed corpus written by code. A crash, a sanitizer report, an
-# allocation over the malloc limit or a slow input fails the run; its reproducer is left in
-# build-fuzz/findings/<target>/ (replay: build-fuzz/tests/fuzz/<target> <file>).
+# Builds the libFuzzer targets in the sanitized clang tree build-asan (.ci/build-sanitized: ASan +
+# UBSan + coverage) and runs each for a bounded time on a seed corpus written by code. A crash, a
+# sanitizer report, an allocation over the malloc limit or a slow input fails the run; its
+# reproducer is left in build-asan/findings/<target>/ (replay: build-asan/tests/fuzz/<target> <file>).
 # Environment: FUZZ_SECONDS (per target, default 60), FUZZ_RUNS, FUZZ_JOBS (build parallelism).
 # A fixed seed and execution count: every run tries the same inputs, so a finding reproduces and CI
 # does not fail by chance on one run and pass on the next (FUZZ_RUNS=-1 for open-ended fuzzing).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/../.."
 seconds="${FUZZ_SECONDS:-60}"
-build=build-fuzz
-launcher=()
-if command -v ccache >/dev/null; then launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache); fi
+build=build-asan
 start=$(date +%s)
-cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
-  -DDISTLAB_FUZZ=ON -DDISTLAB_TESTS=OFF -DDISTLAB_PYTHON=OFF -DDISTLAB_WERROR=OFF "${launcher[@]}" >/dev/null
-cmake --build "$build" --target fuzz_targets --parallel "${FUZZ_JOBS:-$(nproc)}"
+BUILD_JOBS="${FUZZ_JOBS:-$(nproc)}" bash .ci/build-sanitized fuzz_targets
 echo "fuzz build: $(( $(date +%s) - start )) s"
 
 seeds="$build/seeds"
