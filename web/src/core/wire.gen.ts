@@ -1706,6 +1706,24 @@ export interface components {
                 position?: components["schemas"]["Vec3"];
                 quaternion?: number[];
             };
+            /** @description box edge lengths */
+            size?: components["schemas"]["Vec3"];
+            /** @description sphere, cylinder, capsule */
+            radius?: number;
+            /** @description cylinder height; capsule core-segment length */
+            height?: number;
+            /** @description polytope A x ≤ b: one row per face */
+            A?: components["schemas"]["Vec3"][];
+            b?: number[];
+            /** @description convex_hull */
+            points?: components["schemas"]["Vec3"][];
+            /** @description polytope, convex_hull and box: one per face */
+            weights?: number[];
+            /** @description the ball ρ of the point-to-set map */
+            rho?: {
+                center: components["schemas"]["Vec3"];
+                radius: number;
+            };
         };
         /** @description {a, b, params} or {pairs: [{a, b}], params} */
         GapRequest: {

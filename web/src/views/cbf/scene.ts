@@ -3,7 +3,7 @@
 // pairs. Overlay puts both robots in one corridor; side by side moves the Euclidean world along y.
 import * as THREE from "three";
 import type { FrameStore } from "./frames";
-import { shapeGeometry } from "./geometry";
+import { shapeGeometry } from "../../core/shapes";
 import { poseMatrix } from "./kinematics";
 import type { CbfRobot, CbfScenario, Metric } from "./types";
 

@@ -1,5 +1,6 @@
 // The CBF API's shapes as the view reads them (see /api/openapi.json, tag cbf). Units: metres,
 // radians, seconds; quaternions [w, x, y, z]; positions in the world frame (= robot base).
+import type { ShapeJson } from "../../core/shapes";
 import type { CbfFrames, Job } from "../../core/wire";
 
 export const METRICS = ["gap", "euclidean"] as const;
@@ -12,17 +13,7 @@ export interface PoseJson {
 }
 
 /** A GAP shape as the server describes it (pose optional: robot primitives carry it separately). */
-export interface ShapeJson {
-  type: string;
-  size?: [number, number, number];
-  radius?: number;
-  height?: number;
-  A?: number[][];
-  b?: number[];
-  points?: number[][];
-  vertices?: number[][];
-  pose?: PoseJson;
-}
+export type { ShapeJson };
 
 export interface CbfRobot {
   name: string;
