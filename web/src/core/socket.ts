@@ -6,6 +6,7 @@
 // for the answer.
 import { decode } from "@msgpack/msgpack";
 import { api, Api } from "./api";
+import type { WsClientMessage } from "./wire";
 
 export type ConnectionState = "connecting" | "open" | "closed";
 export type TextMessage = { type: string; [key: string]: unknown };
@@ -63,7 +64,7 @@ export class Socket {
     return () => this.openListeners.delete(f);
   }
 
-  send(message: TextMessage): boolean {
+  send(message: WsClientMessage): boolean {
     if (!this.ws || this.ws.readyState !== WebSocket.OPEN) return false;
     this.ws.send(JSON.stringify(message));
     return true;
@@ -72,7 +73,7 @@ export class Socket {
   /** Sends the message with a fresh request id; resolves with the server's reply echoing it (an
    *  acknowledgement or an "error" message, both still delivered to on() listeners), or null
    *  when the socket is not open (the caller may use REST instead). */
-  request(message: TextMessage, timeoutMs = 10000): Promise<TextMessage> | null {
+  request(message: WsClientMessage, timeoutMs = 10000): Promise<TextMessage> | null {
     const id = `q${++this.requests}`;
     if (!this.send({ ...message, request: id })) return null;
     return new Promise<TextMessage>((resolve, reject) => {

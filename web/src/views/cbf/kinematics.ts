@@ -3,9 +3,11 @@
 import * as THREE from "three";
 import type { CbfRobot, PoseJson } from "./types";
 
-export function poseMatrix(p: PoseJson): THREE.Matrix4 {
+/** A pose as the wire gives it (GapShape's pose: both parts optional, the identity by default). */
+export function poseMatrix(p: { position?: number[]; quaternion?: number[] } | PoseJson): THREE.Matrix4 {
   const [w, x, y, z] = p.quaternion ?? [1, 0, 0, 0];
-  return new THREE.Matrix4().compose(new THREE.Vector3(...p.position), new THREE.Quaternion(x, y, z, w).normalize(), new THREE.Vector3(1, 1, 1));
+  const [px, py, pz] = p.position ?? [0, 0, 0];
+  return new THREE.Matrix4().compose(new THREE.Vector3(px, py, pz), new THREE.Quaternion(x, y, z, w).normalize(), new THREE.Vector3(1, 1, 1));
 }
 
 /** World frame of every link: child = parent · origin · Rot(axis, q[joint.q]) (joints are listed parents first). */

@@ -4,7 +4,7 @@
 // world along y.
 import * as THREE from "three";
 import type { FrameStore } from "./frames";
-import { shapeGeometry } from "./geometry";
+import { shapeGeometry } from "../../core/shapes";
 import { poseMatrix } from "./kinematics";
 import type { RolloutSpec } from "./specs";
 import type { CbfRobot, CbfScenario } from "./types";

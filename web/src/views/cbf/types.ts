@@ -1,5 +1,8 @@
 // The CBF API's shapes as the view reads them (see /api/openapi.json, tag cbf). Units: metres,
 // radians, seconds; quaternions [w, x, y, z]; positions in the world frame (= robot base).
+import type { ShapeJson } from "../../core/shapes";
+import type { CbfFrames, Job } from "../../core/wire";
+
 export const METRICS = ["gap", "euclidean"] as const;
 export type Metric = (typeof METRICS)[number];
 export const METRIC_NAMES: Record<Metric, string> = { gap: "GAP", euclidean: "Euclidean" };
@@ -10,17 +13,7 @@ export interface PoseJson {
 }
 
 /** A GAP shape as the server describes it (pose optional: robot primitives carry it separately). */
-export interface ShapeJson {
-  type: string;
-  size?: [number, number, number];
-  radius?: number;
-  height?: number;
-  A?: number[][];
-  b?: number[];
-  points?: number[][];
-  vertices?: number[][];
-  pose?: PoseJson;
-}
+export type { ShapeJson };
 
 export interface CbfRobot {
   name: string;
@@ -82,41 +75,9 @@ export interface CbfRolloutStatus {
   job?: JobJson;
 }
 
-export interface JobJson {
-  id: string;
-  kind?: string;
-  state: string;
-  stage?: string;
-  fraction?: number;
-  error?: { code?: string; message?: string; field?: string };
-}
-
-export interface CbfFrame {
-  i: number;
-  t: number;
-  q: number[];
-  u: number[];
-  task_error: number;
-  min_distance: number | null;
-  relaxed: boolean;
-  held: boolean;
-  slack: number;
-  distance?: number[];
-  clearance?: Array<number | null>;
-  witness_a?: number[][];
-  witness_b?: number[][];
-  poses?: number[][];
-}
-
-export interface CbfFramesMessage {
-  type: "cbf_frames";
-  rollout: string;
-  first: number;
-  count: number;
-  steps_done: number;
-  steps_total: number;
-  frames: CbfFrame[];
-}
+export type JobJson = Job;
+export type CbfFramesMessage = CbfFrames;
+export type CbfFrame = CbfFrames["frames"][number];
 
 export interface CbfTiming {
   kinematics_us_mean: number;

@@ -2,8 +2,7 @@
 // reads (the `distlab gap` SHAPE schema), and the three.js geometry that draws the same solid.
 // Shapes live in their own frame with their axis along local z (as in distlab's geometry module).
 import * as THREE from "three";
-import { ConvexGeometry } from "three/addons/geometries/ConvexGeometry.js";
-import { capsuleAlongZ, cylinderAlongZ } from "../../core/solids";
+import { shapeGeometry as wireShapeGeometry, type ShapeJson } from "../../core/shapes";
 
 export const SHAPE_TYPES = ["polytope", "box", "cylinder", "sphere", "capsule"] as const;
 export type ShapeType = (typeof SHAPE_TYPES)[number];
@@ -22,14 +21,9 @@ export interface ShapeState {
 }
 
 /** Half-spaces A x ≤ b of a pentagonal prism: the paper's Fig. 1 pentagon, extruded along z. */
-export function pentagonalPrism(radius: number, height: number): { A: number[][]; b: number[]; vertices: THREE.Vector3[] } {
+export function pentagonalPrism(radius: number, height: number): { A: number[][]; b: number[] } {
   const A: number[][] = [];
   const b: number[] = [];
-  const corners: Array<[number, number]> = [];
-  for (let i = 0; i < 5; i++) {
-    const t = Math.PI / 2 + (2 * Math.PI * i) / 5;
-    corners.push([radius * Math.cos(t), radius * Math.sin(t)]);
-  }
   for (let i = 0; i < 5; i++) {
     const mid = (Math.PI / 2 + (2 * Math.PI * (i + 0.5)) / 5);
     A.push([Math.cos(mid), Math.sin(mid), 0]);
@@ -37,12 +31,11 @@ export function pentagonalPrism(radius: number, height: number): { A: number[][]
   }
   A.push([0, 0, 1], [0, 0, -1]);
   b.push(height / 2, height / 2);
-  const vertices = corners.flatMap(([x, y]) => [new THREE.Vector3(x, y, height / 2), new THREE.Vector3(x, y, -height / 2)]);
-  return { A, b, vertices };
+  return { A, b };
 }
 
 /** The SHAPE object of the request, in the shape frame (no pose). */
-export function shapeBody(s: ShapeState): Record<string, unknown> {
+export function shapeBody(s: ShapeState): ShapeJson {
   switch (s.type) {
     case "box":
       return { type: "box", size: [...s.size] };
@@ -60,24 +53,13 @@ export function shapeBody(s: ShapeState): Record<string, unknown> {
 }
 
 /** The SHAPE object with its pose, as sent to /api/gap/distance. */
-export function shapeRequest(s: ShapeState): Record<string, unknown> {
+export function shapeRequest(s: ShapeState): ShapeJson {
   return { ...shapeBody(s), pose: { position: [...s.position], quaternion: [...s.quaternion] } };
 }
 
-/** A three.js geometry of the solid (round ones turned to z by core/solids). */
+/** A three.js geometry of the solid (the one builder, core/shapes, on the request's SHAPE). */
 export function shapeGeometry(s: ShapeState): THREE.BufferGeometry {
-  switch (s.type) {
-    case "box":
-      return new THREE.BoxGeometry(...s.size);
-    case "sphere":
-      return new THREE.SphereGeometry(s.radius, 48, 24);
-    case "cylinder":
-      return cylinderAlongZ(s.radius, s.height, 64);
-    case "capsule":
-      return capsuleAlongZ(s.radius, s.height, 12, 48);
-    case "polytope":
-      return new ConvexGeometry(pentagonalPrism(s.radius, s.height).vertices);
-  }
+  return wireShapeGeometry(shapeBody(s), "fine");
 }
 
 /** Radius of a ball around the shape's origin that contains it (for framing and plane sizes). */

@@ -24,12 +24,9 @@ import { SliceLayer } from "./slice_layer";
 import { SurfaceLayer } from "./surface_layer";
 import { SurfaceSource } from "./surface_source";
 import { installHooks, type Timings } from "./test_hooks";
+import type { Limits } from "../../core/wire";
 import "./kelvin.css";
 
-interface Limits {
-  max_query_points?: number;
-  min_lx?: number;
-}
 
 export class KelvinView implements View {
   private host!: ViewHost;

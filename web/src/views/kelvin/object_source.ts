@@ -3,37 +3,11 @@
 // before we listened is never waited for). The job can be cancelled.
 import { api, ApiError } from "../../core/api";
 import { socket, type TextMessage } from "../../core/socket";
+import type { Estimate, Job, KelvinObject, KelvinStats } from "../../core/wire";
 
-export interface ObjectStats {
-  n_verts?: number;
-  n_tets?: number;
-  size_mb?: number;
-  t_mesh?: number;
-  t_build?: number;
-  t_decomp?: number;
-  t_load?: number;
-  cache_hit?: boolean;
-  shared?: boolean;
-  [k: string]: unknown;
-}
-
-export interface ObjectStatus {
-  id: string;
-  state: "preparing" | "ready" | "failed" | "cancelled";
-  job?: string;
-  stats?: ObjectStats;
-  sigma_version?: number;
-  error?: { code?: string; message?: string; field?: string };
-  source?: Record<string, unknown>;
-}
-
-interface JobStatus {
-  id: string;
-  state: string;
-  stage?: string;
-  fraction?: number;
-  error?: { message?: string; field?: string; code?: string };
-}
+export type ObjectStats = KelvinStats;
+export type ObjectStatus = KelvinObject;
+type JobStatus = Job;
 
 export type Source = { asset: string } | { upload: string; name: string };
 
@@ -48,15 +22,7 @@ export async function uploadMesh(file: File): Promise<{ upload: string; n_vertic
 }
 
 /** POST /api/kelvin/estimate: the server's own vertex estimate and budget for these inputs. */
-export interface Estimate {
-  vertex_estimate: number;
-  max_vertex_estimate: number;
-  min_lx: number;
-  diagonal: number;
-  lx_for_budget: number;
-  seconds_estimate: number | null;
-  problem: { field: string; message: string } | null;
-}
+export type { Estimate };
 
 export function sourceBody(source: Source, lx: number): Record<string, unknown> {
   return "asset" in source ? { asset: source.asset, lx } : { upload: source.upload, lx };
@@ -122,8 +88,8 @@ export class ObjectJob {
       const status = await Promise.race([done, poll().then((o) => o ?? done)]);
       if (status.state === "ready") return status;
       if (status.state === "cancelled" || this.cancelled) throw new ApiError(0, "cancelled", "preparation cancelled");
-      const e = status.error ?? {};
-      throw new ApiError(422, e.code ?? "job_failed", e.message ?? "preparation failed", e.field || undefined);
+      const e = status.error;
+      throw new ApiError(422, e?.code ?? "job_failed", e?.message ?? "preparation failed", e?.field || undefined);
     } finally {
       this.stopped = true; // ends the poll loop
       offs.forEach((f) => f());

@@ -92,7 +92,10 @@ export class SliceLayer {
     let lo = Infinity, hi = -Infinity;
     r.h.forEach((h, i) => {
       values[i] = h === null ? NaN : h;
-      if (h !== null) (lo = Math.min(lo, h)), (hi = Math.max(hi, h));
+      if (h !== null) {
+        lo = Math.min(lo, h);
+        hi = Math.max(hi, h);
+      }
     });
     // Texel centres sit at (i + 0.5) / n: the plane spans the full grid cells.
     this.plane.setSamples({ center: g.center, u: g.u, v: g.v, size: g.size, resolution: [n, n], values });

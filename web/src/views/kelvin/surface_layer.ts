@@ -151,8 +151,14 @@ function subdivide(g: THREE.BufferGeometry, bounds: THREE.Box3): THREE.BufferGeo
     const n = splits[t];
     for (let i = 0; i < n; i++)
       for (let j = 0; j < n - i; j++) {
-        put(t, i / n, j / n), put(t, (i + 1) / n, j / n), put(t, i / n, (j + 1) / n);
-        if (j < n - i - 1) put(t, (i + 1) / n, j / n), put(t, (i + 1) / n, (j + 1) / n), put(t, i / n, (j + 1) / n);
+        put(t, i / n, j / n);
+        put(t, (i + 1) / n, j / n);
+        put(t, i / n, (j + 1) / n);
+        if (j < n - i - 1) {
+          put(t, (i + 1) / n, j / n);
+          put(t, (i + 1) / n, (j + 1) / n);
+          put(t, i / n, (j + 1) / n);
+        }
       }
   }
   const out = new THREE.BufferGeometry();
