@@ -490,7 +490,9 @@ export interface paths {
                         [name: string]: unknown;
                     };
                     content: {
-                        "application/json": Record<string, never>;
+                        "application/json": components["schemas"]["GapResult"] | {
+                            results: components["schemas"]["GapResult"][];
+                        };
                     };
                 };
                 400: components["responses"]["Error"];
@@ -1671,6 +1673,106 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/cbf/sweeps": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * A parameter sweep as one job: the rollout once per value of one parameter, with per-run summaries (final error, min clearance, total variation); progress and cancel as for every job
+         * @description Every run is checked before the job starts (400 naming sweep.parameter, sweep.values or sweep.values[i]). Bounds (GET /api/limits): max_cbf_steps and max_cbf_pair_steps per run (422 too_long, field sweep.values[i]), max_jobs_per_session and max_jobs_total (429), max_job_seconds.
+         */
+        post: {
+            parameters: {
+                query?: never;
+                header?: {
+                    /** @description session id (or the distlab_session cookie) */
+                    "X-Distlab-Session"?: components["parameters"]["Session"];
+                };
+                path?: never;
+                cookie?: never;
+            };
+            requestBody: {
+                content: {
+                    "application/json": components["schemas"]["CbfRolloutRequest"];
+                };
+            };
+            responses: {
+                /** @description accepted */
+                202: {
+                    headers: {
+                        [name: string]: unknown;
+                    };
+                    content: {
+                        "application/json": {
+                            sweep?: components["schemas"]["CbfSweep"];
+                            job?: components["schemas"]["Job"];
+                        };
+                    };
+                };
+                400: components["responses"]["Error"];
+                401: components["responses"]["Error"];
+                404: components["responses"]["Error"];
+                413: components["responses"]["Error"];
+                422: components["responses"]["Error"];
+                429: components["responses"]["Error"];
+                503: components["responses"]["Error"];
+            };
+        };
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/cbf/sweeps/{id}": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** A sweep's runs finished so far (a cancelled sweep keeps them) and its job */
+        get: {
+            parameters: {
+                query?: never;
+                header?: {
+                    /** @description session id (or the distlab_session cookie) */
+                    "X-Distlab-Session"?: components["parameters"]["Session"];
+                };
+                path: {
+                    /** @description sweep id (= its job id) */
+                    id: string;
+                };
+                cookie?: never;
+            };
+            requestBody?: never;
+            responses: {
+                /** @description sweep */
+                200: {
+                    headers: {
+                        [name: string]: unknown;
+                    };
+                    content: {
+                        "application/json": components["schemas"]["CbfSweep"];
+                    };
+                };
+                401: components["responses"]["Error"];
+                404: components["responses"]["Error"];
+            };
+        };
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
 }
 export type webhooks = Record<string, never>;
 export interface components {
@@ -2117,6 +2219,66 @@ export interface components {
                 };
             }[];
             self_pairs?: number[][];
+        };
+        /** @description The Euclidean baseline beside GAP (FCL, certified by a duality gap). Overlapping shapes: distance 0, witness points a common point, and penetration (FCL signed distance: libccd GJK + EPA) with signed_distance = -depth. */
+        GapEuclidean: {
+            /** @description m; 0 when the shapes touch or overlap */
+            distance: number;
+            /** @description m; distance when apart, -penetration.depth when overlapping */
+            signed_distance: number;
+            witness_a: components["schemas"]["Vec3"];
+            witness_b: components["schemas"]["Vec3"];
+            gradient_a?: number[];
+            gradient_b?: number[];
+            /** @description only when the shapes overlap: moving B by depth along direction separates them */
+            penetration?: {
+                /** @description m */
+                depth: number;
+                /** @description unit vector from A towards B */
+                direction: components["schemas"]["Vec3"];
+                /** @description A's deepest point inside B */
+                witness_a: components["schemas"]["Vec3"];
+                /** @description B's deepest point inside A; witness_a - witness_b = depth * direction */
+                witness_b: components["schemas"]["Vec3"];
+            };
+        };
+        GapResult: {
+            /** @description Λ (m², eq. 3); 0 on overlap */
+            lambda: number;
+            /** @description D = sqrt(2Λ) (m) */
+            distance: number;
+            witness_a: components["schemas"]["Vec3"];
+            witness_b: components["schemas"]["Vec3"];
+            iterations: number;
+            converged: boolean;
+            overlap: boolean;
+            gradient_a?: number[];
+            gradient_b?: number[];
+            euclidean: components["schemas"]["GapEuclidean"];
+            validation?: Record<string, never>;
+        };
+        /** @description One run: summary and smoothness exactly as the record of the single rollout with params.PARAMETER = value */
+        CbfSweepEntry: {
+            value?: unknown;
+            position_error?: number;
+            min_clearance?: number | null;
+            /** @description sum over joints of the total variation of u (rad/s) */
+            total_variation?: number;
+            infeasible_steps?: number;
+            steps?: number;
+            step_us_mean?: number;
+            gap_mode?: string;
+            summary?: Record<string, never>;
+            smoothness?: Record<string, never>;
+        };
+        CbfSweep: {
+            id?: string;
+            scenario?: string;
+            metric?: string;
+            parameter?: string;
+            values?: unknown[];
+            entries?: components["schemas"]["CbfSweepEntry"][];
+            job?: components["schemas"]["Job"];
         };
         ErrorBody: {
             code: string;
