@@ -1,9 +1,9 @@
 // Wiring: the one place that names every feature module. A new feature adds its line here.
 #include "distlab/server/modules.hpp"
 
-#include "cbf_module.hpp"
-#include "gap_module.hpp"
-#include "kelvin_module.hpp"
+#include "cbf/cbf_module.hpp"
+#include "gap/gap_module.hpp"
+#include "kelvin/kelvin_module.hpp"
 
 namespace distlab::server {
 
