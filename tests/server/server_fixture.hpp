@@ -146,6 +146,23 @@ class ServerProcess {
   bool own_cache_ = true;
 };
 
+// One server per test suite: started before its first test, stopped after its last, which must
+// be a clean exit. `class Suite : public SharedServerTest<Suite>`; a suite that needs options (limits)
+// declares `static std::vector<std::string> server_options()`.
+template <class Suite>
+class SharedServerTest : public ::testing::Test {
+ protected:
+  static std::vector<std::string> server_options() { return {}; }
+  static void SetUpTestSuite() { server_ = new ServerProcess(Suite::server_options()); }
+  static void TearDownTestSuite() {
+    EXPECT_EQ(server_->stop(), 0) << "the server did not exit cleanly";
+    delete server_;
+    server_ = nullptr;
+  }
+  static inline ServerProcess* server_ = nullptr;
+  httplib::Client c = server_->client();
+};
+
 inline json body_json(const httplib::Result& r) {
   if (!r) return json();
   return json::parse(r->body, nullptr, false);

@@ -7,7 +7,7 @@
 #include <thread>
 
 #include "distlab/server/frames.hpp"
-#include "distlab/server/service.hpp"
+#include "distlab/server/modules.hpp"
 #include "server/server_fixture.hpp"
 
 namespace distlab::test {
@@ -74,6 +74,7 @@ TEST_F(Api, OpenApiDocumentsEveryRouteAndNothingElse) {
   std::set<std::string> registered, documented;
   {
     server::Service service(cfg);
+    server::add_standard_modules(service);
     for (const auto& route : service.router().routes()) {
       std::string m = route.method;
       for (auto& ch : m) ch = static_cast<char>(std::tolower(ch));

@@ -100,15 +100,8 @@ double rms_error(const json& points, const json& h) {
 // The inversion centre off the sphere's centre: otherwise V is simple and the test weaker.
 const json kCenter = {0.04, -0.03, 0.02};
 
-class KelvinOrder : public ::testing::Test {
+class KelvinOrder : public SharedServerTest<KelvinOrder> {
  protected:
-  static void SetUpTestSuite() { server_ = new ServerProcess(); }
-  static void TearDownTestSuite() {
-    EXPECT_EQ(server_->stop(), 0);
-    delete server_;
-  }
-  static ServerProcess* server_;
-  httplib::Client c = server_->client();
   std::string s = new_session(c);
 
   // Creates an object from body and polls it (bounded) until ready; returns its id.
@@ -141,7 +134,6 @@ class KelvinOrder : public ::testing::Test {
     return r ? r->status : -1;
   }
 };
-ServerProcess* KelvinOrder::server_ = nullptr;
 
 TEST_F(KelvinOrder, InlineMeshSigmaPerVertexInItsOrder) {
   const mesh::SurfaceMesh m = shuffled_sphere();

@@ -23,17 +23,13 @@ const std::string kCubeMm =
 
 constexpr int kBudget = 40000;  // max_vertex_estimate of the test server
 
-class RealMeshes : public ::testing::Test {
+class RealMeshes : public SharedServerTest<RealMeshes> {
+ public:
+  static std::vector<std::string> server_options() {
+    return {"--limit", "max_vertex_estimate=" + std::to_string(kBudget), "--limit", "max_uploads_per_session=100"};
+  }
+
  protected:
-  static void SetUpTestSuite() {
-    server_ = new ServerProcess({"--limit", "max_vertex_estimate=" + std::to_string(kBudget), "--limit", "max_uploads_per_session=100"});
-  }
-  static void TearDownTestSuite() {
-    EXPECT_EQ(server_->stop(), 0);
-    delete server_;
-  }
-  static ServerProcess* server_;
-  httplib::Client c = server_->client();
   std::string s = new_session(c);
 
   httplib::Result upload(const std::string& bytes, const std::string& query) {
@@ -54,7 +50,6 @@ class RealMeshes : public ::testing::Test {
   }
   void remove(const std::string& id) { c.Delete(("/api/kelvin/objects/" + id).c_str(), session_headers(s)); }
 };
-ServerProcess* RealMeshes::server_ = nullptr;
 
 void expect_no_server_path(const std::string& message, const std::string& cache_dir) {
   EXPECT_EQ(message.find(cache_dir), std::string::npos) << message;

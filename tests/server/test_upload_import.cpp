@@ -7,17 +7,7 @@
 namespace distlab::test {
 namespace {
 
-class UploadImport : public ::testing::Test {
- protected:
-  static void SetUpTestSuite() { server_ = new ServerProcess(); }
-  static void TearDownTestSuite() {
-    EXPECT_EQ(server_->stop(), 0);
-    delete server_;
-  }
-  static ServerProcess* server_;
-  httplib::Client c = server_->client();
-};
-ServerProcess* UploadImport::server_ = nullptr;
+class UploadImport : public SharedServerTest<UploadImport> {};
 
 TEST_F(UploadImport, HostileFilesAre4xxAndTheServerLivesOn) {
   const std::string s = new_session(c);

@@ -14,7 +14,7 @@
 #include "command.hpp"
 #include "distlab/server/data_dirs.hpp"
 #include "distlab/server/server.hpp"
-#include "distlab/server/service.hpp"
+#include "distlab/server/modules.hpp"
 
 namespace {
 
@@ -126,6 +126,7 @@ int run_serve(const std::vector<std::string>& args, std::istream&, std::ostream&
   std::signal(SIGPIPE, SIG_IGN);  // a peer closing mid-write is an error code, not a signal
   try {
     server::Service service(config);
+    server::add_standard_modules(service);
     server::HttpServer http(service, host, static_cast<unsigned short>(port));
     out << "distlab serve: listening on http://" << host << ":" << http.port() << "/ (assets " << config.assets_dir
         << ", cache " << (config.cache_dir.empty() ? "temporary" : config.cache_dir) << ", web " << config.web_dir << ")"

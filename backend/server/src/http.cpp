@@ -7,7 +7,7 @@
 #include <random>
 
 #include "distlab/geometry/error.hpp"
-#include "distlab/server/gap_json.hpp"
+#include "distlab/server/json_text.hpp"
 
 namespace distlab::server {
 

@@ -5,7 +5,7 @@
 #include <new>
 
 #include "distlab/geometry/error.hpp"
-#include "distlab/server/gap_json.hpp"
+#include "distlab/server/json_text.hpp"
 
 namespace distlab::server {
 namespace {

@@ -1,4 +1,4 @@
-// The service: construction, dispatch, sessions, jobs routes, the WebSocket protocol.
+// The core service: construction, dispatch, modules, sessions, jobs routes, the WebSocket protocol.
 #include "distlab/server/service.hpp"
 
 #include <filesystem>
@@ -6,11 +6,8 @@
 #include <thread>
 
 #include "distlab/geometry/error.hpp"
-#include "distlab/server/cbf_json.hpp"
-#include "distlab/server/cbf_rollouts.hpp"
-#include "distlab/server/frames.hpp"
-#include "distlab/server/gap_json.hpp"
 #include "distlab/server/json_fields.hpp"
+#include "distlab/server/json_text.hpp"
 
 namespace distlab::server {
 
@@ -56,22 +53,36 @@ Service::Service(ServiceConfig config)
       cache_dir_(make_cache_dir(config_.cache_dir, temp_cache_)),
       static_files_(config_.web_dir),
       sessions_(config_.limits.max_sessions, config_.limits.max_sessions_per_address, config_.limits.session_idle_seconds),
-      registry_(cache_dir_),
       compute_(config_.compute_threads),
       jobs_(job_options(config_), [this](const std::string& session_id, const json& event) {
         if (auto s = sessions_.find(session_id)) s->broadcast(event.dump(), false);
       }) {
   register_core_routes();
-  register_gap_routes();
-  register_kelvin_routes();
-  register_cbf_routes();
 }
 
 Service::~Service() { shutdown(); }
 
+void Service::add(std::unique_ptr<Module> module) {
+  module->register_routes();
+  for (const std::string& type : module->ws_types()) {
+    if (type == "ping" || type == "state" || type == "cancel" || ws_handlers_.count(type))
+      throw std::logic_error("WebSocket message type \"" + type + "\" is registered twice");
+    ws_handlers_[type] = module.get();
+  }
+  modules_.push_back(std::move(module));
+}
+
+Module::Module(Service& core)
+    : core_(core), config_(core.config_), router_(core.router_), sessions_(core.sessions_), jobs_(core.jobs_),
+      compute_(core.compute_) {}
+
+std::shared_ptr<Session> Module::require_session(const Request& request) { return core_.require_session(request); }
+bool Module::post_compute(std::function<void()> fn) { return core_.post_compute(std::move(fn)); }
+
 void Service::shutdown() {
   if (stopped_.exchange(true)) return;
   jobs_.shutdown();
+  for (auto& m : modules_) m->shutdown();
   compute_.stop();
   for (const auto& s : sessions_.all()) {
     std::vector<std::shared_ptr<WsSink>> live;
@@ -123,21 +134,12 @@ std::shared_ptr<Session> Service::require_session(const Request& request) {
   return s;
 }
 
-// Every limit of the table (config.hpp for_each_limit), the CBF rollout limits (also in GET
-// /api/cbf/scenarios) and request_bounds: for each synchronous heavy route, the limits bounding it.
+// Every limit of the table (config.hpp for_each_limit), those the modules own (Module::add_limits)
+// and request_bounds: for each synchronous heavy route, the limits bounding it.
 json Service::limits_json() const {
   json limits = json::object();
   for_each_limit(config_.limits, [&](const char* name, auto value) { limits[name] = value; });
-  limits["isosurface_levels_per_request"] = kIsosurfaceLevelsPerRequest;
-  limits["max_abs_sigma"] = kelvin::kMaxAbsSigma;  // a property of the method (sigma.hpp)
-  const CbfLimits& cbf = cbf_rollouts_->limits();
-  limits["max_cbf_steps"] = cbf.max_steps;
-  limits["max_cbf_duration"] = kMaxScenarioDuration;
-  limits["max_cbf_pair_steps"] = cbf.max_pair_steps;
-  limits["max_cbf_batch_steps"] = cbf.max_batch_steps;
-  limits["max_cbf_frames_per_request"] = cbf.max_frames_per_request;
-  limits["cbf_rollouts_kept_per_session"] = cbf.kept_per_session;
-  limits["cbf_rollouts_kept_total"] = cbf.kept_total;
+  for (const auto& m : modules_) m->add_limits(limits);
   json bounds = json::object();
   for (const Route& r : router_.routes())
     if (r.heavy) bounds[r.method + " " + r.pattern] = r.bounds;
@@ -169,11 +171,9 @@ json openapi_with_limits(const json& limits) {
 
 void Service::register_core_routes() {
   router_.add({"GET", "/api/health", [](Request&) { return json_response(200, {{"status", "ok"}}); }});
-  router_.add({"GET", "/api/version", [](Request&) {
-                 json modules = {"gap", "levelset"};
-#ifdef DISTLAB_HAVE_KELVIN
-                 modules.push_back("kelvin");
-#endif
+  router_.add({"GET", "/api/version", [this](Request&) {
+                 json modules = json::array();
+                 for (const auto& m : modules_) modules.push_back(m->name());
                  return json_response(200, {{"name", "distlab"}, {"version", version_string()},
                                             {"api", "1"}, {"modules", modules}});
                }});
@@ -192,15 +192,14 @@ void Service::register_core_routes() {
                }});
   router_.add({"GET", "/api/session", [this](Request& req) {
                  auto s = require_session(req);
-                 std::size_t objects, uploads, sockets;
+                 std::size_t sockets;
                  {
                    std::lock_guard lock(s->mutex);
-                   objects = s->objects.size();
-                   uploads = s->uploads.size();
                    sockets = s->sockets.size();
                  }
-                 return json_response(200, {{"session", s->id}, {"objects", objects}, {"uploads", uploads},
-                                            {"sockets", sockets}, {"jobs", jobs_.list(s->id).size()}});
+                 json out = {{"session", s->id}, {"sockets", sockets}, {"jobs", jobs_.list(s->id).size()}};
+                 for (const auto& m : modules_) m->describe_session(*s, out);
+                 return json_response(200, out);
                }});
   router_.add({"DELETE", "/api/session", [this](Request& req) {
                  auto s = require_session(req);
@@ -255,30 +254,13 @@ void Service::ws_open(const std::shared_ptr<Session>& session, const std::shared
 }
 
 void Service::send_state(const std::shared_ptr<Session>& session, const std::shared_ptr<WsSink>& socket) {
-  std::vector<std::shared_ptr<KelvinObject>> objects;
-  {
-    std::lock_guard lock(session->mutex);
-    for (const auto& [id, o] : session->objects) objects.push_back(o);
-  }
-  json jobs = json::array(), objs = json::array();
+  json jobs = json::array();
   for (const auto& j : jobs_.list(session->id)) jobs.push_back(j->to_json());
-  for (const auto& o : objects) objs.push_back(o->status_json());
-  socket->send(json{{"type", "hello"}, {"session", session->id}, {"jobs", jobs}, {"objects", objs}}.dump(), false);
-  // Late joiners (and a reconnected client) get the current state of every ready object: its
-  // surface with the current σ, and the frames of its watched levels.
-  for (const auto& o : objects) {
-    bool ready;
-    {
-      std::lock_guard lock(o->mutex);
-      ready = o->state == "ready";
-    }
-    if (ready) {
-      auto weak = std::weak_ptr<WsSink>(socket);
-      post_compute([this, session, o, weak] {
-        if (auto s = weak.lock()) send_frames(session, o, s.get());
-      });
-    }
-  }
+  json hello{{"type", "hello"}, {"session", session->id}, {"jobs", jobs}};
+  for (const auto& m : modules_) m->add_state(*session, hello);
+  socket->send(hello.dump(), false);
+  // Late joiners (and a reconnected client) get the modules' current state after the hello.
+  for (const auto& m : modules_) m->joined(session, socket);
 }
 
 json Service::request_id(const json& message) {
@@ -318,35 +300,20 @@ void Service::ws_message(const std::shared_ptr<Session>& session, const std::sha
     if (msg.contains("request") && request.is_null())
       throw InvalidInput("request", "request must be a string of at most 64 characters or an integer");
     const std::string type = msg["type"];
-    auto object = [&]() {
-      if (!msg.contains("object") || !msg["object"].is_string()) throw InvalidInput("object", "object must be an object id");
-      std::lock_guard lock(session->mutex);
-      auto it = session->objects.find(msg["object"].get<std::string>());
-      if (it == session->objects.end()) throw ApiError(404, "unknown_object", "no such object in this session", "object");
-      return it->second;
-    };
     if (type == "ping") {
       json_check_keys(msg, "", {"type", "request"});
       socket->send(json{{"type", "pong"}}.dump(), false);
     } else if (type == "state") {
       json_check_keys(msg, "", {"type", "request"});
       send_state(session, socket);
-    } else if (type == "watch") {
-      json_check_keys(msg, "", {"type", "request", "object", "levels"});
-      if (!msg.contains("levels")) throw InvalidInput("levels", "levels is required");
-      set_levels(session, object(), msg["levels"]);
-    } else if (type == "sigma") {
-      json_check_keys(msg, "", {"type", "request", "object", "sigma"});
-      if (!msg.contains("sigma")) throw InvalidInput("sigma", "sigma is required");
-      set_sigma(session, object(), msg["sigma"], socket.get(), request);
     } else if (type == "cancel") {
       json_check_keys(msg, "", {"type", "request", "job"});
       if (!msg.contains("job") || !msg["job"].is_string()) throw InvalidInput("job", "job must be a job id");
       auto j = jobs_.find(session->id, msg["job"]);
       if (!j) throw ApiError(404, "unknown_job", "no such job in this session", "job");
       j->cancel = true;
-    } else if (type.rfind("cbf_", 0) == 0) {
-      cbf_ws_message(session, socket, msg);
+    } else if (const auto it = ws_handlers_.find(type); it != ws_handlers_.end()) {
+      it->second->ws_message(session, socket, msg, request);
     } else {
       throw InvalidInput("type", "unknown message type \"" + type.substr(0, 32) + "\"");
     }

@@ -33,31 +33,16 @@
 #include "distlab/geometry/error.hpp"
 #include "distlab/server/config.hpp"
 #include "distlab/server/json_fields.hpp"
+#include "distlab/server/json_text.hpp"
 
 namespace distlab::server {
 
-// Limits of the codec itself, so one request cannot pin the parser. The request size and the
-// pairs per batch are Limits (config.hpp): the CLI uses their defaults, the server its own.
-inline constexpr int kMaxJsonDepth = 64;               // the schema needs 6 levels
+// Limits of the codec itself, so one request cannot pin the parser (the JSON text's own limits are
+// json_text.hpp's). The request size and the pairs per batch are Limits (config.hpp): the CLI uses
+// their defaults, the server its own.
 inline constexpr std::size_t kMaxPolytopeRows = 1000;  // rows of a polytope, facets of a hull
 inline constexpr std::size_t kMaxHullPoints = 100000;  // input points of a convex_hull
 inline constexpr double kMinQuaternionNorm = 1e-9;
-
-// Malformed JSON text (a syntax error); `byte` is the 1-based offset nlohmann reports.
-class JsonSyntaxError : public std::runtime_error {
- public:
-  JsonSyntaxError(const std::string& message, std::size_t byte)
-      : std::runtime_error(message), byte_(byte) {}
-  std::size_t byte() const { return byte_; }
-
- private:
-  std::size_t byte_;
-};
-
-// Parses JSON text with the limits above. Throws JsonSyntaxError for malformed text, and
-// InvalidInput for text over max_bytes, nesting deeper than kMaxJsonDepth, a duplicate key, or a
-// number that overflows a double (e.g. 1e999; the field names where it is).
-nlohmann::json parse_json_text(std::string_view text, std::size_t max_bytes = Limits{}.max_body_bytes);
 
 // A shape of the request, parsed and checked (not yet built into P2S functions).
 struct ShapeSpec {

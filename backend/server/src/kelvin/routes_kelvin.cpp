@@ -11,16 +11,16 @@
 #include "distlab/server/deadline.hpp"
 #include "distlab/server/frames.hpp"
 #include "distlab/server/gap_json.hpp"
-#include "distlab/server/service.hpp"
 #include "kelvin_inputs.hpp"
 #include "request_params.hpp"
+#include "kelvin_module.hpp"
 
 namespace distlab::server {
 
 using json = nlohmann::json;
 namespace fs = std::filesystem;
 
-void Service::register_kelvin_routes() {
+void KelvinModule::register_routes() {
   router_.add({"GET", "/api/kelvin/assets", [this](Request&) {
                  json list = json::array();
                  std::error_code ec;

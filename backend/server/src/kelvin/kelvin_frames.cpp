@@ -5,13 +5,13 @@
 
 #include "distlab/geometry/error.hpp"
 #include "distlab/server/frames.hpp"
-#include "distlab/server/service.hpp"
+#include "kelvin_module.hpp"
 
 namespace distlab::server {
 
 using json = nlohmann::json;
 
-void Service::schedule_frames(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object) {
+void KelvinModule::schedule_frames(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object) {
   {
     std::lock_guard lock(object->mutex);
     if (object->state != "ready" || object->computing) return;
@@ -50,7 +50,7 @@ void Service::schedule_frames(const std::shared_ptr<Session>& session, const std
   }
 }
 
-void Service::send_frames(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,
+void KelvinModule::send_frames(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,
                           WsSink* only) {
   using Ms = std::chrono::duration<double, std::milli>;
   std::shared_ptr<PreparedField> prepared;

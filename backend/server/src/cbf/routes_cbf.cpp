@@ -10,8 +10,8 @@
 #include "distlab/server/cbf_json.hpp"
 #include "distlab/server/cbf_rollouts.hpp"
 #include "distlab/server/json_fields.hpp"
-#include "distlab/server/service.hpp"
 #include "request_params.hpp"
+#include "cbf_module.hpp"
 
 namespace distlab::server {
 
@@ -161,7 +161,7 @@ json run_sweep(const std::shared_ptr<CbfSweepRun>& s, const CbfSweep& sweep, Job
 
 }  // namespace
 
-void Service::register_cbf_routes() {
+void CbfModule::register_routes() {
   cbf_rollouts_ = std::make_shared<CbfRolloutStore>(CbfLimits{});
   const CbfLimits limits = cbf_rollouts_->limits();
   const std::string scenarios_dir = (fs::path(config_.assets_dir) / "scenarios").string();
@@ -395,7 +395,7 @@ void Service::register_cbf_routes() {
 
 // WebSocket {"type": "cbf_replay", "rollout", "from"?}: the frames computed so far, to this socket
 // only (a late joiner; live batches keep coming to every socket of the session).
-void Service::cbf_ws_message(const std::shared_ptr<Session>& session, const std::shared_ptr<WsSink>& socket,
+void CbfModule::cbf_ws_message(const std::shared_ptr<Session>& session, const std::shared_ptr<WsSink>& socket,
                              const json& msg) {
   const std::string type = msg["type"].get<std::string>();
   if (type != "cbf_replay") throw InvalidInput("type", "unknown message type \"" + type.substr(0, 32) + "\"");

@@ -22,101 +22,6 @@ namespace {
 
 using json = nlohmann::json;
 
-// User-supplied names go into messages; keep them short (cut on a UTF-8 boundary).
-std::string shorten(const std::string& s, std::size_t max = 64) {
-  if (s.size() <= max) return s;
-  std::size_t n = max;
-  while (n > 0 && (static_cast<unsigned char>(s[n]) & 0xC0) == 0x80) --n;
-  return s.substr(0, n) + "...";
-}
-
-// ---------------------------------------------------------------------------------------------
-// Parsing text: a SAX builder, because nlohmann's DOM parser cannot say *where* a number
-// overflowed, and a depth limit must stop hostile nesting before anything is built.
-
-class Builder final : public json::json_sax_t {
- public:
-  explicit Builder(json& root) : root_(root) {}
-
-  bool null() override { return add(json(nullptr)); }
-  bool boolean(bool v) override { return add(json(v)); }
-  bool number_integer(number_integer_t v) override { return add(json(v)); }
-  bool number_unsigned(number_unsigned_t v) override { return add(json(v)); }
-  bool number_float(number_float_t v, const string_t&) override { return add(json(v)); }
-  bool string(string_t& v) override { return add(json(std::move(v))); }
-  bool binary(binary_t&) override { return false; }  // JSON text has no binary values
-  bool start_object(std::size_t) override { return open(json::object()); }
-  bool start_array(std::size_t) override { return open(json::array()); }
-  bool end_object() override { return close(); }
-  bool end_array() override { return close(); }
-  bool key(string_t& k) override {
-    if (stack_.back().node->contains(k)) {
-      invalid_ =
-          InvalidInput(json_key_path(stack_.back().path, k), "duplicate key \"" + shorten(k) + "\"");
-      return false;
-    }
-    key_ = std::move(k);
-    return true;
-  }
-  bool parse_error(std::size_t position, const std::string&,
-                   const nlohmann::detail::exception& ex) override {
-    if (ex.id == 406)  // out_of_range.406: a number that overflows a double, e.g. 1e999
-      invalid_ = InvalidInput(next_path(), "number is out of range (not a finite double)");
-    else
-      syntax_ = JsonSyntaxError(ex.what(), position);
-    return false;
-  }
-
-  std::optional<InvalidInput> invalid_;
-  std::optional<JsonSyntaxError> syntax_;
-
- private:
-  struct Frame {
-    json* node;
-    std::string path;
-  };
-
-  // Path of the value about to be added.
-  std::string next_path() const {
-    if (stack_.empty()) return "";
-    const Frame& f = stack_.back();
-    return f.node->is_array() ? json_index_path(f.path, f.node->size()) : json_key_path(f.path, key_);
-  }
-  json* add(json&& v) {
-    if (stack_.empty()) {
-      root_ = std::move(v);
-      return &root_;
-    }
-    json& top = *stack_.back().node;
-    if (top.is_array()) {
-      top.push_back(std::move(v));
-      return &top.back();  // parents only grow after this child is closed: pointer stays valid
-    }
-    json& slot = top[key_];
-    slot = std::move(v);
-    return &slot;
-  }
-  bool open(json&& container) {
-    if (stack_.size() >= static_cast<std::size_t>(kMaxJsonDepth)) {
-      invalid_ =
-          InvalidInput("", "JSON nested deeper than " + std::to_string(kMaxJsonDepth) + " levels");
-      return false;
-    }
-    std::string path = next_path();
-    json* node = add(std::move(container));
-    stack_.push_back({node, std::move(path)});
-    return true;
-  }
-  bool close() {
-    stack_.pop_back();
-    return true;
-  }
-
-  json& root_;
-  std::vector<Frame> stack_;
-  std::string key_;
-};
-
 // ---------------------------------------------------------------------------------------------
 // Typed readers (json_fields.hpp) name the field of every failure; the schema's own checks too.
 
@@ -235,19 +140,6 @@ struct Prototype {
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
-
-json parse_json_text(std::string_view text, std::size_t max_bytes) {
-  if (text.size() > max_bytes)
-    fail("", "request too large: " + std::to_string(text.size()) + " bytes, the limit is " +
-                 std::to_string(max_bytes) + " (max_body_bytes)");
-  json root;
-  Builder builder(root);
-  const bool ok = json::sax_parse(text.begin(), text.end(), &builder);
-  if (builder.invalid_) throw *builder.invalid_;
-  if (builder.syntax_) throw *builder.syntax_;
-  if (!ok) throw JsonSyntaxError("malformed JSON", 0);
-  return root;
-}
 
 ShapeSpec parse_shape(const json& j, const std::string& field) {
   json_require_object(j, field);

@@ -8,7 +8,7 @@
 #include "distlab/server/frames.hpp"
 #include "distlab/server/gap_json.hpp"
 #include "distlab/server/json_fields.hpp"
-#include "distlab/server/service.hpp"
+#include "gap_module.hpp"
 
 namespace distlab::server {
 
@@ -35,7 +35,7 @@ std::vector<double> levels(const json& j, const std::string& field, std::size_t 
 
 }  // namespace
 
-void Service::register_gap_routes() {
+void GapModule::register_routes() {
   Route distance{"POST", "/api/gap/distance", [this](Request& req) {
                    const json body = parse_body(req);
                    if (body.is_object() && body.contains("pairs") && body["pairs"].is_array() &&

@@ -14,9 +14,9 @@
 #include "distlab/server/json_fields.hpp"
 #include "distlab/server/gap_json.hpp"
 #include "distlab/server/kelvin_json.hpp"
-#include "distlab/server/service.hpp"
 #include "kelvin_inputs.hpp"
 #include "request_params.hpp"
+#include "kelvin_module.hpp"
 
 namespace distlab::server {
 
@@ -48,7 +48,7 @@ void run_repair(KelvinObject& o, const kelvin::PrepareOptions& options, const Li
 
 }  // namespace
 
-std::shared_ptr<KelvinObject> Service::require_object(const Session& session, const Request& request) {
+std::shared_ptr<KelvinObject> KelvinModule::require_object(const Session& session, const Request& request) {
   auto& s = const_cast<Session&>(session);
   std::lock_guard lock(s.mutex);
   auto it = s.objects.find(request.params.at("id"));
@@ -56,7 +56,7 @@ std::shared_ptr<KelvinObject> Service::require_object(const Session& session, co
   return it->second;
 }
 
-json Service::create_object(const std::shared_ptr<Session>& session, const json& body, bool estimate_only) {
+json KelvinModule::create_object(const std::shared_ptr<Session>& session, const json& body, bool estimate_only) {
   const Limits& lim = config_.limits;
   if (!body.is_object()) throw InvalidInput("", "the request must be an object");
   for (const auto& [k, v] : body.items())
@@ -262,7 +262,7 @@ json Service::create_object(const std::shared_ptr<Session>& session, const json&
 // What POST /api/kelvin/objects would do with these inputs, without doing it: the server's vertex
 // estimate against its budget, the smallest l_x within the budget, the time the last computed
 // preparation here suggests (linear in vertices: a rough guide), and the refusal, if any.
-json Service::estimate_json(const mesh::SurfaceMesh& welded, kelvin::PrepareOptions options, double estimate) const {
+json KelvinModule::estimate_json(const mesh::SurfaceMesh& welded, kelvin::PrepareOptions options, double estimate) const {
   const Limits& lim = config_.limits;
   const auto budget = static_cast<double>(lim.max_vertex_estimate);
   const Vec3 lo = welded.vertices.colwise().minCoeff().transpose(), hi = welded.vertices.colwise().maxCoeff().transpose();
@@ -286,14 +286,14 @@ json Service::estimate_json(const mesh::SurfaceMesh& welded, kelvin::PrepareOpti
   return out;
 }
 
-void Service::record_prepare_time(const json& stats) {
+void KelvinModule::record_prepare_time(const json& stats) {
   if (stats.value("cache_hit", false) || stats.value("shared", false)) return;
   const double seconds = stats.value("t_mesh", 0.0) + stats.value("t_build", 0.0) + stats.value("t_decomp", 0.0);
   const double n = stats.value("n_verts", 0.0);
   if (seconds > 0 && n > 0) prepare_seconds_per_vertex_.store(seconds / n);
 }
 
-void Service::set_sigma(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,
+void KelvinModule::set_sigma(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,
                         const json& sigma_json, WsSink* origin, const json& request) {
   kelvin::SigmaSpec spec = parse_sigma(sigma_json);
   // surface, welded and to_welded are set at creation and never change: no lock needed.
@@ -322,7 +322,7 @@ void Service::set_sigma(const std::shared_ptr<Session>& session, const std::shar
   schedule_frames(session, object);
 }
 
-void Service::set_levels(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,
+void KelvinModule::set_levels(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,
                          const json& levels) {
   std::vector<double> parsed = parse_levels(levels, "levels", config_.limits.max_levels);
   {

@@ -1,0 +1,54 @@
+#pragma once
+// The Kelvin feature as a module of the service: assets, uploads and objects (routes_kelvin.cpp),
+// their creation and edits (kelvin_service.cpp), their frames (kelvin_frames.cpp), and the
+// WebSocket messages "watch" and "sigma" (kelvin_module.cpp).
+#include <atomic>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "distlab/server/kelvin_objects.hpp"
+#include "distlab/server/module.hpp"
+#include "distlab/server/service.hpp"
+
+namespace distlab::server {
+
+class KelvinModule final : public Module {
+ public:
+  explicit KelvinModule(Service& core) : Module(core), registry_(core.cache_dir()) {}
+
+  std::string name() const override { return "kelvin"; }
+  void register_routes() override;
+  std::vector<std::string> ws_types() const override { return {"watch", "sigma"}; }
+  void ws_message(const std::shared_ptr<Session>& session, const std::shared_ptr<WsSink>& socket,
+                  const nlohmann::json& msg, const nlohmann::json& request) override;
+  void add_limits(nlohmann::json& limits) const override;
+  void add_state(Session& session, nlohmann::json& hello) override;
+  void joined(const std::shared_ptr<Session>& session, const std::shared_ptr<WsSink>& socket) override;
+  void describe_session(Session& session, nlohmann::json& out) override;
+
+ private:
+  const std::string& registry_cache_dir() const { return core_.cache_dir(); }
+  std::shared_ptr<KelvinObject> require_object(const Session& session, const Request& request);
+
+  // estimate_only: checks the inputs and answers estimate_json, creating nothing.
+  nlohmann::json create_object(const std::shared_ptr<Session>& session, const nlohmann::json& body,
+                               bool estimate_only = false);
+  nlohmann::json estimate_json(const mesh::SurfaceMesh& welded, kelvin::PrepareOptions options, double estimate) const;
+  void record_prepare_time(const nlohmann::json& stats);
+  // origin: the socket that sent the edit (gets the acknowledgement with its request id).
+  void set_sigma(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,
+                 const nlohmann::json& sigma, WsSink* origin = nullptr, const nlohmann::json& request = nullptr);
+  void set_levels(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,
+                  const nlohmann::json& levels);
+  void schedule_frames(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object);
+  void send_frames(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,
+                   WsSink* only = nullptr);
+
+  PreparedRegistry registry_;
+  std::atomic<double> prepare_seconds_per_vertex_{0};  // of the last computed preparation
+};
+
+}  // namespace distlab::server
