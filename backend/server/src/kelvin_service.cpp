@@ -27,8 +27,8 @@ namespace {
 
 // Repairs or wraps the object's user mesh and sets everything that depends on the result, under
 // the object's lock: the surface to prepare, the σ transfer, the report, the content key.
-void run_repair(KelvinObject& o, const kelvin::PrepareOptions& options, const Limits& lim) {
-  auto [r, report] = run_repair_request(o.surface, {o.repair, o.repair_options}, lim.max_repair_faces);
+void run_repair(KelvinObject& o, const kelvin::PrepareOptions& options, const Limits& lim, const Progress& progress) {
+  auto [r, report] = run_repair_request(o.surface, {o.repair, o.repair_options}, lim.max_repair_faces, progress);
   // What prepare would refuse (a centre outside, a surface over budget), refused now by name.
   const double estimate = estimate_vertices(r.surface, options.lx, options.far_radius);
   if (estimate > static_cast<double>(lim.max_vertex_estimate))
@@ -36,7 +36,7 @@ void run_repair(KelvinObject& o, const kelvin::PrepareOptions& options, const Li
                                  json(std::round(estimate)).dump() + " vertices, over this server's budget of " +
                                  std::to_string(lim.max_vertex_estimate) + "; use a larger lx");
   kelvin::check_prepare_inputs(r.surface, options);
-  mesh::Transfer transfer = mesh::nearest_face_transfer(o.surface, r.surface.vertices);
+  mesh::Transfer transfer = mesh::nearest_face_transfer(o.surface, r.surface.vertices, progress);
   std::lock_guard lock(o.mutex);
   o.repaired = std::move(r.surface);
   o.to_repaired = std::move(transfer);
@@ -201,10 +201,9 @@ json Service::create_object(const std::shared_ptr<Session>& session, const json&
         progress.report = [&j](const std::string& stage, double fraction) { j.report(stage, fraction); };
         progress.cancel = &j.cancel;
         if (object->repair != "none") {
-          // The long part of a repair request: the user's mesh is already imported and checked.
-          j.report("repair", 0.0);
-          run_repair(*object, options, config_.limits);
-          if (j.cancelled()) throw kelvin::Cancelled();
+          // The long part of a repair request (the user's mesh is already imported and checked):
+          // fix and wrap poll the job's token and report stage "repair".
+          run_repair(*object, options, config_.limits, progress);
           announce();
         }
         j.report("load", 0.0);
@@ -302,7 +301,7 @@ void Service::set_sigma(const std::shared_ptr<Session>& session, const std::shar
   {
     std::lock_guard lock(object->mutex);
     // A repaired object carries σ to its repaired surface once that exists (the job does it then).
-    if (object->repair != "none" && object->state != "repairing") solved = field_sigma(spec, *object);
+    if (object->repair != "none" && object->repaired.faces.rows() > 0) solved = field_sigma(spec, *object);
     object->sigma = std::move(spec);
     object->field_sigma = std::move(solved);
     object->sigma_json = sigma_json;
