@@ -132,7 +132,13 @@ json Service::create_object(const std::shared_ptr<Session>& session, const json&
                                           json(lim.min_lx).dump() + " m on this server", lx_field);
   const auto budget = static_cast<double>(lim.max_vertex_estimate);
   const double estimate = estimate_vertices(welded.surface, options.lx, options.far_radius);
-  if (estimate_only) return estimate_json(welded.surface, options, estimate);
+  if (estimate_only) {
+    json out = estimate_json(welded.surface, options, estimate);
+    // A repair request's surface checks are of the repaired surface, made in the job: the user's
+    // open mesh is no problem here, only the budget (and l_x) can be judged before.
+    if (repair.kind != "none" && !out["problem"].is_null() && out["problem"]["field"] != "lx") out["problem"] = nullptr;
+    return out;
+  }
   if (estimate > budget) {
     const bool far = estimate_vertices(welded.surface, options.lx) <= budget;
     const double fits = std::max(lim.min_lx, smallest_lx_within(welded.surface, budget, options.far_radius));
