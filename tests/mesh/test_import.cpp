@@ -176,6 +176,64 @@ TEST(MeshImport, PolygonsAreFannedWithFileIds) {
   EXPECT_EQ(m.faces.row(1), Eigen::RowVector3i(3, 1, 0));
 }
 
+// Per-face data in the file's order: the file's face f is triangles T(f) … T(f) + k_f − 3 with
+// T(f) = Σ_{g<f} (k_g − 2) (surface.hpp). The file mixes a pentagon, a triangle and a quad (plus
+// another triangle) of known areas in the plane z = 0; gathering the triangles' areas per file
+// face by that rule gives each polygon's shoelace area. Any other numbering (the quad's triangles
+// first, faces sorted by size, another fan) mixes areas of different faces and fails.
+TEST(MeshImport, TrianglesOfEachFileFaceFollowInTheFilesOrder) {
+  const std::string obj =
+      "v 0 0 0\nv 4 0 0\nv 4 1 0\nv 2 3 0\nv 0 1 0\n"     // convex pentagon, area 8
+      "v 10 0 0\nv 13 0 0\nv 10 2 0\n"                    // right triangle, area 3
+      "v 20 0 0\nv 25 0 0\nv 25 7 0\nv 20 7 0\n"          // rectangle, area 35
+      "v 30 0 0\nv 31 0 0\nv 30 1 0\n"                    // right triangle, area 0.5
+      "f 1 2 3 4 5\nf 6 7 8\nf 9 10 11 12\nf 13 14 15\n";
+  const SurfaceMesh m = load_mesh(write_file("mixed.obj", obj).string());
+  const std::vector<int> corners = {5, 3, 4, 3};
+  ASSERT_EQ(m.faces.rows(), 3 + 1 + 2 + 1);
+  const auto shoelace = [&](const std::vector<int>& ids) {
+    double a = 0;
+    for (std::size_t i = 0; i < ids.size(); ++i) {
+      const auto p = m.vertices.row(ids[i]), q = m.vertices.row(ids[(i + 1) % ids.size()]);
+      a += p(0) * q(1) - q(0) * p(1);
+    }
+    return 0.5 * a;
+  };
+  const std::vector<std::vector<int>> polygons = {{0, 1, 2, 3, 4}, {5, 6, 7}, {8, 9, 10, 11}, {12, 13, 14}};
+  Eigen::Index t = 0;
+  for (std::size_t f = 0; f < corners.size(); ++f) {
+    double area = 0;
+    for (int j = 0; j < corners[f] - 2; ++j, ++t) {
+      const Vec3 a = m.vertices.row(m.faces(t, 0)), b = m.vertices.row(m.faces(t, 1)), c = m.vertices.row(m.faces(t, 2));
+      area += 0.5 * (b - a).cross(c - a).z();  // signed: a fan of the file's winding has no negative part here
+      EXPECT_EQ(m.faces(t, 0), polygons[f][0]) << "triangle " << t << " is not a fan around face " << f << "'s first corner";
+      EXPECT_EQ(m.faces(t, 1), polygons[f][static_cast<std::size_t>(j + 1)]);
+      EXPECT_EQ(m.faces(t, 2), polygons[f][static_cast<std::size_t>(j + 2)]);
+    }
+    EXPECT_NEAR(area, shoelace(polygons[f]), 1e-12) << "file face " << f;
+  }
+  EXPECT_NEAR(shoelace(polygons[0]), 8.0, 1e-12);  // the areas differ, so a mix-up shows
+  EXPECT_NEAR(shoelace(polygons[2]), 35.0, 1e-12);
+}
+
+// A polygon that repeats a vertex in neighbouring corners (a zero-length edge) loses the repeated
+// corner and is the polygon without it; one that repeats it at corners apart is refused naming
+// the face, the vertex and the corners (0-based), before any surface check.
+TEST(MeshImport, RepeatedCornersAreDroppedAndPinchedPolygonsNamed) {
+  const std::string v = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 2 0\n";
+  SurfaceMesh m = load_mesh(write_file("dup.obj", v + "f 1 2 3\nf 1 2 2 3 4 1\n").string());
+  ASSERT_EQ(m.faces.rows(), 1 + 2);  // the quad (1 2 3 0): corners 0 and 2 repeat their predecessors
+  EXPECT_EQ(m.faces.row(1), Eigen::RowVector3i(1, 2, 3));
+  EXPECT_EQ(m.faces.row(2), Eigen::RowVector3i(1, 3, 0));
+  try {
+    load_mesh(write_file("pinch.obj", v + "f 1 2 3\nf 1 2 3 4 3 5\n").string(), "upload");
+    FAIL() << "a pinched polygon was accepted";
+  } catch (const InvalidInput& e) {
+    EXPECT_EQ(e.field(), "upload");
+    EXPECT_NE(std::string(e.what()).find("face 1 lists vertex 2 at corners 2 and 4"), std::string::npos) << e.what();
+  }
+}
+
 // Indexed formats written by save_mesh come back in the same order (PLY, and glTF's accessors).
 TEST(MeshImport, IndexedRoundTripKeepsOrder) {
   const SurfaceMesh sphere = icosphere(0.25, 2);

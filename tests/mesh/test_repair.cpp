@@ -4,11 +4,13 @@
 #include <CGAL/Surface_mesh.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <atomic>
+#include <cmath>
 #include <cstdio>
 
-#include <cmath>
-
 #include "distlab/geometry/error.hpp"
+#include "distlab/geometry/progress.hpp"
 #include "distlab/mesh/checks.hpp"
 #include "distlab/mesh/primitives.hpp"
 #include "distlab/mesh/repair.hpp"
@@ -146,4 +148,56 @@ TEST(Transfer, SigmaLinearInZRoundTripsThroughTheWrap) {
     if (used[i]) worst = std::max(worst, std::abs(on_user[i] - z_user[i]));
   EXPECT_LE(worst, r.input_to_result + r.result_to_input);
   EXPECT_LT(worst, 0.1);
+}
+
+// Progress and cancellation (geometry/progress.hpp, the token of every job): reports of stage
+// "repair" rise from 0 to 1, with some from inside CGAL's flood fill (strictly between 0 and 0.8).
+TEST(Wrap, ReportsMonotoneProgressFromInsideTheFloodFill) {
+  std::vector<double> seen;
+  Progress progress;
+  progress.report = [&](const std::string& stage, double f) {
+    EXPECT_EQ(stage, "repair");
+    seen.push_back(f);
+  };
+  wrap(sphere_with_hole(), {0.1, 0.01}, 200000, "repair_options", progress);
+  ASSERT_GE(seen.size(), 3u);
+  EXPECT_EQ(seen.front(), 0.0);
+  EXPECT_EQ(seen.back(), 1.0);
+  EXPECT_TRUE(std::is_sorted(seen.begin(), seen.end()));
+  EXPECT_GE(std::count_if(seen.begin(), seen.end(), [](double f) { return f > 0 && f < 0.8; }), 5);
+}
+
+// The token set from inside the flood fill (at its first report there) stops the wrap at its next
+// gate: Cancelled, and no report after the one that cancelled.
+TEST(Wrap, ACancelInsideTheFloodFillStopsItAtTheNextGate) {
+  std::atomic<bool> cancel{false};
+  int after = 0;
+  double at = -1;
+  Progress progress;
+  progress.cancel = &cancel;
+  progress.report = [&](const std::string&, double f) {
+    if (cancel) ++after;
+    if (f > 0 && !cancel) {
+      at = f;
+      cancel = true;
+    }
+  };
+  EXPECT_THROW(wrap(sphere_with_hole(), {0.1, 0.01}, 200000, "repair_options", progress), Cancelled);
+  EXPECT_GT(at, 0);
+  EXPECT_LT(at, 0.8);  // inside the flood fill, not after it
+  EXPECT_EQ(after, 0);
+}
+
+// fix stops at its next step once cancelled.
+TEST(Fix, ACancelStopsItAtTheNextStep) {
+  std::atomic<bool> cancel{false};
+  std::vector<double> seen;
+  Progress progress;
+  progress.cancel = &cancel;
+  progress.report = [&](const std::string&, double f) {
+    seen.push_back(f);
+    if (f >= 0.4) cancel = true;
+  };
+  EXPECT_THROW(fix(sphere_with_hole(), FixOptions{1000}, "repair", progress), Cancelled);
+  EXPECT_EQ(seen.back(), 0.4);
 }

@@ -221,6 +221,56 @@ TEST_F(RealMeshes, FixAndWrapAreJobsWithReports) {
   }
 }
 
+// A long wrap (the open unit sphere at α 0.02: about 120k faces expected) reports stage "repair"
+// from inside CGAL's flood fill; cancelled there, its job ends "cancelled" having made little more
+// progress (fraction below 0.8, where the flood fill ends) and the object has no repaired surface.
+TEST_F(RealMeshes, ALongWrapIsCancelledInsideTheFloodFill) {
+  const mesh::SurfaceMesh sphere = mesh::icosphere(1.0, 4);
+  json vertices = json::array(), faces = json::array();
+  for (Eigen::Index v = 0; v < sphere.vertices.rows(); ++v) vertices.push_back({sphere.vertices(v, 0), sphere.vertices(v, 1), sphere.vertices(v, 2)});
+  for (Eigen::Index f = 0; f < sphere.faces.rows(); ++f)
+    if (sphere.vertices(sphere.faces(f, 0), 2) <= 0.8) faces.push_back({sphere.faces(f, 0), sphere.faces(f, 1), sphere.faces(f, 2)});
+  auto r = create({{"mesh", {{"vertices", vertices}, {"faces", faces}}}, {"lx_fraction", 0.2}, {"repair", "wrap"},
+                   {"repair_options", {{"alpha", 0.02}, {"offset", 0.002}}}});
+  ASSERT_EQ(r->status, 202) << r->body;
+  const std::string id = body_json(r)["object"]["id"], job = body_json(r)["job"]["id"];
+  const auto job_status = [&] { return body_json(c.Get(("/api/jobs/" + job).c_str(), session_headers(s))); };
+  json st;
+  for (int i = 0; i < 2400; ++i) {  // until the wrap has reported from inside the flood fill
+    st = job_status();
+    if (st["state"] != "queued" && st["state"] != "running") break;
+    if (st["stage"] == "repair" && st["fraction"].get<double>() > 0) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(25));
+  }
+  ASSERT_EQ(st["state"], "running") << st.dump();
+  ASSERT_EQ(st["stage"], "repair") << st.dump();
+  const double at_cancel = st["fraction"];
+  ASSERT_GT(at_cancel, 0.0);
+  ASSERT_LT(at_cancel, 0.8) << "the flood fill ended before the test saw it";
+  r = c.Post(("/api/jobs/" + job + "/cancel").c_str(), session_headers(s), "", "application/json");
+  ASSERT_TRUE(r);
+  ASSERT_LT(r->status, 300) << r->body;
+  for (int i = 0; i < 2400; ++i) {
+    st = job_status();
+    if (st["state"] != "queued" && st["state"] != "running") break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(25));
+  }
+  std::printf("cancelled at fraction %.3f, stopped at %.3f\n", at_cancel, st["fraction"].get<double>());
+  EXPECT_EQ(st["state"], "cancelled") << st.dump();
+  EXPECT_EQ(st["error"]["code"], "cancelled") << st.dump();
+  EXPECT_EQ(st["stage"], "repair");
+  EXPECT_LT(st["fraction"].get<double>(), 0.8);  // stopped inside the flood fill
+  const json o = settle(id);
+  EXPECT_EQ(o["state"], "cancelled") << o.dump();
+  EXPECT_FALSE(o.contains("repair_report") && !o["repair_report"].is_null()) << o.dump();
+  r = c.Get(("/api/kelvin/objects/" + id + "/surface?of=repaired").c_str(), session_headers(s));
+  EXPECT_EQ(r->status, 409) << r->body;
+  r = c.Get(("/api/kelvin/objects/" + id + "/surface").c_str(), session_headers(s));  // the input, σ as given
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200);
+  remove(id);
+}
+
 // σ = z / 2 per file vertex of the unit sphere with a hole (radius 0.6), wrapped at α 0.8 (so the
 // wrap closes the hole and is a ball, not a shell around both sides): the field's σ at the wrap's
 // vertices (surface?of=repaired) and read back at the file's vertices (surface) reproduce the

@@ -478,6 +478,28 @@ void read_gltf(const std::string& path, std::vector<Point>& points, Soup& soup, 
   }
 }
 
+// A polygon (over 3 corners) that repeats a vertex: a corner equal to the one before it (in
+// cyclic order) is a zero-length edge, and dropping it leaves the same polygon, so it is dropped
+// (while over 3 corners remain). A vertex repeated at corners that are not neighbours pinches
+// the polygon into two loops: no fan of it is the file's surface, so it is refused, by name.
+// A triangle that repeats a vertex is kept: the surface checks or "fix" deal with it.
+void simplify_polygon(std::vector<std::size_t>& polygon, std::size_t f, const std::string& field) {
+  std::vector<std::pair<std::size_t, std::size_t>> kept;  // (vertex, the file's corner number)
+  for (std::size_t k = 0; k < polygon.size(); ++k)
+    if (polygon[k] != polygon[(k + polygon.size() - 1) % polygon.size()]) kept.emplace_back(polygon[k], k);
+  if (kept.size() < 3) return;  // no polygon left to keep: its fan's zero-area triangles go to the checks
+  std::vector<std::pair<std::size_t, std::size_t>> sorted = kept;
+  std::sort(sorted.begin(), sorted.end());
+  for (std::size_t i = 1; i < sorted.size(); ++i)
+    if (sorted[i].first == sorted[i - 1].first)
+      throw InvalidInput(field, "face " + std::to_string(f) + " lists vertex " + std::to_string(sorted[i].first) +
+                                    " at corners " + std::to_string(sorted[i - 1].second) + " and " + std::to_string(sorted[i].second) +
+                                    ", which are not neighbours (numbers from 0): the polygon pinches into two loops, "
+                                    "which no polygon is; split it into two faces");
+  polygon.clear();
+  for (const auto& [v, k] : kept) polygon.push_back(v);
+}
+
 }  // namespace
 
 std::optional<std::uint32_t> binary_stl_triangles(std::string_view bytes, const std::string& field) {
@@ -533,18 +555,11 @@ SurfaceMesh load_mesh(const std::string& path, const std::string& field, const s
   std::size_t triangles = 0;
   for (std::size_t f = 0; f < soup.size(); ++f) {
     if (soup[f].size() < 3) throw InvalidInput(field, "face " + std::to_string(f) + " has fewer than 3 vertices");
-    // A polygon (over 3 vertices) that lists a vertex twice is no polygon, and its fan would make
-    // triangles that are not in the file; a degenerate triangle is left to the surface checks.
-    if (soup[f].size() > 3) {
-      std::vector<std::size_t> ids = soup[f];
-      std::sort(ids.begin(), ids.end());
-      if (std::adjacent_find(ids.begin(), ids.end()) != ids.end())
-        throw InvalidInput(field, "face " + std::to_string(f) + " is a polygon that lists a vertex more than once");
-    }
     for (const std::size_t i : soup[f])
       if (i >= nv)
         throw InvalidInput(field, "face " + std::to_string(f) + " has a vertex index out of range (the file has " +
                                       std::to_string(nv) + " vertices)");
+    if (soup[f].size() > 3) simplify_polygon(soup[f], f, field);
     triangles += soup[f].size() - 2;
   }
   if (soup.empty())

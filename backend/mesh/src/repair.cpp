@@ -19,6 +19,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 
 #include "distlab/geometry/error.hpp"
 #include "distlab/mesh/checks.hpp"
@@ -70,7 +71,7 @@ double diagonal(const SurfaceMesh& m) { return (m.vertices.colwise().maxCoeff() 
 
 // The largest distance from a to the surface b, sampled on a by CGAL's sample_triangle_soup on a
 // grid (deterministic) of about 50 points per face, plus every face's corners.
-double one_sided_distance(const SurfaceMesh& a, const SurfaceMesh& b) {
+double one_sided_distance(const SurfaceMesh& a, const SurfaceMesh& b, const Progress& progress) {
   double area = 0;
   for (Eigen::Index f = 0; f < a.faces.rows(); ++f) {
     const Vec3 p = a.vertices.row(a.faces(f, 0)), q = a.vertices.row(a.faces(f, 1)), r = a.vertices.row(a.faces(f, 2));
@@ -82,18 +83,36 @@ double one_sided_distance(const SurfaceMesh& a, const SurfaceMesh& b) {
                               PMP::parameters::use_grid_sampling(true).grid_spacing(std::sqrt(area / (50.0 * static_cast<double>(a.faces.rows())))));
   MatX3 at(static_cast<Eigen::Index>(samples.size()), 3);
   for (std::size_t i = 0; i < samples.size(); ++i) at.row(static_cast<Eigen::Index>(i)) << samples[i].x(), samples[i].y(), samples[i].z();
-  const Transfer t = nearest_face_transfer(b, at);
+  const Transfer t = nearest_face_transfer(b, at, progress);
   return t.distances.empty() ? 0.0 : *std::max_element(t.distances.begin(), t.distances.end());
 }
 
+// CGAL's flood fill calls this before each gate (a facet between outside and inside): the place
+// where the job's token is polled, and where inserted Steiner points give the progress.
+struct WrapVisitor : CGAL::Alpha_wraps_3::internal::Wrapping_default_visitor {
+  const Progress* progress = nullptr;
+  double expected_vertices = 1;
+  std::size_t steiner_points = 0;
+
+  template <typename Wrapper, typename Gate>
+  void before_facet_treatment(const Wrapper&, const Gate&) const { progress->check(); }
+  template <typename Wrapper, typename VertexHandle>
+  void after_Steiner_point_insertion(const Wrapper&, VertexHandle) {
+    if (++steiner_points % 256 == 0)
+      (*progress)("repair", 0.8 * std::min(0.99, static_cast<double>(steiner_points) / expected_vertices));
+  }
+};
+
 }  // namespace
 
-RepairResult fix(const SurfaceMesh& user, const FixOptions& options, const std::string& field) {
+RepairResult fix(const SurfaceMesh& user, const FixOptions& options, const std::string& field, const Progress& progress) {
   RepairResult out;
+  progress("repair", 0.0);
   std::vector<Point> points = points_of(user);
   auto polygons = triangles_of(user);
   const auto count = [&](const char* step, std::size_t n) { out.steps.emplace_back(step, static_cast<long long>(n)); };
   count("merged_duplicate_vertices", PMP::merge_duplicate_points_in_polygon_soup(points, polygons));
+  progress("repair", 0.1);
   std::size_t before = polygons.size();
   PMP::internal::simplify_polygons_in_polygon_soup<K>(points, polygons);
   PMP::internal::remove_invalid_polygons_in_polygon_soup(points, polygons);
@@ -102,11 +121,14 @@ RepairResult fix(const SurfaceMesh& user, const FixOptions& options, const std::
   PMP::remove_isolated_points_in_polygon_soup(points, polygons);
   const std::size_t points_before_orient = points.size();
   if (polygons.empty()) throw InvalidInput(field, "repair left no faces: every face was degenerate");
+  progress("repair", 0.2);
   PMP::orient_polygon_soup(points, polygons);
   count("split_non_manifold_vertices", points.size() - points_before_orient);
+  progress("repair", 0.4);
   Mesh sm;
   PMP::polygon_soup_to_polygon_mesh(points, polygons, sm);
   count("stitched_edges", PMP::stitch_borders(sm));
+  progress("repair", 0.5);
   before = sm.number_of_faces();
   PMP::remove_degenerate_faces(sm);
   sm.collect_garbage();
@@ -115,7 +137,9 @@ RepairResult fix(const SurfaceMesh& user, const FixOptions& options, const std::
   if (options.max_hole_edges > 0) {
     std::vector<Mesh::Halfedge_index> borders;
     PMP::extract_boundary_cycles(sm, std::back_inserter(borders));
-    for (const auto h : borders) {
+    for (std::size_t i = 0; i < borders.size(); ++i) {
+      progress("repair", 0.6 + 0.3 * static_cast<double>(i) / static_cast<double>(borders.size()));
+      const auto h = borders[i];
       std::size_t edges = 0;
       for ([[maybe_unused]] auto e : CGAL::halfedges_around_face(h, sm)) ++edges;
       if (edges > static_cast<std::size_t>(options.max_hole_edges)) continue;
@@ -131,6 +155,7 @@ RepairResult fix(const SurfaceMesh& user, const FixOptions& options, const std::
   } else {
     count("reversed_orientation", 0);
   }
+  progress("repair", 0.9);
   out.surface = from_cgal(sm);
   // The surface checks name what is left (boundary edges, non-manifold parts, self-intersections).
   try {
@@ -138,10 +163,13 @@ RepairResult fix(const SurfaceMesh& user, const FixOptions& options, const std::
   } catch (const InvalidInput& e) {
     throw InvalidInput(field, std::string("repair is not enough (try \"wrap\"): after it, ") + e.what());
   }
+  progress("repair", 1.0);
   return out;
 }
 
-RepairResult wrap(const SurfaceMesh& user, const WrapOptions& options, std::size_t max_faces, const std::string& field) {
+RepairResult wrap(const SurfaceMesh& user, const WrapOptions& options, std::size_t max_faces, const std::string& field,
+                  const Progress& progress) {
+  progress("repair", 0.0);
   RepairResult out;
   const double d = diagonal(user);
   out.alpha = options.alpha > 0 ? options.alpha : d / 20;
@@ -160,15 +188,22 @@ RepairResult wrap(const SurfaceMesh& user, const WrapOptions& options, std::size
   const std::vector<Point> points = points_of(user);
   const auto triangles = triangles_of(user);
   Mesh wrapped;
-  CGAL::alpha_wrap_3(points, triangles, out.alpha, out.offset, wrapped);
+  WrapVisitor visitor;
+  visitor.progress = &progress;
+  visitor.expected_vertices = std::max(1.0, expected / 2);  // a closed surface has about F / 2 vertices
+  CGAL::alpha_wrap_3(points, triangles, out.alpha, out.offset, wrapped, CGAL::parameters::default_values(),
+                     CGAL::parameters::visitor(std::ref(visitor)));
+  progress("repair", 0.8);
   out.surface = from_cgal(wrapped);
   if (static_cast<std::size_t>(out.surface.faces.rows()) > max_faces)
     throw InvalidInput(field + ".alpha", "the wrap has " + std::to_string(out.surface.faces.rows()) + " faces, over this server's " +
                                              std::to_string(max_faces) + "; use a larger α");
   if (out.surface.faces.rows() == 0) throw InvalidInput(field, "wrapping produced no surface");
   if (signed_volume(out.surface) < 0) out.surface.faces.col(1).swap(out.surface.faces.col(2));
-  out.input_to_result = one_sided_distance(user, out.surface);
-  out.result_to_input = one_sided_distance(out.surface, user);
+  out.input_to_result = one_sided_distance(user, out.surface, progress);
+  progress("repair", 0.9);
+  out.result_to_input = one_sided_distance(out.surface, user, progress);
+  progress("repair", 1.0);
   return out;
 }
 
@@ -179,7 +214,7 @@ std::vector<double> Transfer::apply(const std::vector<double>& values) const {
   return out;
 }
 
-Transfer nearest_face_transfer(const SurfaceMesh& from, const MatX3& points) {
+Transfer nearest_face_transfer(const SurfaceMesh& from, const MatX3& points, const Progress& progress) {
   using Triangle = K::Triangle_3;
   using Iterator = std::vector<Triangle>::const_iterator;
   using Tree = CGAL::AABB_tree<CGAL::AABB_traits<K, CGAL::AABB_triangle_primitive<K, Iterator>>>;
@@ -197,6 +232,7 @@ Transfer nearest_face_transfer(const SurfaceMesh& from, const MatX3& points) {
   t.weights.resize(n);
   t.distances.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
+    if (i % 4096 == 0) progress.check();
     const Point q(points(static_cast<Eigen::Index>(i), 0), points(static_cast<Eigen::Index>(i), 1), points(static_cast<Eigen::Index>(i), 2));
     const auto [p, primitive] = tree.closest_point_and_primitive(q);
     const auto f = static_cast<Eigen::Index>(primitive - triangles.cbegin());

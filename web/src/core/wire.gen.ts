@@ -1786,6 +1786,7 @@ export interface components {
             kind: string;
             /** @enum {string} */
             state: "queued" | "running" | "succeeded" | "failed" | "cancelled";
+            /** @description kelvin_prepare: "repair" (a repair request's fix or wrap; cancellable like every stage), then "load", "invert", "mesh", "build", "decomp", "solve", "cache" */
             stage?: string;
             fraction?: number;
             seconds?: number;
@@ -1968,7 +1969,7 @@ export interface components {
         KelvinObject: {
             id: string;
             /** @enum {string} */
-            state: "preparing" | "ready" | "failed" | "cancelled";
+            state: "repairing" | "preparing" | "ready" | "failed" | "cancelled";
             job: string;
             /** @description the preparation's options that are not the mesh */
             source: {
@@ -1986,6 +1987,7 @@ export interface components {
             n_welded_vertices: number;
             center?: components["schemas"]["Vec3"];
             key: string;
+            repair_report?: components["schemas"]["RepairReport"];
         };
         /** @description A scene, target, start and controller constants. Keys other than obstacles/target/q0 are optional (defaults: the corridor's). Unknown keys are refused. */
         CbfScenario: {
@@ -2395,6 +2397,22 @@ export interface components {
         WsClientMessage: components["schemas"]["WsPing"] | components["schemas"]["WsState"] | components["schemas"]["WsWatch"] | components["schemas"]["WsSigma"] | components["schemas"]["WsCancel"] | components["schemas"]["WsCbfReplay"];
         /** @description a text message the server sends on /ws (cbf_frames: CbfFrames) */
         WsServerMessage: components["schemas"]["WsHello"] | components["schemas"]["WsPong"] | components["schemas"]["WsJob"] | components["schemas"]["WsObject"] | components["schemas"]["WsSigmaAck"] | components["schemas"]["WsError"] | components["schemas"]["CbfFrames"];
+        /** @description what repair "fix" changed (counts per step) or what "wrap" made (alpha, offset, one-sided Hausdorff distances in metres), and the repaired surface's size */
+        RepairReport: {
+            /** @enum {string} */
+            kind: "fix" | "wrap";
+            steps?: {
+                [key: string]: number;
+            };
+            alpha?: number;
+            offset?: number;
+            hausdorff?: {
+                input_to_wrap: number;
+                wrap_to_input: number;
+            };
+            n_vertices: number;
+            n_faces: number;
+        };
     };
     responses: {
         /** @description error */

@@ -8,6 +8,7 @@ export type ErrorBody = Schemas["ErrorBody"];
 export type Job = Schemas["Job"];
 export type KelvinObject = Schemas["KelvinObject"];
 export type KelvinStats = Schemas["KelvinStats"];
+export type RepairReport = Schemas["RepairReport"];
 export type Sigma = Schemas["Sigma"];
 export type AxisTerm = Schemas["AxisTerm"];
 export type CbfFrames = Schemas["CbfFrames"];

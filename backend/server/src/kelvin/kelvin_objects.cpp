@@ -209,13 +209,13 @@ RepairRequest parse_repair(const json& body, const Limits& lim) {
 }
 
 std::pair<mesh::RepairResult, json> run_repair_request(const mesh::SurfaceMesh& user, const RepairRequest& request,
-                                                       std::size_t max_faces) {
+                                                       std::size_t max_faces, const Progress& progress) {
   mesh::RepairResult r;
   json report;
   if (request.kind == "fix") {
     mesh::FixOptions f;
     f.max_hole_edges = request.options.value("max_hole_edges", 0);
-    r = mesh::fix(user, f, "repair");
+    r = mesh::fix(user, f, "repair", progress);
     json steps = json::object();
     for (const auto& [name, n] : r.steps) steps[name] = n;
     report = {{"kind", "fix"}, {"steps", steps}};
@@ -223,7 +223,7 @@ std::pair<mesh::RepairResult, json> run_repair_request(const mesh::SurfaceMesh& 
     mesh::WrapOptions w;
     w.alpha = request.options.value("alpha", 0.0);
     w.offset = request.options.value("offset", 0.0);
-    r = mesh::wrap(user, w, max_faces, "repair_options");
+    r = mesh::wrap(user, w, max_faces, "repair_options", progress);
     report = {{"kind", "wrap"}, {"alpha", r.alpha}, {"offset", r.offset},
               {"hausdorff", {{"input_to_wrap", r.input_to_result}, {"wrap_to_input", r.result_to_input}}}};
   }

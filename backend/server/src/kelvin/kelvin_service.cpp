@@ -27,8 +27,8 @@ namespace {
 
 // Repairs or wraps the object's user mesh and sets everything that depends on the result, under
 // the object's lock: the surface to prepare, the σ transfer, the report, the content key.
-void run_repair(KelvinObject& o, const kelvin::PrepareOptions& options, const Limits& lim) {
-  auto [r, report] = run_repair_request(o.surface, {o.repair, o.repair_options}, lim.max_repair_faces);
+void run_repair(KelvinObject& o, const kelvin::PrepareOptions& options, const Limits& lim, const Progress& progress) {
+  auto [r, report] = run_repair_request(o.surface, {o.repair, o.repair_options}, lim.max_repair_faces, progress);
   // What prepare would refuse (a centre outside, a surface over budget), refused now by name.
   const double estimate = estimate_vertices(r.surface, options.lx, options.far_radius);
   if (estimate > static_cast<double>(lim.max_vertex_estimate))
@@ -36,7 +36,7 @@ void run_repair(KelvinObject& o, const kelvin::PrepareOptions& options, const Li
                                  json(std::round(estimate)).dump() + " vertices, over this server's budget of " +
                                  std::to_string(lim.max_vertex_estimate) + "; use a larger lx");
   kelvin::check_prepare_inputs(r.surface, options);
-  mesh::Transfer transfer = mesh::nearest_face_transfer(o.surface, r.surface.vertices);
+  mesh::Transfer transfer = mesh::nearest_face_transfer(o.surface, r.surface.vertices, progress);
   std::lock_guard lock(o.mutex);
   o.repaired = std::move(r.surface);
   o.to_repaired = std::move(transfer);
@@ -132,7 +132,13 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
                                           json(lim.min_lx).dump() + " m on this server", lx_field);
   const auto budget = static_cast<double>(lim.max_vertex_estimate);
   const double estimate = estimate_vertices(welded.surface, options.lx, options.far_radius);
-  if (estimate_only) return estimate_json(welded.surface, options, estimate);
+  if (estimate_only) {
+    json out = estimate_json(welded.surface, options, estimate);
+    // A repair request's surface checks are of the repaired surface, made in the job: the user's
+    // open mesh is no problem here, only the budget (and l_x) can be judged before.
+    if (repair.kind != "none" && !out["problem"].is_null() && out["problem"]["field"] != "lx") out["problem"] = nullptr;
+    return out;
+  }
   if (estimate > budget) {
     const bool far = estimate_vertices(welded.surface, options.lx) <= budget;
     const double fits = std::max(lim.min_lx, smallest_lx_within(welded.surface, budget, options.far_radius));
@@ -201,10 +207,9 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
         progress.report = [&j](const std::string& stage, double fraction) { j.report(stage, fraction); };
         progress.cancel = &j.cancel;
         if (object->repair != "none") {
-          // The long part of a repair request: the user's mesh is already imported and checked.
-          j.report("repair", 0.0);
-          run_repair(*object, options, config_.limits);
-          if (j.cancelled()) throw kelvin::Cancelled();
+          // The long part of a repair request (the user's mesh is already imported and checked):
+          // fix and wrap poll the job's token and report stage "repair".
+          run_repair(*object, options, config_.limits, progress);
           announce();
         }
         j.report("load", 0.0);
@@ -302,7 +307,7 @@ void KelvinModule::set_sigma(const std::shared_ptr<Session>& session, const std:
   {
     std::lock_guard lock(object->mutex);
     // A repaired object carries σ to its repaired surface once that exists (the job does it then).
-    if (object->repair != "none" && object->state != "repairing") solved = field_sigma(spec, *object);
+    if (object->repair != "none" && object->repaired.faces.rows() > 0) solved = field_sigma(spec, *object);
     object->sigma = std::move(spec);
     object->field_sigma = std::move(solved);
     object->sigma_json = sigma_json;

@@ -273,10 +273,12 @@ void KelvinModule::register_routes() {
                    sigma = object->sigma;
                    solved = object->field_sigma;
                    version = object->sigma_version;
-                   repaired = object->repair != "none" && object->state != "repairing";
+                   // None while repairing, nor after a repair that failed or was cancelled.
+                   repaired = object->repair != "none" && object->repaired.faces.rows() > 0;
                  }
                  if (of == "repaired" && !repaired)
-                   throw ApiError(409, "not_repaired", "this object has no repaired surface (repair none, or still repairing)", "of");
+                   throw ApiError(409, "not_repaired",
+                                  "this object has no repaired surface (repair none, still repairing, or the repair failed or was cancelled)", "of");
                  // A repaired object's σ at the user's vertices is what the field solves, read back
                  // by the same nearest-face rule that carried it there (repair.hpp).
                  std::vector<double> values;

@@ -6,6 +6,11 @@ import { sliceAxes, type SliceAxis } from "./slice_layer";
 
 export const exportFormats = ["stl", "obj", "ply", "glb"] as const;
 export type ExportFormat = (typeof exportFormats)[number];
+/** The unit an uploaded file is in (the server scales it to metres), and the repair asked for. */
+export const uploadUnits = ["m", "cm", "mm", "in"] as const;
+export type UploadUnit = (typeof uploadUnits)[number];
+export const repairs = ["none", "fix", "wrap"] as const;
+export type Repair = (typeof repairs)[number];
 
 export interface KelvinState {
   object: string; // an asset name, or "upload" (not restorable: uploads live in the session)
@@ -20,6 +25,8 @@ export interface KelvinState {
   brush: { on: boolean; value: number; radius: number; falloff: number };
   sigmaScale: number;
   format: ExportFormat;
+  unit: UploadUnit;
+  repair: Repair;
 }
 
 /** A quick default l_x per built-in asset (seconds to prepare on a laptop, not the paper's). */
@@ -42,6 +49,8 @@ export function defaults(object = "cube"): KelvinState {
     brush: { on: true, value: 1, radius: 0, falloff: 0 }, // radius 0: chosen from the object's size
     sigmaScale: 1,
     format: "stl",
+    unit: "m",
+    repair: "none",
   };
 }
 
@@ -75,6 +84,8 @@ export function readState(raw: Record<string, unknown>): KelvinState {
     },
     sigmaScale: num(raw.sigmaScale, 1, 1e-3, 100),
     format: str(raw.format, exportFormats, "stl"),
+    unit: str(raw.unit, uploadUnits, "m"),
+    repair: str(raw.repair, repairs, "none"),
   };
 }
 
@@ -89,5 +100,7 @@ export function writeStateJson(s: KelvinState): Record<string, unknown> {
   out.brush = s.brush;
   if (s.sigmaScale !== 1) out.sigmaScale = s.sigmaScale;
   if (s.format !== "stl") out.format = s.format;
+  if (s.unit !== "m") out.unit = s.unit;
+  if (s.repair !== "none") out.repair = s.repair;
   return out;
 }

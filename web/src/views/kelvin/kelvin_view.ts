@@ -4,7 +4,7 @@
 import * as THREE from "three";
 import { api, ApiError } from "../../core/api";
 import type { Shortcut } from "../../core/keys";
-import { isMeshFrame, type MeshFrame } from "../../core/meshframe";
+import { isMeshFrame, toGeometry, type MeshFrame } from "../../core/meshframe";
 import { socket, type BinaryFrame } from "../../core/socket";
 import { showError, toast } from "../../core/toast";
 import type { View, ViewHost } from "../../core/view";
@@ -14,7 +14,7 @@ import { EditTracer } from "./edit_trace";
 import { downloadIsoSurfaces } from "./iso_export";
 import { IsoLayers, type IsoFrameInfo } from "./iso_layers";
 import { DEFAULT_BASE, defaultLx, readState, writeStateJson, type KelvinState } from "./kelvin_state";
-import { ObjectJob, estimate, estimateText, uploadMesh, type Estimate, type ObjectStatus, type Source } from "./object_source";
+import { ObjectJob, estimate, estimateText, repairText, uploadMesh, uploadText, type Estimate, type ObjectStatus, type Source } from "./object_source";
 import { statsRows, statusLine } from "./object_stats";
 import { Panel } from "./panel";
 import { Probe } from "./probe";
@@ -43,6 +43,9 @@ export class KelvinView implements View {
   private status: ObjectStatus | null = null;
   private job: ObjectJob | null = null;
   private upload: Source | null = null;
+  private uploadedFile: File | null = null; // uploaded again when its unit changes
+  private uploadLine = ""; // the upload dialog's first line: what the server read
+  private overlay: THREE.LineSegments | null = null; // a repair's surface over the input's
   private ticket = 0;
   private offs: Array<() => void> = [];
   private strokes: number[] = []; // brushes.length at each stroke's start (undo)
@@ -109,6 +112,11 @@ export class KelvinView implements View {
       objectChanged: () => this.objectSwitched(),
       lxChanged: () => void this.load(),
       upload: (f) => void this.uploadFile(f),
+      unitChanged: () => {
+        if (this.uploadedFile && this.state.object === "upload") void this.uploadFile(this.uploadedFile);
+        else this.save();
+      },
+      repairChanged: () => void this.load(),
       sigmaChanged: () => this.sigmaEdited(true),
       presetChosen: () => this.applyPreset(),
       undoStroke: () => this.undo(),
@@ -130,6 +138,7 @@ export class KelvinView implements View {
       objectId: () => this.objectId,
       status: () => this.status,
       ready: () => Boolean(this.objectId && this.surface) && this.allShownAtLeast(this.sigmaVersion),
+      overlayTriangles: () => (this.overlay ? this.overlay.userData.triangles : 0),
       surfaceSource: () => this.surfaces.origin,
       frames: () => this.frameLog,
       shown: () => this.iso.shown(),
@@ -159,6 +168,7 @@ export class KelvinView implements View {
     this.objectId = this.pendingId = null;
     this.status = null;
     this.dropSurface();
+    this.dropOverlay();
     this.surfaces.reset();
     this.iso.clear();
     this.iso.setLevels(this.state.levels);
@@ -168,10 +178,13 @@ export class KelvinView implements View {
     this.save();
     const source: Source = this.state.object === "upload" && this.upload ? this.upload : { asset: this.state.object };
     const name = this.objectName();
+    const repair = this.state.repair;
+    const uploadLines = this.state.object === "upload" && this.uploadLine ? [this.uploadLine] : [];
+    this.panel?.setReport(uploadLines);
     this.panel?.setEstimate("estimating…", null);
     let est: Estimate;
     try {
-      est = await estimate(source, this.state.lx);
+      est = await estimate(source, this.state.lx, repair);
     } catch (e) {
       if (ticket !== this.ticket) return;
       // A refused l_x (below the server's minimum) is shown under the field; anything else is an error.
@@ -184,7 +197,11 @@ export class KelvinView implements View {
     if (est.problem) {
       // l_x is flagged under its field; a refused mesh is an error of its own.
       const text = `${name} at l_x = ${this.state.lx}: ${est.problem.message}`;
-      if (est.problem.field !== "lx") showError(new ApiError(422, "invalid_input", est.problem.message, est.problem.field), `cannot prepare ${name}`);
+      this.host.progress(null); // an upload's bar ends with the refusal
+      if (est.problem.field !== "lx") {
+        showError(new ApiError(422, "invalid_input", est.problem.message, est.problem.field), `cannot prepare ${name}`);
+        this.panel?.setReport([...uploadLines, `refused: ${est.problem.message}`], true);
+      }
       this.host.status(text);
       this.panel?.setStats([["object", text]]);
       return;
@@ -199,11 +216,13 @@ export class KelvinView implements View {
       status = await job.prepare(source, this.state.lx, { sigma: this.sigmaBody(), levels: this.state.levels }, {
         progress: (stage, fraction, cancel) => ticket === this.ticket && this.host.progress(label(stage), fraction, cancel),
         created: (id) => ticket === this.ticket && this.adopt(id),
-      });
+        repaired: (o) => ticket === this.ticket && void this.showRepair(o, uploadLines, ticket),
+      }, repair);
     } catch (e) {
       if (ticket !== this.ticket) return;
       this.host.progress(null);
       const text = e instanceof ApiError && e.code === "cancelled" ? "preparation cancelled" : showError(e, `cannot prepare ${name}`);
+      if (!(e instanceof ApiError && e.code === "cancelled")) this.panel?.setReport([...uploadLines, `refused: ${e instanceof Error ? e.message : String(e)}`], true);
       this.host.status(text);
       this.panel?.setStats([["object", `${name}: ${text}`]]);
       return;
@@ -229,6 +248,33 @@ export class KelvinView implements View {
     this.state.brush.radius = 0; // chosen from the new surface's size when it arrives
     this.panel?.refresh();
     void this.load();
+  }
+
+  /** A repair's report, and its surface drawn as a wireframe over the input's (fetched once made,
+   *  while the field is still being prepared on it). */
+  private async showRepair(o: ObjectStatus, uploadLines: string[], ticket: number): Promise<void> {
+    if (o.repair_report) this.panel?.setReport([...uploadLines, repairText(o.repair_report)]);
+    try {
+      const frame = await api.get<MeshFrame>(`/api/kelvin/objects/${o.id}/surface?of=repaired`);
+      if (ticket !== this.ticket || !isMeshFrame(frame)) return;
+      const g = toGeometry(frame);
+      this.dropOverlay();
+      const overlay = (this.overlay = new THREE.LineSegments(new THREE.WireframeGeometry(g), new THREE.LineBasicMaterial({ color: 0x2f7fd0, transparent: true, opacity: 0.5 })));
+      overlay.userData.triangles = frame.n_faces;
+      g.dispose();
+      this.viewport?.scene.add(overlay);
+      this.viewport?.invalidate();
+    } catch (e) {
+      if (ticket === this.ticket) showError(e, "cannot fetch the repaired surface");
+    }
+  }
+
+  private dropOverlay(): void {
+    if (!this.overlay) return;
+    this.viewport?.scene.remove(this.overlay);
+    this.overlay.geometry.dispose();
+    (this.overlay.material as THREE.Material).dispose();
+    this.overlay = null;
   }
 
   private adopt(id: string): void {
@@ -291,11 +337,14 @@ export class KelvinView implements View {
   private async uploadFile(file: File): Promise<void> {
     this.host.progress(`uploading ${file.name}`);
     try {
-      const r = await uploadMesh(file);
+      const r = await uploadMesh(file, this.state.unit);
+      this.uploadedFile = file;
+      this.uploadLine = uploadText(file.name, r);
+      this.panel?.setReport([this.uploadLine]);
       toast(`${file.name}: ${r.n_vertices} vertices, ${r.n_faces} triangles`, "ok");
       this.upload = { upload: r.upload, name: file.name };
       // l_x from the file's size: a thirtieth of its diagonal, coarser if over the budget.
-      const e = await estimate(this.upload, this.state.lx);
+      const e = await estimate(this.upload, this.state.lx, this.state.repair);
       const lx = Math.max(e.lx_for_budget, e.diagonal / 30);
       const unit = 10 ** (Math.floor(Math.log10(lx)) - 1); // two significant digits, rounded up
       this.state.lx = Number((Math.ceil(lx / unit) * unit).toPrecision(12));
@@ -310,6 +359,7 @@ export class KelvinView implements View {
       this.host.progress(null);
       const text = showError(e, `cannot use ${file.name}`);
       this.host.status(text);
+      this.panel?.setReport([text], true);
     }
   }
 
@@ -518,6 +568,7 @@ export class KelvinView implements View {
     this.slice?.dispose();
     this.panel?.dispose();
     this.dropSurface();
+    this.dropOverlay();
     this.viewport?.dispose();
     this.viewport = null;
     const d = (window as unknown as { distlab?: { kelvin?: unknown } }).distlab;

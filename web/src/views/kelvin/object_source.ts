@@ -3,33 +3,68 @@
 // before we listened is never waited for). The job can be cancelled.
 import { api, ApiError } from "../../core/api";
 import { socket, type TextMessage } from "../../core/socket";
-import type { Estimate, Job, KelvinObject, KelvinStats } from "../../core/wire";
+import type { Estimate, Job, KelvinObject, KelvinStats, RepairReport } from "../../core/wire";
 
 export type ObjectStats = KelvinStats;
 export type ObjectStatus = KelvinObject;
 type JobStatus = Job;
+/** What "fix" changed (counts per step) or what "wrap" made (α, offset, one-sided distances). */
+export type { RepairReport };
 
 export type Source = { asset: string } | { upload: string; name: string };
 
 export const uploadFormats = ["stl", "obj", "ply", "glb", "off"] as const;
 
-/** Uploads a mesh file; the server imports it with assimp and refuses bad meshes with a message. */
-export async function uploadMesh(file: File): Promise<{ upload: string; n_vertices: number; n_faces: number }> {
+/** The upload's answer: counts, the box in metres (after the unit) and the l_x range that fits. */
+export interface Uploaded {
+  upload: string;
+  n_vertices: number;
+  n_faces: number;
+  unit?: string;
+  bounding_box?: { min: number[]; max: number[]; diagonal: number };
+  lx_range?: { min: number; max: number } | null;
+}
+
+/** Uploads a mesh file in `unit`; the server imports it and refuses bad meshes with a message. */
+export async function uploadMesh(file: File, unit = "m"): Promise<Uploaded> {
   const ext = file.name.split(".").pop()?.toLowerCase() ?? "";
   if (!(uploadFormats as readonly string[]).includes(ext))
     throw new ApiError(400, "bad_format", `${file.name}: the file must end in .${uploadFormats.join(", .")}`, "file");
-  return api.upload(`/api/kelvin/uploads?format=${ext}`, await file.arrayBuffer());
+  return api.upload(`/api/kelvin/uploads?format=${ext}&unit=${encodeURIComponent(unit)}`, await file.arrayBuffer());
+}
+
+const metres = (x: number) => `${Number(x.toPrecision(3))} m`;
+
+/** The upload dialog's first line: what the server read, in metres, and the l_x it accepts. */
+export function uploadText(name: string, u: Uploaded): string {
+  const parts = [`${name}: ${u.n_vertices.toLocaleString("en")} vertices, ${u.n_faces.toLocaleString("en")} triangles`];
+  const b = u.bounding_box;
+  if (b) parts.push(`size ${b.max.map((hi, k) => Number((hi - b.min[k]).toPrecision(3))).join(" × ")} m (file unit ${u.unit ?? "scaled"})`);
+  if (u.lx_range) parts.push(`l_x from ${metres(u.lx_range.min)} to ${metres(u.lx_range.max)}`);
+  else if (b) parts.push("no l_x fits this server's budget");
+  return parts.join(" · ");
+}
+
+/** The repair's report as the server gives it. */
+export function repairText(r: RepairReport): string {
+  const size = `${r.n_vertices.toLocaleString("en")} vertices, ${r.n_faces.toLocaleString("en")} triangles`;
+  if (r.kind === "wrap" && r.hausdorff)
+    return `wrapped at α ${metres(r.alpha ?? 0)}, offset ${metres(r.offset ?? 0)}: ${size}; farthest input → wrap ${metres(r.hausdorff.input_to_wrap)}, wrap → input ${metres(r.hausdorff.wrap_to_input)}`;
+  const steps = Object.entries(r.steps ?? {}).filter(([, n]) => n > 0).map(([k, n]) => `${k.replace(/_/g, " ")} ${n}`);
+  return `fixed (${steps.length ? steps.join(", ") : "nothing to change"}): ${size}`;
 }
 
 /** POST /api/kelvin/estimate: the server's own vertex estimate and budget for these inputs. */
 export type { Estimate };
 
-export function sourceBody(source: Source, lx: number): Record<string, unknown> {
-  return "asset" in source ? { asset: source.asset, lx } : { upload: source.upload, lx };
+export function sourceBody(source: Source, lx: number, repair = "none"): Record<string, unknown> {
+  const body: Record<string, unknown> = "asset" in source ? { asset: source.asset, lx } : { upload: source.upload, lx };
+  if (repair !== "none") body.repair = repair;
+  return body;
 }
 
-export function estimate(source: Source, lx: number): Promise<Estimate> {
-  return api.post<Estimate>("/api/kelvin/estimate", sourceBody(source, lx) as never);
+export function estimate(source: Source, lx: number, repair = "none"): Promise<Estimate> {
+  return api.post<Estimate>("/api/kelvin/estimate", sourceBody(source, lx, repair) as never);
 }
 
 /** What the panel says before preparing: the expected size and time against the budget. */
@@ -43,7 +78,11 @@ export interface PrepareCallbacks {
   progress(stage: string, fraction: number | undefined, cancel: () => void): void;
   /** The object's id, as soon as the server has accepted the job (frames may follow before ready). */
   created(id: string): void;
+  /** A repair request's surface is made (before the field is prepared on it): its report. */
+  repaired?(status: ObjectStatus): void;
 }
+
+const working = (s: ObjectStatus["state"]) => s === "repairing" || s === "preparing";
 
 export class ObjectJob {
   private cancelled = false;
@@ -52,9 +91,16 @@ export class ObjectJob {
   private objectId: string | null = null;
 
   /** Creates the object and resolves when it is ready (rejects on failure or cancel). */
-  async prepare(source: Source, lx: number, extra: Record<string, unknown>, cb: PrepareCallbacks): Promise<ObjectStatus> {
+  async prepare(source: Source, lx: number, extra: Record<string, unknown>, cb: PrepareCallbacks, repair = "none"): Promise<ObjectStatus> {
     const cancel = () => void this.cancel();
-    const body: Record<string, unknown> = { ...extra, ...sourceBody(source, lx) };
+    const body: Record<string, unknown> = { ...extra, ...sourceBody(source, lx, repair) };
+    let repairSeen = false;
+    const seen = (o: ObjectStatus) => {
+      if (!repairSeen && o.repair_report && cb.repaired) {
+        repairSeen = true;
+        cb.repaired(o);
+      }
+    };
     let settle: ((s: ObjectStatus) => void) | null = null;
     const done = new Promise<ObjectStatus>((r) => (settle = r));
     const offs = [
@@ -64,7 +110,10 @@ export class ObjectJob {
       }),
       socket.on("object", (m: TextMessage) => {
         const o = m.object as ObjectStatus | undefined;
-        if (o && o.id === this.objectId && o.state !== "preparing") settle?.(o);
+        if (o && o.id === this.objectId) {
+          seen(o);
+          if (!working(o.state)) settle?.(o);
+        }
       }),
     ];
     cb.progress("queued", undefined, cancel);
@@ -79,7 +128,8 @@ export class ObjectJob {
         while (!this.stopped) {
           await new Promise((r) => setTimeout(r, 400));
           const o = await api.get<ObjectStatus>(`/api/kelvin/objects/${this.objectId}`).catch(() => null);
-          if (o && o.state !== "preparing") return o;
+          if (o) seen(o);
+          if (o && !working(o.state)) return o;
           const j = await api.get<JobStatus>(`/api/jobs/${this.jobId}`).catch(() => null);
           if (j?.state === "running") cb.progress(j.stage ?? "", j.fraction, cancel);
         }

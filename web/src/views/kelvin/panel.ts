@@ -4,13 +4,15 @@
 import GUI, { type Controller } from "lil-gui";
 import { exactNumber, exactNumbers, recheck, setFieldMessage } from "../../core/exact_number";
 import { presets } from "./sigma";
-import { exportFormats, type KelvinState } from "./kelvin_state";
+import { exportFormats, repairs, uploadUnits, type KelvinState } from "./kelvin_state";
 import { sliceAxes } from "./slice_layer";
 
 export interface PanelActions {
   objectChanged(): void;
   lxChanged(): void;
   upload(file: File): void;
+  unitChanged(): void;
+  repairChanged(): void;
   sigmaChanged(): void;
   presetChosen(): void;
   undoStroke(): void;
@@ -29,6 +31,7 @@ export class Panel {
   private fileInput: HTMLInputElement;
   private readonly lx: Controller;
   private readonly estimate: HTMLDivElement;
+  private readonly report: HTMLDivElement;
 
   constructor(container: HTMLElement, state: KelvinState, assets: string[], a: PanelActions) {
     this.gui = new GUI({ container, title: "Semantic distance", width: 300 });
@@ -52,7 +55,15 @@ export class Panel {
       this.fileInput.value = "";
     });
     container.appendChild(this.fileInput);
+    // The upload dialog: the file's unit and the repair, then the file; the server's answer (size
+    // in metres, the l_x that fits, a refusal, the repair's report) is shown under them.
+    this.add(obj.add(state, "unit", uploadUnits).name("file unit").onChange(() => a.unitChanged()));
+    this.add(obj.add(state, "repair", repairs).name("repair").onChange(() => a.repairChanged()));
     obj.add({ upload: () => this.fileInput.click() }, "upload").name("upload a mesh…");
+    this.report = document.createElement("div");
+    this.report.className = "kelvin-estimate kelvin-upload-report";
+    this.report.dataset.testid = "kelvin-upload-report";
+    obj.$children.appendChild(this.report);
 
     const sig = this.gui.addFolder("σ (contact allowed where σ > 0)");
     const presetLabels: Record<string, string> = { none: "none (base σ + brushes)" };
@@ -120,6 +131,18 @@ export class Panel {
     this.estimate.classList.toggle("bad", problem !== null);
     if (problem?.field === "lx") setFieldMessage(this.lx, problem.message);
     else recheck(this.lx);
+  }
+
+  /** The upload dialog's lines (size, refusal, repair report); `bad` marks a refusal. */
+  setReport(lines: string[], bad = false): void {
+    this.report.replaceChildren(
+      ...lines.map((l) => {
+        const p = document.createElement("div");
+        p.textContent = l;
+        return p;
+      }),
+    );
+    this.report.classList.toggle("bad", bad);
   }
 
   setStats(rows: Array<[string, string]>): void {

@@ -46,6 +46,8 @@ export interface KelvinHookSource {
   sliceSigmaVersion(): number;
   probe(): ProbeReading | null;
   displayTriangles(): number;
+  /** Triangles of a repair's surface drawn over the input (0: none). */
+  overlayTriangles(): number;
   surface(): SurfaceLayer | null;
   /** σ at the input mesh's vertices, evaluated here (the server sends the same as surface scalars). */
   localSigmaAtInputVertices(): number[];
@@ -98,6 +100,9 @@ export function installHooks(view: KelvinHookSource): void {
     },
     get displayTriangles() {
       return view.displayTriangles();
+    },
+    get overlayTriangles() {
+      return view.overlayTriangles();
     },
     /** The surface's stand-in while orbiting: its triangles and the simplifier's error bound (m). */
     get standIn() {

@@ -9,6 +9,7 @@
 #include <utility>
 #include <vector>
 
+#include "distlab/geometry/progress.hpp"
 #include "distlab/mesh/surface.hpp"
 
 namespace distlab::mesh {
@@ -31,14 +32,19 @@ struct RepairResult {
   double input_to_result = 0, result_to_input = 0;
 };
 
+// Both report stage "repair" to `progress` and throw Cancelled once its token is set: fix between
+// its steps and filled holes, wrap between the gates of CGAL's flood fill (its visitor) and
+// between the distance samples. The wrap's fraction is its Steiner points against the count
+// expected from the face estimate, so it is an estimate, monotone, and below 1 until the end.
+
 // Throws InvalidInput(field) naming the defect that remains after the steps.
-RepairResult fix(const SurfaceMesh& user, const FixOptions& options, const std::string& field = "repair");
+RepairResult fix(const SurfaceMesh& user, const FixOptions& options, const std::string& field = "repair",
+                 const Progress& progress = {});
 
 // Throws InvalidInput(field) when α or offset is not positive or the wrap would exceed max_faces
-// (estimated from 4 · area / α² before wrapping, counted after). CGAL's wrapping cannot be
-// interrupted: max_faces is what bounds its time and memory.
+// (estimated from 4 · area / α² before wrapping, counted after).
 RepairResult wrap(const SurfaceMesh& user, const WrapOptions& options, std::size_t max_faces,
-                  const std::string& field = "repair_options");
+                  const std::string& field = "repair_options", const Progress& progress = {});
 
 // The transfer rule, both directions: a point takes the value at the closest point of the
 // closest triangle of `from`, interpolated barycentrically from that triangle's three vertices
@@ -49,6 +55,7 @@ struct Transfer {
   std::vector<double> distances;  // from each point to its closest point
   std::vector<double> apply(const std::vector<double>& values_at_from) const;
 };
-Transfer nearest_face_transfer(const SurfaceMesh& from, const MatX3& points);
+// `progress` is checked (never reported to) every few thousand points.
+Transfer nearest_face_transfer(const SurfaceMesh& from, const MatX3& points, const Progress& progress = {});
 
 }  // namespace distlab::mesh

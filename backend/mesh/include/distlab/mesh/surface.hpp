@@ -20,7 +20,13 @@ struct SurfaceMesh {
 // Reads OFF, OBJ, PLY, STL (CGAL's polygon-soup readers) and glTF/GLB (assimp), chosen by the
 // file's extension. The vertices are the file's own, in the file's order: a position listed twice
 // keeps both entries (nothing is welded here), and faces index them. Polygons with more than three
-// vertices become fans around their first vertex. Per format, "the file's vertices" are:
+// vertices become fans around their first vertex, in the file's face order: the file's face f with
+// corners (v0 … v(k−1)) is triangles T(f) + j = (v0, v(j+1), v(j+2)), j = 0 … k − 3, where
+// T(f) = Σ_{g<f} (k_g − 2); so per-face data in the file's order is spread to triangles (or
+// triangle data gathered per file face) by that prefix sum. A corner equal to its predecessor
+// (cyclically) is dropped first (a zero-length edge: the same polygon); a vertex repeated at
+// corners that are not neighbours is refused naming the face, vertex and corners. Per format,
+// "the file's vertices" are:
 //   OFF, OBJ, PLY: the vertex list (OBJ "v" lines, the PLY "vertex" element) in order;
 //   STL: which has none, the distinct corner positions in order of first appearance (facet by
 //        facet, three corners each): corners at the same position are one vertex;

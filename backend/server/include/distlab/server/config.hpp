@@ -48,7 +48,7 @@ struct Limits {
   std::size_t import_memory_bytes = std::size_t{1} << 30;
   double import_seconds = 20;
   // "repair": "fix" fills holes of at most max_hole_edges edges; "wrap" refuses an α that would
-  // make more than max_repair_faces faces (CGAL's wrapping cannot be interrupted: this bounds it).
+  // make more than max_repair_faces faces (this bounds its memory; a cancel stops it).
   std::size_t max_hole_edges = 1000;
   std::size_t max_repair_faces = 200000;
 };

@@ -153,9 +153,9 @@ struct RepairRequest {
 };
 RepairRequest parse_repair(const nlohmann::json& body, const Limits& limits);
 // Runs mesh::fix or mesh::wrap on the user's mesh; the result and its report (fix: steps; wrap:
-// alpha, offset and the Hausdorff distances; both: n_vertices, n_faces).
+// alpha, offset and the Hausdorff distances; both: n_vertices, n_faces). Cancellable by `progress`.
 std::pair<mesh::RepairResult, nlohmann::json> run_repair_request(const mesh::SurfaceMesh& user, const RepairRequest& request,
-                                                                 std::size_t max_faces);
+                                                                 std::size_t max_faces, const Progress& progress = {});
 
 // 128-bit FNV-1a of a mesh's vertices and faces (hex): equal for equal surfaces, so that a client
 // sees when two levels gave the same iso-surface.

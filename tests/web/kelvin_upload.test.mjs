@@ -1,0 +1,65 @@
+// The Kelvin view's upload dialog (issue 20, item 8) with a real open mesh in millimetres from
+// Debian's assimp-testmodels (the spider, 150 × 80 × 193 mm, not closed): the file unit scales it
+// to metres, the server's refusal of the open mesh is shown as the server words it, and "wrap"
+// shows the wrap's report and its surface over the input's before the object is ready.
+import { test } from "node:test";
+import assert from "node:assert/strict";
+import { existsSync, readFileSync } from "node:fs";
+import { openView, screenshot, serverAndBrowser } from "./harness.mjs";
+
+const env = serverAndBrowser();
+const spider = "/usr/share/assimp/models/OBJ/spider.obj";
+
+const hash = (state) => `#/kelvin?s=${encodeURIComponent(JSON.stringify(state))}`;
+const K = (page, expr) => page.evaluate(`(() => { const k = window.distlab.kelvin; return ${expr}; })()`);
+const report = (page) => page.locator("[data-testid=kelvin-upload-report]").textContent();
+const select = (page, name) => page.locator(`.lil-controller:has(.lil-name:text-is('${name}')) select`);
+
+test("an open millimetre mesh: its size in metres, the server's refusal, then wrapped with its report and overlay", { skip: !existsSync(spider) && "assimp-testmodels is not installed (.ci/packages.txt)" }, async () => {
+  const bytes = readFileSync(spider);
+  // The closed form of the size line: the file's own extent per axis, in mm, over 1000.
+  const v = bytes.toString("latin1").split("\n").filter((l) => /^v\s/.test(l)).map((l) => l.trim().split(/\s+/).slice(1, 4).map(Number));
+  const size = [0, 1, 2].map((k) => Number(((Math.max(...v.map((p) => p[k])) - Math.min(...v.map((p) => p[k]))) / 1000).toPrecision(3)));
+
+  const page = await openView(env.browser, env.server, hash({ object: "cube", lx: 0.1, levels: [0] }));
+  await page.waitForFunction(() => window.distlab?.kelvin?.ready === true, null, { timeout: 120000, polling: 100 });
+  await select(page, "file unit").selectOption("mm");
+  await page.setInputFiles("input[data-testid=kelvin-upload]", { name: "spider.obj", mimeType: "text/plain", buffer: bytes });
+  await page.waitForFunction(() => /refused:/.test(document.querySelector("[data-testid=kelvin-upload-report]")?.textContent ?? ""), null, { timeout: 120000 });
+  const refused = await report(page);
+  assert.ok(refused.includes(`size ${size.join(" × ")} m (file unit mm)`), `"${refused}" gives the size ${size.join(" × ")} m`);
+  assert.match(refused, /l_x from [0-9.e-]+ m to [0-9.e-]+ m/);
+
+  // The refusal is the server's own words for this upload at the l_x the view chose.
+  const session = (await (await fetch(env.server.url + "api/session", { method: "POST" })).json()).session;
+  const headers = { "X-Distlab-Session": session, "Content-Type": "application/octet-stream" };
+  const up = await (await fetch(`${env.server.url}api/kelvin/uploads?format=obj&unit=mm`, { method: "POST", headers, body: bytes })).json();
+  const lx = await K(page, "k.state.lx");
+  const est = await (await fetch(`${env.server.url}api/kelvin/estimate`, { method: "POST", headers: { ...headers, "Content-Type": "application/json" }, body: JSON.stringify({ upload: up.upload, lx }) })).json();
+  assert.ok(est.problem, `the server refuses the open spider: ${JSON.stringify(est)}`);
+  assert.ok(refused.includes(`refused: ${est.problem.message}`), `"${refused}" shows "${est.problem.message}"`);
+  assert.match(est.problem.message, /boundary edge|not closed|manifold/);
+  await screenshot(page, "kelvin-upload-refused");
+
+  // Wrap: the report and the wrap's wireframe arrive with the repair, then the object is prepared.
+  await select(page, "repair").selectOption("wrap");
+  await page.waitForFunction(() => window.distlab.kelvin.overlayTriangles > 0 || /refused/.test(document.querySelector("[data-testid=kelvin-upload-report]")?.textContent ?? ""), null, { timeout: 600000, polling: 200 });
+  assert.ok((await K(page, "k.overlayTriangles")) > 0, `no wrap drawn: "${await report(page)}", object ${JSON.stringify(await K(page, "k.object"))}`);
+  await page.waitForFunction(() => window.distlab.kelvin.ready === true, null, { timeout: 900000, polling: 500 });
+  const status = await K(page, "k.object");
+  assert.equal(status.state, "ready");
+  assert.equal(status.source.repair, "wrap");
+  const r = status.repair_report;
+  assert.equal(r.kind, "wrap");
+  assert.equal(await K(page, "k.overlayTriangles"), r.n_faces, "the overlay is the wrap the server made");
+  const m = (x) => `${Number(x.toPrecision(3))} m`;
+  const wrapped = await report(page);
+  assert.ok(wrapped.includes(`wrapped at α ${m(r.alpha)}, offset ${m(r.offset)}`), wrapped);
+  assert.ok(wrapped.includes(`farthest input → wrap ${m(r.hausdorff.input_to_wrap)}, wrap → input ${m(r.hausdorff.wrap_to_input)}`), wrapped);
+  assert.ok(!/refused/.test(wrapped), wrapped);
+  // The default α is a twentieth of the diagonal (in metres: the unit reached the server).
+  assert.ok(Math.abs(r.alpha - Math.hypot(...size) / 20) < 0.01 * r.alpha, `α ${r.alpha} for a diagonal of ${Math.hypot(...size)} m`);
+  await page.waitForTimeout(300);
+  await screenshot(page, "kelvin-upload-wrapped");
+  assert.deepEqual(page.problems.filter((p) => !p.includes("the server responded with a status")), []);
+});
