@@ -234,6 +234,7 @@ TEST_F(CbfApi, LimitsArePublishedAndEnforcedAtTheirValues) {
   EXPECT_EQ(limits["max_cbf_batch_steps"], published["max_batch_steps"]);
   EXPECT_EQ(limits["max_cbf_frames_per_request"], published["max_frames_per_request"]);
   EXPECT_EQ(limits["cbf_rollouts_kept_per_session"], published["kept_per_session"]);
+  EXPECT_EQ(limits["max_cbf_sweep_values"], published["max_sweep_values"]);
   EXPECT_GE(limits["cbf_rollouts_kept_total"].get<long>(), limits["cbf_rollouts_kept_per_session"].get<long>());
   const json& bounds = limits["request_bounds"];
   auto names = [&](const char* route) {
@@ -247,6 +248,7 @@ TEST_F(CbfApi, LimitsArePublishedAndEnforcedAtTheirValues) {
                         "cbf_rollouts_kept_total"})
     EXPECT_TRUE(post.count(n)) << n;
   EXPECT_TRUE(names("GET /api/cbf/rollouts/{id}/frames").count("max_cbf_frames_per_request"));
+  EXPECT_TRUE(names("POST /api/cbf/sweeps").count("max_cbf_sweep_values"));
   EXPECT_TRUE(names("GET /api/cbf/rollouts/{id}/record").count("max_cbf_pair_steps"));
 
   // An inline corridor without self-collision: pairs = robot primitives × obstacles, known here.

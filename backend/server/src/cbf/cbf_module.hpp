@@ -33,6 +33,7 @@ class CbfModule final : public Module {
     limits["max_cbf_frames_per_request"] = cbf.max_frames_per_request;
     limits["cbf_rollouts_kept_per_session"] = cbf.kept_per_session;
     limits["cbf_rollouts_kept_total"] = cbf.kept_total;
+    limits["max_cbf_sweep_values"] = cbf.max_sweep_values;
   }
 
  private:

@@ -323,7 +323,7 @@ void CbfModule::register_routes() {
                      return json_response(202, {{"sweep", status}, {"job", job->to_json()}});
                    }};
   sweep_post.heavy = true;  // parses every run's request
-  sweep_post.bounds = {"max_body_bytes", "max_cbf_steps", "max_cbf_pair_steps", "max_jobs_per_session",
+  sweep_post.bounds = {"max_body_bytes", "max_cbf_sweep_values", "max_cbf_steps", "max_cbf_pair_steps", "max_jobs_per_session",
                        "max_jobs_total", "max_job_seconds"};
   router_.add(std::move(sweep_post));
   router_.add({"GET", "/api/cbf/sweeps/{id}", [this, sweeps](Request& req) {
