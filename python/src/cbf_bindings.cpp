@@ -3,8 +3,8 @@
 
 #include "bindings.hpp"
 #include "convert.hpp"
-#include "interrupt.hpp"
 #include "distlab/server/cbf_json.hpp"
+#include "interrupt.hpp"
 
 namespace py = pybind11;
 using json = nlohmann::json;

@@ -120,12 +120,18 @@ json to_json(py::handle object, const std::string& path) { return convert(object
 
 py::object to_python(const json& j) {
   switch (j.type()) {
-    case json::value_t::null: return py::none();
-    case json::value_t::boolean: return py::bool_(j.get<bool>());
-    case json::value_t::number_integer: return py::int_(j.get<std::int64_t>());
-    case json::value_t::number_unsigned: return py::int_(j.get<std::uint64_t>());
-    case json::value_t::number_float: return py::float_(j.get<double>());
-    case json::value_t::string: return py::str(j.get<std::string>());
+    case json::value_t::null:
+      return py::none();
+    case json::value_t::boolean:
+      return py::bool_(j.get<bool>());
+    case json::value_t::number_integer:
+      return py::int_(j.get<std::int64_t>());
+    case json::value_t::number_unsigned:
+      return py::int_(j.get<std::uint64_t>());
+    case json::value_t::number_float:
+      return py::float_(j.get<double>());
+    case json::value_t::string:
+      return py::str(j.get<std::string>());
     case json::value_t::object: {
       py::dict d;
       for (const auto& [k, v] : j.items()) d[py::str(k)] = to_python(v);
@@ -143,7 +149,8 @@ py::object to_python(const json& j) {
       for (const json& e : j) l.append(to_python(e));
       return l;
     }
-    default: return py::none();  // binary and discarded values do not occur in responses
+    default:
+      return py::none();  // binary and discarded values do not occur in responses
   }
 }
 

@@ -4,8 +4,8 @@
 // dicts whose numeric arrays are numpy arrays.
 #include <string>
 
-#include <nlohmann/json.hpp>
 #include <pybind11/pybind11.h>
+#include <nlohmann/json.hpp>
 
 namespace distlab::python {
 

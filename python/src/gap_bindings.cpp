@@ -2,24 +2,24 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
-#include <thread>
 #include <cmath>
 #include <list>
-#include <unordered_map>
 #include <memory>
 #include <optional>
 #include <string>
+#include <thread>
+#include <unordered_map>
 #include <vector>
 
 #include <pybind11/numpy.h>
 
 #include "bindings.hpp"
 #include "convert.hpp"
-#include "interrupt.hpp"
 #include "distlab/gap/distance.hpp"
 #include "distlab/gap/validator.hpp"
 #include "distlab/server/gap_json.hpp"
 #include "distlab/server/json_fields.hpp"
+#include "interrupt.hpp"
 
 namespace py = pybind11;
 using json = nlohmann::json;
@@ -107,7 +107,6 @@ std::shared_ptr<const GapBody> build_body(const json& shape, const json& params,
   return body;
 }
 
-
 py::dict gap_batch(const py::dict& shape_a, const Poses& poses_a, const py::dict& shape_b,
                    const Poses& poses_b, const py::object& params_dict, unsigned threads,
                    const py::object& warm_a, const py::object& warm_b, bool euclidean,
@@ -149,8 +148,8 @@ py::dict gap_batch(const py::dict& shape_a, const Poses& poses_a, const py::dict
     std::int32_t* iterations;
     bool *converged, *overlap;
   } o{lambda.mutable_data(), distance.mutable_data(), euclid.mutable_data(), wit_a.mutable_data(),
-      wit_b.mutable_data(),  ewit_a.mutable_data(),   ewit_b.mutable_data(),  grad_a.mutable_data(),
-      grad_b.mutable_data(), egrad_a.mutable_data(),  egrad_b.mutable_data(), iterations.mutable_data(),
+      wit_b.mutable_data(), ewit_a.mutable_data(), ewit_b.mutable_data(), grad_a.mutable_data(),
+      grad_b.mutable_data(), egrad_a.mutable_data(), egrad_b.mutable_data(), iterations.mutable_data(),
       converged.mutable_data(), overlap.mutable_data()};
 
   std::atomic<std::size_t> first_bad{n}, done{0};

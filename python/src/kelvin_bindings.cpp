@@ -7,12 +7,12 @@
 
 #include "bindings.hpp"
 #include "convert.hpp"
-#include "interrupt.hpp"
 #include "distlab/kelvin/field.hpp"
 #include "distlab/mesh/surface.hpp"
 #include "distlab/server/gap_json.hpp"
 #include "distlab/server/json_fields.hpp"
 #include "distlab/server/kelvin_json.hpp"
+#include "interrupt.hpp"
 
 namespace py = pybind11;
 using json = nlohmann::json;

@@ -4,8 +4,8 @@
 #include <memory>
 #include <string>
 
-#include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include <Eigen/Geometry>
 
 #include "distlab/cbf/scenario.hpp"
 

@@ -105,7 +105,8 @@ TEST(Task, JacobianMatchesDifferencesOfR) {
       qp[j] += h;
       qm[j] -= h;
       const Vec6 dr = (task_function(robot.forward(qp), robot, sc.target).r -
-                       task_function(robot.forward(qm), robot, sc.target).r) / (2 * h);
+                       task_function(robot.forward(qm), robot, sc.target).r) /
+                      (2 * h);
       EXPECT_LT((t.J.col(j) - dr).norm(), 1e-8) << "joint " << j;
     }
   }

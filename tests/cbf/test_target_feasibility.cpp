@@ -135,8 +135,8 @@ TEST(TargetFeasibility, GapMarginsAreViolatedAtTheTarget) {
   };
   const double delta = sc.gap_margins.obstacle;
   // Link 7's pose is fixed by the target: these two do not depend on q at all.
-  EXPECT_LT(D("link7_box/roof"), delta);      // 0.00153 at 4.50 cm true clearance
-  EXPECT_LT(D("link7_gripper/roof"), delta);  // 0.00127 at 4.04 cm
+  EXPECT_LT(D("link7_box/roof"), delta);        // 0.00153 at 4.50 cm true clearance
+  EXPECT_LT(D("link7_gripper/roof"), delta);    // 0.00127 at 4.04 cm
   EXPECT_LT(D("link5_cylinder/wall1"), delta);  // ≈ 2e-5 at 1.15 cm
   EXPECT_LT(D("link5_cylinder/wall2"), delta);
 }

@@ -16,9 +16,9 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "cli/run_process.hpp"
 #include "distlab/gap/distance.hpp"
 #include "distlab/server/gap_json.hpp"
-#include "cli/run_process.hpp"
 
 extern char** environ;
 

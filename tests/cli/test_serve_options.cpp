@@ -61,7 +61,7 @@ TEST(ServeOptions, MissingAssetsDirectoryIsAClearErrorBeforeListening) {
 TEST(ServeOptions, RelativeWebAndAssetsAreResolvedAlike) {
   // From the source tree, "assets" exists and "assets/scenarios" too; from / neither does.
   const Outcome found = run(DISTLAB_EXE, {"serve", "--assets", "assets", "--web", "assets/scenarios", "--port", "70000"},
-                        DISTLAB_SOURCE_DIR);
+                            DISTLAB_SOURCE_DIR);
   EXPECT_EQ(found.code, 2);
   EXPECT_NE(found.err.find("--port must be"), std::string::npos) << found.err;  // checked after both directories
   const Outcome missing = run(DISTLAB_EXE, {"serve", "--assets", "assets", "--web", "assets/scenarios", "--port", "70000"}, "/");

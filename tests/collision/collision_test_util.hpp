@@ -34,8 +34,7 @@ inline Pose random_pose(std::mt19937_64& rng, double spread) {
 
 // A 10-row polytope around the origin (axis rows, four diagonals, jittered).
 inline Polytope ten_row_polytope() {
-  const double rows[10][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0},  {0, -1, 0},  {0, 0, 1},
-                              {0, 0, -1}, {1, 1, 1}, {-1, -1, 1}, {1, -1, -1}, {-1, 1, -1}};
+  const double rows[10][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}, {1, 1, 1}, {-1, -1, 1}, {1, -1, -1}, {-1, 1, -1}};
   const double jitter[10] = {0.05, -0.02, 0.03, 0.0, -0.04, 0.02, 0.01, -0.03, 0.04, 0.0};
   MatX3 A(10, 3);
   VecX b(10);

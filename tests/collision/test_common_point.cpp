@@ -47,7 +47,8 @@ TEST(CommonPoint, InsideBothForOverlappingPairs) {
         // B's origin at a random point of A (rejection sampling in A's bounding box): overlap.
         const Pose pa = random_pose(rng, 1.0);
         Vec3 local;
-        do local = Vec3(u(rng), u(rng), u(rng)); while (test::signed_distance(a, local) > 0);
+        do local = Vec3(u(rng), u(rng), u(rng));
+        while (test::signed_distance(a, local) > 0);
         Pose pb = random_pose(rng, 1.0);
         pb.position = pa.to_world(local);
         const auto p = common_point(a, pa, b, pb);

@@ -49,7 +49,7 @@ TEST(Penetration, BoxBoxAxisAligned) {
     const int axis = k % 3;
     Vec3 c;
     for (int i = 0; i < 3; ++i) c[i] = s(rng) * 0.3 * half[i];  // overlap >= 0.7 half_i
-    c[axis] = (s(rng) < 0 ? -1 : 1) * 0.9 * half[axis];       // the shallowest axis: 0.1 half
+    c[axis] = (s(rng) < 0 ? -1 : 1) * 0.9 * half[axis];         // the shallowest axis: 0.1 half
     Vec3 o = half - c.cwiseAbs();
     Eigen::Index best;
     const double depth = o.minCoeff(&best);

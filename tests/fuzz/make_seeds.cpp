@@ -37,8 +37,7 @@ int main(int argc, char** argv) {
   const fs::path src = argv[1], out = argv[2];
   const std::vector<float> v = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
   const std::vector<std::vector<std::int64_t>> f = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
-  const std::vector<std::array<float, 9>> t = {{0, 0, 0, 0, 1, 0, 1, 0, 0}, {0, 0, 0, 1, 0, 0, 0, 0, 1},
-                                               {0, 0, 0, 0, 0, 1, 0, 1, 0}, {1, 0, 0, 0, 1, 0, 0, 0, 1}};
+  const std::vector<std::array<float, 9>> t = {{0, 0, 0, 0, 1, 0, 1, 0, 0}, {0, 0, 0, 1, 0, 0, 0, 0, 1}, {0, 0, 0, 0, 0, 1, 0, 1, 0}, {1, 0, 0, 0, 1, 0, 0, 0, 1}};
   put(out / "mesh" / "tetra.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n");
   put(out / "mesh" / "tetra.off", "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n");
   put(out / "mesh" / "tetra_ascii.ply",
@@ -65,14 +64,11 @@ int main(int argc, char** argv) {
       {{"type", "sphere"}, {"radius", 0.3}, {"pose", {{"position", {2, 0, 0}}}}},
       {{"type", "cylinder"}, {"radius", 0.2}, {"height", 0.5}, {"pose", {{"position", {0, 2, 0}}}}},
       {{"type", "capsule"}, {"radius", 0.2}, {"height", 0.5}, {"pose", {{"position", {0, 0, 2}}}}},
-      {{"type", "polytope"}, {"A", {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}}}, {"b", {1, 1, 1, 1, 1, 1}},
-       {"weights", {1, 1, 1, 1, 1, 1}}, {"rho", {{"center", {0, 0, 0}}, {"radius", 3}}}},
+      {{"type", "polytope"}, {"A", {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}}}, {"b", {1, 1, 1, 1, 1, 1}}, {"weights", {1, 1, 1, 1, 1, 1}}, {"rho", {{"center", {0, 0, 0}}, {"radius", 3}}}},
       {{"type", "convex_hull"}, {"points", {{0, 0, 0}, {0.3, 0, 0}, {0, 0.3, 0}, {0, 0, 0.3}}}, {"pose", {{"position", {-2, 0, 0}}}}}};
   for (std::size_t i = 0; i < shapes.size(); ++i)
     put(out / "gap" / ("pair_" + std::to_string(i) + ".json"),
-        json{{"a", shapes[i]}, {"b", shapes[(i + 1) % shapes.size()]},
-             {"params", {{"h", 0.1}, {"k", 2}, {"eps", 0.01}, {"sigma", 0.5}, {"solver", i % 2 ? "newton" : "fixed_point"},
-                         {"max_iter", 50}, {"gradient", true}, {"validate", i % 3 == 0}}}}
+        json{{"a", shapes[i]}, {"b", shapes[(i + 1) % shapes.size()]}, {"params", {{"h", 0.1}, {"k", 2}, {"eps", 0.01}, {"sigma", 0.5}, {"solver", i % 2 ? "newton" : "fixed_point"}, {"max_iter", 50}, {"gradient", true}, {"validate", i % 3 == 0}}}}
             .dump());
   // Validation of a shape seen for the first time costs 10 s for a cylinder under the fuzz
   // instrumentation (70 ms in Release): the pairs above validate some shapes, the batch none.
@@ -87,8 +83,7 @@ int main(int argc, char** argv) {
     sc["duration"] = 0.05;
     put(out / "cbf" / "corridor_inline.json", json{{"scenario", sc}, {"metric", "gap"}, {"params", {{"record_pairs", true}}}}.dump());
     put(out / "cbf" / "corridor_params.json",
-        json{{"scenario", sc}, {"metric", "euclidean"},
-             {"params", {{"dt", 0.01}, {"margins", {{"gap", {{"obstacle", 0.002}}}}}, {"gap", {{"k", 3}}}}}}.dump());
+        json{{"scenario", sc}, {"metric", "euclidean"}, {"params", {{"dt", 0.01}, {"margins", {{"gap", {{"obstacle", 0.002}}}}}, {"gap", {{"k", 3}}}}}}.dump());
   }
   return 0;
 }

@@ -1,11 +1,11 @@
 #pragma once
 // Mesh files as bytes, with counts and indices that may lie: binary STL, binary PLY and GLB
 // writers shared by the hostile server suite (tests/server) and the fuzzers' seed corpus.
+#include <array>
 #include <cstdint>
 #include <cstring>
 #include <string>
 #include <vector>
-#include <array>
 
 namespace distlab::test::mesh_bytes {
 
@@ -48,15 +48,24 @@ inline std::string glb(const std::vector<float>& xyz, const std::vector<std::uin
   const std::size_t pos_bytes = bin.size();
   for (auto i : idx) bin += le32(i);
   while (bin.size() % 4) bin += '\0';
-  std::string js = "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],"
-                   "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0},\"indices\":1}]}],"
-                   "\"buffers\":[{\"byteLength\":" + std::to_string(bin.size()) + "}],"
-                   "\"bufferViews\":[{\"buffer\":0,\"byteOffset\":0,\"byteLength\":" + std::to_string(pos_bytes) + "},"
-                   "{\"buffer\":0,\"byteOffset\":" + std::to_string(pos_bytes) + ",\"byteLength\":" + std::to_string(idx.size() * 4) + "}],"
-                   "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":" + std::to_string(pos_count) +
-                   ",\"type\":\"VEC3\",\"min\":[0,0,0],\"max\":[1,1,1]},"
-                   "{\"bufferView\":1,\"componentType\":5125,\"count\":" + std::to_string(idx_count) + ",\"type\":\"SCALAR\"}]" +
-                   extra_json + "}";
+  std::string js =
+      "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0}],"
+      "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0},\"indices\":1}]}],"
+      "\"buffers\":[{\"byteLength\":" +
+      std::to_string(bin.size()) +
+      "}],"
+      "\"bufferViews\":[{\"buffer\":0,\"byteOffset\":0,\"byteLength\":" +
+      std::to_string(pos_bytes) +
+      "},"
+      "{\"buffer\":0,\"byteOffset\":" +
+      std::to_string(pos_bytes) + ",\"byteLength\":" + std::to_string(idx.size() * 4) +
+      "}],"
+      "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":" +
+      std::to_string(pos_count) +
+      ",\"type\":\"VEC3\",\"min\":[0,0,0],\"max\":[1,1,1]},"
+      "{\"bufferView\":1,\"componentType\":5125,\"count\":" +
+      std::to_string(idx_count) + ",\"type\":\"SCALAR\"}]" +
+      extra_json + "}";
   while (js.size() % 4) js += ' ';
   std::string s = bad_magic ? "glTX" : "glTF";
   s += le32(2) + le32(static_cast<std::uint32_t>(12 + 8 + js.size() + 8 + bin.size() + length_delta));

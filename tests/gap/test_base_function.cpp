@@ -145,8 +145,8 @@ TEST(BaseFunction, Definition4Properties) {
       double prev = 0;
       for (double s = 1e-5; s < 50; s *= 1.3) {
         const auto j = phi.jet(s);
-        EXPECT_GT(j.value, 0.0) << s;             // Property 1 and 4
-        EXPECT_GT(j.d2, 0.0) << s;  // Property 2
+        EXPECT_GT(j.value, 0.0) << s;  // Property 1 and 4
+        EXPECT_GT(j.d2, 0.0) << s;     // Property 2
         // Φ'' < 1 exactly; in double it rounds to 1 once (1+s)^(−1/h) < 2^−53.
         const double gap = std::pow(1.0 + s, -1.0 / h);
         if (gap > 1e-15) EXPECT_LT(j.d2, 1.0) << s;

@@ -25,11 +25,16 @@ PointToSet make(const Shape& s, const Pose& pose, double h = 0.1, int k = 2) {
 Pair random_pair(std::mt19937_64& rng, double gap, int kind) {
   auto shape = [&](int which) -> Shape {
     switch ((kind + which) % 5) {
-      case 0: return test::random_polytope(rng, 10, 0.15);
-      case 1: return Box{Vec3(0.2, 0.1, 0.3)};
-      case 2: return Cylinder{0.08, 0.28};
-      case 3: return Capsule{0.06, 0.2};
-      default: return Sphere{0.12};
+      case 0:
+        return test::random_polytope(rng, 10, 0.15);
+      case 1:
+        return Box{Vec3(0.2, 0.1, 0.3)};
+      case 2:
+        return Cylinder{0.08, 0.28};
+      case 3:
+        return Capsule{0.06, 0.2};
+      default:
+        return Sphere{0.12};
     }
   };
   const Shape sa = shape(0), sb = shape(1);

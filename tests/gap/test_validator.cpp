@@ -19,7 +19,7 @@ double max_eigenvalue_at(const PointToSet& p2s, const Vec3& p) {
 TEST(Validator, AcceptsDefaultsOnEveryShapeType) {
   std::mt19937_64 rng(2);
   std::vector<Shape> shapes = {Box{Vec3(0.05, 0.21, 0.1)}, Box{Vec3(0.35, 0.05, 0.9)},
-                               Sphere{0.1},  Cylinder{0.08, 0.28},
+                               Sphere{0.1}, Cylinder{0.08, 0.28},
                                Capsule{0.05, 0.2}, test::random_polytope(rng, 10, 0.1),
                                test::random_polytope(rng, 20, 0.3)};
   for (const Shape& s : shapes) {
@@ -82,7 +82,8 @@ TEST(Validator, VerdictsOnRandomPolytopesAreConfirmedIndependently) {
         Vec3 dp = Vec3::Zero();
         dp[c] = d;
         fd.col(c) = (p2s.strict(r.worst_point + dp, 1).gradient -
-                     p2s.strict(r.worst_point - dp, 1).gradient) / (2 * d);
+                     p2s.strict(r.worst_point - dp, 1).gradient) /
+                    (2 * d);
       }
       Eigen::SelfAdjointEigenSolver<Mat3> es(0.5 * (fd + fd.transpose()), Eigen::EigenvaluesOnly);
       EXPECT_GE(es.eigenvalues()[2], 1.0 - 1e-6) << i;

@@ -54,11 +54,15 @@ TEST(ValidatorCache, EveryDefiningNumberChangesTheKey) {
   P2SOptions rho;
   rho.rho = Ball{Vec3(0.01, 0, 0), 0.4};
   EXPECT_FALSE(validate_p2s(PointToSet(Box{Vec3(0.1, 0.2, 0.3)}, BaseFunction(0.1, 2),
-                                       StrictParams{}, rho, "a"), 200).cached);
+                                       StrictParams{}, rho, "a"),
+                            200)
+                   .cached);
   P2SOptions weights;
   weights.weights = VecX::Constant(6, 0.2);
   EXPECT_FALSE(validate_p2s(PointToSet(Box{Vec3(0.1, 0.2, 0.3)}, BaseFunction(0.1, 2),
-                                       StrictParams{}, weights, "a"), 200).cached);
+                                       StrictParams{}, weights, "a"),
+                            200)
+                   .cached);
   EXPECT_FALSE(validate_p2s(make(Box{Vec3(0.1, 0.2, 0.3)}), 201).cached);  // other samples
   EXPECT_TRUE(validate_p2s(make(Box{Vec3(0.1, 0.2, 0.3)}), 200).cached);
   EXPECT_EQ(validation_cache_stats().entries, 7u);

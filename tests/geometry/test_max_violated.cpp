@@ -94,8 +94,7 @@ TEST(MaxViolated, HexagonalPrism) {
   A.row(7) << 0, 0, -1;
   EXPECT_EQ(max_violated_halfspaces(A), 4);
   // Oracle on exactly representable directions of the same combinatorics.
-  expect_matches_oracle(rows({{2, 0, 0}, {1, 2, 0}, {-1, 2, 0}, {-2, 0, 0}, {-1, -2, 0},
-                              {1, -2, 0}, {0, 0, 1}, {0, 0, -1}}),
+  expect_matches_oracle(rows({{2, 0, 0}, {1, 2, 0}, {-1, 2, 0}, {-2, 0, 0}, {-1, -2, 0}, {1, -2, 0}, {0, 0, 1}, {0, 0, -1}}),
                         4);
 }
 
@@ -126,7 +125,8 @@ TEST(MaxViolated, RandomPolytopesMatchOracle) {
       }
       VecX b(n);
       for (int k = 0; k < n; ++k) b[k] = offset(rng);
-      SCOPED_TRACE(::testing::Message() << "n=" << n << " trial=" << trial << "\nA=\n" << A);
+      SCOPED_TRACE(::testing::Message() << "n=" << n << " trial=" << trial << "\nA=\n"
+                                        << A);
       ASSERT_NO_THROW(make_polytope(A, b, "p"));  // bounded with an interior: the premise
       EXPECT_EQ(max_violated_halfspaces(A), oracle(A, b));
     }
@@ -153,7 +153,8 @@ TEST(MaxViolated, DegenerateLatticeNormalsMatchOracle) {
     } catch (const InvalidInput&) {
       continue;  // unbounded: not a regular polytope
     }
-    SCOPED_TRACE(::testing::Message() << "A=\n" << A);
+    SCOPED_TRACE(::testing::Message() << "A=\n"
+                                      << A);
     EXPECT_EQ(max_violated_halfspaces(unit_rows(A)), oracle(A, VecX::Ones(n)));
     ++tested;
   }

@@ -264,10 +264,10 @@ TEST(PolytopeFromPoints, DegenerateInputsThrow) {
     EXPECT_EQ(invalid([&] { polytope_from_points(pts, "m"); }).field(), field);
   };
   expect_field({}, "m.points");
-  expect_field({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}, "m.points");              // 3 points
+  expect_field({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}, "m.points");                        // 3 points
   expect_field({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0}, {2, 3, 0}}, "m.points");  // plane
-  expect_field({{0, 0, 0}, {1, 1, 1}, {2, 2, 2}, {3, 3, 3}}, "m.points");    // line
-  expect_field({{1, 1, 1}, {1, 1, 1}, {1, 1, 1}, {1, 1, 1}}, "m.points");    // one point
+  expect_field({{0, 0, 0}, {1, 1, 1}, {2, 2, 2}, {3, 3, 3}}, "m.points");             // line
+  expect_field({{1, 1, 1}, {1, 1, 1}, {1, 1, 1}, {1, 1, 1}}, "m.points");             // one point
   expect_field({{0, 0, 0}, {1, 0, 0}, {0, kNaN, 0}, {0, 0, 1}}, "m.points[2]");
 }
 

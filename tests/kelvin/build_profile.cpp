@@ -94,8 +94,9 @@ int main(int argc, char** argv) {
   const mesh::SurfaceMesh cube = mesh::box(Vec3::Ones());
   nlohmann::json out = nlohmann::json::array();
   const char* names[] = {"roles", "weights+stars", "assemble A_OO", "assemble A_OB", "locator", "sigma sampling"};
-  std::printf("| l_x | N_verts | N_tets | N_bnd | t_build med | roles | weights+stars | assemble A_OO | assemble A_OB | "
-              "locator | sigma sampling | fingerprint |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  std::printf(
+      "| l_x | N_verts | N_tets | N_bnd | t_build med | roles | weights+stars | assemble A_OO | assemble A_OB | "
+      "locator | sigma sampling | fingerprint |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (double lx : lxs) {
     PrepareOptions o;
     o.lx = lx;
@@ -138,8 +139,7 @@ int main(int argc, char** argv) {
     char hex[17];
     std::snprintf(hex, sizeof(hex), "%016llx", static_cast<unsigned long long>(print));
     std::printf("| %g | %ld | %ld | %ld | %.3f |", lx, n_verts, n_tets, n_bnd, median(total));
-    nlohmann::json row = {{"lx", lx}, {"n_verts", n_verts}, {"n_tets", n_tets}, {"n_boundary", n_bnd},
-                          {"t_build", median(total)}, {"t_build_all", total}, {"fingerprint", hex}};
+    nlohmann::json row = {{"lx", lx}, {"n_verts", n_verts}, {"n_tets", n_tets}, {"n_boundary", n_bnd}, {"t_build", median(total)}, {"t_build_all", total}, {"fingerprint", hex}};
     for (const char* name : names) {
       const auto it = phase.find(name);
       if (it == phase.end()) {

@@ -3,9 +3,9 @@
 // II, Fig. 5), knife (Fig. 1), and the wrench's three σ cases of Section V-B as requests.
 #include <CGAL/Constrained_Delaunay_triangulation_2.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
-#include <CGAL/Triangulation_vertex_base_with_info_2.h>
 #include <CGAL/Polygon_mesh_processing/corefinement.h>
 #include <CGAL/Surface_mesh.h>
+#include <CGAL/Triangulation_vertex_base_with_info_2.h>
 
 #include <cmath>
 #include <filesystem>

@@ -99,8 +99,9 @@ int main(int argc, char** argv) {
 
   const mesh::SurfaceMesh cube = mesh::box(Vec3::Ones());
   if (!only_seeded)
-    std::printf("| l_x | N_verts | N_tets | size_mb | q_hint med | q_seed med | q_seed p90 | q_seed med (n more) | fingerprint |\n"
-                "|---|---|---|---|---|---|---|---|---|\n");
+    std::printf(
+        "| l_x | N_verts | N_tets | size_mb | q_hint med | q_seed med | q_seed p90 | q_seed med (n more) | fingerprint |\n"
+        "|---|---|---|---|---|---|---|---|---|\n");
   for (double lx : lxs) {
     PrepareOptions o;
     o.lx = lx;

@@ -2,10 +2,10 @@
 // iso-surfaces, inside flags, determinism.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <unistd.h>
 
 #include "distlab/mesh/checks.hpp"
 #include "distlab/mesh/weld.hpp"

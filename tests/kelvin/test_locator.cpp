@@ -8,9 +8,9 @@
 #include <limits>
 #include <random>
 
-#include "locator.hpp"
 #include "distlab/mesh/surface.hpp"
 #include "distlab/mesh/weld.hpp"
+#include "locator.hpp"
 #include "sphere_fixture.hpp"
 
 using namespace distlab;

@@ -1,6 +1,8 @@
 // Preparation: refused inputs, progress and cancellation, and the cache round trip.
 #include <gtest/gtest.h>
 
+#include <sys/stat.h>
+#include <unistd.h>
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -9,13 +11,11 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
-#include <sys/stat.h>
-#include <unistd.h>
 
 #include "distlab/geometry/error.hpp"
 #include "distlab/kelvin/digest.hpp"
-#include "distlab/mesh/weld.hpp"
 #include "distlab/mesh/surface.hpp"
+#include "distlab/mesh/weld.hpp"
 #include "sphere_fixture.hpp"
 
 namespace fs = std::filesystem;

@@ -60,7 +60,7 @@ TEST(KelvinSolver, SupernodalSolveMatchesCholmodAndEigen) {
   for (int trial = 0; trial < 6; ++trial) {
     VecX b = VecX::Zero(lower.rows());
     for (Eigen::Index i = 0; i < b.size(); ++i)
-      if (trial < 2 || keep(rng)) b[i] = g(rng);  // dense, then sparse
+      if (trial < 2 || keep(rng)) b[i] = g(rng);       // dense, then sparse
     if (trial == 5) b.setZero(), b[b.size() / 2] = 1;  // a single entry
     VecX x = b, y = b;
     solver.solve(x);

@@ -65,11 +65,11 @@ inline std::vector<std::pair<std::string, std::string>> hostile_meshes() {
   std::vector<std::pair<std::string, std::string>> files = {
       {"ply", ply_header("ascii", 3, 1) + "0 0 0\n1 0 0\n0 1 0\n3 0 1 5\n"},   // index out of range
       {"ply", ply_header("ascii", 3, 1) + "0 0 0\n1 0 0\n0 1 0\n3 0 -1 2\n"},  // negative index
-      {"off", "OFF\n3 1 0\n0 0 0\n"},                                            // 16 bytes
+      {"off", "OFF\n3 1 0\n0 0 0\n"},                                          // 16 bytes
       {"off", "OFF\n1000000000 1 0\n0 0 0\n3 0 0 0 \n"},                       // 34 bytes, 1e9 vertices
-      {"off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n2000000000 0 1 2\n"},           // a face of 2e9 vertices
+      {"off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n2000000000 0 1 2\n"},          // a face of 2e9 vertices
       {"off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 -2\n"},
-      {"off", "4OFF\n3 1 0\n0 0 0 0\n1 0 0 1\n0 1 0 1\n3 0 1 2\n"},             // w = 0: 0/0
+      {"off", "4OFF\n3 1 0\n0 0 0 0\n1 0 0 1\n0 1 0 1\n3 0 1 2\n"},  // w = 0: 0/0
       {"ply", ply_header("ascii", 4294967295u, 1) + "0 0 0\n3 0 0 0\n"},
       {"ply", ply_header("binary_little_endian", 4294967295u, 1) + std::string(64, '\0')},
       {"obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n"},

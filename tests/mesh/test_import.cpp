@@ -98,9 +98,9 @@ TEST(MeshImport, BinaryStlMustBe84Plus50NBytes) {
   std::string garbage(1000, '\0');
   for (std::size_t i = 0; i < garbage.size(); ++i) garbage[i] = static_cast<char>((i * 7919u + 13u) % 251u);
   const std::vector<std::pair<std::string, std::string>> bad = {
-      {garbage, "header says n = "},                 // a huge "n" from random bytes
+      {garbage, "header says n = "},                                                     // a huge "n" from random bytes
       {bytes + "x", "but the file has " + std::to_string(bytes.size() + 1) + " bytes"},  // one byte too many
-      {bytes.substr(0, bytes.size() - 50), "header says n = 12"},             // truncated
+      {bytes.substr(0, bytes.size() - 50), "header says n = 12"},                        // truncated
       {"abc", "only 3 bytes"}};
   for (const auto& [b, says] : bad) {
     try {
@@ -183,10 +183,10 @@ TEST(MeshImport, PolygonsAreFannedWithFileIds) {
 // first, faces sorted by size, another fan) mixes areas of different faces and fails.
 TEST(MeshImport, TrianglesOfEachFileFaceFollowInTheFilesOrder) {
   const std::string obj =
-      "v 0 0 0\nv 4 0 0\nv 4 1 0\nv 2 3 0\nv 0 1 0\n"     // convex pentagon, area 8
-      "v 10 0 0\nv 13 0 0\nv 10 2 0\n"                    // right triangle, area 3
-      "v 20 0 0\nv 25 0 0\nv 25 7 0\nv 20 7 0\n"          // rectangle, area 35
-      "v 30 0 0\nv 31 0 0\nv 30 1 0\n"                    // right triangle, area 0.5
+      "v 0 0 0\nv 4 0 0\nv 4 1 0\nv 2 3 0\nv 0 1 0\n"  // convex pentagon, area 8
+      "v 10 0 0\nv 13 0 0\nv 10 2 0\n"                 // right triangle, area 3
+      "v 20 0 0\nv 25 0 0\nv 25 7 0\nv 20 7 0\n"       // rectangle, area 35
+      "v 30 0 0\nv 31 0 0\nv 30 1 0\n"                 // right triangle, area 0.5
       "f 1 2 3 4 5\nf 6 7 8\nf 9 10 11 12\nf 13 14 15\n";
   const SurfaceMesh m = load_mesh(write_file("mixed.obj", obj).string());
   const std::vector<int> corners = {5, 3, 4, 3};

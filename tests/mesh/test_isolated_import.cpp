@@ -30,7 +30,8 @@ fs::path temp_dir() {
 // A stand-in child: a shell script (args: path memory seconds are ignored).
 std::string child(const std::string& name, const std::string& body) {
   const fs::path path = temp_dir() / name;
-  std::ofstream(path) << "#!/bin/sh\n" << body << "\n";
+  std::ofstream(path) << "#!/bin/sh\n"
+                      << body << "\n";
   ::chmod(path.c_str(), 0755);
   return path.string();
 }

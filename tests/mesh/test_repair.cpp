@@ -57,8 +57,8 @@ TEST(Fix, EachStepCountsAndTheBoxIsClosedAgain) {
       soup.vertices.row(3 * f + k) = b.vertices.row(b.faces(f, k));
       soup.faces(f, k) = static_cast<int>(3 * f + k);
     }
-  soup.faces.row(n) = soup.faces.row(0);           // duplicate of face 0
-  soup.faces.row(n + 1) << 0, 0, 1;                // repeated vertex
+  soup.faces.row(n) = soup.faces.row(0);  // duplicate of face 0
+  soup.faces.row(n + 1) << 0, 0, 1;       // repeated vertex
   FixOptions options;
   options.max_hole_edges = 3;
   const RepairResult r = fix(soup, options);

@@ -90,21 +90,22 @@ inline Case make(std::string name, std::function<std::string(Ctx&)> request, Exp
 // A request to `target` with `body` in the suite's session.
 inline Case api(std::string name, std::string method, std::string target, std::string body,
                 Expect expect = Expect::client, std::string why = "") {
-  return make(std::move(name),
-              [method, target, body](Ctx& c) {
-                std::string t = target;
-                for (const auto& [k, v] : {std::pair<std::string, std::string>{"{object}", c.object},
-                                           {"{other_object}", c.other_object},
-                                           {"{rollout}", c.rollout},
-                                           {"{other_rollout}", c.other_rollout},
-                                           {"{job}", c.job},
-                                           {"{other_job}", c.other_job}})
-                  for (std::size_t p; (p = t.find(k)) != std::string::npos;) t.replace(p, k.size(), v);
-                std::string b = body;
-                for (std::size_t p; (p = b.find("{other_upload}")) != std::string::npos;) b.replace(p, 14, c.other_upload);
-                return http(method, t, b, c.session);
-              },
-              expect, std::move(why));
+  return make(
+      std::move(name),
+      [method, target, body](Ctx& c) {
+        std::string t = target;
+        for (const auto& [k, v] : {std::pair<std::string, std::string>{"{object}", c.object},
+                                   {"{other_object}", c.other_object},
+                                   {"{rollout}", c.rollout},
+                                   {"{other_rollout}", c.other_rollout},
+                                   {"{job}", c.job},
+                                   {"{other_job}", c.other_job}})
+          for (std::size_t p; (p = t.find(k)) != std::string::npos;) t.replace(p, k.size(), v);
+        std::string b = body;
+        for (std::size_t p; (p = b.find("{other_upload}")) != std::string::npos;) b.replace(p, 14, c.other_upload);
+        return http(method, t, b, c.session);
+      },
+      expect, std::move(why));
 }
 
 inline std::string repeat(const std::string& s, std::size_t n) {
@@ -206,7 +207,8 @@ inline std::function<std::string(const Reply&, Ctx&)> field_is(std::string field
 inline void framing_cases(std::vector<Case>& out) {
   auto raw = [&](std::string name, std::string bytes, Expect e = Expect::client, std::size_t replies = 1,
                  std::string why = "") {
-    Case c = make("framing/" + name, [bytes](Ctx&) { return bytes; }, e, why);
+    Case c = make(
+        "framing/" + name, [bytes](Ctx&) { return bytes; }, e, why);
     c.replies = replies;
     c.timeout = e == Expect::no_reply ? 2 : 40;
     out.push_back(c);
@@ -289,20 +291,20 @@ inline void framing_cases(std::vector<Case>& out) {
   raw("patch_route", "PATCH /api/gap/distance HTTP/1.1\r\n" + H + "Content-Length: 2\r\n\r\n{}", Expect::status);
   out.back().status = 405;
   raw("upgrade_not_ws_path", "GET /api/health HTTP/1.1\r\n" + H.substr(0, 17) +
-      "Connection: Upgrade\r\nUpgrade: websocket\r\nSec-WebSocket-Version: 13\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n\r\n");
+                                 "Connection: Upgrade\r\nUpgrade: websocket\r\nSec-WebSocket-Version: 13\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n\r\n");
   raw("upgrade_no_session", "GET /ws HTTP/1.1\r\n" + H.substr(0, 17) +
-      "Connection: Upgrade\r\nUpgrade: websocket\r\nSec-WebSocket-Version: 13\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n\r\n");
+                                "Connection: Upgrade\r\nUpgrade: websocket\r\nSec-WebSocket-Version: 13\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n\r\n");
   raw("upgrade_bad_version", "GET /ws?session=0 HTTP/1.1\r\n" + H.substr(0, 17) +
-      "Connection: Upgrade\r\nUpgrade: websocket\r\nSec-WebSocket-Version: 99\r\nSec-WebSocket-Key: x\r\n\r\n");
+                                 "Connection: Upgrade\r\nUpgrade: websocket\r\nSec-WebSocket-Version: 99\r\nSec-WebSocket-Key: x\r\n\r\n");
   raw("upgrade_h2c", "GET /api/health HTTP/1.1\r\n" + H.substr(0, 17) + "Connection: Upgrade, HTTP2-Settings\r\nUpgrade: h2c\r\nHTTP2-Settings: AAMAAABkAAQAAP__\r\n\r\n", Expect::any);
   raw("h2_preface", "PRI * HTTP/2.0\r\n\r\nSM\r\n\r\n");
   raw("tls_client_hello", std::string("\x16\x03\x01\x00\xa5\x01\x00\x00\xa1\x03\x03", 11) + std::string(160, 'A'));
   raw("binary_junk", [] {
-        std::string s(4096, '\0');
-        std::mt19937 g(7);
-        for (auto& c : s) c = static_cast<char>(g());
-        return s;
-      }());
+    std::string s(4096, '\0');
+    std::mt19937 g(7);
+    for (auto& c : s) c = static_cast<char>(g());
+    return s;
+  }());
   // Pipelining: several requests in one write; every one answered, in order.
   raw("pipeline_3_health", repeat("GET /api/health HTTP/1.1\r\nHost: x\r\n\r\n", 2) + "GET /api/health HTTP/1.1\r\n" + H + "\r\n",
       Expect::ok, 3);
@@ -311,8 +313,7 @@ inline void framing_cases(std::vector<Case>& out) {
   raw("pipeline_bad_then_good", "POST /api/gap/distance HTTP/1.1\r\nHost: x\r\nContent-Length: 1\r\n\r\n{GET /api/health HTTP/1.1\r\n" + H + "\r\n",
       Expect::client, 2);
   raw("pipeline_good_then_garbage", "GET /api/health HTTP/1.1\r\nHost: x\r\n\r\nGARBAGE\r\n\r\n", Expect::ok, 2);
-  raw("pipeline_heavy_mix", repeat("POST /api/gap/distance HTTP/1.1\r\nHost: x\r\nContent-Length: 2\r\n\r\n[]", 20) +
-      "GET /api/health HTTP/1.1\r\n" + H + "\r\n", Expect::client, 21);
+  raw("pipeline_heavy_mix", repeat("POST /api/gap/distance HTTP/1.1\r\nHost: x\r\nContent-Length: 2\r\n\r\n[]", 20) + "GET /api/health HTTP/1.1\r\n" + H + "\r\n", Expect::client, 21);
   raw("http10_keepalive", "GET /api/health HTTP/1.0\r\nConnection: keep-alive\r\n\r\nGET /api/health HTTP/1.0\r\n\r\n", Expect::ok, 2);
 
   // Slow and partial clients (bounded waits): the server serves others meanwhile and survives.
@@ -422,9 +423,11 @@ inline void json_cases(std::vector<Case>& out) {
   // Extreme but legal numbers: underflow to 0 (a radius 0 is refused), huge integers.
   text("number_1e-999", [&] { std::string s = valid.dump(); s.replace(s.find("0.3"), 3, "1e-999"); return s; }());
   text("number_int_40_digits", [&] { std::string s = valid.dump(); s.replace(s.find("0.3"), 3, std::string(40, '9')); return s; }());
-  text("number_denormal", [&] { std::string s = valid.dump(); s.replace(s.find("0.3"), 3, "4.9e-324"); return s; }(), Expect::any);
-  text("number_1000_digits", [&] { std::string s = valid.dump(); s.replace(s.find("0.3"), 3, "0." + std::string(1000, '3')); return s; }(),
-       Expect::any);
+  text(
+      "number_denormal", [&] { std::string s = valid.dump(); s.replace(s.find("0.3"), 3, "4.9e-324"); return s; }(), Expect::any);
+  text(
+      "number_1000_digits", [&] { std::string s = valid.dump(); s.replace(s.find("0.3"), 3, "0." + std::string(1000, '3')); return s; }(),
+      Expect::any);
   text("deep_array_100k", std::string(100000, '['));
   text("deep_array_closed_10k", std::string(10000, '[') + std::string(10000, ']'));
   text("deep_object_10k", repeat("{\"a\":", 10000) + "1" + std::string(10000, '}'));
@@ -460,15 +463,11 @@ inline void json_cases(std::vector<Case>& out) {
   out.back().check = no_null({"lambda", "distance", "witness_a", "witness_b", "gradient_a", "gradient_b"});
   // The same malformed texts on the other JSON routes.
   const std::vector<std::pair<std::string, std::string>> routes = {
-      {"POST", "/api/gap/levelsets"}, {"POST", "/api/kelvin/objects"}, {"PUT", "/api/kelvin/objects/{object}/sigma"},
-      {"PUT", "/api/kelvin/objects/{object}/levels"}, {"POST", "/api/kelvin/objects/{object}/query"},
-      {"POST", "/api/cbf/rollouts"}};
+      {"POST", "/api/gap/levelsets"}, {"POST", "/api/kelvin/objects"}, {"PUT", "/api/kelvin/objects/{object}/sigma"}, {"PUT", "/api/kelvin/objects/{object}/levels"}, {"POST", "/api/kelvin/objects/{object}/query"}, {"POST", "/api/cbf/rollouts"}};
   for (const auto& [m, route] : routes) {
     const std::string slug = route.substr(5);
     for (const auto& [name, body] : std::vector<std::pair<std::string, std::string>>{
-             {"empty", ""}, {"open_brace", "{"}, {"NaN", "{\"x\":NaN}"}, {"1e999", "{\"x\":1e999}"},
-             {"deep", std::string(20000, '[')}, {"duplicate", "{\"x\":1,\"x\":2}"}, {"top_array", "[1,2]"},
-             {"top_null", "null"}, {"invalid_utf8", "{\"\xff\":1}"}})
+             {"empty", ""}, {"open_brace", "{"}, {"NaN", "{\"x\":NaN}"}, {"1e999", "{\"x\":1e999}"}, {"deep", std::string(20000, '[')}, {"duplicate", "{\"x\":1,\"x\":2}"}, {"top_array", "[1,2]"}, {"top_null", "null"}, {"invalid_utf8", "{\"\xff\":1}"}})
       out.push_back(api("json/" + slug + "/" + name, m, route, body));
   }
 }
@@ -554,19 +553,41 @@ inline void gap_cases(std::vector<Case>& out) {
   for (const auto& [name, shape] : bad_shapes) pair("shape_" + name, shape, far_sphere, nullptr, Expect::client);
   // Params out of range.
   const std::vector<std::pair<std::string, json>> bad_params = {
-      {"h_zero", {{"h", 0}}}, {"h_negative", {{"h", -1}}}, {"h_huge", {{"h", 1e300}}},
-      {"k_0", {{"k", 0}}}, {"k_1", {{"k", 1}}}, {"k_13", {{"k", 13}}}, {"k_fraction", {{"k", 2.5}}}, {"k_1e10", {{"k", 1e10}}},
-      {"k_negative", {{"k", -2}}}, {"k_2_63", {{"k", 9223372036854775807LL}}},
-      {"eps_zero", {{"eps", 0}}}, {"eps_half", {{"eps", 0.5}}}, {"eps_negative", {{"eps", -0.1}}}, {"eps_one", {{"eps", 1}}},
-      {"sigma_zero", {{"sigma", 0}}}, {"sigma_one", {{"sigma", 1}}}, {"sigma_big", {{"sigma", 1.5}}}, {"sigma_negative", {{"sigma", -0.5}}},
-      {"weight_margin_negative", {{"weight_margin", -1}}}, {"weight_margin_zero", {{"weight_margin", 0}}},
-      {"tol_negative", {{"tol", -1}}}, {"tol_nan_string", {{"tol", "NaN"}}},
-      {"max_iter_negative", {{"max_iter", -1}}}, {"max_iter_over", {{"max_iter", 1000001}}}, {"max_iter_fraction", {{"max_iter", 2.5}}},
-      {"max_iter_1e300", {{"max_iter", 1e300}}}, {"max_iter_2_63", {{"max_iter", 9223372036854775807LL}}},
+      {"h_zero", {{"h", 0}}},
+      {"h_negative", {{"h", -1}}},
+      {"h_huge", {{"h", 1e300}}},
+      {"k_0", {{"k", 0}}},
+      {"k_1", {{"k", 1}}},
+      {"k_13", {{"k", 13}}},
+      {"k_fraction", {{"k", 2.5}}},
+      {"k_1e10", {{"k", 1e10}}},
+      {"k_negative", {{"k", -2}}},
+      {"k_2_63", {{"k", 9223372036854775807LL}}},
+      {"eps_zero", {{"eps", 0}}},
+      {"eps_half", {{"eps", 0.5}}},
+      {"eps_negative", {{"eps", -0.1}}},
+      {"eps_one", {{"eps", 1}}},
+      {"sigma_zero", {{"sigma", 0}}},
+      {"sigma_one", {{"sigma", 1}}},
+      {"sigma_big", {{"sigma", 1.5}}},
+      {"sigma_negative", {{"sigma", -0.5}}},
+      {"weight_margin_negative", {{"weight_margin", -1}}},
+      {"weight_margin_zero", {{"weight_margin", 0}}},
+      {"tol_negative", {{"tol", -1}}},
+      {"tol_nan_string", {{"tol", "NaN"}}},
+      {"max_iter_negative", {{"max_iter", -1}}},
+      {"max_iter_over", {{"max_iter", 1000001}}},
+      {"max_iter_fraction", {{"max_iter", 2.5}}},
+      {"max_iter_1e300", {{"max_iter", 1e300}}},
+      {"max_iter_2_63", {{"max_iter", 9223372036854775807LL}}},
       {"max_iter_2_64", {{"max_iter", 18446744073709551615ULL}}},
-      {"solver_unknown", {{"solver", "magic"}}}, {"solver_number", {{"solver", 1}}},
-      {"gradient_string", {{"gradient", "yes"}}}, {"validate_number", {{"validate", 1}}},
-      {"unknown_param", {{"speed", 11}}}, {"params_array", json::array()}, {"params_string", "fast"},
+      {"solver_unknown", {{"solver", "magic"}}},
+      {"solver_number", {{"solver", 1}}},
+      {"gradient_string", {{"gradient", "yes"}}},
+      {"validate_number", {{"validate", 1}}},
+      {"unknown_param", {{"speed", 11}}},
+      {"params_array", json::array()},
+      {"params_string", "fast"},
   };
   for (const auto& [name, p] : bad_params) pair("params_" + name, sphere, far_sphere, p, Expect::client);
   // Valid but extreme geometry: finite numbers or a 4xx, never a NaN, a null or a 5xx.
@@ -609,14 +630,12 @@ inline void gap_cases(std::vector<Case>& out) {
   out.back().status = 413;
   batch("200_valid", {{"pairs", json(std::vector<json>(200, json{{"a", sphere}, {"b", far_sphere}}))}}, Expect::ok);
   batch("last_bad", {{"pairs", json({json{{"a", sphere}, {"b", far_sphere}}, json{{"a", sphere}, {"b", far_sphere}}, json{{"a", sphere}, {"b", {{"type", "sphere"}, {"radius", -1}}}}})}}, Expect::client);
-  batch("heavy_fixed_point", {{"pairs", json(std::vector<json>(50, json{{"a", {{"type", "box"}, {"size", {1, 1, 1}}}}, {"b", {{"type", "box"}, {"size", {1, 1, 1}}, {"pose", {{"position", {1.0001, 0, 0}}}}}}}))},
-                              {"params", {{"solver", "fixed_point"}, {"max_iter", 1000000}, {"tol", 0}}}}, Expect::any);
+  batch("heavy_fixed_point", {{"pairs", json(std::vector<json>(50, json{{"a", {{"type", "box"}, {"size", {1, 1, 1}}}}, {"b", {{"type", "box"}, {"size", {1, 1, 1}}, {"pose", {{"position", {1.0001, 0, 0}}}}}}}))}, {"params", {{"solver", "fixed_point"}, {"max_iter", 1000000}, {"tol", 0}}}}, Expect::any);
   out.back().timeout = 90;  // bounded by --max-request-seconds (408)
   // Every leaf of a valid request with a wrong type, extreme numbers, unknown keys.
   const json valid = {{"a", {{"type", "box"}, {"size", {1, 0.6, 0.4}}, {"pose", {{"position", {0, 0, 0}}, {"quaternion", {1, 0, 0, 0}}}}}},
                       {"b", {{"type", "sphere"}, {"radius", 0.3}, {"pose", {{"position", {2, 0, 0}}}}}},
-                      {"params", {{"h", 0.1}, {"k", 2}, {"eps", 0.01}, {"sigma", 0.5}, {"weight_margin", 0.01}, {"tol", 1e-10},
-                                  {"max_iter", 50}, {"solver", "newton"}, {"gradient", true}, {"validate", true}}}};
+                      {"params", {{"h", 0.1}, {"k", 2}, {"eps", 0.01}, {"sigma", 0.5}, {"weight_margin", 0.01}, {"tol", 1e-10}, {"max_iter", 50}, {"solver", "newton"}, {"gradient", true}, {"validate", true}}}};
   mutate_body(out, "gap/mut", "POST", "/api/gap/distance", valid, true, no_null(keys));
 }
 
@@ -898,16 +917,14 @@ inline void cbf_cases(std::vector<Case>& out) {
   roll("stream_batch_fraction", {{"scenario", "corridor"}, {"params", shortp}, {"stream", {{"batch_steps", 2.5}}}});
   roll("stream_unknown", {{"scenario", "corridor"}, {"params", shortp}, {"stream", {{"fast", true}}}});
   roll("inline_no_obstacles_key", {{"scenario", {{"target", {{"position", {0.5, 0, 0.5}}}}, {"q0", {0, 0, 0, -1.5, 0, 1.5, 0}}}}});
-  roll("inline_1001_obstacles", {{"scenario", {{"obstacles", std::vector<json>(1001, json{{"shape", {{"type", "sphere"}, {"radius", 0.1}}}})},
-                                               {"target", {{"position", {0.5, 0, 0.5}}}}, {"q0", {0, 0, 0, -1.5, 0, 1.5, 0}}}}});
+  roll("inline_1001_obstacles", {{"scenario", {{"obstacles", std::vector<json>(1001, json{{"shape", {{"type", "sphere"}, {"radius", 0.1}}}})}, {"target", {{"position", {0.5, 0, 0.5}}}}, {"q0", {0, 0, 0, -1.5, 0, 1.5, 0}}}}});
   roll("inline_target_quaternion_zero", {{"scenario", {{"obstacles", json::array()}, {"target", {{"position", {0.5, 0, 0.5}}, {"quaternion", {0, 0, 0, 0}}}}, {"q0", {0, 0, 0, -1.5, 0, 1.5, 0}}}}});
   roll("inline_robot_other", {{"scenario", {{"robot", "ur5"}, {"obstacles", json::array()}, {"target", {{"position", {0.5, 0, 0.5}}}}, {"q0", {0, 0, 0, -1.5, 0, 1.5, 0}}}}});
   roll("inline_obstacle_degenerate", {{"scenario", {{"obstacles", {{{"shape", {{"type", "box"}, {"size", {0, 0, 0}}}}}}}, {"target", {{"position", {0.5, 0, 0.5}}}}, {"q0", {0, 0, 0, -1.5, 0, 1.5, 0}}}}});
   roll("inline_target_huge", {{"scenario", {{"obstacles", json::array()}, {"target", {{"position", {1e300, 0, 0}}}}, {"q0", {0, 0, 0, -1.5, 0, 1.5, 0}}}}});
   roll("valid_short", {{"scenario", "corridor"}, {"params", shortp}}, Expect::ok);
   mutate_body(out, "cbf/mut", "POST", "/api/cbf/rollouts",
-              {{"scenario", "corridor"}, {"metric", "euclidean"},
-               {"params", {{"duration", 0.03}, {"dt", 0.01}, {"eta", 0.5}, {"goal_tolerance", 0.001}, {"self_collision", false}}}},
+              {{"scenario", "corridor"}, {"metric", "euclidean"}, {"params", {{"duration", 0.03}, {"dt", 0.01}, {"eta", 0.5}, {"goal_tolerance", 0.001}, {"self_collision", false}}}},
               false);
   auto get = [&](std::string name, std::string target, Expect e = Expect::client) {
     out.push_back(api("cbf/" + name, "GET", target, "", e));
@@ -934,16 +951,18 @@ inline void cbf_cases(std::vector<Case>& out) {
 
 inline void upload_cases(std::vector<Case>& out) {
   auto up = [&](std::string name, std::string format, std::string bytes, Expect e = Expect::client, std::string why = "") {
-    Case c = make("upload/" + format + "_" + name, [format, bytes](Ctx& ctx) {
-      // A session holds at most max_uploads_per_session uploads: rotate before the cap.
-      if (ctx.upload_session.empty() || ctx.uploads_in_session >= 6) {
-        if (!ctx.upload_session.empty()) call(ctx, "DELETE", "/api/session", "", ctx.upload_session);
-        ctx.upload_session = make_session(ctx);
-        ctx.uploads_in_session = 0;
-      }
-      ++ctx.uploads_in_session;
-      return http("POST", "/api/kelvin/uploads?format=" + format, bytes, ctx.upload_session);
-    }, e, why);
+    Case c = make(
+        "upload/" + format + "_" + name, [format, bytes](Ctx& ctx) {
+          // A session holds at most max_uploads_per_session uploads: rotate before the cap.
+          if (ctx.upload_session.empty() || ctx.uploads_in_session >= 6) {
+            if (!ctx.upload_session.empty()) call(ctx, "DELETE", "/api/session", "", ctx.upload_session);
+            ctx.upload_session = make_session(ctx);
+            ctx.uploads_in_session = 0;
+          }
+          ++ctx.uploads_in_session;
+          return http("POST", "/api/kelvin/uploads?format=" + format, bytes, ctx.upload_session);
+        },
+        e, why);
     c.timeout = 30;
     out.push_back(c);
   };
@@ -967,7 +986,8 @@ inline void upload_cases(std::vector<Case>& out) {
   up("binary_degenerate", "stl", binary_stl(4, std::vector<std::array<float, 9>>(4, {0, 0, 0, 0, 0, 0, 0, 0, 0})), Expect::any);  // refused at upload or at creation
   up("binary_header_solid", "stl", binary_stl(4, tstl, "solid trick"), Expect::ok);
   up("binary_over_triangles", "stl", binary_stl(200001, {}) + std::string(200001 * 50, '\0'));
-  up("ascii_valid", "stl", "solid t\n" + [&] {
+  up(
+      "ascii_valid", "stl", "solid t\n" + [&] {
         std::string s;
         for (const auto& t : tstl) {
           s += "facet normal 0 0 0\nouter loop\n";
@@ -975,7 +995,8 @@ inline void upload_cases(std::vector<Case>& out) {
           s += "endloop\nendfacet\n";
         }
         return s;
-      }() + "endsolid t\n", Expect::ok);
+      }() + "endsolid t\n",
+      Expect::ok);
   up("ascii_only_solid", "stl", "solid\n");
   up("ascii_no_vertices", "stl", "solid t\nfacet normal 0 0 1\nouter loop\nendloop\nendfacet\nendsolid t\n");
   up("ascii_two_vertices", "stl", "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nendloop\nendfacet\nendsolid t\n");
@@ -1034,11 +1055,13 @@ inline void upload_cases(std::vector<Case>& out) {
   up("ascii_vertex_count_1e9", "ply", ply_ascii("1000000000", "4", tetra_ascii), Expect::client, "7 declared counts");
   up("truncated_data", "ply", ply_binary("4", "4", tv, tf).substr(0, 250), Expect::client, "6 importer crash");
   up("no_end_header", "ply", "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\n", Expect::client, "6/7 importer hang");
-  up("big_endian", "ply", [&] {
+  up(
+      "big_endian", "ply", [&] {
         std::string s = ply_binary("4", "4", tv, tf);
         s.replace(s.find("binary_little_endian"), 20, "binary_big_endian");
         return s;
-      }(), Expect::any, "6 importer crash");
+      }(),
+      Expect::any, "6 importer crash");
   up("format_unknown", "ply", "ply\nformat weird 9.0\nelement vertex 0\nend_header\n");
   up("ushort_index", "ply", ply_binary("4", "4", tv, tf, "uchar", "ushort"), Expect::any);
   up("face_before_vertex", "ply", "ply\nformat ascii 1.0\nelement face 4\nproperty list uchar int vertex_indices\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nend_header\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n", Expect::any);
@@ -1083,40 +1106,42 @@ inline void upload_cases(std::vector<Case>& out) {
   up("index_count_not_multiple_of_3", "glb", glb(tv, ti, 4, 11), Expect::any);
   up("position_nan", "glb", glb({qnan, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1}, ti, 4, 12), Expect::client, "6/7 importer: non-finite coordinates accepted");
   up("external_uri_traversal", "glb", [&] {
-        std::string s = glb(tv, ti, 4, 12);
-        const std::string from = "\"buffers\":[{\"byteLength\":";
-        s.replace(s.find(from), from.size(), "\"buffers\":[{\"uri\":\"../../../../etc/passwd\",\"byteLength\":");
-        // The JSON chunk length changed: fix the header's lengths.
-        const std::uint32_t json_len = static_cast<std::uint32_t>(s.find("BIN") - 4 - 20);
-        std::memcpy(s.data() + 12, &json_len, 4);
-        const std::uint32_t total = static_cast<std::uint32_t>(s.size());
-        std::memcpy(s.data() + 8, &total, 4);
-        return s;
-      }());
+    std::string s = glb(tv, ti, 4, 12);
+    const std::string from = "\"buffers\":[{\"byteLength\":";
+    s.replace(s.find(from), from.size(), "\"buffers\":[{\"uri\":\"../../../../etc/passwd\",\"byteLength\":");
+    // The JSON chunk length changed: fix the header's lengths.
+    const std::uint32_t json_len = static_cast<std::uint32_t>(s.find("BIN") - 4 - 20);
+    std::memcpy(s.data() + 12, &json_len, 4);
+    const std::uint32_t total = static_cast<std::uint32_t>(s.size());
+    std::memcpy(s.data() + 8, &total, 4);
+    return s;
+  }());
   up("json_chunk_length_huge", "glb", [&] {
-        std::string s = glb(tv, ti, 4, 12);
-        const std::uint32_t big = 0xFFFFFFF0u;
-        std::memcpy(s.data() + 12, &big, 4);
-        return s;
-      }());
+    std::string s = glb(tv, ti, 4, 12);
+    const std::uint32_t big = 0xFFFFFFF0u;
+    std::memcpy(s.data() + 12, &big, 4);
+    return s;
+  }());
   up("header_only", "glb", "glTF" + le32(2) + le32(12));
   up("json_garbage", "glb", "glTF" + le32(2) + le32(12 + 8 + 8) + le32(8) + "JSON" + "{{{{{{{{");
-  up("version_1", "glb", [&] {
+  up(
+      "version_1", "glb", [&] {
         std::string s = glb(tv, ti, 4, 12);
         const std::uint32_t v = 1;
         std::memcpy(s.data() + 4, &v, 4);
         return s;
-      }(), Expect::any);
+      }(),
+      Expect::any);
   up("accessor_offset_out", "glb", [&] {
-        std::string s = glb(tv, ti, 4, 12);
-        const std::string from = "\"bufferView\":1,";
-        s.replace(s.find(from), from.size(), "\"bufferView\":1,\"byteOffset\":4000,");
-        const std::uint32_t json_len = static_cast<std::uint32_t>(s.find("BIN") - 4 - 20);
-        std::memcpy(s.data() + 12, &json_len, 4);
-        const std::uint32_t total = static_cast<std::uint32_t>(s.size());
-        std::memcpy(s.data() + 8, &total, 4);
-        return s;
-      }());
+    std::string s = glb(tv, ti, 4, 12);
+    const std::string from = "\"bufferView\":1,";
+    s.replace(s.find(from), from.size(), "\"bufferView\":1,\"byteOffset\":4000,");
+    const std::uint32_t json_len = static_cast<std::uint32_t>(s.find("BIN") - 4 - 20);
+    std::memcpy(s.data() + 12, &json_len, 4);
+    const std::uint32_t total = static_cast<std::uint32_t>(s.size());
+    std::memcpy(s.data() + 8, &total, 4);
+    return s;
+  }());
   up("zeros", "glb", std::string(4096, '\0'));
 
   // The upload route itself.
@@ -1125,7 +1150,8 @@ inline void upload_cases(std::vector<Case>& out) {
   out.push_back(fmt);
   out.push_back(make("upload/format_missing", [](Ctx& c) { return http("POST", "/api/kelvin/uploads", kTetraObj, c.session); }));
   out.push_back(make("upload/format_traversal", [](Ctx& c) { return http("POST", "/api/kelvin/uploads?format=../../x", kTetraObj, c.session); }));
-  out.push_back(make("upload/format_case", [](Ctx& c) { return http("POST", "/api/kelvin/uploads?format=OBJ", kTetraObj, c.session); }, Expect::any));
+  out.push_back(make(
+      "upload/format_case", [](Ctx& c) { return http("POST", "/api/kelvin/uploads?format=OBJ", kTetraObj, c.session); }, Expect::any));
   out.push_back(make("upload/format_mismatch_obj_as_stl", [](Ctx& c) { return http("POST", "/api/kelvin/uploads?format=stl", kTetraObj, c.session); }));
   out.push_back(make("upload/format_mismatch_stl_as_ply", [tstl](Ctx& c) { return http("POST", "/api/kelvin/uploads?format=ply", binary_stl(4, tstl), c.session); }));
   out.push_back(make("upload/no_session", [](Ctx&) { return http("POST", "/api/kelvin/uploads?format=obj", kTetraObj); }));
@@ -1140,24 +1166,12 @@ inline void upload_cases(std::vector<Case>& out) {
 
 inline void session_cases(std::vector<Case>& out) {
   const std::vector<std::pair<std::string, std::string>> routes = {
-      {"GET", "/api/session"}, {"DELETE", "/api/session"}, {"GET", "/api/jobs"}, {"GET", "/api/jobs/{job}"},
-      {"POST", "/api/jobs/{job}/cancel"}, {"POST", "/api/kelvin/uploads?format=obj"}, {"POST", "/api/kelvin/objects"},
-      {"GET", "/api/kelvin/objects"}, {"GET", "/api/kelvin/objects/{object}"}, {"DELETE", "/api/kelvin/objects/{object}"},
-      {"GET", "/api/kelvin/objects/{object}/sigma"}, {"PUT", "/api/kelvin/objects/{object}/sigma"},
-      {"PUT", "/api/kelvin/objects/{object}/levels"}, {"POST", "/api/kelvin/objects/{object}/query"},
-      {"GET", "/api/kelvin/objects/{object}/isosurface?level=0.3"}, {"GET", "/api/kelvin/objects/{object}/surface"},
-      {"GET", "/api/kelvin/objects/{object}/export?level=0.3"}, {"POST", "/api/cbf/rollouts"}, {"GET", "/api/cbf/rollouts"},
-      {"GET", "/api/cbf/rollouts/{rollout}"}, {"GET", "/api/cbf/rollouts/{rollout}/frames"}, {"GET", "/api/cbf/rollouts/{rollout}/record"}};
+      {"GET", "/api/session"}, {"DELETE", "/api/session"}, {"GET", "/api/jobs"}, {"GET", "/api/jobs/{job}"}, {"POST", "/api/jobs/{job}/cancel"}, {"POST", "/api/kelvin/uploads?format=obj"}, {"POST", "/api/kelvin/objects"}, {"GET", "/api/kelvin/objects"}, {"GET", "/api/kelvin/objects/{object}"}, {"DELETE", "/api/kelvin/objects/{object}"}, {"GET", "/api/kelvin/objects/{object}/sigma"}, {"PUT", "/api/kelvin/objects/{object}/sigma"}, {"PUT", "/api/kelvin/objects/{object}/levels"}, {"POST", "/api/kelvin/objects/{object}/query"}, {"GET", "/api/kelvin/objects/{object}/isosurface?level=0.3"}, {"GET", "/api/kelvin/objects/{object}/surface"}, {"GET", "/api/kelvin/objects/{object}/export?level=0.3"}, {"POST", "/api/cbf/rollouts"}, {"GET", "/api/cbf/rollouts"}, {"GET", "/api/cbf/rollouts/{rollout}"}, {"GET", "/api/cbf/rollouts/{rollout}/frames"}, {"GET", "/api/cbf/rollouts/{rollout}/record"}};
   const std::map<std::string, std::string> bodies = {
-      {"/api/kelvin/uploads?format=obj", kTetraObj}, {"/api/kelvin/objects", json{{"asset", "cube"}, {"lx", 0.2}}.dump()},
-      {"/api/kelvin/objects/{object}/sigma", json{{"constant", 0.1}}.dump()}, {"/api/kelvin/objects/{object}/levels", json{{"levels", {0.1}}}.dump()},
-      {"/api/kelvin/objects/{object}/query", json{{"points", {{1, 0, 0}}}}.dump()},
-      {"/api/cbf/rollouts", json{{"scenario", "corridor"}, {"params", {{"duration", 0.03}}}}.dump()}};
+      {"/api/kelvin/uploads?format=obj", kTetraObj}, {"/api/kelvin/objects", json{{"asset", "cube"}, {"lx", 0.2}}.dump()}, {"/api/kelvin/objects/{object}/sigma", json{{"constant", 0.1}}.dump()}, {"/api/kelvin/objects/{object}/levels", json{{"levels", {0.1}}}.dump()}, {"/api/kelvin/objects/{object}/query", json{{"points", {{1, 0, 0}}}}.dump()}, {"/api/cbf/rollouts", json{{"scenario", "corridor"}, {"params", {{"duration", 0.03}}}}.dump()}};
   // Forged session ids: refused (401 without one, 404 for one that does not exist).
   const std::vector<std::pair<std::string, std::string>> forged = {
-      {"random_hex", "0123456789abcdef0123456789abcdef"}, {"short", "a"}, {"long_4k", std::string(4096, 'f')},
-      {"non_hex", "zzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzz"}, {"sql", "' OR '1'='1"}, {"traversal", "../../etc/passwd"},
-      {"unicode", "\xc3\xa9\xc3\xa9"}, {"spaces", "   "}};
+      {"random_hex", "0123456789abcdef0123456789abcdef"}, {"short", "a"}, {"long_4k", std::string(4096, 'f')}, {"non_hex", "zzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzz"}, {"sql", "' OR '1'='1"}, {"traversal", "../../etc/passwd"}, {"unicode", "\xc3\xa9\xc3\xa9"}, {"spaces", "   "}};
   for (const auto& r : routes) {
     const std::string m = r.first, route = r.second;
     const std::string body = bodies.count(route) ? bodies.at(route) : "";
@@ -1171,37 +1185,46 @@ inline void session_cases(std::vector<Case>& out) {
         return http(m, t, body, id);
       }));
     }
-    out.push_back(make("session/none/" + slug, [m, route, body](Ctx& c) {
-      std::string t = route;
-      for (const auto& [k, v] : {std::pair<std::string, std::string>{"{object}", c.object}, {"{job}", c.job}, {"{rollout}", c.rollout}})
-        for (std::size_t p; (p = t.find(k)) != std::string::npos;) t.replace(p, k.size(), v);
-      return http(m, t, body);
-    }, Expect::status));
+    out.push_back(make(
+        "session/none/" + slug, [m, route, body](Ctx& c) {
+          std::string t = route;
+          for (const auto& [k, v] : {std::pair<std::string, std::string>{"{object}", c.object}, {"{job}", c.job}, {"{rollout}", c.rollout}})
+            for (std::size_t p; (p = t.find(k)) != std::string::npos;) t.replace(p, k.size(), v);
+          return http(m, t, body);
+        },
+        Expect::status));
     out.back().status = 401;
     // Another session's resource ids answer 404 (the suite's session asks for the other's ids).
     if (route.find('{') != std::string::npos) {
-      out.push_back(make("session/other_ids/" + slug, [m, route, body](Ctx& c) {
-        std::string t = route;
-        for (const auto& [k, v] : {std::pair<std::string, std::string>{"{object}", c.other_object}, {"{job}", c.other_job},
-                                   {"{rollout}", c.other_rollout}})
-          for (std::size_t p; (p = t.find(k)) != std::string::npos;) t.replace(p, k.size(), v);
-        return http(m, t, body, c.session);
-      }, Expect::status));
+      out.push_back(make(
+          "session/other_ids/" + slug, [m, route, body](Ctx& c) {
+            std::string t = route;
+            for (const auto& [k, v] : {std::pair<std::string, std::string>{"{object}", c.other_object}, {"{job}", c.other_job}, {"{rollout}", c.other_rollout}})
+              for (std::size_t p; (p = t.find(k)) != std::string::npos;) t.replace(p, k.size(), v);
+            return http(m, t, body, c.session);
+          },
+          Expect::status));
       out.back().status = 404;
     }
   }
   // The session id through the cookie and the query string, forged.
-  out.push_back(make("session/cookie_forged", [](Ctx&) {
-    return http("GET", "/api/session", "", "", "Cookie: distlab_session=0123456789abcdef0123456789abcdef\r\n");
-  }, Expect::status));
+  out.push_back(make(
+      "session/cookie_forged", [](Ctx&) {
+        return http("GET", "/api/session", "", "", "Cookie: distlab_session=0123456789abcdef0123456789abcdef\r\n");
+      },
+      Expect::status));
   out.back().status = 404;
-  out.push_back(make("session/query_forged", [](Ctx&) { return http("GET", "/api/session?session=00", ""); }, Expect::status));
+  out.push_back(make(
+      "session/query_forged", [](Ctx&) { return http("GET", "/api/session?session=00", ""); }, Expect::status));
   out.back().status = 404;
-  out.push_back(make("session/header_and_cookie_differ", [](Ctx& c) {
-    return http("GET", "/api/kelvin/objects/" + c.other_object, "", c.session, "Cookie: distlab_session=" + c.other_session + "\r\n");
-  }, Expect::status));
+  out.push_back(make(
+      "session/header_and_cookie_differ", [](Ctx& c) {
+        return http("GET", "/api/kelvin/objects/" + c.other_object, "", c.session, "Cookie: distlab_session=" + c.other_session + "\r\n");
+      },
+      Expect::status));
   out.back().status = 404;
-  out.push_back(make("session/post_session_with_body", [](Ctx&) { return http("POST", "/api/session", std::string(100000, 'x')); }, Expect::any));
+  out.push_back(make(
+      "session/post_session_with_body", [](Ctx&) { return http("POST", "/api/session", std::string(100000, 'x')); }, Expect::any));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1212,24 +1235,18 @@ inline void static_cases(std::vector<Case>& out) {
     return r.body.find("secret") != std::string::npos || r.body.find("root:") != std::string::npos ? " served a file outside the web root;" : "";
   };
   auto st = [&](std::string name, std::string target, Expect e = Expect::client) {
-    Case c = make("static/" + name, [target](Ctx& ctx) {
-      (void)ctx;
-      return "GET " + target + " HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n";
-    }, e);
+    Case c = make(
+        "static/" + name, [target](Ctx& ctx) {
+          (void)ctx;
+          return "GET " + target + " HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n";
+        },
+        e);
     c.check = no_secret;
     out.push_back(c);
   };
   // The fixture writes <web>-secret.txt next to the web directory: every way to it must fail.
   for (const auto& [name, t] : std::vector<std::pair<std::string, std::string>>{
-           {"dotdot_passwd", "/../../../../etc/passwd"}, {"dotdot_encoded", "/%2e%2e/%2e%2e/%2e%2e/etc/passwd"},
-           {"dotdot_encoded_upper", "/%2E%2E/%2E%2E/etc/passwd"}, {"slash_encoded", "/..%2f..%2f..%2fetc%2fpasswd"},
-           {"double_encoded", "/%252e%252e/%252e%252e/etc/passwd"}, {"backslash", "/..\\..\\etc\\passwd"},
-           {"backslash_encoded", "/..%5c..%5cetc%5cpasswd"}, {"js_up", "/js/../../etc/passwd"},
-           {"absolute_double_slash", "//etc/passwd"}, {"nul", "/index.html%00.js"}, {"nul_raw_percent", "/%00"},
-           {"overlong_dot", "/%c0%ae%c0%ae/etc/passwd"}, {"dot_segment", "/./index.html"}, {"api_up", "/api/../index.html"},
-           {"proc_self", "/../../../proc/self/environ"}, {"bad_percent", "/%zz"}, {"trailing_percent", "/index.html%"},
-           {"long_8k", "/" + std::string(8000, 'a')}, {"many_segments", repeat("/a", 3000)}, {"dir_js", "/js/"},
-           {"dir_js_no_slash", "/js"}}) {
+           {"dotdot_passwd", "/../../../../etc/passwd"}, {"dotdot_encoded", "/%2e%2e/%2e%2e/%2e%2e/etc/passwd"}, {"dotdot_encoded_upper", "/%2E%2E/%2E%2E/etc/passwd"}, {"slash_encoded", "/..%2f..%2f..%2fetc%2fpasswd"}, {"double_encoded", "/%252e%252e/%252e%252e/etc/passwd"}, {"backslash", "/..\\..\\etc\\passwd"}, {"backslash_encoded", "/..%5c..%5cetc%5cpasswd"}, {"js_up", "/js/../../etc/passwd"}, {"absolute_double_slash", "//etc/passwd"}, {"nul", "/index.html%00.js"}, {"nul_raw_percent", "/%00"}, {"overlong_dot", "/%c0%ae%c0%ae/etc/passwd"}, {"dot_segment", "/./index.html"}, {"api_up", "/api/../index.html"}, {"proc_self", "/../../../proc/self/environ"}, {"bad_percent", "/%zz"}, {"trailing_percent", "/index.html%"}, {"long_8k", "/" + std::string(8000, 'a')}, {"many_segments", repeat("/a", 3000)}, {"dir_js", "/js/"}, {"dir_js_no_slash", "/js"}}) {
     const bool ok_expected = name == "dir_js" || name == "dir_js_no_slash";
     st(name, t, ok_expected ? Expect::any : Expect::client);
   }
@@ -1243,7 +1260,8 @@ inline void static_cases(std::vector<Case>& out) {
   }
   st("index_ok", "/", Expect::ok);
   st("app_js_ok", "/js/app.js", Expect::ok);
-  Case post = make("static/post", [](Ctx&) { return http("POST", "/index.html", "x"); }, Expect::status);
+  Case post = make(
+      "static/post", [](Ctx&) { return http("POST", "/index.html", "x"); }, Expect::status);
   post.status = 405;
   out.push_back(post);
 }
@@ -1308,29 +1326,45 @@ inline void ws_cases(std::vector<Case>& out) {
   ws("request_id_object", text("{\"type\":\"ping\",\"request\":{}}"), "error");
   ws("ping", text("{\"type\":\"ping\"}"), "pong");
   ws("watch_unknown_object", text("{\"type\":\"watch\",\"object\":\"ffff\",\"levels\":[0.1]}"), "error");
-  ws("watch_other_session_object", [](WsClient& w, Ctx& c) { w.send({{"type", "watch"}, {"object", c.other_object}, {"levels", {0.1}}}); }, "error");
-  ws("watch_levels_17", [](WsClient& w, Ctx& c) { w.send({{"type", "watch"}, {"object", c.object}, {"levels", std::vector<double>(17, 0.1)}}); }, "error");
-  ws("watch_levels_string", [](WsClient& w, Ctx& c) { w.send({{"type", "watch"}, {"object", c.object}, {"levels", "0.1"}}); }, "error");
-  ws("watch_no_levels", [](WsClient& w, Ctx& c) { w.send({{"type", "watch"}, {"object", c.object}}); }, "error");
-  ws("watch_unknown_key", [](WsClient& w, Ctx& c) { w.send({{"type", "watch"}, {"object", c.object}, {"levels", json::array()}, {"bogus", 1}}); }, "error", "13 unknown keys");
-  ws("sigma_bad", [](WsClient& w, Ctx& c) { w.send({{"type", "sigma"}, {"object", c.object}, {"sigma", {{"constant", "x"}}}}); }, "error");
-  ws("sigma_1e300", [](WsClient& w, Ctx& c) { w.send({{"type", "sigma"}, {"object", c.object}, {"sigma", {{"constant", 1e300}}}}); }, "error", "5 σ range");
-  ws("sigma_other_session_object", [](WsClient& w, Ctx& c) { w.send({{"type", "sigma"}, {"object", c.other_object}, {"sigma", {{"constant", 0.1}}}}); }, "error");
-  ws("sigma_missing", [](WsClient& w, Ctx& c) { w.send({{"type", "sigma"}, {"object", c.object}}); }, "error");
-  ws("cancel_other_session_job", [](WsClient& w, Ctx& c) { w.send({{"type", "cancel"}, {"job", c.other_job}}); }, "error");
+  ws(
+      "watch_other_session_object", [](WsClient& w, Ctx& c) { w.send({{"type", "watch"}, {"object", c.other_object}, {"levels", {0.1}}}); }, "error");
+  ws(
+      "watch_levels_17", [](WsClient& w, Ctx& c) { w.send({{"type", "watch"}, {"object", c.object}, {"levels", std::vector<double>(17, 0.1)}}); }, "error");
+  ws(
+      "watch_levels_string", [](WsClient& w, Ctx& c) { w.send({{"type", "watch"}, {"object", c.object}, {"levels", "0.1"}}); }, "error");
+  ws(
+      "watch_no_levels", [](WsClient& w, Ctx& c) { w.send({{"type", "watch"}, {"object", c.object}}); }, "error");
+  ws(
+      "watch_unknown_key", [](WsClient& w, Ctx& c) { w.send({{"type", "watch"}, {"object", c.object}, {"levels", json::array()}, {"bogus", 1}}); }, "error", "13 unknown keys");
+  ws(
+      "sigma_bad", [](WsClient& w, Ctx& c) { w.send({{"type", "sigma"}, {"object", c.object}, {"sigma", {{"constant", "x"}}}}); }, "error");
+  ws(
+      "sigma_1e300", [](WsClient& w, Ctx& c) { w.send({{"type", "sigma"}, {"object", c.object}, {"sigma", {{"constant", 1e300}}}}); }, "error", "5 σ range");
+  ws(
+      "sigma_other_session_object", [](WsClient& w, Ctx& c) { w.send({{"type", "sigma"}, {"object", c.other_object}, {"sigma", {{"constant", 0.1}}}}); }, "error");
+  ws(
+      "sigma_missing", [](WsClient& w, Ctx& c) { w.send({{"type", "sigma"}, {"object", c.object}}); }, "error");
+  ws(
+      "cancel_other_session_job", [](WsClient& w, Ctx& c) { w.send({{"type", "cancel"}, {"job", c.other_job}}); }, "error");
   ws("cancel_forged_job", text("{\"type\":\"cancel\",\"job\":\"0000\"}"), "error");
-  ws("cbf_replay_other_session", [](WsClient& w, Ctx& c) { w.send({{"type", "cbf_replay"}, {"rollout", c.other_rollout}}); }, "error");
-  ws("cbf_replay_from_negative", [](WsClient& w, Ctx& c) { w.send({{"type", "cbf_replay"}, {"rollout", c.rollout}, {"from", -1}}); }, "error");
-  ws("cbf_replay_from_huge", [](WsClient& w, Ctx& c) { w.send({{"type", "cbf_replay"}, {"rollout", c.rollout}, {"from", 1e300}}); }, "error");
+  ws(
+      "cbf_replay_other_session", [](WsClient& w, Ctx& c) { w.send({{"type", "cbf_replay"}, {"rollout", c.other_rollout}}); }, "error");
+  ws(
+      "cbf_replay_from_negative", [](WsClient& w, Ctx& c) { w.send({{"type", "cbf_replay"}, {"rollout", c.rollout}, {"from", -1}}); }, "error");
+  ws(
+      "cbf_replay_from_huge", [](WsClient& w, Ctx& c) { w.send({{"type", "cbf_replay"}, {"rollout", c.rollout}, {"from", 1e300}}); }, "error");
   ws("cbf_unknown", text("{\"type\":\"cbf_fly\"}"), "error");
-  ws("binary_junk", [](WsClient& w, Ctx&) {
-    std::string junk(300, '\0');
-    std::mt19937 g(3);
-    for (auto& ch : junk) ch = static_cast<char>(g());
-    w.send_binary(junk);
-  }, "error");
+  ws(
+      "binary_junk", [](WsClient& w, Ctx&) {
+        std::string junk(300, '\0');
+        std::mt19937 g(3);
+        for (auto& ch : junk) ch = static_cast<char>(g());
+        w.send_binary(junk);
+      },
+      "error");
   // Oversize: the server closes (1009); then it must still serve others.
-  ws("oversize_2mb", [](WsClient& w, Ctx&) { w.send_raw("{\"type\":\"ping\",\"x\":\"" + std::string(2 << 20, 'x') + "\"}"); }, "close");
+  ws(
+      "oversize_2mb", [](WsClient& w, Ctx&) { w.send_raw("{\"type\":\"ping\",\"x\":\"" + std::string(2 << 20, 'x') + "\"}"); }, "close");
   // Rate: a burst far past the bucket answers rate_limited errors, then the socket is closed.
   Case rate;
   rate.name = "ws/rate_1000_messages";
@@ -1358,7 +1392,8 @@ inline void ws_cases(std::vector<Case>& out) {
            {"handshake_wrong_path", "/wss?session=x"}}) {
     const std::string target = h.second;
     out.push_back(make("ws/" + h.first, [target](Ctx&) {
-      return "GET " + target + " HTTP/1.1\r\nHost: x\r\nConnection: Upgrade\r\nUpgrade: websocket\r\nSec-WebSocket-Version: 13\r\n"
+      return "GET " + target +
+             " HTTP/1.1\r\nHost: x\r\nConnection: Upgrade\r\nUpgrade: websocket\r\nSec-WebSocket-Version: 13\r\n"
              "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n\r\n";
     }));
   }

@@ -239,11 +239,11 @@ inline bool null_in(const json& j, const std::vector<std::string>& keys) {
 // Cases.
 
 enum class Expect {
-  ok,         // 2xx
-  client,     // 4xx
-  any,        // 2xx or 4xx (a valid but odd request, where either answer is fine)
-  no_reply,   // the client hangs up: no answer needed, the server just must survive
-  status      // exactly Case::status
+  ok,        // 2xx
+  client,    // 4xx
+  any,       // 2xx or 4xx (a valid but odd request, where either answer is fine)
+  no_reply,  // the client hangs up: no answer needed, the server just must survive
+  status     // exactly Case::status
 };
 
 struct Ctx {
@@ -251,7 +251,7 @@ struct Ctx {
   std::string session, other_session;  // other: a second session owning its own resources
   std::string object, other_object;    // ready Kelvin objects (cube)
   std::string other_upload, other_job, other_rollout, rollout, job;
-  std::string upload_session;          // uploads go here (rotated before the per-session cap)
+  std::string upload_session;  // uploads go here (rotated before the per-session cap)
   std::string web_dir;
   int uploads_in_session = 0;
 };
@@ -263,7 +263,7 @@ struct Outcome {
 };
 
 struct Case {
-  std::string name;  // category/name
+  std::string name;                          // category/name
   std::function<std::string(Ctx&)> request;  // raw bytes (may prepare state, e.g. a fresh upload session)
   Expect expect = Expect::client;
   int status = 0;

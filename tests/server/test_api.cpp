@@ -177,8 +177,8 @@ TEST_F(Api, GapDistancePenetrationClosedForms) {
   EXPECT_NEAR(bp["depth"].get<double>(), 0.1, 1e-12);
   EXPECT_NEAR(b["euclidean"]["signed_distance"].get<double>(), -0.1, 1e-12);
   EXPECT_LT((vec(bp["direction"]) - Vec3::UnitX()).norm(), 1e-12);
-  EXPECT_NEAR(vec(bp["witness_a"]).x(), 0.5, 1e-12);   // A's +x face
-  EXPECT_NEAR(vec(bp["witness_b"]).x(), 0.4, 1e-12);   // B's -x face
+  EXPECT_NEAR(vec(bp["witness_a"]).x(), 0.5, 1e-12);  // A's +x face
+  EXPECT_NEAR(vec(bp["witness_b"]).x(), 0.4, 1e-12);  // B's -x face
   EXPECT_LT((vec(bp["witness_a"]) - vec(bp["witness_b"]) - 0.1 * Vec3::UnitX()).norm(), 1e-12);
 
   const json& a = res[2];
@@ -252,11 +252,12 @@ TEST_F(Api, StaticFilesAndNoTraversal) {
   expect_error(c.Get("/missing.png"), 404, "not_found");
   const std::string secret = fs::path(g_server->web_dir()).filename().string() + "-secret.txt";
   for (const std::string& target : std::vector<std::string>{"/../../etc/passwd", "/%2e%2e/%2e%2e/etc/passwd", "/%2E%2E/%2E%2E/etc/passwd", "/js/../../" + secret,
-        "/%2e%2e/" + secret, "/..%2f" + secret, "/..%5c" + secret, "/js/%2e%2e/%2e%2e/" + secret,
-        "/%00/etc/passwd", "/%2e%2e%2f%2e%2e%2fetc%2fpasswd", "//etc/passwd", "/./../" + secret}) {
+                                                            "/%2e%2e/" + secret, "/..%2f" + secret, "/..%5c" + secret, "/js/%2e%2e/%2e%2e/" + secret,
+                                                            "/%00/etc/passwd", "/%2e%2e%2f%2e%2e%2fetc%2fpasswd", "//etc/passwd", "/./../" + secret}) {
     const std::string resp =
         raw_http(g_server->port(), "GET " + target + " HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n");
-    EXPECT_TRUE(raw_status(resp) == 404 || raw_status(resp) == 400) << target << "\n" << resp;
+    EXPECT_TRUE(raw_status(resp) == 404 || raw_status(resp) == 400) << target << "\n"
+                                                                    << resp;
     EXPECT_EQ(resp.find("root:"), std::string::npos) << target;
     EXPECT_EQ(resp.find("secret"), std::string::npos) << target;
   }
@@ -277,8 +278,7 @@ TEST_F(Api, SessionsAreIsolatedAndUnguessable) {
   ASSERT_TRUE(r);
   EXPECT_EQ(body_json(r)["session"], b);
   // A's inline object is invisible to B.
-  json cube = {{"mesh", {{"vertices", {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}}},
-                         {"faces", {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}}}}},
+  json cube = {{"mesh", {{"vertices", {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}}}, {"faces", {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}}}}},
                {"lx", 0.3}};
   r = c.Post("/api/kelvin/objects", session_headers(a), cube.dump(), "application/json");
   ASSERT_TRUE(r);
@@ -320,7 +320,6 @@ TEST_F(Api, GapLevelsetsMsgpack) {
     EXPECT_EQ(pos.size(), 3u * s["n_vertices"].get<std::size_t>());
     EXPECT_EQ(idx.size(), 3u * s["n_faces"].get<std::size_t>());
     for (auto k : idx) ASSERT_LT(k, s["n_vertices"].get<std::uint32_t>());
-
   }
   const auto weak = server::read_float32(doc["plane"]["weak"]);
   const auto strict = server::read_float32(doc["plane"]["strict"]);

@@ -304,8 +304,7 @@ TEST_F(CbfApi, FramesStreamAndMatchTheRecordAndTheRobotModel) {
   const std::string s = new_session(c);
   auto ws_owner = connect(server_->port(), s);
   WsClient& ws = *ws_owner;
-  const json body = {{"scenario", "corridor"}, {"metric", "gap"}, {"params", {{"duration", 1.0}}},
-                     {"stream", {{"batch_steps", 10}}}};
+  const json body = {{"scenario", "corridor"}, {"metric", "gap"}, {"params", {{"duration", 1.0}}}, {"stream", {{"batch_steps", 10}}}};
   const std::string id = start(c, s, body);
   std::map<std::size_t, json> frames;
   int messages = 0;
@@ -416,8 +415,7 @@ TEST_F(CbfApi, FramesStreamAndMatchTheRecordAndTheRobotModel) {
   EXPECT_EQ(m.j["error"]["code"], "unknown_rollout");
 
   // Without pairs and poses the frames are small.
-  const std::string lean = start(c, s, {{"scenario", "corridor"}, {"metric", "euclidean"}, {"params", {{"duration", 0.2}}},
-                                        {"stream", {{"pairs", false}, {"poses", false}}}});
+  const std::string lean = start(c, s, {{"scenario", "corridor"}, {"metric", "euclidean"}, {"params", {{"duration", 0.2}}}, {"stream", {{"pairs", false}, {"poses", false}}}});
   std::map<std::size_t, json> lean_frames;
   ASSERT_EQ(follow(ws, lean, lean_frames), "succeeded");
   ASSERT_EQ(lean_frames.size(), 20u);
@@ -461,8 +459,7 @@ TEST_F(CbfApi, CancelMidwayAndOtherSessionsSeeNothing) {
   auto ws_owner = connect(server_->port(), s), spy_owner = connect(server_->port(), other);
   WsClient &ws = *ws_owner, &spy = *spy_owner;
   // 150 s of simulated time: seconds of work, so it is cancelled while running.
-  const std::string id = start(c, s, {{"scenario", "corridor"}, {"metric", "gap"}, {"params", {{"duration", 150}, {"record_pairs", false}}},
-                                      {"stream", {{"batch_steps", 20}, {"pairs", false}}}});
+  const std::string id = start(c, s, {{"scenario", "corridor"}, {"metric", "gap"}, {"params", {{"duration", 150}, {"record_pairs", false}}}, {"stream", {{"batch_steps", 20}, {"pairs", false}}}});
   expect_error(c.Get(("/api/cbf/rollouts/" + id + "/record").c_str(), session_headers(s)), 409, "not_finished");
 
   // Another session: 404 everywhere, and no frames on its socket.
@@ -530,8 +527,7 @@ TEST_F(CbfApi, SweepEntriesAreTheSingleRuns) {
   const std::string s = new_session(c);
   auto ws_owner = connect(server_->port(), s);
   const json values = {0.002, 0.0002};
-  const json request = {{"scenario", "corridor"}, {"metric", "gap"},
-                        {"sweep", {{"parameter", "margins.gap.obstacle"}, {"values", values}}}};
+  const json request = {{"scenario", "corridor"}, {"metric", "gap"}, {"sweep", {{"parameter", "margins.gap.obstacle"}, {"values", values}}}};
   auto r = c.Post("/api/cbf/sweeps", session_headers(s), request.dump(), "application/json");
   ASSERT_TRUE(r);
   ASSERT_EQ(r->status, 202) << r->body;
@@ -560,8 +556,7 @@ TEST_F(CbfApi, SweepEntriesAreTheSingleRuns) {
     const json& e = sweep["entries"][i];
     EXPECT_EQ(e["value"], values[i]);
     // The single run, written out independently of the sweep's own request building.
-    const json single = {{"scenario", "corridor"}, {"metric", "gap"},
-                         {"params", {{"margins", {{"gap", {{"obstacle", values[i]}}}}}, {"audit", true}}}};
+    const json single = {{"scenario", "corridor"}, {"metric", "gap"}, {"params", {{"margins", {{"gap", {{"obstacle", values[i]}}}}}, {"audit", true}}}};
     const json rec = run_cli(single);
     ASSERT_TRUE(rec.contains("summary")) << rec.dump().substr(0, 300);
     EXPECT_EQ(e["summary"], rec["summary"]) << "value " << values[i];

@@ -68,7 +68,9 @@ TEST(HostileLoad, SessionsStayIsolatedUnderLoad) {
           const double value = 0.01 * (i + 1) + 0.001 * k;
           checked(c.ctx, "PUT", "/api/kelvin/objects/" + c.object + "/sigma", json{{"constant", value}}.dump(), s, 200, "own sigma");
           const json q = json::parse(checked(c.ctx, "POST", "/api/kelvin/objects/" + c.object + "/query",
-                                             json{{"points", {{1.2, 0.1, 0}}}}.dump(), s, 200, "own query").body, nullptr, false);
+                                             json{{"points", {{1.2, 0.1, 0}}}}.dump(), s, 200, "own query")
+                                         .body,
+                                     nullptr, false);
           if (!q.is_object() || null_in(q, {"h"})) fail("own query: h null outside the cube");
           const json sg = json::parse(checked(c.ctx, "GET", "/api/kelvin/objects/" + c.object + "/sigma", "", s, 200, "own sigma read").body,
                                       nullptr, false);
@@ -149,9 +151,9 @@ std::string forged(const std::string& file) {
       break;
     }
   if (at == std::string::npos) return file;
-  at += 8 + 8 * u64(at);      // surface vertices
-  at += 8 + 4 * u64(at);      // surface faces
-  at += 9 * 8;                // inputs and params
+  at += 8 + 8 * u64(at);  // surface vertices
+  at += 8 + 4 * u64(at);  // surface faces
+  at += 9 * 8;            // inputs and params
   const std::uint64_t n = u64(at);
   at += 8;
   if (at + 8 * n > payload.size()) return file;
@@ -194,17 +196,20 @@ TEST(HostileCache, CorruptedOrForgedCacheFilesAreRebuilt) {
          const std::uint64_t big = 1ull << 40;
          std::memcpy(t.data(), &big, 8);
          write_all(p, t);
-       }, ""},
+       },
+       ""},
       {"random_bytes", [](const fs::path& p, const std::string& s) {
          std::string t(s.size(), '\0');
          std::mt19937 g(11);
          for (auto& c : t) c = static_cast<char>(g());
          write_all(p, t);
-       }, ""},
+       },
+       ""},
       {"symlink_dev_zero", [](const fs::path& p, const std::string&) {
          fs::remove(p);
          fs::create_symlink("/dev/zero", p);
-       }, ""},
+       },
+       ""},
       // The tetrahedral mesh's points moved (x 1.5) and the (unkeyed) checksum recomputed, as
       // anyone who can write the cache directory can: only a keyed MAC tells.
       {"forged_points", [](const fs::path& p, const std::string& s) { write_all(p, forged(s)); }, "12 keyed MAC"},
@@ -234,7 +239,9 @@ TEST(HostileCache, CorruptedOrForgedCacheFilesAreRebuilt) {
       const std::string id = made["object"]["id"];
       call(ctx, "PUT", "/api/kelvin/objects/" + id + "/sigma", json{{"constant", 0.5}}.dump(), s);
       const json h = json::parse(call(ctx, "POST", "/api/kelvin/objects/" + id + "/query",
-                                      json{{"points", points}}.dump(), s).body, nullptr, false)["h"];
+                                      json{{"points", points}}.dump(), s)
+                                     .body,
+                                 nullptr, false)["h"];
       for (std::size_t i = 0; i < points.size(); ++i) {
         const bool same = h[i].is_number() && truth[i].is_number() && std::abs(h[i].get<double>() - truth[i].get<double>()) <= 1e-9;
         EXPECT_TRUE(same) << name << ": h = " << h[i] << " where the true value is " << truth[i] << (why.empty() ? "" : " [" + why + "]");

@@ -238,8 +238,7 @@ TEST(KelvinOrderCli, ObjFileSigmaPerVertexInFileOrder) {
   const std::string obj = dir + "/sphere.obj", in = dir + "/request.json", out = dir + "/response.json";
   std::ofstream(obj) << obj_text(m);
   const json points = shell_points();
-  std::ofstream(in) << json{{"mesh", {{"path", obj}}}, {"lx", kLx}, {"center", kCenter},
-                            {"sigma", sigma_per_vertex(m)}, {"query", points}}.dump();
+  std::ofstream(in) << json{{"mesh", {{"path", obj}}}, {"lx", kLx}, {"center", kCenter}, {"sigma", sigma_per_vertex(m)}, {"query", points}}.dump();
   const std::string cmd = std::string("'") + DISTLAB_EXE + "' kelvin < '" + in + "' > '" + out + "'";
   EXPECT_EQ(std::system(cmd.c_str()), 0) << cmd;
   std::ifstream f(out);

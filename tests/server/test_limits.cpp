@@ -289,8 +289,7 @@ TEST(Limits, KelvinInputsAreCheckedBeforeAJob) {
   expect_error(create({{"asset", "cube"}, {"lx", 0.2}, {"center", {1e300, 0, 0}}}), 400, "invalid_input", "center[0]");
   // An inline mesh that is not closed (the cube without one face).
   json cube = {{"vertices", {{-1, -1, -1}, {1, -1, -1}, {1, 1, -1}, {-1, 1, -1}, {-1, -1, 1}, {1, -1, 1}, {1, 1, 1}, {-1, 1, 1}}},
-               {"faces", {{0, 2, 1}, {0, 3, 2}, {4, 5, 6}, {4, 6, 7}, {0, 1, 5}, {0, 5, 4},
-                          {2, 3, 7}, {2, 7, 6}, {1, 2, 6}, {1, 6, 5}, {0, 4, 7}}}};
+               {"faces", {{0, 2, 1}, {0, 3, 2}, {4, 5, 6}, {4, 6, 7}, {0, 1, 5}, {0, 5, 4}, {2, 3, 7}, {2, 7, 6}, {1, 2, 6}, {1, 6, 5}, {0, 4, 7}}}};
   expect_error(create({{"mesh", cube}, {"lx", 0.5}}), 400, "invalid_input", "mesh");
   // None of these started a job or left an object.
   EXPECT_TRUE(body_json(c.Get("/api/jobs", h))["jobs"].empty());

@@ -3,8 +3,8 @@
 // STL/OBJ/PLY/OFF/GLB of Debian's assimp-testmodels through upload and object creation.
 #include <algorithm>
 #include <cctype>
-#include <cstdint>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <map>
 #include <sstream>
@@ -230,8 +230,7 @@ TEST_F(RealMeshes, ALongWrapIsCancelledInsideTheFloodFill) {
   for (Eigen::Index v = 0; v < sphere.vertices.rows(); ++v) vertices.push_back({sphere.vertices(v, 0), sphere.vertices(v, 1), sphere.vertices(v, 2)});
   for (Eigen::Index f = 0; f < sphere.faces.rows(); ++f)
     if (sphere.vertices(sphere.faces(f, 0), 2) <= 0.8) faces.push_back({sphere.faces(f, 0), sphere.faces(f, 1), sphere.faces(f, 2)});
-  auto r = create({{"mesh", {{"vertices", vertices}, {"faces", faces}}}, {"lx_fraction", 0.2}, {"repair", "wrap"},
-                   {"repair_options", {{"alpha", 0.02}, {"offset", 0.002}}}});
+  auto r = create({{"mesh", {{"vertices", vertices}, {"faces", faces}}}, {"lx_fraction", 0.2}, {"repair", "wrap"}, {"repair_options", {{"alpha", 0.02}, {"offset", 0.002}}}});
   ASSERT_EQ(r->status, 202) << r->body;
   const std::string id = body_json(r)["object"]["id"], job = body_json(r)["job"]["id"];
   const auto job_status = [&] { return body_json(c.Get(("/api/jobs/" + job).c_str(), session_headers(s))); };
@@ -287,8 +286,7 @@ TEST_F(RealMeshes, SigmaPerVertexRoundTripsThroughTheWrap) {
     const double z = (sphere.vertices(sphere.faces(f, 0), 2) + sphere.vertices(sphere.faces(f, 1), 2) + sphere.vertices(sphere.faces(f, 2), 2)) / 3;
     if (z <= 0.8) faces.push_back({sphere.faces(f, 0), sphere.faces(f, 1), sphere.faces(f, 2)});
   }
-  auto r = create({{"mesh", {{"vertices", vertices}, {"faces", faces}}}, {"lx_fraction", 0.2}, {"repair", "wrap"},
-                   {"repair_options", {{"alpha", 0.8}, {"offset", 0.02}}}, {"sigma", {{"per_vertex", sigma}}}});
+  auto r = create({{"mesh", {{"vertices", vertices}, {"faces", faces}}}, {"lx_fraction", 0.2}, {"repair", "wrap"}, {"repair_options", {{"alpha", 0.8}, {"offset", 0.02}}}, {"sigma", {{"per_vertex", sigma}}}});
   ASSERT_EQ(r->status, 202) << r->body;
   const json st = settle(body_json(r)["object"]["id"]);
   ASSERT_EQ(st["state"], "ready") << st.dump();

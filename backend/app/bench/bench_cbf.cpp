@@ -132,9 +132,10 @@ int main(int argc, char** argv) {
   }
   const double g_p50 = median_of(gt, &RunTimes::step_p50), e_p50 = median_of(et, &RunTimes::step_p50);
 
-  std::printf("CBF-QP corridor rollout, %s, %.1f s at dt = %.3f s, %zu pairs, 1 thread, %d run(s) per metric "
-              "(times: medians over runs of the per-run mean)\n",
-              sc.name.c_str(), sc.duration, sc.dt, g.pairs.size(), repeat);
+  std::printf(
+      "CBF-QP corridor rollout, %s, %.1f s at dt = %.3f s, %zu pairs, 1 thread, %d run(s) per metric "
+      "(times: medians over runs of the per-run mean)\n",
+      sc.name.c_str(), sc.duration, sc.dt, g.pairs.size(), repeat);
   std::printf("  metric     reached  final |r|   min clearance  infeasible  cold | kin us  dist us   qp us  step us | audit us | wall s\n");
   for (const RolloutRecord* r : {&g, &e})
     std::printf("  %-9s  %-7s  %9.2e  %13.5f  %10zu  %4d | %6.2f  %7.2f  %6.2f  %7.2f | %8.2f | %6.3f\n",
@@ -147,14 +148,18 @@ int main(int argc, char** argv) {
               ratio, g.timing.step);
   std::printf("  median step (p50 within a run, median over runs): GAP %.1f us, Euclidean %.1f us\n", g_p50,
               e_p50);
-  std::printf("  35 s rollout wall time: GAP %.3f s, Euclidean %.3f s (target < 1 s; includes the\n"
-              "  per-pair record%s)\n", g.wall_seconds, e.wall_seconds,
-              audit ? " and the GAP run's Euclidean clearance audit" : "");
+  std::printf(
+      "  35 s rollout wall time: GAP %.3f s, Euclidean %.3f s (target < 1 s; includes the\n"
+      "  per-pair record%s)\n",
+      g.wall_seconds, e.wall_seconds,
+      audit ? " and the GAP run's Euclidean clearance audit" : "");
   for (const RolloutRecord* r : {&g, &e}) {
     const FinalState& f = r->final_state;
-    std::printf("  %-9s ends at (%.4f, %.4f, %.4f), |p - p_d| = %.2f cm, min clearance there %.2f cm (%s), "
-                "clipped steps %d\n", to_string(r->metric), f.ee_position.x(), f.ee_position.y(), f.ee_position.z(),
-                100 * f.position_error, 100 * f.min_clearance, f.closest_pair.c_str(), r->clipped_steps);
+    std::printf(
+        "  %-9s ends at (%.4f, %.4f, %.4f), |p - p_d| = %.2f cm, min clearance there %.2f cm (%s), "
+        "clipped steps %d\n",
+        to_string(r->metric), f.ee_position.x(), f.ee_position.y(), f.ee_position.z(),
+        100 * f.position_error, 100 * f.min_clearance, f.closest_pair.c_str(), r->clipped_steps);
     for (std::size_t k = 0; k < std::min<std::size_t>(f.active.size(), 4); ++k) {
       const ActiveConstraint& a = f.active[k];
       std::printf("    active %-26s D %.6f  delta %.6f  clearance %.4f  multiplier %.3g", a.name.c_str(), a.distance,
@@ -184,8 +189,7 @@ int main(int argc, char** argv) {
           {"infeasible_steps", r->infeasible_steps.size()},
           {"cold_solves", r->cold_solves},
           {"final", distlab::server::encode_final_state(r->final_state)},
-          {"timing_us", {{"kinematics", r->timing.kinematics}, {"distance", r->timing.distance},
-                         {"qp", r->timing.qp}, {"step", r->timing.step}, {"audit", r->timing.audit}}},
+          {"timing_us", {{"kinematics", r->timing.kinematics}, {"distance", r->timing.distance}, {"qp", r->timing.qp}, {"step", r->timing.step}, {"audit", r->timing.audit}}},
           {"wall_seconds", r->wall_seconds},
           {"smoothness_0_5s", smooth_json(*r, 0, 5)},
           {"smoothness_all", smooth_json(*r, 0, 1e300)}};

@@ -243,8 +243,10 @@ Tracking run_tracking(const std::vector<Case>& cases, GapParams params, int sequ
 }
 
 void print_tracking(const Tracking& t, int sequences, int steps, nlohmann::json& out) {
-  std::printf("GAP benchmark 3, tracking: %d sequences of %d steps (<= 1 mm, <= 1 deg each) of benchmark 1's "
-              "pairs, single thread (times in us)\n", sequences, steps);
+  std::printf(
+      "GAP benchmark 3, tracking: %d sequences of %d steps (<= 1 mm, <= 1 deg each) of benchmark 1's "
+      "pairs, single thread (times in us)\n",
+      sequences, steps);
   std::printf(kHeader, "method", "mean", "median", "p99", "max", "it mean", "it p99", "it max",
               "err med", "err max", "unconv");
   print_row("FCL distance, cold", t.fcl);
@@ -252,9 +254,7 @@ void print_tracking(const Tracking& t, int sequences, int steps, nlohmann::json&
   const double ratio = stats(t.warm.us).mean / stats(t.fcl.us).mean;
   const double ratio_median = stats(t.warm.us).median / stats(t.fcl.us).median;
   std::printf("  warm GAP/FCL time ratio: mean %.2f, median %.2f\n\n", ratio, ratio_median);
-  out["tracking"] = {{"sequences", sequences}, {"steps", steps}, {"fcl", run_json(t.fcl)},
-                     {"newton_warm_tol_1e-10", run_json(t.warm)},
-                     {"warm_over_fcl_mean", ratio}, {"warm_over_fcl_median", ratio_median}};
+  out["tracking"] = {{"sequences", sequences}, {"steps", steps}, {"fcl", run_json(t.fcl)}, {"newton_warm_tol_1e-10", run_json(t.warm)}, {"warm_over_fcl_mean", ratio}, {"warm_over_fcl_median", ratio_median}};
 }
 
 // A pair of benchmark 1 as stored by --save-cases.
@@ -388,16 +388,20 @@ int main(int argc, char** argv) {
       // A repeated shape: 100 calls per measure (a single one is below the clock's resolution).
       again.us.push_back(cpu_us([&] {
                            for (int k = 0; k < 100; ++k) validate_p2s(body.p2s());
-                         }) / 100);
+                         }) /
+                         100);
       if (!rep.ok) ++refused;
       worst = std::max(worst, rep.max_eigenvalue);
     }
     for (std::size_t i = 0; i < n; ++i)
       solve.us.push_back(cpu_us([&] {
                            for (int k = 0; k < 100; ++k) gap_distance(cases[i].a, cases[i].b, newton);
-                         }) / 100);
-    std::printf("Property 2 validation of %zu shapes (benchmark 1's first %zu pairs, eps %g, sigma %g, "
-                "W_i = 1/6), single thread, thread CPU time in us\n", 2 * n, n, paper.eps, paper.sigma);
+                         }) /
+                         100);
+    std::printf(
+        "Property 2 validation of %zu shapes (benchmark 1's first %zu pairs, eps %g, sigma %g, "
+        "W_i = 1/6), single thread, thread CPU time in us\n",
+        2 * n, n, paper.eps, paper.sigma);
     std::printf(kHeader, "method", "mean", "median", "p99", "max", "", "", "", "", "", "");
     print_row("validate, first call per shape", first);
     print_row("validate, repeated shape", again);
@@ -428,9 +432,7 @@ int main(int argc, char** argv) {
     std::printf("  Newton/FCL time ratio: mean %.2f, median %.2f\n\n",
                 stats(r_newton.us).mean / stats(fcl.us).mean,
                 stats(r_newton.us).median / stats(fcl.us).median);
-    nlohmann::json j{{"pairs", pairs}, {"repeat", g_repeat}, {"passes", g_passes},
-                     {"fcl", run_json(fcl)}, {"start_gjk", run_json(start)},
-                     {"newton_tol_1e-10", run_json(r_newton)}};
+    nlohmann::json j{{"pairs", pairs}, {"repeat", g_repeat}, {"passes", g_passes}, {"fcl", run_json(fcl)}, {"start_gjk", run_json(start)}, {"newton_tol_1e-10", run_json(r_newton)}};
     print_tracking(run_tracking(cases, newton, tracking_sequences, tracking_steps, rng),
                    tracking_sequences, tracking_steps, j);
     if (!json_path.empty()) std::ofstream(json_path) << j.dump(2) << "\n";
@@ -445,8 +447,10 @@ int main(int argc, char** argv) {
   // The plain iteration at 1e-10 crawls (up to 1e5 steps near contact): a subset suffices.
   std::vector<Case> subset(cases.begin(), cases.begin() + std::min<size_t>(cases.size(), 5000));
   const Run r_tight = run_gap(subset, plain_tight, ref);
-  std::printf("GAP benchmark 1: %d random pairs of 10-half-space polytopes, distance >= 5 cm, "
-              "single thread (times in us; GAP's include its Euclidean start)\n", pairs);
+  std::printf(
+      "GAP benchmark 1: %d random pairs of 10-half-space polytopes, distance >= 5 cm, "
+      "single thread (times in us; GAP's include its Euclidean start)\n",
+      pairs);
   std::printf(kHeader, "method", "mean", "median", "p99", "max", "it mean", "it p99", "it max",
               "err med", "err max", "unconv");
   print_row("FCL distance alone", fcl);
@@ -459,8 +463,9 @@ int main(int argc, char** argv) {
   const double ratio_median = stats(r_newton.us).median / stats(fcl.us).median;
   std::printf("  Newton/FCL time ratio: mean %.2f, median %.2f; plain(1e-3)/Newton mean: %.2f\n",
               ratio, ratio_median, stats(r_plain.us).mean / stats(r_newton.us).mean);
-  std::printf("  (err: relative error of D against Newton at tol 1e-13; paper: mean 70 us, max 200 us, "
-              "mean 22.42 and max 295 iterations)\n\n");
+  std::printf(
+      "  (err: relative error of D against Newton at tol 1e-13; paper: mean 70 us, max 200 us, "
+      "mean 22.42 and max 295 iterations)\n\n");
   out["repeat"] = g_repeat;
   out["passes"] = g_passes;
   out["polytopes"] = {{"pairs", pairs},
@@ -515,8 +520,7 @@ int main(int argc, char** argv) {
   std::printf("  %-6s %8.2f +- %-10.2f %8.2f +- %-10.2f %8.2f +- %-10.2f\n", "all", af.mean, af.stddev,
               ap.mean, ap.stddev, an.mean, an.stddev);
   std::printf("  (paper: GAP 40 +- 31 us, Euclidean 29 +- 4 us)\n");
-  out["boxes_cylinders"] = {{"pairs", box_pairs}, {"by_h", by_h},
-                            {"all", {{"fcl", to_json(af)}, {"plain_tol_1e-3", to_json(ap)}, {"newton_tol_1e-10", to_json(an)}}}};
+  out["boxes_cylinders"] = {{"pairs", box_pairs}, {"by_h", by_h}, {"all", {{"fcl", to_json(af)}, {"plain_tol_1e-3", to_json(ap)}, {"newton_tol_1e-10", to_json(an)}}}};
   if (!json_path.empty()) std::ofstream(json_path) << out.dump(2) << "\n";
   return 0;
 }

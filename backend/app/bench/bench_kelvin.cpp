@@ -18,8 +18,8 @@
 
 #include <algorithm>
 #include <chrono>
-#include <cstdio>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <optional>
 #include <random>
@@ -32,13 +32,13 @@
 
 #include <nlohmann/json.hpp>
 
-#include "query_sets.hpp"
 #include "cholmod_solver.hpp"  // private to distlab_kelvin: the factorization Field::prepare runs
 #include "distlab/kelvin/field.hpp"
-#include "distlab/mesh/weld.hpp"
 #include "distlab/kelvin/surface_tools.hpp"
 #include "distlab/mesh/primitives.hpp"
 #include "distlab/mesh/surface.hpp"
+#include "distlab/mesh/weld.hpp"
+#include "query_sets.hpp"
 
 using namespace distlab;
 using namespace distlab::kelvin;
@@ -113,7 +113,7 @@ struct Row {
   double dense_1t_ms = 0;             // "own dense" on one thread
   std::vector<double> case_solve_ms;  // Table II: one per σ case
   double lu_decomp = -1, lu_solve_ms = -1, aabb_us = 0;
-  double decomp_med = -1, solve_b_ms = -1;  // CHOLMOD's side of the SparseLU comparison
+  double decomp_med = -1, solve_b_ms = -1;           // CHOLMOD's side of the SparseLU comparison
   double solve_ones_ms = -1, lu_solve_ones_ms = -1;  // the same with b = 1
   // A local σ edit by linearity (see compare_with_sparselu): the stroke's solve and the share of
   // the factor each solve reads.
@@ -282,18 +282,7 @@ void compare_with_sparselu(const Field& f, Row& r) {
 }
 
 nlohmann::json to_json(const Row& r) {
-  return {{"lx", r.lx}, {"n_verts", r.stats.n_verts}, {"n_tets", r.stats.n_tets}, {"size_mb", r.stats.size_mb},
-          {"rmse", r.rmse}, {"t_mesh", r.stats.t_mesh}, {"t_build", r.stats.t_build}, {"t_decomp", r.stats.t_decomp},
-          {"t_solve_ms", r.solve_ms}, {"t_solve_sd_ms", r.solve_sd}, {"t_grad_ms", r.grad_ms},
-          {"t_solve_median_ms", r.solve_med}, {"t_solve_one_thread_median_ms", r.solve_1t_med}, {"t_cholmod_solve_ms", r.chol_solve_ms},
-          {"t_own_dense_solve_ms", r.dense_solve_ms}, {"t_query_nohint_p90_us", r.q_seed_p90}, {"t_solve_cases_ms", r.case_solve_ms},
-          {"t_query_hint_us", r.q_hint}, {"t_query_nohint_us", r.q_seed}, {"t_sparselu_decomp", r.lu_decomp},
-          {"t_sparselu_solve_ms", r.lu_solve_ms}, {"t_aabb_distance_us", r.aabb_us},
-          {"t_decomp_median", r.decomp_med}, {"t_solve_b_ms", r.solve_b_ms}, {"t_solve_ones_ms", r.solve_ones_ms},
-          {"t_sparselu_solve_ones_ms", r.lu_solve_ones_ms}, {"sparselu_decomp_repeats", r.decomp_reps},
-          {"sparselu_solve_repeats", r.solve_reps}, {"factor_mb", r.stats.factor_mb},
-          {"t_own_dense_solve_one_thread_ms", r.dense_1t_ms}, {"t_stroke_solve_ms", r.stroke_ms},
-          {"stroke_read_fraction", r.stroke_read}, {"full_read_fraction", r.full_read}};
+  return {{"lx", r.lx}, {"n_verts", r.stats.n_verts}, {"n_tets", r.stats.n_tets}, {"size_mb", r.stats.size_mb}, {"rmse", r.rmse}, {"t_mesh", r.stats.t_mesh}, {"t_build", r.stats.t_build}, {"t_decomp", r.stats.t_decomp}, {"t_solve_ms", r.solve_ms}, {"t_solve_sd_ms", r.solve_sd}, {"t_grad_ms", r.grad_ms}, {"t_solve_median_ms", r.solve_med}, {"t_solve_one_thread_median_ms", r.solve_1t_med}, {"t_cholmod_solve_ms", r.chol_solve_ms}, {"t_own_dense_solve_ms", r.dense_solve_ms}, {"t_query_nohint_p90_us", r.q_seed_p90}, {"t_solve_cases_ms", r.case_solve_ms}, {"t_query_hint_us", r.q_hint}, {"t_query_nohint_us", r.q_seed}, {"t_sparselu_decomp", r.lu_decomp}, {"t_sparselu_solve_ms", r.lu_solve_ms}, {"t_aabb_distance_us", r.aabb_us}, {"t_decomp_median", r.decomp_med}, {"t_solve_b_ms", r.solve_b_ms}, {"t_solve_ones_ms", r.solve_ones_ms}, {"t_sparselu_solve_ones_ms", r.lu_solve_ones_ms}, {"sparselu_decomp_repeats", r.decomp_reps}, {"sparselu_solve_repeats", r.solve_reps}, {"factor_mb", r.stats.factor_mb}, {"t_own_dense_solve_one_thread_ms", r.dense_1t_ms}, {"t_stroke_solve_ms", r.stroke_ms}, {"stroke_read_fraction", r.stroke_read}, {"full_read_fraction", r.full_read}};
 }
 
 Row run(const mesh::SurfaceMesh& surface, const PrepareOptions& o, const std::vector<SigmaSpec>& sigmas,
@@ -376,46 +365,52 @@ Row run(const mesh::SurfaceMesh& surface, const PrepareOptions& o, const std::ve
 }
 
 void print(const char* title, const std::vector<Row>& rows) {
-  std::printf("\n%s\n| l_x | N_verts | N_tets | MB | RMSE | t_mesh | t_build | t_decomp | t_solve | t_solve med | 1 thread med | t_grad | "
-              "own dense | chol_ms | q_hint | q_seed | q_seed p90 | decomp med | LU_decomp | solve b | LU_solve | AABB |\n|%s\n", title,
-              "---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+  std::printf(
+      "\n%s\n| l_x | N_verts | N_tets | MB | RMSE | t_mesh | t_build | t_decomp | t_solve | t_solve med | 1 thread med | t_grad | "
+      "own dense | chol_ms | q_hint | q_seed | q_seed p90 | decomp med | LU_decomp | solve b | LU_solve | AABB |\n|%s\n",
+      title,
+      "---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
   for (const Row& r : rows)
     std::printf("| %.3g | %ld | %ld | %.2f | %.4f | %.2f | %.3f | %.3f | %.2f ± %.2f | %.2f | %.2f | %.2f | %.2f | %.2f | %.3f | %.3f | %.3f | %.3g | %.3g | %.3g | %.3g | %.3f |\n",
                 r.lx, r.stats.n_verts, r.stats.n_tets, r.stats.size_mb, r.rmse, r.stats.t_mesh, r.stats.t_build,
                 r.stats.t_decomp, r.solve_ms, r.solve_sd, r.solve_med, r.solve_1t_med, r.grad_ms, r.dense_solve_ms, r.chol_solve_ms,
                 r.q_hint, r.q_seed, r.q_seed_p90, r.decomp_med, r.lu_decomp, r.solve_b_ms, r.lu_solve_ms, r.aabb_us);
   // The comparison's convention, and its ratios (issue 3 targets: decomposition ≥ 10×, solve ≥ 3×).
-  std::printf("SparseLU comparison (same A_ΩΩ, same b, both timed the same way, sides alternating; medians): "
-              "decomp med / LU_decomp = one fresh decomposition, fill-reducing ordering included in both "
-              "(cholmod_analyze + factorize; analyzePattern with COLAMD + factorize), in s; solve b / LU_solve = "
-              "one solve of A_ΩΩ x = b with eq. 20's b (as t_solve), in ms; also with b = 1. t_decomp is the "
-              "preparation's single run (or the cached one's).\n");
+  std::printf(
+      "SparseLU comparison (same A_ΩΩ, same b, both timed the same way, sides alternating; medians): "
+      "decomp med / LU_decomp = one fresh decomposition, fill-reducing ordering included in both "
+      "(cholmod_analyze + factorize; analyzePattern with COLAMD + factorize), in s; solve b / LU_solve = "
+      "one solve of A_ΩΩ x = b with eq. 20's b (as t_solve), in ms; also with b = 1. t_decomp is the "
+      "preparation's single run (or the cached one's).\n");
   for (const Row& r : rows)
     if (r.lu_decomp > 0 && r.decomp_med > 0)
-      std::printf("l_x %.3g: LU_decomp / decomp med = %.1f (%d repeats), LU_solve / solve b = %.1f (b = 1: %.4f / %.4f ms "
-                  "= %.1f; %d repeats)\n", r.lx, r.lu_decomp / r.decomp_med, r.decomp_reps, r.lu_solve_ms / r.solve_b_ms,
-                  r.lu_solve_ones_ms, r.solve_ones_ms, r.lu_solve_ones_ms / r.solve_ones_ms, r.solve_reps);
+      std::printf(
+          "l_x %.3g: LU_decomp / decomp med = %.1f (%d repeats), LU_solve / solve b = %.1f (b = 1: %.4f / %.4f ms "
+          "= %.1f; %d repeats)\n",
+          r.lx, r.lu_decomp / r.decomp_med, r.decomp_reps, r.lu_solve_ms / r.solve_b_ms,
+          r.lu_solve_ones_ms, r.solve_ones_ms, r.lu_solve_ones_ms / r.solve_ones_ms, r.solve_reps);
   std::fflush(stdout);
 }
 
 // A dense solve (b = 1) reads every factor entry twice (forward and back substitution): its
 // achieved bandwidth is 2 · factor bytes / time, set against this machine's read stream.
 nlohmann::json print_bandwidth(const std::vector<Row>& rows, double stream_1t, double stream_2t) {
-  std::printf("\nTriangular solves against memory bandwidth (stream: sum of 256 MB of doubles, best of 5: "
-              "%.2f GB/s on 1 thread, %.2f GB/s on 2)\n| l_x | N_verts | factor MB | dense 1 thread ms | GB/s | "
-              "of stream | dense 2 threads ms | GB/s | of stream |\n|---|---|---|---|---|---|---|---|---|\n",
-              stream_1t, stream_2t);
+  std::printf(
+      "\nTriangular solves against memory bandwidth (stream: sum of 256 MB of doubles, best of 5: "
+      "%.2f GB/s on 1 thread, %.2f GB/s on 2)\n| l_x | N_verts | factor MB | dense 1 thread ms | GB/s | "
+      "of stream | dense 2 threads ms | GB/s | of stream |\n|---|---|---|---|---|---|---|---|---|\n",
+      stream_1t, stream_2t);
   nlohmann::json out;
   for (const Row& r : rows) {
     const double gb = 2 * r.stats.factor_mb / 1e3, bw1 = gb / (r.dense_1t_ms / 1e3), bw2 = gb / (r.dense_solve_ms / 1e3);
     std::printf("| %.3g | %ld | %.1f | %.2f | %.2f | %.0f%% | %.2f | %.2f | %.0f%% |\n", r.lx, r.stats.n_verts, r.stats.factor_mb,
                 r.dense_1t_ms, bw1, 100 * bw1 / stream_1t, r.dense_solve_ms, bw2, 100 * bw2 / stream_2t);
-    out.push_back({{"lx", r.lx}, {"factor_mb", r.stats.factor_mb}, {"solve_gbps_one_thread", bw1},
-                   {"solve_gbps_two_threads", bw2}, {"stream_gbps_one_thread", stream_1t}, {"stream_gbps_two_threads", stream_2t}});
+    out.push_back({{"lx", r.lx}, {"factor_mb", r.stats.factor_mb}, {"solve_gbps_one_thread", bw1}, {"solve_gbps_two_threads", bw2}, {"stream_gbps_one_thread", stream_1t}, {"stream_gbps_two_threads", stream_2t}});
   }
-  std::printf("\nLocal σ edit by linearity (a stroke over 5%% of the surface; same factor, medians): the stroke's "
-              "solve against eq. 20's full one, and the share of the factor's entries each reads\n"
-              "| l_x | N_verts | full solve b ms | stroke solve ms | ratio | full reads | stroke reads |\n|---|---|---|---|---|---|---|\n");
+  std::printf(
+      "\nLocal σ edit by linearity (a stroke over 5%% of the surface; same factor, medians): the stroke's "
+      "solve against eq. 20's full one, and the share of the factor's entries each reads\n"
+      "| l_x | N_verts | full solve b ms | stroke solve ms | ratio | full reads | stroke reads |\n|---|---|---|---|---|---|---|\n");
   for (const Row& r : rows)
     if (r.stroke_ms > 0)
       std::printf("| %.3g | %ld | %.3f | %.3f | %.2f | %.3f | %.3f |\n", r.lx, r.stats.n_verts, r.solve_b_ms, r.stroke_ms,
@@ -442,9 +437,10 @@ int main(int argc, char** argv) {
   bool table1 = true, table2 = true;
   std::vector<double> sphere_lxs;
   if (argc == 2 && std::string(argv[1]) == "--help") {
-    std::puts("usage: distlab-bench-kelvin [--assets DIR] [--lx 0.2,0.15,...] [--grid 1000] [--lu-max 60000]\n"
-              "  [--wrench-lx 0.002] [--wrench-features 180] [--json FILE] [--table2-only 1] [--table1-only 1]\n"
-              "  [--sphere-rmse 0.1,0.05,...] [--cache-dir DIR (reuse prepared objects)] [--far-radius 1]");
+    std::puts(
+        "usage: distlab-bench-kelvin [--assets DIR] [--lx 0.2,0.15,...] [--grid 1000] [--lu-max 60000]\n"
+        "  [--wrench-lx 0.002] [--wrench-features 180] [--json FILE] [--table2-only 1] [--table1-only 1]\n"
+        "  [--sphere-rmse 0.1,0.05,...] [--cache-dir DIR (reuse prepared objects)] [--far-radius 1]");
     return 0;
   }
   for (int i = 1; i + 1 < argc; i += 2) {
@@ -526,9 +522,11 @@ int main(int argc, char** argv) {
   // against the finest mesh carries that mesh's own error, so its order is biased low near it.
   nlohmann::json accuracy;
   if (table1) {
-    std::printf("\nTable I accuracy: RMSE against l_x = %.3g and exact checks (C = %.7f)\n"
-                "| l_x | N_verts | RMSE | order | V(0) | ln(V(0)/C) | order | boundary max dist | / l_x² |\n"
-                "|---|---|---|---|---|---|---|---|---|\n", lxs.back(), kCubeCapacitance);
+    std::printf(
+        "\nTable I accuracy: RMSE against l_x = %.3g and exact checks (C = %.7f)\n"
+        "| l_x | N_verts | RMSE | order | V(0) | ln(V(0)/C) | order | boundary max dist | / l_x² |\n"
+        "|---|---|---|---|---|---|---|---|---|\n",
+        lxs.back(), kCubeCapacitance);
     for (size_t k = 0; k < rows.size(); ++k) {
       auto order = [&](double a, double b) {
         return k == 0 ? std::nan("") : std::log(std::abs(a / b)) / std::log(rows[k - 1].lx / rows[k].lx);
@@ -539,8 +537,7 @@ int main(int argc, char** argv) {
       std::printf("| %.3g | %ld | %.5f | %.2f | %.6f | %+.2e | %.2f | %.2e | %.3f |\n", rows[k].lx, rows[k].stats.n_verts,
                   rows[k].rmse, rmse_order, exact[k].first, err, cap_order, exact[k].second,
                   exact[k].second / (rows[k].lx * rows[k].lx));
-      accuracy.push_back({{"lx", rows[k].lx}, {"rmse", rows[k].rmse}, {"v0", exact[k].first},
-                          {"log_v0_over_capacitance", err}, {"boundary_max_distance", exact[k].second}});
+      accuracy.push_back({{"lx", rows[k].lx}, {"rmse", rows[k].rmse}, {"v0", exact[k].first}, {"log_v0_over_capacitance", err}, {"boundary_max_distance", exact[k].second}});
     }
     std::fflush(stdout);
   }
@@ -549,36 +546,38 @@ int main(int argc, char** argv) {
   // of Section V-B (eq. 24, as in assets/wrench_case_*.json); t_solve of case (a).
   std::vector<Row> wrench_rows;
   if (table2) try {
-    const mesh::SurfaceMesh wrench = mesh::weld(mesh::load_mesh(assets + "/wrench.stl")).surface;
-    std::vector<SigmaSpec> cases(3);
-    cases[0].axis.push_back({Vec3::UnitX(), Vec3::Zero(), 0.03, -1.0, 0.003});
-    cases[1].constant = -1.0;
-    cases[2].axis.push_back({Vec3::UnitX(), Vec3::Zero(), 0.03, 1.0, 0.003});
-    std::vector<Vec3> wpath, wrandom;
-    for (const Vec3& x : path) wpath.push_back(x * 0.04);
-    for (const Vec3& x : random) wrandom.push_back(x * 0.04);
-    PrepareOptions o;
-    o.lx = wrench_lx;
-    o.centre = Vec3::Zero();
-    o.feature_angle = wrench_features;
-    std::fprintf(stderr, "wrench: lx %.4g, feature_angle %.0f\n", o.lx, o.feature_angle);
-    wrench_rows.push_back(run(wrench, o, cases, wpath, wrandom, lu_max, cache_dir));
-    for (const std::string& w : wrench_rows.back().stats.warnings) std::printf("warning: %s\n", w.c_str());
-    print("Table II: combination wrench", wrench_rows);
-    print_bandwidth(wrench_rows, stream_1t, stream_2t);
-    std::printf("t_solve per case (a), (b), (c): %.2f, %.2f, %.2f ms\n", wrench_rows[0].case_solve_ms[0],
-                wrench_rows[0].case_solve_ms[1], wrench_rows[0].case_solve_ms[2]);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "wrench skipped: %s\n", e.what());
-  }
+      const mesh::SurfaceMesh wrench = mesh::weld(mesh::load_mesh(assets + "/wrench.stl")).surface;
+      std::vector<SigmaSpec> cases(3);
+      cases[0].axis.push_back({Vec3::UnitX(), Vec3::Zero(), 0.03, -1.0, 0.003});
+      cases[1].constant = -1.0;
+      cases[2].axis.push_back({Vec3::UnitX(), Vec3::Zero(), 0.03, 1.0, 0.003});
+      std::vector<Vec3> wpath, wrandom;
+      for (const Vec3& x : path) wpath.push_back(x * 0.04);
+      for (const Vec3& x : random) wrandom.push_back(x * 0.04);
+      PrepareOptions o;
+      o.lx = wrench_lx;
+      o.centre = Vec3::Zero();
+      o.feature_angle = wrench_features;
+      std::fprintf(stderr, "wrench: lx %.4g, feature_angle %.0f\n", o.lx, o.feature_angle);
+      wrench_rows.push_back(run(wrench, o, cases, wpath, wrandom, lu_max, cache_dir));
+      for (const std::string& w : wrench_rows.back().stats.warnings) std::printf("warning: %s\n", w.c_str());
+      print("Table II: combination wrench", wrench_rows);
+      print_bandwidth(wrench_rows, stream_1t, stream_2t);
+      std::printf("t_solve per case (a), (b), (c): %.2f, %.2f, %.2f ms\n", wrench_rows[0].case_solve_ms[0],
+                  wrench_rows[0].case_solve_ms[1], wrench_rows[0].case_solve_ms[2]);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "wrench skipped: %s\n", e.what());
+    }
 
   // RMSE against the exact field of a sphere (radius 0.5, σ = 0, inversion centre off its centre
   // as in tests/kelvin): h = ln(|x|/R), on the plane z = 0 in [−3, 3]², split into the region
   // where the mesh is uniform in x (|x − c| ≤ far_radius · r_max) and the far region beyond.
   nlohmann::json sphere_json;
   if (!sphere_lxs.empty()) {
-    std::printf("\nSphere R = 0.5, centre of inversion (0.12, -0.07, 0.05): h against ln(|x|/R) on a %d × %d grid, z = 0, [-3, 3]²\n"
-                "| l_x | N_verts | RMSE | RMSE |x|<0.65 | RMSE |x|≥0.65 | max |dh| | boundary RMS dist / l_x |\n|---|---|---|---|---|---|---|\n", grid, grid);
+    std::printf(
+        "\nSphere R = 0.5, centre of inversion (0.12, -0.07, 0.05): h against ln(|x|/R) on a %d × %d grid, z = 0, [-3, 3]²\n"
+        "| l_x | N_verts | RMSE | RMSE |x|<0.65 | RMSE |x|≥0.65 | max |dh| | boundary RMS dist / l_x |\n|---|---|---|---|---|---|---|\n",
+        grid, grid);
     const mesh::SurfaceMesh sphere = mesh::icosphere(0.5, 6);
     for (double lx : sphere_lxs) {
       PrepareOptions o;
@@ -598,7 +597,8 @@ int main(int argc, char** argv) {
           if (q.status != Status::ok) continue;
           const double d = q.h - std::log(x.norm() / 0.5), d2 = d * d;
           all += d2, ++n_all, worst = std::max(worst, std::abs(d));
-          if ((x - *o.centre).norm() < 0.65) near += d2, ++n_near; else far += d2, ++n_far;
+          if ((x - *o.centre).norm() < 0.65) near += d2, ++n_near;
+          else far += d2, ++n_far;
         }
       // Boundary fidelity: RMS distance of the meshed boundary's face centroids (mapped to x) to
       // the sphere, relative to l_x.
@@ -621,8 +621,7 @@ int main(int argc, char** argv) {
                    rf = std::sqrt(far / std::max(n_far, 1L)), bdist = std::sqrt(bd / std::max(nb, 1L)) / lx;
       std::printf("| %.3g | %ld | %.5f | %.5f | %.5f | %.4f | %.4f |\n", lx, f.stats().n_verts, rmse, rn, rf, worst, bdist);
       std::fflush(stdout);
-      sphere_json.push_back({{"lx", lx}, {"n_verts", f.stats().n_verts}, {"rmse", rmse}, {"rmse_near", rn},
-                             {"rmse_far", rf}, {"max_abs", worst}, {"boundary_rms_over_lx", bdist}});
+      sphere_json.push_back({{"lx", lx}, {"n_verts", f.stats().n_verts}, {"rmse", rmse}, {"rmse_near", rn}, {"rmse_far", rf}, {"max_abs", worst}, {"boundary_rms_over_lx", bdist}});
     }
   }
 

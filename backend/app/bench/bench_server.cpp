@@ -21,8 +21,8 @@
 #include <vector>
 
 #include "distlab/kelvin/field.hpp"
-#include "distlab/mesh/weld.hpp"
 #include "distlab/mesh/surface.hpp"
+#include "distlab/mesh/weld.hpp"
 #include "distlab/server/frames.hpp"
 #include "distlab/server/kelvin_objects.hpp"
 
@@ -91,7 +91,7 @@ std::string ready_object(HttpClient& c, const std::string& s, double lx, bool qu
     const json j = json::parse(body);
     if (j["state"] == "ready") {
       if (!quiet) std::printf("object ready: %ld vertices, %ld tets (cache hit: %s)\n", j["stats"]["n_verts"].get<long>(),
-                  j["stats"]["n_tets"].get<long>(), j["stats"]["cache_hit"].get<bool>() ? "yes" : "no");
+                              j["stats"]["n_tets"].get<long>(), j["stats"]["cache_hit"].get<bool>() ? "yes" : "no");
       return id;
     }
     if (j["state"] != "preparing") throw std::runtime_error("prepare: " + body);
@@ -235,9 +235,10 @@ int main(int argc, char** argv) {
     }
     std::printf("sigma edit -> isosurface frame (%ld iso vertices): median %.1f ms, p95 %.1f ms over %d edits\n",
                 frame["n_vertices"].get<long>(), percentile(lat, 0.5), percentile(lat, 0.95), edits);
-    std::printf("  server side: Kelvin solve median %.1f ms, marching tets median %.1f ms, edit received -> frame "
-                "encoded median %.1f ms, p95 %.1f ms\n",
-                percentile(solve, 0.5), percentile(iso, 0.5), percentile(since_edit, 0.5), percentile(since_edit, 0.95));
+    std::printf(
+        "  server side: Kelvin solve median %.1f ms, marching tets median %.1f ms, edit received -> frame "
+        "encoded median %.1f ms, p95 %.1f ms\n",
+        percentile(solve, 0.5), percentile(iso, 0.5), percentile(since_edit, 0.5), percentile(since_edit, 0.95));
     ws.close(beast::websocket::close_code::normal);
 
     // ---- 2. Concurrent clients.

@@ -45,10 +45,11 @@ int main(int argc, char** argv) {
       std::sort(t.begin(), t.end());
       std::printf("| %s | %ld | 1/%.0f | %ld | %.3f | %.4f | %.4f |\n", name.c_str(), static_cast<long>(m.faces.rows()), ratio,
                   static_cast<long>(r.surface.faces.rows()), t[t.size() / 2], r.input_to_result / d, r.result_to_input / d);
-      std::printf("{\"mesh\": \"%s\", \"triangles\": %ld, \"alpha\": %.6g, \"offset\": %.6g, \"wrap_triangles\": %ld, \"seconds\": %.4f, "
-                  "\"input_to_wrap\": %.6g, \"wrap_to_input\": %.6g, \"diagonal\": %.6g}\n",
-                  name.c_str(), static_cast<long>(m.faces.rows()), r.alpha, r.offset, static_cast<long>(r.surface.faces.rows()),
-                  t[t.size() / 2], r.input_to_result, r.result_to_input, d);
+      std::printf(
+          "{\"mesh\": \"%s\", \"triangles\": %ld, \"alpha\": %.6g, \"offset\": %.6g, \"wrap_triangles\": %ld, \"seconds\": %.4f, "
+          "\"input_to_wrap\": %.6g, \"wrap_to_input\": %.6g, \"diagonal\": %.6g}\n",
+          name.c_str(), static_cast<long>(m.faces.rows()), r.alpha, r.offset, static_cast<long>(r.surface.faces.rows()),
+          t[t.size() / 2], r.input_to_result, r.result_to_input, d);
     }
   }
 }

@@ -5,8 +5,8 @@
 #include <vector>
 
 #include "command.hpp"
-#include "json_command.hpp"
 #include "distlab/server/gap_json.hpp"
+#include "json_command.hpp"
 
 namespace {
 

@@ -8,9 +8,9 @@
 #include <vector>
 
 #include "command.hpp"
-#include "json_command.hpp"
 #include "distlab/server/gap_json.hpp"
 #include "distlab/server/kelvin_json.hpp"
+#include "json_command.hpp"
 
 namespace {
 

@@ -5,16 +5,16 @@
 #include <csignal>
 #include <cstdlib>
 #include <cstring>
-#include <type_traits>
 #include <filesystem>
 #include <iostream>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "command.hpp"
 #include "distlab/server/data_dirs.hpp"
-#include "distlab/server/server.hpp"
 #include "distlab/server/modules.hpp"
+#include "distlab/server/server.hpp"
 
 namespace {
 
@@ -59,7 +59,8 @@ int run_serve(const std::vector<std::string>& args, std::istream&, std::ostream&
         return 0;
       }
       if (i + 1 >= args.size()) {
-        err << "distlab serve: " << a << " needs a value (or is unknown)\n" << kUsage;
+        err << "distlab serve: " << a << " needs a value (or is unknown)\n"
+            << kUsage;
         return 2;
       }
       const std::string v = args[++i];
@@ -103,12 +104,14 @@ int run_serve(const std::vector<std::string>& args, std::istream&, std::ostream&
           return 2;
         }
       } else {
-        err << "distlab serve: unknown option '" << a << "'\n" << kUsage;
+        err << "distlab serve: unknown option '" << a << "'\n"
+            << kUsage;
         return 2;
       }
     }
   } catch (const std::exception&) {
-    err << "distlab serve: bad option value\n" << kUsage;
+    err << "distlab serve: bad option value\n"
+        << kUsage;
     return 2;
   }
   try {

@@ -116,9 +116,12 @@ void objective_n(const Task& t, double damping, double gain, Eigen::MatrixXd& H,
 }
 void task_objective(const Task& t, double damping, double gain, Eigen::MatrixXd& H, Eigen::VectorXd& f) {
   switch (t.J.cols()) {
-    case 7: return objective_n<7>(t, damping, gain, H, f);
-    case 6: return objective_n<6>(t, damping, gain, H, f);
-    default: return objective_n<Eigen::Dynamic>(t, damping, gain, H, f);
+    case 7:
+      return objective_n<7>(t, damping, gain, H, f);
+    case 6:
+      return objective_n<6>(t, damping, gain, H, f);
+    default:
+      return objective_n<Eigen::Dynamic>(t, damping, gain, H, f);
   }
 }
 

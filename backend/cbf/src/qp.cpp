@@ -38,9 +38,12 @@ void rotate_columns(Eigen::MatrixXd& J, int i, double c, double s) {
 
 const char* to_string(QpStatus s) {
   switch (s) {
-    case QpStatus::optimal: return "optimal";
-    case QpStatus::infeasible: return "infeasible";
-    case QpStatus::iteration_limit: return "iteration_limit";
+    case QpStatus::optimal:
+      return "optimal";
+    case QpStatus::infeasible:
+      return "infeasible";
+    case QpStatus::iteration_limit:
+      return "iteration_limit";
   }
   return "?";
 }

@@ -19,9 +19,9 @@
 #include <set>
 #include <sstream>
 
-#include <Eigen/Geometry>
 #include <tinyxml.h>
 #include <urdf_parser/urdf_parser.h>
+#include <Eigen/Geometry>
 
 #include "distlab/geometry/error.hpp"
 
@@ -190,7 +190,7 @@ std::shared_ptr<const Robot> Robot::from_urdf(const std::string& xml, const std:
   for (int l = 0; l < nl; ++l)
     if (r->parent_joint_[l] < 0) {
       if (root_link >= 0) bad(field, "links \"" + r->links_[root_link] + "\" and \"" + r->links_[l] +
-                                          "\" both have no parent: one tree is needed");
+                                         "\" both have no parent: one tree is needed");
       root_link = l;
     }
   // Evaluation order: breadth-first from the root (urdfdom has already refused cycles).

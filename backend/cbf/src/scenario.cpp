@@ -71,8 +71,9 @@ void validate(const Scenario& s) {
     throw InvalidInput(f.rfind("params.", 0) == 0 ? "gap." + f.substr(7) : f, e.what());
   }
   if (s.gap_mode == GapMode::as_published && s.gap.max_iter < 1)
-    throw InvalidInput("gap.max_iter", "gap.mode \"as_published\" needs gap.max_iter >= 1 (its "
-                                       "iteration cap, e.g. 20 on the real robot, 300 in simulation)");
+    throw InvalidInput("gap.max_iter",
+                       "gap.mode \"as_published\" needs gap.max_iter >= 1 (its "
+                       "iteration cap, e.g. 20 on the real robot, 300 in simulation)");
   if (!s.robot) throw InvalidInput("robot", "no robot");
   const Robot& robot = *s.robot;
   const int dof = robot.dof();

@@ -156,9 +156,7 @@ void PointToSet::set_pose(const Pose& pose) {
       HalfSpace& r = rows_[static_cast<size_t>(i)];
       const Vec3 u = A_world_.row(i).transpose();
       const double w = weights_[i];
-      r = {{u.x(), u.y(), u.z()}, b_world_[i], w,
-           {w * u.x() * u.x(), w * u.x() * u.y(), w * u.x() * u.z(), w * u.y() * u.y(),
-            w * u.y() * u.z(), w * u.z() * u.z()}};
+      r = {{u.x(), u.y(), u.z()}, b_world_[i], w, {w * u.x() * u.x(), w * u.x() * u.y(), w * u.x() * u.z(), w * u.y() * u.y(), w * u.y() * u.z(), w * u.z() * u.z()}};
     }
   }
   rho_center_world_ = pose.to_world(rho_.center);
@@ -210,11 +208,15 @@ P2SValue PointToSet::capsule_local(const Vec3& p, int order) const {
     for (int it = 0; it < 100; ++it) {
       double d2;
       const double g1 = dg(t, &d2);
-      if (g1 > 0) hi = t; else lo = t;
+      if (g1 > 0) hi = t;
+      else lo = t;
       if (g1 == 0) break;
       double next = t - g1 / d2;
       if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
-      if (std::abs(next - t) <= 1e-16 * std::max(1.0, std::abs(t))) { t = next; break; }
+      if (std::abs(next - t) <= 1e-16 * std::max(1.0, std::abs(t))) {
+        t = next;
+        break;
+      }
       t = next;
     }
   }

@@ -21,7 +21,7 @@ P2SValue maximise_inner(const PointToSet& A, const Vec3& a, Vec3& b) {
     if (r.norm() <= 1e-15 * (1.0 + a.norm())) break;
     const Mat3 J = Mat3::Identity() - ea.hessian;  // −∂²φ, SPD
     const Vec3 delta = -J.llt().solve(r);
-    const double slope = -r.dot(delta);            // ∇φ·δ > 0
+    const double slope = -r.dot(delta);  // ∇φ·δ > 0
     const double phi0 = ea.value - 0.5 * (a - b).squaredNorm();
     double alpha = 1.0;
     bool moved = false;
@@ -52,8 +52,8 @@ WitnessSolution solve_fixed_point(const PointToSet& A, const PointToSet& B, cons
   WitnessSolution s;
   Vec3 a = a0;
   for (s.iterations = 0; s.iterations < max_iter;) {
-    const Vec3 b = a - B.strict(a, 1).gradient;                   // Π_B(a)
-    const Vec3 next = b - A.strict(b, 1).gradient;                // Π_A(Π_B(a))
+    const Vec3 b = a - B.strict(a, 1).gradient;     // Π_B(a)
+    const Vec3 next = b - A.strict(b, 1).gradient;  // Π_A(Π_B(a))
     ++s.iterations;
     const double step = (next - a).norm();
     a = next;

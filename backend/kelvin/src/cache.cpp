@@ -73,7 +73,10 @@ class Writer {
   template <class T>
   void pod(const T& v) { raw(&v, sizeof(T)); }
   template <class T>
-  void array(const T* p, std::uint64_t n) { pod(n); raw(p, sizeof(T) * n); }
+  void array(const T* p, std::uint64_t n) {
+    pod(n);
+    raw(p, sizeof(T) * n);
+  }
   void raw(const void* p, size_t n) { out.write(static_cast<const char*>(p), static_cast<std::streamsize>(n)); }
   std::ostringstream out;
 };

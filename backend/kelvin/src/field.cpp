@@ -1,9 +1,9 @@
 // Preparation pipeline (Section IV): invert (eq. 5), tetrahedralise (eq. 23), assemble the P1
 // Laplacian and reduce it (eqs. 19–21), factor (eq. 22); and the σ-dependent solve (eq. 17).
-#include <chrono>
-#include <future>
-#include <cmath>
 #include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <future>
 #include <map>
 
 #include "distlab/geometry/error.hpp"

@@ -7,8 +7,8 @@
 
 #include "cholmod_solver.hpp"
 #include "distlab/kelvin/field.hpp"
-#include "locator.hpp"
 #include "distlab/kelvin/surface_tools.hpp"
+#include "locator.hpp"
 
 namespace distlab::kelvin {
 
@@ -22,17 +22,17 @@ struct Field::Impl {
   CholmodSolver solver;
 
   // Derived in build(): vertex roles, A_Ω∂ (eq. 20), gradient weights, locator, σ sampling.
-  std::vector<int> slot;  // per point: interior index ≥ 0, boundary b as -(b + 2), unused -1
+  std::vector<int> slot;                // per point: interior index ≥ 0, boundary b as -(b + 2), unused -1
   std::vector<int> interior, boundary;  // point ids
   std::vector<int> domain_tets;
   // Vertex stars: for point v, entries star[star_start[v] … star_start[v+1]) are 4 · (index into
   // domain_tets) + (local vertex): the domain cells around v.
   std::vector<int> star_start, star;
   std::vector<Eigen::Matrix<double, 4, 3>> grad_weights;  // per domain tet: vol · ∇φ_j
-  VecX star_volume;                                        // per point
-  Eigen::SparseMatrix<double> a_ob;                        // A_Ω∂
-  Eigen::SparseMatrix<double> a_oo_lower;                  // lower triangle of A_ΩΩ
-  PackedMesh packed;  // tm repacked for queries (packed_mesh.hpp)
+  VecX star_volume;                                       // per point
+  Eigen::SparseMatrix<double> a_ob;                       // A_Ω∂
+  Eigen::SparseMatrix<double> a_oo_lower;                 // lower triangle of A_ΩΩ
+  PackedMesh packed;                                      // tm repacked for queries (packed_mesh.hpp)
   Locator locator;
   std::unique_ptr<SurfaceOracle> oracle;
   std::vector<int> boundary_face;
@@ -40,7 +40,7 @@ struct Field::Impl {
 
   // State for the current σ.
   VecX boundary_sigma;
-  VecX V;  // per point (V and ∇V are also in packed.vertices, beside the positions)
+  VecX V;                      // per point (V and ∇V are also in packed.vertices, beside the positions)
   bool has_gradients = false;  // set_sigma(…, gradients = false) leaves ∇V out
   Stats stats;
   // Seconds of each phase of the last build() (for the build profile; phases after the stars

@@ -108,7 +108,8 @@ Vec3 Locator::centre(const int idx[3], const int sub[3], int r) const {
 Vec3 Locator::box_centre(std::size_t box) const {
   // The block holding box: the last block whose first box is ≤ box (blocks_ is sorted by first).
   const auto it = std::upper_bound(blocks_.begin(), blocks_.end(), box,
-                                   [](std::size_t i, const Block& b) { return i < b.first; }) - 1;
+                                   [](std::size_t i, const Block& b) { return i < b.first; }) -
+                  1;
   const size_t b = static_cast<size_t>(it - blocks_.begin());
   const int r = static_cast<int>(it->r);
   const size_t s = box - it->first;

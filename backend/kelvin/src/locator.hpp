@@ -51,9 +51,9 @@ class Locator {
   std::size_t box(const Vec3& y) const;  // index of the box holding y (clamped into the grid)
   Vec3 centre(const int block[3], const int sub[3], int r) const;
   Vec3 lo_ = Vec3::Zero(), inv_step_ = Vec3::Ones();
-  int n_[3] = {1, 1, 1};  // blocks per axis
-  HugeVector<Block> blocks_;  // huge pages: huge_pages.hpp
-  HugeVector<int> cells_;    // per box, block by block, x fastest within a block
+  int n_[3] = {1, 1, 1};                // blocks per axis
+  HugeVector<Block> blocks_;            // huge pages: huge_pages.hpp
+  HugeVector<int> cells_;               // per box, block by block, x fastest within a block
   HugeVector<Vertices> seed_vertices_;  // per box, the vertices of its cell
 };
 

@@ -2,12 +2,12 @@
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Mesh_complex_3_in_triangulation_3.h>
 #include <CGAL/Mesh_criteria_3.h>
+#include <CGAL/Mesh_error_code.h>
 #include <CGAL/Mesh_triangulation_3.h>
+#include <CGAL/Polygon_mesh_processing/remesh.h>
 #include <CGAL/Polyhedral_mesh_domain_with_features_3.h>
 #include <CGAL/Random.h>
 #include <CGAL/Surface_mesh.h>
-#include <CGAL/Mesh_error_code.h>
-#include <CGAL/Polygon_mesh_processing/remesh.h>
 #include <CGAL/make_mesh_3.h>
 
 #include <cmath>
@@ -88,8 +88,7 @@ Polyhedron boundary_polyhedron(const mesh::SurfaceMesh& inverted, double max_len
   namespace PMP = CGAL::Polygon_mesh_processing;
   // Splits edges longer than 4/3 of the target, i.e. max_length; no collapse, flip, smoothing.
   PMP::isotropic_remeshing(faces(poly), 0.75 * max_length, poly,
-                           CGAL::parameters::number_of_iterations(1).do_collapse(false).do_flip(false)
-                               .number_of_relaxation_steps(0).do_project(false));
+                           CGAL::parameters::number_of_iterations(1).do_collapse(false).do_flip(false).number_of_relaxation_steps(0).do_project(false));
   for (auto v : poly.vertices()) poly.point(v) = flip(poly.point(v));
   return poly;
 }

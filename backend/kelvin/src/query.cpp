@@ -26,12 +26,12 @@ Sample evaluate(const Field::Impl& m, int c, const double lambda[4], const Vec3&
   if (!(v > 0)) return undefined(Status::nonpositive);
   const double y2 = y.squaredNorm();
   Sample s;
-  s.h = -std::log(std::sqrt(y2) * v);               // U = G V with G = |y| (eq. 16)
-  const Vec3 grad_y = -(y / y2 + gv / v);           // ∇_y h
+  s.h = -std::log(std::sqrt(y2) * v);      // U = G V with G = |y| (eq. 16)
+  const Vec3 grad_y = -(y / y2 + gv / v);  // ∇_y h
   const double p2 = p.squaredNorm();
   const Vec3 n = p / std::sqrt(p2);
   s.gradient = with_gradient ? Vec3((grad_y - 2 * n * n.dot(grad_y)) / p2)  // ∇_x h = (∂y/∂x)ᵀ ∇_y h
-                            : Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
+                             : Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
   return s;
 }
 

@@ -27,8 +27,8 @@ struct SupernodalFactor {
 
 struct SolvePlan {
   std::array<std::vector<std::pair<int, int>>, 2> lanes;  // supernode ranges [begin, end), ascending
-  std::vector<int> top;                                    // the other supernodes, ascending
-  std::vector<unsigned char> top_column;                   // 1 for the columns of top supernodes
+  std::vector<int> top;                                   // the other supernodes, ascending
+  std::vector<unsigned char> top_column;                  // 1 for the columns of top supernodes
   // (heavier lane + top) / all, in factor entries: the two-thread time as a share of one's.
   double critical_share = 1;
 };

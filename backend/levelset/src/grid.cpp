@@ -47,8 +47,7 @@ void parallel_items(std::size_t count, unsigned threads, Body body) {
 
 // The six tetrahedra of the Kuhn (Freudenthal) split of a cell; corners numbered by bits
 // x = 1, y = 2, z = 4. All share the diagonal 0-7, so neighbouring cells agree on face splits.
-constexpr int kTets[6][4] = {{0, 1, 3, 7}, {0, 1, 5, 7}, {0, 2, 3, 7},
-                             {0, 2, 6, 7}, {0, 4, 5, 7}, {0, 4, 6, 7}};
+constexpr int kTets[6][4] = {{0, 1, 3, 7}, {0, 1, 5, 7}, {0, 2, 3, 7}, {0, 2, 6, 7}, {0, 4, 5, 7}, {0, 4, 6, 7}};
 
 }  // namespace
 

@@ -42,7 +42,10 @@ std::string topology_defect(const SurfaceMesh& mesh, const std::vector<int>& nam
     if (a == b || b == c || c == a) return "degenerate face " + std::to_string(f) + " (repeated vertex)";
   }
   // Per undirected edge: number of faces, and the balance of its two directions.
-  struct Use { int count = 0; int forward = 0; };
+  struct Use {
+    int count = 0;
+    int forward = 0;
+  };
   std::unordered_map<std::uint64_t, Use> edges;
   edges.reserve(static_cast<size_t>(nf) * 2);
   for (int f = 0; f < nf; ++f)
@@ -127,7 +130,8 @@ void require_closed_manifold(SurfaceMesh& mesh, const std::string& field,
         throw InvalidInput(field, "mesh is not a closed manifold surface: face " + std::to_string(f) +
                                       " cannot be added to a halfedge mesh");
     std::vector<std::pair<CGAL::Surface_mesh<K::Point_3>::Face_index,
-                          CGAL::Surface_mesh<K::Point_3>::Face_index>> pairs;
+                          CGAL::Surface_mesh<K::Point_3>::Face_index>>
+        pairs;
     CGAL::Polygon_mesh_processing::self_intersections(sm, std::back_inserter(pairs));
     if (!pairs.empty()) {
       auto [f, g] = *std::min_element(pairs.begin(), pairs.end(), [](auto& p, auto& q) {

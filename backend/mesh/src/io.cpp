@@ -7,10 +7,10 @@
 #include <CGAL/IO/STL.h>
 #include <CGAL/Simple_cartesian.h>
 #include <assimp/DefaultIOSystem.h>
-#include <assimp/Exporter.hpp>
-#include <assimp/Importer.hpp>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
+#include <assimp/Exporter.hpp>
+#include <assimp/Importer.hpp>
 
 #include <nlohmann/json.hpp>
 
@@ -43,7 +43,7 @@ using Soup = std::vector<std::vector<std::size_t>>;
 std::optional<std::uint32_t> stl_triangles(std::string_view head, std::uint64_t size, const std::string& field) {
   std::uint32_t n = 0;
   if (size >= 84 && head.size() >= 84) {
-    std::memcpy(&n, head.data() + 80, 4);  // little-endian, as the format and every target are
+    std::memcpy(&n, head.data() + 80, 4);                           // little-endian, as the format and every target are
     if (size == 84 + 50 * static_cast<std::uint64_t>(n)) return n;  // some binary headers start with "solid"
   }
   head = head.substr(0, 1024);
@@ -252,11 +252,15 @@ void check_ply(const std::string& bytes, const std::string& field) {
   if (end == std::string::npos) throw InvalidInput(field, "not a PLY file: its header has no end_header line");
   std::istringstream in(bytes.substr(0, end));
   static const std::map<std::string, std::uint64_t> sizes = {
-      {"char", 1},  {"uchar", 1},  {"int8", 1},   {"uint8", 1},   {"short", 2},  {"ushort", 2},
-      {"int16", 2}, {"uint16", 2}, {"int", 4},    {"uint", 4},    {"int32", 4},  {"uint32", 4},
-      {"float", 4}, {"float32", 4}, {"double", 8}, {"float64", 8}};
-  struct Property { std::uint64_t count_size = 0, size = 0; };  // count_size 0: a scalar
-  struct Element { std::string name; std::uint64_t items = 0; std::vector<Property> properties; };
+      {"char", 1}, {"uchar", 1}, {"int8", 1}, {"uint8", 1}, {"short", 2}, {"ushort", 2}, {"int16", 2}, {"uint16", 2}, {"int", 4}, {"uint", 4}, {"int32", 4}, {"uint32", 4}, {"float", 4}, {"float32", 4}, {"double", 8}, {"float64", 8}};
+  struct Property {
+    std::uint64_t count_size = 0, size = 0;
+  };  // count_size 0: a scalar
+  struct Element {
+    std::string name;
+    std::uint64_t items = 0;
+    std::vector<Property> properties;
+  };
   std::vector<Element> elements;
   bool ascii = true, big_endian = false;
   std::string line;
@@ -594,9 +598,9 @@ void save_mesh(const SurfaceMesh& mesh, const std::string& path, const std::stri
   auto scene = std::make_unique<aiScene>();
   scene->mRootNode = new aiNode();
   scene->mNumMaterials = 1;
-  scene->mMaterials = new aiMaterial*[1]{new aiMaterial()};
+  scene->mMaterials = new aiMaterial* [1] { new aiMaterial() };
   scene->mNumMeshes = 1;
-  scene->mMeshes = new aiMesh*[1]{new aiMesh()};
+  scene->mMeshes = new aiMesh* [1] { new aiMesh() };
   scene->mRootNode->mNumMeshes = 1;
   scene->mRootNode->mMeshes = new unsigned[1]{0};
   aiMesh* out = scene->mMeshes[0];

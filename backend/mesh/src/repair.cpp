@@ -249,7 +249,8 @@ Transfer nearest_face_transfer(const SurfaceMesh& from, const MatX3& points, con
       w[2] = 1 - w[0] - w[1];
     } else {
       const double da = (x - a).norm(), db = (x - b).norm(), dc = (x - c).norm();
-      w[da <= db && da <= dc ? 0 : db <= dc ? 1 : 2] = 1;
+      w[da <= db && da <= dc ? 0 : db <= dc ? 1
+                                            : 2] = 1;
     }
     t.vertices[i] = {from.faces(f, 0), from.faces(f, 1), from.faces(f, 2)};
     t.weights[i] = w;

@@ -1,6 +1,8 @@
 // Boost.Beast listener, HTTP connections and WebSocket connections.
 #include "distlab/server/server.hpp"
 
+#include <algorithm>
+#include <atomic>
 #include <boost/asio/dispatch.hpp>
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/signal_set.hpp>
@@ -9,8 +11,6 @@
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
 #include <boost/beast/websocket.hpp>
-#include <algorithm>
-#include <atomic>
 #include <cerrno>
 #include <chrono>
 #include <cstdio>
@@ -88,8 +88,7 @@ class WsConnection : public WsSink, public std::enable_shared_from_this<WsConnec
  public:
   WsConnection(tcp::socket&& socket, Service& service, std::shared_ptr<Session> session,
                std::shared_ptr<ConnectionSlot> slot)
-      : ws_(std::move(socket)), service_(service), session_(std::move(session)), slot_(std::move(slot)),
-        tokens_(service.config().limits.ws_burst), last_refill_(std::chrono::steady_clock::now()) {}
+      : ws_(std::move(socket)), service_(service), session_(std::move(session)), slot_(std::move(slot)), tokens_(service.config().limits.ws_burst), last_refill_(std::chrono::steady_clock::now()) {}
 
   void start(http::request<http::string_body> req) {
     beast::get_lowest_layer(ws_).expires_never();
@@ -153,8 +152,7 @@ class WsConnection : public WsSink, public std::enable_shared_from_this<WsConnec
       request_close(websocket::close_code::policy_error);
       return;
     } else {
-      nlohmann::json e{{"type", "error"}, {"status", 429},
-                       {"error", {{"code", "rate_limited"}, {"message", "too many WebSocket messages; slow down"}, {"field", ""}}}};
+      nlohmann::json e{{"type", "error"}, {"status", 429}, {"error", {{"code", "rate_limited"}, {"message", "too many WebSocket messages; slow down"}, {"field", ""}}}};
       // The refused message's request id, so that its sender can tell which request failed.
       if (!binary)
         if (nlohmann::json id = Service::request_id(data); !id.is_null()) e["request"] = std::move(id);
@@ -343,8 +341,7 @@ struct HttpServer::Impl {
   std::chrono::milliseconds pause{0};
 
   Impl(Service& s, unsigned n)
-      : service(s), ioc(static_cast<int>(n)), acceptor(net::make_strand(ioc)), threads(n),
-        backoff(acceptor.get_executor()) {}
+      : service(s), ioc(static_cast<int>(n)), acceptor(net::make_strand(ioc)), threads(n), backoff(acceptor.get_executor()) {}
 
   void accept() {
     acceptor.async_accept(net::make_strand(ioc), [this](beast::error_code ec, tcp::socket socket) {

@@ -73,8 +73,7 @@ void Service::add(std::unique_ptr<Module> module) {
 }
 
 Module::Module(Service& core)
-    : core_(core), config_(core.config_), router_(core.router_), sessions_(core.sessions_), jobs_(core.jobs_),
-      compute_(core.compute_) {}
+    : core_(core), config_(core.config_), router_(core.router_), sessions_(core.sessions_), jobs_(core.jobs_), compute_(core.compute_) {}
 
 std::shared_ptr<Session> Module::require_session(const Request& request) { return core_.require_session(request); }
 bool Module::post_compute(std::function<void()> fn) { return core_.post_compute(std::move(fn)); }
@@ -174,8 +173,7 @@ void Service::register_core_routes() {
   router_.add({"GET", "/api/version", [this](Request&) {
                  json modules = json::array();
                  for (const auto& m : modules_) modules.push_back(m->name());
-                 return json_response(200, {{"name", "distlab"}, {"version", version_string()},
-                                            {"api", "1"}, {"modules", modules}});
+                 return json_response(200, {{"name", "distlab"}, {"version", version_string()}, {"api", "1"}, {"modules", modules}});
                }});
   router_.add({"GET", "/api/openapi.json", [this](Request&) {
                  Response r;

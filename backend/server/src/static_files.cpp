@@ -33,15 +33,7 @@ StaticFiles::StaticFiles(std::string root) {
 
 std::string StaticFiles::content_type(const std::string& path) {
   static const std::map<std::string, std::string> types = {
-      {".html", "text/html; charset=utf-8"}, {".htm", "text/html; charset=utf-8"},
-      {".js", "text/javascript; charset=utf-8"}, {".mjs", "text/javascript; charset=utf-8"},
-      {".css", "text/css; charset=utf-8"}, {".json", "application/json"},
-      {".map", "application/json"}, {".svg", "image/svg+xml"}, {".png", "image/png"},
-      {".jpg", "image/jpeg"}, {".jpeg", "image/jpeg"}, {".gif", "image/gif"},
-      {".ico", "image/x-icon"}, {".webp", "image/webp"}, {".wasm", "application/wasm"},
-      {".txt", "text/plain; charset=utf-8"}, {".woff", "font/woff"}, {".woff2", "font/woff2"},
-      {".glb", "model/gltf-binary"}, {".gltf", "model/gltf+json"}, {".stl", "model/stl"},
-      {".obj", "model/obj"}, {".ply", "application/octet-stream"}, {".glsl", "text/plain; charset=utf-8"}};
+      {".html", "text/html; charset=utf-8"}, {".htm", "text/html; charset=utf-8"}, {".js", "text/javascript; charset=utf-8"}, {".mjs", "text/javascript; charset=utf-8"}, {".css", "text/css; charset=utf-8"}, {".json", "application/json"}, {".map", "application/json"}, {".svg", "image/svg+xml"}, {".png", "image/png"}, {".jpg", "image/jpeg"}, {".jpeg", "image/jpeg"}, {".gif", "image/gif"}, {".ico", "image/x-icon"}, {".webp", "image/webp"}, {".wasm", "application/wasm"}, {".txt", "text/plain; charset=utf-8"}, {".woff", "font/woff"}, {".woff2", "font/woff2"}, {".glb", "model/gltf-binary"}, {".gltf", "model/gltf+json"}, {".stl", "model/stl"}, {".obj", "model/obj"}, {".ply", "application/octet-stream"}, {".glsl", "text/plain; charset=utf-8"}};
   const std::string ext = fs::path(path).extension().string();
   auto it = types.find(ext);
   return it == types.end() ? "application/octet-stream" : it->second;

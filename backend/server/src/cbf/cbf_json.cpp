@@ -116,10 +116,7 @@ void apply_settings(const json& j, const std::string& field, cbf::Scenario& s) {
     require_object(*v, gf);
     // gradient and validate are not settings here: the controller needs gradients.
     check_keys(*v, gf, {"h", "k", "eps", "sigma", "weight_margin", "tol", "max_iter", "solver", "mode"});
-    json merged = {{"h", s.gap.h}, {"k", s.gap.k}, {"eps", s.gap.eps}, {"sigma", s.gap.sigma},
-                   {"weight_margin", s.gap.weight_margin}, {"tol", s.gap.tol},
-                   {"max_iter", s.gap.max_iter},
-                   {"solver", s.gap.solver == GapSolver::newton ? "newton" : "fixed_point"}};
+    json merged = {{"h", s.gap.h}, {"k", s.gap.k}, {"eps", s.gap.eps}, {"sigma", s.gap.sigma}, {"weight_margin", s.gap.weight_margin}, {"tol", s.gap.tol}, {"max_iter", s.gap.max_iter}, {"solver", s.gap.solver == GapSolver::newton ? "newton" : "fixed_point"}};
     merged.update(*v);
     if (auto m = merged.find("mode"); m != merged.end()) {
       const std::string mode = string(*m, key_path(gf, "mode"));
@@ -153,7 +150,7 @@ cbf::Scenario parse_scenario(const json& j, const std::string& field, const std:
   require_object(j, field);
   for (const auto& [key, value] : j.items()) {
     static const std::initializer_list<std::string_view> own = {"name", "comment", "robot",
-                                                               "obstacles", "target"};
+                                                                "obstacles", "target"};
     if (std::find(own.begin(), own.end(), key) == own.end() &&
         std::find(kSettings.begin(), kSettings.end(), key) == kSettings.end())
       fail(key_path(field, key), "unknown key \"" + key.substr(0, 64) + "\"");

@@ -127,8 +127,7 @@ json cbf_frames_json(const CbfRollout& r, std::size_t first, std::size_t count) 
       frames.push_back(std::move(f));
     }
   }
-  return {{"type", "cbf_frames"}, {"rollout", r.id}, {"first", first}, {"count", frames.size()},
-          {"steps_done", done}, {"steps_total", r.steps_total}, {"frames", std::move(frames)}};
+  return {{"type", "cbf_frames"}, {"rollout", r.id}, {"first", first}, {"count", frames.size()}, {"steps_done", done}, {"steps_total", r.steps_total}, {"frames", std::move(frames)}};
 }
 
 json cbf_robot_json(const cbf::Robot& robot) {
@@ -137,8 +136,7 @@ json cbf_robot_json(const cbf::Robot& robot) {
     Pose origin;
     origin.position = jt.origin_t;
     origin.rotation = Quat(jt.origin_R);
-    joints.push_back({{"name", jt.name}, {"parent", jt.parent}, {"child", jt.child}, {"q", jt.q},
-                      {"origin", pose_json(origin)}, {"axis", vec_json(jt.axis)}});
+    joints.push_back({{"name", jt.name}, {"parent", jt.parent}, {"child", jt.child}, {"q", jt.q}, {"origin", pose_json(origin)}, {"axis", vec_json(jt.axis)}});
   }
   json prims = json::array();
   for (const cbf::LinkPrimitive& p : robot.primitives())

@@ -6,12 +6,12 @@
 #include <filesystem>
 #include <mutex>
 
+#include "cbf_module.hpp"
 #include "distlab/geometry/error.hpp"
 #include "distlab/server/cbf_json.hpp"
 #include "distlab/server/cbf_rollouts.hpp"
 #include "distlab/server/json_fields.hpp"
 #include "request_params.hpp"
-#include "cbf_module.hpp"
 
 namespace distlab::server {
 
@@ -45,7 +45,7 @@ std::string duration_field(const json& body) {
 
 // The job's work: runs the rollout, keeps every step, streams batches to the session's sockets.
 json run_rollout(const std::shared_ptr<CbfRollout>& r, cbf::RolloutOptions options,
-                          const std::weak_ptr<Session>& weak, Job& job) {
+                 const std::weak_ptr<Session>& weak, Job& job) {
   using Clock = std::chrono::steady_clock;
   r->id_known.wait();
   {
@@ -91,8 +91,7 @@ json run_rollout(const std::shared_ptr<CbfRollout>& r, cbf::RolloutOptions optio
     throw;
   }
   flush(r->steps_done());
-  const json summary = {{"reached", rec.reached}, {"final_task_error", rec.final_task_error},
-                        {"infeasible_steps", rec.infeasible_steps.size()}, {"steps", rec.steps.size()}};
+  const json summary = {{"reached", rec.reached}, {"final_task_error", rec.final_task_error}, {"infeasible_steps", rec.infeasible_steps.size()}, {"steps", rec.steps.size()}};
   {
     std::lock_guard lock(r->mutex);
     r->state = rec.cancelled ? "cancelled" : "finished";
@@ -384,8 +383,9 @@ void CbfModule::register_routes() {
                    state = r->state;
                  }
                  if (!rec)
-                   throw ApiError(409, "not_finished", "the rollout is " + state + "; its record is ready when it ends "
-                                                       "(its frames so far: GET .../frames)");
+                   throw ApiError(409, "not_finished", "the rollout is " + state +
+                                                           "; its record is ready when it ends "
+                                                           "(its frames so far: GET .../frames)");
                  return json_response(200, encode_record(*rec, r->scenario_name, r->record_pairs));
                }};
   record.heavy = true;
@@ -396,7 +396,7 @@ void CbfModule::register_routes() {
 // WebSocket {"type": "cbf_replay", "rollout", "from"?}: the frames computed so far, to this socket
 // only (a late joiner; live batches keep coming to every socket of the session).
 void CbfModule::cbf_ws_message(const std::shared_ptr<Session>& session, const std::shared_ptr<WsSink>& socket,
-                             const json& msg) {
+                               const json& msg) {
   const std::string type = msg["type"].get<std::string>();
   if (type != "cbf_replay") throw InvalidInput("type", "unknown message type \"" + type.substr(0, 32) + "\"");
   json_check_keys(msg, "", {"type", "request", "rollout", "from"});

@@ -203,8 +203,8 @@ GapRequestParams parse_params(const json& j, const std::string& field) {
   }
   json_require_object(j, field);
   json_check_keys(j, field,
-             {"h", "k", "eps", "sigma", "weight_margin", "tol", "max_iter", "solver", "gradient",
-              "validate"});
+                  {"h", "k", "eps", "sigma", "weight_margin", "tol", "max_iter", "solver", "gradient",
+                   "validate"});
   GapParams& p = out.params;
   const auto get = [&](const char* key) { return json_optional(j, key); };
   const auto f = [&](const char* key) { return json_key_path(field, key); };

@@ -1,8 +1,8 @@
 // GAP endpoints: distances (the CLI's schema) and level sets of e_S / E_S.
 #include <chrono>
 
-#include "distlab/geometry/error.hpp"
 #include "distlab/gap/point_to_set.hpp"
+#include "distlab/geometry/error.hpp"
 #include "distlab/levelset/gap_fields.hpp"
 #include "distlab/server/deadline.hpp"
 #include "distlab/server/frames.hpp"
@@ -54,143 +54,148 @@ void GapModule::register_routes() {
                                       "params.max_iter");
                    }
                    const Deadline deadline(lim.max_request_seconds);
-                   return json_response(200, run_gap_request(body, [&] {
-                     deadline.check("send fewer pairs per request");
-                   }, lim.max_gap_pairs));
+                   return json_response(200, run_gap_request(
+                                                 body, [&] {
+                                                   deadline.check("send fewer pairs per request");
+                                                 },
+                                                 lim.max_gap_pairs));
                  }};
   distance.heavy = true;
   distance.bounds = {"max_body_bytes", "max_gap_pairs", "max_gap_iterations", "max_request_seconds"};
   router_.add(std::move(distance));
 
   Route levelsets{"POST", "/api/gap/levelsets", [this](Request& req) {
-    const json body = parse_body(req);
-    const Limits& lim = config_.limits;
-    only_keys(body, "", {"shape", "params", "levels", "grid", "plane", "format", "comment"});
-    if (!body.contains("shape")) throw InvalidInput("shape", "shape is required");
-    const ShapeSpec spec = parse_shape(body["shape"], "shape");
-    const GapRequestParams gp = parse_params(body.contains("params") ? body["params"] : json(nullptr), "params");
-    levelset::GapLevelsetOptions o;
-    if (body.contains("levels")) {
-      only_keys(body["levels"], "levels", {"weak", "strict"});
-      if (body["levels"].contains("weak")) o.weak_levels = levels(body["levels"]["weak"], "levels.weak", lim.max_levels);
-      if (body["levels"].contains("strict"))
-        o.strict_levels = levels(body["levels"]["strict"], "levels.strict", lim.max_levels);
-    }
-    if (body.contains("grid")) {
-      const json& g = body["grid"];
-      only_keys(g, "grid", {"resolution", "padding", "bounds"});
-      if (g.contains("resolution")) o.resolution = json_integer(g["resolution"], "grid.resolution", 4, lim.max_grid_resolution);
-      if (g.contains("padding")) o.padding = json_number(g["padding"], "grid.padding", kMaxGridPadding);
-      if (g.contains("bounds")) {
-        only_keys(g["bounds"], "grid.bounds", {"min", "max"});
-        if (!g["bounds"].contains("min") || !g["bounds"].contains("max"))
-          throw InvalidInput("grid.bounds", "grid.bounds needs min and max");
-        o.bounds = std::make_pair(json_vec3(g["bounds"]["min"], "grid.bounds.min", kMaxCoordinate), json_vec3(g["bounds"]["max"], "grid.bounds.max", kMaxCoordinate));
-      }
-    }
-    json plane_meta;
-    if (body.contains("plane")) {
-      const json& p = body["plane"];
-      only_keys(p, "plane", {"center", "normal", "size", "resolution"});
-      const Vec3 c = p.contains("center") ? json_vec3(p["center"], "plane.center", kMaxCoordinate) : spec.pose.position;
-      const Vec3 n = p.contains("normal") ? json_vec3(p["normal"], "plane.normal", kMaxCoordinate) : Vec3::UnitZ();
-      double su = 2, sv = 2;
-      if (p.contains("size")) {
-        if (!p["size"].is_array() || p["size"].size() != 2) throw InvalidInput("plane.size", "plane.size must be [width, height]");
-        su = json_number(p["size"][0], "plane.size[0]");
-        sv = json_number(p["size"][1], "plane.size[1]");
-        if (!(su > 0 && sv > 0 && su < kMaxCoordinate && sv < kMaxCoordinate)) throw InvalidInput("plane.size", "plane.size must be two numbers in (0, " + json(kMaxCoordinate).dump() + ")");
-      }
-      int nu = 128, nv = 128;
-      if (p.contains("resolution")) {
-        if (!p["resolution"].is_array() || p["resolution"].size() != 2)
-          throw InvalidInput("plane.resolution", "plane.resolution must be [nu, nv]");
-        nu = json_integer(p["resolution"][0], "plane.resolution[0]", 2, lim.max_plane_resolution);
-        nv = json_integer(p["resolution"][1], "plane.resolution[1]", 2, lim.max_plane_resolution);
-      }
-      o.plane = levelset::plane_from_normal(c, n, su, sv, nu, nv);
-      plane_meta = {{"center", {c.x(), c.y(), c.z()}},
-                    {"u", {o.plane->u.x(), o.plane->u.y(), o.plane->u.z()}},
-                    {"v", {o.plane->v.x(), o.plane->v.y(), o.plane->v.z()}},
-                    {"size", {su, sv}},
-                    {"resolution", {nu, nv}}};
-    }
-    std::string format = "msgpack";
-    if (body.contains("format")) {
-      if (!body["format"].is_string() || (body["format"] != "msgpack" && body["format"] != "json"))
-        throw InvalidInput("format", "format must be \"msgpack\" or \"json\"");
-      format = body["format"];
-    }
-    P2SOptions p2s_options = spec.options;
-    p2s_options.weight_margin = gp.params.weight_margin;
-    PointToSet p2s(spec.shape, BaseFunction(gp.params.h, gp.params.k), StrictParams{gp.params.eps, gp.params.sigma},
-                   p2s_options, "shape");
-    p2s.set_pose(spec.pose);
+                    const json body = parse_body(req);
+                    const Limits& lim = config_.limits;
+                    only_keys(body, "", {"shape", "params", "levels", "grid", "plane", "format", "comment"});
+                    if (!body.contains("shape")) throw InvalidInput("shape", "shape is required");
+                    const ShapeSpec spec = parse_shape(body["shape"], "shape");
+                    const GapRequestParams gp = parse_params(body.contains("params") ? body["params"] : json(nullptr), "params");
+                    levelset::GapLevelsetOptions o;
+                    if (body.contains("levels")) {
+                      only_keys(body["levels"], "levels", {"weak", "strict"});
+                      if (body["levels"].contains("weak")) o.weak_levels = levels(body["levels"]["weak"], "levels.weak", lim.max_levels);
+                      if (body["levels"].contains("strict"))
+                        o.strict_levels = levels(body["levels"]["strict"], "levels.strict", lim.max_levels);
+                    }
+                    if (body.contains("grid")) {
+                      const json& g = body["grid"];
+                      only_keys(g, "grid", {"resolution", "padding", "bounds"});
+                      if (g.contains("resolution")) o.resolution = json_integer(g["resolution"], "grid.resolution", 4, lim.max_grid_resolution);
+                      if (g.contains("padding")) o.padding = json_number(g["padding"], "grid.padding", kMaxGridPadding);
+                      if (g.contains("bounds")) {
+                        only_keys(g["bounds"], "grid.bounds", {"min", "max"});
+                        if (!g["bounds"].contains("min") || !g["bounds"].contains("max"))
+                          throw InvalidInput("grid.bounds", "grid.bounds needs min and max");
+                        o.bounds = std::make_pair(json_vec3(g["bounds"]["min"], "grid.bounds.min", kMaxCoordinate), json_vec3(g["bounds"]["max"], "grid.bounds.max", kMaxCoordinate));
+                      }
+                    }
+                    json plane_meta;
+                    if (body.contains("plane")) {
+                      const json& p = body["plane"];
+                      only_keys(p, "plane", {"center", "normal", "size", "resolution"});
+                      const Vec3 c = p.contains("center") ? json_vec3(p["center"], "plane.center", kMaxCoordinate) : spec.pose.position;
+                      const Vec3 n = p.contains("normal") ? json_vec3(p["normal"], "plane.normal", kMaxCoordinate) : Vec3::UnitZ();
+                      double su = 2, sv = 2;
+                      if (p.contains("size")) {
+                        if (!p["size"].is_array() || p["size"].size() != 2) throw InvalidInput("plane.size", "plane.size must be [width, height]");
+                        su = json_number(p["size"][0], "plane.size[0]");
+                        sv = json_number(p["size"][1], "plane.size[1]");
+                        if (!(su > 0 && sv > 0 && su < kMaxCoordinate && sv < kMaxCoordinate)) throw InvalidInput("plane.size", "plane.size must be two numbers in (0, " + json(kMaxCoordinate).dump() + ")");
+                      }
+                      int nu = 128, nv = 128;
+                      if (p.contains("resolution")) {
+                        if (!p["resolution"].is_array() || p["resolution"].size() != 2)
+                          throw InvalidInput("plane.resolution", "plane.resolution must be [nu, nv]");
+                        nu = json_integer(p["resolution"][0], "plane.resolution[0]", 2, lim.max_plane_resolution);
+                        nv = json_integer(p["resolution"][1], "plane.resolution[1]", 2, lim.max_plane_resolution);
+                      }
+                      o.plane = levelset::plane_from_normal(c, n, su, sv, nu, nv);
+                      plane_meta = {{"center", {c.x(), c.y(), c.z()}},
+                                    {"u", {o.plane->u.x(), o.plane->u.y(), o.plane->u.z()}},
+                                    {"v", {o.plane->v.x(), o.plane->v.y(), o.plane->v.z()}},
+                                    {"size", {su, sv}},
+                                    {"resolution", {nu, nv}}};
+                    }
+                    std::string format = "msgpack";
+                    if (body.contains("format")) {
+                      if (!body["format"].is_string() || (body["format"] != "msgpack" && body["format"] != "json"))
+                        throw InvalidInput("format", "format must be \"msgpack\" or \"json\"");
+                      format = body["format"];
+                    }
+                    P2SOptions p2s_options = spec.options;
+                    p2s_options.weight_margin = gp.params.weight_margin;
+                    PointToSet p2s(spec.shape, BaseFunction(gp.params.h, gp.params.k), StrictParams{gp.params.eps, gp.params.sigma},
+                                   p2s_options, "shape");
+                    p2s.set_pose(spec.pose);
 
-    // Time per request: the sampling stops (408) once the deadline passes.
-    std::atomic<bool> late{false};
-    const auto deadline = std::chrono::steady_clock::now() +
-                          std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                              std::chrono::duration<double>(lim.max_request_seconds));
-    std::atomic<bool> stop_timer{false};
-    std::thread timer([&] {
-      while (!stop_timer.load()) {
-        if (std::chrono::steady_clock::now() > deadline) {
-          late = true;
-          return;
-        }
-        std::this_thread::sleep_for(std::chrono::milliseconds(20));
-      }
-    });
-    levelset::GapLevelsets result;
-    try {
-      result = levelset::gap_levelsets(p2s, o, &late);
-    } catch (...) {
-      stop_timer = true;
-      timer.join();
-      if (late) throw ApiError(408, "time_limit", "the request exceeded the time limit; use a coarser grid");
-      throw;
-    }
-    stop_timer = true;
-    timer.join();
+                    // Time per request: the sampling stops (408) once the deadline passes.
+                    std::atomic<bool> late{false};
+                    const auto deadline = std::chrono::steady_clock::now() +
+                                          std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                              std::chrono::duration<double>(lim.max_request_seconds));
+                    std::atomic<bool> stop_timer{false};
+                    std::thread timer([&] {
+                      while (!stop_timer.load()) {
+                        if (std::chrono::steady_clock::now() > deadline) {
+                          late = true;
+                          return;
+                        }
+                        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+                      }
+                    });
+                    levelset::GapLevelsets result;
+                    try {
+                      result = levelset::gap_levelsets(p2s, o, &late);
+                    } catch (...) {
+                      stop_timer = true;
+                      timer.join();
+                      if (late) throw ApiError(408, "time_limit", "the request exceeded the time limit; use a coarser grid");
+                      throw;
+                    }
+                    stop_timer = true;
+                    timer.join();
 
-    json out = {{"type", "gap_levelsets"},
-                {"bounds", {{"min", {result.lo.x(), result.lo.y(), result.lo.z()}},
-                            {"max", {result.hi.x(), result.hi.y(), result.hi.z()}}}},
-                {"grid", {result.n[0], result.n[1], result.n[2]}}};
-    json surfaces = json::array();
-    for (const auto& s : result.surfaces) {
-      json meta = {{"field", s.strict ? "strict" : "weak"}, {"level", s.level}};
-      if (format == "json") {
-        meta["n_vertices"] = s.mesh.vertices.rows();
-        meta["n_faces"] = s.mesh.faces.rows();
-        surfaces.push_back(meta);
-      } else {
-        surfaces.push_back(mesh_frame(s.mesh, meta));
-      }
-    }
-    out["surfaces"] = surfaces;
-    if (o.plane) {
-      if (format == "msgpack") {
-        plane_meta["weak"] = json::binary(float32_bytes(result.plane_weak));
-        plane_meta["strict"] = json::binary(float32_bytes(result.plane_strict));
-      } else {
-        auto range = [](const std::vector<double>& v) {
-          double lo = INFINITY, hi = -INFINITY;
-          for (double x : v) if (std::isfinite(x)) { lo = std::min(lo, x); hi = std::max(hi, x); }
-          return json{lo, hi};
-        };
-        plane_meta["weak_range"] = range(result.plane_weak);
-        plane_meta["strict_range"] = range(result.plane_strict);
-      }
-      out["plane"] = plane_meta;
-    }
-    if (format == "json") return json_response(200, out);
-    Response r;
-    r.content_type = "application/msgpack";
-    r.body = to_msgpack(out);
-    return r;
-  }};
+                    json out = {{"type", "gap_levelsets"},
+                                {"bounds", {{"min", {result.lo.x(), result.lo.y(), result.lo.z()}}, {"max", {result.hi.x(), result.hi.y(), result.hi.z()}}}},
+                                {"grid", {result.n[0], result.n[1], result.n[2]}}};
+                    json surfaces = json::array();
+                    for (const auto& s : result.surfaces) {
+                      json meta = {{"field", s.strict ? "strict" : "weak"}, {"level", s.level}};
+                      if (format == "json") {
+                        meta["n_vertices"] = s.mesh.vertices.rows();
+                        meta["n_faces"] = s.mesh.faces.rows();
+                        surfaces.push_back(meta);
+                      } else {
+                        surfaces.push_back(mesh_frame(s.mesh, meta));
+                      }
+                    }
+                    out["surfaces"] = surfaces;
+                    if (o.plane) {
+                      if (format == "msgpack") {
+                        plane_meta["weak"] = json::binary(float32_bytes(result.plane_weak));
+                        plane_meta["strict"] = json::binary(float32_bytes(result.plane_strict));
+                      } else {
+                        auto range = [](const std::vector<double>& v) {
+                          double lo = INFINITY, hi = -INFINITY;
+                          for (double x : v)
+                            if (std::isfinite(x)) {
+                              lo = std::min(lo, x);
+                              hi = std::max(hi, x);
+                            }
+                          return json{lo, hi};
+                        };
+                        plane_meta["weak_range"] = range(result.plane_weak);
+                        plane_meta["strict_range"] = range(result.plane_strict);
+                      }
+                      out["plane"] = plane_meta;
+                    }
+                    if (format == "json") return json_response(200, out);
+                    Response r;
+                    r.content_type = "application/msgpack";
+                    r.body = to_msgpack(out);
+                    return r;
+                  }};
   levelsets.heavy = true;
   levelsets.bounds = {"max_body_bytes", "max_levels", "max_grid_resolution", "max_plane_resolution", "max_request_seconds"};
   router_.add(std::move(levelsets));

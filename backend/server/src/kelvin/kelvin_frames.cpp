@@ -1,7 +1,7 @@
 // The Service's streaming of a Kelvin object's msgpack frames to its session's sockets: one
 // computation at a time per object, restarted while σ or the levels change (frames.hpp).
-#include <cstdio>
 #include <chrono>
+#include <cstdio>
 
 #include "distlab/geometry/error.hpp"
 #include "distlab/server/frames.hpp"
@@ -29,12 +29,10 @@ void KelvinModule::schedule_frames(const std::shared_ptr<Session>& session, cons
         try {
           send_frames(s, object);
         } catch (const InvalidInput& e) {
-          s->broadcast(json{{"type", "error"}, {"status", 400},
-                            {"error", {{"code", "invalid_input"}, {"message", e.what()}, {"field", e.field()}}}}.dump(), false);
+          s->broadcast(json{{"type", "error"}, {"status", 400}, {"error", {{"code", "invalid_input"}, {"message", e.what()}, {"field", e.field()}}}}.dump(), false);
         } catch (const std::exception& e) {
           std::fprintf(stderr, "distlab serve: frames failed: %s\n", e.what());  // may name server files
-          s->broadcast(json{{"type", "error"}, {"status", 500},
-                            {"error", {{"code", "frame_failed"}, {"message", "internal error (logged on the server)"}, {"field", ""}}}}.dump(), false);
+          s->broadcast(json{{"type", "error"}, {"status", 500}, {"error", {{"code", "frame_failed"}, {"message", "internal error (logged on the server)"}, {"field", ""}}}}.dump(), false);
         }
       }
       std::lock_guard lock(object->mutex);
@@ -51,7 +49,7 @@ void KelvinModule::schedule_frames(const std::shared_ptr<Session>& session, cons
 }
 
 void KelvinModule::send_frames(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,
-                          WsSink* only) {
+                               WsSink* only) {
   using Ms = std::chrono::duration<double, std::milli>;
   std::shared_ptr<PreparedField> prepared;
   kelvin::SigmaSpec sigma, solved;  // per user vertex (values out), per welded vertex (field)
@@ -114,8 +112,7 @@ void KelvinModule::send_frames(const std::shared_ptr<Session>& session, const st
       return out;
     });
     const auto t2 = std::chrono::steady_clock::now();
-    json frame = mesh_frame(iso, {{"type", "isosurface"}, {"object", object->id}, {"level", levels[i]}, {"index", i},
-                                  {"count", levels.size()}, {"sigma_version", version}, {"digest", mesh_digest(iso)}});
+    json frame = mesh_frame(iso, {{"type", "isosurface"}, {"object", object->id}, {"level", levels[i]}, {"index", i}, {"count", levels.size()}, {"sigma_version", version}, {"digest", mesh_digest(iso)}});
     // A level the field never takes: no geometry, and the smallest h it does take.
     if (iso.faces.rows() == 0) frame["empty"] = true, frame["h_min"] = minimum;
     frame["server_ms"] = {{"solve", Ms(t1 - t0).count()}, {"isosurface", Ms(t2 - t1).count()}};

@@ -1,6 +1,6 @@
 // Kelvin requests as JSON: parse with field paths, prepare/solve/query, encode.
-#include "distlab/server/json_fields.hpp"
 #include "distlab/server/kelvin_json.hpp"
+#include "distlab/server/json_fields.hpp"
 
 #include <cmath>
 #include <cstdlib>
@@ -102,8 +102,7 @@ std::string asset_path(const std::string& name) {
 }
 
 json run_kelvin_request(const json& r, const kelvin::Progress& progress) {
-  object_with(r, "", {"mesh", "lx", "center", "far_radius", "feature_angle", "max_vertices", "cache", "sigma", "query",
-                      "isosurfaces", "repair", "repair_options", "comment"});
+  object_with(r, "", {"mesh", "lx", "center", "far_radius", "feature_angle", "max_vertices", "cache", "sigma", "query", "isosurfaces", "repair", "repair_options", "comment"});
   const RepairRequest repair = parse_repair(r, Limits{});
   if (!r.contains("mesh")) throw InvalidInput("mesh", "mesh is required");
   const json& m = r["mesh"];
@@ -169,15 +168,12 @@ json run_kelvin_request(const json& r, const kelvin::Progress& progress) {
 
   json out;
   const kelvin::Stats& st = field.stats();
-  out["stats"] = {{"n_verts", st.n_verts}, {"n_tets", st.n_tets},   {"size_mb", st.size_mb},
-                  {"t_mesh", st.t_mesh},   {"t_build", st.t_build}, {"t_decomp", st.t_decomp},
-                  {"t_solve", st.t_solve}, {"cache_hit", hit}};
+  out["stats"] = {{"n_verts", st.n_verts}, {"n_tets", st.n_tets}, {"size_mb", st.size_mb}, {"t_mesh", st.t_mesh}, {"t_build", st.t_build}, {"t_decomp", st.t_decomp}, {"t_solve", st.t_solve}, {"cache_hit", hit}};
   // On a cache hit t_mesh and t_decomp are the original preparation's; t_load is this load.
   if (hit) out["stats"]["t_load"] = st.t_load;
   // Fallbacks taken while preparing (e.g. edge protection skipped on thin features).
   if (!st.warnings.empty()) out["warnings"] = st.warnings;
-  out["mesh"] = {{"n_vertices", surface.vertices.rows()}, {"n_faces", surface.faces.rows()},
-                 {"n_welded_vertices", welded.surface.vertices.rows()}};
+  out["mesh"] = {{"n_vertices", surface.vertices.rows()}, {"n_faces", surface.faces.rows()}, {"n_welded_vertices", welded.surface.vertices.rows()}};
   if (!repair_report.is_null()) out["repair"] = repair_report;
   json h = json::array(), grad = json::array(), inside = json::array();
   int hint = -1;
@@ -200,8 +196,7 @@ json run_kelvin_request(const json& r, const kelvin::Progress& progress) {
                            "the field never takes h = " + json(levels[i]).dump() + ": its smallest value is h = " +
                                json(field.minimum()).dump() + ", and {h = level} is empty below it");
       mesh::save_mesh(iso, file.string(), iso_format, "isosurfaces.format");
-      files.push_back({{"level", levels[i]}, {"path", file.string()}, {"n_verts", iso.vertices.rows()},
-                       {"n_faces", iso.faces.rows()}, {"digest", mesh_digest(iso)}});
+      files.push_back({{"level", levels[i]}, {"path", file.string()}, {"n_verts", iso.vertices.rows()}, {"n_faces", iso.faces.rows()}, {"digest", mesh_digest(iso)}});
     }
     out["isosurfaces"] = files;
   }

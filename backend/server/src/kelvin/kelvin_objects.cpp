@@ -5,9 +5,9 @@
 #include <cstdio>
 #include <limits>
 
+#include "distlab/geometry/error.hpp"
 #include "distlab/kelvin/digest.hpp"
 #include "distlab/kelvin/progress.hpp"
-#include "distlab/geometry/error.hpp"
 #include "distlab/kelvin/sigma.hpp"
 #include "distlab/server/json_fields.hpp"
 
@@ -123,17 +123,12 @@ std::size_t PreparedRegistry::size() const {
 
 json KelvinObject::status_json() {
   std::lock_guard lock(mutex);
-  json j = {{"id", id}, {"state", state}, {"job", job}, {"source", source},
-            {"n_input_vertices", surface.vertices.rows()}, {"n_input_faces", surface.faces.rows()},
-            {"n_welded_vertices", welded.vertices.rows()}, {"repair", repair},
-            {"sigma_version", sigma_version}, {"levels", levels}, {"key", key}};
+  json j = {{"id", id}, {"state", state}, {"job", job}, {"source", source}, {"n_input_vertices", surface.vertices.rows()}, {"n_input_faces", surface.faces.rows()}, {"n_welded_vertices", welded.vertices.rows()}, {"repair", repair}, {"sigma_version", sigma_version}, {"levels", levels}, {"key", key}};
   if (!error.is_null()) j["error"] = error;
   if (!repair_report.is_null()) j["repair_report"] = repair_report;
   if (prepared) {
     const kelvin::Stats& st = prepared->field.stats();
-    j["stats"] = {{"n_verts", st.n_verts}, {"n_tets", st.n_tets}, {"size_mb", st.size_mb},
-                  {"t_mesh", st.t_mesh},   {"t_build", st.t_build}, {"t_decomp", st.t_decomp},
-                  {"t_solve", st.t_solve}, {"cache_hit", prepared->cache_hit}, {"shared", shared}};
+    j["stats"] = {{"n_verts", st.n_verts}, {"n_tets", st.n_tets}, {"size_mb", st.size_mb}, {"t_mesh", st.t_mesh}, {"t_build", st.t_build}, {"t_decomp", st.t_decomp}, {"t_solve", st.t_solve}, {"cache_hit", prepared->cache_hit}, {"shared", shared}};
     const Vec3 c = prepared->field.centre();
     j["center"] = {c.x(), c.y(), c.z()};
   }
@@ -224,14 +219,12 @@ std::pair<mesh::RepairResult, json> run_repair_request(const mesh::SurfaceMesh& 
     w.alpha = request.options.value("alpha", 0.0);
     w.offset = request.options.value("offset", 0.0);
     r = mesh::wrap(user, w, max_faces, "repair_options", progress);
-    report = {{"kind", "wrap"}, {"alpha", r.alpha}, {"offset", r.offset},
-              {"hausdorff", {{"input_to_wrap", r.input_to_result}, {"wrap_to_input", r.result_to_input}}}};
+    report = {{"kind", "wrap"}, {"alpha", r.alpha}, {"offset", r.offset}, {"hausdorff", {{"input_to_wrap", r.input_to_result}, {"wrap_to_input", r.result_to_input}}}};
   }
   report["n_vertices"] = r.surface.vertices.rows();
   report["n_faces"] = r.surface.faces.rows();
   return {std::move(r), std::move(report)};
 }
-
 
 double estimate_vertices(const mesh::SurfaceMesh& surface, double lx, double far_radius) {
   if (surface.vertices.rows() == 0 || !(lx > 0)) return 0;

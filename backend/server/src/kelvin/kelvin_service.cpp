@@ -11,12 +11,12 @@
 #include "distlab/mesh/checks.hpp"
 #include "distlab/mesh/repair.hpp"
 #include "distlab/mesh/weld.hpp"
-#include "distlab/server/json_fields.hpp"
 #include "distlab/server/gap_json.hpp"
+#include "distlab/server/json_fields.hpp"
 #include "distlab/server/kelvin_json.hpp"
 #include "kelvin_inputs.hpp"
-#include "request_params.hpp"
 #include "kelvin_module.hpp"
+#include "request_params.hpp"
 
 namespace distlab::server {
 
@@ -128,8 +128,7 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
   }
   source["lx"] = options.lx;
   if (options.lx < lim.min_lx)
-    throw ApiError(422, "over_budget", lx_field + " gives lx " + json(options.lx).dump() + " m, but lx must be at least " +
-                                          json(lim.min_lx).dump() + " m on this server", lx_field);
+    throw ApiError(422, "over_budget", lx_field + " gives lx " + json(options.lx).dump() + " m, but lx must be at least " + json(lim.min_lx).dump() + " m on this server", lx_field);
   const auto budget = static_cast<double>(lim.max_vertex_estimate);
   const double estimate = estimate_vertices(welded.surface, options.lx, options.far_radius);
   if (estimate_only) {
@@ -143,7 +142,7 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
     const bool far = estimate_vertices(welded.surface, options.lx) <= budget;
     const double fits = std::max(lim.min_lx, smallest_lx_within(welded.surface, budget, options.far_radius));
     const std::string advice =
-        far ? "; use a smaller far_radius"
+        far                ? "; use a smaller far_radius"
         : fits <= diagonal ? "; lx " + json(fits).dump() + " m or larger fits (lx_fraction " + json(fits / diagonal).dump() + ")"
                            : "; no lx up to the bounding box's diagonal (" + json(diagonal).dump() + " m) fits: the surface has too many vertices";
     throw ApiError(422, "over_budget",
@@ -162,7 +161,8 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
     for (std::size_t i = 0; i < welded.to_welded.size(); ++i)
       if (const int w = welded.to_welded[i]; w >= 0 && names[static_cast<std::size_t>(w)] < 0) names[static_cast<std::size_t>(w)] = static_cast<int>(i);
     if (const std::string defect = mesh::topology_defect(welded.surface, names); !defect.empty())
-      throw InvalidInput(body.contains("upload") ? "upload" : body.contains("asset") ? "asset" : "mesh",
+      throw InvalidInput(body.contains("upload") ? "upload" : body.contains("asset") ? "asset"
+                                                                                     : "mesh",
                          "the mesh is not a closed manifold surface: " + defect +
                              " (vertex and face numbers are the file's); \"repair\": \"fix\" or \"wrap\" can make it one");
     kelvin::check_prepare_inputs(welded.surface, options);
@@ -299,7 +299,7 @@ void KelvinModule::record_prepare_time(const json& stats) {
 }
 
 void KelvinModule::set_sigma(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,
-                        const json& sigma_json, WsSink* origin, const json& request) {
+                             const json& sigma_json, WsSink* origin, const json& request) {
   kelvin::SigmaSpec spec = parse_sigma(sigma_json);
   // surface, welded and to_welded are set at creation and never change: no lock needed.
   kelvin::SigmaSpec solved = field_sigma(spec, object->surface, object->to_welded, object->welded.vertices.rows());
@@ -328,7 +328,7 @@ void KelvinModule::set_sigma(const std::shared_ptr<Session>& session, const std:
 }
 
 void KelvinModule::set_levels(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,
-                         const json& levels) {
+                              const json& levels) {
   std::vector<double> parsed = parse_levels(levels, "levels", config_.limits.max_levels);
   {
     std::lock_guard lock(object->mutex);

@@ -7,13 +7,13 @@
 #include "distlab/geometry/error.hpp"
 #include "distlab/mesh/repair.hpp"
 #include "distlab/mesh/weld.hpp"
-#include "distlab/server/json_fields.hpp"
 #include "distlab/server/deadline.hpp"
 #include "distlab/server/frames.hpp"
 #include "distlab/server/gap_json.hpp"
+#include "distlab/server/json_fields.hpp"
 #include "kelvin_inputs.hpp"
-#include "request_params.hpp"
 #include "kelvin_module.hpp"
+#include "request_params.hpp"
 
 namespace distlab::server {
 
@@ -82,8 +82,7 @@ void KelvinModule::register_routes() {
                    std::lock_guard lock(session->mutex);
                    session->uploads.emplace(id, up);
                  }
-                 json answer = {{"upload", id}, {"n_vertices", up->surface.vertices.rows()},
-                                {"n_faces", up->surface.faces.rows()}, {"scale", scale}};
+                 json answer = {{"upload", id}, {"n_vertices", up->surface.vertices.rows()}, {"n_faces", up->surface.faces.rows()}, {"scale", scale}};
                  if (!unit.empty()) answer["unit"] = unit;
                  answer.update(size_report(mesh::weld(up->surface).surface, lim));
                  return json_response(201, answer);
@@ -247,9 +246,7 @@ void KelvinModule::register_routes() {
               const mesh::SurfaceMesh m = isosurface(*prepared, sigma, key, level);
               Response r;
               r.content_type = "application/msgpack";
-              r.body = to_msgpack(mesh_frame(m, {{"type", "isosurface"}, {"object", object->id}, {"level", level},
-                                                 {"index", 0}, {"count", 1}, {"sigma_version", version},
-                                                 {"digest", mesh_digest(m)}}));
+              r.body = to_msgpack(mesh_frame(m, {{"type", "isosurface"}, {"object", object->id}, {"level", level}, {"index", 0}, {"count", 1}, {"sigma_version", version}, {"digest", mesh_digest(m)}}));
               return r;
             }};
   iso.heavy = true;

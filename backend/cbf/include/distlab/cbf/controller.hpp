@@ -27,15 +27,15 @@ struct PairSample {
   Vec3 witness_a = Vec3::Zero();
   Vec3 witness_b = Vec3::Zero();
   bool overlap = false;
-  int iterations = 0;    // GAP solver iterations (0 for Euclidean)
+  int iterations = 0;  // GAP solver iterations (0 for Euclidean)
   bool converged = true;
-  bool cold = false;     // GAP: solved from the Euclidean witnesses instead of warm-started
+  bool cold = false;  // GAP: solved from the Euclidean witnesses instead of warm-started
   // gap.mode as_published: the converged D of the same P2S functions (Newton), beside the
   // early-stopped `distance` the controller used; NaN in the other modes.
   double converged_distance = std::numeric_limits<double>::quiet_NaN();
 };
 
-struct StepTiming {  // microseconds, steady_clock
+struct StepTiming {       // microseconds, steady_clock
   double kinematics = 0;  // FK, Jacobians, task function
   double distance = 0;    // poses, every pair's distance and gradient, chain rule to ∇_q D
   double qp = 0;          // assembling and solving the QP (and the relaxed one if needed)
@@ -50,14 +50,14 @@ struct StepOutput {
   std::vector<PairSample> pairs;
   double min_clearance = 0;  // min over pairs of the true Euclidean clearance
   QpStatus status = QpStatus::optimal;
-  bool relaxed = false;   // the QP was infeasible; u solves the slack relaxation
-  bool held = false;      // even the relaxation failed; u = 0
+  bool relaxed = false;  // the QP was infeasible; u solves the slack relaxation
+  bool held = false;     // even the relaxation failed; u = 0
   double slack = 0;
   int active_rows = 0;
-  std::vector<int> active;        // active QP rows: pair p is row p, then u_i ≥ … (lower joint
-                                  // limit of joint i) at pairs + i, upper at pairs + dof + i
-  std::vector<double> multiplier; // the active rows' multipliers, same order
-  bool clipped = false;           // u was clipped to the scenario's velocity limits
+  std::vector<int> active;         // active QP rows: pair p is row p, then u_i ≥ … (lower joint
+                                   // limit of joint i) at pairs + i, upper at pairs + dof + i
+  std::vector<double> multiplier;  // the active rows' multipliers, same order
+  bool clipped = false;            // u was clipped to the scenario's velocity limits
   StepTiming timing;
 };
 

@@ -14,8 +14,8 @@ namespace distlab::cbf {
 
 struct FeasibilityOptions {
   double q7_step = 1.0 * 3.14159265358979323846 / 180;  // grid step in q7 (rad)
-  int seeds = 8;             // IK starts per grid point (q0, the previous solution, fixed spread)
-  double pose_tol = 1e-10;   // ‖pose error‖ (m and rad) for a configuration to count as reaching
+  int seeds = 8;                                        // IK starts per grid point (q0, the previous solution, fixed spread)
+  double pose_tol = 1e-10;                              // ‖pose error‖ (m and rad) for a configuration to count as reaching
 };
 
 struct Feasibility {
@@ -26,7 +26,7 @@ struct Feasibility {
   double self_clearance = 0;  // its minimum self-collision clearance (self pairs of the scenario)
   double gap_distance = 0;    // minimum GAP D (gap.mode exact) over robot–obstacle pairs there
   std::string gap_limiting_pair;
-  int configurations = 0;     // IK solutions examined
+  int configurations = 0;  // IK solutions examined
   // The margins to compare with (the scenario's δ_obs per metric).
   bool euclidean_feasible = false;  // clearance ≥ δ_obs (Euclidean)
   bool gap_feasible = false;        // gap_distance ≥ δ_obs (GAP)

@@ -12,14 +12,16 @@
 
 namespace distlab::cbf {
 
-enum class QpStatus { optimal, infeasible, iteration_limit };
+enum class QpStatus { optimal,
+                      infeasible,
+                      iteration_limit };
 
 struct QpResult {
   QpStatus status = QpStatus::optimal;
   Eigen::VectorXd x;       // the solution (the last iterate if not optimal)
   Eigen::VectorXd lambda;  // multipliers, one per row of C (0 for inactive rows)
   std::vector<int> active;
-  int iterations = 0;      // constraints added or dropped
+  int iterations = 0;  // constraints added or dropped
   double objective = 0;
 };
 
@@ -35,9 +37,9 @@ class QpSolver {
                  const Eigen::VectorXd& d, const QpOptions& options = {});
 
  private:
-  void add_column(int q);            // apply Givens to dvec_ tail, J_ columns; append R column
-  void drop_column(int k, int q);    // remove active column k, restore R triangular
-  Eigen::MatrixXd J_, R_;            // workspace, reused between solves
+  void add_column(int q);          // apply Givens to dvec_ tail, J_ columns; append R column
+  void drop_column(int k, int q);  // remove active column k, restore R triangular
+  Eigen::MatrixXd J_, R_;          // workspace, reused between solves
   Eigen::VectorXd dvec_;
 };
 

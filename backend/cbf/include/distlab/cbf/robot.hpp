@@ -17,8 +17,8 @@
 
 namespace distlab::cbf {
 
-using VecQ = Eigen::VectorXd;                // one entry per revolute joint, in file order
-using Jac = Eigen::Matrix<double, 6, Eigen::Dynamic>;  // rows: linear velocity, angular velocity
+using VecQ = Eigen::VectorXd;                                         // one entry per revolute joint, in file order
+using Jac = Eigen::Matrix<double, 6, Eigen::Dynamic>;                 // rows: linear velocity, angular velocity
 using GradQ = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic>;  // rows: ∇_q of each pair
 
 // A convex primitive fixed to link `link` (index into Robot::links()) at `pose` in that frame.
@@ -44,10 +44,10 @@ struct RobotJoint {
 // World frames of every link, the world axis and origin of every revolute joint, and the end
 // effector.
 struct Kinematics {
-  std::vector<Pose> frames;   // per link
-  std::vector<Mat3> R;        // rotation matrices of `frames`
-  std::vector<Vec3> axis;     // per revolute joint (VecQ order), world
-  std::vector<Vec3> origin;   // per revolute joint, world
+  std::vector<Pose> frames;  // per link
+  std::vector<Mat3> R;       // rotation matrices of `frames`
+  std::vector<Vec3> axis;    // per revolute joint (VecQ order), world
+  std::vector<Vec3> origin;  // per revolute joint, world
   Pose ee;
   Mat3 ee_R = Mat3::Identity();
   std::vector<Mat3> local_R;  // scratch of forward(): per joint, its transform from the base used
@@ -89,9 +89,9 @@ class Robot {
  private:
   std::string name_;
   std::vector<std::string> links_;
-  std::vector<RobotJoint> joints_;       // evaluation order: a parent link before its children
-  std::vector<int> parent_joint_;        // per link, index into joints_ (−1 for the base)
-  std::vector<int> q_joint_;             // per VecQ entry, index into joints_
+  std::vector<RobotJoint> joints_;          // evaluation order: a parent link before its children
+  std::vector<int> parent_joint_;           // per link, index into joints_ (−1 for the base)
+  std::vector<int> q_joint_;                // per VecQ entry, index into joints_
   std::vector<std::vector<int>> moved_by_;  // per link, the VecQ indices of its revolute ancestors
   VecQ q_min_, q_max_, velocity_max_;
   int ee_link_ = -1;

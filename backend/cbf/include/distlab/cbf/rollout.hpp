@@ -19,29 +19,29 @@ struct StepRecord {
   bool relaxed = false;      // infeasible QP, relaxed with a slack
   bool held = false;         // relaxation failed too, u = 0
   double slack = 0;
-  bool clipped = false;      // u clipped to the velocity limits
-  std::vector<int> active;   // active QP rows (StepOutput::active)
+  bool clipped = false;     // u clipped to the velocity limits
+  std::vector<int> active;  // active QP rows (StepOutput::active)
   StepTiming timing;
   std::vector<PairSample> pairs;  // empty unless RolloutOptions::record_pairs
 };
 
 // One constraint active at the final state: why the arm stops where it does.
 struct ActiveConstraint {
-  std::string name;        // pair name ("link5_cylinder/wall1") or "q5 >= q_min" / "q5 <= q_max"
-  bool pair = true;        // a distance row (else a joint limit)
-  double distance = 0;     // the controller's D (pairs) or the joint's distance to its limit
-  double margin = 0;       // δ of the row (pairs), 0 for joint limits
-  double clearance = 0;    // true Euclidean clearance of the pair (NaN for joint limits)
+  std::string name;                                                      // pair name ("link5_cylinder/wall1") or "q5 >= q_min" / "q5 <= q_max"
+  bool pair = true;                                                      // a distance row (else a joint limit)
+  double distance = 0;                                                   // the controller's D (pairs) or the joint's distance to its limit
+  double margin = 0;                                                     // δ of the row (pairs), 0 for joint limits
+  double clearance = 0;                                                  // true Euclidean clearance of the pair (NaN for joint limits)
   double converged_distance = std::numeric_limits<double>::quiet_NaN();  // as_published only
-  double multiplier = 0;   // the QP's multiplier: how hard the row pushes back against the task
+  double multiplier = 0;                                                 // the QP's multiplier: how hard the row pushes back against the task
 };
 
 // The state a rollout ends in, computed by one more control step at q_final (not applied).
 struct FinalState {
   Vec3 ee_position = Vec3::Zero();
-  double position_error = 0;      // |p − p_d|
-  double min_clearance = 0;       // true Euclidean clearance over every pair at q_final
-  std::string closest_pair;       // the pair with that clearance
+  double position_error = 0;             // |p − p_d|
+  double min_clearance = 0;              // true Euclidean clearance over every pair at q_final
+  std::string closest_pair;              // the pair with that clearance
   std::vector<ActiveConstraint> active;  // active QP rows at q_final, largest multiplier first
 };
 
@@ -60,12 +60,12 @@ struct RolloutRecord {
   bool reached = false;         // final_task_error < scenario.goal_tolerance
   double min_clearance = 0;     // over the whole rollout
   bool cancelled = false;
-  int cold_solves = 0;          // GAP: pair solves that were not warm-started
+  int cold_solves = 0;  // GAP: pair solves that were not warm-started
   GapMode gap_mode = GapMode::exact;
-  int clipped_steps = 0;        // steps whose u was clipped to the velocity limits
+  int clipped_steps = 0;  // steps whose u was clipped to the velocity limits
   FinalState final_state;
   TimingSummary timing;
-  double wall_seconds = 0;      // the whole rollout, recording included
+  double wall_seconds = 0;  // the whole rollout, recording included
 };
 
 struct RolloutOptions {

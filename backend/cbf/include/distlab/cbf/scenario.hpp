@@ -12,7 +12,8 @@
 
 namespace distlab::cbf {
 
-enum class Metric { gap, euclidean };
+enum class Metric { gap,
+                    euclidean };
 const char* to_string(Metric m);
 
 // How the GAP rows are computed (scenario field gap.mode).
@@ -23,14 +24,15 @@ const char* to_string(Metric m);
 //   diagonal² of the bounding box) and the plain iteration a ← Π_A(Π_B(a)) (eq. 2) cold-started
 //   at B's centre every step, stopped at the first step below gap.tol or after gap.max_iter,
 //   D = sqrt(max(2Λ, 0)) at that iterate. The converged D of the same functions is recorded too.
-enum class GapMode { exact, as_published };
+enum class GapMode { exact,
+                     as_published };
 const char* to_string(GapMode m);
 
 struct Obstacle {
   std::string name;
   Shape shape;
-  Pose pose;              // world
-  P2SOptions options{};   // GAP weights / ρ ball (defaults of the gap library)
+  Pose pose;             // world
+  P2SOptions options{};  // GAP weights / ρ ball (defaults of the gap library)
 };
 
 struct Margins {
@@ -48,10 +50,10 @@ struct Scenario {
   VecQ q0;
   double dt = 0.01;
   double duration = 35.0;
-  double task_gain = 0.4;   // K = task_gain · I₆
-  double damping = 0.01;    // H = J_rᵀJ_r + damping · I
-  double eta = 0.5;         // η of the obstacle and self-collision rows (eq. 7)
-  double eta_joint = 0.5;   // η of the joint-limit rows
+  double task_gain = 0.4;  // K = task_gain · I₆
+  double damping = 0.01;   // H = J_rᵀJ_r + damping · I
+  double eta = 0.5;        // η of the obstacle and self-collision rows (eq. 7)
+  double eta_joint = 0.5;  // η of the joint-limit rows
   bool self_collision = true;
   Margins gap_margins{0.002, 0.0001};
   Margins euclidean_margins{0.03, 0.01};

@@ -43,7 +43,6 @@ class BaseFunction {
   using RationalForm = Jet (BaseFunction::*)(double) const;
 
  private:
-
   double h_;
   int k_;
   std::vector<double> binom_;  // (−1)^i C(k−1, i), i = 0..k−1
@@ -96,7 +95,7 @@ inline BaseFunction::Jet BaseFunction::rational_form(double s) const {
       t = t * t;
     }
     const double v0 = a[0][0], v1 = a[0][1], v2 = b[0][0], x = b[0][1];
-    double q = 1.0 / x;  // (1+s)^−N
+    double q = 1.0 / x;                   // (1+s)^−N
     for (int j = 1; j < k_; ++j) q *= s;  // s^(k−1) (1+s)^−N
     return Jet{q * (s * s * v0), q * (s * v1), q * v2};
   }

@@ -12,7 +12,8 @@
 
 namespace distlab {
 
-enum class GapSolver { fixed_point, newton };
+enum class GapSolver { fixed_point,
+                       newton };
 
 // Defaults: the paper's robot experiment (h = 0.1, k = 2, ε = 0.01, σ = sqrt(1 − 2ε)) and a tight
 // tolerance; `max_iter` 0 means the solver's default (Newton 100, fixed point 100000).

@@ -66,7 +66,7 @@ class PointToSet {
   bool contains(const Vec3& p) const { return weak(p, 0).value == 0.0; }
 
   const VecX& weights() const { return weights_; }  // empty for round shapes
-  const Ball& rho_ball() const { return rho_; }      // shape frame
+  const Ball& rho_ball() const { return rho_; }     // shape frame
   const Shape& shape() const { return shape_; }
   const StrictParams& strict_params() const { return strict_; }
   const BaseFunction& phi() const { return phi_; }

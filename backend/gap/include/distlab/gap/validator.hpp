@@ -39,14 +39,14 @@ inline constexpr std::size_t kValidationCacheBytes = std::size_t{32} << 20;
 
 struct ValidationReport {
   bool ok = false;
-  double max_eigenvalue = 0;   // largest Hessian eigenvalue found outside the set
-  Vec3 worst_point = Vec3::Zero();  // shape frame
-  double min_eigenvalue = 0;   // smallest eigenvalue found outside the set (should be > 0)
+  double max_eigenvalue = 0;            // largest Hessian eigenvalue found outside the set
+  Vec3 worst_point = Vec3::Zero();      // shape frame
+  double min_eigenvalue = 0;            // smallest eigenvalue found outside the set (should be > 0)
   double min_eigenvalue_tolerance = 0;  // the eigen solver's rounding at that point
-  double max_inside_norm = 0;  // largest |∂²E| found inside the set (should be 0)
-  int samples = 0;             // evaluations of ∂²E_S
-  int ascents = 0;             // local maximisations run
-  bool cached = false;         // this verdict came from the cache
+  double max_inside_norm = 0;           // largest |∂²E| found inside the set (should be 0)
+  int samples = 0;                      // evaluations of ∂²E_S
+  int ascents = 0;                      // local maximisations run
+  bool cached = false;                  // this verdict came from the cache
   std::string message;
 };
 

@@ -7,9 +7,9 @@
 namespace distlab {
 
 struct Polytope {
-  MatX3 A;                            // n x 3, rows of unit length
-  VecX b;                             // n offsets: the set is {x : A x <= b}
-  std::vector<Vec3> vertices;         // extreme points, no duplicates
+  MatX3 A;                             // n x 3, rows of unit length
+  VecX b;                              // n offsets: the set is {x : A x <= b}
+  std::vector<Vec3> vertices;          // extreme points, no duplicates
   std::vector<Eigen::Vector3i> faces;  // triangles over `vertices`, outward (counter-clockwise)
 
   int rows() const { return static_cast<int>(A.rows()); }

@@ -17,7 +17,7 @@ class Sha256 {
   Sha256(const Sha256&) = delete;
   Sha256& operator=(const Sha256&) = delete;
   void add(const void* data, std::size_t size);
-  Digest digest();   // ends the stream
+  Digest digest();    // ends the stream
   std::string hex();  // digest() as 64 lower-case hex digits
 
  private:

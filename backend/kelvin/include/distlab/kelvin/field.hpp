@@ -18,7 +18,7 @@ namespace distlab::kelvin {
 inline constexpr double kMaxFarRadius = 1000;  // PrepareOptions::far_radius is in [0.5, this]
 
 struct PrepareOptions {
-  double lx = 0.1;            // exterior element size l_x, metres (eq. 23)
+  double lx = 0.1;             // exterior element size l_x, metres (eq. 23)
   std::optional<Vec3> centre;  // inversion centre; default: a deep interior point
   // l_y is bounded below by its value at |x| = far_radius · (largest centre-to-surface distance):
   // beyond that radius the exterior mesh coarsens quadratically instead of staying at l_x.
@@ -44,10 +44,10 @@ struct PrepareOptions {
 struct Stats {
   long n_verts = 0, n_tets = 0;
   double size_mb = 0;
-  double factor_mb = 0;  // the Cholesky factor's share of size_mb (what a dense solve reads twice)
+  double factor_mb = 0;                          // the Cholesky factor's share of size_mb (what a dense solve reads twice)
   double t_mesh = 0, t_build = 0, t_decomp = 0;  // seconds
-  double t_solve = 0;     // last set_sigma: σ on the boundary → V (eqs. 17, 20, 21), seconds
-  double t_gradient = 0;  // last set_sigma: vertex gradients of V (0 if not asked), seconds
+  double t_solve = 0;                            // last set_sigma: σ on the boundary → V (eqs. 17, 20, 21), seconds
+  double t_gradient = 0;                         // last set_sigma: vertex gradients of V (0 if not asked), seconds
   // Loaded from the cache: t_mesh and t_decomp are then those of the original preparation,
   // t_build is measured again (derived data are rebuilt) and t_load is the time of the load.
   bool cached = false;

@@ -30,9 +30,9 @@ struct IsoSurface {
 };
 
 struct GapLevelsets {
-  Vec3 lo, hi;                      // the grid box
-  std::array<int, 3> n{0, 0, 0};    // grid nodes per axis
-  std::vector<IsoSurface> surfaces;  // weak levels first, then strict, in the given order
+  Vec3 lo, hi;                                   // the grid box
+  std::array<int, 3> n{0, 0, 0};                 // grid nodes per axis
+  std::vector<IsoSurface> surfaces;              // weak levels first, then strict, in the given order
   std::vector<double> plane_weak, plane_strict;  // empty without a plane
 };
 

@@ -24,7 +24,7 @@ struct WrapOptions {
 };
 
 struct RepairResult {
-  SurfaceMesh surface;  // closed, manifold, outward oriented
+  SurfaceMesh surface;                                   // closed, manifold, outward oriented
   std::vector<std::pair<std::string, long long>> steps;  // fix: what each step changed, in order
   double alpha = 0, offset = 0;                          // wrap: the values used
   // wrap: one-sided Hausdorff distances from one surface, sampled on a grid (about 50 points a

@@ -86,7 +86,7 @@ nlohmann::json run_cbf_request(const nlohmann::json& request);
 inline constexpr std::size_t kMaxSweepValues = 16;
 struct CbfSweep {
   std::string parameter;
-  nlohmann::json values;  // as given
+  nlohmann::json values;                 // as given
   std::vector<nlohmann::json> requests;  // one per value (no "sweep")
   std::vector<CbfRequest> runs;
 };

@@ -21,20 +21,20 @@ namespace distlab::server {
 
 // Explicit limits of one rollout request (also reported by GET /api/cbf/scenarios).
 struct CbfLimits {
-  int max_steps = 20000;                  // duration / dt
-  std::size_t max_pair_steps = 1000000;   // steps × pairs kept in memory (≈ 80 bytes each)
-  int max_batch_steps = 500;              // steps per "cbf_frames" message
-  std::size_t max_frames_per_request = 2000;  // steps per GET .../frames
-  std::size_t kept_per_session = 4;       // most recent rollouts kept (older finished ones go)
-  std::size_t kept_total = 32;           // also: sweeps kept (all sessions)
+  int max_steps = 20000;                           // duration / dt
+  std::size_t max_pair_steps = 1000000;            // steps × pairs kept in memory (≈ 80 bytes each)
+  int max_batch_steps = 500;                       // steps per "cbf_frames" message
+  std::size_t max_frames_per_request = 2000;       // steps per GET .../frames
+  std::size_t kept_per_session = 4;                // most recent rollouts kept (older finished ones go)
+  std::size_t kept_total = 32;                     // also: sweeps kept (all sessions)
   std::size_t max_sweep_values = kMaxSweepValues;  // runs of one POST /api/cbf/sweeps
 };
 
 struct CbfStreamOptions {
-  int batch_steps = 50;   // a message carries at most this many steps ...
+  int batch_steps = 50;         // a message carries at most this many steps ...
   double batch_seconds = 0.05;  // ... and is sent at least this often while steps come
-  bool pairs = true;      // per-pair distance, clearance and witnesses in frames
-  bool poses = true;      // world pose of every robot primitive in frames
+  bool pairs = true;            // per-pair distance, clearance and witnesses in frames
+  bool poses = true;            // world pose of every robot primitive in frames
 };
 
 struct CbfRollout {
@@ -47,15 +47,15 @@ struct CbfRollout {
   nlohmann::json scenario_json;  // the scenario as given (file content or inline object)
   cbf::Scenario scenario;
   cbf::Metric metric = cbf::Metric::gap;
-  bool record_pairs = true;      // the request's params.record_pairs (record endpoint)
+  bool record_pairs = true;  // the request's params.record_pairs (record endpoint)
   CbfStreamOptions stream;
   int steps_total = 0;
   std::vector<cbf::PairInfo> pairs;
 
   mutable std::mutex mutex;
-  std::vector<cbf::StepRecord> steps;  // computed so far (moved into `record` at the end)
+  std::vector<cbf::StepRecord> steps;                // computed so far (moved into `record` at the end)
   std::shared_ptr<const cbf::RolloutRecord> record;  // set when the run ended (finished or cancelled)
-  std::string state = "queued";  // queued | running | finished | cancelled | failed
+  std::string state = "queued";                      // queued | running | finished | cancelled | failed
 
   std::size_t steps_done() const;
   const std::vector<cbf::StepRecord>& steps_locked() const { return record ? record->steps : steps; }

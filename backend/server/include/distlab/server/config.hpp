@@ -14,7 +14,7 @@ struct Limits {
   std::size_t max_upload_bytes = std::size_t{64} << 20;  // mesh uploads
   std::size_t max_upload_triangles = 200000;
   std::size_t max_uploads_per_session = 8;
-  double min_lx = 0.002;             // absolute floor of l_x, metres (the paper's wrench cases)
+  double min_lx = 0.002;  // absolute floor of l_x, metres (the paper's wrench cases)
   // Vertex budget of one prepared object, as estimated (estimate_vertices): the wrench at l_x 0.002
   // is estimated at ~301k (84k made), so the paper's cases fit.
   std::size_t max_vertex_estimate = 320000;
@@ -22,22 +22,22 @@ struct Limits {
   std::size_t max_sessions_per_address = 32;  // one client address cannot hold the others' sessions
   double session_idle_seconds = 3600;
   std::size_t max_objects_per_session = 16;
-  std::size_t max_jobs_per_session = 4;   // queued + running
-  std::size_t max_jobs_total = 16;        // queued + running, all sessions
+  std::size_t max_jobs_per_session = 4;     // queued + running
+  std::size_t max_jobs_total = 16;          // queued + running, all sessions
   std::size_t max_finished_jobs_kept = 64;  // per session; older finished jobs are forgotten
-  double max_job_seconds = 600;           // a job running longer is cancelled
-  double max_request_seconds = 30;        // cancellable request work stops after this (408)
-  std::size_t max_pending_requests = 256; // compute queue; beyond it 503 busy
+  double max_job_seconds = 600;             // a job running longer is cancelled
+  double max_request_seconds = 30;          // cancellable request work stops after this (408)
+  std::size_t max_pending_requests = 256;   // compute queue; beyond it 503 busy
   std::size_t max_ws_message_bytes = std::size_t{1} << 20;
-  double ws_messages_per_second = 50;     // token bucket rate ...
-  double ws_burst = 100;                  // ... and depth; empty bucket: error, then close
-  std::size_t max_ws_queue = 256;         // outgoing messages queued for a slow client
+  double ws_messages_per_second = 50;  // token bucket rate ...
+  double ws_burst = 100;               // ... and depth; empty bucket: error, then close
+  std::size_t max_ws_queue = 256;      // outgoing messages queued for a slow client
   std::size_t max_query_points = 100000;
   std::size_t max_levels = 16;
   int max_grid_resolution = 128;
   int max_plane_resolution = 512;
   std::size_t max_gap_pairs = 2000;
-  int max_gap_iterations = 1000000;  // params.max_iter of one GAP pair (0: the solver's default)
+  int max_gap_iterations = 1000000;       // params.max_iter of one GAP pair (0: the solver's default)
   std::size_t query_chunk_points = 4096;  // Kelvin queries check the time limit this often
   // Connections: beyond max_connections a new one is closed at once; a client that sends no
   // complete header (idle or slowloris) or body within read_timeout_seconds is closed.
@@ -96,7 +96,7 @@ void for_each_limit(L& l, F&& f) {
 struct ServiceConfig {
   std::string web_dir = "web/dist";
   std::string assets_dir = "assets";
-  std::string cache_dir;      // "" : a temporary directory
+  std::string cache_dir;         // "" : a temporary directory
   unsigned compute_threads = 0;  // 0: hardware concurrency
   unsigned job_threads = 0;      // 0: hardware concurrency
   Limits limits;

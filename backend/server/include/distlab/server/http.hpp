@@ -13,15 +13,15 @@
 namespace distlab::server {
 
 struct Request {
-  std::string method;  // upper case: GET, POST, PUT, DELETE, HEAD, ...
-  std::string target;  // as received: path + optional ?query
-  std::string path;    // target without the query string, not percent-decoded
+  std::string method;                          // upper case: GET, POST, PUT, DELETE, HEAD, ...
+  std::string target;                          // as received: path + optional ?query
+  std::string path;                            // target without the query string, not percent-decoded
   std::map<std::string, std::string> query;    // decoded query parameters (the first of repeats)
   std::set<std::string> repeated_query;        // query parameters given more than once
   std::map<std::string, std::string> headers;  // lower-case names
   std::string body;
   std::map<std::string, std::string> params;  // path parameters filled in by the router
-  std::string remote_address;  // the client's IP address ("" when not on a socket)
+  std::string remote_address;                 // the client's IP address ("" when not on a socket)
 
   std::string header(const std::string& lower_name) const;
   // The client session id: header X-Distlab-Session, else cookie distlab_session, else the query

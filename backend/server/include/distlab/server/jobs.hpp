@@ -19,7 +19,11 @@
 
 namespace distlab::server {
 
-enum class JobState { queued, running, succeeded, failed, cancelled };
+enum class JobState { queued,
+                      running,
+                      succeeded,
+                      failed,
+                      cancelled };
 const char* to_string(JobState s);
 
 class Job {

@@ -50,7 +50,7 @@ struct PreparedField {
 
  private:
   std::shared_mutex mutex_;
-  std::string solved_;  // key of the σ in `field`; "" before the first solve
+  std::string solved_;      // key of the σ in `field`; "" before the first solve
   bool gradients_ = false;  // `field` holds vertex gradients for solved_
 };
 
@@ -86,8 +86,8 @@ class PreparedRegistry {
 
 struct KelvinObject {
   std::string id;
-  std::string key;          // content key
-  nlohmann::json source;    // how it was made: asset/upload/mesh, lx, center, far_radius
+  std::string key;        // content key
+  nlohmann::json source;  // how it was made: asset/upload/mesh, lx, center, far_radius
   // The mesh as the user gave it (the file's vertices in the file's order, duplicated positions
   // kept): every per-vertex array of the API (σ per_vertex in, σ values and the surface frame
   // out) is indexed like its vertices. The field is prepared on `welded` (mesh/weld.hpp).
@@ -104,7 +104,7 @@ struct KelvinObject {
   mesh::Transfer to_repaired;
   nlohmann::json repair_report;
 
-  std::mutex mutex;  // guards everything below
+  std::mutex mutex;                 // guards everything below
   std::string state = "preparing";  // repairing | preparing | ready | failed | cancelled
   std::string job;
   nlohmann::json error;
@@ -119,13 +119,13 @@ struct KelvinObject {
   std::string sigma_key;
   std::uint64_t sigma_version = 0;
   std::chrono::steady_clock::time_point sigma_at{};  // when the last σ edit arrived
-  std::vector<double> levels;  // watched iso-levels: frames are pushed over the WebSocket
-  bool computing = false;      // a frame task is queued or running
-  std::uint64_t frames_version = 0;  // bumped on every σ or levels change
+  std::vector<double> levels;                        // watched iso-levels: frames are pushed over the WebSocket
+  bool computing = false;                            // a frame task is queued or running
+  std::uint64_t frames_version = 0;                  // bumped on every σ or levels change
   // The surface geometry goes out once per object (a late joiner gets its own copy); after that
   // a σ version carries only σ per vertex (surface_sigma frame).
-  bool surface_sent = false;         // the surface frame was broadcast
-  std::int64_t sigma_sent = -1;      // sigma_version of the last σ values broadcast
+  bool surface_sent = false;     // the surface frame was broadcast
+  std::int64_t sigma_sent = -1;  // sigma_version of the last σ values broadcast
 
   nlohmann::json status_json();  // locks
 };

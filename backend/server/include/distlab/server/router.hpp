@@ -15,7 +15,7 @@ struct Route {
   std::string method;
   std::string pattern;  // "/api/kelvin/objects/{id}/sigma"
   Handler handler;
-  bool heavy = false;   // runs on the compute pool, not on an I/O thread
+  bool heavy = false;          // runs on the compute pool, not on an I/O thread
   std::size_t body_limit = 0;  // 0: the server default
   // Heavy routes: the names of the Limits (GET /api/limits) that bound their work.
   std::vector<std::string> bounds{};
