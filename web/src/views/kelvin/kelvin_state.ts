@@ -1,5 +1,7 @@
 // The view's shareable state (the URL's s= JSON): object, l_x, σ (preset or base constant plus
 // painted brushes), iso-levels, slice, brush settings. Every read is typed and bounded.
+import { readColorScale } from "../../core/colorbar";
+import type { ColorScale } from "../../core/colormap";
 import { num, str } from "../../core/urlstate";
 import { packBrushes, presetNames, unpackBrushes, type Brush, type PresetName } from "./sigma";
 import { sliceAxes, type SliceAxis } from "./slice_layer";
@@ -18,7 +20,9 @@ export interface KelvinState {
   opacity: number;
   slice: { show: boolean; axis: SliceAxis; offset: number };
   brush: { on: boolean; value: number; radius: number; falloff: number };
-  sigmaScale: number;
+  /** Colours of σ on the surface and of h on the slice plane. */
+  sigmaColor: ColorScale;
+  sliceColor: ColorScale;
   format: ExportFormat;
 }
 
@@ -40,7 +44,8 @@ export function defaults(object = "cube"): KelvinState {
     opacity: 0.28,
     slice: { show: false, axis: "z", offset: 0 },
     brush: { on: true, value: 1, radius: 0, falloff: 0 }, // radius 0: chosen from the object's size
-    sigmaScale: 1,
+    sigmaColor: { map: "coolwarm", mode: "symmetric", min: -1, max: 1 },
+    sliceColor: { map: "coolwarm", mode: "symmetric", min: -1, max: 1 },
     format: "stl",
   };
 }
@@ -73,7 +78,9 @@ export function readState(raw: Record<string, unknown>): KelvinState {
       radius: num(brush.radius, 0, 0, 100),
       falloff: num(brush.falloff, 0, 0, 100),
     },
-    sigmaScale: num(raw.sigmaScale, 1, 1e-3, 100),
+    // Older links: "sigmaScale" s was the fixed range ±s.
+    sigmaColor: readColorScale(raw.sigmaColor, typeof raw.sigmaScale === "number" ? { ...d.sigmaColor, mode: "fixed", min: -num(raw.sigmaScale, 1, 1e-3, 100), max: num(raw.sigmaScale, 1, 1e-3, 100) } : d.sigmaColor),
+    sliceColor: readColorScale(raw.sliceColor, d.sliceColor),
     format: str(raw.format, exportFormats, "stl"),
   };
 }
@@ -87,7 +94,9 @@ export function writeStateJson(s: KelvinState): Record<string, unknown> {
   if (s.opacity !== 0.28) out.opacity = s.opacity;
   if (s.slice.show || s.slice.offset !== 0 || s.slice.axis !== "z") out.slice = s.slice;
   out.brush = s.brush;
-  if (s.sigmaScale !== 1) out.sigmaScale = s.sigmaScale;
+  const d = defaults();
+  if (JSON.stringify(s.sigmaColor) !== JSON.stringify(d.sigmaColor)) out.sigmaColor = s.sigmaColor;
+  if (JSON.stringify(s.sliceColor) !== JSON.stringify(d.sliceColor)) out.sliceColor = s.sliceColor;
   if (s.format !== "stl") out.format = s.format;
   return out;
 }

@@ -3,6 +3,8 @@
 // server, slice h on a plane, probe h and ∇h, export iso-surfaces. State lives in the URL.
 import * as THREE from "three";
 import { api, ApiError } from "../../core/api";
+import { ColorBar } from "../../core/colorbar";
+import { HistogramPlot } from "../../core/histogram";
 import type { Shortcut } from "../../core/keys";
 import { isMeshFrame, type MeshFrame } from "../../core/meshframe";
 import { socket, type BinaryFrame } from "../../core/socket";
@@ -66,6 +68,9 @@ export class KelvinView implements View {
   private hoverEvent: PointerEvent | null = null;
   private firstOpen = true;
   private sliceAtVersion = -1;
+  private sigmaBar: ColorBar | null = null;
+  private hBar: ColorBar | null = null;
+  private histogram: HistogramPlot | null = null;
 
   async mount(host: ViewHost, raw: Record<string, unknown>): Promise<void> {
     this.host = host;
@@ -87,8 +92,12 @@ export class KelvinView implements View {
     this.slice.onError = (e) => showError(e, "slice");
     this.slice.onSampled = () => {
       this.timings.sliceMs.push(this.slice!.lastSampleMs);
+      this.updateHBar();
       vp.invalidate();
     };
+    this.slice.setColor(this.state.sliceColor);
+    this.sigmaBar = new ColorBar(host.canvas, "σ on the surface", "dimensionless", "colorbar-sigma");
+    this.hBar = new ColorBar(host.canvas, "h on the slice", "dimensionless, −ln U", "colorbar-h");
     vp.scene.add(this.slice.plane);
     this.probe = new Probe(host.canvas);
     this.probe.onChange = () => vp.invalidate();
@@ -100,7 +109,10 @@ export class KelvinView implements View {
       sigmaAt: (p) => evaluateAt(this.sigmaBody(), p),
       setOrbit: (on) => (vp.controls.enabled = on),
       stamp: (b, t, first) => this.stamp(b, t, first),
-      strokeEnd: () => this.save(),
+      strokeEnd: () => {
+        this.save();
+        this.updateHistogram();
+      },
       hover: (_p, ev) => {
         this.hoverEvent = ev;
         vp.interacting();
@@ -119,9 +131,11 @@ export class KelvinView implements View {
       levelsChanged: () => this.levelsChanged(),
       styleChanged: () => this.restyle(),
       sliceChanged: () => this.sliceChanged(),
+      sliceStyleChanged: () => this.sliceStyleChanged(),
       exportShown: () => void this.exportShown(),
     });
     if (limits.min_lx !== undefined) this.panel.setMinLx(limits.min_lx);
+    this.histogram = new HistogramPlot(this.panel.sigmaHistogram, "σ (dimensionless)", "% of vertices");
     this.offs.push(
       socket.onFrame((f) => this.onFrame(f)),
       socket.onOpen(() => this.onSocketOpen()),
@@ -147,6 +161,8 @@ export class KelvinView implements View {
         const pos = this.surface?.pickMesh.geometry.getAttribute("position").array as Float32Array | undefined;
         return pos ? Array.from(evaluateAll(this.sigmaBody(), pos)) : [];
       },
+      colorbars: () => [this.sigmaBar?.state, this.hBar?.state].filter((b) => b != null),
+      sigmaHistogram: () => this.histogram?.data ?? null,
     });
     this.restyle();
     await this.load();
@@ -243,7 +259,7 @@ export class KelvinView implements View {
     const vp = this.viewport!;
     this.dropSurface();
     const s = (this.surface = new SurfaceLayer(frame));
-    s.setScale(this.state.sigmaScale);
+    s.setColor(this.state.sigmaColor);
     s.setSigma(this.sigmaBody());
     vp.scene.add(s.mesh);
     // A large surface gets a simplified stand-in for the frames drawn while orbiting (once made).
@@ -257,6 +273,7 @@ export class KelvinView implements View {
       this.panel?.refresh();
     }
     this.restyle();
+    this.updateHistogram();
     this.frameObject();
     this.warmUp();
     this.slice?.setObject(this.objectId, s.bounds);
@@ -284,6 +301,7 @@ export class KelvinView implements View {
   }
 
   private dropSurface(): void {
+    if (this.sigmaBar) this.sigmaBar.visible = false;
     if (!this.surface) return;
     this.viewport?.scene.remove(this.surface.mesh);
     this.viewport?.setStandIn(this.surface.mesh, null);
@@ -371,7 +389,9 @@ export class KelvinView implements View {
     if (!this.surface) return;
     if (strokeStart) this.strokes.push(this.state.brushes.length);
     this.state.brushes.push(b);
+    const range = this.surface.colorRange;
     this.surface.addBrush(b);
+    if (this.surface.colorRange !== range) this.updateSigmaBar();
     this.edits.stamped(eventTime);
     this.viewport?.interacting();
     this.sigmaSync.push();
@@ -380,6 +400,8 @@ export class KelvinView implements View {
   /** Whole-σ changes (preset, base, reset, undo). */
   private sigmaEdited(save: boolean): void {
     this.surface?.setSigma(this.sigmaBody());
+    this.updateSigmaBar();
+    this.updateHistogram();
     this.edits.edited(performance.now());
     this.viewport?.invalidate();
     this.sigmaSync.push();
@@ -456,6 +478,7 @@ export class KelvinView implements View {
   private sliceChanged(): void {
     const s = this.state.slice;
     this.slice?.configure(s.axis, s.offset, s.show);
+    this.updateHBar();
     this.save();
     this.viewport?.invalidate();
   }
@@ -467,9 +490,37 @@ export class KelvinView implements View {
       this.brush.enabled = this.state.brush.on;
       this.brush.settings = { value: this.state.brush.value, radius: this.state.brush.radius, falloff: this.state.brush.falloff };
     }
-    this.surface?.setScale(this.state.sigmaScale);
+    this.surface?.setColor(this.state.sigmaColor);
+    this.updateSigmaBar();
     this.save();
     this.viewport?.invalidate();
+  }
+
+  private sliceStyleChanged(): void {
+    this.slice?.setColor(this.state.sliceColor);
+    this.updateHBar();
+    this.save();
+    this.viewport?.invalidate();
+  }
+
+  /** The colour bars follow what is coloured: σ's map and range, the slice's while it is shown. */
+  private updateSigmaBar(): void {
+    const s = this.surface;
+    if (!this.sigmaBar) return;
+    this.sigmaBar.visible = s !== null;
+    if (s) this.sigmaBar.update(this.state.sigmaColor, s.colorRange, Number.isFinite(s.dataRange[0]) ? s.dataRange : null);
+  }
+
+  private updateHBar(): void {
+    const sl = this.slice;
+    if (!this.hBar || !sl) return;
+    this.hBar.visible = sl.shown;
+    if (sl.shown) this.hBar.update(this.state.sliceColor, sl.colorRange, sl.dataRange);
+  }
+
+  /** Once per stroke or σ change, not per stamp (the picture's colours follow every stamp). */
+  private updateHistogram(): void {
+    if (this.surface) this.histogram?.update(this.surface.sigmaValues());
   }
 
   private hover(ev: PointerEvent): void {
@@ -478,11 +529,22 @@ export class KelvinView implements View {
     const r = vp.renderer.domElement.getBoundingClientRect();
     const ray = new THREE.Raycaster();
     ray.setFromCamera(new THREE.Vector2(((ev.clientX - r.left) / r.width) * 2 - 1, -((ev.clientY - r.top) / r.height) * 2 + 1), vp.camera);
+    // The nearest of the slice and the object's surface (raycast on its input mesh), seen through
+    // the translucent shells; a shell where the pointer meets neither.
     const targets: THREE.Object3D[] = [];
     if (this.slice?.plane.visible) targets.push(this.slice.plane);
-    else if (this.state.showIso) targets.push(...this.iso.meshes());
-    const hit = ray.intersectObjects(targets, false)[0];
-    if (hit) this.probe.at(hit.point);
+    if (this.state.showIso) targets.push(...this.iso.meshes());
+    if (this.surface) targets.push(this.surface.pickMesh);
+    const hits = ray.intersectObjects(targets, false);
+    const hit = hits.find((h) => this.iso.levelOf(h.object) === null) ?? hits[0];
+    if (!hit) return;
+    if (this.surface && hit.object === this.surface.pickMesh) {
+      // h is defined outside the object: query a hair outside (on the surface itself h = σ, eq. 9).
+      const p = hit.point.clone();
+      if (hit.face) p.addScaledVector(hit.face.normal, 1e-4 * this.surface.bounds.getSize(new THREE.Vector3()).length());
+      this.probe.at(p, { on: "surface", sigma: evaluateAt(this.sigmaBody(), [hit.point.x, hit.point.y, hit.point.z]) });
+    } else if (this.slice && hit.object === this.slice.plane) this.probe.at(hit.point, { on: "slice" });
+    else this.probe.at(hit.point, { on: `iso-surface h = ${this.iso.levelOf(hit.object) ?? "?"}` });
   }
 
   private async exportShown(): Promise<void> {
@@ -519,6 +581,9 @@ export class KelvinView implements View {
     this.brush?.dispose();
     this.probe?.dispose();
     this.slice?.dispose();
+    this.sigmaBar?.dispose();
+    this.hBar?.dispose();
+    this.histogram?.dispose();
     this.panel?.dispose();
     this.dropSurface();
     this.viewport?.dispose();

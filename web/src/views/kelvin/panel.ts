@@ -2,6 +2,7 @@
 // iso-levels, slice, export, and a statistics table. It edits the KelvinState in place and calls
 // back; the view decides what that means for the server.
 import GUI, { type Controller } from "lil-gui";
+import { addColorControls } from "../../core/colorbar";
 import { exactNumber, exactNumbers, recheck, setFieldMessage } from "../../core/exact_number";
 import { presets } from "./sigma";
 import { exportFormats, type KelvinState } from "./kelvin_state";
@@ -18,6 +19,7 @@ export interface PanelActions {
   levelsChanged(): void;
   styleChanged(): void;
   sliceChanged(): void;
+  sliceStyleChanged(): void;
   exportShown(): void;
 }
 
@@ -29,6 +31,7 @@ export class Panel {
   private fileInput: HTMLInputElement;
   private readonly lx: Controller;
   private readonly estimate: HTMLDivElement;
+  readonly sigmaHistogram: HTMLDivElement;
 
   constructor(container: HTMLElement, state: KelvinState, assets: string[], a: PanelActions) {
     this.gui = new GUI({ container, title: "Semantic distance", width: 300 });
@@ -64,9 +67,14 @@ export class Panel {
     this.add(sig.add(state.brush, "value", -3, 3, 0.05).name("brush value").onChange(() => a.styleChanged()));
     this.add(sig.add(state.brush, "radius", 0, 1, 0.001).name("brush radius").onChange(() => a.styleChanged()));
     this.add(sig.add(state.brush, "falloff", 0, 1, 0.001).name("brush falloff").onChange(() => a.styleChanged()));
-    this.add(sig.add(state, "sigmaScale", 0.05, 5, 0.05).name("colour scale |σ|").onChange(() => a.styleChanged()));
     sig.add({ undo: () => a.undoStroke() }, "undo").name("undo stroke (z)");
     sig.add({ reset: () => a.resetSigma() }, "reset").name("reset σ (r)");
+    addColorControls(sig.addFolder("σ colours"), state.sigmaColor, () => a.styleChanged());
+    // The histogram of σ over the surface (its owner draws into this box).
+    this.sigmaHistogram = document.createElement("div");
+    this.sigmaHistogram.className = "kelvin-histogram";
+    this.sigmaHistogram.dataset.testid = "sigma-histogram";
+    sig.$children.appendChild(this.sigmaHistogram);
 
     const iso = this.gui.addFolder("Iso-surfaces of h");
     this.levelsText = { levels: state.levels.join(", ") };
@@ -86,6 +94,7 @@ export class Panel {
     this.add(sl.add(state.slice, "show").name("show (s)").onChange(() => a.sliceChanged()));
     this.add(sl.add(state.slice, "axis", sliceAxes).name("normal").onChange(() => a.sliceChanged()));
     this.add(sl.add(state.slice, "offset", -1, 1, 0.01).name("offset").onFinishChange(() => a.sliceChanged()));
+    addColorControls(sl.addFolder("h colours"), state.sliceColor, () => a.sliceStyleChanged());
 
     const ex = this.gui.addFolder("Export");
     this.add(ex.add(state, "format", exportFormats).name("format"));

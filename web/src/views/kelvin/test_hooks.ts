@@ -1,5 +1,7 @@
 // window.distlab.kelvin: read-only views of what the page shows and how long things took, for
 // the browser tests and for measuring (nothing here changes the view's state).
+import type { ColorBarState } from "../../core/colorbar";
+import type { HistogramData } from "../../core/histogram";
 import type { Viewport } from "../../core/viewport";
 import type { IsoFrameInfo } from "./iso_layers";
 import type { ObjectStatus } from "./object_source";
@@ -49,6 +51,9 @@ export interface KelvinHookSource {
   surface(): SurfaceLayer | null;
   /** σ at the input mesh's vertices, evaluated here (the server sends the same as surface scalars). */
   localSigmaAtInputVertices(): number[];
+  /** The colour bars shown (σ on the surface, h on the slice). */
+  colorbars(): ColorBarState[];
+  sigmaHistogram(): HistogramData | null;
 }
 
 /** Turns the camera about its up axis around the orbit target. */
@@ -113,6 +118,17 @@ export function installHooks(view: KelvinHookSource): void {
       return Array.from(index, (v) => [pos.getX(v), pos.getY(v), pos.getZ(v)]).flat();
     },
     localSigmaAtInputVertices: () => view.localSigmaAtInputVertices(),
+    get colorbars() {
+      return copy(view.colorbars());
+    },
+    get sigmaHistogram() {
+      return copy(view.sigmaHistogram());
+    },
+    /** σ on the surface's display vertices: its smallest and largest value, and the colour range. */
+    get sigmaRange() {
+      const s = view.surface();
+      return s ? { data: [...s.dataRange], color: [...s.colorRange] } : null;
+    },
     frameStats: () => view.viewport()?.frameStats() ?? null,
     /** Orbits the camera through n frames rendered back to back (each waited for by reading a pixel back)
      *  and puts it back; returns per-frame render times (ms) and the triangles drawn. */
