@@ -12,6 +12,9 @@ export interface SliceSamples {
   size: [number, number]; // extent along u and v
   resolution: [number, number]; // nu, nv
   values: Float32Array; // nu * nv, u fastest
+  /** Samples at the nodes of a grid spanning `size` (edges included, spacing size / (n − 1)), as
+   *  the GAP level-set endpoint takes them; otherwise at the centres of n × n cells of `size`. */
+  atNodes?: boolean;
 }
 
 export class SlicePlane extends THREE.Mesh<THREE.PlaneGeometry, THREE.ShaderMaterial> {
@@ -58,7 +61,10 @@ export class SlicePlane extends THREE.Mesh<THREE.PlaneGeometry, THREE.ShaderMate
     const u = new THREE.Vector3(...s.u).normalize();
     const v = new THREE.Vector3(...s.v).normalize();
     const n = new THREE.Vector3().crossVectors(u, v).normalize();
-    const basis = new THREE.Matrix4().makeBasis(u.multiplyScalar(s.size[0]), v.multiplyScalar(s.size[1]), n);
+    // Texel centres sit at (i + 0.5) / n of the drawn plane: for node samples it reaches half a
+    // spacing beyond the outer nodes, so that each texel centre is on its sample's point.
+    const [su, sv] = s.atNodes ? [(s.size[0] * nu) / (nu - 1), (s.size[1] * nv) / (nv - 1)] : s.size;
+    const basis = new THREE.Matrix4().makeBasis(u.multiplyScalar(su), v.multiplyScalar(sv), n);
     basis.setPosition(new THREE.Vector3(...s.center));
     this.matrixAutoUpdate = false;
     this.matrix.copy(basis);

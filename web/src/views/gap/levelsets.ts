@@ -82,7 +82,7 @@ export class IsoLayer {
     const data = finiteRange(f);
     const range = resolveRange(iso.color, ...data);
     const m = this.planeFields.meta;
-    this.slice.setSamples({ center: m.center, u: m.u, v: m.v, size: m.size, resolution: m.resolution, values: f });
+    this.slice.setSamples({ center: m.center, u: m.u, v: m.v, size: m.size, resolution: m.resolution, values: f, atNodes: true });
     this.slice.setStyle({ range, spacing: iso.spacing, map: iso.color.map, opacity: 0.85 });
     this.slice.visible = true;
     this.shown.slice = iso.slice;

@@ -15,6 +15,8 @@ export interface KelvinState {
   preset: PresetName;
   base: number;
   brushes: Brush[];
+  /** A link too long for its brushes refers to the σ file holding them (sigma_file.ts). */
+  sigmaFile?: { stamps: number; digest: string };
   levels: number[];
   showIso: boolean;
   opacity: number;
@@ -57,6 +59,12 @@ export function parseLevels(v: unknown, fallback: number[]): number[] {
   return out.length ? out.slice(0, 16) : fallback;
 }
 
+function readSigmaFileRef(v: unknown): KelvinState["sigmaFile"] {
+  const o = (v && typeof v === "object" ? v : {}) as Record<string, unknown>;
+  const stamps = num(o.stamps, 0, 0, 1e7);
+  return stamps > 0 && typeof o.digest === "string" && /^[0-9a-f]{16}$/.test(o.digest) ? { stamps: Math.round(stamps), digest: o.digest } : undefined;
+}
+
 export function readState(raw: Record<string, unknown>): KelvinState {
   const object = typeof raw.object === "string" && /^[A-Za-z0-9_-]{1,64}$/.test(raw.object) ? raw.object : "cube";
   const d = defaults(object);
@@ -68,6 +76,7 @@ export function readState(raw: Record<string, unknown>): KelvinState {
     preset: str(raw.preset, presetNames, "none"),
     base: num(raw.base, DEFAULT_BASE, -20, 20),
     brushes: unpackBrushes(raw.brushes),
+    sigmaFile: readSigmaFileRef(raw.sigmaFile),
     levels: parseLevels(raw.levels, d.levels),
     showIso: raw.showIso !== false,
     opacity: num(raw.opacity, d.opacity, 0.02, 1),
@@ -90,6 +99,7 @@ export function writeStateJson(s: KelvinState): Record<string, unknown> {
   if (s.preset !== "none") out.preset = s.preset;
   if (s.base !== DEFAULT_BASE) out.base = s.base;
   if (s.brushes.length) out.brushes = packBrushes(s.brushes);
+  else if (s.sigmaFile) out.sigmaFile = s.sigmaFile;
   if (!s.showIso) out.showIso = false;
   if (s.opacity !== 0.28) out.opacity = s.opacity;
   if (s.slice.show || s.slice.offset !== 0 || s.slice.axis !== "z") out.slice = s.slice;

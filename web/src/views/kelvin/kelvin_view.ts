@@ -21,6 +21,7 @@ import { statsRows, statusLine } from "./object_stats";
 import { Panel } from "./panel";
 import { Probe } from "./probe";
 import { composeSigma, evaluateAll, evaluateAt, presets, type Brush, type SigmaBody } from "./sigma";
+import { brushesDigest, parseSigmaFile, sigmaFileText, SigmaFileError } from "./sigma_file";
 import { SigmaSync } from "./sigma_sync";
 import { SliceLayer } from "./slice_layer";
 import { SurfaceLayer } from "./surface_layer";
@@ -71,6 +72,8 @@ export class KelvinView implements View {
   private sigmaBar: ColorBar | null = null;
   private hBar: ColorBar | null = null;
   private histogram: HistogramPlot | null = null;
+  private assets: string[] = [];
+  private longLinkTold = false;
 
   async mount(host: ViewHost, raw: Record<string, unknown>): Promise<void> {
     this.host = host;
@@ -133,7 +136,11 @@ export class KelvinView implements View {
       sliceChanged: () => this.sliceChanged(),
       sliceStyleChanged: () => this.sliceStyleChanged(),
       exportShown: () => void this.exportShown(),
+      saveSigma: () => this.saveSigma(),
+      loadSigma: (f) => void this.loadSigma(f),
     });
+    this.assets = assets;
+    this.showSigmaNotice();
     if (limits.min_lx !== undefined) this.panel.setMinLx(limits.min_lx);
     this.histogram = new HistogramPlot(this.panel.sigmaHistogram, "σ (dimensionless)", "% of vertices");
     this.offs.push(
@@ -163,6 +170,16 @@ export class KelvinView implements View {
       },
       colorbars: () => [this.sigmaBar?.state, this.hBar?.state].filter((b) => b != null),
       sigmaHistogram: () => this.histogram?.data ?? null,
+      pickAt: (x, y) => {
+        const vp = this.viewport;
+        if (!vp) return [];
+        const r = vp.renderer.domElement.getBoundingClientRect();
+        const ray = new THREE.Raycaster();
+        ray.setFromCamera(new THREE.Vector2(((x - r.left) / r.width) * 2 - 1, -((y - r.top) / r.height) * 2 + 1), vp.camera);
+        const targets: THREE.Object3D[] = [...(this.state.showIso ? this.iso.meshes() : []), ...(this.surface ? [this.surface.pickMesh] : [])];
+        if (this.slice?.plane.visible) targets.push(this.slice.plane);
+        return ray.intersectObjects(targets, false).map((h) => (h.object === this.surface?.pickMesh ? "surface" : h.object === this.slice?.plane ? "slice" : `iso ${this.iso.levelOf(h.object)}`));
+      },
     });
     this.restyle();
     await this.load();
@@ -388,6 +405,7 @@ export class KelvinView implements View {
   private stamp(b: Brush, eventTime: number, strokeStart: boolean): void {
     if (!this.surface) return;
     if (strokeStart) this.strokes.push(this.state.brushes.length);
+    this.dropSigmaFileRef();
     this.state.brushes.push(b);
     const range = this.surface.colorRange;
     this.surface.addBrush(b);
@@ -399,6 +417,7 @@ export class KelvinView implements View {
 
   /** Whole-σ changes (preset, base, reset, undo). */
   private sigmaEdited(save: boolean): void {
+    this.dropSigmaFileRef();
     this.surface?.setSigma(this.sigmaBody());
     this.updateSigmaBar();
     this.updateHistogram();
@@ -554,9 +573,72 @@ export class KelvinView implements View {
     await downloadIsoSurfaces(id, name, this.state.levels, this.state.format);
   }
 
+  // ---- σ files ----
+  private saveSigma(): void {
+    const s = this.state;
+    const mesh = s.object === "upload" ? { upload: this.objectName() } : { asset: s.object };
+    const text = sigmaFileText({ mesh, lx: s.lx, preset: s.preset, base: s.base, brushes: s.brushes }, this.sigmaBody());
+    const a = document.createElement("a");
+    a.href = URL.createObjectURL(new Blob([text], { type: "application/json" }));
+    a.download = `${this.objectName().replace(/\.[^.]+$/, "")}-sigma.json`;
+    a.click();
+    window.setTimeout(() => URL.revokeObjectURL(a.href), 2000);
+  }
+
+  private async loadSigma(file: File): Promise<void> {
+    let c;
+    try {
+      c = parseSigmaFile(await file.text());
+      if ("asset" in c.mesh && !this.assets.includes(c.mesh.asset)) throw new SigmaFileError("mesh.asset", `no built-in object "${c.mesh.asset}" (${this.assets.join(", ")})`);
+      if ("upload" in c.mesh && (this.state.object !== "upload" || this.objectName() !== c.mesh.upload))
+        throw new SigmaFileError("mesh.upload", `this σ is for the uploaded ${c.mesh.upload}: upload it first`);
+    } catch (e) {
+      showError(e, `cannot load σ from ${file.name}`);
+      return;
+    }
+    const want = this.state.sigmaFile;
+    if (want && (c.brushes.length !== want.stamps || (await brushesDigest(c.brushes)) !== want.digest))
+      toast(`${file.name} is not the σ file the link refers to (${want.stamps} stamps): loaded anyway`, "info", 6000);
+    const s = this.state;
+    const object = "asset" in c.mesh ? c.mesh.asset : "upload";
+    const reload = object !== s.object || (c.lx !== undefined && c.lx !== s.lx);
+    if (object !== s.object) s.brush.radius = 0;
+    s.lx = c.lx ?? (object !== s.object ? (defaultLx[object] ?? s.lx) : s.lx);
+    s.object = object;
+    s.preset = c.preset;
+    s.base = c.base;
+    s.brushes = c.brushes;
+    this.strokes = [];
+    this.panel?.refresh();
+    if (reload) {
+      this.dropSigmaFileRef();
+      void this.load();
+    } else this.sigmaEdited(true);
+    toast(`σ from ${file.name}: ${c.brushes.length} brush stamps`, "ok");
+  }
+
+  private dropSigmaFileRef(): void {
+    if (!this.state.sigmaFile) return;
+    this.state.sigmaFile = undefined;
+    this.showSigmaNotice();
+  }
+
+  private showSigmaNotice(): void {
+    const ref = this.state.sigmaFile, el = this.panel?.sigmaNotice;
+    if (!el) return;
+    el.hidden = !ref;
+    if (ref) el.textContent = `This link's σ has ${ref.stamps} brush stamps, too many for a link: load its σ file (saved with "save σ file…").`;
+  }
+
   // ---- bookkeeping ----
   private save(): void {
-    this.host.saveState(writeStateJson(this.state));
+    // Too many brush stamps for a link: it refers to the σ file instead (saved by the user).
+    this.host.saveState(writeStateJson(this.state), async (json) => {
+      const { brushes: _drop, ...rest } = json;
+      if (!this.longLinkTold) toast(`σ has ${this.state.brushes.length} brush stamps, too many for a link: the link refers to its σ file (save it with "save σ file…")`, "info", 8000);
+      this.longLinkTold = true;
+      return { ...rest, sigmaFile: { stamps: this.state.brushes.length, digest: await brushesDigest(this.state.brushes) } };
+    });
   }
 
   /** The object's name as shown: the uploaded file's, or the asset's. */

@@ -21,6 +21,8 @@ export interface PanelActions {
   sliceChanged(): void;
   sliceStyleChanged(): void;
   exportShown(): void;
+  saveSigma(): void;
+  loadSigma(file: File): void;
 }
 
 export class Panel {
@@ -32,6 +34,9 @@ export class Panel {
   private readonly lx: Controller;
   private readonly estimate: HTMLDivElement;
   readonly sigmaHistogram: HTMLDivElement;
+  private sigmaInput: HTMLInputElement;
+  /** Says when the link's σ is in a file that is not loaded yet. */
+  readonly sigmaNotice: HTMLDivElement;
 
   constructor(container: HTMLElement, state: KelvinState, assets: string[], a: PanelActions) {
     this.gui = new GUI({ container, title: "Semantic distance", width: 300 });
@@ -69,6 +74,24 @@ export class Panel {
     this.add(sig.add(state.brush, "falloff", 0, 1, 0.001).name("brush falloff").onChange(() => a.styleChanged()));
     sig.add({ undo: () => a.undoStroke() }, "undo").name("undo stroke (z)");
     sig.add({ reset: () => a.resetSigma() }, "reset").name("reset σ (r)");
+    sig.add({ save: () => a.saveSigma() }, "save").name("save σ file…");
+    this.sigmaInput = document.createElement("input");
+    this.sigmaInput.type = "file";
+    this.sigmaInput.accept = ".json,application/json";
+    this.sigmaInput.hidden = true;
+    this.sigmaInput.dataset.testid = "kelvin-sigma-file";
+    this.sigmaInput.addEventListener("change", () => {
+      const f = this.sigmaInput.files?.[0];
+      if (f) a.loadSigma(f);
+      this.sigmaInput.value = "";
+    });
+    container.appendChild(this.sigmaInput);
+    sig.add({ load: () => this.sigmaInput.click() }, "load").name("load σ file… (assets/wrench_case_*.json format)");
+    this.sigmaNotice = document.createElement("div");
+    this.sigmaNotice.className = "kelvin-estimate bad";
+    this.sigmaNotice.dataset.testid = "kelvin-sigma-notice";
+    this.sigmaNotice.hidden = true;
+    sig.$children.appendChild(this.sigmaNotice);
     addColorControls(sig.addFolder("σ colours"), state.sigmaColor, () => a.styleChanged());
     // The histogram of σ over the surface (its owner draws into this box).
     this.sigmaHistogram = document.createElement("div");
@@ -148,6 +171,7 @@ export class Panel {
   dispose(): void {
     this.gui.destroy();
     this.fileInput.remove();
+    this.sigmaInput.remove();
     this.stats.remove();
   }
 }

@@ -2,6 +2,7 @@
 // the browser tests and for measuring (nothing here changes the view's state).
 import type { ColorBarState } from "../../core/colorbar";
 import type { HistogramData } from "../../core/histogram";
+import { Color } from "three";
 import type { Viewport } from "../../core/viewport";
 import type { IsoFrameInfo } from "./iso_layers";
 import type { ObjectStatus } from "./object_source";
@@ -54,6 +55,8 @@ export interface KelvinHookSource {
   /** The colour bars shown (σ on the surface, h on the slice). */
   colorbars(): ColorBarState[];
   sigmaHistogram(): HistogramData | null;
+  /** What a ray through a page point meets, nearest first ("surface", "iso 0.25", "slice"). */
+  pickAt(x: number, y: number): string[];
 }
 
 /** Turns the camera about its up axis around the orbit target. */
@@ -123,6 +126,19 @@ export function installHooks(view: KelvinHookSource): void {
     },
     get sigmaHistogram() {
       return copy(view.sigmaHistogram());
+    },
+    pickAt: (x: number, y: number) => view.pickAt(x, y),
+    /** σ and the colour (sRGB bytes) at every k-th display vertex of the surface. */
+    surfaceColors: (step = 1) => {
+      const s = view.surface();
+      if (!s) return null;
+      const sigma = s.sigmaValues(), col = s.mesh.geometry.getAttribute("color");
+      const c = new Color(), out: Array<{ sigma: number; rgb: number[] }> = [];
+      for (let v = 0; v < sigma.length; v += step) {
+        c.setRGB(col.getX(v), col.getY(v), col.getZ(v)).convertLinearToSRGB();
+        out.push({ sigma: sigma[v], rgb: [c.r, c.g, c.b].map((x) => Math.round(x * 255)) });
+      }
+      return { vertices: sigma.length, samples: out };
     },
     /** σ on the surface's display vertices: its smallest and largest value, and the colour range. */
     get sigmaRange() {
