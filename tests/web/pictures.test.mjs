@@ -9,7 +9,7 @@ import { readFileSync, writeFileSync, mkdtempSync } from "node:fs";
 import { tmpdir } from "node:os";
 import path from "node:path";
 import { pathToFileURL } from "node:url";
-import { openView, screenshot, serverAndBrowser } from "./harness.mjs";
+import { kelvinStroke, openView, screenshot, serverAndBrowser } from "./harness.mjs";
 
 const env = serverAndBrowser();
 const source = process.env.DISTLAB_SOURCE_DIR ?? path.resolve(import.meta.dirname, "../..");
@@ -31,14 +31,7 @@ const hash = (view, state) => `#/${view}?s=${encodeURIComponent(JSON.stringify(s
 const K = (page, expr) => page.evaluate(`(() => { const k = window.distlab.kelvin; return ${expr}; })()`);
 const waitReady = (page) => page.waitForFunction(() => window.distlab?.kelvin?.ready === true, null, { timeout: 120000, polling: 100 });
 
-async function stroke(page, from, to, steps = 8) {
-  const a = await K(page, `k.toScreen(${JSON.stringify(from)})`);
-  const b = await K(page, `k.toScreen(${JSON.stringify(to)})`);
-  await page.mouse.move(a.x, a.y);
-  await page.mouse.down();
-  for (let i = 1; i <= steps; i++) await page.mouse.move(a.x + ((b.x - a.x) * i) / steps, a.y + ((b.y - a.y) * i) / steps);
-  await page.mouse.up();
-}
+const stroke = (page, from, to, steps = 8) => kelvinStroke(page, from, to, steps);
 
 /** A lil-gui controller by its name inside the folder of the given title. */
 const control = (page, folder, name) =>
