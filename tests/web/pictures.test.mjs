@@ -103,7 +103,7 @@ test("Kelvin: colour bars for σ and the slice's h, the surface coloured as its 
     const mine = new Array(hist.counts.length).fill(0);
     for (const s of cols.samples) mine[Math.min(mine.length - 1, Math.floor((s.sigma - hist.edges[0]) / w))]++;
     assert.deepEqual(hist.counts, mine);
-    assert.match(await page.locator("[data-testid=sigma-histogram]").textContent(), /σ \(dimensionless\)/);
+    assert.match(await page.locator("[data-testid=sigma-histogram] .histogram-caption").textContent(), /σ \(dimensionless\)/);
     assert.equal(await page.locator("[data-testid=sigma-histogram] canvas").count(), 1, "drawn by uPlot");
 
     // A sequential map over a fixed range.
@@ -215,13 +215,14 @@ test("GAP: hovering the slice shows E_S there in m², the value its colour shows
     // The server's E_S at that point (a 3×3 plane centred on it): the read-out interpolates the
     // slice's grid bilinearly, whose error is below (h_u² + h_v²)/8 · max|∂²E_S| with ∂²E_S/∂p² < I
     // (Property 2). (The slice drawn half a cell off its samples missed this by 20 times.)
+    const pageRequest = structuredClone(sent); // (the request below is seen by the listener too)
     const exact = await page.evaluate(async ([sent, point]) => {
       const body = { ...sent, levels: { weak: [], strict: [] }, plane: { center: point, normal: [0, 0, 1], size: [1e-6, 1e-6], resolution: [3, 3] } };
       const out = await window.distlab.api.msgpack("POST", "/api/gap/levelsets", body);
       const b = out.plane.strict;
       return new Float32Array(b.slice().buffer)[4];
-    }, [sent, r.point]);
-    const [hu, hv] = [0, 1].map((i) => sent.plane.size[i] / (sent.plane.resolution[i] - 1)); // the nodes' spacing
+    }, [pageRequest, r.point]);
+    const [hu, hv] = [0, 1].map((i) => pageRequest.plane.size[i] / (pageRequest.plane.resolution[i] - 1)); // the nodes' spacing
     assert.ok(Math.abs(r.value - exact) <= (hu * hu + hv * hv) / 8 + 1e-6 * Math.abs(exact), `read-out ${r.value}, server ${exact}`);
   } finally {
     await page.context().close();

@@ -35,6 +35,10 @@ export class HistogramPlot {
   data: HistogramData = { edges: [], counts: [], total: 0 };
 
   constructor(private readonly root: HTMLElement, xLabel: string, yLabel: string) {
+    const caption = document.createElement("div");
+    caption.className = "histogram-caption";
+    caption.textContent = `histogram: ${yLabel} per bin of ${xLabel}`;
+    root.appendChild(caption);
     this.plot = new uPlot(
       {
         width: Math.max(200, root.clientWidth || 280),
