@@ -286,7 +286,7 @@ test("Kelvin: a link with 200 σ strokes stays within 8 KB; σ saves to and load
     console.log(`σ link lengths: ${JSON.stringify(lengths)}`);
     assert.ok(url.length <= 8192, `the link is ${url.length} characters`);
     // Save the file; its content is the case format with every stamp at full precision.
-    const [download] = await Promise.all([page.waitForEvent("download"), page.locator(".lil-button", { hasText: "save σ file" }).click()]);
+    const [download] = await Promise.all([page.waitForEvent("download"), page.locator(".lil-function button", { hasText: "save σ file" }).click()]);
     const file = path.join(downloads, download.suggestedFilename());
     await download.saveAs(file);
     const saved = JSON.parse(readFileSync(file, "utf8"));
