@@ -49,17 +49,7 @@ export class Panel {
     this.estimate.className = "kelvin-estimate";
     this.estimate.dataset.testid = "kelvin-estimate";
     obj.$children.appendChild(this.estimate);
-    this.fileInput = document.createElement("input");
-    this.fileInput.type = "file";
-    this.fileInput.accept = ".stl,.obj,.ply,.glb,.off";
-    this.fileInput.hidden = true;
-    this.fileInput.dataset.testid = "kelvin-upload";
-    this.fileInput.addEventListener("change", () => {
-      const f = this.fileInput.files?.[0];
-      if (f) a.upload(f);
-      this.fileInput.value = "";
-    });
-    container.appendChild(this.fileInput);
+    this.fileInput = fileInput(container, ".stl,.obj,.ply,.glb,.off", "kelvin-upload", (f) => a.upload(f));
     obj.add({ upload: () => this.fileInput.click() }, "upload").name("upload a mesh…");
 
     const sig = this.gui.addFolder("σ (contact allowed where σ > 0)");
@@ -75,17 +65,7 @@ export class Panel {
     sig.add({ undo: () => a.undoStroke() }, "undo").name("undo stroke (z)");
     sig.add({ reset: () => a.resetSigma() }, "reset").name("reset σ (r)");
     sig.add({ save: () => a.saveSigma() }, "save").name("save σ file…");
-    this.sigmaInput = document.createElement("input");
-    this.sigmaInput.type = "file";
-    this.sigmaInput.accept = ".json,application/json";
-    this.sigmaInput.hidden = true;
-    this.sigmaInput.dataset.testid = "kelvin-sigma-file";
-    this.sigmaInput.addEventListener("change", () => {
-      const f = this.sigmaInput.files?.[0];
-      if (f) a.loadSigma(f);
-      this.sigmaInput.value = "";
-    });
-    container.appendChild(this.sigmaInput);
+    this.sigmaInput = fileInput(container, ".json,application/json", "kelvin-sigma-file", (f) => a.loadSigma(f));
     sig.add({ load: () => this.sigmaInput.click() }, "load").name("load σ file… (assets/wrench_case_*.json format)");
     this.sigmaNotice = document.createElement("div");
     this.sigmaNotice.className = "kelvin-estimate bad";
@@ -174,4 +154,20 @@ export class Panel {
     this.sigmaInput.remove();
     this.stats.remove();
   }
+}
+
+/** A hidden file chooser (a panel button clicks it); each chosen file goes to `chosen`. */
+function fileInput(container: HTMLElement, accept: string, testid: string, chosen: (f: File) => void): HTMLInputElement {
+  const input = document.createElement("input");
+  input.type = "file";
+  input.accept = accept;
+  input.hidden = true;
+  input.dataset.testid = testid;
+  input.addEventListener("change", () => {
+    const f = input.files?.[0];
+    if (f) chosen(f);
+    input.value = "";
+  });
+  container.appendChild(input);
+  return input;
 }
