@@ -313,7 +313,7 @@ test("Kelvin: a link with 200 σ strokes stays within 8 KB; σ saves to and load
     assert.match(await other.locator(".toast-error").last().textContent(), /sigma\.colour: unknown key/);
     // The project's own case file reads as the preset it is.
     const parsed = await other.evaluate(async (text) => {
-      const f = new File([text], "wrench_case_b.json");
+      const f = new File([text], "wrench_case_a.json");
       const input = document.querySelector("input[data-testid=kelvin-sigma-file]");
       const dt = new DataTransfer();
       dt.items.add(f);
@@ -321,9 +321,9 @@ test("Kelvin: a link with 200 σ strokes stays within 8 KB; σ saves to and load
       input.dispatchEvent(new Event("change"));
       await new Promise((r) => setTimeout(r, 500));
       return window.distlab.kelvin.state;
-    }, readFileSync(path.join(source, "assets", "wrench_case_b.json"), "utf8"));
+    }, readFileSync(path.join(source, "assets", "wrench_case_a.json"), "utf8"));
     assert.equal(parsed.object, "wrench");
-    assert.equal(parsed.preset, "b");
+    assert.equal(parsed.preset, "a", "its axis term is case (a)'s");
     assert.equal(parsed.lx, 0.002);
     await other.context().close();
     await screenshot(page, "pictures-kelvin-200-strokes");
