@@ -10,8 +10,6 @@ export interface Route {
 /** The longest link written: 8 KB, the request-line limit of common servers (nginx, Apache) and
  *  proxies, which a link pasted into a mail or chat client may pass through (browsers take more). */
 export const LINK_BUDGET = 8192;
-/** Plain JSON up to this length (readable, hand-editable), compressed beyond. */
-const PLAIN_MAX = 1024;
 
 export async function parseHash(hash = location.hash): Promise<Route> {
   const m = /^#\/([a-z0-9_-]+)(?:\?(.*))?$/i.exec(hash);
@@ -37,10 +35,11 @@ export function hashFor(view: string, state?: Record<string, unknown>): string {
   return `#/${view}?s=${encodeURIComponent(JSON.stringify(state))}`;
 }
 
-/** The hash of a state, compressed when long; null when even that is over LINK_BUDGET. */
+/** The hash of a state: plain JSON (readable, hand-editable) while the link is within LINK_BUDGET,
+ *  compressed beyond; null when even that is over it. */
 export async function compactHash(view: string, state: Record<string, unknown>): Promise<string | null> {
   const plain = hashFor(view, state);
-  if (plain.length <= PLAIN_MAX) return plain;
+  if (location.href.split("#")[0].length + plain.length <= LINK_BUDGET) return plain;
   const z = `#/${view}?z=${await deflate(JSON.stringify(state))}`;
   return location.href.split("#")[0].length + z.length <= LINK_BUDGET ? z : null;
 }
