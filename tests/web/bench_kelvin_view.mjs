@@ -101,7 +101,11 @@ async function orbit(p, moves) {
 try {
   // A: σ latency. Cube, l_x = 0.05 (about 24k field vertices).
   const lx = Number(process.env.LX ?? 0.05);
-  const page = await openView(browser, server, `#/kelvin?s=${encodeURIComponent(JSON.stringify({ object: "cube", lx, levels: [0, 0.25] }))}`);
+  // A brush narrower than the strokes' spacing (0.078 m): with the page's default (8% of the
+  // diagonal, 0.14 m) neighbouring strokes overlap, and main's page then stamps σ past the
+  // server's range and stops (see the brush's no-overshoot rule).
+  const brush = { on: true, value: 1, radius: 0.05, falloff: 0.02 };
+  const page = await openView(browser, server, `#/kelvin?s=${encodeURIComponent(JSON.stringify({ object: "cube", lx, levels: [0, 0.25], brush }))}`);
   await page.waitForFunction(() => window.distlab?.kelvin?.ready === true, null, { timeout: 300000, polling: 200 });
   const nverts = (await K(page, "k.object")).stats.n_verts;
   const sync = process.env.SYNC === "1";

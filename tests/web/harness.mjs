@@ -125,3 +125,13 @@ export function differentBytes(a, b) {
   for (let i = 0; i < a.length; i++) if (a[i] !== b[i]) n++;
   return n;
 }
+
+/** A real mouse stroke across the Kelvin object's visible face, through points given in world space. */
+export async function kelvinStroke(page, from, to, steps = 12) {
+  const at = (p) => page.evaluate((p) => window.distlab.kelvin.toScreen(p), p);
+  const a = await at(from), b = await at(to);
+  await page.mouse.move(a.x, a.y);
+  await page.mouse.down();
+  for (let i = 1; i <= steps; i++) await page.mouse.move(a.x + ((b.x - a.x) * i) / steps, a.y + ((b.y - a.y) * i) / steps);
+  await page.mouse.up();
+}

@@ -4,7 +4,7 @@
 // restores the state, the wrench presets apply, and the object comes back after a restart.
 import { test } from "node:test";
 import assert from "node:assert/strict";
-import { canvasPixels, decodeMsgpack, differentBytes, openView, screenshot, serverAndBrowser, startServer } from "./harness.mjs";
+import { canvasPixels, decodeMsgpack, differentBytes, kelvinStroke, openView, screenshot, serverAndBrowser, startServer } from "./harness.mjs";
 
 const env = serverAndBrowser();
 
@@ -15,15 +15,7 @@ async function waitReady(page, timeout = 120000) {
   await page.waitForFunction(() => window.distlab?.kelvin?.ready === true, null, { timeout, polling: 100 });
 }
 
-/** A real mouse stroke across the object's visible face, through points given in world space. */
-async function stroke(page, from, to, steps = 12) {
-  const a = await K(page, `k.toScreen(${JSON.stringify(from)})`);
-  const b = await K(page, `k.toScreen(${JSON.stringify(to)})`);
-  await page.mouse.move(a.x, a.y);
-  await page.mouse.down();
-  for (let i = 1; i <= steps; i++) await page.mouse.move(a.x + ((b.x - a.x) * i) / steps, a.y + ((b.y - a.y) * i) / steps);
-  await page.mouse.up();
-}
+const stroke = kelvinStroke;
 
 /** Counts the page's surface downloads per object id: REST GETs of .../surface, the socket's
  *  "surface" frames (positions + indices + σ) and its σ-only "surface_sigma" frames. */

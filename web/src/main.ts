@@ -26,8 +26,8 @@ const host: ViewHost = {
     $("bottom").hidden = !show;
     document.body.classList.toggle("with-bottom", show);
   },
-  saveState(state) {
-    if (current) writeState(current.id, state);
+  saveState(state, shrink) {
+    if (current) writeState(current.id, state, shrink);
   },
   status(text) {
     $("status").textContent = text;
@@ -47,7 +47,7 @@ const host: ViewHost = {
 };
 
 async function route(): Promise<void> {
-  const { view: id, state } = parseHash();
+  const { view: id, state } = await parseHash();
   const entry = views.find((v) => v.id === id) ?? views[0];
   if (!views.some((v) => v.id === id)) {
     history.replaceState(null, "", hashFor(entry.id));

@@ -1,16 +1,24 @@
 // Shareable URLs: location.hash is "#/<view>?s=<JSON of the view's state>". Views read their
 // state once when mounted and write it (debounced, replaceState) whenever the user changes it.
+// A long state (many σ brush stamps) is compressed: "?z=<base64url of the JSON deflated>"
+// (CompressionStream); one still over LINK_BUDGET is replaced by the view's smaller form.
 export interface Route {
   view: string;
   state: Record<string, unknown>;
 }
 
-export function parseHash(hash = location.hash): Route {
+/** The longest link written: 8 KB, the request-line limit of common servers (nginx, Apache) and
+ *  proxies, which a link pasted into a mail or chat client may pass through (browsers take more). */
+export const LINK_BUDGET = 8192;
+
+export async function parseHash(hash = location.hash): Promise<Route> {
   const m = /^#\/([a-z0-9_-]+)(?:\?(.*))?$/i.exec(hash);
   if (!m) return { view: "", state: {} };
   const params = new URLSearchParams(m[2] ?? "");
   let state: Record<string, unknown> = {};
-  const s = params.get("s");
+  let s = params.get("s");
+  const z = params.get("z");
+  if (z && !s) s = await inflate(z).catch(() => null);
   if (s) {
     try {
       const v = JSON.parse(s) as unknown;
@@ -27,14 +35,44 @@ export function hashFor(view: string, state?: Record<string, unknown>): string {
   return `#/${view}?s=${encodeURIComponent(JSON.stringify(state))}`;
 }
 
+/** The hash of a state: plain JSON (readable, hand-editable) while the link is within LINK_BUDGET,
+ *  compressed beyond; null when even that is over it. */
+export async function compactHash(view: string, state: Record<string, unknown>): Promise<string | null> {
+  const plain = hashFor(view, state);
+  if (location.href.split("#")[0].length + plain.length <= LINK_BUDGET) return plain;
+  const z = `#/${view}?z=${await deflate(JSON.stringify(state))}`;
+  return location.href.split("#")[0].length + z.length <= LINK_BUDGET ? z : null;
+}
+
 let pending: number | undefined;
-/** Records a view's state in the URL without adding a history entry per drag step. */
-export function writeState(view: string, state: Record<string, unknown>): void {
+let writes = 0;
+/** Records a view's state in the URL without adding a history entry per drag step. A state whose
+ *  link would be over LINK_BUDGET is written as `shrink` makes it (the view's reference to a file). */
+export function writeState(view: string, state: Record<string, unknown>, shrink?: (s: Record<string, unknown>) => Promise<Record<string, unknown>>): void {
   clearTimeout(pending);
-  pending = window.setTimeout(() => {
-    const h = hashFor(view, state);
-    if (h !== location.hash) history.replaceState(null, "", h);
+  const ticket = ++writes;
+  pending = window.setTimeout(async () => {
+    let h = await compactHash(view, state);
+    if (h === null) h = (await compactHash(view, shrink ? await shrink(state) : {})) ?? `#/${view}`;
+    if (ticket === writes && h !== location.hash) history.replaceState(null, "", h);
   }, 150);
+}
+
+function toBase64Url(bytes: Uint8Array): string {
+  let bin = "";
+  for (let i = 0; i < bytes.length; i += 0x8000) bin += String.fromCharCode(...bytes.subarray(i, i + 0x8000));
+  return btoa(bin).replace(/\+/g, "-").replace(/\//g, "_").replace(/=+$/, "");
+}
+
+async function deflate(text: string): Promise<string> {
+  const stream = new Blob([text]).stream().pipeThrough(new CompressionStream("deflate-raw"));
+  return toBase64Url(new Uint8Array(await new Response(stream).arrayBuffer()));
+}
+
+async function inflate(z: string): Promise<string> {
+  const bin = atob(z.replace(/-/g, "+").replace(/_/g, "/"));
+  const bytes = Uint8Array.from(bin, (c) => c.charCodeAt(0));
+  return new Response(new Blob([bytes]).stream().pipeThrough(new DecompressionStream("deflate-raw"))).text();
 }
 
 /** Typed reads with defaults, so a hand-edited URL can't inject the wrong type. */

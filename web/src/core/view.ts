@@ -9,8 +9,9 @@ export interface ViewHost {
   /** Bottom strip for plots and readouts; hidden until a view calls showBottom(true). */
   readonly bottom: HTMLElement;
   showBottom(show: boolean): void;
-  /** Persist the view's state in the URL (shareable links). */
-  saveState(state: Record<string, unknown>): void;
+  /** Persist the view's state in the URL (shareable links); `shrink` gives the state to write
+   *  when the link would be too long (see urlstate.ts). */
+  saveState(state: Record<string, unknown>, shrink?: (s: Record<string, unknown>) => Promise<Record<string, unknown>>): void;
   /** A line of text in the status bar (e.g. "D = 0.1234 m"). */
   status(text: string): void;
   /** Progress bar: fraction in [0, 1], or null to hide. */

@@ -229,6 +229,8 @@ export interface paths {
                             read_timeout_seconds: number;
                             /** @description |σ| bound of every σ term and of their sum on the surface (400 naming the field); a property of the method (kelvin/sigma.hpp), not a setting */
                             max_abs_sigma: number;
+                            /** @description values of one POST /api/cbf/sweeps (400, field sweep.values) */
+                            max_cbf_sweep_values: number;
                         };
                     };
                 };
@@ -1698,7 +1700,13 @@ export interface paths {
             };
             requestBody: {
                 content: {
-                    "application/json": components["schemas"]["CbfRolloutRequest"];
+                    "application/json": components["schemas"]["CbfRolloutRequest"] & {
+                        sweep: {
+                            /** @description a dotted key of params */
+                            parameter: string;
+                            values: unknown[];
+                        };
+                    };
                 };
             };
             responses: {

@@ -13,6 +13,8 @@ import "./gap.css";
 import { IsoLayer } from "./levelsets";
 import { GapPanel, type Change, type GizmoState } from "./panel";
 import { Readout, statusLine, type GapResult } from "./readout";
+import { installSliceHover } from "./slice_hover";
+import { ColorBar } from "../../core/colorbar";
 import { COLORS, GapScene } from "./scene";
 import { setPose, shapeBody, shapeRequest } from "./shapes";
 import { defaultState, paramsBody, parseState, type GapState } from "./state";
@@ -30,6 +32,7 @@ export class GapView implements View {
   private panel!: GapPanel;
   private readout!: Readout;
   private iso!: IsoLayer;
+  private sliceReading: () => unknown = () => null;
   private sweep!: Sweep;
   private distance!: LatestWins<DistanceInput, GapResult>;
   private result: GapResult | null = null;
@@ -75,6 +78,10 @@ export class GapView implements View {
       },
       (busy) => host.progress(busy ? "computing level sets…" : null),
     );
+    this.iso.colorBar = new ColorBar(host.canvas, "E_S on the slice", "m²", "colorbar-gap");
+    const hover = installSliceHover(vp, this.iso, host.canvas, () => this.state.iso);
+    this.cleanup.push(() => hover.remove());
+    this.sliceReading = hover.last;
     this.sweep = new Sweep(host.bottom, (err) => err && this.reportError(err, "sweep"));
     host.showBottom(true);
 
@@ -314,6 +321,8 @@ export class GapView implements View {
       selected: () => this.gizmoState.selected,
       sweep: () => ({ data: this.sweep.last, plots: [this.sweep.dPlot.data(), this.sweep.derivPlot.data()], requests: this.sweep.requestsSent }),
       iso: () => ({ ...structuredClone(this.iso.shown), requests: this.iso.requestsSent }),
+      colorbar: () => this.iso.colorBar?.state ?? null,
+      sliceReading: () => this.sliceReading(),
       latencies: () => [...this.latencies],
       roundTrips: () => [...this.roundTrips],
       frameStats: () => vp.frameStats(),

@@ -4,6 +4,8 @@
 // moves them without asking the server again; only size, parameter and level edits refetch.
 import * as THREE from "three";
 import { api } from "../../core/api";
+import { ColorBar } from "../../core/colorbar";
+import { finiteRange, resolveRange } from "../../core/colormap";
 import { LatestWins, type LatestResult } from "../../core/latest";
 import { floats, toGeometry, type MeshFrame } from "../../core/meshframe";
 import { SlicePlane } from "../../core/slice";
@@ -38,6 +40,8 @@ export class IsoLayer {
   readonly group = new THREE.Group();
   readonly slice = new SlicePlane();
   private readonly requests: LatestWins<IsoInput, LevelsetsResponse>;
+  /** The slice's colour bar (set by the view, in its canvas). */
+  colorBar: ColorBar | null = null;
   private planeFields: { weak: Float32Array; strict: Float32Array; meta: NonNullable<LevelsetsResponse["plane"]> } | null = null;
   /** What the user sees (tests): the surfaces and the slice currently shown. */
   shown: { surfaces: Array<{ field: string; level: number; triangles: number }>; slice: string; sliceRange: [number, number] | null } = {
@@ -70,18 +74,24 @@ export class IsoLayer {
     if (!this.planeFields || iso.slice === "none") {
       this.slice.visible = false;
       this.shown.slice = "none";
+      if (this.colorBar) this.colorBar.visible = false;
       return;
     }
     // Both fields are exactly 0 on the set S itself: draw it as "inside" (the shader's NaN grey).
     const f = Float32Array.from(iso.slice === "weak" ? this.planeFields.weak : this.planeFields.strict, (x) => (x === 0 ? NaN : x));
-    let hi = 0;
-    for (const x of f) if (Number.isFinite(x) && x > hi) hi = x;
+    const data = finiteRange(f);
+    const range = resolveRange(iso.color, ...data);
     const m = this.planeFields.meta;
-    this.slice.setSamples({ center: m.center, u: m.u, v: m.v, size: m.size, resolution: m.resolution, values: f });
-    this.slice.setStyle({ range: [0, hi], spacing: iso.spacing, diverging: false, opacity: 0.85 });
+    this.slice.setSamples({ center: m.center, u: m.u, v: m.v, size: m.size, resolution: m.resolution, values: f, atNodes: true });
+    this.slice.setStyle({ range, spacing: iso.spacing, map: iso.color.map, opacity: 0.85 });
     this.slice.visible = true;
     this.shown.slice = iso.slice;
-    this.shown.sliceRange = [0, hi];
+    this.shown.sliceRange = range;
+    if (this.colorBar) {
+      this.colorBar.retitle(iso.slice === "weak" ? "e_S on the slice (weak, eq. 5)" : "E_S on the slice (strict, eq. 6)");
+      this.colorBar.update(iso.color, range, Number.isFinite(data[0]) ? data : null);
+      this.colorBar.visible = true;
+    }
   }
 
   private fetch(i: IsoInput): Promise<LevelsetsResponse> {
@@ -151,6 +161,7 @@ export class IsoLayer {
       (m.material as THREE.Material | undefined)?.dispose();
     });
     this.slice.dispose();
+    this.colorBar?.dispose();
   }
 }
 

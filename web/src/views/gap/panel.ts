@@ -1,6 +1,7 @@
 // The control panel (lil-gui in host.panel): shapes and sizes, gizmo, GAP parameters with the
 // validator's verdict, level sets and slice, and the sweep. Controllers edit the state objects in
 // place and report what kind of change happened; the view decides what to recompute.
+import { addColorControls } from "../../core/colorbar";
 import GUI, { type Controller } from "lil-gui";
 import { SHAPE_TYPES, type ShapeState } from "./shapes";
 import { exactNumbers } from "../../core/exact_number";
@@ -83,6 +84,7 @@ export class GapPanel {
     l.add(state.iso, "normal", AXES).name("slice normal").onChange(() => changed("iso"));
     l.add(state.iso, "offset", -1, 1, 0.01).name("slice offset").onFinishChange(() => changed("iso"));
     l.add(state.iso, "spacing", 0, 0.02, 0.0005).name("contour step").onChange(() => changed("slice-style"));
+    addColorControls(l.addFolder("slice colours"), state.iso.color, () => changed("slice-style"));
 
     const s = this.gui.addFolder("Sweep of B");
     s.add(state.sweep, "motion", MOTIONS).onChange(() => changed("sweep"));

@@ -1,6 +1,8 @@
 // The explorer's whole state (what a shared URL restores): both shapes, GAP parameters,
 // iso-surface levels and slice, and the sweep. Reads from the URL are typed and clamped so a
 // hand-edited link cannot inject the wrong type; the server still validates every number.
+import { readColorScale } from "../../core/colorbar";
+import type { ColorScale } from "../../core/colormap";
 import { num, numArray, str } from "../../core/urlstate";
 import { SHAPE_TYPES, type ShapeState } from "./shapes";
 
@@ -38,6 +40,8 @@ export interface IsoState {
   offset: number;
   /** Contour spacing on the slice (field units). */
   spacing: number;
+  /** The slice's colour map and range. */
+  color: ColorScale;
 }
 
 export interface SweepState {
@@ -61,7 +65,7 @@ export function defaultState(): GapState {
     a: { type: "polytope", size: [0.4, 0.4, 0.4], radius: 0.25, height: 0.3, position: [0, 0, 0], quaternion: [1, 0, 0, 0] },
     b: { type: "box", size: [0.3, 0.3, 0.3], radius: 0.15, height: 0.3, position: [0.55, 0.1, 0], quaternion: [1, 0, 0, 0] },
     params: { h: 0.1, k: 2, eps: 0.01, sigma: Math.sqrt(1 - 2 * 0.01), coupled: true, solver: "newton" },
-    iso: { around: "a", surfaces: "strict", weak: [0.002, 0.008], strict: [0.002, 0.008], slice: "strict", normal: "z", offset: 0, spacing: 0.003 },
+    iso: { around: "a", surfaces: "strict", weak: [0.002, 0.008], strict: [0.002, 0.008], slice: "strict", normal: "z", offset: 0, spacing: 0.003, color: { map: "viridis", mode: "auto", min: 0, max: 0.01 } },
     sweep: { motion: "translate", axis: "y", range: 0.8, samples: 121 },
   };
 }
@@ -117,6 +121,7 @@ export function parseState(raw: Record<string, unknown>): GapState {
       normal: str(iso.normal, AXES, d.iso.normal),
       offset: num(iso.offset, d.iso.offset, -10, 10),
       spacing: num(iso.spacing, d.iso.spacing, 0, 10),
+      color: readColorScale(iso.color, d.iso.color),
     },
     sweep: {
       motion: str(sw.motion, MOTIONS, d.sweep.motion),

@@ -93,6 +93,12 @@ export class IsoLayers {
     return [...this.shells.values()].map((s) => s.mesh);
   }
 
+  /** The level a shell's mesh shows, or null for another object. */
+  levelOf(o: THREE.Object3D): number | null {
+    for (const [level, s] of this.shells) if (s.mesh === o) return level;
+    return null;
+  }
+
   setVisible(v: boolean): void {
     this.group.visible = v;
   }

@@ -1,5 +1,7 @@
 // The view's shareable state (the URL's s= JSON): object, l_x, σ (preset or base constant plus
 // painted brushes), iso-levels, slice, brush settings. Every read is typed and bounded.
+import { readColorScale } from "../../core/colorbar";
+import type { ColorScale } from "../../core/colormap";
 import { num, str } from "../../core/urlstate";
 import { packBrushes, presetNames, unpackBrushes, type Brush, type PresetName } from "./sigma";
 import { sliceAxes, type SliceAxis } from "./slice_layer";
@@ -18,12 +20,16 @@ export interface KelvinState {
   preset: PresetName;
   base: number;
   brushes: Brush[];
+  /** A link too long for its brushes refers to the σ file holding them (sigma_file.ts). */
+  sigmaFile?: { stamps: number; digest: string };
   levels: number[];
   showIso: boolean;
   opacity: number;
   slice: { show: boolean; axis: SliceAxis; offset: number };
   brush: { on: boolean; value: number; radius: number; falloff: number };
-  sigmaScale: number;
+  /** Colours of σ on the surface and of h on the slice plane. */
+  sigmaColor: ColorScale;
+  sliceColor: ColorScale;
   format: ExportFormat;
   unit: UploadUnit;
   repair: Repair;
@@ -47,7 +53,8 @@ export function defaults(object = "cube"): KelvinState {
     opacity: 0.28,
     slice: { show: false, axis: "z", offset: 0 },
     brush: { on: true, value: 1, radius: 0, falloff: 0 }, // radius 0: chosen from the object's size
-    sigmaScale: 1,
+    sigmaColor: { map: "coolwarm", mode: "symmetric", min: -1, max: 1 },
+    sliceColor: { map: "coolwarm", mode: "symmetric", min: -1, max: 1 },
     format: "stl",
     unit: "m",
     repair: "none",
@@ -61,6 +68,12 @@ export function parseLevels(v: unknown, fallback: number[]): number[] {
   return out.length ? out.slice(0, 16) : fallback;
 }
 
+function readSigmaFileRef(v: unknown): KelvinState["sigmaFile"] {
+  const o = (v && typeof v === "object" ? v : {}) as Record<string, unknown>;
+  const stamps = num(o.stamps, 0, 0, 1e7);
+  return stamps > 0 && typeof o.digest === "string" && /^[0-9a-f]{16}$/.test(o.digest) ? { stamps: Math.round(stamps), digest: o.digest } : undefined;
+}
+
 export function readState(raw: Record<string, unknown>): KelvinState {
   const object = typeof raw.object === "string" && /^[A-Za-z0-9_-]{1,64}$/.test(raw.object) ? raw.object : "cube";
   const d = defaults(object);
@@ -72,6 +85,7 @@ export function readState(raw: Record<string, unknown>): KelvinState {
     preset: str(raw.preset, presetNames, "none"),
     base: num(raw.base, DEFAULT_BASE, -20, 20),
     brushes: unpackBrushes(raw.brushes),
+    sigmaFile: readSigmaFileRef(raw.sigmaFile),
     levels: parseLevels(raw.levels, d.levels),
     showIso: raw.showIso !== false,
     opacity: num(raw.opacity, d.opacity, 0.02, 1),
@@ -82,7 +96,9 @@ export function readState(raw: Record<string, unknown>): KelvinState {
       radius: num(brush.radius, 0, 0, 100),
       falloff: num(brush.falloff, 0, 0, 100),
     },
-    sigmaScale: num(raw.sigmaScale, 1, 1e-3, 100),
+    // Older links: "sigmaScale" s was the fixed range ±s.
+    sigmaColor: readColorScale(raw.sigmaColor, typeof raw.sigmaScale === "number" ? { ...d.sigmaColor, mode: "fixed", min: -num(raw.sigmaScale, 1, 1e-3, 100), max: num(raw.sigmaScale, 1, 1e-3, 100) } : d.sigmaColor),
+    sliceColor: readColorScale(raw.sliceColor, d.sliceColor),
     format: str(raw.format, exportFormats, "stl"),
     unit: str(raw.unit, uploadUnits, "m"),
     repair: str(raw.repair, repairs, "none"),
@@ -94,11 +110,14 @@ export function writeStateJson(s: KelvinState): Record<string, unknown> {
   if (s.preset !== "none") out.preset = s.preset;
   if (s.base !== DEFAULT_BASE) out.base = s.base;
   if (s.brushes.length) out.brushes = packBrushes(s.brushes);
+  else if (s.sigmaFile) out.sigmaFile = s.sigmaFile;
   if (!s.showIso) out.showIso = false;
   if (s.opacity !== 0.28) out.opacity = s.opacity;
   if (s.slice.show || s.slice.offset !== 0 || s.slice.axis !== "z") out.slice = s.slice;
   out.brush = s.brush;
-  if (s.sigmaScale !== 1) out.sigmaScale = s.sigmaScale;
+  const d = defaults();
+  if (JSON.stringify(s.sigmaColor) !== JSON.stringify(d.sigmaColor)) out.sigmaColor = s.sigmaColor;
+  if (JSON.stringify(s.sliceColor) !== JSON.stringify(d.sliceColor)) out.sliceColor = s.sliceColor;
   if (s.format !== "stl") out.format = s.format;
   if (s.unit !== "m") out.unit = s.unit;
   if (s.repair !== "none") out.repair = s.repair;

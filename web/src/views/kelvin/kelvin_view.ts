@@ -3,6 +3,8 @@
 // server, slice h on a plane, probe h and ∇h, export iso-surfaces. State lives in the URL.
 import * as THREE from "three";
 import { api, ApiError } from "../../core/api";
+import { ColorBar } from "../../core/colorbar";
+import { HistogramPlot } from "../../core/histogram";
 import type { Shortcut } from "../../core/keys";
 import { isMeshFrame, toGeometry, type MeshFrame } from "../../core/meshframe";
 import { socket, type BinaryFrame } from "../../core/socket";
@@ -19,6 +21,7 @@ import { statsRows, statusLine } from "./object_stats";
 import { Panel } from "./panel";
 import { Probe } from "./probe";
 import { composeSigma, evaluateAll, evaluateAt, presets, type Brush, type SigmaBody } from "./sigma";
+import { brushesDigest, parseSigmaFile, sigmaFileText, SigmaFileError } from "./sigma_file";
 import { SigmaSync } from "./sigma_sync";
 import { SliceLayer } from "./slice_layer";
 import { SurfaceLayer } from "./surface_layer";
@@ -66,6 +69,11 @@ export class KelvinView implements View {
   private hoverEvent: PointerEvent | null = null;
   private firstOpen = true;
   private sliceAtVersion = -1;
+  private sigmaBar: ColorBar | null = null;
+  private hBar: ColorBar | null = null;
+  private histogram: HistogramPlot | null = null;
+  private assets: string[] = [];
+  private longLinkTold = false;
 
   async mount(host: ViewHost, raw: Record<string, unknown>): Promise<void> {
     this.host = host;
@@ -87,8 +95,12 @@ export class KelvinView implements View {
     this.slice.onError = (e) => showError(e, "slice");
     this.slice.onSampled = () => {
       this.timings.sliceMs.push(this.slice!.lastSampleMs);
+      this.updateHBar();
       vp.invalidate();
     };
+    this.slice.setColor(this.state.sliceColor);
+    this.sigmaBar = new ColorBar(host.canvas, "σ on the surface", "dimensionless", "colorbar-sigma");
+    this.hBar = new ColorBar(host.canvas, "h on the slice", "dimensionless, −ln U", "colorbar-h");
     vp.scene.add(this.slice.plane);
     this.probe = new Probe(host.canvas);
     this.probe.onChange = () => vp.invalidate();
@@ -100,7 +112,10 @@ export class KelvinView implements View {
       sigmaAt: (p) => evaluateAt(this.sigmaBody(), p),
       setOrbit: (on) => (vp.controls.enabled = on),
       stamp: (b, t, first) => this.stamp(b, t, first),
-      strokeEnd: () => this.save(),
+      strokeEnd: () => {
+        this.save();
+        this.updateHistogram();
+      },
       hover: (_p, ev) => {
         this.hoverEvent = ev;
         vp.interacting();
@@ -124,9 +139,15 @@ export class KelvinView implements View {
       levelsChanged: () => this.levelsChanged(),
       styleChanged: () => this.restyle(),
       sliceChanged: () => this.sliceChanged(),
+      sliceStyleChanged: () => this.sliceStyleChanged(),
       exportShown: () => void this.exportShown(),
+      saveSigma: () => this.saveSigma(),
+      loadSigma: (f) => void this.loadSigma(f),
     });
+    this.assets = assets;
+    this.showSigmaNotice();
     if (limits.min_lx !== undefined) this.panel.setMinLx(limits.min_lx);
+    this.histogram = new HistogramPlot(this.panel.sigmaHistogram, "σ (dimensionless)", "% of vertices");
     this.offs.push(
       socket.onFrame((f) => this.onFrame(f)),
       socket.onOpen(() => this.onSocketOpen()),
@@ -152,6 +173,18 @@ export class KelvinView implements View {
       localSigmaAtInputVertices: () => {
         const pos = this.surface?.pickMesh.geometry.getAttribute("position").array as Float32Array | undefined;
         return pos ? Array.from(evaluateAll(this.sigmaBody(), pos)) : [];
+      },
+      colorbars: () => [this.sigmaBar?.state, this.hBar?.state].filter((b) => b != null),
+      sigmaHistogram: () => this.histogram?.data ?? null,
+      pickAt: (x, y) => {
+        const vp = this.viewport;
+        if (!vp) return [];
+        const r = vp.renderer.domElement.getBoundingClientRect();
+        const ray = new THREE.Raycaster();
+        ray.setFromCamera(new THREE.Vector2(((x - r.left) / r.width) * 2 - 1, -((y - r.top) / r.height) * 2 + 1), vp.camera);
+        const targets: THREE.Object3D[] = [...(this.state.showIso ? this.iso.meshes() : []), ...(this.surface ? [this.surface.pickMesh] : [])];
+        if (this.slice?.plane.visible) targets.push(this.slice.plane);
+        return ray.intersectObjects(targets, false).map((h) => (h.object === this.surface?.pickMesh ? "surface" : h.object === this.slice?.plane ? "slice" : `iso ${this.iso.levelOf(h.object)}`));
       },
     });
     this.restyle();
@@ -286,7 +319,7 @@ export class KelvinView implements View {
     const vp = this.viewport!;
     this.dropSurface();
     const s = (this.surface = new SurfaceLayer(frame));
-    s.setScale(this.state.sigmaScale);
+    s.setColor(this.state.sigmaColor);
     s.setSigma(this.sigmaBody());
     vp.scene.add(s.mesh);
     // A large surface gets a simplified stand-in for the frames drawn while orbiting (once made).
@@ -300,6 +333,7 @@ export class KelvinView implements View {
       this.panel?.refresh();
     }
     this.restyle();
+    this.updateHistogram();
     this.frameObject();
     this.warmUp();
     this.slice?.setObject(this.objectId, s.bounds);
@@ -327,6 +361,7 @@ export class KelvinView implements View {
   }
 
   private dropSurface(): void {
+    if (this.sigmaBar) this.sigmaBar.visible = false;
     if (!this.surface) return;
     this.viewport?.scene.remove(this.surface.mesh);
     this.viewport?.setStandIn(this.surface.mesh, null);
@@ -417,8 +452,11 @@ export class KelvinView implements View {
   private stamp(b: Brush, eventTime: number, strokeStart: boolean): void {
     if (!this.surface) return;
     if (strokeStart) this.strokes.push(this.state.brushes.length);
+    this.dropSigmaFileRef();
     this.state.brushes.push(b);
+    const range = this.surface.colorRange;
     this.surface.addBrush(b);
+    if (this.surface.colorRange !== range) this.updateSigmaBar();
     this.edits.stamped(eventTime);
     this.viewport?.interacting();
     this.sigmaSync.push();
@@ -426,7 +464,10 @@ export class KelvinView implements View {
 
   /** Whole-σ changes (preset, base, reset, undo). */
   private sigmaEdited(save: boolean): void {
+    this.dropSigmaFileRef();
     this.surface?.setSigma(this.sigmaBody());
+    this.updateSigmaBar();
+    this.updateHistogram();
     this.edits.edited(performance.now());
     this.viewport?.invalidate();
     this.sigmaSync.push();
@@ -503,6 +544,7 @@ export class KelvinView implements View {
   private sliceChanged(): void {
     const s = this.state.slice;
     this.slice?.configure(s.axis, s.offset, s.show);
+    this.updateHBar();
     this.save();
     this.viewport?.invalidate();
   }
@@ -514,9 +556,37 @@ export class KelvinView implements View {
       this.brush.enabled = this.state.brush.on;
       this.brush.settings = { value: this.state.brush.value, radius: this.state.brush.radius, falloff: this.state.brush.falloff };
     }
-    this.surface?.setScale(this.state.sigmaScale);
+    this.surface?.setColor(this.state.sigmaColor);
+    this.updateSigmaBar();
     this.save();
     this.viewport?.invalidate();
+  }
+
+  private sliceStyleChanged(): void {
+    this.slice?.setColor(this.state.sliceColor);
+    this.updateHBar();
+    this.save();
+    this.viewport?.invalidate();
+  }
+
+  /** The colour bars follow what is coloured: σ's map and range, the slice's while it is shown. */
+  private updateSigmaBar(): void {
+    const s = this.surface;
+    if (!this.sigmaBar) return;
+    this.sigmaBar.visible = s !== null;
+    if (s) this.sigmaBar.update(this.state.sigmaColor, s.colorRange, Number.isFinite(s.dataRange[0]) ? s.dataRange : null);
+  }
+
+  private updateHBar(): void {
+    const sl = this.slice;
+    if (!this.hBar || !sl) return;
+    this.hBar.visible = sl.shown;
+    if (sl.shown) this.hBar.update(this.state.sliceColor, sl.colorRange, sl.dataRange);
+  }
+
+  /** Once per stroke or σ change, not per stamp (the picture's colours follow every stamp). */
+  private updateHistogram(): void {
+    if (this.surface) this.histogram?.update(this.surface.sigmaValues());
   }
 
   private hover(ev: PointerEvent): void {
@@ -525,11 +595,22 @@ export class KelvinView implements View {
     const r = vp.renderer.domElement.getBoundingClientRect();
     const ray = new THREE.Raycaster();
     ray.setFromCamera(new THREE.Vector2(((ev.clientX - r.left) / r.width) * 2 - 1, -((ev.clientY - r.top) / r.height) * 2 + 1), vp.camera);
+    // The nearest of the slice and the object's surface (raycast on its input mesh), seen through
+    // the translucent shells; a shell where the pointer meets neither.
     const targets: THREE.Object3D[] = [];
     if (this.slice?.plane.visible) targets.push(this.slice.plane);
-    else if (this.state.showIso) targets.push(...this.iso.meshes());
-    const hit = ray.intersectObjects(targets, false)[0];
-    if (hit) this.probe.at(hit.point);
+    if (this.state.showIso) targets.push(...this.iso.meshes());
+    if (this.surface) targets.push(this.surface.pickMesh);
+    const hits = ray.intersectObjects(targets, false);
+    const hit = hits.find((h) => this.iso.levelOf(h.object) === null) ?? hits[0];
+    if (!hit) return;
+    if (this.surface && hit.object === this.surface.pickMesh) {
+      // h is defined outside the object: query a hair outside (on the surface itself h = σ, eq. 9).
+      const p = hit.point.clone();
+      if (hit.face) p.addScaledVector(hit.face.normal, 1e-4 * this.surface.bounds.getSize(new THREE.Vector3()).length());
+      this.probe.at(p, { on: "surface", sigma: evaluateAt(this.sigmaBody(), [hit.point.x, hit.point.y, hit.point.z]) });
+    } else if (this.slice && hit.object === this.slice.plane) this.probe.at(hit.point, { on: "slice" });
+    else this.probe.at(hit.point, { on: `iso-surface h = ${this.iso.levelOf(hit.object) ?? "?"}` });
   }
 
   private async exportShown(): Promise<void> {
@@ -539,9 +620,73 @@ export class KelvinView implements View {
     await downloadIsoSurfaces(id, name, this.state.levels, this.state.format);
   }
 
+  // ---- σ files ----
+  private saveSigma(): void {
+    const s = this.state;
+    const mesh = s.object === "upload" ? { upload: this.objectName() } : { asset: s.object };
+    const text = sigmaFileText({ mesh, lx: s.lx, preset: s.preset, base: s.base, brushes: s.brushes }, this.sigmaBody());
+    const a = document.createElement("a");
+    a.href = URL.createObjectURL(new Blob([text], { type: "application/json" }));
+    a.download = `${this.objectName().replace(/\.[^.]+$/, "")}-sigma.json`;
+    a.click();
+    window.setTimeout(() => URL.revokeObjectURL(a.href), 2000);
+  }
+
+  private async loadSigma(file: File): Promise<void> {
+    let c;
+    try {
+      c = parseSigmaFile(await file.text());
+      if ("asset" in c.mesh && !this.assets.includes(c.mesh.asset)) throw new SigmaFileError("mesh.asset", `no built-in object "${c.mesh.asset}" (${this.assets.join(", ")})`);
+      if ("upload" in c.mesh && (this.state.object !== "upload" || this.objectName() !== c.mesh.upload))
+        throw new SigmaFileError("mesh.upload", `this σ is for the uploaded ${c.mesh.upload}: upload it first`);
+    } catch (e) {
+      showError(e, `cannot load σ from ${file.name}`);
+      return;
+    }
+    const want = this.state.sigmaFile;
+    if (want && (c.brushes.length !== want.stamps || (await brushesDigest(c.brushes)) !== want.digest))
+      toast(`${file.name} is not the σ file the link refers to (${want.stamps} stamps): loaded anyway`, "info", 6000);
+    const s = this.state;
+    const object = "asset" in c.mesh ? c.mesh.asset : "upload";
+    const reload = object !== s.object || (c.lx !== undefined && c.lx !== s.lx);
+    if (object !== s.object) s.brush.radius = 0;
+    s.lx = c.lx ?? (object !== s.object ? (defaultLx[object] ?? s.lx) : s.lx);
+    s.object = object;
+    s.preset = c.preset;
+    s.base = c.base;
+    s.brushes = c.brushes;
+    this.strokes = [];
+    this.panel?.refresh();
+    if (reload) {
+      this.dropSigmaFileRef();
+      void this.load();
+    } else this.sigmaEdited(true);
+    toast(`σ from ${file.name}: ${c.brushes.length} brush stamps`, "ok");
+  }
+
+  private dropSigmaFileRef(): void {
+    if (!this.state.sigmaFile) return;
+    this.state.sigmaFile = undefined;
+    this.showSigmaNotice();
+  }
+
+  private showSigmaNotice(): void {
+    const ref = this.state.sigmaFile, el = this.panel?.sigmaNotice;
+    if (!el) return;
+    el.hidden = !ref;
+    if (ref) el.textContent = `This link's σ has ${ref.stamps} brush stamps, too many for a link: load its σ file (saved with "save σ file…").`;
+  }
+
   // ---- bookkeeping ----
   private save(): void {
-    this.host.saveState(writeStateJson(this.state));
+    // Too many brush stamps for a link: it refers to the σ file instead (saved by the user).
+    this.host.saveState(writeStateJson(this.state), async (json) => {
+      const rest = { ...json };
+      delete rest.brushes;
+      if (!this.longLinkTold) toast(`σ has ${this.state.brushes.length} brush stamps, too many for a link: the link refers to its σ file (save it with "save σ file…")`, "info", 8000);
+      this.longLinkTold = true;
+      return { ...rest, sigmaFile: { stamps: this.state.brushes.length, digest: await brushesDigest(this.state.brushes) } };
+    });
   }
 
   /** The object's name as shown: the uploaded file's, or the asset's. */
@@ -566,6 +711,9 @@ export class KelvinView implements View {
     this.brush?.dispose();
     this.probe?.dispose();
     this.slice?.dispose();
+    this.sigmaBar?.dispose();
+    this.hBar?.dispose();
+    this.histogram?.dispose();
     this.panel?.dispose();
     this.dropSurface();
     this.dropOverlay();

@@ -2,6 +2,7 @@
 // iso-levels, slice, export, and a statistics table. It edits the KelvinState in place and calls
 // back; the view decides what that means for the server.
 import GUI, { type Controller } from "lil-gui";
+import { addColorControls } from "../../core/colorbar";
 import { exactNumber, exactNumbers, recheck, setFieldMessage } from "../../core/exact_number";
 import { presets } from "./sigma";
 import { exportFormats, repairs, uploadUnits, type KelvinState } from "./kelvin_state";
@@ -20,7 +21,10 @@ export interface PanelActions {
   levelsChanged(): void;
   styleChanged(): void;
   sliceChanged(): void;
+  sliceStyleChanged(): void;
   exportShown(): void;
+  saveSigma(): void;
+  loadSigma(file: File): void;
 }
 
 export class Panel {
@@ -32,6 +36,10 @@ export class Panel {
   private readonly lx: Controller;
   private readonly estimate: HTMLDivElement;
   private readonly report: HTMLDivElement;
+  readonly sigmaHistogram: HTMLDivElement;
+  private sigmaInput: HTMLInputElement;
+  /** Says when the link's σ is in a file that is not loaded yet. */
+  readonly sigmaNotice: HTMLDivElement;
 
   constructor(container: HTMLElement, state: KelvinState, assets: string[], a: PanelActions) {
     this.gui = new GUI({ container, title: "Semantic distance", width: 300 });
@@ -44,17 +52,7 @@ export class Panel {
     this.estimate.className = "kelvin-estimate";
     this.estimate.dataset.testid = "kelvin-estimate";
     obj.$children.appendChild(this.estimate);
-    this.fileInput = document.createElement("input");
-    this.fileInput.type = "file";
-    this.fileInput.accept = ".stl,.obj,.ply,.glb,.off";
-    this.fileInput.hidden = true;
-    this.fileInput.dataset.testid = "kelvin-upload";
-    this.fileInput.addEventListener("change", () => {
-      const f = this.fileInput.files?.[0];
-      if (f) a.upload(f);
-      this.fileInput.value = "";
-    });
-    container.appendChild(this.fileInput);
+    this.fileInput = fileInput(container, ".stl,.obj,.ply,.glb,.off", "kelvin-upload", (f) => a.upload(f));
     // The upload dialog: the file's unit and the repair, then the file; the server's answer (size
     // in metres, the l_x that fits, a refusal, the repair's report) is shown under them.
     this.add(obj.add(state, "unit", uploadUnits).name("file unit").onChange(() => a.unitChanged()));
@@ -75,9 +73,22 @@ export class Panel {
     this.add(sig.add(state.brush, "value", -3, 3, 0.05).name("brush value").onChange(() => a.styleChanged()));
     this.add(sig.add(state.brush, "radius", 0, 1, 0.001).name("brush radius").onChange(() => a.styleChanged()));
     this.add(sig.add(state.brush, "falloff", 0, 1, 0.001).name("brush falloff").onChange(() => a.styleChanged()));
-    this.add(sig.add(state, "sigmaScale", 0.05, 5, 0.05).name("colour scale |σ|").onChange(() => a.styleChanged()));
     sig.add({ undo: () => a.undoStroke() }, "undo").name("undo stroke (z)");
     sig.add({ reset: () => a.resetSigma() }, "reset").name("reset σ (r)");
+    sig.add({ save: () => a.saveSigma() }, "save").name("save σ file…");
+    this.sigmaInput = fileInput(container, ".json,application/json", "kelvin-sigma-file", (f) => a.loadSigma(f));
+    sig.add({ load: () => this.sigmaInput.click() }, "load").name("load σ file… (assets/wrench_case_*.json format)");
+    this.sigmaNotice = document.createElement("div");
+    this.sigmaNotice.className = "kelvin-estimate bad";
+    this.sigmaNotice.dataset.testid = "kelvin-sigma-notice";
+    this.sigmaNotice.hidden = true;
+    sig.$children.appendChild(this.sigmaNotice);
+    addColorControls(sig.addFolder("σ colours"), state.sigmaColor, () => a.styleChanged());
+    // The histogram of σ over the surface (its owner draws into this box).
+    this.sigmaHistogram = document.createElement("div");
+    this.sigmaHistogram.className = "kelvin-histogram";
+    this.sigmaHistogram.dataset.testid = "sigma-histogram";
+    sig.$children.appendChild(this.sigmaHistogram);
 
     const iso = this.gui.addFolder("Iso-surfaces of h");
     this.levelsText = { levels: state.levels.join(", ") };
@@ -97,6 +108,7 @@ export class Panel {
     this.add(sl.add(state.slice, "show").name("show (s)").onChange(() => a.sliceChanged()));
     this.add(sl.add(state.slice, "axis", sliceAxes).name("normal").onChange(() => a.sliceChanged()));
     this.add(sl.add(state.slice, "offset", -1, 1, 0.01).name("offset").onFinishChange(() => a.sliceChanged()));
+    addColorControls(sl.addFolder("h colours"), state.sliceColor, () => a.sliceStyleChanged());
 
     const ex = this.gui.addFolder("Export");
     this.add(ex.add(state, "format", exportFormats).name("format"));
@@ -162,6 +174,23 @@ export class Panel {
   dispose(): void {
     this.gui.destroy();
     this.fileInput.remove();
+    this.sigmaInput.remove();
     this.stats.remove();
   }
+}
+
+/** A hidden file chooser (a panel button clicks it); each chosen file goes to `chosen`. */
+function fileInput(container: HTMLElement, accept: string, testid: string, chosen: (f: File) => void): HTMLInputElement {
+  const input = document.createElement("input");
+  input.type = "file";
+  input.accept = accept;
+  input.hidden = true;
+  input.dataset.testid = testid;
+  input.addEventListener("change", () => {
+    const f = input.files?.[0];
+    if (f) chosen(f);
+    input.value = "";
+  });
+  container.appendChild(input);
+  return input;
 }

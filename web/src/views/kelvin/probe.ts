@@ -1,5 +1,7 @@
 // The probe: h and ∇h at the point under the cursor (on the slice plane, else on the nearest
-// iso-surface), queried from the server (latest position wins), ∇h drawn as an arrow.
+// iso-surface, or on the object's surface, where σ is shown too), queried from the server (latest
+// position wins), ∇h drawn as an arrow. Units: h is −ln U (eq. 9's distance, dimensionless), ∇h
+// per metre, σ dimensionless (eq. 24's tanh).
 import * as THREE from "three";
 import { api } from "../../core/api";
 import { Coalescer } from "./coalesce";
@@ -10,6 +12,15 @@ export interface ProbeReading {
   gradient: [number, number, number] | null;
   inside: boolean;
   sigma_version: number;
+  /** What the pointer is on ("surface", "slice", "iso-surface h = …"), and σ there on the surface. */
+  on: string;
+  sigma?: number;
+}
+
+/** Where a probe is taken: what the pointer is on, and σ there when it is the object's surface. */
+export interface ProbeTarget {
+  on: string;
+  sigma?: number;
 }
 
 export class Probe {
@@ -17,7 +28,7 @@ export class Probe {
   readonly marker = new THREE.Mesh(new THREE.SphereGeometry(1, 12, 8), new THREE.MeshBasicMaterial({ color: 0xffe066 }));
   readonly readout: HTMLDivElement;
   last: ProbeReading | null = null;
-  private coalescer: Coalescer<THREE.Vector3>;
+  private coalescer: Coalescer<{ p: THREE.Vector3; target: ProbeTarget }>;
   private objectId: string | null = null;
   private length = 0.1;
   onChange: (() => void) | null = null;
@@ -29,7 +40,7 @@ export class Probe {
     container.appendChild(this.readout);
     this.arrow.visible = false;
     this.marker.visible = false;
-    this.coalescer = new Coalescer((p) => this.query(p));
+    this.coalescer = new Coalescer(({ p, target }) => this.query(p, target));
   }
 
   setObject(id: string | null, bounds: THREE.Box3): void {
@@ -40,8 +51,8 @@ export class Probe {
     this.hide();
   }
 
-  at(point: THREE.Vector3): void {
-    if (this.objectId) this.coalescer.push(point.clone());
+  at(point: THREE.Vector3, target: ProbeTarget): void {
+    if (this.objectId) this.coalescer.push({ p: point.clone(), target });
   }
 
   hide(): void {
@@ -50,7 +61,7 @@ export class Probe {
     this.onChange?.();
   }
 
-  private async query(p: THREE.Vector3): Promise<void> {
+  private async query(p: THREE.Vector3, target: ProbeTarget): Promise<void> {
     const id = this.objectId;
     if (!id) return;
     const r = await api.post<{ h: Array<number | null>; gradient: Array<[number, number, number] | null>; inside: boolean[]; sigma_version: number }>(
@@ -58,19 +69,20 @@ export class Probe {
       { points: [p.toArray()] },
     );
     if (id !== this.objectId) return;
-    const reading: ProbeReading = { point: p.toArray() as [number, number, number], h: r.h[0], gradient: r.gradient[0], inside: r.inside[0], sigma_version: r.sigma_version };
+    const reading: ProbeReading = { point: p.toArray() as [number, number, number], h: r.h[0], gradient: r.gradient[0], inside: r.inside[0], sigma_version: r.sigma_version, ...target };
     this.last = reading;
     this.marker.position.copy(p);
     this.marker.visible = true;
     const fmt = (x: number) => (Math.abs(x) >= 1e4 || (Math.abs(x) < 1e-3 && x !== 0) ? x.toExponential(3) : x.toFixed(4));
-    const where = `x = (${reading.point.map(fmt).join(", ")})`;
+    const sigma = reading.sigma === undefined ? "" : `\nσ = ${fmt(reading.sigma)} (dimensionless)`;
+    const where = `on the ${reading.on}\nx = (${reading.point.map(fmt).join(", ")}) m${sigma}`;
     if (reading.h === null || reading.gradient === null) {
       this.readout.textContent = `${where}\n${reading.inside ? "inside the object: h is not defined" : "outside the meshed domain"}`;
       this.arrow.visible = false;
     } else {
       const g = new THREE.Vector3(...reading.gradient);
       const n = g.length();
-      this.readout.textContent = `${where}\nh = ${fmt(reading.h)}\n∇h = (${reading.gradient.map(fmt).join(", ")})  |∇h| = ${fmt(n)}`;
+      this.readout.textContent = `${where}\nh = ${fmt(reading.h)} (dimensionless, −ln U)\n∇h = (${reading.gradient.map(fmt).join(", ")}) m⁻¹\n|∇h| = ${fmt(n)} m⁻¹`;
       if (n > 0) {
         this.arrow.position.copy(p);
         this.arrow.setDirection(g.clone().normalize());

@@ -2,6 +2,7 @@
 // the server's max_query_points); NaN (grey) inside the object. Resampled after every σ change.
 import * as THREE from "three";
 import { api } from "../../core/api";
+import { resolveRange, type ColorScale } from "../../core/colormap";
 import { SlicePlane } from "../../core/slice";
 import { Coalescer } from "./coalesce";
 
@@ -26,6 +27,10 @@ export class SliceLayer {
   lastSigmaVersion = -1;
   lastSampleMs = 0;
   onSampled: (() => void) | null = null;
+  /** h's smallest and largest value on the plane, and the range its colours span. */
+  dataRange: [number, number] | null = null;
+  colorRange: [number, number] = [-1, 1];
+  private scale: ColorScale = { map: "coolwarm", mode: "symmetric", min: -1, max: 1 };
   onError: ((e: unknown) => void) | null = null;
 
   constructor(maxQueryPoints: number) {
@@ -99,14 +104,31 @@ export class SliceLayer {
     });
     // Texel centres sit at (i + 0.5) / n: the plane spans the full grid cells.
     this.plane.setSamples({ center: g.center, u: g.u, v: g.v, size: g.size, resolution: [n, n], values });
-    if (Number.isFinite(lo)) {
-      const m = Math.max(Math.abs(lo), Math.abs(hi), 1e-6);
-      this.plane.setStyle({ range: [-m, m], spacing: niceStep((hi - lo) / 12), diverging: true });
-    }
+    this.dataRange = Number.isFinite(lo) ? [lo, hi] : null;
+    if (this.dataRange) this.plane.setStyle({ spacing: niceStep((hi - lo) / 12) });
+    this.restyle();
     this.plane.visible = this.wantVisible;
     this.lastSigmaVersion = r.sigma_version;
     this.lastSampleMs = performance.now() - t0;
     this.onSampled?.();
+  }
+
+  /** The colour map and range of h (re-colours without sampling again). */
+  setColor(scale: ColorScale): void {
+    const mapChanged = scale.map !== this.scale.map;
+    this.scale = { ...scale };
+    if (mapChanged) this.plane.setStyle({ map: scale.map });
+    this.restyle();
+  }
+
+  private restyle(): void {
+    this.colorRange = resolveRange(this.scale, ...(this.dataRange ?? [NaN, NaN]));
+    this.plane.setStyle({ range: this.colorRange });
+  }
+
+  /** Whether the plane is shown (it is hidden until its first samples arrive). */
+  get shown(): boolean {
+    return this.plane.visible;
   }
 
   dispose(): void {

@@ -4,7 +4,7 @@
 // recolours the vertices it reaches. Raycasts go to the (smaller) input mesh.
 import * as THREE from "three";
 import { mergeVertices, toCreasedNormals } from "three/addons/utils/BufferGeometryUtils.js";
-import { diverging } from "../../core/colormap";
+import { finiteRange, resolveRange, VertexColorizer, type ColorScale } from "../../core/colormap";
 import { floats, uints, type MeshFrame } from "../../core/meshframe";
 import { simplifiedStandIn, type StandIn } from "../../core/stand_in";
 import { addBrush, evaluateAll, type Brush, type SigmaBody } from "./sigma";
@@ -20,7 +20,11 @@ export class SurfaceLayer {
   private positions: Float32Array;
   private sigma: Float32Array;
   private colors: THREE.BufferAttribute;
-  private scale = 1;
+  private scale: ColorScale = { map: "coolwarm", mode: "symmetric", min: -1, max: 1 };
+  private colorizer = new VertexColorizer();
+  /** σ's smallest and largest value on the surface, and the range its colours span. */
+  dataRange: [number, number] = [NaN, NaN];
+  colorRange: [number, number] = [-1, 1];
   private disposed = false;
   /** The coarse mesh drawn while orbiting, once made (null for small surfaces). */
   standIn: StandIn | null = null;
@@ -69,20 +73,18 @@ export class SurfaceLayer {
     this.recolor();
   }
 
-  /** Adds one brush term: only the vertices it reaches change. */
+  /** Adds one brush term: only the vertices it reaches change, unless σ's range (and with it an
+   *  auto or symmetric colour range) grows. */
   addBrush(b: Brush): void {
     const touched = addBrush(b, this.positions, this.sigma);
-    const c = new THREE.Color();
-    for (const v of touched) {
-      diverging(this.sigma[v], this.scale, c);
-      this.colors.setXYZ(v, c.r, c.g, c.b);
-    }
-    if (touched.length) this.colors.needsUpdate = true;
+    if (!touched.length) return;
+    if (this.rangeChanged()) this.colorizer.write(this.colors, this.sigma);
+    else this.colorizer.write(this.colors, this.sigma, touched);
   }
 
-  /** Colour half-width: |σ| values up to this are distinguished (white = 0, red allowed, blue not). */
-  setScale(scale: number): void {
-    this.scale = Math.max(1e-6, scale);
+  /** The colour map and range of σ. */
+  setColor(scale: ColorScale): void {
+    this.scale = { ...scale };
     this.recolor();
   }
 
@@ -92,13 +94,21 @@ export class SurfaceLayer {
   }
 
   private recolor(): void {
-    const c = new THREE.Color();
-    for (let v = 0; v < this.sigma.length; v++) {
-      diverging(this.sigma[v], this.scale, c);
-      this.colors.setXYZ(v, c.r, c.g, c.b);
-    }
-    this.colors.needsUpdate = true;
+    this.rangeChanged();
+    this.colorizer.write(this.colors, this.sigma);
   }
+
+  /** Updates σ's range and the colour range; true when the colour range moved. */
+  private rangeChanged(): boolean {
+    this.dataRange = finiteRange(this.sigma);
+    const [lo, hi] = resolveRange(this.scale, ...this.dataRange);
+    const moved = lo !== this.colorRange[0] || hi !== this.colorRange[1] || this.colorizerMap !== this.scale.map;
+    this.colorRange = [lo, hi];
+    this.colorizerMap = this.scale.map;
+    this.colorizer.set(this.scale.map, this.colorRange);
+    return moved;
+  }
+  private colorizerMap = "";
 
   dispose(): void {
     this.disposed = true;

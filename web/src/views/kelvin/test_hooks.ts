@@ -1,5 +1,8 @@
 // window.distlab.kelvin: read-only views of what the page shows and how long things took, for
 // the browser tests and for measuring (nothing here changes the view's state).
+import type { ColorBarState } from "../../core/colorbar";
+import type { HistogramData } from "../../core/histogram";
+import { Color } from "three";
 import type { Viewport } from "../../core/viewport";
 import type { IsoFrameInfo } from "./iso_layers";
 import type { ObjectStatus } from "./object_source";
@@ -51,6 +54,11 @@ export interface KelvinHookSource {
   surface(): SurfaceLayer | null;
   /** σ at the input mesh's vertices, evaluated here (the server sends the same as surface scalars). */
   localSigmaAtInputVertices(): number[];
+  /** The colour bars shown (σ on the surface, h on the slice). */
+  colorbars(): ColorBarState[];
+  sigmaHistogram(): HistogramData | null;
+  /** What a ray through a page point meets, nearest first ("surface", "iso 0.25", "slice"). */
+  pickAt(x: number, y: number): string[];
 }
 
 /** Turns the camera about its up axis around the orbit target. */
@@ -118,6 +126,30 @@ export function installHooks(view: KelvinHookSource): void {
       return Array.from(index, (v) => [pos.getX(v), pos.getY(v), pos.getZ(v)]).flat();
     },
     localSigmaAtInputVertices: () => view.localSigmaAtInputVertices(),
+    get colorbars() {
+      return copy(view.colorbars());
+    },
+    get sigmaHistogram() {
+      return copy(view.sigmaHistogram());
+    },
+    pickAt: (x: number, y: number) => view.pickAt(x, y),
+    /** σ and the colour (sRGB bytes) at every k-th display vertex of the surface. */
+    surfaceColors: (step = 1) => {
+      const s = view.surface();
+      if (!s) return null;
+      const sigma = s.sigmaValues(), col = s.mesh.geometry.getAttribute("color");
+      const c = new Color(), out: Array<{ sigma: number; rgb: number[] }> = [];
+      for (let v = 0; v < sigma.length; v += step) {
+        c.setRGB(col.getX(v), col.getY(v), col.getZ(v)).convertLinearToSRGB();
+        out.push({ sigma: sigma[v], rgb: [c.r, c.g, c.b].map((x) => Math.round(x * 255)) });
+      }
+      return { vertices: sigma.length, samples: out };
+    },
+    /** σ on the surface's display vertices: its smallest and largest value, and the colour range. */
+    get sigmaRange() {
+      const s = view.surface();
+      return s ? { data: [...s.dataRange], color: [...s.colorRange] } : null;
+    },
     frameStats: () => view.viewport()?.frameStats() ?? null,
     /** Orbits the camera through n frames rendered back to back (each waited for by reading a pixel back)
      *  and puts it back; returns per-frame render times (ms) and the triangles drawn. */
