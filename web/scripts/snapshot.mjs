@@ -23,7 +23,9 @@ const opt = (name, d) => {
   }
   return v;
 };
-const width = opt("width", 1280), height = opt("height", 800), timeout = opt("timeout", 300) * 1000;
+const width = opt("width", 1280),
+  height = opt("height", 800),
+  timeout = opt("timeout", 300) * 1000;
 const view = /#\/(gap|kelvin|cbf)\b/.exec(url)?.[1];
 if (!view) {
   console.error(`${url}: not a view link (#/gap, #/kelvin or #/cbf)\n${usage}`);

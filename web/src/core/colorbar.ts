@@ -37,7 +37,12 @@ export class ColorBar {
   private readonly dataEl: HTMLDivElement;
   private current: ColorBarState | null = null;
 
-  constructor(parent: HTMLElement, private title: string, private readonly unit: string, testid: string) {
+  constructor(
+    parent: HTMLElement,
+    private title: string,
+    private readonly unit: string,
+    testid: string,
+  ) {
     this.el = document.createElement("div");
     this.el.className = "colorbar";
     this.el.dataset.testid = testid;
@@ -118,8 +123,14 @@ export function readColorScale(v: unknown, d: ColorScale): ColorScale {
 
 /** Map, range mode and the fixed range's ends in a panel folder; min and max apply in "fixed". */
 export function addColorControls(folder: GUI, s: ColorScale, changed: () => void): void {
-  folder.add(s, "map", [...colormapNames]).name("colormap").onChange(changed);
-  folder.add(s, "mode", [...rangeModes]).name("range").onChange(changed);
+  folder
+    .add(s, "map", [...colormapNames])
+    .name("colormap")
+    .onChange(changed);
+  folder
+    .add(s, "mode", [...rangeModes])
+    .name("range")
+    .onChange(changed);
   folder.add(s, "min").name("fixed min").onFinishChange(changed);
   folder.add(s, "max").name("fixed max").onFinishChange(changed);
 }

@@ -36,7 +36,8 @@ const tables = new Map<ColormapName, { srgb: Uint8Array; linear: Float32Array }>
 function table(map: ColormapName) {
   let t = tables.get(map);
   if (!t) {
-    const srgb = new Uint8Array(N * 4), linear = new Float32Array(N * 3);
+    const srgb = new Uint8Array(N * 4),
+      linear = new Float32Array(N * 3);
     const c = new THREE.Color();
     for (let i = 0; i < N; i++) {
       c.setStyle(maps[map].f(i / (N - 1)), THREE.SRGBColorSpace); // stored linear
@@ -98,7 +99,8 @@ export class VertexColorizer {
   }
 
   write(attr: THREE.BufferAttribute, values: ArrayLike<number>, indices?: Iterable<number>): void {
-    const a = attr.array as Float32Array, lut = this.lut;
+    const a = attr.array as Float32Array,
+      lut = this.lut;
     const one = (v: number) => {
       const k = Math.round(normalize(values[v], this.lo, this.hi, this.centred) * (N - 1)) * 3;
       a[v * 3] = lut[k];
@@ -113,7 +115,8 @@ export class VertexColorizer {
 
 /** The smallest and largest finite values (NaN, NaN when there are none). */
 export function finiteRange(values: ArrayLike<number>): [number, number] {
-  let lo = Infinity, hi = -Infinity;
+  let lo = Infinity,
+    hi = -Infinity;
   for (let i = 0; i < values.length; i++) {
     const v = values[i];
     if (v < lo) lo = v;

@@ -34,7 +34,11 @@ export class HistogramPlot {
   private plot: uPlot;
   data: HistogramData = { edges: [], counts: [], total: 0 };
 
-  constructor(private readonly root: HTMLElement, xLabel: string, yLabel: string) {
+  constructor(
+    private readonly root: HTMLElement,
+    xLabel: string,
+    yLabel: string,
+  ) {
     const caption = document.createElement("div");
     caption.className = "histogram-caption";
     caption.textContent = `histogram: ${yLabel} per bin of ${xLabel}`;

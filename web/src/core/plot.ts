@@ -34,8 +34,7 @@ export interface PlotOptions {
 }
 
 /** Log-scale range; without any positive value a fixed decade (uPlot would fail to draw the axis). */
-const logRange: uPlot.Range.Function = (_u, min, max) =>
-  min !== null && max !== null && min > 0 && max > 0 ? uPlot.rangeLog(min, max, 10, true) : [0.01, 1];
+const logRange: uPlot.Range.Function = (_u, min, max) => (min !== null && max !== null && min > 0 && max > 0 ? uPlot.rangeLog(min, max, 10, true) : [0.01, 1]);
 
 const AXIS = { stroke: "#8b949e", grid: { stroke: "#2c323a", width: 1 }, ticks: { stroke: "#2c323a", width: 1 } };
 /** The strip's plots are short: tick labels every 18 px (uPlot's 30 leaves one label, no scale). */
@@ -64,7 +63,10 @@ export class Plot {
   private xs: number[] = [];
   private ys: Array<Array<number | null>> = [];
 
-  constructor(container: HTMLElement, readonly options: PlotOptions) {
+  constructor(
+    container: HTMLElement,
+    readonly options: PlotOptions,
+  ) {
     this.root = document.createElement("div");
     this.root.className = "plot";
     this.root.style.cssText = "flex: 1; min-width: 0; min-height: 0; position: relative;";
@@ -179,7 +181,10 @@ export class Plot {
   /** The figure's accessible name: title, axis labels and the caption. */
   private describe(): void {
     const labels = this.u.axes.map((a) => a.label).filter((l) => l);
-    this.root.setAttribute("aria-label", [this.u.root.querySelector(".u-title")?.textContent ?? "", `axes: ${labels.join("; ")}`, this.options.caption].filter((t) => t).join(". "));
+    this.root.setAttribute(
+      "aria-label",
+      [this.u.root.querySelector(".u-title")?.textContent ?? "", `axes: ${labels.join("; ")}`, this.options.caption].filter((t) => t).join(". "),
+    );
   }
 
   private drawMarker(u: uPlot): void {

@@ -77,9 +77,13 @@ export class SlicePlane extends THREE.Mesh<THREE.PlaneGeometry, THREE.ShaderMate
     const s = this.samples;
     if (!s) return NaN;
     const [nu, nv] = s.resolution;
-    const x = Math.min(nu - 1, Math.max(0, uv.x * nu - 0.5)), y = Math.min(nv - 1, Math.max(0, uv.y * nv - 0.5));
-    const i = Math.min(nu - 2, Math.floor(x)), j = Math.min(nv - 2, Math.floor(y));
-    const a = x - i, b = y - j, f = (p: number, q: number) => s.values[q * nu + p];
+    const x = Math.min(nu - 1, Math.max(0, uv.x * nu - 0.5)),
+      y = Math.min(nv - 1, Math.max(0, uv.y * nv - 0.5));
+    const i = Math.min(nu - 2, Math.floor(x)),
+      j = Math.min(nv - 2, Math.floor(y));
+    const a = x - i,
+      b = y - j,
+      f = (p: number, q: number) => s.values[q * nu + p];
     return (1 - b) * ((1 - a) * f(i, j) + a * f(i + 1, j)) + b * ((1 - a) * f(i, j + 1) + a * f(i + 1, j + 1));
   }
 

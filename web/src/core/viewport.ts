@@ -72,7 +72,10 @@ export class Viewport {
   syncRender = false;
   private readonly pixel = new Uint8Array(4);
 
-  constructor(readonly container: HTMLElement, opts: { up?: "y" | "z" } = {}) {
+  constructor(
+    readonly container: HTMLElement,
+    opts: { up?: "y" | "z" } = {},
+  ) {
     // MSAA quadruples a software rasteriser's per-pixel work (SwiftShader, llvmpipe: no GPU),
     // where it makes every frame several times slower; a GPU does it almost for free.
     this.renderer = new THREE.WebGLRenderer({ antialias: antialiasWanted(), preserveDrawingBuffer: true });
@@ -196,15 +199,31 @@ export class Viewport {
 
   /** Median and 95th percentile frame interval (ms) of recent interactive frames, and the main
    *  thread's time per frame (hooks + render call, without waiting for the GPU). */
-  frameStats(): { frames: number; medianMs: number; p95Ms: number; cpuMedianMs: number; cpuP95Ms: number; triangles: number; standInFrames: number; standInFrameTriangles: number } {
+  frameStats(): {
+    frames: number;
+    medianMs: number;
+    p95Ms: number;
+    cpuMedianMs: number;
+    cpuP95Ms: number;
+    triangles: number;
+    standInFrames: number;
+    standInFrameTriangles: number;
+  } {
     const q = (a: number[], p: number) => {
       const s = [...a].sort((x, y) => x - y);
       return s.length ? s[Math.min(s.length - 1, Math.floor(p * s.length))] : 0;
     };
-    const ft = this.frameTimes, ct = this.cpuTimes;
+    const ft = this.frameTimes,
+      ct = this.cpuTimes;
     return {
-      frames: ft.length, medianMs: q(ft, 0.5), p95Ms: q(ft, 0.95), cpuMedianMs: q(ct, 0.5), cpuP95Ms: q(ct, 0.95),
-      triangles: this.renderer.info.render.triangles, standInFrames: this.standInFrames, standInFrameTriangles: this.standInFrameTriangles,
+      frames: ft.length,
+      medianMs: q(ft, 0.5),
+      p95Ms: q(ft, 0.95),
+      cpuMedianMs: q(ct, 0.5),
+      cpuP95Ms: q(ct, 0.95),
+      triangles: this.renderer.info.render.triangles,
+      standInFrames: this.standInFrames,
+      standInFrameTriangles: this.standInFrameTriangles,
     };
   }
   resetFrameStats(): void {
@@ -221,7 +240,7 @@ export class Viewport {
     const r = Math.max(1e-3, box.getSize(new THREE.Vector3()).length() / 2);
     const dir = this.camera.position.clone().sub(this.controls.target).normalize();
     this.controls.target.copy(c);
-    this.camera.position.copy(c).addScaledVector(dir, r / Math.sin((this.camera.fov * Math.PI) / 360) * 1.1);
+    this.camera.position.copy(c).addScaledVector(dir, (r / Math.sin((this.camera.fov * Math.PI) / 360)) * 1.1);
     this.camera.near = r / 100;
     this.camera.far = r * 100;
     this.camera.updateProjectionMatrix();
@@ -233,9 +252,7 @@ export class Viewport {
   screenshot(): Promise<Blob> {
     this.setLowRes(false);
     this.renderer.render(this.scene, this.camera);
-    return new Promise((resolve, reject) =>
-      this.renderer.domElement.toBlob((b) => (b ? resolve(b) : reject(new Error("screenshot failed"))), "image/png"),
-    );
+    return new Promise((resolve, reject) => this.renderer.domElement.toBlob((b) => (b ? resolve(b) : reject(new Error("screenshot failed"))), "image/png"));
   }
 
   private resize(): void {

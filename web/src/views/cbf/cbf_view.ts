@@ -59,10 +59,14 @@ export class CbfView implements View {
     vp.controls.target.set(0.3, 0, 0.45);
     vp.controls.update();
     ({ readout: this.readout, legend: this.legend } = addOverlay(host.canvas));
-    this.timeline = new Timeline(host.canvas, (s) => this.draw(s), (speed) => {
-      this.state.speed = speed;
-      this.save();
-    });
+    this.timeline = new Timeline(
+      host.canvas,
+      (s) => this.draw(s),
+      (speed) => {
+        this.state.speed = speed;
+        this.save();
+      },
+    );
     this.timeline.setSpeed(this.state.speed);
     host.showBottom(true);
     host.status("loading the robot and the scenarios…");
@@ -95,8 +99,18 @@ export class CbfView implements View {
     this.setRobot(this.robot);
     this.cleanup.push(
       installHooks(() => ({
-        viewport: this.viewport, state: this.state, timeline: this.timeline, run: this.run, scene: this.scene, shown: this.shown, robot: this.robot,
-        results: this.results, timings: this.timings, error: this.error, sweep: this.sweep, sweepPlot: this.sweepPlot,
+        viewport: this.viewport,
+        state: this.state,
+        timeline: this.timeline,
+        run: this.run,
+        scene: this.scene,
+        shown: this.shown,
+        robot: this.robot,
+        results: this.results,
+        timings: this.timings,
+        error: this.error,
+        sweep: this.sweep,
+        sweepPlot: this.sweepPlot,
       })),
       vp.onBeforeRender(() => this.timings.beforeRender()),
     );
@@ -117,9 +131,7 @@ export class CbfView implements View {
     this.dropRun();
     let sc: CbfScenario;
     try {
-      sc = this.state.inline
-        ? (this.state.inline as unknown as CbfScenario)
-        : await api.get<CbfScenario>(`/api/cbf/scenarios/${encodeURIComponent(this.state.scenario)}`);
+      sc = this.state.inline ? (this.state.inline as unknown as CbfScenario) : await api.get<CbfScenario>(`/api/cbf/scenarios/${encodeURIComponent(this.state.scenario)}`);
     } catch (e) {
       this.reportError(e, `scenario "${this.state.scenario}"`);
       return;
@@ -200,7 +212,8 @@ export class CbfView implements View {
         const want = runSpecs(this.state);
         const run = this.run;
         const have = run ? want.map((w) => run.specs.find((s) => sameSpecs([s], [w]))) : [];
-        if (run && have.every((s) => s)) this.show(have as RolloutSpec[]); // the run has them: just show those
+        if (run && have.every((s) => s))
+          this.show(have as RolloutSpec[]); // the run has them: just show those
         else if (run) this.host.status("press r to run the chosen rollouts");
         else this.showScenario(this.scenario ?? { obstacles: [], target: { position: [0, 0, 0] }, q0: [] });
         break;
@@ -254,12 +267,18 @@ export class CbfView implements View {
     this.state.run = true;
     this.save();
     const scenario = this.state.inline ?? this.state.scenario;
-    const run = (this.run = new Run(scenario, specs, this.duration(), { primitives: this.robot.primitives.length, dof: this.robot.dof }, {
-      frames: (r, _added, arrived) => this.onFrames(r, arrived),
-      progress: (x) => this.onProgress(x),
-      ended: (r) => this.onEnded(r),
-      done: (x, err) => this.onDone(x, err),
-    }));
+    const run = (this.run = new Run(
+      scenario,
+      specs,
+      this.duration(),
+      { primitives: this.robot.primitives.length, dof: this.robot.dof },
+      {
+        frames: (r, _added, arrived) => this.onFrames(r, arrived),
+        progress: (x) => this.onProgress(x),
+        ended: (r) => this.onEnded(r),
+        done: (x, err) => this.onDone(x, err),
+      },
+    ));
     this.panel!.setRunning(true);
     this.onProgress(run);
     this.show(specs);

@@ -83,7 +83,8 @@ export class FrameStore {
           if (d < m) m = d;
         }
         this.minD.data[i] = m;
-        const wa = f.witness_a!, wb = f.witness_b!;
+        const wa = f.witness_a!,
+          wb = f.witness_b!;
         for (let k = 0; k < P; k++) {
           this.witnessA.data.set(wa[k], (i * P + k) * 3);
           this.witnessB.data.set(wb[k], (i * P + k) * 3);
@@ -117,8 +118,7 @@ export class FrameStore {
       p.set(this.present);
       this.present = p;
     }
-    for (const g of [this.q, this.u, this.taskError, this.minDistance, this.minD, this.distance, this.witnessA, this.witnessB, this.poses, this.flags])
-      g.ensure(steps);
+    for (const g of [this.q, this.u, this.taskError, this.minDistance, this.minD, this.distance, this.witnessA, this.witnessB, this.poses, this.flags]) g.ensure(steps);
   }
 
   /** Joint j's velocity over [0, n). */

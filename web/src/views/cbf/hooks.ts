@@ -113,7 +113,9 @@ function drawn({ scene, shown }: CbfParts) {
   for (const spec of shown) {
     const w = scene.world(spec);
     const poses: number[] = [];
-    const p = new THREE.Vector3(), q = new THREE.Quaternion(), s = new THREE.Vector3();
+    const p = new THREE.Vector3(),
+      q = new THREE.Quaternion(),
+      s = new THREE.Vector3();
     w.robot.children.forEach((c) => {
       c.matrix.decompose(p, q, s);
       poses.push(p.x, p.y, p.z, q.w, q.x, q.y, q.z);

@@ -25,7 +25,9 @@ export function linkFrames(robot: CbfRobot, q: number[]): THREE.Matrix4[] {
 /** World poses of the robot's primitives at q, as [x, y, z, qw, qx, qy, qz] like the frames'. */
 export function primitivePoses(robot: CbfRobot, q: number[]): number[][] {
   const frames = linkFrames(robot, q);
-  const p = new THREE.Vector3(), r = new THREE.Quaternion(), s = new THREE.Vector3();
+  const p = new THREE.Vector3(),
+    r = new THREE.Quaternion(),
+    s = new THREE.Vector3();
   return robot.primitives.map((prim) => {
     frames[prim.link].clone().multiply(poseMatrix(prim.pose)).decompose(p, r, s);
     return [p.x, p.y, p.z, r.w, r.x, r.y, r.z];

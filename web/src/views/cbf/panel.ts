@@ -32,7 +32,12 @@ export class Panel {
   private readonly playback: GUI;
   private jointCtrl: Controller | null = null;
 
-  constructor(container: HTMLElement, private readonly state: CbfState, scenarios: string[], private readonly actions: PanelActions) {
+  constructor(
+    container: HTMLElement,
+    private readonly state: CbfState,
+    scenarios: string[],
+    private readonly actions: PanelActions,
+  ) {
     this.gui = new GUI({ container, title: "CBF rollouts (paper IV-B)" });
     const r = (this.folder = this.gui.addFolder("Rollout"));
     this.proxy = { scenario: state.inline ? "(edited)" : state.scenario, joint: state.joint === 0 ? "all" : String(state.joint) };
@@ -41,11 +46,14 @@ export class Panel {
       .name("metric")
       .onChange(() => actions.changed("metric"));
     // No upper bound here: the server states its limit (and refuses more with a readable message).
-    r.add(state, "gapMode", { "exact (converged)": "exact", "as published, 2e-4 / 300": "as_published_sim", "as published, 5e-4 / 20": "as_published_real" } satisfies Record<string, GapModeChoice>)
+    r.add(state, "gapMode", { "exact (converged)": "exact", "as published, 2e-4 / 300": "as_published_sim", "as published, 5e-4 / 20": "as_published_real" } satisfies Record<
+      string,
+      GapModeChoice
+    >)
       .name("GAP distance")
       .onChange(() => actions.changed("gap"));
     r.add(state, "compare", {
-      "nothing": "none",
+      nothing: "none",
       Euclidean: "euclidean",
       "GAP exact": "gap_exact",
       "GAP as published, 2e-4 / 300": "gap_as_published_sim",
@@ -73,10 +81,18 @@ export class Panel {
     this.cancelCtrl.disable();
 
     const p = (this.playback = this.gui.addFolder("Playback and drawing"));
-    p.add(state, "speed", [...SPEEDS]).name("speed").onChange(() => actions.changed("speed"));
-    p.add(state, "layout", { overlay: "overlay", "side by side": "side" }).name("two robots").onChange(() => actions.changed("layout"));
-    p.add(state, "witnesses", [...WITNESS_MODES]).name("witness pairs (w)").onChange(() => actions.changed("draw"));
-    p.add(state, "closest", 1, 60, 1).name("closest how many").onChange(() => actions.changed("draw"));
+    p.add(state, "speed", [...SPEEDS])
+      .name("speed")
+      .onChange(() => actions.changed("speed"));
+    p.add(state, "layout", { overlay: "overlay", "side by side": "side" })
+      .name("two robots")
+      .onChange(() => actions.changed("layout"));
+    p.add(state, "witnesses", [...WITNESS_MODES])
+      .name("witness pairs (w)")
+      .onChange(() => actions.changed("draw"));
+    p.add(state, "closest", 1, 60, 1)
+      .name("closest how many")
+      .onChange(() => actions.changed("draw"));
     p.add(actions, "frame").name("frame the scene (f)");
     p.add(actions, "copyLink").name("copy link");
 

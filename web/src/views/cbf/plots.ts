@@ -37,17 +37,40 @@ export class RolloutPlots {
     const vSeries: PlotSeries[] = [];
     for (let j = 0; j < dof; j++)
       specs.forEach((s, k) =>
-        vSeries.push({ label: `u${j + 1} ${s.short}`, color: JOINT_COLORS[j % JOINT_COLORS.length], dash: dash(k), width: k === 0 ? 1.6 : 1.2, show: joint === 0 || joint === j + 1 }),
+        vSeries.push({
+          label: `u${j + 1} ${s.short}`,
+          color: JOINT_COLORS[j % JOINT_COLORS.length],
+          dash: dash(k),
+          width: k === 0 ? 1.6 : 1.2,
+          show: joint === 0 || joint === j + 1,
+        }),
       );
     const title = specs.length === 2 ? `${specs[0].label} solid, ${specs[1].label} dashed` : (specs[0]?.label ?? "");
-    this.velocity = new Plot(container, { title: `joint velocities u (rad/s) — ${title}`, caption: "Each joint's velocity command u_j from the controller's QP, one colour per joint.", xLabel: "t (s)", yLabel: "u (rad/s)", series: vSeries, digits: 4, legendValues: false });
+    this.velocity = new Plot(container, {
+      title: `joint velocities u (rad/s) — ${title}`,
+      caption: "Each joint's velocity command u_j from the controller's QP, one colour per joint.",
+      xLabel: "t (s)",
+      yLabel: "u (rad/s)",
+      series: vSeries,
+      digits: 4,
+      legendValues: false,
+    });
     this.velocity.root.style.flex = "2.2";
     const dSeries: PlotSeries[] = [];
     for (const s of specs) {
       dSeries.push({ label: `clearance ${s.short}`, color: hex(s.color), width: 2 });
       dSeries.push({ label: `min D ${s.short}`, color: hex(s.color), dash: [2, 3], width: 1.2 });
     }
-    this.distance = new Plot(container, { title: "distance (m)", caption: "clearance (solid): the true Euclidean distance between robot and obstacles; min D (dotted): the smallest distance over the controller's pairs (GAP D or Euclidean d), on one axis.", xLabel: "t (s)", yLabel: "distance (m)", series: dSeries, digits: 5, legendValues: false });
+    this.distance = new Plot(container, {
+      title: "distance (m)",
+      caption:
+        "clearance (solid): the true Euclidean distance between robot and obstacles; min D (dotted): the smallest distance over the controller's pairs (GAP D or Euclidean d), on one axis.",
+      xLabel: "t (s)",
+      yLabel: "distance (m)",
+      series: dSeries,
+      digits: 5,
+      legendValues: false,
+    });
     this.error = new Plot(container, {
       title: "task error ‖r‖",
       xLabel: "t (s)",
@@ -103,7 +126,10 @@ export class RolloutPlots {
       dist.push(pad(s, (st, len) => st.scalarSeries(st.minD, len)));
     }
     this.distance.setData(x, dist);
-    this.error.setData(x, bySource.map((s) => pad(s, (st, len) => st.scalarSeries(st.taskError, len), true)));
+    this.error.setData(
+      x,
+      bySource.map((s) => pad(s, (st, len) => st.scalarSeries(st.taskError, len), true)),
+    );
     this.refreshMs.push(performance.now() - t0);
     if (this.refreshMs.length > 1000) this.refreshMs.splice(0, 500);
   }

@@ -236,7 +236,8 @@ export class Rollout {
    *  them as long as they keep coming, so REST only fetches what the socket really lost. */
   private async drainStream(done: number): Promise<void> {
     const store = this.store!;
-    let last = store.received, since = performance.now();
+    let last = store.received,
+      since = performance.now();
     while (!this.disposed && store.contiguous < done && socket.state === "open" && performance.now() - since < 1000) {
       await new Promise((r) => setTimeout(r, 50));
       if (store.received !== last) {

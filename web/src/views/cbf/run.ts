@@ -146,9 +146,7 @@ export function feasibilityText(f: CbfFeasibility | null): string {
 
 /** The status line after a run: how each rollout ended, whether it reached the target and if not why. */
 export function endedStatus(run: Run, feasibility: CbfFeasibility | null = null): string {
-  const parts = run.rollouts.map(
-    (r) => `${r.spec.label} ${r.state}${r.record ? ": " + stopReason(r.record.summary.final, r.record.summary.reached) : ""}`,
-  );
+  const parts = run.rollouts.map((r) => `${r.spec.label} ${r.state}${r.record ? ": " + stopReason(r.record.summary.final, r.record.summary.reached) : ""}`);
   const f = feasibilityText(feasibility);
   return [...parts, ...(f ? [f] : [])].join(" · ");
 }

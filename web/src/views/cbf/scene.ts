@@ -122,7 +122,9 @@ export class World {
 
   /** Primitive world poses [x, y, z, qw, qx, qy, qz] × n, from `data` at `offset`. */
   setPoses(data: ArrayLike<number>, offset = 0): void {
-    const p = new THREE.Vector3(), q = new THREE.Quaternion(), one = new THREE.Vector3(1, 1, 1);
+    const p = new THREE.Vector3(),
+      q = new THREE.Quaternion(),
+      one = new THREE.Vector3(1, 1, 1);
     this.links.forEach((m, k) => {
       const o = offset + k * 7;
       p.set(data[o], data[o + 1], data[o + 2]);

@@ -45,7 +45,21 @@ export interface CbfState {
 }
 
 export function defaultState(): CbfState {
-  return { scenario: "corridor", inline: null, metric: "both", gapMode: "exact", compare: "none", duration: null, t: 0, speed: 1, witnesses: "closest", closest: 4, layout: "overlay", joint: 0, run: false };
+  return {
+    scenario: "corridor",
+    inline: null,
+    metric: "both",
+    gapMode: "exact",
+    compare: "none",
+    duration: null,
+    t: 0,
+    speed: 1,
+    witnesses: "closest",
+    closest: 4,
+    layout: "overlay",
+    joint: 0,
+    run: false,
+  };
 }
 
 export function parseState(raw: Record<string, unknown>): CbfState {

@@ -49,7 +49,8 @@ export class SweepPlot {
   constructor(container: HTMLElement, s: SweepJson) {
     this.plot = new Plot(container, {
       title: `sweep of ${s.parameter} (${s.entries.length} of ${s.values.length} runs)`,
-      caption: "One rollout per value of the parameter: the end-effector's final distance to its target and the smallest clearance (cm, left axis), and the summed total variation of the joint velocities u (right axis).",
+      caption:
+        "One rollout per value of the parameter: the end-effector's final distance to its target and the smallest clearance (cm, left axis), and the summed total variation of the joint velocities u (right axis).",
       xLabel: s.parameter,
       yLabel: "distance (cm)",
       y2Label: "TV of u (rad/s)",

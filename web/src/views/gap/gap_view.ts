@@ -187,12 +187,10 @@ export class GapView implements View {
     this.scene.euclid.set(res.euclidean.witness_a, res.euclidean.witness_b);
     const pen = res.euclidean.penetration;
     this.scene.pen.set(pen?.witness_a ?? null, pen?.witness_b ?? null);
-    const va = res.validation?.a, vb = res.validation?.b;
+    const va = res.validation?.a,
+      vb = res.validation?.b;
     if (va && vb)
-      this.panel.setVerdict(
-        va.ok && vb.ok,
-        `✓ Property 2 holds: largest Hessian eigenvalue of E_S ${va.max_eigenvalue.toFixed(4)} (A), ${vb.max_eigenvalue.toFixed(4)} (B) < 1`,
-      );
+      this.panel.setVerdict(va.ok && vb.ok, `✓ Property 2 holds: largest Hessian eigenvalue of E_S ${va.max_eigenvalue.toFixed(4)} (A), ${vb.max_eigenvalue.toFixed(4)} (B) < 1`);
     this.viewport?.invalidate();
   }
 

@@ -57,7 +57,10 @@ export class IsoLayer {
     this.group.name = "iso";
     this.slice.visible = false;
     this.group.add(this.slice);
-    this.requests = new LatestWins((i) => this.fetch(i), (r) => this.apply(r));
+    this.requests = new LatestWins(
+      (i) => this.fetch(i),
+      (r) => this.apply(r),
+    );
   }
 
   get requestsSent(): number {

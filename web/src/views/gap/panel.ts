@@ -35,24 +35,45 @@ export class GapPanel {
     for (const which of ["a", "b"] as const) this.shapeFolder(which);
 
     const g = this.gui.addFolder("Gizmo");
-    g.add(gizmo, "selected", { "shape A": "a", "shape B": "b" }).name("drag (s)").onChange(() => changed("gizmo"));
-    g.add(gizmo, "mode", ["translate", "rotate"]).name("mode (w / e)").onChange(() => changed("gizmo"));
-    g.add(gizmo, "space", ["world", "local"]).name("axes (q)").onChange(() => changed("gizmo"));
+    g.add(gizmo, "selected", { "shape A": "a", "shape B": "b" })
+      .name("drag (s)")
+      .onChange(() => changed("gizmo"));
+    g.add(gizmo, "mode", ["translate", "rotate"])
+      .name("mode (w / e)")
+      .onChange(() => changed("gizmo"));
+    g.add(gizmo, "space", ["world", "local"])
+      .name("axes (q)")
+      .onChange(() => changed("gizmo"));
 
     const p = this.gui.addFolder("GAP parameters");
     // No min/max: what the server refuses is the validator's verdict, shown below.
     // Typed values are sent exactly (exactNumbers below); ε drives σ = √(1 − 2ε) unless unlinked.
-    p.add(state.params, "h").name("h (eq. 4)").step(0.005).onFinishChange(() => changed("params"));
-    p.add(state.params, "k").name("k").step(1).onFinishChange(() => changed("params"));
-    p.add(state.params, "eps").name("ε (eq. 6)").step(0.001).onFinishChange(() => {
-      this.followEps();
-      changed("params");
-    });
-    this.sigmaCtrl = p.add(state.params, "sigma").name("σ (eq. 6)").step(0.001).onFinishChange(() => changed("params"));
-    p.add(state.params, "coupled").name("σ = √(1 − 2ε)").onChange(() => {
-      this.followEps();
-      changed("params");
-    });
+    p.add(state.params, "h")
+      .name("h (eq. 4)")
+      .step(0.005)
+      .onFinishChange(() => changed("params"));
+    p.add(state.params, "k")
+      .name("k")
+      .step(1)
+      .onFinishChange(() => changed("params"));
+    p.add(state.params, "eps")
+      .name("ε (eq. 6)")
+      .step(0.001)
+      .onFinishChange(() => {
+        this.followEps();
+        changed("params");
+      });
+    this.sigmaCtrl = p
+      .add(state.params, "sigma")
+      .name("σ (eq. 6)")
+      .step(0.001)
+      .onFinishChange(() => changed("params"));
+    p.add(state.params, "coupled")
+      .name("σ = √(1 − 2ε)")
+      .onChange(() => {
+        this.followEps();
+        changed("params");
+      });
     this.followEps();
     p.add(state.params, "solver", SOLVERS).onChange(() => changed("params"));
     this.verdict = document.createElement("div");
@@ -61,8 +82,12 @@ export class GapPanel {
     p.$children.appendChild(this.verdict);
 
     const l = this.gui.addFolder("Level sets (Fig. 1)");
-    l.add(state.iso, "around", { "shape A": "a", "shape B": "b" }).name("around").onChange(() => changed("iso"));
-    l.add(state.iso, "surfaces", SURFACES).name("iso-surfaces").onChange(() => changed("iso"));
+    l.add(state.iso, "around", { "shape A": "a", "shape B": "b" })
+      .name("around")
+      .onChange(() => changed("iso"));
+    l.add(state.iso, "surfaces", SURFACES)
+      .name("iso-surfaces")
+      .onChange(() => changed("iso"));
     for (const f of FIELDS) {
       this.levelsText[f] = formatLevels(state.iso[f]);
       const c = l
@@ -80,16 +105,26 @@ export class GapPanel {
         });
       this.levelCtrls.push(c);
     }
-    l.add(state.iso, "slice", [...FIELDS, "none"]).name("slice field").onChange(() => changed("slice-style"));
-    l.add(state.iso, "normal", AXES).name("slice normal").onChange(() => changed("iso"));
-    l.add(state.iso, "offset", -1, 1, 0.01).name("slice offset").onFinishChange(() => changed("iso"));
-    l.add(state.iso, "spacing", 0, 0.02, 0.0005).name("contour step").onChange(() => changed("slice-style"));
+    l.add(state.iso, "slice", [...FIELDS, "none"])
+      .name("slice field")
+      .onChange(() => changed("slice-style"));
+    l.add(state.iso, "normal", AXES)
+      .name("slice normal")
+      .onChange(() => changed("iso"));
+    l.add(state.iso, "offset", -1, 1, 0.01)
+      .name("slice offset")
+      .onFinishChange(() => changed("iso"));
+    l.add(state.iso, "spacing", 0, 0.02, 0.0005)
+      .name("contour step")
+      .onChange(() => changed("slice-style"));
     addColorControls(l.addFolder("slice colours"), state.iso.color, () => changed("slice-style"));
 
     const s = this.gui.addFolder("Sweep of B");
     s.add(state.sweep, "motion", MOTIONS).onChange(() => changed("sweep"));
     s.add(state.sweep, "axis", AXES).onChange(() => changed("sweep"));
-    s.add(state.sweep, "range", 0.01, 3, 0.01).name("half range").onFinishChange(() => changed("sweep"));
+    s.add(state.sweep, "range", 0.01, 3, 0.01)
+      .name("half range")
+      .onFinishChange(() => changed("sweep"));
     s.add(state.sweep, "samples", 5, 1000, 1).onFinishChange(() => changed("sweep"));
 
     const a = this.gui.addFolder("Actions");

@@ -58,9 +58,7 @@ export class Readout {
       this.line("legend-gap", `             ${r.iterations} iterations (${solver})${r.converged ? "" : " — not converged"}`, "gap-iter"),
       this.line("legend-euclid", `● Euclidean  d = ${fmt(r.euclidean.distance)} m`, "euclid-d"),
       this.line("legend-euclid", `             signed d = ${fmt(r.euclidean.signed_distance)} m`, "euclid-signed"),
-      ...(pen
-        ? [this.line("legend-pen", `● penetration depth = ${fmt(pen.depth)} m along (${pen.direction.map((v) => v.toFixed(3)).join(", ")})`, "euclid-pen")]
-        : []),
+      ...(pen ? [this.line("legend-pen", `● penetration depth = ${fmt(pen.depth)} m along (${pen.direction.map((v) => v.toFixed(3)).join(", ")})`, "euclid-pen")] : []),
       this.line(r.overlap ? "legend-bad" : "muted", r.overlap ? "overlap: the shapes intersect (Λ = 0)" : "no overlap", "overlap"),
     );
   }

@@ -25,7 +25,7 @@ export function pentagonalPrism(radius: number, height: number): { A: number[][]
   const A: number[][] = [];
   const b: number[] = [];
   for (let i = 0; i < 5; i++) {
-    const mid = (Math.PI / 2 + (2 * Math.PI * (i + 0.5)) / 5);
+    const mid = Math.PI / 2 + (2 * Math.PI * (i + 0.5)) / 5;
     A.push([Math.cos(mid), Math.sin(mid), 0]);
     b.push(radius * Math.cos(Math.PI / 5)); // apothem
   }

@@ -65,7 +65,17 @@ export function defaultState(): GapState {
     a: { type: "polytope", size: [0.4, 0.4, 0.4], radius: 0.25, height: 0.3, position: [0, 0, 0], quaternion: [1, 0, 0, 0] },
     b: { type: "box", size: [0.3, 0.3, 0.3], radius: 0.15, height: 0.3, position: [0.55, 0.1, 0], quaternion: [1, 0, 0, 0] },
     params: { h: 0.1, k: 2, eps: 0.01, sigma: Math.sqrt(1 - 2 * 0.01), coupled: true, solver: "newton" },
-    iso: { around: "a", surfaces: "strict", weak: [0.002, 0.008], strict: [0.002, 0.008], slice: "strict", normal: "z", offset: 0, spacing: 0.003, color: { map: "viridis", mode: "auto", min: 0, max: 0.01 } },
+    iso: {
+      around: "a",
+      surfaces: "strict",
+      weak: [0.002, 0.008],
+      strict: [0.002, 0.008],
+      slice: "strict",
+      normal: "z",
+      offset: 0,
+      spacing: 0.003,
+      color: { map: "viridis", mode: "auto", min: 0, max: 0.01 },
+    },
     sweep: { motion: "translate", axis: "y", range: 0.8, samples: 121 },
   };
 }

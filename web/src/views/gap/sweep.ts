@@ -62,7 +62,10 @@ export class Sweep {
   private readonly requests: LatestWins<SweepInput, SweepData>;
   last: SweepData | null = null;
 
-  constructor(container: HTMLElement, private readonly onDone: (error: unknown | null) => void) {
+  constructor(
+    container: HTMLElement,
+    private readonly onDone: (error: unknown | null) => void,
+  ) {
     // D and d are both lengths (D = √(2Λ) ≤ d for separated shapes): one axis, so they compare.
     this.dPlot = new Plot(container, {
       title: "D along the motion of B",
@@ -84,7 +87,10 @@ export class Sweep {
         { label: "Euclidean dd/ds", color: "#6ad1a3", width: 2 },
       ],
     });
-    this.requests = new LatestWins((i) => this.compute(i), (r) => this.apply(r));
+    this.requests = new LatestWins(
+      (i) => this.compute(i),
+      (r) => this.apply(r),
+    );
   }
 
   get requestsSent(): number {

@@ -30,9 +30,7 @@ interface Shell {
  *  in either order; only their shading differs slightly. A GPU keeps the physically based look. */
 function shellMaterial(): ShellMaterial {
   const common = { transparent: true, depthWrite: false, side: THREE.DoubleSide };
-  return isSoftwareRenderer()
-    ? new THREE.MeshLambertMaterial({ ...common, forceSinglePass: true })
-    : new THREE.MeshStandardMaterial({ ...common, roughness: 0.6 });
+  return isSoftwareRenderer() ? new THREE.MeshLambertMaterial({ ...common, forceSinglePass: true }) : new THREE.MeshStandardMaterial({ ...common, roughness: 0.6 });
 }
 
 const ZERO = new THREE.Color(0xff9f1c);

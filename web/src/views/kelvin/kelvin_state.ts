@@ -62,7 +62,13 @@ export function defaults(object = "cube"): KelvinState {
 }
 
 export function parseLevels(v: unknown, fallback: number[]): number[] {
-  const list = typeof v === "string" ? v.split(/[,\s]+/).filter(Boolean).map(Number) : v;
+  const list =
+    typeof v === "string"
+      ? v
+          .split(/[,\s]+/)
+          .filter(Boolean)
+          .map(Number)
+      : v;
   if (!Array.isArray(list)) return fallback;
   const out = [...new Set(list.filter((x): x is number => typeof x === "number" && Number.isFinite(x)))].sort((a, b) => a - b);
   return out.length ? out.slice(0, 16) : fallback;
@@ -97,7 +103,10 @@ export function readState(raw: Record<string, unknown>): KelvinState {
       falloff: num(brush.falloff, 0, 0, 100),
     },
     // Older links: "sigmaScale" s was the fixed range ±s.
-    sigmaColor: readColorScale(raw.sigmaColor, typeof raw.sigmaScale === "number" ? { ...d.sigmaColor, mode: "fixed", min: -num(raw.sigmaScale, 1, 1e-3, 100), max: num(raw.sigmaScale, 1, 1e-3, 100) } : d.sigmaColor),
+    sigmaColor: readColorScale(
+      raw.sigmaColor,
+      typeof raw.sigmaScale === "number" ? { ...d.sigmaColor, mode: "fixed", min: -num(raw.sigmaScale, 1, 1e-3, 100), max: num(raw.sigmaScale, 1, 1e-3, 100) } : d.sigmaColor,
+    ),
     sliceColor: readColorScale(raw.sliceColor, d.sliceColor),
     format: str(raw.format, exportFormats, "stl"),
     unit: str(raw.unit, uploadUnits, "m"),

@@ -30,7 +30,6 @@ import { installHooks, type Timings } from "./test_hooks";
 import type { Limits } from "../../core/wire";
 import "./kelvin.css";
 
-
 export class KelvinView implements View {
   private host!: ViewHost;
   private viewport: Viewport | null = null;
@@ -83,7 +82,10 @@ export class KelvinView implements View {
     vp.scene.add(this.iso.group);
     const [limits, assets] = await Promise.all([
       api.get<Limits>("/api/limits").catch(() => ({}) as Limits),
-      api.get<{ assets: string[] }>("/api/kelvin/assets").then((r) => r.assets).catch((e) => (showError(e, "cannot list the built-in objects"), ["cube"])),
+      api
+        .get<{ assets: string[] }>("/api/kelvin/assets")
+        .then((r) => r.assets)
+        .catch((e) => (showError(e, "cannot list the built-in objects"), ["cube"])),
     ]);
     if (this.viewport !== vp) return; // unmounted meanwhile
     if (this.state.object === "upload") {
@@ -184,7 +186,9 @@ export class KelvinView implements View {
         ray.setFromCamera(new THREE.Vector2(((x - r.left) / r.width) * 2 - 1, -((y - r.top) / r.height) * 2 + 1), vp.camera);
         const targets: THREE.Object3D[] = [...(this.state.showIso ? this.iso.meshes() : []), ...(this.surface ? [this.surface.pickMesh] : [])];
         if (this.slice?.plane.visible) targets.push(this.slice.plane);
-        return ray.intersectObjects(targets, false).map((h) => (h.object === this.surface?.pickMesh ? "surface" : h.object === this.slice?.plane ? "slice" : `iso ${this.iso.levelOf(h.object)}`));
+        return ray
+          .intersectObjects(targets, false)
+          .map((h) => (h.object === this.surface?.pickMesh ? "surface" : h.object === this.slice?.plane ? "slice" : `iso ${this.iso.levelOf(h.object)}`));
       },
     });
     this.restyle();
@@ -246,11 +250,17 @@ export class KelvinView implements View {
     this.host.status(label(""));
     let status: ObjectStatus;
     try {
-      status = await job.prepare(source, this.state.lx, { sigma: this.sigmaBody(), levels: this.state.levels }, {
-        progress: (stage, fraction, cancel) => ticket === this.ticket && this.host.progress(label(stage), fraction, cancel),
-        created: (id) => ticket === this.ticket && this.adopt(id),
-        repaired: (o) => ticket === this.ticket && void this.showRepair(o, uploadLines, ticket),
-      }, repair);
+      status = await job.prepare(
+        source,
+        this.state.lx,
+        { sigma: this.sigmaBody(), levels: this.state.levels },
+        {
+          progress: (stage, fraction, cancel) => ticket === this.ticket && this.host.progress(label(stage), fraction, cancel),
+          created: (id) => ticket === this.ticket && this.adopt(id),
+          repaired: (o) => ticket === this.ticket && void this.showRepair(o, uploadLines, ticket),
+        },
+        repair,
+      );
     } catch (e) {
       if (ticket !== this.ticket) return;
       this.host.progress(null);
@@ -671,7 +681,8 @@ export class KelvinView implements View {
   }
 
   private showSigmaNotice(): void {
-    const ref = this.state.sigmaFile, el = this.panel?.sigmaNotice;
+    const ref = this.state.sigmaFile,
+      el = this.panel?.sigmaNotice;
     if (!el) return;
     el.hidden = !ref;
     if (ref) el.textContent = `This link's σ has ${ref.stamps} brush stamps, too many for a link: load its σ file (saved with "save σ file…").`;
@@ -683,7 +694,8 @@ export class KelvinView implements View {
     this.host.saveState(writeStateJson(this.state), async (json) => {
       const rest = { ...json };
       delete rest.brushes;
-      if (!this.longLinkTold) toast(`σ has ${this.state.brushes.length} brush stamps, too many for a link: the link refers to its σ file (save it with "save σ file…")`, "info", 8000);
+      if (!this.longLinkTold)
+        toast(`σ has ${this.state.brushes.length} brush stamps, too many for a link: the link refers to its σ file (save it with "save σ file…")`, "info", 8000);
       this.longLinkTold = true;
       return { ...rest, sigmaFile: { stamps: this.state.brushes.length, digest: await brushesDigest(this.state.brushes) } };
     });

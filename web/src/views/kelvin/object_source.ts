@@ -28,8 +28,7 @@ export interface Uploaded {
 /** Uploads a mesh file in `unit`; the server imports it and refuses bad meshes with a message. */
 export async function uploadMesh(file: File, unit = "m"): Promise<Uploaded> {
   const ext = file.name.split(".").pop()?.toLowerCase() ?? "";
-  if (!(uploadFormats as readonly string[]).includes(ext))
-    throw new ApiError(400, "bad_format", `${file.name}: the file must end in .${uploadFormats.join(", .")}`, "file");
+  if (!(uploadFormats as readonly string[]).includes(ext)) throw new ApiError(400, "bad_format", `${file.name}: the file must end in .${uploadFormats.join(", .")}`, "file");
   return api.upload(`/api/kelvin/uploads?format=${ext}&unit=${encodeURIComponent(unit)}`, await file.arrayBuffer());
 }
 
@@ -50,7 +49,9 @@ export function repairText(r: RepairReport): string {
   const size = `${r.n_vertices.toLocaleString("en")} vertices, ${r.n_faces.toLocaleString("en")} triangles`;
   if (r.kind === "wrap" && r.hausdorff)
     return `wrapped at α ${metres(r.alpha ?? 0)}, offset ${metres(r.offset ?? 0)}: ${size}; farthest input → wrap ${metres(r.hausdorff.input_to_wrap)}, wrap → input ${metres(r.hausdorff.wrap_to_input)}`;
-  const steps = Object.entries(r.steps ?? {}).filter(([, n]) => n > 0).map(([k, n]) => `${k.replace(/_/g, " ")} ${n}`);
+  const steps = Object.entries(r.steps ?? {})
+    .filter(([, n]) => n > 0)
+    .map(([k, n]) => `${k.replace(/_/g, " ")} ${n}`);
   return `fixed (${steps.length ? steps.join(", ") : "nothing to change"}): ${size}`;
 }
 
@@ -70,7 +71,10 @@ export function estimate(source: Source, lx: number, repair = "none"): Promise<E
 /** What the panel says before preparing: the expected size and time against the budget. */
 export function estimateText(e: Estimate): string {
   const n = e.vertex_estimate.toLocaleString("en");
-  const time = e.seconds_estimate === null ? "time unknown until a preparation has run on this server" : `≈ ${e.seconds_estimate < 10 ? e.seconds_estimate.toFixed(1) : Math.round(e.seconds_estimate)} s`;
+  const time =
+    e.seconds_estimate === null
+      ? "time unknown until a preparation has run on this server"
+      : `≈ ${e.seconds_estimate < 10 ? e.seconds_estimate.toFixed(1) : Math.round(e.seconds_estimate)} s`;
   return `expected ≈ ${n} field vertices of this server's budget of ${e.max_vertex_estimate.toLocaleString("en")} · ${time}`;
 }
 

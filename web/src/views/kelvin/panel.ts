@@ -45,8 +45,18 @@ export class Panel {
     this.gui = new GUI({ container, title: "Semantic distance", width: 300 });
     const obj = this.gui.addFolder("Object");
     const names = assets.includes(state.object) || state.object === "upload" ? assets : [...assets, state.object];
-    this.add(obj.add(state, "object", state.object === "upload" ? [...names, "upload"] : names).name("built-in").onChange(() => a.objectChanged()));
-    this.lx = this.add(obj.add(state, "lx", 0.001, 1, 0.001).name("l_x").onFinishChange(() => a.lxChanged()));
+    this.add(
+      obj
+        .add(state, "object", state.object === "upload" ? [...names, "upload"] : names)
+        .name("built-in")
+        .onChange(() => a.objectChanged()),
+    );
+    this.lx = this.add(
+      obj
+        .add(state, "lx", 0.001, 1, 0.001)
+        .name("l_x")
+        .onFinishChange(() => a.lxChanged()),
+    );
     // What preparing will cost (the server's estimate), shown before the job starts.
     this.estimate = document.createElement("div");
     this.estimate.className = "kelvin-estimate";
@@ -55,8 +65,18 @@ export class Panel {
     this.fileInput = fileInput(container, ".stl,.obj,.ply,.glb,.off", "kelvin-upload", (f) => a.upload(f));
     // The upload dialog: the file's unit and the repair, then the file; the server's answer (size
     // in metres, the l_x that fits, a refusal, the repair's report) is shown under them.
-    this.add(obj.add(state, "unit", uploadUnits).name("file unit").onChange(() => a.unitChanged()));
-    this.add(obj.add(state, "repair", repairs).name("repair").onChange(() => a.repairChanged()));
+    this.add(
+      obj
+        .add(state, "unit", uploadUnits)
+        .name("file unit")
+        .onChange(() => a.unitChanged()),
+    );
+    this.add(
+      obj
+        .add(state, "repair", repairs)
+        .name("repair")
+        .onChange(() => a.repairChanged()),
+    );
     obj.add({ upload: () => this.fileInput.click() }, "upload").name("upload a mesh…");
     this.report = document.createElement("div");
     this.report.className = "kelvin-estimate kelvin-upload-report";
@@ -67,12 +87,42 @@ export class Panel {
     const presetLabels: Record<string, string> = { none: "none (base σ + brushes)" };
     for (const [k, p] of Object.entries(presets)) presetLabels[k] = `wrench (${k}): ${p.label.replace(/^\([abc]\)\s*/, "")}`;
     const presetOptions = Object.fromEntries(Object.entries(presetLabels).map(([k, l]) => [l, k]));
-    this.add(sig.add(state, "preset", presetOptions).name("preset").onChange(() => a.presetChosen()));
-    this.add(sig.add(state, "base", -3, 3, 0.05).name("base σ").onFinishChange(() => a.sigmaChanged()));
-    this.add(sig.add(state.brush, "on").name("brush (b)").onChange(() => a.styleChanged()));
-    this.add(sig.add(state.brush, "value", -3, 3, 0.05).name("brush value").onChange(() => a.styleChanged()));
-    this.add(sig.add(state.brush, "radius", 0, 1, 0.001).name("brush radius").onChange(() => a.styleChanged()));
-    this.add(sig.add(state.brush, "falloff", 0, 1, 0.001).name("brush falloff").onChange(() => a.styleChanged()));
+    this.add(
+      sig
+        .add(state, "preset", presetOptions)
+        .name("preset")
+        .onChange(() => a.presetChosen()),
+    );
+    this.add(
+      sig
+        .add(state, "base", -3, 3, 0.05)
+        .name("base σ")
+        .onFinishChange(() => a.sigmaChanged()),
+    );
+    this.add(
+      sig
+        .add(state.brush, "on")
+        .name("brush (b)")
+        .onChange(() => a.styleChanged()),
+    );
+    this.add(
+      sig
+        .add(state.brush, "value", -3, 3, 0.05)
+        .name("brush value")
+        .onChange(() => a.styleChanged()),
+    );
+    this.add(
+      sig
+        .add(state.brush, "radius", 0, 1, 0.001)
+        .name("brush radius")
+        .onChange(() => a.styleChanged()),
+    );
+    this.add(
+      sig
+        .add(state.brush, "falloff", 0, 1, 0.001)
+        .name("brush falloff")
+        .onChange(() => a.styleChanged()),
+    );
     sig.add({ undo: () => a.undoStroke() }, "undo").name("undo stroke (z)");
     sig.add({ reset: () => a.resetSigma() }, "reset").name("reset σ (r)");
     sig.add({ save: () => a.saveSigma() }, "save").name("save σ file…");
@@ -92,22 +142,55 @@ export class Panel {
 
     const iso = this.gui.addFolder("Iso-surfaces of h");
     this.levelsText = { levels: state.levels.join(", ") };
-    this.add(iso.add(this.levelsText, "levels").name("levels").onFinishChange((v: string) => {
-      const parsed = v.split(/[,\s]+/).filter(Boolean).map(Number);
-      if (parsed.length && parsed.every(Number.isFinite)) {
-        state.levels = [...new Set(parsed)].sort((x, y) => x - y).slice(0, 16);
-        a.levelsChanged();
-      }
-      this.levelsText.levels = state.levels.join(", ");
-      this.refresh();
-    }));
-    this.add(iso.add(state, "showIso").name("show (i)").onChange(() => a.styleChanged()));
-    this.add(iso.add(state, "opacity", 0.02, 1, 0.01).name("opacity").onChange(() => a.styleChanged()));
+    this.add(
+      iso
+        .add(this.levelsText, "levels")
+        .name("levels")
+        .onFinishChange((v: string) => {
+          const parsed = v
+            .split(/[,\s]+/)
+            .filter(Boolean)
+            .map(Number);
+          if (parsed.length && parsed.every(Number.isFinite)) {
+            state.levels = [...new Set(parsed)].sort((x, y) => x - y).slice(0, 16);
+            a.levelsChanged();
+          }
+          this.levelsText.levels = state.levels.join(", ");
+          this.refresh();
+        }),
+    );
+    this.add(
+      iso
+        .add(state, "showIso")
+        .name("show (i)")
+        .onChange(() => a.styleChanged()),
+    );
+    this.add(
+      iso
+        .add(state, "opacity", 0.02, 1, 0.01)
+        .name("opacity")
+        .onChange(() => a.styleChanged()),
+    );
 
     const sl = this.gui.addFolder("Slice plane (h)");
-    this.add(sl.add(state.slice, "show").name("show (s)").onChange(() => a.sliceChanged()));
-    this.add(sl.add(state.slice, "axis", sliceAxes).name("normal").onChange(() => a.sliceChanged()));
-    this.add(sl.add(state.slice, "offset", -1, 1, 0.01).name("offset").onFinishChange(() => a.sliceChanged()));
+    this.add(
+      sl
+        .add(state.slice, "show")
+        .name("show (s)")
+        .onChange(() => a.sliceChanged()),
+    );
+    this.add(
+      sl
+        .add(state.slice, "axis", sliceAxes)
+        .name("normal")
+        .onChange(() => a.sliceChanged()),
+    );
+    this.add(
+      sl
+        .add(state.slice, "offset", -1, 1, 0.01)
+        .name("offset")
+        .onFinishChange(() => a.sliceChanged()),
+    );
     addColorControls(sl.addFolder("h colours"), state.sliceColor, () => a.sliceStyleChanged());
 
     const ex = this.gui.addFolder("Export");

@@ -69,7 +69,14 @@ export class Probe {
       { points: [p.toArray()] },
     );
     if (id !== this.objectId) return;
-    const reading: ProbeReading = { point: p.toArray() as [number, number, number], h: r.h[0], gradient: r.gradient[0], inside: r.inside[0], sigma_version: r.sigma_version, ...target };
+    const reading: ProbeReading = {
+      point: p.toArray() as [number, number, number],
+      h: r.h[0],
+      gradient: r.gradient[0],
+      inside: r.inside[0],
+      sigma_version: r.sigma_version,
+      ...target,
+    };
     this.last = reading;
     this.marker.position.copy(p);
     this.marker.visible = true;

@@ -89,7 +89,9 @@ export function addBrush(b: Brush, positions: ArrayLike<number>, values: Float32
   const reach = b.radius + b.falloff;
   const [cx, cy, cz] = b.center;
   for (let v = 0, i = 0; v < values.length; v++, i += 3) {
-    const dx = positions[i] - cx, dy = positions[i + 1] - cy, dz = positions[i + 2] - cz;
+    const dx = positions[i] - cx,
+      dy = positions[i + 1] - cy,
+      dz = positions[i + 2] - cz;
     if (Math.abs(dx) > reach || Math.abs(dy) > reach || Math.abs(dz) > reach) continue;
     const w = evaluateBrush(b, positions, i);
     if (w !== 0) {

@@ -81,7 +81,8 @@ export class SliceLayer {
     const points: number[][] = [];
     for (let j = 0; j < n; j++)
       for (let i = 0; i < n; i++) {
-        const a = ((i + 0.5) / n - 0.5) * g.size[0], b = ((j + 0.5) / n - 0.5) * g.size[1];
+        const a = ((i + 0.5) / n - 0.5) * g.size[0],
+          b = ((j + 0.5) / n - 0.5) * g.size[1];
         points.push([0, 1, 2].map((c) => g.center[c] + a * g.u[c] + b * g.v[c]));
       }
     const t0 = performance.now();
@@ -94,7 +95,8 @@ export class SliceLayer {
     }
     if (id !== this.objectId) return;
     const values = new Float32Array(n * n);
-    let lo = Infinity, hi = -Infinity;
+    let lo = Infinity,
+      hi = -Infinity;
     r.h.forEach((h, i) => {
       values[i] = h === null ? NaN : h;
       if (h !== null) {

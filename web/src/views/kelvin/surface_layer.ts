@@ -130,7 +130,8 @@ function subdivide(g: THREE.BufferGeometry, bounds: THREE.Box3): THREE.BufferGeo
   const edge = (t: number) => {
     let m = 0;
     for (let k = 0; k < 3; k++) {
-      const a = t * 9 + k * 3, b = t * 9 + ((k + 1) % 3) * 3;
+      const a = t * 9 + k * 3,
+        b = t * 9 + ((k + 1) % 3) * 3;
       m = Math.max(m, Math.hypot(pos[a] - pos[b], pos[a + 1] - pos[b + 1], pos[a + 2] - pos[b + 2]));
     }
     return m;
@@ -147,10 +148,12 @@ function subdivide(g: THREE.BufferGeometry, bounds: THREE.Box3): THREE.BufferGeo
   }
   let nv = 0;
   for (let t = 0; t < nTri; t++) nv += splits[t] * splits[t] * 3;
-  const P = new Float32Array(nv * 3), N = new Float32Array(nv * 3);
+  const P = new Float32Array(nv * 3),
+    N = new Float32Array(nv * 3);
   let o = 0;
   const put = (t: number, u: number, v: number) => {
-    const w = 1 - u - v, a = t * 9;
+    const w = 1 - u - v,
+      a = t * 9;
     for (let c = 0; c < 3; c++) {
       P[o + c] = w * pos[a + c] + u * pos[a + 3 + c] + v * pos[a + 6 + c];
       N[o + c] = w * nor[a + c] + u * nor[a + 3 + c] + v * nor[a + 6 + c];

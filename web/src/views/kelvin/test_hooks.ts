@@ -63,7 +63,8 @@ export interface KelvinHookSource {
 
 /** Turns the camera about its up axis around the orbit target. */
 function orbitStep(vp: Viewport, angle: number): void {
-  const cam = vp.camera, target = vp.controls.target;
+  const cam = vp.camera,
+    target = vp.controls.target;
   cam.position.sub(target).applyAxisAngle(cam.up, angle).add(target);
   cam.lookAt(target);
 }
@@ -122,7 +123,8 @@ export function installHooks(view: KelvinHookSource): void {
     standInTriangles: () => {
       const g = view.surface()?.standIn?.geometry;
       if (!g) return null;
-      const index = g.getIndex()!.array, pos = g.getAttribute("position");
+      const index = g.getIndex()!.array,
+        pos = g.getAttribute("position");
       return Array.from(index, (v) => [pos.getX(v), pos.getY(v), pos.getZ(v)]).flat();
     },
     localSigmaAtInputVertices: () => view.localSigmaAtInputVertices(),
@@ -137,8 +139,10 @@ export function installHooks(view: KelvinHookSource): void {
     surfaceColors: (step = 1) => {
       const s = view.surface();
       if (!s) return null;
-      const sigma = s.sigmaValues(), col = s.mesh.geometry.getAttribute("color");
-      const c = new Color(), out: Array<{ sigma: number; rgb: number[] }> = [];
+      const sigma = s.sigmaValues(),
+        col = s.mesh.geometry.getAttribute("color");
+      const c = new Color(),
+        out: Array<{ sigma: number; rgb: number[] }> = [];
       for (let v = 0; v < sigma.length; v += step) {
         c.setRGB(col.getX(v), col.getY(v), col.getZ(v)).convertLinearToSRGB();
         out.push({ sigma: sigma[v], rgb: [c.r, c.g, c.b].map((x) => Math.round(x * 255)) });
@@ -156,8 +160,12 @@ export function installHooks(view: KelvinHookSource): void {
     measureOrbit: (n = 30) => {
       const vp = view.viewport();
       if (!vp) return null;
-      const cam = vp.camera, saved = cam.position.clone(), target = vp.controls.target;
-      const gl = vp.renderer.getContext(), times: number[] = [], px = new Uint8Array(4);
+      const cam = vp.camera,
+        saved = cam.position.clone(),
+        target = vp.controls.target;
+      const gl = vp.renderer.getContext(),
+        times: number[] = [],
+        px = new Uint8Array(4);
       for (let i = 0; i < n; i++) {
         orbitStep(vp, (2 * Math.PI) / n);
         const t = performance.now();
@@ -195,7 +203,8 @@ export function installHooks(view: KelvinHookSource): void {
       }),
     /** Measuring (A/B in one run): orbit with the surface's stand-in, or with the full surface. */
     useStandIn: (on: boolean) => {
-      const vp = view.viewport(), s = view.surface();
+      const vp = view.viewport(),
+        s = view.surface();
       if (vp && s) vp.setStandIn(s.mesh, on ? (s.standIn?.geometry ?? null) : null);
     },
     /** Measuring: make every frame wait for its pixels (its render time then includes the GPU's). */
@@ -222,7 +231,14 @@ export function installHooks(view: KelvinHookSource): void {
         gl.__uploads = counts;
       }
       const info = vp.renderer.info;
-      return { ...gl.__uploads, geometries: info.memory.geometries, textures: info.memory.textures, programs: info.programs?.length ?? 0, calls: info.render.calls, triangles: info.render.triangles };
+      return {
+        ...gl.__uploads,
+        geometries: info.memory.geometries,
+        textures: info.memory.textures,
+        programs: info.programs?.length ?? 0,
+        calls: info.render.calls,
+        triangles: info.render.triangles,
+      };
     },
     /** Canvas pixel position of a world point (tests aim the real mouse with it). */
     toScreen: (p: [number, number, number]) => {
