@@ -88,6 +88,8 @@ test("Euclidean compared with GAP as published, chosen in the panel; the choice 
   await select.selectOption({ label: "GAP as published, 2e-4 / 300" });
   assert.deepEqual((await C(page, "c.shown")).map((s) => s.label), ["Euclidean", "GAP as published (2e-4 / 300)"]);
   assert.equal((await C(page, "c.state")).compare, "gap_as_published_sim");
+  // The link is written debounced (150 ms after the last change): wait for it, then check it.
+  await page.waitForFunction(() => decodeURIComponent(location.hash).includes('"compare"'), null, { timeout: 5000 }).catch(() => {});
   assert.match(decodeURIComponent(await page.evaluate(() => location.hash)), /"compare":"gap_as_published_sim"/);
   await page.keyboard.press("r");
   await runEnded(page, 2);
