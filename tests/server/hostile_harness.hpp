@@ -18,6 +18,7 @@
 #include <set>
 #include <sstream>
 
+#include "distlab/geometry/asan.hpp"
 #include "server/server_fixture.hpp"
 
 namespace distlab::test::hostile {
@@ -444,7 +445,7 @@ class Runner {
   void start() {
     // The server's limits: no core dumps; memory bounded so a hostile allocation fails instead of
     // taking the shared machine (ASan: through its own options, as it reserves a huge address space).
-#if defined(__SANITIZE_ADDRESS__)
+#if defined(DISTLAB_ASAN)
     std::string asan = std::getenv("ASAN_OPTIONS") ? std::getenv("ASAN_OPTIONS") : "";
     if (asan.find("hard_rss_limit_mb") == std::string::npos)
       asan += std::string(asan.empty() ? "" : ":") + "hard_rss_limit_mb=4096:max_allocation_size_mb=3072";
@@ -453,7 +454,7 @@ class Runner {
     server_ = std::make_unique<ServerProcess>(extra_, cache_);
     rlimit core{0, 0};
     ::prlimit(server_->pid(), RLIMIT_CORE, &core, nullptr);
-#if !defined(__SANITIZE_ADDRESS__)
+#if !defined(DISTLAB_ASAN)
     rlimit as{std::size_t{4} << 30, std::size_t{4} << 30};
     ::prlimit(server_->pid(), RLIMIT_AS, &as, nullptr);
 #endif

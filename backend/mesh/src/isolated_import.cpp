@@ -24,6 +24,7 @@
 #include <ostream>
 #include <stdexcept>
 
+#include "distlab/geometry/asan.hpp"
 #include "distlab/geometry/error.hpp"
 
 extern char** environ;
@@ -107,7 +108,7 @@ int import_mesh_child(const std::vector<std::string>& args, std::ostream& out) {
   set_limit(RLIMIT_CORE, 0, 0);
   const auto cpu = static_cast<rlim_t>(std::ceil(std::max(seconds, 1.0)));
   set_limit(RLIMIT_CPU, cpu, cpu + 1);  // SIGXCPU at the soft limit, SIGKILL one second later
-#if !defined(__SANITIZE_ADDRESS__)
+#if !defined(DISTLAB_ASAN)
   set_limit(RLIMIT_AS, memory, memory);  // ASan reserves terabytes of address space up front
 #endif
   try {
