@@ -339,9 +339,22 @@ json run_gap_request(const json& request, const std::function<void()>& checkpoin
   for (std::size_t i = 0; i + 1 < bodies.size(); i += 2)
     pairs.emplace_back(&bodies[i], &bodies[i + 1]);
 
+  // Overlapping pairs: the Euclidean penetration (depth, direction, witness points) beside Λ = 0,
+  // per chunk so that the checkpoint also bounds it (a deep overlap of round shapes costs ms).
   std::vector<GapResult> results;
+  std::vector<std::optional<Penetration>> pens;
+  const auto add_penetrations = [&](std::size_t begin) {
+    pens.resize(results.size());
+    parallel_for(results.size() - begin, [&](std::size_t k) {
+      const std::size_t i = begin + k;
+      if (results[i].euclidean_computed && results[i].euclidean.distance == 0)
+        pens[i] = penetration(pairs[i].first->euclidean(), pairs[i].first->pose(),
+                              pairs[i].second->euclidean(), pairs[i].second->pose());
+    });
+  };
   if (!batch) {
     results.push_back(gap_distance(*pairs[0].first, *pairs[0].second, params));
+    add_penetrations(0);
   } else {
     // In chunks (each on all cores), so the checkpoint runs while a long batch is under way.
     constexpr std::size_t kChunk = 64;
@@ -352,16 +365,9 @@ json run_gap_request(const json& request, const std::function<void()>& checkpoin
           pairs.begin() + static_cast<std::ptrdiff_t>(begin),
           pairs.begin() + static_cast<std::ptrdiff_t>(std::min(pairs.size(), begin + kChunk)));
       for (GapResult& r : gap_distance_batch(chunk, params)) results.push_back(std::move(r));
+      add_penetrations(begin);
     }
   }
-
-  // Overlapping pairs: the Euclidean penetration (depth, direction, witness points) beside Λ = 0.
-  std::vector<std::optional<Penetration>> pens(results.size());
-  parallel_for(results.size(), [&](std::size_t i) {
-    if (results[i].euclidean_computed && results[i].euclidean.distance == 0)
-      pens[i] = penetration(pairs[i].first->euclidean(), pairs[i].first->pose(),
-                            pairs[i].second->euclidean(), pairs[i].second->pose());
-  });
   json out = json::array();
   for (std::size_t i = 0; i < results.size(); ++i) {
     if (!finite(results[i]) || (pens[i] && !(std::isfinite(pens[i]->depth) &&
