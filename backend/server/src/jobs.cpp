@@ -5,8 +5,7 @@
 #include <cmath>
 
 #include "distlab/geometry/error.hpp"
-#include "distlab/kelvin/progress.hpp"
-#include "distlab/levelset/grid.hpp"
+#include "distlab/geometry/progress.hpp"
 #include "distlab/server/http.hpp"
 
 namespace distlab::server {
@@ -118,12 +117,10 @@ void JobManager::run(const std::shared_ptr<Job>& job, const std::function<json(J
   JobState final_state = JobState::succeeded;
   json result, error;
   try {
-    if (job->cancelled()) throw kelvin::Cancelled();
+    if (job->cancelled()) throw Cancelled();
     result = work(*job);
-    if (job->cancelled()) throw kelvin::Cancelled();
-  } catch (const kelvin::Cancelled&) {
-    final_state = JobState::cancelled;
-  } catch (const levelset::Cancelled&) {
+    if (job->cancelled()) throw Cancelled();
+  } catch (const Cancelled&) {  // the one cancellation of every module's work
     final_state = JobState::cancelled;
   } catch (const ApiError& e) {
     final_state = JobState::failed;

@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "distlab/geometry/progress.hpp"
 #include "distlab/geometry/types.hpp"
 #include "distlab/mesh/surface.hpp"
 
@@ -27,10 +28,8 @@ struct Grid {
   }
 };
 
-class Cancelled : public std::runtime_error {
- public:
-  Cancelled() : std::runtime_error("cancelled") {}
-};
+// The project's one cancellation (geometry/progress.hpp), thrown when the cancel flag is set.
+using distlab::Cancelled;
 
 using ScalarField = std::function<double(const Vec3&)>;
 

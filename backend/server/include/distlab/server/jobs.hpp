@@ -65,7 +65,7 @@ class JobManager {
   ~JobManager();
 
   // Queues work; throws ApiError 429 too_many_jobs past a limit. The work returns the result
-  // JSON or throws (kelvin::Cancelled / levelset::Cancelled / a "cancelled" state when
+  // JSON or throws (Cancelled, geometry/progress.hpp / a "cancelled" state when
   // job.cancel is set -> cancelled; InvalidInput -> failed with the field; others -> failed).
   std::shared_ptr<Job> submit(const std::string& session, const std::string& kind, nlohmann::json meta,
                               std::function<nlohmann::json(Job&)> work);
