@@ -169,9 +169,9 @@ test("Kelvin: hovering the surface shows σ, h and |∇h| there with units; hove
     await page.mouse.move(p.x - 3, p.y);
     await page.mouse.move(p.x, p.y);
     await page.waitForFunction(() => window.distlab.kelvin.probe?.on === "surface", null, { timeout: 30000 });
-    const r = await K(page, "k.probe");
+    // The reading and its text in one evaluation: a later answer (the first mouse move's) may replace both.
+    const { r, text } = await K(page, "({ r: k.probe, text: document.querySelector('.kelvin-probe').textContent })");
     assert.equal(r.sigma, -0.5);
-    const text = await page.locator(".kelvin-probe").textContent();
     assert.match(text, /on the surface/);
     assert.match(text, /σ = -0\.5000 \(dimensionless\)/);
     assert.match(text, /h = -?[\d.]+ \(dimensionless/);
@@ -186,11 +186,11 @@ test("Kelvin: hovering the surface shows σ, h and |∇h| there with units; hove
     const q = await K(page, "k.toScreen([0.85, -0.6, 0])");
     await page.mouse.move(q.x, q.y);
     await page.waitForFunction(() => window.distlab.kelvin.probe?.on === "slice", null, { timeout: 30000 });
-    const s = await K(page, "k.probe");
+    const { r: s, text: sliceText } = await K(page, "({ r: k.probe, text: document.querySelector('.kelvin-probe').textContent })");
     assert.ok(Math.abs(s.point[2]) < 1e-9, "a point of the plane z = 0");
     const d2 = await page.evaluate(([id, p]) => window.distlab.api.post(`/api/kelvin/objects/${id}/query`, { points: [p] }), [await K(page, "k.objectId"), s.point]);
     assert.equal(s.h, d2.h[0]);
-    assert.match(await page.locator(".kelvin-probe").textContent(), /on the slice[\s\S]*h = [\d.-]+ \(dimensionless/);
+    assert.match(sliceText, /on the slice[\s\S]*h = [\d.-]+ \(dimensionless/);
     await screenshot(page, "pictures-kelvin-hover");
   } finally {
     await page.context().close();
