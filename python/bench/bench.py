@@ -8,8 +8,10 @@
    threads. The polytope pairs are those the C++ program generates (--save-cases); each is
    evaluated at N / cases random poses of B drawn as the C++ program draws them. The C++ program
    then times the same pairs (--load-cases, --newton-only: Newton per pair, and FCL's distance),
-   and Python times those too: single-threaded Python/C++ is on identical pairs, Python in process
-   CPU time (the machine is shared), C++ as the mean of per-pair minima over --passes.
+   and Python times those too: single-threaded Python/C++ is on identical pairs, both as the
+   fastest whole pass in CPU time (the machine is shared). The C++ program's mean of per-pair
+   minima over --passes is printed too; it is lower by construction (each pair keeps its luckiest
+   pass) and not what a batched caller sees.
 2. Kelvin batched query per point (Field.query: one call, GIL released, the points array read in
    place), with and without hints, on a prepared cube, in process CPU time.
 """
@@ -98,7 +100,9 @@ def bench_gap(args, exe):
             "cpu_2_threads_over_1": cpu2 / cpu1,
             "same_pairs": m, "python_same_pairs_cpu_us_per_pair": cpu_same / m * 1e6,
             "cpp_newton_us_per_pair_mean": newton["mean"], "cpp_newton_us_per_pair_median": newton["median"],
-            "python_over_cpp": cpu_same / m * 1e6 / newton["mean"],
+            "cpp_newton_batch_cpu_us_per_pair": cpp["newton_batch_cpu_us_per_pair"],
+            "python_over_cpp": cpu_same / m * 1e6 / cpp["newton_batch_cpu_us_per_pair"],
+            "python_over_cpp_per_pair_minima": cpu_same / m * 1e6 / newton["mean"],
             "fcl_distance_us_per_pair_mean": cpp["fcl"]["time_us"]["mean"]}
 
 
@@ -139,8 +143,10 @@ def main():
         ("  throughput 2 threads / 1 thread (wall)", g["throughput_2_threads_over_1"], "x"),
         ("  CPU time 2 threads / 1 thread (1: no parallel overhead)", g["cpu_2_threads_over_1"], "x"),
         (f"GAP Newton per pair, same {g['same_pairs']} pairs: Python (CPU)", g["python_same_pairs_cpu_us_per_pair"], "us"),
+        ("  C++ distlab-bench-gap, whole pass as one (CPU), fastest pass", g["cpp_newton_batch_cpu_us_per_pair"], "us"),
+        ("  Python / C++ (both: a whole pass, CPU time, fastest)", g["python_over_cpp"], "x"),
         ("  C++ distlab-bench-gap, mean of per-pair minima", g["cpp_newton_us_per_pair_mean"], "us"),
-        ("  Python / C++", g["python_over_cpp"], "x"),
+        ("  Python / C++ per-pair minima (not like for like)", g["python_over_cpp_per_pair_minima"], "x"),
         ("FCL distance per pair (C++, same pairs), mean", g["fcl_distance_us_per_pair_mean"], "us"),
         ("Kelvin query per point, hints, grid order (CPU)", k["query_us_per_point_hints"], "us"),
         ("Kelvin query per point, no hints, random order (CPU)", k["query_us_per_point_no_hints"], "us"),
@@ -148,7 +154,7 @@ def main():
     print(f"GAP: {g['pairs']} pairs; Kelvin: cube, lx {k['lx']}, {k['n_verts']} vertices, {k['points']} points; "
           f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
     for name, value, unit in rows:
-        print(f"  {name:<58} {value:9.3f} {unit}")
+        print(f"  {name:<64} {value:9.3f} {unit}")
     result = {"gap": g, "kelvin": k}
     print(json.dumps(result, indent=2))
     if args.json:
