@@ -525,16 +525,17 @@ export interface paths {
                     };
                     content: {
                         "application/json": {
-                            scenarios?: string[];
-                            metrics?: ("gap" | "euclidean")[];
-                            /** @description max_steps: duration/dt per rollout; max_duration: seconds of simulated time; max_pair_steps: pairs x steps per rollout; max_batch_steps: stream.batch_steps; max_frames_per_request: GET .../frames count; kept_per_session: the most recent rollouts a session keeps (older ended ones are forgotten) */
-                            limits?: {
-                                max_steps?: number;
-                                max_duration?: number;
-                                max_pair_steps?: number;
-                                max_batch_steps?: number;
-                                max_frames_per_request?: number;
-                                kept_per_session?: number;
+                            scenarios: string[];
+                            metrics: ("gap" | "euclidean")[];
+                            /** @description max_steps: duration/dt per rollout; max_duration: seconds of simulated time; max_pair_steps: pairs x steps per rollout; max_batch_steps: stream.batch_steps; max_frames_per_request: GET .../frames count; kept_per_session: the most recent rollouts a session keeps (older ended ones are forgotten); max_sweep_values: values per sweep */
+                            limits: {
+                                max_steps: number;
+                                max_duration: number;
+                                max_pair_steps: number;
+                                max_batch_steps: number;
+                                max_frames_per_request: number;
+                                kept_per_session: number;
+                                max_sweep_values: number;
                             };
                         };
                     };
@@ -654,23 +655,7 @@ export interface paths {
                         [name: string]: unknown;
                     };
                     content: {
-                        "application/json": {
-                            scenario?: string;
-                            reachable?: boolean;
-                            q?: number[];
-                            clearance?: number;
-                            limiting_pair?: string;
-                            self_clearance?: number | null;
-                            gap_distance?: number;
-                            gap_limiting_pair?: string;
-                            margins?: {
-                                euclidean?: number;
-                                gap?: number;
-                            };
-                            euclidean_feasible?: boolean;
-                            gap_feasible?: boolean;
-                            configurations?: number;
-                        };
+                        "application/json": components["schemas"]["CbfFeasibility"];
                     };
                 };
                 400: components["responses"]["Error"];
@@ -710,7 +695,7 @@ export interface paths {
                     };
                     content: {
                         "application/json": {
-                            rollouts?: components["schemas"]["CbfRollout"][];
+                            rollouts: components["schemas"]["CbfRollout"][];
                         };
                     };
                 };
@@ -746,8 +731,8 @@ export interface paths {
                     };
                     content: {
                         "application/json": {
-                            rollout?: components["schemas"]["CbfRollout"];
-                            job?: components["schemas"]["Job"];
+                            rollout: components["schemas"]["CbfRollout"];
+                            job: components["schemas"]["Job"];
                         };
                     };
                 };
@@ -954,8 +939,8 @@ export interface paths {
                     };
                     content: {
                         "application/json": {
-                            sweep?: components["schemas"]["CbfSweep"];
-                            job?: components["schemas"]["Job"];
+                            sweep: components["schemas"]["CbfSweep"];
+                            job: components["schemas"]["Job"];
                         };
                     };
                 };
@@ -1762,7 +1747,10 @@ export interface paths {
                         [name: string]: unknown;
                     };
                     content: {
+                        "model/stl": string;
+                        "model/obj": string;
                         "application/octet-stream": string;
+                        "model/gltf-binary": string;
                     };
                 };
                 400: components["responses"]["Error"];
@@ -1849,8 +1837,24 @@ export interface components {
             fraction?: number;
             seconds?: number;
             object?: string;
-            /** @description what a succeeded job made (kelvin_prepare: the object and its stats) */
+            /** @description what a succeeded job made (each module declares its jobs' fields) */
             result?: {
+                /** @description cbf_rollout: the rollout's id */
+                rollout?: string;
+                /** @description cbf_rollout */
+                summary?: {
+                    reached: boolean;
+                    final_task_error: number;
+                    infeasible_steps: number;
+                    steps: number;
+                };
+                /** @description cbf_sweep (with metric, parameter, values, entries: the sweep without its id) */
+                scenario?: string;
+                metric?: components["schemas"]["CbfMetric"];
+                parameter?: string;
+                values?: unknown[];
+                entries?: components["schemas"]["CbfSweepEntry"][];
+                /** @description kelvin_prepare: the object prepared (with its stats) */
                 object?: string;
                 stats?: components["schemas"]["KelvinStats"];
             };
@@ -1859,6 +1863,8 @@ export interface components {
             scenario?: string;
             /** @description cbf_rollout jobs */
             metric?: string;
+            /** @description cbf_sweep jobs: the swept parameter */
+            parameter?: string;
         };
         WsPing: {
             /** @constant */
@@ -1914,17 +1920,11 @@ export interface components {
         CbfScenario: {
             name?: string;
             comment?: string;
-            /** @enum {string} */
-            robot?: "panda";
-            obstacles: {
-                name?: string;
-                shape: components["schemas"]["GapShape"];
-            }[];
-            target: {
-                position: number[];
-                /** @description [w, x, y, z], normalised */
-                quaternion?: number[];
-            };
+            /** @description assets/robots/NAME.urdf (default panda) */
+            robot?: string;
+            obstacles: components["schemas"]["CbfObstacle"][];
+            target: components["schemas"]["CbfPose"];
+            /** @description one per joint of the robot (its dof) */
             q0: number[];
             dt?: number;
             /** @description seconds, at most 600 (and at most max_steps steps) */
@@ -1947,9 +1947,21 @@ export interface components {
                 };
             };
             /** @description GAP parameters h, k, eps, sigma, weight_margin, tol, max_iter, solver (newton | fixed_point), mode: exact (default; the project's P2S functions, Newton warm-started, converged) | as_published (the published package's P2S construction and its plain iteration cold-started at the obstacle's centre each step, stopped at the first step below tol or after max_iter >= 1, e.g. 5e-4/20 real robot, 2e-4/300 simulation; the record then also carries the converged D) */
-            gap?: Record<string, never>;
-            /** @description rad/s, > 0: |u_i| clipped per joint after the QP (one number: every joint; null or absent: no limit) */
-            velocity_limit?: number | number[] | null;
+            gap?: {
+                h?: number;
+                k?: number;
+                eps?: number;
+                sigma?: number;
+                weight_margin?: number;
+                tol?: number;
+                max_iter?: number;
+                /** @enum {string} */
+                solver?: "newton" | "fixed_point";
+                /** @enum {string} */
+                mode?: "exact" | "as_published";
+            };
+            /** @description rad/s, > 0: |u_i| clipped per joint after the QP (one number: every joint; null or absent: no limit); "robot": the URDF's velocity limits */
+            velocity_limit?: number | null | "robot" | number[];
         };
         CbfRolloutRequest: {
             scenario: string | components["schemas"]["CbfScenario"];
@@ -1981,35 +1993,35 @@ export interface components {
             };
         };
         CbfRollout: {
-            id?: string;
+            id: string;
             /** @enum {string} */
-            state?: "queued" | "running" | "finished" | "cancelled" | "failed";
-            scenario?: string;
-            metric?: string;
-            dt?: number;
-            steps_total?: number;
-            steps_done?: number;
-            pairs?: {
-                name?: string;
-                /** @description robot primitive index */
-                a?: number;
-                /** @description obstacle index, or robot primitive index when self */
-                b?: number;
-                self?: boolean;
-            }[];
+            state: "queued" | "running" | "finished" | "cancelled" | "failed";
+            scenario: string;
+            metric: components["schemas"]["CbfMetric"];
+            /** @description the robot's name (GET /api/cbf/robot?name=) */
+            robot: string;
+            dt: number;
+            steps_total: number;
+            steps_done: number;
+            pairs: components["schemas"]["CbfPair"][];
             /** @description the scenario's obstacles as given ({name, shape: GapShape with pose in the world}) */
-            obstacles?: {
-                name?: string;
-                shape: components["schemas"]["GapShape"];
-            }[];
-            target?: {
-                position?: number[];
-                /** @description [w, x, y, z] */
-                quaternion?: number[];
+            obstacles: components["schemas"]["CbfObstacle"][];
+            target: components["schemas"]["CbfPose"];
+            /** @description how its steps stream (the request's stream) */
+            stream: {
+                batch_steps: number;
+                pairs: boolean;
+                poses: boolean;
             };
-            stream?: Record<string, never>;
-            /** @description when ended: reached, final_task_error, min_distance, infeasible_steps (count), cancelled */
-            summary?: Record<string, never>;
+            /** @description when the rollout ended */
+            summary?: {
+                reached: boolean;
+                final_task_error: number;
+                min_distance: number | null;
+                /** @description count */
+                infeasible_steps: number;
+                cancelled: boolean;
+            };
             job?: components["schemas"]["Job"];
         };
         /** @description Also the WebSocket text message type cbf_frames. Steps [first, first+count) of a rollout; per-pair arrays follow the rollout's pairs order, poses follow GET /api/cbf/robot's primitives order. All positions in the world frame, metres. */
@@ -2044,126 +2056,97 @@ export interface components {
         };
         /** @description The record of `distlab cbf` (same names and numbers). */
         CbfRecord: {
-            scenario?: string;
-            metric?: string;
-            dt?: number;
-            steps?: number;
-            pairs?: string[];
-            t?: number[];
-            q?: number[][];
-            u?: number[][];
-            task_error?: number[];
-            min_distance?: (number | null)[];
-            infeasible_steps?: number[];
-            /** @description step index -> slack (or "held") */
-            slack?: Record<string, never>;
-            smoothness?: {
-                /** @description per joint, sum |u[k+1]-u[k]| */
-                total_variation?: number[];
-                /** @description per joint, max |u[k+1]-u[k]|/dt */
-                max_rate?: number[];
+            scenario: string;
+            metric: components["schemas"]["CbfMetric"];
+            dt: number;
+            steps: number;
+            pairs: string[];
+            t: number[];
+            q: number[][];
+            u: number[][];
+            task_error: number[];
+            min_distance: (number | null)[];
+            infeasible_steps: number[];
+            /** @description step index -> slack of a relaxed step, or "held" */
+            slack: {
+                [key: string]: number | "held";
             };
+            smoothness: components["schemas"]["CbfSmoothness"];
             distance?: number[][];
             witness_a?: number[][][];
             witness_b?: number[][][];
-            timing?: {
-                kinematics_us_mean?: number;
-                step_us_mean?: number;
-                distance_us_mean?: number;
-                qp_us_mean?: number;
-                audit_us_mean?: number;
-                wall_s?: number;
+            timing: {
+                kinematics_us_mean: number;
+                step_us_mean: number;
+                distance_us_mean: number;
+                qp_us_mean: number;
+                audit_us_mean: number;
+                wall_s: number;
             };
             /** @enum {string} */
-            gap_mode?: "exact" | "as_published";
+            gap_mode: "exact" | "as_published";
             /** @description gap.mode as_published with record_pairs: per step, the converged D of every pair (beside the early-stopped distance) */
             converged_distance?: (number | null)[][];
-            summary?: {
-                reached?: boolean;
-                final_task_error?: number;
-                min_distance?: number | null;
-                cancelled?: boolean;
-                cold_solves?: number;
-                /** @description steps whose u was clipped to velocity_limit */
-                clipped_steps?: number;
-                /** @description Where the arm ends and the constraints holding it there (one more control step at q_final, not applied) */
-                final?: {
-                    ee_position?: number[];
-                    /** @description |p - p_d| (m) */
-                    position_error?: number;
-                    min_clearance?: number | null;
-                    closest_pair?: string;
-                    /** @description active QP rows, largest multiplier first */
-                    active?: {
-                        /** @description pair name (link5_cylinder/wall1) or joint limit (q5 >= q_min) */
-                        name?: string;
-                        /** @enum {string} */
-                        kind?: "pair" | "joint_limit";
-                        /** @description the controller's D, or the joint's distance to its limit */
-                        distance?: number;
-                        margin?: number;
-                        clearance?: number | null;
-                        /** @description gap.mode as_published: the converged D */
-                        converged_distance?: number | null;
-                        multiplier?: number;
-                    }[];
-                };
-                q_final?: number[];
-            };
+            summary: components["schemas"]["CbfRecordSummary"];
         };
         CbfRobot: {
-            name?: string;
-            dof?: number;
-            convention?: string;
-            dh?: {
-                d?: number;
-                alpha?: number;
-                a?: number;
+            name: string;
+            dof: number;
+            convention: string;
+            /** @description link names; a joint's parent and child, a primitive's link index them */
+            links: string[];
+            /** @description URDF joints, parents first */
+            joints: {
+                name: string;
+                parent: number;
+                child: number;
+                /** @description index into q, -1 for a fixed joint */
+                q: number;
+                origin: components["schemas"]["CbfPose"];
+                axis: number[];
             }[];
-            q_min?: number[];
-            q_max?: number[];
-            end_effector?: {
-                link?: number;
-                pose?: {
-                    position?: number[];
-                    /** @description [w, x, y, z] */
-                    quaternion?: number[];
-                };
+            /** @description the dof actuated joints, in q's order */
+            joint_names: string[];
+            q_min: number[];
+            q_max: number[];
+            /** @description rad/s per joint (the URDF's limits) */
+            velocity_max: number[];
+            end_effector: {
+                link: number;
             };
-            primitives?: {
-                name?: string;
-                /** @description DH frame 1..7 the primitive is fixed to */
-                link?: number;
-                shape?: components["schemas"]["GapShape"];
-                pose?: {
-                    position?: number[];
-                    /** @description [w, x, y, z] */
-                    quaternion?: number[];
-                };
+            primitives: {
+                name: string;
+                /** @description the link the primitive is fixed to */
+                link: number;
+                shape: components["schemas"]["GapShape"];
+                pose: components["schemas"]["CbfPose"];
             }[];
-            self_pairs?: number[][];
+            /** @description primitive index pairs checked for self-collision */
+            self_pairs: number[][];
         };
         /** @description One run: summary and smoothness exactly as the record of the single rollout with params.PARAMETER = value */
         CbfSweepEntry: {
-            value?: unknown;
-            position_error?: number;
-            min_clearance?: number | null;
+            /** @description the value params.PARAMETER had in this run (any JSON value the parameter takes) */
+            value: unknown;
+            position_error: number;
+            min_clearance: number | null;
             /** @description sum over joints of the total variation of u (rad/s) */
-            total_variation?: number;
-            infeasible_steps?: number;
-            steps?: number;
-            step_us_mean?: number;
-            gap_mode?: string;
-            summary?: Record<string, never>;
-            smoothness?: Record<string, never>;
+            total_variation: number;
+            infeasible_steps: number;
+            steps: number;
+            step_us_mean: number;
+            /** @enum {string} */
+            gap_mode: "exact" | "as_published";
+            summary: components["schemas"]["CbfRecordSummary"];
+            smoothness: components["schemas"]["CbfSmoothness"];
         };
         CbfSweep: {
-            id?: string;
-            scenario?: string;
-            metric?: string;
-            parameter?: string;
-            values?: unknown[];
-            entries?: components["schemas"]["CbfSweepEntry"][];
+            id: string;
+            scenario: string;
+            metric: components["schemas"]["CbfMetric"];
+            parameter: string;
+            values: unknown[];
+            entries: components["schemas"]["CbfSweepEntry"][];
             job?: components["schemas"]["Job"];
         };
         WsCbfReplay: {
@@ -2173,6 +2156,84 @@ export interface components {
             from?: number;
             /** @description echoed in the reply to this message, to this socket only */
             request?: string | number;
+        };
+        /** @description a pose in the parent (or world) frame; quaternion [w, x, y, z], identity when absent */
+        CbfPose: {
+            position: number[];
+            /** @description [w, x, y, z] */
+            quaternion?: number[];
+        };
+        /** @description an obstacle: a GAP shape with its pose in the world */
+        CbfObstacle: {
+            name?: string;
+            shape: components["schemas"]["GapShape"];
+        };
+        CbfPair: {
+            name: string;
+            /** @description robot primitive index */
+            a: number;
+            /** @description obstacle index, or robot primitive index when self */
+            b: number;
+            self: boolean;
+        };
+        /** @enum {string} */
+        CbfMetric: "gap" | "euclidean";
+        CbfSmoothness: {
+            /** @description per joint, sum |u[k+1]-u[k]| */
+            total_variation: number[];
+            /** @description per joint, max |u[k+1]-u[k]|/dt */
+            max_rate: number[];
+        };
+        CbfRecordSummary: {
+            reached: boolean;
+            final_task_error: number;
+            min_distance: number | null;
+            cancelled: boolean;
+            cold_solves: number;
+            /** @description steps whose u was clipped to velocity_limit */
+            clipped_steps: number;
+            /** @description Where the arm ends and the constraints holding it there (one more control step at q_final, not applied) */
+            final: {
+                ee_position: number[];
+                /** @description |p - p_d| (m) */
+                position_error: number;
+                min_clearance: number | null;
+                closest_pair: string;
+                /** @description active QP rows, largest multiplier first */
+                active: {
+                    /** @description pair name (link5_cylinder/wall1) or joint limit (q5 >= q_min) */
+                    name: string;
+                    /** @enum {string} */
+                    kind: "pair" | "joint_limit";
+                    /** @description the controller's D, or the joint's distance to its limit */
+                    distance: number;
+                    margin: number;
+                    clearance: number | null;
+                    /** @description gap.mode as_published: the converged D */
+                    converged_distance: number | null;
+                    multiplier: number;
+                }[];
+            };
+            /** @description the last configuration */
+            q_final: number[];
+        };
+        /** @description reachable false: only scenario, reachable and configurations */
+        CbfFeasibility: {
+            scenario: string;
+            reachable: boolean;
+            q?: number[];
+            clearance?: number;
+            limiting_pair?: string;
+            self_clearance?: number | null;
+            gap_distance?: number;
+            gap_limiting_pair?: string;
+            margins?: {
+                euclidean: number;
+                gap: number;
+            };
+            euclidean_feasible?: boolean;
+            gap_feasible?: boolean;
+            configurations: number;
         };
         /** @description {a, b, params} or {pairs: [{a, b}], params} */
         GapRequest: {
