@@ -17,6 +17,7 @@ Rules, checked (any violation exits non-zero naming the fragment and the place):
 Usage: openapi_assemble.py [--out FILE] [--cpp FILE]; without --out the document goes to stdout.
 """
 import argparse
+import copy
 import json
 import re
 import sys
@@ -52,6 +53,7 @@ def merge(dst, src, where):
 
 
 def assemble(parts):
+    parts = copy.deepcopy(parts)  # the merge shares and extends the parts' objects
     doc = {}
     owner = {}  # "paths/<p>" or "<section>/<name>" -> fragment that defines it
     for name, frag in parts:
@@ -67,7 +69,7 @@ def assemble(parts):
                     raise AssemblyError(f"{name}: {'/'.join(entry)} is already defined by {owner[entry]}")
                 owner[entry] = name
     for name, frag in parts:
-        text = json.dumps({k: v for k, v in frag.items()})
+        text = json.dumps(frag)
         for section, target in REF.findall(text):
             home = owner.get((section, target))
             if home is None:
