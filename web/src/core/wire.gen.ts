@@ -63,7 +63,14 @@ export interface paths {
                         [name: string]: unknown;
                     };
                     content: {
-                        "application/json": Record<string, never>;
+                        "application/json": {
+                            /** @constant */
+                            name: "distlab";
+                            version: string;
+                            api: string;
+                            /** @description the feature modules this server runs */
+                            modules: string[];
+                        };
                     };
                 };
             };
@@ -270,7 +277,7 @@ export interface paths {
                         [name: string]: unknown;
                     };
                     content: {
-                        "application/json": Record<string, never>;
+                        "application/json": components["schemas"]["SessionInfo"];
                     };
                 };
                 401: components["responses"]["Error"];
@@ -1536,7 +1543,10 @@ export interface paths {
                         [name: string]: unknown;
                     };
                     content: {
-                        "application/json": Record<string, never>;
+                        "application/json": {
+                            /** @description the object's watched levels now */
+                            levels: number[];
+                        };
                     };
                 };
                 400: components["responses"]["Error"];
@@ -1826,6 +1836,27 @@ export interface components {
             empty?: boolean;
             /** @description with empty: the smallest h of the field */
             h_min?: number;
+            /** @description Kelvin frames: the object's id */
+            object?: string;
+            /** @description Kelvin frames: the σ version the frame shows */
+            sigma_version?: number;
+            /**
+             * @description GET .../surface: which surface
+             * @enum {string}
+             */
+            of?: "input" | "repaired";
+            /** @description isosurface frames */
+            level?: number;
+            /** @description isosurface frames: the level's index among the watched levels */
+            index?: number;
+            /** @description isosurface frames: how many levels the batch has */
+            count?: number;
+            /** @description WebSocket isosurface frames: milliseconds of the solve, the isosurface and since the σ edit */
+            server_ms?: {
+                solve?: number;
+                isosurface?: number;
+                since_edit?: number;
+            };
         };
         Job: {
             id: string;
@@ -1916,6 +1947,18 @@ export interface components {
         WsClientMessage: components["schemas"]["WsPing"] | components["schemas"]["WsState"] | components["schemas"]["WsCancel"] | components["schemas"]["WsCbfReplay"] | components["schemas"]["WsWatch"] | components["schemas"]["WsSigma"];
         /** @description a text message the server sends on /ws (cbf_frames: CbfFrames) */
         WsServerMessage: components["schemas"]["WsHello"] | components["schemas"]["WsPong"] | components["schemas"]["WsJob"] | components["schemas"]["WsError"] | components["schemas"]["CbfFrames"] | components["schemas"]["WsObject"] | components["schemas"]["WsSigmaAck"];
+        /** @description GET /api/session (each module adds its counts) */
+        SessionInfo: {
+            session: string;
+            /** @description open WebSockets */
+            sockets: number;
+            /** @description jobs kept */
+            jobs: number;
+            /** @description Kelvin objects of the session */
+            objects: number;
+            /** @description uploads not yet made into objects */
+            uploads: number;
+        };
         /** @description A scene, target, start and controller constants. Keys other than obstacles/target/q0 are optional (defaults: the corridor's). Unknown keys are refused. */
         CbfScenario: {
             name?: string;
@@ -2401,6 +2444,22 @@ export interface components {
             source: {
                 center?: components["schemas"]["Vec3"];
                 far_radius?: number;
+                /** @description a built-in mesh (GET /api/kelvin/assets) */
+                asset?: string;
+                /** @description an upload's id */
+                upload?: string;
+                /**
+                 * @description the mesh was in the request
+                 * @constant
+                 */
+                mesh?: "inline";
+                /** @description the element size used (m) */
+                lx: number;
+                /** @description lx as asked, a fraction of the bounding-box diagonal */
+                lx_fraction?: number;
+                vertex_estimate: number;
+                /** @enum {string} */
+                repair: "none" | "fix" | "wrap";
             };
             stats?: components["schemas"]["KelvinStats"];
             sigma_version: number;
@@ -2414,6 +2473,11 @@ export interface components {
             center?: components["schemas"]["Vec3"];
             key: string;
             repair_report?: components["schemas"]["RepairReport"];
+            /**
+             * @description the repair the object was made with
+             * @enum {string}
+             */
+            repair: "none" | "fix" | "wrap";
         };
         /** @description a prepared field's size and preparation times (seconds) */
         KelvinStats: {
