@@ -145,9 +145,10 @@ def test_every_operation_answers_as_documented(server):
     # GAP.
     example = json.loads((ROOT / "assets" / "gap" / "example.json").read_text())
     pair = {k: example[k] for k in ("a", "b")}
-    api.call("POST", "/api/gap/distance", json=pair)
+    api.call("POST", "/api/gap/distance", json=example)  # validate and gradient on
     api.call("POST", "/api/gap/distance", json={"pairs": [pair, pair]})
-    api.call("POST", "/api/gap/levelsets", json={"shape": example["a"], "grid": {"resolution": 16}})
+    plane = {"center": [0, 0, 0], "normal": [0, 0, 1], "size": [1, 1], "resolution": [8, 8]}
+    api.call("POST", "/api/gap/levelsets", json={"shape": example["a"], "grid": {"resolution": 16}, "plane": plane})
 
     # Kelvin: an upload, an object prepared as a job, its field, σ, levels, frames and export.
     api.call("GET", "/api/kelvin/assets")
@@ -172,9 +173,10 @@ def test_every_operation_answers_as_documented(server):
     api.call("GET", "/api/kelvin/objects/{id}/export", obj, params={"level": 0.3})
 
     # CBF: scenarios, the robot, a rollout to its record, a sweep, a cancelled rollout.
-    api.call("GET", "/api/cbf/scenarios")
-    api.call("GET", "/api/cbf/scenarios/{name}", {"name": "corridor"})
+    for name in api.call("GET", "/api/cbf/scenarios").json()["scenarios"]:
+        api.call("GET", "/api/cbf/scenarios/{name}", {"name": name})
     api.call("GET", "/api/cbf/robot")
+    api.call("GET", "/api/cbf/robot", params={"name": "ur5e"})  # 6 joints
     api.call("POST", "/api/cbf/feasibility", json={"scenario": "corridor"})
     run = api.call("POST", "/api/cbf/rollouts", json={"scenario": "corridor", "params": {"duration": 0.3}}).json()
     rid = run["rollout"]["id"]

@@ -607,7 +607,10 @@ export interface paths {
         /** The robot model a viewer needs: DH table, joint limits, end-effector offset, every collision primitive (link, shape, pose in the link frame), self-collision pairs */
         get: {
             parameters: {
-                query?: never;
+                query?: {
+                    /** @description a robot of assets/robots/NAME.urdf (letters, digits, _ and -) */
+                    name?: string;
+                };
                 header?: never;
                 path?: never;
                 cookie?: never;
@@ -623,6 +626,7 @@ export interface paths {
                         "application/json": components["schemas"]["CbfRobot"];
                     };
                 };
+                400: components["responses"]["Error"];
             };
         };
         put?: never;
@@ -1960,51 +1964,13 @@ export interface components {
             uploads: number;
         };
         /** @description A scene, target, start and controller constants. Keys other than obstacles/target/q0 are optional (defaults: the corridor's). Unknown keys are refused. */
-        CbfScenario: {
+        CbfScenario: WithRequired<components["schemas"]["CbfSettings"], "q0"> & {
             name?: string;
             comment?: string;
             /** @description assets/robots/NAME.urdf (default panda) */
             robot?: string;
             obstacles: components["schemas"]["CbfObstacle"][];
             target: components["schemas"]["CbfPose"];
-            /** @description one per joint of the robot (its dof) */
-            q0: number[];
-            dt?: number;
-            /** @description seconds, at most 600 (and at most max_steps steps) */
-            duration?: number;
-            task_gain?: number;
-            damping?: number;
-            eta?: number;
-            eta_joint?: number;
-            self_collision?: boolean;
-            goal_tolerance?: number;
-            slack_weight?: number;
-            margins?: {
-                gap?: {
-                    obstacle?: number;
-                    self?: number;
-                };
-                euclidean?: {
-                    obstacle?: number;
-                    self?: number;
-                };
-            };
-            /** @description GAP parameters h, k, eps, sigma, weight_margin, tol, max_iter, solver (newton | fixed_point), mode: exact (default; the project's P2S functions, Newton warm-started, converged) | as_published (the published package's P2S construction and its plain iteration cold-started at the obstacle's centre each step, stopped at the first step below tol or after max_iter >= 1, e.g. 5e-4/20 real robot, 2e-4/300 simulation; the record then also carries the converged D) */
-            gap?: {
-                h?: number;
-                k?: number;
-                eps?: number;
-                sigma?: number;
-                weight_margin?: number;
-                tol?: number;
-                max_iter?: number;
-                /** @enum {string} */
-                solver?: "newton" | "fixed_point";
-                /** @enum {string} */
-                mode?: "exact" | "as_published";
-            };
-            /** @description rad/s, > 0: |u_i| clipped per joint after the QP (one number: every joint; null or absent: no limit); "robot": the URDF's velocity limits */
-            velocity_limit?: number | null | "robot" | number[];
         };
         CbfRolloutRequest: {
             scenario: string | components["schemas"]["CbfScenario"];
@@ -2014,7 +1980,12 @@ export interface components {
              */
             metric: "gap" | "euclidean";
             /** @description overrides of the scenario's dt, duration, q0, task_gain, damping, eta, eta_joint, self_collision, goal_tolerance, slack_weight, velocity_limit, margins, gap (including gap.mode); record_pairs (default true: the record has per-step distance/witnesses of every pair); audit (default true: true Euclidean clearance per step, min_distance with GAP) */
-            params?: Record<string, never>;
+            params?: components["schemas"]["CbfSettings"] & {
+                /** @default true */
+                record_pairs: boolean;
+                /** @default true */
+                audit: boolean;
+            };
             comment?: string;
             /** @description how steps stream over /ws (not part of `distlab cbf`) */
             stream?: {
@@ -2278,6 +2249,47 @@ export interface components {
             gap_feasible?: boolean;
             configurations: number;
         };
+        /** @description the settings a scenario and a request's params share (params override the scenario's) */
+        CbfSettings: {
+            dt?: number;
+            /** @description seconds, at most 600 (and at most max_steps steps) */
+            duration?: number;
+            /** @description one per joint of the robot (its dof) */
+            q0?: number[];
+            task_gain?: number;
+            damping?: number;
+            eta?: number;
+            eta_joint?: number;
+            self_collision?: boolean;
+            goal_tolerance?: number;
+            slack_weight?: number;
+            margins?: {
+                gap?: {
+                    obstacle?: number;
+                    self?: number;
+                };
+                euclidean?: {
+                    obstacle?: number;
+                    self?: number;
+                };
+            };
+            /** @description GAP parameters h, k, eps, sigma, weight_margin, tol, max_iter, solver (newton | fixed_point), mode: exact (default; the project's P2S functions, Newton warm-started, converged) | as_published (the published package's P2S construction and its plain iteration cold-started at the obstacle's centre each step, stopped at the first step below tol or after max_iter >= 1, e.g. 5e-4/20 real robot, 2e-4/300 simulation; the record then also carries the converged D) */
+            gap?: {
+                h?: number;
+                k?: number;
+                eps?: number;
+                sigma?: number;
+                weight_margin?: number;
+                tol?: number;
+                max_iter?: number;
+                /** @enum {string} */
+                solver?: "newton" | "fixed_point";
+                /** @enum {string} */
+                mode?: "exact" | "as_published";
+            };
+            /** @description rad/s, > 0: |u_i| clipped per joint after the QP (one number: every joint; null or absent: no limit); "robot": the URDF's velocity limits */
+            velocity_limit?: number | null | "robot" | number[];
+        };
         /** @description {a, b, params} or {pairs: [{a, b}], params} */
         GapRequest: {
             a?: components["schemas"]["GapShape"];
@@ -2286,7 +2298,7 @@ export interface components {
                 a?: components["schemas"]["GapShape"];
                 b?: components["schemas"]["GapShape"];
             }[];
-            params?: Record<string, never>;
+            params?: components["schemas"]["GapParams"];
         };
         GapResult: {
             /** @description Λ (m², eq. 3); 0 on overlap */
@@ -2301,7 +2313,19 @@ export interface components {
             gradient_a?: number[];
             gradient_b?: number[];
             euclidean: components["schemas"]["GapEuclidean"];
-            validation?: Record<string, never>;
+            /** @description params.validate: Property 2 checked on each shape */
+            validation?: {
+                a: {
+                    ok: boolean;
+                    max_eigenvalue: number;
+                    samples: number;
+                };
+                b: {
+                    ok: boolean;
+                    max_eigenvalue: number;
+                    samples: number;
+                };
+            };
         };
         /** @description The Euclidean baseline beside GAP (FCL, certified by a duality gap). Overlapping shapes: distance 0, witness points a common point, and penetration (FCL signed distance: libccd GJK + EPA) with signed_distance = -depth. */
         GapEuclidean: {
@@ -2327,8 +2351,7 @@ export interface components {
         };
         LevelsetsRequest: {
             shape: components["schemas"]["GapShape"];
-            /** @description GAP params (h, k, eps, sigma, weight_margin, ...) */
-            params?: Record<string, never>;
+            params?: components["schemas"]["GapParams"];
             levels?: {
                 weak?: number[];
                 strict?: number[];
@@ -2368,7 +2391,44 @@ export interface components {
             /** @description grid points per axis */
             grid?: number[];
             surfaces?: components["schemas"]["MeshFrame"][];
-            plane?: Record<string, never>;
+            /** @description with a plane in the request: its frame and both fields on it */
+            plane?: {
+                center: components["schemas"]["Vec3"];
+                u: components["schemas"]["Vec3"];
+                v: components["schemas"]["Vec3"];
+                size: number[];
+                resolution: number[];
+                /**
+                 * Format: binary
+                 * @description msgpack: e_S per plane point, float32 LE, row-major
+                 */
+                weak?: string;
+                /**
+                 * Format: binary
+                 * @description msgpack: E_S per plane point, float32 LE, row-major
+                 */
+                strict?: string;
+                /** @description [min, max] of the finite values (null: none) */
+                weak_range?: (number | null)[];
+                /** @description [min, max] of the finite values (null: none) */
+                strict_range?: (number | null)[];
+            };
+        };
+        /** @description GAP parameters (paper Section III; defaults: the `distlab gap` ones); unknown keys are refused */
+        GapParams: {
+            h?: number;
+            k?: number;
+            eps?: number;
+            sigma?: number;
+            weight_margin?: number;
+            tol?: number;
+            max_iter?: number;
+            /** @enum {string} */
+            solver?: "newton" | "fixed_point";
+            /** @description pose gradients in the result */
+            gradient?: boolean;
+            /** @description check Property 2 on both shapes (the result's validation) */
+            validate?: boolean;
         };
         /** @description WebSocket binary message (msgpack map) for a σ version after the surface frame: σ at each vertex of the mesh as the user gave it, in the surface frame's (the user's) vertex order; the geometry is not resent */
         SurfaceSigmaFrame: {
@@ -2567,4 +2627,7 @@ export interface components {
     pathItems: never;
 }
 export type $defs = Record<string, never>;
+type WithRequired<T, K extends keyof T> = T & {
+    [P in K]-?: T[P];
+};
 export type operations = Record<string, never>;
