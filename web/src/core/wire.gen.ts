@@ -1606,11 +1606,11 @@ export interface paths {
                     };
                     content: {
                         "application/json": {
-                            h?: (number | null)[];
+                            h: (number | null)[];
                             /** @description ∇h as the paper computes it (Section IV-B.2, Algorithm 1): the vertex gradients of V (volume-weighted over each vertex's star) interpolated in the cell, then the chain rule. It is continuous; the derivative of the returned h is not (h interpolates V linearly per cell), and the two differ: by about 1% RMS on a sphere at l_x = 0.4 R, falling as l_x (tests/kelvin/test_gradient.cpp), but by 30-40% RMS near the thin wrench at l_x = 2-4 mm (README). null where h is null */
-                            gradient?: (components["schemas"]["Vec3"] | null)[];
-                            inside?: boolean[];
-                            sigma_version?: number;
+                            gradient: (components["schemas"]["Vec3"] | null)[];
+                            inside: boolean[];
+                            sigma_version: number;
                         };
                     };
                 };
@@ -1796,13 +1796,22 @@ export interface components {
             /** @description path of the offending input, e.g. pairs[2].b.size[1]; empty for the request as a whole */
             field: string;
         };
-        Vec3: number[];
+        Vec3: [
+            number,
+            number,
+            number
+        ];
         GapShape: {
             /** @enum {string} */
             type: "polytope" | "box" | "sphere" | "cylinder" | "capsule" | "convex_hull";
             pose?: {
                 position?: components["schemas"]["Vec3"];
-                quaternion?: number[];
+                quaternion?: [
+                    number,
+                    number,
+                    number,
+                    number
+                ];
             };
             /** @description box edge lengths */
             size?: components["schemas"]["Vec3"];
@@ -2062,10 +2071,26 @@ export interface components {
                 distance?: number[];
                 /** @description true Euclidean distance per pair (null without audit) */
                 clearance?: (number | null)[];
-                witness_a?: number[][];
-                witness_b?: number[][];
+                witness_a?: [
+                    number,
+                    number,
+                    number
+                ][];
+                witness_b?: [
+                    number,
+                    number,
+                    number
+                ][];
                 /** @description [x, y, z, qw, qx, qy, qz] world pose of each robot primitive at q */
-                poses?: number[][];
+                poses?: [
+                    number,
+                    number,
+                    number,
+                    number,
+                    number,
+                    number,
+                    number
+                ][];
             }[];
         };
         /** @description The record of `distlab cbf` (same names and numbers). */
@@ -2087,8 +2112,16 @@ export interface components {
             };
             smoothness: components["schemas"]["CbfSmoothness"];
             distance?: number[][];
-            witness_a?: number[][][];
-            witness_b?: number[][][];
+            witness_a?: [
+                number,
+                number,
+                number
+            ][][];
+            witness_b?: [
+                number,
+                number,
+                number
+            ][][];
             timing: {
                 kinematics_us_mean: number;
                 step_us_mean: number;
@@ -2117,7 +2150,11 @@ export interface components {
                 /** @description index into q, -1 for a fixed joint */
                 q: number;
                 origin: components["schemas"]["CbfPose"];
-                axis: number[];
+                axis: [
+                    number,
+                    number,
+                    number
+                ];
             }[];
             /** @description the dof actuated joints, in q's order */
             joint_names: string[];
@@ -2136,7 +2173,10 @@ export interface components {
                 pose: components["schemas"]["CbfPose"];
             }[];
             /** @description primitive index pairs checked for self-collision */
-            self_pairs: number[][];
+            self_pairs: [
+                number,
+                number
+            ][];
         };
         /** @description One run: summary and smoothness exactly as the record of the single rollout with params.PARAMETER = value */
         CbfSweepEntry: {
@@ -2173,9 +2213,18 @@ export interface components {
         };
         /** @description a pose in the parent (or world) frame; quaternion [w, x, y, z], identity when absent */
         CbfPose: {
-            position: number[];
+            position: [
+                number,
+                number,
+                number
+            ];
             /** @description [w, x, y, z] */
-            quaternion?: number[];
+            quaternion?: [
+                number,
+                number,
+                number,
+                number
+            ];
         };
         /** @description an obstacle: a GAP shape with its pose in the world */
         CbfObstacle: {
@@ -2208,7 +2257,11 @@ export interface components {
             clipped_steps: number;
             /** @description Where the arm ends and the constraints holding it there (one more control step at q_final, not applied) */
             final: {
-                ee_position: number[];
+                ee_position: [
+                    number,
+                    number,
+                    number
+                ];
                 /** @description |p - p_d| (m) */
                 position_error: number;
                 min_clearance: number | null;
@@ -2310,8 +2363,22 @@ export interface components {
             iterations: number;
             converged: boolean;
             overlap: boolean;
-            gradient_a?: number[];
-            gradient_b?: number[];
+            gradient_a?: [
+                number,
+                number,
+                number,
+                number,
+                number,
+                number
+            ];
+            gradient_b?: [
+                number,
+                number,
+                number,
+                number,
+                number,
+                number
+            ];
             euclidean: components["schemas"]["GapEuclidean"];
             /** @description params.validate: Property 2 checked on each shape */
             validation?: {
@@ -2335,8 +2402,22 @@ export interface components {
             signed_distance: number;
             witness_a: components["schemas"]["Vec3"];
             witness_b: components["schemas"]["Vec3"];
-            gradient_a?: number[];
-            gradient_b?: number[];
+            gradient_a?: [
+                number,
+                number,
+                number,
+                number,
+                number,
+                number
+            ];
+            gradient_b?: [
+                number,
+                number,
+                number,
+                number,
+                number,
+                number
+            ];
             /** @description only when the shapes overlap: moving B by depth along direction separates them */
             penetration?: {
                 /** @description m */
@@ -2389,15 +2470,25 @@ export interface components {
                 max: components["schemas"]["Vec3"];
             };
             /** @description grid points per axis */
-            grid?: number[];
+            grid?: [
+                number,
+                number,
+                number
+            ];
             surfaces?: components["schemas"]["MeshFrame"][];
             /** @description with a plane in the request: its frame and both fields on it */
             plane?: {
                 center: components["schemas"]["Vec3"];
                 u: components["schemas"]["Vec3"];
                 v: components["schemas"]["Vec3"];
-                size: number[];
-                resolution: number[];
+                size: [
+                    number,
+                    number
+                ];
+                resolution: [
+                    number,
+                    number
+                ];
                 /**
                  * Format: binary
                  * @description msgpack: e_S per plane point, float32 LE, row-major
@@ -2409,9 +2500,15 @@ export interface components {
                  */
                 strict?: string;
                 /** @description [min, max] of the finite values (null: none) */
-                weak_range?: (number | null)[];
+                weak_range?: [
+                    number | null,
+                    number | null
+                ];
                 /** @description [min, max] of the finite values (null: none) */
-                strict_range?: (number | null)[];
+                strict_range?: [
+                    number | null,
+                    number | null
+                ];
             };
         };
         /** @description GAP parameters (paper Section III; defaults: the `distlab gap` ones); unknown keys are refused */
