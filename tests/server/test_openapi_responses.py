@@ -56,10 +56,12 @@ class Api:
 
     def call(self, method, template, path=None, **kw):
         kw.setdefault("headers", self.headers)
+        op = self.doc["paths"][template][method.lower()]
+        if "json" in kw:  # the request the server accepts is one the document accepts
+            self.validate(op["requestBody"]["content"]["application/json"]["schema"], kw["json"], f"{method} {template} request")
         r = requests.request(method, self.url + template.format(**(path or {})), timeout=120, **kw)
         where = f"{method} {template} -> {r.status_code}"
         assert 200 <= r.status_code < 300, f"{where}: {r.text[:500]}"
-        op = self.doc["paths"][template][method.lower()]
         documented = op["responses"].get(str(r.status_code))
         assert documented is not None, f"{where}: status not documented"
         content = documented.get("content")
@@ -138,8 +140,13 @@ def test_every_operation_answers_as_documented(server):
 
     reader = threading.Thread(target=read)
     reader.start()
-    ws.send(json.dumps({"type": "ping"}))
-    ws.send(json.dumps({"type": "state"}))
+
+    def send(msg):
+        api.validate(api.schema("WsClientMessage"), msg, f"WebSocket client message {msg['type']}")
+        ws.send(json.dumps(msg))
+
+    send({"type": "ping"})
+    send({"type": "state"})
     api.call("GET", "/api/session")
 
     # GAP.
@@ -159,8 +166,8 @@ def test_every_operation_answers_as_documented(server):
     made = api.call("POST", "/api/kelvin/objects", json=create).json()
     oid = made["object"]["id"]
     assert wait_job(api, made["job"]["id"], sid)["state"] == "succeeded"
-    ws.send(json.dumps({"type": "watch", "object": oid, "levels": [0.3]}))
-    ws.send(json.dumps({"type": "sigma", "object": oid, "sigma": {"constant": 0.2}, "request": "q1"}))
+    send({"type": "watch", "object": oid, "levels": [0.3]})
+    send({"type": "sigma", "object": oid, "sigma": {"constant": 0.2}, "request": "q1"})
     obj = {"id": oid}
     api.call("GET", "/api/kelvin/objects")
     api.call("GET", "/api/kelvin/objects/{id}", obj)
@@ -180,7 +187,7 @@ def test_every_operation_answers_as_documented(server):
     api.call("POST", "/api/cbf/feasibility", json={"scenario": "corridor"})
     run = api.call("POST", "/api/cbf/rollouts", json={"scenario": "corridor", "params": {"duration": 0.3}}).json()
     rid = run["rollout"]["id"]
-    ws.send(json.dumps({"type": "cbf_replay", "rollout": rid, "from": 0}))
+    send({"type": "cbf_replay", "rollout": rid, "from": 0})
     assert wait_job(api, rid, sid)["state"] == "succeeded"
     api.call("GET", "/api/cbf/rollouts")
     api.call("GET", "/api/cbf/rollouts/{id}", {"id": rid})
