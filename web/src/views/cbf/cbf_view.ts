@@ -23,6 +23,7 @@ import { parseValues, runSweep, SweepPlot, type SweepJson } from "./sweep";
 import { parseState, stateJson, type CbfState } from "./state";
 import { Timeline } from "./timeline";
 import { DrawTimings } from "./timings";
+import type { GetResponse } from "../../core/wire";
 import type { CbfFeasibility, CbfRobot, CbfScenario } from "./types";
 
 export class CbfView implements View {
@@ -73,7 +74,7 @@ export class CbfView implements View {
 
     let list: { scenarios: string[] };
     try {
-      [this.robot, list] = await Promise.all([api.get<CbfRobot>("/api/cbf/robot"), api.get<{ scenarios: string[] }>("/api/cbf/scenarios")]);
+      [this.robot, list] = await Promise.all([api.get<CbfRobot>("/api/cbf/robot"), api.get<GetResponse<"/api/cbf/scenarios">>("/api/cbf/scenarios")]);
     } catch (e) {
       this.reportError(e, "cannot load the CBF robot and scenarios");
       return;

@@ -6,6 +6,7 @@ import { api, ApiError } from "../../core/api";
 import { socket, type TextMessage } from "../../core/socket";
 import { FrameStore } from "./frames";
 import { specGapParams, type RolloutSpec } from "./specs";
+import type { PostResponse } from "../../core/wire";
 import type { CbfFramesMessage, CbfRecord, CbfRolloutStatus, JobJson, Metric, RolloutState } from "./types";
 
 /** Frames whose rollout id the page does not know yet (the POST answer is still on its way). */
@@ -122,7 +123,7 @@ export class Rollout {
     };
     let r: { rollout: CbfRolloutStatus; job: JobJson };
     try {
-      r = await api.post<{ rollout: CbfRolloutStatus; job: JobJson }>("/api/cbf/rollouts", body);
+      r = await api.post<PostResponse<"/api/cbf/rollouts">>("/api/cbf/rollouts", body);
     } catch (e) {
       this.state = "failed";
       this.error = e instanceof Error ? e : new Error(String(e));

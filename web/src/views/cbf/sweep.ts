@@ -3,29 +3,17 @@
 // to the target, smallest clearance and total variation of u plotted against the parameter.
 import { api } from "../../core/api";
 import { Plot } from "../../core/plot";
-import type { JobJson } from "./types";
+import type { PostResponse } from "../../core/wire";
+import type { CbfSweep, CbfSweepEntry } from "./types";
 
-export interface SweepEntry {
-  value: number;
-  position_error: number;
-  min_clearance: number | null;
-  total_variation: number;
-  infeasible_steps: number;
-}
-
-export interface SweepJson {
-  id: string;
-  parameter: string;
-  values: unknown[];
-  entries: SweepEntry[];
-  job?: JobJson;
-}
+/** A sweep as GET /api/cbf/sweeps/{id} answers, with its job as the view last saw it. */
+export type SweepJson = CbfSweep;
 
 const ENDED = ["succeeded", "failed", "cancelled"];
 
 /** Posts the sweep and follows its job until it ends (progress(stage, fraction) meanwhile). */
 export async function runSweep(body: Record<string, unknown>, progress: (s: SweepJson) => void, stopped: () => boolean): Promise<SweepJson> {
-  const r = await api.post<{ sweep: SweepJson; job: JobJson }>("/api/cbf/sweeps", body);
+  const r = await api.post<PostResponse<"/api/cbf/sweeps">>("/api/cbf/sweeps", body);
   let s: SweepJson = { ...r.sweep, job: r.job };
   for (let guard = 0; guard < 100000 && !stopped(); guard++) {
     progress(s);
@@ -63,11 +51,10 @@ export class SweepPlot {
     });
     this.plot.root.dataset.testid = "cbf-sweep-plot";
     this.plot.root.style.flex = "1.4";
-    const e = [...s.entries].sort((a, b) => a.value - b.value);
-    this.plot.setData(
-      e.map((x) => x.value),
-      [e.map((x) => 100 * x.position_error), e.map((x) => (x.min_clearance === null ? null : 100 * x.min_clearance)), e.map((x) => x.total_variation)],
-    );
+    // The view sweeps numbers (parseValues); the server echoes each run's value as sent.
+    const at = (x: CbfSweepEntry) => Number(x.value);
+    const e = [...s.entries].sort((a, b) => at(a) - at(b));
+    this.plot.setData(e.map(at), [e.map((x) => 100 * x.position_error), e.map((x) => (x.min_clearance === null ? null : 100 * x.min_clearance)), e.map((x) => x.total_variation)]);
   }
   dispose(): void {
     this.plot.dispose();

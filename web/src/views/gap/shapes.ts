@@ -21,8 +21,8 @@ export interface ShapeState {
 }
 
 /** Half-spaces A x ≤ b of a pentagonal prism: the paper's Fig. 1 pentagon, extruded along z. */
-export function pentagonalPrism(radius: number, height: number): { A: number[][]; b: number[] } {
-  const A: number[][] = [];
+export function pentagonalPrism(radius: number, height: number): { A: Array<[number, number, number]>; b: number[] } {
+  const A: Array<[number, number, number]> = [];
   const b: number[] = [];
   for (let i = 0; i < 5; i++) {
     const mid = Math.PI / 2 + (2 * Math.PI * (i + 0.5)) / 5;

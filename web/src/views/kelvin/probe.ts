@@ -5,6 +5,7 @@
 import * as THREE from "three";
 import { api } from "../../core/api";
 import { Coalescer } from "./coalesce";
+import type { QueryResult } from "./slice_layer";
 
 export interface ProbeReading {
   point: [number, number, number];
@@ -64,10 +65,7 @@ export class Probe {
   private async query(p: THREE.Vector3, target: ProbeTarget): Promise<void> {
     const id = this.objectId;
     if (!id) return;
-    const r = await api.post<{ h: Array<number | null>; gradient: Array<[number, number, number] | null>; inside: boolean[]; sigma_version: number }>(
-      `/api/kelvin/objects/${id}/query`,
-      { points: [p.toArray()] },
-    );
+    const r = await api.post<QueryResult>(`/api/kelvin/objects/${id}/query`, { points: [p.toArray()] });
     if (id !== this.objectId) return;
     const reading: ProbeReading = {
       point: p.toArray() as [number, number, number],

@@ -4,17 +4,14 @@ import * as THREE from "three";
 import { api } from "../../core/api";
 import { resolveRange, type ColorScale } from "../../core/colormap";
 import { SlicePlane } from "../../core/slice";
+import type { PostResponse } from "../../core/wire";
 import { Coalescer } from "./coalesce";
 
 export type SliceAxis = "x" | "y" | "z";
 export const sliceAxes: readonly SliceAxis[] = ["x", "y", "z"];
 
-interface QueryResult {
-  h: Array<number | null>;
-  gradient: Array<[number, number, number] | null>;
-  inside: boolean[];
-  sigma_version: number;
-}
+/** POST /api/kelvin/objects/{id}/query's answer: h, ∇h and inside per point. */
+export type QueryResult = PostResponse<"/api/kelvin/objects/{id}/query">;
 
 export class SliceLayer {
   readonly plane = new SlicePlane();

@@ -36,7 +36,7 @@
 
 namespace distlab::server {
 
-// The OpenAPI document (backend/server/openapi.json, embedded at build time).
+// The OpenAPI document (assembled by openapi_assemble.py, embedded at build time).
 const std::string& openapi_text();
 // The document with the bounds of its "x-limit" annotations set from `limits` (GET /api/limits).
 nlohmann::json openapi_with_limits(const nlohmann::json& limits);
