@@ -347,9 +347,11 @@ json run_gap_request(const json& request, const std::function<void()>& checkpoin
     pens.resize(results.size());
     parallel_for(results.size() - begin, [&](std::size_t k) {
       const std::size_t i = begin + k;
-      if (results[i].euclidean_computed && results[i].euclidean.distance == 0)
+      if (results[i].euclidean_computed && results[i].euclidean.distance == 0) {
+        check();  // per pair too: one deep overlap of many-faceted shapes can take seconds
         pens[i] = penetration(pairs[i].first->euclidean(), pairs[i].first->pose(),
                               pairs[i].second->euclidean(), pairs[i].second->pose());
+      }
     });
   };
   if (!batch) {
