@@ -50,8 +50,12 @@ def main(argv):
     for column, colour, name in (("fcl_us", "tab:blue", "FCL distance"), ("gap_us", "tab:red", "GAP Newton")):
         t = [float(r[column]) for r in apart]
         ax.scatter(d[::step], t[::step], s=2, alpha=0.15, color=colour, linewidths=0)
-        m = medians(d, t)
-        ax.plot([x for x, _ in m], [y for _, y in m], color=colour, lw=2, label=f"{name}, median")
+        # one median line per regime: no line across the empty decades between them
+        for k, regime in enumerate(("touching", "separated")):
+            pts = [(x, y) for x, y, r in zip(d, t, apart) if r["regime"] == regime]
+            if pts:
+                m = medians([x for x, _ in pts], [y for _, y in pts])
+                ax.plot([x for x, _ in m], [y for _, y in m], color=colour, lw=2, label=None if k else f"{name}, median")
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("Euclidean distance (m); touching pairs <= 1e-6")
