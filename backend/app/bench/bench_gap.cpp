@@ -20,7 +20,6 @@
 // Single thread. GAP times are per pair and include the Euclidean start, as in the paper; the
 // start is distlab's double-precision GJK (gjk_distance), timed alone in its own row.
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -34,61 +33,18 @@
 #include "distlab/gap/distance.hpp"
 #include "distlab/gap/validator.hpp"
 #include "distlab/geometry/error.hpp"
+#include "gap_cases.hpp"
 
 using namespace distlab;
-using Clock = std::chrono::steady_clock;
 
 namespace {
 
-struct Stats {
-  double mean = 0, stddev = 0, median = 0, p99 = 0, max = 0;
-};
-
-Stats stats(std::vector<double> v) {
-  Stats s;
-  if (v.empty()) return s;
-  for (double x : v) s.mean += x;
-  s.mean /= v.size();
-  for (double x : v) s.stddev += (x - s.mean) * (x - s.mean);
-  s.stddev = std::sqrt(s.stddev / v.size());
-  std::sort(v.begin(), v.end());
-  s.median = v[v.size() / 2];
-  s.p99 = v[std::min(v.size() - 1, v.size() * 99 / 100)];
-  s.max = v.back();
-  return s;
-}
-
-nlohmann::json to_json(const Stats& s) {
-  return {{"mean", s.mean}, {"stddev", s.stddev}, {"median", s.median}, {"p99", s.p99}, {"max", s.max}};
-}
-
-Vec3 random_unit(std::mt19937_64& rng) {
-  std::normal_distribution<double> n;
-  return Vec3(n(rng), n(rng), n(rng)).normalized();
-}
-
-Quat random_rotation(std::mt19937_64& rng) {
-  std::normal_distribution<double> n;
-  return Quat(n(rng), n(rng), n(rng), n(rng)).normalized();
-}
-
-// A random regular polytope with 10 half-spaces: unit normals surrounding the origin, offsets
-// in [0.05, 0.15] m (robot-link sized).
-Polytope random_polytope(std::mt19937_64& rng) {
-  std::uniform_real_distribution<double> u(0.05, 0.15);
-  for (;;) {
-    MatX3 A(10, 3);
-    VecX b(10);
-    for (int i = 0; i < 10; ++i) {
-      A.row(i) = random_unit(rng).transpose();
-      b[i] = u(rng);
-    }
-    try {
-      return make_polytope(A, b, "bench");
-    } catch (const InvalidInput&) {
-    }
-  }
-}
+using bench::random_polytope;
+using bench::random_rotation;
+using bench::random_unit;
+using bench::Stats;
+using bench::stats;
+using bench::to_json;
 
 struct Run {
   std::vector<double> us, iterations, rel_error;
@@ -120,13 +76,7 @@ auto best_of_passes(F&& run) {
 
 template <class F>
 double time_us(F&& f) {
-  double best = INFINITY;
-  for (int r = 0; r < g_repeat; ++r) {
-    const auto t0 = Clock::now();
-    f();
-    best = std::min(best, std::chrono::duration<double, std::micro>(Clock::now() - t0).count());
-  }
-  return best;
+  return bench::time_us(g_repeat, f);
 }
 
 // Thread CPU time: this machine is shared, and wall time then mostly measures the others.
@@ -348,11 +298,8 @@ int main(int argc, char** argv) {
 
   // 1. The paper's experiment: 10-half-space polytopes, true distance >= 5 cm, k = 2, h = 0.1,
   // W_i = 1/6, eps = 0.01, sigma = 0.989; the plain iteration stops at ||a[k+1] − a[k]|| < 1e-3.
-  GapParams paper;
-  paper.h = 0.1, paper.k = 2, paper.eps = 0.01, paper.sigma = 0.989, paper.gradient = false;
-  paper.euclidean = false;  // start from the uncertified double GJK (gjk_distance)
-  P2SOptions sixth;
-  sixth.weights = VecX::Constant(10, 1.0 / 6);
+  const GapParams paper = bench::paper_params();
+  const P2SOptions sixth = bench::paper_polytope_options();
   std::vector<Case> cases;
   std::uniform_real_distribution<double> pos(-0.5, 0.5);
   if (!load_path.empty()) {
