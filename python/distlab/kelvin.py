@@ -68,8 +68,9 @@ class Field:
         """Sets σ on the surface: the sum of ``per_vertex`` (one value per vertex of the input
         mesh, in the file's vertex order after identical positions are welded, linear over faces),
         ``constant``, ``axis`` terms (eq. 24: dicts ``{"axis", "d0", "sigma_nom", "origin",
-        "width"}``) and ``brushes`` (``{"center", "radius", "value", "falloff"}``). Then solves for
-        the field (and its vertex gradients unless ``gradients`` is False)."""
+        "width"}``) and ``brushes`` (``{"center", "radius", "value", "falloff", "mode"}``, applied
+        in order; ``"mode": "towards"`` moves σ towards the value instead of adding it). Then solves
+        for the field (and its vertex gradients unless ``gradients`` is False)."""
         spec: dict = {"constant": constant}
         if per_vertex is not None:
             spec["per_vertex"] = np.asarray(per_vertex, dtype=np.float64)

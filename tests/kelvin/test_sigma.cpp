@@ -140,6 +140,41 @@ TEST(KelvinSigma, RangeOfSigma) {
   }
 }
 
+// A brush "towards" v replaces σ by σ + w (v − σ) (sigma.hpp); added, it is the term v · w. Its
+// weight w is 1 within radius and the smoothstep's ½ halfway through the falloff.
+TEST(KelvinSigma, BrushTowardsAValueMovesSigmaByItsWeight) {
+  BrushSigma b{Vec3(0, 0, 0), 0.25, 1.5, 0.5, true};
+  const Vec3 inside(0.1, 0, 0), half(0, 0.5, 0), outside(0, 0, 0.76);
+  EXPECT_EQ(weight(b, half), 0.5);
+  EXPECT_EQ(apply(b, -0.5, inside), 1.5);
+  EXPECT_EQ(apply(b, -0.5, half), 0.5);
+  EXPECT_EQ(apply(b, -0.5, outside), -0.5);
+  EXPECT_EQ(apply(b, 1.5, half), 1.5) << "where σ is v already it stays";
+  EXPECT_EQ(apply(b, apply(b, -0.5, half), half), 1.0) << "a second stamp: half of what is left";
+  b.towards = false;
+  EXPECT_EQ(apply(b, -0.5, inside), 1.0);
+  EXPECT_EQ(apply(b, -0.5, half), 0.25);
+
+  // In the field: a towards brush covering the sphere makes σ its value, so h moves by exactly
+  // value − constant (h = σ + h(σ = 0) for constant σ), and 200 towards 150 is in range where
+  // 200 + 150 is not.
+  const Sphere s;
+  Field field = Field::prepare(sphere_mesh(s), sphere_options(0.2));
+  const auto points = shell_points(s, 1.1, 50, 100);
+  field.set_sigma(constant_sigma(0));
+  const auto zero = field.query(points);
+  SigmaSpec spec = constant_sigma(200);
+  spec.brushes.push_back({s.centre, 2 * s.radius, 150, 0, true});
+  field.set_sigma(spec);
+  const auto q = field.query(points);
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    ASSERT_EQ(q[i].status, Status::ok);
+    EXPECT_NEAR(q[i].h - zero[i].h, 150, 1e-9 * kMaxAbsSigma);
+  }
+  spec.brushes[0].towards = false;
+  EXPECT_THROW(field.set_sigma(spec), InvalidInput);
+}
+
 // Constant σ: h ≥ σ with equality on the surface. Levels below never occur (empty); the level σ
 // is the surface itself; above, a closed surface around it.
 TEST(KelvinSigma, LevelsTheFieldNeverTakesAreEmpty) {

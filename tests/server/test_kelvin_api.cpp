@@ -622,10 +622,26 @@ TEST_F(KelvinApi, SigmaRangeKeepsEveryNumberFinite) {
     r = c.Get(path_of(id, "/surface").c_str(), session_headers(s));
     for (const float v : server::read_float32(json::from_msgpack(r->body)["scalars"])) EXPECT_EQ(v, static_cast<float>(sg));
   }
+  // A brush towards its value moves σ by its weight w, σ ← σ + w (value − σ), so 200 towards −100
+  // is in range where 200 + 200 is not; σ at each vertex (corners at 0, 1, √2, √3 from the centre).
+  refused({{"brushes", {{{"center", {0.5, 0, 0}}, {"radius", 0.2}, {"value", 1}, {"mode", "blend"}}}}}, "sigma.brushes[0].mode");
+  const json towards = {{"constant", 200}, {"brushes", {{{"center", {0.5, 0.5, 0.5}}, {"radius", 0.2}, {"value", -100}, {"falloff", 1.0}, {"mode", "towards"}}}}};
+  ASSERT_EQ(c.Put(path_of(id, "/sigma").c_str(), session_headers(s), towards.dump(), "application/json")->status, 200);
+  {
+    const json frame = json::from_msgpack(c.Get(path_of(id, "/surface").c_str(), session_headers(s))->body);
+    const auto pos = server::read_float32(frame["positions"]);
+    const auto sigma = server::read_float32(frame["scalars"]);
+    ASSERT_EQ(pos.size(), 3 * sigma.size());
+    for (std::size_t v = 0; v < sigma.size(); ++v) {
+      const double d = std::hypot(pos[3 * v] - 0.5, pos[3 * v + 1] - 0.5, pos[3 * v + 2] - 0.5);
+      const double t = std::clamp(1 - (d - 0.2) / 1.0, 0.0, 1.0), w = t * t * (3 - 2 * t);
+      EXPECT_NEAR(sigma[v], 200 + w * (-100 - 200), 1e-4) << "vertex " << v << " at distance " << d;
+    }
+  }
   // σ = 300 everywhere: h ≥ 300, the watched level 301 is taken; its frame is finite.
   ASSERT_EQ(c.Put(path_of(id, "/sigma").c_str(), session_headers(s), json{{"constant", max_abs}}.dump(), "application/json")->status, 200);
   Msg m;
-  ASSERT_TRUE(ws.until([&](const Msg& x) { return x.binary && x.j["type"] == "isosurface" && x.j["sigma_version"] == 3; }, m, 60));
+  ASSERT_TRUE(ws.until([&](const Msg& x) { return x.binary && x.j["type"] == "isosurface" && x.j["sigma_version"] == 4; }, m, 60));
   EXPECT_GT(m.j["n_faces"].get<long>(), 0);
   for (const float v : server::read_float32(m.j["positions"])) EXPECT_TRUE(std::isfinite(v));
 }

@@ -1,7 +1,7 @@
 // Issue 5's two front-end targets, measured in headless chromium (software WebGL, SwiftShader)
 // against the real server: σ stroke → iso-surface frame drawn at a ~25k-vertex field, and frame
 // times while orbiting a ~200k-triangle mesh. Prints JSON. Not a test (CTest runs *.test.mjs only).
-// Usage: DISTLAB_EXE=build/backend/app/distlab [LX=0.05 STROKES=10 MOVES=240 SYNC=0 ORBIT=1 CACHE=dir] node tests/web/bench_kelvin_view.mjs
+// Usage: DISTLAB_EXE=build/backend/app/distlab [LX=0.05 STROKES=10 MOVES=240 SYNC=0 ORBIT=1 CACHE=dir BRUSH=narrow] node tests/web/bench_kelvin_view.mjs
 // CACHE: a kept cache directory (the 200k-triangle sphere is prepared once, then loaded).
 // SYNC=1: each frame waits for its pixels while σ latency is measured ("drawn" = rasterised, not
 // merely submitted); that stalls the page's thread for the whole software render, so it slows
@@ -101,11 +101,12 @@ async function orbit(p, moves) {
 try {
   // A: σ latency. Cube, l_x = 0.05 (about 24k field vertices).
   const lx = Number(process.env.LX ?? 0.05);
-  // A brush narrower than the strokes' spacing (0.078 m): with the page's default (8% of the
-  // diagonal, 0.14 m) neighbouring strokes overlap, and main's page then stamps σ past the
-  // server's range and stops (see the brush's no-overshoot rule).
-  const brush = { on: true, value: 1, radius: 0.05, falloff: 0.02 };
-  const page = await openView(browser, server, `#/kelvin?s=${encodeURIComponent(JSON.stringify({ object: "cube", lx, levels: [0, 0.25], brush }))}`);
+  // The page's default brush (8% of the diagonal, 0.14 m): neighbouring strokes (0.078 m apart)
+  // overlap. BRUSH=narrow paints with a brush narrower than their spacing, for A/B runs against
+  // pages from before the brush painted towards its value (their overlapping stamps pushed σ past
+  // the server's range, and the page stopped).
+  const brush = process.env.BRUSH === "narrow" ? { brush: { on: true, value: 1, radius: 0.05, falloff: 0.02 } } : {};
+  const page = await openView(browser, server, `#/kelvin?s=${encodeURIComponent(JSON.stringify({ object: "cube", lx, levels: [0, 0.25], ...brush }))}`);
   await page.waitForFunction(() => window.distlab?.kelvin?.ready === true, null, { timeout: 300000, polling: 200 });
   const nverts = (await K(page, "k.object")).stats.n_verts;
   const sync = process.env.SYNC === "1";
@@ -132,7 +133,7 @@ try {
   const strokeOf = (x) => strokeStart.findLastIndex((v) => x.version > v);
   const m = (f) => med(e.map(f));
   out.sigma = {
-    lx, field_vertices: nverts, edits: e.length,
+    lx, field_vertices: nverts, edits: e.length, brush: (await K(page, "k.state")).brush, stamps: (await K(page, "k.sigma")).body.brushes?.length ?? 0,
     stroke_to_frame_ms: { median: med(e.map((x) => x.ms)), p95: pct(e.map((x) => x.ms), 0.95) },
     sync_render: synced,
     breakdown_median_ms: e[0]?.serverMs === undefined

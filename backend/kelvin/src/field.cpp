@@ -360,7 +360,7 @@ void Field::set_sigma(const SigmaSpec& sigma, bool gradients) {
       for (int k = 0; k < 3; ++k) s += w[k] * (*sigma.per_vertex)[m.surface.faces(f, k)];
     }
     for (const auto& a : sigma.axis) s += evaluate(a, x);
-    for (const auto& br : sigma.brushes) s += evaluate(br, x);
+    for (const auto& br : sigma.brushes) s = apply(br, s, x);
     // The terms are each in range (validate); their sum must be too, where it is used.
     require_sigma_in_range(s, x, "the surface point");
     m.boundary_sigma[b] = s;

@@ -15,12 +15,18 @@ double evaluate(const AxisSigma& t, const Vec3& x) {
   return std::tanh((std::abs(t.axis.normalized().dot(x - t.origin)) - t.d0) / t.width) * t.sigma_nom;
 }
 
-double evaluate(const BrushSigma& t, const Vec3& x) {
+double weight(const BrushSigma& t, const Vec3& x) {
   const double d = (x - t.centre).norm();
-  if (d <= t.radius) return t.value;
+  if (d <= t.radius) return 1;
   if (t.falloff <= 0 || d >= t.radius + t.falloff) return 0;
   const double s = 1 - (d - t.radius) / t.falloff;
-  return t.value * s * s * (3 - 2 * s);
+  return s * s * (3 - 2 * s);
+}
+
+double apply(const BrushSigma& t, double sigma, const Vec3& x) {
+  const double w = weight(t, x);
+  // (1 − w) σ + w value rather than σ + w (value − σ): exactly value where w = 1.
+  return t.towards ? (1 - w) * sigma + w * t.value : sigma + w * t.value;
 }
 
 namespace {

@@ -2540,7 +2540,7 @@ export interface components {
              */
             scalars: string;
         };
-        /** @description σ on the object's surface, the sum of its terms. Range: every term's value (constant, per_vertex[i], axis[i].sigma_nom, brushes[i].value) and their sum at every surface point lie in [−max_abs_sigma, max_abs_sigma] (GET /api/limits; 300: e^(±σ) then stays far inside double range, so h and every frame are finite); outside, 400 naming the term's field, or the field sigma for a sum. Per-vertex arrays are in the order of the mesh as the user gave it: the vertices of the uploaded or asset file in the file's order, duplicated positions keeping their own entries (an STL: its distinct corner positions in order of first appearance), or the inline mesh's vertices. The field is prepared on the welded surface (vertices merged where their coordinates are exactly equal); n_welded_vertices reports its size. */
+        /** @description σ on the object's surface, the sum of its terms (brushes apply after the others, in order; a brush of mode towards moves σ towards its value). Range: every term's value (constant, per_vertex[i], axis[i].sigma_nom, brushes[i].value) and their sum at every surface point lie in [−max_abs_sigma, max_abs_sigma] (GET /api/limits; 300: e^(±σ) then stays far inside double range, so h and every frame are finite); outside, 400 naming the term's field, or the field sigma for a sum. Per-vertex arrays are in the order of the mesh as the user gave it: the vertices of the uploaded or asset file in the file's order, duplicated positions keeping their own entries (an STL: its distinct corner positions in order of first appearance), or the inline mesh's vertices. The field is prepared on the welded surface (vertices merged where their coordinates are exactly equal); n_welded_vertices reports its size. */
         Sigma: {
             /** @description |constant| ≤ max_abs_sigma */
             constant?: number;
@@ -2553,6 +2553,11 @@ export interface components {
                 /** @description |value| ≤ max_abs_sigma */
                 value?: number;
                 falloff?: number;
+                /**
+                 * @description add (default): the term value · w(x), w = 1 within radius, smoothstep to 0 over falloff. towards: σ ← σ + w(x) (value − σ), σ being the terms before it (brushes apply in order, after the others): σ moves towards value and never passes it, however the stamps overlap
+                 * @enum {string}
+                 */
+                mode?: "add" | "towards";
             }[];
         };
         SigmaState: {

@@ -77,7 +77,7 @@ kelvin::SigmaSpec parse_sigma(const json& j) {
     if (!b.is_array()) throw InvalidInput("sigma.brushes", "sigma.brushes must be an array");
     for (size_t i = 0; i < b.size(); ++i) {
       const std::string f = "sigma.brushes[" + std::to_string(i) + "]";
-      object_with(b[i], f, {"center", "radius", "value", "falloff"});
+      object_with(b[i], f, {"center", "radius", "value", "falloff", "mode"});
       kelvin::BrushSigma br;
       if (!b[i].contains("center") || !b[i].contains("radius") || !b[i].contains("value"))
         throw InvalidInput(f, f + " needs center, radius and value");
@@ -85,6 +85,11 @@ kelvin::SigmaSpec parse_sigma(const json& j) {
       br.radius = length(b[i]["radius"], f + ".radius");
       br.value = number(b[i]["value"], f + ".value");
       if (b[i].contains("falloff")) br.falloff = length(b[i]["falloff"], f + ".falloff");
+      if (b[i].contains("mode")) {
+        const json& m = b[i]["mode"];
+        if (m != "add" && m != "towards") throw InvalidInput(f + ".mode", f + ".mode must be \"add\" or \"towards\"");
+        br.towards = m == "towards";
+      }
       s.brushes.push_back(br);
     }
   }

@@ -142,7 +142,7 @@ std::vector<double> sigma_at_vertices(const kelvin::SigmaSpec& sigma, const mesh
     double& s = out[static_cast<std::size_t>(v)];
     if (sigma.per_vertex && v < sigma.per_vertex->size()) s += (*sigma.per_vertex)[v];
     for (const auto& a : sigma.axis) s += kelvin::evaluate(a, x);
-    for (const auto& b : sigma.brushes) s += kelvin::evaluate(b, x);
+    for (const auto& b : sigma.brushes) s = kelvin::apply(b, s, x);
   }
   return out;
 }

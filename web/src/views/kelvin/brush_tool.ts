@@ -1,21 +1,17 @@
 // Painting σ with the mouse: a stroke drops brush stamps where the pointer meets the surface
 // (raycast on the input mesh), spaced by half the radius. A stamp paints *towards* the brush
-// value: its term is value − σ(centre), so repeated passes and overlaps do not pile up, and a
-// stamp where σ already has the value is skipped. While painting, orbiting is suspended.
+// value (brush_stamp.ts): σ never passes it, however strokes overlap, and a stamp that would
+// change nothing is skipped. While painting, orbiting is suspended.
 import * as THREE from "three";
+import type { BrushSettings } from "./brush_stamp";
 import type { Brush, Vec3 } from "./sigma";
-
-export interface BrushSettings {
-  value: number;
-  radius: number;
-  falloff: number;
-}
 
 export interface BrushHost {
   camera: THREE.Camera;
   canvas: HTMLCanvasElement;
   target(): THREE.Mesh | null;
-  sigmaAt(p: Vec3): number;
+  /** The stamp at a point, or null when it would change nothing. */
+  stampAt(settings: BrushSettings, centre: Vec3): Brush | null;
   setOrbit(enabled: boolean): void;
   /** One new stamp; eventTime is the pointer event's performance.now() time. */
   stamp(b: Brush, eventTime: number, strokeStart: boolean): void;
@@ -102,11 +98,10 @@ export class BrushTool {
   private paintAt(p: THREE.Vector3, t: number): void {
     const s = this.settings;
     if (this.last && this.last.distanceTo(p) < Math.max(s.radius * 0.5, 1e-9)) return;
-    const centre: Vec3 = [p.x, p.y, p.z];
-    const value = s.value - this.host.sigmaAt(centre);
     this.last = p.clone();
-    if (Math.abs(value) < 1e-3 * Math.max(1, Math.abs(s.value))) return;
-    this.host.stamp({ center: centre, radius: s.radius, value, falloff: s.falloff }, t, this.first);
+    const b = this.host.stampAt(s, [p.x, p.y, p.z]);
+    if (!b) return;
+    this.host.stamp(b, t, this.first);
     this.first = false;
   }
 

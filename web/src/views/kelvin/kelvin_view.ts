@@ -111,7 +111,7 @@ export class KelvinView implements View {
       camera: vp.camera,
       canvas: vp.renderer.domElement,
       target: () => (this.surface && this.state.brush.on ? this.surface.pickMesh : null),
-      sigmaAt: (p) => evaluateAt(this.sigmaBody(), p),
+      stampAt: (settings, centre) => this.surface?.stampAt(settings, centre) ?? null,
       setOrbit: (on) => (vp.controls.enabled = on),
       stamp: (b, t, first) => this.stamp(b, t, first),
       strokeEnd: () => {

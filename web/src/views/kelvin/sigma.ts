@@ -4,6 +4,7 @@
 import caseA from "../../../../assets/wrench_case_a.json?raw";
 import caseB from "../../../../assets/wrench_case_b.json?raw";
 import caseC from "../../../../assets/wrench_case_c.json?raw";
+import { applyBrush, applyBrushTo } from "./brush_stamp";
 
 export type Vec3 = [number, number, number];
 
@@ -16,12 +17,14 @@ export interface AxisTerm {
   width?: number;
 }
 
-/** value within radius of center, smoothstep to 0 over falloff beyond it. */
+/** Weight 1 within radius of center, smoothstep to 0 over falloff beyond it: added, the term
+ *  value · weight; "towards", σ moves towards value by the weight (brush_stamp.ts). */
 export interface Brush {
   center: Vec3;
   radius: number;
   value: number;
   falloff: number;
+  mode?: "towards";
 }
 
 export interface SigmaBody {
@@ -62,15 +65,7 @@ export function evaluateAxis(t: AxisTerm, x: ArrayLike<number>, i = 0): number {
   return Math.tanh((d - (t.d0 ?? 0)) / (t.width ?? 1)) * (t.sigma_nom ?? 1);
 }
 
-export function evaluateBrush(b: Brush, x: ArrayLike<number>, i = 0): number {
-  const d = Math.hypot(x[i] - b.center[0], x[i + 1] - b.center[1], x[i + 2] - b.center[2]);
-  if (d <= b.radius) return b.value;
-  if (b.falloff <= 0 || d >= b.radius + b.falloff) return 0;
-  const s = 1 - (d - b.radius) / b.falloff;
-  return b.value * s * s * (3 - 2 * s);
-}
-
-/** σ at every point of `positions` (xyz triples). */
+/** σ at every point of `positions` (xyz triples): the other terms, then the brushes in order. */
 export function evaluateAll(sigma: SigmaBody, positions: ArrayLike<number>, out: Float32Array = new Float32Array(positions.length / 3)): Float32Array {
   const axes = axisList(sigma.axis);
   const c = sigma.constant ?? 0;
@@ -79,34 +74,15 @@ export function evaluateAll(sigma: SigmaBody, positions: ArrayLike<number>, out:
     for (const a of axes) s += evaluateAxis(a, positions, i);
     out[v] = s;
   }
-  for (const b of sigma.brushes ?? []) addBrush(b, positions, out);
+  for (const b of sigma.brushes ?? []) applyBrushTo(b, positions, out);
   return out;
 }
 
-/** Adds one brush's term to `values`; returns the indices it touched. */
-export function addBrush(b: Brush, positions: ArrayLike<number>, values: Float32Array): number[] {
-  const touched: number[] = [];
-  const reach = b.radius + b.falloff;
-  const [cx, cy, cz] = b.center;
-  for (let v = 0, i = 0; v < values.length; v++, i += 3) {
-    const dx = positions[i] - cx,
-      dy = positions[i + 1] - cy,
-      dz = positions[i + 2] - cz;
-    if (Math.abs(dx) > reach || Math.abs(dy) > reach || Math.abs(dz) > reach) continue;
-    const w = evaluateBrush(b, positions, i);
-    if (w !== 0) {
-      values[v] += w;
-      touched.push(v);
-    }
-  }
-  return touched;
-}
-
-/** σ at one point (for the brush's "paint towards a value" stamps). */
+/** σ at one point (the probe's reading). */
 export function evaluateAt(sigma: SigmaBody, p: Vec3): number {
   let s = sigma.constant ?? 0;
   for (const a of axisList(sigma.axis)) s += evaluateAxis(a, p);
-  for (const b of sigma.brushes ?? []) s += evaluateBrush(b, p);
+  for (const b of sigma.brushes ?? []) s = applyBrush(b, s, p);
   return s;
 }
 
@@ -117,18 +93,19 @@ export function composeSigma(preset: PresetName, base: number, brushes: Brush[])
   return body;
 }
 
-/** Brushes in the URL: [x, y, z, radius, value, falloff], 5 significant digits. */
+/** Brushes in the URL: [x, y, z, radius, value, falloff], 5 significant digits, and a 7th
+ *  element 1 for a brush towards its value (links from before it hold added brushes). */
 export function packBrushes(list: Brush[]): number[][] {
   const r = (x: number) => Number(x.toPrecision(5));
-  return list.map((b) => [...b.center.map(r), r(b.radius), r(b.value), r(b.falloff)]);
+  return list.map((b) => [...b.center.map(r), r(b.radius), r(b.value), r(b.falloff), ...(b.mode === "towards" ? [1] : [])]);
 }
 export function unpackBrushes(v: unknown): Brush[] {
   if (!Array.isArray(v)) return [];
   const out: Brush[] = [];
   for (const b of v) {
-    if (!Array.isArray(b) || b.length !== 6 || !b.every((x) => typeof x === "number" && Number.isFinite(x))) continue;
+    if (!Array.isArray(b) || (b.length !== 6 && !(b.length === 7 && b[6] === 1)) || !b.every((x) => typeof x === "number" && Number.isFinite(x))) continue;
     if (b[3] < 0 || b[5] < 0) continue;
-    out.push({ center: [b[0], b[1], b[2]], radius: b[3], value: b[4], falloff: b[5] });
+    out.push({ center: [b[0], b[1], b[2]], radius: b[3], value: b[4], falloff: b[5], ...(b.length === 7 ? { mode: "towards" as const } : {}) });
   }
   return out;
 }

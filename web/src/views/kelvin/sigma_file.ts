@@ -87,12 +87,13 @@ export function parseSigmaFile(text: string): SigmaFileContent {
   const brushes = list.map((b, i): Brush => {
     const f = `sigma.brushes[${i}]`;
     const o = object(b, f);
-    keys(o, ["center", "radius", "value", "falloff"], f);
+    keys(o, ["center", "radius", "value", "falloff", "mode"], f);
     if (!(isNum(o.radius) && o.radius >= 0)) throw new SigmaFileError(`${f}.radius`, "must be a number ≥ 0");
     if (!isNum(o.value)) throw new SigmaFileError(`${f}.value`, "must be a finite number");
     const falloff = o.falloff ?? 0;
     if (!(isNum(falloff) && falloff >= 0)) throw new SigmaFileError(`${f}.falloff`, "must be a number ≥ 0");
-    return { center: vec3(o.center, `${f}.center`), radius: o.radius, value: o.value, falloff };
+    if (o.mode !== undefined && o.mode !== "add" && o.mode !== "towards") throw new SigmaFileError(`${f}.mode`, 'must be "add" or "towards"');
+    return { center: vec3(o.center, `${f}.center`), radius: o.radius, value: o.value, falloff, ...(o.mode === "towards" ? { mode: "towards" as const } : {}) };
   });
   return { mesh: m, lx: o.lx as number | undefined, preset, base: preset === "none" ? ((sigma.constant as number | undefined) ?? 0) : 0, brushes };
 }

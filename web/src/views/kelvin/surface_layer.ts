@@ -7,7 +7,8 @@ import { mergeVertices, toCreasedNormals } from "three/addons/utils/BufferGeomet
 import { finiteRange, resolveRange, VertexColorizer, type ColorScale } from "../../core/colormap";
 import { floats, uints, type MeshFrame } from "../../core/meshframe";
 import { simplifiedStandIn, type StandIn } from "../../core/stand_in";
-import { addBrush, evaluateAll, type Brush, type SigmaBody } from "./sigma";
+import { applyBrushTo, stampTowards, type BrushSettings } from "./brush_stamp";
+import { evaluateAll, type Brush, type SigmaBody, type Vec3 } from "./sigma";
 
 const MAX_DISPLAY_TRIANGLES = 250_000;
 
@@ -73,10 +74,15 @@ export class SurfaceLayer {
     this.recolor();
   }
 
-  /** Adds one brush term: only the vertices it reaches change, unless σ's range (and with it an
+  /** The brush's stamp at a point, judged by σ at the display vertices (null: it changes nothing). */
+  stampAt(settings: BrushSettings, centre: Vec3): Brush | null {
+    return stampTowards(settings, centre, this.positions, this.sigma);
+  }
+
+  /** Applies one brush: only the vertices it reaches change, unless σ's range (and with it an
    *  auto or symmetric colour range) grows. */
   addBrush(b: Brush): void {
-    const touched = addBrush(b, this.positions, this.sigma);
+    const touched = applyBrushTo(b, this.positions, this.sigma);
     if (!touched.length) return;
     if (this.rangeChanged()) this.colorizer.write(this.colors, this.sigma);
     else this.colorizer.write(this.colors, this.sigma, touched);

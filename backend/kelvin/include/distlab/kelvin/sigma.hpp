@@ -18,12 +18,17 @@ struct AxisSigma {
   double width = 1;
 };
 
-// value within radius of centre, falling smoothly (smoothstep) to 0 over falloff beyond it.
+// Weight w(x) = 1 within radius of centre, falling smoothly (smoothstep) to 0 over falloff beyond
+// it. An added brush is the term value · w(x). A brush "towards" value moves the σ of the terms
+// before it instead, σ ← σ + w(x) (value − σ): a convex combination of σ and value at every point,
+// so overlapping stamps neither pile up nor pass value (an added stamp of value − σ(centre) does,
+// wherever σ under it is not σ(centre)).
 struct BrushSigma {
   Vec3 centre = Vec3::Zero();
   double radius = 0;
   double value = 0;
   double falloff = 0;
+  bool towards = false;
 };
 
 // The range of σ, of every term and of their sum anywhere on the surface: |σ| ≤ kMaxAbsSigma.
@@ -41,11 +46,13 @@ struct SigmaSpec {
   // per welded vertex (weld_sigma maps one to the other).
   std::optional<VecX> per_vertex;
   std::vector<AxisSigma> axis;
-  std::vector<BrushSigma> brushes;
+  std::vector<BrushSigma> brushes;  // applied in order, after the other terms
 };
 
 double evaluate(const AxisSigma& term, const Vec3& x);
-double evaluate(const BrushSigma& term, const Vec3& x);
+double weight(const BrushSigma& term, const Vec3& x);
+// σ at x after the brush, given σ at x from the terms before it (towards or added).
+double apply(const BrushSigma& term, double sigma, const Vec3& x);
 
 // Throws InvalidInput naming the offending field (prefix "sigma") on bad values, including any
 // term outside [−kMaxAbsSigma, kMaxAbsSigma]; n_vertices is the length per_vertex must have.

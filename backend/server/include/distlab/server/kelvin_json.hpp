@@ -5,11 +5,12 @@
 //            "far_radius": number?, "cache": DIR?,
 //            "sigma": {"constant"?, "per_vertex"?: [one per vertex of the file, in its order;
 //                      vertices at one position carry one value],
-//                      "axis"?: AXIS | [AXIS, ...], "brushes"?: [BRUSH, ...]} (terms add up),
+//                      "axis"?: AXIS | [AXIS, ...], "brushes"?: [BRUSH, ...]} (terms add up; brushes
+//                      apply in order, "towards" ones move σ towards their value),
 //            "query": [[x, y, z], ...]?,
 //            "isosurfaces": {"levels": [...], "format": "ply"|"stl"|"obj"|"glb", "path": FILE}?}
 //            AXIS = {"axis": [x,y,z], "d0", "sigma_nom", "origin"?: [x,y,z], "width"?} (eq. 24)
-//            BRUSH = {"center": [x,y,z], "radius", "value", "falloff"?}
+//            BRUSH = {"center": [x,y,z], "radius", "value", "falloff"?, "mode"?: "add"|"towards"}
 // Response: {"stats": {"n_verts", "n_tets", "size_mb", "t_mesh", "t_build", "t_decomp",
 //            "t_solve", "cache_hit"}, "mesh": {"n_vertices", "n_faces", "n_welded_vertices"},
 //            "query": {"h": [...], "gradient": [[...], ...], "inside": [...]},
