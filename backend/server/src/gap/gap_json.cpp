@@ -31,27 +31,6 @@ using json = nlohmann::json;
 
 std::string type_of(const json& j) { return j.type_name(); }
 
-Pose parse_pose(const json& j, const std::string& field) {
-  json_require_object(j, field);
-  json_check_keys(j, field, {"position", "quaternion"});
-  Pose pose;
-  if (const auto it = j.find("position"); it != j.end())
-    pose.position = json_vec3(*it, json_key_path(field, "position"), kMaxCoordinate);
-  if (const auto it = j.find("quaternion"); it != j.end()) {
-    const std::string qf = json_key_path(field, "quaternion");
-    if (!it->is_array() || it->size() != 4)
-      fail(qf, "expected [w, x, y, z] (4 numbers), got " +
-                   (it->is_array() ? std::to_string(it->size()) + " elements" : type_of(*it)));
-    double q[4];
-    for (int i = 0; i < 4; ++i) q[i] = json_number((*it)[i], json_index_path(qf, i));
-    const double norm = Eigen::Vector4d(q[0], q[1], q[2], q[3]).stableNorm();
-    if (!(norm >= kMinQuaternionNorm))
-      fail(qf, "quaternion has (near) zero norm; it must be a rotation");
-    pose.rotation = Quat(q[0] / norm, q[1] / norm, q[2] / norm, q[3] / norm);
-  }
-  return pose;
-}
-
 Polytope checked_extent(Polytope P, const std::string& field) {
   for (const Vec3& v : P.vertices)
     if (!(v.cwiseAbs().maxCoeff() <= kMaxCoordinate))
@@ -115,13 +94,6 @@ void parallel_for(std::size_t n, Fn fn) {
     if (e) std::rethrow_exception(e);
 }
 
-json vec_json(const Vec3& v) { return json::array({v.x(), v.y(), v.z()}); }
-json vec_json(const Vec6& v) {
-  json out = json::array();
-  for (int i = 0; i < 6; ++i) out.push_back(v[i]);
-  return out;
-}
-
 bool finite(const GapResult& r) {
   const auto& e = r.euclidean;
   return std::isfinite(r.lambda) && std::isfinite(r.distance) && r.witness_a.allFinite() &&
@@ -175,7 +147,7 @@ ShapeSpec parse_shape(const json& j, const std::string& field) {
   }
 
   if (const auto it = j.find("pose"); it != j.end())
-    spec.pose = parse_pose(*it, json_key_path(field, "pose"));
+    spec.pose = json_pose(*it, json_key_path(field, "pose"));
   if (const auto it = j.find("weights"); it != j.end()) {
     const std::string wf = json_key_path(field, "weights");
     const json& w = json_array(*it, wf, kMaxPolytopeRows, "weights");
@@ -318,7 +290,7 @@ json run_gap_request(const json& request, const std::function<void()>& checkpoin
   for (std::size_t i = 0; i < instances.size(); ++i) {
     const auto& [j, field] = instances[i];
     if (const auto pit = j->find("pose"); pit != j->end())
-      poses[i] = parse_pose(*pit, json_key_path(field, "pose"));
+      poses[i] = json_pose(*pit, json_key_path(field, "pose"));
   }
 
   if (rp.validate) {

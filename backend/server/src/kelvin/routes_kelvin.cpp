@@ -226,7 +226,7 @@ void KelvinModule::register_routes() {
                 for (const auto& s : samples) {
                   const bool ok = s.status == kelvin::Status::ok && std::isfinite(s.h);
                   h.push_back(ok ? json(s.h) : json(nullptr));
-                  grad.push_back(ok ? json::array({s.gradient.x(), s.gradient.y(), s.gradient.z()}) : json(nullptr));
+                  grad.push_back(ok ? vec_json(s.gradient) : json(nullptr));
                   inside.push_back(s.status == kelvin::Status::inside);
                 }
                 return json_response(200, {{"h", h}, {"gradient", grad}, {"inside", inside}, {"sigma_version", version}});
