@@ -52,8 +52,7 @@ constexpr int kTets[6][4] = {{0, 1, 3, 7}, {0, 1, 5, 7}, {0, 2, 3, 7}, {0, 2, 6,
 }  // namespace
 
 std::vector<Grid> sample_grid(const MultiField& f, int count, const Vec3& lo, const Vec3& hi,
-                              const std::array<int, 3>& n, unsigned threads,
-                              const std::atomic<bool>* cancel) {
+                              const std::array<int, 3>& n, unsigned threads, const Progress& progress) {
   if (count < 1) throw InvalidInput("grid", "no field to sample");
   for (int a = 0; a < 3; ++a) {
     if (n[a] < 2) throw InvalidInput("grid", "a grid needs at least 2 nodes per axis");
@@ -72,7 +71,7 @@ std::vector<Grid> sample_grid(const MultiField& f, int count, const Vec3& lo, co
   }
   const std::size_t rows = static_cast<std::size_t>(n[1]) * n[2];
   parallel_items(rows, threads, [&](std::size_t row) {
-    if (cancel != nullptr && cancel->load(std::memory_order_relaxed)) throw Cancelled();
+    progress("sample", static_cast<double>(row) / static_cast<double>(rows));
     const int j = static_cast<int>(row % n[1]), k = static_cast<int>(row / n[1]);
     std::vector<double> out(static_cast<std::size_t>(count));
     for (int i = 0; i < n[0]; ++i) {
