@@ -2,18 +2,16 @@
 #include "distlab/server/gap_json.hpp"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
-#include <exception>
 #include <initializer_list>
 #include <limits>
 #include <map>
 #include <optional>
-#include <thread>
 #include <utility>
 #include <vector>
 
 #include "distlab/gap/validator.hpp"
+#include "distlab/geometry/parallel.hpp"
 #include "distlab/geometry/polytope.hpp"
 #include "distlab/server/json_fields.hpp"
 
@@ -63,35 +61,6 @@ Polytope parse_hull(const json& j, const std::string& field) {
     fail(pf, "the hull has " + std::to_string(P.rows()) + " facets, above the limit of " +
                  std::to_string(kMaxPolytopeRows));
   return P;
-}
-
-// Runs fn(i) for i < n on all cores; rethrows the exception of the lowest failing index, so the
-// error is the one a sequential loop would give. Indices above a known failure are skipped.
-template <class Fn>
-void parallel_for(std::size_t n, Fn fn) {
-  std::vector<std::exception_ptr> errors(n);
-  std::atomic<std::size_t> next{0}, first_failure{n};
-  auto work = [&] {
-    for (std::size_t i; (i = next.fetch_add(1)) < n;) {
-      if (i > first_failure.load()) continue;
-      try {
-        fn(i);
-      } catch (...) {
-        errors[i] = std::current_exception();
-        for (std::size_t f = first_failure.load();
-             i < f && !first_failure.compare_exchange_weak(f, i);) {
-        }
-      }
-    }
-  };
-  const unsigned threads = static_cast<unsigned>(std::min<std::size_t>(
-      std::max(1u, std::thread::hardware_concurrency()), std::max<std::size_t>(n, 1)));
-  std::vector<std::thread> pool;
-  for (unsigned t = 1; t < threads; ++t) pool.emplace_back(work);
-  work();
-  for (auto& t : pool) t.join();
-  for (auto& e : errors)
-    if (e) std::rethrow_exception(e);
 }
 
 bool finite(const GapResult& r) {
@@ -279,7 +248,7 @@ json run_gap_request(const json& request, const std::function<void()>& checkpoin
     proto_of[i] = it->second;
   }
   std::vector<std::optional<Prototype>> protos(first_instance.size());
-  parallel_for(protos.size(), [&](std::size_t k) {
+  parallel_for(protos.size(), 0, [&](std::size_t k) {
     const auto& [j, field] = instances[first_instance[k]];
     const ShapeSpec spec = parse_shape(*j, field);
     protos[k].emplace(
@@ -294,7 +263,7 @@ json run_gap_request(const json& request, const std::function<void()>& checkpoin
   }
 
   if (rp.validate) {
-    parallel_for(protos.size(),
+    parallel_for(protos.size(), 0,
                  [&](std::size_t k) { protos[k]->report = validate_p2s(protos[k]->body.p2s()); });
     for (const auto& p : protos)
       if (!p->report->ok) fail(p->field, p->report->message);
@@ -317,7 +286,7 @@ json run_gap_request(const json& request, const std::function<void()>& checkpoin
   std::vector<std::optional<Penetration>> pens;
   const auto add_penetrations = [&](std::size_t begin) {
     pens.resize(results.size());
-    parallel_for(results.size() - begin, [&](std::size_t k) {
+    parallel_for(results.size() - begin, 0, [&](std::size_t k) {
       const std::size_t i = begin + k;
       if (results[i].euclidean_computed && results[i].euclidean.distance == 0)
         pens[i] = penetration(pairs[i].first->euclidean(), pairs[i].first->pose(),

@@ -79,10 +79,6 @@ GapResult gap_distance(const GapBody& a, const GapBody& b, const GapParams& para
 GapResult gap_distance_warm(const GapBody& a, const GapBody& b, const GapParams& params,
                             const Vec3& start_a, const Vec3& start_b);
 
-// Calls fn(i) once for each i < n on `threads` threads (0: hardware concurrency, never more
-// than n), indices handed out in order; the fan-out of gap_distance_batch. fn must not throw.
-void parallel_indices(std::size_t n, unsigned threads, const std::function<void(std::size_t)>& fn);
-
 // Many pairs on all cores (threads = 0: hardware concurrency). Results in input order.
 std::vector<GapResult> gap_distance_batch(
     const std::vector<std::pair<const GapBody*, const GapBody*>>& pairs, const GapParams& params,
