@@ -52,7 +52,7 @@ void KelvinModule::register_routes() {
                      throw ApiError(413, "too_many_triangles", "at most " + std::to_string(lim.max_upload_triangles) + " triangles", "body");
                  {
                    std::lock_guard lock(session->mutex);
-                   if (session->uploads.size() >= lim.max_uploads_per_session)
+                   if (kelvin_state(*session).uploads.size() >= lim.max_uploads_per_session)
                      throw ApiError(429, "too_many_uploads", "this session has too many uploads");
                  }
                  // The file's unit: a name or a factor to metres (not both); metres by default.
@@ -80,7 +80,7 @@ void KelvinModule::register_routes() {
                  const std::string id = random_id();
                  {
                    std::lock_guard lock(session->mutex);
-                   session->uploads.emplace(id, up);
+                   kelvin_state(*session).uploads.emplace(id, up);
                  }
                  json answer = {{"upload", id}, {"n_vertices", up->surface.vertices.rows()}, {"n_faces", up->surface.faces.rows()}, {"scale", scale}};
                  if (!unit.empty()) answer["unit"] = unit;
@@ -113,7 +113,7 @@ void KelvinModule::register_routes() {
                  std::vector<std::shared_ptr<KelvinObject>> objects;
                  {
                    std::lock_guard lock(session->mutex);
-                   for (const auto& [id, o] : session->objects) objects.push_back(o);
+                   for (const auto& [id, o] : kelvin_state(*session).objects) objects.push_back(o);
                  }
                  json list = json::array();
                  for (const auto& o : objects) list.push_back(o->status_json());
@@ -134,7 +134,7 @@ void KelvinModule::register_routes() {
                  if (auto j = jobs_.find(session->id, job)) j->cancel = true;
                  {
                    std::lock_guard lock(session->mutex);
-                   session->objects.erase(object->id);
+                   kelvin_state(*session).objects.erase(object->id);
                  }
                  return no_content_response();
                }});
