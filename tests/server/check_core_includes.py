@@ -1,10 +1,11 @@
 #!/usr/bin/env python3
-"""The server's core knows no feature: no core file (backend/server/src/*.{cpp,hpp} and the core
-headers) includes a feature module's header or names a type a feature declares (not even forward:
-a module keeps its per-session state in its own ModuleState), and no feature module includes
+"""The server's core knows no feature, and a module knows the core only by its public headers:
+no core file (backend/server/src/*.{cpp,hpp} and the core headers) includes a feature module's
+header or names a type a feature declares (not even forward: a module keeps its per-session state
+in its own ModuleState); no module includes a core file from src/; and no feature module includes
 another's (the shape codec gap_json.hpp, which the CLI, the Python bindings and the CBF scenarios
-share, is open to every module but not to the core). modules.cpp, the wiring, is the one file
-that names them all. Exits 1 naming each offending line."""
+share, is open to every module but not to the core). modules.cpp, the wiring, is the one file that
+names them all. Exits 1 naming each offending line."""
 import pathlib
 import re
 import sys
@@ -58,6 +59,11 @@ for path in files:
         m = include.match(line)
         if not m:
             continue
+        # A module reaches the core through its public headers (include/), never through src/.
+        target = m.group(1)
+        if (mine != "core" and "/" not in target and not (path.parent / target).exists()
+                and (root / "src" / target).exists()):
+            bad.append(f"{path.relative_to(root)}:{n}: {mine} reaches into the core's src/ for {target}")
         f = feature_of(m.group(1), path)
         shared_codec = m.group(1) == "distlab/server/gap_json.hpp" and mine != "core"
         if f is not None and f != mine and not shared_codec:

@@ -14,9 +14,9 @@
 #include "distlab/server/gap_json.hpp"
 #include "distlab/server/json_fields.hpp"
 #include "distlab/server/kelvin_json.hpp"
+#include "distlab/server/request_params.hpp"
 #include "kelvin_inputs.hpp"
 #include "kelvin_module.hpp"
-#include "request_params.hpp"
 
 namespace distlab::server {
 

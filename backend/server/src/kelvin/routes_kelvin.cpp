@@ -11,9 +11,9 @@
 #include "distlab/server/frames.hpp"
 #include "distlab/server/gap_json.hpp"
 #include "distlab/server/json_fields.hpp"
+#include "distlab/server/request_params.hpp"
 #include "kelvin_inputs.hpp"
 #include "kelvin_module.hpp"
-#include "request_params.hpp"
 
 namespace distlab::server {
 
