@@ -17,6 +17,7 @@
 #include "convert.hpp"
 #include "distlab/gap/distance.hpp"
 #include "distlab/gap/validator.hpp"
+#include "distlab/geometry/parallel.hpp"
 #include "distlab/server/gap_json.hpp"
 #include "distlab/server/json_fields.hpp"
 #include "interrupt.hpp"
@@ -162,7 +163,7 @@ py::dict gap_batch(const py::dict& shape_a, const Poses& poses_a, const py::dict
     constexpr std::size_t kBlock = 256;
     auto last_report = std::chrono::steady_clock::now();
     const auto caller = std::this_thread::get_id();
-    parallel_indices((n + kBlock - 1) / kBlock, threads, [&](std::size_t block) {
+    parallel_for((n + kBlock - 1) / kBlock, threads, [&](std::size_t block) {
       if (!interrupt.poll()) return;
       if (!progress.is_none() && std::this_thread::get_id() == caller &&
           std::chrono::steady_clock::now() - last_report > std::chrono::milliseconds(100)) {

@@ -1,9 +1,11 @@
 #!/usr/bin/env python3
-"""The server's core knows no feature: no core file (backend/server/src/*.{cpp,hpp} and the core
-headers) includes a feature module's header, and no feature module includes another's (the shape
-codec gap_json.hpp, which the CLI, the Python bindings and the CBF scenarios share, is open to every
-module but not to the core). modules.cpp, the wiring, is the one file that names them all.
-Exits 1 naming each offending line."""
+"""The server's core knows no feature, and a module knows the core only by its public headers:
+no core file (backend/server/src/*.{cpp,hpp} and the core headers) includes a feature module's
+header or names a type a feature declares (not even forward: a module keeps its per-session state
+in its own ModuleState); no module includes a core file from src/; and no feature module includes
+another's (the shape codec gap_json.hpp, which the CLI, the Python bindings and the CBF scenarios
+share, is open to every module but not to the core). modules.cpp, the wiring, is the one file that
+names them all. Exits 1 naming each offending line."""
 import pathlib
 import re
 import sys
@@ -35,18 +37,36 @@ def owner(path: pathlib.Path):
     return "core"
 
 
+declaration = re.compile(r"\b(?:struct|class)\s+([A-Za-z_]\w*)\s*(?:[:{]|final\b)")
+comment_or_string = re.compile(r'//.*|/\*.*?\*/|"(?:\\.|[^"\\])*"')
+files = [p for p in sorted(list(root.glob("src/**/*.[ch]pp")) + list(root.glob("include/**/*.hpp")))
+         if p.name != "modules.cpp"]
+# The types the features declare (their classes, structs and aliases), which the core must not name.
+feature_types = {}
+for path in files:
+    if owner(path) != "core":
+        for name in declaration.findall(comment_or_string.sub("", path.read_text(encoding="utf-8"))):
+            feature_types.setdefault(name, owner(path))
+feature_name = re.compile(r"\b(" + "|".join(sorted(feature_types)) + r")\b") if feature_types else None
+
 bad = []
-for path in sorted(list(root.glob("src/**/*.[ch]pp")) + list(root.glob("include/**/*.hpp"))):
-    if path.name == "modules.cpp":
-        continue
+for path in files:
     mine = owner(path)
     for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+        if mine == "core" and feature_name and not include.match(line):
+            for name in feature_name.findall(comment_or_string.sub("", line)):
+                bad.append(f"{path.relative_to(root)}:{n}: core names {name} ({feature_types[name]})")
         m = include.match(line)
         if not m:
             continue
+        # A module reaches the core through its public headers (include/), never through src/.
+        target = m.group(1)
+        if (mine != "core" and "/" not in target and not (path.parent / target).exists()
+                and (root / "src" / target).exists()):
+            bad.append(f"{path.relative_to(root)}:{n}: {mine} reaches into the core's src/ for {target}")
         f = feature_of(m.group(1), path)
         shared_codec = m.group(1) == "distlab/server/gap_json.hpp" and mine != "core"
         if f is not None and f != mine and not shared_codec:
             bad.append(f"{path.relative_to(root)}:{n}: {mine} includes {m.group(1)} ({f})")
-print("\n".join(bad) if bad else "the core includes no feature header; no module includes another's")
+print("\n".join(bad) if bad else "the core includes no feature header and names no feature type; no module includes another's")
 sys.exit(1 if bad else 0)

@@ -490,8 +490,8 @@ TEST_F(Api, EveryLimitIsDocumented) {
   EXPECT_EQ(reported, documented);
 }
 
-// With a tiny time per request, a GAP batch and a Kelvin query stop with 408 time_limit (their
-// checks run between chunks), and the server keeps serving.
+// With a tiny time per request, a GAP batch, a level-set grid and a Kelvin query stop with 408
+// time_limit (their checks run between chunks), and the server keeps serving.
 TEST(ApiLimits, TimeLimitPerRequest) {
   ServerProcess server({"--max-request-seconds", "0.000001"});
   auto c = server.client();
@@ -499,6 +499,10 @@ TEST(ApiLimits, TimeLimitPerRequest) {
   for (int i = 0; i < 200; ++i) pairs.push_back(json::parse(kPair));
   auto r = c.Post("/api/gap/distance", json{{"pairs", pairs}}.dump(), "application/json");
   expect_error(r, 408, "time_limit", "");
+  const json levelsets = {{"shape", {{"type", "box"}, {"size", {1, 0.6, 0.4}}}},
+                          {"levels", {{"weak", {0.05}}}},
+                          {"grid", {{"resolution", 32}}}};
+  expect_error(c.Post("/api/gap/levelsets", levelsets.dump(), "application/json"), 408, "time_limit", "");
   const std::string s = new_session(c);
   r = c.Post("/api/kelvin/objects", session_headers(s), json{{"asset", "cube"}, {"lx", 0.3}}.dump(), "application/json");
   ASSERT_TRUE(r);

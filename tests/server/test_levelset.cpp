@@ -2,6 +2,9 @@
 // e_S / E_S iso-surfaces of GAP shapes.
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <stdexcept>
+
 #include "distlab/gap/point_to_set.hpp"
 #include "distlab/geometry/error.hpp"
 #include "distlab/levelset/gap_fields.hpp"
@@ -62,7 +65,19 @@ TEST(Levelset, GapBoxLevelsMatchTheField) {
   ASSERT_EQ(r.plane_weak.size(), 256u);
   EXPECT_EQ(r.plane_weak[0], p2s.weak(o.plane->centre - o.plane->u - o.plane->v, 0).value);
   std::atomic<bool> cancel{true};
-  EXPECT_THROW(gap_levelsets(p2s, o, &cancel), Cancelled);
+  Progress cancelled;
+  cancelled.cancel = &cancel;
+  EXPECT_THROW(gap_levelsets(p2s, o, cancelled), Cancelled);
+  // What the report throws (a request's time limit) stops the work and leaves gap_levelsets.
+  std::atomic<int> reports{0};
+  Progress late;
+  late.report = [&reports](const std::string& stage, double fraction) {
+    EXPECT_TRUE(stage == "sample" || stage == "mesh");
+    EXPECT_TRUE(fraction >= 0 && fraction < 1);
+    if (++reports == 5) throw std::out_of_range("late");
+  };
+  EXPECT_THROW(gap_levelsets(p2s, o, late), std::out_of_range);
+  EXPECT_GE(reports.load(), 5);
   o.weak_levels = {-1};
   EXPECT_THROW(gap_levelsets(p2s, o), InvalidInput);
 }

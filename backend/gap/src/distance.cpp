@@ -1,11 +1,10 @@
 #include "distlab/gap/distance.hpp"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
-#include <thread>
 
 #include "distlab/geometry/error.hpp"
+#include "distlab/geometry/parallel.hpp"
 
 namespace distlab {
 namespace {
@@ -140,25 +139,12 @@ GapResult gap_distance_warm(const GapBody& a, const GapBody& b, const GapParams&
   return r;
 }
 
-void parallel_indices(std::size_t n, unsigned threads, const std::function<void(std::size_t)>& fn) {
-  if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
-  threads = std::min<unsigned>(threads, std::max<size_t>(1, n));
-  std::atomic<size_t> next{0};
-  auto work = [&] {
-    for (size_t i; (i = next.fetch_add(1)) < n;) fn(i);
-  };
-  std::vector<std::thread> pool;
-  for (unsigned t = 1; t < threads; ++t) pool.emplace_back(work);
-  work();
-  for (auto& t : pool) t.join();
-}
-
 std::vector<GapResult> gap_distance_batch(
     const std::vector<std::pair<const GapBody*, const GapBody*>>& pairs, const GapParams& params,
     unsigned threads) {
   std::vector<GapResult> out(pairs.size());
-  parallel_indices(pairs.size(), threads,
-                   [&](std::size_t i) { out[i] = gap_distance(*pairs[i].first, *pairs[i].second, params); });
+  parallel_for(pairs.size(), threads,
+               [&](std::size_t i) { out[i] = gap_distance(*pairs[i].first, *pairs[i].second, params); });
   return out;
 }
 

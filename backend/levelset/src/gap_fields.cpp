@@ -19,8 +19,7 @@ void check_levels(const std::vector<double>& levels, const std::string& field) {
 
 }  // namespace
 
-GapLevelsets gap_levelsets(const PointToSet& p2s, const GapLevelsetOptions& o,
-                           const std::atomic<bool>* cancel) {
+GapLevelsets gap_levelsets(const PointToSet& p2s, const GapLevelsetOptions& o, const Progress& progress) {
   check_levels(o.weak_levels, "levels.weak");
   check_levels(o.strict_levels, "levels.strict");
   if (o.resolution < 4) throw InvalidInput("grid.resolution", "grid.resolution must be at least 4");
@@ -63,13 +62,14 @@ GapLevelsets gap_levelsets(const PointToSet& p2s, const GapLevelsetOptions& o,
     v[1] = p2s.strict(x, 0).value;
   };
   if (!o.weak_levels.empty() || !o.strict_levels.empty()) {
-    const std::vector<Grid> grids = sample_grid(both, 2, out.lo, out.hi, out.n, o.threads, cancel);
+    const std::vector<Grid> grids = sample_grid(both, 2, out.lo, out.hi, out.n, o.threads, progress);
+    const double levels = static_cast<double>(o.weak_levels.size() + o.strict_levels.size());
     for (double level : o.weak_levels) {
-      if (cancel != nullptr && cancel->load()) throw Cancelled();
+      progress("mesh", static_cast<double>(out.surfaces.size()) / levels);
       out.surfaces.push_back({false, level, marching_tetrahedra(grids[0], level)});
     }
     for (double level : o.strict_levels) {
-      if (cancel != nullptr && cancel->load()) throw Cancelled();
+      progress("mesh", static_cast<double>(out.surfaces.size()) / levels);
       out.surfaces.push_back({true, level, marching_tetrahedra(grids[1], level)});
     }
   }

@@ -4,46 +4,13 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
-#include <exception>
-#include <mutex>
-#include <thread>
 #include <unordered_map>
 
 #include "distlab/geometry/error.hpp"
+#include "distlab/geometry/parallel.hpp"
 
 namespace distlab::levelset {
 namespace {
-
-unsigned thread_count(unsigned requested, std::size_t work) {
-  unsigned t = requested != 0 ? requested : std::max(1u, std::thread::hardware_concurrency());
-  return static_cast<unsigned>(std::min<std::size_t>(t, std::max<std::size_t>(1, work)));
-}
-
-// Runs body(item) for item in [0, count) on `threads` threads; rethrows the first exception.
-template <class Body>
-void parallel_items(std::size_t count, unsigned threads, Body body) {
-  threads = thread_count(threads, count);
-  std::atomic<std::size_t> next{0};
-  std::exception_ptr error;
-  std::mutex error_mutex;
-  auto worker = [&] {
-    try {
-      for (std::size_t i = next++; i < count; i = next++) body(i);
-    } catch (...) {
-      std::lock_guard lock(error_mutex);
-      if (!error) error = std::current_exception();
-      next = count;
-    }
-  };
-  if (threads <= 1) {
-    worker();
-  } else {
-    std::vector<std::thread> pool;
-    for (unsigned t = 0; t < threads; ++t) pool.emplace_back(worker);
-    for (auto& th : pool) th.join();
-  }
-  if (error) std::rethrow_exception(error);
-}
 
 // The six tetrahedra of the Kuhn (Freudenthal) split of a cell; corners numbered by bits
 // x = 1, y = 2, z = 4. All share the diagonal 0-7, so neighbouring cells agree on face splits.
@@ -52,8 +19,7 @@ constexpr int kTets[6][4] = {{0, 1, 3, 7}, {0, 1, 5, 7}, {0, 2, 3, 7}, {0, 2, 6,
 }  // namespace
 
 std::vector<Grid> sample_grid(const MultiField& f, int count, const Vec3& lo, const Vec3& hi,
-                              const std::array<int, 3>& n, unsigned threads,
-                              const std::atomic<bool>* cancel) {
+                              const std::array<int, 3>& n, unsigned threads, const Progress& progress) {
   if (count < 1) throw InvalidInput("grid", "no field to sample");
   for (int a = 0; a < 3; ++a) {
     if (n[a] < 2) throw InvalidInput("grid", "a grid needs at least 2 nodes per axis");
@@ -71,8 +37,8 @@ std::vector<Grid> sample_grid(const MultiField& f, int count, const Vec3& lo, co
     g.values.assign(total, 0.0);
   }
   const std::size_t rows = static_cast<std::size_t>(n[1]) * n[2];
-  parallel_items(rows, threads, [&](std::size_t row) {
-    if (cancel != nullptr && cancel->load(std::memory_order_relaxed)) throw Cancelled();
+  parallel_for(rows, threads, [&](std::size_t row) {
+    progress("sample", static_cast<double>(row) / static_cast<double>(rows));
     const int j = static_cast<int>(row % n[1]), k = static_cast<int>(row / n[1]);
     std::vector<double> out(static_cast<std::size_t>(count));
     for (int i = 0; i < n[0]; ++i) {
@@ -188,7 +154,7 @@ std::vector<std::vector<double>> sample_plane(const MultiField& f, int count, co
   if (plane.nu < 2 || plane.nv < 2) throw InvalidInput("plane.resolution", "a plane needs at least 2 x 2 samples");
   std::vector<std::vector<double>> out(static_cast<std::size_t>(count),
                                        std::vector<double>(static_cast<std::size_t>(plane.nu) * plane.nv));
-  parallel_items(static_cast<std::size_t>(plane.nv), threads, [&](std::size_t t) {
+  parallel_for(static_cast<std::size_t>(plane.nv), threads, [&](std::size_t t) {
     std::vector<double> vals(static_cast<std::size_t>(count));
     const double tv = static_cast<double>(t) / (plane.nv - 1) - 0.5;
     for (int s = 0; s < plane.nu; ++s) {

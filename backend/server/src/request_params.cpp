@@ -1,5 +1,5 @@
 // Reads of request parameters shared by the routes (request_params.hpp).
-#include "request_params.hpp"
+#include "distlab/server/request_params.hpp"
 
 #include <cctype>
 #include <cmath>

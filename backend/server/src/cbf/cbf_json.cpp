@@ -40,29 +40,6 @@ const json& required(const json& j, const std::string& field, const char* key) {
 double number(const json& j, const std::string& field) { return json_number(j, field, kMaxCoordinate); }
 bool boolean(const json& j, const std::string& field) { return json_bool(j, field); }
 std::string string(const json& j, const std::string& field) { return json_string(j, field); }
-template <int N>
-Eigen::Matrix<double, N, 1> vec(const json& j, const std::string& field) {
-  return json_vec<N>(j, field, kMaxCoordinate);
-}
-template <class V>
-json vec_json(const V& v) {
-  json a = json::array();
-  for (Eigen::Index i = 0; i < v.size(); ++i) a.push_back(v[i]);
-  return a;
-}
-
-Pose parse_target(const json& j, const std::string& field) {
-  require_object(j, field);
-  check_keys(j, field, {"position", "quaternion"});
-  Pose p;
-  p.position = vec<3>(required(j, field, "position"), key_path(field, "position"));
-  if (const auto it = j.find("quaternion"); it != j.end()) {
-    const Eigen::Vector4d q = vec<4>(*it, key_path(field, "quaternion"));
-    if (!(q.norm() > 1e-9)) fail(key_path(field, "quaternion"), "quaternion has (near) zero norm");
-    p.rotation = Quat(q[0], q[1], q[2], q[3]).normalized();
-  }
-  return p;
-}
 
 cbf::Margins parse_margins(const json& j, const std::string& field, cbf::Margins m) {
   require_object(j, field);
@@ -176,7 +153,7 @@ cbf::Scenario parse_scenario(const json& j, const std::string& field, const std:
       o.name = string(*it, key_path(f, "name"));
     s.obstacles.push_back(std::move(o));
   }
-  s.target = parse_target(required(j, field, "target"), key_path(field, "target"));
+  s.target = json_pose(required(j, field, "target"), key_path(field, "target"), /*position_required=*/true);
   required(j, field, "q0");
   apply_settings(j, field, s);
   validated(s, field);
@@ -283,7 +260,6 @@ json encode_smoothness(const cbf::RolloutRecord& rec) {
 }
 
 json encode_final_state(const cbf::FinalState& f) {
-  auto finite_or_null = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
   json active = json::array();
   for (const cbf::ActiveConstraint& a : f.active)
     active.push_back({{"name", a.name},
@@ -305,7 +281,6 @@ json encode_record(const cbf::RolloutRecord& rec, const std::string& scenario_na
        mind = json::array(), slack = json::object();
   const bool pairs = with_pairs && !rec.steps.empty() && !rec.steps.front().pairs.empty();
   json dist = json::array(), wa = json::array(), wb = json::array(), conv = json::array();
-  auto finite_or_null = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
   for (std::size_t i = 0; i < rec.steps.size(); ++i) {
     const cbf::StepRecord& s = rec.steps[i];
     t.push_back(s.t);
@@ -372,7 +347,6 @@ json encode_record(const cbf::RolloutRecord& rec, const std::string& scenario_na
 }
 
 json encode_feasibility(const cbf::Feasibility& f, const cbf::Scenario& s) {
-  auto finite_or_null = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
   if (!f.reachable)
     return {{"scenario", s.name}, {"reachable", false}, {"configurations", f.configurations}};
   return {{"scenario", s.name},

@@ -8,22 +8,13 @@
 #include <variant>
 
 #include "distlab/server/cbf_json.hpp"
+#include "distlab/server/json_fields.hpp"
 
 namespace distlab::server {
 
 using json = nlohmann::json;
 
 namespace {
-
-template <class V>
-json vec_json(const V& v) {
-  json a = json::array();
-  for (Eigen::Index i = 0; i < v.size(); ++i) a.push_back(v[i]);
-  return a;
-}
-json quat_json(const Quat& q) { return json::array({q.w(), q.x(), q.y(), q.z()}); }
-json pose_json(const Pose& p) { return {{"position", vec_json(p.position)}, {"quaternion", quat_json(p.rotation)}}; }
-json finite_or_null(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
 // A shape in the request schema of gap_json (SHAPE without pose).
 json shape_json(const Shape& shape) {

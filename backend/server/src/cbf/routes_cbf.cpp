@@ -11,7 +11,7 @@
 #include "distlab/server/cbf_json.hpp"
 #include "distlab/server/cbf_rollouts.hpp"
 #include "distlab/server/json_fields.hpp"
-#include "request_params.hpp"
+#include "distlab/server/request_params.hpp"
 
 namespace distlab::server {
 

@@ -2,18 +2,16 @@
 #include "distlab/server/gap_json.hpp"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
-#include <exception>
 #include <initializer_list>
 #include <limits>
 #include <map>
 #include <optional>
-#include <thread>
 #include <utility>
 #include <vector>
 
 #include "distlab/gap/validator.hpp"
+#include "distlab/geometry/parallel.hpp"
 #include "distlab/geometry/polytope.hpp"
 #include "distlab/server/json_fields.hpp"
 
@@ -30,27 +28,6 @@ using json = nlohmann::json;
 }
 
 std::string type_of(const json& j) { return j.type_name(); }
-
-Pose parse_pose(const json& j, const std::string& field) {
-  json_require_object(j, field);
-  json_check_keys(j, field, {"position", "quaternion"});
-  Pose pose;
-  if (const auto it = j.find("position"); it != j.end())
-    pose.position = json_vec3(*it, json_key_path(field, "position"), kMaxCoordinate);
-  if (const auto it = j.find("quaternion"); it != j.end()) {
-    const std::string qf = json_key_path(field, "quaternion");
-    if (!it->is_array() || it->size() != 4)
-      fail(qf, "expected [w, x, y, z] (4 numbers), got " +
-                   (it->is_array() ? std::to_string(it->size()) + " elements" : type_of(*it)));
-    double q[4];
-    for (int i = 0; i < 4; ++i) q[i] = json_number((*it)[i], json_index_path(qf, i));
-    const double norm = Eigen::Vector4d(q[0], q[1], q[2], q[3]).stableNorm();
-    if (!(norm >= kMinQuaternionNorm))
-      fail(qf, "quaternion has (near) zero norm; it must be a rotation");
-    pose.rotation = Quat(q[0] / norm, q[1] / norm, q[2] / norm, q[3] / norm);
-  }
-  return pose;
-}
 
 Polytope checked_extent(Polytope P, const std::string& field) {
   for (const Vec3& v : P.vertices)
@@ -84,42 +61,6 @@ Polytope parse_hull(const json& j, const std::string& field) {
     fail(pf, "the hull has " + std::to_string(P.rows()) + " facets, above the limit of " +
                  std::to_string(kMaxPolytopeRows));
   return P;
-}
-
-// Runs fn(i) for i < n on all cores; rethrows the exception of the lowest failing index, so the
-// error is the one a sequential loop would give. Indices above a known failure are skipped.
-template <class Fn>
-void parallel_for(std::size_t n, Fn fn) {
-  std::vector<std::exception_ptr> errors(n);
-  std::atomic<std::size_t> next{0}, first_failure{n};
-  auto work = [&] {
-    for (std::size_t i; (i = next.fetch_add(1)) < n;) {
-      if (i > first_failure.load()) continue;
-      try {
-        fn(i);
-      } catch (...) {
-        errors[i] = std::current_exception();
-        for (std::size_t f = first_failure.load();
-             i < f && !first_failure.compare_exchange_weak(f, i);) {
-        }
-      }
-    }
-  };
-  const unsigned threads = static_cast<unsigned>(std::min<std::size_t>(
-      std::max(1u, std::thread::hardware_concurrency()), std::max<std::size_t>(n, 1)));
-  std::vector<std::thread> pool;
-  for (unsigned t = 1; t < threads; ++t) pool.emplace_back(work);
-  work();
-  for (auto& t : pool) t.join();
-  for (auto& e : errors)
-    if (e) std::rethrow_exception(e);
-}
-
-json vec_json(const Vec3& v) { return json::array({v.x(), v.y(), v.z()}); }
-json vec_json(const Vec6& v) {
-  json out = json::array();
-  for (int i = 0; i < 6; ++i) out.push_back(v[i]);
-  return out;
 }
 
 bool finite(const GapResult& r) {
@@ -175,7 +116,7 @@ ShapeSpec parse_shape(const json& j, const std::string& field) {
   }
 
   if (const auto it = j.find("pose"); it != j.end())
-    spec.pose = parse_pose(*it, json_key_path(field, "pose"));
+    spec.pose = json_pose(*it, json_key_path(field, "pose"));
   if (const auto it = j.find("weights"); it != j.end()) {
     const std::string wf = json_key_path(field, "weights");
     const json& w = json_array(*it, wf, kMaxPolytopeRows, "weights");
@@ -307,7 +248,7 @@ json run_gap_request(const json& request, const std::function<void()>& checkpoin
     proto_of[i] = it->second;
   }
   std::vector<std::optional<Prototype>> protos(first_instance.size());
-  parallel_for(protos.size(), [&](std::size_t k) {
+  parallel_for(protos.size(), 0, [&](std::size_t k) {
     const auto& [j, field] = instances[first_instance[k]];
     const ShapeSpec spec = parse_shape(*j, field);
     protos[k].emplace(
@@ -318,11 +259,11 @@ json run_gap_request(const json& request, const std::function<void()>& checkpoin
   for (std::size_t i = 0; i < instances.size(); ++i) {
     const auto& [j, field] = instances[i];
     if (const auto pit = j->find("pose"); pit != j->end())
-      poses[i] = parse_pose(*pit, json_key_path(field, "pose"));
+      poses[i] = json_pose(*pit, json_key_path(field, "pose"));
   }
 
   if (rp.validate) {
-    parallel_for(protos.size(),
+    parallel_for(protos.size(), 0,
                  [&](std::size_t k) { protos[k]->report = validate_p2s(protos[k]->body.p2s()); });
     for (const auto& p : protos)
       if (!p->report->ok) fail(p->field, p->report->message);
@@ -345,7 +286,7 @@ json run_gap_request(const json& request, const std::function<void()>& checkpoin
   std::vector<std::optional<Penetration>> pens;
   const auto add_penetrations = [&](std::size_t begin) {
     pens.resize(results.size());
-    parallel_for(results.size() - begin, [&](std::size_t k) {
+    parallel_for(results.size() - begin, 0, [&](std::size_t k) {
       const std::size_t i = begin + k;
       if (results[i].euclidean_computed && results[i].euclidean.distance == 0) {
         check();  // per pair too: one deep overlap of many-faceted shapes can take seconds

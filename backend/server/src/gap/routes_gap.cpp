@@ -1,5 +1,4 @@
 // GAP endpoints: distances (the CLI's schema) and level sets of e_S / E_S.
-#include <chrono>
 
 #include "distlab/gap/point_to_set.hpp"
 #include "distlab/geometry/error.hpp"
@@ -130,31 +129,10 @@ void GapModule::register_routes() {
                     p2s.set_pose(spec.pose);
 
                     // Time per request: the sampling stops (408) once the deadline passes.
-                    std::atomic<bool> late{false};
-                    const auto deadline = std::chrono::steady_clock::now() +
-                                          std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                              std::chrono::duration<double>(lim.max_request_seconds));
-                    std::atomic<bool> stop_timer{false};
-                    std::thread timer([&] {
-                      while (!stop_timer.load()) {
-                        if (std::chrono::steady_clock::now() > deadline) {
-                          late = true;
-                          return;
-                        }
-                        std::this_thread::sleep_for(std::chrono::milliseconds(20));
-                      }
-                    });
-                    levelset::GapLevelsets result;
-                    try {
-                      result = levelset::gap_levelsets(p2s, o, &late);
-                    } catch (...) {
-                      stop_timer = true;
-                      timer.join();
-                      if (late) throw ApiError(408, "time_limit", "the request exceeded the time limit; use a coarser grid");
-                      throw;
-                    }
-                    stop_timer = true;
-                    timer.join();
+                    const Deadline deadline(lim.max_request_seconds);
+                    Progress progress;
+                    progress.report = [&deadline](const std::string&, double) { deadline.check("use a coarser grid"); };
+                    const levelset::GapLevelsets result = levelset::gap_levelsets(p2s, o, progress);
 
                     json out = {{"type", "gap_levelsets"},
                                 {"bounds", {{"min", {result.lo.x(), result.lo.y(), result.lo.z()}}, {"max", {result.hi.x(), result.hi.y(), result.hi.z()}}}},

@@ -9,7 +9,7 @@
 #include "distlab/server/config.hpp"
 #include "distlab/server/gap_json.hpp"
 #include "distlab/server/json_fields.hpp"
-#include "request_params.hpp"
+#include "distlab/server/request_params.hpp"
 
 namespace distlab::server {
 

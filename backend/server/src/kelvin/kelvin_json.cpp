@@ -185,7 +185,7 @@ json run_kelvin_request(const json& r, const kelvin::Progress& progress) {
   for (const Vec3& x : points) {
     const kelvin::Sample s = field.query(x, &hint);
     h.push_back(nullable(s.h));
-    grad.push_back(s.status == kelvin::Status::ok ? json::array({s.gradient.x(), s.gradient.y(), s.gradient.z()}) : json(nullptr));
+    grad.push_back(s.status == kelvin::Status::ok ? vec_json(s.gradient) : json(nullptr));
     inside.push_back(s.status == kelvin::Status::inside);
   }
   out["query"] = {{"h", h}, {"gradient", grad}, {"inside", inside}};

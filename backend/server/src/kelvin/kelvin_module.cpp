@@ -16,8 +16,8 @@ void KelvinModule::ws_message(const std::shared_ptr<Session>& session, const std
   auto object = [&]() {
     if (!msg.contains("object") || !msg["object"].is_string()) throw InvalidInput("object", "object must be an object id");
     std::lock_guard lock(session->mutex);
-    auto it = session->objects.find(msg["object"].get<std::string>());
-    if (it == session->objects.end()) throw ApiError(404, "unknown_object", "no such object in this session", "object");
+    auto it = kelvin_state(*session).objects.find(msg["object"].get<std::string>());
+    if (it == kelvin_state(*session).objects.end()) throw ApiError(404, "unknown_object", "no such object in this session", "object");
     return it->second;
   };
   if (type == "watch") {
@@ -40,7 +40,7 @@ void KelvinModule::add_state(Session& session, json& hello) {
   std::vector<std::shared_ptr<KelvinObject>> objects;
   {
     std::lock_guard lock(session.mutex);
-    for (const auto& [id, o] : session.objects) objects.push_back(o);
+    for (const auto& [id, o] : kelvin_state(session).objects) objects.push_back(o);
   }
   json objs = json::array();
   for (const auto& o : objects) objs.push_back(o->status_json());
@@ -52,7 +52,7 @@ void KelvinModule::joined(const std::shared_ptr<Session>& session, const std::sh
   std::vector<std::shared_ptr<KelvinObject>> objects;
   {
     std::lock_guard lock(session->mutex);
-    for (const auto& [id, o] : session->objects) objects.push_back(o);
+    for (const auto& [id, o] : kelvin_state(*session).objects) objects.push_back(o);
   }
   for (const auto& o : objects) {
     bool ready;
@@ -71,8 +71,8 @@ void KelvinModule::joined(const std::shared_ptr<Session>& session, const std::sh
 
 void KelvinModule::describe_session(Session& session, json& out) {
   std::lock_guard lock(session.mutex);
-  out["objects"] = session.objects.size();
-  out["uploads"] = session.uploads.size();
+  out["objects"] = kelvin_state(session).objects.size();
+  out["uploads"] = kelvin_state(session).uploads.size();
 }
 
 }  // namespace distlab::server

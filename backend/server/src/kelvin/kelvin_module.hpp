@@ -3,6 +3,7 @@
 // their creation and edits (kelvin_service.cpp), their frames (kelvin_frames.cpp), and the
 // WebSocket messages "watch" and "sigma" (kelvin_module.cpp).
 #include <atomic>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -14,6 +15,18 @@
 #include "distlab/server/service.hpp"
 
 namespace distlab::server {
+
+struct Upload {
+  mesh::SurfaceMesh surface;
+  std::string format;
+  std::size_t bytes = 0;
+};
+
+// The Kelvin part of a session (Session::state, guarded by the session's mutex).
+struct KelvinSessionState : ModuleState {
+  std::map<std::string, std::shared_ptr<KelvinObject>> objects;
+  std::map<std::string, std::shared_ptr<Upload>> uploads;
+};
 
 class KelvinModule final : public Module {
  public:
@@ -31,6 +44,8 @@ class KelvinModule final : public Module {
 
  private:
   const std::string& registry_cache_dir() const { return core_.cache_dir(); }
+  // This session's uploads and objects; call with session.mutex held.
+  static KelvinSessionState& kelvin_state(Session& session) { return session.state<KelvinSessionState>(); }
   std::shared_ptr<KelvinObject> require_object(const Session& session, const Request& request);
 
   // estimate_only: checks the inputs and answers estimate_json, creating nothing.

@@ -14,9 +14,9 @@
 #include "distlab/server/gap_json.hpp"
 #include "distlab/server/json_fields.hpp"
 #include "distlab/server/kelvin_json.hpp"
+#include "distlab/server/request_params.hpp"
 #include "kelvin_inputs.hpp"
 #include "kelvin_module.hpp"
-#include "request_params.hpp"
 
 namespace distlab::server {
 
@@ -51,8 +51,8 @@ void run_repair(KelvinObject& o, const kelvin::PrepareOptions& options, const Li
 std::shared_ptr<KelvinObject> KelvinModule::require_object(const Session& session, const Request& request) {
   auto& s = const_cast<Session&>(session);
   std::lock_guard lock(s.mutex);
-  auto it = s.objects.find(request.params.at("id"));
-  if (it == s.objects.end()) throw ApiError(404, "unknown_object", "no such object in this session");
+  auto it = kelvin_state(s).objects.find(request.params.at("id"));
+  if (it == kelvin_state(s).objects.end()) throw ApiError(404, "unknown_object", "no such object in this session");
   return it->second;
 }
 
@@ -106,8 +106,8 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
   } else if (body.contains("upload")) {
     if (!body["upload"].is_string()) throw InvalidInput("upload", "upload must be an upload id");
     std::lock_guard lock(session->mutex);
-    auto it = session->uploads.find(body["upload"].get<std::string>());
-    if (it == session->uploads.end()) throw ApiError(404, "unknown_upload", "no such upload in this session", "upload");
+    auto it = kelvin_state(*session).uploads.find(body["upload"].get<std::string>());
+    if (it == kelvin_state(*session).uploads.end()) throw ApiError(404, "unknown_upload", "no such upload in this session", "upload");
     surface = it->second->surface;
     source["upload"] = it->first;
   } else {
@@ -190,10 +190,10 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
   if (body.contains("levels")) object->levels = parse_levels(body["levels"], "levels", lim.max_levels);
   {
     std::lock_guard lock(session->mutex);
-    if (session->objects.size() >= lim.max_objects_per_session)
+    if (kelvin_state(*session).objects.size() >= lim.max_objects_per_session)
       throw ApiError(429, "too_many_objects",
                      "this session already has " + std::to_string(lim.max_objects_per_session) + " objects; delete one first");
-    session->objects.emplace(object->id, object);
+    kelvin_state(*session).objects.emplace(object->id, object);
   }
   std::weak_ptr<Session> weak_session = session;
   std::shared_ptr<Job> job;
@@ -254,7 +254,7 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
     });
   } catch (...) {
     std::lock_guard lock(session->mutex);
-    session->objects.erase(object->id);
+    kelvin_state(*session).objects.erase(object->id);
     throw;
   }
   {

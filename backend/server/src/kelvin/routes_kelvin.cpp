@@ -11,9 +11,9 @@
 #include "distlab/server/frames.hpp"
 #include "distlab/server/gap_json.hpp"
 #include "distlab/server/json_fields.hpp"
+#include "distlab/server/request_params.hpp"
 #include "kelvin_inputs.hpp"
 #include "kelvin_module.hpp"
-#include "request_params.hpp"
 
 namespace distlab::server {
 
@@ -52,7 +52,7 @@ void KelvinModule::register_routes() {
                      throw ApiError(413, "too_many_triangles", "at most " + std::to_string(lim.max_upload_triangles) + " triangles", "body");
                  {
                    std::lock_guard lock(session->mutex);
-                   if (session->uploads.size() >= lim.max_uploads_per_session)
+                   if (kelvin_state(*session).uploads.size() >= lim.max_uploads_per_session)
                      throw ApiError(429, "too_many_uploads", "this session has too many uploads");
                  }
                  // The file's unit: a name or a factor to metres (not both); metres by default.
@@ -80,7 +80,7 @@ void KelvinModule::register_routes() {
                  const std::string id = random_id();
                  {
                    std::lock_guard lock(session->mutex);
-                   session->uploads.emplace(id, up);
+                   kelvin_state(*session).uploads.emplace(id, up);
                  }
                  json answer = {{"upload", id}, {"n_vertices", up->surface.vertices.rows()}, {"n_faces", up->surface.faces.rows()}, {"scale", scale}};
                  if (!unit.empty()) answer["unit"] = unit;
@@ -113,7 +113,7 @@ void KelvinModule::register_routes() {
                  std::vector<std::shared_ptr<KelvinObject>> objects;
                  {
                    std::lock_guard lock(session->mutex);
-                   for (const auto& [id, o] : session->objects) objects.push_back(o);
+                   for (const auto& [id, o] : kelvin_state(*session).objects) objects.push_back(o);
                  }
                  json list = json::array();
                  for (const auto& o : objects) list.push_back(o->status_json());
@@ -134,7 +134,7 @@ void KelvinModule::register_routes() {
                  if (auto j = jobs_.find(session->id, job)) j->cancel = true;
                  {
                    std::lock_guard lock(session->mutex);
-                   session->objects.erase(object->id);
+                   kelvin_state(*session).objects.erase(object->id);
                  }
                  return no_content_response();
                }});
@@ -226,7 +226,7 @@ void KelvinModule::register_routes() {
                 for (const auto& s : samples) {
                   const bool ok = s.status == kelvin::Status::ok && std::isfinite(s.h);
                   h.push_back(ok ? json(s.h) : json(nullptr));
-                  grad.push_back(ok ? json::array({s.gradient.x(), s.gradient.y(), s.gradient.z()}) : json(nullptr));
+                  grad.push_back(ok ? vec_json(s.gradient) : json(nullptr));
                   inside.push_back(s.status == kelvin::Status::inside);
                 }
                 return json_response(200, {{"h", h}, {"gradient", grad}, {"inside", inside}, {"sigma_version", version}});

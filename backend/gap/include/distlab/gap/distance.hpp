@@ -9,6 +9,7 @@
 #include "distlab/collision/euclidean.hpp"
 #include "distlab/gap/point_to_set.hpp"
 #include "distlab/gap/solver.hpp"
+#include "distlab/geometry/parallel.hpp"
 
 namespace distlab {
 
@@ -79,9 +80,10 @@ GapResult gap_distance(const GapBody& a, const GapBody& b, const GapParams& para
 GapResult gap_distance_warm(const GapBody& a, const GapBody& b, const GapParams& params,
                             const Vec3& start_a, const Vec3& start_b);
 
-// Calls fn(i) once for each i < n on `threads` threads (0: hardware concurrency, never more
-// than n), indices handed out in order; the fan-out of gap_distance_batch. fn must not throw.
-void parallel_indices(std::size_t n, unsigned threads, const std::function<void(std::size_t)>& fn);
+// The former name of distlab::parallel_for (geometry/parallel.hpp), for the callers that still use it.
+inline void parallel_indices(std::size_t n, unsigned threads, const std::function<void(std::size_t)>& fn) {
+  parallel_for(n, threads, fn);
+}
 
 // Many pairs on all cores (threads = 0: hardware concurrency). Results in input order.
 std::vector<GapResult> gap_distance_batch(

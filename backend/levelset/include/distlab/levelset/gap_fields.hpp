@@ -2,7 +2,6 @@
 // The GAP point-to-set functions of one shape (weak e_S, strict E_S of eq. 6) as level sets:
 // iso-surfaces on a grid around the shape and both fields sampled on a plane (the paper's Fig. 1,
 // in 3D).
-#include <atomic>
 #include <optional>
 #include <vector>
 
@@ -36,9 +35,9 @@ struct GapLevelsets {
   std::vector<double> plane_weak, plane_strict;  // empty without a plane
 };
 
-// Throws InvalidInput (fields "levels.*", "grid.*", "plane.*") on bad options, Cancelled if
-// *cancel becomes true.
-GapLevelsets gap_levelsets(const PointToSet& p2s, const GapLevelsetOptions& options,
-                           const std::atomic<bool>* cancel = nullptr);
+// Throws InvalidInput (fields "levels.*", "grid.*", "plane.*") on bad options. `progress` is
+// called as sample_grid calls it, then with "mesh" before each iso-surface; what it throws
+// (Cancelled, a request's time limit) stops the work.
+GapLevelsets gap_levelsets(const PointToSet& p2s, const GapLevelsetOptions& options, const Progress& progress = {});
 
 }  // namespace distlab::levelset

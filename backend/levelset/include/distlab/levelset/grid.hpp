@@ -1,7 +1,6 @@
 #pragma once
 // Scalar fields sampled on regular grids and planes, and their iso-surfaces (marching tetrahedra).
 #include <array>
-#include <atomic>
 #include <functional>
 #include <stdexcept>
 #include <vector>
@@ -28,8 +27,9 @@ struct Grid {
   }
 };
 
-// The project's one cancellation (geometry/progress.hpp), thrown when the cancel flag is set.
+// The project's one progress and cancellation (geometry/progress.hpp).
 using distlab::Cancelled;
+using distlab::Progress;
 
 using ScalarField = std::function<double(const Vec3&)>;
 
@@ -37,11 +37,11 @@ using ScalarField = std::function<double(const Vec3&)>;
 using MultiField = std::function<void(const Vec3&, double* out)>;
 
 // Samples `count` fields on the nodes of [lo, hi] with n nodes per axis, on `threads` threads
-// (0: all cores). Throws InvalidInput("grid") for n < 2 or an empty box. If `cancel` becomes true
-// the sampling stops early and throws Cancelled.
+// (0: all cores). Throws InvalidInput("grid") for n < 2 or an empty box. progress("sample",
+// fraction) is called before each row of nodes, from the sampling threads (its report must be
+// thread-safe); what it throws (Cancelled, a request's time limit) stops the sampling.
 std::vector<Grid> sample_grid(const MultiField& f, int count, const Vec3& lo, const Vec3& hi,
-                              const std::array<int, 3>& n, unsigned threads = 0,
-                              const std::atomic<bool>* cancel = nullptr);
+                              const std::array<int, 3>& n, unsigned threads = 0, const Progress& progress = {});
 
 // The level set {value = level}, triangulated by marching tetrahedra (six tetrahedra per cell, Kuhn split, so neighbouring
 // cells agree). Triangles are oriented with their normals towards increasing value; vertices on

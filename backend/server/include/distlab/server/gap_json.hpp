@@ -42,7 +42,6 @@ namespace distlab::server {
 // their defaults, the server its own.
 inline constexpr std::size_t kMaxPolytopeRows = 1000;  // rows of a polytope, facets of a hull
 inline constexpr std::size_t kMaxHullPoints = 100000;  // input points of a convex_hull
-inline constexpr double kMinQuaternionNorm = 1e-9;
 
 // A shape of the request, parsed and checked (not yet built into P2S functions).
 struct ShapeSpec {

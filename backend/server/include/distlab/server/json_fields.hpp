@@ -1,7 +1,7 @@
 #pragma once
 // Typed reads of request fields shared by the JSON codecs and routes: each names the field in its
 // InvalidInput (a path such as "scenario.obstacles[2].shape.size[1]"), and refuses non-finite
-// numbers.
+// numbers. At the end, the writers of the numbers the codecs answer with.
 #include <algorithm>
 #include <cmath>
 #include <initializer_list>
@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "distlab/geometry/error.hpp"
+#include "distlab/geometry/pose.hpp"
 #include "distlab/geometry/types.hpp"
 
 namespace distlab::server {
@@ -150,6 +151,53 @@ void json_check_keys(const nlohmann::json& j, const std::string& field, const Ra
 inline void json_check_keys(const nlohmann::json& j, const std::string& field,
                             std::initializer_list<std::string_view> allowed) {
   json_check_keys<std::initializer_list<std::string_view>>(j, field, allowed);
+}
+
+// Below this norm a quaternion is no rotation: refused rather than normalised into noise.
+inline constexpr double kMinQuaternionNorm = 1e-9;
+
+// The one pose reader: {"position": [x, y, z], "quaternion": [w, x, y, z]}, |position| <=
+// kMaxCoordinate, the quaternion normalised; an absent one is the identity's, unless
+// position_required (a target is nowhere without its position).
+inline Pose json_pose(const nlohmann::json& j, const std::string& field, bool position_required = false) {
+  json_require_object(j, field);
+  json_check_keys(j, field, {"position", "quaternion"});
+  Pose pose;
+  const nlohmann::json* position =
+      position_required ? &json_required(j, field, "position") : json_optional(j, "position");
+  if (position != nullptr) pose.position = json_vec3(*position, json_key_path(field, "position"), kMaxCoordinate);
+  if (const nlohmann::json* q = json_optional(j, "quaternion")) {
+    const std::string qf = json_key_path(field, "quaternion");
+    if (!q->is_array() || q->size() != 4)
+      throw InvalidInput(qf, "expected [w, x, y, z] (4 numbers), got " +
+                                 (q->is_array() ? std::to_string(q->size()) + " elements" : std::string(q->type_name())));
+    double c[4];
+    for (std::size_t i = 0; i < 4; ++i) c[i] = json_number((*q)[i], json_index_path(qf, i));
+    const double norm = Eigen::Vector4d(c[0], c[1], c[2], c[3]).stableNorm();
+    if (!(norm >= kMinQuaternionNorm)) throw InvalidInput(qf, "quaternion has (near) zero norm; it must be a rotation");
+    pose.rotation = Quat(c[0] / norm, c[1] / norm, c[2] / norm, c[3] / norm);
+  }
+  return pose;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Writing.
+
+// A vector (fixed or run-time size) as an array of its coefficients.
+template <class Derived>
+nlohmann::json vec_json(const Eigen::MatrixBase<Derived>& v) {
+  nlohmann::json a = nlohmann::json::array();
+  for (Eigen::Index i = 0; i < v.size(); ++i) a.push_back(v[i]);
+  return a;
+}
+
+// A finite number, or null where there is none (an unbounded clearance, an unconverged distance).
+inline nlohmann::json finite_or_null(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
+
+inline nlohmann::json quat_json(const Quat& q) { return nlohmann::json::array({q.w(), q.x(), q.y(), q.z()}); }
+// A pose as json_pose reads it.
+inline nlohmann::json pose_json(const Pose& p) {
+  return {{"position", vec_json(p.position)}, {"quaternion", quat_json(p.rotation)}};
 }
 
 }  // namespace distlab::server

@@ -1,8 +1,10 @@
 #pragma once
 // A feature of the service (gap, kelvin, cbf, ...) as the core sees it: it registers its routes,
 // handles its WebSocket message types, adds its limits to GET /api/limits and its part of the
-// state a joining socket receives. The core (service.hpp) knows this interface and no feature;
-// a feature knows the core. modules.cpp wires the features in, one line each.
+// state a joining socket receives. What it keeps per session is its own type derived from
+// ModuleState (session.hpp), reached with session.state<T>(). The core (service.hpp) knows this
+// interface and no feature; a feature knows the core. modules.cpp wires the features in, one line
+// each.
 #include <functional>
 #include <memory>
 #include <string>

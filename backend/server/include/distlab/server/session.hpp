@@ -1,16 +1,17 @@
 #pragma once
-// Client sessions: an unguessable id (POST /api/session) owns every client resource (uploads,
-// Kelvin objects with their σ, jobs and their results, WebSocket connections). Lookups always go
-// through the owner's session, so another client's id is simply not found (404).
+// Client sessions: an unguessable id (POST /api/session) owns every client resource (the
+// modules' state, such as Kelvin's uploads and objects, jobs and their results, WebSocket
+// connections). Lookups always go through the owner's session, so another client's id is simply
+// not found (404).
 #include <atomic>
 #include <chrono>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <string>
+#include <type_traits>
+#include <typeindex>
 #include <vector>
-
-#include "distlab/mesh/surface.hpp"
 
 namespace distlab::server {
 
@@ -22,12 +23,10 @@ class WsSink {
   virtual void close() = 0;
 };
 
-struct KelvinObject;  // kelvin_objects.hpp
-
-struct Upload {
-  mesh::SurfaceMesh surface;
-  std::string format;
-  std::size_t bytes = 0;
+// What a module keeps per session (module.hpp), derived from this: the session holds one of each
+// type and drops it with itself; the core never looks inside.
+struct ModuleState {
+  virtual ~ModuleState() = default;
 };
 
 class Session {
@@ -37,10 +36,17 @@ class Session {
   const std::string id;
   const std::string address;  // the client address that created it (its per-address quota)
 
-  std::mutex mutex;  // guards the maps and the socket list
-  std::map<std::string, std::shared_ptr<KelvinObject>> objects;
-  std::map<std::string, std::shared_ptr<Upload>> uploads;
+  std::mutex mutex;  // guards the modules' states and the socket list
   std::vector<std::weak_ptr<WsSink>> sockets;
+
+  // The module state of type T, made empty on first use. Call with `mutex` held.
+  template <class T>
+  T& state() {
+    static_assert(std::is_base_of_v<ModuleState, T>);
+    std::unique_ptr<ModuleState>& slot = states_[std::type_index(typeid(T))];
+    if (!slot) slot = std::make_unique<T>();
+    return static_cast<T&>(*slot);
+  }
 
   void touch();
   double idle_seconds() const;
@@ -50,6 +56,7 @@ class Session {
 
  private:
   std::atomic<std::int64_t> last_seen_{0};
+  std::map<std::type_index, std::unique_ptr<ModuleState>> states_;
 };
 
 // Sessions are bounded in total and per client address, so that one client cannot deny the
