@@ -90,6 +90,49 @@ def test_cbf_rollout_streams_every_step(server):
     np.testing.assert_array_equal(np.array([f["u"] for f in frames]), record["u"])
 
 
+def test_cbf_sweep_equals_in_process(server):
+    c = distlab.Client(server)
+    events = []
+    values = [0.002, 0.0005, 0.0002]
+    sweep = c.cbf_sweep("corridor", "margins.gap.obstacle", values, params={"duration": 0.5},
+                        progress=lambda stage, f: events.append((stage, f)))
+    status = sweep.status()
+    assert status["job"]["state"] == "succeeded" and status["job"]["kind"] == "cbf_sweep"
+    assert sweep.progress() == ("3 of 3 runs done", 1.0)
+    assert events and all(stage.endswith(" of 3 runs done") for stage, _ in events)
+    ours = distlab.cbf.sweep("corridor", "margins.gap.obstacle", values, params={"duration": 0.5})
+    assert_same(sweep.result(), ours, skip={"step_us_mean"})
+
+
+def test_cbf_sweep_entries_keep_the_sweeps_order(server):
+    # Run 1 is the shortest and finishes first; the entries stay in the order of the values.
+    result = distlab.Client(server).cbf_sweep("corridor", "duration", [1.0, 0.1, 0.5],
+                                              params={"record_pairs": False}).result()
+    assert [(e["index"], e["value"], e["steps"]) for e in result["entries"]] == [(0, 1.0, 100), (1, 0.1, 10), (2, 0.5, 50)]
+
+
+def test_cbf_sweep_cancel_keeps_the_finished_runs(server):
+    c = distlab.Client(server)
+    with pytest.raises(ServiceError) as info:
+        c.cbf_sweep("corridor", "duration", [0.2, -1])
+    assert info.value.field == "sweep.values[1]" and info.value.status == 400
+    # A short run, then two of 150 s: cancelled while they run.
+    sweep = c.cbf_sweep("corridor", "duration", [0.2, 150, 150], params={"record_pairs": False}, wait=False)
+    for _ in range(6000):
+        stage, fraction = sweep.progress()
+        if stage.startswith("1 of 3") and fraction > 0.05:
+            break
+        time.sleep(0.01)
+    else:
+        pytest.fail(f"the sweep did not advance: {sweep.status()['job']}")
+    sweep.cancel()
+    with pytest.raises(ServiceError) as info:
+        sweep.wait()
+    assert info.value.code == "cancelled"
+    result = sweep.result()
+    assert [(e["index"], e["value"], e["steps"]) for e in result["entries"]] == [(0, 0.2, 20)]
+
+
 def root_base(a):
     while isinstance(a, np.ndarray):
         a = a.base
@@ -137,3 +180,4 @@ def test_mesh_frames_decode_without_copies(server):
     np.testing.assert_array_equal(frame["positions"], V.astype(np.float32))
     np.testing.assert_array_equal(frame["indices"], F)
     np.testing.assert_array_equal(frame["scalars"], np.float32(0.3))
+

@@ -1686,7 +1686,7 @@ export interface paths {
         put?: never;
         /**
          * A parameter sweep as one job: the rollout once per value of one parameter, with per-run summaries (final error, min clearance, total variation); progress and cancel as for every job
-         * @description Every run is checked before the job starts (400 naming sweep.parameter, sweep.values or sweep.values[i]). Bounds (GET /api/limits): max_cbf_steps and max_cbf_pair_steps per run (422 too_long, field sweep.values[i]), max_jobs_per_session and max_jobs_total (429), max_job_seconds.
+         * @description Every run is checked before the job starts (400 naming sweep.parameter, sweep.values or sweep.values[i]). The runs go in parallel on the compute pool; the job's stage is "K of N runs done", its fraction over all runs' steps. Bounds (GET /api/limits): max_cbf_steps and max_cbf_pair_steps per run (422 too_long, field sweep.values[i]), max_jobs_per_session and max_jobs_total (429), max_job_seconds.
          */
         post: {
             parameters: {
@@ -2269,6 +2269,8 @@ export interface components {
         };
         /** @description One run: summary and smoothness exactly as the record of the single rollout with params.PARAMETER = value */
         CbfSweepEntry: {
+            /** @description the run's place in values (runs go in parallel; entries are in the sweep's order) */
+            index?: number;
             value?: unknown;
             position_error?: number;
             min_clearance?: number | null;
