@@ -24,6 +24,7 @@ def kelvin_solve(request: Dict[str, Any], progress: Optional[Callable[[str, floa
 def cbf_rollout(
     request: Dict[str, Any], progress: Optional[Callable[[int, float], Any]] = None, every: int = 1
 ) -> Dict[str, Any]: ...
+def cbf_sweep(request: Dict[str, Any], progress: Optional[Callable[[str, float], Any]] = None) -> Dict[str, Any]: ...
 
 class KelvinField:
     @staticmethod

@@ -1,4 +1,4 @@
-"""A client for ``distlab serve``: sessions, GAP, Kelvin objects and CBF rollouts.
+"""A client for ``distlab serve``: sessions, GAP, Kelvin objects, CBF rollouts and sweeps.
 
 Responses come back as dicts whose numeric arrays are numpy arrays; mesh frames (msgpack) are
 decoded into numpy arrays that view the received bytes (no copy). Errors of the service
@@ -20,7 +20,7 @@ import websocket
 
 from .errors import InvalidInput
 
-__all__ = ["Client", "KelvinObject", "Live", "ServiceError", "decode_mesh_frame"]
+__all__ = ["Client", "CbfSweep", "KelvinObject", "Live", "ServiceError", "decode_mesh_frame"]
 
 
 class ServiceError(InvalidInput):
@@ -288,6 +288,23 @@ class Client:
                     pass
             ws.close()
 
+    def cbf_sweep(self, scenario: Union[str, Mapping[str, Any]], parameter: str, values, metric: str = "gap",
+                  params: Optional[Mapping[str, Any]] = None, *,
+                  progress: Optional[Callable[[str, float], Any]] = None, wait: bool = True) -> "CbfSweep":
+        """Starts a parameter sweep as one job (POST /api/cbf/sweeps; the arguments and the
+        entries as :func:`distlab.cbf.sweep`'s, the runs in parallel on the service's compute
+        pool). With ``wait`` waits for it (``progress(stage, fraction)``; Ctrl-C cancels it on the
+        service). Bad input raises ServiceError naming the field before any job starts."""
+        body: Dict[str, Any] = {"scenario": _plain(scenario), "metric": metric,
+                                "sweep": {"parameter": parameter, "values": _plain(list(values))}}
+        if params is not None:
+            body["params"] = _plain(params)
+        answer = self._request("POST", "/api/cbf/sweeps", json=body)
+        sweep = CbfSweep(self, answer["sweep"]["id"], answer["job"]["id"])
+        if wait:
+            sweep.wait(progress)
+        return sweep
+
 
 class Live:
     """The session's WebSocket (``with client.live() as live: ...``). :meth:`watch` chooses an
@@ -366,6 +383,42 @@ class Live:
                 if len(frames) == m["count"]:
                     return frames
         raise AssertionError("unreachable")
+
+
+class CbfSweep:
+    """A parameter sweep of the client's session (a job: the job vocabulary of :meth:`Client.job`,
+    :meth:`Client.wait` and :meth:`Client.cancel` applies to ``job``)."""
+
+    def __init__(self, client: Client, sweep_id: str, job: str):
+        self.client, self.id, self.job = client, sweep_id, job
+
+    def status(self) -> dict:
+        """GET /api/cbf/sweeps/ID: ``entries`` finished so far (in the sweep's order; each names
+        its ``index`` in ``values``), ``job`` (state, stage, fraction), and the sweep's head."""
+        return _arrays(self.client._request("GET", f"/api/cbf/sweeps/{self.id}"))
+
+    def progress(self) -> Tuple[str, float]:
+        """The job's (stage, fraction): stage "K of N runs done", fraction over all runs' steps."""
+        job = self.client.job(self.job)
+        return job.get("stage", ""), job.get("fraction", 0.0)
+
+    def wait(self, progress: Optional[Callable[[str, float], Any]] = None, timeout: float = 3600) -> dict:
+        """Waits for the sweep (as :meth:`Client.wait`: a failed or cancelled sweep raises
+        ServiceError, Ctrl-C cancels it); its result."""
+        self.client.wait(self.job, progress, timeout=timeout)
+        return self.result()
+
+    def cancel(self) -> None:
+        """Cancels the sweep; the runs finished before stay in :meth:`result`."""
+        self.client.cancel(self.job)
+
+    def result(self) -> dict:
+        """``{"scenario", "metric", "parameter", "values", "entries"}`` as :func:`distlab.cbf.sweep`
+        returns them (entries of the runs finished so far), numeric arrays as numpy arrays."""
+        out = self.status()
+        out.pop("job", None)
+        out.pop("id", None)
+        return out
 
 
 class KelvinObject:

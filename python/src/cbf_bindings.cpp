@@ -1,4 +1,4 @@
-// distlab.cbf: a rollout from the CLI's request, with progress and Ctrl-C.
+// distlab.cbf: a rollout or a parameter sweep from the CLI's request, with progress and Ctrl-C.
 #include <string>
 
 #include "bindings.hpp"
@@ -32,10 +32,24 @@ py::object cbf_rollout(const py::object& request, const py::object& progress, in
   return to_python(response);
 }
 
+// A sweep ("sweep" in the request) on all cores: `distlab cbf`'s response; progress(stage,
+// fraction) as the service's sweep job reports it.
+py::object cbf_sweep(const py::object& request, const py::object& progress) {
+  const json j = to_json(request);
+  Interruptible interrupt(progress);
+  Progress p;
+  p.cancel = interrupt.flag();
+  p.report = [&](const std::string& stage, double f) { interrupt.report(stage, f); };
+  json response;
+  interrupt.run([&] { response = server::run_cbf_sweep(j, p); });
+  return to_python(response);
+}
+
 }  // namespace
 
 void bind_cbf(py::module_& m) {
   m.def("cbf_rollout", &cbf_rollout, py::arg("request"), py::arg("progress") = py::none(), py::arg("every") = 1);
+  m.def("cbf_sweep", &cbf_sweep, py::arg("request"), py::arg("progress") = py::none());
 }
 
 }  // namespace distlab::python

@@ -216,6 +216,23 @@ TEST(MeshImport, TrianglesOfEachFileFaceFollowInTheFilesOrder) {
   EXPECT_NEAR(shoelace(polygons[2]), 35.0, 1e-12);
 }
 
+// The corner counts travel with the mesh (after dropped repeated corners), so that a triangle is
+// named as the user's face: triangle 3 is face 2's (the quad's) second; a triangle file has none.
+TEST(MeshImport, TrianglesAreNamedByTheFilesFaces) {
+  const std::string v = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 2 0\n";
+  const SurfaceMesh m = load_mesh(write_file("names.obj", v + "f 1 2 3 4 5\nf 1 2 3\nf 1 1 2 3 4\n").string());
+  EXPECT_EQ(m.polygon_corners, (std::vector<int>{5, 3, 4}));
+  const std::vector<std::string> names = {"face 0 (triangle 0 of its 5-corner fan)", "face 0 (triangle 1 of its 5-corner fan)",
+                                          "face 0 (triangle 2 of its 5-corner fan)", "face 1",
+                                          "face 2 (triangle 0 of its 4-corner fan)", "face 2 (triangle 1 of its 4-corner fan)"};
+  ASSERT_EQ(m.faces.rows(), static_cast<Eigen::Index>(names.size()));
+  for (Eigen::Index t = 0; t < m.faces.rows(); ++t) EXPECT_EQ(file_face_name(m, t), names[static_cast<std::size_t>(t)]);
+  EXPECT_TRUE(load_mesh(write_file("tri.obj", v + "f 1 2 3\nf 1 3 4\n").string()).polygon_corners.empty());
+  SurfaceMesh stale = m;
+  stale.polygon_corners = {4};  // counts that do not cover the faces are no numbering
+  EXPECT_EQ(file_face_name(stale, 4), "face 4");
+}
+
 // A polygon that repeats a vertex in neighbouring corners (a zero-length edge) loses the repeated
 // corner and is the polygon without it; one that repeats it at corners apart is refused naming
 // the face, the vertex and the corners (0-based), before any surface check.

@@ -36,13 +36,17 @@ std::string child(const std::string& name, const std::string& body) {
   return path.string();
 }
 
-// The mesh protocol with nv vertices (all coordinates x) and one face (a, b, c).
-std::string payload(std::uint64_t nv, double x, std::int32_t a, std::int32_t b, std::int32_t c) {
-  std::string s = "DLMESH1\n";
-  const std::uint64_t nf = 1;
+// The mesh protocol with nv vertices (all coordinates x), one face (a, b, c) and the polygon
+// corner counts `corners`.
+std::string payload(std::uint64_t nv, double x, std::int32_t a, std::int32_t b, std::int32_t c,
+                    const std::vector<std::int32_t>& corners = {}) {
+  std::string s = "DLMESH2\n";
+  const std::uint64_t nf = 1, np = corners.size();
   s.append(reinterpret_cast<const char*>(&nv), 8).append(reinterpret_cast<const char*>(&nf), 8);
+  s.append(reinterpret_cast<const char*>(&np), 8);
   for (std::uint64_t i = 0; i < 3 * nv; ++i) s.append(reinterpret_cast<const char*>(&x), 8);
   for (std::int32_t i : {a, b, c}) s.append(reinterpret_cast<const char*>(&i), 4);
+  for (std::int32_t k : corners) s.append(reinterpret_cast<const char*>(&k), 4);
   return s;
 }
 
@@ -95,6 +99,9 @@ TEST(IsolatedImport, ForgedOutputIsChecked) {
   lying[8] = 100;  // nv = 100, not what follows
   EXPECT_NE(refusal(cat_child("lying", lying)).find("malformed"), std::string::npos);
   EXPECT_NE(refusal(cat_child("garbage", std::string(1000, 'x'))).find("malformed"), std::string::npos);
+  // Corner counts must cover the triangles exactly (a quad is two): else no file numbering.
+  EXPECT_NE(refusal(cat_child("quad", payload(3, 1.0, 0, 1, 2, {4}))).find("malformed"), std::string::npos);
+  EXPECT_NE(refusal(cat_child("two", payload(3, 1.0, 0, 1, 2, {2}))).find("malformed"), std::string::npos);
 }
 
 TEST(IsolatedImport, AWellFormedReplyIsTheMesh) {
@@ -102,4 +109,5 @@ TEST(IsolatedImport, AWellFormedReplyIsTheMesh) {
   ASSERT_EQ(m.vertices.rows(), 3);
   EXPECT_EQ(m.vertices(2, 1), 0.5);
   EXPECT_EQ(m.faces.row(0), Eigen::RowVector3i(2, 1, 0));
+  EXPECT_TRUE(m.polygon_corners.empty());
 }

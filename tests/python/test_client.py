@@ -13,7 +13,7 @@ import pytest
 import distlab
 from distlab import gap, kelvin
 from distlab.client import ServiceError
-from conftest import EXE, ROOT, assert_same
+from conftest import EXE, ROOT, assert_same, run_cli
 
 
 @pytest.fixture(scope="module")
@@ -90,6 +90,50 @@ def test_cbf_rollout_streams_every_step(server):
     np.testing.assert_array_equal(np.array([f["u"] for f in frames]), record["u"])
 
 
+def test_cbf_sweep_equals_in_process(server):
+    c = distlab.Client(server)
+    events = []
+    values = [0.002, 0.0005, 0.0002]
+    sweep = c.cbf_sweep("corridor", "margins.gap.obstacle", values, params={"duration": 0.5},
+                        progress=lambda stage, f: events.append((stage, f)))
+    status = sweep.status()
+    assert status["job"]["state"] == "succeeded" and status["job"]["kind"] == "cbf_sweep"
+    assert sweep.progress() == ("3 of 3 runs done", 1.0)
+    stages = [stage for stage, _ in events if stage]  # "" while the job is queued
+    assert stages and all(stage.endswith(" of 3 runs done") for stage in stages)
+    ours = distlab.cbf.sweep("corridor", "margins.gap.obstacle", values, params={"duration": 0.5})
+    assert_same(sweep.result(), ours, skip={"step_us_mean"})
+
+
+def test_cbf_sweep_entries_keep_the_sweeps_order(server):
+    # Run 1 is the shortest and finishes first; the entries stay in the order of the values.
+    result = distlab.Client(server).cbf_sweep("corridor", "duration", [1.0, 0.1, 0.5],
+                                              params={"record_pairs": False}).result()
+    assert [(e["index"], e["value"], e["steps"]) for e in result["entries"]] == [(0, 1.0, 100), (1, 0.1, 10), (2, 0.5, 50)]
+
+
+def test_cbf_sweep_cancel_keeps_the_finished_runs(server):
+    c = distlab.Client(server)
+    with pytest.raises(ServiceError) as info:
+        c.cbf_sweep("corridor", "duration", [0.2, -1])
+    assert info.value.field == "sweep.values[1]" and info.value.status == 400
+    # A short run, then two of 150 s: cancelled while they run.
+    sweep = c.cbf_sweep("corridor", "duration", [0.2, 150, 150], params={"record_pairs": False}, wait=False)
+    for _ in range(6000):
+        stage, fraction = sweep.progress()
+        if stage.startswith("1 of 3") and fraction > 0.05:
+            break
+        time.sleep(0.01)
+    else:
+        pytest.fail(f"the sweep did not advance: {sweep.status()['job']}")
+    sweep.cancel()
+    with pytest.raises(ServiceError) as info:
+        sweep.wait()
+    assert info.value.code == "cancelled"
+    result = sweep.result()
+    assert [(e["index"], e["value"], e["steps"]) for e in result["entries"]] == [(0, 0.2, 20)]
+
+
 def root_base(a):
     while isinstance(a, np.ndarray):
         a = a.base
@@ -137,3 +181,38 @@ def test_mesh_frames_decode_without_copies(server):
     np.testing.assert_array_equal(frame["positions"], V.astype(np.float32))
     np.testing.assert_array_equal(frame["indices"], F)
     np.testing.assert_array_equal(frame["scalars"], np.float32(0.3))
+
+
+# A unit cube of polygons whose defect is at a known face of the file: faces 0-3 are quads
+# (triangles 0-7), face 4 (front, y = 0) a pentagon through the midpoint m of the top front edge
+# (triangles 8-10), face 5 (top) a pentagon (4, m, 5, 6, 7) whose fan's first triangle (4, m, 5)
+# has zero area: triangle 11 of the fans, face 5 of the file.
+POLYGON_CUBE_VERTICES = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1),
+                         (0.5, 0, 1)]
+POLYGON_CUBE_FACES = [(0, 3, 2, 1), (3, 7, 6, 2), (0, 4, 7, 3), (1, 2, 6, 5), (0, 1, 5, 8, 4), (4, 8, 5, 6, 7)]
+DEGENERATE_FACE = "degenerate (zero-area) face 5 (triangle 0 of its 5-corner fan)"
+
+
+def polygon_cube(fmt):
+    if fmt == "obj":
+        return "".join(f"v {x} {y} {z}\n" for x, y, z in POLYGON_CUBE_VERTICES) + "".join(
+            "f " + " ".join(str(i + 1) for i in f) + "\n" for f in POLYGON_CUBE_FACES)
+    return (f"OFF\n{len(POLYGON_CUBE_VERTICES)} {len(POLYGON_CUBE_FACES)} 0\n"
+            + "".join(f"{x} {y} {z}\n" for x, y, z in POLYGON_CUBE_VERTICES)
+            + "".join(f"{len(f)} " + " ".join(map(str, f)) + "\n" for f in POLYGON_CUBE_FACES))
+
+
+@pytest.mark.parametrize("fmt", ["obj", "off"])
+def test_polygon_file_refusals_name_the_files_face(server, fmt, tmp_path):
+    # Through the HTTP upload (the import runs in a child process).
+    c = distlab.Client(server)
+    upload = c.upload(polygon_cube(fmt).encode(), fmt)
+    with pytest.raises(ServiceError) as info:
+        c.kelvin_object(upload=upload, lx=0.3, wait=False)
+    assert DEGENERATE_FACE in str(info.value), str(info.value)
+    # Through the CLI.
+    path = tmp_path / f"cube.{fmt}"
+    path.write_text(polygon_cube(fmt))
+    code, answer = run_cli("kelvin", {"mesh": {"path": str(path)}, "lx": 0.3})
+    assert code == 2, answer
+    assert DEGENERATE_FACE in answer["error"]["message"], answer

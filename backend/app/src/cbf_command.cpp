@@ -41,8 +41,9 @@ response  "t", "q", "u", "task_error", "min_distance" (per step), "infeasible_st
           "closest_pair", "active": [{"name", "kind", "distance", "margin", "clearance",
           "converged_distance", "multiplier"}]}}, "gap_mode", ["converged_distance"]
 sweep     one run per value with params.PATH = value (PATH a dotted key of params, e.g.
-          margins.gap.obstacle, gap.tol, duration; at most 16 values; audit on by default);
-          response {"scenario", "metric", "parameter", "values", "entries": [{"value",
+          margins.gap.obstacle, gap.tol, duration; at most 16 values; audit on by default),
+          the runs in parallel on all cores; response {"scenario", "metric", "parameter",
+          "values", "entries": [{"index", "value",
           "position_error", "min_clearance", "total_variation", "infeasible_steps", "steps",
           "step_us_mean", "gap_mode", "summary", "smoothness"}]} (summary and smoothness as the
           record of the single run with that value)

@@ -38,8 +38,8 @@ std::string topology_defect(const SurfaceMesh& mesh, const std::vector<int>& nam
   for (int f = 0; f < nf; ++f) {
     const int a = mesh.faces(f, 0), b = mesh.faces(f, 1), c = mesh.faces(f, 2);
     if (std::min({a, b, c}) < 0 || std::max({a, b, c}) >= nv)
-      return "face " + std::to_string(f) + " has a vertex index out of range";
-    if (a == b || b == c || c == a) return "degenerate face " + std::to_string(f) + " (repeated vertex)";
+      return file_face_name(mesh, f) + " has a vertex index out of range";
+    if (a == b || b == c || c == a) return "degenerate " + file_face_name(mesh, f) + " (repeated vertex)";
   }
   // Per undirected edge: number of faces, and the balance of its two directions.
   struct Use {
@@ -115,7 +115,7 @@ void require_closed_manifold(SurfaceMesh& mesh, const std::string& field,
     const Vec3 b = mesh.vertices.row(mesh.faces(f, 1));
     const Vec3 c = mesh.vertices.row(mesh.faces(f, 2));
     if ((b - a).cross(c - a).norm() <= 1e-14 * scale * scale)
-      throw InvalidInput(field, "degenerate (zero-area) face " + std::to_string(f));
+      throw InvalidInput(field, "degenerate (zero-area) " + file_face_name(mesh, f));
   }
   if (options.self_intersection) {
     CGAL::Surface_mesh<K::Point_3> sm;
@@ -127,7 +127,7 @@ void require_closed_manifold(SurfaceMesh& mesh, const std::string& field,
     for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f)
       if (sm.add_face(vi[static_cast<size_t>(mesh.faces(f, 0))], vi[static_cast<size_t>(mesh.faces(f, 1))],
                       vi[static_cast<size_t>(mesh.faces(f, 2))]) == CGAL::Surface_mesh<K::Point_3>::null_face())
-        throw InvalidInput(field, "mesh is not a closed manifold surface: face " + std::to_string(f) +
+        throw InvalidInput(field, "mesh is not a closed manifold surface: " + file_face_name(mesh, f) +
                                       " cannot be added to a halfedge mesh");
     std::vector<std::pair<CGAL::Surface_mesh<K::Point_3>::Face_index,
                           CGAL::Surface_mesh<K::Point_3>::Face_index>>
@@ -138,9 +138,9 @@ void require_closed_manifold(SurfaceMesh& mesh, const std::string& field,
         return std::minmax(p.first, p.second) < std::minmax(q.first, q.second);
       });
       throw InvalidInput(field, "self-intersection: " + std::to_string(pairs.size()) +
-                                    " pair(s) of intersecting faces, first faces " +
-                                    std::to_string(std::min(f, g).idx()) + " and " +
-                                    std::to_string(std::max(f, g).idx()));
+                                    " pair(s) of intersecting triangles, first " +
+                                    file_face_name(mesh, std::min(f, g).idx()) + " and " +
+                                    file_face_name(mesh, std::max(f, g).idx()));
     }
   }
   if (signed_volume(mesh) < 0) mesh.faces.col(1).swap(mesh.faces.col(2));

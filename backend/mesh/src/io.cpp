@@ -582,7 +582,29 @@ SurfaceMesh load_mesh(const std::string& path, const std::string& field, const s
   for (const auto& polygon : soup)
     for (std::size_t k = 1; k + 1 < polygon.size(); ++k)
       out.faces.row(t++) << static_cast<int>(polygon[0]), static_cast<int>(polygon[k]), static_cast<int>(polygon[k + 1]);
+  // The corner counts, so that what is said about a triangle names the user's face.
+  if (triangles != soup.size())
+    for (const auto& polygon : soup) out.polygon_corners.push_back(static_cast<int>(polygon.size()));
   return out;
+}
+
+std::string file_face_name(const SurfaceMesh& mesh, Eigen::Index triangle) {
+  const std::vector<int>& corners = mesh.polygon_corners;
+  Eigen::Index first = 0;  // T(f) = Σ_{g<f} (k_g − 2)
+  for (std::size_t f = 0; f < corners.size() && corners[f] >= 3; ++f) {
+    const int fan = corners[f] - 2;
+    if (triangle < first + fan) {
+      // Only when the counts cover exactly the faces: anything else is not the file's numbering.
+      Eigen::Index total = 0;
+      for (const int k : corners) total += k - 2;
+      if (total != mesh.faces.rows()) break;
+      if (fan == 1) return "face " + std::to_string(f);
+      return "face " + std::to_string(f) + " (triangle " + std::to_string(triangle - first) + " of its " +
+             std::to_string(corners[f]) + "-corner fan)";
+    }
+    first += fan;
+  }
+  return "face " + std::to_string(triangle);
 }
 
 void save_mesh(const SurfaceMesh& mesh, const std::string& path, const std::string& format,

@@ -1,8 +1,9 @@
 // Mesh import in a child process with resource limits (isolated_import.hpp).
 //
 // posix_spawn (not fork) because the server is multithreaded: only exec follows in the child.
-// The child writes  "DLMESH1\n" u64 nv u64 nf  nv*3 double  nf*3 int32  (native byte order, same
-// machine), or "DLERROR\n" and a message (exit 1), or exits 3 when its memory ran out.
+// The child writes  "DLMESH2\n" u64 nv u64 nf u64 np  nv*3 double  nf*3 int32  np int32 (the
+// file's polygon corner counts, surface.hpp; native byte order, same machine), or "DLERROR\n" and
+// a message (exit 1), or exits 3 when its memory ran out.
 #include "distlab/mesh/isolated_import.hpp"
 
 #include <fcntl.h>
@@ -32,7 +33,7 @@ extern char** environ;
 namespace distlab::mesh {
 namespace {
 
-constexpr char kMeshMagic[] = "DLMESH1\n";
+constexpr char kMeshMagic[] = "DLMESH2\n";
 constexpr char kErrorMagic[] = "DLERROR\n";
 constexpr std::size_t kMagic = 8;
 constexpr int kExitInvalid = 1, kExitNoMemory = 3;
@@ -69,16 +70,18 @@ bool read_child(int fd, std::string& data, double seconds, std::size_t cap) {
 // The parent trusts nothing the child sends: sizes, coordinates and indices are checked again.
 SurfaceMesh decode(const std::string& data, const std::string& field, const std::string& name) {
   const auto malformed = [&] { return InvalidInput(field, name + " could not be imported (the importer's output was malformed)"); };
-  if (data.size() < kMagic + 16 || data.compare(0, kMagic, kMeshMagic) != 0) throw malformed();
-  std::uint64_t nv = 0, nf = 0;
+  if (data.size() < kMagic + 24 || data.compare(0, kMagic, kMeshMagic) != 0) throw malformed();
+  std::uint64_t nv = 0, nf = 0, np = 0;
   std::memcpy(&nv, data.data() + kMagic, 8);
   std::memcpy(&nf, data.data() + kMagic + 8, 8);
+  std::memcpy(&np, data.data() + kMagic + 16, 8);
   const std::uint64_t max_index = static_cast<std::uint64_t>(std::numeric_limits<int>::max());
-  if (nv > max_index || nf > max_index || data.size() != kMagic + 16 + nv * 24 + nf * 12) throw malformed();
+  if (nv > max_index || nf > max_index || np > nf || data.size() != kMagic + 24 + nv * 24 + nf * 12 + np * 4)
+    throw malformed();
   SurfaceMesh m;
   m.vertices.resize(static_cast<Eigen::Index>(nv), 3);
   m.faces.resize(static_cast<Eigen::Index>(nf), 3);
-  const char* at = data.data() + kMagic + 16;
+  const char* at = data.data() + kMagic + 24;
   for (std::uint64_t v = 0; v < nv; ++v)
     for (int k = 0; k < 3; ++k, at += 8) {
       double x;
@@ -95,6 +98,15 @@ SurfaceMesh decode(const std::string& data, const std::string& field, const std:
         throw InvalidInput(field, name + ": face " + std::to_string(f) + " has a vertex index out of range");
       m.faces(static_cast<Eigen::Index>(f), k) = i;
     }
+  std::uint64_t fans = 0;
+  for (std::uint64_t p = 0; p < np; ++p, at += 4) {
+    std::int32_t k;
+    std::memcpy(&k, at, 4);
+    if (k < 3) throw malformed();
+    fans += static_cast<std::uint64_t>(k) - 2;
+    m.polygon_corners.push_back(k);
+  }
+  if (np > 0 && fans != nf) throw malformed();
   if (nf == 0) throw InvalidInput(field, name + " contains no triangles");
   return m;
 }
@@ -113,10 +125,12 @@ int import_mesh_child(const std::vector<std::string>& args, std::ostream& out) {
 #endif
   try {
     const SurfaceMesh m = load_mesh(args[0], "mesh", args.size() == 4 ? args[3] : "");
-    const std::uint64_t nv = static_cast<std::uint64_t>(m.vertices.rows()), nf = static_cast<std::uint64_t>(m.faces.rows());
+    const std::uint64_t nv = static_cast<std::uint64_t>(m.vertices.rows()), nf = static_cast<std::uint64_t>(m.faces.rows()),
+                        np = m.polygon_corners.size();
     out.write(kMeshMagic, kMagic);
     out.write(reinterpret_cast<const char*>(&nv), 8);
     out.write(reinterpret_cast<const char*>(&nf), 8);
+    out.write(reinterpret_cast<const char*>(&np), 8);
     for (std::uint64_t v = 0; v < nv; ++v)
       for (int k = 0; k < 3; ++k) {
         const double x = m.vertices(static_cast<Eigen::Index>(v), k);
@@ -127,6 +141,7 @@ int import_mesh_child(const std::vector<std::string>& args, std::ostream& out) {
         const std::int32_t i = m.faces(static_cast<Eigen::Index>(f), k);
         out.write(reinterpret_cast<const char*>(&i), 4);
       }
+    for (const std::int32_t k : m.polygon_corners) out.write(reinterpret_cast<const char*>(&k), 4);
     out.flush();
     return out ? 0 : 2;
   } catch (const InvalidInput& e) {

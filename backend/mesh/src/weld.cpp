@@ -29,6 +29,7 @@ Welded weld(const SurfaceMesh& user) {
   out.surface.faces.resize(user.faces.rows(), 3);
   for (Eigen::Index f = 0; f < user.faces.rows(); ++f)
     for (int k = 0; k < 3; ++k) out.surface.faces(f, k) = out.to_welded[static_cast<std::size_t>(user.faces(f, k))];
+  out.surface.polygon_corners = user.polygon_corners;  // the same faces in the same order
   return out;
 }
 

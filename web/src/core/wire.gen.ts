@@ -919,7 +919,7 @@ export interface paths {
         put?: never;
         /**
          * A parameter sweep as one job: the rollout once per value of one parameter, with per-run summaries (final error, min clearance, total variation); progress and cancel as for every job
-         * @description Every run is checked before the job starts (400 naming sweep.parameter, sweep.values or sweep.values[i]). Bounds (GET /api/limits): max_cbf_steps and max_cbf_pair_steps per run (422 too_long, field sweep.values[i]), max_jobs_per_session and max_jobs_total (429), max_job_seconds.
+         * @description Every run is checked before the job starts (400 naming sweep.parameter, sweep.values or sweep.values[i]). The runs go in parallel on the compute pool; the job's stage is "K of N runs done", its fraction over all runs' steps. Bounds (GET /api/limits): max_cbf_steps and max_cbf_pair_steps per run (422 too_long, field sweep.values[i]), max_jobs_per_session and max_jobs_total (429), max_job_seconds.
          */
         post: {
             parameters: {
@@ -2180,6 +2180,8 @@ export interface components {
         };
         /** @description One run: summary and smoothness exactly as the record of the single rollout with params.PARAMETER = value */
         CbfSweepEntry: {
+            /** @description the run's place in values (runs go in parallel; entries are in the sweep's order) */
+            index: number;
             /** @description the value params.PARAMETER had in this run (any JSON value the parameter takes) */
             value: unknown;
             position_error: number;
@@ -2583,7 +2585,7 @@ export interface components {
             sigma?: components["schemas"]["Sigma"];
             levels?: number[];
             /**
-             * @description none: the surface must be closed and manifold (a refusal names edges and vertices in the file's numbering). fix: CGAL Polygon_mesh_processing steps (merge duplicate vertices, remove degenerate and duplicate faces, orient, stitch borders, remove zero-area faces, fill holes of at most max_hole_edges edges), counted in repair_report.steps; the job fails naming the defect left. wrap: CGAL 3D Alpha Wrapping at alpha and offset; repair_report gives the one-sided Hausdorff distances (sampled at vertices and face centroids). Either runs in the object's job (state repairing). sigma.per_vertex (per file vertex) reaches the repaired surface by barycentric interpolation on the nearest input face (nearest_face_transfer).
+             * @description none: the surface must be closed and manifold (a refusal names edges, vertices and faces in the file's numbering, a polygon's triangles by its face). fix: CGAL Polygon_mesh_processing steps (merge duplicate vertices, remove degenerate and duplicate faces, orient, stitch borders, remove zero-area faces, fill holes of at most max_hole_edges edges), counted in repair_report.steps; the job fails naming the defect left. wrap: CGAL 3D Alpha Wrapping at alpha and offset; repair_report gives the one-sided Hausdorff distances (sampled at vertices and face centroids). Either runs in the object's job (state repairing). sigma.per_vertex (per file vertex) reaches the repaired surface by barycentric interpolation on the nearest input face (nearest_face_transfer).
              * @default none
              * @enum {string}
              */

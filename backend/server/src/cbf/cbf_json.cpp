@@ -426,11 +426,13 @@ CbfSweep parse_cbf_sweep(const json& request, const std::string& assets_dir, std
   return out;
 }
 
-json encode_sweep_entry(const json& value, const cbf::RolloutRecord& rec, const std::string& scenario_name) {
+json encode_sweep_entry(std::size_t index, const json& value, const cbf::RolloutRecord& rec,
+                        const std::string& scenario_name) {
   json record = encode_record(rec, scenario_name, false);
   double tv = 0;
   for (const json& v : record["smoothness"]["total_variation"]) tv += v.get<double>();
-  return {{"value", value},
+  return {{"index", index},
+          {"value", value},
           {"summary", record["summary"]},
           {"smoothness", record["smoothness"]},
           {"gap_mode", record["gap_mode"]},
@@ -440,21 +442,6 @@ json encode_sweep_entry(const json& value, const cbf::RolloutRecord& rec, const 
           {"infeasible_steps", rec.infeasible_steps.size()},
           {"steps", rec.steps.size()},
           {"step_us_mean", rec.timing.step}};
-}
-
-json run_cbf_sweep(const json& request) {
-  const CbfSweep sweep = parse_cbf_sweep(request);
-  json entries = json::array();
-  for (std::size_t i = 0; i < sweep.runs.size(); ++i) {
-    const CbfRequest& r = sweep.runs[i];
-    entries.push_back(encode_sweep_entry(sweep.values[i], cbf::rollout(r.scenario, r.metric, r.options), r.scenario.name));
-  }
-  const CbfRequest& first = sweep.runs.front();
-  return {{"scenario", first.scenario.name},
-          {"metric", cbf::to_string(first.metric)},
-          {"parameter", sweep.parameter},
-          {"values", sweep.values},
-          {"entries", entries}};
 }
 
 }  // namespace distlab::server

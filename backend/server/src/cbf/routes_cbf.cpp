@@ -132,26 +132,24 @@ class CbfSweepStore {
   std::vector<std::shared_ptr<CbfSweepRun>> sweeps_;
 };
 
-// The sweep's job: each run in turn (progress over all runs' steps, the job's cancel flag stops
-// the run in progress and the sweep).
-json run_sweep(const std::shared_ptr<CbfSweepRun>& s, const CbfSweep& sweep, Job& job) {
-  const std::size_t n = sweep.runs.size();
-  for (std::size_t i = 0; i < n && !job.cancelled(); ++i) {
-    const CbfRequest& r = sweep.runs[i];
-    cbf::RolloutOptions options = r.options;
-    options.cancel = &job.cancel;
-    const std::string stage = "run " + std::to_string(i + 1) + " of " + std::to_string(n);
-    const double steps = std::max(1, r.scenario.steps());
-    options.progress = [&](int k, const cbf::StepRecord&) {
-      job.report(stage, (static_cast<double>(i) + (k + 1) / steps) / static_cast<double>(n));
-      return !job.cancelled();
-    };
-    const cbf::RolloutRecord rec = cbf::rollout(r.scenario, r.metric, options);
-    if (rec.cancelled) break;
-    json entry = encode_sweep_entry(sweep.values[i], rec, r.scenario.name);
+// The sweep's job: its runs in parallel on the compute pool, one run per posted task so that
+// requests queued meanwhile are not held up behind the whole sweep; the job's thread runs runs
+// too. Entries are kept in the sweep's order as runs finish; the job's cancel flag stops them all.
+json run_sweep(const std::shared_ptr<CbfSweepRun>& s, const CbfSweep& sweep, Job& job,
+               const std::function<bool(std::function<void()>)>& post, unsigned threads) {
+  SweepExecution how;
+  how.cancel = &job.cancel;
+  how.progress = [&job](const std::string& stage, double fraction) { job.report(stage, fraction); };
+  how.finished = [&s](std::size_t, const json& entry) {
     std::lock_guard lock(s->mutex);
-    s->entries.push_back(std::move(entry));
-  }
+    auto at = std::upper_bound(s->entries.begin(), s->entries.end(), entry["index"],
+                               [](const json& index, const json& e) { return index < e["index"]; });
+    s->entries.insert(at, entry);
+  };
+  how.post = post;
+  how.helpers = threads > 1 ? threads - 1 : 0;
+  how.one_run_per_task = true;
+  execute_sweep(sweep, how);
   json out = s->head;
   std::lock_guard lock(s->mutex);
   out["entries"] = s->entries;
@@ -313,7 +311,11 @@ void CbfModule::register_routes() {
                                 {"parameter", sweep->parameter},
                                 {"values", sweep->values}};
                      auto job = jobs_.submit(session->id, "cbf_sweep", {{"parameter", sweep->parameter}},
-                                             [s, sweep](Job& j) { return run_sweep(s, *sweep, j); });
+                                             [this, s, sweep](Job& j) {
+                                               return run_sweep(
+                                                   s, *sweep, j, [this](std::function<void()> task) { return post_compute(std::move(task)); },
+                                                   compute_.size());
+                                             });
                      s->id = job->id;
                      sweeps->add(s);
                      json status = s->head;

@@ -5,6 +5,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "distlab/geometry/types.hpp"
 
@@ -15,7 +16,15 @@ using FacesX3 = Eigen::Matrix<int, Eigen::Dynamic, 3, Eigen::RowMajor>;
 struct SurfaceMesh {
   MatX3 vertices;  // one row per vertex
   FacesX3 faces;   // counter-clockwise seen from outside (outward normals)
+  // The file's faces when some had over three corners: polygon_corners[f] = k_f, the corner count
+  // of the file's face f (load_mesh's fans below: faces holds Σ (k_f − 2) rows). Empty: face f is
+  // the file's face f. Whatever changes the faces' count or order must clear it.
+  std::vector<int> polygon_corners = {};
 };
+
+// Triangle t as the user numbers it: "face F" (the file's face), or "face F (triangle j of its
+// k-corner fan)" for a polygon; "face t" when polygon_corners is empty or does not match faces.
+std::string file_face_name(const SurfaceMesh& mesh, Eigen::Index triangle);
 
 // Reads OFF, OBJ, PLY, STL (CGAL's polygon-soup readers) and glTF/GLB (assimp), chosen by the
 // file's extension. The vertices are the file's own, in the file's order: a position listed twice

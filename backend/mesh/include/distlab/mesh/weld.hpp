@@ -12,7 +12,7 @@ namespace distlab::mesh {
 struct Welded {
   // One vertex per distinct position among the vertices that faces use, numbered in the order of
   // their first user vertex (no duplicates and no unused vertices: the same numbering as the
-  // user's); faces as the user's (same order and corners), re-indexed.
+  // user's); faces as the user's (same order and corners, polygon_corners kept), re-indexed.
   SurfaceMesh surface;
   // to_welded[i]: the welded vertex of user vertex i, or −1 when no face uses vertex i.
   std::vector<int> to_welded;

@@ -27,6 +27,7 @@
 
 #include "distlab/cbf/feasibility.hpp"
 #include "distlab/cbf/rollout.hpp"
+#include "distlab/geometry/progress.hpp"
 #include "distlab/server/gap_json.hpp"
 
 namespace distlab::server {
@@ -92,13 +93,32 @@ struct CbfSweep {
 };
 CbfSweep parse_cbf_sweep(const nlohmann::json& request, const std::string& assets_dir = "",
                          std::size_t max_values = kMaxSweepValues);
-// One run of a sweep: {"value", "summary" and "smoothness" (as the run's record), "gap_mode",
-// "position_error", "min_clearance", "total_variation" (Σ over joints), "infeasible_steps" (count),
-// "steps", "step_us_mean"}.
-nlohmann::json encode_sweep_entry(const nlohmann::json& value, const cbf::RolloutRecord& record,
+// One run of a sweep: {"index" (of values), "value", "summary" and "smoothness" (as the run's
+// record), "gap_mode", "position_error", "min_clearance", "total_variation" (Σ over joints),
+// "infeasible_steps" (count), "steps", "step_us_mean"}.
+nlohmann::json encode_sweep_entry(std::size_t index, const nlohmann::json& value, const cbf::RolloutRecord& record,
                                   const std::string& scenario_name);
-// `distlab cbf` with "sweep": {"scenario", "metric", "parameter", "values", "entries": [...]}.
-nlohmann::json run_cbf_sweep(const nlohmann::json& request);
+
+// How a sweep's runs are spread over threads (cbf_sweep.cpp). The calling thread runs runs too,
+// so the sweep advances even when post refuses every helper.
+struct SweepExecution {
+  const std::atomic<bool>* cancel = nullptr;  // stops every run (a cancelled run has no entry)
+  // Over all runs' steps: stage "K of N runs done", fraction; serialised, never decreasing.
+  std::function<void(const std::string& stage, double fraction)> progress;
+  // A finished run's entry, as it finishes (serialised; runs finish in any order).
+  std::function<void(std::size_t index, const nlohmann::json& entry)> finished;
+  // Runs a task on another thread; false: it cannot (fewer runs go in parallel). Empty: one thread.
+  std::function<bool(std::function<void()>)> post;
+  unsigned helpers = 0;           // tasks posted at the start (at most runs − 1)
+  bool one_run_per_task = false;  // a helper re-posts itself after each run (a shared pool stays fair)
+};
+// Runs every run of the sweep; the entries in the sweep's order (null where a run was cancelled).
+// Each entry is the same whatever thread ran it. Rethrows the error of the lowest failing run.
+std::vector<nlohmann::json> execute_sweep(const CbfSweep& sweep, const SweepExecution& how);
+// `distlab cbf` with "sweep": {"scenario", "metric", "parameter", "values", "entries": [...]}, the
+// runs on all cores. progress (geometry/progress.hpp): report(stage, fraction) as execute_sweep's,
+// cancel stops the sweep (then throws Cancelled).
+nlohmann::json run_cbf_sweep(const nlohmann::json& request, const Progress& progress = {});
 
 // Target feasibility of a request's scenario (cbf::target_feasibility; "metric" is ignored):
 // {"scenario", "reachable", "q": [7], "clearance", "limiting_pair", "self_clearance",
