@@ -74,18 +74,20 @@ const Field& field() {
   return f;
 }
 
-// The wrench meshed with its inversion centre at the origin: cells from l_x-scale near the
-// object's surface (|y| large) to the far-field bound, and (non-convex) cells outside Ω_inv.
+// The wrench meshed with its inversion centre at the origin, σ = 0.3: cells from l_x-scale near
+// the object's surface (|y| large) to the far-field bound, and (non-convex) cells outside Ω_inv.
+Field wrench(double lx) {
+  PrepareOptions o;
+  o.lx = lx;
+  o.centre = Vec3::Zero();
+  o.feature_angle = 180;
+  Field f = Field::prepare(mesh::weld(mesh::load_mesh(std::string(DISTLAB_ASSET_DIR) + "/wrench.stl")).surface, o);
+  f.set_sigma(constant_sigma(0.3));
+  return f;
+}
+
 Field& wrench_field() {
-  static Field f = [] {
-    PrepareOptions o;
-    o.lx = 0.008;
-    o.centre = Vec3::Zero();
-    o.feature_angle = 180;
-    Field w = Field::prepare(mesh::weld(mesh::load_mesh(std::string(DISTLAB_ASSET_DIR) + "/wrench.stl")).surface, o);
-    w.set_sigma(constant_sigma(0.3));
-    return w;
-  }();
+  static Field f = wrench(0.008);
   return f;
 }
 
@@ -310,12 +312,7 @@ TEST(KelvinLocator, BoundaryVerticesQueriedFromAnOutsideCellGiveSigma) {
   // (the point is on its closure); the query must still use a domain cell around the vertex:
   // h = σ there (eq. 9). Regression: a search of face neighbours alone missed them on the wrench.
   // The wrench: non-convex, so its triangulation has cells outside Ω_inv (the sphere has none).
-  PrepareOptions o;
-  o.lx = 0.006;
-  o.centre = Vec3::Zero();
-  o.feature_angle = 180;
-  Field f = Field::prepare(mesh::weld(mesh::load_mesh(std::string(DISTLAB_ASSET_DIR) + "/wrench.stl")).surface, o);
-  f.set_sigma(constant_sigma(0.3));
+  const Field f = wrench(0.006);
   const TetMesh& m = f.tet_mesh();
   int checked = 0;
   for (int c = 0; c < m.tets.rows(); ++c) {
