@@ -8,7 +8,9 @@
 // bench_kelvin does, in `rounds` passes; before each pass the caches are flushed by streaming a
 // buffer larger than the L3 (the bench queries right after its solves have done the same), so
 // every pass sees cold caches like the bench's single pass; the medians of all passes' times
-// are reported. "fingerprint" is an FNV-1a
+// are reported. "AABB med": CGAL's AABB-tree distance to the surface (SurfaceOracle, the baseline
+// of distlab-bench-kelvin) at the same 1000 points, timed the same way, caches flushed before
+// each pass; "q_seed / AABB" their ratio. "fingerprint" is an FNV-1a
 // hash of the bits of h and ∇h at the 1000 points and at n more random points (hint-less), and
 // of h and ∇h along the bench's coherent path (hinted): two builds answer bit for bit alike iff
 // their fingerprints match. Uses only the public API, so it builds against older versions too.
@@ -24,6 +26,7 @@
 
 #include "../../backend/app/bench/query_sets.hpp"
 #include "distlab/kelvin/field.hpp"
+#include "distlab/kelvin/surface_tools.hpp"
 #include "distlab/mesh/primitives.hpp"
 #include "profile_args.hpp"
 
@@ -100,8 +103,10 @@ int main(int argc, char** argv) {
   const mesh::SurfaceMesh cube = mesh::box(Vec3::Ones());
   if (!only_seeded)
     std::printf(
-        "| l_x | N_verts | N_tets | size_mb | q_hint med | q_seed med | q_seed p90 | q_seed med (n more) | fingerprint |\n"
-        "|---|---|---|---|---|---|---|---|---|\n");
+        "| l_x | N_verts | N_tets | size_mb | q_hint med | q_seed med | q_seed p90 | q_seed med (n more) | AABB med | "
+        "q_seed / AABB | fingerprint |\n"
+        "|---|---|---|---|---|---|---|---|---|---|---|\n");
+  const SurfaceOracle aabb(cube);
   for (double lx : lxs) {
     PrepareOptions o;
     o.lx = lx;
@@ -115,7 +120,7 @@ int main(int argc, char** argv) {
     }
     Fnv64 print;
     if (!dump_path.empty()) print.dump = std::fopen((dump_path + "-" + std::to_string(lx)).c_str(), "w");
-    std::vector<double> hinted, seeded, seeded_more;
+    std::vector<double> hinted, seeded, seeded_more, aabb_times;
     std::mt19937 shuffle(11);
     for (int r = 0; r < rounds; ++r) {
       int hint = -1;
@@ -137,6 +142,12 @@ int main(int argc, char** argv) {
       }
       if (r == 0)
         for (const Sample& s : answers) print.add(s);
+      sink += flush_caches();
+      for (int i : order) {
+        const auto t0 = Clock::now();
+        sink += aabb.distance(random[static_cast<size_t>(i)]);
+        aabb_times.push_back(since_us(t0));
+      }
     }
     sink += flush_caches();
     for (const Vec3& x : more) {  // each once: a larger sample (later ones meet warmer caches)
@@ -148,9 +159,10 @@ int main(int argc, char** argv) {
     }
     if (print.dump) std::fclose(print.dump);
     const Stats& st = f.stats();
-    std::printf("| %g | %ld | %ld | %.1f | %.3f | %.3f | %.3f | %.3f | %016llx |\n", lx, st.n_verts, st.n_tets, st.size_mb,
-                percentile(hinted, 0.5), percentile(seeded, 0.5), percentile(seeded, 0.9),
-                seeded_more.empty() ? 0.0 : percentile(seeded_more, 0.5), static_cast<unsigned long long>(print.h));
+    std::printf("| %g | %ld | %ld | %.1f | %.3f | %.3f | %.3f | %.3f | %.3f | %.2f | %016llx |\n", lx, st.n_verts, st.n_tets,
+                st.size_mb, percentile(hinted, 0.5), percentile(seeded, 0.5), percentile(seeded, 0.9),
+                seeded_more.empty() ? 0.0 : percentile(seeded_more, 0.5), percentile(aabb_times, 0.5),
+                percentile(seeded, 0.5) / percentile(aabb_times, 0.5), static_cast<unsigned long long>(print.h));
     std::fflush(stdout);
     if (sink == 12345.678) std::puts("");
   }

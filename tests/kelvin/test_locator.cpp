@@ -4,9 +4,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <limits>
 #include <random>
+#include <string>
+#include <vector>
 
 #include "distlab/mesh/surface.hpp"
 #include "distlab/mesh/weld.hpp"
@@ -69,6 +72,56 @@ bool expect_agrees_with_scan(const TetMesh& m, const PackedMesh& pm, const Locat
 const Field& field() {
   static const Field f = Field::prepare(sphere_mesh(Sphere{}), sphere_options(0.1));
   return f;
+}
+
+// The wrench meshed with its inversion centre at the origin, σ = 0.3: cells from l_x-scale near
+// the object's surface (|y| large) to the far-field bound, and (non-convex) cells outside Ω_inv.
+Field wrench(double lx) {
+  PrepareOptions o;
+  o.lx = lx;
+  o.centre = Vec3::Zero();
+  o.feature_angle = 180;
+  Field f = Field::prepare(mesh::weld(mesh::load_mesh(std::string(DISTLAB_ASSET_DIR) + "/wrench.stl")).surface, o);
+  f.set_sigma(constant_sigma(0.3));
+  return f;
+}
+
+Field& wrench_field() {
+  static Field f = wrench(0.008);
+  return f;
+}
+
+// The walk of locator.cpp written plainly over TetMesh's own arrays (rows of tets, neighbours
+// and points): no records, no seeding grid copies, no prefetches. Same start, same face order
+// (the same xorshift sequence), same tolerance; cell -1 if it has not ended after max_steps.
+Location reference_walk(const TetMesh& m, const Vec3& y, int c, int max_steps = 100000) {
+  Location loc;
+  std::uint32_t rng = 2463534242u;
+  for (int step = 0; step < max_steps; ++step) {
+    barycentric(m, c, y, loc.lambda);
+    rng ^= rng << 13, rng ^= rng >> 17, rng ^= rng << 5;
+    int exit = -1;
+    for (int k = 0; k < 4 && exit < 0; ++k)
+      if (const int i = static_cast<int>((rng + static_cast<std::uint32_t>(k)) & 3u); loc.lambda[i] < -1e-12) exit = i;
+    loc.cell = c;
+    loc.steps = step;
+    if (exit >= 0 && m.neighbours(c, exit) >= 0) {
+      c = m.neighbours(c, exit);
+      continue;
+    }
+    loc.outside_hull = exit >= 0;
+    return loc;
+  }
+  loc.cell = -1;
+  return loc;
+}
+
+// What the locator's walk over the packed records returns is what the plain walk returns, bit for bit.
+void expect_same_location(const Location& a, const Location& r, int i) {
+  ASSERT_EQ(a.cell, r.cell) << i;
+  EXPECT_EQ(a.steps, r.steps) << i;
+  EXPECT_EQ(a.outside_hull, r.outside_hull) << i;
+  for (int k = 0; k < 4; ++k) EXPECT_EQ(a.lambda[k], r.lambda[k]) << i;
 }
 
 }  // namespace
@@ -169,13 +222,8 @@ TEST(KelvinLocator, SeedsAreValidCellsForAnyPoint) {
 }
 
 TEST(KelvinLocator, GradedMeshAgreesWithTheScan) {
-  // The wrench meshed with its inversion centre at the origin: cells from l_x-scale near the
-  // object's surface (|y| large) to the far-field bound; the two-level grid adapts to both.
-  PrepareOptions o;
-  o.lx = 0.008;
-  o.centre = Vec3::Zero();
-  o.feature_angle = 180;
-  const Field f = Field::prepare(mesh::weld(mesh::load_mesh(std::string(DISTLAB_ASSET_DIR) + "/wrench.stl")).surface, o);
+  // The wrench's graded mesh: the two-level grid adapts to both ends of its cell sizes.
+  const Field& f = wrench_field();
   const TetMesh& m = f.tet_mesh();
   const Located located(m);
   const Locator& loc = located.locator;
@@ -264,12 +312,7 @@ TEST(KelvinLocator, BoundaryVerticesQueriedFromAnOutsideCellGiveSigma) {
   // (the point is on its closure); the query must still use a domain cell around the vertex:
   // h = σ there (eq. 9). Regression: a search of face neighbours alone missed them on the wrench.
   // The wrench: non-convex, so its triangulation has cells outside Ω_inv (the sphere has none).
-  PrepareOptions o;
-  o.lx = 0.006;
-  o.centre = Vec3::Zero();
-  o.feature_angle = 180;
-  Field f = Field::prepare(mesh::weld(mesh::load_mesh(std::string(DISTLAB_ASSET_DIR) + "/wrench.stl")).surface, o);
-  f.set_sigma(constant_sigma(0.3));
+  const Field f = wrench(0.006);
   const TetMesh& m = f.tet_mesh();
   int checked = 0;
   for (int c = 0; c < m.tets.rows(); ++c) {
@@ -286,4 +329,71 @@ TEST(KelvinLocator, BoundaryVerticesQueriedFromAnOutsideCellGiveSigma) {
     }
   }
   EXPECT_GT(checked, 500);
+}
+
+TEST(KelvinLocator, PackedWalksEqualAPlainWalkOverTheTetMeshBitForBit) {
+  // The query's layout (packed cell records, the seeding grid's copies of their vertex ids, vertex
+  // records with V and ∇V, prefetches) changes no number: from the same start cell the walk
+  // ends in the same cell after the same steps with the same barycentric coordinates as a plain
+  // walk over TetMesh, and h is the one interpolated by hand from the public vertex values.
+  // Points: random in and beyond the triangulation's box (outside the hull), random far hints,
+  // and points within rounding of faces, edges and vertices (the walk's tolerance decides there).
+  Field& f = wrench_field();
+  const TetMesh& m = f.tet_mesh();
+  const Located located(m);
+  const Locator& loc = located.locator;
+  const PackedMesh& pm = located.packed;
+  const Vec3 lo = m.points.colwise().minCoeff().transpose(), hi = m.points.colwise().maxCoeff().transpose();
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<double> u(0, 1), tiny(-1e-13, 1e-13);
+  std::uniform_int_distribution<int> cell(0, static_cast<int>(m.tets.rows()) - 1), corner(0, 3);
+  std::vector<Vec3> ys;
+  for (int i = 0; i < 3000; ++i) ys.push_back(lo + (hi - lo).cwiseProduct(Vec3(u(rng), u(rng), u(rng)) * 1.2 - Vec3::Constant(0.1)));
+  for (int i = 0; i < 3000; ++i) {
+    const int c = cell(rng);
+    const Vec3 a = m.points.row(m.tets(c, corner(rng))), b = m.points.row(m.tets(c, corner(rng))),
+               d = m.points.row(m.tets(c, corner(rng)));
+    const Vec3 on = i % 3 == 0 ? a : i % 3 == 1 ? Vec3(0.5 * (a + b))
+                                                : Vec3((a + b + d) / 3.0);
+    ys.push_back(on + on.norm() * Vec3(tiny(rng), tiny(rng), tiny(rng)));
+  }
+  int outside = 0, not_domain = 0, stepped = 0, answered = 0;
+  for (int i = 0; i < static_cast<int>(ys.size()); ++i) {
+    // The point as the query computes it from its x (eq. 5 there and back, rounded).
+    const Vec3 x = f.centre() + ys[static_cast<size_t>(i)] / ys[static_cast<size_t>(i)].squaredNorm();
+    const Vec3 y = (x - f.centre()) / (x - f.centre()).squaredNorm();
+    if (!y.allFinite()) continue;
+    const int start = cell(rng);
+    const Location ref_seeded = reference_walk(m, y, loc.seed(y)), ref_hinted = reference_walk(m, y, start);
+    ASSERT_GE(ref_seeded.cell, 0) << i;
+    ASSERT_GE(ref_hinted.cell, 0) << i;
+    const Location seeded = loc.locate(pm, y, -1), hinted = loc.locate(pm, y, start);
+    expect_same_location(seeded, ref_seeded, i);
+    expect_same_location(hinted, ref_hinted, i);
+    const bool in_domain = !ref_seeded.outside_hull && m.in_domain[static_cast<size_t>(ref_seeded.cell)];
+    outside += ref_seeded.outside_hull;
+    not_domain += !ref_seeded.outside_hull && !in_domain;
+    stepped += ref_seeded.steps > 0;
+    // The field's own query (its locator is built the same way) answers from the same cell.
+    if (!in_domain) continue;
+    int hint = start;
+    const Sample a = f.query(x), b = f.query(x, &hint);
+    double v = 0;  // the query's interpolation: same sum, same order
+    for (int k = 0; k < 4; ++k) v += ref_seeded.lambda[k] * f.vertex_values()[m.tets(ref_seeded.cell, k)];
+    if (!(v > 0)) continue;
+    ++answered;
+    ASSERT_EQ(a.status, Status::ok) << i;
+    EXPECT_EQ(a.h, -std::log(std::sqrt(y.squaredNorm()) * v)) << i;
+    if (ref_hinted.cell == ref_seeded.cell) {
+      EXPECT_EQ(hint, ref_hinted.cell) << i;
+      EXPECT_EQ(b.h, a.h) << i;
+      for (int k = 0; k < 3; ++k) EXPECT_EQ(b.gradient[k], a.gradient[k]) << i;
+    }
+  }
+  std::printf("off the hull %d, outside Ω_inv %d, stepped %d, answered %d\n", outside, not_domain, stepped, answered);
+  // Each kind of point was met: off the hull, in cells outside Ω_inv, after face crossings.
+  EXPECT_GT(outside, 100);
+  EXPECT_GT(not_domain, 20);
+  EXPECT_GT(stepped, 1000);
+  EXPECT_GT(answered, 2000);
 }
