@@ -4,8 +4,7 @@
 //
 // The exact target pose is outside the Euclidean safe set (best clearance over the arm's
 // redundancy 2.65 cm < δ_obs = 3 cm, franka-corridor.md), so "reached" here is the issue's
-// |p − p_d| ≤ 2 cm inside the slot, not ‖r‖ < 1e-3 (which replaced the disabled
-// Corridor.ReachesTheTarget of issue 6).
+// |p − p_d| ≤ 2 cm inside the slot, not ‖r‖ < 1e-3.
 #include <cmath>
 #include <map>
 #include <set>

@@ -9,7 +9,7 @@
 // Euclidean margin δ_obs = 0.03 and, with GAP, D ≈ 2e-5 there, below δ_obs = 0.002. Independently,
 // with GAP, link 7's boxes (whose pose the target fixes completely) have D < 0.002 to the roof.
 // So the target lies outside the safe set {D ≥ δ} of eq. (7) with the facts of franka-corridor.md:
-// a CBF-QP rollout cannot converge to it (see test_rollout.cpp, DISABLED_ReachesTheTarget).
+// a CBF-QP rollout cannot converge to it (test_corridor_outcomes.cpp asserts arrival within 2 cm instead).
 #include <cmath>
 #include <numbers>
 
