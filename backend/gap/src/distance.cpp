@@ -67,6 +67,13 @@ void solve_into(GapResult& r, const GapBody& a, const GapBody& b, const GapParam
   }
 }
 
+// Definition 2 on overlap: any common point (r.euclidean's witness); Λ = 0 (Proposition 3).
+GapResult& overlapping(GapResult& r) {
+  r.overlap = true;
+  r.witness_a = r.witness_b = r.euclidean.witness_a;
+  return r;
+}
+
 }  // namespace
 
 GapResult gap_distance(const GapBody& a, const GapBody& b, const GapParams& params) {
@@ -76,10 +83,16 @@ GapResult gap_distance(const GapBody& a, const GapBody& b, const GapParams& para
   a.p2s().prefetch();  // the solver's rows arrive while the Euclidean start is computed
   b.p2s().prefetch();
   if (!params.euclidean) {
-    // An uncertified GJK answer is a good enough start; near contact the certified path below
-    // decides overlap with libccd.
-    r.euclidean = gjk_distance(a.p2s().shape(), a.pose(), b.p2s().shape(), b.pose(),
-                               a.radius() + b.radius());
+    // An uncertified GJK answer is a good enough start. The same GJK settles a clear overlap
+    // with a checked common point (the certified path's answer, distance 0, by the same test);
+    // near contact the certified path below decides with FCL and libccd.
+    const GjkAnswer g = gjk_distance_or_common_point(a.p2s().shape(), a.pose(), b.p2s().shape(),
+                                                     b.pose(), a.radius() + b.radius());
+    if (g.common) {
+      r.euclidean.witness_a = r.euclidean.witness_b = *g.common;
+      return overlapping(r);
+    }
+    r.euclidean = g.nearest;
     if (r.euclidean.distance > 1e-6 * (a.radius() + b.radius())) {
       r.euclidean_computed = false;
       const Vec3 middle = 0.5 * (r.euclidean.witness_a + r.euclidean.witness_b);
@@ -88,13 +101,8 @@ GapResult gap_distance(const GapBody& a, const GapBody& b, const GapParams& para
     }
   }
   r.euclidean = euclidean_distance(a.euclidean(), a.pose(), b.euclidean(), b.pose());
-  if (r.euclidean.distance <= 0.0) {
-    // Definition 2 on overlap: any common point; Λ = 0 (Proposition 3).
-    const auto common = common_point(a.p2s().shape(), a.pose(), b.p2s().shape(), b.pose());
-    r.overlap = true;
-    r.witness_a = r.witness_b = common ? *common : r.euclidean.witness_a;
-    return r;
-  }
+  // On overlap its witness is already common_point's answer (euclidean.hpp).
+  if (r.euclidean.distance <= 0.0) return overlapping(r);
   // The plain iteration starts at the Euclidean witness on A, as in the paper (Section IV-A);
   // Newton starts between the Euclidean witnesses, where a* and b* lie (fewer steps: 4.5 against
   // 5.7 on the paper's random polytopes).
