@@ -307,3 +307,88 @@ TEST(GapDistance, WarmStartAlongAMotionMatchesColdCalls) {
 
 }  // namespace
 }  // namespace distlab
+
+namespace distlab {
+namespace {
+
+// predict_witnesses is first-order continuation: its error against the solution at the moved
+// poses is of second order in the move, while the old witnesses
+// are off by first order. Both shapes move (the rigid carrying of E's derivatives) or one only; the
+// solutions at tol 1e-12.
+TEST(GapDistance, PredictedWitnessesAreSecondOrderInThePoseChange) {
+  const GapParams p;
+  std::mt19937_64 rng(51);
+  const std::vector<std::pair<Shape, Shape>> pairs = {
+      {test::random_polytope(rng, 10, 0.12), Box{Vec3(0.1, 0.2, 0.15)}},
+      {Cylinder{0.06, 0.2}, Capsule{0.05, 0.15}},
+      {Sphere{0.08}, test::random_polytope(rng, 12, 0.1)}};
+  for (const auto& [sa, sb] : pairs)
+    for (int moving = 0; moving < 2; ++moving) {
+      const Pose pa0{Vec3::Zero(), test::random_rotation(rng)};
+      const Pose pb0{0.5 * test::random_unit(rng), test::random_rotation(rng)};
+      GapBody a(sa, pa0, p), b(sb, pb0, p);
+      ASSERT_GT(gap_distance(a, b, p).euclidean.distance, 0.05);
+      const Vec3 mid = 0.5 * (a.pose().position + b.pose().position);
+      const WitnessSolution last = solve_newton(a.p2s(), b.p2s(), mid, 1e-12, 100);
+      ASSERT_TRUE(last.converged && last.evaluated);
+      const Vec3 va = test::random_unit(rng), wa = test::random_unit(rng);
+      const Vec3 vb = test::random_unit(rng), wb = test::random_unit(rng);
+      double err_pred[2], err_old[2];
+      for (int half = 0; half < 2; ++half) {
+        const double step = half ? 1.25e-4 : 2e-3;  // metres and radians
+        const Pose pa = moving ? Pose{pa0.position + step * va, test::rotate_world(pa0.rotation, step * wa)} : pa0;
+        const Pose pb{pb0.position + step * vb, test::rotate_world(pb0.rotation, step * wb)};
+        a.set_pose(pa), b.set_pose(pb);
+        const WitnessSolution exact = solve_newton(a.p2s(), b.p2s(), last.a, 1e-12, 100, &last.b);
+        ASSERT_TRUE(exact.converged);
+        Vec3 pred_a, pred_b;
+        ASSERT_TRUE(predict_witnesses(last, pa0, pb0, pa, pb, pred_a, pred_b));
+        err_pred[half] = std::max((pred_a - exact.a).norm(), (pred_b - exact.b).norm());
+        err_old[half] = std::max((last.a - exact.a).norm(), (last.b - exact.b).norm());
+      }
+      SCOPED_TRACE(shape_type_name(sa) + " vs " + shape_type_name(sb) + (moving ? ", both move" : ", B moves"));
+      EXPECT_LT(err_pred[0], 0.1 * err_old[0]);
+      EXPECT_LT(err_pred[1], err_pred[0] / 64);  // second order: a 16 times smaller move, ~1/256
+      EXPECT_GT(err_old[1], err_old[0] / 32);    // first order: ~1/16
+    }
+}
+
+// A pair tracked with gap_distance_tracked along a motion of both shapes gives the cold calls'
+// answers, in fewer Newton steps than gap_distance_warm from the old witnesses; overlap on the
+// way is detected and the track restarts after it.
+TEST(GapDistance, TrackedMotionMatchesColdCallsInFewerSteps) {
+  const GapParams p;
+  std::mt19937_64 rng(52);
+  GapBody a(test::random_polytope(rng, 10, 0.1), Pose{}, p);
+  GapBody b(Box{Vec3(0.1, 0.15, 0.08)}, Pose{Vec3(0.3, 0.0, 0.0), Quat::Identity()}, p);
+  GapTrack track;
+  Vec3 start_a = a.pose().position, start_b = b.pose().position;
+  int tracked_iterations = 0, warm_iterations = 0;
+  for (int i = 0; i < 100; ++i) {
+    const double t = 0.01 * i;
+    a.set_pose(Pose{Vec3(0, 0.02 * std::sin(2 * t), 0), Quat(Eigen::AngleAxisd(0.3 * t, Vec3::UnitZ()))});
+    b.set_pose(Pose{Vec3(0.3, 0.1 * std::sin(3 * t), 0.05 * t), Quat(Eigen::AngleAxisd(t, Vec3::UnitX()))});
+    const GapResult tracked = gap_distance_tracked(a, b, p, track);
+    const GapResult warm = gap_distance_warm(a, b, p, start_a, start_b);
+    const GapResult cold = gap_distance(a, b, p);
+    ASSERT_FALSE(cold.overlap);
+    ASSERT_TRUE(tracked.converged);
+    EXPECT_TRUE(track.valid);
+    EXPECT_NEAR(tracked.distance, cold.distance, 1e-12);
+    EXPECT_LT((tracked.witness_a - cold.witness_a).norm(), 1e-9);
+    EXPECT_LT((tracked.gradient_a - cold.gradient_a).norm() + (tracked.gradient_b - cold.gradient_b).norm(), 1e-8);
+    if (i > 1) tracked_iterations += tracked.iterations, warm_iterations += warm.iterations;
+    start_a = warm.witness_a, start_b = warm.witness_b;
+  }
+  EXPECT_LT(tracked_iterations, 0.8 * warm_iterations);
+  b.set_pose(Pose{a.pose().position + Vec3(0.02, 0, 0), Quat::Identity()});
+  EXPECT_TRUE(gap_distance_tracked(a, b, p, track).overlap);
+  EXPECT_FALSE(track.valid);
+  b.set_pose(Pose{Vec3(0.4, 0, 0), Quat::Identity()});
+  const GapResult again = gap_distance_tracked(a, b, p, track), cold = gap_distance(a, b, p);
+  EXPECT_NEAR(again.distance, cold.distance, 1e-12);
+  EXPECT_TRUE(track.valid);
+}
+
+}  // namespace
+}  // namespace distlab

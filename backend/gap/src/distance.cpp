@@ -46,9 +46,11 @@ void GapBody::set_pose(const Pose& pose) { p2s_.set_pose(pose); }
 
 namespace {
 
-// Solves from the given starts and fills witness points, Λ, D and gradients.
+// Solves from the given starts and fills witness points, Λ, D and gradients; `keep`: the
+// solution itself (tracking).
 void solve_into(GapResult& r, const GapBody& a, const GapBody& b, const GapParams& params,
-                const Vec3& newton_a, const Vec3* newton_b, const Vec3& plain_start) {
+                const Vec3& newton_a, const Vec3* newton_b, const Vec3& plain_start,
+                WitnessSolution* keep = nullptr) {
   const int limit = params.iteration_limit();
   const WitnessSolution s =
       params.solver == GapSolver::newton
@@ -60,6 +62,7 @@ void solve_into(GapResult& r, const GapBody& a, const GapBody& b, const GapParam
   r.converged = s.converged;
   r.lambda = std::max(s.lambda, 0.0);
   r.distance = std::sqrt(2.0 * r.lambda);
+  if (keep) *keep = s;
   if (params.gradient && r.distance > 0) {
     lambda_gradients(s.a, s.b, a.pose(), b.pose(), r.gradient_a, r.gradient_b);
     r.gradient_a /= r.distance;  // dD = dΛ / D
@@ -126,16 +129,15 @@ bool separated_along(const GapBody& a, const GapBody& b, Vec3 n) {
   return b_min - a_max > 1e-6;
 }
 
-}  // namespace
-
-GapResult gap_distance_warm(const GapBody& a, const GapBody& b, const GapParams& params,
-                            const Vec3& start_a, const Vec3& start_b) {
+// gap_distance_warm, keeping the solution in `keep` (when one is solved for).
+GapResult warm(const GapBody& a, const GapBody& b, const GapParams& params, const Vec3& start_a,
+               const Vec3& start_b, WitnessSolution* keep) {
   GapResult r;
   r.euclidean_computed = false;
   // Tracking: the previous witnesses' direction usually still separates the shapes, which
   // spares the overlap test (libccd), the most expensive part of a warm call.
   if (separated_along(a, b, start_b - start_a)) {
-    solve_into(r, a, b, params, start_a, &start_b, start_a);
+    solve_into(r, a, b, params, start_a, &start_b, start_a, keep);
     return r;
   }
   if (const auto common = common_point(a.p2s().shape(), a.pose(), b.p2s().shape(), b.pose())) {
@@ -143,7 +145,32 @@ GapResult gap_distance_warm(const GapBody& a, const GapBody& b, const GapParams&
     r.witness_a = r.witness_b = *common;
     return r;
   }
-  solve_into(r, a, b, params, start_a, &start_b, start_a);
+  solve_into(r, a, b, params, start_a, &start_b, start_a, keep);
+  return r;
+}
+
+}  // namespace
+
+GapResult gap_distance_warm(const GapBody& a, const GapBody& b, const GapParams& params,
+                            const Vec3& start_a, const Vec3& start_b) {
+  return warm(a, b, params, start_a, start_b, nullptr);
+}
+
+GapResult gap_distance_tracked(const GapBody& a, const GapBody& b, const GapParams& params, GapTrack& track) {
+  GapResult r;
+  WitnessSolution solution;
+  if (!track.valid) {
+    r = gap_distance(a, b, params);
+    solution.a = r.witness_a, solution.b = r.witness_b;  // no derivatives: the next call starts here
+  } else {
+    Vec3 start_a = track.last.a, start_b = track.last.b;
+    if (track.last.evaluated)
+      predict_witnesses(track.last, track.pose_a, track.pose_b, a.pose(), b.pose(), start_a, start_b);
+    r = warm(a, b, params, start_a, start_b, &solution);
+  }
+  track.last = solution;
+  track.pose_a = a.pose(), track.pose_b = b.pose();
+  track.valid = !r.overlap && r.converged;
   return r;
 }
 
