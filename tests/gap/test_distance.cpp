@@ -381,9 +381,21 @@ TEST(GapDistance, TrackedMotionMatchesColdCallsInFewerSteps) {
     start_a = warm.witness_a, start_b = warm.witness_b;
   }
   EXPECT_LT(tracked_iterations, 0.8 * warm_iterations);
-  b.set_pose(Pose{a.pose().position + Vec3(0.02, 0, 0), Quat::Identity()});
-  EXPECT_TRUE(gap_distance_tracked(a, b, p, track).overlap);
-  EXPECT_FALSE(track.valid);
+  // B closes in on A by 2 mm and 0.5° a step until they overlap: the tracked call reuses its
+  // separating plane only while the motion cannot have closed it, so it sees the overlap at
+  // the same step as the cold call.
+  const Pose from = b.pose();
+  int overlapping = 0;
+  for (int i = 1; overlapping < 3; ++i) {
+    ASSERT_LT(i, 500);
+    b.set_pose(Pose{from.position - 2e-3 * i * (from.position - a.pose().position).normalized(),
+                    Quat(Eigen::AngleAxisd(0.5 * M_PI / 180 * i, Vec3::UnitY())) * from.rotation});
+    const GapResult tracked = gap_distance_tracked(a, b, p, track), cold = gap_distance(a, b, p);
+    ASSERT_EQ(tracked.overlap, cold.overlap) << "step " << i;
+    EXPECT_EQ(track.valid, !cold.overlap);
+    if (cold.overlap) ++overlapping;
+    else EXPECT_NEAR(tracked.distance, cold.distance, 1e-12);
+  }
   b.set_pose(Pose{Vec3(0.4, 0, 0), Quat::Identity()});
   const GapResult again = gap_distance_tracked(a, b, p, track), cold = gap_distance(a, b, p);
   EXPECT_NEAR(again.distance, cold.distance, 1e-12);

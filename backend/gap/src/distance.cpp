@@ -38,7 +38,8 @@ GapBody::GapBody(const Shape& shape, const Pose& pose, const GapParams& params,
     : p2s_(shape, BaseFunction(params.h, params.k), StrictParams{params.eps, params.sigma},
            with_margin(options, params), field),
       euclid_(shape),
-      radius_(bounding_ball(shape).radius) {
+      radius_(bounding_ball(shape).radius),
+      reach_(bounding_ball(shape).center.norm() + radius_) {
   p2s_.set_pose(pose);
 }
 
@@ -116,27 +117,46 @@ GapResult gap_distance(const GapBody& a, const GapBody& b, const GapParams& para
 
 namespace {
 
-// A plane normal to n (from A towards B) with A on one side and B on the other, more than 1e-6
-// apart: a proof of no overlap from two support points. That is far beyond the overlap test's
-// own tolerances (1e-9, collision/placed.hpp), which would then answer "no overlap" too.
-bool separated_along(const GapBody& a, const GapBody& b, Vec3 n) {
+// The gap between A and B along n (made unit, from A towards B): the distance between the two
+// supporting planes normal to n, from two support points; -inf for a zero or non-finite n.
+double gap_along(const GapBody& a, const GapBody& b, Vec3& n) {
   const double len = n.norm();
-  if (!(len > 0) || !std::isfinite(len)) return false;
+  if (!(len > 0) || !std::isfinite(len)) return -INFINITY;
   n /= len;
   const Pose &pa = a.pose(), &pb = b.pose();
   const double a_max = n.dot(pa.to_world(support(a.p2s().shape(), pa.dir_to_local(n))));
   const double b_min = n.dot(pb.to_world(support(b.p2s().shape(), pb.dir_to_local(-n))));
-  return b_min - a_max > 1e-6;
+  return b_min - a_max;
 }
 
-// gap_distance_warm, keeping the solution in `keep` (when one is solved for).
+// A gap above 1e-6 is a proof of no overlap, far beyond the overlap test's own tolerances (1e-9,
+// collision/placed.hpp), which would then answer "no overlap" too.
+constexpr double kProvedApart = 1e-6;
+
+// How far a point of the body can have moved from pose `from` to its current one: the
+// translation plus the chord 2 sin(θ/2) of the rotation at the body's reach.
+double motion_bound(const GapBody& body, const Pose& from) {
+  const Quat turn = body.pose().rotation * from.rotation.conjugate();
+  return (body.pose().position - from.position).norm() + 2 * turn.vec().norm() * body.reach();
+}
+
+// gap_distance_warm, keeping the solution in `keep` (when one is solved for); `track`: the
+// separating plane, reused while the motion since cannot have closed its gap, else renewed.
 GapResult warm(const GapBody& a, const GapBody& b, const GapParams& params, const Vec3& start_a,
-               const Vec3& start_b, WitnessSolution* keep) {
+               const Vec3& start_b, WitnessSolution* keep, GapTrack* track = nullptr) {
   GapResult r;
   r.euclidean_computed = false;
   // Tracking: the previous witnesses' direction usually still separates the shapes, which
   // spares the overlap test (libccd), the most expensive part of a warm call.
-  if (separated_along(a, b, start_b - start_a)) {
+  double gap = -INFINITY;
+  Vec3 n = start_b - start_a;
+  if (track && track->margin > 0) {
+    gap = track->margin - motion_bound(a, track->pose_a) - motion_bound(b, track->pose_b);
+    n = track->normal;
+  }
+  if (!(gap > kProvedApart)) n = start_b - start_a, gap = gap_along(a, b, n);
+  if (track) track->normal = n, track->margin = gap;
+  if (gap > kProvedApart) {
     solve_into(r, a, b, params, start_a, &start_b, start_a, keep);
     return r;
   }
@@ -162,11 +182,12 @@ GapResult gap_distance_tracked(const GapBody& a, const GapBody& b, const GapPara
   if (!track.valid) {
     r = gap_distance(a, b, params);
     solution.a = r.witness_a, solution.b = r.witness_b;  // no derivatives: the next call starts here
+    track.margin = 0;                                    // no plane at these poses
   } else {
     Vec3 start_a = track.last.a, start_b = track.last.b;
     if (track.last.evaluated)
       predict_witnesses(track.last, track.pose_a, track.pose_b, a.pose(), b.pose(), start_a, start_b);
-    r = warm(a, b, params, start_a, start_b, &solution);
+    r = warm(a, b, params, start_a, start_b, &solution, &track);
   }
   track.last = solution;
   track.pose_a = a.pose(), track.pose_b = b.pose();

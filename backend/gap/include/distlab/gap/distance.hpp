@@ -49,11 +49,12 @@ class GapBody {
   const PointToSet& p2s() const { return p2s_; }
   const EuclideanShape& euclidean() const { return euclid_; }
   double radius() const { return radius_; }  // of the shape's bounding ball
+  double reach() const { return reach_; }    // largest distance of a shape point from its origin
 
  private:
   PointToSet p2s_;
   EuclideanShape euclid_;
-  double radius_;
+  double radius_, reach_;
 };
 
 struct GapResult {
@@ -86,6 +87,10 @@ struct GapTrack {
   WitnessSolution last;
   Pose pose_a, pose_b;
   bool valid = false;
+  // A plane normal (unit, A towards B) with A and B at least `margin` apart on either side at
+  // those poses; the overlap test is skipped while the motion since cannot have closed it.
+  Vec3 normal = Vec3::Zero();
+  double margin = 0;
 };
 
 // gap_distance_warm from the start predict_witnesses gives for the bodies' current poses (about
