@@ -32,10 +32,6 @@ void ccd_center(const void* obj, ccd_vec3_t* out) {
   for (int i = 0; i < 3; ++i) out->v[i] = c[i];
 }
 
-bool in_both(const Placed& a, const Placed& b, const Vec3& p) {
-  return inside_violation(a, p) <= kInside && inside_violation(b, p) <= kInside;
-}
-
 }  // namespace
 
 std::optional<Vec3> common_point(const Placed& a, const Placed& b) {

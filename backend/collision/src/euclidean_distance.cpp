@@ -83,16 +83,25 @@ EuclideanResult fcl_distance(const EuclideanShape& a, const Pose& pose_a, const 
   return r;
 }
 
-EuclideanResult gjk_distance(const Shape& a, const Pose& pose_a, const Shape& b,
-                             const Pose& pose_b, double scale) {
+GjkAnswer gjk_distance_or_common_point(const Shape& a, const Pose& pose_a, const Shape& b,
+                                       const Pose& pose_b, double scale) {
   const Placed pa(a, pose_a), pb(b, pose_b);
   const detail::GjkResult g = detail::gjk_closest_double(pa, pb, pb.t - pa.t, 1e-12 * scale,
                                                          detail::kTouch);
-  EuclideanResult r;
-  r.witness_a = g.pa;
-  r.witness_b = g.pb;
-  r.distance = g.overlap ? 0.0 : g.upper;
+  GjkAnswer r;
+  r.nearest.witness_a = g.pa;
+  r.nearest.witness_b = g.pb;
+  r.nearest.distance = g.overlap ? 0.0 : g.upper;
+  if (g.overlap) {
+    const Vec3 mid = 0.5 * (g.pa + g.pb);
+    if (detail::in_both(pa, pb, mid)) r.common = mid;
+  }
   return r;
+}
+
+EuclideanResult gjk_distance(const Shape& a, const Pose& pose_a, const Shape& b,
+                             const Pose& pose_b, double scale) {
+  return gjk_distance_or_common_point(a, pose_a, b, pose_b, scale).nearest;
 }
 
 EuclideanResult euclidean_distance(const EuclideanShape& a, const Pose& pose_a,

@@ -34,6 +34,11 @@ inline double inside_violation(const Placed& a, const Vec3& x) {
   return inside_violation(*a.shape, a.to_local(x));
 }
 
+// x is accepted as a common point: within kInside of both shapes.
+inline bool in_both(const Placed& a, const Placed& b, const Vec3& x) {
+  return inside_violation(a, x) <= kInside && inside_violation(b, x) <= kInside;
+}
+
 // A point within kInside of both shapes if libccd finds them intersecting (common_point.cpp).
 std::optional<Vec3> common_point(const Placed& a, const Placed& b);
 

@@ -38,7 +38,8 @@ GapBody::GapBody(const Shape& shape, const Pose& pose, const GapParams& params,
     : p2s_(shape, BaseFunction(params.h, params.k), StrictParams{params.eps, params.sigma},
            with_margin(options, params), field),
       euclid_(shape),
-      radius_(bounding_ball(shape).radius) {
+      radius_(bounding_ball(shape).radius),
+      reach_(bounding_ball(shape).center.norm() + radius_) {
   p2s_.set_pose(pose);
 }
 
@@ -46,9 +47,11 @@ void GapBody::set_pose(const Pose& pose) { p2s_.set_pose(pose); }
 
 namespace {
 
-// Solves from the given starts and fills witness points, Λ, D and gradients.
+// Solves from the given starts and fills witness points, Λ, D and gradients; `keep`: the
+// solution itself (tracking).
 void solve_into(GapResult& r, const GapBody& a, const GapBody& b, const GapParams& params,
-                const Vec3& newton_a, const Vec3* newton_b, const Vec3& plain_start) {
+                const Vec3& newton_a, const Vec3* newton_b, const Vec3& plain_start,
+                WitnessSolution* keep = nullptr) {
   const int limit = params.iteration_limit();
   const WitnessSolution s =
       params.solver == GapSolver::newton
@@ -60,11 +63,19 @@ void solve_into(GapResult& r, const GapBody& a, const GapBody& b, const GapParam
   r.converged = s.converged;
   r.lambda = std::max(s.lambda, 0.0);
   r.distance = std::sqrt(2.0 * r.lambda);
+  if (keep) *keep = s;
   if (params.gradient && r.distance > 0) {
     lambda_gradients(s.a, s.b, a.pose(), b.pose(), r.gradient_a, r.gradient_b);
     r.gradient_a /= r.distance;  // dD = dΛ / D
     r.gradient_b /= r.distance;
   }
+}
+
+// Definition 2 on overlap: any common point (r.euclidean's witness); Λ = 0 (Proposition 3).
+GapResult& overlapping(GapResult& r) {
+  r.overlap = true;
+  r.witness_a = r.witness_b = r.euclidean.witness_a;
+  return r;
 }
 
 }  // namespace
@@ -76,10 +87,16 @@ GapResult gap_distance(const GapBody& a, const GapBody& b, const GapParams& para
   a.p2s().prefetch();  // the solver's rows arrive while the Euclidean start is computed
   b.p2s().prefetch();
   if (!params.euclidean) {
-    // An uncertified GJK answer is a good enough start; near contact the certified path below
-    // decides overlap with libccd.
-    r.euclidean = gjk_distance(a.p2s().shape(), a.pose(), b.p2s().shape(), b.pose(),
-                               a.radius() + b.radius());
+    // An uncertified GJK answer is a good enough start. The same GJK settles a clear overlap
+    // with a checked common point (the certified path's answer, distance 0, by the same test);
+    // near contact the certified path below decides with FCL and libccd.
+    const GjkAnswer g = gjk_distance_or_common_point(a.p2s().shape(), a.pose(), b.p2s().shape(),
+                                                     b.pose(), a.radius() + b.radius());
+    if (g.common) {
+      r.euclidean.witness_a = r.euclidean.witness_b = *g.common;
+      return overlapping(r);
+    }
+    r.euclidean = g.nearest;
     if (r.euclidean.distance > 1e-6 * (a.radius() + b.radius())) {
       r.euclidean_computed = false;
       const Vec3 middle = 0.5 * (r.euclidean.witness_a + r.euclidean.witness_b);
@@ -88,13 +105,8 @@ GapResult gap_distance(const GapBody& a, const GapBody& b, const GapParams& para
     }
   }
   r.euclidean = euclidean_distance(a.euclidean(), a.pose(), b.euclidean(), b.pose());
-  if (r.euclidean.distance <= 0.0) {
-    // Definition 2 on overlap: any common point; Λ = 0 (Proposition 3).
-    const auto common = common_point(a.p2s().shape(), a.pose(), b.p2s().shape(), b.pose());
-    r.overlap = true;
-    r.witness_a = r.witness_b = common ? *common : r.euclidean.witness_a;
-    return r;
-  }
+  // On overlap its witness is already common_point's answer (euclidean.hpp).
+  if (r.euclidean.distance <= 0.0) return overlapping(r);
   // The plain iteration starts at the Euclidean witness on A, as in the paper (Section IV-A);
   // Newton starts between the Euclidean witnesses, where a* and b* lie (fewer steps: 4.5 against
   // 5.7 on the paper's random polytopes).
@@ -105,29 +117,47 @@ GapResult gap_distance(const GapBody& a, const GapBody& b, const GapParams& para
 
 namespace {
 
-// A plane normal to n (from A towards B) with A on one side and B on the other, more than 1e-6
-// apart: a proof of no overlap from two support points. That is far beyond the overlap test's
-// own tolerances (1e-9, collision/placed.hpp), which would then answer "no overlap" too.
-bool separated_along(const GapBody& a, const GapBody& b, Vec3 n) {
+// The gap between A and B along n (made unit, from A towards B): the distance between the two
+// supporting planes normal to n, from two support points; -inf for a zero or non-finite n.
+double gap_along(const GapBody& a, const GapBody& b, Vec3& n) {
   const double len = n.norm();
-  if (!(len > 0) || !std::isfinite(len)) return false;
+  if (!(len > 0) || !std::isfinite(len)) return -INFINITY;
   n /= len;
   const Pose &pa = a.pose(), &pb = b.pose();
   const double a_max = n.dot(pa.to_world(support(a.p2s().shape(), pa.dir_to_local(n))));
   const double b_min = n.dot(pb.to_world(support(b.p2s().shape(), pb.dir_to_local(-n))));
-  return b_min - a_max > 1e-6;
+  return b_min - a_max;
 }
 
-}  // namespace
+// A gap above 1e-6 is a proof of no overlap, far beyond the overlap test's own tolerances (1e-9,
+// collision/placed.hpp), which would then answer "no overlap" too.
+constexpr double kProvedApart = 1e-6;
 
-GapResult gap_distance_warm(const GapBody& a, const GapBody& b, const GapParams& params,
-                            const Vec3& start_a, const Vec3& start_b) {
+// How far a point of the body can have moved from pose `from` to its current one: the
+// translation plus the chord 2 sin(θ/2) of the rotation at the body's reach.
+double motion_bound(const GapBody& body, const Pose& from) {
+  const Quat turn = body.pose().rotation * from.rotation.conjugate();
+  return (body.pose().position - from.position).norm() + 2 * turn.vec().norm() * body.reach();
+}
+
+// gap_distance_warm, keeping the solution in `keep` (when one is solved for); `track`: the
+// separating plane, reused while the motion since cannot have closed its gap, else renewed.
+GapResult warm(const GapBody& a, const GapBody& b, const GapParams& params, const Vec3& start_a,
+               const Vec3& start_b, WitnessSolution* keep, GapTrack* track = nullptr) {
   GapResult r;
   r.euclidean_computed = false;
   // Tracking: the previous witnesses' direction usually still separates the shapes, which
   // spares the overlap test (libccd), the most expensive part of a warm call.
-  if (separated_along(a, b, start_b - start_a)) {
-    solve_into(r, a, b, params, start_a, &start_b, start_a);
+  double gap = -INFINITY;
+  Vec3 n = start_b - start_a;
+  if (track && track->margin > 0) {
+    gap = track->margin - motion_bound(a, track->pose_a) - motion_bound(b, track->pose_b);
+    n = track->normal;
+  }
+  if (!(gap > kProvedApart)) n = start_b - start_a, gap = gap_along(a, b, n);
+  if (track) track->normal = n, track->margin = gap;
+  if (gap > kProvedApart) {
+    solve_into(r, a, b, params, start_a, &start_b, start_a, keep);
     return r;
   }
   if (const auto common = common_point(a.p2s().shape(), a.pose(), b.p2s().shape(), b.pose())) {
@@ -135,7 +165,33 @@ GapResult gap_distance_warm(const GapBody& a, const GapBody& b, const GapParams&
     r.witness_a = r.witness_b = *common;
     return r;
   }
-  solve_into(r, a, b, params, start_a, &start_b, start_a);
+  solve_into(r, a, b, params, start_a, &start_b, start_a, keep);
+  return r;
+}
+
+}  // namespace
+
+GapResult gap_distance_warm(const GapBody& a, const GapBody& b, const GapParams& params,
+                            const Vec3& start_a, const Vec3& start_b) {
+  return warm(a, b, params, start_a, start_b, nullptr);
+}
+
+GapResult gap_distance_tracked(const GapBody& a, const GapBody& b, const GapParams& params, GapTrack& track) {
+  GapResult r;
+  WitnessSolution solution;
+  if (!track.valid) {
+    r = gap_distance(a, b, params);
+    solution.a = r.witness_a, solution.b = r.witness_b;  // no derivatives: the next call starts here
+    track.margin = 0;                                    // no plane at these poses
+  } else {
+    Vec3 start_a = track.last.a, start_b = track.last.b;
+    if (track.last.evaluated)
+      predict_witnesses(track.last, track.pose_a, track.pose_b, a.pose(), b.pose(), start_a, start_b);
+    r = warm(a, b, params, start_a, start_b, &solution, &track);
+  }
+  track.last = solution;
+  track.pose_a = a.pose(), track.pose_b = b.pose();
+  track.valid = !r.overlap && r.converged;
   return r;
 }
 

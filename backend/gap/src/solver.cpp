@@ -77,6 +77,18 @@ struct Saddle {
   double lambda() const { return ea.value + eb.value - 0.5 * (a - b).squaredNorm(); }
 };
 
+// The Newton step (δa, δb) of the saddle equations below from their residuals rb, ra and the
+// Hessians Eb = ∂²E_B(a), Ea = ∂²E_A(b). With Hb = Eb − I, Ha = Ea − I:
+// (Hb δa + δb = −rb, δa + Ha δb = −ra), so (I − Hb Ha) δb = Hb ra − rb and δa = −ra − Ha δb.
+// I − Hb Ha = I − Sb Sa with Sa, Sb = I − ∂²E in (0, I]: its eigenvalues lie in [0, 1), and the
+// 3×3 cofactor inverse (Eigen's closed form) is as accurate as pivoted LU here at a third of the
+// cost; an exactly singular matrix gives non-finite steps (callers check).
+void saddle_step(const Mat3& Eb, const Mat3& Ea, const Vec3& rb, const Vec3& ra, Vec3& da, Vec3& db) {
+  const Mat3 M = Eb + Ea - Eb * Ea;  // = I − Hb Ha
+  db = M.inverse() * (Eb * ra - ra - rb);
+  da = db - ra - Ea * db;
+}
+
 // Joint Newton on the saddle-point equations of Lemma 3 in (a, b):
 //   r_b = b − Π_B(a) = 0,  r_a = a − Π_A(b) = 0,
 // Jacobian [[∂²E_B − I, I], [I, ∂²E_A − I]], eliminated to one 3×3 solve. Two P2S evaluations a
@@ -97,16 +109,8 @@ bool joint_newton(const PointToSet& A, const PointToSet& B, Saddle& s, double to
   Saddle* next = &trial[1];
   bool done = false;
   while (!done && iterations < max_iter) {
-    // With Hb = ∂²E_B − I, Ha = ∂²E_A − I: (Hb δa + δb = −rb, δa + Ha δb = −ra), so
-    // (I − Hb Ha) δb = Hb ra − rb and δa = −ra − Ha δb. I − Hb Ha = I − Sb Sa with
-    // Sa, Sb = I − ∂²E in (0, I]: its eigenvalues lie in [0, 1), and the 3×3 cofactor inverse
-    // (Eigen's closed form) is as accurate as pivoted LU here at a third of the cost; an exactly
-    // singular matrix gives non-finite steps, caught below.
-    const Mat3& Eb = cur->eb.hessian;
-    const Mat3& Ea = cur->ea.hessian;
-    const Mat3 M = Eb + Ea - Eb * Ea;  // = I − Hb Ha
-    const Vec3 db = M.inverse() * (Eb * ra - ra - rb);
-    const Vec3 da = db - ra - Ea * db;
+    Vec3 da, db;
+    saddle_step(cur->eb.hessian, cur->ea.hessian, rb, ra, da, db);
     if (!da.allFinite() || !db.allFinite()) break;
     if (std::max(da.squaredNorm(), db.squaredNorm()) < tol * tol) {
       done = true;
@@ -198,6 +202,7 @@ WitnessSolution solve_newton(const PointToSet& A, const PointToSet& B, const Vec
     const Vec3 fa = out.b - A.strict(out.b, 1).gradient;
     out.converged = (fa - s.a).norm() < tol;  // converged to working precision after all
   }
+  if (out.a == s.a && out.b == s.b) out.ea = s.ea, out.eb = s.eb, out.evaluated = true;
   return out;
 }
 
@@ -208,6 +213,40 @@ void lambda_gradients(const Vec3& a_star, const Vec3& b_star, const Pose& pose_a
   grad_a.tail<3>() = -(b_star - pose_a.position).cross(-ab);
   grad_b.head<3>() = -ab;
   grad_b.tail<3>() = -(a_star - pose_b.position).cross(ab);
+}
+
+namespace {
+
+// ∇E and ∂²E of a shape moved rigidly from `from` to `to`, at x, from its derivatives `e` at x
+// before the move: E_to(x) = E_from(y), y = from(to⁻¹(x)), so ∇E_to(x) = R (∇E + ∂²E (y − x))
+// and ∂²E_to(x) = R ∂²E Rᵀ (R = R_to R_fromᵀ) to first order in the move.
+void moved_derivatives(const P2SValue& e, const Pose& from, const Pose& to, const Vec3& x,
+                       Vec3& gradient, Mat3& hessian) {
+  if (from.position == to.position && from.rotation.coeffs() == to.rotation.coeffs()) {
+    gradient = e.gradient, hessian = e.hessian;  // not moved (e.g. a static obstacle)
+    return;
+  }
+  const Vec3 y = from.to_world(to.to_local(x));
+  const Mat3 R = (to.rotation * from.rotation.conjugate()).toRotationMatrix();
+  gradient = R * (e.gradient + e.hessian * (y - x));
+  hessian = R * e.hessian * R.transpose();
+}
+
+}  // namespace
+
+bool predict_witnesses(const WitnessSolution& last, const Pose& last_pose_a, const Pose& last_pose_b,
+                       const Pose& pose_a, const Pose& pose_b, Vec3& a, Vec3& b) {
+  Vec3 ga, gb;
+  Mat3 ha, hb;
+  moved_derivatives(last.ea, last_pose_a, pose_a, last.b, ga, ha);  // E_A at b
+  moved_derivatives(last.eb, last_pose_b, pose_b, last.a, gb, hb);  // E_B at a
+  const Vec3 rb = last.b - last.a + gb, ra = last.a - last.b + ga;
+  Vec3 da, db;
+  saddle_step(hb, ha, rb, ra, da, db);
+  if (!da.allFinite() || !db.allFinite()) return false;
+  a = last.a + da;
+  b = last.b + db;
+  return true;
 }
 
 }  // namespace distlab

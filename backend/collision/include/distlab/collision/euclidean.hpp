@@ -34,7 +34,9 @@ struct EuclideanResult {
   Vec6 gradient_b = Vec6::Zero();
 };
 
-// Separation distance and nearest points with FCL (DistanceRequest with nearest points).
+// Separation distance and nearest points with FCL (DistanceRequest with nearest points). On
+// overlap (distance 0) witness_a == witness_b is common_point's answer; only inside the touching
+// band (1e-9) where libccd finds none, the midpoint of the nearest points.
 EuclideanResult euclidean_distance(const EuclideanShape& a, const Pose& pose_a,
                                    const EuclideanShape& b, const Pose& pose_b);
 
@@ -51,6 +53,17 @@ EuclideanResult fcl_distance(const EuclideanShape& a, const Pose& pose_a, const 
 // where a nearby point is all that is needed.
 EuclideanResult gjk_distance(const Shape& a, const Pose& pose_a, const Shape& b,
                              const Pose& pose_b, double scale);
+
+// gjk_distance's GJK as an overlap test too: where the shapes overlap, GJK ends at points of A
+// and of B that coincide within 1e-9, and their midpoint, accepted by both shapes' inside tests
+// (as common_point's are), is a point common to both. `common` holds it; empty when the shapes
+// are apart or the test refuses the point (then common_point decides).
+struct GjkAnswer {
+  EuclideanResult nearest;  // gjk_distance's answer
+  std::optional<Vec3> common;
+};
+GjkAnswer gjk_distance_or_common_point(const Shape& a, const Pose& pose_a, const Shape& b,
+                                       const Pose& pose_b, double scale);
 
 // Overlapping shapes: the smallest translation of B (depth along direction, a unit vector from A
 // towards B) that separates them, with witness points (A's deepest point inside B, B's inside A;

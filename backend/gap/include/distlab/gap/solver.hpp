@@ -15,6 +15,11 @@ struct WitnessSolution {
   double lambda = 0;      // eq. (3)
   int iterations = 0;     // outer iterations
   bool converged = false;
+
+  // E_A(b) and E_B(a) with derivatives at the returned points, when the solver's last
+  // evaluation was there (`evaluated`): the start of the next solve along a motion.
+  P2SValue ea, eb;
+  bool evaluated = false;
 };
 
 // Plain iteration from a0; stops when ‖a[k+1] − a[k]‖ < tol (the paper's rule) or at max_iter.
@@ -34,5 +39,13 @@ double lambda_at(const PointToSet& A, const PointToSet& B, const Vec3& a, const 
 // dΛ/dv_A = a* − b*, dΛ/dω_A = −(b* − t_A) × (b* − a*); B with the roles swapped.
 void lambda_gradients(const Vec3& a_star, const Vec3& b_star, const Pose& pose_a,
                       const Pose& pose_b, Vec6& grad_a, Vec6& grad_b);
+
+// Tracking (Euler–Newton continuation): the witnesses move smoothly with the poses, so one
+// Newton step of the saddle equations, linearised at the last solution (its E derivatives
+// carried rigidly to the new poses), predicts them to second order in the pose change. Newton
+// from there needs about one evaluation and step fewer than from the old witnesses.
+// `last` must be `evaluated`; returns false (a, b untouched) if the prediction is not finite.
+bool predict_witnesses(const WitnessSolution& last, const Pose& last_pose_a, const Pose& last_pose_b,
+                       const Pose& pose_a, const Pose& pose_b, Vec3& a, Vec3& b);
 
 }  // namespace distlab
