@@ -61,7 +61,7 @@ void solve_into(GapResult& r, const GapBody& a, const GapBody& b, const GapParam
   r.lambda = std::max(s.lambda, 0.0);
   r.distance = std::sqrt(2.0 * r.lambda);
   if (params.gradient && r.distance > 0) {
-    lambda_gradients(s.a, s.b, a.pose(), b.pose(), r.gradient_a, r.gradient_b);
+    lambda_gradients(s, a.pose(), b.pose(), r.gradient_a, r.gradient_b);
     r.gradient_a /= r.distance;  // dD = dΛ / D
     r.gradient_b /= r.distance;
   }
