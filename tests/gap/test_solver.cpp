@@ -149,7 +149,7 @@ TEST(Solver, LambdaGradientsMatchFiniteDifferences) {
     const WitnessSolution s = solve_newton(p.a, p.b, p.start, 1e-13, 100);
     ASSERT_TRUE(s.converged);
     Vec6 ga, gb;
-    lambda_gradients(s.a, s.b, p.a.pose(), p.b.pose(), ga, gb);
+    lambda_gradients(s, p.a.pose(), p.b.pose(), ga, gb);
     const double d = 1e-6;
     for (int which = 0; which < 2; ++which) {
       PointToSet& moved = which == 0 ? p.a : p.b;

@@ -79,7 +79,7 @@ GapResult published_distance(const GapBody& A, const GapBody& B, const GapParams
   g.iterations = w.iterations;
   g.converged = w.converged;
   if (g.distance > 0) {
-    lambda_gradients(w.a, w.b, A.pose(), B.pose(), g.gradient_a, g.gradient_b);
+    lambda_gradients(w, A.pose(), B.pose(), g.gradient_a, g.gradient_b);
     g.gradient_a /= g.distance;
     g.gradient_b /= g.distance;
   }

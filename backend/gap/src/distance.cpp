@@ -65,7 +65,7 @@ void solve_into(GapResult& r, const GapBody& a, const GapBody& b, const GapParam
   r.distance = std::sqrt(2.0 * r.lambda);
   if (keep) *keep = s;
   if (params.gradient && r.distance > 0) {
-    lambda_gradients(s.a, s.b, a.pose(), b.pose(), r.gradient_a, r.gradient_b);
+    lambda_gradients(s, a.pose(), b.pose(), r.gradient_a, r.gradient_b);
     r.gradient_a /= r.distance;  // dD = dΛ / D
     r.gradient_b /= r.distance;
   }

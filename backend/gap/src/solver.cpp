@@ -63,7 +63,8 @@ WitnessSolution solve_fixed_point(const PointToSet& A, const PointToSet& B, cons
     }
   }
   s.a = a;
-  s.b = a - B.strict(a, 1).gradient;
+  s.ab = B.strict(a, 1).gradient;
+  s.b = a - s.ab;
   s.lambda = lambda_at(A, B, s.a, s.b);
   return s;
 }
@@ -74,7 +75,8 @@ namespace {
 struct Saddle {
   Vec3 a, b;
   P2SValue ea, eb;
-  double lambda() const { return ea.value + eb.value - 0.5 * (a - b).squaredNorm(); }
+  double shift = 0;  // makes lambda() Λ's quadratic model after a final, unevaluated step
+  double lambda() const { return ea.value + eb.value - 0.5 * (a - b).squaredNorm() + shift; }
 };
 
 // The Newton step (δa, δb) of the saddle equations below from their residuals rb, ra and the
@@ -92,9 +94,9 @@ void saddle_step(const Mat3& Eb, const Mat3& Ea, const Vec3& rb, const Vec3& ra,
 // Joint Newton on the saddle-point equations of Lemma 3 in (a, b):
 //   r_b = b − Π_B(a) = 0,  r_a = a − Π_A(b) = 0,
 // Jacobian [[∂²E_B − I, I], [I, ∂²E_A − I]], eliminated to one 3×3 solve. Two P2S evaluations a
-// step; backtracking on ‖r‖. Stops, without evaluating again, when the next Newton step is below
-// tol (the error is then of order tol). Returns false if it cannot make progress (then the
-// nested method, which is globally convergent, takes over).
+// step; backtracking on ‖r‖. Stops when the next Newton step is below tol, taking that step
+// without evaluating again (the error is then O(tol²)). Returns false if it cannot make progress
+// (then the nested method, which is globally convergent, takes over).
 bool joint_newton(const PointToSet& A, const PointToSet& B, Saddle& s, double tol, int max_iter,
                   int& iterations) {
   auto residual = [](const Saddle& x, Vec3& rb, Vec3& ra) {
@@ -113,6 +115,14 @@ bool joint_newton(const PointToSet& A, const PointToSet& B, Saddle& s, double to
     saddle_step(cur->eb.hessian, cur->ea.hessian, rb, ra, da, db);
     if (!da.allFinite() || !db.allFinite()) break;
     if (std::max(da.squaredNorm(), db.squaredNorm()) < tol * tol) {
+      // Take the step without evaluating again: the witnesses' error drops from |δ| to O(|δ|²).
+      // Λ follows its quadratic model, Λ + g·δ + ½δᵀHδ = Λ + ½g·δ with g = (r_b, r_a) = ∇Λ(a, b)
+      // and Hδ = −g; ∇E_B its linear model (the gradient of Λ is read from it, solve_newton).
+      const Vec3 ab = cur->a - cur->b, e = da - db;  // ½‖a − b‖² changes by ab·e + ½‖e‖²
+      cur->shift = 0.5 * (rb.dot(da) + ra.dot(db)) + ab.dot(e) + 0.5 * e.squaredNorm();
+      cur->eb.gradient += Eb * da;
+      cur->a += da;
+      cur->b += db;
       done = true;
       break;
     }
@@ -193,11 +203,13 @@ WitnessSolution solve_newton(const PointToSet& A, const PointToSet& B, const Vec
   }
   out.a = s.a;
   if (out.converged) {
-    // b = Π_B(a) and a = Π_A(b) hold to within the last step (< tol); Λ is stationary there.
+    // b = Π_B(a) and a = Π_A(b) hold to O(tol²) after the final step; Λ is stationary there.
     out.b = s.b;
+    out.ab = s.eb.gradient;
     out.lambda = s.lambda();
   } else {
-    out.b = s.a - B.strict(s.a, 1).gradient;
+    out.ab = B.strict(s.a, 1).gradient;
+    out.b = s.a - out.ab;
     out.lambda = lambda_at(A, B, out.a, out.b);
     const Vec3 fa = out.b - A.strict(out.b, 1).gradient;
     out.converged = (fa - s.a).norm() < tol;  // converged to working precision after all
@@ -206,13 +218,12 @@ WitnessSolution solve_newton(const PointToSet& A, const PointToSet& B, const Vec
   return out;
 }
 
-void lambda_gradients(const Vec3& a_star, const Vec3& b_star, const Pose& pose_a,
-                      const Pose& pose_b, Vec6& grad_a, Vec6& grad_b) {
-  const Vec3 ab = a_star - b_star;
-  grad_a.head<3>() = ab;
-  grad_a.tail<3>() = -(b_star - pose_a.position).cross(-ab);
-  grad_b.head<3>() = -ab;
-  grad_b.tail<3>() = -(a_star - pose_b.position).cross(ab);
+void lambda_gradients(const WitnessSolution& s, const Pose& pose_a, const Pose& pose_b, Vec6& grad_a,
+                      Vec6& grad_b) {
+  grad_a.head<3>() = s.ab;
+  grad_a.tail<3>() = -(s.b - pose_a.position).cross(-s.ab);
+  grad_b.head<3>() = -s.ab;
+  grad_b.tail<3>() = -(s.a - pose_b.position).cross(s.ab);
 }
 
 namespace {
