@@ -120,7 +120,7 @@ bool joint_newton(const PointToSet& A, const PointToSet& B, Saddle& s, double to
       // and Hδ = −g; ∇E_B its linear model (the gradient of Λ is read from it, solve_newton).
       const Vec3 ab = cur->a - cur->b, e = da - db;  // ½‖a − b‖² changes by ab·e + ½‖e‖²
       cur->shift = 0.5 * (rb.dot(da) + ra.dot(db)) + ab.dot(e) + 0.5 * e.squaredNorm();
-      cur->eb.gradient += Eb * da;
+      cur->eb.gradient += cur->eb.hessian * da;  // ∂²E_B(a) δa
       cur->a += da;
       cur->b += db;
       done = true;
