@@ -42,6 +42,11 @@ struct Field::Impl {
   VecX boundary_sigma;
   VecX V;                      // per point (V and ∇V are also in packed.vertices, beside the positions)
   bool has_gradients = false;  // set_sigma(…, gradients = false) leaves ∇V out
+  // The σ that V solves (valid only with `solved`), and the σ edits solved by linearity since
+  // the last full solve (field.cpp, set_sigma).
+  SigmaSpec solved_sigma;
+  bool solved = false;
+  int linear_edits = 0;
   Stats stats;
   // Seconds of each phase of the last build() (for the build profile; phases after the stars
   // run on two threads, each timed on its own).
