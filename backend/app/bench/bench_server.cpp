@@ -12,6 +12,7 @@
 #include <boost/beast/http.hpp>
 #include <boost/beast/websocket.hpp>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -138,6 +139,48 @@ int breakdown(const std::string& assets, const std::string& cache, double lx, in
     const auto values = server::sigma_at_vertices(sigma(i), surface);
     sigma_bytes = server::to_msgpack(server::scalars_frame(values, {{"type", "surface_sigma"}})).size();
   });
+  // A brush stroke as the page paints one (default brush: radius 0.14, falloff 0.069, "towards",
+  // stamps r/2 apart) across a face, after `before` earlier strokes: about 5% of the cube's
+  // surface. Solved by linearity (the σ appends brushes) against the full solve of the same σ.
+  const int before = 20;
+  auto stroke = [](kelvin::SigmaSpec s, int i) {
+    const int face = i % 6, axis = face / 2;
+    const double side = face % 2 == 0 ? 0.5 : -0.5, offset = 0.05 * (i % 5) - 0.1;
+    for (int k = 0; k < 7; ++k) {
+      Vec3 c = Vec3::Zero();
+      c[axis] = side;
+      c[(axis + 1) % 3] = -0.21 + 0.07 * k;
+      c[(axis + 2) % 3] = offset;
+      s.brushes.push_back({c, 0.14, (i % 2 == 0 ? 1.0 : -0.5), 0.069, true});
+    }
+    return s;
+  };
+  kelvin::SigmaSpec painted = sigma(0);
+  for (int i = 0; i < before; ++i) painted = stroke(painted, i);
+  std::vector<double> t_linear, t_full, t_linear_iso, t_full_iso, reached, diff;
+  for (int i = 0; i < reps; ++i) {
+    const kelvin::SigmaSpec next = stroke(painted, before + i);
+    for (int side = 0; side < 2; ++side) {  // alternating which goes first
+      const bool linear = (side == 0) == (i % 2 == 0);
+      field.set_sigma(painted, false, false);  // the state before the stroke
+      const auto t0 = Clock::now();
+      field.set_sigma(next, false, linear);
+      const auto t1 = Clock::now();
+      iso = field.isosurface(0.3);
+      const auto t2 = Clock::now();
+      (linear ? t_linear : t_full).push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+      (linear ? t_linear_iso : t_full_iso).push_back(std::chrono::duration<double, std::milli>(t2 - t0).count());
+      if (linear) {
+        reached.push_back(static_cast<double>(field.stats().linear_boundary) / static_cast<double>(field.boundary_points().size()));
+        const VecX v = field.vertex_values();
+        field.set_sigma(next, false, false);
+        double d = 0, scale = 0;
+        for (Eigen::Index k = 0; k < v.size(); ++k)
+          if (!std::isnan(v[k])) d = std::max(d, std::abs(v[k] - field.vertex_values()[k])), scale = std::max(scale, std::abs(v[k]));
+        diff.push_back(d / scale);
+      }
+    }
+  }
   {  // checksum of the iso-surface (orientation-sensitive), so two builds can be compared
     double sum = 0;
     for (Eigen::Index f = 0; f < iso.faces.rows(); ++f) {
@@ -151,6 +194,17 @@ int breakdown(const std::string& assets, const std::string& cache, double lx, in
   std::printf("| marching tets, level 0.3 (%ld vertices) | %.1f |\n", static_cast<long>(iso.vertices.rows()), t_iso);
   std::printf("| msgpack iso frame (%zu bytes) | %.1f |\n| σ per surface vertex frame (%zu bytes) | %.1f |\n",
               bytes, t_frame, sigma_bytes, t_surface);
+  const double lin = percentile(t_linear, 0.5), full = percentile(t_full, 0.5);
+  std::printf(
+      "\nA brush stroke (7 stamps, r 0.14, falloff 0.069, towards) after %d strokes (%zu brushes): boundary values "
+      "reached median %.1f%%; V by linearity against the full solve of the same σ, max relative difference %.1e\n"
+      "| σ → V (median of %d, alternating) | full solve ms | by linearity ms | ratio |\n|---|---:|---:|---:|\n"
+      "| solve | %.2f | %.2f | %.2f |\n| solve + marching tets | %.2f | %.2f | %.2f |\n",
+      before, painted.brushes.size() + 7, 100 * percentile(reached, 0.5), *std::max_element(diff.begin(), diff.end()), reps,
+      full, lin, lin / full, percentile(t_full_iso, 0.5), percentile(t_linear_iso, 0.5),
+      percentile(t_linear_iso, 0.5) / percentile(t_full_iso, 0.5));
+  const nlohmann::json out = {{"solve_full_ms", full}, {"solve_linear_ms", lin}, {"ratio", lin / full}, {"solve_iso_full_ms", percentile(t_full_iso, 0.5)}, {"solve_iso_linear_ms", percentile(t_linear_iso, 0.5)}, {"boundary_reached", percentile(reached, 0.5)}, {"max_relative_difference", *std::max_element(diff.begin(), diff.end())}, {"t_solve_gradients_ms", t_solve_grad}, {"t_solve_constant_ms", t_solve}, {"t_isosurface_ms", t_iso}, {"t_frame_ms", t_frame}, {"repeats", reps}};
+  std::printf("JSON %s\n", out.dump().c_str());
   return 0;
 }
 
