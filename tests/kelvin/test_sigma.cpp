@@ -296,3 +296,40 @@ TEST(KelvinSigma, AStrokeCoveringTheSphereByLinearityMatchesTheClosedForm) {
     EXPECT_NEAR(q.h, s.h(x), 0.02) << "as the full solve's sphere tests (l_x 0.4 R)";
   }
 }
+
+// A constant shift by linearity: V scales by e^(−Δ) (eq. 17), the same V as a full solve to
+// 1e-12 and the sphere's closed form h = σ + ln(|x − s|/R); with an added brush it still holds,
+// a brush "towards" a value takes only part of the shift, so that σ is solved in full.
+TEST(KelvinSigma, AConstantShiftByLinearityEqualsTheFullSolve) {
+  const Sphere s;
+  Field field = Field::prepare(sphere_mesh(s), sphere_options(0.2));
+  field.set_sigma(constant_sigma(-0.4), false);
+  field.set_sigma(constant_sigma(s.sigma));
+  EXPECT_EQ(field.stats().linear_boundary, static_cast<long>(field.boundary_points().size()));
+  const VecX shifted = field.vertex_values();
+  for (const Vec3& x : shell_points(s, 1.1, 50, 100)) {
+    const Sample q = field.query(x);
+    ASSERT_EQ(q.status, Status::ok);
+    EXPECT_NEAR(q.h, s.h(x), 0.02) << "as the full solve's sphere tests (l_x 0.4 R)";
+  }
+  field.set_sigma(constant_sigma(s.sigma), false, false);
+  EXPECT_LE(relative_difference(shifted, field.vertex_values()), 1e-12);
+
+  SigmaSpec spec = constant_sigma(0.1);
+  spec.axis.push_back({Vec3::UnitZ(), s.centre, 0.05, 0.5, 0.1});
+  spec.brushes.push_back({s.centre + Vec3(s.radius, 0, 0), 0.2, 0.7, 0.1, false});
+  field.set_sigma(spec, false, false);
+  spec.constant = 1.3;
+  field.set_sigma(spec, false);
+  EXPECT_GE(field.stats().linear_boundary, 0);
+  const VecX linear = field.vertex_values();
+  const VecX sigma_linear = field.boundary_sigma();
+  field.set_sigma(spec, false, false);
+  EXPECT_LE(relative_difference(linear, field.vertex_values()), 1e-12);
+  for (Eigen::Index b = 0; b < sigma_linear.size(); ++b) ASSERT_EQ(sigma_linear[b], field.boundary_sigma()[b]);
+  spec.brushes[0].towards = true;
+  field.set_sigma(spec, false, false);
+  spec.constant = 0.1;
+  field.set_sigma(spec, false);
+  EXPECT_EQ(field.stats().linear_boundary, -1);
+}

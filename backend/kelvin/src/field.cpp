@@ -355,21 +355,32 @@ Vec3 boundary_point(const Field::Impl& m, size_t b) {
   return m.centre + y / y.squaredNorm();
 }
 
-// `after` is `before` with brushes appended (every other term the same): a brush stroke.
-bool appends_brushes(const SigmaSpec& before, const SigmaSpec& after) {
-  if (after.constant != before.constant || after.axis != before.axis || after.brushes.size() < before.brushes.size() ||
-      after.per_vertex.has_value() != before.per_vertex.has_value())
-    return false;
-  if (after.per_vertex && (after.per_vertex->size() != before.per_vertex->size() || *after.per_vertex != *before.per_vertex))
-    return false;
-  return std::equal(before.brushes.begin(), before.brushes.end(), after.brushes.begin());
+// The terms other than the constant and the brushes are the same.
+bool same_fixed_terms(const SigmaSpec& before, const SigmaSpec& after) {
+  if (after.axis != before.axis || after.per_vertex.has_value() != before.per_vertex.has_value()) return false;
+  return !after.per_vertex ||
+         (after.per_vertex->size() == before.per_vertex->size() && *after.per_vertex == *before.per_vertex);
 }
 
-// Eqs. 17, 20, 21 for every boundary value.
-void solve_full(Field::Impl& m, const SigmaSpec& sigma) {
+// `after` is `before` with brushes appended (every other term the same): a brush stroke.
+bool appends_brushes(const SigmaSpec& before, const SigmaSpec& after) {
+  return after.constant == before.constant && same_fixed_terms(before, after) &&
+         after.brushes.size() >= before.brushes.size() &&
+         std::equal(before.brushes.begin(), before.brushes.end(), after.brushes.begin());
+}
+
+// `after` is `before` with another constant, and no brush "towards" a value (which would pass
+// on only part of the shift): σ moves by the same amount everywhere.
+bool shifts_constant(const SigmaSpec& before, const SigmaSpec& after) {
+  return after.constant != before.constant && same_fixed_terms(before, after) && after.brushes == before.brushes &&
+         std::none_of(after.brushes.begin(), after.brushes.end(), [](const BrushSigma& b) { return b.towards; });
+}
+
+// σ at every boundary vertex and V_∂ = e^(−σ)/|y| (eq. 17: U_∂ = e^(−σ), G = |y|). Sets
+// boundary_sigma only when every value is in range.
+VecX boundary_values(Field::Impl& m, const SigmaSpec& sigma) {
   const auto nb = static_cast<Eigen::Index>(m.boundary.size());
-  m.boundary_sigma.resize(nb);
-  VecX v_bnd(nb);
+  VecX sigmas(nb), v_bnd(nb);
   for (Eigen::Index b = 0; b < nb; ++b) {
     const Vec3 y = m.tm.points.row(m.boundary[static_cast<size_t>(b)]);
     const Vec3 x = boundary_point(m, static_cast<size_t>(b));
@@ -383,9 +394,16 @@ void solve_full(Field::Impl& m, const SigmaSpec& sigma) {
     for (const auto& br : sigma.brushes) s = apply(br, s, x);
     // The terms are each in range (validate); their sum must be too, where it is used.
     require_sigma_in_range(s, x, "the surface point");
-    m.boundary_sigma[b] = s;
-    v_bnd[b] = std::exp(-s) / y.norm();  // eq. 17: V_∂ = U_∂ / G with U_∂ = e^(−σ), G = |y|
+    sigmas[b] = s;
+    v_bnd[b] = std::exp(-s) / y.norm();
   }
+  m.boundary_sigma = std::move(sigmas);
+  return v_bnd;
+}
+
+// Eqs. 17, 20, 21 for every boundary value.
+void solve_full(Field::Impl& m, const SigmaSpec& sigma) {
+  const VecX v_bnd = boundary_values(m, sigma);
   VecX rhs = -(m.a_ob * v_bnd);  // eq. 20
   m.solver.solve(rhs);           // eq. 21
   const auto np = m.tm.points.rows();
@@ -394,6 +412,16 @@ void solve_full(Field::Impl& m, const SigmaSpec& sigma) {
   for (size_t b = 0; b < m.boundary.size(); ++b) m.V[m.boundary[b]] = v_bnd[static_cast<Eigen::Index>(b)];
   m.linear_edits = 0;
   m.stats.linear_boundary = -1;
+}
+
+// A constant shift Δ of σ multiplies V_∂ by e^(−Δ), hence V (eqs. 20, 21 are linear): no solve.
+void solve_shift(Field::Impl& m, const SigmaSpec& sigma) {
+  const VecX v_bnd = boundary_values(m, sigma);
+  const double scale = std::exp(m.solved_sigma.constant - sigma.constant);
+  for (int v : m.interior) m.V[v] *= scale;
+  for (size_t b = 0; b < m.boundary.size(); ++b) m.V[m.boundary[b]] = v_bnd[static_cast<Eigen::Index>(b)];
+  ++m.linear_edits;
+  m.stats.linear_boundary = static_cast<long>(m.boundary.size());
 }
 
 // The brushes after m.solved_sigma's, by linearity: σ changes only where they reach (weight > 0;
@@ -433,9 +461,10 @@ void Field::set_sigma(const SigmaSpec& sigma, bool gradients, bool by_linearity)
   Impl& m = *impl_;
   validate(sigma, m.surface.vertices.rows());
   const auto t0 = std::chrono::steady_clock::now();
-  const bool linear = by_linearity && m.solved && m.linear_edits < kMaxLinearEdits && appends_brushes(m.solved_sigma, sigma);
+  const bool linear = by_linearity && m.solved && m.linear_edits < kMaxLinearEdits;
   m.solved = false;  // until V holds σ (a throw leaves it unset: the next σ is solved in full)
-  if (linear) solve_brushes(m, sigma);
+  if (linear && appends_brushes(m.solved_sigma, sigma)) solve_brushes(m, sigma);
+  else if (linear && shifts_constant(m.solved_sigma, sigma)) solve_shift(m, sigma);
   else solve_full(m, sigma);
   m.solved_sigma = sigma;
   m.solved = true;

@@ -94,8 +94,9 @@ class Field {
   // h (or only V, as a σ update between gradient queries) saves their cost.
   // A σ that is the last one with brushes appended (a brush stroke) is solved by linearity: only
   // the boundary values the new brushes reach change, and the change of V solves eq. 21 with a
-  // right-hand side that is zero elsewhere (same field to rounding, ~1e-15 relative). by_linearity
-  // false always solves in full (the reference of tests and benchmarks).
+  // right-hand side that is zero elsewhere (same field to rounding, ~1e-15 relative). A σ that
+  // changes only the constant (no brush "towards" a value) scales V by e^(−Δconstant): no solve.
+  // by_linearity false always solves in full (the reference of tests and benchmarks).
   void set_sigma(const SigmaSpec& sigma, bool gradients = true, bool by_linearity = true);
 
   // h(x) and ∇h(x) (Algorithm 1). hint: the cell of a previous query (updated), or nullptr
