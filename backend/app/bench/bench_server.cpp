@@ -112,6 +112,22 @@ double median_ms(int reps, Fn&& fn) {
   return percentile(t, 0.5);
 }
 
+// Stroke i as the page paints one (default brush: radius 0.14, falloff 0.069, "towards", stamps
+// r/2 apart) across a face of the unit cube: about 5% of its surface.
+std::vector<distlab::kelvin::BrushSigma> stroke_stamps(int i) {
+  const int face = i % 6, axis = face / 2;
+  const double side = face % 2 == 0 ? 0.5 : -0.5, offset = 0.05 * (i % 5) - 0.1;
+  std::vector<distlab::kelvin::BrushSigma> out;
+  for (int k = 0; k < 7; ++k) {
+    distlab::Vec3 c = distlab::Vec3::Zero();
+    c[axis] = side;
+    c[(axis + 1) % 3] = -0.21 + 0.07 * k;
+    c[(axis + 2) % 3] = offset;
+    out.push_back({c, 0.14, (i % 2 == 0 ? 1.0 : -0.5), 0.069, true});
+  }
+  return out;
+}
+
 // In-process: where the time of one σ edit goes, stage by stage (same field as the service).
 int breakdown(const std::string& assets, const std::string& cache, double lx, int reps) {
   using namespace distlab;
@@ -133,26 +149,26 @@ int breakdown(const std::string& assets, const std::string& cache, double lx, in
   const double t_frame = median_ms(reps, [&](int) {
     bytes = server::to_msgpack(server::mesh_frame(iso, {{"type", "isosurface"}, {"level", 0.3}})).size();
   });
+  std::string digest;
+  const double t_digest = median_ms(reps, [&](int) { digest = server::mesh_digest(iso); });
+  // One edit as the server's frame loop runs it: σ → V, marching tets, frame, digest, msgpack.
+  const double t_edit = median_ms(reps, [&](int i) {
+    field.set_sigma(sigma(reps + i), false);
+    const mesh::SurfaceMesh m = field.isosurface(0.3);
+    json frame = server::mesh_frame(m, {{"type", "isosurface"}, {"level", 0.3}, {"digest", server::mesh_digest(m)}});
+    bytes = server::to_msgpack(frame).size();
+  });
   // A σ version after the first sends σ per input vertex only (the surface went out once).
   std::size_t sigma_bytes = 0;
   const double t_surface = median_ms(reps, [&](int i) {
     const auto values = server::sigma_at_vertices(sigma(i), surface);
     sigma_bytes = server::to_msgpack(server::scalars_frame(values, {{"type", "surface_sigma"}})).size();
   });
-  // A brush stroke as the page paints one (default brush: radius 0.14, falloff 0.069, "towards",
-  // stamps r/2 apart) across a face, after `before` earlier strokes: about 5% of the cube's
-  // surface. Solved by linearity (the σ appends brushes) against the full solve of the same σ.
+  // A brush stroke (stroke_stamps) after `before` earlier strokes, solved by linearity (the σ
+  // appends brushes) against the full solve of the same σ.
   const int before = 20;
   auto stroke = [](kelvin::SigmaSpec s, int i) {
-    const int face = i % 6, axis = face / 2;
-    const double side = face % 2 == 0 ? 0.5 : -0.5, offset = 0.05 * (i % 5) - 0.1;
-    for (int k = 0; k < 7; ++k) {
-      Vec3 c = Vec3::Zero();
-      c[axis] = side;
-      c[(axis + 1) % 3] = -0.21 + 0.07 * k;
-      c[(axis + 2) % 3] = offset;
-      s.brushes.push_back({c, 0.14, (i % 2 == 0 ? 1.0 : -0.5), 0.069, true});
-    }
+    for (const kelvin::BrushSigma& b : stroke_stamps(i)) s.brushes.push_back(b);
     return s;
   };
   kelvin::SigmaSpec painted = sigma(0);
@@ -194,6 +210,8 @@ int breakdown(const std::string& assets, const std::string& cache, double lx, in
   std::printf("| marching tets, level 0.3 (%ld vertices) | %.1f |\n", static_cast<long>(iso.vertices.rows()), t_iso);
   std::printf("| msgpack iso frame (%zu bytes) | %.1f |\n| σ per surface vertex frame (%zu bytes) | %.1f |\n",
               bytes, t_frame, sigma_bytes, t_surface);
+  std::printf("| SHA-256 digest of the iso-surface | %.1f |\n| one edit: σ → V (another constant), marching tets, frame, digest, msgpack | %.1f |\n",
+              t_digest, t_edit);
   const double lin = percentile(t_linear, 0.5), full = percentile(t_full, 0.5);
   std::printf(
       "\nA brush stroke (7 stamps, r 0.14, falloff 0.069, towards) after %d strokes (%zu brushes): boundary values "
@@ -203,7 +221,7 @@ int breakdown(const std::string& assets, const std::string& cache, double lx, in
       before, painted.brushes.size() + 7, 100 * percentile(reached, 0.5), *std::max_element(diff.begin(), diff.end()), reps,
       full, lin, lin / full, percentile(t_full_iso, 0.5), percentile(t_linear_iso, 0.5),
       percentile(t_linear_iso, 0.5) / percentile(t_full_iso, 0.5));
-  const nlohmann::json out = {{"solve_full_ms", full}, {"solve_linear_ms", lin}, {"ratio", lin / full}, {"solve_iso_full_ms", percentile(t_full_iso, 0.5)}, {"solve_iso_linear_ms", percentile(t_linear_iso, 0.5)}, {"boundary_reached", percentile(reached, 0.5)}, {"max_relative_difference", *std::max_element(diff.begin(), diff.end())}, {"t_solve_gradients_ms", t_solve_grad}, {"t_solve_constant_ms", t_solve}, {"t_isosurface_ms", t_iso}, {"t_frame_ms", t_frame}, {"repeats", reps}};
+  const nlohmann::json out = {{"solve_full_ms", full}, {"solve_linear_ms", lin}, {"ratio", lin / full}, {"solve_iso_full_ms", percentile(t_full_iso, 0.5)}, {"solve_iso_linear_ms", percentile(t_linear_iso, 0.5)}, {"boundary_reached", percentile(reached, 0.5)}, {"max_relative_difference", *std::max_element(diff.begin(), diff.end())}, {"t_solve_gradients_ms", t_solve_grad}, {"t_solve_constant_ms", t_solve}, {"t_isosurface_ms", t_iso}, {"t_frame_ms", t_frame}, {"t_digest_ms", t_digest}, {"t_edit_ms", t_edit}, {"repeats", reps}};
   std::printf("JSON %s\n", out.dump().c_str());
   return 0;
 }
@@ -216,6 +234,7 @@ const char* kUsage =
     "  --port N           server port (default 8080)\n"
     "  --lx X             l_x of the cube's Kelvin field (default 0.06)\n"
     "  --edits N          σ edits timed edit -> iso-surface frame (default 40)\n"
+    "  --edit KIND        constant (each edit another constant σ) or brush (one more stroke each)\n"
     "  --clients N        concurrent query clients (default 50)\n"
     "  --seconds X        length of the load phase (default 30)\n"
     "  --breakdown DIR    no server: time each stage of an edit in-process on DIR's cube asset\n"
@@ -225,8 +244,9 @@ const char* kUsage =
 int main(int argc, char** argv) {
   double lx = 0.06, seconds = 30;
   int edits = 40, clients = 50;
+  bool brush_edits = false;
   std::string breakdown_assets, cache = "/tmp/distlab-bench-cache";
-  static const std::vector<std::string> known = {"--port", "--host", "--lx", "--edits", "--clients", "--seconds", "--breakdown", "--cache-dir"};
+  static const std::vector<std::string> known = {"--port", "--host", "--lx", "--edits", "--clients", "--seconds", "--breakdown", "--cache-dir", "--edit"};
   for (int i = 1; i < argc; i += 2) {
     const std::string k = argv[i];
     if (k == "--help" || k == "-h") {
@@ -247,8 +267,10 @@ int main(int argc, char** argv) {
       else if (k == "--seconds") seconds = std::clamp(std::stod(v), 1.0, 600.0);
       else if (k == "--breakdown") breakdown_assets = v;
       else if (k == "--cache-dir") cache = v;
+      else if (k == "--edit" && (v == "constant" || v == "brush")) brush_edits = v == "brush";
+      else if (k == "--edit") throw std::invalid_argument(v);
     } catch (const std::exception&) {
-      std::fprintf(stderr, "distlab-bench-server: %s %s: not a number\n", k.c_str(), v.c_str());
+      std::fprintf(stderr, "distlab-bench-server: %s %s: not a valid value\n", k.c_str(), v.c_str());
       return 2;
     }
   }
@@ -275,10 +297,17 @@ int main(int argc, char** argv) {
     ws.write(net::buffer(json{{"type", "watch"}, {"object", id}, {"levels", {0.3}}}.dump()));
     json frame = read_until_frame(0);
     std::vector<double> lat, solve, iso, since_edit;
+    json brushes = json::array();
     for (int i = 1; i <= edits; ++i) {
       const auto t0 = Clock::now();
-      // A new σ every time (no solve can be reused).
-      ws.write(net::buffer(json{{"type", "sigma"}, {"object", id}, {"sigma", {{"constant", 0.0005 * i}}}}.dump()));
+      // A new σ every time: another constant, or one more brush stroke (the page sends every brush).
+      json sigma = {{"constant", 0.0005 * i}};
+      if (brush_edits) {
+        for (const auto& b : stroke_stamps(i))
+          brushes.push_back({{"center", {b.centre.x(), b.centre.y(), b.centre.z()}}, {"radius", b.radius}, {"value", b.value}, {"falloff", b.falloff}, {"mode", "towards"}});
+        sigma = {{"constant", 0.0}, {"brushes", brushes}};
+      }
+      ws.write(net::buffer(json{{"type", "sigma"}, {"object", id}, {"sigma", sigma}}.dump()));
       frame = read_until_frame(i);
       lat.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
       if (frame.contains("server_ms")) {
@@ -287,8 +316,8 @@ int main(int argc, char** argv) {
         since_edit.push_back(frame["server_ms"].value("since_edit", 0.0));
       }
     }
-    std::printf("sigma edit -> isosurface frame (%ld iso vertices): median %.1f ms, p95 %.1f ms over %d edits\n",
-                frame["n_vertices"].get<long>(), percentile(lat, 0.5), percentile(lat, 0.95), edits);
+    std::printf("sigma edit (%s) -> isosurface frame (%ld iso vertices): median %.1f ms, p95 %.1f ms over %d edits\n",
+                brush_edits ? "a brush stroke more" : "another constant", frame["n_vertices"].get<long>(), percentile(lat, 0.5), percentile(lat, 0.95), edits);
     std::printf(
         "  server side: Kelvin solve median %.1f ms, marching tets median %.1f ms, edit received -> frame "
         "encoded median %.1f ms, p95 %.1f ms\n",
