@@ -176,13 +176,15 @@ void Field::Impl::build(const Progress& progress) {
     if (tm.in_domain[static_cast<size_t>(c)]) domain_tets.push_back(c);
   // Boundary vertices: on faces between a domain cell and a non-domain or hull neighbour.
   std::vector<char> on_boundary(np, 0), used(np, 0);
+  boundary_facets.clear();
   for (int c : domain_tets)
     for (int k = 0; k < 4; ++k) {
       used[static_cast<size_t>(tm.tets(c, k))] = 1;
       const int n = tm.neighbours(c, k);
-      if (n < 0 || !tm.in_domain[static_cast<size_t>(n)])
-        for (int j = 0; j < 4; ++j)
-          if (j != k) on_boundary[static_cast<size_t>(tm.tets(c, j))] = 1;
+      if (n >= 0 && tm.in_domain[static_cast<size_t>(n)]) continue;
+      boundary_facets.push_back(4 * c + k);
+      for (int j = 0; j < 4; ++j)
+        if (j != k) on_boundary[static_cast<size_t>(tm.tets(c, j))] = 1;
     }
   interior.clear();
   boundary.clear();

@@ -25,6 +25,7 @@ struct Field::Impl {
   std::vector<int> slot;                // per point: interior index ≥ 0, boundary b as -(b + 2), unused -1
   std::vector<int> interior, boundary;  // point ids
   std::vector<int> domain_tets;
+  std::vector<int> boundary_facets;  // 4 · cell + k: the face of a domain cell opposite its vertex k, on ∂Ω_inv
   // Vertex stars: for point v, entries star[star_start[v] … star_start[v+1]) are 4 · (index into
   // domain_tets) + (local vertex): the domain cells around v.
   std::vector<int> star_start, star;
