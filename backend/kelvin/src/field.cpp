@@ -414,15 +414,18 @@ void solve_full(Field::Impl& m, const SigmaSpec& sigma) {
   for (size_t b = 0; b < m.boundary.size(); ++b) m.V[m.boundary[b]] = v_bnd[static_cast<Eigen::Index>(b)];
   m.linear_edits = 0;
   m.stats.linear_boundary = -1;
+  m.base_V = m.V;
+  m.base_constant = sigma.constant;
 }
 
 // A constant shift Δ of σ multiplies V_∂ by e^(−Δ), hence V (eqs. 20, 21 are linear): no solve.
+// Scaled from the last solve's V, not the last shift's: no rounding accumulates, and a σ seen
+// before gives the same V bit for bit (two sessions sharing a field alternate their σ).
 void solve_shift(Field::Impl& m, const SigmaSpec& sigma) {
   const VecX v_bnd = boundary_values(m, sigma);
-  const double scale = std::exp(m.solved_sigma.constant - sigma.constant);
-  for (int v : m.interior) m.V[v] *= scale;
+  const double scale = std::exp(m.base_constant - sigma.constant);
+  for (int v : m.interior) m.V[v] = scale * m.base_V[v];
   for (size_t b = 0; b < m.boundary.size(); ++b) m.V[m.boundary[b]] = v_bnd[static_cast<Eigen::Index>(b)];
-  ++m.linear_edits;
   m.stats.linear_boundary = static_cast<long>(m.boundary.size());
 }
 
@@ -455,6 +458,8 @@ void solve_brushes(Field::Impl& m, const SigmaSpec& sigma) {
   }
   m.solver.solve(rhs);
   for (size_t i = 0; i < m.interior.size(); ++i) m.V[m.interior[i]] += rhs[static_cast<Eigen::Index>(i)];
+  m.base_V = m.V;
+  m.base_constant = sigma.constant;
 }
 
 }  // namespace

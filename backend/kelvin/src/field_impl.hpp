@@ -48,6 +48,10 @@ struct Field::Impl {
   SigmaSpec solved_sigma;
   bool solved = false;
   int linear_edits = 0;
+  // V after the last solve (full or by brushes) and its σ's constant: a constant shift scales this
+  // V, so σ values that differ only in the constant give V bit for bit the same whatever the order.
+  VecX base_V;
+  double base_constant = 0;
   Stats stats;
   // Seconds of each phase of the last build() (for the build profile; phases after the stars
   // run on two threads, each timed on its own).
