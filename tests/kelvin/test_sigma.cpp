@@ -197,3 +197,144 @@ TEST(KelvinSigma, LevelsTheFieldNeverTakesAreEmpty) {
   for (Eigen::Index v = 0; v < above.vertices.rows(); ++v)
     EXPECT_NEAR((Vec3(above.vertices.row(v)) - s.centre).norm() / (s.radius * std::exp(0.5)), 1.0, 0.1);
 }
+
+namespace {
+
+// Largest |a − b| over the vertices that carry a value, relative to the largest |b|; NaN
+// (unused points) must be at the same places.
+double relative_difference(const VecX& a, const VecX& b) {
+  double diff = 0, scale = 0;
+  for (Eigen::Index v = 0; v < b.size(); ++v) {
+    if (std::isnan(b[v]) || std::isnan(a[v])) {
+      if (std::isnan(b[v]) != std::isnan(a[v])) return INFINITY;
+      continue;
+    }
+    diff = std::max(diff, std::abs(a[v] - b[v]));
+    scale = std::max(scale, std::abs(b[v]));
+  }
+  return diff / scale;
+}
+
+}  // namespace
+
+// Brush strokes appended to σ are solved by linearity (field.hpp, set_sigma): 40 random strokes
+// of 1–3 stamps in a row, each on the field the previous ones left, give the boundary σ of a
+// full solve bit for bit and V within 1e-12 (relative) of it; each changes only the boundary
+// values its stamps reach.
+TEST(KelvinSigma, BrushStrokesSolvedByLinearityEqualTheFullSolve) {
+  const Sphere s;
+  Field field = Field::prepare(sphere_mesh(s), sphere_options(0.1));
+  const auto n_boundary = static_cast<long>(field.boundary_points().size());
+  SigmaSpec spec = constant_sigma(0.2);
+  spec.axis.push_back({Vec3(0.3, 1, 0.2), s.centre, 0.1, 0.8, 0.2});
+  field.set_sigma(spec);
+  EXPECT_EQ(field.stats().linear_boundary, -1) << "the first σ is solved in full";
+  std::mt19937 rng(19);
+  std::normal_distribution<double> g;
+  std::uniform_real_distribution<double> u(0, 1);
+  std::vector<SigmaSpec> specs;
+  std::vector<VecX> values, sigmas;
+  int linear = 0;
+  for (int edit = 0; edit < 40; ++edit) {
+    const int stamps = 1 + edit % 3;
+    for (int k = 0; k < stamps; ++k) {  // about 5% of the surface each
+      const Vec3 at = s.centre + s.radius * Vec3(g(rng), g(rng), g(rng)).normalized();
+      spec.brushes.push_back({at, s.radius * (0.2 + 0.2 * u(rng)), 4 * u(rng) - 2, s.radius * 0.2 * u(rng), u(rng) < 0.7});
+    }
+    field.set_sigma(spec, false);
+    const long changed = field.stats().linear_boundary;
+    if (changed >= 0) {
+      ++linear;
+      EXPECT_GT(changed, 0) << edit;
+      EXPECT_LT(changed, n_boundary / 3) << edit << ": a stroke is local";
+    }
+    specs.push_back(spec);
+    values.push_back(field.vertex_values());
+    sigmas.push_back(field.boundary_sigma());
+  }
+  EXPECT_GE(linear, 35) << "strokes are solved by linearity (a full solve now and then bounds the rounding)";
+  for (std::size_t k = 0; k < specs.size(); ++k) {
+    field.set_sigma(specs[k], false, false);
+    ASSERT_EQ(field.stats().linear_boundary, -1);
+    const VecX& full = field.boundary_sigma();
+    for (Eigen::Index b = 0; b < full.size(); ++b) ASSERT_EQ(sigmas[k][b], full[b]) << "edit " << k << ", boundary " << b;
+    EXPECT_LE(relative_difference(values[k], field.vertex_values()), 1e-12) << "edit " << k;
+  }
+
+  // Any other change of σ is solved in full; so is the next edit after a refused one.
+  SigmaSpec other = spec;
+  other.constant = 0.3;
+  field.set_sigma(other, false);
+  EXPECT_EQ(field.stats().linear_boundary, -1);
+  SigmaSpec over = other;
+  over.brushes.push_back({s.centre, 2 * s.radius, 299, 0, false});
+  EXPECT_THROW(field.set_sigma(over, false), InvalidInput);
+  other.brushes.push_back({s.centre + Vec3(0, 0, s.radius), 0.1, 1, 0.05, true});
+  field.set_sigma(other, false);
+  EXPECT_EQ(field.stats().linear_boundary, -1);
+  const VecX after_refusal = field.vertex_values();
+  field.set_sigma(other, false, false);
+  EXPECT_EQ(relative_difference(after_refusal, field.vertex_values()), 0);
+}
+
+// The closed form through the linear path: a towards brush covering the sphere makes σ its
+// value c everywhere, and for constant σ V = e^(−c) V(σ = 0) (eq. 17; eqs. 20, 21 are linear),
+// so h moves by c, and on the sphere h = c + ln(|x − s|/R).
+TEST(KelvinSigma, AStrokeCoveringTheSphereByLinearityMatchesTheClosedForm) {
+  const Sphere s;
+  Field field = Field::prepare(sphere_mesh(s), sphere_options(0.2));
+  field.set_sigma(constant_sigma(0), false);
+  const VecX zero = field.vertex_values();
+  SigmaSpec spec = constant_sigma(0);
+  spec.brushes.push_back({s.centre, 2 * s.radius, s.sigma, 0, true});
+  field.set_sigma(spec);
+  EXPECT_EQ(field.stats().linear_boundary, static_cast<long>(field.boundary_points().size()));
+  EXPECT_LE(relative_difference(field.vertex_values(), std::exp(-s.sigma) * zero), 1e-12);
+  for (const Vec3& x : shell_points(s, 1.1, 50, 100)) {
+    const Sample q = field.query(x);
+    ASSERT_EQ(q.status, Status::ok);
+    EXPECT_NEAR(q.h, s.h(x), 0.02) << "as the full solve's sphere tests (l_x 0.4 R)";
+  }
+}
+
+// A constant shift by linearity: V scales by e^(−Δ) (eq. 17), the same V as a full solve to
+// 1e-12 and the sphere's closed form h = σ + ln(|x − s|/R); with an added brush it still holds,
+// a brush "towards" a value takes only part of the shift, so that σ is solved in full.
+TEST(KelvinSigma, AConstantShiftByLinearityEqualsTheFullSolve) {
+  const Sphere s;
+  Field field = Field::prepare(sphere_mesh(s), sphere_options(0.2));
+  field.set_sigma(constant_sigma(-0.4), false);
+  field.set_sigma(constant_sigma(s.sigma));
+  EXPECT_EQ(field.stats().linear_boundary, static_cast<long>(field.boundary_points().size()));
+  const VecX shifted = field.vertex_values();
+  for (const Vec3& x : shell_points(s, 1.1, 50, 100)) {
+    const Sample q = field.query(x);
+    ASSERT_EQ(q.status, Status::ok);
+    EXPECT_NEAR(q.h, s.h(x), 0.02) << "as the full solve's sphere tests (l_x 0.4 R)";
+  }
+  field.set_sigma(constant_sigma(s.sigma), false, false);
+  EXPECT_LE(relative_difference(shifted, field.vertex_values()), 1e-12);
+  // A σ seen before gives V bit for bit again (a shift scales the last solve's V, not the last
+  // shift's), as two sessions sharing the field and alternating their σ need.
+  const VecX first = field.vertex_values();
+  for (const double c : {0.8, -0.3, s.sigma, 1.7, s.sigma}) field.set_sigma(constant_sigma(c), false);
+  EXPECT_EQ(relative_difference(first, field.vertex_values()), 0);
+
+  SigmaSpec spec = constant_sigma(0.1);
+  spec.axis.push_back({Vec3::UnitZ(), s.centre, 0.05, 0.5, 0.1});
+  spec.brushes.push_back({s.centre + Vec3(s.radius, 0, 0), 0.2, 0.7, 0.1, false});
+  field.set_sigma(spec, false, false);
+  spec.constant = 1.3;
+  field.set_sigma(spec, false);
+  EXPECT_GE(field.stats().linear_boundary, 0);
+  const VecX linear = field.vertex_values();
+  const VecX sigma_linear = field.boundary_sigma();
+  field.set_sigma(spec, false, false);
+  EXPECT_LE(relative_difference(linear, field.vertex_values()), 1e-12);
+  for (Eigen::Index b = 0; b < sigma_linear.size(); ++b) ASSERT_EQ(sigma_linear[b], field.boundary_sigma()[b]);
+  spec.brushes[0].towards = true;
+  field.set_sigma(spec, false, false);
+  spec.constant = 0.1;
+  field.set_sigma(spec, false);
+  EXPECT_EQ(field.stats().linear_boundary, -1);
+}

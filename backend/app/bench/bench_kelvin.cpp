@@ -61,31 +61,45 @@ double percentile(std::vector<double> v, double q) {
   return v[static_cast<size_t>(k)];
 }
 
-// Read bandwidth of this machine as a triangular solve uses it (a stream of doubles, summed):
-// the best of 5 passes over 256 MB split between `threads` threads, in GB/s.
-double stream_read_gbps(int threads) {
-  static std::vector<double> data(std::size_t{32} << 20, 1.0);
-  const size_t chunk = data.size() / static_cast<size_t>(threads);
+// Memory bandwidth of this machine, in GB/s, the best of 5 passes split between `threads`
+// threads, on arrays of 256 MB each (≫ cache): "read" sums one array (as a triangular solve
+// streams its factor), "copy" b = a and "triad" a = b + 3 c as STREAM counts them (bytes read
+// and written, 16 and 24 per element).
+struct Stream {
+  double read = 0, copy = 0, triad = 0;
+};
+Stream stream_gbps(int threads) {
+  static std::vector<double> a(std::size_t{32} << 20, 1.0), b(a.size(), 2.0), c(a.size(), 0.5);
+  const size_t chunk = a.size() / static_cast<size_t>(threads);
   std::vector<double> sums(static_cast<size_t>(threads));
-  double best = 0;
-  for (int rep = 0; rep < 5; ++rep) {
-    const auto t0 = Clock::now();
-    std::vector<std::thread> pool;
-    for (int t = 0; t < threads; ++t)
-      pool.emplace_back([&, t] {
-        const double* p = data.data() + static_cast<size_t>(t) * chunk;
-        double acc[8] = {0, 0, 0, 0, 0, 0, 0, 0};  // independent sums: bound by memory, not by add latency
-        for (size_t i = 0; i + 8 <= chunk; i += 8)
-          for (int k = 0; k < 8; ++k) acc[k] += p[i + static_cast<size_t>(k)];
-        sums[static_cast<size_t>(t)] = acc[0] + acc[1] + acc[2] + acc[3] + acc[4] + acc[5] + acc[6] + acc[7];
-      });
-    for (std::thread& th : pool) th.join();
-    best = std::max(best, 8.0 * static_cast<double>(chunk) * threads / since(t0) / 1e9);
-  }
+  auto best_of = [&](double bytes_per_element, auto&& kernel) {
+    double best = 0;
+    for (int rep = 0; rep < 5; ++rep) {
+      const auto t0 = Clock::now();
+      std::vector<std::thread> pool;
+      for (int t = 0; t < threads; ++t) pool.emplace_back([&, t] { kernel(static_cast<size_t>(t) * chunk, static_cast<size_t>(t)); });
+      for (std::thread& th : pool) th.join();
+      best = std::max(best, bytes_per_element * static_cast<double>(chunk) * threads / since(t0) / 1e9);
+    }
+    return best;
+  };
+  Stream s;
+  s.read = best_of(8, [&](size_t begin, size_t t) {
+    const double* p = a.data() + begin;
+    double acc[8] = {0, 0, 0, 0, 0, 0, 0, 0};  // independent sums: bound by memory, not by add latency
+    for (size_t i = 0; i + 8 <= chunk; i += 8)
+      for (int k = 0; k < 8; ++k) acc[k] += p[i + static_cast<size_t>(k)];
+    sums[t] = acc[0] + acc[1] + acc[2] + acc[3] + acc[4] + acc[5] + acc[6] + acc[7];
+  });
   double total = 0;
   for (double v : sums) total += v;
   if (total != static_cast<double>(chunk) * threads) throw std::runtime_error("stream: wrong sum");
-  return best;
+  s.copy = best_of(16, [&](size_t begin, size_t) { std::copy_n(a.data() + begin, chunk, b.data() + begin); });
+  s.triad = best_of(24, [&](size_t begin, size_t) {
+    for (size_t i = begin; i < begin + chunk; ++i) c[i] = b[i] + 3.0 * a[i];
+  });
+  if (c[0] != 4.0 || c[threads * chunk - 1] != 4.0) throw std::runtime_error("stream: wrong triad");  // b = a = 1 after copy
+  return s;
 }
 
 std::tuple<double, double, double> query_times(const Field& f, const std::vector<Vec3>& path, const std::vector<Vec3>& random) {
@@ -295,7 +309,7 @@ Row run(const mesh::SurfaceMesh& surface, const PrepareOptions& o, const std::ve
   for (const SigmaSpec& sigma : sigmas) {  // 100 solves per case; the first case fills t
     std::vector<double> tc;
     for (int i = 0; i < 100; ++i) {
-      f.set_sigma(sigma, false);
+      f.set_sigma(sigma, false, false);  // the full solve every time (the paper's t_solve)
       tc.push_back(f.stats().t_solve * 1e3);
     }
     double m = 0;
@@ -304,7 +318,7 @@ Row run(const mesh::SurfaceMesh& surface, const PrepareOptions& o, const std::ve
     if (t.empty()) t = tc;
   }
   for (int i = 0; i < 10; ++i) {
-    f.set_sigma(sigmas.front(), true);
+    f.set_sigma(sigmas.front(), true, false);
     r.grad_ms += f.stats().t_gradient * 1e3 / 10;
   }
   double mean = 0, sq = 0;
@@ -319,7 +333,7 @@ Row run(const mesh::SurfaceMesh& surface, const PrepareOptions& o, const std::ve
       for (int threads : {1, 2})
         for (int i = 0; i < 10; ++i) {
           f.set_solve_threads(threads);
-          f.set_sigma(sigmas.front(), false);
+          f.set_sigma(sigmas.front(), false, false);
           if (threads == 1) one.push_back(f.stats().t_solve * 1e3);
         }
     f.set_solve_threads(2);
@@ -393,19 +407,21 @@ void print(const char* title, const std::vector<Row>& rows) {
 }
 
 // A dense solve (b = 1) reads every factor entry twice (forward and back substitution): its
-// achieved bandwidth is 2 · factor bytes / time, set against this machine's read stream.
-nlohmann::json print_bandwidth(const std::vector<Row>& rows, double stream_1t, double stream_2t) {
+// achieved bandwidth is 2 · factor bytes / time, set against this machine's stream measured in
+// the same run (read: the solve's own access; triad: STREAM's figure).
+nlohmann::json print_bandwidth(const std::vector<Row>& rows, const Stream& s1, const Stream& s2) {
   std::printf(
-      "\nTriangular solves against memory bandwidth (stream: sum of 256 MB of doubles, best of 5: "
-      "%.2f GB/s on 1 thread, %.2f GB/s on 2)\n| l_x | N_verts | factor MB | dense 1 thread ms | GB/s | "
-      "of stream | dense 2 threads ms | GB/s | of stream |\n|---|---|---|---|---|---|---|---|---|\n",
-      stream_1t, stream_2t);
+      "\nTriangular solves against memory bandwidth (arrays of 256 MB, best of 5; GB/s read / copy / triad: "
+      "1 thread %.2f / %.2f / %.2f, 2 threads %.2f / %.2f / %.2f)\n| l_x | N_verts | factor MB | dense 1 thread ms | GB/s | "
+      "of read | of triad | dense 2 threads ms | GB/s | of read | of triad |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
+      s1.read, s1.copy, s1.triad, s2.read, s2.copy, s2.triad);
   nlohmann::json out;
   for (const Row& r : rows) {
     const double gb = 2 * r.stats.factor_mb / 1e3, bw1 = gb / (r.dense_1t_ms / 1e3), bw2 = gb / (r.dense_solve_ms / 1e3);
-    std::printf("| %.3g | %ld | %.1f | %.2f | %.2f | %.0f%% | %.2f | %.2f | %.0f%% |\n", r.lx, r.stats.n_verts, r.stats.factor_mb,
-                r.dense_1t_ms, bw1, 100 * bw1 / stream_1t, r.dense_solve_ms, bw2, 100 * bw2 / stream_2t);
-    out.push_back({{"lx", r.lx}, {"factor_mb", r.stats.factor_mb}, {"solve_gbps_one_thread", bw1}, {"solve_gbps_two_threads", bw2}, {"stream_gbps_one_thread", stream_1t}, {"stream_gbps_two_threads", stream_2t}});
+    std::printf("| %.3g | %ld | %.1f | %.2f | %.2f | %.0f%% | %.0f%% | %.2f | %.2f | %.0f%% | %.0f%% |\n", r.lx, r.stats.n_verts,
+                r.stats.factor_mb, r.dense_1t_ms, bw1, 100 * bw1 / s1.read, 100 * bw1 / s1.triad, r.dense_solve_ms, bw2,
+                100 * bw2 / s2.read, 100 * bw2 / s2.triad);
+    out.push_back({{"lx", r.lx}, {"factor_mb", r.stats.factor_mb}, {"solve_gbps_one_thread", bw1}, {"solve_gbps_two_threads", bw2}, {"stream_gbps_one_thread", s1.read}, {"stream_gbps_two_threads", s2.read}, {"stream_copy_gbps_one_thread", s1.copy}, {"stream_copy_gbps_two_threads", s2.copy}, {"stream_triad_gbps_one_thread", s1.triad}, {"stream_triad_gbps_two_threads", s2.triad}});
   }
   std::printf(
       "\nLocal σ edit by linearity (a stroke over 5%% of the surface; same factor, medians): the stroke's "
@@ -516,7 +532,7 @@ int main(int argc, char** argv) {
   }
   if (table1) std::printf("\nRMSE of h against l_x = %.3g on a %d × %d grid in [−3, 3]² (z = 0)\n", lxs.back(), grid, grid);
   if (table1) print("Table I: unit cube (times in s; t_solve, t_grad, chol_ms, LU_solve in ms; q_*, AABB in µs)", rows);
-  const double stream_1t = stream_read_gbps(1), stream_2t = stream_read_gbps(2);
+  const Stream stream_1t = stream_gbps(1), stream_2t = stream_gbps(2);
   nlohmann::json bandwidth = table1 ? print_bandwidth(rows, stream_1t, stream_2t) : nlohmann::json();
   // Observed orders between consecutive rows: log(e_k / e_k+1) / log(l_x,k / l_x,k+1). The RMSE
   // against the finest mesh carries that mesh's own error, so its order is biased low near it.

@@ -12,6 +12,7 @@
 #include <boost/beast/http.hpp>
 #include <boost/beast/websocket.hpp>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -111,6 +112,22 @@ double median_ms(int reps, Fn&& fn) {
   return percentile(t, 0.5);
 }
 
+// Stroke i as the page paints one (default brush: radius 0.14, falloff 0.069, "towards", stamps
+// r/2 apart) across a face of the unit cube: about 5% of its surface.
+std::vector<distlab::kelvin::BrushSigma> stroke_stamps(int i) {
+  const int face = i % 6, axis = face / 2;
+  const double side = face % 2 == 0 ? 0.5 : -0.5, offset = 0.05 * (i % 5) - 0.1;
+  std::vector<distlab::kelvin::BrushSigma> out;
+  for (int k = 0; k < 7; ++k) {
+    distlab::Vec3 c = distlab::Vec3::Zero();
+    c[axis] = side;
+    c[(axis + 1) % 3] = -0.21 + 0.07 * k;
+    c[(axis + 2) % 3] = offset;
+    out.push_back({c, 0.14, (i % 2 == 0 ? 1.0 : -0.5), 0.069, true});
+  }
+  return out;
+}
+
 // In-process: where the time of one σ edit goes, stage by stage (same field as the service).
 int breakdown(const std::string& assets, const std::string& cache, double lx, int reps) {
   using namespace distlab;
@@ -124,13 +141,24 @@ int breakdown(const std::string& assets, const std::string& cache, double lx, in
     s.constant = 0.002 * (i + 1);  // near the service bench's σ range: a similar iso-surface
     return s;
   };
-  const double t_solve_grad = median_ms(reps, [&](int i) { field.set_sigma(sigma(i), true); });
-  const double t_solve = median_ms(reps, [&](int i) { field.set_sigma(sigma(i), false); });
+  const double t_solve_grad = median_ms(reps, [&](int i) { field.set_sigma(sigma(i), true, false); });
+  const double t_solve = median_ms(reps, [&](int i) { field.set_sigma(sigma(i), false, false); });
+  // Another constant by linearity (Field::set_sigma): V scaled, no solve.
+  const double t_shift = median_ms(reps, [&](int i) { field.set_sigma(sigma(i + 1), false); });
   mesh::SurfaceMesh iso;
   const double t_iso = median_ms(reps, [&](int) { iso = field.isosurface(0.3); });
   std::size_t bytes = 0;
   const double t_frame = median_ms(reps, [&](int) {
     bytes = server::to_msgpack(server::mesh_frame(iso, {{"type", "isosurface"}, {"level", 0.3}})).size();
+  });
+  std::string digest;
+  const double t_digest = median_ms(reps, [&](int) { digest = server::mesh_digest(iso); });
+  // One edit as the server's frame loop runs it: σ → V, marching tets, frame, digest, msgpack.
+  const double t_edit = median_ms(reps, [&](int i) {
+    field.set_sigma(sigma(reps + i), false);
+    const mesh::SurfaceMesh m = field.isosurface(0.3);
+    json frame = server::mesh_frame(m, {{"type", "isosurface"}, {"level", 0.3}, {"digest", server::mesh_digest(m)}});
+    bytes = server::to_msgpack(frame).size();
   });
   // A σ version after the first sends σ per input vertex only (the surface went out once).
   std::size_t sigma_bytes = 0;
@@ -138,6 +166,39 @@ int breakdown(const std::string& assets, const std::string& cache, double lx, in
     const auto values = server::sigma_at_vertices(sigma(i), surface);
     sigma_bytes = server::to_msgpack(server::scalars_frame(values, {{"type", "surface_sigma"}})).size();
   });
+  // A brush stroke (stroke_stamps) after `before` earlier strokes, solved by linearity (the σ
+  // appends brushes) against the full solve of the same σ.
+  const int before = 20;
+  auto stroke = [](kelvin::SigmaSpec s, int i) {
+    for (const kelvin::BrushSigma& b : stroke_stamps(i)) s.brushes.push_back(b);
+    return s;
+  };
+  kelvin::SigmaSpec painted = sigma(0);
+  for (int i = 0; i < before; ++i) painted = stroke(painted, i);
+  std::vector<double> t_linear, t_full, t_linear_iso, t_full_iso, reached, diff;
+  for (int i = 0; i < reps; ++i) {
+    const kelvin::SigmaSpec next = stroke(painted, before + i);
+    for (int side = 0; side < 2; ++side) {  // alternating which goes first
+      const bool linear = (side == 0) == (i % 2 == 0);
+      field.set_sigma(painted, false, false);  // the state before the stroke
+      const auto t0 = Clock::now();
+      field.set_sigma(next, false, linear);
+      const auto t1 = Clock::now();
+      iso = field.isosurface(0.3);
+      const auto t2 = Clock::now();
+      (linear ? t_linear : t_full).push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+      (linear ? t_linear_iso : t_full_iso).push_back(std::chrono::duration<double, std::milli>(t2 - t0).count());
+      if (linear) {
+        reached.push_back(static_cast<double>(field.stats().linear_boundary) / static_cast<double>(field.boundary_points().size()));
+        const VecX v = field.vertex_values();
+        field.set_sigma(next, false, false);
+        double d = 0, scale = 0;
+        for (Eigen::Index k = 0; k < v.size(); ++k)
+          if (!std::isnan(v[k])) d = std::max(d, std::abs(v[k] - field.vertex_values()[k])), scale = std::max(scale, std::abs(v[k]));
+        diff.push_back(d / scale);
+      }
+    }
+  }
   {  // checksum of the iso-surface (orientation-sensitive), so two builds can be compared
     double sum = 0;
     for (Eigen::Index f = 0; f < iso.faces.rows(); ++f) {
@@ -147,10 +208,24 @@ int breakdown(const std::string& assets, const std::string& cache, double lx, in
     std::printf("iso-surface: %ld faces, checksum %.12g\n", static_cast<long>(iso.faces.rows()), sum);
   }
   std::printf("| stage (median of %d) | ms |\n|---|---:|\n", reps);
-  std::printf("| Kelvin solve + vertex gradients | %.1f |\n| Kelvin solve only | %.1f |\n", t_solve_grad, t_solve);
+  std::printf("| Kelvin solve (full) + vertex gradients | %.1f |\n| Kelvin solve only (full) | %.1f |\n", t_solve_grad, t_solve);
+  std::printf("| another constant by linearity (V scaled) | %.2f |\n", t_shift);
   std::printf("| marching tets, level 0.3 (%ld vertices) | %.1f |\n", static_cast<long>(iso.vertices.rows()), t_iso);
   std::printf("| msgpack iso frame (%zu bytes) | %.1f |\n| σ per surface vertex frame (%zu bytes) | %.1f |\n",
               bytes, t_frame, sigma_bytes, t_surface);
+  std::printf("| SHA-256 digest of the iso-surface | %.1f |\n| one edit: σ → V (another constant), marching tets, frame, digest, msgpack | %.1f |\n",
+              t_digest, t_edit);
+  const double lin = percentile(t_linear, 0.5), full = percentile(t_full, 0.5);
+  std::printf(
+      "\nA brush stroke (7 stamps, r 0.14, falloff 0.069, towards) after %d strokes (%zu brushes): boundary values "
+      "reached median %.1f%%; V by linearity against the full solve of the same σ, max relative difference %.1e\n"
+      "| σ → V (median of %d, alternating) | full solve ms | by linearity ms | ratio |\n|---|---:|---:|---:|\n"
+      "| solve | %.2f | %.2f | %.2f |\n| solve + marching tets | %.2f | %.2f | %.2f |\n",
+      before, painted.brushes.size() + 7, 100 * percentile(reached, 0.5), *std::max_element(diff.begin(), diff.end()), reps,
+      full, lin, lin / full, percentile(t_full_iso, 0.5), percentile(t_linear_iso, 0.5),
+      percentile(t_linear_iso, 0.5) / percentile(t_full_iso, 0.5));
+  const nlohmann::json out = {{"solve_full_ms", full}, {"solve_linear_ms", lin}, {"ratio", lin / full}, {"solve_iso_full_ms", percentile(t_full_iso, 0.5)}, {"solve_iso_linear_ms", percentile(t_linear_iso, 0.5)}, {"boundary_reached", percentile(reached, 0.5)}, {"max_relative_difference", *std::max_element(diff.begin(), diff.end())}, {"t_solve_gradients_ms", t_solve_grad}, {"t_solve_constant_ms", t_solve}, {"t_shift_constant_ms", t_shift}, {"t_isosurface_ms", t_iso}, {"t_frame_ms", t_frame}, {"t_digest_ms", t_digest}, {"t_edit_ms", t_edit}, {"repeats", reps}};
+  std::printf("JSON %s\n", out.dump().c_str());
   return 0;
 }
 
@@ -162,6 +237,7 @@ const char* kUsage =
     "  --port N           server port (default 8080)\n"
     "  --lx X             l_x of the cube's Kelvin field (default 0.06)\n"
     "  --edits N          σ edits timed edit -> iso-surface frame (default 40)\n"
+    "  --edit KIND        constant (each edit another constant σ) or brush (one more stroke each)\n"
     "  --clients N        concurrent query clients (default 50)\n"
     "  --seconds X        length of the load phase (default 30)\n"
     "  --breakdown DIR    no server: time each stage of an edit in-process on DIR's cube asset\n"
@@ -171,8 +247,9 @@ const char* kUsage =
 int main(int argc, char** argv) {
   double lx = 0.06, seconds = 30;
   int edits = 40, clients = 50;
+  bool brush_edits = false;
   std::string breakdown_assets, cache = "/tmp/distlab-bench-cache";
-  static const std::vector<std::string> known = {"--port", "--host", "--lx", "--edits", "--clients", "--seconds", "--breakdown", "--cache-dir"};
+  static const std::vector<std::string> known = {"--port", "--host", "--lx", "--edits", "--clients", "--seconds", "--breakdown", "--cache-dir", "--edit"};
   for (int i = 1; i < argc; i += 2) {
     const std::string k = argv[i];
     if (k == "--help" || k == "-h") {
@@ -193,8 +270,10 @@ int main(int argc, char** argv) {
       else if (k == "--seconds") seconds = std::clamp(std::stod(v), 1.0, 600.0);
       else if (k == "--breakdown") breakdown_assets = v;
       else if (k == "--cache-dir") cache = v;
+      else if (k == "--edit" && (v == "constant" || v == "brush")) brush_edits = v == "brush";
+      else if (k == "--edit") throw std::invalid_argument(v);
     } catch (const std::exception&) {
-      std::fprintf(stderr, "distlab-bench-server: %s %s: not a number\n", k.c_str(), v.c_str());
+      std::fprintf(stderr, "distlab-bench-server: %s %s: not a valid value\n", k.c_str(), v.c_str());
       return 2;
     }
   }
@@ -221,10 +300,17 @@ int main(int argc, char** argv) {
     ws.write(net::buffer(json{{"type", "watch"}, {"object", id}, {"levels", {0.3}}}.dump()));
     json frame = read_until_frame(0);
     std::vector<double> lat, solve, iso, since_edit;
+    json brushes = json::array();
     for (int i = 1; i <= edits; ++i) {
       const auto t0 = Clock::now();
-      // A new σ every time (no solve can be reused).
-      ws.write(net::buffer(json{{"type", "sigma"}, {"object", id}, {"sigma", {{"constant", 0.0005 * i}}}}.dump()));
+      // A new σ every time: another constant, or one more brush stroke (the page sends every brush).
+      json sigma = {{"constant", 0.0005 * i}};
+      if (brush_edits) {
+        for (const auto& b : stroke_stamps(i))
+          brushes.push_back({{"center", {b.centre.x(), b.centre.y(), b.centre.z()}}, {"radius", b.radius}, {"value", b.value}, {"falloff", b.falloff}, {"mode", "towards"}});
+        sigma = {{"constant", 0.0}, {"brushes", brushes}};
+      }
+      ws.write(net::buffer(json{{"type", "sigma"}, {"object", id}, {"sigma", sigma}}.dump()));
       frame = read_until_frame(i);
       lat.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
       if (frame.contains("server_ms")) {
@@ -233,8 +319,8 @@ int main(int argc, char** argv) {
         since_edit.push_back(frame["server_ms"].value("since_edit", 0.0));
       }
     }
-    std::printf("sigma edit -> isosurface frame (%ld iso vertices): median %.1f ms, p95 %.1f ms over %d edits\n",
-                frame["n_vertices"].get<long>(), percentile(lat, 0.5), percentile(lat, 0.95), edits);
+    std::printf("sigma edit (%s) -> isosurface frame (%ld iso vertices): median %.1f ms, p95 %.1f ms over %d edits\n",
+                brush_edits ? "a brush stroke more" : "another constant", frame["n_vertices"].get<long>(), percentile(lat, 0.5), percentile(lat, 0.95), edits);
     std::printf(
         "  server side: Kelvin solve median %.1f ms, marching tets median %.1f ms, edit received -> frame "
         "encoded median %.1f ms, p95 %.1f ms\n",

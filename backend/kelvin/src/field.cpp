@@ -176,13 +176,15 @@ void Field::Impl::build(const Progress& progress) {
     if (tm.in_domain[static_cast<size_t>(c)]) domain_tets.push_back(c);
   // Boundary vertices: on faces between a domain cell and a non-domain or hull neighbour.
   std::vector<char> on_boundary(np, 0), used(np, 0);
+  boundary_facets.clear();
   for (int c : domain_tets)
     for (int k = 0; k < 4; ++k) {
       used[static_cast<size_t>(tm.tets(c, k))] = 1;
       const int n = tm.neighbours(c, k);
-      if (n < 0 || !tm.in_domain[static_cast<size_t>(n)])
-        for (int j = 0; j < 4; ++j)
-          if (j != k) on_boundary[static_cast<size_t>(tm.tets(c, j))] = 1;
+      if (n >= 0 && tm.in_domain[static_cast<size_t>(n)]) continue;
+      boundary_facets.push_back(4 * c + k);
+      for (int j = 0; j < 4; ++j)
+        if (j != k) on_boundary[static_cast<size_t>(tm.tets(c, j))] = 1;
     }
   interior.clear();
   boundary.clear();
@@ -343,16 +345,47 @@ Field Field::prepare(const mesh::SurfaceMesh& surface, const PrepareOptions& opt
   return Field(std::move(impl));
 }
 
-void Field::set_sigma(const SigmaSpec& sigma, bool gradients) {
-  Impl& m = *impl_;
-  validate(sigma, m.surface.vertices.rows());
-  const auto t0 = std::chrono::steady_clock::now();
+namespace {
+
+// Full solves after this many σ edits solved by linearity: each adds its rounding to V
+// (measured ~1e-16 relative per edit on the cube), the full solve starts again from none.
+constexpr int kMaxLinearEdits = 32;
+
+// The surface point of boundary vertex b (eq. 5).
+Vec3 boundary_point(const Field::Impl& m, size_t b) {
+  const Vec3 y = m.tm.points.row(m.boundary[b]);
+  return m.centre + y / y.squaredNorm();
+}
+
+// The terms other than the constant and the brushes are the same.
+bool same_fixed_terms(const SigmaSpec& before, const SigmaSpec& after) {
+  if (after.axis != before.axis || after.per_vertex.has_value() != before.per_vertex.has_value()) return false;
+  return !after.per_vertex ||
+         (after.per_vertex->size() == before.per_vertex->size() && *after.per_vertex == *before.per_vertex);
+}
+
+// `after` is `before` with brushes appended (every other term the same): a brush stroke.
+bool appends_brushes(const SigmaSpec& before, const SigmaSpec& after) {
+  return after.constant == before.constant && same_fixed_terms(before, after) &&
+         after.brushes.size() >= before.brushes.size() &&
+         std::equal(before.brushes.begin(), before.brushes.end(), after.brushes.begin());
+}
+
+// `after` is `before` with another constant, and no brush "towards" a value (which would pass
+// on only part of the shift): σ moves by the same amount everywhere.
+bool shifts_constant(const SigmaSpec& before, const SigmaSpec& after) {
+  return after.constant != before.constant && same_fixed_terms(before, after) && after.brushes == before.brushes &&
+         std::none_of(after.brushes.begin(), after.brushes.end(), [](const BrushSigma& b) { return b.towards; });
+}
+
+// σ at every boundary vertex and V_∂ = e^(−σ)/|y| (eq. 17: U_∂ = e^(−σ), G = |y|). Sets
+// boundary_sigma only when every value is in range.
+VecX boundary_values(Field::Impl& m, const SigmaSpec& sigma) {
   const auto nb = static_cast<Eigen::Index>(m.boundary.size());
-  m.boundary_sigma.resize(nb);
-  VecX v_bnd(nb);
+  VecX sigmas(nb), v_bnd(nb);
   for (Eigen::Index b = 0; b < nb; ++b) {
     const Vec3 y = m.tm.points.row(m.boundary[static_cast<size_t>(b)]);
-    const Vec3 x = m.centre + y / y.squaredNorm();
+    const Vec3 x = boundary_point(m, static_cast<size_t>(b));
     double s = sigma.constant;
     if (sigma.per_vertex) {
       const int f = m.boundary_face[static_cast<size_t>(b)];
@@ -363,15 +396,86 @@ void Field::set_sigma(const SigmaSpec& sigma, bool gradients) {
     for (const auto& br : sigma.brushes) s = apply(br, s, x);
     // The terms are each in range (validate); their sum must be too, where it is used.
     require_sigma_in_range(s, x, "the surface point");
-    m.boundary_sigma[b] = s;
-    v_bnd[b] = std::exp(-s) / y.norm();  // eq. 17: V_∂ = U_∂ / G with U_∂ = e^(−σ), G = |y|
+    sigmas[b] = s;
+    v_bnd[b] = std::exp(-s) / y.norm();
   }
+  m.boundary_sigma = std::move(sigmas);
+  return v_bnd;
+}
+
+// Eqs. 17, 20, 21 for every boundary value.
+void solve_full(Field::Impl& m, const SigmaSpec& sigma) {
+  const VecX v_bnd = boundary_values(m, sigma);
   VecX rhs = -(m.a_ob * v_bnd);  // eq. 20
   m.solver.solve(rhs);           // eq. 21
   const auto np = m.tm.points.rows();
   m.V = VecX::Constant(np, std::numeric_limits<double>::quiet_NaN());
   for (size_t i = 0; i < m.interior.size(); ++i) m.V[m.interior[i]] = rhs[static_cast<Eigen::Index>(i)];
   for (size_t b = 0; b < m.boundary.size(); ++b) m.V[m.boundary[b]] = v_bnd[static_cast<Eigen::Index>(b)];
+  m.linear_edits = 0;
+  m.stats.linear_boundary = -1;
+  m.base_V = m.V;
+  m.base_constant = sigma.constant;
+}
+
+// A constant shift Δ of σ multiplies V_∂ by e^(−Δ), hence V (eqs. 20, 21 are linear): no solve.
+// Scaled from the last solve's V, not the last shift's: no rounding accumulates, and a σ seen
+// before gives the same V bit for bit (two sessions sharing a field alternate their σ).
+void solve_shift(Field::Impl& m, const SigmaSpec& sigma) {
+  const VecX v_bnd = boundary_values(m, sigma);
+  const double scale = std::exp(m.base_constant - sigma.constant);
+  for (int v : m.interior) m.V[v] = scale * m.base_V[v];
+  for (size_t b = 0; b < m.boundary.size(); ++b) m.V[m.boundary[b]] = v_bnd[static_cast<Eigen::Index>(b)];
+  m.stats.linear_boundary = static_cast<long>(m.boundary.size());
+}
+
+// The brushes after m.solved_sigma's, by linearity: σ changes only where they reach (weight > 0;
+// elsewhere apply() returns σ as it was, and σ continues from the stored boundary_sigma exactly
+// as the full evaluation would), so ΔV_∂ is sparse, and ΔV_Ω solves A_ΩΩ ΔV_Ω = −A_Ω∂ ΔV_∂
+// (eqs. 20, 21), whose forward substitution skips every supernode off the stroke's rows.
+void solve_brushes(Field::Impl& m, const SigmaSpec& sigma) {
+  const auto added = sigma.brushes.begin() + static_cast<long>(m.solved_sigma.brushes.size());
+  std::vector<std::pair<size_t, double>> changed;  // boundary index, new σ: nothing is set before all pass
+  for (size_t b = 0; b < m.boundary.size(); ++b) {
+    const Vec3 x = boundary_point(m, b);
+    if (std::none_of(added, sigma.brushes.end(), [&](const BrushSigma& br) { return weight(br, x) > 0; })) continue;
+    double s = m.boundary_sigma[static_cast<Eigen::Index>(b)];
+    for (auto br = added; br != sigma.brushes.end(); ++br) s = apply(*br, s, x);
+    require_sigma_in_range(s, x, "the surface point");
+    changed.emplace_back(b, s);
+  }
+  ++m.linear_edits;
+  m.stats.linear_boundary = static_cast<long>(changed.size());
+  if (changed.empty()) return;
+  VecX rhs = VecX::Zero(static_cast<Eigen::Index>(m.interior.size()));
+  for (const auto& [b, s] : changed) {
+    const int v = m.boundary[b];
+    const double v_new = std::exp(-s) / m.tm.points.row(v).norm(), dv = v_new - m.V[v];  // eq. 17
+    for (Eigen::SparseMatrix<double>::InnerIterator it(m.a_ob, static_cast<Eigen::Index>(b)); it; ++it)
+      rhs[it.row()] -= it.value() * dv;
+    m.boundary_sigma[static_cast<Eigen::Index>(b)] = s;
+    m.V[v] = v_new;
+  }
+  m.solver.solve(rhs);
+  for (size_t i = 0; i < m.interior.size(); ++i) m.V[m.interior[i]] += rhs[static_cast<Eigen::Index>(i)];
+  m.base_V = m.V;
+  m.base_constant = sigma.constant;
+}
+
+}  // namespace
+
+void Field::set_sigma(const SigmaSpec& sigma, bool gradients, bool by_linearity) {
+  Impl& m = *impl_;
+  validate(sigma, m.surface.vertices.rows());
+  const auto t0 = std::chrono::steady_clock::now();
+  const bool linear = by_linearity && m.solved && m.linear_edits < kMaxLinearEdits;
+  m.solved = false;  // until V holds σ (a throw leaves it unset: the next σ is solved in full)
+  if (linear && appends_brushes(m.solved_sigma, sigma)) solve_brushes(m, sigma);
+  else if (linear && shifts_constant(m.solved_sigma, sigma)) solve_shift(m, sigma);
+  else solve_full(m, sigma);
+  m.solved_sigma = sigma;
+  m.solved = true;
+  const auto np = m.tm.points.rows();
   for (Eigen::Index v = 0; v < np; ++v) m.packed.vertices[static_cast<size_t>(v)].value = m.V[v];  // for queries
   m.stats.t_solve = seconds_since(t0);
   m.has_gradients = false;

@@ -25,6 +25,7 @@ struct Field::Impl {
   std::vector<int> slot;                // per point: interior index ≥ 0, boundary b as -(b + 2), unused -1
   std::vector<int> interior, boundary;  // point ids
   std::vector<int> domain_tets;
+  std::vector<int> boundary_facets;  // 4 · cell + k: the face of a domain cell opposite its vertex k, on ∂Ω_inv
   // Vertex stars: for point v, entries star[star_start[v] … star_start[v+1]) are 4 · (index into
   // domain_tets) + (local vertex): the domain cells around v.
   std::vector<int> star_start, star;
@@ -42,6 +43,15 @@ struct Field::Impl {
   VecX boundary_sigma;
   VecX V;                      // per point (V and ∇V are also in packed.vertices, beside the positions)
   bool has_gradients = false;  // set_sigma(…, gradients = false) leaves ∇V out
+  // The σ that V solves (valid only with `solved`), and the σ edits solved by linearity since
+  // the last full solve (field.cpp, set_sigma).
+  SigmaSpec solved_sigma;
+  bool solved = false;
+  int linear_edits = 0;
+  // V after the last solve (full or by brushes) and its σ's constant: a constant shift scales this
+  // V, so σ values that differ only in the constant give V bit for bit the same whatever the order.
+  VecX base_V;
+  double base_constant = 0;
   Stats stats;
   // Seconds of each phase of the last build() (for the build profile; phases after the stars
   // run on two threads, each timed on its own).

@@ -14,7 +14,15 @@ namespace {
 
 class Builder {
  public:
-  Builder(const Field::Impl& m, const VecX& u, double level_u) : m_(m), u_(u), level_(level_u) { rehash(1 << 12); }
+  // Values within 1e-9 (relative) of the level count as in: on the boundary U = |y| · e^(−σ)/|y|
+  // equals e^(−σ) only to rounding, and at the level σ itself (the object's surface for constant
+  // σ, the web's zero level for σ = 0) those last bits made slivers of crossing triangles that
+  // overlapped the surface facets with the opposite orientation. One byte per vertex: the cell
+  // loop reads 4 per cell at random, and bytes stay in cache where the doubles of u do not.
+  Builder(const Field::Impl& m, const VecX& u, double level_u) : m_(m), u_(u), level_(level_u), in_(static_cast<size_t>(u.size())) {
+    for (Eigen::Index v = 0; v < u.size(); ++v) in_[static_cast<size_t>(v)] = u[v] <= level_u * (1 + 1e-9);
+    rehash(1 << 12);
+  }
 
   // Output vertex for mesh vertex a (a == b) or for the level crossing on edge (a, b); shared by
   // every triangle that touches it, which makes the surface watertight.
@@ -48,11 +56,7 @@ class Builder {
     else tris_.emplace_back(i, j, k);
   }
 
-  // Values within 1e-9 (relative) of the level count as in: on the boundary U = |y| · e^(−σ)/|y|
-  // equals e^(−σ) only to rounding, and at the level σ itself (the object's surface for constant
-  // σ, the web's zero level for σ = 0) those last bits made slivers of crossing triangles that
-  // overlapped the surface facets with the opposite orientation.
-  bool in(int v) const { return u_[v] <= level_ * (1 + 1e-9); }
+  bool in(int v) const { return in_[static_cast<size_t>(v)] != 0; }
 
   mesh::SurfaceMesh take() {
     mesh::SurfaceMesh out;
@@ -89,6 +93,7 @@ class Builder {
   const Field::Impl& m_;
   const VecX& u_;
   double level_;
+  std::vector<std::uint8_t> in_;
   std::vector<std::uint64_t> keys_;
   std::vector<int> values_;
   int shift_ = 0;
@@ -106,12 +111,10 @@ mesh::SurfaceMesh Field::isosurface(double level) const {
   for (Eigen::Index v = 0; v < u.size(); ++v) u[v] = m.tm.points.row(v).norm() * m.V[v];
   Builder out(m, u, std::exp(-level));
 
-  std::vector<int> touching;  // cells with a corner in the region: only they can clip a facet
-  bool crosses = false;       // some cell has the level inside: the field takes it
+  bool crosses = false;  // some cell has the level inside: the field takes it
   for (int c : m.domain_tets) {
     int v[4], n_in = 0;
     for (int k = 0; k < 4; ++k) n_in += out.in(v[k] = m.tm.tets(c, k));
-    if (n_in > 0) touching.push_back(c);
     if (n_in == 0 || n_in == 4) continue;
     crosses = true;
     // −∇U in this cell points into {h ≥ level}.
@@ -144,25 +147,25 @@ mesh::SurfaceMesh Field::isosurface(double level) const {
     const double lowest = minimum();
     if (level < lowest - 1e-9 * std::max(1.0, std::abs(lowest))) return {};
   }
-  // Where the region reaches the object's surface, the surface itself closes it.
-  for (int c : touching)
-    for (int k = 0; k < 4; ++k) {
-      const int nb = m.tm.neighbours(c, k);
-      if (nb >= 0 && m.tm.in_domain[static_cast<size_t>(nb)]) continue;
-      int f[3], j = 0;
-      for (int i = 0; i < 4; ++i)
-        if (i != k) f[j++] = m.tm.tets(c, i);
-      const Vec3 a = m.tm.points.row(f[0]), b = m.tm.points.row(f[1]), cc = m.tm.points.row(f[2]);
-      Vec3 into = (b - a).cross(cc - a);
-      if (into.dot(Vec3(m.tm.points.row(m.tm.tets(c, k))) - a) < 0) into = -into;
-      int poly[4], n = 0;  // the facet clipped to U ≤ level (Sutherland–Hodgman): ≤ 4 corners
-      for (int i = 0; i < 3; ++i) {
-        const int p = f[i], q = f[(i + 1) % 3];
-        if (out.in(p)) poly[n++] = out.vertex(p, p);
-        if (out.in(p) != out.in(q)) poly[n++] = out.vertex(p, q);
-      }
-      for (int i = 2; i < n; ++i) out.triangle(poly[0], poly[i - 1], poly[i], into);
+  // Where the region reaches the object's surface, the surface itself closes it (a facet with
+  // no corner in the region adds nothing).
+  for (const int facet : m.boundary_facets) {
+    const int c = facet >> 2, k = facet & 3;
+    int f[3], j = 0;
+    for (int i = 0; i < 4; ++i)
+      if (i != k) f[j++] = m.tm.tets(c, i);
+    if (!out.in(f[0]) && !out.in(f[1]) && !out.in(f[2])) continue;
+    const Vec3 a = m.tm.points.row(f[0]), b = m.tm.points.row(f[1]), cc = m.tm.points.row(f[2]);
+    Vec3 into = (b - a).cross(cc - a);
+    if (into.dot(Vec3(m.tm.points.row(m.tm.tets(c, k))) - a) < 0) into = -into;
+    int poly[4], n = 0;  // the facet clipped to U ≤ level (Sutherland–Hodgman): ≤ 4 corners
+    for (int i = 0; i < 3; ++i) {
+      const int p = f[i], q = f[(i + 1) % 3];
+      if (out.in(p)) poly[n++] = out.vertex(p, p);
+      if (out.in(p) != out.in(q)) poly[n++] = out.vertex(p, q);
     }
+    for (int i = 2; i < n; ++i) out.triangle(poly[0], poly[i - 1], poly[i], into);
+  }
   return out.take();
 }
 

@@ -48,6 +48,7 @@ struct Stats {
   double t_mesh = 0, t_build = 0, t_decomp = 0;  // seconds
   double t_solve = 0;                            // last set_sigma: σ on the boundary → V (eqs. 17, 20, 21), seconds
   double t_gradient = 0;                         // last set_sigma: vertex gradients of V (0 if not asked), seconds
+  long linear_boundary = -1;                     // last set_sigma: boundary values it changed if solved by linearity, else −1
   // Loaded from the cache: t_mesh and t_decomp are then those of the original preparation,
   // t_build is measured again (derived data are rebuilt) and t_load is the time of the load.
   bool cached = false;
@@ -91,7 +92,12 @@ class Field {
   // Solves eqs. 17, 20, 21 for V with V_∂ = e^(−σ)/|y|, and (unless gradients is false) the
   // vertex gradients of V. Without them, queries return NaN gradients: a caller that needs only
   // h (or only V, as a σ update between gradient queries) saves their cost.
-  void set_sigma(const SigmaSpec& sigma, bool gradients = true);
+  // A σ that is the last one with brushes appended (a brush stroke) is solved by linearity: only
+  // the boundary values the new brushes reach change, and the change of V solves eq. 21 with a
+  // right-hand side that is zero elsewhere (same field to rounding, ~1e-15 relative). A σ that
+  // changes only the constant (no brush "towards" a value) scales V by e^(−Δconstant): no solve.
+  // by_linearity false always solves in full (the reference of tests and benchmarks).
+  void set_sigma(const SigmaSpec& sigma, bool gradients = true, bool by_linearity = true);
 
   // h(x) and ∇h(x) (Algorithm 1). hint: the cell of a previous query (updated), or nullptr
   // to locate through the seeding grid. ∇h is the paper's smoothed gradient: vertex gradients of

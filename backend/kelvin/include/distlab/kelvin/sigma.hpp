@@ -16,6 +16,7 @@ struct AxisSigma {
   double d0 = 0;
   double sigma_nom = 1;
   double width = 1;
+  bool operator==(const AxisSigma&) const = default;
 };
 
 // Weight w(x) = 1 within radius of centre, falling smoothly (smoothstep) to 0 over falloff beyond
@@ -29,6 +30,7 @@ struct BrushSigma {
   double value = 0;
   double falloff = 0;
   bool towards = false;
+  bool operator==(const BrushSigma&) const = default;
 };
 
 // The range of σ, of every term and of their sum anywhere on the surface: |σ| ≤ kMaxAbsSigma.
