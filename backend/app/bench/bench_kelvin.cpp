@@ -3,7 +3,8 @@
 // usage: distlab-bench-kelvin [--assets DIR] [--lx 0.2,0.15,...] [--grid 1000] [--lu-max 60000]
 //                             [--wrench-lx 0.002] [--wrench-features 180] [--json FILE]
 //                             [--table2-only 1] [--table1-only 1] [--sphere-rmse 0.1,0.05,...]
-//                             [--cache-dir DIR] [--far-radius 1]
+//                             [--cache-dir DIR] [--far-radius 1] [--grading 0]
+//                             [--sizing-table 0.05,0.03 [--gradings 0,0.3]]
 // --cache-dir reuses prepared objects (Field::prepare_cached): t_mesh and t_decomp are then those
 // of the original preparation, t_build is measured again.
 // t_solve is σ → V (eqs. 17, 20, 21: what the paper times; mean and median of 100); t_grad, the
@@ -435,6 +436,114 @@ nlohmann::json print_bandwidth(const std::vector<Row>& rows, const Stream& s1, c
   return out;
 }
 
+// The two closed forms the meshing is judged by (as tests/kelvin/test_sphere.cpp).
+// Unit cube [−0.5, 0.5]³, u_∂ = 1: V(0) = u·|x| at infinity is its capacitance C = 0.6606785
+// (Hwang & Mascagni 2004), so |ln(V(0)/C)| is the far-field error of h; and the largest distance
+// of the meshed boundary's vertices from the cube.
+constexpr double kCubeCapacitance = 0.6606785;
+struct CubeErrors {
+  double v0 = 0, boundary_max = 0;
+};
+CubeErrors cube_errors(const Field& f) {
+  const Vec3 far(1e4, 3e3, 2e3);  // |y| ≈ 1e-4
+  CubeErrors e;
+  e.v0 = std::exp(-f.query(far).h) * far.norm();
+  for (const Vec3& x : f.boundary_points()) {
+    const Vec3 q = x.cwiseAbs() - Vec3::Constant(0.5);
+    const double outside = q.cwiseMax(0.0).norm();
+    e.boundary_max = std::max(e.boundary_max, outside > 0 ? outside : -q.maxCoeff());
+  }
+  return e;
+}
+
+// Sphere R = 0.5 at the origin, σ = 0, inversion centre off its centre (else V is constant and
+// exact on any mesh): h = ln(|x|/R) on the plane z = 0 in [−3, 3]², split into the region where
+// the mesh is uniform in x (|x − c| < 0.65 = r_max) and the region beyond; the meshed boundary's
+// face centroids (mapped to x) against the sphere.
+struct SphereErrors {
+  long n_verts = 0;
+  double rmse = 0, rmse_near = 0, rmse_far = 0, max_abs = 0, boundary_rms = 0, t_mesh = 0;
+};
+SphereErrors sphere_errors(PrepareOptions o, int grid) {
+  o.centre = Vec3(0.12, -0.07, 0.05);
+  Field f = Field::prepare(mesh::icosphere(0.5, 6), o);
+  f.set_sigma(SigmaSpec{});
+  double all = 0, near = 0, far = 0;
+  long n_all = 0, n_near = 0, n_far = 0;
+  SphereErrors e;
+  int hint = -1;
+  for (int i = 0; i < grid; ++i)
+    for (int j = 0; j < grid; ++j) {
+      const Vec3 x(-3 + 6.0 * (j + 0.5) / grid, -3 + 6.0 * (i + 0.5) / grid, 0);
+      if (x.norm() <= 0.5) continue;
+      const Sample q = f.query(x, &hint);
+      if (q.status != Status::ok) continue;
+      const double d = q.h - std::log(x.norm() / 0.5), d2 = d * d;
+      all += d2, ++n_all, e.max_abs = std::max(e.max_abs, std::abs(d));
+      if ((x - *o.centre).norm() < 0.65) near += d2, ++n_near;
+      else far += d2, ++n_far;
+    }
+  double bd = 0;
+  long nb = 0;
+  const TetMesh& m = f.tet_mesh();
+  for (Eigen::Index c = 0; c < m.tets.rows(); ++c) {
+    if (!m.in_domain[static_cast<size_t>(c)]) continue;
+    for (int k = 0; k < 4; ++k) {
+      const int n = m.neighbours(c, k);
+      if (n >= 0 && m.in_domain[static_cast<size_t>(n)]) continue;
+      Vec3 yc = Vec3::Zero();
+      for (int j = 0; j < 4; ++j)
+        if (j != k) yc += Vec3(m.points.row(m.tets(c, j))) / 3.0;
+      const Vec3 xc = *o.centre + yc / yc.squaredNorm();
+      bd += std::pow(xc.norm() - 0.5, 2), ++nb;
+    }
+  }
+  e.n_verts = f.stats().n_verts;
+  e.t_mesh = f.stats().t_mesh;
+  e.rmse = std::sqrt(all / std::max(n_all, 1L));
+  e.rmse_near = std::sqrt(near / std::max(n_near, 1L));
+  e.rmse_far = std::sqrt(far / std::max(n_far, 1L));
+  e.boundary_rms = std::sqrt(bd / std::max(nb, 1L));
+  return e;
+}
+
+// Accuracy against vertices for the paper's sizing (eq. 23, grading 0) and graded ones, side by
+// side at each l_x: the cube's capacitance error and the sphere's RMSE of h, with N_verts and
+// t_mesh (every row is meshed and solved: a 400k-vertex factorization takes tens of minutes here).
+nlohmann::json sizing_table(const std::vector<double>& lxs, const std::vector<double>& gradings, double far_radius, int grid) {
+  std::printf(
+      "\nAccuracy against vertices: cube |ln(V(0)/C)| (C = %.7f) and sphere RMSE of h (%d × %d grid, z = 0, [-3, 3]²); "
+      "grading 0 is the paper's sizing (eq. 23)\n"
+      "| l_x | grading | cube N_verts | cube N_tets | t_mesh s | t_decomp s | ln(V(0)/C) | boundary max / l_x² | sphere N_verts | "
+      "sphere t_mesh s | sphere RMSE | RMSE |x−c|<0.65 | RMSE beyond | max |dh| |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+      kCubeCapacitance, grid, grid);
+  nlohmann::json out = nlohmann::json::array();
+  for (double lx : lxs)
+    for (double g : gradings) {
+      PrepareOptions o;
+      o.lx = lx;
+      o.far_radius = far_radius;
+      o.grading = g;
+      o.max_vertices = 2'000'000;
+      CubeErrors c;
+      Stats st;
+      {  // the cube's factor is freed before the sphere is prepared
+        Field cube = Field::prepare(mesh::box(Vec3::Ones()), o);
+        cube.set_sigma(SigmaSpec{}, false);
+        c = cube_errors(cube);
+        st = cube.stats();
+      }
+      const SphereErrors sp = sphere_errors(o, grid);
+      const double cap = std::log(c.v0 / kCubeCapacitance);
+      std::printf("| %.3g | %.2f | %ld | %ld | %.2f | %.2f | %+.3e | %.3f | %ld | %.2f | %.5f | %.5f | %.5f | %.4f |\n", lx, g,
+                  st.n_verts, st.n_tets, st.t_mesh, st.t_decomp, cap, c.boundary_max / (lx * lx), sp.n_verts, sp.t_mesh,
+                  sp.rmse, sp.rmse_near, sp.rmse_far, sp.max_abs);
+      std::fflush(stdout);
+      out.push_back({{"lx", lx}, {"grading", g}, {"cube_n_verts", st.n_verts}, {"cube_n_tets", st.n_tets}, {"cube_t_mesh", st.t_mesh}, {"cube_t_decomp", st.t_decomp}, {"log_v0_over_capacitance", cap}, {"boundary_max_distance", c.boundary_max}, {"sphere_n_verts", sp.n_verts}, {"sphere_t_mesh", sp.t_mesh}, {"sphere_rmse", sp.rmse}, {"sphere_rmse_near", sp.rmse_near}, {"sphere_rmse_far", sp.rmse_far}, {"sphere_max_abs", sp.max_abs}});
+    }
+  return out;
+}
+
 std::vector<double> parse_list(const std::string& s) {
   std::vector<double> out;
   std::stringstream ss(s);
@@ -451,12 +560,14 @@ int main(int argc, char** argv) {
   long lu_max = 60000;
   double wrench_lx = 0.002, wrench_features = 180, far_radius = 1.0;
   bool table1 = true, table2 = true;
-  std::vector<double> sphere_lxs;
+  std::vector<double> sphere_lxs, sizing_lxs, gradings = {0.0, 0.3};
+  double grading = 0;
   if (argc == 2 && std::string(argv[1]) == "--help") {
     std::puts(
         "usage: distlab-bench-kelvin [--assets DIR] [--lx 0.2,0.15,...] [--grid 1000] [--lu-max 60000]\n"
         "  [--wrench-lx 0.002] [--wrench-features 180] [--json FILE] [--table2-only 1] [--table1-only 1]\n"
-        "  [--sphere-rmse 0.1,0.05,...] [--cache-dir DIR (reuse prepared objects)] [--far-radius 1]");
+        "  [--sphere-rmse 0.1,0.05,...] [--cache-dir DIR (reuse prepared objects)] [--far-radius 1] [--grading 0]\n"
+        "  [--sizing-table 0.05,0.03 (accuracy against vertices, per grading) [--gradings 0,0.3]]");
     return 0;
   }
   for (int i = 1; i + 1 < argc; i += 2) {
@@ -473,6 +584,9 @@ int main(int argc, char** argv) {
     else if (k == "--table2-only") table1 = v == "0";
     else if (k == "--table1-only") table2 = v == "0";
     else if (k == "--sphere-rmse") sphere_lxs = parse_list(v), table1 = table2 = false;
+    else if (k == "--grading") grading = std::stod(v);  // PrepareOptions::grading of every object
+    else if (k == "--sizing-table") sizing_lxs = parse_list(v), table1 = table2 = false;
+    else if (k == "--gradings") gradings = parse_list(v);
     else {
       std::fprintf(stderr, "unknown option %s\n", k.c_str());
       return 2;
@@ -490,12 +604,6 @@ int main(int argc, char** argv) {
   // checks: V(0) = u·|x| at infinity is the cube's capacitance C = 0.6606785 (Hwang & Mascagni
   // 2004), so |ln(V(0)/C)| is the far-field error of h; and the largest distance of the meshed
   // boundary's vertices from the cube.
-  constexpr double kCubeCapacitance = 0.6606785;
-  auto cube_distance = [](const Vec3& x) {
-    const Vec3 q = x.cwiseAbs() - Vec3::Constant(0.5);
-    const double outside = q.cwiseMax(0.0).norm();
-    return outside > 0 ? outside : -q.maxCoeff();
-  };
   std::vector<Row> rows;
   std::vector<std::vector<double>> planes;
   std::vector<std::pair<double, double>> exact;  // V(0), boundary max distance
@@ -504,6 +612,7 @@ int main(int argc, char** argv) {
     PrepareOptions o;
     o.lx = lx;
     o.far_radius = far_radius;
+    o.grading = grading;
     rows.push_back(run(cube, o, {zero}, path, random, lu_max, cache_dir, &kept));
     const Field& f = *kept;
     std::vector<double> plane(static_cast<size_t>(grid) * grid);
@@ -513,10 +622,8 @@ int main(int argc, char** argv) {
         plane[static_cast<size_t>(i) * grid + j] =
             f.query(Vec3(-3 + 6.0 * (j + 0.5) / grid, -3 + 6.0 * (i + 0.5) / grid, 0), &hint).h;
     planes.push_back(std::move(plane));
-    const Vec3 far(1e4, 3e3, 2e3);  // |y| ≈ 1e-4
-    double boundary_max = 0;
-    for (const Vec3& x : f.boundary_points()) boundary_max = std::max(boundary_max, cube_distance(x));
-    exact.emplace_back(std::exp(-f.query(far).h) * far.norm(), boundary_max);
+    const CubeErrors e = cube_errors(f);
+    exact.emplace_back(e.v0, e.boundary_max);
     std::fprintf(stderr, "lx %.3g done (%ld vertices)\n", lx, rows.back().stats.n_verts);
     print("Table I so far", {rows.back()});
   }
@@ -574,6 +681,7 @@ int main(int argc, char** argv) {
       o.lx = wrench_lx;
       o.centre = Vec3::Zero();
       o.feature_angle = wrench_features;
+      o.grading = grading;
       std::fprintf(stderr, "wrench: lx %.4g, feature_angle %.0f\n", o.lx, o.feature_angle);
       wrench_rows.push_back(run(wrench, o, cases, wpath, wrandom, lu_max, cache_dir));
       for (const std::string& w : wrench_rows.back().stats.warnings) std::printf("warning: %s\n", w.c_str());
@@ -594,54 +702,21 @@ int main(int argc, char** argv) {
         "\nSphere R = 0.5, centre of inversion (0.12, -0.07, 0.05): h against ln(|x|/R) on a %d × %d grid, z = 0, [-3, 3]²\n"
         "| l_x | N_verts | RMSE | RMSE |x|<0.65 | RMSE |x|≥0.65 | max |dh| | boundary RMS dist / l_x |\n|---|---|---|---|---|---|---|\n",
         grid, grid);
-    const mesh::SurfaceMesh sphere = mesh::icosphere(0.5, 6);
     for (double lx : sphere_lxs) {
       PrepareOptions o;
       o.lx = lx;
       o.far_radius = far_radius;
-      o.centre = Vec3(0.12, -0.07, 0.05);
-      Field f = Field::prepare(sphere, o);
-      f.set_sigma(SigmaSpec{});
-      double all = 0, near = 0, far = 0, worst = 0;
-      long n_all = 0, n_near = 0, n_far = 0;
-      int hint = -1;
-      for (int i = 0; i < grid; ++i)
-        for (int j = 0; j < grid; ++j) {
-          const Vec3 x(-3 + 6.0 * (j + 0.5) / grid, -3 + 6.0 * (i + 0.5) / grid, 0);
-          if (x.norm() <= 0.5) continue;
-          const Sample q = f.query(x, &hint);
-          if (q.status != Status::ok) continue;
-          const double d = q.h - std::log(x.norm() / 0.5), d2 = d * d;
-          all += d2, ++n_all, worst = std::max(worst, std::abs(d));
-          if ((x - *o.centre).norm() < 0.65) near += d2, ++n_near;
-          else far += d2, ++n_far;
-        }
-      // Boundary fidelity: RMS distance of the meshed boundary's face centroids (mapped to x) to
-      // the sphere, relative to l_x.
-      double bd = 0;
-      long nb = 0;
-      const TetMesh& m = f.tet_mesh();
-      for (Eigen::Index c = 0; c < m.tets.rows(); ++c) {
-        if (!m.in_domain[static_cast<size_t>(c)]) continue;
-        for (int k = 0; k < 4; ++k) {
-          const int n = m.neighbours(c, k);
-          if (n >= 0 && m.in_domain[static_cast<size_t>(n)]) continue;
-          Vec3 yc = Vec3::Zero();
-          for (int j = 0; j < 4; ++j)
-            if (j != k) yc += Vec3(m.points.row(m.tets(c, j))) / 3.0;
-          const Vec3 xc = *o.centre + yc / yc.squaredNorm();
-          bd += std::pow(xc.norm() - 0.5, 2), ++nb;
-        }
-      }
-      const double rmse = std::sqrt(all / std::max(n_all, 1L)), rn = std::sqrt(near / std::max(n_near, 1L)),
-                   rf = std::sqrt(far / std::max(n_far, 1L)), bdist = std::sqrt(bd / std::max(nb, 1L)) / lx;
-      std::printf("| %.3g | %ld | %.5f | %.5f | %.5f | %.4f | %.4f |\n", lx, f.stats().n_verts, rmse, rn, rf, worst, bdist);
+      o.grading = grading;
+      const SphereErrors e = sphere_errors(o, grid);
+      std::printf("| %.3g | %ld | %.5f | %.5f | %.5f | %.4f | %.4f |\n", lx, e.n_verts, e.rmse, e.rmse_near, e.rmse_far, e.max_abs,
+                  e.boundary_rms / lx);
       std::fflush(stdout);
-      sphere_json.push_back({{"lx", lx}, {"n_verts", f.stats().n_verts}, {"rmse", rmse}, {"rmse_near", rn}, {"rmse_far", rf}, {"max_abs", worst}, {"boundary_rms_over_lx", bdist}});
+      sphere_json.push_back({{"lx", lx}, {"n_verts", e.n_verts}, {"rmse", e.rmse}, {"rmse_near", e.rmse_near}, {"rmse_far", e.rmse_far}, {"max_abs", e.max_abs}, {"boundary_rms_over_lx", e.boundary_rms / lx}});
     }
   }
 
   nlohmann::json out;
+  if (!sizing_lxs.empty()) out["sizing"] = sizing_table(sizing_lxs, gradings, far_radius, grid);
   if (!sphere_json.is_null()) out["sphere_rmse"] = sphere_json;
   for (const Row& r : rows) out["table1"].push_back(to_json(r));
   if (!accuracy.is_null()) out["table1_accuracy"] = accuracy;

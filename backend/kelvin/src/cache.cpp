@@ -18,8 +18,8 @@ namespace distlab::kelvin {
 namespace {
 
 // Bump when the meshing or the file layout changes: old entries then simply miss.
-constexpr char kFormat[] = "distlab-kelvin-cache-v5";
-constexpr int kInputs = 6;  // requested lx, far_radius, feature_angle, centre
+constexpr char kFormat[] = "distlab-kelvin-cache-v6";
+constexpr int kInputs = 7;  // requested lx, far_radius, feature_angle, centre, grading
 constexpr size_t kKeyBytes = 32;
 constexpr char kKeyFile[] = "cache.key";
 
@@ -110,7 +110,7 @@ std::string prepare_key(const mesh::SurfaceMesh& s, const PrepareOptions& o, con
   h.add(rows, sizeof(rows));
   h.add(s.vertices.data(), sizeof(double) * static_cast<size_t>(s.vertices.size()));
   h.add(s.faces.data(), sizeof(int) * static_cast<size_t>(s.faces.size()));
-  const double params[6] = {o.lx, o.far_radius, o.feature_angle, centre.x(), centre.y(), centre.z()};
+  const double params[7] = {o.lx, o.far_radius, o.feature_angle, centre.x(), centre.y(), centre.z(), o.grading};
   h.add(params, sizeof(params));
   return h.hex();
 }
@@ -123,7 +123,7 @@ void save_prepared(const Field::Impl& m, const std::string& path, const std::str
   w.array(m.surface.vertices.data(), static_cast<std::uint64_t>(m.surface.vertices.size()));
   w.array(m.surface.faces.data(), static_cast<std::uint64_t>(m.surface.faces.size()));
   const Vec3 c = m.requested.centre.value_or(m.centre);
-  const double inputs[kInputs] = {m.requested.lx, m.requested.far_radius, m.requested.feature_angle, c.x(), c.y(), c.z()};
+  const double inputs[kInputs] = {m.requested.lx, m.requested.far_radius, m.requested.feature_angle, c.x(), c.y(), c.z(), m.requested.grading};
   w.raw(inputs, sizeof(inputs));
   const double params[3] = {m.options.feature_angle, m.stats.t_mesh, m.stats.t_decomp};
   w.raw(params, sizeof(params));
@@ -189,7 +189,7 @@ std::unique_ptr<Field::Impl> load_prepared(const std::string& path, const std::s
     return nullptr;
   // The name is a digest: the stored inputs themselves must equal the request, bit for bit (memcmp: -0.0 and NaN payloads count as different, as they hash differently).
   const Vec3 c = requested.centre.value_or(Vec3::Constant(std::numeric_limits<double>::quiet_NaN()));
-  const double wanted[kInputs] = {requested.lx, requested.far_radius, requested.feature_angle, c.x(), c.y(), c.z()};
+  const double wanted[kInputs] = {requested.lx, requested.far_radius, requested.feature_angle, c.x(), c.y(), c.z(), requested.grading};
   const auto same = [](const auto& a, const auto& b) {
     return a.rows() == b.rows() && a.cols() == b.cols() &&
            std::memcmp(a.data(), b.data(), sizeof(*a.data()) * static_cast<size_t>(a.size())) == 0;

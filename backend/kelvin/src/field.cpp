@@ -31,6 +31,8 @@ static void check_options(const PrepareOptions& o) {
     throw InvalidInput("feature_angle", "feature_angle must be in (0, 180] degrees");
   if (!std::isfinite(o.far_radius) || o.far_radius < 0.5 || o.far_radius > kMaxFarRadius)
     throw InvalidInput("far_radius", "far_radius must be in [0.5, " + std::to_string(static_cast<int>(kMaxFarRadius)) + "]");
+  if (!std::isfinite(o.grading) || o.grading < 0 || o.grading > kMaxGrading)
+    throw InvalidInput("grading", "grading must be in [0, " + std::to_string(static_cast<int>(kMaxGrading)) + "]");
   if (o.max_vertices < 100) throw InvalidInput("max_vertices", "max_vertices must be at least 100");
   if (!(o.max_protection_steps >= 0) || !(o.max_refinement_steps >= 1000))  // NaN fails too
     throw InvalidInput("max_refinement_steps", "meshing step limits must be positive (refinement at least 1000)");
@@ -141,6 +143,7 @@ static std::unique_ptr<Field::Impl> mesh_stage(mesh::SurfaceMesh surface, const 
   params.lx = o.lx;
   params.min_size = o.lx / std::pow(o.far_radius * r_max, 2);
   params.feature_angle = o.feature_angle;
+  params.grading = o.grading;
   params.max_vertices = o.max_vertices;
   params.max_protection_evaluations = protection_budget(surface, centre, o);
   params.max_refinement_evaluations = o.max_refinement_steps;

@@ -4,15 +4,19 @@
 #include <CGAL/Mesh_criteria_3.h>
 #include <CGAL/Mesh_error_code.h>
 #include <CGAL/Mesh_triangulation_3.h>
+#include <CGAL/Polygon_mesh_processing/bbox.h>
 #include <CGAL/Polygon_mesh_processing/remesh.h>
 #include <CGAL/Polyhedral_mesh_domain_with_features_3.h>
 #include <CGAL/Random.h>
 #include <CGAL/Surface_mesh.h>
 #include <CGAL/make_mesh_3.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <optional>
 #include <unordered_map>
 
 #include "distlab/geometry/error.hpp"
@@ -40,12 +44,57 @@ struct Budget {
 struct ProtectionBudgetExceeded {};
 struct RefinementBudgetExceeded {};
 
+// Distance in y from the inverted surface for the graded sizing. An exact AABB query costs up
+// to a millisecond deep inside (from near the centre of a sphere-like Ω_inv every triangle is
+// about as far), so away from the surface the distance at the centre of a lattice cell stands in:
+// d(p) ≥ d(c) − |p − c| (distance is 1-Lipschitz), a lower bound, so the mesh is never coarser
+// than graded. Cell values do not depend on the order of queries: meshes stay deterministic.
+class SurfaceDistance {
+ public:
+  SurfaceDistance(const Domain::AABB_tree& tree, const Polyhedron& poly) : tree_(tree) {
+    const auto box = CGAL::Polygon_mesh_processing::bbox(poly);
+    lo_[0] = box.xmin(), lo_[1] = box.ymin(), lo_[2] = box.zmin();
+    cell_ = std::max({box.xmax() - box.xmin(), box.ymax() - box.ymin(), box.zmax() - box.zmin()}) / 256;
+    tree_.squared_distance(K::Point_3(0, 0, 0));  // builds the tree's search structure now
+  }
+  // Two lattices, 32 and 256 cells across: deep points use the coarse one, so few exact
+  // queries are made where they are slow.
+  double operator()(const K::Point_3& p) const {
+    const double q[3] = {CGAL::to_double(p.x()), CGAL::to_double(p.y()), CGAL::to_double(p.z())};
+    for (const int level : {0, 1}) {
+      const double cell = level == 0 ? 8 * cell_ : cell_;
+      std::int64_t i[3];
+      double c[3];
+      for (int k = 0; k < 3; ++k) {
+        i[k] = static_cast<std::int64_t>(std::floor((q[k] - lo_[k]) / cell));
+        c[k] = lo_[k] + (static_cast<double>(i[k]) + 0.5) * cell;
+      }
+      const std::uint64_t key = (static_cast<std::uint64_t>(level) << 63) | (static_cast<std::uint64_t>(i[0] & 0x1fffff) << 42) |
+                                (static_cast<std::uint64_t>(i[1] & 0x1fffff) << 21) | static_cast<std::uint64_t>(i[2] & 0x1fffff);
+      auto [it, fresh] = at_centre_.try_emplace(key, 0.0);
+      if (fresh) it->second = std::sqrt(CGAL::to_double(tree_.squared_distance(K::Point_3(c[0], c[1], c[2]))));
+      if (it->second > 4 * cell)
+        return it->second - std::sqrt((q[0] - c[0]) * (q[0] - c[0]) + (q[1] - c[1]) * (q[1] - c[1]) + (q[2] - c[2]) * (q[2] - c[2]));
+    }
+    return std::sqrt(CGAL::to_double(tree_.squared_distance(p)));  // near the surface: exact and fast
+  }
+
+ private:
+  const Domain::AABB_tree& tree_;
+  double lo_[3] = {0, 0, 0}, cell_ = 1;
+  mutable std::unordered_map<std::uint64_t, double> at_centre_;
+};
+
 struct Sizing {
   double lx, min_size, scale;
   const Progress* progress;
   double max_ratio = 0;  // if > 0: l_y ≤ max_ratio · |y|
   Budget* budget = nullptr;
   bool edge = false;
+  // Grading (MeshingParams::grading): l_y grows by `grading` per unit distance in y from the
+  // inverted surface (the domain's AABB tree), where V is harmonic and smooth.
+  double grading = 0;
+  const SurfaceDistance* surface = nullptr;
   K::FT operator()(const K::Point_3& p, int, const Domain::Index&) const {
     progress->check();
     if (edge) {
@@ -54,7 +103,9 @@ struct Sizing {
       throw RefinementBudgetExceeded{};
     }
     const double y2 = CGAL::to_double(p.x() * p.x() + p.y() * p.y() + p.z() * p.z());
-    double l = std::max(lx * y2, min_size);
+    double l = lx * y2;
+    if (grading > 0) l += grading * (*surface)(p);
+    l = std::max(l, min_size);
     if (max_ratio > 0) l = std::min(l, max_ratio * std::sqrt(y2));
     return scale * l;
   }
@@ -111,14 +162,21 @@ TetMesh mesh_once(const mesh::SurfaceMesh& inverted, const MeshingParams& params
   // distance bound is a tenth of it.
   Sizing size{params.lx, params.min_size, 1.0, &progress};
   size.budget = &budget;
+  std::optional<SurfaceDistance> surface;
+  if (params.grading > 0) {
+    surface.emplace(domain.aabb_tree(), poly);
+    size.grading = params.grading;
+    size.surface = &*surface;
+  }
   // Protecting balls on sharp edges must stay small against the inverted edge curves (circles
   // through the origin, radius 1/(2d) for an edge at distance d from the centre): near the centre
   // |y|² l_x exceeds them and refinement never ends (seen on a 5 mm thick plate at l_x = 4 mm).
   Sizing edge = size;
   edge.max_ratio = 0.25;
   edge.edge = true;
-  Sizing distance{params.lx, params.min_size, 0.1, &progress};
-  distance.budget = &budget;
+  edge.grading = 0;  // edges lie on the surface
+  Sizing distance = size;
+  distance.scale = 0.1;
   namespace P = CGAL::parameters;
   Criteria criteria(P::edge_size = edge, P::facet_angle = 25.0, P::facet_size = size,
                     P::facet_distance = distance, P::cell_radius_edge_ratio = 3.0,

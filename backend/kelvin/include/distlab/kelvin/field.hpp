@@ -16,6 +16,7 @@
 namespace distlab::kelvin {
 
 inline constexpr double kMaxFarRadius = 1000;  // PrepareOptions::far_radius is in [0.5, this]
+inline constexpr double kMaxGrading = 1;       // PrepareOptions::grading is in [0, this]
 
 struct PrepareOptions {
   double lx = 0.1;             // exterior element size l_x, metres (eq. 23)
@@ -27,6 +28,9 @@ struct PrepareOptions {
   // protection, Mesh_3 (CGAL 5.5) did not finish on the 5 mm wrench plate (refine_balls loops);
   // without it, edges are rounded at the element scale but boundary vertices stay on the surface.
   double feature_angle = 60.0;
+  // Growth of the interior element size with the distance (in y) from the inverted surface:
+  // l_y = |y|² l_x + grading · d_y (MeshingParams::grading). 0 is the paper's eq. 23 alone.
+  double grading = 0.0;
   // Meshing limits, so that no request can hang (all deterministic counts, no wall time):
   // - max_vertices: refused up front (InvalidInput "lx") when the estimated vertex count exceeds
   //   it, and Mesh_3 stops with the same error when its triangulation reaches it;

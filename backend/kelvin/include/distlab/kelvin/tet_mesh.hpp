@@ -28,6 +28,9 @@ struct MeshingParams {
   double lx = 0.1;              // exterior element size l_x (eq. 23)
   double min_size = 0.0;        // lower bound of the interior sizing field l_y
   double feature_angle = 60.0;  // dihedral angle (degrees) below which edges are kept sharp
+  // 0: l_y = |y|² l_x (eq. 23, uniform in x). g > 0: l_y = |y|² l_x + g · d_y, d_y the distance
+  // in y from the inverted surface (graded away from the object).
+  double grading = 0.0;
   // Longest edge (in x) of the surface polyhedron handed to Mesh_3; 0: lx.
   double boundary_edge_length = 0.0;
   // Limits that turn a runaway refinement into an error instead of a hang (deterministic: counts,
@@ -38,7 +41,7 @@ struct MeshingParams {
 };
 
 // CGAL Mesh_3 on the region bounded by the (already inverted, outward-oriented) surface with
-// l_y(y) = max(|y|² l_x, min_size) (eq. 23). Deterministic: fixed seeds, no time limits.
+// l_y(y) = max(|y|² l_x + grading · d_y, min_size) (eq. 23 when grading is 0). Deterministic: fixed seeds, no time limits.
 // If edge protection exceeds its step budget (thin features), meshes again without it and sets
 // *warning. Exceeding the vertex or refinement budget throws InvalidInput("lx", …).
 TetMesh mesh_inverted_domain(const mesh::SurfaceMesh& inverted, const MeshingParams& params,
