@@ -107,9 +107,10 @@ struct SweepExecution {
   std::function<void(const std::string& stage, double fraction)> progress;
   // A finished run's entry, as it finishes (serialised; runs finish in any order).
   std::function<void(std::size_t index, const nlohmann::json& entry)> finished;
-  // Runs a task on another thread; false: it cannot (fewer runs go in parallel). Empty: one thread.
+  // Runs a task on another thread; false: it cannot (fewer runs go in parallel). Empty: the
+  // helpers run on distlab::parallel_for's threads, joined before execute_sweep returns.
   std::function<bool(std::function<void()>)> post;
-  unsigned helpers = 0;           // tasks posted at the start (at most runs − 1)
+  unsigned helpers = 0;           // threads besides the caller's (at most runs − 1)
   bool one_run_per_task = false;  // a helper re-posts itself after each run (a shared pool stays fair)
 };
 // Runs every run of the sweep; the entries in the sweep's order (null where a run was cancelled).
