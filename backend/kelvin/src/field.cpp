@@ -426,7 +426,7 @@ std::vector<Vec3> Field::boundary_points() const {
   std::vector<Vec3> out;
   for (int v : impl_->boundary) {
     const Vec3 y = impl_->tm.points.row(v);
-    out.push_back(impl_->centre + y / y.squaredNorm());
+    out.emplace_back(impl_->centre + y / y.squaredNorm());
   }
   return out;
 }
