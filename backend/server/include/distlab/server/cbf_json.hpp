@@ -74,7 +74,7 @@ nlohmann::json encode_smoothness(const cbf::RolloutRecord& record);
 // {"ee_position", "position_error", "min_clearance", "closest_pair", "active": [{"name", "kind"
 //  ("pair" | "joint_limit"), "distance", "margin", "clearance", "converged_distance",
 //  "multiplier"}]}: where the arm ends and which constraints hold it there.
-nlohmann::json encode_final_state(const cbf::FinalState& state);
+nlohmann::json encode_final_state(const cbf::FinalState& f);
 
 // Parse, run, encode; throws InvalidInput on bad input.
 nlohmann::json run_cbf_request(const nlohmann::json& request);
