@@ -3,7 +3,9 @@
 
 The core owns openapi_core.json (version, limits, sessions, jobs, errors, the shapes the features
 share, the WebSocket messages the core answers); each module folder src/<feature>/ owns its
-openapi.json (its paths, schemas, WebSocket messages, tags). The document served at
+openapi.json (its paths, schemas, WebSocket messages, tags). Only the modules src/modules.cpp
+registers are assembled (a folder whose module is not added there serves nothing, so documents
+nothing). The document served at
 /api/openapi.json (embedded by CMake) and the one web/scripts/api_types.mjs generates the
 TypeScript types from are this script's output, so both read the same assembly.
 
@@ -32,10 +34,25 @@ class AssemblyError(Exception):
     pass
 
 
-def fragments():
-    """(name, document) of the core and each module folder with an openapi.json, in folder order."""
-    found = [("core", HERE / "openapi_core.json")]
-    found += [(p.parent.name, p) for p in sorted((HERE / "src").glob("*/openapi.json"))]
+def registered(root=HERE):
+    """The module folders src/modules.cpp registers: those of its included headers that declare a
+    class it adds (`service.add<Class>()`)."""
+    wiring = (root / "src" / "modules.cpp").read_text(encoding="utf-8")
+    added = set(re.findall(r"^\s*service\.add<(\w+)>", wiring, re.M))
+    folders = set()
+    for folder, header in re.findall(r'^#include "(\w+)/(\w+\.hpp)"', wiring, re.M):
+        text = (root / "src" / folder / header).read_text(encoding="utf-8")
+        declared = re.findall(r"^(?:class|struct) (\w+)", text, re.M)
+        folders.update(folder for name in declared if name in added)
+    return folders
+
+
+def fragments(root=HERE):
+    """(name, document) of the core and each registered module folder with an openapi.json, in
+    folder order."""
+    found = [("core", root / "openapi_core.json")]
+    modules = registered(root)
+    found += [(p.parent.name, p) for p in sorted((root / "src").glob("*/openapi.json")) if p.parent.name in modules]
     return [(name, json.loads(path.read_text(encoding="utf-8"))) for name, path in found]
 
 

@@ -5,7 +5,8 @@ A schema and a response that disagree fail here, naming the operation and the of
 
 Validation: python3-jsonschema (Debian), JSON Schema 2020-12, the dialect of OpenAPI 3.1; msgpack
 bin fields (OpenAPI `format: binary` strings) are checked as strings. Also the assembly's refusals
-(backend/server/openapi_assemble.py): a path defined twice, a reference into another module.
+(backend/server/openapi_assemble.py): a path defined twice, a reference into another module; and
+that it holds exactly the modules src/modules.cpp registers, those GET /api/version lists.
 """
 
 import importlib.util
@@ -13,6 +14,7 @@ import json
 import os
 import pathlib
 import re
+import shutil
 import signal
 import subprocess
 import tempfile
@@ -248,3 +250,30 @@ def test_assembly_refuses_a_path_defined_twice_and_a_reference_into_another_modu
     clash = parts + [("extra", {"x-websocket": {"path": "/other"}})]
     with pytest.raises(asm.AssemblyError, match="set twice"):
         asm.assemble(clash)
+
+
+def test_the_document_holds_exactly_the_registered_modules(server, tmp_path):
+    asm = load_assembler()
+    served = requests.get(f"http://{server}/api/version", timeout=10).json()["modules"]
+    assert sorted(served) == sorted(asm.registered())
+    # A copy of the server's tree where kelvin's folder stays but its module is no longer added,
+    # and a folder "draft" with an openapi.json that no line registers.
+    src = ROOT / "backend/server"
+    shutil.copy(src / "openapi_core.json", tmp_path)
+    for part in src.glob("src/*/*"):
+        if part.name == "openapi.json" or part.name.endswith("_module.hpp"):
+            (tmp_path / part.parent.relative_to(src)).mkdir(parents=True, exist_ok=True)
+            shutil.copy(part, tmp_path / part.relative_to(src))
+    wiring = (src / "src/modules.cpp").read_text(encoding="utf-8")
+    assert "service.add<KelvinModule>();" in wiring
+    (tmp_path / "src/modules.cpp").write_text(wiring.replace("service.add<KelvinModule>();", ""), encoding="utf-8")
+    (tmp_path / "src/draft").mkdir()
+    (tmp_path / "src/draft/openapi.json").write_text(json.dumps({"paths": {"/api/draft": {}}}), encoding="utf-8")
+    (tmp_path / "src/draft/draft_module.hpp").write_text("class DraftModule {};\n", encoding="utf-8")
+    doc = asm.assemble(asm.fragments(tmp_path))
+    parts = dict(asm.fragments())
+    expected = {p for name in ("core", "gap", "cbf") for p in parts[name].get("paths", {})}
+    assert set(doc["paths"]) == expected
+    assert not set(parts["kelvin"]["paths"]) & set(doc["paths"])
+    assert {t["name"] for t in doc.get("tags", [])} == {t["name"] for n in ("core", "gap", "cbf")
+                                                        for t in parts[n].get("tags", [])}

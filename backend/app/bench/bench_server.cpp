@@ -86,7 +86,7 @@ std::string ready_object(HttpClient& c, const std::string& s, double lx, bool qu
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
   if (st != 202) throw std::runtime_error("create: " + body);
-  const std::string id = json::parse(body)["object"]["id"];
+  std::string id = json::parse(body)["object"]["id"];  // returned: moved, not copied
   for (int i = 0; i < 3000; ++i) {
     c.request(http::verb::get, "/api/kelvin/objects/" + id, "", s, &body);
     const json j = json::parse(body);
@@ -293,7 +293,7 @@ int main(int argc, char** argv) {
         beast::flat_buffer buf;
         ws.read(buf);
         if (!ws.got_binary()) continue;
-        const json f = json::from_msgpack(beast::buffers_to_string(buf.data()));
+        json f = json::from_msgpack(beast::buffers_to_string(buf.data()));
         if (f["type"] == "isosurface" && f["sigma_version"] == version) return f;
       }
     };
@@ -343,6 +343,7 @@ int main(int argc, char** argv) {
     std::vector<double> lat_query, lat_gap;
     const auto end = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
     std::vector<std::thread> threads;
+    threads.reserve(static_cast<std::size_t>(clients));
     for (int t = 0; t < clients; ++t)
       threads.emplace_back([&] {
         std::vector<double> lq, lg;

@@ -63,7 +63,7 @@ int run_serve(const std::vector<std::string>& args, std::istream&, std::ostream&
             << kUsage;
         return 2;
       }
-      const std::string v = args[++i];
+      const std::string& v = args[++i];
       auto count = [&] { return static_cast<std::size_t>(std::stoull(v)); };
       if (a == "--host") host = v;
       else if (a == "--port") port = std::stoul(v);

@@ -44,6 +44,7 @@ P2SOptions published_options(const Shape& shape) {
     hi = box->size / 2;
     lo = -hi;
   } else if (const auto* poly = std::get_if<Polytope>(&shape)) {
+    // NOLINTNEXTLINE(bugprone-integer-division): ⌊N/2⌋ is the package's rule
     o.weights = VecX::Constant(poly->A.rows(), 1.0 / (static_cast<double>(poly->A.rows() / 2) + 1));
     lo = hi = poly->vertices.front();
     for (const Vec3& v : poly->vertices) {
@@ -163,13 +164,13 @@ CbfController::CbfController(const Scenario& scenario, Metric metric)
     m.exact_params.tol = 1e-10;
     m.exact_params.max_iter = 0;
   }
-  for (std::size_t i = 0; i < prims.size(); ++i) {
-    m.robot_euclid.emplace_back(prims[i].shape);
+  for (const auto& prim : prims) {
+    m.robot_euclid.emplace_back(prim.shape);
     if (metric_ == Metric::gap)
-      m.robot_gap.emplace_back(prims[i].shape, Pose{}, scenario_.gap,
-                               published ? published_options(prims[i].shape)
-                                         : gap_options(prims[i].shape, {}, scenario_.gap.weight_margin),
-                               "robot." + prims[i].name);
+      m.robot_gap.emplace_back(prim.shape, Pose{}, scenario_.gap,
+                               published ? published_options(prim.shape)
+                                         : gap_options(prim.shape, {}, scenario_.gap.weight_margin),
+                               "robot." + prim.name);
   }
   for (std::size_t j = 0; j < scenario_.obstacles.size(); ++j) {
     const Obstacle& o = scenario_.obstacles[j];

@@ -17,7 +17,7 @@ Scenario corridor_narrow_scenario(std::shared_ptr<const Robot> panda) {
   Scenario s;
   s.name = "corridor_narrow";
   s.robot = std::move(panda);
-  auto box = [](const char* name, Vec3 c, Vec3 size) {
+  auto box = [](const char* name, const Vec3& c, const Vec3& size) {
     Obstacle o{name, Box{size}, Pose{}, P2SOptions{}};
     o.pose.position = c;
     return o;
@@ -67,7 +67,7 @@ void validate(const Scenario& s) {
   try {
     check_params(s.gap);
   } catch (const InvalidInput& e) {  // "params.h" -> "gap.h"
-    const std::string f = e.field();
+    const std::string& f = e.field();
     throw InvalidInput(f.rfind("params.", 0) == 0 ? "gap." + f.substr(7) : f, e.what());
   }
   if (s.gap_mode == GapMode::as_published && s.gap.max_iter < 1)

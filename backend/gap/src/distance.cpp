@@ -17,7 +17,7 @@ P2SOptions with_margin(P2SOptions options, const GapParams& params) {
 }  // namespace
 
 void check_params(const GapParams& p) {
-  BaseFunction(p.h, p.k);  // validates h and k
+  BaseFunction(p.h, p.k);  // NOLINT(bugprone-unused-raii): built only for its checks of h and k
   auto positive = [](double v, const char* field, double upper = INFINITY) {
     if (!std::isfinite(v) || v <= 0 || v >= upper)
       throw InvalidInput(std::string("params.") + field,

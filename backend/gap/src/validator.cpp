@@ -154,7 +154,7 @@ std::vector<Vec3> boundary_features(const Shape& shape) {
             f.insert(f.end(), p.vertices.begin(), p.vertices.end());
             std::vector<std::pair<int, int>> edges;
             for (const auto& t : p.faces) {
-              f.push_back((p.vertices[t[0]] + p.vertices[t[1]] + p.vertices[t[2]]) / 3);
+              f.emplace_back((p.vertices[t[0]] + p.vertices[t[1]] + p.vertices[t[2]]) / 3);
               for (int k = 0; k < 3; ++k)
                 edges.emplace_back(std::min(t[k], t[(k + 1) % 3]), std::max(t[k], t[(k + 1) % 3]));
             }
@@ -165,7 +165,7 @@ std::vector<Vec3> boundary_features(const Shape& shape) {
             const std::vector<double> along =
                 edges.size() <= 300 ? std::vector<double>{0.25, 0.5, 0.75} : std::vector<double>{0.5};
             for (const auto& [i, j] : edges)
-              for (double t : along) f.push_back((1 - t) * p.vertices[i] + t * p.vertices[j]);
+              for (double t : along) f.emplace_back((1 - t) * p.vertices[i] + t * p.vertices[j]);
           },
           [&](const Box& b) {
             const Vec3 h = b.size / 2;
@@ -364,7 +364,7 @@ ValidationReport Search::run(int samples, std::uint64_t seed) {
   // 2. The far field, where ∂²E_S tends to a limit per direction.
   std::vector<Vec3> dirs = sphere_directions(128);
   if (const auto* poly = std::get_if<Polytope>(&shape))
-    for (int i = 0; i < poly->rows(); ++i) dirs.push_back(poly->A.row(i).transpose());
+    for (int i = 0; i < poly->rows(); ++i) dirs.emplace_back(poly->A.row(i).transpose());
   std::vector<Candidate> far;
   for (const Vec3& w : dirs)
     for (double scale : {2.0, 8.0, 64.0}) {

@@ -54,7 +54,8 @@ int max_violated_halfspaces(const MatX3& A) {
       if (cn <= 1e-12) continue;  // parallel rows meet in no arrangement vertex
       any_pair = true;
       const Vec3 v = c / cn;
-      const Vec3 e1 = ai, e2 = v.cross(e1);  // a basis of the plane orthogonal to v
+      const Vec3& e1 = ai;  // with e2, a basis of the plane orthogonal to v
+      const Vec3 e2 = v.cross(e1);
       int pos = 0, neg = 0;
       angles.clear();
       for (Eigen::Index k = 0; k < n; ++k) {

@@ -208,6 +208,7 @@ Polytope make_polytope(const MatX3& A, const VecX& b, const std::string& field) 
   if (corners.empty())
     throw InvalidInput(field, "empty polytope: no point satisfies all rows A x <= b at once");
   std::vector<Point> pts;
+  pts.reserve(corners.size());
   for (const Vec3& v : corners) pts.push_back(to_point(v));
   const std::string flat =
       "flat polytope (no interior): the rows only admit points on a plane, line or single point";

@@ -3,10 +3,10 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <future>
 #include <map>
 
 #include "distlab/geometry/error.hpp"
+#include "distlab/geometry/parallel.hpp"
 #include "distlab/mesh/checks.hpp"
 #include "field_impl.hpp"
 #include "reorder.hpp"
@@ -287,11 +287,12 @@ void Field::Impl::build(const Progress& progress) {
                                                         inner.data(), values.data());
   };
   // The rest reads only what is built above and writes disjoint members, so it runs on two
-  // threads: A_ΩΩ here; A_Ω∂, the seeding grid and the σ sampling on the other. Each result is
-  // computed by one thread in the same order as before: bit-identical, whatever the scheduling.
+  // threads (parallel_for): A_ΩΩ on one; A_Ω∂, the seeding grid and the σ sampling on the other.
+  // Each result is computed by one thread in the same order as before: bit-identical, whatever
+  // the scheduling.
   if (!oracle) oracle = std::make_unique<SurfaceOracle>(surface);
   std::vector<std::pair<const char*, double>> other_phases;
-  auto other = std::async(std::launch::async, [&] {
+  auto other = [&] {
     auto t = std::chrono::steady_clock::now();
     assemble(a_ob, ni, boundary, false);
     other_phases.emplace_back("assemble A_OB", seconds_since(t));
@@ -308,11 +309,13 @@ void Field::Impl::build(const Progress& progress) {
       oracle->closest(centre + y / y.squaredNorm(), boundary_face[b], boundary_weights[b]);
     }
     other_phases.emplace_back("sigma sampling", seconds_since(t));
+  };
+  parallel_for(2, 2, [&](size_t part) {
+    if (part == 1) return other();
+    const auto t = std::chrono::steady_clock::now();
+    assemble(a_oo_lower, ni, interior, true);
+    build_phases.emplace_back("assemble A_OO", seconds_since(t));
   });
-  t_phase = std::chrono::steady_clock::now();
-  assemble(a_oo_lower, ni, interior, true);
-  build_phases.emplace_back("assemble A_OO", seconds_since(t_phase));
-  other.get();
   build_phases.insert(build_phases.end(), other_phases.begin(), other_phases.end());
   stats.t_build = seconds_since(t0);
   progress("build", 1.0);
@@ -530,7 +533,7 @@ std::vector<Vec3> Field::boundary_points() const {
   std::vector<Vec3> out;
   for (int v : impl_->boundary) {
     const Vec3 y = impl_->tm.points.row(v);
-    out.push_back(impl_->centre + y / y.squaredNorm());
+    out.emplace_back(impl_->centre + y / y.squaredNorm());
   }
   return out;
 }

@@ -74,7 +74,7 @@ std::string cache_mac_key(const std::string& dir);
 std::unique_ptr<Field::Impl> load_prepared(const std::string& path, const std::string& key,
                                            const mesh::SurfaceMesh& surface, const PrepareOptions& requested,
                                            const std::string& mac_key);
-void save_prepared(const Field::Impl& impl, const std::string& path, const std::string& key,
+void save_prepared(const Field::Impl& m, const std::string& path, const std::string& key,
                    const std::string& mac_key);
 
 }  // namespace distlab::kelvin

@@ -43,7 +43,7 @@ class Builder {
       y += t * (Vec3(m_.tm.points.row(b)) - y);
     }
     ys_.push_back(y);
-    points_.push_back(m_.centre + y / y.squaredNorm());
+    points_.emplace_back(m_.centre + y / y.squaredNorm());
     return values_[i];
   }
 
@@ -127,7 +127,7 @@ mesh::SurfaceMesh Field::isosurface(double level) const {
     const Vec3 into = det != 0 ? Vec3(-(du[0] * c0 + du[1] * c1 + du[2] * c2) / det)
                                : Vec3(-d.colPivHouseholderQr().solve(du));  // degenerate cell
     int ins[4], outs[4], ni = 0, no = 0;
-    for (int k = 0; k < 4; ++k) (out.in(v[k]) ? ins[ni++] : outs[no++]) = v[k];
+    for (const int vk : v) (out.in(vk) ? ins[ni++] : outs[no++]) = vk;
     if (ni == 1 || no == 1) {
       const int lone = ni == 1 ? ins[0] : outs[0];
       const int* rest = ni == 1 ? outs : ins;

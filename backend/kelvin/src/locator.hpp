@@ -39,8 +39,8 @@ class Locator {
   std::size_t bytes() const {
     return cells_.size() * (sizeof(int) + sizeof(Vertices)) + blocks_.size() * sizeof(Block);
   }
-  // Centre of box i (for tests: the seed of a box centre contains it unless it is off the hull).
-  Vec3 box_centre(std::size_t i) const;
+  // Centre of that box (for tests: the seed of a box centre contains it unless it is off the hull).
+  Vec3 box_centre(std::size_t box) const;
 
  private:
   struct Block {
@@ -49,7 +49,7 @@ class Locator {
   };
   using Vertices = std::array<int, 4>;
   std::size_t box(const Vec3& y) const;  // index of the box holding y (clamped into the grid)
-  Vec3 centre(const int block[3], const int sub[3], int r) const;
+  Vec3 centre(const int idx[3], const int sub[3], int r) const;
   Vec3 lo_ = Vec3::Zero(), inv_step_ = Vec3::Ones();
   int n_[3] = {1, 1, 1};                // blocks per axis
   HugeVector<Block> blocks_;            // huge pages: huge_pages.hpp

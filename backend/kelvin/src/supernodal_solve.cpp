@@ -3,8 +3,8 @@
 #include <Eigen/Core>
 #include <algorithm>
 #include <numeric>
-#include <system_error>
-#include <thread>
+
+#include "distlab/geometry/parallel.hpp"
 
 namespace distlab::kelvin {
 
@@ -191,17 +191,8 @@ double solve_supernodal(const SupernodalFactor& f, const SolvePlan& plan, double
     for (auto r = plan.lanes[lane].rbegin(); r != plan.lanes[lane].rend(); ++r)
       for (int k = r->second; k-- > r->first;) backward(f, k, w, ws.below[lane].data());
   };
-  auto both = [&](auto&& pass) {
-    std::thread second;
-    if (threads && !plan.lanes[1].empty()) {
-      try {
-        second = std::thread([&] { pass(size_t{1}); });
-      } catch (const std::system_error&) {  // no thread to be had: lane 1 runs here, after lane 0
-      }
-    }
-    pass(size_t{0});
-    if (second.joinable()) second.join();
-    else pass(size_t{1});
+  auto both = [&](auto&& pass) {  // one thread: lane 0, then lane 1
+    parallel_for(2, threads && !plan.lanes[1].empty() ? 2 : 1, [&](size_t lane) { pass(lane); });
   };
   both(forward_lane);
   for (int k : plan.top)

@@ -90,7 +90,7 @@ mesh::SurfaceMesh marching_tetrahedra(const Grid& grid, double level) {
         for (int c = 0; c < 8; ++c) p[c] = grid.node(i + (c & 1), j + ((c >> 1) & 1), k + ((c >> 2) & 1));
         for (const auto& tet : kTets) {
           int in[4], out[4], ni = 0, no = 0;
-          for (int v = 0; v < 4; ++v) (f[tet[v]] < 0 ? in[ni++] : out[no++]) = tet[v];
+          for (const int v : tet) (f[v] < 0 ? in[ni++] : out[no++]) = v;
           if (ni == 0 || no == 0) continue;
           // Gradient of the linear interpolant on this tetrahedron: the side normals face.
           Mat3 m;

@@ -185,6 +185,7 @@ SurfaceMesh run_importer(const std::string& path, int file, const std::string& f
                                    std::to_string(limits.seconds)};
   if (!format.empty()) args.push_back(format);
   std::vector<char*> argv;
+  argv.reserve(args.size() + 1);
   for (auto& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
   pid_t pid = -1;

@@ -4,9 +4,9 @@
 #include <condition_variable>
 #include <exception>
 #include <mutex>
-#include <system_error>
 #include <thread>
 
+#include "distlab/geometry/parallel.hpp"
 #include "distlab/geometry/progress.hpp"
 #include "distlab/server/cbf_json.hpp"
 
@@ -115,10 +115,17 @@ std::vector<json> execute_sweep(const CbfSweep& sweep, const SweepExecution& how
   st->entries.assign(st->n, json());
   st->errors.assign(st->n, nullptr);
   for (const CbfRequest& r : sweep.runs) st->steps_total += std::max(1, r.scenario.steps());
-  const unsigned helpers = st->post ? std::min<unsigned>(how.helpers, static_cast<unsigned>(st->n) - 1) : 0;
-  for (unsigned h = 0; h < helpers; ++h)
-    if (!st->post([st] { helper(st); })) break;
-  while (run_next(st)) {
+  const unsigned helpers = std::min<unsigned>(how.helpers, static_cast<unsigned>(st->n) - 1);
+  if (st->post) {
+    for (unsigned h = 0; h < helpers; ++h)
+      if (!st->post([st] { helper(st); })) break;
+    while (run_next(st)) {
+    }
+  } else {  // the project's fork-join: the caller and `helpers` threads share the runs
+    parallel_for(helpers + 1, helpers + 1, [&st](std::size_t) {
+      while (run_next(st)) {
+      }
+    });
   }
   std::unique_lock lock(st->mutex);
   st->all_ended.wait(lock, [&] { return st->ended == st->n; });
@@ -129,28 +136,11 @@ std::vector<json> execute_sweep(const CbfSweep& sweep, const SweepExecution& how
 
 json run_cbf_sweep(const json& request, const Progress& progress) {
   const CbfSweep sweep = parse_cbf_sweep(request);
-  // The calling thread and one thread per further core; joined before returning.
-  std::vector<std::thread> threads;
-  SweepExecution how;
+  SweepExecution how;  // no post: the calling thread and one per further core (parallel_for)
   how.cancel = progress.cancel;
   how.progress = progress.report;
   how.helpers = std::max(1u, std::thread::hardware_concurrency()) - 1;
-  how.post = [&threads](std::function<void()> task) {
-    try {
-      threads.emplace_back(std::move(task));
-      return true;
-    } catch (const std::system_error&) {  // no thread to be had: fewer in parallel
-      return false;
-    }
-  };
-  std::vector<json> entries;
-  try {
-    entries = execute_sweep(sweep, how);
-  } catch (...) {
-    for (auto& t : threads) t.join();
-    throw;
-  }
-  for (auto& t : threads) t.join();
+  const std::vector<json> entries = execute_sweep(sweep, how);
   progress.check();  // a cancelled sweep has no response
   const CbfRequest& first = sweep.runs.front();
   return {{"scenario", first.scenario.name},

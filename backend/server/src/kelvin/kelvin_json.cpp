@@ -19,10 +19,11 @@ namespace {
 using json = nlohmann::json;
 namespace fs = std::filesystem;
 
-void object_with(const json& j, const std::string& field, std::set<std::string> keys) {
+void object_with(const json& j, const std::string& field, const std::set<std::string>& keys) {
   if (!j.is_object()) throw InvalidInput(field, (field.empty() ? "request" : field) + " must be an object");
   for (const auto& [k, v] : j.items())
-    if (!keys.count(k)) throw InvalidInput(field.empty() ? k : field + "." + k, "unknown key \"" + k + "\"");
+    if (!keys.count(k))  // NOLINTNEXTLINE(performance-inefficient-string-concatenation): the error, once
+      throw InvalidInput(field.empty() ? k : field + "." + k, "unknown key \"" + k + "\"");
 }
 
 // Lengths and positions of σ terms and preparation options are coordinates (kMaxCoordinate);

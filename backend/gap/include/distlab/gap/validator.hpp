@@ -52,7 +52,7 @@ struct ValidationReport {
 
 // The P2S function is evaluated in its shape frame (pose ignored). Deterministic for a seed;
 // `samples` random points besides the targeted ones.
-ValidationReport validate_p2s(const PointToSet& p2s, int samples = 2000, std::uint64_t seed = 1);
+ValidationReport validate_p2s(const PointToSet& original, int samples = 2000, std::uint64_t seed = 1);
 
 // The verdict cache's contents and counters; clear_validation_cache empties it, and
 // set_validation_cache_capacity replaces kValidationCacheBytes (tests, benchmarks).

@@ -74,7 +74,7 @@ nlohmann::json encode_smoothness(const cbf::RolloutRecord& record);
 // {"ee_position", "position_error", "min_clearance", "closest_pair", "active": [{"name", "kind"
 //  ("pair" | "joint_limit"), "distance", "margin", "clearance", "converged_distance",
 //  "multiplier"}]}: where the arm ends and which constraints hold it there.
-nlohmann::json encode_final_state(const cbf::FinalState& state);
+nlohmann::json encode_final_state(const cbf::FinalState& f);
 
 // Parse, run, encode; throws InvalidInput on bad input.
 nlohmann::json run_cbf_request(const nlohmann::json& request);
@@ -107,9 +107,10 @@ struct SweepExecution {
   std::function<void(const std::string& stage, double fraction)> progress;
   // A finished run's entry, as it finishes (serialised; runs finish in any order).
   std::function<void(std::size_t index, const nlohmann::json& entry)> finished;
-  // Runs a task on another thread; false: it cannot (fewer runs go in parallel). Empty: one thread.
+  // Runs a task on another thread; false: it cannot (fewer runs go in parallel). Empty: the
+  // helpers run on distlab::parallel_for's threads, joined before execute_sweep returns.
   std::function<bool(std::function<void()>)> post;
-  unsigned helpers = 0;           // tasks posted at the start (at most runs − 1)
+  unsigned helpers = 0;           // threads besides the caller's (at most runs − 1)
   bool one_run_per_task = false;  // a helper re-posts itself after each run (a shared pool stays fair)
 };
 // Runs every run of the sweep; the entries in the sweep's order (null where a run was cancelled).
