@@ -283,9 +283,12 @@ TEST(KelvinSigma, BrushStrokesSolvedByLinearityEqualTheFullSolve) {
 TEST(KelvinSigma, AStrokeCoveringTheSphereByLinearityMatchesTheClosedForm) {
   const Sphere s;
   Field field = Field::prepare(sphere_mesh(s), sphere_options(0.2));
-  field.set_sigma(constant_sigma(0), false);
-  const VecX zero = field.vertex_values();
+  // A "towards" brush that reaches no surface point: σ = 0 as before, but not separable, so the
+  // covering stroke below stays on the linear path (a stroke that makes σ inseparable does not).
   SigmaSpec spec = constant_sigma(0);
+  spec.brushes.push_back({s.centre + Vec3(10 * s.radius, 0, 0), 0.01, 0, 0, true});
+  field.set_sigma(spec, false);
+  const VecX zero = field.vertex_values();
   spec.brushes.push_back({s.centre, 2 * s.radius, s.sigma, 0, true});
   field.set_sigma(spec);
   EXPECT_EQ(field.stats().linear_boundary, static_cast<long>(field.boundary_points().size()));
@@ -313,9 +316,10 @@ TEST(KelvinSigma, AConstantShiftByLinearityEqualsTheFullSolve) {
     EXPECT_NEAR(q.h, s.h(x), 0.02) << "as the full solve's sphere tests (l_x 0.4 R)";
   }
   field.set_sigma(constant_sigma(s.sigma), false, false);
-  EXPECT_LE(relative_difference(shifted, field.vertex_values()), 1e-12);
-  // A σ seen before gives V bit for bit again (a shift scales the last solve's V, not the last
-  // shift's), as two sessions sharing the field and alternating their σ need.
+  // Bit for bit: both paths compute e^(−c) W with the same W (field.cpp, separable).
+  EXPECT_EQ(relative_difference(shifted, field.vertex_values()), 0);
+  // A σ seen before gives V bit for bit again whatever came between, as two sessions sharing
+  // the field and alternating their σ need.
   const VecX first = field.vertex_values();
   for (const double c : {0.8, -0.3, s.sigma, 1.7, s.sigma}) field.set_sigma(constant_sigma(c), false);
   EXPECT_EQ(relative_difference(first, field.vertex_values()), 0);
@@ -330,8 +334,20 @@ TEST(KelvinSigma, AConstantShiftByLinearityEqualsTheFullSolve) {
   const VecX linear = field.vertex_values();
   const VecX sigma_linear = field.boundary_sigma();
   field.set_sigma(spec, false, false);
-  EXPECT_LE(relative_difference(linear, field.vertex_values()), 1e-12);
+  EXPECT_EQ(relative_difference(linear, field.vertex_values()), 0);
   for (Eigen::Index b = 0; b < sigma_linear.size(); ++b) ASSERT_EQ(sigma_linear[b], field.boundary_sigma()[b]);
+  // A stroke added to a separable σ updates W by linearity; the constant then still shifts it.
+  spec.brushes.push_back({s.centre + Vec3(0, s.radius, 0), 0.2, -0.5, 0.1, false});
+  field.set_sigma(spec, false);
+  EXPECT_GT(field.stats().linear_boundary, 0);
+  EXPECT_LT(field.stats().linear_boundary, static_cast<long>(field.boundary_points().size()));
+  spec.constant = -0.6;
+  field.set_sigma(spec, false);
+  EXPECT_EQ(field.stats().linear_boundary, static_cast<long>(field.boundary_points().size()));
+  const VecX stroked = field.vertex_values();
+  field.set_sigma(spec, false, false);
+  EXPECT_LE(relative_difference(stroked, field.vertex_values()), 1e-12);
+  EXPECT_GT(relative_difference(stroked, linear), 1e-3) << "the stroke and the shift changed V";
   spec.brushes[0].towards = true;
   field.set_sigma(spec, false, false);
   spec.constant = 0.1;

@@ -377,22 +377,33 @@ bool appends_brushes(const SigmaSpec& before, const SigmaSpec& after) {
          std::equal(before.brushes.begin(), before.brushes.end(), after.brushes.begin());
 }
 
-// `after` is `before` with another constant, and no brush "towards" a value (which would pass
-// on only part of the shift): σ moves by the same amount everywhere.
-bool shifts_constant(const SigmaSpec& before, const SigmaSpec& after) {
-  return after.constant != before.constant && same_fixed_terms(before, after) && after.brushes == before.brushes &&
-         std::none_of(after.brushes.begin(), after.brushes.end(), [](const BrushSigma& b) { return b.towards; });
+// Without a brush "towards" a value, σ is its constant plus terms that do not depend on it, so
+// V = e^(−c) W with W solved for σ − c (eqs. 17, 20, 21 are linear). Such a σ's V is computed
+// that way on every path (full, brushes, constant shift): the same σ gives the same V bit for
+// bit whatever came before it, in this session or in another one sharing the field.
+bool separable(const SigmaSpec& sigma) {
+  return std::none_of(sigma.brushes.begin(), sigma.brushes.end(), [](const BrushSigma& b) { return b.towards; });
 }
 
-// σ at every boundary vertex and V_∂ = e^(−σ)/|y| (eq. 17: U_∂ = e^(−σ), G = |y|). Sets
-// boundary_sigma only when every value is in range.
-VecX boundary_values(Field::Impl& m, const SigmaSpec& sigma) {
+// `after` is `before`, separable, with another constant.
+bool shifts_constant(const SigmaSpec& before, const SigmaSpec& after) {
+  return after.constant != before.constant && same_fixed_terms(before, after) && after.brushes == before.brushes &&
+         separable(after);
+}
+
+// σ at boundary vertex b from its chain (the terms summed in order, the constant left out while
+// σ is separable) and V_∂ = e^(−σ)/|y| (eq. 17: U_∂ = e^(−σ), G = |y|).
+double boundary_sigma_of(const SigmaSpec& sigma, double chain) { return separable(sigma) ? chain + sigma.constant : chain; }
+
+// The chain and σ at every boundary vertex. Sets boundary_chain and boundary_sigma only when
+// every value is in range.
+void evaluate_boundary(Field::Impl& m, const SigmaSpec& sigma) {
   const auto nb = static_cast<Eigen::Index>(m.boundary.size());
-  VecX sigmas(nb), v_bnd(nb);
+  VecX chains(nb), sigmas(nb);
+  const bool apart = separable(sigma);
   for (Eigen::Index b = 0; b < nb; ++b) {
-    const Vec3 y = m.tm.points.row(m.boundary[static_cast<size_t>(b)]);
     const Vec3 x = boundary_point(m, static_cast<size_t>(b));
-    double s = sigma.constant;
+    double s = apart ? 0.0 : sigma.constant;
     if (sigma.per_vertex) {
       const int f = m.boundary_face[static_cast<size_t>(b)];
       const Vec3& w = m.boundary_weights[static_cast<size_t>(b)];
@@ -400,54 +411,75 @@ VecX boundary_values(Field::Impl& m, const SigmaSpec& sigma) {
     }
     for (const auto& a : sigma.axis) s += evaluate(a, x);
     for (const auto& br : sigma.brushes) s = apply(br, s, x);
+    chains[b] = s;
+    sigmas[b] = boundary_sigma_of(sigma, s);
     // The terms are each in range (validate); their sum must be too, where it is used.
-    require_sigma_in_range(s, x, "the surface point");
-    sigmas[b] = s;
-    v_bnd[b] = std::exp(-s) / y.norm();
+    require_sigma_in_range(sigmas[b], x, "the surface point");
   }
+  m.boundary_chain = std::move(chains);
   m.boundary_sigma = std::move(sigmas);
-  return v_bnd;
+}
+
+// V at the boundary from σ there, and V inside as e^(−c) W for a separable σ.
+void finish_V(Field::Impl& m, const SigmaSpec& sigma) {
+  for (size_t b = 0; b < m.boundary.size(); ++b) {
+    const int v = m.boundary[b];
+    m.V[v] = std::exp(-m.boundary_sigma[static_cast<Eigen::Index>(b)]) / m.tm.points.row(v).norm();
+  }
+  if (!separable(sigma)) return;
+  const double scale = std::exp(-sigma.constant);
+  for (size_t i = 0; i < m.interior.size(); ++i) m.V[m.interior[i]] = scale * m.W[static_cast<Eigen::Index>(i)];
+}
+
+// The value the solve sees at boundary vertex b: V_∂, or W_∂ = e^(−chain)/|y| for a separable σ.
+double solved_boundary_value(const Field::Impl& m, const SigmaSpec& sigma, size_t b) {
+  const double s = separable(sigma) ? m.boundary_chain[static_cast<Eigen::Index>(b)] : m.boundary_sigma[static_cast<Eigen::Index>(b)];
+  return std::exp(-s) / m.tm.points.row(m.boundary[b]).norm();
 }
 
 // Eqs. 17, 20, 21 for every boundary value.
 void solve_full(Field::Impl& m, const SigmaSpec& sigma) {
-  const VecX v_bnd = boundary_values(m, sigma);
+  evaluate_boundary(m, sigma);
+  VecX v_bnd(static_cast<Eigen::Index>(m.boundary.size()));
+  for (size_t b = 0; b < m.boundary.size(); ++b) v_bnd[static_cast<Eigen::Index>(b)] = solved_boundary_value(m, sigma, b);
   VecX rhs = -(m.a_ob * v_bnd);  // eq. 20
   m.solver.solve(rhs);           // eq. 21
-  const auto np = m.tm.points.rows();
-  m.V = VecX::Constant(np, std::numeric_limits<double>::quiet_NaN());
-  for (size_t i = 0; i < m.interior.size(); ++i) m.V[m.interior[i]] = rhs[static_cast<Eigen::Index>(i)];
-  for (size_t b = 0; b < m.boundary.size(); ++b) m.V[m.boundary[b]] = v_bnd[static_cast<Eigen::Index>(b)];
+  m.V = VecX::Constant(m.tm.points.rows(), std::numeric_limits<double>::quiet_NaN());
+  if (separable(sigma)) m.W = std::move(rhs);
+  else
+    for (size_t i = 0; i < m.interior.size(); ++i) m.V[m.interior[i]] = rhs[static_cast<Eigen::Index>(i)];
+  finish_V(m, sigma);
   m.linear_edits = 0;
   m.stats.linear_boundary = -1;
-  m.base_V = m.V;
-  m.base_constant = sigma.constant;
 }
 
-// A constant shift Δ of σ multiplies V_∂ by e^(−Δ), hence V (eqs. 20, 21 are linear): no solve.
-// Scaled from the last solve's V, not the last shift's: no rounding accumulates, and a σ seen
-// before gives the same V bit for bit (two sessions sharing a field alternate their σ).
+// A constant shift of a separable σ: W and the chains stay, only the scale and V_∂ move.
 void solve_shift(Field::Impl& m, const SigmaSpec& sigma) {
-  const VecX v_bnd = boundary_values(m, sigma);
-  const double scale = std::exp(m.base_constant - sigma.constant);
-  for (int v : m.interior) m.V[v] = scale * m.base_V[v];
-  for (size_t b = 0; b < m.boundary.size(); ++b) m.V[m.boundary[b]] = v_bnd[static_cast<Eigen::Index>(b)];
+  VecX sigmas(m.boundary_chain.size());
+  for (Eigen::Index b = 0; b < sigmas.size(); ++b) {
+    sigmas[b] = m.boundary_chain[b] + sigma.constant;
+    require_sigma_in_range(sigmas[b], boundary_point(m, static_cast<size_t>(b)), "the surface point");
+  }
+  m.boundary_sigma = std::move(sigmas);
+  finish_V(m, sigma);
   m.stats.linear_boundary = static_cast<long>(m.boundary.size());
 }
 
 // The brushes after m.solved_sigma's, by linearity: σ changes only where they reach (weight > 0;
-// elsewhere apply() returns σ as it was, and σ continues from the stored boundary_sigma exactly
-// as the full evaluation would), so ΔV_∂ is sparse, and ΔV_Ω solves A_ΩΩ ΔV_Ω = −A_Ω∂ ΔV_∂
-// (eqs. 20, 21), whose forward substitution skips every supernode off the stroke's rows.
+// elsewhere apply() returns σ as it was, and the chain continues from the stored one exactly as
+// the full evaluation would), so the change of the solved boundary values is sparse, and the
+// change inside solves A_ΩΩ Δ_Ω = −A_Ω∂ Δ_∂ (eqs. 20, 21), whose forward substitution skips every
+// supernode off the stroke's rows. Solves W for a separable σ, V otherwise (same kind before and
+// after: set_sigma checks).
 void solve_brushes(Field::Impl& m, const SigmaSpec& sigma) {
   const auto added = sigma.brushes.begin() + static_cast<long>(m.solved_sigma.brushes.size());
-  std::vector<std::pair<size_t, double>> changed;  // boundary index, new σ: nothing is set before all pass
+  std::vector<std::pair<size_t, double>> changed;  // boundary index, new chain: nothing is set before all pass
   for (size_t b = 0; b < m.boundary.size(); ++b) {
     const Vec3 x = boundary_point(m, b);
     if (std::none_of(added, sigma.brushes.end(), [&](const BrushSigma& br) { return weight(br, x) > 0; })) continue;
-    double s = m.boundary_sigma[static_cast<Eigen::Index>(b)];
+    double s = m.boundary_chain[static_cast<Eigen::Index>(b)];
     for (auto br = added; br != sigma.brushes.end(); ++br) s = apply(*br, s, x);
-    require_sigma_in_range(s, x, "the surface point");
+    require_sigma_in_range(boundary_sigma_of(sigma, s), x, "the surface point");
     changed.emplace_back(b, s);
   }
   ++m.linear_edits;
@@ -455,17 +487,18 @@ void solve_brushes(Field::Impl& m, const SigmaSpec& sigma) {
   if (changed.empty()) return;
   VecX rhs = VecX::Zero(static_cast<Eigen::Index>(m.interior.size()));
   for (const auto& [b, s] : changed) {
-    const int v = m.boundary[b];
-    const double v_new = std::exp(-s) / m.tm.points.row(v).norm(), dv = v_new - m.V[v];  // eq. 17
+    const double before = solved_boundary_value(m, sigma, b);
+    m.boundary_chain[static_cast<Eigen::Index>(b)] = s;
+    m.boundary_sigma[static_cast<Eigen::Index>(b)] = boundary_sigma_of(sigma, s);
+    const double d = solved_boundary_value(m, sigma, b) - before;
     for (Eigen::SparseMatrix<double>::InnerIterator it(m.a_ob, static_cast<Eigen::Index>(b)); it; ++it)
-      rhs[it.row()] -= it.value() * dv;
-    m.boundary_sigma[static_cast<Eigen::Index>(b)] = s;
-    m.V[v] = v_new;
+      rhs[it.row()] -= it.value() * d;
   }
   m.solver.solve(rhs);
-  for (size_t i = 0; i < m.interior.size(); ++i) m.V[m.interior[i]] += rhs[static_cast<Eigen::Index>(i)];
-  m.base_V = m.V;
-  m.base_constant = sigma.constant;
+  if (separable(sigma)) m.W += rhs;
+  else
+    for (size_t i = 0; i < m.interior.size(); ++i) m.V[m.interior[i]] += rhs[static_cast<Eigen::Index>(i)];
+  finish_V(m, sigma);
 }
 
 }  // namespace
@@ -476,7 +509,9 @@ void Field::set_sigma(const SigmaSpec& sigma, bool gradients, bool by_linearity)
   const auto t0 = std::chrono::steady_clock::now();
   const bool linear = by_linearity && m.solved && m.linear_edits < kMaxLinearEdits;
   m.solved = false;  // until V holds σ (a throw leaves it unset: the next σ is solved in full)
-  if (linear && appends_brushes(m.solved_sigma, sigma)) solve_brushes(m, sigma);
+  // A stroke that makes a separable σ inseparable changes what is solved (W to V): in full.
+  if (linear && appends_brushes(m.solved_sigma, sigma) && separable(m.solved_sigma) == separable(sigma))
+    solve_brushes(m, sigma);
   else if (linear && shifts_constant(m.solved_sigma, sigma)) solve_shift(m, sigma);
   else solve_full(m, sigma);
   m.solved_sigma = sigma;

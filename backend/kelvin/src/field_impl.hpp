@@ -48,10 +48,11 @@ struct Field::Impl {
   SigmaSpec solved_sigma;
   bool solved = false;
   int linear_edits = 0;
-  // V after the last solve (full or by brushes) and its σ's constant: a constant shift scales this
-  // V, so σ values that differ only in the constant give V bit for bit the same whatever the order.
-  VecX base_V;
-  double base_constant = 0;
+  // Per boundary vertex, σ's terms summed in order, without the constant while σ has no brush
+  // "towards" a value (field.cpp, separable); and for such a σ W, the interior solve of σ − c
+  // (V = e^(−c) W inside).
+  VecX boundary_chain;
+  VecX W;
   Stats stats;
   // Seconds of each phase of the last build() (for the build profile; phases after the stars
   // run on two threads, each timed on its own).
