@@ -38,8 +38,11 @@ GapBody::GapBody(const Shape& shape, const Pose& pose, const GapParams& params,
     : p2s_(shape, BaseFunction(params.h, params.k), StrictParams{params.eps, params.sigma},
            with_margin(options, params), field),
       euclid_(shape),
-      radius_(bounding_ball(shape).radius),
-      reach_(bounding_ball(shape).center.norm() + radius_) {
+      radius_(0),
+      reach_(0) {
+  const Ball ball = bounding_ball(shape);
+  radius_ = ball.radius;
+  reach_ = ball.center.norm() + ball.radius;
   p2s_.set_pose(pose);
 }
 

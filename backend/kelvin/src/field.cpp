@@ -396,7 +396,8 @@ bool shifts_constant(const SigmaSpec& before, const SigmaSpec& after) {
 
 // σ at boundary vertex b from its chain (the terms summed in order, the constant left out while
 // σ is separable) and V_∂ = e^(−σ)/|y| (eq. 17: U_∂ = e^(−σ), G = |y|).
-double boundary_sigma_of(const SigmaSpec& sigma, double chain) { return separable(sigma) ? chain + sigma.constant : chain; }
+// `apart`: separable(sigma), found once per σ (it scans the brushes).
+double boundary_sigma_of(const SigmaSpec& sigma, bool apart, double chain) { return apart ? chain + sigma.constant : chain; }
 
 // The chain and σ at every boundary vertex. Sets boundary_chain and boundary_sigma only when
 // every value is in range.
@@ -415,7 +416,7 @@ void evaluate_boundary(Field::Impl& m, const SigmaSpec& sigma) {
     for (const auto& a : sigma.axis) s += evaluate(a, x);
     for (const auto& br : sigma.brushes) s = apply(br, s, x);
     chains[b] = s;
-    sigmas[b] = boundary_sigma_of(sigma, s);
+    sigmas[b] = boundary_sigma_of(sigma, apart, s);
     // The terms are each in range (validate); their sum must be too, where it is used.
     require_sigma_in_range(sigmas[b], x, "the surface point");
   }
@@ -435,8 +436,8 @@ void finish_V(Field::Impl& m, const SigmaSpec& sigma) {
 }
 
 // The value the solve sees at boundary vertex b: V_∂, or W_∂ = e^(−chain)/|y| for a separable σ.
-double solved_boundary_value(const Field::Impl& m, const SigmaSpec& sigma, size_t b) {
-  const double s = separable(sigma) ? m.boundary_chain[static_cast<Eigen::Index>(b)] : m.boundary_sigma[static_cast<Eigen::Index>(b)];
+double solved_boundary_value(const Field::Impl& m, bool apart, size_t b) {
+  const double s = apart ? m.boundary_chain[static_cast<Eigen::Index>(b)] : m.boundary_sigma[static_cast<Eigen::Index>(b)];
   return std::exp(-s) / m.tm.points.row(m.boundary[b]).norm();
 }
 
@@ -444,11 +445,12 @@ double solved_boundary_value(const Field::Impl& m, const SigmaSpec& sigma, size_
 void solve_full(Field::Impl& m, const SigmaSpec& sigma) {
   evaluate_boundary(m, sigma);
   VecX v_bnd(static_cast<Eigen::Index>(m.boundary.size()));
-  for (size_t b = 0; b < m.boundary.size(); ++b) v_bnd[static_cast<Eigen::Index>(b)] = solved_boundary_value(m, sigma, b);
+  const bool apart = separable(sigma);
+  for (size_t b = 0; b < m.boundary.size(); ++b) v_bnd[static_cast<Eigen::Index>(b)] = solved_boundary_value(m, apart, b);
   VecX rhs = -(m.a_ob * v_bnd);  // eq. 20
   m.solver.solve(rhs);           // eq. 21
   m.V = VecX::Constant(m.tm.points.rows(), std::numeric_limits<double>::quiet_NaN());
-  if (separable(sigma)) m.W = std::move(rhs);
+  if (apart) m.W = std::move(rhs);
   else
     for (size_t i = 0; i < m.interior.size(); ++i) m.V[m.interior[i]] = rhs[static_cast<Eigen::Index>(i)];
   finish_V(m, sigma);
@@ -476,13 +478,14 @@ void solve_shift(Field::Impl& m, const SigmaSpec& sigma) {
 // after: set_sigma checks).
 void solve_brushes(Field::Impl& m, const SigmaSpec& sigma) {
   const auto added = sigma.brushes.begin() + static_cast<long>(m.solved_sigma.brushes.size());
+  const bool apart = separable(sigma);
   std::vector<std::pair<size_t, double>> changed;  // boundary index, new chain: nothing is set before all pass
   for (size_t b = 0; b < m.boundary.size(); ++b) {
     const Vec3 x = boundary_point(m, b);
     if (std::none_of(added, sigma.brushes.end(), [&](const BrushSigma& br) { return weight(br, x) > 0; })) continue;
     double s = m.boundary_chain[static_cast<Eigen::Index>(b)];
     for (auto br = added; br != sigma.brushes.end(); ++br) s = apply(*br, s, x);
-    require_sigma_in_range(boundary_sigma_of(sigma, s), x, "the surface point");
+    require_sigma_in_range(boundary_sigma_of(sigma, apart, s), x, "the surface point");
     changed.emplace_back(b, s);
   }
   ++m.linear_edits;
@@ -490,15 +493,15 @@ void solve_brushes(Field::Impl& m, const SigmaSpec& sigma) {
   if (changed.empty()) return;
   VecX rhs = VecX::Zero(static_cast<Eigen::Index>(m.interior.size()));
   for (const auto& [b, s] : changed) {
-    const double before = solved_boundary_value(m, sigma, b);
+    const double before = solved_boundary_value(m, apart, b);
     m.boundary_chain[static_cast<Eigen::Index>(b)] = s;
-    m.boundary_sigma[static_cast<Eigen::Index>(b)] = boundary_sigma_of(sigma, s);
-    const double d = solved_boundary_value(m, sigma, b) - before;
+    m.boundary_sigma[static_cast<Eigen::Index>(b)] = boundary_sigma_of(sigma, apart, s);
+    const double d = solved_boundary_value(m, apart, b) - before;
     for (Eigen::SparseMatrix<double>::InnerIterator it(m.a_ob, static_cast<Eigen::Index>(b)); it; ++it)
       rhs[it.row()] -= it.value() * d;
   }
   m.solver.solve(rhs);
-  if (separable(sigma)) m.W += rhs;
+  if (apart) m.W += rhs;
   else
     for (size_t i = 0; i < m.interior.size(); ++i) m.V[m.interior[i]] += rhs[static_cast<Eigen::Index>(i)];
   finish_V(m, sigma);
