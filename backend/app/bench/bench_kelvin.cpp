@@ -27,13 +27,13 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
-#include <thread>
 #include <tuple>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "cholmod_solver.hpp"  // private to distlab_kelvin: the factorization Field::prepare runs
+#include "distlab/geometry/parallel.hpp"
 #include "distlab/kelvin/field.hpp"
 #include "distlab/kelvin/surface_tools.hpp"
 #include "distlab/mesh/primitives.hpp"
@@ -77,10 +77,7 @@ Stream stream_gbps(int threads) {
     double best = 0;
     for (int rep = 0; rep < 5; ++rep) {
       const auto t0 = Clock::now();
-      std::vector<std::thread> pool;
-      pool.reserve(static_cast<size_t>(threads));
-      for (int t = 0; t < threads; ++t) pool.emplace_back([&, t] { kernel(static_cast<size_t>(t) * chunk, static_cast<size_t>(t)); });
-      for (std::thread& th : pool) th.join();
+      parallel_for(static_cast<size_t>(threads), static_cast<unsigned>(threads), [&](size_t t) { kernel(t * chunk, t); });
       best = std::max(best, bytes_per_element * static_cast<double>(chunk) * threads / since(t0) / 1e9);
     }
     return best;
