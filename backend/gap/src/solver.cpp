@@ -85,10 +85,14 @@ struct Saddle {
 // (Hb δa + δb = −rb, δa + Ha δb = −ra), so (I − Hb Ha) δb = Hb ra − rb and δa = −ra − Ha δb.
 // I − Hb Ha = I − Sb Sa with Sa, Sb = I − ∂²E in (0, I]: its eigenvalues lie in [0, 1), and the
 // 3×3 cofactor inverse (Eigen's closed form) is as accurate as pivoted LU here at a third of the
-// cost; an exactly singular matrix gives non-finite steps (callers check).
-void saddle_step(const Mat3& Eb, const Mat3& Ea, const Vec3& rb, const Vec3& ra, Vec3& da, Vec3& db) {
+// cost; an exactly singular matrix gives non-finite steps (callers check). `inverse_norm`: the
+// Frobenius norm of M⁻¹, if asked for.
+void saddle_step(const Mat3& Eb, const Mat3& Ea, const Vec3& rb, const Vec3& ra, Vec3& da, Vec3& db,
+                 double* inverse_norm = nullptr) {
   const Mat3 M = Eb + Ea - Eb * Ea;  // = I − Hb Ha
-  db = M.inverse() * (Eb * ra - ra - rb);
+  const Mat3 inverse = M.inverse();
+  if (inverse_norm) *inverse_norm = inverse.norm();
+  db = inverse * (Eb * ra - ra - rb);
   da = db - ra - Ea * db;
 }
 
@@ -278,17 +282,17 @@ WitnessSolution solve_predicted(const PointToSet& A, const PointToSet& B, const 
   for (; iterations < std::min(2, max_iter - 1); ++iterations) {
     const Vec3 rb = s.b - s.a + s.eb.gradient, ra = s.a - s.b + s.ea.gradient;
     Vec3 da, db;
-    saddle_step(s.eb.hessian, s.ea.hessian, rb, ra, da, db);
+    double inverse_norm = 0;
+    saddle_step(s.eb.hessian, s.ea.hessian, rb, ra, da, db, &inverse_norm);
     if (!da.allFinite() || !db.allFinite()) break;
     // The residual after the step is ½ ∂³E[δ, δ] in each equation; ∂³E's size is estimated by the
     // secant of the Hessians between this point and the other one. The next Newton step (the
-    // error left) is then at most (1 + 2‖M⁻¹‖) times that: |δb| ≤ ‖M⁻¹‖ (|ra| + |rb|) and
-    // |δa| ≤ |ra| + |δb| in saddle_step, as ‖∂²E − I‖ ≤ 1. Stop when a quarter of tol bounds it
-    // (or, as solve_newton, when the step itself is below tol), taking the step unevaluated.
+    // error left) is then at most (1 + 2‖M⁻¹‖) times that, M of saddle_step: |δb| ≤ ‖M⁻¹‖ (|ra| +
+    // |rb|) and |δa| ≤ |ra| + |δb|, as ‖∂²E − I‖ ≤ 1. Stop when a quarter of tol bounds it (or, as
+    // solve_newton, when the step itself is below tol), taking the step unevaluated.
     const double lb = (s.eb.hessian - hb).norm() / (s.a - at_a).norm();
     const double la = (s.ea.hessian - ha).norm() / (s.b - at_b).norm();
-    const Mat3 M = s.eb.hessian + s.ea.hessian - s.eb.hessian * s.ea.hessian;
-    const double next = (1 + 2 * M.inverse().norm()) * 0.5 * (lb * da.squaredNorm() + la * db.squaredNorm());
+    const double next = (1 + 2 * inverse_norm) * 0.5 * (lb * da.squaredNorm() + la * db.squaredNorm());
     if (std::max(da.squaredNorm(), db.squaredNorm()) < tol * tol || 4 * next < tol) {
       final_step(s, rb, ra, da, db);
       WitnessSolution out;
