@@ -226,10 +226,12 @@ py::dict gap_batch(const py::dict& shape_a, const Poses& poses_a, const py::dict
         if (!interrupt.report(done.load(), n)) return;
       }
       GapBody a = *proto_a, b = *proto_b;
+      if (pa.size() == 1) a.set_pose(pa[0]);  // a shared pose is placed once (its world rows)
+      if (pb.size() == 1) b.set_pose(pb[0]);
       const double nan = std::nan("");
       for (std::size_t i = block * kBlock; i < std::min(n, (block + 1) * kBlock); ++i) {
-        a.set_pose(pa[pa.size() == 1 ? 0 : i]);
-        b.set_pose(pb[pb.size() == 1 ? 0 : i]);
+        if (pa.size() != 1) a.set_pose(pa[i]);
+        if (pb.size() != 1) b.set_pose(pb[i]);
         GapResult r;
         if (warm) {
           // Each pair continues its own track; without one (or after an overlap), from the given
