@@ -152,7 +152,8 @@ class Result(dict):
     ``gradient_a``/``gradient_b`` (N, 6): dD/d(v, ω) (world frame, ω about the shape's origin;
     None with gradient off), ``iterations``, ``converged``, ``overlap`` (N,), and FCL's Euclidean
     ``euclidean_distance``, ``euclidean_witness_a``/``_b``, ``euclidean_gradient_a``/``_b``
-    (NaN with warm starts, which skip it). Keys are also attributes (``r.distance``)."""
+    (NaN with warm starts, which skip it), and with warm starts ``track`` (N, 54): each pair's solver
+    state for the next warm start (else None). Keys are also attributes (``r.distance``)."""
 
     def __getattr__(self, name):
         try:
@@ -187,7 +188,9 @@ def distance(a, pose_a, b, pose_b, params: Optional[Params] = None, *, threads: 
     One pose each gives one result; ``(N, 7)`` or ``(N, 4, 4)`` poses give N results (a single
     pose on one side is shared by all N). Batches run on ``threads`` threads (0: all cores) with
     the GIL released. ``warm_start``: a previous Result (or ``{"witness_a", "witness_b"}`` arrays
-    of the same N): Newton starts at those witnesses and skips FCL, for sequences of nearby poses.
+    of the same N): Newton starts at those witnesses and skips FCL, for sequences of nearby poses;
+    a warm-started Result's ``track`` lets the next call predict each pair's witnesses for its
+    new poses (fewer Newton steps along a sequence, the same answers within tolerance).
     ``progress(done, total)`` is called about every 0.1 s and at the end; Ctrl-C
     (KeyboardInterrupt), or an exception raised by ``progress``, stops the batch and propagates.
     Bad input raises :class:`distlab.InvalidInput` (a ValueError; also a TypeError for a wrong
@@ -197,12 +200,14 @@ def distance(a, pose_a, b, pose_b, params: Optional[Params] = None, *, threads: 
     params = Params() if params is None else params
     pdict = params.to_dict() if isinstance(params, Params) else dict(params)
     euclidean = bool(pdict.pop("euclidean", True)) and getattr(params, "euclidean", True)
-    wa = wb = None
+    wa = wb = track = None
     if warm_start is not None:
         wa = np.asarray(warm_start["witness_a"], dtype=np.float64).reshape(-1, 3)
         wb = np.asarray(warm_start["witness_b"], dtype=np.float64).reshape(-1, 3)
+        if warm_start.get("track") is not None:
+            track = np.asarray(warm_start["track"], dtype=np.float64).reshape(len(wa), -1)
     out = _core.gap_batch(_shape_spec(a, "a"), pa, _shape_spec(b, "b"), pb, pdict, int(threads), wa, wb, euclidean,
-                          progress)
+                          progress, track)
     if single_a and single_b:
         out = {k: (None if v is None else (v[0].item() if v.ndim == 1 else v[0])) for k, v in out.items()}
     return Result(out)

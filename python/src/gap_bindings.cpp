@@ -3,6 +3,8 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
+#include <functional>
 #include <list>
 #include <memory>
 #include <optional>
@@ -108,10 +110,47 @@ std::shared_ptr<const GapBody> build_body(const json& shape, const json& params,
   return body;
 }
 
+// A pair's GapTrack as a row of doubles, so that a Result passed back as warm_start continues
+// each pair from its last solution (gap_distance_tracked). The row starts with a tag of the
+// shapes and parameters (a track from other bodies is ignored: its derivatives would mislead
+// the prediction); the separating plane is not kept (the next call proves separation afresh).
+constexpr std::size_t kTrackSize = 54;
+
+void write_track(const GapTrack& t, std::uint64_t tag, double* o) {
+  o[0] = static_cast<double>(tag >> 32), o[1] = static_cast<double>(tag & 0xffffffffu);
+  o[2] = t.valid, o[3] = t.last.evaluated;
+  double* x = o + 4;
+  auto put = [&x](const auto& m) {
+    for (Eigen::Index k = 0; k < m.size(); ++k) *x++ = m.data()[k];
+  };
+  put(t.pose_a.position), put(t.pose_a.rotation.coeffs()), put(t.pose_b.position), put(t.pose_b.rotation.coeffs());
+  put(t.last.a), put(t.last.b), put(t.last.ab);
+  *x++ = t.last.lambda;
+  for (const P2SValue* e : {&t.last.ea, &t.last.eb}) *x++ = e->value, put(e->gradient), put(e->hessian);
+}
+
+// The track of a row written for the same tag, or an invalid one.
+GapTrack read_track(const double* in, std::uint64_t tag) {
+  GapTrack t;
+  if (in[0] != static_cast<double>(tag >> 32) || in[1] != static_cast<double>(tag & 0xffffffffu) || in[2] != 1)
+    return t;
+  const double* x = in + 4;
+  auto get = [&x](auto& m) {
+    for (Eigen::Index k = 0; k < m.size(); ++k) m.data()[k] = *x++;
+  };
+  get(t.pose_a.position), get(t.pose_a.rotation.coeffs()), get(t.pose_b.position), get(t.pose_b.rotation.coeffs());
+  get(t.last.a), get(t.last.b), get(t.last.ab);
+  t.last.lambda = *x++;
+  for (P2SValue* e : {&t.last.ea, &t.last.eb}) e->value = *x++, get(e->gradient), get(e->hessian);
+  t.last.evaluated = in[3] == 1;
+  t.last.converged = t.valid = true;
+  return t;
+}
+
 py::dict gap_batch(const py::dict& shape_a, const Poses& poses_a, const py::dict& shape_b,
                    const Poses& poses_b, const py::object& params_dict, unsigned threads,
                    const py::object& warm_a, const py::object& warm_b, bool euclidean,
-                   const py::object& progress) {
+                   const py::object& progress, const py::object& track_in) {
   const json params_json = to_json(params_dict, "params");
   // Parsing checks h and k by building a base function (0.1 ms): the last parameters are kept.
   static std::optional<std::pair<json, server::GapRequestParams>> last_params;
@@ -132,6 +171,19 @@ py::dict gap_batch(const py::dict& shape_a, const Poses& poses_a, const py::dict
     wa = read_points(warm_a, n, "warm_start.witness_a");
     wb = read_points(warm_b, n, "warm_start.witness_b");
   }
+  std::optional<Poses> tracks;
+  if (warm && !track_in.is_none()) {
+    tracks = Poses::ensure(track_in);
+    if (!*tracks || tracks->ndim() != 2 || static_cast<std::size_t>(tracks->shape(0)) != n ||
+        static_cast<std::size_t>(tracks->shape(1)) != kTrackSize)
+      throw InvalidInput("warm_start.track", "warm_start.track must have shape (" + std::to_string(n) + ", " +
+                                                 std::to_string(kTrackSize) + ") (a Result's track)");
+    for (py::ssize_t i = 0; i < tracks->size(); ++i)
+      if (!std::isfinite(tracks->data()[i])) throw InvalidInput("warm_start.track", "warm_start.track must be finite");
+  }
+  const std::uint64_t tag = std::hash<std::string>{}(to_json(shape_a, "a").dump() + '\n' +
+                                                     to_json(shape_b, "b").dump() + '\n' + params_json.dump() +
+                                                     (euclidean ? "\ne" : "\n"));
   const auto proto_a = build_body(to_json(shape_a, "a"), params_json, rp, "a");
   const auto proto_b = build_body(to_json(shape_b, "b"), params_json, rp, "b");
   const GapParams& params = rp.params;
@@ -144,6 +196,9 @@ py::dict gap_batch(const py::dict& shape_a, const Poses& poses_a, const py::dict
   py::array_t<double> egrad_a({sn, py::ssize_t{6}}), egrad_b({sn, py::ssize_t{6}});
   py::array_t<std::int32_t> iterations(sn);
   py::array_t<bool> converged(sn), overlap(sn);
+  py::array_t<double> track_out({warm ? sn : py::ssize_t{0}, static_cast<py::ssize_t>(kTrackSize)});
+  double* const track_rows = track_out.mutable_data();
+  const double* const track_rows_in = tracks ? tracks->data() : nullptr;
   struct Ptrs {
     double *lambda, *distance, *euclid, *wa, *wb, *ewa, *ewb, *ga, *gb, *ega, *egb;
     std::int32_t* iterations;
@@ -171,11 +226,23 @@ py::dict gap_batch(const py::dict& shape_a, const Poses& poses_a, const py::dict
         if (!interrupt.report(done.load(), n)) return;
       }
       GapBody a = *proto_a, b = *proto_b;
+      if (pa.size() == 1) a.set_pose(pa[0]);  // a shared pose is placed once (its world rows)
+      if (pb.size() == 1) b.set_pose(pb[0]);
       const double nan = std::nan("");
       for (std::size_t i = block * kBlock; i < std::min(n, (block + 1) * kBlock); ++i) {
-        a.set_pose(pa[pa.size() == 1 ? 0 : i]);
-        b.set_pose(pb[pb.size() == 1 ? 0 : i]);
-        const GapResult r = warm ? gap_distance_warm(a, b, params, wa[i], wb[i]) : gap_distance(a, b, params);
+        if (pa.size() != 1) a.set_pose(pa[i]);
+        if (pb.size() != 1) b.set_pose(pb[i]);
+        GapResult r;
+        if (warm) {
+          // Each pair continues its own track; without one (or after an overlap), from the given
+          // witnesses, as gap_distance_warm.
+          GapTrack track = track_rows_in ? read_track(track_rows_in + kTrackSize * i, tag) : GapTrack{};
+          if (!track.valid) track.last.a = wa[i], track.last.b = wb[i], track.valid = true;
+          r = gap_distance_tracked(a, b, params, track);
+          write_track(track, tag, track_rows + kTrackSize * i);
+        } else {
+          r = gap_distance(a, b, params);
+        }
         o.lambda[i] = r.lambda;
         o.distance[i] = r.distance;
         o.iterations[i] = r.iterations;
@@ -224,6 +291,7 @@ py::dict gap_batch(const py::dict& shape_a, const Poses& poses_a, const py::dict
   out["euclidean_witness_b"] = ewit_b;
   out["euclidean_gradient_a"] = params.gradient ? py::object(egrad_a) : py::none();
   out["euclidean_gradient_b"] = params.gradient ? py::object(egrad_b) : py::none();
+  out["track"] = warm ? py::object(track_out) : py::none();
   return out;
 }
 
@@ -259,7 +327,7 @@ void bind_gap(py::module_& m) {
   m.def("gap_solve", &gap_solve, py::arg("request"));
   m.def("gap_batch", &gap_batch, py::arg("shape_a"), py::arg("poses_a"), py::arg("shape_b"), py::arg("poses_b"),
         py::arg("params"), py::arg("threads"), py::arg("warm_a"), py::arg("warm_b"),
-        py::arg("euclidean") = true, py::arg("progress") = py::none());
+        py::arg("euclidean") = true, py::arg("progress") = py::none(), py::arg("track") = py::none());
   m.def("gap_default_params", &default_params);
 }
 

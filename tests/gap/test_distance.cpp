@@ -402,5 +402,58 @@ TEST(GapDistance, TrackedMotionMatchesColdCallsInFewerSteps) {
   EXPECT_TRUE(track.valid);
 }
 
+// Along control-loop motions (steps of at most 1 mm and 1°, one or both shapes moving, some
+// pairs coming within 1e-5 of contact), a tracked call stops as soon as its error estimate
+// allows (solve_predicted), often after the one evaluation at the predicted witnesses: fewer
+// than one Newton step a call on average (the predicted start alone took ~1.5), and every
+// answer within tol of a converged cold solve (tol 1e-13): witnesses within tol = 1e-10, D
+// within 1e-14 relative.
+TEST(GapDistance, TrackedCallsStopOnTheirErrorEstimateWithinTolerance) {
+  const GapParams p;
+  GapParams reference = p;
+  reference.tol = 1e-13;
+  std::mt19937_64 rng(77);
+  std::uniform_real_distribution<double> unit(0, 1);
+  auto step_pose = [&](Pose& pose) {
+    pose.position += test::random_unit(rng) * (1e-3 * unit(rng));
+    pose.rotation = test::rotate_world(pose.rotation, test::random_unit(rng) * (unit(rng) * M_PI / 180));
+  };
+  const std::vector<std::pair<Shape, Shape>> kinds = {
+      {test::random_polytope(rng, 10, 0.1), Box{Vec3(0.1, 0.15, 0.08)}},
+      {test::random_polytope(rng, 12, 0.1), test::random_polytope(rng, 8, 0.1)},
+      {Cylinder{0.05, 0.2}, Sphere{0.06}},
+      {Capsule{0.04, 0.15}, Box{Vec3(0.2, 0.1, 0.05)}}};
+  int calls = 0, single = 0, iterations = 0;
+  double worst_witness = 0, worst_distance = 0, closest = INFINITY;
+  for (const auto& [shape_a, shape_b] : kinds)
+    for (const bool both : {false, true}) {
+      Pose pa{Vec3::Zero(), test::random_rotation(rng)};
+      Pose pb{0.4 * test::random_unit(rng), test::random_rotation(rng)};
+      GapBody a(shape_a, pa, p), b(shape_b, pb, p);
+      GapTrack track;
+      for (int i = 0; i < 150; ++i) {
+        if (both) step_pose(pa), a.set_pose(pa);
+        step_pose(pb), b.set_pose(pb);
+        const GapResult tracked = gap_distance_tracked(a, b, p, track);
+        const GapResult cold = gap_distance(a, b, reference);
+        ASSERT_FALSE(cold.overlap);
+        ASSERT_TRUE(tracked.converged);
+        if (i < 2) continue;  // the track's cold start and its first warm call
+        ++calls;
+        iterations += tracked.iterations;
+        if (tracked.iterations == 0) ++single;
+        closest = std::min(closest, cold.distance);
+        worst_witness = std::max({worst_witness, (tracked.witness_a - cold.witness_a).norm(),
+                                  (tracked.witness_b - cold.witness_b).norm()});
+        worst_distance = std::max(worst_distance, std::abs(tracked.distance - cold.distance) / cold.distance);
+      }
+    }
+  EXPECT_LT(closest, 1e-4);  // the motions include near contact, where Newton contracts slowly
+  EXPECT_LT(iterations, calls);
+  EXPECT_GT(single, calls / 10);
+  EXPECT_LT(worst_witness, p.tol);
+  EXPECT_LT(worst_distance, 1e-14);
+}
+
 }  // namespace
 }  // namespace distlab

@@ -166,6 +166,54 @@ def test_warm_start_matches_cold_start():
     assert np.isnan(warm.euclidean_distance).all()
 
 
+def _sequence(rng, n, steps):
+    """n poses of B moved `steps` times by at most 1 mm and 1 degree each, (steps, n, 7)."""
+    pos = np.array([0.35, 0.05, 0.02]) + 0.02 * rng.standard_normal((n, 3))
+    quat = np.tile([1.0, 0, 0, 0], (n, 1))
+    out = []
+    for _ in range(steps):
+        pos = pos + rng.standard_normal((n, 3)) * (1e-3 / np.sqrt(3)) * rng.uniform(0, 1, (n, 1)) / 2
+        axis = rng.standard_normal((n, 3))
+        axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+        half = 0.5 * np.radians(rng.uniform(0, 1, (n, 1)))
+        dq = np.hstack([np.cos(half), np.sin(half) * axis])
+        w1, v1, w2, v2 = dq[:, :1], dq[:, 1:], quat[:, :1], quat[:, 1:]
+        quat = np.hstack([w1 * w2 - np.sum(v1 * v2, axis=1, keepdims=True), w1 * v2 + w2 * v1 + np.cross(v1, v2)])
+        out.append(np.hstack([pos, quat]))
+    return out
+
+
+def test_warm_start_from_a_result_continues_each_pairs_track():
+    # A Result passed back as warm_start carries each pair's solver state ("track"): along a
+    # sequence of 1 mm / 1 degree steps Newton then starts at predicted witnesses and stops on
+    # its error estimate, in fewer steps than from the witnesses alone, with the cold answers.
+    a, b = gap.Box([0.2, 0.1, 0.15]), gap.Cylinder(0.05, 0.2)
+    poses = _sequence(np.random.default_rng(3), 40, 12)
+    tracked = gap.distance(a, None, b, poses[0])
+    tracked = gap.distance(a, None, b, poses[1], warm_start=tracked)
+    assert tracked.track.shape == (40, 54)
+    it_tracked = it_witnesses = 0
+    for p in poses[2:]:
+        from_witnesses = gap.distance(a, None, b, p, warm_start={"witness_a": tracked.witness_a,
+                                                                 "witness_b": tracked.witness_b})
+        tracked = gap.distance(a, None, b, p, warm_start=tracked)
+        cold = gap.distance(a, None, b, p, gap.Params(tol=1e-13))
+        np.testing.assert_allclose(tracked.distance, cold.distance, rtol=1e-14, atol=0)
+        np.testing.assert_allclose(tracked.witness_a, cold.witness_a, rtol=0, atol=1e-10)
+        np.testing.assert_allclose(tracked.gradient_b, cold.gradient_b, rtol=0, atol=1e-8)
+        it_tracked += tracked.iterations.sum()
+        it_witnesses += from_witnesses.iterations.sum()
+    assert it_tracked < 0.6 * it_witnesses
+    # A track of other shapes is not used (its derivatives belong to other functions): the
+    # answer is then the one from the witnesses alone, bit for bit.
+    other = gap.distance(gap.Box([0.2, 0.1, 0.16]), None, b, poses[-1], warm_start=tracked)
+    alone = gap.distance(gap.Box([0.2, 0.1, 0.16]), None, b, poses[-1],
+                         warm_start={"witness_a": tracked.witness_a, "witness_b": tracked.witness_b})
+    assert np.array_equal(other.distance, alone.distance) and np.array_equal(other.iterations, alone.iterations)
+    with pytest.raises(distlab.InvalidInput, match="warm_start.track"):
+        gap.distance(a, None, b, poses[-1], warm_start={**tracked, "track": np.full((40, 54), np.nan)})
+
+
 def test_empty_batches_give_empty_arrays():
     a, b = gap.Box([0.2, 0.1, 0.15]), gap.Sphere(0.06)
     r = gap.distance(a, [0.5, 0, 0, 1, 0, 0, 0], b, np.zeros((0, 7)))

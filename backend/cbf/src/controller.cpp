@@ -132,10 +132,9 @@ struct CbfController::Impl {
   std::vector<GapBody> robot_gap, obstacle_gap;  // GAP metric only
   std::vector<EuclideanShape> robot_euclid, obstacle_euclid;
   std::vector<Pose> robot_pose, obstacle_pose;
-  std::vector<Jac> robot_jac;  // Jacobian of each primitive's origin, fixed to its link
-  std::vector<Vec3> warm_a, warm_b;
-  std::vector<char> warm_ok;
-  GapParams exact_params;  // the converged solve (as_published: its reference)
+  std::vector<Jac> robot_jac;    // Jacobian of each primitive's origin, fixed to its link
+  std::vector<GapTrack> tracks;  // per pair: the last solution, continued along the rollout
+  GapParams exact_params;        // the converged solve (as_published: its reference)
   QpSolver qp;
   Eigen::MatrixXd H, C, C_relaxed, H_relaxed;
   Eigen::VectorXd f, d, f_relaxed, d_relaxed;
@@ -190,9 +189,7 @@ CbfController::CbfController(const Scenario& scenario, Metric metric)
 CbfController::~CbfController() = default;
 
 void CbfController::reset_warm_start() {
-  impl_->warm_a.assign(pairs_.size(), Vec3::Zero());
-  impl_->warm_b.assign(pairs_.size(), Vec3::Zero());
-  impl_->warm_ok.assign(pairs_.size(), 0);
+  impl_->tracks.assign(pairs_.size(), GapTrack{});
 }
 
 void CbfController::distances(const VecQ& q, std::vector<PairSample>& samples, GradQ& grad) {
@@ -217,22 +214,19 @@ void CbfController::compute_pairs(const Kinematics& k, std::vector<PairSample>& 
     if (metric_ == Metric::gap) {
       const GapBody& A = m.robot_gap[pair.a];
       const GapBody& B = pair.self ? m.robot_gap[pair.b] : m.obstacle_gap[pair.b];
-      GapResult g;
-      if (m.warm_ok[p]) {
-        // Tracking: Newton from the previous step's witnesses converges in a few steps (their
-        // direction usually still separates the shapes, which spares the overlap test).
-        g = gap_distance_warm(A, B, m.exact_params, m.warm_a[p], m.warm_b[p]);
-      }
-      if (!m.warm_ok[p] || !g.converged) {
-        g = gap_distance(A, B, m.exact_params);
+      // Tracking: Newton from the witnesses predicted from the previous step's solution, which
+      // stops on its error estimate (often after one evaluation); the last separating plane
+      // spares the overlap test. An empty track (first step, after an overlap or a failed
+      // warm solve) is solved cold, as gap_distance does.
+      GapTrack& track = m.tracks[p];
+      s.cold = !track.valid;
+      GapResult g = gap_distance_tracked(A, B, m.exact_params, track);
+      if (!s.cold && !g.converged) {
+        track = GapTrack{};
+        g = gap_distance_tracked(A, B, m.exact_params, track);
         s.cold = true;
-        s.clearance = g.euclidean.distance;
-      } else {
-        s.clearance = std::numeric_limits<double>::quiet_NaN();
       }
-      m.warm_ok[p] = !g.overlap;
-      m.warm_a[p] = g.witness_a;
-      m.warm_b[p] = g.witness_b;
+      s.clearance = s.cold ? g.euclidean.distance : std::numeric_limits<double>::quiet_NaN();
       if (scenario_.gap_mode == GapMode::as_published) {
         s.converged_distance = g.distance;
         const bool overlap = g.overlap;

@@ -51,15 +51,16 @@ void GapBody::set_pose(const Pose& pose) { p2s_.set_pose(pose); }
 namespace {
 
 // Solves from the given starts and fills witness points, Λ, D and gradients; `keep`: the
-// solution itself (tracking).
+// solution itself (tracking); `predicted`: Newton's starts are that prediction (solve_predicted).
 void solve_into(GapResult& r, const GapBody& a, const GapBody& b, const GapParams& params,
                 const Vec3& newton_a, const Vec3* newton_b, const Vec3& plain_start,
-                WitnessSolution* keep = nullptr) {
+                WitnessSolution* keep = nullptr, const Prediction* predicted = nullptr) {
   const int limit = params.iteration_limit();
   const WitnessSolution s =
-      params.solver == GapSolver::newton
-          ? solve_newton(a.p2s(), b.p2s(), newton_a, params.tol, limit, newton_b)
-          : solve_fixed_point(a.p2s(), b.p2s(), plain_start, params.tol, limit);
+      params.solver != GapSolver::newton
+          ? solve_fixed_point(a.p2s(), b.p2s(), plain_start, params.tol, limit)
+      : predicted ? solve_predicted(a.p2s(), b.p2s(), *predicted, params.tol, limit)
+                  : solve_newton(a.p2s(), b.p2s(), newton_a, params.tol, limit, newton_b);
   r.witness_a = s.a;
   r.witness_b = s.b;
   r.iterations = s.iterations;
@@ -144,9 +145,10 @@ double motion_bound(const GapBody& body, const Pose& from) {
 }
 
 // gap_distance_warm, keeping the solution in `keep` (when one is solved for); `track`: the
-// separating plane, reused while the motion since cannot have closed its gap, else renewed.
+// separating plane, reused while the motion since cannot have closed its gap, else renewed;
+// `predicted`: as solve_into's.
 GapResult warm(const GapBody& a, const GapBody& b, const GapParams& params, const Vec3& start_a,
-               const Vec3& start_b, WitnessSolution* keep, GapTrack* track = nullptr) {
+               const Vec3& start_b, WitnessSolution* keep, GapTrack* track = nullptr, const Prediction* predicted = nullptr) {
   GapResult r;
   r.euclidean_computed = false;
   // Tracking: the previous witnesses' direction usually still separates the shapes, which
@@ -160,7 +162,7 @@ GapResult warm(const GapBody& a, const GapBody& b, const GapParams& params, cons
   if (!(gap > kProvedApart)) n = start_b - start_a, gap = gap_along(a, b, n);
   if (track) track->normal = n, track->margin = gap;
   if (gap > kProvedApart) {
-    solve_into(r, a, b, params, start_a, &start_b, start_a, keep);
+    solve_into(r, a, b, params, start_a, &start_b, start_a, keep, predicted);
     return r;
   }
   if (const auto common = common_point(a.p2s().shape(), a.pose(), b.p2s().shape(), b.pose())) {
@@ -168,7 +170,7 @@ GapResult warm(const GapBody& a, const GapBody& b, const GapParams& params, cons
     r.witness_a = r.witness_b = *common;
     return r;
   }
-  solve_into(r, a, b, params, start_a, &start_b, start_a, keep);
+  solve_into(r, a, b, params, start_a, &start_b, start_a, keep, predicted);
   return r;
 }
 
@@ -188,9 +190,11 @@ GapResult gap_distance_tracked(const GapBody& a, const GapBody& b, const GapPara
     track.margin = 0;                                    // no plane at these poses
   } else {
     Vec3 start_a = track.last.a, start_b = track.last.b;
-    if (track.last.evaluated)
-      predict_witnesses(track.last, track.pose_a, track.pose_b, a.pose(), b.pose(), start_a, start_b);
-    r = warm(a, b, params, start_a, start_b, &solution, &track);
+    Prediction prediction;
+    const bool predicted =
+        track.last.evaluated && predict_witnesses(track.last, track.pose_a, track.pose_b, a.pose(), b.pose(),
+                                                  start_a, start_b, &prediction);
+    r = warm(a, b, params, start_a, start_b, &solution, &track, predicted ? &prediction : nullptr);
   }
   track.last = solution;
   track.pose_a = a.pose(), track.pose_b = b.pose();

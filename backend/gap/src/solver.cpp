@@ -2,6 +2,7 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <utility>
@@ -84,11 +85,26 @@ struct Saddle {
 // (Hb δa + δb = −rb, δa + Ha δb = −ra), so (I − Hb Ha) δb = Hb ra − rb and δa = −ra − Ha δb.
 // I − Hb Ha = I − Sb Sa with Sa, Sb = I − ∂²E in (0, I]: its eigenvalues lie in [0, 1), and the
 // 3×3 cofactor inverse (Eigen's closed form) is as accurate as pivoted LU here at a third of the
-// cost; an exactly singular matrix gives non-finite steps (callers check).
-void saddle_step(const Mat3& Eb, const Mat3& Ea, const Vec3& rb, const Vec3& ra, Vec3& da, Vec3& db) {
+// cost; an exactly singular matrix gives non-finite steps (callers check). `inverse_norm`: the
+// Frobenius norm of M⁻¹, if asked for.
+void saddle_step(const Mat3& Eb, const Mat3& Ea, const Vec3& rb, const Vec3& ra, Vec3& da, Vec3& db,
+                 double* inverse_norm = nullptr) {
   const Mat3 M = Eb + Ea - Eb * Ea;  // = I − Hb Ha
-  db = M.inverse() * (Eb * ra - ra - rb);
+  const Mat3 inverse = M.inverse();
+  if (inverse_norm) *inverse_norm = inverse.norm();
+  db = inverse * (Eb * ra - ra - rb);
   da = db - ra - Ea * db;
+}
+
+// Takes the Newton step (δa, δb) without evaluating again: the witnesses' error drops from |δ|
+// to O(|δ|²). Λ follows its quadratic model, Λ + g·δ + ½δᵀHδ = Λ + ½g·δ with g = (r_b, r_a) =
+// ∇Λ(a, b) and Hδ = −g; ∇E_B its linear model (the gradient of Λ is read from it, solve_newton).
+void final_step(Saddle& s, const Vec3& rb, const Vec3& ra, const Vec3& da, const Vec3& db) {
+  const Vec3 ab = s.a - s.b, e = da - db;  // ½‖a − b‖² changes by ab·e + ½‖e‖²
+  s.shift = 0.5 * (rb.dot(da) + ra.dot(db)) + ab.dot(e) + 0.5 * e.squaredNorm();
+  s.eb.gradient += s.eb.hessian * da;  // ∂²E_B(a) δa
+  s.a += da;
+  s.b += db;
 }
 
 // Joint Newton on the saddle-point equations of Lemma 3 in (a, b):
@@ -115,14 +131,7 @@ bool joint_newton(const PointToSet& A, const PointToSet& B, Saddle& s, double to
     saddle_step(cur->eb.hessian, cur->ea.hessian, rb, ra, da, db);
     if (!da.allFinite() || !db.allFinite()) break;
     if (std::max(da.squaredNorm(), db.squaredNorm()) < tol * tol) {
-      // Take the step without evaluating again: the witnesses' error drops from |δ| to O(|δ|²).
-      // Λ follows its quadratic model, Λ + g·δ + ½δᵀHδ = Λ + ½g·δ with g = (r_b, r_a) = ∇Λ(a, b)
-      // and Hδ = −g; ∇E_B its linear model (the gradient of Λ is read from it, solve_newton).
-      const Vec3 ab = cur->a - cur->b, e = da - db;  // ½‖a − b‖² changes by ab·e + ½‖e‖²
-      cur->shift = 0.5 * (rb.dot(da) + ra.dot(db)) + ab.dot(e) + 0.5 * e.squaredNorm();
-      cur->eb.gradient += cur->eb.hessian * da;  // ∂²E_B(a) δa
-      cur->a += da;
-      cur->b += db;
+      final_step(*cur, rb, ra, da, db);
       done = true;
       break;
     }
@@ -230,34 +239,79 @@ namespace {
 
 // ∇E and ∂²E of a shape moved rigidly from `from` to `to`, at x, from its derivatives `e` at x
 // before the move: E_to(x) = E_from(y), y = from(to⁻¹(x)), so ∇E_to(x) = R (∇E + ∂²E (y − x))
-// and ∂²E_to(x) = R ∂²E Rᵀ (R = R_to R_fromᵀ) to first order in the move.
+// and ∂²E_to(x) = R ∂²E Rᵀ (R = R_to R_fromᵀ) to first order in the move; ∂²E_to is exact at
+// `anchor`, x carried with the shape.
 void moved_derivatives(const P2SValue& e, const Pose& from, const Pose& to, const Vec3& x,
-                       Vec3& gradient, Mat3& hessian) {
+                       Vec3& gradient, Mat3& hessian, Vec3& anchor) {
   if (from.position == to.position && from.rotation.coeffs() == to.rotation.coeffs()) {
-    gradient = e.gradient, hessian = e.hessian;  // not moved (e.g. a static obstacle)
+    gradient = e.gradient, hessian = e.hessian, anchor = x;  // not moved (e.g. a static obstacle)
     return;
   }
   const Vec3 y = from.to_world(to.to_local(x));
   const Mat3 R = (to.rotation * from.rotation.conjugate()).toRotationMatrix();
   gradient = R * (e.gradient + e.hessian * (y - x));
   hessian = R * e.hessian * R.transpose();
+  anchor = to.to_world(from.to_local(x));
 }
 
 }  // namespace
 
 bool predict_witnesses(const WitnessSolution& last, const Pose& last_pose_a, const Pose& last_pose_b,
-                       const Pose& pose_a, const Pose& pose_b, Vec3& a, Vec3& b) {
+                       const Pose& pose_a, const Pose& pose_b, Vec3& a, Vec3& b, Prediction* detail) {
+  Prediction p;
   Vec3 ga, gb;
-  Mat3 ha, hb;
-  moved_derivatives(last.ea, last_pose_a, pose_a, last.b, ga, ha);  // E_A at b
-  moved_derivatives(last.eb, last_pose_b, pose_b, last.a, gb, hb);  // E_B at a
+  moved_derivatives(last.ea, last_pose_a, pose_a, last.b, ga, p.hessian_a, p.anchor_b);  // E_A at b
+  moved_derivatives(last.eb, last_pose_b, pose_b, last.a, gb, p.hessian_b, p.anchor_a);  // E_B at a
   const Vec3 rb = last.b - last.a + gb, ra = last.a - last.b + ga;
   Vec3 da, db;
-  saddle_step(hb, ha, rb, ra, da, db);
+  saddle_step(p.hessian_b, p.hessian_a, rb, ra, da, db);
   if (!da.allFinite() || !db.allFinite()) return false;
-  a = last.a + da;
-  b = last.b + db;
+  a = p.a = last.a + da;
+  b = p.b = last.b + db;
+  if (detail) *detail = p;
   return true;
+}
+
+WitnessSolution solve_predicted(const PointToSet& A, const PointToSet& B, const Prediction& p, double tol,
+                                int max_iter) {
+  Saddle s{p.a, p.b, A.strict(p.b, 2), B.strict(p.a, 2)};  // E_A at b, E_B at a
+  // The Hessians at the last other point and where (first the carried ones, exact at the anchors).
+  Mat3 hb = p.hessian_b, ha = p.hessian_a;
+  Vec3 at_a = p.anchor_a, at_b = p.anchor_b;
+  int iterations = 0;
+  for (; iterations < std::min(2, max_iter - 1); ++iterations) {
+    const Vec3 rb = s.b - s.a + s.eb.gradient, ra = s.a - s.b + s.ea.gradient;
+    Vec3 da, db;
+    double inverse_norm = 0;
+    saddle_step(s.eb.hessian, s.ea.hessian, rb, ra, da, db, &inverse_norm);
+    if (!da.allFinite() || !db.allFinite()) break;
+    // The residual after the step is ½ ∂³E[δ, δ] in each equation; ∂³E's size is estimated by the
+    // secant of the Hessians between this point and the other one. The next Newton step (the
+    // error left) is then at most (1 + 2‖M⁻¹‖) times that, M of saddle_step: |δb| ≤ ‖M⁻¹‖ (|ra| +
+    // |rb|) and |δa| ≤ |ra| + |δb|, as ‖∂²E − I‖ ≤ 1. Stop when a quarter of tol bounds it (or, as
+    // solve_newton, when the step itself is below tol), taking the step unevaluated.
+    const double lb = (s.eb.hessian - hb).norm() / (s.a - at_a).norm();
+    const double la = (s.ea.hessian - ha).norm() / (s.b - at_b).norm();
+    const double next = (1 + 2 * inverse_norm) * 0.5 * (lb * da.squaredNorm() + la * db.squaredNorm());
+    if (std::max(da.squaredNorm(), db.squaredNorm()) < tol * tol || 4 * next < tol) {
+      final_step(s, rb, ra, da, db);
+      WitnessSolution out;
+      out.a = s.a, out.b = s.b, out.ab = s.eb.gradient;
+      out.lambda = s.lambda();
+      out.ea = s.ea, out.eb = s.eb, out.evaluated = true;
+      out.converged = true;
+      out.iterations = iterations;
+      return out;
+    }
+    hb = s.eb.hessian, ha = s.ea.hessian, at_a = s.a, at_b = s.b;
+    s.a += da, s.b += db;
+    s.eb = B.strict(s.a, 2), s.ea = A.strict(s.b, 2);
+  }
+  // Not certified (or not finite): solve_newton, globally convergent, from the last point.
+  if (!s.a.allFinite() || !s.b.allFinite()) s.a = p.a, s.b = p.b;
+  WitnessSolution out = solve_newton(A, B, s.a, tol, max_iter - iterations, &s.b);
+  out.iterations += iterations;
+  return out;
 }
 
 }  // namespace distlab

@@ -93,9 +93,10 @@ struct GapTrack {
   double margin = 0;
 };
 
-// gap_distance_warm from the start predict_witnesses gives for the bodies' current poses (about
-// one Newton evaluation and step fewer than from the old witnesses on steps of ~1 mm and 1°);
-// updates `track`. An empty track (or one after an overlap or a failed solve) starts cold, as
+// gap_distance_warm from the start predict_witnesses gives for the bodies' current poses, Newton
+// stopping on its error estimate (solve_predicted: on steps of ~1 mm and 1°, 0.9 Newton steps
+// after the first evaluation against 2.6 from the old witnesses, witnesses within tol); updates
+// `track`. An empty track (or one after an overlap or a failed solve) starts cold, as
 // gap_distance does, and the next call warm from its witnesses.
 GapResult gap_distance_tracked(const GapBody& a, const GapBody& b, const GapParams& params, GapTrack& track);
 

@@ -49,8 +49,22 @@ void lambda_gradients(const WitnessSolution& s, const Pose& pose_a, const Pose& 
 // Newton step of the saddle equations, linearised at the last solution (its E derivatives
 // carried rigidly to the new poses), predicts them to second order in the pose change. Newton
 // from there needs about one evaluation and step fewer than from the old witnesses.
+// The predicted witnesses and the carried Hessians with the points where they are exact (the
+// last witnesses carried with each shape): solve_predicted's estimate of E's third derivative.
+struct Prediction {
+  Vec3 a = Vec3::Zero(), b = Vec3::Zero();
+  Mat3 hessian_b = Mat3::Zero(), hessian_a = Mat3::Zero();  // ∂²E_B at anchor_a, ∂²E_A at anchor_b
+  Vec3 anchor_a = Vec3::Zero(), anchor_b = Vec3::Zero();
+};
+
 // `last` must be `evaluated`; returns false (a, b untouched) if the prediction is not finite.
 bool predict_witnesses(const WitnessSolution& last, const Pose& last_pose_a, const Pose& last_pose_b,
-                       const Pose& pose_a, const Pose& pose_b, Vec3& a, Vec3& b);
+                       const Pose& pose_a, const Pose& pose_b, Vec3& a, Vec3& b, Prediction* detail = nullptr);
+
+// Newton from a prediction: stops after the one evaluation at the predicted witnesses, taking
+// its Newton step unevaluated (as solve_newton's last step), when that step is below tol or the
+// estimated next one is (the error left after it); else goes on as solve_newton from there.
+WitnessSolution solve_predicted(const PointToSet& A, const PointToSet& B, const Prediction& p, double tol,
+                                int max_iter);
 
 }  // namespace distlab
