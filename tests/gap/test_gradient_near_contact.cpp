@@ -60,35 +60,41 @@ Pose place_at(const GapBody& a, GapBody& b, const Vec3& n, const Quat& rot, doub
   return pose;
 }
 
-// ‖FD − g‖∞ / ‖g‖∞ over both poses' 12 coordinates; central differences at steps s and s/2,
-// Richardson-extrapolated (error O(s⁴)); s scales with the Euclidean distance d (D ~ d^2.5
-// near contact) and, for rotations, with the pair's size.
-double gradient_error(GapBody& a, GapBody& b, const GapResult& r, std::string& worst_at) {
+// ‖FD − g‖∞ / ‖g‖∞ over both poses' 12 coordinates, the slope along coordinate c taken by
+// slope(D, c) from D(x), D at tol 1e-14 with the pose moved by x.
+template <class Slope>
+double fd_error(GapBody& a, GapBody& b, const GapResult& r, Slope&& slope, std::string& worst_at) {
   GapParams fd;
   fd.tol = 1e-14;
-  const double d = r.euclidean.distance;
   double worst = 0, scale = 0;
   for (int which = 0; which < 2; ++which) {
     GapBody& moved = which == 0 ? a : b;
     const Pose base = moved.pose();
     const Vec6& g = which == 0 ? r.gradient_a : r.gradient_b;
     for (int c = 0; c < 6; ++c) {
-      const double s = (c < 3 ? 1e-3 : 3e-3) * d;
-      auto slope = [&](double h) {
-        moved.set_pose(test::perturbed(base, c, h));
-        const double up = gap_distance(a, b, fd).distance;
-        moved.set_pose(test::perturbed(base, c, -h));
-        const double down = gap_distance(a, b, fd).distance;
-        return (up - down) / (2 * h);
+      auto D = [&](double x) {
+        moved.set_pose(test::perturbed(base, c, x));
+        return gap_distance(a, b, fd).distance;
       };
-      const double richardson = (4 * slope(0.5 * s) - slope(s)) / 3;
+      const double e = std::abs(slope(D, c) - g[c]);
       moved.set_pose(base);
-      const double e = std::abs(richardson - g[c]);
       if (e > worst) worst = e, worst_at = "shape " + std::to_string(which) + " coord " + std::to_string(c);
       scale = std::max(scale, std::abs(g[c]));
     }
   }
   return worst / scale;
+}
+
+// Central differences at steps s and s/2, Richardson-extrapolated (error O(s⁴)); s scales with
+// the Euclidean distance d (D ~ d^2.5 near contact) and, for rotations, with the pair's size.
+double gradient_error(GapBody& a, GapBody& b, const GapResult& r, std::string& worst_at) {
+  const double d = r.euclidean.distance;
+  auto richardson = [&](auto& D, int c) {
+    const double s = (c < 3 ? 1e-3 : 3e-3) * d;
+    auto central = [&](double h) { return (D(h) - D(-h)) / (2 * h); };
+    return (4 * central(0.5 * s) - central(s)) / 3;
+  };
+  return fd_error(a, b, r, richardson, worst_at);
 }
 
 TEST(GapGradientNearContact, MatchesFiniteDifferencesDownToDOf1em9) {
@@ -141,30 +147,15 @@ void place_touching(const GapBody& a, GapBody& b, double d) {
 // its step (a single central difference at 1e-4 d errs by up to 7e-6 on touching pairs), and
 // the steps stay below the planes where Φ''' jumps (distlab-bench-pairs uses the same fit).
 double touching_gradient_error(GapBody& a, GapBody& b, const GapResult& r, double d, std::string& worst_at) {
-  GapParams fd;
-  fd.tol = 1e-14;
-  double worst = 0, scale = 0;
-  for (int which = 0; which < 2; ++which) {
-    GapBody& moved = which == 0 ? a : b;
-    const Pose base = moved.pose();
-    const Vec6& g = which == 0 ? r.gradient_a : r.gradient_b;
-    for (int c = 0; c < 6; ++c) {
-      double sxy = 0, sxx = 0;
-      for (int j = 1; j <= 20; ++j) {
-        const double x = 5e-4 * d * j / 20;
-        moved.set_pose(test::perturbed(base, c, x));
-        const double up = gap_distance(a, b, fd).distance;
-        moved.set_pose(test::perturbed(base, c, -x));
-        sxy += x * (up - gap_distance(a, b, fd).distance);
-        sxx += 2 * x * x;
-      }
-      moved.set_pose(base);
-      const double e = std::abs(sxy / sxx - g[c]);
-      if (e > worst) worst = e, worst_at = "shape " + std::to_string(which) + " coord " + std::to_string(c);
-      scale = std::max(scale, std::abs(g[c]));
+  auto line = [&](auto& D, int) {
+    double sxy = 0, sxx = 0;
+    for (int j = 1; j <= 20; ++j) {
+      const double x = 5e-4 * d * j / 20;
+      sxy += x * (D(x) - D(-x)), sxx += 2 * x * x;
     }
-  }
-  return worst / scale;
+    return sxy / sxx;
+  };
+  return fd_error(a, b, r, line, worst_at);
 }
 
 // Touching pairs: Newton reaches the same Λ from starts 10 d apart (before, a failed line search
