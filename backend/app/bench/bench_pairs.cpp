@@ -289,7 +289,7 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
   }
   csv.line(
       "pair,kind_a,kind_b,regime,euclidean_distance,fcl_distance,gap_distance,lambda_newton,newton_iterations,"
-      "lambda_plain,lambda_agreement,plain_iterations,gradient_fd_error,gap_us,fcl_us\n");
+      "lambda_plain,lambda_agreement,plain_iterations,gradient_fd_error,gradient_fd_noise,gap_us,fcl_us\n");
   GapParams newton = paper_params();
   newton.tol = 1e-10, newton.gradient = true;
   Bucket all;
@@ -352,11 +352,11 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
       by_kind[static_cast<size_t>(p.kind_a)].add(r);
       if (p.kind_b != p.kind_a) by_kind[static_cast<size_t>(p.kind_b)].add(r);
       // Columns of the checks not run on this pair (--plain-every, --fd-every) stay empty.
-      char plain_cols[96] = ",,", fd_col[32] = "";
+      char plain_cols[96] = ",,", fd_col[48] = ",";
       if (r.plain_run)
         std::snprintf(plain_cols, sizeof plain_cols, "%.17g,%.3e,%d", r.lambda_plain, r.agreement,
                       r.plain_converged ? r.plain_iterations : -1);
-      if (r.fd_run) std::snprintf(fd_col, sizeof fd_col, "%.3e", r.gradient_error);
+      if (r.fd_run) std::snprintf(fd_col, sizeof fd_col, "%.3e,%.3e", r.gradient_error, r.fd_noise);
       char line[512];
       std::snprintf(line, sizeof line, "%ld,%s,%s,%s,%.17g,%.17g,%.17g,%.17g,%d,%s,%s,%.4f,%.4f\n",
                     first + static_cast<long>(i), kKinds[static_cast<size_t>(p.kind_a)],
