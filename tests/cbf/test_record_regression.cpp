@@ -12,7 +12,14 @@
 // added or removed). Retaken when the rollout's pairs became tracked (gap_distance_tracked,
 // issue 19; `distlab cbf` before/after on the four scenarios: q moved by at most 5.5e-12 rad and
 // D by 1.4e-12 in gap runs; published runs: q and D unchanged, converged_distance by at most
-// 5.4e-13; the same cold solves, no infeasible step added or removed).
+// 5.4e-13; the same cold solves, no infeasible step added or removed). Retaken when Newton
+// carried b − a apart from the points and scaled its stop rule near contact (issue 19: gap runs'
+// q moved by at most 3.8e-15 rad, u by 2.2e-14 rad/s, D by 1.1e-15; published runs' q, u and D
+// unchanged, only their converged reference D moved, by at most 4.6e-14, more than 1e-8 relative
+// only where D < 6e-10; no infeasible step added or removed), and for the two together (tracked
+// calls carry b − a too; `distlab cbf` against the second change alone: gap runs' q moved by at
+// most 5.7e-12 rad, D by 1.4e-12; published runs' q, u and D unchanged, converged D by 5.3e-11
+// relative at most; no infeasible step added or removed).
 #include <cstdlib>
 #include <fstream>
 #include <map>

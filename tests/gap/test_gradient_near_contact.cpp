@@ -5,12 +5,21 @@
 // every kind are placed at D in {1e-3, ..., 1e-7} and the gradients that gap_distance returns with the default
 // parameters (cold) and gap_distance_warm returns from nearby witnesses are compared with
 // Richardson-extrapolated central differences of D along the 12 pose coordinates.
+//
+// Touching pairs (Euclidean distance d of 1e-6 and 1e-7, D ~ 1e-16 to 1e-22): a* − b* is ~1e-29
+// there and a*, b* are the same doubles; D carries rounding noise of ~1e-10 relative from the
+// coordinates' last bits, which a central difference divides by its step. They are judged by
+// Λ's independence of the start, by a least-squares fit over twenty solves and, for two spheres,
+// by a second method: the saddle equations reduce to two scalar equations on the centre line,
+// solved in 50-digit arithmetic.
 #include <gtest/gtest.h>
 
+#include <boost/multiprecision/cpp_bin_float.hpp>
 #include <cmath>
 #include <string>
 
 #include "distlab/gap/distance.hpp"
+#include "distlab/gap/solver.hpp"
 #include "gap_test_util.hpp"
 
 namespace distlab {
@@ -51,30 +60,24 @@ Pose place_at(const GapBody& a, GapBody& b, const Vec3& n, const Quat& rot, doub
   return pose;
 }
 
-// ‖FD − g‖∞ / ‖g‖∞ over both poses' 12 coordinates; central differences at steps s and s/2,
-// Richardson-extrapolated (error O(s⁴)); s scales with the Euclidean distance d (D ~ d^2.5
-// near contact) and, for rotations, with the pair's size.
-double gradient_error(GapBody& a, GapBody& b, const GapResult& r, std::string& worst_at) {
+// ‖FD − g‖∞ / ‖g‖∞ over both poses' 12 coordinates, the slope along coordinate c taken by
+// slope(D, c) from D(x), D at tol 1e-14 with the pose moved by x.
+template <class Slope>
+double fd_error(GapBody& a, GapBody& b, const GapResult& r, Slope&& slope, std::string& worst_at) {
   GapParams fd;
   fd.tol = 1e-14;
-  const double d = r.euclidean.distance;
   double worst = 0, scale = 0;
   for (int which = 0; which < 2; ++which) {
     GapBody& moved = which == 0 ? a : b;
     const Pose base = moved.pose();
     const Vec6& g = which == 0 ? r.gradient_a : r.gradient_b;
     for (int c = 0; c < 6; ++c) {
-      const double s = (c < 3 ? 1e-3 : 3e-3) * d;
-      auto slope = [&](double h) {
-        moved.set_pose(test::perturbed(base, c, h));
-        const double up = gap_distance(a, b, fd).distance;
-        moved.set_pose(test::perturbed(base, c, -h));
-        const double down = gap_distance(a, b, fd).distance;
-        return (up - down) / (2 * h);
+      auto D = [&](double x) {
+        moved.set_pose(test::perturbed(base, c, x));
+        return gap_distance(a, b, fd).distance;
       };
-      const double richardson = (4 * slope(0.5 * s) - slope(s)) / 3;
+      const double e = std::abs(slope(D, c) - g[c]);
       moved.set_pose(base);
-      const double e = std::abs(richardson - g[c]);
       if (e > worst) worst = e, worst_at = "shape " + std::to_string(which) + " coord " + std::to_string(c);
       scale = std::max(scale, std::abs(g[c]));
     }
@@ -82,7 +85,19 @@ double gradient_error(GapBody& a, GapBody& b, const GapResult& r, std::string& w
   return worst / scale;
 }
 
-TEST(GapGradientNearContact, MatchesFiniteDifferencesDownToDOf1em7) {
+// Central differences at steps s and s/2, Richardson-extrapolated (error O(s⁴)); s scales with
+// the Euclidean distance d (D ~ d^2.5 near contact) and, for rotations, with the pair's size.
+double gradient_error(GapBody& a, GapBody& b, const GapResult& r, std::string& worst_at) {
+  const double d = r.euclidean.distance;
+  auto richardson = [&](auto& D, int c) {
+    const double s = (c < 3 ? 1e-3 : 3e-3) * d;
+    auto central = [&](double h) { return (D(h) - D(-h)) / (2 * h); };
+    return (4 * central(0.5 * s) - central(s)) / 3;
+  };
+  return fd_error(a, b, r, richardson, worst_at);
+}
+
+TEST(GapGradientNearContact, MatchesFiniteDifferencesDownToDOf1em9) {
   const GapParams p;  // the defaults: tol 1e-10, what the API uses
   std::mt19937_64 rng(7);
   for (const Case& c : cases()) {
@@ -91,7 +106,7 @@ TEST(GapGradientNearContact, MatchesFiniteDifferencesDownToDOf1em7) {
       const Vec3 n = test::random_unit(rng);
       GapBody a(c.a, Pose{Vec3(0.1, -0.2, 0.3), ra}, p);
       GapBody b(c.b, Pose{Vec3::Zero(), rb}, p);
-      for (const double target : {1e-3, 1e-4, 1e-5, 1e-6, 1e-7}) {
+      for (const double target : {1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9}) {
         const Pose pose = place_at(a, b, n, rb, target, p);
         b.set_pose(pose);
         const GapResult r = gap_distance(a, b, p);
@@ -113,6 +128,149 @@ TEST(GapGradientNearContact, MatchesFiniteDifferencesDownToDOf1em7) {
             << w.iterations;
       }
     }
+  }
+}
+
+// B moved along the Euclidean separating direction to a Euclidean distance `d` from A (moving
+// B by −s n lowers the distance by exactly s: the separating plane stays one).
+void place_touching(const GapBody& a, GapBody& b, double d) {
+  const GapParams p;
+  const GapResult far = gap_distance(a, b, p);
+  const Vec3 n = (far.euclidean.witness_b - far.euclidean.witness_a).normalized();
+  Pose pose = b.pose();
+  pose.position -= (far.euclidean.distance - d) * n;
+  b.set_pose(pose);
+}
+
+// ‖FD − g‖∞ / ‖g‖∞ with the slope of the least-squares line through D at x = ±j h/20, j = 1..20,
+// h = 5e-4 d: forty solves average D's rounding noise, which a two-solve difference divides by
+// its step (a single central difference at 1e-4 d errs by up to 7e-6 on touching pairs), and
+// the steps stay below the planes where Φ''' jumps (distlab-bench-pairs uses the same fit).
+double touching_gradient_error(GapBody& a, GapBody& b, const GapResult& r, double d, std::string& worst_at) {
+  auto line = [&](auto& D, int) {
+    double sxy = 0, sxx = 0;
+    for (int j = 1; j <= 20; ++j) {
+      const double x = 5e-4 * d * j / 20;
+      sxy += x * (D(x) - D(-x)), sxx += 2 * x * x;
+    }
+    return sxy / sxx;
+  };
+  return fd_error(a, b, r, line, worst_at);
+}
+
+// Touching pairs: Newton reaches the same Λ from starts 10 d apart (before, a failed line search
+// handed over to a nested method that stopped where it started: Λ off by up to 4×), and the
+// gradient matches the least-squares slope.
+TEST(GapGradientNearContact, TouchingPairsSolveToOneLambdaWithTheGradientOfD) {
+  const GapParams p;
+  std::mt19937_64 rng(11);
+  for (const Case& c : cases()) {
+    for (int draw = 0; draw < 2; ++draw) {
+      const Quat ra = test::random_rotation(rng), rb = test::random_rotation(rng);
+      const Vec3 n = test::random_unit(rng);
+      for (const double d : {1e-6, 1e-7}) {
+        GapBody a(c.a, Pose{Vec3(0.1, -0.2, 0.3), ra}, p);
+        GapBody b(c.b, Pose{Vec3(0.1, -0.2, 0.3) + 0.6 * n, rb}, p);
+        place_touching(a, b, d);
+        const GapResult r = gap_distance(a, b, p);
+        ASSERT_FALSE(r.overlap) << c.name;
+        ASSERT_TRUE(r.converged) << c.name;
+        ASSERT_GT(r.lambda, 0) << c.name;
+        for (int start = 0; start < 4; ++start) {
+          const Vec3 a0 = r.witness_a + 10 * d * test::random_unit(rng);
+          const WitnessSolution s = solve_newton(a.p2s(), b.p2s(), a0, p.tol, 100);
+          EXPECT_TRUE(s.converged) << c.name << " draw " << draw << " d " << d << " start " << start;
+          EXPECT_LE(std::abs(s.lambda - r.lambda), 1e-8 * r.lambda)
+              << c.name << " draw " << draw << " d " << d << " start " << start << ": Λ " << s.lambda
+              << " against " << r.lambda << " (" << s.iterations << " iterations)";
+        }
+        std::string where;
+        EXPECT_LE(touching_gradient_error(a, b, r, d, where), kBound)
+            << c.name << " draw " << draw << " d " << d << " D " << r.distance << " at " << where << " iterations "
+            << r.iterations;
+      }
+    }
+  }
+}
+
+// Two spheres: E_S(p) = f_S(‖p − c_S‖), so a*, b* lie on the centre line, at distances s_A of b*
+// outside A and s_B of a* outside B. With δ = ‖b* − a*‖ = s_A + s_B − d the saddle equations are
+// f_A'(r_A + s_A) = δ = f_B'(r_B + s_B), and by the envelope theorem dΛ/dL = f_B'(r_B + s_B) = δ
+// for the centre distance L: dD/dc_B = (δ / D) n. Solved here in 50 digits (f' is increasing:
+// nested bisections), with Φ = s²/2 − ((1 + s)⁻⁸ − 1 + 8s)/72 (eq. 4, k = 2, h = 0.1) and
+// E = B²/(V − A) (eq. 6, A = ερ < 0 near the sphere), independent of the library's evaluation.
+using Big = boost::multiprecision::cpp_bin_float_50;
+
+struct RoundP2S {
+  Big r, rho_r, w, eps, sigma;  // radius, ρ ball radius, round weight, ε, σ
+  // E and dE/dt at distance t from the centre.
+  void at(const Big& t, Big& e, Big& de) const {
+    const Big s = t - r;
+    Big phi = 0, dphi = 0;
+    if (s > 0) {
+      const Big x = 1 / (1 + s), x8 = pow(x, 8);
+      phi = s * s / 2 - (x8 - 1 + 8 * s) / 72;
+      dphi = s - (1 - x8 * x) / 9;
+    }
+    const Big A = eps * (t * t - rho_r * rho_r) / 2, B = sigma * w * phi;
+    const Big V = sqrt(A * A + B * B);
+    e = B * B / (V - A);
+    de = (e * eps * t + B * sigma * w * dphi) / V;
+  }
+  Big slope(const Big& s) const {
+    Big e, de;
+    at(r + s, e, de);
+    return de;
+  }
+  // The s >= 0 with f'(r + s) = δ.
+  Big inverse(const Big& delta, Big hi) const {
+    Big lo = 0;
+    for (int i = 0; i < 200; ++i) {
+      const Big mid = (lo + hi) / 2;
+      (slope(mid) < delta ? lo : hi) = mid;
+    }
+    return (lo + hi) / 2;
+  }
+};
+
+TEST(GapGradientNearContact, SpheresMatchA50DigitSolutionOfTheCentreLine) {
+  const GapParams p;
+  const double ra = 0.1, rb = 0.15;
+  auto p2s = [&](double r) {
+    return RoundP2S{Big(r), Big(r) * Big(kDefaultRhoScale), 1 / (1 + Big(p.weight_margin)), Big(p.eps), Big(p.sigma)};
+  };
+  const RoundP2S fa = p2s(ra), fb = p2s(rb);
+  std::mt19937_64 rng(5);
+  for (const double gap : {1e-3, 1e-5, 1e-6, 3e-7, 1e-7}) {
+    const Vec3 ca(0.1, -0.2, 0.3), n = test::random_unit(rng);
+    GapBody a(Sphere{ra}, Pose{ca, test::random_rotation(rng)}, p);
+    GapBody b(Sphere{rb}, Pose{ca + (ra + rb + gap) * n, test::random_rotation(rng)}, p);
+    const GapResult r = gap_distance(a, b, p);
+    ASSERT_FALSE(r.overlap);
+    // The reference from the double centres as they are.
+    const Vec3 cb = b.pose().position;
+    Big L2 = 0;
+    for (int i = 0; i < 3; ++i) L2 += (Big(cb[i]) - Big(ca[i])) * (Big(cb[i]) - Big(ca[i]));
+    const Big L = sqrt(L2), d = L - fa.r - fb.r;
+    Big lo = 0, hi = fa.slope(d);  // there s_A >= d: the sum below is >= 0
+    auto excess = [&](const Big& delta) { return fa.inverse(delta, d) + fb.inverse(delta, d) - d - delta; };
+    for (int i = 0; i < 200; ++i) {
+      const Big mid = (lo + hi) / 2;
+      (excess(mid) < 0 ? lo : hi) = mid;
+    }
+    const Big delta = (lo + hi) / 2, sa = fa.inverse(delta, d), sb = fb.inverse(delta, d);
+    Big ea, eb, unused;
+    fa.at(fa.r + sa, ea, unused);
+    fb.at(fb.r + sb, eb, unused);
+    const Big lambda = ea + eb - delta * delta / 2;
+    const double D = static_cast<double>(sqrt(2 * lambda)), slope = static_cast<double>(delta / sqrt(2 * lambda));
+    Vec3 unit;
+    for (int i = 0; i < 3; ++i) unit[i] = static_cast<double>((Big(cb[i]) - Big(ca[i])) / L);
+    EXPECT_LE(std::abs(r.distance - D), 1e-8 * D) << "gap " << gap << ": D " << r.distance << " against " << D;
+    const Vec3 g = r.gradient_b.head<3>();
+    EXPECT_LE((g - slope * unit).norm(), kBound * slope)
+        << "gap " << gap << ": dD/dc_B " << g.transpose() << " against " << (slope * unit).transpose();
+    EXPECT_LE((r.gradient_a.head<3>() + slope * unit).norm(), kBound * slope) << "gap " << gap;
   }
 }
 

@@ -7,11 +7,11 @@
 //     [--fd-every K] [--threads T] [--csv FILE[.gz]] [--json FILE] [--check]
 // --passes P: per pair the fastest of P cold calls (each pass over a chunk of C pairs, default
 // 4096, evicts the pair from cache before the next). --plain-every/--fd-every K: the plain
-// iteration (up to 1e5 steps near contact) and the 24 finite-difference solves on every K-th
+// iteration (up to 1e5 steps near contact) and the finite-difference solves on every K-th
 // pair of each regime only (default 1: all). --csv: one row per pair, gzip-compressed when the
 // name ends in .gz; plot with backend/app/bench/plot_pairs.py. --check: exit 1 when a pair's Λ
-// agreement exceeds 1e-8 where D >= 1e-4 or its gradient error 1e-6 where D >= 1e-7 (issue 19;
-// no time is checked). Drawing and checking run on T threads (default 2); the timed calls on one
+// agreement exceeds 1e-8 where D >= 1e-4 or its gradient error 1e-6 (any pair; touching ones: plus
+// the finite differences' own measured noise; issue 19; no time is checked). Drawing and checking run on T threads (default 2); the timed calls on one
 // thread, alone. GAP's time includes its Euclidean start (double GJK), as in distlab-bench-gap.
 // Issue 19's run (42 min on a loaded 2-core machine; ~1.5 ms of CPU per fully checked pair):
 //   distlab-bench-pairs --pairs 1000000 --passes 3 --plain-every 100 --fd-every 10
@@ -39,11 +39,9 @@ constexpr double kPlainStep = 1e-9;       // the plain iteration's stop rule, re
 constexpr int kPlainIterations = 100'000;
 // Below D ~ 1e-8 the plain iteration's step underflows against |a| (it stops where it starts),
 // and for D < 1e-4 it does not reach its stop rule in 1e5 steps: the Λ agreement is asserted
-// where D >= 1e-4 (or on overlap). The gradient (a* − b* read from ∇E_B(a*)) is asserted where
-// D >= 1e-7; below, Newton sometimes ends on its 100-iteration fallback and this single-step FD
-// loses digits. Both are reported everywhere.
+// where D >= 1e-4 (or on overlap), and reported everywhere. The gradient is asserted on every
+// pair.
 constexpr double kResolvedD = 1e-4;
-constexpr double kGradientResolvedD = 1e-7;
 
 enum class Regime { separated,
                     touching,
@@ -115,17 +113,33 @@ struct Row {
   bool plain_run = false, plain_converged = false, fd_run = false;
   double agreement = 0;       // |Λ_Newton − Λ_plain| / Λ_Newton (0 on overlap: both 0)
   double gradient_error = 0;  // ‖FD − ∇D‖∞ / ‖∇D‖∞ over both poses' 12 coordinates
+  double fd_noise = 0;        // touching: 3 standard errors of the fitted slopes, same scale
 };
 
-// Central differences of D along each of the 12 pose coordinates (linear, then world-frame
+// Finite differences of D along each of the 12 pose coordinates (linear, then world-frame
 // rotation of A, then of B) with Newton at tol 1e-14. Near contact D grows like a high power of
-// the distance d (about d^2.75 at k = 2), so the step scales with d: 1e-4 d, at most 1e-6 (a
-// fourth-order stencil with step 2e-2 d gives the same errors to 3 digits).
-double gradient_error(Pair& p, const GapResult& r) {
+// the distance d (about d^2.75 at k = 2), so the step scales with d.
+// - Separated: central differences at 1e-4 d, at most 1e-6 (a fourth-order stencil with step
+//   2e-2 d gives the same errors to 3 digits).
+// - Touching (d <= 1e-6, D 1e-16 to 1e-22): D carries rounding noise of up to ~1e-9 relative,
+//   from the coordinates' last bits against d (s = u·p − b at |p| ~ 0.3, s ~ d/2), and a central
+//   difference divides it by its step: at 1e-4 d its error reaches 7e-6 while the gradient is
+//   right (it falls as 1/step), and steps near d cross the planes where Φ''' jumps (D is only C²
+//   at k = 2). There the slope is the least-squares line through D at x = ±j h/20, j = 1..20,
+//   h = 5e-4 d: forty solves average the noise. Measured on 2,000 touching pairs (seed 1): max
+//   6.6e-7, p99 3.6e-7 (the same line at 3e-4 d: 1.7e-6; twenty solves at 3e-4 d: 1.8e-6; a
+//   cubic fit at 1e-3 d, across the planes: 1.1e-6; the central difference at 1e-4 d had 7.3e-6
+//   on 300 of them). The fit's own standard error, from its residuals, measures what is left of
+//   the noise: at the smallest D (~1e-22, d ~ 1e-7) three of them reach 1e-6 of the gradient,
+//   and 160 solves at 1e-3 d bring such a pair's error from 1.6e-6 to 3.6e-7. `noise` returns
+//   three standard errors on the error's scale (0 for separated pairs), and a touching pair
+//   passes --check when its error is within the bound plus that.
+double gradient_error(Pair& p, const GapResult& r, double& noise) {
   GapParams fd = paper_params();
   fd.tol = 1e-14;
+  const bool touching = p.euclidean > 0 && p.euclidean <= kTouching;
   const double step = p.euclidean > 0 ? std::min(1e-6, 1e-4 * p.euclidean) : 1e-6;
-  double worst = 0, scale = 0;
+  double worst = 0, scale = 0, worst_noise = 0;
   for (int which = 0; which < 2; ++which) {
     GapBody& moved = which == 0 ? p.a : p.b;
     const Pose base = moved.pose();
@@ -138,12 +152,30 @@ double gradient_error(Pair& p, const GapResult& r) {
         moved.set_pose(q);
         return gap_distance(p.a, p.b, fd).distance;
       };
-      const double slope = (at(step) - at(-step)) / (2 * step);
+      double slope = 0;
+      if (!touching) {
+        slope = (at(step) - at(-step)) / (2 * step);
+      } else {
+        constexpr int kSamples = 20;
+        const double h = 5e-4 * p.euclidean;
+        std::array<double, kSamples + 1> odd{};  // D(x) − D(−x) = 2 slope x + noise
+        double sxy = 0, sxx = 0;
+        for (int j = 1; j <= kSamples; ++j) {
+          const double x = h * j / kSamples;
+          odd[j] = at(x) - at(-x);
+          sxy += x * odd[j], sxx += 2 * x * x;
+        }
+        slope = sxy / sxx;
+        double residuals = 0;
+        for (int j = 1; j <= kSamples; ++j) residuals += std::pow(odd[j] - 2 * slope * h * j / kSamples, 2);
+        worst_noise = std::max(worst_noise, 3 * std::sqrt(residuals / (kSamples - 1) / (2 * sxx)));
+      }
       moved.set_pose(base);
       worst = std::max(worst, std::abs(slope - g[c]));
       scale = std::max(scale, std::abs(g[c]));
     }
   }
+  noise = scale > 0 ? worst_noise / scale : worst_noise;
   return scale > 0 ? worst / scale : worst;
 }
 
@@ -172,8 +204,9 @@ class CsvOut {
 // Summary of a set of pairs: one row of the printed tables and of the JSON.
 struct Bucket {
   std::vector<double> gap_us, fcl_us, iterations, agreement, gradient;
-  std::vector<double> agreement_resolved, gradient_resolved;  // D >= kResolvedD / kGradientResolvedD
+  std::vector<double> agreement_resolved;  // D >= kResolvedD
   int pairs = 0, newton_unconverged = 0, plain_run = 0, plain_unconverged = 0, fd_run = 0;
+  int gradient_failed = 0, noise_over_bound = 0;  // error > bound + FD noise; noise alone > bound
   void add(const Row& r) {
     ++pairs;
     gap_us.push_back(r.gap_us);
@@ -183,7 +216,8 @@ struct Bucket {
     if (r.fd_run) {
       ++fd_run;
       gradient.push_back(r.gradient_error);
-      if (r.newton.distance >= kGradientResolvedD || r.newton.overlap) gradient_resolved.push_back(r.gradient_error);
+      if (!(r.gradient_error <= kGradientBound + r.fd_noise)) ++gradient_failed;
+      if (r.fd_noise > kGradientBound) ++noise_over_bound;
     }
     if (!r.newton.converged) ++newton_unconverged;
     if (r.plain_run) {
@@ -194,12 +228,11 @@ struct Bucket {
     }
   }
   void print(const std::string& name) const {
-    const Stats g = stats(gap_us), f = stats(fcl_us), it = stats(iterations);
+    const Stats g = stats(gap_us), f = stats(fcl_us), it = stats(iterations), grad = stats(gradient);
     std::printf("  %-20s %7d | %6.2f %6.2f %6.2f | %6.2f %6.2f %6.2f | %5.2f %5.2f | %5.2f %4.0f %4d | %6d %6d %8.1e %8.1e | %8.1e %8.1e\n",
                 name.c_str(), pairs, g.mean, g.median, g.p99, f.mean, f.median, f.p99, g.mean / f.mean,
                 g.median / f.median, it.mean, it.max, newton_unconverged, plain_run, plain_unconverged,
-                stats(agreement_resolved).max, stats(agreement).max, stats(gradient_resolved).max,
-                stats(gradient).max);
+                stats(agreement_resolved).max, stats(agreement).max, grad.median, grad.max);
   }
   nlohmann::json json() const {
     return {{"pairs", pairs},
@@ -209,8 +242,9 @@ struct Bucket {
             {"lambda_agreement", to_json(stats(agreement))},
             {"lambda_agreement_resolved", to_json(stats(agreement_resolved))},
             {"fd_run", fd_run},
+            {"gradient_failed", gradient_failed},
+            {"fd_noise_over_bound", noise_over_bound},
             {"gradient_fd_error", to_json(stats(gradient))},
-            {"gradient_fd_error_resolved", to_json(stats(gradient_resolved))},
             {"newton_unconverged", newton_unconverged},
             {"plain_run", plain_run},
             {"plain_unconverged", plain_unconverged}};
@@ -255,7 +289,7 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
   }
   csv.line(
       "pair,kind_a,kind_b,regime,euclidean_distance,fcl_distance,gap_distance,lambda_newton,newton_iterations,"
-      "lambda_plain,lambda_agreement,plain_iterations,gradient_fd_error,gap_us,fcl_us\n");
+      "lambda_plain,lambda_agreement,plain_iterations,gradient_fd_error,gradient_fd_noise,gap_us,fcl_us\n");
   GapParams newton = paper_params();
   newton.tol = 1e-10, newton.gradient = true;
   Bucket all;
@@ -308,7 +342,7 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
         const double ln = r.newton.lambda;
         r.agreement = ln > 0 ? std::abs(ln - pl.lambda) / ln : std::abs(pl.lambda);
       }
-      if (k % fd_every == 0) r.fd_run = true, r.gradient_error = gradient_error(p, r.newton);
+      if (k % fd_every == 0) r.fd_run = true, r.gradient_error = gradient_error(p, r.newton, r.fd_noise);
     });
     for (size_t i = 0; i < n; ++i) {
       const Pair& p = *batch[i];
@@ -318,11 +352,11 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
       by_kind[static_cast<size_t>(p.kind_a)].add(r);
       if (p.kind_b != p.kind_a) by_kind[static_cast<size_t>(p.kind_b)].add(r);
       // Columns of the checks not run on this pair (--plain-every, --fd-every) stay empty.
-      char plain_cols[96] = ",,", fd_col[32] = "";
+      char plain_cols[96] = ",,", fd_col[48] = ",";
       if (r.plain_run)
         std::snprintf(plain_cols, sizeof plain_cols, "%.17g,%.3e,%d", r.lambda_plain, r.agreement,
                       r.plain_converged ? r.plain_iterations : -1);
-      if (r.fd_run) std::snprintf(fd_col, sizeof fd_col, "%.3e", r.gradient_error);
+      if (r.fd_run) std::snprintf(fd_col, sizeof fd_col, "%.3e,%.3e", r.gradient_error, r.fd_noise);
       char line[512];
       std::snprintf(line, sizeof line, "%ld,%s,%s,%s,%.17g,%.17g,%.17g,%.17g,%d,%s,%s,%.4f,%.4f\n",
                     first + static_cast<long>(i), kKinds[static_cast<size_t>(p.kind_a)],
@@ -343,10 +377,10 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
       "finite differences on every %d-th pair of each regime\n",
       pairs, seed, passes, plain_every, fd_every);
   std::printf("  %-20s %7s | %-20s | %-20s | %-11s | %-14s | %-31s | %s\n", "", "", "GAP Newton, incl start",
-              "FCL distance", "GAP/FCL", "Newton it", "plain iteration, Λ agree max", "FD grad err max");
+              "FCL distance", "GAP/FCL", "Newton it", "plain iteration, Λ agree max", "FD grad err");
   std::printf("  %-20s %7s | %6s %6s %6s | %6s %6s %6s | %5s %5s | %5s %4s %4s | %6s %6s %8s %8s | %8s %8s\n", "pairs",
               "count", "mean", "median", "p99", "mean", "median", "p99", "mean", "med", "mean", "max", "unc",
-              "run", "unconv", "D>=1e-4", "all", "D>=1e-7", "all");
+              "run", "unconv", "D>=1e-4", "all", "median", "max");
   nlohmann::json out{{"pairs", pairs}, {"seed", seed}, {"passes", passes}, {"all", all.json()}};
   for (size_t k = 0; k < 3; ++k) {
     by_regime[k].print(kRegimes[k]);
@@ -358,15 +392,18 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
   }
   all.print("all");
   std::printf(
-      "  (Λ agree: |Λ_Newton − Λ_plain| / Λ_Newton over the pairs where the plain iteration (step < %.0e D, at most %d steps) converged, bound %.0e; grad err: central differences of D, "
-      "relative to the largest gradient entry, bound %.0e; asserted by --check where D >= 1e-4 and 1e-7)\n",
+      "  (Λ agree: |Λ_Newton − Λ_plain| / Λ_Newton over the pairs where the plain iteration (step < %.0e D, at most %d steps) converged, bound %.0e; grad err: finite differences of D "
+      "(touching: a 40-solve least-squares line), relative to the largest gradient entry, bound %.0e; asserted by --check where D >= 1e-4 and on every pair, "
+      "touching pairs within the bound plus 3 standard errors of their fit)\n",
       kPlainStep, kPlainIterations, kAgreementBound, kGradientBound);
+  std::printf("  finite differences: %d pairs; %d touching pairs' fits have 3 standard errors above the bound; %d pairs fail\n",
+              all.fd_run, all.noise_over_bound, all.gradient_failed);
   if (!json_path.empty()) std::ofstream(json_path) << out.dump(2) << "\n";
   if (check) {
-    const double agree = stats(all.agreement_resolved).max, grad = stats(all.gradient_resolved).max;
-    if (!(agree <= kAgreementBound) || !(grad <= kGradientBound)) {
-      std::printf("check FAILED: Λ agreement %.2e (bound %.0e), gradient error %.2e (bound %.0e)\n", agree,
-                  kAgreementBound, grad, kGradientBound);
+    const double agree = stats(all.agreement_resolved).max;
+    if (!(agree <= kAgreementBound) || all.gradient_failed > 0) {
+      std::printf("check FAILED: Λ agreement %.2e (bound %.0e), %d pairs' gradient error above %.0e (max %.2e)\n",
+                  agree, kAgreementBound, all.gradient_failed, kGradientBound, stats(all.gradient).max);
       return 1;
     }
     std::printf("check passed\n");

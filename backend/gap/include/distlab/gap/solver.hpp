@@ -52,8 +52,8 @@ void lambda_gradients(const WitnessSolution& s, const Pose& pose_a, const Pose& 
 // The predicted witnesses and the carried Hessians with the points where they are exact (the
 // last witnesses carried with each shape): solve_predicted's estimate of E's third derivative.
 struct Prediction {
-  Vec3 a = Vec3::Zero(), b = Vec3::Zero();
-  Mat3 hessian_b = Mat3::Zero(), hessian_a = Mat3::Zero();  // ∂²E_B at anchor_a, ∂²E_A at anchor_b
+  Vec3 a = Vec3::Zero(), b = Vec3::Zero(), ba = Vec3::Zero();  // ba: b − a, carried (as in the solver)
+  Mat3 hessian_b = Mat3::Zero(), hessian_a = Mat3::Zero();     // ∂²E_B at anchor_a, ∂²E_A at anchor_b
   Vec3 anchor_a = Vec3::Zero(), anchor_b = Vec3::Zero();
 };
 
