@@ -143,14 +143,14 @@ Run run_fcl(std::vector<Case>& cases, bool certified = false) {
   return r;
 }
 
-// The GAP solver's Euclidean start alone (gjk_distance, uncertified double GJK).
+// The GAP solver's Euclidean start alone (gjk_distance, uncertified double GJK, as gap_distance stops it).
 Run run_start(std::vector<Case>& cases) {
   Run r;
   for (auto& c : cases) {
     EuclideanResult e;
     r.us.push_back(time_us([&] {
       e = gjk_distance(c.a.p2s().shape(), c.a.pose(), c.b.p2s().shape(), c.b.pose(),
-                       c.a.radius() + c.b.radius());
+                       c.a.radius() + c.b.radius(), kStartRelativeGap);
     }));
     r.iterations.push_back(0);
   }
