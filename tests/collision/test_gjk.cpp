@@ -96,6 +96,38 @@ TEST(GjkDistance, MatchesTheCertifiedDistanceOnEveryShapePair) {
   }
 }
 
+// Stopped at a relative duality gap (the GAP start's kStartRelativeGap): the distance found is
+// an upper bound within that fraction of the certified one, and the points are points of A and
+// B that far apart; overlap is still 0 (its lower bound never gets above 0).
+TEST(GjkDistance, RelativeGapBoundsTheDistanceFound) {
+  const double rel = 0.1;
+  const auto zoo = test::shape_zoo();
+  int stopped_early = 0;
+  for (const auto& [na, a] : zoo) {
+    for (const auto& [nb, b] : zoo) {
+      SCOPED_TRACE(na + " vs " + nb);
+      std::mt19937_64 rng(35);
+      for_random_poses(rng, 2.5, [&](const Pose& pa, const Pose& pb) {
+        const EuclideanResult ref = euclidean_distance(EuclideanShape(a), pa, EuclideanShape(b), pb);
+        const double scale = bounding_ball(a).radius + bounding_ball(b).radius;
+        const EuclideanResult g = gjk_distance(a, pa, b, pb, scale, rel);
+        if (ref.distance <= 0) {
+          EXPECT_EQ(g.distance, 0.0);
+          return;
+        }
+        if (ref.distance < 1e-3) return;
+        EXPECT_GE(g.distance, ref.distance - 1e-9 * scale);
+        EXPECT_LE(g.distance, ref.distance / (1 - rel) + 1e-9 * scale);
+        if (g.distance > ref.distance * (1 + 1e-6)) ++stopped_early;
+        EXPECT_NEAR((g.witness_b - g.witness_a).norm(), g.distance, 1e-12);
+        EXPECT_LT(test::world_signed_distance(a, pa, g.witness_a), 1e-9);
+        EXPECT_LT(test::world_signed_distance(b, pb, g.witness_b), 1e-9);
+      });
+    }
+  }
+  EXPECT_GT(stopped_early, 10);  // the relative stop is exercised
+}
+
 TEST(GjkDistance, OverlapGivesZero) {
   const auto zoo = test::shape_zoo();
   for (const auto& [na, a] : zoo) {
@@ -104,6 +136,7 @@ TEST(GjkDistance, OverlapGivesZero) {
       std::mt19937_64 rng(34);
       for_random_poses(rng, 0.2, [&](const Pose& pa, const Pose& pb) {
         EXPECT_EQ(gjk_distance(a, pa, b, pb, 1.0).distance, 0.0);
+        EXPECT_EQ(gjk_distance(a, pa, b, pb, 1.0, 0.1).distance, 0.0);
       });
     }
   }

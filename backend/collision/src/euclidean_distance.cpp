@@ -84,10 +84,10 @@ EuclideanResult fcl_distance(const EuclideanShape& a, const Pose& pose_a, const 
 }
 
 GjkAnswer gjk_distance_or_common_point(const Shape& a, const Pose& pose_a, const Shape& b,
-                                       const Pose& pose_b, double scale) {
+                                       const Pose& pose_b, double scale, double rel_gap) {
   const Placed pa(a, pose_a), pb(b, pose_b);
   const detail::GjkResult g = detail::gjk_closest_double(pa, pb, pb.t - pa.t, 1e-12 * scale,
-                                                         detail::kTouch);
+                                                         detail::kTouch, 64, rel_gap);
   GjkAnswer r;
   r.nearest.witness_a = g.pa;
   r.nearest.witness_b = g.pb;
@@ -100,8 +100,8 @@ GjkAnswer gjk_distance_or_common_point(const Shape& a, const Pose& pose_a, const
 }
 
 EuclideanResult gjk_distance(const Shape& a, const Pose& pose_a, const Shape& b,
-                             const Pose& pose_b, double scale) {
-  return gjk_distance_or_common_point(a, pose_a, b, pose_b, scale).nearest;
+                             const Pose& pose_b, double scale, double rel_gap) {
+  return gjk_distance_or_common_point(a, pose_a, b, pose_b, scale, rel_gap).nearest;
 }
 
 EuclideanResult euclidean_distance(const EuclideanShape& a, const Pose& pose_a,

@@ -119,7 +119,7 @@ struct Gjk {
   }
 
   static GjkResult closest(const Placed& pa, const Placed& pb, const Vec3& n0, double gap_tol,
-                           double zero_tol, int max_iter, double stop_above) {
+                           double zero_tol, int max_iter, double stop_above, double rel_gap) {
     const Frame a(pa), b(pb);
     Vertex s[4];
     Real lam[4] = {1, 0, 0, 0};
@@ -147,7 +147,7 @@ struct Gjk {
       const V3 dir = z / zn;
       const Vertex v = support(a, b, dir);
       r.lower = std::max(r.lower, static_cast<double>(dir.dot(v.w)));
-      if (r.upper - r.lower <= gap_tol || r.lower > stop_above || count == 4) break;
+      if (r.upper - r.lower <= gap_tol + rel_gap * r.upper || r.lower > stop_above || count == 4) break;
       Vertex trial[4];
       std::copy(s, s + count, trial);
       trial[count] = v;
@@ -168,13 +168,13 @@ struct Gjk {
 
 GjkResult gjk_closest(const Placed& a, const Placed& b, const Vec3& n0, double gap_tol,
                       double zero_tol, int max_iter, double stop_above) {
-  return Gjk<long double>::closest(a, b, n0, gap_tol, zero_tol, max_iter, stop_above);
+  return Gjk<long double>::closest(a, b, n0, gap_tol, zero_tol, max_iter, stop_above, 0.0);
 }
 
 GjkResult gjk_closest_double(const Placed& a, const Placed& b, const Vec3& n0, double gap_tol,
-                             double zero_tol, int max_iter) {
+                             double zero_tol, int max_iter, double rel_gap) {
   return Gjk<double>::closest(a, b, n0, gap_tol, zero_tol, max_iter,
-                              std::numeric_limits<double>::infinity());
+                              std::numeric_limits<double>::infinity(), rel_gap);
 }
 
 }  // namespace distlab::detail

@@ -22,9 +22,10 @@ GjkResult gjk_closest(const Placed& a, const Placed& b, const Vec3& n0, double g
                       double zero_tol, int max_iter = 64,
                       double stop_above = std::numeric_limits<double>::infinity());
 
-// The same in double: about 2x faster, stalls near gaps of ~1e-11 relative. For starting points.
+// The same in double: about 2x faster, stalls near gaps of ~1e-11 relative. For starting points,
+// which may also stop once the gap is below rel_gap × upper (then lower >= (1 − rel_gap) upper).
 GjkResult gjk_closest_double(const Placed& a, const Placed& b, const Vec3& n0, double gap_tol,
-                             double zero_tol, int max_iter = 64);
+                             double zero_tol, int max_iter = 64, double rel_gap = 0);
 
 // Lower bound on the distance certified by the direction n (unit, from A to B).
 inline double separation_along(const Placed& a, const Placed& b, const Vec3& n) {

@@ -91,11 +91,12 @@ GapResult gap_distance(const GapBody& a, const GapBody& b, const GapParams& para
   a.p2s().prefetch();  // the solver's rows arrive while the Euclidean start is computed
   b.p2s().prefetch();
   if (!params.euclidean) {
-    // An uncertified GJK answer is a good enough start. The same GJK settles a clear overlap
+    // An uncertified GJK answer is a good enough start, stopped at a 20% duality gap
+    // (kStartRelativeGap). The same GJK settles a clear overlap
     // with a checked common point (the certified path's answer, distance 0, by the same test);
     // near contact the certified path below decides with FCL and libccd.
     const GjkAnswer g = gjk_distance_or_common_point(a.p2s().shape(), a.pose(), b.p2s().shape(),
-                                                     b.pose(), a.radius() + b.radius());
+                                                     b.pose(), a.radius() + b.radius(), kStartRelativeGap);
     if (g.common) {
       r.euclidean.witness_a = r.euclidean.witness_b = *g.common;
       return overlapping(r);

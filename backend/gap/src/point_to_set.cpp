@@ -12,6 +12,7 @@
 //   C¹ across the planes z = ±l/2.)
 #include "distlab/gap/point_to_set.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "distlab/geometry/error.hpp"
@@ -151,32 +152,49 @@ void PointToSet::set_pose(const Pose& pose) {
   if (A_local_.rows() > 0) {
     A_world_ = A_local_ * R_.transpose();
     b_world_ = b_local_ + A_world_ * pose.position;
-    rows_.resize(static_cast<size_t>(A_world_.rows()));
-    for (Eigen::Index i = 0; i < A_world_.rows(); ++i) {
-      HalfSpace& r = rows_[static_cast<size_t>(i)];
-      const Vec3 u = A_world_.row(i).transpose();
-      const double w = weights_[i];
-      r = {{u.x(), u.y(), u.z()}, b_world_[i], w, {w * u.x() * u.x(), w * u.x() * u.y(), w * u.x() * u.z(), w * u.y() * u.y(), w * u.y() * u.z(), w * u.z() * u.z()}};
+    const auto n = static_cast<size_t>(A_world_.rows());
+    rows_.resize(n);
+    // Padded to an even count with a row never violated (0·p − 1 < 0).
+    const size_t padded = n + n % 2;
+    soa_.assign(4 * padded, 0.0);
+    std::fill(soa_.begin() + static_cast<std::ptrdiff_t>(3 * padded), soa_.end(), 1.0);
+    for (size_t i = 0; i < n; ++i) {
+      HalfSpace& r = rows_[i];
+      const auto row = static_cast<Eigen::Index>(i);
+      const Vec3 u = A_world_.row(row).transpose();
+      const double w = weights_[row];
+      r = {{u.x(), u.y(), u.z()}, b_world_[row], w, {w * u.x() * u.x(), w * u.x() * u.y(), w * u.x() * u.z(), w * u.y() * u.y(), w * u.y() * u.z(), w * u.z() * u.z()}};
+      for (int q = 0; q < 3; ++q) soa_[q * padded + i] = u[q];
+      soa_[3 * padded + i] = b_world_[row];
     }
   }
   rho_center_world_ = pose.to_world(rho_.center);
 }
 
 // Eq. (5) over the rows; only violated rows (s > 0) contribute, and each adds a rank-one
-// Hessian term d2 W u uᵀ from the row's precomputed weighted outer product.
+// Hessian term d2 W u uᵀ from the row's precomputed weighted outer product. The s of two rows
+// are computed at once (SSE2 lanes, the same operations and rounding as one at a time) from the
+// structure-of-arrays copy; most rows are not violated and cost little more than that.
 P2SValue PointToSet::halfspaces_world(const Vec3& p, int order) const {
+  typedef double V2 __attribute__((vector_size(16), aligned(8)));  // unaligned loads
   double value = 0, g[3] = {0, 0, 0}, h[6] = {0, 0, 0, 0, 0, 0};
-  const double px = p.x(), py = p.y(), pz = p.z();
-  for (const HalfSpace& r : rows_) {
-    const double s = r.u[0] * px + r.u[1] * py + r.u[2] * pz - r.b;
-    if (!(s > 0)) continue;
+  const auto add = [&](const HalfSpace& r, double s) {
     const auto j = phi_.jet(s);
     value += r.w * j.value;
-    if (order < 1) continue;
+    if (order < 1) return;
     const double c = r.w * j.d1;
     for (int q = 0; q < 3; ++q) g[q] += c * r.u[q];
-    if (order < 2) continue;
+    if (order < 2) return;
     for (int q = 0; q < 6; ++q) h[q] += j.d2 * r.wuu[q];
+  };
+  const V2 px = {p.x(), p.x()}, py = {p.y(), p.y()}, pz = {p.z(), p.z()};
+  const size_t padded = soa_.size() / 4;
+  const double *ux = soa_.data(), *uy = ux + padded, *uz = uy + padded, *ub = uz + padded;
+  for (size_t i = 0; i < padded; i += 2) {
+    const V2 s = *reinterpret_cast<const V2*>(ux + i) * px + *reinterpret_cast<const V2*>(uy + i) * py +
+                 *reinterpret_cast<const V2*>(uz + i) * pz - *reinterpret_cast<const V2*>(ub + i);
+    if (s[0] > 0) add(rows_[i], s[0]);
+    if (s[1] > 0) add(rows_[i + 1], s[1]);  // a padding row is never violated
   }
   P2SValue v;
   v.value = value;

@@ -49,10 +49,11 @@ EuclideanResult fcl_distance(const EuclideanShape& a, const Pose& pose_a, const 
 // Nearest points by distlab's own GJK in double precision, started along the line between the
 // shapes' origins: no FCL call, no certification, no gradients; distance 0 when GJK finds the
 // shapes touching or overlapping. `scale` is a length of the pair's size (e.g. the sum of the
-// bounding radii): GJK stops when its duality gap is below 1e-12 scale. The GAP solver's start,
-// where a nearby point is all that is needed.
+// bounding radii): GJK stops when its duality gap is below 1e-12 scale, or below `rel_gap` times
+// the distance found (the shapes are then proved apart by (1 − rel_gap) distance). The GAP
+// solver's start, where a nearby point is all that is needed.
 EuclideanResult gjk_distance(const Shape& a, const Pose& pose_a, const Shape& b,
-                             const Pose& pose_b, double scale);
+                             const Pose& pose_b, double scale, double rel_gap = 0);
 
 // gjk_distance's GJK as an overlap test too: where the shapes overlap, GJK ends at points of A
 // and of B that coincide within 1e-9, and their midpoint, accepted by both shapes' inside tests
@@ -63,7 +64,7 @@ struct GjkAnswer {
   std::optional<Vec3> common;
 };
 GjkAnswer gjk_distance_or_common_point(const Shape& a, const Pose& pose_a, const Shape& b,
-                                       const Pose& pose_b, double scale);
+                                       const Pose& pose_b, double scale, double rel_gap = 0);
 
 // Overlapping shapes: the smallest translation of B (depth along direction, a unit vector from A
 // towards B) that separates them, with witness points (A's deepest point inside B, B's inside A;

@@ -55,7 +55,10 @@ class PointToSet {
   P2SValue strict(const Vec3& p, int order) const;
   // Hints the CPU to load the evaluation data (half-space rows) into cache, e.g. while the
   // Euclidean start is computed; no effect on results.
-  void prefetch() const { prefetch_bytes(rows_.data(), rows_.size() * sizeof(HalfSpace)); }
+  void prefetch() const {
+    prefetch_bytes(soa_.data(), soa_.size() * sizeof(double));
+    prefetch_bytes(rows_.data(), rows_.size() * sizeof(HalfSpace));
+  }
   // The same for a polytope's vertices, which the Euclidean start's support calls read first:
   // on a cold call their misses otherwise stall each of GJK's first support points.
   void prefetch_vertices() const {
@@ -97,6 +100,8 @@ class PointToSet {
     double wuu[6];  // W_i u uᵀ: xx, xy, xz, yy, yz, zz
   };
   std::vector<HalfSpace> rows_;
+  // The rows' u_x, u_y, u_z and b as four arrays, each padded to an even count (halfspaces_world).
+  std::vector<double> soa_;
   double round_weight_ = 1.0;
   Ball rho_{Vec3::Zero(), 1.0};
   Vec3 rho_center_world_ = Vec3::Zero();
