@@ -8,7 +8,6 @@
 #include <CGAL/Mesh_error_code.h>
 #include <CGAL/Mesh_triangulation_3.h>
 #include <CGAL/Polygon_mesh_processing/bbox.h>
-#include <CGAL/Polygon_mesh_processing/detect_features.h>
 #include <CGAL/Polygon_mesh_processing/remesh.h>
 #include <CGAL/Polyhedral_mesh_domain_with_features_3.h>
 #include <CGAL/Random.h>
@@ -24,6 +23,7 @@
 #include <unordered_map>
 
 #include "distlab/geometry/error.hpp"
+#include "distlab/kelvin/surface_tools.hpp"
 #include "distlab/kelvin/tet_mesh.hpp"
 
 namespace distlab::kelvin {
@@ -98,19 +98,10 @@ class SharpEdges {
   using Segments = std::vector<K::Segment_3>;
   using Tree = CGAL::AABB_tree<CGAL::AABB_traits<K, CGAL::AABB_segment_primitive<K, Segments::const_iterator>>>;
   SharpEdges(const mesh::SurfaceMesh& inverted, double feature_angle) {
-    Polyhedron x;
-    for (Eigen::Index v = 0; v < inverted.vertices.rows(); ++v) {
-      const Vec3 y = inverted.vertices.row(v);
-      const Vec3 p = y / y.squaredNorm();
-      x.add_vertex(K::Point_3(p.x(), p.y(), p.z()));
-    }
-    for (Eigen::Index f = 0; f < inverted.faces.rows(); ++f)
-      x.add_face(Polyhedron::Vertex_index(static_cast<unsigned>(inverted.faces(f, 0))), Polyhedron::Vertex_index(static_cast<unsigned>(inverted.faces(f, 1))),
-                 Polyhedron::Vertex_index(static_cast<unsigned>(inverted.faces(f, 2))));
-    auto sharp = x.add_property_map<Polyhedron::Edge_index, bool>("e:sharp", false).first;
-    CGAL::Polygon_mesh_processing::detect_sharp_edges(x, feature_angle, sharp);
-    for (auto e : x.edges())
-      if (sharp[e]) segments_.emplace_back(x.point(x.vertex(e, 0)), x.point(x.vertex(e, 1)));
+    mesh::SurfaceMesh x = inverted;  // the input surface again (eq. 5 is its own inverse)
+    for (Eigen::Index v = 0; v < x.vertices.rows(); ++v) x.vertices.row(v) /= x.vertices.row(v).squaredNorm();
+    auto point = [&x](int v) { return K::Point_3(x.vertices(v, 0), x.vertices(v, 1), x.vertices(v, 2)); };
+    for (const auto& [a, b] : sharp_edges(x, feature_angle)) segments_.emplace_back(point(a), point(b));
     if (!segments_.empty()) {
       tree_.insert(segments_.begin(), segments_.end());
       tree_.accelerate_distance_queries();
