@@ -194,7 +194,7 @@ class Client:
 
     def kelvin_object(self, *, asset: Optional[str] = None, upload: Optional[str] = None,
                       mesh: Optional[Tuple[Any, Any]] = None, lx: Optional[float] = None,
-                      lx_fraction: Optional[float] = None, center=None, far_radius=None,
+                      lx_fraction: Optional[float] = None, center=None, far_radius=None, grading=None,
                       sigma: Optional[Mapping[str, Any]] = None, levels=None, repair: str = "none",
                       repair_options: Optional[Mapping[str, Any]] = None,
                       progress: Optional[Callable[[str, float], Any]] = None, wait: bool = True) -> "KelvinObject":
@@ -218,7 +218,7 @@ class Client:
             body["upload"] = upload
         if mesh is not None:
             body["mesh"] = {"vertices": np.asarray(mesh[0]).tolist(), "faces": np.asarray(mesh[1]).tolist()}
-        for key, value in (("center", center), ("far_radius", far_radius), ("sigma", sigma), ("levels", levels)):
+        for key, value in (("center", center), ("far_radius", far_radius), ("grading", grading), ("sigma", sigma), ("levels", levels)):
             if value is not None:
                 body[key] = _plain(value)
         answer = self._request("POST", "/api/kelvin/objects", json=body)

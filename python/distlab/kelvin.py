@@ -39,6 +39,7 @@ class Field:
         lx: float,
         center: Optional[Sequence[float]] = None,
         far_radius: Optional[float] = None,
+        grading: Optional[float] = None,
         feature_angle: Optional[float] = None,
         max_vertices: Optional[int] = None,
         cache_dir: Optional[Union[str, os.PathLike]] = None,
@@ -47,12 +48,14 @@ class Field:
         """Prepares ``mesh``: a file path (STL, OBJ, PLY, GLB, OFF) or ``(vertices (n, 3), faces
         (m, 3))`` arrays of a closed, oriented surface, with exterior element size ``lx`` (metres).
         ``center``: inversion centre (default a deep interior point); ``far_radius``,
-        ``feature_angle``, ``max_vertices``: as in the CLI request. ``cache_dir``: saves the
+        ``grading`` (0: the paper's sizing, eq. 23; > 0: graded, fewer vertices), ``feature_angle``,
+        ``max_vertices``: as in the CLI request. ``cache_dir``: saves the
         prepared field there (by content) and loads it on the next call with the same input.
         ``progress(stage, fraction)`` is called as work advances; Ctrl-C (KeyboardInterrupt), or an
         exception raised by ``progress``, cancels the preparation cleanly and propagates. σ starts
         at 0 everywhere."""
-        options = {"lx": lx, "center": center, "far_radius": far_radius, "feature_angle": feature_angle,
+        options = {"lx": lx, "center": center, "far_radius": far_radius, "grading": grading,
+                   "feature_angle": feature_angle,
                    "max_vertices": max_vertices}
         cache = None if cache_dir is None else os.fspath(cache_dir)
         if isinstance(mesh, (str, os.PathLike)):

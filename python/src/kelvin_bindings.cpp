@@ -64,7 +64,7 @@ mesh::SurfaceMesh mesh_from_arrays(const py::object& vertices, const py::object&
 
 class PyField {
  public:
-  // options: lx, center, far_radius, feature_angle, max_vertices (as the CLI request's keys).
+  // options: lx, center, far_radius, grading, feature_angle, max_vertices (as the CLI request's keys).
   static std::unique_ptr<PyField> prepare(const py::object& vertices, const py::object& faces, const py::object& path,
                                           const py::dict& options, const py::object& cache_dir,
                                           const py::object& progress) {
@@ -74,6 +74,7 @@ class PyField {
     if (auto c = server::json_optional(o, "center"); c && !c->is_null()) po.centre = server::json_vec3(*c, "center");
     if (auto v = server::json_optional(o, "far_radius"); v && !v->is_null())
       po.far_radius = server::json_positive(*v, "far_radius");
+    if (auto v = server::json_optional(o, "grading"); v && !v->is_null()) po.grading = server::json_number(*v, "grading");
     if (auto v = server::json_optional(o, "feature_angle"); v && !v->is_null())
       po.feature_angle = server::json_number(*v, "feature_angle");
     if (auto v = server::json_optional(o, "max_vertices"); v && !v->is_null())

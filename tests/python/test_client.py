@@ -140,6 +140,15 @@ def root_base(a):
     return a
 
 
+def test_graded_object_is_the_in_process_graded_field(server):
+    # grading reaches the server's preparation: the same mesh as Field.prepare with it.
+    c = distlab.Client(server)
+    obj = c.kelvin_object(asset="cube", lx=0.2, grading=0.05)
+    local = kelvin.Field.prepare(ROOT / "assets" / "cube.stl", lx=0.2, grading=0.05).stats
+    assert obj.info()["stats"]["n_verts"] == local["n_verts"]
+    assert obj.info()["stats"]["n_verts"] != kelvin.Field.prepare(ROOT / "assets" / "cube.stl", lx=0.2).stats["n_verts"]
+
+
 def test_sigma_edits_over_the_websocket(server):
     c = distlab.Client(server)
     obj = c.kelvin_object(asset="cube", lx=0.25)

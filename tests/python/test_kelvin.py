@@ -22,6 +22,19 @@ def test_solve_equals_cli(exe, tmp_path):
     assert np.isnan(ours["query"]["h"][1])  # inside: null in JSON
 
 
+def test_grading_reaches_the_mesher_through_cli_and_binding(exe):
+    # The graded sizing (grading > 0) through the CLI request and through Field.prepare: the same
+    # mesh, and not the paper's sizing's.
+    request = {"mesh": {"asset": "cube"}, "lx": 0.12, "grading": 0.05}
+    code, cli = run_cli("kelvin", request)
+    assert code == 0, cli
+    cube = str(ROOT / "assets" / "cube.stl")
+    graded = kelvin.Field.prepare(cube, lx=0.12, grading=0.05).stats
+    paper = kelvin.Field.prepare(cube, lx=0.12).stats
+    assert cli["stats"]["n_verts"] == graded["n_verts"] and cli["stats"]["n_tets"] == graded["n_tets"]
+    assert graded["n_verts"] != paper["n_verts"]
+
+
 @pytest.fixture(scope="module")
 def sphere_field():
     # Inversion centre off the sphere's centre, so V is not trivially exact (as in the C++ test).
@@ -99,6 +112,10 @@ BAD = [
     (lambda: kelvin.Field.prepare((np.zeros((3, 3)), [[0, 1, 5]]), lx=0.1), distlab.InvalidInput, "faces[0]"),
     (lambda: kelvin.Field.prepare((np.zeros((3, 2)), [[0, 1, 2]]), lx=0.1), distlab.InvalidInput, "vertices"),
     (lambda: kelvin.Field.prepare(SPHERE, lx=0.2, center=[0, 0]), distlab.InvalidInput, "center"),
+    (lambda: kelvin.Field.prepare(SPHERE, lx=0.2, grading=-0.1), distlab.InvalidInput, "grading"),
+    (lambda: kelvin.Field.prepare(SPHERE, lx=0.2, grading=float("nan")), distlab.InvalidInput, "grading"),
+    (lambda: kelvin.Field.prepare(SPHERE, lx=0.2, grading="a"), distlab.InvalidInputType, "grading"),
+    (lambda: kelvin.solve({"mesh": {"asset": "cube"}, "lx": 0.1, "grading": 2}), distlab.InvalidInput, "grading"),
     (lambda: kelvin.solve({"mesh": {"asset": "nope"}, "lx": 0.1}), distlab.InvalidInput, "mesh.asset"),
     (lambda: kelvin.solve({"mesh": {"asset": "cube"}, "lx": 0.1, "extra": 1}), distlab.InvalidInput, "extra"),
 ]

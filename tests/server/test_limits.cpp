@@ -268,7 +268,7 @@ TEST(Limits, UnknownKeysAndFieldPaths) {
   EXPECT_EQ(server.stop(), 0);
 }
 
-// far_radius counts in the vertex budget, and bad far_radius, center and mesh values are refused
+// far_radius counts in the vertex budget, and bad far_radius, grading, center and mesh values are refused
 // synchronously, naming the field, before any job starts.
 TEST(Limits, KelvinInputsAreCheckedBeforeAJob) {
   ServerProcess server;
@@ -284,6 +284,8 @@ TEST(Limits, KelvinInputsAreCheckedBeforeAJob) {
   expect_error(create({{"asset", "cube"}, {"lx", 0.1}, {"far_radius", 3}}), 422, "over_budget", "far_radius");
   for (const json& bad : {json(1e300), json(-1), json(0.2), json("3"), json(nullptr)})
     expect_error(create({{"asset", "cube"}, {"lx", 0.1}, {"far_radius", bad}}), 400, "invalid_input", "far_radius");
+  for (const json& bad : {json(-0.1), json(1.5), json(1e300), json("0.1"), json(nullptr)})
+    expect_error(create({{"asset", "cube"}, {"lx", 0.1}, {"grading", bad}}), 400, "invalid_input", "grading");
   for (const json& bad : {json{5, 0, 0}, json{0.499, 0, 0}, json{0, 0}, json("c")})
     expect_error(create({{"asset", "cube"}, {"lx", 0.2}, {"center", bad}}), 400, "invalid_input", "center");
   expect_error(create({{"asset", "cube"}, {"lx", 0.2}, {"center", {1e300, 0, 0}}}), 400, "invalid_input", "center[0]");
@@ -298,6 +300,21 @@ TEST(Limits, KelvinInputsAreCheckedBeforeAJob) {
   auto ok = create({{"asset", "cube"}, {"lx", 0.2}, {"far_radius", 1.5}});
   ASSERT_EQ(ok->status, 202) << ok->body;
   EXPECT_EQ(wait_ready(c, s, body_json(ok)["object"]["id"]), "ready");
+  // The graded sizing is prepared and echoed in the object's source.
+  auto paper = create({{"asset", "cube"}, {"lx", 0.15}});
+  auto graded = create({{"asset", "cube"}, {"lx", 0.15}, {"grading", 0.05}});
+  ASSERT_EQ(graded->status, 202) << graded->body;
+  const std::string paper_id = body_json(paper)["object"]["id"], graded_id = body_json(graded)["object"]["id"];
+  ASSERT_EQ(wait_ready(c, s, paper_id), "ready");
+  ASSERT_EQ(wait_ready(c, s, graded_id), "ready");
+  EXPECT_EQ(body_json(graded)["object"]["source"]["grading"], 0.05) << graded->body;
+  // The graded sizing refines near the cube's edges: at this coarse lx it makes more vertices
+  // than eq. 23, and its vertex estimate (with the edges' term) still bounds them.
+  const double estimate = body_json(graded)["object"]["source"]["vertex_estimate"];
+  const json p = body_json(c.Get("/api/kelvin/objects/" + paper_id, h)), g = body_json(c.Get("/api/kelvin/objects/" + graded_id, h));
+  EXPECT_LE(g["stats"]["n_verts"].get<double>(), estimate) << g.dump();
+  EXPECT_GT(estimate, body_json(paper)["object"]["source"]["vertex_estimate"].get<double>());
+  EXPECT_NE(g["stats"]["n_verts"], p["stats"]["n_verts"]);
   EXPECT_EQ(server.stop(), 0);
 }
 

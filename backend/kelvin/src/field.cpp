@@ -99,26 +99,11 @@ void check_prepare_inputs(const mesh::SurfaceMesh& surface, const PrepareOptions
 static double protection_budget(const mesh::SurfaceMesh& s, const Vec3& centre, const PrepareOptions& o) {
   if (o.max_protection_steps > 0) return o.max_protection_steps;
   if (o.feature_angle >= 180) return 0;
-  const double cos_limit = std::cos(o.feature_angle * 3.14159265358979323846 / 180.0);
-  std::map<std::pair<int, int>, std::pair<int, int>> edges;  // (a < b) -> first face, second face
-  const auto nf = static_cast<int>(s.faces.rows());
-  std::vector<Vec3> normal(static_cast<size_t>(nf));
-  for (int f = 0; f < nf; ++f) {
-    const Vec3 a = s.vertices.row(s.faces(f, 0)), b = s.vertices.row(s.faces(f, 1)), c = s.vertices.row(s.faces(f, 2));
-    normal[static_cast<size_t>(f)] = (b - a).cross(c - a).normalized();
-    for (int k = 0; k < 3; ++k) {
-      int u = s.faces(f, k), v = s.faces(f, (k + 1) % 3);
-      if (u > v) std::swap(u, v);
-      auto [it, fresh] = edges.try_emplace({u, v}, f, -1);
-      if (!fresh) it->second.second = f;
-    }
-  }
   double balls = 0;
-  for (const auto& [e, fs] : edges) {
-    if (fs.second < 0) continue;
-    if (normal[static_cast<size_t>(fs.first)].dot(normal[static_cast<size_t>(fs.second)]) >= cos_limit) continue;
-    const Vec3 a = s.vertices.row(e.first), b = s.vertices.row(e.second);
-    const double size = std::min(o.lx, 0.25 * (0.5 * (a + b) - centre).norm());
+  for (const auto& [u, v] : sharp_edges(s, o.feature_angle)) {
+    const Vec3 a = s.vertices.row(u), b = s.vertices.row(v);
+    // The graded sizing makes edges kGradedEdgeFloor times finer.
+    const double size = std::min(o.lx, 0.25 * (0.5 * (a + b) - centre).norm()) * (o.grading > 0 ? kGradedEdgeFloor : 1.0);
     balls += (b - a).norm() / std::max(size, 1e-12);
   }
   return 30 * balls + 2000;

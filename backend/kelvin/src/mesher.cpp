@@ -1,4 +1,7 @@
 // CGAL Mesh_3 tetrahedralisation of the inverted domain. The only Mesh_3 translation unit.
+#include <CGAL/AABB_segment_primitive.h>
+#include <CGAL/AABB_traits.h>
+#include <CGAL/AABB_tree.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Mesh_complex_3_in_triangulation_3.h>
 #include <CGAL/Mesh_criteria_3.h>
@@ -20,6 +23,7 @@
 #include <unordered_map>
 
 #include "distlab/geometry/error.hpp"
+#include "distlab/kelvin/surface_tools.hpp"
 #include "distlab/kelvin/tet_mesh.hpp"
 
 namespace distlab::kelvin {
@@ -32,8 +36,9 @@ using Tr = CGAL::Mesh_triangulation_3<Domain, CGAL::Default, CGAL::Sequential_ta
 using C3t3 = CGAL::Mesh_complex_3_in_triangulation_3<Tr, Domain::Corner_index, Domain::Curve_index>;
 using Criteria = CGAL::Mesh_criteria_3<Tr>;
 
-// l_y(y) = max(|y|² l_x, l_min), eq. 23 with the lower bound of Section IV-C-1. Mesh_3 calls it
-// throughout refinement, so it is also where a cancellation request is noticed.
+// l_y(y) = max(|y|² l_x, l_min), eq. 23 with the lower bound of Section IV-C-1; graded (g > 0):
+// s_e · max(|y|² l_x + g d_y, l_min) (MeshingParams::grading). Mesh_3 calls it throughout
+// refinement, so it is also where a cancellation request is noticed.
 // Work budget of one meshing attempt, counted in sizing-field evaluations (deterministic, unlike
 // wall time): Mesh_3 evaluates the edge sizing only while it protects sharp edges, and every
 // refinement step evaluates the facet/cell sizing, so the counts bound both stages.
@@ -85,6 +90,31 @@ class SurfaceDistance {
   mutable std::unordered_map<std::uint64_t, double> at_centre_;
 };
 
+// Distance in x from the object's sharp edges (normals deviating by more than feature_angle),
+// where the exterior solution is singular (r^(2/3) at a right-angled edge): the graded sizing
+// refines there. A tree of the edges' segments, queried at x = y/|y|² (exact in x).
+class SharpEdges {
+ public:
+  using Segments = std::vector<K::Segment_3>;
+  using Tree = CGAL::AABB_tree<CGAL::AABB_traits<K, CGAL::AABB_segment_primitive<K, Segments::const_iterator>>>;
+  SharpEdges(const mesh::SurfaceMesh& inverted, double feature_angle) {
+    mesh::SurfaceMesh x = inverted;  // the input surface again (eq. 5 is its own inverse)
+    for (Eigen::Index v = 0; v < x.vertices.rows(); ++v) x.vertices.row(v) /= x.vertices.row(v).squaredNorm();
+    auto point = [&x](int v) { return K::Point_3(x.vertices(v, 0), x.vertices(v, 1), x.vertices(v, 2)); };
+    for (const auto& [a, b] : sharp_edges(x, feature_angle)) segments_.emplace_back(point(a), point(b));
+    if (!segments_.empty()) {
+      tree_.insert(segments_.begin(), segments_.end());
+      tree_.accelerate_distance_queries();
+    }
+  }
+  bool empty() const { return segments_.empty(); }
+  double operator()(const K::Point_3& x) const { return std::sqrt(CGAL::to_double(tree_.squared_distance(x))); }
+
+ private:
+  Segments segments_;
+  Tree tree_;
+};
+
 struct Sizing {
   double lx, min_size, scale;
   const Progress* progress;
@@ -95,6 +125,9 @@ struct Sizing {
   // inverted surface (the domain's AABB tree), where V is harmonic and smooth.
   double grading = 0;
   const SurfaceDistance* surface = nullptr;
+  // Graded sizing near sharp edges (kGradedEdgeRadius etc.): e_x the distance in x from them.
+  const SharpEdges* edges = nullptr;
+  double edge_radius = 0;
   K::FT operator()(const K::Point_3& p, int, const Domain::Index&) const {
     progress->check();
     if (edge) {
@@ -106,6 +139,10 @@ struct Sizing {
     double l = lx * y2;
     if (grading > 0) l += grading * (*surface)(p);
     l = std::max(l, min_size);
+    if (edges != nullptr && y2 > 0) {  // y = 0 is x at infinity, far from any edge
+      const double ex = (*edges)(K::Point_3(p.x() / y2, p.y() / y2, p.z() / y2));
+      l *= std::clamp(std::sqrt(ex / edge_radius), kGradedEdgeFloor, 1.0);
+    }
     if (max_ratio > 0) l = std::min(l, max_ratio * std::sqrt(y2));
     return scale * l;
   }
@@ -167,6 +204,14 @@ TetMesh mesh_once(const mesh::SurfaceMesh& inverted, const MeshingParams& params
     surface.emplace(domain.aabb_tree(), poly);
     size.grading = params.grading;
     size.surface = &*surface;
+  }
+  std::optional<SharpEdges> sharp;
+  if (params.grading > 0 && protect) {
+    sharp.emplace(inverted, params.feature_angle);
+    if (!sharp->empty()) {
+      size.edges = &*sharp;
+      size.edge_radius = kGradedEdgeRadius * params.lx;
+    }
   }
   // Protecting balls on sharp edges must stay small against the inverted edge curves (circles
   // through the origin, radius 1/(2d) for an edge at distance d from the centre): near the centre

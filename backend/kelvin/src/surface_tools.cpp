@@ -1,7 +1,9 @@
 // CGAL AABB tree and Polygon_mesh_processing on the input surface.
 #include "distlab/kelvin/surface_tools.hpp"
 
+#include <cmath>
 #include <limits>
+#include <map>
 
 #include <CGAL/AABB_face_graph_triangle_primitive.h>
 #include <CGAL/AABB_traits.h>
@@ -11,6 +13,29 @@
 #include <CGAL/Surface_mesh.h>
 
 namespace distlab::kelvin {
+
+std::vector<std::pair<int, int>> sharp_edges(const mesh::SurfaceMesh& s, double feature_angle) {
+  std::vector<std::pair<int, int>> out;
+  if (feature_angle >= 180) return out;
+  const double cos_limit = std::cos(feature_angle * 3.14159265358979323846 / 180.0);
+  std::map<std::pair<int, int>, std::pair<int, int>> edges;  // (a < b) -> first face, second face
+  const auto nf = static_cast<int>(s.faces.rows());
+  std::vector<Vec3> normal(static_cast<size_t>(nf));
+  for (int f = 0; f < nf; ++f) {
+    const Vec3 a = s.vertices.row(s.faces(f, 0)), b = s.vertices.row(s.faces(f, 1)), c = s.vertices.row(s.faces(f, 2));
+    normal[static_cast<size_t>(f)] = (b - a).cross(c - a).normalized();
+    for (int k = 0; k < 3; ++k) {
+      int u = s.faces(f, k), v = s.faces(f, (k + 1) % 3);
+      if (u > v) std::swap(u, v);
+      auto [it, fresh] = edges.try_emplace({u, v}, f, -1);
+      if (!fresh) it->second.second = f;
+    }
+  }
+  for (const auto& [e, fs] : edges)
+    if (fs.second >= 0 && normal[static_cast<size_t>(fs.first)].dot(normal[static_cast<size_t>(fs.second)]) < cos_limit) out.push_back(e);
+  return out;
+}
+
 namespace {
 
 using K = CGAL::Exact_predicates_inexact_constructions_kernel;

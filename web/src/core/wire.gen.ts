@@ -2582,6 +2582,8 @@ export interface components {
             center?: components["schemas"]["Vec3"];
             /** @description the exterior mesh keeps element size lx up to far_radius times the object's radius (default 1); counted in the vertex budget (422 over_budget, field far_radius) */
             far_radius?: number;
+            /** @description 0 (default): the paper's sizing l_y = |y|² lx (eq. 23); g > 0: the graded sizing, finer near sharp edges and growing by g per unit distance (in y) from the inverted surface: fewer vertices at equal accuracy (at lx 0.02 on the unit cube, g 0.05: 185k vertices against 394k); counted in the vertex budget (its edge refinement adds a term per metre of sharp edge) */
+            grading?: number;
             sigma?: components["schemas"]["Sigma"];
             levels?: number[];
             /**
@@ -2608,6 +2610,7 @@ export interface components {
             source: {
                 center?: components["schemas"]["Vec3"];
                 far_radius?: number;
+                grading?: number;
                 /** @description a built-in mesh (GET /api/kelvin/assets) */
                 asset?: string;
                 /** @description an upload's id */

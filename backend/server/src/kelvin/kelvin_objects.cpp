@@ -9,6 +9,7 @@
 #include "distlab/kelvin/digest.hpp"
 #include "distlab/kelvin/progress.hpp"
 #include "distlab/kelvin/sigma.hpp"
+#include "distlab/kelvin/surface_tools.hpp"
 #include "distlab/server/json_fields.hpp"
 
 namespace distlab::server {
@@ -18,7 +19,7 @@ using json = nlohmann::json;
 namespace {
 
 bool same_options(const kelvin::PrepareOptions& a, const kelvin::PrepareOptions& b) {
-  return a.lx == b.lx && a.far_radius == b.far_radius && a.feature_angle == b.feature_angle &&
+  return a.lx == b.lx && a.far_radius == b.far_radius && a.grading == b.grading && a.feature_angle == b.feature_angle &&
          a.centre.has_value() == b.centre.has_value() && (!a.centre || *a.centre == *b.centre);
 }
 
@@ -36,7 +37,7 @@ std::string surface_hash(const mesh::SurfaceMesh& s, const kelvin::PrepareOption
   h.add(s.faces.data(), sizeof(int) * static_cast<std::size_t>(s.faces.size()));
   if (o != nullptr) {
     const Vec3 c = o->centre.value_or(Vec3::Constant(std::nan("")));
-    const double params[7] = {o->lx, o->far_radius, o->feature_angle, c.x(), c.y(), c.z(), o->centre ? 1.0 : 0.0};
+    const double params[8] = {o->lx, o->far_radius, o->feature_angle, c.x(), c.y(), c.z(), o->centre ? 1.0 : 0.0, o->grading};
     h.add(params, sizeof params);
   }
   return h.hex();
@@ -226,13 +227,18 @@ std::pair<mesh::RepairResult, json> run_repair_request(const mesh::SurfaceMesh& 
   return {std::move(r), std::move(report)};
 }
 
-double estimate_vertices(const mesh::SurfaceMesh& surface, double lx, double far_radius) {
+double estimate_vertices(const mesh::SurfaceMesh& surface, double lx, double far_radius, double grading) {
   if (surface.vertices.rows() == 0 || !(lx > 0)) return 0;
   const Vec3 lo = surface.vertices.colwise().minCoeff().transpose();
   const Vec3 hi = surface.vertices.colwise().maxCoeff().transpose();
   const double r = 0.5 * (hi - lo).norm();
   const double ratio = std::max(1.0, far_radius) * r / lx;
-  return kVertexEstimateConstant * ratio * ratio * ratio + static_cast<double>(surface.vertices.rows());
+  double edges = 0;
+  if (grading > 0)
+    for (const auto& [a, b] : kelvin::sharp_edges(surface, kelvin::PrepareOptions{}.feature_angle))
+      edges += (surface.vertices.row(a) - surface.vertices.row(b)).norm();
+  return kVertexEstimateConstant * ratio * ratio * ratio + static_cast<double>(surface.vertices.rows()) +
+         kelvin::kGradedEdgeVerticesPerLength * edges / lx;
 }
 
 double smallest_lx_within(const mesh::SurfaceMesh& surface, double budget, double far_radius) {

@@ -3,10 +3,20 @@
 // (also the AABB-tree distance baseline of the benchmark).
 #include <functional>
 #include <memory>
+#include <utility>
+#include <vector>
 
 #include "distlab/mesh/surface.hpp"
 
 namespace distlab::kelvin {
+
+// The sharp edges (vertex pairs a < b) of a surface: the two faces' normals deviate by more than
+// feature_angle degrees (none at 180). Mesh_3 protects them; the graded sizing refines near them.
+std::vector<std::pair<int, int>> sharp_edges(const mesh::SurfaceMesh& s, double feature_angle);
+
+// Vertices the graded sizing (PrepareOptions::grading) adds near sharp edges, per metre of edge
+// and per 1/l_x, as an upper bound: the unit cube measured 55–63 (l_x 0.15–0.05), counted 150.
+inline constexpr double kGradedEdgeVerticesPerLength = 150;
 
 class SurfaceOracle {
  public:

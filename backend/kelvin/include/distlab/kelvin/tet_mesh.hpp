@@ -28,8 +28,11 @@ struct MeshingParams {
   double lx = 0.1;              // exterior element size l_x (eq. 23)
   double min_size = 0.0;        // lower bound of the interior sizing field l_y
   double feature_angle = 60.0;  // dihedral angle (degrees) below which edges are kept sharp
-  // 0: l_y = |y|² l_x (eq. 23, uniform in x). g > 0: l_y = |y|² l_x + g · d_y, d_y the distance
-  // in y from the inverted surface (graded away from the object).
+  // 0: l_y = max(|y|² l_x, min_size) (eq. 23, uniform in x). g > 0, the graded sizing:
+  // l_y = s_e · max(|y|² l_x + g · d_y, min_size), d_y the distance in y from the inverted surface
+  // (coarser away from the object, where V is smooth) and s_e = max(√(e_x / (kGradedEdgeRadius
+  // l_x)), kGradedEdgeFloor) ≤ 1, e_x the distance in x from the sharp edges (feature_angle):
+  // finer where the solution is singular, which is where the cube's capacitance error sits.
   double grading = 0.0;
   // Longest edge (in x) of the surface polyhedron handed to Mesh_3; 0: lx.
   double boundary_edge_length = 0.0;
@@ -40,8 +43,14 @@ struct MeshingParams {
   double max_refinement_evaluations = 1e8;  // facet/cell sizing evaluations while refining
 };
 
+// The graded sizing's refinement near sharp edges: within kGradedEdgeRadius · l_x of an edge (in
+// x) the size falls as √(distance), to kGradedEdgeFloor times the ungraded size. The radius
+// scales with l_x, so the added vertices grow like the edges' length / l_x², not as a volume.
+inline constexpr double kGradedEdgeRadius = 4.0;
+inline constexpr double kGradedEdgeFloor = 0.25;
+
 // CGAL Mesh_3 on the region bounded by the (already inverted, outward-oriented) surface with
-// l_y(y) = max(|y|² l_x + grading · d_y, min_size) (eq. 23 when grading is 0). Deterministic: fixed seeds, no time limits.
+// l_y(y) of MeshingParams::grading (eq. 23 when grading is 0). Deterministic: fixed seeds, no time limits.
 // If edge protection exceeds its step budget (thin features), meshes again without it and sets
 // *warning. Exceeding the vertex or refinement budget throws InvalidInput("lx", …).
 TetMesh mesh_inverted_domain(const mesh::SurfaceMesh& inverted, const MeshingParams& params,

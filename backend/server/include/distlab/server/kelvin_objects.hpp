@@ -171,7 +171,10 @@ inline std::string sigma_key(const KelvinObject& o, const nlohmann::json& sigma)
 // (far_radius · R / l_x)³ (far_radius below 1 counts as 1). The constant is fitted to the cube
 // asset (1608 vertices at l_x 0.2, 11891 at 0.1); measured ratios are in the notes of issue 15.
 inline constexpr double kVertexEstimateConstant = 20.0;
-double estimate_vertices(const mesh::SurfaceMesh& surface, double lx, double far_radius = 1.0);
+// With the graded sizing (grading > 0) its refinement near sharp edges (the server's feature angle,
+// PrepareOptions' default) adds kGradedEdgeVerticesPerLength · (their length) / l_x: the volume
+// term, eq. 23's, bounds the rest (grading only coarsens away from the edges).
+double estimate_vertices(const mesh::SurfaceMesh& surface, double lx, double far_radius = 1.0, double grading = 0.0);
 // The smallest l_x whose estimate fits `budget` vertices (the estimate above solved for l_x);
 // +infinity when none does (the surface alone has budget vertices or more).
 double smallest_lx_within(const mesh::SurfaceMesh& surface, double budget, double far_radius = 1.0);
