@@ -26,7 +26,8 @@ class Interruptible {
   // GIL held. `callback` (None: none) receives report()'s arguments, always on the calling thread.
   explicit Interruptible(pybind11::object callback)
       : callback_(std::move(callback)), caller_(std::this_thread::get_id()) {}
-  ~Interruptible() {
+  // Taking the GIL throws only when the interpreter is gone: terminating is all that is left then.
+  ~Interruptible() {  // NOLINT(bugprone-exception-escape)
     pybind11::gil_scoped_acquire gil;
     error_.reset();
     callback_ = pybind11::object();

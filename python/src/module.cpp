@@ -9,7 +9,8 @@ PYBIND11_MODULE(_core, m) {
   m.doc() = "distlab's numerical cores (GAP, Kelvin, CBF) through the CLI's own request codecs";
   // InvalidInput(field, message) becomes distlab.errors.InvalidInput (a ValueError, or also a
   // TypeError when the value has the wrong JSON type), with .field.
-  py::register_exception_translator([](std::exception_ptr p) {
+  // By value: pybind11's ExceptionTranslator is void (*)(std::exception_ptr).
+  py::register_exception_translator([](std::exception_ptr p) {  // NOLINT(performance-unnecessary-value-param)
     try {
       if (p) std::rethrow_exception(p);
     } catch (const distlab::InvalidInput& e) {

@@ -27,7 +27,7 @@ TEST(Gjk, SeparatedPairsBracketTheDistance) {
     for (const auto& [nb, b] : zoo) {
       SCOPED_TRACE(na + " vs " + nb);
       std::mt19937_64 rng(31);
-      for_random_poses(rng, 2.5, [&](const Pose& pa, const Pose& pb) {
+      for_random_poses(rng, 2.5, [&, &a = a, &b = b](const Pose& pa, const Pose& pb) {
         const EuclideanResult ref = euclidean_distance(EuclideanShape(a), pa, EuclideanShape(b), pb);
         if (ref.distance < 0.05) return;
         // Cold start from an arbitrary direction, tight tolerance.
@@ -50,7 +50,7 @@ TEST(Gjk, OverlapGivesACommonPoint) {
     for (const auto& [nb, b] : zoo) {
       SCOPED_TRACE(na + " vs " + nb);
       std::mt19937_64 rng(32);
-      for_random_poses(rng, 0.2, [&](const Pose& pa, const Pose& pb) {
+      for_random_poses(rng, 0.2, [&, &a = a, &b = b](const Pose& pa, const Pose& pb) {
         const auto g = gjk_closest(Placed(a, pa), Placed(b, pb), Vec3::UnitY(), 0, 1e-12, 128);
         ASSERT_TRUE(g.overlap);
         const Vec3 p = 0.5 * (g.pa + g.pb);
@@ -80,7 +80,7 @@ TEST(GjkDistance, MatchesTheCertifiedDistanceOnEveryShapePair) {
       SCOPED_TRACE(na + " vs " + nb);
       std::mt19937_64 rng(33);
       int separated = 0;
-      for_random_poses(rng, 2.5, [&](const Pose& pa, const Pose& pb) {
+      for_random_poses(rng, 2.5, [&, &a = a, &b = b](const Pose& pa, const Pose& pb) {
         const EuclideanResult ref = euclidean_distance(EuclideanShape(a), pa, EuclideanShape(b), pb);
         if (ref.distance < 0.05) return;
         ++separated;
@@ -134,7 +134,7 @@ TEST(GjkDistance, OverlapGivesZero) {
     for (const auto& [nb, b] : zoo) {
       SCOPED_TRACE(na + " vs " + nb);
       std::mt19937_64 rng(34);
-      for_random_poses(rng, 0.2, [&](const Pose& pa, const Pose& pb) {
+      for_random_poses(rng, 0.2, [&, &a = a, &b = b](const Pose& pa, const Pose& pb) {
         EXPECT_EQ(gjk_distance(a, pa, b, pb, 1.0).distance, 0.0);
         EXPECT_EQ(gjk_distance(a, pa, b, pb, 1.0, 0.1).distance, 0.0);
       });

@@ -185,7 +185,7 @@ TEST(BaseFunction, LeadingOrderNearZero) {
 TEST(BaseFunction, RejectsBadParameters) {
   for (double h : {0.0, -1.0, double(NAN), double(INFINITY)}) {
     try {
-      BaseFunction(h, 2);
+      BaseFunction(h, 2);  // NOLINT(bugprone-unused-raii): the constructor is what is tested
       ADD_FAILURE() << "accepted h=" << h;
     } catch (const InvalidInput& e) {
       EXPECT_EQ(e.field(), "params.h");
@@ -193,7 +193,7 @@ TEST(BaseFunction, RejectsBadParameters) {
   }
   for (int k : {-1, 0, 1, 13}) {
     try {
-      BaseFunction(0.1, k);
+      BaseFunction(0.1, k);  // NOLINT(bugprone-unused-raii): the constructor is what is tested
       ADD_FAILURE() << "accepted k=" << k;
     } catch (const InvalidInput& e) {
       EXPECT_EQ(e.field(), "params.k");

@@ -14,7 +14,7 @@ namespace {
 std::vector<Shape> sample_shapes(std::mt19937_64& rng) {
   std::vector<Shape> shapes = {Box{Vec3(0.3, 0.2, 0.5)}, Sphere{0.25}, Cylinder{0.15, 0.6},
                                Capsule{0.1, 0.4}};
-  for (int rows : {4, 6, 10, 16}) shapes.push_back(test::random_polytope(rng, rows, 0.3));
+  for (int rows : {4, 6, 10, 16}) shapes.emplace_back(test::random_polytope(rng, rows, 0.3));
   return shapes;
 }
 

@@ -75,7 +75,7 @@ void expect_vertices_are_corners(const Polytope& P, double tol) {
     for (int i = 0; i < P.rows(); ++i) {
       const double slack = P.b[i] - P.A.row(i).dot(v);
       EXPECT_GE(slack, -tol);
-      if (std::abs(slack) <= tol) tight.push_back(P.A.row(i).transpose());
+      if (std::abs(slack) <= tol) tight.emplace_back(P.A.row(i).transpose());
     }
     Eigen::MatrixXd T(static_cast<Eigen::Index>(tight.size()), 3);
     for (std::size_t k = 0; k < tight.size(); ++k)
@@ -205,14 +205,14 @@ std::vector<Vec3> cube_corners(const Mat3& R) {
   std::vector<Vec3> pts;
   for (int x : {-1, 1})
     for (int y : {-1, 1})
-      for (int z : {-1, 1}) pts.push_back(R * Vec3(x, y, z));
+      for (int z : {-1, 1}) pts.emplace_back(R * Vec3(x, y, z));
   return pts;
 }
 
 TEST(PolytopeFromPoints, CubeGivesSixRows) {
   std::vector<Vec3> pts = cube_corners(Mat3::Identity());
-  pts.push_back(Vec3(1, 0.25, 0.5));  // on a face: not a vertex
-  pts.push_back(Vec3(0.5, 0, 0));     // inside
+  pts.emplace_back(1, 0.25, 0.5);  // on a face: not a vertex
+  pts.emplace_back(0.5, 0, 0);     // inside
   const Polytope P = polytope_from_points(pts, "m");
   ASSERT_EQ(P.rows(), 6);
   for (int i = 0; i < 6; ++i) {
@@ -228,7 +228,7 @@ TEST(PolytopeFromPoints, RotatedCubeStillGivesSixRows) {
   // Rounding makes the rotated corners only nearly coplanar.
   const Mat3 R = Eigen::AngleAxisd(0.7, Vec3(1, 2, 3).normalized()).toRotationMatrix();
   std::vector<Vec3> pts = cube_corners(R);
-  pts.push_back(Vec3::Zero());  // interior point: dropped
+  pts.emplace_back(Vec3::Zero());  // interior point: dropped
   const Polytope P = polytope_from_points(pts, "m");
   EXPECT_EQ(P.rows(), 6);
   EXPECT_EQ(P.vertices.size(), 8u);

@@ -19,7 +19,7 @@ Vec3 random_vec() { return Vec3(gauss(rng), gauss(rng), gauss(rng)); }
 
 Polytope random_polytope() {
   std::vector<Vec3> pts;
-  for (int i = 0; i < 30; ++i) pts.push_back(random_vec() + Vec3(0.5, -1, 2));
+  for (int i = 0; i < 30; ++i) pts.emplace_back(random_vec() + Vec3(0.5, -1, 2));
   return polytope_from_points(pts, "p");
 }
 

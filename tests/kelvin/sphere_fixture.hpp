@@ -41,7 +41,7 @@ inline std::vector<Vec3> shell_points(const Sphere& s, double lo, double hi, int
   std::normal_distribution<double> g;
   std::uniform_real_distribution<double> r(lo, hi);
   std::vector<Vec3> out;
-  for (int i = 0; i < n; ++i) out.push_back(s.centre + s.radius * r(rng) * Vec3(g(rng), g(rng), g(rng)).normalized());
+  for (int i = 0; i < n; ++i) out.emplace_back(s.centre + s.radius * r(rng) * Vec3(g(rng), g(rng), g(rng)).normalized());
   return out;
 }
 

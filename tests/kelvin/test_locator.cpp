@@ -355,7 +355,7 @@ TEST(KelvinLocator, PackedWalksEqualAPlainWalkOverTheTetMeshBitForBit) {
                d = m.points.row(m.tets(c, corner(rng)));
     const Vec3 on = i % 3 == 0 ? a : i % 3 == 1 ? Vec3(0.5 * (a + b))
                                                 : Vec3((a + b + d) / 3.0);
-    ys.push_back(on + on.norm() * Vec3(tiny(rng), tiny(rng), tiny(rng)));
+    ys.emplace_back(on + on.norm() * Vec3(tiny(rng), tiny(rng), tiny(rng)));
   }
   int outside = 0, not_domain = 0, stepped = 0, answered = 0;
   for (int i = 0; i < static_cast<int>(ys.size()); ++i) {

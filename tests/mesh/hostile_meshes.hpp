@@ -83,25 +83,25 @@ inline std::vector<std::pair<std::string, std::string>> hostile_meshes() {
   std::string wild = b;
   for (int i = 0; i < 3; ++i) put(b, static_cast<std::int32_t>(i));
   for (int i = 0; i < 255; ++i) put(wild, std::int32_t{0x7fffffff});
-  files.push_back({"ply", b});
-  files.push_back({"ply", wild});
+  files.emplace_back("ply", b);
+  files.emplace_back("ply", wild);
   // A uint list count of 4294967295 and a NaN coordinate, binary.
   std::string uint_list = ply_header("binary_little_endian", 3, 1, "uint int");
   for (int i = 0; i < 9; ++i) put(uint_list, static_cast<float>(i % 4 == 0));
   put(uint_list, std::uint32_t{4294967295u});
   for (int i = 0; i < 3; ++i) put(uint_list, static_cast<std::int32_t>(i));
-  files.push_back({"ply", uint_list});
+  files.emplace_back("ply", uint_list);
   std::string nan = ply_header("binary_little_endian", 3, 1);
   for (int i = 0; i < 9; ++i) put(nan, i == 4 ? std::numeric_limits<float>::quiet_NaN() : static_cast<float>(i % 4 == 0));
   put(nan, std::uint8_t{3});
   for (int i = 0; i < 3; ++i) put(nan, static_cast<std::int32_t>(i));
-  files.push_back({"ply", nan});
+  files.emplace_back("ply", nan);
   // Binary STL with an infinite coordinate.
   std::string stl(80, '\0');
   put(stl, std::uint32_t{1});
   for (int i = 0; i < 12; ++i) put(stl, i == 5 ? std::numeric_limits<float>::infinity() : 0.5f * static_cast<float>(i % 4));
   put(stl, std::uint16_t{0});
-  files.push_back({"stl", stl});
+  files.emplace_back("stl", stl);
   return files;
 }
 

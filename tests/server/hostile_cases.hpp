@@ -1028,7 +1028,7 @@ inline void upload_cases(std::vector<Case>& out) {
   up("mtllib_dev_zero", "obj", std::string("mtllib /dev/zero\n") + kTetraObj, Expect::any);
   up("long_line", "obj", "v " + std::string(1 << 20, '1') + " 0 0\n" + kTetraObj, Expect::client, "6/7 importer: non-finite coordinates accepted");
   up("no_newline", "obj", "v 0 0 0 v 1 0 0 f 1 2 3");
-  up("binary_junk", "obj", std::string("\x00\xff\x10\x80v f", 8) + std::string(500, '\x01'));
+  up("binary_junk", "obj", std::string("\x00\xff\x10\x80v f\x00", 8) + std::string(500, '\x01'));
   up("deep_groups", "obj", repeat("g a\no b\n", 5000) + kTetraObj, Expect::any);
   up("faces_200001", "obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n" + repeat("f 1 2 3\n", 200001));
 

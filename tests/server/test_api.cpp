@@ -98,10 +98,10 @@ TEST_F(Api, OpenApiDocumentsEveryRouteAndNothingElse) {
     for (const auto& [method_key, op] : ops.items()) {
       const std::string method = method_key;  // clang 14 cannot capture a structured binding
       auto send = [&]() {
-        if (method == "post") return c.Post(p.c_str(), "", "application/json");
-        if (method == "put") return c.Put(p.c_str(), "", "application/json");
-        if (method == "delete") return c.Delete(p.c_str());
-        return c.Get(p.c_str());
+        if (method == "post") return c.Post(p, "", "application/json");
+        if (method == "put") return c.Put(p, "", "application/json");
+        if (method == "delete") return c.Delete(p);
+        return c.Get(p);
       };
       auto res = send();
       ASSERT_TRUE(res) << method << " " << p;
@@ -286,13 +286,13 @@ TEST_F(Api, SessionsAreIsolatedAndUnguessable) {
   ASSERT_EQ(r->status, 202) << r->body;
   const std::string id = body_json(r)["object"]["id"];
   const std::string job = body_json(r)["job"]["id"];
-  EXPECT_EQ(c.Get(("/api/kelvin/objects/" + id).c_str(), session_headers(a))->status, 200);
-  expect_error(c.Get(("/api/kelvin/objects/" + id).c_str(), session_headers(b)), 404, "unknown_object");
-  expect_error(c.Put(("/api/kelvin/objects/" + id + "/sigma").c_str(), session_headers(b), "{\"constant\": 1}", "application/json"),
+  EXPECT_EQ(c.Get(("/api/kelvin/objects/" + id), session_headers(a))->status, 200);
+  expect_error(c.Get(("/api/kelvin/objects/" + id), session_headers(b)), 404, "unknown_object");
+  expect_error(c.Put(("/api/kelvin/objects/" + id + "/sigma"), session_headers(b), "{\"constant\": 1}", "application/json"),
                404, "unknown_object");
-  expect_error(c.Delete(("/api/kelvin/objects/" + id).c_str(), session_headers(b)), 404, "unknown_object");
-  expect_error(c.Get(("/api/jobs/" + job).c_str(), session_headers(b)), 404, "unknown_job");
-  expect_error(c.Post(("/api/jobs/" + job + "/cancel").c_str(), session_headers(b), "", "application/json"), 404, "unknown_job");
+  expect_error(c.Delete(("/api/kelvin/objects/" + id), session_headers(b)), 404, "unknown_object");
+  expect_error(c.Get(("/api/jobs/" + job), session_headers(b)), 404, "unknown_job");
+  expect_error(c.Post(("/api/jobs/" + job + "/cancel"), session_headers(b), "", "application/json"), 404, "unknown_job");
   EXPECT_EQ(body_json(c.Get("/api/kelvin/objects", session_headers(b)))["objects"].size(), 0u);
   EXPECT_EQ(body_json(c.Get("/api/jobs", session_headers(b)))["jobs"].size(), 0u);
   // Deleting A ends it.
@@ -510,11 +510,11 @@ TEST(ApiLimits, TimeLimitPerRequest) {
   const std::string id = body_json(r)["object"]["id"];
   std::string state;
   for (int i = 0; i < 600 && state != "ready"; ++i) {
-    state = body_json(c.Get(("/api/kelvin/objects/" + id).c_str(), session_headers(s)))["state"];
+    state = body_json(c.Get(("/api/kelvin/objects/" + id), session_headers(s)))["state"];
     if (state != "ready") std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
   ASSERT_EQ(state, "ready");
-  r = c.Post(("/api/kelvin/objects/" + id + "/query").c_str(), session_headers(s),
+  r = c.Post(("/api/kelvin/objects/" + id + "/query"), session_headers(s),
              json{{"points", {{1.0, 0, 0}, {1.5, 0, 0}}}}.dump(), "application/json");
   expect_error(r, 408, "time_limit", "");
   EXPECT_EQ(c.Get("/api/health")->status, 200);

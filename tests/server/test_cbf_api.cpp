@@ -89,7 +89,7 @@ std::string follow(WsClient& ws, const std::string& id, std::map<std::size_t, js
 }
 
 json get_json(httplib::Client& c, const std::string& s, const std::string& path, int status = 200) {
-  auto r = c.Get(path.c_str(), session_headers(s));
+  auto r = c.Get(path, session_headers(s));
   EXPECT_TRUE(r);
   if (!r) return json();
   EXPECT_EQ(r->status, status) << path << ": " << r->body;
@@ -98,7 +98,7 @@ json get_json(httplib::Client& c, const std::string& s, const std::string& path,
 
 // POST /api/jobs/{id}/cancel as session s; true when accepted.
 bool cancel_job(httplib::Client& c, const std::string& s, const std::string& id) {
-  auto r = c.Post(("/api/jobs/" + id + "/cancel").c_str(), session_headers(s), "", "application/json");
+  auto r = c.Post(("/api/jobs/" + id + "/cancel"), session_headers(s), "", "application/json");
   EXPECT_TRUE(r);
   if (!r) return false;
   EXPECT_EQ(r->status, 202) << r->body;
@@ -393,8 +393,8 @@ TEST_F(CbfApi, FramesStreamAndMatchTheRecordAndTheRobotModel) {
   EXPECT_EQ(part["frames"][0], frames[50]);
   EXPECT_EQ(part["frames"][9], frames[59]);
   EXPECT_EQ(get_json(c, s, "/api/cbf/rollouts/" + id + "/frames?from=1000")["frames"].size(), 0u);
-  expect_error(c.Get(("/api/cbf/rollouts/" + id + "/frames?from=-1").c_str(), session_headers(s)), 400, "invalid_input", "from");
-  expect_error(c.Get(("/api/cbf/rollouts/" + id + "/frames?count=999999").c_str(), session_headers(s)), 413, "too_many_frames", "count");
+  expect_error(c.Get(("/api/cbf/rollouts/" + id + "/frames?from=-1"), session_headers(s)), 400, "invalid_input", "from");
+  expect_error(c.Get(("/api/cbf/rollouts/" + id + "/frames?count=999999"), session_headers(s)), 413, "too_many_frames", "count");
 
   auto late_owner = connect(server_->port(), s);
   WsClient& late = *late_owner;
@@ -460,13 +460,13 @@ TEST_F(CbfApi, CancelMidwayAndOtherSessionsSeeNothing) {
   WsClient &ws = *ws_owner, &spy = *spy_owner;
   // 150 s of simulated time: seconds of work, so it is cancelled while running.
   const std::string id = start(c, s, {{"scenario", "corridor"}, {"metric", "gap"}, {"params", {{"duration", 150}, {"record_pairs", false}}}, {"stream", {{"batch_steps", 20}, {"pairs", false}}}});
-  expect_error(c.Get(("/api/cbf/rollouts/" + id + "/record").c_str(), session_headers(s)), 409, "not_finished");
+  expect_error(c.Get(("/api/cbf/rollouts/" + id + "/record"), session_headers(s)), 409, "not_finished");
 
   // Another session: 404 everywhere, and no frames on its socket.
-  expect_error(c.Get(("/api/cbf/rollouts/" + id).c_str(), session_headers(other)), 404, "unknown_rollout");
-  expect_error(c.Get(("/api/cbf/rollouts/" + id + "/frames").c_str(), session_headers(other)), 404, "unknown_rollout");
-  expect_error(c.Get(("/api/cbf/rollouts/" + id + "/record").c_str(), session_headers(other)), 404, "unknown_rollout");
-  expect_error(c.Post(("/api/jobs/" + id + "/cancel").c_str(), session_headers(other), "", "application/json"), 404, "unknown_job");
+  expect_error(c.Get(("/api/cbf/rollouts/" + id), session_headers(other)), 404, "unknown_rollout");
+  expect_error(c.Get(("/api/cbf/rollouts/" + id + "/frames"), session_headers(other)), 404, "unknown_rollout");
+  expect_error(c.Get(("/api/cbf/rollouts/" + id + "/record"), session_headers(other)), 404, "unknown_rollout");
+  expect_error(c.Post(("/api/jobs/" + id + "/cancel"), session_headers(other), "", "application/json"), 404, "unknown_job");
   EXPECT_TRUE(get_json(c, other, "/api/cbf/rollouts")["rollouts"].empty());
   spy.send({{"type", "cbf_replay"}, {"rollout", id}});
   Msg m;
@@ -619,8 +619,8 @@ TEST_F(CbfApi, SweepRefusalsAndCancel) {
   ASSERT_TRUE(r);
   ASSERT_EQ(r->status, 202) << r->body;
   const std::string id = body_json(r)["sweep"]["id"];
-  expect_error(c.Get(("/api/cbf/sweeps/" + id).c_str(), session_headers(other)), 404, "unknown_sweep");
-  expect_error(c.Post(("/api/jobs/" + id + "/cancel").c_str(), session_headers(other), "", "application/json"), 404, "unknown_job");
+  expect_error(c.Get(("/api/cbf/sweeps/" + id), session_headers(other)), 404, "unknown_sweep");
+  expect_error(c.Post(("/api/jobs/" + id + "/cancel"), session_headers(other), "", "application/json"), 404, "unknown_job");
   std::vector<json> progress;
   bool cancel_sent = false;
   const std::string state = follow_job(*ws_owner, id, progress, [&](const json& job) {

@@ -42,7 +42,7 @@ std::string create_ready(httplib::Client& c, WsClient& ws, const std::string& se
 }
 
 json query(httplib::Client& c, const std::string& s, const std::string& id, const json& points) {
-  auto r = c.Post(path_of(id, "/query").c_str(), session_headers(s), json{{"points", points}}.dump(), "application/json");
+  auto r = c.Post(path_of(id, "/query"), session_headers(s), json{{"points", points}}.dump(), "application/json");
   EXPECT_TRUE(r);
   EXPECT_EQ(r->status, 200) << r->body;
   return body_json(r);
@@ -82,7 +82,7 @@ TEST_F(KelvinApi, PrepareQuerySigmaIsosurfaceExport) {
   EXPECT_FALSE(stages.empty());
   EXPECT_TRUE(job["result"]["stats"]["n_verts"].get<long>() > 100) << job.dump();
 
-  auto r = c.Get(path_of(id).c_str(), session_headers(s));
+  auto r = c.Get(path_of(id), session_headers(s));
   ASSERT_TRUE(r);
   json st = body_json(r);
   EXPECT_EQ(st["state"], "ready");
@@ -95,7 +95,7 @@ TEST_F(KelvinApi, PrepareQuerySigmaIsosurfaceExport) {
   // σ per listed vertex, a function of its position (listed vertices at one corner agree).
   json per_vertex = json::array();
   {
-    auto sr = c.Get(path_of(id, "/surface").c_str(), session_headers(s));
+    auto sr = c.Get(path_of(id, "/surface"), session_headers(s));
     ASSERT_TRUE(sr);
     const auto pos = server::read_float32(json::from_msgpack(sr->body)["positions"]);
     ASSERT_EQ(pos.size(), 3 * n_input);
@@ -122,20 +122,20 @@ TEST_F(KelvinApi, PrepareQuerySigmaIsosurfaceExport) {
       {{"constant", 0.1}, {"brushes", {{{"center", {0.5, 0.5, 0.5}}, {"radius", 0.3}, {"value", 0.5}}}}}};
   int version = 0;
   for (const json& sg : sigmas) {
-    r = c.Put(path_of(id, "/sigma").c_str(), session_headers(s), sg.dump(), "application/json");
+    r = c.Put(path_of(id, "/sigma"), session_headers(s), sg.dump(), "application/json");
     ASSERT_TRUE(r);
     ASSERT_EQ(r->status, 200) << sg.dump() << " " << r->body;
     EXPECT_EQ(body_json(r)["sigma_version"].get<int>(), ++version);
-    EXPECT_EQ(body_json(c.Get(path_of(id, "/sigma").c_str(), session_headers(s)))["sigma"], sg);
+    EXPECT_EQ(body_json(c.Get(path_of(id, "/sigma"), session_headers(s)))["sigma"], sg);
     json q2 = query(c, s, id, {{1.0, 0, 0}});
     EXPECT_TRUE(q2["h"][0].is_number()) << sg.dump();
   }
-  r = c.Put(path_of(id, "/sigma").c_str(), session_headers(s), json{{"constant", 0.5}}.dump(), "application/json");
+  r = c.Put(path_of(id, "/sigma"), session_headers(s), json{{"constant", 0.5}}.dump(), "application/json");
   EXPECT_NE(query(c, s, id, {{1.0, 0, 0}})["h"][0].get<double>(), h_before);
 
   // Bad σ: field paths.
   auto bad_sigma = [&](const json& sg, const std::string& field) {
-    auto br = c.Put(path_of(id, "/sigma").c_str(), session_headers(s), sg.dump(), "application/json");
+    auto br = c.Put(path_of(id, "/sigma"), session_headers(s), sg.dump(), "application/json");
     ASSERT_TRUE(br);
     EXPECT_EQ(br->status, 400) << sg.dump();
     EXPECT_EQ(body_json(br)["error"]["field"], field) << br->body;
@@ -146,7 +146,7 @@ TEST_F(KelvinApi, PrepareQuerySigmaIsosurfaceExport) {
   bad_sigma({{"colour", 1}}, "sigma.colour");
 
   // Iso-surface as a REST msgpack download (σ = 0.5: h ≥ 0.5 everywhere, h = 0.8 is taken).
-  r = c.Get((path_of(id, "/isosurface") + "?level=0.8").c_str(), session_headers(s));
+  r = c.Get((path_of(id, "/isosurface") + "?level=0.8"), session_headers(s));
   ASSERT_TRUE(r);
   ASSERT_EQ(r->status, 200) << r->body;
   EXPECT_EQ(r->get_header_value("Content-Type"), "application/msgpack");
@@ -155,13 +155,13 @@ TEST_F(KelvinApi, PrepareQuerySigmaIsosurfaceExport) {
   EXPECT_GT(frame["n_faces"].get<long>(), 10);
   EXPECT_EQ(server::read_float32(frame["positions"]).size(), 3 * frame["n_vertices"].get<std::size_t>());
   EXPECT_EQ(server::read_uint32(frame["indices"]).size(), 3 * frame["n_faces"].get<std::size_t>());
-  auto bad = c.Get((path_of(id, "/isosurface") + "?level=abc").c_str(), session_headers(s));
+  auto bad = c.Get((path_of(id, "/isosurface") + "?level=abc"), session_headers(s));
   ASSERT_TRUE(bad);
   EXPECT_EQ(bad->status, 400);
   EXPECT_EQ(body_json(bad)["error"]["field"], "level");
 
   // The surface with σ per vertex.
-  r = c.Get(path_of(id, "/surface").c_str(), session_headers(s));
+  r = c.Get(path_of(id, "/surface"), session_headers(s));
   ASSERT_TRUE(r);
   frame = json::from_msgpack(r->body);
   const auto scal = server::read_float32(frame["scalars"]);
@@ -170,7 +170,7 @@ TEST_F(KelvinApi, PrepareQuerySigmaIsosurfaceExport) {
 
   // Exports in every format.
   for (const std::string fmt : {"stl", "obj", "ply", "glb"}) {
-    r = c.Get((path_of(id, "/export") + "?level=0.8&format=" + fmt).c_str(), session_headers(s));
+    r = c.Get((path_of(id, "/export") + "?level=0.8&format=" + fmt), session_headers(s));
     ASSERT_TRUE(r);
     ASSERT_EQ(r->status, 200) << fmt << " " << r->body;
     EXPECT_GT(r->body.size(), 200u) << fmt;
@@ -186,7 +186,7 @@ TEST_F(KelvinApi, PrepareQuerySigmaIsosurfaceExport) {
       EXPECT_NE(r->body.find("\nf "), std::string::npos);
     }
   }
-  bad = c.Get((path_of(id, "/export") + "?level=0.8&format=dwg").c_str(), session_headers(s));
+  bad = c.Get((path_of(id, "/export") + "?level=0.8&format=dwg"), session_headers(s));
   ASSERT_TRUE(bad);
   EXPECT_EQ(bad->status, 400);
 
@@ -194,13 +194,13 @@ TEST_F(KelvinApi, PrepareQuerySigmaIsosurfaceExport) {
   // object's boundary; the level σ itself is the object's surface.
   for (const std::string level : {"-1000", "0.3", "0.49"})
     for (const std::string route : {"/isosurface?level=", "/export?format=stl&level="}) {
-      bad = c.Get((path_of(id, route) + level).c_str(), session_headers(s));
+      bad = c.Get((path_of(id, route) + level), session_headers(s));
       ASSERT_TRUE(bad);
       EXPECT_EQ(bad->status, 422) << route << level << " " << bad->body.substr(0, 200);
       EXPECT_EQ(body_json(bad)["error"]["code"], "empty_isosurface") << bad->body.substr(0, 200);
       EXPECT_EQ(body_json(bad)["error"]["field"], "level");
     }
-  r = c.Get((path_of(id, "/isosurface") + "?level=0.5").c_str(), session_headers(s));
+  r = c.Get((path_of(id, "/isosurface") + "?level=0.5"), session_headers(s));
   ASSERT_TRUE(r);
   ASSERT_EQ(r->status, 200) << r->body;
   {
@@ -216,7 +216,7 @@ TEST_F(KelvinApi, PrepareQuerySigmaIsosurfaceExport) {
   std::map<std::string, std::string> digest;
   for (const std::string level : {"0.8", "0.9"})
     for (int k = 0; k < 2; ++k) {
-      r = c.Get((path_of(id, "/export") + "?format=stl&level=" + level).c_str(), session_headers(s));
+      r = c.Get((path_of(id, "/export") + "?format=stl&level=" + level), session_headers(s));
       ASSERT_TRUE(r);
       ASSERT_EQ(r->status, 200);
       const std::string d = r->get_header_value("X-Distlab-Isosurface-Digest");
@@ -229,8 +229,8 @@ TEST_F(KelvinApi, PrepareQuerySigmaIsosurfaceExport) {
   EXPECT_NE(digest["0.8"], digest["0.9"]);
 
   // Delete.
-  EXPECT_EQ(c.Delete(path_of(id).c_str(), session_headers(s))->status, 204);
-  EXPECT_EQ(c.Get(path_of(id).c_str(), session_headers(s))->status, 404);
+  EXPECT_EQ(c.Delete(path_of(id), session_headers(s))->status, 204);
+  EXPECT_EQ(c.Get(path_of(id), session_headers(s))->status, 404);
 }
 
 TEST_F(KelvinApi, SigmaEditAnsweredByIsosurfaceFrame) {
@@ -271,7 +271,7 @@ TEST_F(KelvinApi, SigmaEditAnsweredByIsosurfaceFrame) {
   // REST edits answer over the WebSocket too; watch adds levels.
   ws.send({{"type", "watch"}, {"object", id}, {"levels", {0.3, 0.6}}});
   ASSERT_TRUE(ws.until([&](const Msg& x) { return x.binary && x.j["type"] == "isosurface" && x.j["level"] == 0.6; }, m, 60));
-  auto r = c.Put(path_of(id, "/sigma").c_str(), session_headers(s), json{{"constant", 0.0}}.dump(), "application/json");
+  auto r = c.Put(path_of(id, "/sigma"), session_headers(s), json{{"constant", 0.0}}.dump(), "application/json");
   ASSERT_EQ(r->status, 200);
   ASSERT_TRUE(ws.until([&](const Msg& x) { return x.binary && x.j["type"] == "isosurface" && x.j["sigma_version"] == 2; }, m, 60));
   // A late joiner gets hello with the object and its current frames.
@@ -296,7 +296,7 @@ TEST_F(KelvinApi, BurstOfEditsEndsAtTheLatestSigmaAndQueriesGetGradients) {
   ASSERT_EQ(m.j["type"], "hello");
   const std::string id = create_ready(c, ws, s, body);
   ASSERT_FALSE(id.empty());
-  const std::size_t n_input = body_json(c.Get(path_of(id).c_str(), session_headers(s)))["n_input_vertices"];
+  const std::size_t n_input = body_json(c.Get(path_of(id), session_headers(s)))["n_input_vertices"];
   const int edits = 12;
   for (int i = 1; i <= edits; ++i) ws.send({{"type", "sigma"}, {"object", id}, {"sigma", {{"constant", 0.05 * i}}}});
   std::map<double, int> last;  // level -> last sigma_version seen
@@ -344,7 +344,7 @@ TEST_F(KelvinApi, BurstOfEditsEndsAtTheLatestSigmaAndQueriesGetGradients) {
   const json pts = {{0.8, 0.1, 0}, {0, 0.9, 0.2}, {0.7, 0.7, 0.7}};
   const json after_frames = query(c, s, id, pts);
   // The same σ written differently is another key: a fresh solve with gradients.
-  auto r = c.Put(path_of(id, "/sigma").c_str(), session_headers(s),
+  auto r = c.Put(path_of(id, "/sigma"), session_headers(s),
                  json{{"constant", 0.05 * edits}, {"brushes", json::array()}}.dump(), "application/json");
   ASSERT_TRUE(r);
   ASSERT_EQ(r->status, 200) << r->body;
@@ -375,7 +375,7 @@ TEST_F(KelvinApi, SurfaceSentOnceSigmaVersionsCarrySigmaOnlyRequestIdsEchoed) {
   ASSERT_FALSE(id.empty());
   // Ready: the surface (8 vertices of the cube, σ = 0) and the level's frame.
   ASSERT_TRUE(peer.until([&](const Msg& x) { return x.binary && x.j["type"] == "surface" && x.j["object"] == id; }, m, 60));
-  const std::size_t n_input = body_json(c.Get(path_of(id).c_str(), session_headers(s)))["n_input_vertices"];
+  const std::size_t n_input = body_json(c.Get(path_of(id), session_headers(s)))["n_input_vertices"];
   EXPECT_EQ(m.j["n_vertices"], n_input);
   EXPECT_EQ(server::read_float32(m.j["positions"]).size(), 3 * n_input);
   EXPECT_EQ(server::read_float32(m.j["scalars"]), std::vector<float>(n_input, 0.0f));
@@ -462,12 +462,12 @@ TEST_F(KelvinApi, TwoSessionsEditSigmaAtOnceWithoutSeeingEachOther) {
   const std::string ia = create_ready(c, wa, a, kCube);
   const std::string ib = create_ready(c, wb, b, kCube);
   // The second preparation is shared with the first (same content).
-  EXPECT_TRUE(body_json(c.Get(path_of(ib).c_str(), session_headers(b)))["stats"]["shared"].get<bool>());
+  EXPECT_TRUE(body_json(c.Get(path_of(ib), session_headers(b)))["stats"]["shared"].get<bool>());
   const json pts = {{0.8, 0.1, 0}, {0, 0.9, 0.2}, {0.7, 0.7, 0.7}};
   // References: each σ alone.
-  c.Put(path_of(ia, "/sigma").c_str(), session_headers(a), json{{"constant", 0.0}}.dump(), "application/json");
+  c.Put(path_of(ia, "/sigma"), session_headers(a), json{{"constant", 0.0}}.dump(), "application/json");
   const json ref_a = query(c, a, ia, pts)["h"];
-  c.Put(path_of(ib, "/sigma").c_str(), session_headers(b), json{{"constant", 0.8}}.dump(), "application/json");
+  c.Put(path_of(ib, "/sigma"), session_headers(b), json{{"constant", 0.8}}.dump(), "application/json");
   const json ref_b = query(c, b, ib, pts)["h"];
   ASSERT_NE(ref_a, ref_b);
   // Interleaved edits and queries from two threads.
@@ -475,9 +475,9 @@ TEST_F(KelvinApi, TwoSessionsEditSigmaAtOnceWithoutSeeingEachOther) {
   auto hammer = [&](const std::string& s, const std::string& id, double sigma, const json& ref) {
     httplib::Client cc = server_->client();
     for (int i = 0; i < 15; ++i) {
-      auto r = cc.Put(path_of(id, "/sigma").c_str(), session_headers(s), json{{"constant", sigma}}.dump(), "application/json");
+      auto r = cc.Put(path_of(id, "/sigma"), session_headers(s), json{{"constant", sigma}}.dump(), "application/json");
       if (!r || r->status != 200) ++mismatches;
-      auto q = cc.Post(path_of(id, "/query").c_str(), session_headers(s), json{{"points", pts}}.dump(), "application/json");
+      auto q = cc.Post(path_of(id, "/query"), session_headers(s), json{{"points", pts}}.dump(), "application/json");
       if (!q || q->status != 200 || body_json(q)["h"] != ref) ++mismatches;
     }
   };
@@ -485,8 +485,8 @@ TEST_F(KelvinApi, TwoSessionsEditSigmaAtOnceWithoutSeeingEachOther) {
   ta.join();
   tb.join();
   EXPECT_EQ(mismatches.load(), 0);
-  EXPECT_EQ(body_json(c.Get(path_of(ia, "/sigma").c_str(), session_headers(a)))["sigma"]["constant"], 0.0);
-  EXPECT_EQ(body_json(c.Get(path_of(ib, "/sigma").c_str(), session_headers(b)))["sigma"]["constant"], 0.8);
+  EXPECT_EQ(body_json(c.Get(path_of(ia, "/sigma"), session_headers(a)))["sigma"]["constant"], 0.0);
+  EXPECT_EQ(body_json(c.Get(path_of(ib, "/sigma"), session_headers(b)))["sigma"]["constant"], 0.8);
 }
 
 TEST_F(KelvinApi, JobCancelledMidway) {
@@ -501,16 +501,16 @@ TEST_F(KelvinApi, JobCancelledMidway) {
   Msg m;
   ASSERT_TRUE(ws.until([&](const Msg& x) { return !x.binary && x.j["type"] == "job" && x.j["job"]["id"] == job && x.j["job"]["state"] == "running" && x.j["job"]["stage"] == "mesh"; }, m, 120));
   const auto t0 = std::chrono::steady_clock::now();
-  auto cr = c.Post(("/api/jobs/" + job + "/cancel").c_str(), session_headers(s), "", "application/json");
+  auto cr = c.Post(("/api/jobs/" + job + "/cancel"), session_headers(s), "", "application/json");
   ASSERT_TRUE(cr);
   EXPECT_EQ(cr->status, 202);
   ASSERT_TRUE(ws.until([&](const Msg& x) { return !x.binary && x.j["type"] == "job" && x.j["job"]["id"] == job && x.j["job"]["state"] != "running"; }, m, 120));
   EXPECT_EQ(m.j["job"]["state"], "cancelled") << m.data;
   EXPECT_EQ(m.j["job"]["error"]["code"], "cancelled");
   std::printf("cancelled %.2f s after the request\n", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-  EXPECT_EQ(body_json(c.Get(path_of(id).c_str(), session_headers(s)))["state"], "cancelled");
-  EXPECT_EQ(body_json(c.Get(("/api/jobs/" + job).c_str(), session_headers(s)))["state"], "cancelled");
-  auto q = c.Post(path_of(id, "/query").c_str(), session_headers(s), R"({"points": [[1, 0, 0]]})", "application/json");
+  EXPECT_EQ(body_json(c.Get(path_of(id), session_headers(s)))["state"], "cancelled");
+  EXPECT_EQ(body_json(c.Get(("/api/jobs/" + job), session_headers(s)))["state"], "cancelled");
+  auto q = c.Post(path_of(id, "/query"), session_headers(s), R"({"points": [[1, 0, 0]]})", "application/json");
   EXPECT_EQ(q->status, 409);
 }
 
@@ -526,7 +526,7 @@ TEST_F(KelvinApi, UploadsAndInlineMeshes) {
   const std::string up = body_json(r)["upload"];
   EXPECT_EQ(body_json(r)["n_faces"], 12);
   const std::string id = create_ready(c, ws, s, {{"upload", up}, {"lx", 0.2}});
-  EXPECT_EQ(body_json(c.Get(path_of(id).c_str(), session_headers(s)))["state"], "ready");
+  EXPECT_EQ(body_json(c.Get(path_of(id), session_headers(s)))["state"], "ready");
   // Another session cannot use the upload id.
   const std::string other = new_session(c);
   r = c.Post("/api/kelvin/objects", session_headers(other), json{{"upload", up}, {"lx", 0.2}}.dump(), "application/json");
@@ -585,7 +585,7 @@ TEST_F(KelvinApi, SigmaRangeKeepsEveryNumberFinite) {
   const double max_abs = body_json(c.Get("/api/limits"))["max_abs_sigma"];
   EXPECT_EQ(max_abs, 300);
   auto refused = [&](const json& sg, const std::string& field) {
-    auto r = c.Put(path_of(id, "/sigma").c_str(), session_headers(s), sg.dump(), "application/json");
+    auto r = c.Put(path_of(id, "/sigma"), session_headers(s), sg.dump(), "application/json");
     ASSERT_TRUE(r);
     EXPECT_EQ(r->status, 400) << sg.dump() << " " << r->body;
     EXPECT_EQ(body_json(r)["error"]["field"], field) << r->body;
@@ -593,7 +593,7 @@ TEST_F(KelvinApi, SigmaRangeKeepsEveryNumberFinite) {
   refused({{"constant", 1e300}}, "sigma.constant");
   refused({{"constant", 1e39}}, "sigma.constant");
   refused({{"constant", -300.5}}, "sigma.constant");
-  const std::size_t n_input = body_json(c.Get(path_of(id).c_str(), session_headers(s)))["n_input_vertices"];
+  const std::size_t n_input = body_json(c.Get(path_of(id), session_headers(s)))["n_input_vertices"];
   json per_vertex(json::array());
   for (std::size_t v = 0; v < n_input; ++v) per_vertex.push_back(0.0);
   per_vertex[3] = -1e39;
@@ -603,14 +603,14 @@ TEST_F(KelvinApi, SigmaRangeKeepsEveryNumberFinite) {
   // Terms each in range whose sum is not, at a vertex of the cube.
   refused({{"constant", 200}, {"brushes", {{{"center", {0.5, 0.5, 0.5}}, {"radius", 0.1}, {"value", 200}}}}}, "sigma");
   // Nothing changed: the object still holds σ = 0.
-  EXPECT_EQ(body_json(c.Get(path_of(id, "/sigma").c_str(), session_headers(s)))["sigma_version"], 0);
+  EXPECT_EQ(body_json(c.Get(path_of(id, "/sigma"), session_headers(s)))["sigma_version"], 0);
 
   // At the ends of the range h is σ plus the σ = 0 field (eq. 17 is linear in e^(−σ)), every
   // number finite; the surface and iso-surface frames too.
   const json pts = {{0.8, 0.1, 0}, {0, 0.9, 0.2}, {0.7, 0.7, 0.7}, {3, 2, 1}};
   const json zero = query(c, s, id, pts);
   for (const double sg : {max_abs, -max_abs}) {
-    auto r = c.Put(path_of(id, "/sigma").c_str(), session_headers(s), json{{"constant", sg}}.dump(), "application/json");
+    auto r = c.Put(path_of(id, "/sigma"), session_headers(s), json{{"constant", sg}}.dump(), "application/json");
     ASSERT_EQ(r->status, 200) << r->body;
     const json q = query(c, s, id, pts);
     for (std::size_t i = 0; i < pts.size(); ++i) {
@@ -619,16 +619,16 @@ TEST_F(KelvinApi, SigmaRangeKeepsEveryNumberFinite) {
       for (int k = 0; k < 3; ++k)
         EXPECT_NEAR(q["gradient"][i][k].get<double>(), zero["gradient"][i][k].get<double>(), 1e-9);
     }
-    r = c.Get(path_of(id, "/surface").c_str(), session_headers(s));
+    r = c.Get(path_of(id, "/surface"), session_headers(s));
     for (const float v : server::read_float32(json::from_msgpack(r->body)["scalars"])) EXPECT_EQ(v, static_cast<float>(sg));
   }
   // A brush towards its value moves σ by its weight w, σ ← σ + w (value − σ), so 200 towards −100
   // is in range where 200 + 200 is not; σ at each vertex (corners at 0, 1, √2, √3 from the centre).
   refused({{"brushes", {{{"center", {0.5, 0, 0}}, {"radius", 0.2}, {"value", 1}, {"mode", "blend"}}}}}, "sigma.brushes[0].mode");
   const json towards = {{"constant", 200}, {"brushes", {{{"center", {0.5, 0.5, 0.5}}, {"radius", 0.2}, {"value", -100}, {"falloff", 1.0}, {"mode", "towards"}}}}};
-  ASSERT_EQ(c.Put(path_of(id, "/sigma").c_str(), session_headers(s), towards.dump(), "application/json")->status, 200);
+  ASSERT_EQ(c.Put(path_of(id, "/sigma"), session_headers(s), towards.dump(), "application/json")->status, 200);
   {
-    const json frame = json::from_msgpack(c.Get(path_of(id, "/surface").c_str(), session_headers(s))->body);
+    const json frame = json::from_msgpack(c.Get(path_of(id, "/surface"), session_headers(s))->body);
     const auto pos = server::read_float32(frame["positions"]);
     const auto sigma = server::read_float32(frame["scalars"]);
     ASSERT_EQ(pos.size(), 3 * sigma.size());
@@ -639,7 +639,7 @@ TEST_F(KelvinApi, SigmaRangeKeepsEveryNumberFinite) {
     }
   }
   // σ = 300 everywhere: h ≥ 300, the watched level 301 is taken; its frame is finite.
-  ASSERT_EQ(c.Put(path_of(id, "/sigma").c_str(), session_headers(s), json{{"constant", max_abs}}.dump(), "application/json")->status, 200);
+  ASSERT_EQ(c.Put(path_of(id, "/sigma"), session_headers(s), json{{"constant", max_abs}}.dump(), "application/json")->status, 200);
   Msg m;
   ASSERT_TRUE(ws.until([&](const Msg& x) { return x.binary && x.j["type"] == "isosurface" && x.j["sigma_version"] == 4; }, m, 60));
   EXPECT_GT(m.j["n_faces"].get<long>(), 0);
@@ -721,7 +721,7 @@ TEST_F(KelvinApi, Limits) {
   const std::string id = create_ready(c, ws, s2, kCube);
   json many = json::array();
   for (int i = 0; i < 100001; ++i) many.push_back({2, 0, 0});
-  r = c.Post(path_of(id, "/query").c_str(), session_headers(s2), json{{"points", many}}.dump(), "application/json");
+  r = c.Post(path_of(id, "/query"), session_headers(s2), json{{"points", many}}.dump(), "application/json");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status / 100, 4);
 
@@ -735,7 +735,7 @@ TEST_F(KelvinApi, Limits) {
     EXPECT_NE(std::find(names.begin(), names.end(), "max_vertex_estimate"), names.end()) << route;
   }
   auto expect_refused = [&](const std::string& target, int status, const std::string& code, const std::string& field) {
-    auto res = c.Get(target.c_str(), session_headers(s2));
+    auto res = c.Get(target, session_headers(s2));
     ASSERT_TRUE(res);
     EXPECT_EQ(res->status, status) << target << " " << res->body;
     EXPECT_EQ(body_json(res)["error"]["code"], code) << target;
@@ -744,19 +744,19 @@ TEST_F(KelvinApi, Limits) {
   expect_refused(path_of(id, "/isosurface") + "?level=0.3&level=0.5", 413, "too_many_levels", "level");
   expect_refused(path_of(id, "/export") + "?level=0.3&format=obj&level=0.5", 413, "too_many_levels", "level");
   expect_refused(path_of(id, "/export") + "?level=0.3&format=obj&format=stl", 400, "invalid_input", "format");
-  r = c.Get((path_of(id, "/isosurface") + "?level=0.3").c_str(), session_headers(s2));
+  r = c.Get((path_of(id, "/isosurface") + "?level=0.3"), session_headers(s2));
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 200) << "one level is fine";
   // Several levels go through PUT .../levels: max_levels is accepted, one more is 413 with the field.
   const std::size_t max_levels = limits["max_levels"];
   json levels = json::array();
   for (std::size_t i = 0; i < max_levels; ++i) levels.push_back(0.05 * static_cast<double>(i + 1));
-  r = c.Put(path_of(id, "/levels").c_str(), session_headers(s2), json{{"levels", levels}}.dump(), "application/json");
+  r = c.Put(path_of(id, "/levels"), session_headers(s2), json{{"levels", levels}}.dump(), "application/json");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 200) << r->body;
   EXPECT_EQ(body_json(r)["levels"].size(), max_levels);
   levels.push_back(0.05 * static_cast<double>(max_levels + 1));
-  r = c.Put(path_of(id, "/levels").c_str(), session_headers(s2), json{{"levels", levels}}.dump(), "application/json");
+  r = c.Put(path_of(id, "/levels"), session_headers(s2), json{{"levels", levels}}.dump(), "application/json");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 413) << r->body;
   EXPECT_EQ(body_json(r)["error"]["code"], "too_many_levels");
@@ -780,7 +780,7 @@ TEST(KelvinRestart, ReloadsPreparedObjectFromCache) {
     WsClient ws(server.port(), s);
     await_hello(ws);
     const std::string id = create_ready(c, ws, s, kCube);
-    first_stats = body_json(c.Get(path_of(id).c_str(), session_headers(s)))["stats"];
+    first_stats = body_json(c.Get(path_of(id), session_headers(s)))["stats"];
     EXPECT_FALSE(first_stats["cache_hit"].get<bool>());
     h1 = query(c, s, id, pts)["h"];
     EXPECT_EQ(server.stop(), 0);
@@ -792,7 +792,7 @@ TEST(KelvinRestart, ReloadsPreparedObjectFromCache) {
     WsClient ws(server.port(), s);
     await_hello(ws);
     const std::string id = create_ready(c, ws, s, kCube);
-    const json stats = body_json(c.Get(path_of(id).c_str(), session_headers(s)))["stats"];
+    const json stats = body_json(c.Get(path_of(id), session_headers(s)))["stats"];
     EXPECT_TRUE(stats["cache_hit"].get<bool>());
     EXPECT_EQ(stats["n_verts"], first_stats["n_verts"]);
     EXPECT_EQ(stats["n_tets"], first_stats["n_tets"]);

@@ -50,7 +50,7 @@ mesh::SurfaceMesh shuffled_sphere() {
   return out;
 }
 
-std::string obj_text(const mesh::SurfaceMesh& m) {
+std::string mesh_obj_text(const mesh::SurfaceMesh& m) {
   std::ostringstream o;
   o.precision(17);
   for (Eigen::Index v = 0; v < m.vertices.rows(); ++v) o << "v " << m.vertices(v, 0) << ' ' << m.vertices(v, 1) << ' ' << m.vertices(v, 2) << '\n';
@@ -112,7 +112,7 @@ class KelvinOrder : public SharedServerTest<KelvinOrder> {
     EXPECT_EQ(r->status, 202) << r->body;
     const std::string id = body_json(r)["object"]["id"];
     for (int i = 0; i < 3000; ++i) {  // 300 s
-      const json st = body_json(c.Get(("/api/kelvin/objects/" + id).c_str(), session_headers(s)));
+      const json st = body_json(c.Get(("/api/kelvin/objects/" + id), session_headers(s)));
       if (st["state"] == "ready") return id;
       EXPECT_EQ(st["state"], "preparing") << st.dump();
       if (st["state"] != "preparing") return "";
@@ -122,14 +122,14 @@ class KelvinOrder : public SharedServerTest<KelvinOrder> {
     return "";
   }
   json query(const std::string& id, const json& points) {
-    auto r = c.Post(("/api/kelvin/objects/" + id + "/query").c_str(), session_headers(s), json{{"points", points}}.dump(),
+    auto r = c.Post(("/api/kelvin/objects/" + id + "/query"), session_headers(s), json{{"points", points}}.dump(),
                     "application/json");
     EXPECT_TRUE(r);
     EXPECT_EQ(r->status, 200) << (r ? r->body : "");
     return body_json(r);
   }
   int put_sigma(const std::string& id, const json& sigma, json* body = nullptr) {
-    auto r = c.Put(("/api/kelvin/objects/" + id + "/sigma").c_str(), session_headers(s), sigma.dump(), "application/json");
+    auto r = c.Put(("/api/kelvin/objects/" + id + "/sigma"), session_headers(s), sigma.dump(), "application/json");
     if (body) *body = body_json(r);
     return r ? r->status : -1;
   }
@@ -155,7 +155,7 @@ TEST_F(KelvinOrder, InlineMeshSigmaPerVertexInItsOrder) {
 
   // Out: the surface frame is the mesh as given, σ per vertex in its order.
   ASSERT_EQ(put_sigma(id, sigma_per_vertex(m)), 200);
-  auto r = c.Get(("/api/kelvin/objects/" + id + "/surface").c_str(), session_headers(s));
+  auto r = c.Get(("/api/kelvin/objects/" + id + "/surface"), session_headers(s));
   ASSERT_TRUE(r);
   const json frame = json::from_msgpack(r->body);
   const auto pos = server::read_float32(frame["positions"]);
@@ -184,7 +184,7 @@ TEST_F(KelvinOrder, UnweldedSoupKeepsItsVerticesAndWeldsForTheField) {
   const std::string id =
       create_ready({{"mesh", inline_mesh(soup)}, {"lx", kLx}, {"center", kCenter}, {"sigma", sigma_per_vertex(soup)}});
   ASSERT_FALSE(id.empty());
-  const json st = body_json(c.Get(("/api/kelvin/objects/" + id).c_str(), session_headers(s)));
+  const json st = body_json(c.Get(("/api/kelvin/objects/" + id), session_headers(s)));
   EXPECT_EQ(st["n_input_vertices"], soup.vertices.rows());
   EXPECT_EQ(st["n_welded_vertices"], m.vertices.rows());
   const double rms = rms_error(points, query(id, points)["h"]);
@@ -208,7 +208,7 @@ TEST_F(KelvinOrder, UnweldedSoupKeepsItsVerticesAndWeldsForTheField) {
   EXPECT_EQ(put_sigma(id, sigma_per_vertex(m), &err), 400);
   EXPECT_EQ(err["error"]["field"], "sigma.per_vertex");
 
-  auto r = c.Get(("/api/kelvin/objects/" + id + "/surface").c_str(), session_headers(s));
+  auto r = c.Get(("/api/kelvin/objects/" + id + "/surface"), session_headers(s));
   ASSERT_TRUE(r);
   const json frame = json::from_msgpack(r->body);
   EXPECT_EQ(frame["n_vertices"], soup.vertices.rows());
@@ -218,7 +218,7 @@ TEST_F(KelvinOrder, UnweldedSoupKeepsItsVerticesAndWeldsForTheField) {
 // Needs mesh::load_mesh to return the file's vertices in the file's order.
 TEST_F(KelvinOrder, UploadedObjSigmaPerVertexInFileOrder) {
   const mesh::SurfaceMesh m = shuffled_sphere();
-  auto r = c.Post("/api/kelvin/uploads?format=obj", session_headers(s), obj_text(m), "application/octet-stream");
+  auto r = c.Post("/api/kelvin/uploads?format=obj", session_headers(s), mesh_obj_text(m), "application/octet-stream");
   ASSERT_TRUE(r);
   ASSERT_EQ(r->status, 201) << r->body;
   EXPECT_EQ(body_json(r)["n_vertices"], m.vertices.rows());
@@ -236,7 +236,7 @@ TEST(KelvinOrderCli, ObjFileSigmaPerVertexInFileOrder) {
   const mesh::SurfaceMesh m = shuffled_sphere();
   const std::string dir = temp_dir("distlab-kelvin-order");
   const std::string obj = dir + "/sphere.obj", in = dir + "/request.json", out = dir + "/response.json";
-  std::ofstream(obj) << obj_text(m);
+  std::ofstream(obj) << mesh_obj_text(m);
   const json points = shell_points();
   std::ofstream(in) << json{{"mesh", {{"path", obj}}}, {"lx", kLx}, {"center", kCenter}, {"sigma", sigma_per_vertex(m)}, {"query", points}}.dump();
   const std::string cmd = std::string("'") + DISTLAB_EXE + "' kelvin < '" + in + "' > '" + out + "'";

@@ -33,7 +33,7 @@ class RealMeshes : public SharedServerTest<RealMeshes> {
   std::string s = new_session(c);
 
   httplib::Result upload(const std::string& bytes, const std::string& query) {
-    return c.Post(("/api/kelvin/uploads?" + query).c_str(), session_headers(s), bytes, "application/octet-stream");
+    return c.Post(("/api/kelvin/uploads?" + query), session_headers(s), bytes, "application/octet-stream");
   }
   httplib::Result create(const json& body) {
     return c.Post("/api/kelvin/objects", session_headers(s), body.dump(), "application/json");
@@ -42,13 +42,13 @@ class RealMeshes : public SharedServerTest<RealMeshes> {
   json settle(const std::string& id) {
     json st;
     for (int i = 0; i < 1200; ++i) {  // 120 s
-      st = body_json(c.Get(("/api/kelvin/objects/" + id).c_str(), session_headers(s)));
+      st = body_json(c.Get(("/api/kelvin/objects/" + id), session_headers(s)));
       if (st["state"] != "preparing" && st["state"] != "repairing") break;
       std::this_thread::sleep_for(std::chrono::milliseconds(100));
     }
     return st;
   }
-  void remove(const std::string& id) { c.Delete(("/api/kelvin/objects/" + id).c_str(), session_headers(s)); }
+  void remove(const std::string& id) { c.Delete(("/api/kelvin/objects/" + id), session_headers(s)); }
 };
 
 void expect_no_server_path(const std::string& message, const std::string& cache_dir) {
@@ -233,7 +233,7 @@ TEST_F(RealMeshes, ALongWrapIsCancelledInsideTheFloodFill) {
   auto r = create({{"mesh", {{"vertices", vertices}, {"faces", faces}}}, {"lx_fraction", 0.2}, {"repair", "wrap"}, {"repair_options", {{"alpha", 0.02}, {"offset", 0.002}}}});
   ASSERT_EQ(r->status, 202) << r->body;
   const std::string id = body_json(r)["object"]["id"], job = body_json(r)["job"]["id"];
-  const auto job_status = [&] { return body_json(c.Get(("/api/jobs/" + job).c_str(), session_headers(s))); };
+  const auto job_status = [&] { return body_json(c.Get(("/api/jobs/" + job), session_headers(s))); };
   json st;
   for (int i = 0; i < 2400; ++i) {  // until the wrap has reported from inside the flood fill
     st = job_status();
@@ -246,7 +246,7 @@ TEST_F(RealMeshes, ALongWrapIsCancelledInsideTheFloodFill) {
   const double at_cancel = st["fraction"];
   ASSERT_GT(at_cancel, 0.0);
   ASSERT_LT(at_cancel, 0.8) << "the flood fill ended before the test saw it";
-  r = c.Post(("/api/jobs/" + job + "/cancel").c_str(), session_headers(s), "", "application/json");
+  r = c.Post(("/api/jobs/" + job + "/cancel"), session_headers(s), "", "application/json");
   ASSERT_TRUE(r);
   ASSERT_LT(r->status, 300) << r->body;
   for (int i = 0; i < 2400; ++i) {
@@ -262,9 +262,9 @@ TEST_F(RealMeshes, ALongWrapIsCancelledInsideTheFloodFill) {
   const json o = settle(id);
   EXPECT_EQ(o["state"], "cancelled") << o.dump();
   EXPECT_FALSE(o.contains("repair_report") && !o["repair_report"].is_null()) << o.dump();
-  r = c.Get(("/api/kelvin/objects/" + id + "/surface?of=repaired").c_str(), session_headers(s));
+  r = c.Get(("/api/kelvin/objects/" + id + "/surface?of=repaired"), session_headers(s));
   EXPECT_EQ(r->status, 409) << r->body;
-  r = c.Get(("/api/kelvin/objects/" + id + "/surface").c_str(), session_headers(s));  // the input, σ as given
+  r = c.Get(("/api/kelvin/objects/" + id + "/surface"), session_headers(s));  // the input, σ as given
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 200);
   remove(id);
@@ -293,7 +293,7 @@ TEST_F(RealMeshes, SigmaPerVertexRoundTripsThroughTheWrap) {
   const double in_to_wrap = st["repair_report"]["hausdorff"]["input_to_wrap"];
   const double wrap_to_in = st["repair_report"]["hausdorff"]["wrap_to_input"];
   const std::string id = st["id"];
-  auto frame = json::from_msgpack(c.Get(("/api/kelvin/objects/" + id + "/surface?of=repaired").c_str(), session_headers(s))->body);
+  auto frame = json::from_msgpack(c.Get(("/api/kelvin/objects/" + id + "/surface?of=repaired"), session_headers(s))->body);
   auto pos = server::read_float32(frame["positions"]);
   auto values = server::read_float32(frame["scalars"]);
   ASSERT_EQ(pos.size(), 3 * values.size());
@@ -301,7 +301,7 @@ TEST_F(RealMeshes, SigmaPerVertexRoundTripsThroughTheWrap) {
   for (std::size_t j = 0; j < values.size(); ++j) worst = std::max(worst, std::abs(values[j] - 0.5 * pos[3 * j + 2]));
   std::printf("wrap (%zu vertices): max |σ − z/2| %.4f (bound %.4f)\n", values.size(), worst, 0.5 * wrap_to_in);
   EXPECT_LE(worst, 0.5 * wrap_to_in + 1e-5);  // float32 frames
-  frame = json::from_msgpack(c.Get(("/api/kelvin/objects/" + id + "/surface").c_str(), session_headers(s))->body);
+  frame = json::from_msgpack(c.Get(("/api/kelvin/objects/" + id + "/surface"), session_headers(s))->body);
   pos = server::read_float32(frame["positions"]);
   values = server::read_float32(frame["scalars"]);
   ASSERT_EQ(values.size(), static_cast<std::size_t>(sphere.vertices.rows()));

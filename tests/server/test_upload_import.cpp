@@ -14,7 +14,7 @@ TEST_F(UploadImport, HostileFilesAre4xxAndTheServerLivesOn) {
   int i = 0;
   for (const auto& [format, bytes] : hostile_meshes()) {
     SCOPED_TRACE("hostile file " + std::to_string(i++) + " (" + format + ")");
-    auto r = c.Post(("/api/kelvin/uploads?format=" + format).c_str(), session_headers(s), bytes, "application/octet-stream");
+    auto r = c.Post(("/api/kelvin/uploads?format=" + format), session_headers(s), bytes, "application/octet-stream");
     ASSERT_TRUE(r) << "no response: the server died";
     EXPECT_EQ(r->status, 400) << r->body;
     const json e = body_json(r)["error"];
@@ -33,7 +33,7 @@ TEST_F(UploadImport, AnUploadKeepsTheFilesVerticesAndDuplicates) {
   const std::string s = new_session(c);
   for (const auto& [format, bytes] : std::vector<std::pair<std::string, std::string>>{
            {"obj", obj_text()}, {"off", off_text()}, {"ply", ply_ascii()}, {"ply", ply_binary()}}) {
-    auto r = c.Post(("/api/kelvin/uploads?format=" + format).c_str(), session_headers(s), bytes, "application/octet-stream");
+    auto r = c.Post(("/api/kelvin/uploads?format=" + format), session_headers(s), bytes, "application/octet-stream");
     ASSERT_TRUE(r);
     ASSERT_EQ(r->status, 201) << format << ": " << r->body;
     EXPECT_EQ(body_json(r)["n_vertices"], kFileVertices.size()) << format;

@@ -90,7 +90,8 @@ class WsConnection : public WsSink, public std::enable_shared_from_this<WsConnec
                std::shared_ptr<ConnectionSlot> slot)
       : ws_(std::move(socket)), service_(service), session_(std::move(session)), slot_(std::move(slot)), tokens_(service.config().limits.ws_burst), last_refill_(std::chrono::steady_clock::now()) {}
 
-  void start(http::request<http::string_body> req) {
+  // async_accept builds its response from req before it returns: a reference suffices.
+  void start(const http::request<http::string_body>& req) {
     beast::get_lowest_layer(ws_).expires_never();
     ws_.set_option(websocket::stream_base::timeout::suggested(beast::role_type::server));
     ws_.set_option(websocket::stream_base::decorator(

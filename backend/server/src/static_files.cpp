@@ -25,7 +25,7 @@ Response not_found() { return error_response(404, "not_found", "no such file"); 
 
 }  // namespace
 
-StaticFiles::StaticFiles(std::string root) {
+StaticFiles::StaticFiles(const std::string& root) {
   std::error_code ec;
   const fs::path canonical = fs::canonical(root, ec);
   if (!ec && fs::is_directory(canonical, ec)) root_ = canonical.string();

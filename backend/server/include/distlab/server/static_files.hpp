@@ -10,7 +10,7 @@ namespace distlab::server {
 
 class StaticFiles {
  public:
-  explicit StaticFiles(std::string root);
+  explicit StaticFiles(const std::string& root);
   // GET/HEAD of a path outside /api and /ws. Without an index.html in the root, "/" answers a
   // small built-in page pointing to the API.
   Response serve(const Request& request) const;
