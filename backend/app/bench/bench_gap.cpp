@@ -244,6 +244,7 @@ Tracking run_tracking(const std::vector<Case>& cases, GapParams params, int sequ
 }
 
 void print_tracking(const Tracking& t, int sequences, int steps, nlohmann::json& out) {
+  if (sequences <= 0 || steps <= 0) return;  // --tracking 0: no table (its ratios would be 0/0)
   std::printf(
       "GAP benchmark 3, tracking: %d sequences of %d steps (<= 1 mm, <= 1 deg each) of benchmark 1's "
       "pairs, single thread (times in us)\n",
