@@ -107,7 +107,7 @@ TEST(GjkDistance, RelativeGapBoundsTheDistanceFound) {
     for (const auto& [nb, b] : zoo) {
       SCOPED_TRACE(na + " vs " + nb);
       std::mt19937_64 rng(35);
-      for_random_poses(rng, 2.5, [&](const Pose& pa, const Pose& pb) {
+      for_random_poses(rng, 2.5, [&, &a = a, &b = b](const Pose& pa, const Pose& pb) {
         const EuclideanResult ref = euclidean_distance(EuclideanShape(a), pa, EuclideanShape(b), pb);
         const double scale = bounding_ball(a).radius + bounding_ball(b).radius;
         const EuclideanResult g = gjk_distance(a, pa, b, pb, scale, rel);

@@ -348,7 +348,7 @@ TEST(KelvinLocator, PackedWalksEqualAPlainWalkOverTheTetMeshBitForBit) {
   std::uniform_real_distribution<double> u(0, 1), tiny(-1e-13, 1e-13);
   std::uniform_int_distribution<int> cell(0, static_cast<int>(m.tets.rows()) - 1), corner(0, 3);
   std::vector<Vec3> ys;
-  for (int i = 0; i < 3000; ++i) ys.push_back(lo + (hi - lo).cwiseProduct(Vec3(u(rng), u(rng), u(rng)) * 1.2 - Vec3::Constant(0.1)));
+  for (int i = 0; i < 3000; ++i) ys.emplace_back(lo + (hi - lo).cwiseProduct(Vec3(u(rng), u(rng), u(rng)) * 1.2 - Vec3::Constant(0.1)));
   for (int i = 0; i < 3000; ++i) {
     const int c = cell(rng);
     const Vec3 a = m.points.row(m.tets(c, corner(rng))), b = m.points.row(m.tets(c, corner(rng))),

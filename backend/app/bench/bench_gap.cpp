@@ -105,6 +105,7 @@ double batch_cpu_us_per_pair(std::vector<Case>& cases, const GapParams& params) 
 // passes, per pair: the batched throughput (the machine must have the cores free to show it).
 double batch_wall_us_per_pair(std::vector<Case>& cases, const GapParams& params, unsigned threads) {
   std::vector<std::pair<const GapBody*, const GapBody*>> pairs;
+  pairs.reserve(cases.size());
   for (Case& c : cases) pairs.emplace_back(&c.a, &c.b);
   double best = INFINITY, sink = 0;
   for (int p = 0; p < g_passes; ++p)

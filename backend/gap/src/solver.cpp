@@ -114,7 +114,7 @@ Vec3 saddle_step(const Mat3& Eb, const Mat3& Ea, const Vec3& rb, const Vec3& ra,
   const Mat3 inverse = M.inverse();
   if (inverse_norm) *inverse_norm = inverse.norm();
   db = inverse * (Eb * ra - ra - rb);
-  const Vec3 dba = ra + Ea * db;
+  Vec3 dba = ra + Ea * db;  // not const: returned by move
   da = db - dba;
   return dba;
 }
