@@ -21,44 +21,43 @@ void for_random_poses(std::mt19937_64& rng, double offset, F&& f) {
   }
 }
 
-TEST(Gjk, SeparatedPairsBracketTheDistance) {
+// for_random_poses over every ordered pair of the shape zoo, each pair from its own seed.
+template <class F>
+void for_zoo_pairs(std::uint64_t seed, double offset, F&& f) {
   const auto zoo = test::shape_zoo();
   for (const auto& [na, a] : zoo) {
     for (const auto& [nb, b] : zoo) {
       SCOPED_TRACE(na + " vs " + nb);
-      std::mt19937_64 rng(31);
-      for_random_poses(rng, 2.5, [&, &a = a, &b = b](const Pose& pa, const Pose& pb) {
-        const EuclideanResult ref = euclidean_distance(EuclideanShape(a), pa, EuclideanShape(b), pb);
-        if (ref.distance < 0.05) return;
-        // Cold start from an arbitrary direction, tight tolerance.
-        const auto g = gjk_closest(Placed(a, pa), Placed(b, pb), Vec3::UnitX(), 1e-13, 1e-12, 128);
-        EXPECT_FALSE(g.overlap);
-        EXPECT_LE(g.lower, g.upper);
-        EXPECT_LT(g.upper - g.lower, 1e-12 * (1 + g.upper));
-        EXPECT_NEAR(g.upper, ref.distance, 1e-11);
-        EXPECT_NEAR((g.pb - g.pa).norm(), g.upper, 1e-12);
-        EXPECT_NEAR(test::world_signed_distance(a, pa, g.pa), 0, 1e-9);
-        EXPECT_NEAR(test::world_signed_distance(b, pb, g.pb), 0, 1e-9);
-      });
+      std::mt19937_64 rng(seed);
+      for_random_poses(rng, offset, [&, &a = a, &b = b](const Pose& pa, const Pose& pb) { f(a, b, pa, pb); });
     }
   }
 }
 
+TEST(Gjk, SeparatedPairsBracketTheDistance) {
+  for_zoo_pairs(31, 2.5, [&](const Shape& a, const Shape& b, const Pose& pa, const Pose& pb) {
+    const EuclideanResult ref = euclidean_distance(EuclideanShape(a), pa, EuclideanShape(b), pb);
+    if (ref.distance < 0.05) return;
+    // Cold start from an arbitrary direction, tight tolerance.
+    const auto g = gjk_closest(Placed(a, pa), Placed(b, pb), Vec3::UnitX(), 1e-13, 1e-12, 128);
+    EXPECT_FALSE(g.overlap);
+    EXPECT_LE(g.lower, g.upper);
+    EXPECT_LT(g.upper - g.lower, 1e-12 * (1 + g.upper));
+    EXPECT_NEAR(g.upper, ref.distance, 1e-11);
+    EXPECT_NEAR((g.pb - g.pa).norm(), g.upper, 1e-12);
+    EXPECT_NEAR(test::world_signed_distance(a, pa, g.pa), 0, 1e-9);
+    EXPECT_NEAR(test::world_signed_distance(b, pb, g.pb), 0, 1e-9);
+  });
+}
+
 TEST(Gjk, OverlapGivesACommonPoint) {
-  const auto zoo = test::shape_zoo();
-  for (const auto& [na, a] : zoo) {
-    for (const auto& [nb, b] : zoo) {
-      SCOPED_TRACE(na + " vs " + nb);
-      std::mt19937_64 rng(32);
-      for_random_poses(rng, 0.2, [&, &a = a, &b = b](const Pose& pa, const Pose& pb) {
-        const auto g = gjk_closest(Placed(a, pa), Placed(b, pb), Vec3::UnitY(), 0, 1e-12, 128);
-        ASSERT_TRUE(g.overlap);
-        const Vec3 p = 0.5 * (g.pa + g.pb);
-        EXPECT_LE(test::world_signed_distance(a, pa, p), 1e-12);
-        EXPECT_LE(test::world_signed_distance(b, pb, p), 1e-12);
-      });
-    }
-  }
+  for_zoo_pairs(32, 0.2, [&](const Shape& a, const Shape& b, const Pose& pa, const Pose& pb) {
+    const auto g = gjk_closest(Placed(a, pa), Placed(b, pb), Vec3::UnitY(), 0, 1e-12, 128);
+    ASSERT_TRUE(g.overlap);
+    const Vec3 p = 0.5 * (g.pa + g.pb);
+    EXPECT_LE(test::world_signed_distance(a, pa, p), 1e-12);
+    EXPECT_LE(test::world_signed_distance(b, pb, p), 1e-12);
+  });
 }
 
 // A separating direction that proves the distance exceeds stop_above ends the search early.
@@ -101,45 +100,31 @@ TEST(GjkDistance, MatchesTheCertifiedDistanceOnEveryShapePair) {
 // B that far apart; overlap is still 0 (its lower bound never gets above 0).
 TEST(GjkDistance, RelativeGapBoundsTheDistanceFound) {
   const double rel = 0.1;
-  const auto zoo = test::shape_zoo();
   int stopped_early = 0;
-  for (const auto& [na, a] : zoo) {
-    for (const auto& [nb, b] : zoo) {
-      SCOPED_TRACE(na + " vs " + nb);
-      std::mt19937_64 rng(35);
-      for_random_poses(rng, 2.5, [&, &a = a, &b = b](const Pose& pa, const Pose& pb) {
-        const EuclideanResult ref = euclidean_distance(EuclideanShape(a), pa, EuclideanShape(b), pb);
-        const double scale = bounding_ball(a).radius + bounding_ball(b).radius;
-        const EuclideanResult g = gjk_distance(a, pa, b, pb, scale, rel);
-        if (ref.distance <= 0) {
-          EXPECT_EQ(g.distance, 0.0);
-          return;
-        }
-        if (ref.distance < 1e-3) return;
-        EXPECT_GE(g.distance, ref.distance - 1e-9 * scale);
-        EXPECT_LE(g.distance, ref.distance / (1 - rel) + 1e-9 * scale);
-        if (g.distance > ref.distance * (1 + 1e-6)) ++stopped_early;
-        EXPECT_NEAR((g.witness_b - g.witness_a).norm(), g.distance, 1e-12);
-        EXPECT_LT(test::world_signed_distance(a, pa, g.witness_a), 1e-9);
-        EXPECT_LT(test::world_signed_distance(b, pb, g.witness_b), 1e-9);
-      });
+  for_zoo_pairs(35, 2.5, [&](const Shape& a, const Shape& b, const Pose& pa, const Pose& pb) {
+    const EuclideanResult ref = euclidean_distance(EuclideanShape(a), pa, EuclideanShape(b), pb);
+    const double scale = bounding_ball(a).radius + bounding_ball(b).radius;
+    const EuclideanResult g = gjk_distance(a, pa, b, pb, scale, rel);
+    if (ref.distance <= 0) {
+      EXPECT_EQ(g.distance, 0.0);
+      return;
     }
-  }
+    if (ref.distance < 1e-3) return;
+    EXPECT_GE(g.distance, ref.distance - 1e-9 * scale);
+    EXPECT_LE(g.distance, ref.distance / (1 - rel) + 1e-9 * scale);
+    if (g.distance > ref.distance * (1 + 1e-6)) ++stopped_early;
+    EXPECT_NEAR((g.witness_b - g.witness_a).norm(), g.distance, 1e-12);
+    EXPECT_LT(test::world_signed_distance(a, pa, g.witness_a), 1e-9);
+    EXPECT_LT(test::world_signed_distance(b, pb, g.witness_b), 1e-9);
+  });
   EXPECT_GT(stopped_early, 10);  // the relative stop is exercised
 }
 
 TEST(GjkDistance, OverlapGivesZero) {
-  const auto zoo = test::shape_zoo();
-  for (const auto& [na, a] : zoo) {
-    for (const auto& [nb, b] : zoo) {
-      SCOPED_TRACE(na + " vs " + nb);
-      std::mt19937_64 rng(34);
-      for_random_poses(rng, 0.2, [&, &a = a, &b = b](const Pose& pa, const Pose& pb) {
-        EXPECT_EQ(gjk_distance(a, pa, b, pb, 1.0).distance, 0.0);
-        EXPECT_EQ(gjk_distance(a, pa, b, pb, 1.0, 0.1).distance, 0.0);
-      });
-    }
-  }
+  for_zoo_pairs(34, 0.2, [&](const Shape& a, const Shape& b, const Pose& pa, const Pose& pb) {
+    EXPECT_EQ(gjk_distance(a, pa, b, pb, 1.0).distance, 0.0);
+    EXPECT_EQ(gjk_distance(a, pa, b, pb, 1.0, 0.1).distance, 0.0);
+  });
 }
 
 }  // namespace
