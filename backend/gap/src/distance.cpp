@@ -207,9 +207,20 @@ std::vector<GapResult> gap_distance_batch(
     const std::vector<std::pair<const GapBody*, const GapBody*>>& pairs, const GapParams& params,
     unsigned threads) {
   std::vector<GapResult> out(pairs.size());
-  parallel_for(pairs.size(), threads,
-               [&](std::size_t i) { out[i] = gap_distance(*pairs[i].first, *pairs[i].second, params); });
+  gap_distance_batch(pairs, params, out, threads);
   return out;
+}
+
+void gap_distance_batch(std::span<const std::pair<const GapBody*, const GapBody*>> pairs,
+                        const GapParams& params, std::span<GapResult> out, unsigned threads) {
+  if (out.size() != pairs.size())
+    throw InvalidInput("results", "room for " + std::to_string(out.size()) + " results, " +
+                                      std::to_string(pairs.size()) + " pairs");
+  const std::size_t n = pairs.size();
+  parallel_for((n + kBatchBlock - 1) / kBatchBlock, threads, [&](std::size_t block) {
+    for (std::size_t i = block * kBatchBlock; i < std::min(n, (block + 1) * kBatchBlock); ++i)
+      out[i] = gap_distance(*pairs[i].first, *pairs[i].second, params);
+  });
 }
 
 }  // namespace distlab
