@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <thread>
 
 #include "distlab/geometry/error.hpp"
 #include "distlab/geometry/parallel.hpp"
@@ -216,9 +217,12 @@ void gap_distance_batch(std::span<const std::pair<const GapBody*, const GapBody*
   if (out.size() != pairs.size())
     throw InvalidInput("results", "room for " + std::to_string(out.size()) + " results, " +
                                       std::to_string(pairs.size()) + " pairs");
-  const std::size_t n = pairs.size();
-  parallel_for((n + kBatchBlock - 1) / kBatchBlock, threads, [&](std::size_t block) {
-    for (std::size_t i = block * kBatchBlock; i < std::min(n, (block + 1) * kBatchBlock); ++i)
+  // Blocks of up to kBatchBlock pairs, at least 8 per worker (short batches, e.g. the server's
+  // chunks of 64, still use every core and end together).
+  const std::size_t n = pairs.size(), workers = threads ? threads : std::max(1u, std::thread::hardware_concurrency());
+  const std::size_t block = std::clamp<std::size_t>(n / (8 * workers), 1, kBatchBlock);
+  parallel_for((n + block - 1) / block, threads, [&](std::size_t k) {
+    for (std::size_t i = k * block; i < std::min(n, (k + 1) * block); ++i)
       out[i] = gap_distance(*pairs[i].first, *pairs[i].second, params);
   });
 }
