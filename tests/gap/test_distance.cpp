@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "distlab/gap/distance.hpp"
+#include "distlab/geometry/error.hpp"
 #include "gap_test_util.hpp"
 
 namespace distlab {
@@ -137,7 +138,7 @@ TEST(GapDistance, BatchEqualsSingleCalls) {
   std::mt19937_64 rng(12);
   std::vector<std::unique_ptr<GapBody>> bodies;
   std::vector<std::pair<const GapBody*, const GapBody*>> pairs;
-  for (int i = 0; i < 64; ++i) {
+  for (size_t i = 0; i < 2 * kBatchBlock + 5; ++i) {  // a partial last block
     bodies.push_back(std::make_unique<GapBody>(test::random_polytope(rng, 10, 0.1),
                                                Pose{Vec3::Zero(), test::random_rotation(rng)}, p));
     bodies.push_back(std::make_unique<GapBody>(Box{Vec3(0.1, 0.2, 0.1)},
@@ -145,11 +146,22 @@ TEST(GapDistance, BatchEqualsSingleCalls) {
     pairs.emplace_back(bodies[bodies.size() - 2].get(), bodies.back().get());
   }
   const auto batch = gap_distance_batch(pairs, p, 2);
+  std::vector<GapResult> into(pairs.size());
+  gap_distance_batch(pairs, p, into, 2);
   ASSERT_EQ(batch.size(), pairs.size());
   for (size_t i = 0; i < pairs.size(); ++i) {
     const GapResult single = gap_distance(*pairs[i].first, *pairs[i].second, p);
     EXPECT_EQ(batch[i].distance, single.distance);
     EXPECT_EQ(batch[i].witness_a, single.witness_a);
+    EXPECT_EQ(into[i].distance, single.distance);
+    EXPECT_EQ(into[i].witness_b, single.witness_b);
+  }
+  into.pop_back();
+  try {
+    gap_distance_batch(pairs, p, into, 2);
+    ADD_FAILURE() << "storage for fewer results than pairs accepted";
+  } catch (const InvalidInput& e) {
+    EXPECT_EQ(e.field(), "results");
   }
 }
 

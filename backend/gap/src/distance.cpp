@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <thread>
 
 #include "distlab/geometry/error.hpp"
 #include "distlab/geometry/parallel.hpp"
@@ -207,9 +208,23 @@ std::vector<GapResult> gap_distance_batch(
     const std::vector<std::pair<const GapBody*, const GapBody*>>& pairs, const GapParams& params,
     unsigned threads) {
   std::vector<GapResult> out(pairs.size());
-  parallel_for(pairs.size(), threads,
-               [&](std::size_t i) { out[i] = gap_distance(*pairs[i].first, *pairs[i].second, params); });
+  gap_distance_batch(pairs, params, out, threads);
   return out;
+}
+
+void gap_distance_batch(std::span<const std::pair<const GapBody*, const GapBody*>> pairs,
+                        const GapParams& params, std::span<GapResult> out, unsigned threads) {
+  if (out.size() != pairs.size())
+    throw InvalidInput("results", "room for " + std::to_string(out.size()) + " results, " +
+                                      std::to_string(pairs.size()) + " pairs");
+  // Blocks of up to kBatchBlock pairs, at least 8 per worker (short batches, e.g. the server's
+  // chunks of 64, still use every core and end together).
+  const std::size_t n = pairs.size(), workers = threads ? threads : std::max(1u, std::thread::hardware_concurrency());
+  const std::size_t block = std::clamp<std::size_t>(n / (8 * workers), 1, kBatchBlock);
+  parallel_for((n + block - 1) / block, threads, [&](std::size_t k) {
+    for (std::size_t i = k * block; i < std::min(n, (k + 1) * block); ++i)
+      out[i] = gap_distance(*pairs[i].first, *pairs[i].second, params);
+  });
 }
 
 }  // namespace distlab
