@@ -323,6 +323,7 @@ void Field::Impl::finish_stats() {
                             static_cast<double>(tm.tets.size() + tm.neighbours.size()) * 4 +
                             static_cast<double>(tm.points.rows()) * 8;  // V
   stats.factor_mb = solver.factor_megabytes();
+  stats.solve_read_mb = solver.solve_megabytes();
   stats.size_mb = (mesh_bytes + static_cast<double>(packed.bytes() + locator.bytes())) / 1e6 + stats.factor_mb;
 }
 
