@@ -215,6 +215,13 @@ double relative_difference(const VecX& a, const VecX& b) {
   return diff / scale;
 }
 
+// A constant plus an axis term: the σ the stroke tests paint on.
+SigmaSpec tilted_sigma(const Sphere& s, double constant) {
+  SigmaSpec spec = constant_sigma(constant);
+  spec.axis.push_back({Vec3(0.3, 1, 0.2), s.centre, 0.1, 0.8, 0.2});
+  return spec;
+}
+
 }  // namespace
 
 // Brush strokes appended to σ are solved by linearity (field.hpp, set_sigma): 40 random strokes
@@ -225,8 +232,7 @@ TEST(KelvinSigma, BrushStrokesSolvedByLinearityEqualTheFullSolve) {
   const Sphere s;
   Field field = Field::prepare(sphere_mesh(s), sphere_options(0.1));
   const auto n_boundary = static_cast<long>(field.boundary_points().size());
-  SigmaSpec spec = constant_sigma(0.2);
-  spec.axis.push_back({Vec3(0.3, 1, 0.2), s.centre, 0.1, 0.8, 0.2});
+  SigmaSpec spec = tilted_sigma(s, 0.2);
   field.set_sigma(spec);
   EXPECT_EQ(field.stats().linear_boundary, -1) << "the first σ is solved in full";
   std::mt19937 rng(19);
@@ -284,8 +290,7 @@ TEST(KelvinSigma, AFirstTowardsStrokeOnASeparableSigmaIsSolvedByLinearity) {
   const Sphere s;
   Field field = Field::prepare(sphere_mesh(s), sphere_options(0.1));
   const auto n_boundary = static_cast<long>(field.boundary_points().size());
-  SigmaSpec spec = constant_sigma(0.35);
-  spec.axis.push_back({Vec3(0.3, 1, 0.2), s.centre, 0.1, 0.8, 0.2});
+  SigmaSpec spec = tilted_sigma(s, 0.35);
   spec.brushes.push_back({s.centre + Vec3(0, 0, -s.radius), 0.3 * s.radius, -0.4, 0.05 * s.radius, false});
   field.set_sigma(spec, false);
   for (int stroke = 0; stroke < 3; ++stroke) {
