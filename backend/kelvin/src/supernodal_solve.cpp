@@ -15,8 +15,9 @@ namespace {
 // triangle and of the panel below is read once, kChunk columns as concurrent streams, with
 // software prefetch kPrefetch doubles ahead in each (hardware prefetchers stop at every 4 KB
 // page of a column). They replace OpenBLAS dtrsv + dgemv per supernode (and Eigen's kernels for
-// small ones): on the cube at l_x 0.05 (58 MB read per pass) 0.91x their CPU time, medians of
-// 41 solves alternating in one process, same answer to 3e-15 relative.
+// small ones): on the cube at l_x 0.05 (58 MB read per pass) 0.91–0.96x their CPU time, at
+// l_x 0.08 (in cache) 0.51x; medians of 41 solves alternating in one process, same answer to
+// 3e-15 relative.
 constexpr int kChunk = 8;
 constexpr int kPrefetch = 128;
 // Two doubles as one SSE2 register (GCC/Clang vector extension): the dot products of the back
