@@ -78,6 +78,30 @@ TEST(KelvinSolver, SupernodalSolveMatchesCholmodAndEigen) {
   EXPECT_EQ(zero.norm(), 0.0);
 }
 
+// A dense SPD matrix has a dense factor: whatever its supernodes, a solve reads the n(n+1)/2
+// entries of the lower triangle in each pass, and the row indices below each diagonal block
+// (at most n(n−1)/2), but not the upper triangles CHOLMOD stores with the diagonal blocks.
+TEST(KelvinSolver, BytesReadBySolveCountTheLowerTriangleOnly) {
+  const int n = 120;
+  std::mt19937 rng(10);
+  std::uniform_real_distribution<double> u(-1, 1);
+  Eigen::MatrixXd m(n, n);
+  for (double& v : m.reshaped()) v = u(rng);
+  const Eigen::MatrixXd spd = m * m.transpose() + n * Eigen::MatrixXd::Identity(n, n);
+  const Eigen::SparseMatrix<double> lower = spd.triangularView<Eigen::Lower>().toDenseMatrix().sparseView();
+  CholmodSolver solver;
+  solver.factorize(lower);
+  const double triangle = 8.0 * n * (n + 1) / 2, indices = 4.0 * n * (n - 1) / 2;
+  EXPECT_GE(solver.solve_megabytes(), 2 * triangle / 1e6);
+  EXPECT_LE(solver.solve_megabytes(), 2 * (triangle + indices) / 1e6);
+  EXPECT_GE(solver.factor_megabytes(), 8.0 * n * n / 1e6);  // the stored blocks, upper triangles included
+  // A dense right-hand side reads everything.
+  VecX b = VecX::LinSpaced(n, -1, 2), x = b;
+  solver.solve(x);
+  EXPECT_EQ(solver.last_read_fraction(), 1.0);
+  EXPECT_LT((spd * x - b).norm(), 1e-12 * b.norm());
+}
+
 TEST(KelvinSolver, ReloadedFactorSolvesTheSame) {
   const Eigen::SparseMatrix<double> lower = grid_matrix(12, 3);
   CholmodSolver a, b;

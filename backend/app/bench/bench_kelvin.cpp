@@ -22,6 +22,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <ctime>
 #include <fstream>
 #include <optional>
 #include <random>
@@ -69,6 +70,7 @@ double percentile(std::vector<double> v, double q) {
 // and written, 16 and 24 per element).
 struct Stream {
   double read = 0, copy = 0, triad = 0;
+  double read_cpu = 0;  // one thread: "read" by process CPU time, median of the 5 (as the solve's CPU column)
 };
 Stream stream_gbps(int threads) {
   static std::vector<double> a(std::size_t{32} << 20, 1.0), b(a.size(), 2.0), c(a.size(), 0.5);
@@ -84,13 +86,20 @@ Stream stream_gbps(int threads) {
     return best;
   };
   Stream s;
-  s.read = best_of(8, [&](size_t begin, size_t t) {
+  std::vector<double> cpu;
+  auto read_kernel = [&](size_t begin, size_t t) {
     const double* p = a.data() + begin;
     double acc[8] = {0, 0, 0, 0, 0, 0, 0, 0};  // independent sums: bound by memory, not by add latency
     for (size_t i = 0; i + 8 <= chunk; i += 8)
       for (int k = 0; k < 8; ++k) acc[k] += p[i + static_cast<size_t>(k)];
     sums[t] = acc[0] + acc[1] + acc[2] + acc[3] + acc[4] + acc[5] + acc[6] + acc[7];
+  };
+  s.read = best_of(8, [&](size_t begin, size_t t) {
+    const std::clock_t c0 = std::clock();
+    read_kernel(begin, t);
+    if (threads == 1) cpu.push_back(static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC);
   });
+  if (threads == 1) s.read_cpu = 8.0 * static_cast<double>(chunk) / median(cpu) / 1e9;
   double total = 0;
   for (double v : sums) total += v;
   if (total != static_cast<double>(chunk) * threads) throw std::runtime_error("stream: wrong sum");
@@ -125,6 +134,7 @@ struct Row {
   Stats stats;
   double solve_ms = 0, solve_med = 0, solve_1t_med = 0, solve_sd = 0, grad_ms = 0, chol_solve_ms = 0, dense_solve_ms = 0, q_seed_p90 = 0, rmse = -1, q_hint = 0, q_seed = 0;
   double dense_1t_ms = 0;             // "own dense" on one thread
+  double dense_1t_cpu_ms = 0;         // the same, process CPU time (the machine is shared: wall time includes waiting)
   std::vector<double> case_solve_ms;  // Table II: one per σ case
   double lu_decomp = -1, lu_solve_ms = -1, aabb_us = 0;
   double decomp_med = -1, solve_b_ms = -1;           // CHOLMOD's side of the SparseLU comparison
@@ -132,6 +142,9 @@ struct Row {
   // A local σ edit by linearity (see compare_with_sparselu): the stroke's solve and the share of
   // the factor each solve reads.
   double stroke_ms = -1, stroke_read = -1, full_read = -1;
+  // The stroke by a precomputed operator (columns of A_ΩΩ⁻¹ for the rows eq. 20 can make
+  // nonzero): time to apply the stroke's columns, their MB, the whole operator's MB.
+  double operator_ms = -1, operator_stroke_mb = 0, operator_mb = 0;
   int decomp_reps = 0, solve_reps = 0;
 };
 
@@ -261,6 +274,28 @@ void compare_with_sparselu(const Field& f, Row& r) {
   const VecX x = solve(b20, true, sc, sl);
   diff = std::max(diff, (x - x20).norm() / x20.norm());  // eq. 20's b solves to the field's values
   solve(ones, true, sc1, sl1);
+  // The alternative to a solve: an operator precomputed once, ΔV = Σ_j A_ΩΩ⁻¹ e_j stroke_j over
+  // the stroke's rows j (its columns for every row eq. 20 can make nonzero are the whole
+  // operator; here only the stroke's are computed, which is what applying it reads).
+  std::vector<Eigen::Index> stroke_rows;
+  long boundary_rows = 0;
+  for (Eigen::Index i = 0; i < b20.size(); ++i) {
+    boundary_rows += b20[i] != 0;
+    if (stroke[i] != 0) stroke_rows.push_back(i);
+  }
+  Eigen::MatrixXd columns(a.rows(), static_cast<Eigen::Index>(stroke_rows.size()));
+  for (size_t k = 0; k < stroke_rows.size(); ++k) {
+    VecX e = VecX::Zero(a.rows());
+    e[stroke_rows[k]] = 1;
+    chol.solve(e);
+    columns.col(static_cast<Eigen::Index>(k)) = e;
+  }
+  VecX stroke_values(columns.cols());
+  for (size_t k = 0; k < stroke_rows.size(); ++k) stroke_values[static_cast<Eigen::Index>(k)] = stroke[stroke_rows[k]];
+  r.operator_stroke_mb = 8e-6 * static_cast<double>(columns.size());
+  r.operator_mb = 8e-6 * static_cast<double>(a.rows()) * static_cast<double>(boundary_rows);
+  std::vector<double> so;
+  VecX by_operator, stroke_x;
   std::vector<double> ss;  // the stroke's solve, in the blocks of eq. 20's
   VecX w;
   auto stroke_solve = [&] {
@@ -271,6 +306,12 @@ void compare_with_sparselu(const Field& f, Row& r) {
       ss.push_back(since(t0) * 1e3);
     }
     r.stroke_read = chol.last_read_fraction();
+    stroke_x = w;
+    for (int k = 0; k < kBlock; ++k) {
+      const auto t0 = Clock::now();
+      by_operator.noalias() = columns * stroke_values;
+      so.push_back(since(t0) * 1e3);
+    }
     w = b20;
     chol.solve(w);
     r.full_read = chol.last_read_fraction();
@@ -283,6 +324,9 @@ void compare_with_sparselu(const Field& f, Row& r) {
     stroke_solve();
   }
   r.stroke_ms = median(ss);
+  r.operator_ms = median(so);
+  if ((by_operator - stroke_x).cwiseAbs().maxCoeff() > 1e-12 * stroke_x.cwiseAbs().maxCoeff())
+    throw std::runtime_error("the stroke by the precomputed operator differs from its solve");
   const int solve_reps = solve_blocks * kBlock;
   if (diff > 1e-9) throw std::runtime_error("SparseLU, CHOLMOD and the field disagree on A_OO x = b");
   r.solve_ones_ms = median(sc1);
@@ -296,7 +340,7 @@ void compare_with_sparselu(const Field& f, Row& r) {
 }
 
 nlohmann::json to_json(const Row& r) {
-  return {{"lx", r.lx}, {"n_verts", r.stats.n_verts}, {"n_tets", r.stats.n_tets}, {"size_mb", r.stats.size_mb}, {"rmse", r.rmse}, {"t_mesh", r.stats.t_mesh}, {"t_build", r.stats.t_build}, {"t_decomp", r.stats.t_decomp}, {"t_solve_ms", r.solve_ms}, {"t_solve_sd_ms", r.solve_sd}, {"t_grad_ms", r.grad_ms}, {"t_solve_median_ms", r.solve_med}, {"t_solve_one_thread_median_ms", r.solve_1t_med}, {"t_cholmod_solve_ms", r.chol_solve_ms}, {"t_own_dense_solve_ms", r.dense_solve_ms}, {"t_query_nohint_p90_us", r.q_seed_p90}, {"t_solve_cases_ms", r.case_solve_ms}, {"t_query_hint_us", r.q_hint}, {"t_query_nohint_us", r.q_seed}, {"t_sparselu_decomp", r.lu_decomp}, {"t_sparselu_solve_ms", r.lu_solve_ms}, {"t_aabb_distance_us", r.aabb_us}, {"t_decomp_median", r.decomp_med}, {"t_solve_b_ms", r.solve_b_ms}, {"t_solve_ones_ms", r.solve_ones_ms}, {"t_sparselu_solve_ones_ms", r.lu_solve_ones_ms}, {"sparselu_decomp_repeats", r.decomp_reps}, {"sparselu_solve_repeats", r.solve_reps}, {"factor_mb", r.stats.factor_mb}, {"t_own_dense_solve_one_thread_ms", r.dense_1t_ms}, {"t_stroke_solve_ms", r.stroke_ms}, {"stroke_read_fraction", r.stroke_read}, {"full_read_fraction", r.full_read}};
+  return {{"lx", r.lx}, {"n_verts", r.stats.n_verts}, {"n_tets", r.stats.n_tets}, {"size_mb", r.stats.size_mb}, {"rmse", r.rmse}, {"t_mesh", r.stats.t_mesh}, {"t_build", r.stats.t_build}, {"t_decomp", r.stats.t_decomp}, {"t_solve_ms", r.solve_ms}, {"t_solve_sd_ms", r.solve_sd}, {"t_grad_ms", r.grad_ms}, {"t_solve_median_ms", r.solve_med}, {"t_solve_one_thread_median_ms", r.solve_1t_med}, {"t_cholmod_solve_ms", r.chol_solve_ms}, {"t_own_dense_solve_ms", r.dense_solve_ms}, {"t_query_nohint_p90_us", r.q_seed_p90}, {"t_solve_cases_ms", r.case_solve_ms}, {"t_query_hint_us", r.q_hint}, {"t_query_nohint_us", r.q_seed}, {"t_sparselu_decomp", r.lu_decomp}, {"t_sparselu_solve_ms", r.lu_solve_ms}, {"t_aabb_distance_us", r.aabb_us}, {"t_decomp_median", r.decomp_med}, {"t_solve_b_ms", r.solve_b_ms}, {"t_solve_ones_ms", r.solve_ones_ms}, {"t_sparselu_solve_ones_ms", r.lu_solve_ones_ms}, {"sparselu_decomp_repeats", r.decomp_reps}, {"sparselu_solve_repeats", r.solve_reps}, {"factor_mb", r.stats.factor_mb}, {"t_own_dense_solve_one_thread_ms", r.dense_1t_ms}, {"t_own_dense_solve_one_thread_cpu_ms", r.dense_1t_cpu_ms}, {"t_stroke_solve_ms", r.stroke_ms}, {"stroke_read_fraction", r.stroke_read}, {"full_read_fraction", r.full_read}, {"t_stroke_by_operator_ms", r.operator_ms}, {"operator_stroke_mb", r.operator_stroke_mb}, {"operator_mb", r.operator_mb}};
 }
 
 Row run(const mesh::SurfaceMesh& surface, const PrepareOptions& o, const std::vector<SigmaSpec>& sigmas,
@@ -343,7 +387,7 @@ Row run(const mesh::SurfaceMesh& surface, const PrepareOptions& o, const std::ve
   const Eigen::SparseMatrix<double> a = f.reduced_matrix();
   const VecX b = VecX::Ones(a.rows());
   {
-    std::vector<double> ts, tc, t1;
+    std::vector<double> ts, tc, t1, c1;
     for (int i = 0; i < 20; ++i) {
       VecX x = b, y = b, z = b;
       auto t0 = Clock::now();
@@ -354,13 +398,16 @@ Row run(const mesh::SurfaceMesh& surface, const PrepareOptions& o, const std::ve
       tc.push_back(since(t0) * 1e3);
       f.set_solve_threads(1);
       t0 = Clock::now();
+      const std::clock_t cpu0 = std::clock();
       f.solve_reduced(z);
+      c1.push_back(1e3 * static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC);
       t1.push_back(since(t0) * 1e3);
       f.set_solve_threads(2);
     }
     r.dense_solve_ms = median(ts);
     r.chol_solve_ms = median(tc);
     r.dense_1t_ms = median(t1);
+    r.dense_1t_cpu_ms = median(c1);
   }
   if (r.stats.n_verts <= lu_max) compare_with_sparselu(f, r);
   std::tie(r.q_hint, r.q_seed, r.q_seed_p90) = query_times(f, path, random);
@@ -406,31 +453,40 @@ void print(const char* title, const std::vector<Row>& rows) {
   std::fflush(stdout);
 }
 
-// A dense solve (b = 1) reads every factor entry twice (forward and back substitution): its
-// achieved bandwidth is 2 · factor bytes / time, set against this machine's stream measured in
-// the same run (read: the solve's own access; triad: STREAM's figure).
+// A dense solve (b = 1) reads the factor twice (forward and back substitution): its achieved
+// bandwidth is the bytes it reads (Stats::solve_read_mb: the lower triangle of each diagonal
+// block, the panel below and its row indices; not the stored upper triangles) over its time, set
+// against this machine's stream measured in the same run (read: the solve's own access; triad:
+// STREAM's figure). The one-thread solve also by CPU time: on the shared machine the wall time
+// includes waiting for a core, the stream (best of 5) catches a quiet moment.
 nlohmann::json print_bandwidth(const std::vector<Row>& rows, const Stream& s1, const Stream& s2) {
   std::printf(
       "\nTriangular solves against memory bandwidth (arrays of 256 MB, best of 5; GB/s read / copy / triad: "
-      "1 thread %.2f / %.2f / %.2f, 2 threads %.2f / %.2f / %.2f)\n| l_x | N_verts | factor MB | dense 1 thread ms | GB/s | "
-      "of read | of triad | dense 2 threads ms | GB/s | of read | of triad |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
-      s1.read, s1.copy, s1.triad, s2.read, s2.copy, s2.triad);
+      "1 thread %.2f / %.2f / %.2f, 2 threads %.2f / %.2f / %.2f; 1 thread read by CPU time, median: %.2f)\n| l_x | N_verts | factor MB | read MB per solve | "
+      "dense 1 thread ms | GB/s | of read | of triad | CPU ms | GB/s by CPU time | of read | dense 2 threads ms | GB/s | "
+      "of read | of triad |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+      s1.read, s1.copy, s1.triad, s2.read, s2.copy, s2.triad, s1.read_cpu);
   nlohmann::json out;
   for (const Row& r : rows) {
-    const double gb = 2 * r.stats.factor_mb / 1e3, bw1 = gb / (r.dense_1t_ms / 1e3), bw2 = gb / (r.dense_solve_ms / 1e3);
-    std::printf("| %.3g | %ld | %.1f | %.2f | %.2f | %.0f%% | %.0f%% | %.2f | %.2f | %.0f%% | %.0f%% |\n", r.lx, r.stats.n_verts,
-                r.stats.factor_mb, r.dense_1t_ms, bw1, 100 * bw1 / s1.read, 100 * bw1 / s1.triad, r.dense_solve_ms, bw2,
-                100 * bw2 / s2.read, 100 * bw2 / s2.triad);
-    out.push_back({{"lx", r.lx}, {"factor_mb", r.stats.factor_mb}, {"solve_gbps_one_thread", bw1}, {"solve_gbps_two_threads", bw2}, {"stream_gbps_one_thread", s1.read}, {"stream_gbps_two_threads", s2.read}, {"stream_copy_gbps_one_thread", s1.copy}, {"stream_copy_gbps_two_threads", s2.copy}, {"stream_triad_gbps_one_thread", s1.triad}, {"stream_triad_gbps_two_threads", s2.triad}});
+    const double gb = r.stats.solve_read_mb / 1e3, bw1 = gb / (r.dense_1t_ms / 1e3), bw2 = gb / (r.dense_solve_ms / 1e3),
+                 bwc = gb / (r.dense_1t_cpu_ms / 1e3);
+    std::printf("| %.3g | %ld | %.1f | %.1f | %.2f | %.2f | %.0f%% | %.0f%% | %.2f | %.2f | %.0f%% | %.2f | %.2f | %.0f%% | %.0f%% |\n",
+                r.lx, r.stats.n_verts, r.stats.factor_mb, r.stats.solve_read_mb, r.dense_1t_ms, bw1, 100 * bw1 / s1.read,
+                100 * bw1 / s1.triad, r.dense_1t_cpu_ms, bwc, 100 * bwc / s1.read_cpu, r.dense_solve_ms, bw2, 100 * bw2 / s2.read,
+                100 * bw2 / s2.triad);
+    out.push_back({{"lx", r.lx}, {"factor_mb", r.stats.factor_mb}, {"solve_read_mb", r.stats.solve_read_mb}, {"solve_gbps_one_thread", bw1}, {"solve_gbps_one_thread_cpu", bwc}, {"solve_gbps_two_threads", bw2}, {"stream_gbps_one_thread", s1.read}, {"stream_gbps_one_thread_cpu", s1.read_cpu}, {"stream_gbps_two_threads", s2.read}, {"stream_copy_gbps_one_thread", s1.copy}, {"stream_copy_gbps_two_threads", s2.copy}, {"stream_triad_gbps_one_thread", s1.triad}, {"stream_triad_gbps_two_threads", s2.triad}});
   }
   std::printf(
       "\nLocal σ edit by linearity (a stroke over 5%% of the surface; same factor, medians): the stroke's "
-      "solve against eq. 20's full one, and the share of the factor's entries each reads\n"
-      "| l_x | N_verts | full solve b ms | stroke solve ms | ratio | full reads | stroke reads |\n|---|---|---|---|---|---|---|\n");
+      "solve against eq. 20's full one, the share of the factor's entries each reads; and the stroke by a "
+      "precomputed operator (columns of A_OO^-1 for every row eq. 20 can make nonzero; applying it reads the "
+      "stroke's columns)\n| l_x | N_verts | full solve b ms | stroke solve ms | ratio | full reads | stroke reads | "
+      "by operator ms | ratio | stroke's columns MB | operator MB |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const Row& r : rows)
     if (r.stroke_ms > 0)
-      std::printf("| %.3g | %ld | %.3f | %.3f | %.2f | %.3f | %.3f |\n", r.lx, r.stats.n_verts, r.solve_b_ms, r.stroke_ms,
-                  r.stroke_ms / r.solve_b_ms, r.full_read, r.stroke_read);
+      std::printf("| %.3g | %ld | %.3f | %.3f | %.2f | %.3f | %.3f | %.3f | %.2f | %.1f | %.0f |\n", r.lx, r.stats.n_verts,
+                  r.solve_b_ms, r.stroke_ms, r.stroke_ms / r.solve_b_ms, r.full_read, r.stroke_read, r.operator_ms,
+                  r.operator_ms / r.solve_b_ms, r.operator_stroke_mb, r.operator_mb);
   std::fflush(stdout);
   return out;
 }

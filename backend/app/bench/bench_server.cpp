@@ -326,6 +326,10 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
         "  server side: Kelvin solve median %.1f ms, marching tets median %.1f ms, edit received -> frame "
         "encoded median %.1f ms, p95 %.1f ms\n",
         percentile(solve, 0.5), percentile(iso, 0.5), percentile(since_edit, 0.5), percentile(since_edit, 0.95));
+    // In order, to tell a tail that grows with the edits from one that recurs.
+    std::printf("  per edit, edit received -> frame encoded (solve) ms:");
+    for (size_t k = 0; k < since_edit.size(); ++k) std::printf(" %.1f (%.1f)", since_edit[k], solve[k]);
+    std::printf("\n");
     ws.close(beast::websocket::close_code::normal);
 
     // ---- 2. Concurrent clients.

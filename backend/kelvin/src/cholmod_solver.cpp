@@ -17,9 +17,9 @@ namespace distlab::kelvin {
 
 namespace {
 
-// OpenBLAS threads help the factorization's large dense blocks but not the solve's many small
-// triangular and matrix-vector blocks: there, waking and yielding threads cost more than they
-// save (seen: 318 ms instead of ~10 ms on a loaded 2-core machine). No-op for another BLAS.
+// OpenBLAS threads help the factorization's large dense blocks but not cholmod_solve2's many
+// small triangular and matrix-vector blocks: there, waking and yielding threads cost more than
+// they save (seen: 318 ms instead of ~10 ms on a loaded 2-core machine). No-op for another BLAS.
 void set_blas_threads(int n) {
   using Fn = void (*)(int);
   static const auto fn = reinterpret_cast<Fn>(::dlsym(RTLD_DEFAULT, "openblas_set_num_threads"));
@@ -84,6 +84,7 @@ struct CholmodSolver::Impl {
   SolvePlan plan;
   int solve_threads = std::thread::hardware_concurrency() >= 2 ? 2 : 1;
   mutable double read_fraction = 1;
+  double entries_read = 0;  // per pass (supernodal_solve.hpp)
   SupernodalFactor view() const {
     return {static_cast<int>(factor->n), static_cast<int>(factor->nsuper), static_cast<const int*>(factor->super),
             static_cast<const int*>(factor->pi), static_cast<const int*>(factor->px),
@@ -142,6 +143,7 @@ void CholmodSolver::factorize(const Eigen::SparseMatrix<double>& lower) {
     throw std::runtime_error("stiffness matrix is not positive definite (degenerate tetrahedra?)");
   if (impl_->common.status < CHOLMOD_OK) throw std::runtime_error("CHOLMOD factorization failed");
   if (impl_->factor->is_super) impl_->plan = plan_two_lanes(impl_->view());
+  impl_->entries_read = impl_->factor->is_super ? entries_read(impl_->view()) : 0;
 }
 
 void CholmodSolver::solve(VecX& b) const {
@@ -156,12 +158,11 @@ void CholmodSolver::solve(VecX& b) const {
   std::vector<double>& w = impl_->work;
   w.resize(n);
   for (size_t k = 0; k < n; ++k) w[k] = b[perm[k]];
-  set_blas_threads(1);
   const bool threads = impl_->solve_threads > 1 && static_cast<double>(f->xsize) >= kTwoLaneMin &&
                        impl_->plan.critical_share <= kTwoLaneMaxShare;
   const double skipped = solve_supernodal(impl_->view(), impl_->plan, w.data(), impl_->workspace, threads);
   for (size_t k = 0; k < n; ++k) b[perm[k]] = w[k];
-  const double total = static_cast<double>(f->xsize);
+  const double total = impl_->entries_read;
   impl_->read_fraction = total > 0 ? (2 * total - skipped) / (2 * total) : 1;
 }
 
@@ -184,6 +185,13 @@ void CholmodSolver::solve_cholmod(VecX& b) const {
                       &impl_->e, &impl_->common))
     throw std::runtime_error("CHOLMOD solve failed");
   std::copy_n(static_cast<const double*>(impl_->x->x), b.size(), b.data());
+}
+
+double CholmodSolver::solve_megabytes() const {
+  const cholmod_factor* f = impl_->factor;
+  if (f == nullptr || !f->is_super) return 0;
+  const double row_indices = static_cast<double>(static_cast<const int*>(f->pi)[f->nsuper]) - static_cast<double>(f->n);
+  return 2 * (8 * impl_->entries_read + 4 * row_indices) / 1e6;
 }
 
 Eigen::Index CholmodSolver::size() const {
@@ -274,6 +282,7 @@ bool CholmodSolver::load(std::istream& in) {
   for (std::uint64_t k = 0; k < ssize; ++k)
     if (s[k] < 0 || static_cast<std::uint64_t>(s[k]) >= n) return false;
   impl_->plan = plan_two_lanes(impl_->view());
+  impl_->entries_read = entries_read(impl_->view());
   return true;
 }
 

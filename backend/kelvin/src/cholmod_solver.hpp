@@ -35,6 +35,9 @@ class CholmodSolver {
   double last_read_fraction() const;
   Eigen::Index size() const;
   double factor_megabytes() const;
+  // Bytes one solve() of a dense right-hand side reads from the factor, both passes: the entries
+  // of entries_read (supernodal_solve.hpp) and the row indices below each diagonal block.
+  double solve_megabytes() const;
 
   void save(std::ostream& out) const;
   // Returns false if the stream does not hold a consistent factor.

@@ -323,6 +323,7 @@ void Field::Impl::finish_stats() {
                             static_cast<double>(tm.tets.size() + tm.neighbours.size()) * 4 +
                             static_cast<double>(tm.points.rows()) * 8;  // V
   stats.factor_mb = solver.factor_megabytes();
+  stats.solve_read_mb = solver.solve_megabytes();
   stats.size_mb = (mesh_bytes + static_cast<double>(packed.bytes() + locator.bytes())) / 1e6 + stats.factor_mb;
 }
 
@@ -385,11 +386,10 @@ bool shifts_constant(const SigmaSpec& before, const SigmaSpec& after) {
 double boundary_sigma_of(const SigmaSpec& sigma, bool apart, double chain) { return apart ? chain + sigma.constant : chain; }
 
 // The chain and σ at every boundary vertex. Sets boundary_chain and boundary_sigma only when
-// every value is in range.
-void evaluate_boundary(Field::Impl& m, const SigmaSpec& sigma) {
+// every value is in range. `apart`: the constant is left out of the chains (separable(sigma)).
+void evaluate_boundary(Field::Impl& m, const SigmaSpec& sigma, bool apart) {
   const auto nb = static_cast<Eigen::Index>(m.boundary.size());
   VecX chains(nb), sigmas(nb);
-  const bool apart = separable(sigma);
   for (Eigen::Index b = 0; b < nb; ++b) {
     const Vec3 x = boundary_point(m, static_cast<size_t>(b));
     double s = apart ? 0.0 : sigma.constant;
@@ -428,9 +428,9 @@ double solved_boundary_value(const Field::Impl& m, bool apart, size_t b) {
 
 // Eqs. 17, 20, 21 for every boundary value.
 void solve_full(Field::Impl& m, const SigmaSpec& sigma) {
-  evaluate_boundary(m, sigma);
-  VecX v_bnd(static_cast<Eigen::Index>(m.boundary.size()));
   const bool apart = separable(sigma);
+  evaluate_boundary(m, sigma, apart);
+  VecX v_bnd(static_cast<Eigen::Index>(m.boundary.size()));
   for (size_t b = 0; b < m.boundary.size(); ++b) v_bnd[static_cast<Eigen::Index>(b)] = solved_boundary_value(m, apart, b);
   VecX rhs = -(m.a_ob * v_bnd);  // eq. 20
   m.solver.solve(rhs);           // eq. 21
@@ -500,10 +500,13 @@ void Field::set_sigma(const SigmaSpec& sigma, bool gradients, bool by_linearity)
   const auto t0 = std::chrono::steady_clock::now();
   const bool linear = by_linearity && m.solved && m.linear_edits < kMaxLinearEdits;
   m.solved = false;  // until V holds σ (a throw leaves it unset: the next σ is solved in full)
-  // A stroke that makes a separable σ inseparable changes what is solved (W to V): in full.
-  if (linear && appends_brushes(m.solved_sigma, sigma) && separable(m.solved_sigma) == separable(sigma))
+  if (linear && appends_brushes(m.solved_sigma, sigma)) {
+    // A stroke that makes a separable σ inseparable (its first "towards" brush) changes what is
+    // solved, W to V: V inside is e^(−c) W already (finish_V), and the chains are summed again
+    // with the constant, as a full evaluation of an inseparable σ sums them (same bits).
+    if (separable(m.solved_sigma) && !separable(sigma)) evaluate_boundary(m, m.solved_sigma, false);
     solve_brushes(m, sigma);
-  else if (linear && shifts_constant(m.solved_sigma, sigma)) solve_shift(m, sigma);
+  } else if (linear && shifts_constant(m.solved_sigma, sigma)) solve_shift(m, sigma);
   else solve_full(m, sigma);
   m.solved_sigma = sigma;
   m.solved = true;

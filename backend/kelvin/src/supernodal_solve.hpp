@@ -25,6 +25,11 @@ struct SupernodalFactor {
   const double* x = nullptr;
 };
 
+// The entries of supernode k a solve pass reads: the lower triangle of its diagonal block and the
+// panel below (CHOLMOD stores the block's upper triangle too; no pass reads it). Without k: all.
+double entries_read(const SupernodalFactor& f, int k);
+double entries_read(const SupernodalFactor& f);
+
 struct SolvePlan {
   std::array<std::vector<std::pair<int, int>>, 2> lanes;  // supernode ranges [begin, end), ascending
   std::vector<int> top;                                   // the other supernodes, ascending
@@ -38,7 +43,7 @@ SolvePlan plan_two_lanes(const SupernodalFactor& f);
 SolvePlan plan_one_lane(const SupernodalFactor& f);
 
 struct SolveWorkspace {
-  std::array<std::vector<double>, 2> below;  // one supernode's rows below its diagonal block, per lane
+  std::array<std::vector<double>, 2> below;  // one supernode's rows (own columns, then below), per lane
   std::vector<double> lane1_top;             // lane 1's forward updates of top rows (zero between solves)
 };
 

@@ -49,7 +49,8 @@ struct PrepareOptions {
 struct Stats {
   long n_verts = 0, n_tets = 0;
   double size_mb = 0;
-  double factor_mb = 0;                          // the Cholesky factor's share of size_mb (what a dense solve reads twice)
+  double factor_mb = 0;                          // the Cholesky factor's share of size_mb
+  double solve_read_mb = 0;                      // what a solve of a dense right-hand side reads of it (both passes)
   double t_mesh = 0, t_build = 0, t_decomp = 0;  // seconds
   double t_solve = 0;                            // last set_sigma: σ on the boundary → V (eqs. 17, 20, 21), seconds
   double t_gradient = 0;                         // last set_sigma: vertex gradients of V (0 if not asked), seconds
