@@ -84,6 +84,32 @@ double farthest_distance(const Shape& shape, const Vec3& c) {
       shape);
 }
 
+// Eq. (6) in a form without cancellation: with A = ερ, B = σe, V = sqrt(A² + B²),
+// E = A + V = B²/(V − A) when A < 0; ∇E = (E∇A + B∇B)/V;
+// ∂²E = (E ∂²A + B ∂²B)/V + q qᵀ/V³ with q = A∇B − B∇A (eq. 18).
+// Internal linkage, one caller per scalar: inlined into strict() as when it was written there.
+template <class T>
+P2SValueT<T> strict_from_weak(const P2SValueT<T>& e, const Vec3T<T>& p, const StrictParams& strict, const Ball& rho,
+                              const Vec3T<T>& rho_center, int order) {
+  const T eps = strict.eps, sigma = strict.sigma, radius = rho.radius;
+  const Vec3T<T> dc = p - rho_center;
+  const T A = eps * T(0.5) * (dc.squaredNorm() - radius * radius);
+  const T B = sigma * e.value;
+  const T V = std::sqrt(A * A + B * B);  // both are far from overflow here
+  P2SValueT<T> out;
+  out.value = A >= 0 ? A + V : B * B / (V - A);
+  if (order < 1) return out;
+  const T inv_v = T(1) / V;
+  const Vec3T<T> dA = eps * dc;
+  const Vec3T<T> dB = sigma * e.gradient;
+  out.gradient = (out.value * inv_v) * dA + (B * inv_v) * dB;
+  if (order < 2) return out;
+  const Vec3T<T> q = A * dB - B * dA;
+  out.hessian.noalias() = (B * sigma * inv_v) * e.hessian + (inv_v * inv_v * inv_v) * q * q.transpose();
+  out.hessian.diagonal().array() += out.value * eps * inv_v;
+  return out;
+}
+
 }  // namespace
 
 PointToSet::PointToSet(const Shape& shape, const BaseFunction& phi, const StrictParams& strict,
@@ -302,33 +328,8 @@ P2SValue PointToSet::weak(const Vec3& p, int order) const {
   return v;
 }
 
-// Eq. (6) in a form without cancellation: with A = ερ, B = σe, V = sqrt(A² + B²),
-// E = A + V = B²/(V − A) when A < 0; ∇E = (E∇A + B∇B)/V;
-// ∂²E = (E ∂²A + B ∂²B)/V + q qᵀ/V³ with q = A∇B − B∇A (eq. 18).
-template <class T>
-P2SValueT<T> PointToSet::strict_from_weak(const P2SValueT<T>& e, const Vec3T<T>& p, const Vec3T<T>& rho_center,
-                                          int order) const {
-  const T eps = strict_.eps, sigma = strict_.sigma, radius = rho_.radius;
-  const Vec3T<T> dc = p - rho_center;
-  const T A = eps * T(0.5) * (dc.squaredNorm() - radius * radius);
-  const T B = sigma * e.value;
-  const T V = std::sqrt(A * A + B * B);  // both are far from overflow here
-  P2SValueT<T> out;
-  out.value = A >= 0 ? A + V : B * B / (V - A);
-  if (order < 1) return out;
-  const T inv_v = T(1) / V;
-  const Vec3T<T> dA = eps * dc;
-  const Vec3T<T> dB = sigma * e.gradient;
-  out.gradient = (out.value * inv_v) * dA + (B * inv_v) * dB;
-  if (order < 2) return out;
-  const Vec3T<T> q = A * dB - B * dA;
-  out.hessian.noalias() = (B * sigma * inv_v) * e.hessian + (inv_v * inv_v * inv_v) * q * q.transpose();
-  out.hessian.diagonal().array() += out.value * eps * inv_v;
-  return out;
-}
-
 P2SValue PointToSet::strict(const Vec3& p, int order) const {
-  return strict_from_weak(weak(p, order), p, rho_center_world_, order);
+  return strict_from_weak(weak(p, order), p, strict_, rho_, rho_center_world_, order);
 }
 
 template <class T>
@@ -337,7 +338,7 @@ P2SValueT<T> PointToSet::strict_at(const Vec3T<T>& p, const PoseT<T>& pose, int 
   P2SValueT<T> e = weak_local<T>(R.transpose() * (p - pose.position), order);
   if (order >= 1) e.gradient = R * e.gradient;
   if (order >= 2) e.hessian = R * e.hessian * R.transpose();
-  return strict_from_weak<T>(e, p, pose.position + R * rho_.center.cast<T>(), order);
+  return strict_from_weak<T>(e, p, strict_, rho_, pose.position + R * rho_.center.cast<T>(), order);
 }
 
 template P2SValueT<long double> PointToSet::strict_at(const Vec3T<long double>&, const PoseT<long double>&, int) const;

@@ -106,8 +106,6 @@ class PointToSet {
   P2SValue halfspaces_world(const Vec3& p, int order) const;
   template <class T>
   P2SValueT<T> capsule_local(const Vec3T<T>& p, int order) const;
-  template <class T>
-  P2SValueT<T> strict_from_weak(const P2SValueT<T>& e, const Vec3T<T>& p, const Vec3T<T>& rho_center, int order) const;
 
   Shape shape_;
   BaseFunction phi_;
