@@ -3,8 +3,10 @@
 // (0, 1e-6]) and overlapping; per pair GAP Newton's and FCL's time, Newton's iterations, the
 // agreement of Λ between Newton and the plain iteration, and the finite-difference error of
 // GAP's pose gradients. FCL's distance is reported beside GAP's.
-//   distlab-bench-pairs [--pairs N] [--seed S] [--passes P] [--chunk C] [--plain-every K]
+//   distlab-bench-pairs [--pairs N] [--first F] [--seed S] [--passes P] [--chunk C] [--plain-every K]
 //     [--fd-every K] [--threads T] [--csv FILE[.gz]] [--json FILE] [--check]
+// --first F: pairs F to F + N − 1 (pair i is drawn from (seed, i) alone: one pair of a larger run
+// is run again as it was there).
 // --passes P: per pair the fastest of P cold calls (each pass over a chunk of C pairs, default
 // 4096, evicts the pair from cache before the next). --plain-every/--fd-every K: the plain
 // iteration (up to 1e5 steps near contact) and the finite-difference solves on every K-th
@@ -211,7 +213,7 @@ struct Bucket {
 
 // A failing benchmark ends on its uncaught exception (std::terminate prints it).
 int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
-  long pairs = 1'000'000;
+  long pairs = 1'000'000, first_pair = 0;
   unsigned long seed = 1;
   int passes = 1, chunk = 4096, plain_every = 1, fd_every = 1;
   unsigned threads = 2;
@@ -220,6 +222,7 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
   for (int i = 1; i < argc; ++i) {
     auto next = [&] { return i + 1 < argc ? argv[++i] : ""; };
     if (!std::strcmp(argv[i], "--pairs")) pairs = std::atol(next());
+    else if (!std::strcmp(argv[i], "--first")) first_pair = std::atol(next());
     else if (!std::strcmp(argv[i], "--seed")) seed = std::strtoul(next(), nullptr, 10);
     else if (!std::strcmp(argv[i], "--passes")) passes = std::atoi(next());
     else if (!std::strcmp(argv[i], "--chunk")) chunk = std::atoi(next());
@@ -231,9 +234,9 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
     else if (!std::strcmp(argv[i], "--check")) check = true;
     else pairs = -1;
   }
-  if (pairs <= 0 || passes <= 0 || chunk <= 0 || plain_every <= 0 || fd_every <= 0 || threads == 0) {
+  if (pairs <= 0 || first_pair < 0 || passes <= 0 || chunk <= 0 || plain_every <= 0 || fd_every <= 0 || threads == 0) {
     std::fprintf(stderr,
-                 "usage: %s [--pairs N > 0] [--seed S] [--passes P > 0] [--chunk C > 0] [--plain-every K > 0] "
+                 "usage: %s [--pairs N > 0] [--first F >= 0] [--seed S] [--passes P > 0] [--chunk C > 0] [--plain-every K > 0] "
                  "[--fd-every K > 0] [--threads T > 0] [--csv FILE[.gz]] [--json FILE] [--check]\n",
                  argv[0]);
     return 2;
@@ -252,8 +255,9 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
   std::array<Bucket, 3> by_regime;
   std::array<Bucket, 5> by_kind;  // pairs with that kind on either side
   const auto t_start = std::chrono::steady_clock::now();
-  for (long first = 0; first < pairs; first += chunk) {
-    const size_t n = static_cast<size_t>(std::min<long>(chunk, pairs - first));
+  const long end = first_pair + pairs;
+  for (long first = first_pair; first < end; first += chunk) {
+    const size_t n = static_cast<size_t>(std::min<long>(chunk, end - first));
     // Drawing and checking run on `threads` threads; the timed calls run alone, one thread.
     // Pair i draws from its own generator (seed, i): the same pairs for any thread count.
     std::vector<std::optional<Pair>> batch(n);
@@ -322,7 +326,7 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
       csv.line(line);
     }
     const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
-    const long done = std::min(pairs, first + chunk);
+    const long done = std::min(end, first + chunk) - first_pair;
     std::fprintf(stderr, "\r%ld / %ld pairs, %.0f s, about %.0f s left   ", done, pairs, elapsed,
                  elapsed * static_cast<double>(pairs - done) / static_cast<double>(done));
   }
