@@ -3,18 +3,21 @@
 // (0, 1e-6]) and overlapping; per pair GAP Newton's and FCL's time, Newton's iterations, the
 // agreement of Λ between Newton and the plain iteration, and the finite-difference error of
 // GAP's pose gradients. FCL's distance is reported beside GAP's.
-//   distlab-bench-pairs [--pairs N] [--seed S] [--passes P] [--chunk C] [--plain-every K]
+//   distlab-bench-pairs [--pairs N] [--first F] [--seed S] [--passes P] [--chunk C] [--plain-every K]
 //     [--fd-every K] [--threads T] [--csv FILE[.gz]] [--json FILE] [--check]
+// --first F: pairs F to F + N − 1 (pair i is drawn from (seed, i) alone: one pair of a larger run
+// is run again as it was there).
 // --passes P: per pair the fastest of P cold calls (each pass over a chunk of C pairs, default
 // 4096, evicts the pair from cache before the next). --plain-every/--fd-every K: the plain
 // iteration (up to 1e5 steps near contact) and the finite-difference solves on every K-th
 // pair of each regime only (default 1: all). --csv: one row per pair, gzip-compressed when the
 // name ends in .gz; plot with backend/app/bench/plot_pairs.py. --check: exit 1 when a pair's Λ
-// agreement exceeds 1e-8 where D >= 1e-4 or its gradient error 1e-6 (any pair; touching ones: plus
-// the finite differences' own measured noise; issue 19; no time is checked). Drawing and checking run on T threads (default 2); the timed calls on one
-// thread, alone. GAP's time includes its Euclidean start (double GJK), as in distlab-bench-gap.
-// Issue 19's run (42 min on a loaded 2-core machine; ~1.5 ms of CPU per fully checked pair):
-//   distlab-bench-pairs --pairs 1000000 --passes 3 --plain-every 100 --fd-every 10
+// agreement exceeds 1e-8 where D >= 1e-4 or its gradient error (finite differences of D in long
+// double) 1e-6 on any pair (issue 19; no time is checked). Drawing and checking run on T threads
+// (default 2); the timed calls on one thread, alone. GAP's time includes its Euclidean start (double GJK), as in distlab-bench-gap.
+// Issue 19's run (with these flags 20k pairs take 18 s of CPU, 12 s with the former double fit;
+// the 1e6 run took 61 min at nice 10 on a shared, loaded 2-core machine):
+//   distlab-bench-pairs --pairs 1000000 --passes 3 --plain-every 100 --fd-every 10 --check
 //     --csv pairs.csv.gz --json pairs.json
 #include <zlib.h>
 
@@ -113,69 +116,25 @@ struct Row {
   bool plain_run = false, plain_converged = false, fd_run = false;
   double agreement = 0;       // |Λ_Newton − Λ_plain| / Λ_Newton (0 on overlap: both 0)
   double gradient_error = 0;  // ‖FD − ∇D‖∞ / ‖∇D‖∞ over both poses' 12 coordinates
-  double fd_noise = 0;        // touching: 3 standard errors of the fitted slopes, same scale
+  bool fd_converged = true;   // every long-double solve of the finite differences converged
 };
 
 // Finite differences of D along each of the 12 pose coordinates (linear, then world-frame
-// rotation of A, then of B) with Newton at tol 1e-14. Near contact D grows like a high power of
-// the distance d (about d^2.75 at k = 2), so the step scales with d.
-// - Separated: central differences at 1e-4 d, at most 1e-6 (a fourth-order stencil with step
-//   2e-2 d gives the same errors to 3 digits).
-// - Touching (d <= 1e-6, D 1e-16 to 1e-22): D carries rounding noise of up to ~1e-9 relative,
-//   from the coordinates' last bits against d (s = u·p − b at |p| ~ 0.3, s ~ d/2), and a central
-//   difference divides it by its step: at 1e-4 d its error reaches 7e-6 while the gradient is
-//   right (it falls as 1/step), and steps near d cross the planes where Φ''' jumps (D is only C²
-//   at k = 2). There the slope is the least-squares line through D at x = ±j h/20, j = 1..20,
-//   h = 5e-4 d: forty solves average the noise. Measured on 2,000 touching pairs (seed 1): max
-//   6.6e-7, p99 3.6e-7 (the same line at 3e-4 d: 1.7e-6; twenty solves at 3e-4 d: 1.8e-6; a
-//   cubic fit at 1e-3 d, across the planes: 1.1e-6; the central difference at 1e-4 d had 7.3e-6
-//   on 300 of them). The fit's own standard error, from its residuals, measures what is left of
-//   the noise: at the smallest D (~1e-22, d ~ 1e-7) three of them reach 1e-6 of the gradient,
-//   and 160 solves at 1e-3 d bring such a pair's error from 1.6e-6 to 3.6e-7. `noise` returns
-//   three standard errors on the error's scale (0 for separated pairs), and a touching pair
-//   passes --check when its error is within the bound plus that.
-double gradient_error(Pair& p, const GapResult& r, double& noise) {
-  GapParams fd = paper_params();
-  fd.tol = 1e-14;
-  const bool touching = p.euclidean > 0 && p.euclidean <= kTouching;
+// rotation of A, then of B), central at 1e-4 d (at most 1e-6), with D and the poses in long
+// double (gap_gradient_extended). Near contact (d <= 1e-6, D 1e-16 to 1e-22) D's rounding in
+// double, up to ~1e-9 relative (s = u·p − b ~ d/2 against |p| ~ 0.3), made a double difference
+// quotient err by up to 7e-6 where the gradient was right, and even a 40-solve least-squares
+// slope could not judge 11 to 19 of ~6,700 touching pairs at 1e-6; in long double the rounding
+// is 2048× smaller. The step's truncation error is ~(1e-4)² of the gradient (D ~ d^2.75).
+double gradient_error(const Pair& p, const GapResult& r, bool& converged) {
   const double step = p.euclidean > 0 ? std::min(1e-6, 1e-4 * p.euclidean) : 1e-6;
-  double worst = 0, scale = 0, worst_noise = 0;
-  for (int which = 0; which < 2; ++which) {
-    GapBody& moved = which == 0 ? p.a : p.b;
-    const Pose base = moved.pose();
-    const Vec6& g = which == 0 ? r.gradient_a : r.gradient_b;
-    for (int c = 0; c < 6; ++c) {
-      auto at = [&](double d) {
-        Pose q = base;
-        if (c < 3) q.position[c] += d;
-        else q.rotation = (Quat(Eigen::AngleAxisd(d, Vec3::Unit(c - 3))) * base.rotation).normalized();
-        moved.set_pose(q);
-        return gap_distance(p.a, p.b, fd).distance;
-      };
-      double slope = 0;
-      if (!touching) {
-        slope = (at(step) - at(-step)) / (2 * step);
-      } else {
-        constexpr int kSamples = 20;
-        const double h = 5e-4 * p.euclidean;
-        std::array<double, kSamples + 1> odd{};  // D(x) − D(−x) = 2 slope x + noise
-        double sxy = 0, sxx = 0;
-        for (int j = 1; j <= kSamples; ++j) {
-          const double x = h * j / kSamples;
-          odd[j] = at(x) - at(-x);
-          sxy += x * odd[j], sxx += 2 * x * x;
-        }
-        slope = sxy / sxx;
-        double residuals = 0;
-        for (int j = 1; j <= kSamples; ++j) residuals += std::pow(odd[j] - 2 * slope * h * j / kSamples, 2);
-        worst_noise = std::max(worst_noise, 3 * std::sqrt(residuals / (kSamples - 1) / (2 * sxx)));
-      }
-      moved.set_pose(base);
-      worst = std::max(worst, std::abs(slope - g[c]));
-      scale = std::max(scale, std::abs(g[c]));
-    }
+  const ExtendedGradient fd = gap_gradient_extended(p.a, p.b, r, step);
+  converged = fd.converged;
+  double worst = 0, scale = 0;
+  for (int c = 0; c < 6; ++c) {
+    worst = std::max({worst, std::abs(fd.a[c] - r.gradient_a[c]), std::abs(fd.b[c] - r.gradient_b[c])});
+    scale = std::max({scale, std::abs(r.gradient_a[c]), std::abs(r.gradient_b[c])});
   }
-  noise = scale > 0 ? worst_noise / scale : worst_noise;
   return scale > 0 ? worst / scale : worst;
 }
 
@@ -206,7 +165,7 @@ struct Bucket {
   std::vector<double> gap_us, fcl_us, iterations, agreement, gradient;
   std::vector<double> agreement_resolved;  // D >= kResolvedD
   int pairs = 0, newton_unconverged = 0, plain_run = 0, plain_unconverged = 0, fd_run = 0;
-  int gradient_failed = 0, noise_over_bound = 0;  // error > bound + FD noise; noise alone > bound
+  int gradient_failed = 0, fd_unconverged = 0;  // error > bound; a reference solve unconverged
   void add(const Row& r) {
     ++pairs;
     gap_us.push_back(r.gap_us);
@@ -216,8 +175,8 @@ struct Bucket {
     if (r.fd_run) {
       ++fd_run;
       gradient.push_back(r.gradient_error);
-      if (!(r.gradient_error <= kGradientBound + r.fd_noise)) ++gradient_failed;
-      if (r.fd_noise > kGradientBound) ++noise_over_bound;
+      if (!(r.gradient_error <= kGradientBound) || !r.fd_converged) ++gradient_failed;
+      if (!r.fd_converged) ++fd_unconverged;
     }
     if (!r.newton.converged) ++newton_unconverged;
     if (r.plain_run) {
@@ -243,7 +202,7 @@ struct Bucket {
             {"lambda_agreement_resolved", to_json(stats(agreement_resolved))},
             {"fd_run", fd_run},
             {"gradient_failed", gradient_failed},
-            {"fd_noise_over_bound", noise_over_bound},
+            {"fd_unconverged", fd_unconverged},
             {"gradient_fd_error", to_json(stats(gradient))},
             {"newton_unconverged", newton_unconverged},
             {"plain_run", plain_run},
@@ -255,7 +214,7 @@ struct Bucket {
 
 // A failing benchmark ends on its uncaught exception (std::terminate prints it).
 int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
-  long pairs = 1'000'000;
+  long pairs = 1'000'000, first_pair = 0;
   unsigned long seed = 1;
   int passes = 1, chunk = 4096, plain_every = 1, fd_every = 1;
   unsigned threads = 2;
@@ -264,6 +223,7 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
   for (int i = 1; i < argc; ++i) {
     auto next = [&] { return i + 1 < argc ? argv[++i] : ""; };
     if (!std::strcmp(argv[i], "--pairs")) pairs = std::atol(next());
+    else if (!std::strcmp(argv[i], "--first")) first_pair = std::atol(next());
     else if (!std::strcmp(argv[i], "--seed")) seed = std::strtoul(next(), nullptr, 10);
     else if (!std::strcmp(argv[i], "--passes")) passes = std::atoi(next());
     else if (!std::strcmp(argv[i], "--chunk")) chunk = std::atoi(next());
@@ -275,9 +235,9 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
     else if (!std::strcmp(argv[i], "--check")) check = true;
     else pairs = -1;
   }
-  if (pairs <= 0 || passes <= 0 || chunk <= 0 || plain_every <= 0 || fd_every <= 0 || threads == 0) {
+  if (pairs <= 0 || first_pair < 0 || passes <= 0 || chunk <= 0 || plain_every <= 0 || fd_every <= 0 || threads == 0) {
     std::fprintf(stderr,
-                 "usage: %s [--pairs N > 0] [--seed S] [--passes P > 0] [--chunk C > 0] [--plain-every K > 0] "
+                 "usage: %s [--pairs N > 0] [--first F >= 0] [--seed S] [--passes P > 0] [--chunk C > 0] [--plain-every K > 0] "
                  "[--fd-every K > 0] [--threads T > 0] [--csv FILE[.gz]] [--json FILE] [--check]\n",
                  argv[0]);
     return 2;
@@ -289,15 +249,16 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
   }
   csv.line(
       "pair,kind_a,kind_b,regime,euclidean_distance,fcl_distance,gap_distance,lambda_newton,newton_iterations,"
-      "lambda_plain,lambda_agreement,plain_iterations,gradient_fd_error,gradient_fd_noise,gap_us,fcl_us\n");
+      "lambda_plain,lambda_agreement,plain_iterations,gradient_fd_error,gap_us,fcl_us\n");
   GapParams newton = paper_params();
   newton.tol = 1e-10, newton.gradient = true;
   Bucket all;
   std::array<Bucket, 3> by_regime;
   std::array<Bucket, 5> by_kind;  // pairs with that kind on either side
   const auto t_start = std::chrono::steady_clock::now();
-  for (long first = 0; first < pairs; first += chunk) {
-    const size_t n = static_cast<size_t>(std::min<long>(chunk, pairs - first));
+  const long end = first_pair + pairs;
+  for (long first = first_pair; first < end; first += chunk) {
+    const size_t n = static_cast<size_t>(std::min<long>(chunk, end - first));
     // Drawing and checking run on `threads` threads; the timed calls run alone, one thread.
     // Pair i draws from its own generator (seed, i): the same pairs for any thread count.
     std::vector<std::optional<Pair>> batch(n);
@@ -342,7 +303,7 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
         const double ln = r.newton.lambda;
         r.agreement = ln > 0 ? std::abs(ln - pl.lambda) / ln : std::abs(pl.lambda);
       }
-      if (k % fd_every == 0) r.fd_run = true, r.gradient_error = gradient_error(p, r.newton, r.fd_noise);
+      if (k % fd_every == 0) r.fd_run = true, r.gradient_error = gradient_error(p, r.newton, r.fd_converged);
     });
     for (size_t i = 0; i < n; ++i) {
       const Pair& p = *batch[i];
@@ -352,11 +313,11 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
       by_kind[static_cast<size_t>(p.kind_a)].add(r);
       if (p.kind_b != p.kind_a) by_kind[static_cast<size_t>(p.kind_b)].add(r);
       // Columns of the checks not run on this pair (--plain-every, --fd-every) stay empty.
-      char plain_cols[96] = ",,", fd_col[48] = ",";
+      char plain_cols[96] = ",,", fd_col[48] = "";
       if (r.plain_run)
         std::snprintf(plain_cols, sizeof plain_cols, "%.17g,%.3e,%d", r.lambda_plain, r.agreement,
                       r.plain_converged ? r.plain_iterations : -1);
-      if (r.fd_run) std::snprintf(fd_col, sizeof fd_col, "%.3e,%.3e", r.gradient_error, r.fd_noise);
+      if (r.fd_run) std::snprintf(fd_col, sizeof fd_col, "%.3e", r.gradient_error);
       char line[512];
       std::snprintf(line, sizeof line, "%ld,%s,%s,%s,%.17g,%.17g,%.17g,%.17g,%d,%s,%s,%.4f,%.4f\n",
                     first + static_cast<long>(i), kKinds[static_cast<size_t>(p.kind_a)],
@@ -366,7 +327,7 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
       csv.line(line);
     }
     const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
-    const long done = std::min(pairs, first + chunk);
+    const long done = std::min(end, first + chunk) - first_pair;
     std::fprintf(stderr, "\r%ld / %ld pairs, %.0f s, about %.0f s left   ", done, pairs, elapsed,
                  elapsed * static_cast<double>(pairs - done) / static_cast<double>(done));
   }
@@ -393,11 +354,11 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
   all.print("all");
   std::printf(
       "  (Λ agree: |Λ_Newton − Λ_plain| / Λ_Newton over the pairs where the plain iteration (step < %.0e D, at most %d steps) converged, bound %.0e; grad err: finite differences of D "
-      "(touching: a 40-solve least-squares line), relative to the largest gradient entry, bound %.0e; asserted by --check where D >= 1e-4 and on every pair, "
-      "touching pairs within the bound plus 3 standard errors of their fit)\n",
+      "and poses in long double, central at 1e-4 d), relative to the largest gradient entry, bound %.0e; asserted by --check, Λ where D >= 1e-4, the gradient on "
+      "every pair)\n",
       kPlainStep, kPlainIterations, kAgreementBound, kGradientBound);
-  std::printf("  finite differences: %d pairs; %d touching pairs' fits have 3 standard errors above the bound; %d pairs fail\n",
-              all.fd_run, all.noise_over_bound, all.gradient_failed);
+  std::printf("  finite differences: %d pairs; %d with a long-double solve unconverged; %d pairs fail\n", all.fd_run,
+              all.fd_unconverged, all.gradient_failed);
   if (!json_path.empty()) std::ofstream(json_path) << out.dump(2) << "\n";
   if (check) {
     const double agree = stats(all.agreement_resolved).max;

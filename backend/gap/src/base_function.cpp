@@ -60,10 +60,11 @@ Poly integrate_times_exp(const Poly& p) {
 double series_limit_u(int k) { return std::min(4.0, 0.5 + 0.75 * (k - 2)); }
 
 // E(β) = (x^β − 1)/β with x^β given; expm1 where x^β is close to 1.
-inline double E(double beta, double x_beta, double L) {
-  const double z = beta * L;
-  if (std::abs(z) < 0.5) return z == 0.0 ? L : std::expm1(z) / beta;
-  return (x_beta - 1.0) / beta;
+template <class T>
+inline T E(T beta, T x_beta, T L) {
+  const T z = beta * L;
+  if (std::abs(z) < T(0.5)) return z == T(0) ? L : std::expm1(z) / beta;
+  return (x_beta - T(1)) / beta;
 }
 
 }  // namespace
@@ -184,10 +185,11 @@ BaseFunction::BaseFunction(double h, int k) : h_(h), k_(k) {
   build_rational_form();
 }
 
-BaseFunction::Jet BaseFunction::series(double L) const {
+template <class T>
+BaseFunction::JetT<T> BaseFunction::series(T L) const {
   // Three Horner chains interleaved (independent, so they pipeline).
   const size_t n = c0_.size();
-  double v0 = c0_[n - 1], v1 = c1_[n - 1], v2 = c2_[n - 1];
+  T v0 = c0_[n - 1], v1 = c1_[n - 1], v2 = c2_[n - 1];
   for (size_t i = n - 1; i-- > 0;) {
     v0 = v0 * L + c0_[i];
     v1 = v1 * L + c1_[i];
@@ -196,30 +198,35 @@ BaseFunction::Jet BaseFunction::series(double L) const {
   return {v0, v1, v2};
 }
 
-BaseFunction::Jet BaseFunction::closed_form(double s, double L) const {
-  const double x = s + 1.0;
-  const double t = std::exp(-L / h_);  // x^(−1/h)
+template <class T>
+BaseFunction::JetT<T> BaseFunction::closed_form(T s, T L) const {
+  const T x = s + T(1);
+  const T t = std::exp(-L / h_);  // x^(−1/h)
   // i = 0 (a = 0): E(1) = s and E(2) = s(s + 2)/2 exactly, so its term is s²/2.
-  Jet j{binom_[0] * 0.5 * s * s, binom_[0] * s, 0.0};
-  double xa = t;  // x^(−i/h)
+  JetT<T> j{binom_[0] * T(0.5) * s * s, binom_[0] * s, T(0)};
+  T xa = t;  // x^(−i/h)
   for (int i = 1; i < k_; ++i) {
-    const double a = i / h_;
-    const double e1 = E(1.0 - a, x * xa, L);
-    const double e2 = E(2.0 - a, x * x * xa, L);
+    const T a = i / T(h_);
+    const T e1 = E<T>(T(1) - a, x * xa, L);
+    const T e2 = E<T>(T(2) - a, x * x * xa, L);
     j.value += binom_[i] * (x * e1 - e2);
     j.d1 += binom_[i] * e1;
     xa *= t;
   }
   // Here L/h > 1/(k−1), so 1 − t has no cancellation.
-  double d2 = 1.0;
-  for (int i = 1; i < k_; ++i) d2 *= 1.0 - t;
+  T d2 = 1;
+  for (int i = 1; i < k_; ++i) d2 *= T(1) - t;
   j.d2 = d2;
   return j;
 }
 
-BaseFunction::Jet BaseFunction::general_jet(double s) const {
-  const double L = std::log1p(s);
+template <class T>
+BaseFunction::JetT<T> BaseFunction::general_jet(T s) const {
+  const T L = std::log1p(s);
   return L <= series_limit_ ? series(L) : closed_form(s, L);
 }
+
+template BaseFunction::JetT<double> BaseFunction::general_jet(double) const;
+template BaseFunction::JetT<long double> BaseFunction::general_jet(long double) const;
 
 }  // namespace distlab

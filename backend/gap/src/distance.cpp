@@ -204,6 +204,38 @@ GapResult gap_distance_tracked(const GapBody& a, const GapBody& b, const GapPara
   return r;
 }
 
+ExtendedGradient gap_gradient_extended(const GapBody& a, const GapBody& b, const GapResult& r, double step) {
+  using L = long double;
+  // Well below long double's rounding of Λ's witnesses; the solver's relative stop rule answers
+  // to the local length near contact.
+  constexpr L kTol = 1e-18L;
+  ExtendedGradient out;
+  const PoseT<L> base_a = PoseT<L>::from(a.pose()), base_b = PoseT<L>::from(b.pose());
+  const Vec3T<L> start = r.witness_a.cast<L>();
+  auto distance = [&](const PoseT<L>& pa, const PoseT<L>& pb) {
+    const auto s = solve_newton(PosedP2S<L>{a.p2s(), pa}, PosedP2S<L>{b.p2s(), pb}, start, kTol, 100);
+    out.converged = out.converged && s.converged;
+    return std::sqrt(2 * std::max(s.lambda, L(0)));
+  };
+  out.distance = static_cast<double>(distance(base_a, base_b));
+  const L h = step;
+  for (int which = 0; which < 2; ++which) {
+    for (int c = 0; c < 6; ++c) {
+      L d[2];
+      for (int side = 0; side < 2; ++side) {
+        PoseT<L> pa = base_a, pb = base_b;
+        PoseT<L>& q = which == 0 ? pa : pb;
+        const L x = side == 0 ? h : -h;
+        if (c < 3) q.position[c] += x;
+        else q.rotation = Eigen::Quaternion<L>(Eigen::AngleAxis<L>(x, Vec3T<L>::Unit(c - 3))) * q.rotation;
+        d[side] = distance(pa, pb);
+      }
+      (which == 0 ? out.a : out.b)[c] = static_cast<double>((d[0] - d[1]) / (2 * h));
+    }
+  }
+  return out;
+}
+
 std::vector<GapResult> gap_distance_batch(
     const std::vector<std::pair<const GapBody*, const GapBody*>>& pairs, const GapParams& params,
     unsigned threads) {

@@ -14,6 +14,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "distlab/geometry/error.hpp"
 #include "distlab/geometry/overloaded.hpp"
@@ -22,33 +23,36 @@ namespace distlab {
 namespace {
 
 // Adds W Φ(s) along unit direction u (s = u·p − b), for a term whose Hessian is rank one.
-inline void add_linear_term(P2SValue& v, const BaseFunction& phi, double w, double s,
-                            const Vec3& u, int order) {
+template <class T>
+inline void add_linear_term(P2SValueT<T>& v, const BaseFunction& phi, T w, T s, const Vec3T<T>& u,
+                            int order) {
   if (!(s > 0)) return;
-  const auto j = phi.jet(s);
+  const auto j = phi.jet_as(s);
   v.value += w * j.value;
   if (order >= 1) v.gradient += (w * j.d1) * u;
   if (order >= 2) v.hessian.noalias() += (w * j.d2) * u * u.transpose();
 }
 
 // Φ(‖q‖ − r) for q = p (sphere) or q = (x, y, 0) (cylinder, `planar`).
-inline void add_radial_term(P2SValue& v, const BaseFunction& phi, const Vec3& q, double r,
+template <class T>
+inline void add_radial_term(P2SValueT<T>& v, const BaseFunction& phi, const Vec3T<T>& q, T r,
                             bool planar, int order) {
-  const double n2 = q.squaredNorm();
+  const T n2 = q.squaredNorm();
   if (!(n2 > r * r)) return;
-  const double norm = std::sqrt(n2);
-  const auto j = phi.jet(norm - r);
+  const T norm = std::sqrt(n2);
+  const auto j = phi.jet_as(norm - r);
   v.value += j.value;
   if (order < 1) return;
-  const Vec3 n = q / norm;
+  const Vec3T<T> n = q / norm;
   v.gradient += j.d1 * n;
   if (order < 2) return;
-  Mat3 P = Mat3::Identity();  // projector onto the space q lives in
-  if (planar) P(2, 2) = 0.0;
+  Mat3T<T> P = Mat3T<T>::Identity();  // projector onto the space q lives in
+  if (planar) P(2, 2) = 0;
   v.hessian.noalias() += j.d2 * n * n.transpose() + (j.d1 / norm) * (P - n * n.transpose());
 }
 
-P2SValue scaled(P2SValue v, double w) {
+template <class T>
+P2SValueT<T> scaled(P2SValueT<T> v, T w) {
   v.value *= w;
   v.gradient *= w;
   v.hessian *= w;
@@ -78,6 +82,32 @@ double farthest_distance(const Shape& shape, const Vec3& c) {
                    cap.radius;
           }},
       shape);
+}
+
+// Eq. (6) in a form without cancellation: with A = ερ, B = σe, V = sqrt(A² + B²),
+// E = A + V = B²/(V − A) when A < 0; ∇E = (E∇A + B∇B)/V;
+// ∂²E = (E ∂²A + B ∂²B)/V + q qᵀ/V³ with q = A∇B − B∇A (eq. 18).
+// Internal linkage, one caller per scalar: inlined into strict() as when it was written there.
+template <class T>
+P2SValueT<T> strict_from_weak(const P2SValueT<T>& e, const Vec3T<T>& p, const StrictParams& strict, const Ball& rho,
+                              const Vec3T<T>& rho_center, int order) {
+  const T eps = strict.eps, sigma = strict.sigma, radius = rho.radius;
+  const Vec3T<T> dc = p - rho_center;
+  const T A = eps * T(0.5) * (dc.squaredNorm() - radius * radius);
+  const T B = sigma * e.value;
+  const T V = std::sqrt(A * A + B * B);  // both are far from overflow here
+  P2SValueT<T> out;
+  out.value = A >= 0 ? A + V : B * B / (V - A);
+  if (order < 1) return out;
+  const T inv_v = T(1) / V;
+  const Vec3T<T> dA = eps * dc;
+  const Vec3T<T> dB = sigma * e.gradient;
+  out.gradient = (out.value * inv_v) * dA + (B * inv_v) * dB;
+  if (order < 2) return out;
+  const Vec3T<T> q = A * dB - B * dA;
+  out.hessian.noalias() = (B * sigma * inv_v) * e.hessian + (inv_v * inv_v * inv_v) * q * q.transpose();
+  out.hessian.diagonal().array() += out.value * eps * inv_v;
+  return out;
 }
 
 }  // namespace
@@ -203,108 +233,114 @@ P2SValue PointToSet::halfspaces_world(const Vec3& p, int order) const {
   return v;
 }
 
-P2SValue PointToSet::capsule_local(const Vec3& p, int order) const {
+template <class T>
+P2SValueT<T> PointToSet::capsule_local(const Vec3T<T>& p, int order) const {
   const auto& cap = std::get<Capsule>(shape_);
-  const double r = cap.radius, half = cap.height / 2;
-  const double rho2 = p.x() * p.x() + p.y() * p.y();
-  const double z = std::abs(p.z()), sign = p.z() < 0 ? -1.0 : 1.0;
-  P2SValue v;
-  const double tz = std::min(z, half);
+  const T r = cap.radius, half = T(cap.height) / 2;
+  const T rho2 = p.x() * p.x() + p.y() * p.y();
+  const T z = std::abs(p.z()), sign = p.z() < 0 ? -1 : 1;
+  P2SValueT<T> v;
+  const T tz = std::min(z, half);
   if (rho2 + (z - tz) * (z - tz) <= r * r) return v;  // inside the capsule
   // g(t) = Φ(‖p − t e_z‖ − r) + Φ(t − l/2) over t in [min(z, l/2), z] (z >= 0 by symmetry);
   // g' is increasing; safeguarded Newton on g'(t) = 0.
-  double lo = tz, hi = z, t = tz;
-  auto dg = [&](double tt, double* d2) {
-    const double dz = z - tt, d = std::sqrt(rho2 + dz * dz);
-    const auto j = phi_.jet(d - r);
-    const auto jt = phi_.jet(tt - half);
-    const double c = -dz / d;
+  T lo = tz, hi = z, t = tz;
+  // The stop rule at double's 1e-16, scaled to T's precision.
+  const T rel = T(1e-16) * (std::numeric_limits<T>::epsilon() / std::numeric_limits<double>::epsilon());
+  auto dg = [&](T tt, T* d2) {
+    const T dz = z - tt, d = std::sqrt(rho2 + dz * dz);
+    const auto j = phi_.jet_as(d - r);
+    const auto jt = phi_.jet_as(tt - half);
+    const T c = -dz / d;
     *d2 = j.d2 * c * c + j.d1 / d * (1 - c * c) + jt.d2;
     return j.d1 * c + jt.d1;
   };
   if (z > half) {
     for (int it = 0; it < 100; ++it) {
-      double d2;
-      const double g1 = dg(t, &d2);
+      T d2;
+      const T g1 = dg(t, &d2);
       if (g1 > 0) hi = t;
       else lo = t;
       if (g1 == 0) break;
-      double next = t - g1 / d2;
-      if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
-      if (std::abs(next - t) <= 1e-16 * std::max(1.0, std::abs(t))) {
+      T next = t - g1 / d2;
+      if (!(next > lo && next < hi)) next = (lo + hi) / 2;
+      if (std::abs(next - t) <= rel * std::max(T(1), std::abs(t))) {
         t = next;
         break;
       }
       t = next;
     }
   }
-  const Vec3 q(p.x(), p.y(), sign * (z - t));  // p − t* e_z, in p's half-space
-  const double d = q.norm();
-  const auto j = phi_.jet(d - r);
-  const auto jt = phi_.jet(t - half);
+  const Vec3T<T> q(p.x(), p.y(), sign * (z - t));  // p − t* e_z, in p's half-space
+  const T d = q.norm();
+  const auto j = phi_.jet_as(d - r);
+  const auto jt = phi_.jet_as(t - half);
   v.value = j.value + jt.value;
   if (order < 1) return v;
-  const Vec3 n = q / d;
+  const Vec3T<T> n = q / d;
   v.gradient = j.d1 * n;
   if (order < 2) return v;
   // Schur complement: H = f_pp − f_pp e ( eᵀ f_pp e + ψ'' )⁻¹ eᵀ f_pp.
-  const Mat3 fpp = j.d2 * n * n.transpose() + (j.d1 / d) * (Mat3::Identity() - n * n.transpose());
-  const Vec3 fe = fpp.col(2);
-  const double ftt = fe.z() + jt.d2;
+  const Mat3T<T> fpp = j.d2 * n * n.transpose() + (j.d1 / d) * (Mat3T<T>::Identity() - n * n.transpose());
+  const Vec3T<T> fe = fpp.col(2);
+  const T ftt = fe.z() + jt.d2;
   v.hessian = fpp - fe * fe.transpose() / ftt;
   return v;
 }
 
-P2SValue PointToSet::weak_local(const Vec3& p, int order) const {
+// Polytopes and boxes are evaluated here only in a wider T (strict_at); weak() evaluates their
+// double-precision sum in world coordinates (halfspaces_world).
+template <class T>
+P2SValueT<T> PointToSet::weak_local(const Vec3T<T>& p, int order) const {
+  const T round_weight = round_weight_;
   return std::visit(
       Overloaded{
           [&](const Sphere& s) {
-            P2SValue v;
-            add_radial_term(v, phi_, p, s.radius, false, order);
-            return scaled(v, round_weight_);
+            P2SValueT<T> v;
+            add_radial_term<T>(v, phi_, p, s.radius, false, order);
+            return scaled(v, round_weight);
           },
           [&](const Cylinder& c) {
-            P2SValue v;
-            add_radial_term(v, phi_, Vec3(p.x(), p.y(), 0.0), c.radius, true, order);
-            add_linear_term(v, phi_, 1.0, p.z() - c.height / 2, Vec3::UnitZ(), order);
-            add_linear_term(v, phi_, 1.0, -p.z() - c.height / 2, -Vec3::UnitZ(), order);
-            return scaled(v, round_weight_);
+            P2SValueT<T> v;
+            add_radial_term<T>(v, phi_, Vec3T<T>(p.x(), p.y(), T(0)), c.radius, true, order);
+            add_linear_term<T>(v, phi_, 1, p.z() - T(c.height) / 2, Vec3T<T>::UnitZ(), order);
+            add_linear_term<T>(v, phi_, 1, -p.z() - T(c.height) / 2, -Vec3T<T>::UnitZ(), order);
+            return scaled(v, round_weight);
           },
-          [&](const Capsule&) { return scaled(capsule_local(p, order), round_weight_); },
-          [&](const auto&) { return P2SValue{}; }},
+          [&](const Capsule&) { return scaled(capsule_local(p, order), round_weight); },
+          [&](const auto&) {
+            // Eq. (5) in the shape frame.
+            P2SValueT<T> v;
+            for (Eigen::Index i = 0; i < A_local_.rows(); ++i) {
+              const Vec3T<T> u = A_local_.row(i).transpose().cast<T>();
+              add_linear_term<T>(v, phi_, weights_[i], u.dot(p) - T(b_local_[i]), u, order);
+            }
+            return v;
+          }},
       shape_);
 }
 
 P2SValue PointToSet::weak(const Vec3& p, int order) const {
   if (A_world_.rows() > 0) return halfspaces_world(p, order);
-  P2SValue v = weak_local(pose_.to_local(p), order);
+  P2SValue v = weak_local<double>(pose_.to_local(p), order);
   if (order >= 1) v.gradient = R_ * v.gradient;
   if (order >= 2) v.hessian = R_ * v.hessian * R_.transpose();
   return v;
 }
 
-// Eq. (6) in a form without cancellation: with A = ερ, B = σe, V = sqrt(A² + B²),
-// E = A + V = B²/(V − A) when A < 0; ∇E = (E∇A + B∇B)/V;
-// ∂²E = (E ∂²A + B ∂²B)/V + q qᵀ/V³ with q = A∇B − B∇A (eq. 18).
 P2SValue PointToSet::strict(const Vec3& p, int order) const {
-  const P2SValue e = weak(p, order);
-  const double eps = strict_.eps, sigma = strict_.sigma;
-  const Vec3 dc = p - rho_center_world_;
-  const double A = eps * 0.5 * (dc.squaredNorm() - rho_.radius * rho_.radius);
-  const double B = sigma * e.value;
-  const double V = std::sqrt(A * A + B * B);  // both are far from overflow here
-  P2SValue out;
-  out.value = A >= 0 ? A + V : B * B / (V - A);
-  if (order < 1) return out;
-  const double inv_v = 1.0 / V;
-  const Vec3 dA = eps * dc;
-  const Vec3 dB = sigma * e.gradient;
-  out.gradient = (out.value * inv_v) * dA + (B * inv_v) * dB;
-  if (order < 2) return out;
-  const Vec3 q = A * dB - B * dA;
-  out.hessian.noalias() = (B * sigma * inv_v) * e.hessian + (inv_v * inv_v * inv_v) * q * q.transpose();
-  out.hessian.diagonal().array() += out.value * eps * inv_v;
-  return out;
+  return strict_from_weak(weak(p, order), p, strict_, rho_, rho_center_world_, order);
 }
+
+template <class T>
+P2SValueT<T> PointToSet::strict_at(const Vec3T<T>& p, const PoseT<T>& pose, int order) const {
+  const Mat3T<T> R = pose.rotation.normalized().toRotationMatrix();
+  P2SValueT<T> e = weak_local<T>(R.transpose() * (p - pose.position), order);
+  if (order >= 1) e.gradient = R * e.gradient;
+  if (order >= 2) e.hessian = R * e.hessian * R.transpose();
+  return strict_from_weak<T>(e, p, strict_, rho_, pose.position + R * rho_.center.cast<T>(), order);
+}
+
+template P2SValueT<long double> PointToSet::strict_at(const Vec3T<long double>&, const PoseT<long double>&, int) const;
 
 }  // namespace distlab

@@ -11,7 +11,12 @@ namespace distlab {
 namespace {
 
 constexpr double kArmijo = 1e-4;
-constexpr double kRound = 64 * std::numeric_limits<double>::epsilon();
+// Rounding allowances and relative stop rules, set for double and scaled to T's precision
+// (long double: solve_newton's reference overload); exactly the constants themselves for double.
+template <class T>
+constexpr T kPrecision = std::numeric_limits<T>::epsilon() / std::numeric_limits<double>::epsilon();
+template <class T>
+constexpr T kRound = 64 * std::numeric_limits<T>::epsilon();
 constexpr int kJointHalvings = 30;
 constexpr int kDampedSteps = 3;
 // Near contact E_B varies on the length ℓ = ‖∇E_B‖ / tr ∂²E_B (a fifth of the distance to B
@@ -23,45 +28,54 @@ constexpr int kDampedSteps = 3;
 constexpr double kRelativeStep = 1e-4;
 
 // True if a step of length `step` at a with E_B's derivatives `eb` is below the relative rule.
-bool below_local_scale(double step, const P2SValue& eb, double rel) {
+template <class T>
+bool below_local_scale(T step, const P2SValueT<T>& eb, double rel) {
   return step * eb.hessian.trace() <= rel * eb.gradient.norm();
 }
 
 // Inner problem of Lemma 3: b°(a) maximises φ(b) = E_A(b) − ½‖a − b‖², i.e. Π_A(b°) = a.
 // φ is strongly concave (∂²E_A < I); Newton with an Armijo ascent test. The unknown is
 // ba = b − a (see Saddle below), b = a + ba. Returns E_A at b°.
-P2SValue maximise_inner(const PointToSet& A, const Vec3& a, Vec3& ba) {
-  P2SValue ea = A.strict(a + ba, 2);
+// E: PointToSet (double) or PosedP2S<T>.
+template <class T, class E>
+P2SValueT<T> maximise_inner(const E& A, const Vec3T<T>& a, Vec3T<T>& ba) {
+  using V = Vec3T<T>;
+  P2SValueT<T> ea = A.strict(a + ba, 2);
   for (int it = 0; it < 60; ++it) {
     // Stop rules relative to ba: near contact ba and r are 1e-29 where a is 0.1.
-    const Vec3 r = ba - ea.gradient;  // −∇φ
-    if (r.norm() <= 1e-15 * ba.norm()) break;
-    const Mat3 J = Mat3::Identity() - ea.hessian;  // −∂²φ, SPD
-    const Vec3 delta = -J.llt().solve(r);
-    const double slope = -r.dot(delta);  // ∇φ·δ > 0
-    const double phi0 = ea.value - 0.5 * ba.squaredNorm();
-    double alpha = 1.0;
+    const V r = ba - ea.gradient;  // −∇φ
+    if (r.norm() <= T(1e-15) * kPrecision<T> * ba.norm()) break;
+    const Mat3T<T> J = Mat3T<T>::Identity() - ea.hessian;  // −∂²φ, SPD
+    const V delta = -J.llt().solve(r);
+    const T slope = -r.dot(delta);  // ∇φ·δ > 0
+    const T phi0 = ea.value - T(0.5) * ba.squaredNorm();
+    T alpha = 1;
     bool moved = false;
-    for (int ls = 0; ls < 40; ++ls, alpha *= 0.5) {
-      const Vec3 bn = ba + alpha * delta;
-      P2SValue en = A.strict(a + bn, 2);
-      const double phin = en.value - 0.5 * bn.squaredNorm();
-      if (phin >= phi0 + kArmijo * alpha * slope - kRound * (std::abs(phi0) + 1e-300)) {
+    for (int ls = 0; ls < 40; ++ls, alpha *= T(0.5)) {
+      const V bn = ba + alpha * delta;
+      P2SValueT<T> en = A.strict(a + bn, 2);
+      const T phin = en.value - T(0.5) * bn.squaredNorm();
+      if (phin >= phi0 + T(kArmijo) * alpha * slope - kRound<T> * (std::abs(phi0) + T(1e-300))) {
         ba = bn;
         ea = en;
         moved = true;
         break;
       }
     }
-    if (!moved || alpha * delta.norm() <= 1e-16 * ba.norm()) break;
+    if (!moved || alpha * delta.norm() <= T(1e-16) * kPrecision<T> * ba.norm()) break;
   }
   return ea;
+}
+
+template <class T, class E>
+T lambda_of(const E& A, const E& B, const Vec3T<T>& a, const Vec3T<T>& b) {
+  return A.strict(b, 0).value + B.strict(a, 0).value - T(0.5) * (a - b).squaredNorm();
 }
 
 }  // namespace
 
 double lambda_at(const PointToSet& A, const PointToSet& B, const Vec3& a, const Vec3& b) {
-  return A.strict(b, 0).value + B.strict(a, 0).value - 0.5 * (a - b).squaredNorm();
+  return lambda_of<double>(A, B, a, b);
 }
 
 WitnessSolution solve_fixed_point(const PointToSet& A, const PointToSet& B, const Vec3& a0,
@@ -93,12 +107,14 @@ namespace {
 // a Euclidean distance of 1e-6), so the difference of the two doubles would leave the saddle
 // residuals b − a + ∇E_B(a) and a − b + ∇E_A(b) pure rounding. b is a + ba rounded, which only
 // moves where E_A is evaluated, by an ulp.
-struct Saddle {
-  Vec3 a, b, ba;
-  P2SValue ea, eb;
-  double shift = 0;  // makes lambda() Λ's quadratic model after a final, unevaluated step
-  double lambda() const { return ea.value + eb.value - 0.5 * ba.squaredNorm() + shift; }
+template <class T>
+struct SaddleT {
+  Vec3T<T> a, b, ba;
+  P2SValueT<T> ea, eb;
+  T shift = 0;  // makes lambda() Λ's quadratic model after a final, unevaluated step
+  T lambda() const { return ea.value + eb.value - T(0.5) * ba.squaredNorm() + shift; }
 };
+using Saddle = SaddleT<double>;
 
 // The Newton step (δa, δb) of the saddle equations below from their residuals rb, ra and the
 // Hessians Eb = ∂²E_B(a), Ea = ∂²E_A(b). With Hb = Eb − I, Ha = Ea − I:
@@ -108,13 +124,14 @@ struct Saddle {
 // cost; an exactly singular matrix gives non-finite steps (callers check). `inverse_norm`: the
 // Frobenius norm of M⁻¹, if asked for. Also returns δb − δa = ra + Ea δb, which near contact is
 // far below δa and δb themselves.
-Vec3 saddle_step(const Mat3& Eb, const Mat3& Ea, const Vec3& rb, const Vec3& ra, Vec3& da, Vec3& db,
-                 double* inverse_norm = nullptr) {
-  const Mat3 M = Eb + Ea - Eb * Ea;  // = I − Hb Ha
-  const Mat3 inverse = M.inverse();
+template <class T>
+Vec3T<T> saddle_step(const Mat3T<T>& Eb, const Mat3T<T>& Ea, const Vec3T<T>& rb, const Vec3T<T>& ra, Vec3T<T>& da,
+                     Vec3T<T>& db, T* inverse_norm = nullptr) {
+  const Mat3T<T> M = Eb + Ea - Eb * Ea;  // = I − Hb Ha
+  const Mat3T<T> inverse = M.inverse();
   if (inverse_norm) *inverse_norm = inverse.norm();
   db = inverse * (Eb * ra - ra - rb);
-  Vec3 dba = ra + Ea * db;  // not const: returned by move
+  Vec3T<T> dba = ra + Ea * db;  // not const: returned by move
   da = db - dba;
   return dba;
 }
@@ -123,8 +140,10 @@ Vec3 saddle_step(const Mat3& Eb, const Mat3& Ea, const Vec3& rb, const Vec3& ra,
 // drops from |δ| to O(|δ|²). Λ follows its quadratic model, Λ + g·δ + ½δᵀHδ = Λ + ½g·δ with
 // g = (r_b, r_a) = ∇Λ(a, b) and Hδ = −g; ∇E_B its linear model (the gradient of Λ is read from
 // it, solve_newton). ½‖b − a‖² changes by ba·δ(ba) + ½‖δ(ba)‖².
-void final_step(Saddle& s, const Vec3& rb, const Vec3& ra, const Vec3& da, const Vec3& db, const Vec3& dba) {
-  s.shift = 0.5 * (rb.dot(da) + ra.dot(db)) + s.ba.dot(dba) + 0.5 * dba.squaredNorm();
+template <class T>
+void final_step(SaddleT<T>& s, const Vec3T<T>& rb, const Vec3T<T>& ra, const Vec3T<T>& da, const Vec3T<T>& db,
+                const Vec3T<T>& dba) {
+  s.shift = T(0.5) * (rb.dot(da) + ra.dot(db)) + s.ba.dot(dba) + T(0.5) * dba.squaredNorm();
   s.eb.gradient += s.eb.hessian * da;  // ∂²E_B(a) δa
   s.a += da;
   s.ba += dba;
@@ -141,42 +160,43 @@ void final_step(Saddle& s, const Vec3& rb, const Vec3& ra, const Vec3& da, const
 // nearly parallel faces, where the witnesses slide by centimetres at residuals of 1e-14 and
 // backtracking on ‖r‖ crawls (44 steps where the nested method, descending on the convex
 // Λ_B, takes 15).
-bool joint_newton(const PointToSet& A, const PointToSet& B, Saddle& s, double tol, int max_iter,
-                  int& iterations) {
-  auto residual = [](const Saddle& x, Vec3& rb, Vec3& ra) {
+template <class T, class E>
+bool joint_newton(const E& A, const E& B, SaddleT<T>& s, T tol, int max_iter, int& iterations) {
+  using V = Vec3T<T>;
+  auto residual = [](const SaddleT<T>& x, V& rb, V& ra) {
     rb = x.ba + x.eb.gradient;
     ra = x.ea.gradient - x.ba;
     return rb.squaredNorm() + ra.squaredNorm();
   };
-  Vec3 rb, ra;
-  double merit = residual(s, rb, ra);
-  Saddle trial[2] = {s, s};
-  Saddle* cur = &trial[0];
-  Saddle* next = &trial[1];
+  V rb, ra;
+  T merit = residual(s, rb, ra);
+  SaddleT<T> trial[2] = {s, s};
+  SaddleT<T>* cur = &trial[0];
+  SaddleT<T>* next = &trial[1];
   bool done = false;
   int damped = 0;
   while (!done && iterations < max_iter) {
-    Vec3 da, db;
-    const Vec3 dba = saddle_step(cur->eb.hessian, cur->ea.hessian, rb, ra, da, db);
+    V da, db;
+    const V dba = saddle_step<T>(cur->eb.hessian, cur->ea.hessian, rb, ra, da, db);
     if (!da.allFinite() || !db.allFinite()) break;
-    const double step2 = std::max(da.squaredNorm(), db.squaredNorm());
+    const T step2 = std::max(da.squaredNorm(), db.squaredNorm());
     if (step2 < tol * tol && below_local_scale(std::sqrt(step2), cur->eb, kRelativeStep)) {
       final_step(*cur, rb, ra, da, db, dba);
       done = true;
       break;
     }
     ++iterations;
-    double alpha = 1.0;
+    T alpha = 1;
     bool moved = false;
-    for (int ls = 0; ls < kJointHalvings; ++ls, alpha *= 0.5) {
+    for (int ls = 0; ls < kJointHalvings; ++ls, alpha *= T(0.5)) {
       next->a = cur->a + alpha * da;
       next->ba = cur->ba + alpha * dba;
       next->b = next->a + next->ba;
       next->eb = B.strict(next->a, 2);
       next->ea = A.strict(next->b, 2);
-      Vec3 rbn, ran;
-      const double m = residual(*next, rbn, ran);
-      if (m < (1 - 1e-4 * alpha) * merit || m == 0.0) {
+      V rbn, ran;
+      const T m = residual(*next, rbn, ran);
+      if (m < (1 - T(1e-4) * alpha) * merit || m == 0) {
         std::swap(cur, next);
         rb = rbn, ra = ran, merit = m;
         moved = true;
@@ -192,41 +212,43 @@ bool joint_newton(const PointToSet& A, const PointToSet& B, Saddle& s, double to
 }
 
 // Newton on Λ_B(a) = max_b Λ(a, b) (nested), from s.a with s.ba warm.
-bool nested_newton(const PointToSet& A, const PointToSet& B, Saddle& s, double tol, int max_iter,
-                   int& iterations) {
-  s.ea = maximise_inner(A, s.a, s.ba);
+template <class T, class E>
+bool nested_newton(const E& A, const E& B, SaddleT<T>& s, T tol, int max_iter, int& iterations) {
+  using V = Vec3T<T>;
+  using M3 = Mat3T<T>;
+  s.ea = maximise_inner<T>(A, s.a, s.ba);
   s.b = s.a + s.ba;
   s.eb = B.strict(s.a, 2);
-  double lam = s.lambda();
-  const Mat3 I = Mat3::Identity();
+  T lam = s.lambda();
+  const M3 I = M3::Identity();
   while (iterations < max_iter) {
-    const Vec3 g = s.eb.gradient + s.ba;  // ∇Λ_B(a) = b° − Π_B(a)
-    const Eigen::LLT<Mat3> inner(I - s.ea.hessian);
+    const V g = s.eb.gradient + s.ba;  // ∇Λ_B(a) = b° − Π_B(a)
+    const Eigen::LLT<M3> inner(I - s.ea.hessian);
     // Eq. (11), SPD: ∂²E_B − I + (I − ∂²E_A)⁻¹ = ∂²E_B + (I − ∂²E_A)⁻¹ ∂²E_A, the latter form
     // without the cancellation that loses ∂²E_A (1e-20 near contact) against I.
-    const Mat3 M = s.eb.hessian + inner.solve(s.ea.hessian);
-    Eigen::LLT<Mat3> outer(M);
-    Vec3 d = outer.info() == Eigen::Success ? Vec3(-outer.solve(g)) : Vec3(-g);
+    const M3 M = s.eb.hessian + inner.solve(s.ea.hessian);
+    Eigen::LLT<M3> outer(M);
+    V d = outer.info() == Eigen::Success ? V(-outer.solve(g)) : V(-g);
     if (!d.allFinite() || g.dot(d) >= 0) d = -g;
     // No final step here: the step itself must be below kRelativeStep² ℓ.
     if (d.norm() < tol && below_local_scale(d.norm(), s.eb, kRelativeStep * kRelativeStep)) return true;
     ++iterations;
     // b° moves by (I − ∂²E_A)⁻¹ δa, so b° − a by (I − ∂²E_A)⁻¹ ∂²E_A δa.
-    const Vec3 dba = inner.solve(s.ea.hessian * d);
-    const double slope = g.dot(d);
-    double alpha = 1.0;
+    const V dba = inner.solve(s.ea.hessian * d);
+    const T slope = g.dot(d);
+    T alpha = 1;
     bool moved = false;
-    for (int ls = 0; ls < 60; ++ls, alpha *= 0.5) {
-      Saddle n{s.a + alpha * d, {}, s.ba + alpha * dba, {}, {}};
-      n.ea = maximise_inner(A, n.a, n.ba);
+    for (int ls = 0; ls < 60; ++ls, alpha *= T(0.5)) {
+      SaddleT<T> n{s.a + alpha * d, {}, s.ba + alpha * dba, {}, {}};
+      n.ea = maximise_inner<T>(A, n.a, n.ba);
       n.b = n.a + n.ba;
       n.eb = B.strict(n.a, 2);
-      const double lamn = n.lambda();
+      const T lamn = n.lambda();
       // Near the solution Λ's decrease, ½ g·d, falls below Λ's own rounding (1e-29 against
       // 6e-16 on nearly parallel faces) and the Armijo test sees noise; a step that halves ‖g‖
       // is then taken as well, so Newton keeps converging quadratically.
-      const bool halves = (n.eb.gradient + n.ba).norm() <= 0.5 * g.norm();
-      if (halves || lamn <= lam + kArmijo * alpha * slope + kRound * std::abs(lam)) {
+      const bool halves = (n.eb.gradient + n.ba).norm() <= T(0.5) * g.norm();
+      if (halves || lamn <= lam + T(kArmijo) * alpha * slope + kRound<T> * std::abs(lam)) {
         // A step taken without lowering Λ or halving ‖g‖ passed only by the rounding allowance:
         // the decrease Newton predicts is below Λ's rounding, and the steps are noise from here
         // on (they hover at 1e-15 near contact, 1e-14 on nearly parallel faces).
@@ -242,22 +264,21 @@ bool nested_newton(const PointToSet& A, const PointToSet& B, Saddle& s, double t
   return false;
 }
 
-}  // namespace
-
-WitnessSolution solve_newton(const PointToSet& A, const PointToSet& B, const Vec3& a0, double tol,
-                             int max_iter, const Vec3* b0) {
-  WitnessSolution out;
-  Saddle s{a0, a0, {}, {}, {}};
+template <class T, class E>
+WitnessSolutionT<T> newton(const E& A, const E& B, const Vec3T<T>& a0, T tol, int max_iter, const Vec3T<T>* b0) {
+  using V = Vec3T<T>;
+  WitnessSolutionT<T> out;
+  SaddleT<T> s{a0, a0, {}, {}, {}};
   s.eb = B.strict(s.a, 2);
   // Without a start for b, b0 = Π_B(a0): the first saddle equation then holds exactly.
-  s.ba = b0 ? Vec3(*b0 - a0) : Vec3(-s.eb.gradient);
+  s.ba = b0 ? V(*b0 - a0) : V(-s.eb.gradient);
   s.b = a0 + s.ba;
   s.ea = A.strict(s.b, 2);
-  out.converged = joint_newton(A, B, s, tol, max_iter, out.iterations);
+  out.converged = joint_newton<T>(A, B, s, tol, max_iter, out.iterations);
   if (!out.converged) {
     // The nested method's inner solve starts from the last b, or from b = a (exact when a is in A).
-    if (!s.a.allFinite() || !s.ba.allFinite()) s.a = a0, s.ba = Vec3::Zero();
-    out.converged = nested_newton(A, B, s, tol, max_iter, out.iterations);
+    if (!s.a.allFinite() || !s.ba.allFinite()) s.a = a0, s.ba = V::Zero();
+    out.converged = nested_newton<T>(A, B, s, tol, max_iter, out.iterations);
   }
   out.a = s.a;
   if (out.converged) {
@@ -268,12 +289,25 @@ WitnessSolution solve_newton(const PointToSet& A, const PointToSet& B, const Vec
   } else {
     out.ab = B.strict(s.a, 1).gradient;
     out.b = s.a - out.ab;
-    out.lambda = lambda_at(A, B, out.a, out.b);
-    const Vec3 fa = out.b - A.strict(out.b, 1).gradient;
+    out.lambda = lambda_of<T>(A, B, out.a, out.b);
+    const V fa = out.b - A.strict(out.b, 1).gradient;
     out.converged = (fa - s.a).norm() < tol;  // converged to working precision after all
   }
   if (out.a == s.a && out.b == s.b) out.ea = s.ea, out.eb = s.eb, out.evaluated = true;
   return out;
+}
+
+}  // namespace
+
+WitnessSolution solve_newton(const PointToSet& A, const PointToSet& B, const Vec3& a0, double tol, int max_iter,
+                             const Vec3* b0) {
+  return newton<double>(A, B, a0, tol, max_iter, b0);
+}
+
+WitnessSolutionT<long double> solve_newton(const PosedP2S<long double>& A, const PosedP2S<long double>& B,
+                                           const Vec3T<long double>& a0, long double tol, int max_iter,
+                                           const Vec3T<long double>* b0) {
+  return newton<long double>(A, B, a0, tol, max_iter, b0);
 }
 
 void lambda_gradients(const WitnessSolution& s, const Pose& pose_a, const Pose& pose_b, Vec6& grad_a,

@@ -2,6 +2,7 @@
 // The base k-P2S function Φ of the GAP paper (Definition 4, eq. 4), for any integer k >= 2 and
 // h > 0:  Φ''(s) = (1 − (s+1)^(−1/h))^(k−1) for s >= 0, and Φ(s) = 0 for s <= 0.
 #include <array>
+#include <type_traits>
 #include <vector>
 
 namespace distlab {
@@ -13,9 +14,11 @@ class BaseFunction {
   // Throws InvalidInput("params.h" / "params.k") for h <= 0 or not finite, k < 2 or k > kMaxK.
   BaseFunction(double h, int k);
 
-  struct Jet {
-    double value = 0, d1 = 0, d2 = 0;  // Φ, Φ', Φ''
+  template <class T>
+  struct JetT {
+    T value = 0, d1 = 0, d2 = 0;  // Φ, Φ', Φ''
   };
+  using Jet = JetT<double>;
   Jet jet(double s) const {
     if (!(s > 0)) return {};
     if (s <= kRationalMaxS) {
@@ -26,14 +29,26 @@ class BaseFunction {
     return general_jet(s);
   }
   double value(double s) const { return jet(s).value; }
+  // Φ in a wider scalar T (long double: references without double's rounding, PointToSet::
+  // strict_at): the general path, series or closed form, evaluated in T (its coefficients are
+  // doubles, a smooth change of Φ far below the precision asked for). T = double: jet(s).
+  template <class T>
+  JetT<T> jet_as(T s) const {
+    if constexpr (std::is_same_v<T, double>) return jet(s);
+    else return s > 0 ? general_jet(s) : JetT<T>{};
+  }
 
   double h() const { return h_; }
   int k() const { return k_; }
 
  private:
-  Jet general_jet(double s) const;  // s > 0: series in ln(1+s) or closed form
-  Jet closed_form(double s, double L) const;
-  Jet series(double L) const;
+  // s > 0: series in ln(1+s) or closed form (T = double and long double, base_function.cpp).
+  template <class T>
+  JetT<T> general_jet(T s) const;
+  template <class T>
+  JetT<T> closed_form(T s, T L) const;
+  template <class T>
+  JetT<T> series(T L) const;
   void build_rational_form();
 
  public:

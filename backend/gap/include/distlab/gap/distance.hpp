@@ -108,6 +108,20 @@ struct GapTrack {
 // gap_distance does, and the next call warm from its witnesses.
 GapResult gap_distance_tracked(const GapBody& a, const GapBody& b, const GapParams& params, GapTrack& track);
 
+// A reference for the pose gradients of D where double cannot give one by finite differences:
+// near contact (Euclidean distance ~1e-7, D ~ 1e-21) D's rounding in double is ~1e-9 relative
+// (s = u·p − b ~ 1e-7 against |p| ~ 0.3), which a difference quotient divides by its step.
+// Here every D is solved in long double (solve_newton's long-double overload, PointToSet::
+// strict_at), with the poses moved in long double too: central differences of D along the 12
+// pose coordinates (linear, then world-frame rotation about the shape's origin; the order of
+// GapResult::gradient_a/b) with coordinate step `step`, starting from r's witness on A.
+struct ExtendedGradient {
+  Vec6 a = Vec6::Zero(), b = Vec6::Zero();
+  double distance = 0;    // D at the given poses, solved in long double
+  bool converged = true;  // every solve converged
+};
+ExtendedGradient gap_gradient_extended(const GapBody& a, const GapBody& b, const GapResult& r, double step);
+
 // The former name of distlab::parallel_for (geometry/parallel.hpp), for the callers that still use it.
 inline void parallel_indices(std::size_t n, unsigned threads, const std::function<void(std::size_t)>& fn) {
   parallel_for(n, threads, fn);

@@ -31,11 +31,26 @@ struct P2SOptions {
   std::optional<double> round_weight;
 };
 
+template <class T>
+using Vec3T = Eigen::Matrix<T, 3, 1>;
+template <class T>
+using Mat3T = Eigen::Matrix<T, 3, 3>;
+
 // A value with optional first and second derivatives (world or local frame as stated).
-struct P2SValue {
-  double value = 0;
-  Vec3 gradient = Vec3::Zero();
-  Mat3 hessian = Mat3::Zero();
+template <class T>
+struct P2SValueT {
+  T value = 0;
+  Vec3T<T> gradient = Vec3T<T>::Zero();
+  Mat3T<T> hessian = Mat3T<T>::Zero();
+};
+using P2SValue = P2SValueT<double>;
+
+// A rigid pose in scalar T (PointToSet::strict_at).
+template <class T>
+struct PoseT {
+  Vec3T<T> position = Vec3T<T>::Zero();
+  Eigen::Quaternion<T> rotation = Eigen::Quaternion<T>::Identity();
+  static PoseT from(const Pose& p) { return {p.position.cast<T>(), p.rotation.cast<T>()}; }
 };
 
 class PointToSet {
@@ -53,6 +68,12 @@ class PointToSet {
   // e_S and E_S at a world point. `order` 0: value only, 1: + gradient, 2: + Hessian.
   P2SValue weak(const Vec3& p, int order) const;
   P2SValue strict(const Vec3& p, int order) const;
+  // E_S in scalar T (long double) with the shape at `pose`, from the shape's own data (the
+  // world-frame rows set_pose caches are doubles): the formulas of strict(), without double's
+  // rounding, which near contact is ~1e-9 of D (s = u·p − b ~ 1e-7 against |p| ~ 0.3). A
+  // reference for checks (gap_gradient_extended); T = long double is instantiated.
+  template <class T>
+  P2SValueT<T> strict_at(const Vec3T<T>& p, const PoseT<T>& pose, int order) const;
   // Hints the CPU to load the evaluation data (half-space rows) into cache, e.g. while the
   // Euclidean start is computed; no effect on results.
   void prefetch() const {
@@ -80,9 +101,11 @@ class PointToSet {
     const char* p = static_cast<const char*>(data);
     for (size_t i = 0; i < bytes; i += 64) __builtin_prefetch(p + i);
   }
-  P2SValue weak_local(const Vec3& p, int order) const;
+  template <class T>
+  P2SValueT<T> weak_local(const Vec3T<T>& p, int order) const;
   P2SValue halfspaces_world(const Vec3& p, int order) const;
-  P2SValue capsule_local(const Vec3& p, int order) const;
+  template <class T>
+  P2SValueT<T> capsule_local(const Vec3T<T>& p, int order) const;
 
   Shape shape_;
   BaseFunction phi_;

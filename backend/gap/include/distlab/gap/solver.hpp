@@ -9,22 +9,24 @@
 
 namespace distlab {
 
-struct WitnessSolution {
-  Vec3 a = Vec3::Zero();  // a* = Π_A(b*)
-  Vec3 b = Vec3::Zero();  // b* = Π_B(a*)
+template <class T>
+struct WitnessSolutionT {
+  Vec3T<T> a = Vec3T<T>::Zero();  // a* = Π_A(b*)
+  Vec3T<T> b = Vec3T<T>::Zero();  // b* = Π_B(a*)
   // a* − b* = ∇E_B(a*) (Π_B(p) = p − ∇E_B(p), Definition 1; b* = Π_B(a*)), read from the P2S
   // gradient: near contact it is far below |a*| (1e-13 against 0.3 at D ~ 1e-8, 0 in double
   // at d ~ 1e-5), so the difference of the two points keeps few digits or none.
-  Vec3 ab = Vec3::Zero();
-  double lambda = 0;   // eq. (3)
+  Vec3T<T> ab = Vec3T<T>::Zero();
+  T lambda = 0;        // eq. (3)
   int iterations = 0;  // outer iterations
   bool converged = false;
 
   // E_A(b) and E_B(a) with derivatives at the returned points, when the solver's last
   // evaluation was there (`evaluated`): the start of the next solve along a motion.
-  P2SValue ea, eb;
+  P2SValueT<T> ea, eb;
   bool evaluated = false;
 };
+using WitnessSolution = WitnessSolutionT<double>;
 
 // Plain iteration from a0; stops when ‖a[k+1] − a[k]‖ < tol (the paper's rule) or at max_iter.
 WitnessSolution solve_fixed_point(const PointToSet& A, const PointToSet& B, const Vec3& a0,
@@ -35,6 +37,21 @@ WitnessSolution solve_fixed_point(const PointToSet& A, const PointToSet& B, cons
 // b0: start for b (default a0: a* and b* are close when ∇E is small).
 WitnessSolution solve_newton(const PointToSet& A, const PointToSet& B, const Vec3& a0, double tol,
                              int max_iter, const Vec3* b0 = nullptr);
+
+// A shape at a pose in scalar T, evaluated by PointToSet::strict_at.
+template <class T>
+struct PosedP2S {
+  const PointToSet& set;
+  PoseT<T> pose;
+  P2SValueT<T> strict(const Vec3T<T>& p, int order) const { return set.strict_at(p, pose, order); }
+};
+
+// The same Newton in long double (64-bit significand, 2048× less rounding than double): a
+// reference for Λ and its gradient near contact, where double's rounding of the evaluations is
+// ~1e-9 of D (gap_gradient_extended). Stop rules at double's precision are scaled to long double's.
+WitnessSolutionT<long double> solve_newton(const PosedP2S<long double>& A, const PosedP2S<long double>& B,
+                                           const Vec3T<long double>& a0, long double tol, int max_iter,
+                                           const Vec3T<long double>* b0 = nullptr);
 
 // Λ(a, b) = E_A(b) + E_B(a) − ½‖a − b‖² (eq. 3 at the witness points).
 double lambda_at(const PointToSet& A, const PointToSet& B, const Vec3& a, const Vec3& b);
