@@ -1,6 +1,7 @@
 // distlab-kelvin-query-profile: hint-less and hinted query times on the unit cube of Table I,
-// with a fingerprint of the answers, without the rest of the benchmark (solves, SparseLU, RMSE).
-// usage: distlab-kelvin-query-profile --cache-dir DIR [--lx 0.05,0.02] [--rounds 5] [--n 100000]
+// with a fingerprint of the answers, without the rest of the benchmark (solves, SparseLU, RMSE);
+// --grading meshes with the graded sizing (PrepareOptions::grading) instead of the paper's.
+// usage: distlab-kelvin-query-profile --cache-dir DIR [--lx 0.05,0.02] [--rounds 5] [--n 100000] [--grading 0]
 //                                     [--only-seeded 1 (one pass over the bench's 1000 points,
 //                                      for callgrind --toggle-collect)] [--dump FILE (every answer
 //                                      of the fingerprint, one line each, to diff two builds)]
@@ -78,15 +79,17 @@ int main(int argc, char** argv) {
   long n_more = 100000;
   bool only_seeded = false;
   std::string dump_path;
+  double grading = 0;  // PrepareOptions::grading (0: the paper's sizing)
   if (const int code = kelvin_profile::parse_profile_args(
           argc, argv,
           "usage: distlab-kelvin-query-profile --cache-dir DIR [--lx 0.05,0.02] [--rounds 5] [--n 100000] "
-          "[--only-seeded 1]",
+          "[--only-seeded 1] [--grading 0]",
           cache_dir, lxs,
           {{"--rounds", [&](const std::string& v) { rounds = std::max(1, std::stoi(v)); }},
            {"--n", [&](const std::string& v) { n_more = std::max(0L, std::stol(v)); }},
            {"--only-seeded", [&](const std::string& v) { only_seeded = v != "0"; }},
-           {"--dump", [&](const std::string& v) { dump_path = v; }}});
+           {"--dump", [&](const std::string& v) { dump_path = v; }},
+           {"--grading", [&](const std::string& v) { grading = std::stod(v); }}});
       code >= 0)
     return code;
   std::filesystem::create_directories(cache_dir);
@@ -110,6 +113,7 @@ int main(int argc, char** argv) {
   for (double lx : lxs) {
     PrepareOptions o;
     o.lx = lx;
+    o.grading = grading;
     Field f = Field::prepare_cached(cube, o, cache_dir);
     f.set_sigma(SigmaSpec{}, true);
     double sink = 0;
