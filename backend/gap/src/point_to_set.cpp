@@ -14,7 +14,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 
 #include "distlab/geometry/error.hpp"
 #include "distlab/geometry/overloaded.hpp"
@@ -246,7 +245,7 @@ P2SValueT<T> PointToSet::capsule_local(const Vec3T<T>& p, int order) const {
   // g' is increasing; safeguarded Newton on g'(t) = 0.
   T lo = tz, hi = z, t = tz;
   // The stop rule at double's 1e-16, scaled to T's precision.
-  const T rel = T(1e-16) * (std::numeric_limits<T>::epsilon() / std::numeric_limits<double>::epsilon());
+  const T rel = T(1e-16) * kPrecisionScale<T>;
   auto dg = [&](T tt, T* d2) {
     const T dz = z - tt, d = std::sqrt(rho2 + dz * dz);
     const auto j = phi_.jet_as(d - r);

@@ -11,10 +11,8 @@ namespace distlab {
 namespace {
 
 constexpr double kArmijo = 1e-4;
-// Rounding allowances and relative stop rules, set for double and scaled to T's precision
-// (long double: solve_newton's reference overload); exactly the constants themselves for double.
-template <class T>
-constexpr T kPrecision = std::numeric_limits<T>::epsilon() / std::numeric_limits<double>::epsilon();
+// Rounding allowance, relative to T's precision; the solver's relative stop rules are scaled by
+// kPrecisionScale<T> (point_to_set.hpp; long double: solve_newton's reference overload).
 template <class T>
 constexpr T kRound = 64 * std::numeric_limits<T>::epsilon();
 constexpr int kJointHalvings = 30;
@@ -44,7 +42,7 @@ P2SValueT<T> maximise_inner(const E& A, const Vec3T<T>& a, Vec3T<T>& ba) {
   for (int it = 0; it < 60; ++it) {
     // Stop rules relative to ba: near contact ba and r are 1e-29 where a is 0.1.
     const V r = ba - ea.gradient;  // −∇φ
-    if (r.norm() <= T(1e-15) * kPrecision<T> * ba.norm()) break;
+    if (r.norm() <= T(1e-15) * kPrecisionScale<T> * ba.norm()) break;
     const Mat3T<T> J = Mat3T<T>::Identity() - ea.hessian;  // −∂²φ, SPD
     const V delta = -J.llt().solve(r);
     const T slope = -r.dot(delta);  // ∇φ·δ > 0
@@ -62,7 +60,7 @@ P2SValueT<T> maximise_inner(const E& A, const Vec3T<T>& a, Vec3T<T>& ba) {
         break;
       }
     }
-    if (!moved || alpha * delta.norm() <= T(1e-16) * kPrecision<T> * ba.norm()) break;
+    if (!moved || alpha * delta.norm() <= T(1e-16) * kPrecisionScale<T> * ba.norm()) break;
   }
   return ea;
 }

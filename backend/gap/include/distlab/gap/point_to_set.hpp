@@ -1,6 +1,7 @@
 #pragma once
 // Point-to-set functions of one shape: the weak e_S (eq. 5 and its round-shape analogues) and the
 // strict E_S = ερ + sqrt(ε²ρ² + σ²e_S²) of eq. (6) (Theorem 2) with ρ = ½(‖p − c‖² − R²).
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -35,6 +36,10 @@ template <class T>
 using Vec3T = Eigen::Matrix<T, 3, 1>;
 template <class T>
 using Mat3T = Eigen::Matrix<T, 3, 3>;
+// T's precision against double's: relative stop rules and rounding allowances set for double
+// are scaled by it in wider scalars (the long-double reference); exactly 1 for double.
+template <class T>
+constexpr T kPrecisionScale = std::numeric_limits<T>::epsilon() / std::numeric_limits<double>::epsilon();
 
 // A value with optional first and second derivatives (world or local frame as stated).
 template <class T>
