@@ -3,6 +3,9 @@
 // Euclidean distance has a kink, batch = single calls.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <limits>
+
 #include "distlab/gap/distance.hpp"
 #include "distlab/geometry/error.hpp"
 #include "gap_test_util.hpp"
@@ -131,6 +134,23 @@ TEST(GapDistance, GradientIsContinuousWhileBoxesSlidePastEachOther) {
   }
   EXPECT_GT(euclid_jump, 0.05);
   EXPECT_LT(gap_jump, 20 * step);
+}
+
+// The long-double reference refuses a step it cannot difference with, naming it.
+TEST(GapDistance, ExtendedGradientRefusesABadStep) {
+  const GapParams p = defaults();
+  const GapBody a(Box{Vec3(0.1, 0.1, 0.1)}, Pose{}, p);
+  const GapBody b(Box{Vec3(0.1, 0.1, 0.1)}, Pose{Vec3(0.5, 0, 0), Quat::Identity()}, p);
+  const GapResult r = gap_distance(a, b, p);
+  for (const double step : {0.0, -1e-6, std::nan(""), std::numeric_limits<double>::infinity()}) {
+    try {
+      gap_gradient_extended(a, b, r, step);
+      ADD_FAILURE() << "step " << step << " accepted";
+    } catch (const InvalidInput& e) {
+      EXPECT_EQ(e.field(), "step");
+    }
+  }
+  EXPECT_TRUE(gap_gradient_extended(a, b, r, 1e-6).converged);
 }
 
 TEST(GapDistance, BatchEqualsSingleCalls) {

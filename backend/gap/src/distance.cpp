@@ -209,6 +209,7 @@ ExtendedGradient gap_gradient_extended(const GapBody& a, const GapBody& b, const
   // Well below long double's rounding of Λ's witnesses; the solver's relative stop rule answers
   // to the local length near contact.
   constexpr L kTol = 1e-18L;
+  if (!(step > 0) || !std::isfinite(step)) throw InvalidInput("step", "must be a positive finite number");
   ExtendedGradient out;
   const PoseT<L> base_a = PoseT<L>::from(a.pose()), base_b = PoseT<L>::from(b.pose());
   const Vec3T<L> start = r.witness_a.cast<L>();

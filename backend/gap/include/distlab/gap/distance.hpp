@@ -120,6 +120,7 @@ struct ExtendedGradient {
   double distance = 0;    // D at the given poses, solved in long double
   bool converged = true;  // every solve converged
 };
+// Throws InvalidInput("step") unless step is positive and finite.
 ExtendedGradient gap_gradient_extended(const GapBody& a, const GapBody& b, const GapResult& r, double step);
 
 // The former name of distlab::parallel_for (geometry/parallel.hpp), for the callers that still use it.
