@@ -51,24 +51,24 @@ void GapBody::set_pose(const Pose& pose) { p2s_.set_pose(pose); }
 
 namespace {
 
-// Solves from the given starts and fills witness points, Λ, D and gradients; `keep`: the
-// solution itself (tracking); `predicted`: Newton's starts are that prediction (solve_predicted).
+// Solves from the given starts and fills witness points, Λ, D and gradients; `keep`: where the
+// solution itself goes (tracking: the track's own, written in place rather than copied there);
+// `predicted`: Newton's starts are that prediction (solve_predicted).
 void solve_into(GapResult& r, const GapBody& a, const GapBody& b, const GapParams& params,
                 const Vec3& newton_a, const Vec3* newton_b, const Vec3& plain_start,
                 WitnessSolution* keep = nullptr, const Prediction* predicted = nullptr) {
   const int limit = params.iteration_limit();
-  const WitnessSolution s =
-      params.solver != GapSolver::newton
-          ? solve_fixed_point(a.p2s(), b.p2s(), plain_start, params.tol, limit)
-      : predicted ? solve_predicted(a.p2s(), b.p2s(), *predicted, params.tol, limit)
-                  : solve_newton(a.p2s(), b.p2s(), newton_a, params.tol, limit, newton_b);
+  WitnessSolution local;
+  WitnessSolution& s = keep ? *keep : local;
+  if (params.solver != GapSolver::newton) s = solve_fixed_point(a.p2s(), b.p2s(), plain_start, params.tol, limit);
+  else if (predicted) solve_predicted(a.p2s(), b.p2s(), *predicted, params.tol, limit, s);
+  else s = solve_newton(a.p2s(), b.p2s(), newton_a, params.tol, limit, newton_b);
   r.witness_a = s.a;
   r.witness_b = s.b;
   r.iterations = s.iterations;
   r.converged = s.converged;
   r.lambda = std::max(s.lambda, 0.0);
   r.distance = std::sqrt(2.0 * r.lambda);
-  if (keep) *keep = s;
   if (params.gradient && r.distance > 0) {
     lambda_gradients(s, a.pose(), b.pose(), r.gradient_a, r.gradient_b);
     r.gradient_a /= r.distance;  // dD = dΛ / D
@@ -170,6 +170,7 @@ GapResult warm(const GapBody& a, const GapBody& b, const GapParams& params, cons
   if (const auto common = common_point(a.p2s().shape(), a.pose(), b.p2s().shape(), b.pose())) {
     r.overlap = true;
     r.witness_a = r.witness_b = *common;
+    if (keep) *keep = WitnessSolution{};  // nothing solved: nothing to continue from
     return r;
   }
   solve_into(r, a, b, params, start_a, &start_b, start_a, keep, predicted);
@@ -184,21 +185,22 @@ GapResult gap_distance_warm(const GapBody& a, const GapBody& b, const GapParams&
 }
 
 GapResult gap_distance_tracked(const GapBody& a, const GapBody& b, const GapParams& params, GapTrack& track) {
-  GapResult r;
-  WitnessSolution solution;
   if (!track.valid) {
-    r = gap_distance(a, b, params);
-    solution.a = r.witness_a, solution.b = r.witness_b;  // no derivatives: the next call starts here
-    track.margin = 0;                                    // no plane at these poses
-  } else {
-    Vec3 start_a = track.last.a, start_b = track.last.b;
-    Prediction prediction;
-    const bool predicted =
-        track.last.evaluated && predict_witnesses(track.last, track.pose_a, track.pose_b, a.pose(), b.pose(),
-                                                  start_a, start_b, &prediction);
-    r = warm(a, b, params, start_a, start_b, &solution, &track, predicted ? &prediction : nullptr);
+    GapResult r = gap_distance(a, b, params);
+    track.last = WitnessSolution{};
+    track.last.a = r.witness_a, track.last.b = r.witness_b;  // no derivatives: the next call starts here
+    track.margin = 0;                                        // no plane at these poses
+    track.pose_a = a.pose(), track.pose_b = b.pose();
+    track.valid = !r.overlap && r.converged;
+    return r;
   }
-  track.last = solution;
+  Vec3 start_a = track.last.a, start_b = track.last.b;
+  Prediction prediction;
+  const bool predicted =
+      track.last.evaluated && predict_witnesses(track.last, track.pose_a, track.pose_b, a.pose(), b.pose(),
+                                                start_a, start_b, &prediction);
+  // The solution goes to track.last in place (read above, before the solve).
+  GapResult r = warm(a, b, params, start_a, start_b, &track.last, &track, predicted ? &prediction : nullptr);
   track.pose_a = a.pose(), track.pose_b = b.pose();
   track.valid = !r.overlap && r.converged;
   return r;

@@ -203,18 +203,21 @@ void PointToSet::set_pose(const Pose& pose) {
 // Eq. (5) over the rows; only violated rows (s > 0) contribute, and each adds a rank-one
 // Hessian term d2 W u uᵀ from the row's precomputed weighted outer product. The s of two rows
 // are computed at once (SSE2 lanes, the same operations and rounding as one at a time) from the
-// structure-of-arrays copy; most rows are not violated and cost little more than that.
-P2SValue PointToSet::halfspaces_world(const Vec3& p, int order) const {
+// structure-of-arrays copy; most rows are not violated and cost little more than that. The
+// order is a template argument: no test of it per violated row.
+template <int Order>
+P2SValue PointToSet::halfspaces_world(const Vec3& p) const {
   typedef double V2 __attribute__((vector_size(16), aligned(8)));  // unaligned loads
   double value = 0, g[3] = {0, 0, 0}, h[6] = {0, 0, 0, 0, 0, 0};
   const auto add = [&](const HalfSpace& r, double s) {
     const auto j = phi_.jet(s);
     value += r.w * j.value;
-    if (order < 1) return;
-    const double c = r.w * j.d1;
-    for (int q = 0; q < 3; ++q) g[q] += c * r.u[q];
-    if (order < 2) return;
-    for (int q = 0; q < 6; ++q) h[q] += j.d2 * r.wuu[q];
+    if constexpr (Order >= 1) {
+      const double c = r.w * j.d1;
+      for (int q = 0; q < 3; ++q) g[q] += c * r.u[q];
+    }
+    if constexpr (Order >= 2)
+      for (int q = 0; q < 6; ++q) h[q] += j.d2 * r.wuu[q];
   };
   const V2 px = {p.x(), p.x()}, py = {p.y(), p.y()}, pz = {p.z(), p.z()};
   const size_t padded = soa_.size() / 4;
@@ -320,7 +323,9 @@ P2SValueT<T> PointToSet::weak_local(const Vec3T<T>& p, int order) const {
 }
 
 P2SValue PointToSet::weak(const Vec3& p, int order) const {
-  if (A_world_.rows() > 0) return halfspaces_world(p, order);
+  if (A_world_.rows() > 0)
+    return order >= 2 ? halfspaces_world<2>(p) : order == 1 ? halfspaces_world<1>(p)
+                                                            : halfspaces_world<0>(p);
   P2SValue v = weak_local<double>(pose_.to_local(p), order);
   if (order >= 1) v.gradient = R_ * v.gradient;
   if (order >= 2) v.hessian = R_ * v.hessian * R_.transpose();

@@ -108,7 +108,8 @@ class PointToSet {
   }
   template <class T>
   P2SValueT<T> weak_local(const Vec3T<T>& p, int order) const;
-  P2SValue halfspaces_world(const Vec3& p, int order) const;
+  template <int Order>
+  P2SValue halfspaces_world(const Vec3& p) const;
   template <class T>
   P2SValueT<T> capsule_local(const Vec3T<T>& p, int order) const;
 

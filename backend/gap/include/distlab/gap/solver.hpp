@@ -81,7 +81,8 @@ bool predict_witnesses(const WitnessSolution& last, const Pose& last_pose_a, con
 // Newton from a prediction: stops after the one evaluation at the predicted witnesses, taking
 // its Newton step unevaluated (as solve_newton's last step), when that step is below tol or the
 // estimated next one is (the error left after it); else goes on as solve_newton from there.
-WitnessSolution solve_predicted(const PointToSet& A, const PointToSet& B, const Prediction& p, double tol,
-                                int max_iter);
+// The solution is written to `out` (a tracked pair's own, without a copy).
+void solve_predicted(const PointToSet& A, const PointToSet& B, const Prediction& p, double tol, int max_iter,
+                     WitnessSolution& out);
 
 }  // namespace distlab
