@@ -6,6 +6,7 @@
 #include <cmath>
 #include <numeric>
 #include <random>
+#include <thread>
 
 #include "distlab/geometry/error.hpp"
 #include "distlab/mesh/primitives.hpp"
@@ -281,6 +282,61 @@ TEST(KelvinSigma, BrushStrokesSolvedByLinearityEqualTheFullSolve) {
   const VecX after_refusal = field.vertex_values();
   field.set_sigma(other, false, false);
   EXPECT_EQ(relative_difference(after_refusal, field.vertex_values()), 0);
+}
+
+// A long run of strokes starts again from a full solve now and then (field.cpp, kMaxLinearEdits),
+// of a σ a few strokes earlier, done by whoever runs background_work: another thread for the
+// first pass, set_sigma itself for the second, which gives V bit for bit the same at every edit.
+// At some edit within 10 of each offer, V is bit for bit a full solve of the σ it was offered
+// at followed by that edit's σ by linearity: the rounding of the strokes before is gone. It
+// recurs, for σ solved as V (brushes "towards" a value) and as e^(−c) W (added brushes).
+TEST(KelvinSigma, StrokesStartAgainFromAFullSolveDoneOffTheEdit) {
+  const Sphere s;
+  Field field = Field::prepare(sphere_mesh(s), sphere_options(0.1));
+  for (const bool towards : {true, false}) {
+    SCOPED_TRACE(towards ? "towards" : "added");
+    const SigmaSpec start = tilted_sigma(s, 0.2);
+    std::mt19937 rng(5);
+    std::normal_distribution<double> g;
+    std::uniform_real_distribution<double> u(0, 1);
+    std::vector<SigmaSpec> specs;
+    SigmaSpec spec = start;
+    for (int edit = 0; edit < 64; ++edit) {
+      const Vec3 at = s.centre + s.radius * Vec3(g(rng), g(rng), g(rng)).normalized();
+      spec.brushes.push_back({at, s.radius * (0.2 + 0.2 * u(rng)), 2 * u(rng) - 1, s.radius * 0.2 * u(rng), towards});
+      specs.push_back(spec);
+    }
+    std::vector<std::size_t> offers;
+    std::vector<VecX> values;
+    std::vector<std::thread> workers;
+    field.set_sigma(start, false, false);
+    for (std::size_t k = 0; k < specs.size(); ++k) {
+      field.set_sigma(specs[k], false);
+      ASSERT_GE(field.stats().linear_boundary, 0) << k << ": every stroke by linearity";
+      values.push_back(field.vertex_values());
+      if (auto work = field.background_work()) {
+        offers.push_back(k);
+        workers.emplace_back(std::move(work));  // runs beside the next edits
+      }
+      EXPECT_FALSE(field.background_work()) << "handed out once";
+    }
+    for (auto& w : workers) w.join();
+    ASSERT_GE(offers.size(), 2u) << "the full solve recurs";
+    field.set_sigma(start, false, false);
+    for (std::size_t k = 0; k < specs.size(); ++k) {
+      field.set_sigma(specs[k], false);
+      ASSERT_EQ(relative_difference(values[k], field.vertex_values()), 0) << k << ": another runner, the same V";
+    }
+    for (const std::size_t k : offers) {
+      bool restarted = false;
+      for (std::size_t j = k + 1; j <= k + 10 && j < specs.size() && !restarted; ++j) {
+        field.set_sigma(specs[k], false, false);
+        field.set_sigma(specs[j], false);
+        restarted = relative_difference(values[j], field.vertex_values()) == 0;
+      }
+      EXPECT_TRUE(restarted) << "offered at edit " << k;
+    }
+  }
 }
 
 // The first "towards" stroke on a separable σ (solved as e^(−c) W) is solved by linearity too:

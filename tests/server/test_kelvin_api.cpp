@@ -356,6 +356,44 @@ TEST_F(KelvinApi, BurstOfEditsEndsAtTheLatestSigmaAndQueriesGetGradients) {
   }
 }
 
+// Forty brush strokes, each awaited as the page paints: the full solve that bounds their
+// rounding runs as a task of its own between them (kelvin::Field::background_work) and the
+// strokes go on beside it; every stroke gets its frame, and h after them is that of a full solve
+// of the same σ (to 1e-12: the strokes' rounding).
+TEST_F(KelvinApi, LongStrokeRunKeepsItsFramesAndEndsAtTheFullSolve) {
+  const std::string s = new_session(c);
+  WsClient ws(server_->port(), s);
+  await_hello(ws);
+  json body = kCube;
+  body["levels"] = {0.3};
+  const std::string id = create_ready(c, ws, s, body);
+  ASSERT_FALSE(id.empty());
+  Msg m;
+  json brushes = json::array();
+  const int strokes = 40;
+  for (int i = 1; i <= strokes; ++i) {
+    const double side = i % 2 == 0 ? 0.5 : -0.5, along = -0.4 + 0.02 * i;
+    brushes.push_back({{"center", {side, along, 0.1 * (i % 3)}}, {"radius", 0.15}, {"value", i % 2 == 0 ? 0.8 : -0.4}, {"falloff", 0.07}, {"mode", "towards"}});
+    ws.send({{"type", "sigma"}, {"object", id}, {"sigma", {{"constant", 0.0}, {"brushes", brushes}}}});
+    ASSERT_TRUE(ws.until([&](const Msg& x) { return x.binary && x.j["type"] == "isosurface" && x.j["sigma_version"] == i; }, m, 60)) << i;
+    EXPECT_GT(m.j["n_faces"].get<long>(), 0) << i;
+  }
+  const json pts = {{0.8, 0.1, 0}, {0, 0.9, 0.2}, {0.7, 0.7, 0.7}, {-0.6, 0.2, 0.1}};
+  const json stroked = query(c, s, id, pts);
+  // Another σ, then this one again: both solved in full (neither adds brushes to the other).
+  const json sigma = {{"constant", 0.0}, {"brushes", brushes}};
+  for (const json& edit : {json{{"constant", 0.7}}, sigma}) {
+    auto r = c.Put(path_of(id, "/sigma"), session_headers(s), edit.dump(), "application/json");
+    ASSERT_TRUE(r);
+    ASSERT_EQ(r->status, 200) << r->body;
+  }
+  const json full = query(c, s, id, pts);
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    const double h = full["h"][i];
+    EXPECT_NEAR(stroked["h"][i].get<double>(), h, 1e-12 * std::abs(h)) << i;
+  }
+}
+
 // The surface geometry travels once per object and socket: a σ edit sends σ per vertex and the
 // iso-surfaces; a late joiner gets the surface with the current σ. Acknowledgements and errors
 // echo the request id to the sending socket only; another session sees none of it.

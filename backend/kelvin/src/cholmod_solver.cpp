@@ -153,17 +153,34 @@ void CholmodSolver::solve(VecX& b) const {
     solve_cholmod(b);
     return;
   }
-  const int* perm = static_cast<const int*>(f->Perm);
-  const auto n = static_cast<size_t>(f->n);
-  std::vector<double>& w = impl_->work;
-  w.resize(n);
-  for (size_t k = 0; k < n; ++k) w[k] = b[perm[k]];
   const bool threads = impl_->solve_threads > 1 && static_cast<double>(f->xsize) >= kTwoLaneMin &&
                        impl_->plan.critical_share <= kTwoLaneMaxShare;
-  const double skipped = solve_supernodal(impl_->view(), impl_->plan, w.data(), impl_->workspace, threads);
-  for (size_t k = 0; k < n; ++k) b[perm[k]] = w[k];
+  const double skipped = solve_permuted(b, impl_->work, impl_->workspace, threads);
   const double total = impl_->entries_read;
   impl_->read_fraction = total > 0 ? (2 * total - skipped) / (2 * total) : 1;
+}
+
+void CholmodSolver::solve(VecX& b, Scratch& scratch) const {
+  const cholmod_factor* f = impl_->factor;
+  if (f == nullptr || b.size() != size()) throw std::logic_error("solve before factorize");
+  if (!can_solve_alone()) throw std::logic_error("a solve with its own workspace needs the supernodal factor");
+  solve_permuted(b, scratch.work, scratch.workspace, false);
+}
+
+bool CholmodSolver::can_solve_alone() const {
+  const cholmod_factor* f = impl_->factor;
+  return f != nullptr && f->is_super && f->itype == CHOLMOD_INT && f->xtype == CHOLMOD_REAL;
+}
+
+double CholmodSolver::solve_permuted(VecX& b, std::vector<double>& w, SolveWorkspace& workspace, bool threads) const {
+  const cholmod_factor* f = impl_->factor;
+  const int* perm = static_cast<const int*>(f->Perm);
+  const auto n = static_cast<size_t>(f->n);
+  w.resize(n);
+  for (size_t k = 0; k < n; ++k) w[k] = b[perm[k]];
+  const double skipped = solve_supernodal(impl_->view(), impl_->plan, w.data(), workspace, threads);
+  for (size_t k = 0; k < n; ++k) b[perm[k]] = w[k];
+  return skipped;
 }
 
 void CholmodSolver::set_solve_threads(int threads) { impl_->solve_threads = std::clamp(threads, 1, 2); }

@@ -6,6 +6,7 @@
 #include <memory>
 
 #include "distlab/geometry/types.hpp"
+#include "supernodal_solve.hpp"
 
 namespace distlab::kelvin {
 
@@ -24,6 +25,15 @@ class CholmodSolver {
   // Large factors are solved on two threads, two lanes of the elimination tree
   // (supernodal_solve.hpp); the answer is the same bit for bit on one thread.
   void solve(VecX& b) const;
+  // The same on the calling thread alone, with the caller's workspace: safe beside solve() and
+  // other such calls (the factor is only read), so a solve can run off the caller's critical
+  // path. Same answer bit for bit.
+  struct Scratch {
+    std::vector<double> work;  // the permuted vector
+    SolveWorkspace workspace;
+  };
+  void solve(VecX& b, Scratch& scratch) const;
+  bool can_solve_alone() const;  // the factor is supernodal (else solve(b, scratch) throws)
   // 1 or 2 (the default on a machine with two or more hardware threads).
   void set_solve_threads(int threads);
   // (heavier lane + the rest) / all, in factor entries read: the two-thread solve's share of the
@@ -44,6 +54,8 @@ class CholmodSolver {
   bool load(std::istream& in);
 
  private:
+  // The supernodal solve of b in place through the permuted vector w; the entries skipped.
+  double solve_permuted(VecX& b, std::vector<double>& w, SolveWorkspace& workspace, bool threads) const;
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

@@ -1,7 +1,9 @@
 #pragma once
 // State of a prepared Field, shared by the translation units of distlab_kelvin.
 #include <Eigen/Sparse>
+#include <atomic>
 #include <memory>
+#include <mutex>
 #include <utility>
 #include <vector>
 
@@ -11,6 +13,18 @@
 #include "locator.hpp"
 
 namespace distlab::kelvin {
+
+// A full solve of an earlier σ that set_sigma uses a few stroke edits later (field.cpp,
+// kRefreshLead). It reads only what preparation built and its own copy of the boundary chains,
+// so any thread may do it (Field::background_work) while the field goes on solving other σ.
+struct Refresh {
+  VecX chain;          // boundary_chain of the σ it solves
+  bool apart = false;  // that σ was separable: it solves W, else V inside
+  int edits = 0;       // linear_edits when it was taken
+  std::once_flag once;
+  std::atomic<bool> handed_out{false};
+  VecX solved;  // W or V inside, per interior vertex (set once `once` has run)
+};
 
 struct Field::Impl {
   // Inputs and the mesh (what the cache stores, together with the factor).
@@ -48,6 +62,7 @@ struct Field::Impl {
   SigmaSpec solved_sigma;
   bool solved = false;
   int linear_edits = 0;
+  std::shared_ptr<Refresh> refresh;  // taken, not yet used (none after a full solve)
   // Per boundary vertex, σ's terms summed in order, without the constant while σ has no brush
   // "towards" a value (field.cpp, separable); and for such a σ W, the interior solve of σ − c
   // (V = e^(−c) W inside).

@@ -120,6 +120,11 @@ void KelvinModule::send_frames(const std::shared_ptr<Session>& session, const st
     if (version > 0) frame["server_ms"]["since_edit"] = Ms(std::chrono::steady_clock::now() - sigma_at).count();
     send(frame);
   }
+  // The full solve a stroke a few edits later starts from (Field::background_work): its own
+  // task, after these frames, beside the next edit's rather than inside it. Dropped when the
+  // queue is full; that edit then solves it itself (same answer).
+  if (auto work = prepared->background_work())
+    compute_.post([prepared, work = std::move(work)] { work(); }, config_.limits.max_pending_requests);
 }
 
 }  // namespace distlab::server

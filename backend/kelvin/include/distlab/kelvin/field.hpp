@@ -2,6 +2,7 @@
 // The semantics-aware distance h(x) of one object (kelvin-semantics-aware-distance.txt):
 // prepare once (invert, tetrahedralise, assemble, factor), then set σ and query h and ∇h.
 #include <Eigen/Sparse>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -104,6 +105,13 @@ class Field {
   // changes only the constant (no brush "towards" a value) scales V by e^(−Δconstant): no solve.
   // by_linearity false always solves in full (the reference of tests and benchmarks).
   void set_sigma(const SigmaSpec& sigma, bool gradients = true, bool by_linearity = true);
+  // Work a later set_sigma needs, that any thread may do now without the field's lock (it
+  // reads only the preparation and its own copies): the full solve that bounds the rounding
+  // of strokes solved by linearity. Empty if none is due or it was handed out already. A
+  // set_sigma that needs it waits for it, or does it itself if nobody ran it: the answer is
+  // the same bit for bit whoever runs it, and when. Ask for it where set_sigma may be called;
+  // run it while the Field lives.
+  std::function<void()> background_work() const;
 
   // h(x) and ∇h(x) (Algorithm 1). hint: the cell of a previous query (updated), or nullptr
   // to locate through the seeding grid. ∇h is the paper's smoothed gradient: vertex gradients of

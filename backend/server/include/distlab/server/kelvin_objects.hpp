@@ -8,6 +8,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -46,6 +47,12 @@ struct PreparedField {
       gradients_ = gradients;
     }
     return fn(static_cast<const kelvin::Field&>(field));
+  }
+  // The field's work for a later σ edit (kelvin::Field::background_work), taken under the lock;
+  // run it without, while this PreparedField lives.
+  std::function<void()> background_work() {
+    std::shared_lock lock(mutex_);
+    return field.background_work();
   }
 
  private:
