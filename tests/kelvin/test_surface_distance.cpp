@@ -1,0 +1,69 @@
+// The graded sizing's surface distance (surface_distance.hpp) against a brute-force minimum of
+// CGAL's point–triangle distance over every triangle: exact near the surface, where the mesh
+// follows it, and a lower bound everywhere (the mesh is never coarser than graded).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <random>
+#include <vector>
+
+#include "distlab/mesh/primitives.hpp"
+#include "surface_distance.hpp"
+
+namespace distlab::kelvin::sizing {
+namespace {
+
+// Two icospheres, one inside the other: a surface that is not convex seen from between them.
+Polyhedron two_spheres() {
+  const mesh::SurfaceMesh m = mesh::merge(mesh::icosphere(1.0, 2), mesh::icosphere(0.4, 1, Vec3(0.2, -0.1, 0.05)));
+  Polyhedron poly;
+  std::vector<Polyhedron::Vertex_index> v;
+  for (Eigen::Index i = 0; i < m.vertices.rows(); ++i)
+    v.push_back(poly.add_vertex(K::Point_3(m.vertices(i, 0), m.vertices(i, 1), m.vertices(i, 2))));
+  for (Eigen::Index f = 0; f < m.faces.rows(); ++f)
+    poly.add_face(v[static_cast<size_t>(m.faces(f, 0))], v[static_cast<size_t>(m.faces(f, 1))], v[static_cast<size_t>(m.faces(f, 2))]);
+  return poly;
+}
+
+double brute_force(const Polyhedron& poly, const K::Point_3& p) {
+  double best = std::numeric_limits<double>::infinity();
+  for (const auto f : poly.faces()) {
+    const auto h = poly.halfedge(f);
+    const K::Triangle_3 t(poly.point(poly.target(h)), poly.point(poly.target(poly.next(h))), poly.point(poly.source(h)));
+    best = std::min(best, CGAL::to_double(CGAL::squared_distance(p, t)));
+  }
+  return std::sqrt(best);
+}
+
+TEST(SurfaceDistance, ExactNearTheSurfaceALowerBoundEverywhere) {
+  const Polyhedron poly = two_spheres();
+  const SurfaceDistance distance(poly);
+  const double cell = 2.0 / 256;  // the fine lattice: the bounding box's longest side / 256
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-1.3, 1.3);
+  std::normal_distribution<double> g;
+  int near = 0, far = 0;
+  for (int i = 0; i < 4000; ++i) {
+    K::Point_3 p(u(rng), u(rng), u(rng));
+    if (i % 2 == 0) {  // half of them within a few cells of the outer sphere
+      const Vec3 d = Vec3(g(rng), g(rng), g(rng)).normalized() * (1.0 + 3 * cell * (u(rng) / 1.3));
+      p = K::Point_3(d.x(), d.y(), d.z());
+    }
+    const double exact = brute_force(poly, p), got = distance(p);
+    ASSERT_LE(got, exact + 1e-14) << i << ": a lower bound";
+    if (exact <= 2 * cell) {  // its fine cell's centre is within 4 cells: the exact query
+      ++near;
+      ASSERT_NEAR(got, exact, 1e-14) << i;
+    } else {
+      ++far;
+      ASSERT_GT(got, 0.0) << i << ": off the surface, a positive bound";
+    }
+  }
+  EXPECT_GT(near, 500);
+  EXPECT_GT(far, 500);
+}
+
+}  // namespace
+}  // namespace distlab::kelvin::sizing
