@@ -24,6 +24,10 @@ std::string version_string() {
 
 namespace {
 
+// Heap each compute thread touches at its start (worker_pool.hpp): about what one σ edit's frame
+// allocates at 26k vertices (iso-surface tables and mesh, ~3 MB, and its encoding).
+constexpr std::size_t kWarmHeapBytes = std::size_t{8} << 20;
+
 std::string make_cache_dir(const std::string& wanted, std::string& temp) {
   if (!wanted.empty()) {
     std::error_code ec;
@@ -53,7 +57,7 @@ Service::Service(ServiceConfig config)
       cache_dir_(make_cache_dir(config_.cache_dir, temp_cache_)),
       static_files_(config_.web_dir),
       sessions_(config_.limits.max_sessions, config_.limits.max_sessions_per_address, config_.limits.session_idle_seconds),
-      compute_(config_.compute_threads),
+      compute_(config_.compute_threads, [] { warm_thread_heap(kWarmHeapBytes); }),
       jobs_(job_options(config_), [this](const std::string& session_id, const json& event) {
         if (auto s = sessions_.find(session_id)) s->broadcast(event.dump(), false);
       }) {
