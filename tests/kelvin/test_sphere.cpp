@@ -143,7 +143,7 @@ TEST(KelvinCube, MeshingIsDeterministic) {
 // The graded sizing (PrepareOptions::grading: finer at the sharp edges, where the cube's
 // solution is singular, and growing with the distance from the inverted surface) reaches the
 // paper's sizing's accuracy with fewer vertices: at l_x 0.08 it beats eq. 23 at l_x 0.05 on both
-// counts (measured: 14964 against 26245 vertices, |ln(V(0)/C)| 6.29e-3 against 8.01e-3). The
+// counts (measured: 14954 against 26245 vertices, |ln(V(0)/C)| 6.30e-3 against 8.02e-3). The
 // first graded sizing, which only coarsened, failed this (l_x 0.08, g 0.1: 5030 vertices, 1.62e-2).
 TEST(KelvinCube, GradedSizingMeetsTheAccuracyWithFewerVertices) {
   const CubeErrors paper = measure_cube(0.05), graded = measure_cube(0.08, kGrading);

@@ -18,7 +18,7 @@ namespace distlab::kelvin {
 namespace {
 
 // Bump when the meshing or the file layout changes: old entries then simply miss.
-constexpr char kFormat[] = "distlab-kelvin-cache-v7";
+constexpr char kFormat[] = "distlab-kelvin-cache-v8";
 constexpr int kInputs = 7;  // requested lx, far_radius, feature_angle, centre, grading
 constexpr size_t kKeyBytes = 32;
 constexpr char kKeyFile[] = "cache.key";

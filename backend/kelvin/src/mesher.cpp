@@ -1,4 +1,11 @@
 // CGAL Mesh_3 tetrahedralisation of the inverted domain. The only Mesh_3 translation unit.
+// Lazy refinement queues: a cell or facet destroyed by an insertion stays queued and is skipped
+// when popped (CGAL's erase counters) instead of being erased from a Double_map, O(log n) per
+// conflict-zone cell (meshing ~0.9x CPU). The queues stay sorted (worst first, ties in insertion
+// order), so meshing stays deterministic; the unsorted (FIFO) ones mesh 8% more vertices. It
+// changes the cell and vertex bases: it must precede every CGAL include here, and no other
+// translation unit may instantiate Mesh_3.
+#define CGAL_MESH_3_USE_LAZY_SORTED_REFINEMENT_QUEUE
 #include <CGAL/AABB_segment_primitive.h>
 #include <CGAL/AABB_traits.h>
 #include <CGAL/AABB_tree.h>
