@@ -14,6 +14,7 @@
 #include <numeric>
 #include <vector>
 
+#include "distlab/mesh/cgal_surface.hpp"
 #include "distlab/mesh/checks.hpp"
 #include "distlab/mesh/primitives.hpp"
 
@@ -139,16 +140,6 @@ SurfaceMesh box_at(const Vec3& lo, const Vec3& hi) {
   return b;
 }
 
-Mesh to_cgal(const SurfaceMesh& s) {
-  Mesh m;
-  std::vector<Mesh::Vertex_index> vi;
-  for (Eigen::Index v = 0; v < s.vertices.rows(); ++v)
-    vi.push_back(m.add_vertex(K::Point_3(s.vertices(v, 0), s.vertices(v, 1), s.vertices(v, 2))));
-  for (Eigen::Index f = 0; f < s.faces.rows(); ++f)
-    m.add_face(vi[static_cast<size_t>(s.faces(f, 0))], vi[static_cast<size_t>(s.faces(f, 1))], vi[static_cast<size_t>(s.faces(f, 2))]);
-  return m;
-}
-
 SurfaceMesh from_cgal(const Mesh& m) {
   SurfaceMesh out;
   std::vector<int> index(m.number_of_vertices() + m.number_of_removed_vertices(), -1);
@@ -169,9 +160,9 @@ SurfaceMesh from_cgal(const Mesh& m) {
 
 // Solid union through CGAL's corefinement (exact predicates): a closed manifold result.
 SurfaceMesh unite(const std::vector<SurfaceMesh>& parts) {
-  Mesh acc = to_cgal(parts[0]);
+  Mesh acc = mesh::to_cgal_surface<K::Point_3>(parts[0]);
   for (size_t i = 1; i < parts.size(); ++i) {
-    Mesh next = to_cgal(parts[i]), out;
+    Mesh next = mesh::to_cgal_surface<K::Point_3>(parts[i]), out;
     if (!CGAL::Polygon_mesh_processing::corefine_and_compute_union(acc, next, out))
       throw std::runtime_error("union failed");
     acc = std::move(out);

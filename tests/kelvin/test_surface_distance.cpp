@@ -9,6 +9,7 @@
 #include <random>
 #include <vector>
 
+#include "distlab/mesh/cgal_surface.hpp"
 #include "distlab/mesh/primitives.hpp"
 #include "surface_distance.hpp"
 
@@ -17,14 +18,8 @@ namespace {
 
 // Two icospheres, one inside the other: a surface that is not convex seen from between them.
 Polyhedron two_spheres() {
-  const mesh::SurfaceMesh m = mesh::merge(mesh::icosphere(1.0, 2), mesh::icosphere(0.4, 1, Vec3(0.2, -0.1, 0.05)));
-  Polyhedron poly;
-  std::vector<Polyhedron::Vertex_index> v;
-  for (Eigen::Index i = 0; i < m.vertices.rows(); ++i)
-    v.push_back(poly.add_vertex(K::Point_3(m.vertices(i, 0), m.vertices(i, 1), m.vertices(i, 2))));
-  for (Eigen::Index f = 0; f < m.faces.rows(); ++f)
-    poly.add_face(v[static_cast<size_t>(m.faces(f, 0))], v[static_cast<size_t>(m.faces(f, 1))], v[static_cast<size_t>(m.faces(f, 2))]);
-  return poly;
+  return mesh::to_cgal_surface<K::Point_3>(
+      mesh::merge(mesh::icosphere(1.0, 2), mesh::icosphere(0.4, 1, Vec3(0.2, -0.1, 0.05))));
 }
 
 double brute_force(const Polyhedron& poly, const K::Point_3& p) {

@@ -34,6 +34,7 @@
 #include "distlab/geometry/error.hpp"
 #include "distlab/kelvin/surface_tools.hpp"
 #include "distlab/kelvin/tet_mesh.hpp"
+#include "distlab/mesh/cgal_surface.hpp"
 #include "surface_distance.hpp"
 
 namespace distlab::kelvin {
@@ -131,18 +132,12 @@ std::string whole(double v) { return std::to_string(static_cast<long long>(std::
 // pieces and fanning, as PMP::split_long_edges does, left corner-to-corner triangles: the meshed
 // boundary bulged 0.18 m out of the unit cube at every l_x.)
 Polyhedron boundary_polyhedron(const mesh::SurfaceMesh& inverted, double max_length) {
-  Polyhedron poly;
-  std::vector<Polyhedron::Vertex_index> vi;
   auto flip = [](const K::Point_3& p) {  // eq. 5 both ways
     const double r2 = p.x() * p.x() + p.y() * p.y() + p.z() * p.z();
     return K::Point_3(p.x() / r2, p.y() / r2, p.z() / r2);
   };
-  for (Eigen::Index v = 0; v < inverted.vertices.rows(); ++v)
-    vi.push_back(poly.add_vertex(flip(K::Point_3(inverted.vertices(v, 0), inverted.vertices(v, 1),
-                                                 inverted.vertices(v, 2)))));
-  for (Eigen::Index f = 0; f < inverted.faces.rows(); ++f)
-    poly.add_face(vi[static_cast<size_t>(inverted.faces(f, 0))], vi[static_cast<size_t>(inverted.faces(f, 1))],
-                  vi[static_cast<size_t>(inverted.faces(f, 2))]);
+  Polyhedron poly = mesh::to_cgal_surface<K::Point_3>(inverted);
+  for (auto v : poly.vertices()) poly.point(v) = flip(poly.point(v));
   namespace PMP = CGAL::Polygon_mesh_processing;
   // Splits edges longer than 4/3 of the target, i.e. max_length; no collapse, flip, smoothing.
   PMP::isotropic_remeshing(faces(poly), 0.75 * max_length, poly,

@@ -12,6 +12,8 @@
 #include <CGAL/Side_of_triangle_mesh.h>
 #include <CGAL/Surface_mesh.h>
 
+#include "distlab/mesh/cgal_surface.hpp"
+
 namespace distlab::kelvin {
 
 std::vector<std::pair<int, int>> sharp_edges(const mesh::SurfaceMesh& s, double feature_angle) {
@@ -43,17 +45,6 @@ using Mesh = CGAL::Surface_mesh<K::Point_3>;
 using Primitive = CGAL::AABB_face_graph_triangle_primitive<Mesh>;
 using Tree = CGAL::AABB_tree<CGAL::AABB_traits<K, Primitive>>;
 
-Mesh to_cgal(const mesh::SurfaceMesh& s) {
-  Mesh m;
-  std::vector<Mesh::Vertex_index> vi;
-  for (Eigen::Index v = 0; v < s.vertices.rows(); ++v)
-    vi.push_back(m.add_vertex(K::Point_3(s.vertices(v, 0), s.vertices(v, 1), s.vertices(v, 2))));
-  for (Eigen::Index f = 0; f < s.faces.rows(); ++f)
-    m.add_face(vi[static_cast<size_t>(s.faces(f, 0))], vi[static_cast<size_t>(s.faces(f, 1))],
-               vi[static_cast<size_t>(s.faces(f, 2))]);
-  return m;
-}
-
 }  // namespace
 
 struct SurfaceOracle::Impl {
@@ -65,7 +56,7 @@ struct SurfaceOracle::Impl {
 
 SurfaceOracle::SurfaceOracle(const mesh::SurfaceMesh& surface) : impl_(std::make_unique<Impl>()) {
   impl_->indexed = surface;
-  impl_->mesh = to_cgal(surface);
+  impl_->mesh = mesh::to_cgal_surface<K::Point_3>(surface);
   impl_->tree.insert(faces(impl_->mesh).first, faces(impl_->mesh).second, impl_->mesh);
   impl_->tree.build();
   impl_->tree.accelerate_distance_queries();

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "distlab/geometry/error.hpp"
+#include "distlab/mesh/cgal_surface.hpp"
 #include "distlab/mesh/checks.hpp"
 
 namespace distlab::mesh {
@@ -118,17 +119,11 @@ void require_closed_manifold(SurfaceMesh& mesh, const std::string& field,
       throw InvalidInput(field, "degenerate (zero-area) " + file_face_name(mesh, f));
   }
   if (options.self_intersection) {
-    CGAL::Surface_mesh<K::Point_3> sm;
-    using VI = CGAL::Surface_mesh<K::Point_3>::Vertex_index;
-    std::vector<VI> vi;
-    vi.reserve(static_cast<size_t>(mesh.vertices.rows()));
-    for (Eigen::Index v = 0; v < mesh.vertices.rows(); ++v)
-      vi.push_back(sm.add_vertex(K::Point_3(mesh.vertices(v, 0), mesh.vertices(v, 1), mesh.vertices(v, 2))));
-    for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f)
-      if (sm.add_face(vi[static_cast<size_t>(mesh.faces(f, 0))], vi[static_cast<size_t>(mesh.faces(f, 1))],
-                      vi[static_cast<size_t>(mesh.faces(f, 2))]) == CGAL::Surface_mesh<K::Point_3>::null_face())
-        throw InvalidInput(field, "mesh is not a closed manifold surface: " + file_face_name(mesh, f) +
-                                      " cannot be added to a halfedge mesh");
+    Eigen::Index rejected = -1;
+    const CGAL::Surface_mesh<K::Point_3> sm = to_cgal_surface<K::Point_3>(mesh, &rejected);
+    if (rejected >= 0)
+      throw InvalidInput(field, "mesh is not a closed manifold surface: " + file_face_name(mesh, rejected) +
+                                    " cannot be added to a halfedge mesh");
     std::vector<std::pair<CGAL::Surface_mesh<K::Point_3>::Face_index,
                           CGAL::Surface_mesh<K::Point_3>::Face_index>>
         pairs;
