@@ -48,7 +48,8 @@ class Field:
         """Prepares ``mesh``: a file path (STL, OBJ, PLY, GLB, OFF) or ``(vertices (n, 3), faces
         (m, 3))`` arrays of a closed, oriented surface, with exterior element size ``lx`` (metres).
         ``center``: inversion centre (default a deep interior point); ``far_radius``,
-        ``grading`` (0: the paper's sizing, eq. 23; > 0: graded, fewer vertices), ``feature_angle``,
+        ``grading`` (0: the paper's sizing, eq. 23; > 0: graded, fewer vertices; None: chosen per
+        object and ``lx``, reported as ``stats()["grading"]``), ``feature_angle``,
         ``max_vertices``: as in the CLI request. ``cache_dir``: saves the
         prepared field there (by content) and loads it on the next call with the same input.
         ``progress(stage, fraction)`` is called as work advances; Ctrl-C (KeyboardInterrupt), or an

@@ -172,6 +172,7 @@ class PyField {
     d["t_build"] = s.t_build;
     d["t_decomp"] = s.t_decomp;
     d["t_solve"] = s.t_solve;
+    d["grading"] = s.grading;
     d["cache_hit"] = cache_hit_;
     py::list warnings;
     for (const std::string& w : s.warnings) warnings.append(w);

@@ -212,8 +212,8 @@ TEST(KelvinPrepare, CacheRoundTripAndCorruptionIsRebuilt) {
 std::string forged_entry(const fs::path& from, const std::string& key) {
   std::string bytes = read_file(from);
   const std::string mac_key = read_file(from.parent_path() / "cache.key");
-  const size_t key_at = 8 + sizeof("distlab-kelvin-cache-v8") + 8;
-  EXPECT_EQ(bytes.compare(8, 23, "distlab-kelvin-cache-v8"), 0);
+  const size_t key_at = 8 + sizeof("distlab-kelvin-cache-v9") + 8;
+  EXPECT_EQ(bytes.compare(8, 23, "distlab-kelvin-cache-v9"), 0);
   bytes.replace(key_at, key.size(), key);
   const Digest mac = hmac_sha256(mac_key, std::string_view(bytes).substr(8, bytes.size() - 8 - 32));
   bytes.replace(bytes.size() - 32, 32, reinterpret_cast<const char*>(mac.data()), 32);
@@ -281,7 +281,7 @@ TEST(KelvinPrepare, CacheEntryChangedWithoutTheKeyIsRebuilt) {
   // The first tet-mesh point: after the tag, the key and the surface, inputs and parameters.
   const auto nv = static_cast<size_t>(surface.vertices.rows()), nf = static_cast<size_t>(surface.faces.rows());
   const std::string name = file.stem().string();
-  const size_t points_at = 8 + sizeof("distlab-kelvin-cache-v8") + 8 + name.size() + 8 + 24 * nv + 8 + 12 * nf + 7 * 8 + 3 * 8 + 8;
+  const size_t points_at = 8 + sizeof("distlab-kelvin-cache-v9") + 8 + name.size() + 8 + 24 * nv + 8 + 12 * nf + 7 * 8 + 3 * 8 + 8;
   ASSERT_LT(points_at + 8 * 30, 8 + size);
   for (int attack = 0; attack < 2; ++attack) {
     std::string bytes = original;

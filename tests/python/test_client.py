@@ -146,6 +146,7 @@ def test_graded_object_is_the_in_process_graded_field(server):
     obj = c.kelvin_object(asset="cube", lx=0.2, grading=0.05)
     local = kelvin.Field.prepare(ROOT / "assets" / "cube.stl", lx=0.2, grading=0.05).stats
     assert obj.info()["stats"]["n_verts"] == local["n_verts"]
+    assert obj.info()["stats"]["grading"] == local["grading"] == 0.05
     assert obj.info()["stats"]["n_verts"] != kelvin.Field.prepare(ROOT / "assets" / "cube.stl", lx=0.2).stats["n_verts"]
 
 

@@ -33,6 +33,8 @@ def test_grading_reaches_the_mesher_through_cli_and_binding(exe):
     paper = kelvin.Field.prepare(cube, lx=0.12).stats
     assert cli["stats"]["n_verts"] == graded["n_verts"] and cli["stats"]["n_tets"] == graded["n_tets"]
     assert graded["n_verts"] != paper["n_verts"]
+    # Stats say which sizing was meshed; not given, a field this coarse gets eq. 23's.
+    assert cli["stats"]["grading"] == 0.05 and graded["grading"] == 0.05 and paper["grading"] == 0
 
 
 @pytest.fixture(scope="module")

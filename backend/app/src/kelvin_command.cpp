@@ -19,7 +19,8 @@ namespace server = distlab::server;
 const char* const kHelp =
     "usage: distlab kelvin [--pretty] [--progress] < request.json\n"
     "request  {\"mesh\": {\"path\": FILE} | {\"asset\": NAME}, \"lx\": m, \"center\"?: [x,y,z],\n"
-    "          \"grading\"?: g in [0, 1] (0: eq. 23; > 0: graded sizing, fewer vertices),\n"
+    "          \"grading\"?: g in [0, 1] (0: eq. 23; > 0: graded sizing, fewer vertices; absent: chosen,\n"
+    "                     stats.grading),\n"
     "          \"cache\"?: DIR, \"sigma\"?: {\"constant\", \"per_vertex\", \"axis\", \"brushes\"},\n"
     "          \"query\"?: [[x,y,z], ...], \"isosurfaces\"?: {\"levels\", \"format\", \"path\"},\n"
     "          \"feature_angle\"?: deg (60; 180 = no edge protection), \"max_vertices\"?: n (1000000),\n"

@@ -18,8 +18,9 @@ namespace distlab::kelvin {
 namespace {
 
 // Bump when the meshing or the file layout changes: old entries then simply miss.
-constexpr char kFormat[] = "distlab-kelvin-cache-v8";
-constexpr int kInputs = 7;  // requested lx, far_radius, feature_angle, centre, grading
+constexpr char kFormat[] = "distlab-kelvin-cache-v9";
+constexpr int kInputs = 7;  // requested lx, far_radius, feature_angle, centre, grading (kChosen: not given)
+constexpr double kChosen = -1;
 constexpr size_t kKeyBytes = 32;
 constexpr char kKeyFile[] = "cache.key";
 
@@ -110,7 +111,7 @@ std::string prepare_key(const mesh::SurfaceMesh& s, const PrepareOptions& o, con
   h.add(rows, sizeof(rows));
   h.add(s.vertices.data(), sizeof(double) * static_cast<size_t>(s.vertices.size()));
   h.add(s.faces.data(), sizeof(int) * static_cast<size_t>(s.faces.size()));
-  const double params[7] = {o.lx, o.far_radius, o.feature_angle, centre.x(), centre.y(), centre.z(), o.grading};
+  const double params[7] = {o.lx, o.far_radius, o.feature_angle, centre.x(), centre.y(), centre.z(), o.grading.value_or(kChosen)};
   h.add(params, sizeof(params));
   return h.hex();
 }
@@ -123,9 +124,9 @@ void save_prepared(const Field::Impl& m, const std::string& path, const std::str
   w.array(m.surface.vertices.data(), static_cast<std::uint64_t>(m.surface.vertices.size()));
   w.array(m.surface.faces.data(), static_cast<std::uint64_t>(m.surface.faces.size()));
   const Vec3 c = m.requested.centre.value_or(m.centre);
-  const double inputs[kInputs] = {m.requested.lx, m.requested.far_radius, m.requested.feature_angle, c.x(), c.y(), c.z(), m.requested.grading};
+  const double inputs[kInputs] = {m.requested.lx, m.requested.far_radius, m.requested.feature_angle, c.x(), c.y(), c.z(), m.requested.grading.value_or(kChosen)};
   w.raw(inputs, sizeof(inputs));
-  const double params[3] = {m.options.feature_angle, m.stats.t_mesh, m.stats.t_decomp};
+  const double params[4] = {m.options.feature_angle, m.stats.grading, m.stats.t_mesh, m.stats.t_decomp};
   w.raw(params, sizeof(params));
   w.array(m.tm.points.data(), static_cast<std::uint64_t>(m.tm.points.size()));
   w.array(m.tm.tets.data(), static_cast<std::uint64_t>(m.tm.tets.size()));
@@ -183,13 +184,13 @@ std::unique_ptr<Field::Impl> load_prepared(const std::string& path, const std::s
   if (!r.raw(stored_key.data(), key_size) || stored_key != key) return nullptr;
   auto m = std::make_unique<Field::Impl>();
   constexpr std::uint64_t max_rows = 1ull << 31;
-  double inputs[kInputs], params[3];
+  double inputs[kInputs], params[4];
   if (!r.matrix(m->surface.vertices, 3, max_rows) || !r.matrix(m->surface.faces, 3, max_rows) ||
       !r.raw(inputs, sizeof(inputs)) || !r.raw(params, sizeof(params)))
     return nullptr;
   // The name is a digest: the stored inputs themselves must equal the request, bit for bit (memcmp: -0.0 and NaN payloads count as different, as they hash differently).
   const Vec3 c = requested.centre.value_or(Vec3::Constant(std::numeric_limits<double>::quiet_NaN()));
-  const double wanted[kInputs] = {requested.lx, requested.far_radius, requested.feature_angle, c.x(), c.y(), c.z(), requested.grading};
+  const double wanted[kInputs] = {requested.lx, requested.far_radius, requested.feature_angle, c.x(), c.y(), c.z(), requested.grading.value_or(kChosen)};
   const auto same = [](const auto& a, const auto& b) {
     return a.rows() == b.rows() && a.cols() == b.cols() &&
            std::memcmp(a.data(), b.data(), sizeof(*a.data()) * static_cast<size_t>(a.size())) == 0;
@@ -214,10 +215,11 @@ std::unique_ptr<Field::Impl> load_prepared(const std::string& path, const std::s
   m->requested = requested;
   m->options = requested;
   m->options.feature_angle = params[0];
+  m->options.grading = m->stats.grading = params[1];
   m->centre = *requested.centre;
   // A cached object reports the timings of its original preparation (Stats::cached says so).
-  m->stats.t_mesh = params[1];
-  m->stats.t_decomp = params[2];
+  m->stats.t_mesh = params[2];
+  m->stats.t_decomp = params[3];
   m->stats.cached = true;
   return m;
 }

@@ -31,7 +31,7 @@ static void check_options(const PrepareOptions& o) {
     throw InvalidInput("feature_angle", "feature_angle must be in (0, 180] degrees");
   if (!std::isfinite(o.far_radius) || o.far_radius < 0.5 || o.far_radius > kMaxFarRadius)
     throw InvalidInput("far_radius", "far_radius must be in [0.5, " + std::to_string(static_cast<int>(kMaxFarRadius)) + "]");
-  if (!std::isfinite(o.grading) || o.grading < 0 || o.grading > kMaxGrading)
+  if (o.grading && (!std::isfinite(*o.grading) || *o.grading < 0 || *o.grading > kMaxGrading))
     throw InvalidInput("grading", "grading must be in [0, " + std::to_string(static_cast<int>(kMaxGrading)) + "]");
   if (o.max_vertices < 100) throw InvalidInput("max_vertices", "max_vertices must be at least 100");
   if (!(o.max_protection_steps >= 0) || !(o.max_refinement_steps >= 1000))  // NaN fails too
@@ -96,14 +96,14 @@ void check_prepare_inputs(const mesh::SurfaceMesh& surface, const PrepareOptions
 // where the edge size maps back to min(l_x, 0.25 |x − c|). When features are thinner than that,
 // CGAL shrinks the balls over and over (tens of thousands of evaluations on the 5 mm wrench plate
 // at l_x = 4 mm against a few hundred at 6 mm) and the refinement that follows explodes.
-static double protection_budget(const mesh::SurfaceMesh& s, const Vec3& centre, const PrepareOptions& o) {
+static double protection_budget(const mesh::SurfaceMesh& s, const Vec3& centre, const PrepareOptions& o, double grading) {
   if (o.max_protection_steps > 0) return o.max_protection_steps;
   if (o.feature_angle >= 180) return 0;
   double balls = 0;
   for (const auto& [u, v] : sharp_edges(s, o.feature_angle)) {
     const Vec3 a = s.vertices.row(u), b = s.vertices.row(v);
     // The graded sizing makes edges kGradedEdgeFloor times finer.
-    const double size = std::min(o.lx, 0.25 * (0.5 * (a + b) - centre).norm()) * (o.grading > 0 ? kGradedEdgeFloor : 1.0);
+    const double size = std::min(o.lx, 0.25 * (0.5 * (a + b) - centre).norm()) * (grading > 0 ? kGradedEdgeFloor : 1.0);
     balls += (b - a).norm() / std::max(size, 1e-12);
   }
   return 30 * balls + 2000;
@@ -128,9 +128,9 @@ static std::unique_ptr<Field::Impl> mesh_stage(mesh::SurfaceMesh surface, const 
   params.lx = o.lx;
   params.min_size = o.lx / std::pow(o.far_radius * r_max, 2);
   params.feature_angle = o.feature_angle;
-  params.grading = o.grading;
+  params.grading = o.grading ? *o.grading : choose_grading(inverted, params, progress);
   params.max_vertices = o.max_vertices;
-  params.max_protection_evaluations = protection_budget(surface, centre, o);
+  params.max_protection_evaluations = protection_budget(surface, centre, o, params.grading);
   params.max_refinement_evaluations = o.max_refinement_steps;
   std::string warning;
   impl->tm = mesh_inverted_domain(inverted, params, progress, &warning);
@@ -140,6 +140,8 @@ static std::unique_ptr<Field::Impl> mesh_stage(mesh::SurfaceMesh surface, const 
   impl->options = o;
   impl->options.centre = centre;
   impl->requested = impl->options;
+  impl->options.grading = params.grading;
+  impl->stats.grading = params.grading;
   // The effective angle (180 if protection was skipped) is what the cache stores, so a reloaded
   // object reports the same warning.
   if (!warning.empty()) {

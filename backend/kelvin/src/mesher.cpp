@@ -19,6 +19,7 @@
 #include <CGAL/Polygon_mesh_processing/remesh.h>
 #include <CGAL/Polyhedral_mesh_domain_with_features_3.h>
 #include <CGAL/Random.h>
+#include <CGAL/Side_of_triangle_mesh.h>
 #include <CGAL/Surface_mesh.h>
 #include <CGAL/make_mesh_3.h>
 
@@ -27,6 +28,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <numbers>
 #include <optional>
 #include <unordered_map>
 #include <vector>
@@ -240,6 +242,63 @@ TetMesh mesh_once(const mesh::SurfaceMesh& inverted, const MeshingParams& params
 }
 
 }  // namespace
+
+SizingPrediction predict_vertices(const mesh::SurfaceMesh& inverted, const MeshingParams& params, const Progress& progress) {
+  // The polyhedron the mesher meshes, its edges bisected to 2 l_x (the bulge of the sphere
+  // patches matters little to a count).
+  const Polyhedron poly = boundary_polyhedron(inverted, 2 * (params.boundary_edge_length > 0 ? params.boundary_edge_length : params.lx));
+  const CGAL::Side_of_triangle_mesh<Polyhedron, K> side(poly);
+  const SurfaceDistance distance(poly);
+  double r_out = 0;
+  for (auto v : poly.vertices()) r_out = std::max(r_out, std::sqrt(CGAL::to_double((poly.point(v) - CGAL::ORIGIN).squared_length())));
+  r_out *= 1.05;  // the sphere patches between the vertices
+  // l_y = |y|² l_x down to min_size, reached at |y| = r_min: below it equal-volume shells, above
+  // it shells equal in log |y| (l_y⁻³ falls as |y|⁻⁶ there).
+  const double r_min = std::min(std::sqrt(params.min_size / params.lx), r_out);
+  constexpr int kInner = 16, kOuter = 96, kRays = 512;
+  std::vector<std::pair<double, double>> shells;  // radius, volume per ray
+  for (int i = 0; i < kInner; ++i) {
+    const double a = r_min * std::cbrt(i / static_cast<double>(kInner)), b = r_min * std::cbrt((i + 1) / static_cast<double>(kInner));
+    shells.emplace_back(r_min * std::cbrt((i + 0.5) / kInner), (b * b * b - a * a * a) / 3 * 4 * std::numbers::pi / kRays);
+  }
+  if (r_out > r_min)
+    for (int i = 0; i < kOuter; ++i) {
+      const double t = std::log(r_out / r_min) / kOuter;
+      const double a = r_min * std::exp(i * t), b = r_min * std::exp((i + 1) * t);
+      shells.emplace_back(std::sqrt(a * b), (b * b * b - a * a * a) / 3 * 4 * std::numbers::pi / kRays);
+    }
+  double paper = 0, graded = 0;
+  for (int k = 0; k < kRays; ++k) {  // Fibonacci directions
+    progress.check();
+    const double z = 1 - (2 * k + 1) / static_cast<double>(kRays), rho = std::sqrt(1 - z * z), phi = k * std::numbers::pi * (3 - std::sqrt(5.0));
+    for (const auto& [r, volume] : shells) {
+      const K::Point_3 y(r * rho * std::cos(phi), r * rho * std::sin(phi), r * z);
+      if (side(y) != CGAL::ON_BOUNDED_SIDE) continue;
+      const double l = r * r * params.lx;
+      paper += volume / std::pow(std::max(l, params.min_size), 3);
+      graded += volume / std::pow(std::max(l + params.grading * distance(y), params.min_size), 3);
+    }
+  }
+  double edges = 0;  // in x, where the graded sizing's edge refinement is measured
+  if (params.feature_angle < 180) {
+    mesh::SurfaceMesh x = inverted;
+    for (Eigen::Index v = 0; v < x.vertices.rows(); ++v) x.vertices.row(v) /= x.vertices.row(v).squaredNorm();
+    for (const auto& [a, b] : sharp_edges(x, params.feature_angle)) edges += (x.vertices.row(a) - x.vertices.row(b)).norm();
+  }
+  return {kVerticesPerSizingIntegral * paper, kVerticesPerSizingIntegral * graded + kGradedEdgeVerticesTypical * edges / params.lx};
+}
+
+double choose_grading(const mesh::SurfaceMesh& inverted, const MeshingParams& params, const Progress& progress) {
+  // ∫ dV_y / l_y³ of eq. 23 is at most twice (4/3)π / (ρ l_x)³, ρ = √(min_size / l_x) where l_y
+  // reaches min_size: once inside |y| < ρ (l_y = min_size), once outside (l_y⁻³ = (|y|² l_x)⁻³).
+  const double rho = std::sqrt(params.min_size / params.lx);
+  const double most = kVerticesPerSizingIntegral * 2 * 4 * std::numbers::pi / 3 / std::pow(rho * params.lx, 3);
+  if (!(most >= kAutoPredictFrom)) return 0;
+  MeshingParams graded = params;
+  graded.grading = kAutoGrading;
+  const SizingPrediction p = predict_vertices(inverted, graded, progress);
+  return p.graded <= kAutoGradedShare * p.paper ? kAutoGrading : 0;
+}
 
 TetMesh mesh_inverted_domain(const mesh::SurfaceMesh& inverted, const MeshingParams& params,
                              const Progress& progress, std::string* warning) {

@@ -120,8 +120,8 @@ json run_kelvin_request(const json& r, const kelvin::Progress& progress) {
   options.lx = number(r["lx"], "lx");
   if (r.contains("center")) options.centre = vec3(r["center"], "center");
   if (r.contains("far_radius")) options.far_radius = number(r["far_radius"], "far_radius");
-  // Graded sizing (PrepareOptions::grading, in [0, 1]; 0 is eq. 23); prepare refuses a bad value.
-  if (r.contains("grading")) options.grading = number(r["grading"], "grading");
+  // Sizing (PrepareOptions::grading, in [0, 1]; 0 is eq. 23); prepare refuses a bad value.
+  if (r.contains("grading")) options.grading = number(r["grading"], "grading");  // absent: prepare chooses
   // Sharp-edge protection threshold (degrees); 180 turns protection off (see the wrench cases).
   if (r.contains("feature_angle")) options.feature_angle = number(r["feature_angle"], "feature_angle");
   // Meshing vertex budget (default 1,000,000): beyond it the request fails with an "lx" error.
@@ -176,7 +176,7 @@ json run_kelvin_request(const json& r, const kelvin::Progress& progress) {
 
   json out;
   const kelvin::Stats& st = field.stats();
-  out["stats"] = {{"n_verts", st.n_verts}, {"n_tets", st.n_tets}, {"size_mb", st.size_mb}, {"t_mesh", st.t_mesh}, {"t_build", st.t_build}, {"t_decomp", st.t_decomp}, {"t_solve", st.t_solve}, {"cache_hit", hit}};
+  out["stats"] = {{"n_verts", st.n_verts}, {"n_tets", st.n_tets}, {"size_mb", st.size_mb}, {"t_mesh", st.t_mesh}, {"t_build", st.t_build}, {"t_decomp", st.t_decomp}, {"t_solve", st.t_solve}, {"grading", st.grading}, {"cache_hit", hit}};
   // On a cache hit t_mesh and t_decomp are the original preparation's; t_load is this load.
   if (hit) out["stats"]["t_load"] = st.t_load;
   // Fallbacks taken while preparing (e.g. edge protection skipped on thin features).

@@ -37,7 +37,7 @@ std::string surface_hash(const mesh::SurfaceMesh& s, const kelvin::PrepareOption
   h.add(s.faces.data(), sizeof(int) * static_cast<std::size_t>(s.faces.size()));
   if (o != nullptr) {
     const Vec3 c = o->centre.value_or(Vec3::Constant(std::nan("")));
-    const double params[8] = {o->lx, o->far_radius, o->feature_angle, c.x(), c.y(), c.z(), o->centre ? 1.0 : 0.0, o->grading};
+    const double params[8] = {o->lx, o->far_radius, o->feature_angle, c.x(), c.y(), c.z(), o->centre ? 1.0 : 0.0, o->grading.value_or(-1)};  // -1: chosen by prepare
     h.add(params, sizeof params);
   }
   return h.hex();
@@ -129,7 +129,7 @@ json KelvinObject::status_json() {
   if (!repair_report.is_null()) j["repair_report"] = repair_report;
   if (prepared) {
     const kelvin::Stats& st = prepared->field.stats();
-    j["stats"] = {{"n_verts", st.n_verts}, {"n_tets", st.n_tets}, {"size_mb", st.size_mb}, {"t_mesh", st.t_mesh}, {"t_build", st.t_build}, {"t_decomp", st.t_decomp}, {"t_solve", st.t_solve}, {"cache_hit", prepared->cache_hit}, {"shared", shared}};
+    j["stats"] = {{"n_verts", st.n_verts}, {"n_tets", st.n_tets}, {"size_mb", st.size_mb}, {"t_mesh", st.t_mesh}, {"t_build", st.t_build}, {"t_decomp", st.t_decomp}, {"t_solve", st.t_solve}, {"grading", st.grading}, {"cache_hit", prepared->cache_hit}, {"shared", shared}};
     const Vec3 c = prepared->field.centre();
     j["center"] = {c.x(), c.y(), c.z()};
   }

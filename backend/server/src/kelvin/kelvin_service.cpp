@@ -30,7 +30,7 @@ namespace {
 void run_repair(KelvinObject& o, const kelvin::PrepareOptions& options, const Limits& lim, const Progress& progress) {
   auto [r, report] = run_repair_request(o.surface, {o.repair, o.repair_options}, lim.max_repair_faces, progress);
   // What prepare would refuse (a centre outside, a surface over budget), refused now by name.
-  const double estimate = estimate_vertices(r.surface, options.lx, options.far_radius, options.grading);
+  const double estimate = estimate_vertices(r.surface, options.lx, options.far_radius, sizing_for_budget(options));
   if (estimate > static_cast<double>(lim.max_vertex_estimate))
     throw InvalidInput("lx", "the repaired surface at lx " + json(options.lx).dump() + " would make about " +
                                  json(std::round(estimate)).dump() + " vertices, over this server's budget of " +
@@ -82,15 +82,15 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
     options.far_radius = json_number(body["far_radius"], "far_radius", kelvin::kMaxFarRadius);
     if (!(options.far_radius >= 0.5)) throw InvalidInput("far_radius", "far_radius must be in [0.5, 1000]");
   }
-  if (body.contains("grading")) {
+  if (body.contains("grading")) {  // absent: prepare chooses
     options.grading = json_number(body["grading"], "grading", kelvin::kMaxGrading);
-    if (!(options.grading >= 0)) throw InvalidInput("grading", "grading must be in [0, 1]");
+    if (!(*options.grading >= 0)) throw InvalidInput("grading", "grading must be in [0, 1]");
   }
   const RepairRequest repair = parse_repair(body, lim);
   json source = json::object();
   if (options.centre) source["center"] = {options.centre->x(), options.centre->y(), options.centre->z()};
   if (body.contains("far_radius")) source["far_radius"] = options.far_radius;
-  if (body.contains("grading")) source["grading"] = options.grading;
+  if (options.grading) source["grading"] = *options.grading;
 
   mesh::SurfaceMesh surface;
   if (body.contains("asset")) {
@@ -135,7 +135,7 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
   if (options.lx < lim.min_lx)
     throw ApiError(422, "over_budget", lx_field + " gives lx " + json(options.lx).dump() + " m, but lx must be at least " + json(lim.min_lx).dump() + " m on this server", lx_field);
   const auto budget = static_cast<double>(lim.max_vertex_estimate);
-  const double estimate = estimate_vertices(welded.surface, options.lx, options.far_radius, options.grading);
+  const double estimate = estimate_vertices(welded.surface, options.lx, options.far_radius, sizing_for_budget(options));
   if (estimate_only) {
     json out = estimate_json(welded.surface, options, estimate);
     // A repair request's surface checks are of the repaired surface, made in the job: the user's
@@ -144,7 +144,7 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
     return out;
   }
   if (estimate > budget) {
-    const bool far = estimate_vertices(welded.surface, options.lx, 1.0, options.grading) <= budget;
+    const bool far = estimate_vertices(welded.surface, options.lx, 1.0, sizing_for_budget(options)) <= budget;
     const double fits = std::max(lim.min_lx, smallest_lx_within(welded.surface, budget, options.far_radius));
     const std::string advice =
         far                ? "; use a smaller far_radius"

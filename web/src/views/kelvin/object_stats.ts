@@ -9,6 +9,7 @@ export function statsRows(name: string, lx: number, st: ObjectStats, inputVertic
     ["object", `${name}, l_x = ${lx}`],
     ["input surface", `${inputVertices ?? "–"} vertices`],
     ["n_verts / n_tets", `${st.n_verts ?? "–"} / ${st.n_tets ?? "–"}`],
+    ["sizing", typeof st.grading !== "number" ? "–" : st.grading > 0 ? `graded, g = ${st.grading}` : "eq. 23 (the paper's)"],
     ["size", `${fixed(st.size_mb, 1)} MB`],
     ["t_mesh / t_build / t_decomp", `${fixed(st.t_mesh)} / ${fixed(st.t_build)} / ${fixed(st.t_decomp)} s`],
     ["cache", st.cache_hit ? `hit (load ${fixed(st.t_load)} s)` : st.shared ? "shared in memory" : "computed"],

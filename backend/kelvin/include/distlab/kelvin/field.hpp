@@ -32,7 +32,10 @@ struct PrepareOptions {
   // 0: the paper's sizing, eq. 23. > 0: the graded sizing (MeshingParams::grading): the element
   // size grows by `grading` per unit distance (in y) from the inverted surface and shrinks near
   // sharp edges; fewer vertices at equal accuracy (bench_kelvin --sizing-table).
-  double grading = 0.0;
+  // Not given: chosen per object and l_x by choose_grading (tet_mesh.hpp), eq. 23 or the graded
+  // sizing kAutoGrading, whichever is predicted to need clearly fewer vertices; Stats::grading
+  // says which.
+  std::optional<double> grading;
   // Meshing limits, so that no request can hang (all deterministic counts, no wall time):
   // - max_vertices: refused up front (InvalidInput "lx") when the estimated vertex count exceeds
   //   it, and Mesh_3 stops with the same error when its triangulation reaches it;
@@ -49,6 +52,7 @@ struct PrepareOptions {
 
 struct Stats {
   long n_verts = 0, n_tets = 0;
+  double grading = 0;  // the sizing meshed: PrepareOptions::grading or its choice
   double size_mb = 0;
   double factor_mb = 0;                          // the Cholesky factor's share of size_mb
   double solve_read_mb = 0;                      // what a solve of a dense right-hand side reads of it (both passes)

@@ -49,6 +49,36 @@ struct MeshingParams {
 inline constexpr double kGradedEdgeRadius = 4.0;
 inline constexpr double kGradedEdgeFloor = 0.25;
 
+// Predicted vertex counts of eq. 23's sizing and of the graded one (params.grading > 0) on the
+// same inverted surface, before meshing (PrepareOptions::grading's automatic choice). Mesh_3
+// places about kVerticesPerSizingIntegral vertices per unit of ∫ dV_y / l_y³ over Ω_inv
+// (quadrature on rays from y = 0, the domain's inside test and the graded sizing's own
+// surface distance); the graded sizing's refinement near sharp edges (feature_angle < 180) adds
+// kGradedEdgeVerticesTypical · (their length in x) / l_x.
+struct SizingPrediction {
+  double paper = 0;   // eq. 23 (grading 0)
+  double graded = 0;  // params.grading
+};
+SizingPrediction predict_vertices(const mesh::SurfaceMesh& inverted, const MeshingParams& params,
+                                  const Progress& progress = {});
+// Fitted on the cube with eq. 23 (l_x 0.05–0.02: 0.74–0.71, the finest last; coarser meshes
+// have relatively more surface vertices) and checked on the wrench and the knife (notes of issue 19).
+inline constexpr double kVerticesPerSizingIntegral = 0.71;
+// The cube measured 55–63 vertices per metre of sharp edge per 1/l_x (l_x 0.15–0.03).
+inline constexpr double kGradedEdgeVerticesTypical = 60;
+
+// The sizing PrepareOptions::grading chooses when not given: the graded sizing kAutoGrading
+// (goal 3's table of issue 19: at l_x 0.02 on the cube 185k vertices against eq. 23's 394k, more
+// accurate) where predict_vertices gives it at most kAutoGradedShare of eq. 23's vertices, else
+// eq. 23 (0). Its meshing costs about twice as much per vertex (the distance searches: cube at
+// l_x 0.03, 17.1 s for 94k vertices against 7.6 s for 118k), so a small saving is not taken.
+// Below kAutoPredictFrom vertices by eq. 23's closed form (both sizings are cheap there) it is
+// eq. 23 without a prediction, which costs 0.06–0.25 s.
+inline constexpr double kAutoGrading = 0.05;
+inline constexpr double kAutoGradedShare = 2.0 / 3.0;
+inline constexpr double kAutoPredictFrom = 20'000;
+double choose_grading(const mesh::SurfaceMesh& inverted, const MeshingParams& params, const Progress& progress = {});
+
 // CGAL Mesh_3 on the region bounded by the (already inverted, outward-oriented) surface with
 // l_y(y) of MeshingParams::grading (eq. 23 when grading is 0). Deterministic: fixed seeds, no time limits.
 // If edge protection exceeds its step budget (thin features), meshes again without it and sets

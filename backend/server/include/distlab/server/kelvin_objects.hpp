@@ -182,6 +182,9 @@ inline constexpr double kVertexEstimateConstant = 20.0;
 // PrepareOptions' default) adds kGradedEdgeVerticesPerLength · (their length) / l_x: the volume
 // term, eq. 23's, bounds the rest (grading only coarsens away from the edges).
 double estimate_vertices(const mesh::SurfaceMesh& surface, double lx, double far_radius = 1.0, double grading = 0.0);
+// The grading to estimate with: the requested one, or eq. 23's (0) when prepare chooses, which
+// takes the graded sizing only where it predicts at most kAutoGradedShare of eq. 23's vertices.
+inline double sizing_for_budget(const kelvin::PrepareOptions& o) { return o.grading.value_or(0.0); }
 // The smallest l_x whose estimate fits `budget` vertices (the estimate above solved for l_x);
 // +infinity when none does (the surface alone has budget vertices or more).
 double smallest_lx_within(const mesh::SurfaceMesh& surface, double budget, double far_radius = 1.0);

@@ -1,0 +1,127 @@
+// The sizing prepare chooses when PrepareOptions::grading is not given: predict_vertices against
+// the counts Mesh_3 actually meshes, choose_grading on objects where eq. 23 or the graded sizing
+// clearly wins, and the choice as Field reports and caches it.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <string>
+
+#include "distlab/kelvin/field.hpp"
+#include "distlab/kelvin/surface_tools.hpp"
+#include "distlab/kelvin/tet_mesh.hpp"
+#include "distlab/mesh/primitives.hpp"
+#include "distlab/mesh/surface.hpp"
+#include "distlab/mesh/weld.hpp"
+
+namespace fs = std::filesystem;
+using namespace distlab;
+using namespace distlab::kelvin;
+
+namespace {
+
+mesh::SurfaceMesh asset(const std::string& name) {
+  return mesh::weld(mesh::load_mesh(std::string(DISTLAB_ASSET_DIR) + "/" + name + ".stl")).surface;
+}
+
+// The surface inverted about its deepest point and the meshing parameters mesh_stage (field.cpp)
+// gives it, far_radius 1.
+struct Inverted {
+  mesh::SurfaceMesh surface;
+  MeshingParams params;
+};
+Inverted invert(const mesh::SurfaceMesh& s, double lx, double feature_angle) {
+  const Vec3 centre = SurfaceOracle(s).deepest_point();
+  Inverted out{s, {}};
+  double r_max = 0;
+  for (Eigen::Index v = 0; v < s.vertices.rows(); ++v) {
+    const Vec3 p = Vec3(s.vertices.row(v)) - centre;
+    r_max = std::max(r_max, p.norm());
+    out.surface.vertices.row(v) = p / p.squaredNorm();
+  }
+  out.params.lx = lx;
+  out.params.min_size = lx / (r_max * r_max);
+  out.params.feature_angle = feature_angle;
+  return out;
+}
+
+double vertices_meshed(const Inverted& in, double grading) {
+  MeshingParams p = in.params;
+  p.grading = grading;
+  return static_cast<double>(mesh_inverted_domain(in.surface, p, Progress{}).points.rows());
+}
+
+// The prediction is a model (Mesh_3's vertices per unit of ∫ dV / l³, fitted once on the cube):
+// measured 1–10% off at 5k–400k vertices on the cube, the wrench and the knife for both sizings
+// (notes of issue 19), so 12% is its claim. Cube with its sharp edges (the graded sizing's edge
+// term), wrench without (feature_angle 180, as bench_kelvin meshes it).
+TEST(PredictVertices, AgreesWithWhatMesh3Meshes) {
+  struct Case {
+    const char* name;
+    mesh::SurfaceMesh surface;
+    double lx, feature_angle;
+  };
+  const Case cases[] = {{"cube", mesh::box(Vec3::Ones()), 0.07, 60}, {"wrench", asset("wrench"), 0.003, 180}};
+  for (const Case& c : cases) {
+    Inverted in = invert(c.surface, c.lx, c.feature_angle);
+    in.params.grading = kAutoGrading;
+    const SizingPrediction p = predict_vertices(in.surface, in.params);
+    const double paper = vertices_meshed(in, 0), graded = vertices_meshed(in, kAutoGrading);
+    EXPECT_NEAR(p.paper / paper, 1.0, 0.12) << c.name << ": eq. 23 predicted " << p.paper << ", meshed " << paper;
+    EXPECT_NEAR(p.graded / graded, 1.0, 0.12) << c.name << ": graded predicted " << p.graded << ", meshed " << graded;
+  }
+}
+
+// Where the measured counts (notes of issue 19) leave no doubt: the graded sizing at fine l_x on
+// the cube (185k against 394k at 0.02) and on thin objects (the knife at 0.01: 23k against 138k;
+// the wrench at 0.002: 30k against 84k), eq. 23 where the cube's edge refinement costs more than
+// grading saves (0.05: 35.7k against 26.2k) or where the saving is too small to pay for graded
+// meshing (0.03: 94k against 118k), and on the sphere, where grading changes nothing (the whole
+// mesh is at the size bound).
+TEST(ChooseGrading, TakesTheGradedSizingOnlyWhereItSavesClearly) {
+  const mesh::SurfaceMesh cube = mesh::box(Vec3::Ones()), knife = asset("knife"), wrench = asset("wrench"), sphere = asset("sphere");
+  EXPECT_EQ(choose_grading(invert(cube, 0.02, 60).surface, invert(cube, 0.02, 60).params), kAutoGrading);
+  EXPECT_EQ(choose_grading(invert(knife, 0.01, 180).surface, invert(knife, 0.01, 180).params), kAutoGrading);
+  EXPECT_EQ(choose_grading(invert(wrench, 0.002, 180).surface, invert(wrench, 0.002, 180).params), kAutoGrading);
+  EXPECT_EQ(choose_grading(invert(cube, 0.05, 60).surface, invert(cube, 0.05, 60).params), 0.0);
+  EXPECT_EQ(choose_grading(invert(cube, 0.03, 60).surface, invert(cube, 0.03, 60).params), 0.0);
+  EXPECT_EQ(choose_grading(invert(sphere, 0.02, 60).surface, invert(sphere, 0.02, 60).params), 0.0);
+  EXPECT_EQ(choose_grading(invert(cube, 0.15, 60).surface, invert(cube, 0.15, 60).params), 0.0);  // below kAutoPredictFrom
+}
+
+// Not given, the grading is chosen, reported in Stats, and the field is the one an explicit
+// request for that sizing gives; a cache hit reports the same choice.
+TEST(ChooseGrading, FieldReportsAndCachesTheChoice) {
+  const fs::path dir = fs::temp_directory_path() / ("distlab_sizing_choice_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  const mesh::SurfaceMesh wrench = asset("wrench");
+  PrepareOptions chosen;
+  chosen.lx = 0.003;
+  chosen.feature_angle = 180;
+  PrepareOptions explicit_graded = chosen;
+  explicit_graded.grading = kAutoGrading;
+  bool hit = true;
+  const Field a = Field::prepare_cached(wrench, chosen, dir.string(), {}, &hit);
+  EXPECT_FALSE(hit);
+  EXPECT_EQ(a.stats().grading, kAutoGrading);
+  const Field b = Field::prepare_cached(wrench, explicit_graded, dir.string(), {}, &hit);
+  EXPECT_FALSE(hit);  // another request, another entry
+  EXPECT_EQ(a.stats().n_verts, b.stats().n_verts);
+  EXPECT_EQ(a.stats().n_tets, b.stats().n_tets);
+  const Field c = Field::prepare_cached(wrench, chosen, dir.string(), {}, &hit);
+  EXPECT_TRUE(hit);
+  EXPECT_EQ(c.stats().grading, kAutoGrading);
+  EXPECT_EQ(c.stats().n_verts, a.stats().n_verts);
+
+  PrepareOptions coarse;  // the cube below kAutoPredictFrom: eq. 23, as with grading 0
+  coarse.lx = 0.15;
+  PrepareOptions paper = coarse;
+  paper.grading = 0.0;
+  const Field d = Field::prepare(mesh::box(Vec3::Ones()), coarse), e = Field::prepare(mesh::box(Vec3::Ones()), paper);
+  EXPECT_EQ(d.stats().grading, 0.0);
+  EXPECT_EQ(d.stats().n_verts, e.stats().n_verts);
+  fs::remove_all(dir);
+}
+
+}  // namespace
