@@ -213,7 +213,7 @@ SurfaceMesh knife() {
 void write_case(const std::filesystem::path& file, const std::string& comment, const std::string& sigma) {
   std::ofstream(file) << "{\n  \"comment\": \"" << comment << "\",\n"
                       << "  \"mesh\": {\"asset\": \"wrench\"},\n  \"lx\": 0.002,\n"
-                      << "  \"center\": [0.0, 0.0, 0.0],\n  \"feature_angle\": 180,\n"
+                      << "  \"center\": [0.0, 0.0, 0.0],\n  \"feature_angle\": 180,\n  \"grading\": 0,\n"
                       << "  \"sigma\": " << sigma << ",\n"
                       << "  \"query\": [[0.0, 0.0, 0.01], [0.045, 0.0, 0.01], [-0.06, 0.0, 0.0]]\n}\n";
 }

@@ -281,7 +281,7 @@ TEST(KelvinPrepare, CacheEntryChangedWithoutTheKeyIsRebuilt) {
   // The first tet-mesh point: after the tag, the key and the surface, inputs and parameters.
   const auto nv = static_cast<size_t>(surface.vertices.rows()), nf = static_cast<size_t>(surface.faces.rows());
   const std::string name = file.stem().string();
-  const size_t points_at = 8 + sizeof("distlab-kelvin-cache-v9") + 8 + name.size() + 8 + 24 * nv + 8 + 12 * nf + 7 * 8 + 3 * 8 + 8;
+  const size_t points_at = 8 + sizeof("distlab-kelvin-cache-v9") + 8 + name.size() + 8 + 24 * nv + 8 + 12 * nf + 7 * 8 + 4 * 8 + 8;
   ASSERT_LT(points_at + 8 * 30, 8 + size);
   for (int attack = 0; attack < 2; ++attack) {
     std::string bytes = original;

@@ -83,6 +83,7 @@ TEST(ChooseGrading, TakesTheGradedSizingOnlyWhereItSavesClearly) {
   const mesh::SurfaceMesh cube = mesh::box(Vec3::Ones()), knife = asset("knife"), wrench = asset("wrench"), sphere = asset("sphere");
   EXPECT_EQ(choose_grading(invert(cube, 0.02, 60).surface, invert(cube, 0.02, 60).params), kAutoGrading);
   EXPECT_EQ(choose_grading(invert(knife, 0.01, 180).surface, invert(knife, 0.01, 180).params), kAutoGrading);
+  EXPECT_EQ(choose_grading(invert(knife, 0.02, 180).surface, invert(knife, 0.02, 180).params), kAutoGrading);  // 6.7k against 17k
   EXPECT_EQ(choose_grading(invert(wrench, 0.002, 180).surface, invert(wrench, 0.002, 180).params), kAutoGrading);
   EXPECT_EQ(choose_grading(invert(cube, 0.05, 60).surface, invert(cube, 0.05, 60).params), 0.0);
   EXPECT_EQ(choose_grading(invert(cube, 0.03, 60).surface, invert(cube, 0.03, 60).params), 0.0);
@@ -113,6 +114,14 @@ TEST(ChooseGrading, FieldReportsAndCachesTheChoice) {
   EXPECT_TRUE(hit);
   EXPECT_EQ(c.stats().grading, kAutoGrading);
   EXPECT_EQ(c.stats().n_verts, a.stats().n_verts);
+  // Where the choice is the graded sizing, an explicit 0 is still eq. 23 (25k vertices against
+  // 13k), and its own cache entry.
+  PrepareOptions explicit_paper = chosen;
+  explicit_paper.grading = 0.0;
+  const Field p = Field::prepare_cached(wrench, explicit_paper, dir.string(), {}, &hit);
+  EXPECT_FALSE(hit);
+  EXPECT_EQ(p.stats().grading, 0.0);
+  EXPECT_GT(p.stats().n_verts, a.stats().n_verts * 3 / 2);
 
   PrepareOptions coarse;  // the cube below kAutoPredictFrom: eq. 23, as with grading 0
   coarse.lx = 0.15;

@@ -251,7 +251,9 @@ SizingPrediction predict_vertices(const mesh::SurfaceMesh& inverted, const Meshi
   const SurfaceDistance distance(poly);
   double r_out = 0;
   for (auto v : poly.vertices()) r_out = std::max(r_out, std::sqrt(CGAL::to_double((poly.point(v) - CGAL::ORIGIN).squared_length())));
-  r_out *= 1.05;  // the sphere patches between the vertices
+  // The largest |y| is 1/clearance, at the point of the surface nearest the centre, which the
+  // bisected polyhedron's vertices may miss by a little: the margin keeps that sliver sampled.
+  r_out *= 1.05;
   // l_y = |y|² l_x down to min_size, reached at |y| = r_min: below it equal-volume shells, above
   // it shells equal in log |y| (l_y⁻³ falls as |y|⁻⁶ there).
   const double r_min = std::min(std::sqrt(params.min_size / params.lx), r_out);

@@ -2582,7 +2582,7 @@ export interface components {
             center?: components["schemas"]["Vec3"];
             /** @description the exterior mesh keeps element size lx up to far_radius times the object's radius (default 1); counted in the vertex budget (422 over_budget, field far_radius) */
             far_radius?: number;
-            /** @description 0: the paper's sizing l_y = |y|² lx (eq. 23); g > 0: the graded sizing, finer near sharp edges and growing by g per unit distance (in y) from the inverted surface: fewer vertices at equal accuracy (at lx 0.02 on the unit cube, g 0.05: 185k vertices against 394k); counted in the vertex budget (its edge refinement adds a term per metre of sharp edge). Absent (default): chosen per object and lx, the graded sizing g 0.05 where it is predicted to need at most 2/3 of eq. 23's vertices (fine lx; below about 20k vertices always eq. 23), else eq. 23; stats.grading says which */
+            /** @description 0: the paper's sizing l_y = |y|² lx (eq. 23); g > 0: the graded sizing, finer near sharp edges and growing by g per unit distance (in y) from the inverted surface: fewer vertices at equal accuracy (at lx 0.02 on the unit cube, g 0.05: 185k vertices against 394k); counted in the vertex budget (its edge refinement adds a term per metre of sharp edge). Absent (default): chosen per object and lx, the graded sizing g 0.05 where it is predicted to need at most 2/3 of eq. 23's vertices (fine lx; below about 5k vertices always eq. 23), else eq. 23; stats.grading says which */
             grading?: number;
             sigma?: components["schemas"]["Sigma"];
             levels?: number[];

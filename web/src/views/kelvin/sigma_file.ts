@@ -1,6 +1,6 @@
 // σ regions as a file, in the format of the wrench cases in assets/ (wrench_case_*.json):
 // {"comment", "mesh": {"asset"}, "lx", "sigma": {constant | axis, brushes}}, plus the cases'
-// optional "center", "feature_angle" and "query". A link whose σ is too long for a URL refers to
+// optional "center", "feature_angle", "grading" and "query". A link whose σ is too long for a URL refers to
 // such a file by the number of brush stamps and a digest of them.
 import { presets, packBrushes, type Brush, type PresetName, type SigmaBody } from "./sigma";
 
@@ -62,7 +62,7 @@ export function parseSigmaFile(text: string): SigmaFileContent {
     throw new SigmaFileError("file", `not JSON (${(e as Error).message})`);
   }
   const o = object(raw, "file");
-  keys(o, ["comment", "mesh", "lx", "center", "feature_angle", "sigma", "query"], "");
+  keys(o, ["comment", "mesh", "lx", "center", "feature_angle", "grading", "sigma", "query"], "");
   const mesh = object(o.mesh, "mesh");
   keys(mesh, ["asset", "upload"], "mesh");
   let m: SigmaFileContent["mesh"];

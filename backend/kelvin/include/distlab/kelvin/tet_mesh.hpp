@@ -64,7 +64,8 @@ SizingPrediction predict_vertices(const mesh::SurfaceMesh& inverted, const Meshi
 // Fitted on the cube with eq. 23 (l_x 0.05–0.02: 0.74–0.71, the finest last; coarser meshes
 // have relatively more surface vertices) and checked on the wrench and the knife (notes of issue 19).
 inline constexpr double kVerticesPerSizingIntegral = 0.71;
-// The cube measured 55–63 vertices per metre of sharp edge per 1/l_x (l_x 0.15–0.03).
+// The cube measured 55–63 vertices per metre of sharp edge per 1/l_x (l_x 0.15–0.03); the
+// server's vertex budget counts the upper bound kGradedEdgeVerticesPerLength (surface_tools.hpp).
 inline constexpr double kGradedEdgeVerticesTypical = 60;
 
 // The sizing PrepareOptions::grading chooses when not given: the graded sizing kAutoGrading
@@ -72,11 +73,12 @@ inline constexpr double kGradedEdgeVerticesTypical = 60;
 // accurate) where predict_vertices gives it at most kAutoGradedShare of eq. 23's vertices, else
 // eq. 23 (0). Its meshing costs about twice as much per vertex (the distance searches: cube at
 // l_x 0.03, 17.1 s for 94k vertices against 7.6 s for 118k), so a small saving is not taken.
-// Below kAutoPredictFrom vertices by eq. 23's closed form (both sizings are cheap there) it is
-// eq. 23 without a prediction, which costs 0.06–0.25 s.
+// Below kAutoPredictFrom vertices by eq. 23's closed-form bound it is eq. 23 without a
+// prediction, which costs 0.06–0.25 s (as much as meshing such a field); above, it can pay many
+// times over (the knife at l_x 0.02: 6.7k vertices against 17k).
 inline constexpr double kAutoGrading = 0.05;
 inline constexpr double kAutoGradedShare = 2.0 / 3.0;
-inline constexpr double kAutoPredictFrom = 20'000;
+inline constexpr double kAutoPredictFrom = 5'000;
 double choose_grading(const mesh::SurfaceMesh& inverted, const MeshingParams& params, const Progress& progress = {});
 
 // CGAL Mesh_3 on the region bounded by the (already inverted, outward-oriented) surface with
