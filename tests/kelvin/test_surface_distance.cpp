@@ -1,6 +1,7 @@
 // The graded sizing's surface distance (surface_distance.hpp) against a brute-force minimum of
 // CGAL's point–triangle distance over every triangle: exact near the surface, where the mesh
-// follows it, and a lower bound everywhere (the mesh is never coarser than graded).
+// follows it, and a lower bound everywhere (the mesh is never coarser than graded). Its edge
+// distance: CGAL's exact query, bit for bit, wherever it is below the radius.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -58,6 +59,47 @@ TEST(SurfaceDistance, ExactNearTheSurfaceALowerBoundEverywhere) {
   }
   EXPECT_GT(near, 500);
   EXPECT_GT(far, 500);
+}
+
+TEST(EdgeDistance, ExactBelowTheRadiusALowerBoundEverywhere) {
+  // A unit cube's 12 edges and two skew segments, the radius 4 l_x at l_x 0.03.
+  EdgeDistance::Segments segments;
+  for (int axis = 0; axis < 3; ++axis)
+    for (int s = 0; s < 4; ++s) {
+      double a[3], b[3];
+      a[axis] = -0.5, b[axis] = 0.5;
+      a[(axis + 1) % 3] = b[(axis + 1) % 3] = s % 2 == 0 ? -0.5 : 0.5;
+      a[(axis + 2) % 3] = b[(axis + 2) % 3] = s / 2 == 0 ? -0.5 : 0.5;
+      segments.emplace_back(K::Point_3(a[0], a[1], a[2]), K::Point_3(b[0], b[1], b[2]));
+    }
+  segments.emplace_back(K::Point_3(0.1, -0.3, 0.2), K::Point_3(0.9, 0.4, -0.7));
+  segments.emplace_back(K::Point_3(-0.2, 0.05, 0.0), K::Point_3(-0.2001, 0.05, 0.3));
+  const std::vector<K::Segment_3> all = segments;
+  const double radius = 0.12;
+  const EdgeDistance distance(std::move(segments), radius);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  int near = 0, far = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const double r = i % 10 == 0 ? std::pow(10.0, 6 * u(rng) + 3) : 1.0;  // some x far out (y near 0)
+    const K::Point_3 x(r * u(rng), r * u(rng), r * u(rng));
+    double brute = std::numeric_limits<double>::infinity();
+    for (const auto& s : all) brute = std::min(brute, CGAL::to_double(CGAL::squared_distance(x, s)));
+    brute = std::sqrt(brute);
+    const double exact = distance.exact(x);
+    ASSERT_NEAR(exact, brute, 1e-12 * (1 + brute)) << i;
+    ASSERT_LE(distance.lower_bound(x), exact * (1 + 1e-12) + 1e-12) << i;
+    const double got = distance(x);
+    if (exact < radius) {
+      ++near;
+      ASSERT_EQ(got, exact) << i << ": bit for bit";
+    } else {
+      ++far;
+      ASSERT_GE(got, radius) << i;
+    }
+  }
+  EXPECT_GT(near, 1000);
+  EXPECT_GT(far, 2000);
 }
 
 }  // namespace

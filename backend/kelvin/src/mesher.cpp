@@ -6,7 +6,6 @@
 // changes the cell and vertex bases: it must precede every CGAL include here, and no other
 // translation unit may instantiate Mesh_3.
 #define CGAL_MESH_3_USE_LAZY_SORTED_REFINEMENT_QUEUE
-#include <CGAL/AABB_segment_primitive.h>
 #include <CGAL/AABB_traits.h>
 #include <CGAL/AABB_tree.h>
 #include <CGAL/AABB_triangle_primitive.h>
@@ -63,30 +62,17 @@ struct Budget {
 struct ProtectionBudgetExceeded {};
 struct RefinementBudgetExceeded {};
 
-// Distance in x from the object's sharp edges (normals deviating by more than feature_angle),
-// where the exterior solution is singular (r^(2/3) at a right-angled edge): the graded sizing
-// refines there. A tree of the edges' segments, queried at x = y/|y|² (exact in x).
-class SharpEdges {
- public:
-  using Segments = std::vector<K::Segment_3>;
-  using Tree = CGAL::AABB_tree<CGAL::AABB_traits<K, CGAL::AABB_segment_primitive<K, Segments::const_iterator>>>;
-  SharpEdges(const mesh::SurfaceMesh& inverted, double feature_angle) {
-    mesh::SurfaceMesh x = inverted;  // the input surface again (eq. 5 is its own inverse)
-    for (Eigen::Index v = 0; v < x.vertices.rows(); ++v) x.vertices.row(v) /= x.vertices.row(v).squaredNorm();
-    auto point = [&x](int v) { return K::Point_3(x.vertices(v, 0), x.vertices(v, 1), x.vertices(v, 2)); };
-    for (const auto& [a, b] : sharp_edges(x, feature_angle)) segments_.emplace_back(point(a), point(b));
-    if (!segments_.empty()) {
-      tree_.insert(segments_.begin(), segments_.end());
-      tree_.accelerate_distance_queries();
-    }
-  }
-  bool empty() const { return segments_.empty(); }
-  double operator()(const K::Point_3& x) const { return std::sqrt(CGAL::to_double(tree_.squared_distance(x))); }
-
- private:
-  Segments segments_;
-  Tree tree_;
-};
+// The object's sharp edges (normals deviating by more than feature_angle) in x, where the
+// exterior solution is singular (r^(2/3) at a right-angled edge): the graded sizing refines
+// within kGradedEdgeRadius · l_x of them, measured at x = y/|y|².
+sizing::EdgeDistance::Segments sharp_segments(const mesh::SurfaceMesh& inverted, double feature_angle) {
+  mesh::SurfaceMesh x = inverted;  // the input surface again (eq. 5 is its own inverse)
+  for (Eigen::Index v = 0; v < x.vertices.rows(); ++v) x.vertices.row(v) /= x.vertices.row(v).squaredNorm();
+  auto point = [&x](int v) { return K::Point_3(x.vertices(v, 0), x.vertices(v, 1), x.vertices(v, 2)); };
+  sizing::EdgeDistance::Segments segments;
+  for (const auto& [a, b] : sharp_edges(x, feature_angle)) segments.emplace_back(point(a), point(b));
+  return segments;
+}
 
 struct Sizing {
   double lx, min_size, scale;
@@ -99,7 +85,7 @@ struct Sizing {
   double grading = 0;
   const SurfaceDistance* surface = nullptr;
   // Graded sizing near sharp edges (kGradedEdgeRadius etc.): e_x the distance in x from them.
-  const SharpEdges* edges = nullptr;
+  const sizing::EdgeDistance* edges = nullptr;
   double edge_radius = 0;
   K::FT operator()(const K::Point_3& p, int, const Domain::Index&) const {
     progress->check();
@@ -172,9 +158,9 @@ TetMesh mesh_once(const mesh::SurfaceMesh& inverted, const MeshingParams& params
     size.grading = params.grading;
     size.surface = &*surface;
   }
-  std::optional<SharpEdges> sharp;
+  std::optional<sizing::EdgeDistance> sharp;
   if (params.grading > 0 && protect) {
-    sharp.emplace(inverted, params.feature_angle);
+    sharp.emplace(sharp_segments(inverted, params.feature_angle), kGradedEdgeRadius * params.lx);
     if (!sharp->empty()) {
       size.edges = &*sharp;
       size.edge_radius = kGradedEdgeRadius * params.lx;

@@ -1,6 +1,7 @@
 #pragma once
-// Distance from a polyhedral surface for the graded sizing of the mesher (mesher.cpp), in its
-// own header so that tests can hold it against a brute-force minimum over the triangles.
+// Distances from a polyhedral surface and from its sharp edges for the graded sizing of the
+// mesher (mesher.cpp), in their own header so that tests can hold them against brute force.
+#include <CGAL/AABB_segment_primitive.h>
 #include <CGAL/AABB_traits.h>
 #include <CGAL/AABB_tree.h>
 #include <CGAL/AABB_triangle_primitive.h>
@@ -12,6 +13,7 @@
 #include <cmath>
 #include <cstdint>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 namespace distlab::kelvin::sizing {
@@ -154,6 +156,90 @@ class SurfaceDistance {
   Tree tree_;
   double lo_[3] = {0, 0, 0}, cell_ = 1;
   mutable std::unordered_map<std::uint64_t, Cell> at_centre_;
+};
+
+// Distance in x from the object's sharp edges for the graded sizing's edge factor
+// min(√(e_x / radius), 1), which is 1 wherever e_x ≥ radius (the cube: 62% of the evaluations at
+// l_x 0.03, 42% at 0.05; more at finer l_x, the radius being 4 l_x). There a lower
+// bound stands in for CGAL's exact query (a segment tree): outside the edges' bounding box the
+// distance to the box; inside it the distance at the centre of a lattice cell minus the distance
+// to the centre (1-Lipschitz), filled lazily, so answers do not depend on the order of queries.
+class EdgeDistance {
+ public:
+  using Segments = std::vector<K::Segment_3>;
+  EdgeDistance(Segments segments, double radius) : segments_(std::move(segments)), radius_(radius) {
+    if (segments_.empty()) return;
+    tree_.insert(segments_.begin(), segments_.end());
+    tree_.build();
+    tree_.accelerate_distance_queries();
+    if (!(radius > 0)) return;  // no lattice: every query exact
+    const CGAL::Bbox_3 box = tree_.bbox();
+    double scale = radius;
+    for (int k = 0; k < 3; ++k) {
+      lo_[k] = box.min(k), hi_[k] = box.max(k);
+      scale = std::max({scale, std::abs(lo_[k]), std::abs(hi_[k])});
+    }
+    // Rounding of the distances and of the bounds is ~1e-16 of the coordinates: the bound must
+    // clear the radius by far more before the exact query is skipped.
+    margin_ = 1e-9 * (1 + scale);
+    // Cells of a quarter radius (at most ~2M of them) over the box grown by the radius and a cell:
+    // a point that is not in it is farther than the radius from the box.
+    cell_ = radius / 4;
+    for (;;) {
+      std::int64_t total = 1;
+      for (int k = 0; k < 3; ++k) {
+        origin_[k] = lo_[k] - radius - cell_;
+        n_[k] = static_cast<std::int64_t>(std::ceil((hi_[k] - lo_[k] + 2 * (radius + cell_)) / cell_));
+        total *= n_[k];
+      }
+      if (total <= (std::int64_t{1} << 21)) {
+        at_centre_.assign(static_cast<std::size_t>(total), -1.0);
+        break;
+      }
+      cell_ *= 1.25;
+    }
+  }
+  EdgeDistance(const EdgeDistance&) = delete;  // the tree points into segments_
+  EdgeDistance& operator=(const EdgeDistance&) = delete;
+  bool empty() const { return segments_.empty(); }
+  // The exact distance (CGAL's AABB_tree::squared_distance) wherever it is below radius, else a
+  // value ≥ radius.
+  double operator()(const K::Point_3& x) const {
+    if (at_centre_.empty()) return exact(x);
+    const double bound = lower_bound(x);
+    return bound >= radius_ + margin_ ? bound : exact(x);
+  }
+  double exact(const K::Point_3& x) const { return std::sqrt(CGAL::to_double(tree_.squared_distance(x))); }
+  // ≤ the distance up to rounding (margin_).
+  double lower_bound(const K::Point_3& x) const {
+    const double q[3] = {CGAL::to_double(x.x()), CGAL::to_double(x.y()), CGAL::to_double(x.z())};
+    double box2 = 0;  // squared distance to the edges' bounding box
+    for (int k = 0; k < 3; ++k) {
+      const double e = std::max({lo_[k] - q[k], q[k] - hi_[k], 0.0});
+      box2 += e * e;
+    }
+    const double box = std::sqrt(box2);
+    if (!(box < radius_ + cell_)) return box;  // also for x at infinity
+    std::int64_t i[3];
+    double c[3];
+    for (int k = 0; k < 3; ++k) {
+      i[k] = static_cast<std::int64_t>(std::floor((q[k] - origin_[k]) / cell_));
+      if (i[k] < 0 || i[k] >= n_[k]) return box;
+      c[k] = origin_[k] + (static_cast<double>(i[k]) + 0.5) * cell_;
+    }
+    double& centre = at_centre_[static_cast<std::size_t>((i[0] * n_[1] + i[1]) * n_[2] + i[2])];
+    if (centre < 0) centre = exact(K::Point_3(c[0], c[1], c[2]));
+    return std::max(box, centre - std::sqrt((q[0] - c[0]) * (q[0] - c[0]) + (q[1] - c[1]) * (q[1] - c[1]) + (q[2] - c[2]) * (q[2] - c[2])));
+  }
+
+ private:
+  using Tree = CGAL::AABB_tree<CGAL::AABB_traits<K, CGAL::AABB_segment_primitive<K, Segments::const_iterator>>>;
+  Segments segments_;
+  Tree tree_;
+  double radius_, margin_ = 0, cell_ = 1;
+  double lo_[3] = {0, 0, 0}, hi_[3] = {0, 0, 0}, origin_[3] = {0, 0, 0};
+  std::int64_t n_[3] = {0, 0, 0};
+  mutable std::vector<double> at_centre_;  // -1: not yet computed
 };
 
 }  // namespace distlab::kelvin::sizing
