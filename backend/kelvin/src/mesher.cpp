@@ -268,11 +268,8 @@ SizingPrediction predict_vertices(const mesh::SurfaceMesh& inverted, const Meshi
     }
   }
   double edges = 0;  // in x, where the graded sizing's edge refinement is measured
-  if (params.feature_angle < 180) {
-    mesh::SurfaceMesh x = inverted;
-    for (Eigen::Index v = 0; v < x.vertices.rows(); ++v) x.vertices.row(v) /= x.vertices.row(v).squaredNorm();
-    for (const auto& [a, b] : sharp_edges(x, params.feature_angle)) edges += (x.vertices.row(a) - x.vertices.row(b)).norm();
-  }
+  if (params.feature_angle < 180)
+    for (const K::Segment_3& e : sharp_segments(inverted, params.feature_angle)) edges += std::sqrt(CGAL::to_double(e.squared_length()));
   return {kVerticesPerSizingIntegral * paper, kVerticesPerSizingIntegral * graded + kGradedEdgeVerticesTypical * edges / params.lx};
 }
 
