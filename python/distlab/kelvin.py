@@ -84,6 +84,16 @@ class Field:
             spec["brushes"] = brushes
         self._core.set_sigma(spec, gradients)
 
+    def build_boundary_response(self, max_megabytes: float = 512,
+                                progress: Optional[Callable[[str, float], Any]] = None) -> bool:
+        """Precomputes the change of the field per unit change of each boundary value
+        (n_interior × n_boundary doubles, ``stats["response_mb"]``), if that takes at most
+        ``max_megabytes``; returns whether it did. Brush strokes added to σ (``set_sigma`` with the
+        previous brushes plus new ones) then cost about 0.2× a full solve instead of 0.8× on a
+        26k-vertex field, with the same result to rounding. ``progress`` and cancelling as in
+        :meth:`prepare`."""
+        return self._core.build_boundary_response(max_megabytes, progress)
+
     def query(self, points, hints: bool = True) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
         """h (N,), ∇h (N, 3) and status (N,) (0 ok, INSIDE, NONPOSITIVE; h and ∇h NaN there) at
         ``points`` (N, 3). With ``hints`` each point's search starts at the previous point's cell
@@ -104,7 +114,8 @@ class Field:
 
     @property
     def stats(self) -> dict:
-        """Sizes and timings: n_verts, n_tets, size_mb, t_mesh, t_build, t_decomp, t_solve, cache_hit."""
+        """Sizes and timings: n_verts, n_tets, size_mb, t_mesh, t_build, t_decomp, t_solve, grading,
+        response_mb (0 until :meth:`build_boundary_response`), cache_hit, warnings."""
         return self._core.stats()
 
     @property

@@ -112,6 +112,17 @@ class PyField {
     field_.set_sigma(spec, gradients);
   }
 
+  bool build_boundary_response(const py::object& max_mb, const py::object& progress) {
+    const double max_megabytes = server::json_number(to_json(max_mb, "max_megabytes"), "max_megabytes");
+    Interruptible interrupt(progress);
+    kelvin::Progress pr;
+    pr.cancel = interrupt.flag();
+    pr.report = [&](const std::string& stage, double f) { interrupt.report(stage, f); };
+    bool built = false;
+    interrupt.run([&] { built = field_.build_boundary_response(max_megabytes, pr); });
+    return built;
+  }
+
   py::tuple query(const Doubles& points, bool hints) const {
     if (points.ndim() != 2 || points.shape(1) != 3) throw InvalidInput("points", "points must have shape (n, 3)");
     const py::ssize_t n = points.shape(0);
@@ -173,6 +184,7 @@ class PyField {
     d["t_decomp"] = s.t_decomp;
     d["t_solve"] = s.t_solve;
     d["grading"] = s.grading;
+    d["response_mb"] = s.response_mb;
     d["cache_hit"] = cache_hit_;
     py::list warnings;
     for (const std::string& w : s.warnings) warnings.append(w);
@@ -199,6 +211,8 @@ void bind_kelvin(py::module_& m) {
       .def_static("prepare", &PyField::prepare, py::arg("vertices"), py::arg("faces"), py::arg("path"),
                   py::arg("options"), py::arg("cache_dir"), py::arg("progress"))
       .def("set_sigma", &PyField::set_sigma, py::arg("sigma"), py::arg("gradients") = true)
+      .def("build_boundary_response", &PyField::build_boundary_response, py::arg("max_megabytes"),
+           py::arg("progress") = py::none())
       .def("query", &PyField::query, py::arg("points"), py::arg("hints") = true)
       .def("isosurface", &PyField::isosurface, py::arg("level"))
       .def("export", &PyField::export_mesh, py::arg("path"), py::arg("level"), py::arg("format"))

@@ -1,6 +1,8 @@
 #pragma once
 // The analytic reference of the Kelvin tests: a sphere of radius R centred at s with constant σ
 // has u = e^(−σ) R/|x − s|, so h = σ + ln(|x − s|/R) and ∇h = (x − s)/|x − s|².
+#include <algorithm>
+#include <cmath>
 #include <random>
 #include <vector>
 
@@ -43,6 +45,28 @@ inline std::vector<Vec3> shell_points(const Sphere& s, double lo, double hi, int
   std::vector<Vec3> out;
   for (int i = 0; i < n; ++i) out.emplace_back(s.centre + s.radius * r(rng) * Vec3(g(rng), g(rng), g(rng)).normalized());
   return out;
+}
+
+// Largest |a − b| over the vertices that carry a value, relative to the largest |b|; NaN
+// (unused points) must be at the same places.
+inline double relative_difference(const VecX& a, const VecX& b) {
+  double diff = 0, scale = 0;
+  for (Eigen::Index v = 0; v < b.size(); ++v) {
+    if (std::isnan(b[v]) || std::isnan(a[v])) {
+      if (std::isnan(b[v]) != std::isnan(a[v])) return INFINITY;
+      continue;
+    }
+    diff = std::max(diff, std::abs(a[v] - b[v]));
+    scale = std::max(scale, std::abs(b[v]));
+  }
+  return diff / scale;
+}
+
+// A constant plus an axis term: the σ the stroke tests paint on.
+inline SigmaSpec tilted_sigma(const Sphere& s, double constant) {
+  SigmaSpec spec = constant_sigma(constant);
+  spec.axis.push_back({Vec3(0.3, 1, 0.2), s.centre, 0.1, 0.8, 0.2});
+  return spec;
 }
 
 }  // namespace distlab::kelvin::testing

@@ -199,32 +199,6 @@ TEST(KelvinSigma, LevelsTheFieldNeverTakesAreEmpty) {
     EXPECT_NEAR((Vec3(above.vertices.row(v)) - s.centre).norm() / (s.radius * std::exp(0.5)), 1.0, 0.1);
 }
 
-namespace {
-
-// Largest |a − b| over the vertices that carry a value, relative to the largest |b|; NaN
-// (unused points) must be at the same places.
-double relative_difference(const VecX& a, const VecX& b) {
-  double diff = 0, scale = 0;
-  for (Eigen::Index v = 0; v < b.size(); ++v) {
-    if (std::isnan(b[v]) || std::isnan(a[v])) {
-      if (std::isnan(b[v]) != std::isnan(a[v])) return INFINITY;
-      continue;
-    }
-    diff = std::max(diff, std::abs(a[v] - b[v]));
-    scale = std::max(scale, std::abs(b[v]));
-  }
-  return diff / scale;
-}
-
-// A constant plus an axis term: the σ the stroke tests paint on.
-SigmaSpec tilted_sigma(const Sphere& s, double constant) {
-  SigmaSpec spec = constant_sigma(constant);
-  spec.axis.push_back({Vec3(0.3, 1, 0.2), s.centre, 0.1, 0.8, 0.2});
-  return spec;
-}
-
-}  // namespace
-
 // Brush strokes appended to σ are solved by linearity (field.hpp, set_sigma): 40 random strokes
 // of 1–3 stamps in a row, each on the field the previous ones left, give the boundary σ of a
 // full solve bit for bit and V within 1e-12 (relative) of it; each changes only the boundary

@@ -107,6 +107,30 @@ def test_an_exception_in_progress_cancels():
         kelvin.Field.prepare(SPHERE, lx=0.05, progress=progress)
 
 
+def test_strokes_by_the_boundary_response_equal_strokes_by_the_factor():
+    field = kelvin.Field.prepare(SPHERE, lx=0.15, center=[0.1, -0.05, 0.08])
+    points = np.array([[0.7, 0.1, 0.0], [0.0, -0.8, 0.3], [0.4, 0.4, -0.6], [-1.5, 0.2, 0.2]])
+    stroke = [{"center": [0.5, 0.0, 0.0], "radius": 0.15, "value": 0.8, "falloff": 0.05}]
+
+    def paint():
+        field.set_sigma(constant=0.4)  # another σ: the next one is solved in full
+        field.set_sigma(constant=0.1)
+        field.set_sigma(constant=0.1, brushes=stroke)  # the stroke, by linearity
+        return field.query(points)[0]
+
+    by_factor = paint()
+    assert field.stats["response_mb"] == 0
+    assert not field.build_boundary_response(max_megabytes=1e-3)
+    assert field.build_boundary_response()
+    assert 0 < field.stats["response_mb"] < field.stats["size_mb"]
+    by_response = paint()
+    np.testing.assert_allclose(by_response, by_factor, rtol=1e-12, atol=0)
+    assert np.abs(by_response - paint()).max() == 0  # the same strokes, the same field
+    with pytest.raises(distlab.InvalidInputType) as info:
+        field.build_boundary_response(max_megabytes="a")
+    assert info.value.field == "max_megabytes"
+
+
 BAD = [
     (lambda: kelvin.Field.prepare(SPHERE, lx=-1), distlab.InvalidInput, "lx"),
     (lambda: kelvin.Field.prepare(SPHERE, lx="a"), distlab.InvalidInputType, "lx"),

@@ -806,6 +806,42 @@ TEST_F(KelvinApi, Limits) {
   EXPECT_EQ(body_json(r)["error"]["field"], "levels");
 }
 
+// Boundary responses (config.hpp, max_response_bytes and max_response_bytes_total): with the
+// default limits two small cubes get theirs (job stage "response", stats.response_mb, part of
+// size_mb); with a total one byte short of both, the second preparation goes without (its
+// strokes are solved with the factor); with a per-field limit one byte short, none.
+TEST(KelvinResponse, BuiltWithinTheLimits) {
+  const json cubes[] = {kCube, {{"asset", "cube"}, {"lx", 0.17}}};
+  auto prepare = [&cubes](const std::vector<std::string>& limits, bool* stage_seen = nullptr) {
+    ServerProcess server(limits);
+    auto c = server.client();
+    const std::string s = new_session(c);
+    WsClient ws(server.port(), s);
+    await_hello(ws);
+    std::vector<double> mb;
+    for (const json& cube : cubes) {
+      std::vector<std::string> stages;
+      const std::string id = create_ready(c, ws, s, cube, &stages);
+      const json stats = body_json(c.Get(path_of(id), session_headers(s)))["stats"];
+      EXPECT_LT(stats["response_mb"].get<double>(), stats["size_mb"].get<double>());
+      mb.push_back(stats["response_mb"]);
+      if (stage_seen) *stage_seen = *stage_seen || std::count(stages.begin(), stages.end(), "response") > 0;
+    }
+    EXPECT_EQ(server.stop(), 0);
+    return mb;
+  };
+  bool stage_seen = false;
+  const std::vector<double> both = prepare({}, &stage_seen);
+  ASSERT_GT(both[0], 0);
+  ASSERT_GT(both[1], 0);
+  EXPECT_TRUE(stage_seen);
+  auto bytes = [](double mb) { return std::llround(mb * 1e6); };
+  const std::string total = "max_response_bytes_total=" + std::to_string(bytes(both[0]) + bytes(both[1]) - 1);
+  EXPECT_EQ(prepare({"--limit", total}), (std::vector<double>{both[0], 0}));
+  const std::string each = "max_response_bytes=" + std::to_string(bytes(both[0]) - 1);
+  EXPECT_EQ(prepare({"--limit", each})[0], 0);
+}
+
 TEST(KelvinRestart, ReloadsPreparedObjectFromCache) {
   const std::string cache = temp_dir("distlab-test-restart");
   json first_stats;

@@ -142,9 +142,11 @@ struct Row {
   // A local σ edit by linearity (see compare_with_sparselu): the stroke's solve and the share of
   // the factor each solve reads.
   double stroke_ms = -1, stroke_read = -1, full_read = -1;
-  // The stroke by a precomputed operator (columns of A_ΩΩ⁻¹ for the rows eq. 20 can make
-  // nonzero): time to apply the stroke's columns, their MB, the whole operator's MB.
-  double operator_ms = -1, operator_stroke_mb = 0, operator_mb = 0;
+  // The same stroke through Field::set_sigma (t_solve, medians), against its full solve: with the
+  // factor, and with the boundary response (its MB and build time); boundary values changed.
+  double field_full_ms = -1, field_stroke_ms = -1, response_full_ms = -1, response_stroke_ms = -1;
+  double response_mb = 0, response_build_s = 0;
+  long stroke_boundary = 0, n_boundary = 0;
   int decomp_reps = 0, solve_reps = 0;
 };
 
@@ -274,28 +276,6 @@ void compare_with_sparselu(const Field& f, Row& r) {
   const VecX x = solve(b20, true, sc, sl);
   diff = std::max(diff, (x - x20).norm() / x20.norm());  // eq. 20's b solves to the field's values
   solve(ones, true, sc1, sl1);
-  // The alternative to a solve: an operator precomputed once, ΔV = Σ_j A_ΩΩ⁻¹ e_j stroke_j over
-  // the stroke's rows j (its columns for every row eq. 20 can make nonzero are the whole
-  // operator; here only the stroke's are computed, which is what applying it reads).
-  std::vector<Eigen::Index> stroke_rows;
-  long boundary_rows = 0;
-  for (Eigen::Index i = 0; i < b20.size(); ++i) {
-    boundary_rows += b20[i] != 0;
-    if (stroke[i] != 0) stroke_rows.push_back(i);
-  }
-  Eigen::MatrixXd columns(a.rows(), static_cast<Eigen::Index>(stroke_rows.size()));
-  for (size_t k = 0; k < stroke_rows.size(); ++k) {
-    VecX e = VecX::Zero(a.rows());
-    e[stroke_rows[k]] = 1;
-    chol.solve(e);
-    columns.col(static_cast<Eigen::Index>(k)) = e;
-  }
-  VecX stroke_values(columns.cols());
-  for (size_t k = 0; k < stroke_rows.size(); ++k) stroke_values[static_cast<Eigen::Index>(k)] = stroke[stroke_rows[k]];
-  r.operator_stroke_mb = 8e-6 * static_cast<double>(columns.size());
-  r.operator_mb = 8e-6 * static_cast<double>(a.rows()) * static_cast<double>(boundary_rows);
-  std::vector<double> so;
-  VecX by_operator, stroke_x;
   std::vector<double> ss;  // the stroke's solve, in the blocks of eq. 20's
   VecX w;
   auto stroke_solve = [&] {
@@ -306,12 +286,6 @@ void compare_with_sparselu(const Field& f, Row& r) {
       ss.push_back(since(t0) * 1e3);
     }
     r.stroke_read = chol.last_read_fraction();
-    stroke_x = w;
-    for (int k = 0; k < kBlock; ++k) {
-      const auto t0 = Clock::now();
-      by_operator.noalias() = columns * stroke_values;
-      so.push_back(since(t0) * 1e3);
-    }
     w = b20;
     chol.solve(w);
     r.full_read = chol.last_read_fraction();
@@ -324,9 +298,6 @@ void compare_with_sparselu(const Field& f, Row& r) {
     stroke_solve();
   }
   r.stroke_ms = median(ss);
-  r.operator_ms = median(so);
-  if ((by_operator - stroke_x).cwiseAbs().maxCoeff() > 1e-12 * stroke_x.cwiseAbs().maxCoeff())
-    throw std::runtime_error("the stroke by the precomputed operator differs from its solve");
   const int solve_reps = solve_blocks * kBlock;
   if (diff > 1e-9) throw std::runtime_error("SparseLU, CHOLMOD and the field disagree on A_OO x = b");
   r.solve_ones_ms = median(sc1);
@@ -339,8 +310,49 @@ void compare_with_sparselu(const Field& f, Row& r) {
   r.solve_reps = solve_reps;
 }
 
+// A brush stroke through Field::set_sigma: one stamp on the 5% of the boundary vertices nearest
+// to one of them, added to `base`. Blocks of a full solve of `base` then the stroke (by
+// linearity), with the factor; then the boundary response is built and the same again. The
+// stroke's V by the response must equal the one by the factor to 1e-12.
+void measure_strokes(Field& f, const SigmaSpec& base, Row& r) {
+  const std::vector<Vec3> at = f.boundary_points();
+  std::vector<double> d(at.size());
+  std::transform(at.begin(), at.end(), d.begin(), [&](const Vec3& x) { return (x - at.front()).norm(); });
+  std::nth_element(d.begin(), d.begin() + static_cast<long>(d.size() / 20), d.end());
+  SigmaSpec stroke = base;
+  stroke.brushes.push_back({at.front(), d[d.size() / 20], 0.5, 0, false});
+  r.n_boundary = static_cast<long>(at.size());
+  auto blocks = [&](double& full_ms, double& stroke_ms, bool by_response) {
+    std::vector<double> full, strokes;
+    for (int i = 0; i < 41; ++i) {
+      f.set_sigma(base, false, false);
+      full.push_back(f.stats().t_solve * 1e3);
+      f.set_sigma(stroke, false);
+      if (f.stats().linear_by_response != by_response || f.stats().linear_boundary < 0)
+        throw std::runtime_error("the stroke did not take the path measured");
+      strokes.push_back(f.stats().t_solve * 1e3);
+    }
+    r.stroke_boundary = f.stats().linear_boundary;
+    full_ms = median(full);
+    stroke_ms = median(strokes);
+    return f.vertex_values();
+  };
+  const VecX by_factor = blocks(r.field_full_ms, r.field_stroke_ms, false);
+  const auto t0 = Clock::now();
+  if (!f.build_boundary_response(1e9)) throw std::runtime_error("the boundary response was not built");
+  r.response_build_s = since(t0);
+  r.response_mb = f.stats().response_mb;
+  const VecX by_response = blocks(r.response_full_ms, r.response_stroke_ms, true);
+  f.release_boundary_response();
+  double diff = 0, scale = 0;
+  for (Eigen::Index v = 0; v < by_factor.size(); ++v)
+    if (!std::isnan(by_factor[v]))
+      diff = std::max(diff, std::abs(by_response[v] - by_factor[v])), scale = std::max(scale, std::abs(by_factor[v]));
+  if (diff > 1e-12 * scale) throw std::runtime_error("the stroke by the boundary response differs from its solve");
+}
+
 nlohmann::json to_json(const Row& r) {
-  return {{"lx", r.lx}, {"n_verts", r.stats.n_verts}, {"n_tets", r.stats.n_tets}, {"size_mb", r.stats.size_mb}, {"rmse", r.rmse}, {"t_mesh", r.stats.t_mesh}, {"t_build", r.stats.t_build}, {"t_decomp", r.stats.t_decomp}, {"t_solve_ms", r.solve_ms}, {"t_solve_sd_ms", r.solve_sd}, {"t_grad_ms", r.grad_ms}, {"t_solve_median_ms", r.solve_med}, {"t_solve_one_thread_median_ms", r.solve_1t_med}, {"t_cholmod_solve_ms", r.chol_solve_ms}, {"t_own_dense_solve_ms", r.dense_solve_ms}, {"t_query_nohint_p90_us", r.q_seed_p90}, {"t_solve_cases_ms", r.case_solve_ms}, {"t_query_hint_us", r.q_hint}, {"t_query_nohint_us", r.q_seed}, {"t_sparselu_decomp", r.lu_decomp}, {"t_sparselu_solve_ms", r.lu_solve_ms}, {"t_aabb_distance_us", r.aabb_us}, {"t_decomp_median", r.decomp_med}, {"t_solve_b_ms", r.solve_b_ms}, {"t_solve_ones_ms", r.solve_ones_ms}, {"t_sparselu_solve_ones_ms", r.lu_solve_ones_ms}, {"sparselu_decomp_repeats", r.decomp_reps}, {"sparselu_solve_repeats", r.solve_reps}, {"factor_mb", r.stats.factor_mb}, {"t_own_dense_solve_one_thread_ms", r.dense_1t_ms}, {"t_own_dense_solve_one_thread_cpu_ms", r.dense_1t_cpu_ms}, {"t_stroke_solve_ms", r.stroke_ms}, {"stroke_read_fraction", r.stroke_read}, {"full_read_fraction", r.full_read}, {"t_stroke_by_operator_ms", r.operator_ms}, {"operator_stroke_mb", r.operator_stroke_mb}, {"operator_mb", r.operator_mb}};
+  return {{"lx", r.lx}, {"n_verts", r.stats.n_verts}, {"n_tets", r.stats.n_tets}, {"size_mb", r.stats.size_mb}, {"rmse", r.rmse}, {"t_mesh", r.stats.t_mesh}, {"t_build", r.stats.t_build}, {"t_decomp", r.stats.t_decomp}, {"t_solve_ms", r.solve_ms}, {"t_solve_sd_ms", r.solve_sd}, {"t_grad_ms", r.grad_ms}, {"t_solve_median_ms", r.solve_med}, {"t_solve_one_thread_median_ms", r.solve_1t_med}, {"t_cholmod_solve_ms", r.chol_solve_ms}, {"t_own_dense_solve_ms", r.dense_solve_ms}, {"t_query_nohint_p90_us", r.q_seed_p90}, {"t_solve_cases_ms", r.case_solve_ms}, {"t_query_hint_us", r.q_hint}, {"t_query_nohint_us", r.q_seed}, {"t_sparselu_decomp", r.lu_decomp}, {"t_sparselu_solve_ms", r.lu_solve_ms}, {"t_aabb_distance_us", r.aabb_us}, {"t_decomp_median", r.decomp_med}, {"t_solve_b_ms", r.solve_b_ms}, {"t_solve_ones_ms", r.solve_ones_ms}, {"t_sparselu_solve_ones_ms", r.lu_solve_ones_ms}, {"sparselu_decomp_repeats", r.decomp_reps}, {"sparselu_solve_repeats", r.solve_reps}, {"factor_mb", r.stats.factor_mb}, {"t_own_dense_solve_one_thread_ms", r.dense_1t_ms}, {"t_own_dense_solve_one_thread_cpu_ms", r.dense_1t_cpu_ms}, {"t_stroke_solve_ms", r.stroke_ms}, {"stroke_read_fraction", r.stroke_read}, {"full_read_fraction", r.full_read}, {"t_set_sigma_full_ms", r.field_full_ms}, {"t_set_sigma_stroke_ms", r.field_stroke_ms}, {"t_set_sigma_full_beside_response_ms", r.response_full_ms}, {"t_set_sigma_stroke_by_response_ms", r.response_stroke_ms}, {"response_mb", r.response_mb}, {"t_response_build", r.response_build_s}, {"stroke_boundary_values", r.stroke_boundary}, {"n_boundary", r.n_boundary}};
 }
 
 Row run(const mesh::SurfaceMesh& surface, const PrepareOptions& o, const std::vector<SigmaSpec>& sigmas,
@@ -409,7 +421,10 @@ Row run(const mesh::SurfaceMesh& surface, const PrepareOptions& o, const std::ve
     r.dense_1t_ms = median(t1);
     r.dense_1t_cpu_ms = median(c1);
   }
-  if (r.stats.n_verts <= lu_max) compare_with_sparselu(f, r);
+  if (r.stats.n_verts <= lu_max) {
+    compare_with_sparselu(f, r);
+    measure_strokes(f, sigmas.front(), r);
+  }
   std::tie(r.q_hint, r.q_seed, r.q_seed_p90) = query_times(f, path, random);
   const SurfaceOracle oracle(surface);
   std::vector<double> ts;
@@ -478,15 +493,24 @@ nlohmann::json print_bandwidth(const std::vector<Row>& rows, const Stream& s1, c
   }
   std::printf(
       "\nLocal σ edit by linearity (a stroke over 5%% of the surface; same factor, medians): the stroke's "
-      "solve against eq. 20's full one, the share of the factor's entries each reads; and the stroke by a "
-      "precomputed operator (columns of A_OO^-1 for every row eq. 20 can make nonzero; applying it reads the "
-      "stroke's columns)\n| l_x | N_verts | full solve b ms | stroke solve ms | ratio | full reads | stroke reads | "
-      "by operator ms | ratio | stroke's columns MB | operator MB |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
+      "solve against eq. 20's full one, and the share of the factor's entries each reads\n| l_x | N_verts | full "
+      "solve b ms | stroke solve ms | ratio | full reads | stroke reads |\n|---|---|---|---|---|---|---|\n");
   for (const Row& r : rows)
     if (r.stroke_ms > 0)
-      std::printf("| %.3g | %ld | %.3f | %.3f | %.2f | %.3f | %.3f | %.3f | %.2f | %.1f | %.0f |\n", r.lx, r.stats.n_verts,
-                  r.solve_b_ms, r.stroke_ms, r.stroke_ms / r.solve_b_ms, r.full_read, r.stroke_read, r.operator_ms,
-                  r.operator_ms / r.solve_b_ms, r.operator_stroke_mb, r.operator_mb);
+      std::printf("| %.3g | %ld | %.3f | %.3f | %.2f | %.3f | %.3f |\n", r.lx, r.stats.n_verts, r.solve_b_ms, r.stroke_ms,
+                  r.stroke_ms / r.solve_b_ms, r.full_read, r.stroke_read);
+  std::printf(
+      "\nThe same stroke through Field::set_sigma (t_solve, medians of 41 full solves alternating with 41 "
+      "strokes): by the factor, then with the boundary response (field.hpp); each ratio against the full "
+      "solves of its own blocks\n| l_x | N_verts | boundary values changed | full ms | stroke by factor ms | ratio | "
+      "full ms | stroke by response ms | ratio | response MB | factor MB | response build s |\n"
+      "|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  for (const Row& r : rows)
+    if (r.response_stroke_ms > 0)
+      std::printf("| %.3g | %ld | %ld of %ld | %.3f | %.3f | %.2f | %.3f | %.3f | %.2f | %.0f | %.0f | %.2f |\n", r.lx,
+                  r.stats.n_verts, r.stroke_boundary, r.n_boundary, r.field_full_ms, r.field_stroke_ms,
+                  r.field_stroke_ms / r.field_full_ms, r.response_full_ms, r.response_stroke_ms,
+                  r.response_stroke_ms / r.response_full_ms, r.response_mb, r.stats.factor_mb, r.response_build_s);
   std::fflush(stdout);
   return out;
 }

@@ -204,6 +204,30 @@ void CholmodSolver::solve_cholmod(VecX& b) const {
   std::copy_n(static_cast<const double*>(impl_->x->x), b.size(), b.data());
 }
 
+void CholmodSolver::solve_columns(double* b, long ncol) const {
+  if (impl_->factor == nullptr) throw std::logic_error("solve before factorize");
+  set_blas_threads(1);
+  cholmod_common common;
+  cholmod_start(&common);
+  common.print = 0;
+  const auto n = static_cast<size_t>(impl_->factor->n);
+  cholmod_dense rhs{};
+  rhs.nrow = rhs.d = n;
+  rhs.ncol = static_cast<size_t>(ncol);
+  rhs.nzmax = n * rhs.ncol;
+  rhs.x = b;
+  rhs.xtype = CHOLMOD_REAL;
+  rhs.dtype = CHOLMOD_DOUBLE;
+  cholmod_dense *x = nullptr, *y = nullptr, *e = nullptr;
+  const bool ok = cholmod_solve2(CHOLMOD_A, impl_->factor, &rhs, nullptr, &x, nullptr, &y, &e, &common) != 0;
+  if (ok) std::copy_n(static_cast<const double*>(x->x), rhs.nzmax, b);
+  cholmod_free_dense(&x, &common);
+  cholmod_free_dense(&y, &common);
+  cholmod_free_dense(&e, &common);
+  cholmod_finish(&common);
+  if (!ok) throw std::runtime_error("CHOLMOD solve failed");
+}
+
 double CholmodSolver::solve_megabytes() const {
   const cholmod_factor* f = impl_->factor;
   if (f == nullptr || !f->is_super) return 0;

@@ -41,6 +41,9 @@ class CholmodSolver {
   double critical_share() const;
   // The same through CHOLMOD's own cholmod_solve2 (reference and benchmark baseline).
   void solve_cholmod(VecX& b) const;
+  // Solves A X = B in place for ncol columns (column-major, size() rows each) by cholmod_solve2
+  // on the calling thread, with its own CHOLMOD workspace: safe beside any other solve.
+  void solve_columns(double* b, long ncol) const;
   // Share of the factor's entries read by the last solve() (forward and back together, in [0.5, 1]).
   double last_read_fraction() const;
   Eigen::Index size() const;

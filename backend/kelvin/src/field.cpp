@@ -326,7 +326,9 @@ void Field::Impl::finish_stats() {
                             static_cast<double>(tm.points.rows()) * 8;  // V
   stats.factor_mb = solver.factor_megabytes();
   stats.solve_read_mb = solver.solve_megabytes();
-  stats.size_mb = (mesh_bytes + static_cast<double>(packed.bytes() + locator.bytes())) / 1e6 + stats.factor_mb;
+  stats.response_mb = response.megabytes();
+  stats.size_mb =
+      (mesh_bytes + static_cast<double>(packed.bytes() + locator.bytes())) / 1e6 + stats.factor_mb + stats.response_mb;
 }
 
 Field Field::prepare(const mesh::SurfaceMesh& surface, const PrepareOptions& options, const Progress& progress) {
@@ -467,6 +469,7 @@ void solve_full(Field::Impl& m, const SigmaSpec& sigma) {
   m.linear_edits = 0;
   m.refresh.reset();
   m.stats.linear_boundary = -1;
+  m.stats.linear_by_response = false;
 }
 
 // A constant shift of a separable σ: W and the chains stay, only the scale and V_∂ move.
@@ -479,6 +482,7 @@ void solve_shift(Field::Impl& m, const SigmaSpec& sigma) {
   m.boundary_sigma = std::move(sigmas);
   finish_V(m, sigma);
   m.stats.linear_boundary = static_cast<long>(m.boundary.size());
+  m.stats.linear_by_response = false;
 }
 
 // The brushes after m.solved_sigma's, by linearity: σ changes only where they reach (weight > 0;
@@ -508,23 +512,30 @@ void solve_brushes(Field::Impl& m, const SigmaSpec& sigma) {
       m.linear_edits >= kMaxLinearEdits && m.refresh && m.refresh->apart == apart ? m.refresh : nullptr;
   if (base) run_refresh(m, *base);  // waits for another thread's run, or runs it
   if (changed.empty() && !base) return;
-  VecX rhs = VecX::Zero(static_cast<Eigen::Index>(m.interior.size()));
-  auto scatter = [&](size_t b, double d) {
-    for (Eigen::SparseMatrix<double>::InnerIterator it(m.a_ob, static_cast<Eigen::Index>(b)); it; ++it)
-      rhs[it.row()] -= it.value() * d;
-  };
+  std::vector<std::pair<size_t, double>> deltas;  // boundary index, change of its solved value
   for (const auto& [b, s] : changed) {
     const double before = m.boundary_chain[static_cast<Eigen::Index>(b)];
     m.boundary_chain[static_cast<Eigen::Index>(b)] = s;
     m.boundary_sigma[static_cast<Eigen::Index>(b)] = boundary_sigma_of(sigma, apart, s);
-    if (!base) scatter(b, boundary_value_of_chain(m, b, s) - boundary_value_of_chain(m, b, before));
+    if (!base) deltas.emplace_back(b, boundary_value_of_chain(m, b, s) - boundary_value_of_chain(m, b, before));
   }
   if (base)
     for (size_t b = 0; b < m.boundary.size(); ++b) {
       const double now = m.boundary_chain[static_cast<Eigen::Index>(b)], then = base->chain[static_cast<Eigen::Index>(b)];
-      if (now != then) scatter(b, boundary_value_of_chain(m, b, now) - boundary_value_of_chain(m, b, then));
+      if (now != then) deltas.emplace_back(b, boundary_value_of_chain(m, b, now) - boundary_value_of_chain(m, b, then));
     }
-  m.solver.solve(rhs);
+  VecX rhs = VecX::Zero(static_cast<Eigen::Index>(m.interior.size()));
+  // The response's columns when they read less than a solve would (decided by the count alone,
+  // so the same strokes take the same path), else A_ΩΩ Δ_Ω = −A_Ω∂ Δ_∂.
+  m.stats.linear_by_response = !m.response.empty() && m.response.bytes_read(deltas.size()) <= 1e6 * m.stats.solve_read_mb;
+  if (m.stats.linear_by_response) {
+    m.response.apply(deltas, rhs);
+  } else {
+    for (const auto& [b, d] : deltas)
+      for (Eigen::SparseMatrix<double>::InnerIterator it(m.a_ob, static_cast<Eigen::Index>(b)); it; ++it)
+        rhs[it.row()] -= it.value() * d;
+    m.solver.solve(rhs);
+  }
   if (base) {
     if (apart) m.W = base->solved + rhs;
     else
@@ -590,6 +601,25 @@ void Field::set_sigma(const SigmaSpec& sigma, bool gradients, bool by_linearity)
   }
   m.has_gradients = true;
   m.stats.t_gradient = seconds_since(t1);
+}
+
+bool Field::build_boundary_response(double max_megabytes, const Progress& progress) {
+  Impl& m = *impl_;
+  if (!m.response.empty()) return true;
+  if (boundary_response_megabytes() > max_megabytes || !m.solver.can_solve_alone()) return false;
+  m.response.build(m.solver, m.a_ob, progress);
+  m.finish_stats();
+  return true;
+}
+
+void Field::release_boundary_response() {
+  impl_->response.clear();
+  impl_->finish_stats();
+}
+
+double Field::boundary_response_megabytes() const {
+  return BoundaryResponse::megabytes(static_cast<Eigen::Index>(impl_->interior.size()),
+                                     static_cast<Eigen::Index>(impl_->boundary.size()));
 }
 
 std::function<void()> Field::background_work() const {

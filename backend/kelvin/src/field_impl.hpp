@@ -7,6 +7,7 @@
 #include <utility>
 #include <vector>
 
+#include "boundary_response.hpp"
 #include "cholmod_solver.hpp"
 #include "distlab/kelvin/field.hpp"
 #include "distlab/kelvin/surface_tools.hpp"
@@ -34,6 +35,7 @@ struct Field::Impl {
   Vec3 centre = Vec3::Zero();
   TetMesh tm;
   CholmodSolver solver;
+  BoundaryResponse response;  // empty unless built (Field::build_boundary_response)
 
   // Derived in build(): vertex roles, A_Ω∂ (eq. 20), gradient weights, locator, σ sampling.
   std::vector<int> slot;                // per point: interior index ≥ 0, boundary b as -(b + 2), unused -1

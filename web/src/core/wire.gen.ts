@@ -191,6 +191,10 @@ export interface paths {
                             import_seconds: number;
                             /** @description largest repair_options.max_hole_edges of "repair": "fix" (400, field repair_options.max_hole_edges) */
                             max_hole_edges: number;
+                            /** @description memory of one prepared field's boundary response (strokes applied by its columns); a field whose response needs more solves strokes with the factor (stats.response_mb 0) */
+                            max_response_bytes: number;
+                            /** @description memory of the boundary responses of all prepared fields held in memory; a preparation whose response does not fit solves strokes with the factor */
+                            max_response_bytes_total: number;
                             /** @description faces a "wrap" may make, estimated (4 · area / α²) before wrapping and counted after (the job fails, field repair_options.alpha) */
                             max_repair_faces: number;
                             /**
@@ -1876,7 +1880,7 @@ export interface components {
             kind: string;
             /** @enum {string} */
             state: "queued" | "running" | "succeeded" | "failed" | "cancelled";
-            /** @description kelvin_prepare: "repair" (a repair request's fix or wrap; cancellable like every stage), then "load", "invert", "mesh", "build", "decomp", "solve", "cache" */
+            /** @description kelvin_prepare: "repair" (a repair request's fix or wrap; cancellable like every stage), then "load", "invert", "mesh", "build", "decomp", "solve", "cache", "response" (the boundary response, when the limits allow it) */
             stage?: string;
             fraction?: number;
             seconds?: number;
@@ -2659,6 +2663,8 @@ export interface components {
             grading?: number;
             /** @description cache hits only */
             t_load?: number;
+            /** @description memory of the field's boundary response, part of size_mb (0: none, strokes are solved with the factor; limits max_response_bytes and max_response_bytes_total) */
+            response_mb?: number;
             cache_hit?: boolean;
             shared?: boolean;
         };

@@ -57,6 +57,23 @@ PreparedRegistry::Entry* PreparedRegistry::find_locked(const std::string& key, c
   return nullptr;
 }
 
+ResponseBudget::Share::~Share() {
+  const std::lock_guard lock(budget_->mutex_);
+  budget_->used_ -= bytes_;
+}
+
+std::unique_ptr<ResponseBudget::Share> ResponseBudget::take(std::size_t bytes) {
+  const std::lock_guard lock(mutex_);
+  if (bytes > total_ - used_) return nullptr;
+  used_ += bytes;
+  return std::make_unique<Share>(shared_from_this(), bytes);
+}
+
+std::size_t ResponseBudget::used() const {
+  const std::lock_guard lock(mutex_);
+  return used_;
+}
+
 std::shared_ptr<PreparedField> PreparedRegistry::acquire(const mesh::SurfaceMesh& surface,
                                                          const kelvin::PrepareOptions& options,
                                                          const kelvin::Progress& progress, bool* from_memory) {
@@ -107,8 +124,14 @@ std::shared_ptr<PreparedField> PreparedRegistry::acquire(const mesh::SurfaceMesh
     kelvin::Field field = cache_dir_.empty()
                               ? kelvin::Field::prepare(surface, options, progress)
                               : kelvin::Field::prepare_cached(surface, options, cache_dir_, progress, &hit);
+    const double response_mb = field.boundary_response_megabytes();
+    const auto response_bytes = static_cast<std::size_t>(std::llround(response_mb * 1e6));
+    std::unique_ptr<ResponseBudget::Share> share;
+    if (response_bytes <= response_bytes_) share = responses_->take(response_bytes);
+    if (share && !field.build_boundary_response(response_mb, progress)) share.reset();
     auto prepared = std::make_shared<PreparedField>(key, std::move(field));
     prepared->cache_hit = hit;
+    prepared->response_share = std::move(share);
     release(prepared);
     return prepared;
   } catch (...) {
@@ -129,7 +152,7 @@ json KelvinObject::status_json() {
   if (!repair_report.is_null()) j["repair_report"] = repair_report;
   if (prepared) {
     const kelvin::Stats& st = prepared->field.stats();
-    j["stats"] = {{"n_verts", st.n_verts}, {"n_tets", st.n_tets}, {"size_mb", st.size_mb}, {"t_mesh", st.t_mesh}, {"t_build", st.t_build}, {"t_decomp", st.t_decomp}, {"t_solve", st.t_solve}, {"grading", st.grading}, {"cache_hit", prepared->cache_hit}, {"shared", shared}};
+    j["stats"] = {{"n_verts", st.n_verts}, {"n_tets", st.n_tets}, {"size_mb", st.size_mb}, {"t_mesh", st.t_mesh}, {"t_build", st.t_build}, {"t_decomp", st.t_decomp}, {"t_solve", st.t_solve}, {"grading", st.grading}, {"response_mb", st.response_mb}, {"cache_hit", prepared->cache_hit}, {"shared", shared}};
     const Vec3 c = prepared->field.centre();
     j["center"] = {c.x(), c.y(), c.z()};
   }

@@ -60,6 +60,8 @@ struct Stats {
   double t_solve = 0;                            // last set_sigma: σ on the boundary → V (eqs. 17, 20, 21), seconds
   double t_gradient = 0;                         // last set_sigma: vertex gradients of V (0 if not asked), seconds
   long linear_boundary = -1;                     // last set_sigma: boundary values it changed if solved by linearity, else −1
+  bool linear_by_response = false;               // last set_sigma: that change was applied by the boundary response
+  double response_mb = 0;                        // the boundary response's memory (0: none; part of size_mb)
   // Loaded from the cache: t_mesh and t_decomp are then those of the original preparation,
   // t_build is measured again (derived data are rebuilt) and t_load is the time of the load.
   bool cached = false;
@@ -116,6 +118,17 @@ class Field {
   // the same bit for bit whoever runs it, and when. Ask for it where set_sigma may be called;
   // run it while the Field lives.
   std::function<void()> background_work() const;
+
+  // The boundary response: the change of V inside per unit change of each boundary value
+  // (columns of −A_ΩΩ⁻¹ A_Ω∂, eqs. 20, 21), n_interior × n_boundary doubles. With it, a brush
+  // stroke that changes few boundary values reads only their columns instead of the whole
+  // factor (0.2–0.3× a full solve for 5% of the surface, bench_kelvin), whenever that reads
+  // less. Built only if it fits max_megabytes (returns whether it did), with progress stage
+  // "response"; Stats::response_mb. Same field to rounding with or without it, and the same
+  // strokes give the same V bit for bit as long as the response is kept or not kept.
+  bool build_boundary_response(double max_megabytes, const Progress& progress = {});
+  void release_boundary_response();
+  double boundary_response_megabytes() const;  // what it takes (or would take) in memory
 
   // h(x) and ∇h(x) (Algorithm 1). hint: the cell of a previous query (updated), or nullptr
   // to locate through the seeding grid. ∇h is the paper's smoothed gradient: vertex gradients of

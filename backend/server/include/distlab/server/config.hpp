@@ -51,6 +51,13 @@ struct Limits {
   // make more than max_repair_faces faces (this bounds its memory; a cancel stops it).
   std::size_t max_hole_edges = 1000;
   std::size_t max_repair_faces = 200000;
+  // Each preparation gets its boundary response (kelvin/field.hpp: strokes at ~0.2× a full solve
+  // instead of ~0.8×) if it takes at most max_response_bytes and all live preparations' responses
+  // stay within max_response_bytes_total; otherwise strokes are solved with the factor. The
+  // response is n_interior × n_boundary doubles: 461 MB for the cube at l_x 0.05 (26k vertices,
+  // factor 72 MB). Same field to rounding either way.
+  std::size_t max_response_bytes = std::size_t{512} << 20;
+  std::size_t max_response_bytes_total = std::size_t{1} << 30;
 };
 
 // The one table of limits: f(name, field) for each field of Limits (L: Limits or const Limits).
@@ -91,6 +98,8 @@ void for_each_limit(L& l, F&& f) {
   f("import_seconds", l.import_seconds);
   f("max_hole_edges", l.max_hole_edges);
   f("max_repair_faces", l.max_repair_faces);
+  f("max_response_bytes", l.max_response_bytes);
+  f("max_response_bytes_total", l.max_response_bytes_total);
 }
 
 struct ServiceConfig {

@@ -25,11 +25,37 @@
 
 namespace distlab::server {
 
+// Memory of the boundary responses of all live preparations (Limits::max_response_bytes_total).
+class ResponseBudget : public std::enable_shared_from_this<ResponseBudget> {
+ public:
+  explicit ResponseBudget(std::size_t total) : total_(total) {}
+  // Holds `bytes` of the budget until destroyed.
+  class Share {
+   public:
+    Share(std::shared_ptr<ResponseBudget> budget, std::size_t bytes) : budget_(std::move(budget)), bytes_(bytes) {}
+    ~Share();
+    Share(const Share&) = delete;
+    Share& operator=(const Share&) = delete;
+
+   private:
+    std::shared_ptr<ResponseBudget> budget_;
+    std::size_t bytes_;
+  };
+  // A share of `bytes`, or nullptr if it does not fit beside the shares held.
+  std::unique_ptr<Share> take(std::size_t bytes);
+  std::size_t used() const;
+
+ private:
+  mutable std::mutex mutex_;
+  std::size_t total_, used_ = 0;
+};
+
 struct PreparedField {
   PreparedField(std::string k, kelvin::Field f) : key(std::move(k)), field(std::move(f)) {}
   const std::string key;
   kelvin::Field field;
   bool cache_hit = false;
+  std::unique_ptr<ResponseBudget::Share> response_share;  // held while field has its boundary response
 
   // Runs fn(const kelvin::Field&) with `sigma` solved (sigma_key identifies it exactly). Vertex
   // gradients (needed by queries, not by iso-surfaces) are computed only when `gradients` asks.
@@ -67,13 +93,19 @@ std::string content_key(const mesh::SurfaceMesh& surface, const kelvin::PrepareO
 
 class PreparedRegistry {
  public:
-  explicit PreparedRegistry(std::string cache_dir) : cache_dir_(std::move(cache_dir)) {}
+  // Boundary responses: at most response_bytes each, response_bytes_total together.
+  PreparedRegistry(std::string cache_dir, std::size_t response_bytes, std::size_t response_bytes_total)
+      : cache_dir_(std::move(cache_dir)),
+        response_bytes_(response_bytes),
+        responses_(std::make_shared<ResponseBudget>(response_bytes_total)) {}
   // The prepared field for this content: from memory, else waits for another job preparing the
-  // same content, else prepares (through the disk cache). Throws kelvin::Cancelled if
-  // progress.cancel becomes true, InvalidInput for a bad surface.
+  // same content, else prepares (through the disk cache) and builds its boundary response if
+  // the budgets allow (progress stage "response"). Throws kelvin::Cancelled if progress.cancel
+  // becomes true, InvalidInput for a bad surface.
   std::shared_ptr<PreparedField> acquire(const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& options,
                                          const kelvin::Progress& progress, bool* from_memory = nullptr);
   std::size_t size() const;
+  std::size_t response_bytes_used() const { return responses_->used(); }
 
  private:
   struct Entry {
@@ -85,6 +117,8 @@ class PreparedRegistry {
   Entry* find_locked(const std::string& key, const mesh::SurfaceMesh& s, const kelvin::PrepareOptions& o);
 
   std::string cache_dir_;
+  std::size_t response_bytes_;
+  std::shared_ptr<ResponseBudget> responses_;
   mutable std::mutex mutex_;
   std::condition_variable cv_;
   std::multimap<std::string, Entry> entries_;
