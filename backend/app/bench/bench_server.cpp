@@ -24,6 +24,7 @@
 #include "distlab/kelvin/field.hpp"
 #include "distlab/mesh/surface.hpp"
 #include "distlab/mesh/weld.hpp"
+#include "distlab/server/config.hpp"
 #include "distlab/server/frames.hpp"
 #include "distlab/server/kelvin_objects.hpp"
 
@@ -175,30 +176,43 @@ int breakdown(const std::string& assets, const std::string& cache, double lx, in
   };
   kelvin::SigmaSpec painted = sigma(0);
   for (int i = 0; i < before; ++i) painted = stroke(painted, i);
-  std::vector<double> t_linear, t_full, t_linear_iso, t_full_iso, reached, diff;
-  for (int i = 0; i < reps; ++i) {
-    const kelvin::SigmaSpec next = stroke(painted, before + i);
-    for (int side = 0; side < 2; ++side) {  // alternating which goes first
-      const bool linear = (side == 0) == (i % 2 == 0);
-      field.set_sigma(painted, false, false);  // the state before the stroke
-      const auto t0 = Clock::now();
-      field.set_sigma(next, false, linear);
-      const auto t1 = Clock::now();
-      iso = field.isosurface(0.3);
-      const auto t2 = Clock::now();
-      (linear ? t_linear : t_full).push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
-      (linear ? t_linear_iso : t_full_iso).push_back(std::chrono::duration<double, std::milli>(t2 - t0).count());
-      if (linear) {
-        reached.push_back(static_cast<double>(field.stats().linear_boundary) / static_cast<double>(field.boundary_points().size()));
-        const VecX v = field.vertex_values();
-        field.set_sigma(next, false, false);
-        double d = 0, scale = 0;
-        for (Eigen::Index k = 0; k < v.size(); ++k)
-          if (!std::isnan(v[k])) d = std::max(d, std::abs(v[k] - field.vertex_values()[k])), scale = std::max(scale, std::abs(v[k]));
-        diff.push_back(d / scale);
+  // Each stroke from the same state, by linearity and in full, alternating which goes first.
+  struct Strokes {
+    std::vector<double> linear, full, linear_iso, full_iso, reached, diff;
+  };
+  auto strokes = [&] {
+    Strokes t;
+    for (int i = 0; i < reps; ++i) {
+      const kelvin::SigmaSpec next = stroke(painted, before + i);
+      for (int side = 0; side < 2; ++side) {
+        const bool linear = (side == 0) == (i % 2 == 0);
+        field.set_sigma(painted, false, false);  // the state before the stroke
+        const auto t0 = Clock::now();
+        field.set_sigma(next, false, linear);
+        const auto t1 = Clock::now();
+        iso = field.isosurface(0.3);
+        const auto t2 = Clock::now();
+        (linear ? t.linear : t.full).push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+        (linear ? t.linear_iso : t.full_iso).push_back(std::chrono::duration<double, std::milli>(t2 - t0).count());
+        if (linear) {
+          t.reached.push_back(static_cast<double>(field.stats().linear_boundary) /
+                              static_cast<double>(field.boundary_points().size()));
+          const VecX v = field.vertex_values();
+          field.set_sigma(next, false, false);
+          double d = 0, scale = 0;
+          for (Eigen::Index k = 0; k < v.size(); ++k)
+            if (!std::isnan(v[k]))
+              d = std::max(d, std::abs(v[k] - field.vertex_values()[k])), scale = std::max(scale, std::abs(v[k]));
+          t.diff.push_back(d / scale);
+        }
       }
     }
-  }
+    return t;
+  };
+  const Strokes by_factor = strokes();
+  // As the service holds the field: with its boundary response if the default limit allows it.
+  const bool response = field.build_boundary_response(static_cast<double>(server::Limits{}.max_response_bytes) / 1e6);
+  const Strokes by_response = response ? strokes() : Strokes{};
   {  // checksum of the iso-surface (orientation-sensitive), so two builds can be compared
     double sum = 0;
     for (Eigen::Index f = 0; f < iso.faces.rows(); ++f) {
@@ -215,16 +229,24 @@ int breakdown(const std::string& assets, const std::string& cache, double lx, in
               bytes, t_frame, sigma_bytes, t_surface);
   std::printf("| SHA-256 digest of the iso-surface | %.1f |\n| one edit: σ → V (another constant), marching tets, frame, digest, msgpack | %.1f |\n",
               t_digest, t_edit);
-  const double lin = percentile(t_linear, 0.5), full = percentile(t_full, 0.5);
   std::printf(
       "\nA brush stroke (7 stamps, r 0.14, falloff 0.069, towards) after %d strokes (%zu brushes): boundary values "
-      "reached median %.1f%%; V by linearity against the full solve of the same σ, max relative difference %.1e\n"
-      "| σ → V (median of %d, alternating) | full solve ms | by linearity ms | ratio |\n|---|---:|---:|---:|\n"
-      "| solve | %.2f | %.2f | %.2f |\n| solve + marching tets | %.2f | %.2f | %.2f |\n",
-      before, painted.brushes.size() + 7, 100 * percentile(reached, 0.5), *std::max_element(diff.begin(), diff.end()), reps,
-      full, lin, lin / full, percentile(t_full_iso, 0.5), percentile(t_linear_iso, 0.5),
-      percentile(t_linear_iso, 0.5) / percentile(t_full_iso, 0.5));
-  const nlohmann::json out = {{"solve_full_ms", full}, {"solve_linear_ms", lin}, {"ratio", lin / full}, {"solve_iso_full_ms", percentile(t_full_iso, 0.5)}, {"solve_iso_linear_ms", percentile(t_linear_iso, 0.5)}, {"boundary_reached", percentile(reached, 0.5)}, {"max_relative_difference", *std::max_element(diff.begin(), diff.end())}, {"t_solve_gradients_ms", t_solve_grad}, {"t_solve_constant_ms", t_solve}, {"t_shift_constant_ms", t_shift}, {"t_isosurface_ms", t_iso}, {"t_frame_ms", t_frame}, {"t_digest_ms", t_digest}, {"t_edit_ms", t_edit}, {"repeats", reps}};
+      "reached median %.1f%%. V by linearity against the full solve of the same σ (median of %d, alternating), with "
+      "the factor, then with the boundary response (%.0f MB; none if over the service's default limit)\n"
+      "| σ → V | full solve ms | by linearity ms | ratio | max relative difference |\n|---|---:|---:|---:|---:|\n",
+      before, painted.brushes.size() + 7, 100 * percentile(by_factor.reached, 0.5), reps, field.stats().response_mb);
+  nlohmann::json out = {{"t_solve_gradients_ms", t_solve_grad}, {"t_solve_constant_ms", t_solve}, {"t_shift_constant_ms", t_shift}, {"t_isosurface_ms", t_iso}, {"t_frame_ms", t_frame}, {"t_digest_ms", t_digest}, {"t_edit_ms", t_edit}, {"repeats", reps}, {"boundary_reached", percentile(by_factor.reached, 0.5)}, {"response_mb", field.stats().response_mb}};
+  auto row = [&](const char* name, const Strokes& t, const std::string& key) {
+    if (t.linear.empty()) return;
+    const double lin = percentile(t.linear, 0.5), full = percentile(t.full, 0.5);
+    const double lin_iso = percentile(t.linear_iso, 0.5), full_iso = percentile(t.full_iso, 0.5);
+    const double diff = *std::max_element(t.diff.begin(), t.diff.end());
+    std::printf("| solve, %s | %.2f | %.2f | %.2f | %.1e |\n| solve + marching tets, %s | %.2f | %.2f | %.2f | |\n", name,
+                full, lin, lin / full, diff, name, full_iso, lin_iso, lin_iso / full_iso);
+    out[key] = {{"solve_full_ms", full}, {"solve_linear_ms", lin}, {"ratio", lin / full}, {"solve_iso_full_ms", full_iso}, {"solve_iso_linear_ms", lin_iso}, {"max_relative_difference", diff}};
+  };
+  row("factor", by_factor, "stroke_by_factor");
+  row("response", by_response, "stroke_by_response");
   std::printf("JSON %s\n", out.dump().c_str());
   return 0;
 }

@@ -11,6 +11,7 @@ export function statsRows(name: string, lx: number, st: ObjectStats, inputVertic
     ["n_verts / n_tets", `${st.n_verts ?? "–"} / ${st.n_tets ?? "–"}`],
     ["sizing", typeof st.grading !== "number" ? "–" : st.grading > 0 ? `graded, g = ${st.grading}` : "eq. 23 (the paper's)"],
     ["size", `${fixed(st.size_mb, 1)} MB`],
+    ["strokes", typeof st.response_mb !== "number" ? "–" : st.response_mb > 0 ? `by the boundary response (${fixed(st.response_mb, 0)} MB)` : "solved with the factor"],
     ["t_mesh / t_build / t_decomp", `${fixed(st.t_mesh)} / ${fixed(st.t_build)} / ${fixed(st.t_decomp)} s`],
     ["cache", st.cache_hit ? `hit (load ${fixed(st.t_load)} s)` : st.shared ? "shared in memory" : "computed"],
     ["prepared in", `${fixed((prepareMs ?? NaN) / 1000, 2)} s (this page)`],
