@@ -115,7 +115,9 @@ class Field:
     @property
     def stats(self) -> dict:
         """Sizes and timings: n_verts, n_tets, size_mb, t_mesh, t_build, t_decomp, t_solve, grading,
-        response_mb (0 until :meth:`build_boundary_response`), cache_hit, warnings."""
+        response_mb (0 until :meth:`build_boundary_response`), cache_hit, warnings; and of the last
+        ``set_sigma``: linear_boundary (boundary values a stroke changed, solved by linearity; -1
+        for a full solve) and linear_by_response (that change applied by the boundary response)."""
         return self._core.stats()
 
     @property

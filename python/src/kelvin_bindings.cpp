@@ -185,6 +185,8 @@ class PyField {
     d["t_solve"] = s.t_solve;
     d["grading"] = s.grading;
     d["response_mb"] = s.response_mb;
+    d["linear_boundary"] = s.linear_boundary;
+    d["linear_by_response"] = s.linear_by_response;
     d["cache_hit"] = cache_hit_;
     py::list warnings;
     for (const std::string& w : s.warnings) warnings.append(w);

@@ -10,6 +10,7 @@
 #include <random>
 #include <sstream>
 
+#include "boundary_response.hpp"
 #include "cholmod_solver.hpp"
 
 using namespace distlab;
@@ -218,4 +219,46 @@ TEST(KelvinSolver, LoadRefusesAnInconsistentSupernodeLayout) {
   std::memcpy(bytes.data() + px1, &px, 4);
   std::stringstream bad(bytes);
   EXPECT_FALSE(b.load(bad));
+}
+
+// The boundary response (boundary_response.hpp) of a 1,728-unknown matrix and 700 random sparse
+// boundary columns: single columns against Eigen's LDLᵀ solve of −A_Ω∂ e_b; all 700 changes at
+// once (1.2M entries: two threads by default) the same bits on one thread and on two, and equal
+// to the solve of their sum.
+TEST(KelvinSolver, BoundaryResponseColumnsAndTheirSum) {
+  const Eigen::SparseMatrix<double> lower = grid_matrix(12, 5);
+  const Eigen::Index n = lower.rows(), nb = 700;
+  CholmodSolver solver;
+  solver.factorize(lower);
+  const Eigen::SparseMatrix<double> full = lower.selfadjointView<Eigen::Lower>();
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(full);
+  ASSERT_EQ(ldlt.info(), Eigen::Success);
+  std::mt19937 rng(8);
+  std::uniform_int_distribution<Eigen::Index> row(0, n - 1);
+  std::uniform_real_distribution<double> value(-1, 1);
+  std::vector<Eigen::Triplet<double>> t;
+  for (Eigen::Index b = 0; b < nb; ++b)
+    for (int k = 0; k < 5; ++k) t.emplace_back(row(rng), b, value(rng));
+  Eigen::SparseMatrix<double> a_ob(n, nb);
+  a_ob.setFromTriplets(t.begin(), t.end());
+  BoundaryResponse response;
+  response.build(solver, a_ob, {});
+  EXPECT_DOUBLE_EQ(response.megabytes(), 8e-6 * static_cast<double>(n * nb));
+  for (const Eigen::Index b : {Eigen::Index{0}, Eigen::Index{63}, Eigen::Index{64}, Eigen::Index{399}, nb - 1}) {
+    VecX column = VecX::Zero(n);
+    response.apply({{static_cast<std::size_t>(b), 1.0}}, column);
+    const VecX expected = ldlt.solve(VecX(-a_ob.col(b)));
+    EXPECT_LE((column - expected).cwiseAbs().maxCoeff(), 1e-12 * expected.cwiseAbs().maxCoeff()) << "column " << b;
+  }
+  std::vector<std::pair<std::size_t, double>> changes;
+  VecX d = VecX::Zero(nb);
+  for (Eigen::Index b = nb - 1; b >= 0; --b) changes.emplace_back(static_cast<std::size_t>(b), d[b] = value(rng));
+  VecX one = VecX::Zero(n), two = VecX::Zero(n), automatic = VecX::Zero(n);
+  response.apply(changes, one, 1);
+  response.apply(changes, two, 2);
+  response.apply(changes, automatic);
+  EXPECT_EQ((one - two).cwiseAbs().maxCoeff(), 0);
+  EXPECT_EQ((one - automatic).cwiseAbs().maxCoeff(), 0);
+  const VecX expected = ldlt.solve(VecX(-(a_ob * d)));
+  EXPECT_LE((one - expected).cwiseAbs().maxCoeff(), 1e-11 * expected.cwiseAbs().maxCoeff());
 }

@@ -116,14 +116,16 @@ def test_strokes_by_the_boundary_response_equal_strokes_by_the_factor():
         field.set_sigma(constant=0.4)  # another σ: the next one is solved in full
         field.set_sigma(constant=0.1)
         field.set_sigma(constant=0.1, brushes=stroke)  # the stroke, by linearity
+        assert field.stats["linear_boundary"] > 0
         return field.query(points)[0]
 
     by_factor = paint()
-    assert field.stats["response_mb"] == 0
+    assert field.stats["response_mb"] == 0 and not field.stats["linear_by_response"]
     assert not field.build_boundary_response(max_megabytes=1e-3)
     assert field.build_boundary_response()
     assert 0 < field.stats["response_mb"] < field.stats["size_mb"]
     by_response = paint()
+    assert field.stats["linear_by_response"]
     np.testing.assert_allclose(by_response, by_factor, rtol=1e-12, atol=0)
     assert np.abs(by_response - paint()).max() == 0  # the same strokes, the same field
     with pytest.raises(distlab.InvalidInputType) as info:

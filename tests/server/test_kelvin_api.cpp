@@ -8,6 +8,7 @@
 #include <map>
 
 #include "distlab/server/frames.hpp"
+#include "distlab/server/kelvin_objects.hpp"
 #include "server/server_fixture.hpp"
 
 namespace distlab::test {
@@ -809,10 +810,13 @@ TEST_F(KelvinApi, Limits) {
 // Boundary responses (config.hpp, max_response_bytes and max_response_bytes_total): with the
 // default limits two small cubes get theirs (job stage "response", stats.response_mb, part of
 // size_mb); with a total one byte short of both, the second preparation goes without (its
-// strokes are solved with the factor); with a per-field limit one byte short, none.
+// strokes are solved with the factor) while the first one's object lives, and gets one once
+// that object is deleted (a field no object holds gives its response up); with a per-field
+// limit one byte short, none.
 TEST(KelvinResponse, BuiltWithinTheLimits) {
   const json cubes[] = {kCube, {{"asset", "cube"}, {"lx", 0.17}}};
-  auto prepare = [&cubes](const std::vector<std::string>& limits, bool* stage_seen = nullptr) {
+  // Each cube in turn (deleting the first one's object before the second if `delete_first`).
+  auto prepare = [&cubes](const std::vector<std::string>& limits, bool delete_first, bool* stage_seen = nullptr) {
     ServerProcess server(limits);
     auto c = server.client();
     const std::string s = new_session(c);
@@ -826,20 +830,41 @@ TEST(KelvinResponse, BuiltWithinTheLimits) {
       EXPECT_LT(stats["response_mb"].get<double>(), stats["size_mb"].get<double>());
       mb.push_back(stats["response_mb"]);
       if (stage_seen) *stage_seen = *stage_seen || std::count(stages.begin(), stages.end(), "response") > 0;
+      if (delete_first && mb.size() == 1) {
+        EXPECT_EQ(c.Delete(path_of(id), session_headers(s))->status, 204);
+      }
     }
     EXPECT_EQ(server.stop(), 0);
     return mb;
   };
   bool stage_seen = false;
-  const std::vector<double> both = prepare({}, &stage_seen);
+  const std::vector<double> both = prepare({}, false, &stage_seen);
   ASSERT_GT(both[0], 0);
   ASSERT_GT(both[1], 0);
   EXPECT_TRUE(stage_seen);
   auto bytes = [](double mb) { return std::llround(mb * 1e6); };
   const std::string total = "max_response_bytes_total=" + std::to_string(bytes(both[0]) + bytes(both[1]) - 1);
-  EXPECT_EQ(prepare({"--limit", total}), (std::vector<double>{both[0], 0}));
+  EXPECT_EQ(prepare({"--limit", total}, false), (std::vector<double>{both[0], 0}));
+  EXPECT_EQ(prepare({"--limit", total}, true), both);
   const std::string each = "max_response_bytes=" + std::to_string(bytes(both[0]) - 1);
-  EXPECT_EQ(prepare({"--limit", each})[0], 0);
+  EXPECT_EQ(prepare({"--limit", each}, false)[0], 0);
+}
+
+// A share of the budget holds its bytes until it is destroyed; what does not fit is refused.
+TEST(ResponseBudget, SharesHoldTheirBytesUntilDestroyed) {
+  const auto budget = std::make_shared<server::ResponseBudget>(100);
+  auto a = budget->take(60);
+  ASSERT_TRUE(a);
+  EXPECT_EQ(budget->used(), 60u);
+  EXPECT_FALSE(budget->take(41));
+  auto b = budget->take(40);
+  ASSERT_TRUE(b);
+  EXPECT_EQ(budget->used(), 100u);
+  a.reset();
+  EXPECT_EQ(budget->used(), 40u);
+  EXPECT_TRUE(budget->take(60));  // taken and given back at once
+  EXPECT_EQ(budget->used(), 40u);
+  EXPECT_FALSE(budget->take(std::size_t{1} << 62));
 }
 
 TEST(KelvinRestart, ReloadsPreparedObjectFromCache) {

@@ -13,7 +13,7 @@ namespace {
 constexpr long kBlockColumns = 64;
 // Below this many entries applied, one thread (the fork costs more than it saves).
 constexpr double kTwoThreadEntries = 1e6;
-constexpr int kGroup = 8;  // columns read side by side per row pass
+constexpr size_t kGroup = 8;  // columns read side by side per row pass
 }  // namespace
 
 double BoundaryResponse::megabytes(Eigen::Index n_interior, Eigen::Index n_boundary) {
@@ -38,26 +38,16 @@ void BoundaryResponse::build(const CholmodSolver& solver, const Eigen::SparseMat
   clear();
   const Eigen::Index rows = a_ob.rows(), cols = a_ob.cols();
   std::vector<double> g(static_cast<size_t>(rows) * static_cast<size_t>(cols), 0.0);
-  const long blocks = (cols + kBlockColumns - 1) / kBlockColumns;
-  auto solve_block = [&](long k) {
-    const Eigen::Index c0 = k * kBlockColumns, c1 = std::min<Eigen::Index>(cols, c0 + kBlockColumns);
-    double* block = g.data() + static_cast<size_t>(c0) * static_cast<size_t>(rows);
-    for (Eigen::Index c = c0; c < c1; ++c)  // −A_Ω∂ e_c (eq. 20)
-      for (Eigen::SparseMatrix<double>::InnerIterator it(a_ob, c); it; ++it)
-        block[static_cast<size_t>(c - c0) * static_cast<size_t>(rows) + static_cast<size_t>(it.row())] = -it.value();
-    solver.solve_columns(block, static_cast<long>(c1 - c0));  // eq. 21
-  };
+  for (Eigen::Index c = 0; c < cols; ++c)  // −A_Ω∂ e_c (eq. 20)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(a_ob, c); it; ++it)
+      g[static_cast<size_t>(c) * static_cast<size_t>(rows) + static_cast<size_t>(it.row())] = -it.value();
   progress("response", 0.0);
-  for (long k = 0; k < blocks; k += 2) {
-    const long n = std::min<long>(2, blocks - k);
-    parallel_for(static_cast<size_t>(n), 2, [&](size_t i) { solve_block(k + static_cast<long>(i)); });
-    progress("response", static_cast<double>(k + n) / static_cast<double>(blocks));
-  }
+  solver.solve_columns(g.data(), static_cast<long>(cols), kBlockColumns, [&](double f) { progress("response", f); });  // eq. 21
   columns_ = std::move(g);
   rows_ = rows;
 }
 
-void BoundaryResponse::apply(const std::vector<std::pair<std::size_t, double>>& changes, VecX& out) const {
+void BoundaryResponse::apply(const std::vector<std::pair<std::size_t, double>>& changes, VecX& out, int threads) const {
   const auto rows = static_cast<long>(rows_);
   auto column = [&](size_t i) { return columns_.data() + changes[i].first * static_cast<size_t>(rows_); };
   auto rows_from = [&](long r0, long r1) {
@@ -66,7 +56,7 @@ void BoundaryResponse::apply(const std::vector<std::pair<std::size_t, double>>& 
     for (; i + kGroup <= changes.size(); i += kGroup) {
       std::array<const double*, kGroup> c{};
       std::array<double, kGroup> d{};
-      for (int q = 0; q < kGroup; ++q) c[q] = column(i + q), d[q] = changes[i + q].second;
+      for (size_t q = 0; q < kGroup; ++q) c[q] = column(i + q), d[q] = changes[i + q].second;
       for (long r = r0; r < r1; ++r)
         o[r] += ((c[0][r] * d[0] + c[1][r] * d[1]) + (c[2][r] * d[2] + c[3][r] * d[3])) +
                 ((c[4][r] * d[4] + c[5][r] * d[5]) + (c[6][r] * d[6] + c[7][r] * d[7]));
@@ -77,7 +67,7 @@ void BoundaryResponse::apply(const std::vector<std::pair<std::size_t, double>>& 
       for (long r = r0; r < r1; ++r) o[r] += c[r] * d;
     }
   };
-  const bool two = static_cast<double>(rows) * static_cast<double>(changes.size()) >= kTwoThreadEntries;
+  const bool two = threads == 2 || (threads == 0 && static_cast<double>(rows) * static_cast<double>(changes.size()) >= kTwoThreadEntries);
   if (!two) {
     rows_from(0, rows);
     return;

@@ -26,9 +26,9 @@ class BoundaryResponse {
   double megabytes() const;
   // Bytes that applying `count` columns reads.
   double bytes_read(std::size_t count) const;
-  // out += Σ G e_b d over (b, d) in `changes`, in their order for every row; rows are split over
-  // two threads when the work is large (same bits on one).
-  void apply(const std::vector<std::pair<std::size_t, double>>& changes, VecX& out) const;
+  // out += Σ G e_b d over (b, d) in `changes`, in their order for every row. threads: 1, 2 (rows
+  // split in two halves), or 0: 2 when the work is large. The same bits whichever.
+  void apply(const std::vector<std::pair<std::size_t, double>>& changes, VecX& out, int threads = 0) const;
 
  private:
   Eigen::Index rows_ = 0;

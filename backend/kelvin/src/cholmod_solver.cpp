@@ -5,12 +5,15 @@
 #include <dlfcn.h>
 
 #include <algorithm>
+#include <functional>
 #include <istream>
+#include <mutex>
 #include <ostream>
 #include <stdexcept>
 #include <thread>
 #include <vector>
 
+#include "distlab/geometry/parallel.hpp"
 #include "supernodal_solve.hpp"
 
 namespace distlab::kelvin {
@@ -25,6 +28,22 @@ void set_blas_threads(int n) {
   static const auto fn = reinterpret_cast<Fn>(::dlsym(RTLD_DEFAULT, "openblas_set_num_threads"));
   if (fn != nullptr) fn(n);
 }
+
+// OpenBLAS's thread count is one setting of the process: every CHOLMOD call that depends on it
+// (a factorization on all cores, solves on one) holds this while it runs, so that concurrent
+// preparations neither change it under each other's BLAS calls nor leave each other's solves on
+// all cores.
+class BlasThreads {
+ public:
+  explicit BlasThreads(int n) : lock_(mutex()) { set_blas_threads(n); }
+
+ private:
+  static std::mutex& mutex() {
+    static std::mutex m;
+    return m;
+  }
+  std::lock_guard<std::mutex> lock_;
+};
 
 // CHOLMOD 3 (SuiteSparse 5) opens an OpenMP region with a fixed 4 threads inside the supernodal
 // factorization for every supernode of more than 128 rows (copying the assembled update): on 2
@@ -134,8 +153,8 @@ void CholmodSolver::factorize(const Eigen::SparseMatrix<double>& lower) {
   // their dense blocks are too small to share, and on the loaded 2-core machine waking OpenBLAS's
   // threads made the decomposition 10x slower (bench at l_x 0.1, 3.6k vertices: 0.47 s against
   // 0.040 s with one thread).
-  set_blas_threads(small ? 1 : 0);
   {
+    const BlasThreads blas(small ? 1 : 0);
     const SerialOpenMP serial;
     cholmod_factorize(&a, impl_->factor, &impl_->common);
   }
@@ -191,7 +210,7 @@ double CholmodSolver::last_read_fraction() const { return impl_->read_fraction; 
 
 void CholmodSolver::solve_cholmod(VecX& b) const {
   if (impl_->factor == nullptr || b.size() != size()) throw std::logic_error("solve before factorize");
-  set_blas_threads(1);
+  const BlasThreads blas(1);
   cholmod_dense rhs{};
   rhs.nrow = rhs.d = rhs.nzmax = static_cast<size_t>(b.size());
   rhs.ncol = 1;
@@ -204,13 +223,13 @@ void CholmodSolver::solve_cholmod(VecX& b) const {
   std::copy_n(static_cast<const double*>(impl_->x->x), b.size(), b.data());
 }
 
-void CholmodSolver::solve_columns(double* b, long ncol) const {
-  if (impl_->factor == nullptr) throw std::logic_error("solve before factorize");
-  set_blas_threads(1);
+namespace {
+// cholmod_solve2 of ncol columns at b with its own workspace (common): safe beside other solves.
+void solve_block(cholmod_factor* factor, double* b, long ncol) {
   cholmod_common common;
   cholmod_start(&common);
   common.print = 0;
-  const auto n = static_cast<size_t>(impl_->factor->n);
+  const auto n = static_cast<size_t>(factor->n);
   cholmod_dense rhs{};
   rhs.nrow = rhs.d = n;
   rhs.ncol = static_cast<size_t>(ncol);
@@ -219,13 +238,29 @@ void CholmodSolver::solve_columns(double* b, long ncol) const {
   rhs.xtype = CHOLMOD_REAL;
   rhs.dtype = CHOLMOD_DOUBLE;
   cholmod_dense *x = nullptr, *y = nullptr, *e = nullptr;
-  const bool ok = cholmod_solve2(CHOLMOD_A, impl_->factor, &rhs, nullptr, &x, nullptr, &y, &e, &common) != 0;
+  const bool ok = cholmod_solve2(CHOLMOD_A, factor, &rhs, nullptr, &x, nullptr, &y, &e, &common) != 0;
   if (ok) std::copy_n(static_cast<const double*>(x->x), rhs.nzmax, b);
   cholmod_free_dense(&x, &common);
   cholmod_free_dense(&y, &common);
   cholmod_free_dense(&e, &common);
   cholmod_finish(&common);
   if (!ok) throw std::runtime_error("CHOLMOD solve failed");
+}
+}  // namespace
+
+void CholmodSolver::solve_columns(double* b, long ncol, long block_columns,
+                                  const std::function<void(double)>& after_round) const {
+  if (impl_->factor == nullptr) throw std::logic_error("solve before factorize");
+  const BlasThreads blas(1);
+  const long n = static_cast<long>(impl_->factor->n), blocks = (ncol + block_columns - 1) / block_columns;
+  for (long k = 0; k < blocks; k += 2) {
+    const long round = std::min<long>(2, blocks - k);
+    parallel_for(static_cast<size_t>(round), 2, [&](size_t i) {
+      const long c0 = (k + static_cast<long>(i)) * block_columns;
+      solve_block(impl_->factor, b + c0 * n, std::min(block_columns, ncol - c0));
+    });
+    if (after_round) after_round(static_cast<double>(k + round) / static_cast<double>(blocks));
+  }
 }
 
 double CholmodSolver::solve_megabytes() const {
@@ -310,9 +345,11 @@ bool CholmodSolver::load(std::istream& in) {
       static_cast<std::uint64_t>(pi[nsuper]) > ssize || static_cast<std::uint64_t>(px[nsuper]) > xsize)
     return false;
   // Each supernode's rows include its own columns, and its values are its dense rows × columns block.
+  // cholmod_solve2 sizes its workspace for the rows below a diagonal block from maxesize.
   for (std::uint64_t k = 0; k < nsuper; ++k) {
     const long ncol = super[k + 1] - super[k], nrow = pi[k + 1] - pi[k];
     if (ncol <= 0 || nrow < ncol || px[k + 1] - px[k] != nrow * ncol) return false;
+    if (static_cast<std::uint64_t>(nrow - ncol) > f->maxesize) return false;
   }
   std::vector<char> seen(n, 0);
   for (std::uint64_t k = 0; k < n; ++k) {

@@ -2,6 +2,7 @@
 // Supernodal Cholesky of the reduced stiffness matrix A_ΩΩ (eq. 22, with LLᵀ in place of LU:
 // A_ΩΩ is symmetric positive definite). Wraps CHOLMOD so the factor can be cached to disk.
 #include <Eigen/Sparse>
+#include <functional>
 #include <iosfwd>
 #include <memory>
 
@@ -41,9 +42,12 @@ class CholmodSolver {
   double critical_share() const;
   // The same through CHOLMOD's own cholmod_solve2 (reference and benchmark baseline).
   void solve_cholmod(VecX& b) const;
-  // Solves A X = B in place for ncol columns (column-major, size() rows each) by cholmod_solve2
-  // on the calling thread, with its own CHOLMOD workspace: safe beside any other solve.
-  void solve_columns(double* b, long ncol) const;
+  // Solves A X = B in place for ncol columns (column-major, size() rows each) by cholmod_solve2,
+  // block_columns at a time, two blocks at once on two threads, each with its own CHOLMOD
+  // workspace: safe beside any other solve, and the same bits on one thread or two.
+  // after_round(fraction done) runs on the calling thread after every two blocks; it may throw
+  // (Cancelled) to stop.
+  void solve_columns(double* b, long ncol, long block_columns, const std::function<void(double)>& after_round) const;
   // Share of the factor's entries read by the last solve() (forward and back together, in [0.5, 1]).
   double last_read_fraction() const;
   Eigen::Index size() const;

@@ -488,8 +488,9 @@ void solve_shift(Field::Impl& m, const SigmaSpec& sigma) {
 // The brushes after m.solved_sigma's, by linearity: σ changes only where they reach (weight > 0;
 // elsewhere apply() returns σ as it was, and the chain continues from the stored one exactly as
 // the full evaluation would), so the change of the solved boundary values is sparse, and the
-// change inside solves A_ΩΩ Δ_Ω = −A_Ω∂ Δ_∂ (eqs. 20, 21), whose forward substitution skips every
-// supernode off the stroke's rows. Solves W for a separable σ, V otherwise (same kind before and
+// change inside is the sum of the boundary response's columns for them, or solves
+// A_ΩΩ Δ_Ω = −A_Ω∂ Δ_∂ (eqs. 20, 21), whose forward substitution skips every supernode off the
+// stroke's rows. Solves W for a separable σ, V otherwise (same kind before and
 // after: set_sigma checks).
 void solve_brushes(Field::Impl& m, const SigmaSpec& sigma) {
   const auto added = sigma.brushes.begin() + static_cast<long>(m.solved_sigma.brushes.size());
@@ -507,7 +508,8 @@ void solve_brushes(Field::Impl& m, const SigmaSpec& sigma) {
   m.stats.linear_boundary = static_cast<long>(changed.size());
   // The count's end: start again from the Refresh's full solve, and solve the change of the
   // boundary values since its σ (those the strokes since reached) as below, in the same order:
-  // V is bit for bit that of a full solve of the Refresh's σ followed by this edit's.
+  // V is bit for bit that of a full solve of the Refresh's σ followed by one stroke changing
+  // those values (by the response or the factor, as the count of values decides).
   const std::shared_ptr<Refresh> base =
       m.linear_edits >= kMaxLinearEdits && m.refresh && m.refresh->apart == apart ? m.refresh : nullptr;
   if (base) run_refresh(m, *base);  // waits for another thread's run, or runs it
@@ -607,7 +609,12 @@ bool Field::build_boundary_response(double max_megabytes, const Progress& progre
   Impl& m = *impl_;
   if (!m.response.empty()) return true;
   if (boundary_response_megabytes() > max_megabytes || !m.solver.can_solve_alone()) return false;
-  m.response.build(m.solver, m.a_ob, progress);
+  try {
+    m.response.build(m.solver, m.a_ob, progress);
+  } catch (const std::bad_alloc&) {  // the memory is not there: strokes go on with the factor
+    m.response.clear();
+    return false;
+  }
   m.finish_stats();
   return true;
 }

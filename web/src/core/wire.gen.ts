@@ -193,7 +193,7 @@ export interface paths {
                             max_hole_edges: number;
                             /** @description memory of one prepared field's boundary response (strokes applied by its columns); a field whose response needs more solves strokes with the factor (stats.response_mb 0) */
                             max_response_bytes: number;
-                            /** @description memory of the boundary responses of all prepared fields held in memory; a preparation whose response does not fit solves strokes with the factor */
+                            /** @description memory of the boundary responses of all prepared fields held in memory, first come first served (fields no object holds any more give theirs up first); a preparation whose response does not fit solves strokes with the factor */
                             max_response_bytes_total: number;
                             /** @description faces a "wrap" may make, estimated (4 · area / α²) before wrapping and counted after (the job fails, field repair_options.alpha) */
                             max_repair_faces: number;

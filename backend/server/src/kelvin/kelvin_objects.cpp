@@ -127,7 +127,7 @@ std::shared_ptr<PreparedField> PreparedRegistry::acquire(const mesh::SurfaceMesh
     const double response_mb = field.boundary_response_megabytes();
     const auto response_bytes = static_cast<std::size_t>(std::llround(response_mb * 1e6));
     std::unique_ptr<ResponseBudget::Share> share;
-    if (response_bytes <= response_bytes_) share = responses_->take(response_bytes);
+    if (response_bytes <= response_bytes_) share = take_response(response_bytes);
     if (share && !field.build_boundary_response(response_mb, progress)) share.reset();
     auto prepared = std::make_shared<PreparedField>(key, std::move(field));
     prepared->cache_hit = hit;
@@ -138,6 +138,16 @@ std::shared_ptr<PreparedField> PreparedRegistry::acquire(const mesh::SurfaceMesh
     release(nullptr);
     throw;
   }
+}
+
+std::unique_ptr<ResponseBudget::Share> PreparedRegistry::take_response(std::size_t bytes) {
+  if (auto share = responses_->take(bytes)) return share;
+  {  // Kept only by recent_ (the registry's lock stops anyone from taking them meanwhile).
+    std::lock_guard lock(mutex_);
+    for (const auto& f : recent_)
+      if (f.use_count() == 1 && f->response_share) f->release_response();
+  }
+  return responses_->take(bytes);
 }
 
 std::size_t PreparedRegistry::size() const {

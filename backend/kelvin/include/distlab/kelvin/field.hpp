@@ -123,9 +123,11 @@ class Field {
   // (columns of −A_ΩΩ⁻¹ A_Ω∂, eqs. 20, 21), n_interior × n_boundary doubles. With it, a brush
   // stroke that changes few boundary values reads only their columns instead of the whole
   // factor (0.2–0.3× a full solve for 5% of the surface, bench_kelvin), whenever that reads
-  // less. Built only if it fits max_megabytes (returns whether it did), with progress stage
-  // "response"; Stats::response_mb. Same field to rounding with or without it, and the same
-  // strokes give the same V bit for bit as long as the response is kept or not kept.
+  // less. Built only if it fits max_megabytes and the memory is there (returns whether the field
+  // has one; true at once if it had one already), with progress stage "response" (CHOLMOD's
+  // multi-column solve, ~4 s at 26k vertices); Stats::response_mb. Same field to rounding with
+  // or without it, and the same strokes give the same V bit for bit as long as the response is
+  // kept or not kept.
   bool build_boundary_response(double max_megabytes, const Progress& progress = {});
   void release_boundary_response();
   double boundary_response_megabytes() const;  // what it takes (or would take) in memory

@@ -55,7 +55,8 @@ struct Limits {
   // instead of ~0.8×) if it takes at most max_response_bytes and all live preparations' responses
   // stay within max_response_bytes_total; otherwise strokes are solved with the factor. The
   // response is n_interior × n_boundary doubles: 461 MB for the cube at l_x 0.05 (26k vertices,
-  // factor 72 MB). Same field to rounding either way.
+  // factor 72 MB). Same field to rounding either way. First come first served; fields that no
+  // object holds any more (kept for reuse) give theirs up when a preparation needs the room.
   std::size_t max_response_bytes = std::size_t{512} << 20;
   std::size_t max_response_bytes_total = std::size_t{1} << 30;
 };

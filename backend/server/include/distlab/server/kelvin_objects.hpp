@@ -74,6 +74,12 @@ struct PreparedField {
     }
     return fn(static_cast<const kelvin::Field&>(field));
   }
+  // Frees the boundary response and its share of the budget (strokes go on with the factor).
+  void release_response() {
+    std::unique_lock lock(mutex_);
+    field.release_boundary_response();
+    response_share.reset();
+  }
   // The field's work for a later σ edit (kelvin::Field::background_work), taken under the lock;
   // run it without, while this PreparedField lives.
   std::function<void()> background_work() {
@@ -100,8 +106,9 @@ class PreparedRegistry {
         responses_(std::make_shared<ResponseBudget>(response_bytes_total)) {}
   // The prepared field for this content: from memory, else waits for another job preparing the
   // same content, else prepares (through the disk cache) and builds its boundary response if
-  // the budgets allow (progress stage "response"). Throws kelvin::Cancelled if progress.cancel
-  // becomes true, InvalidInput for a bad surface.
+  // the budgets allow (progress stage "response"; beyond the total, fields no object holds any
+  // more give theirs up first). Throws kelvin::Cancelled if progress.cancel becomes true,
+  // InvalidInput for a bad surface.
   std::shared_ptr<PreparedField> acquire(const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& options,
                                          const kelvin::Progress& progress, bool* from_memory = nullptr);
   std::size_t size() const;
@@ -115,6 +122,7 @@ class PreparedRegistry {
     bool preparing = false;
   };
   Entry* find_locked(const std::string& key, const mesh::SurfaceMesh& s, const kelvin::PrepareOptions& o);
+  std::unique_ptr<ResponseBudget::Share> take_response(std::size_t bytes);
 
   std::string cache_dir_;
   std::size_t response_bytes_;
