@@ -21,11 +21,29 @@ namespace distlab::kelvin::sizing {
 using K = CGAL::Exact_predicates_inexact_constructions_kernel;
 using Polyhedron = CGAL::Surface_mesh<K::Point_3>;
 
+// The lattices both distances below keep: a distance d is 1-Lipschitz, so its value at the centre
+// c of the lattice cell holding p bounds it from below, d(p) ≥ d(c) − |p − c|, and the lattice
+// (cells of `cell` from `origin`) is filled lazily, independently of the order of queries.
+struct LatticeCell {
+  std::int64_t index[3];
+  double centre[3];
+};
+inline LatticeCell lattice_cell(const double q[3], const double origin[3], double cell) {
+  LatticeCell out{};
+  for (int k = 0; k < 3; ++k) {
+    out.index[k] = static_cast<std::int64_t>(std::floor((q[k] - origin[k]) / cell));
+    out.centre[k] = origin[k] + (static_cast<double>(out.index[k]) + 0.5) * cell;
+  }
+  return out;
+}
+inline double bound_from_centre(double at_centre, const double q[3], const double c[3]) {
+  return at_centre - std::sqrt((q[0] - c[0]) * (q[0] - c[0]) + (q[1] - c[1]) * (q[1] - c[1]) + (q[2] - c[2]) * (q[2] - c[2]));
+}
+
 // Distance in y from the inverted surface for the graded sizing. An exact AABB query costs up
 // to a millisecond deep inside (from near the centre of a sphere-like Ω_inv every triangle is
-// about as far), so away from the surface the distance at the centre of a lattice cell stands in:
-// d(p) ≥ d(c) − |p − c| (distance is 1-Lipschitz), a lower bound, so the mesh is never coarser
-// than graded. Cell values do not depend on the order of queries: meshes stay deterministic.
+// about as far), so away from the surface the lattice bound stands in (lattice_cell): the mesh is
+// never coarser than graded, and deterministic.
 // The queries are CGAL's closest-point search (AABB_tree::closest_point(x, hint): the same
 // projections and replacement rule) with shortcuts that do not change its result: a triangle
 // whose plane is farther than the current bound is not projected (its distance is at least its
@@ -64,13 +82,9 @@ class SurfaceDistance {
     const Cell* coarse = nullptr;  // then the fine cell
     for (const int level : {0, 1}) {
       const double cell = level == 0 ? 8 * cell_ : cell_;
-      std::int64_t i[3];
-      double c[3];
-      for (int k = 0; k < 3; ++k) {
-        i[k] = static_cast<std::int64_t>(std::floor((q[k] - lo_[k]) / cell));
-        c[k] = lo_[k] + (static_cast<double>(i[k]) + 0.5) * cell;
-      }
-      auto [it, fresh] = at_centre_.try_emplace(key(level, i[0], i[1], i[2]));
+      const LatticeCell at = lattice_cell(q, lo_, cell);
+      const double* c = at.centre;
+      auto [it, fresh] = at_centre_.try_emplace(key(level, at.index[0], at.index[1], at.index[2]));
       if (fresh) {
         const K::Point_3 centre(c[0], c[1], c[2]);
         // A fine cell starts from its coarse cell's closest point (a start as good as the nearest
@@ -78,8 +92,7 @@ class SurfaceDistance {
         it->second.closest = closest(centre, coarse != nullptr ? coarse->closest : tree_.best_hint(centre).first);
         it->second.distance = std::sqrt(CGAL::to_double(CGAL::squared_distance(centre, it->second.closest)));
       }
-      if (it->second.distance > 4 * cell)
-        return it->second.distance - std::sqrt((q[0] - c[0]) * (q[0] - c[0]) + (q[1] - c[1]) * (q[1] - c[1]) + (q[2] - c[2]) * (q[2] - c[2]));
+      if (it->second.distance > 4 * cell) return bound_from_centre(it->second.distance, q, c);
       coarse = &it->second;
     }
     // Near the surface: exact, from the cell centre's closest point.
@@ -162,8 +175,7 @@ class SurfaceDistance {
 // min(√(e_x / radius), 1), which is 1 wherever e_x ≥ radius (the cube: 62% of the evaluations at
 // l_x 0.03, 42% at 0.05; more at finer l_x, the radius being 4 l_x). There a lower
 // bound stands in for CGAL's exact query (a segment tree): outside the edges' bounding box the
-// distance to the box; inside it the distance at the centre of a lattice cell minus the distance
-// to the centre (1-Lipschitz), filled lazily, so answers do not depend on the order of queries.
+// distance to the box; inside it the lattice bound (lattice_cell), over a bounded flat lattice.
 class EdgeDistance {
  public:
   using Segments = std::vector<K::Segment_3>;
@@ -220,16 +232,13 @@ class EdgeDistance {
     }
     const double box = std::sqrt(box2);
     if (!(box < radius_ + cell_)) return box;  // also for x at infinity
-    std::int64_t i[3];
-    double c[3];
-    for (int k = 0; k < 3; ++k) {
-      i[k] = static_cast<std::int64_t>(std::floor((q[k] - origin_[k]) / cell_));
+    const LatticeCell at = lattice_cell(q, origin_, cell_);
+    const std::int64_t* i = at.index;
+    for (int k = 0; k < 3; ++k)
       if (i[k] < 0 || i[k] >= n_[k]) return box;
-      c[k] = origin_[k] + (static_cast<double>(i[k]) + 0.5) * cell_;
-    }
     double& centre = at_centre_[static_cast<std::size_t>((i[0] * n_[1] + i[1]) * n_[2] + i[2])];
-    if (centre < 0) centre = exact(K::Point_3(c[0], c[1], c[2]));
-    return std::max(box, centre - std::sqrt((q[0] - c[0]) * (q[0] - c[0]) + (q[1] - c[1]) * (q[1] - c[1]) + (q[2] - c[2]) * (q[2] - c[2])));
+    if (centre < 0) centre = exact(K::Point_3(at.centre[0], at.centre[1], at.centre[2]));
+    return std::max(box, bound_from_centre(centre, q, at.centre));
   }
 
  private:
