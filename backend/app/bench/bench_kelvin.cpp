@@ -72,6 +72,25 @@ struct Stream {
   double read = 0, copy = 0, triad = 0;
   double read_cpu = 0;  // one thread: "read" by process CPU time, median of the 5 (as the solve's CPU column)
 };
+// Σ p[0 … n): eight independent sums, so that the loop is bound by memory, not by add latency.
+double read_sum(const double* p, size_t n) {
+  double acc[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+  for (size_t i = 0; i + 8 <= n; i += 8)
+    for (int k = 0; k < 8; ++k) acc[k] += p[i + static_cast<size_t>(k)];
+  return acc[0] + acc[1] + acc[2] + acc[3] + acc[4] + acc[5] + acc[6] + acc[7];
+}
+
+// One pass of the one-thread stream read over 256 MB, GB/s: taken right after each timed solve,
+// so that solve and stream share the moment's load (bandwidth_pairs).
+double read_pass_gbps() {
+  static const std::vector<double> a(std::size_t{32} << 20, 1.0);
+  const auto t0 = Clock::now();
+  const double sum = read_sum(a.data(), a.size());
+  const double s = since(t0);
+  if (sum != static_cast<double>(a.size())) throw std::runtime_error("stream: wrong sum");
+  return 8.0 * static_cast<double>(a.size()) / s / 1e9;
+}
+
 Stream stream_gbps(int threads) {
   static std::vector<double> a(std::size_t{32} << 20, 1.0), b(a.size(), 2.0), c(a.size(), 0.5);
   const size_t chunk = a.size() / static_cast<size_t>(threads);
@@ -87,13 +106,7 @@ Stream stream_gbps(int threads) {
   };
   Stream s;
   std::vector<double> cpu;
-  auto read_kernel = [&](size_t begin, size_t t) {
-    const double* p = a.data() + begin;
-    double acc[8] = {0, 0, 0, 0, 0, 0, 0, 0};  // independent sums: bound by memory, not by add latency
-    for (size_t i = 0; i + 8 <= chunk; i += 8)
-      for (int k = 0; k < 8; ++k) acc[k] += p[i + static_cast<size_t>(k)];
-    sums[t] = acc[0] + acc[1] + acc[2] + acc[3] + acc[4] + acc[5] + acc[6] + acc[7];
-  };
+  auto read_kernel = [&](size_t begin, size_t t) { sums[t] = read_sum(a.data() + begin, chunk); };
   s.read = best_of(8, [&](size_t begin, size_t t) {
     const std::clock_t c0 = std::clock();
     read_kernel(begin, t);
@@ -133,8 +146,11 @@ struct Row {
   double lx = 0;
   Stats stats;
   double solve_ms = 0, solve_med = 0, solve_1t_med = 0, solve_sd = 0, grad_ms = 0, chol_solve_ms = 0, dense_solve_ms = 0, q_seed_p90 = 0, rmse = -1, q_hint = 0, q_seed = 0;
-  double dense_1t_ms = 0;             // "own dense" on one thread
-  double dense_1t_cpu_ms = 0;         // the same, process CPU time (the machine is shared: wall time includes waiting)
+  double dense_1t_ms = 0;      // "own dense" on one thread
+  double dense_1t_cpu_ms = 0;  // the same, process CPU time (the machine is shared: wall time includes waiting)
+  // Each one-thread solve against a stream read pass right after it: medians of the pass's GB/s
+  // and of the solve's share of it.
+  double paired_stream_gbps = 0, paired_share = 0;
   std::vector<double> case_solve_ms;  // Table II: one per σ case
   double lu_decomp = -1, lu_solve_ms = -1, aabb_us = 0;
   double decomp_med = -1, solve_b_ms = -1;           // CHOLMOD's side of the SparseLU comparison
@@ -399,7 +415,7 @@ Row run(const mesh::SurfaceMesh& surface, const PrepareOptions& o, const std::ve
   const Eigen::SparseMatrix<double> a = f.reduced_matrix();
   const VecX b = VecX::Ones(a.rows());
   {
-    std::vector<double> ts, tc, t1, c1;
+    std::vector<double> ts, tc, t1, c1, stream, share;
     for (int i = 0; i < 20; ++i) {
       VecX x = b, y = b, z = b;
       auto t0 = Clock::now();
@@ -415,7 +431,11 @@ Row run(const mesh::SurfaceMesh& surface, const PrepareOptions& o, const std::ve
       c1.push_back(1e3 * static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC);
       t1.push_back(since(t0) * 1e3);
       f.set_solve_threads(2);
+      stream.push_back(read_pass_gbps());
+      share.push_back(r.stats.solve_read_mb / t1.back() / stream.back());  // MB/ms = GB/s
     }
+    r.paired_stream_gbps = median(stream);
+    r.paired_share = median(share);
     r.dense_solve_ms = median(ts);
     r.chol_solve_ms = median(tc);
     r.dense_1t_ms = median(t1);
@@ -473,23 +493,25 @@ void print(const char* title, const std::vector<Row>& rows) {
 // block, the panel below and its row indices; not the stored upper triangles) over its time, set
 // against this machine's stream measured in the same run (read: the solve's own access; triad:
 // STREAM's figure). The one-thread solve also by CPU time: on the shared machine the wall time
-// includes waiting for a core, the stream (best of 5) catches a quiet moment.
+// includes waiting for a core, the stream (best of 5) catches a quiet moment. "Paired": each of
+// the 20 one-thread solves against a stream read pass right after it, the median of the 20
+// ratios, so that both see the same moment's load from the machine's other tenants.
 nlohmann::json print_bandwidth(const std::vector<Row>& rows, const Stream& s1, const Stream& s2) {
   std::printf(
       "\nTriangular solves against memory bandwidth (arrays of 256 MB, best of 5; GB/s read / copy / triad: "
       "1 thread %.2f / %.2f / %.2f, 2 threads %.2f / %.2f / %.2f; 1 thread read by CPU time, median: %.2f)\n| l_x | N_verts | factor MB | read MB per solve | "
       "dense 1 thread ms | GB/s | of read | of triad | CPU ms | GB/s by CPU time | of read | dense 2 threads ms | GB/s | "
-      "of read | of triad |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+      "of read | of triad | paired stream GB/s | paired: of read |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
       s1.read, s1.copy, s1.triad, s2.read, s2.copy, s2.triad, s1.read_cpu);
   nlohmann::json out;
   for (const Row& r : rows) {
     const double gb = r.stats.solve_read_mb / 1e3, bw1 = gb / (r.dense_1t_ms / 1e3), bw2 = gb / (r.dense_solve_ms / 1e3),
                  bwc = gb / (r.dense_1t_cpu_ms / 1e3);
-    std::printf("| %.3g | %ld | %.1f | %.1f | %.2f | %.2f | %.0f%% | %.0f%% | %.2f | %.2f | %.0f%% | %.2f | %.2f | %.0f%% | %.0f%% |\n",
+    std::printf("| %.3g | %ld | %.1f | %.1f | %.2f | %.2f | %.0f%% | %.0f%% | %.2f | %.2f | %.0f%% | %.2f | %.2f | %.0f%% | %.0f%% | %.2f | %.0f%% |\n",
                 r.lx, r.stats.n_verts, r.stats.factor_mb, r.stats.solve_read_mb, r.dense_1t_ms, bw1, 100 * bw1 / s1.read,
                 100 * bw1 / s1.triad, r.dense_1t_cpu_ms, bwc, 100 * bwc / s1.read_cpu, r.dense_solve_ms, bw2, 100 * bw2 / s2.read,
-                100 * bw2 / s2.triad);
-    out.push_back({{"lx", r.lx}, {"factor_mb", r.stats.factor_mb}, {"solve_read_mb", r.stats.solve_read_mb}, {"solve_gbps_one_thread", bw1}, {"solve_gbps_one_thread_cpu", bwc}, {"solve_gbps_two_threads", bw2}, {"stream_gbps_one_thread", s1.read}, {"stream_gbps_one_thread_cpu", s1.read_cpu}, {"stream_gbps_two_threads", s2.read}, {"stream_copy_gbps_one_thread", s1.copy}, {"stream_copy_gbps_two_threads", s2.copy}, {"stream_triad_gbps_one_thread", s1.triad}, {"stream_triad_gbps_two_threads", s2.triad}});
+                100 * bw2 / s2.triad, r.paired_stream_gbps, 100 * r.paired_share);
+    out.push_back({{"lx", r.lx}, {"factor_mb", r.stats.factor_mb}, {"solve_read_mb", r.stats.solve_read_mb}, {"solve_gbps_one_thread", bw1}, {"solve_gbps_one_thread_cpu", bwc}, {"solve_gbps_two_threads", bw2}, {"stream_gbps_one_thread", s1.read}, {"stream_gbps_one_thread_cpu", s1.read_cpu}, {"stream_gbps_two_threads", s2.read}, {"stream_copy_gbps_one_thread", s1.copy}, {"stream_copy_gbps_two_threads", s2.copy}, {"stream_triad_gbps_one_thread", s1.triad}, {"stream_triad_gbps_two_threads", s2.triad}, {"paired_stream_gbps_one_thread", r.paired_stream_gbps}, {"paired_share_of_read_one_thread", r.paired_share}});
   }
   std::printf(
       "\nLocal σ edit by linearity (a stroke over 5%% of the surface; same factor, medians): the stroke's "
