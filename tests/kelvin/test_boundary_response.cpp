@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <cmath>
 #include <filesystem>
 #include <random>
 #include <string>
@@ -112,6 +113,8 @@ TEST(BoundaryResponse, MemoryBoundCancelAndProgress) {
   Field field = Field::prepare(sphere_mesh(s), sphere_options(0.1));
   const double mb = field.boundary_response_megabytes();
   EXPECT_FALSE(field.build_boundary_response(0.999 * mb));
+  EXPECT_FALSE(field.build_boundary_response(std::nan("")));
+  EXPECT_FALSE(field.build_boundary_response(-1));
   EXPECT_EQ(field.stats().response_mb, 0);
 
   std::atomic<bool> cancel{false};

@@ -608,7 +608,7 @@ void Field::set_sigma(const SigmaSpec& sigma, bool gradients, bool by_linearity)
 bool Field::build_boundary_response(double max_megabytes, const Progress& progress) {
   Impl& m = *impl_;
   if (!m.response.empty()) return true;
-  if (boundary_response_megabytes() > max_megabytes || !m.solver.can_solve_alone()) return false;
+  if (!(boundary_response_megabytes() <= max_megabytes) || !m.solver.can_solve_alone()) return false;  // NaN: none
   try {
     m.response.build(m.solver, m.a_ob, progress);
   } catch (const std::bad_alloc&) {  // the memory is not there: strokes go on with the factor
