@@ -7,6 +7,7 @@
 
 #include <Eigen/SparseCholesky>
 #include <cstring>
+#include <numeric>
 #include <random>
 #include <sstream>
 
@@ -95,12 +96,55 @@ TEST(KelvinSolver, BytesReadBySolveCountTheLowerTriangleOnly) {
   const double triangle = 8.0 * n * (n + 1) / 2, indices = 4.0 * n * (n - 1) / 2;
   EXPECT_GE(solver.solve_megabytes(), 2 * triangle / 1e6);
   EXPECT_LE(solver.solve_megabytes(), 2 * (triangle + indices) / 1e6);
-  EXPECT_GE(solver.factor_megabytes(), 8.0 * n * n / 1e6);  // the stored blocks, upper triangles included
+  // The values in the solve's order: the lower triangle and the upper parts of the 8 × 8 diagonal
+  // blocks (15 of them), no longer CHOLMOD's dense 120 × 120 block.
+  const double solve_order = triangle + 8.0 * 15 * 28 + 4.0 * 3 * n;
+  EXPECT_DOUBLE_EQ(solver.factor_megabytes(), solve_order / 1e6);
   // A dense right-hand side reads everything.
   VecX b = VecX::LinSpaced(n, -1, 2), x = b;
   solver.solve(x);
   EXPECT_EQ(solver.last_read_fraction(), 1.0);
   EXPECT_LT((spd * x - b).norm(), 1e-12 * b.norm());
+  // CHOLMOD's layout is rebuilt for the columns' solve and freed after it; the reference solve
+  // keeps it.
+  Eigen::MatrixXd columns = Eigen::MatrixXd::Identity(n, 3);
+  solver.solve_columns(columns.data(), 3, 2, {});
+  EXPECT_LT((spd * columns - Eigen::MatrixXd::Identity(n, 3)).norm(), 1e-12);
+  EXPECT_DOUBLE_EQ(solver.factor_megabytes(), solve_order / 1e6);
+  VecX y = b;
+  solver.solve_cholmod(y);
+  EXPECT_LT((y - x).norm(), 1e-13 * x.norm());
+  EXPECT_DOUBLE_EQ(solver.factor_megabytes(), (solve_order + 8.0 * n * n) / 1e6);
+}
+
+// The solve's order holds every value a solve reads, and nothing else but zeros: supernode 0 has
+// 11 columns (chunks of 8 and 3) and 3 rows below them (odd counts below both chunks, so padded
+// tiles), supernode 1 is dense 3 × 3.
+TEST(KelvinSolver, SolveOrderKeepsTheLowerTrianglesExactly) {
+  const int super[] = {0, 11, 14}, pi[] = {0, 14, 17}, px[] = {0, 154, 163};
+  std::vector<int> rows(17);
+  std::iota(rows.begin(), rows.begin() + 14, 0);
+  std::iota(rows.begin() + 14, rows.end(), 11);
+  SupernodalFactor f{14, 2, super, pi, px, rows.data()};
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(1, 2);
+  std::vector<double> x(163);
+  for (double& v : x) v = u(rng);
+  const SolveValues packed = pack_values(f, x.data());
+  // 8 × 8 + 6 rows below (3 tiles of 2) × 8, then 3 × 3 + 3 rows below padded to 4 × 3; then 3 × 3.
+  EXPECT_EQ(packed.start, (std::vector<long>{0, 64 + 48 + 9 + 12, 64 + 48 + 9 + 12 + 9}));
+  f.values = packed.values.data();
+  f.start = packed.start.data();
+  std::vector<double> back(163, -1.0);
+  unpack_values(f, back.data());
+  for (int k = 0; k < 2; ++k) {
+    const int ncol = super[k + 1] - super[k], nrow = pi[k + 1] - pi[k];
+    for (int c = 0; c < ncol; ++c)
+      for (int r = 0; r < nrow; ++r) {
+        const int i = px[k] + c * nrow + r;
+        EXPECT_EQ(back[i], r >= c ? x[i] : 0.0) << "supernode " << k << " row " << r << " column " << c;
+      }
+  }
 }
 
 TEST(KelvinSolver, ReloadedFactorSolvesTheSame) {

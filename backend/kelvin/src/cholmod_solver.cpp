@@ -104,10 +104,45 @@ struct CholmodSolver::Impl {
   int solve_threads = std::thread::hardware_concurrency() >= 2 ? 2 : 1;
   mutable double read_fraction = 1;
   double entries_read = 0;  // per pass (supernodal_solve.hpp)
+  // The supernodal factor's values in the solve's order. CHOLMOD's own copy is freed once they are
+  // taken, and rebuilt from them only while a caller needs CHOLMOD's layout (with_cholmod_values).
+  SolveValues values;
+  mutable std::mutex cholmod_values;
   SupernodalFactor view() const {
     return {static_cast<int>(factor->n), static_cast<int>(factor->nsuper), static_cast<const int*>(factor->super),
             static_cast<const int*>(factor->pi), static_cast<const int*>(factor->px),
-            static_cast<const int*>(factor->s), static_cast<const double*>(factor->x)};
+            static_cast<const int*>(factor->s), values.values.data(), values.start.data()};
+  }
+  bool supernodal() const {
+    return factor != nullptr && factor->is_super && factor->itype == CHOLMOD_INT && factor->xtype == CHOLMOD_REAL;
+  }
+  // After a factorization or a load: the solve plan, and the values in the solve's order.
+  void take_values() {
+    if (!supernodal()) return;
+    values = pack_values(view(), static_cast<const double*>(factor->x));
+    plan = plan_two_lanes(view());
+    entries_read = kelvin::entries_read(view());
+    factor->x = cholmod_free(factor->xsize, sizeof(double), factor->x, &common);
+  }
+  // Runs fn with CHOLMOD's values in place. `keep`: leave them there afterwards (the reference
+  // solve, timed against ours by the benchmarks), else they are freed again.
+  template <class Fn>
+  void with_cholmod_values(bool keep, Fn&& fn) const {
+    const std::lock_guard<std::mutex> lock(cholmod_values);
+    const bool rebuilt = factor->x == nullptr;
+    if (rebuilt) {
+      factor->x = cholmod_malloc(factor->xsize, sizeof(double), &common);
+      if (factor->x == nullptr) throw std::bad_alloc();
+      unpack_values(view(), static_cast<double*>(factor->x));
+    }
+    struct Release {
+      const Impl* impl;
+      bool release;
+      ~Release() {
+        if (release) impl->factor->x = cholmod_free(impl->factor->xsize, sizeof(double), impl->factor->x, &impl->common);
+      }
+    } release{this, rebuilt && !keep};
+    fn();
   }
   Impl() {
     cholmod_start(&common);
@@ -161,14 +196,14 @@ void CholmodSolver::factorize(const Eigen::SparseMatrix<double>& lower) {
   if (impl_->common.status == CHOLMOD_NOT_POSDEF)
     throw std::runtime_error("stiffness matrix is not positive definite (degenerate tetrahedra?)");
   if (impl_->common.status < CHOLMOD_OK) throw std::runtime_error("CHOLMOD factorization failed");
-  if (impl_->factor->is_super) impl_->plan = plan_two_lanes(impl_->view());
-  impl_->entries_read = impl_->factor->is_super ? entries_read(impl_->view()) : 0;
+  impl_->entries_read = 0;
+  impl_->take_values();
 }
 
 void CholmodSolver::solve(VecX& b) const {
   const cholmod_factor* f = impl_->factor;
   if (f == nullptr || b.size() != size()) throw std::logic_error("solve before factorize");
-  if (!f->is_super || f->itype != CHOLMOD_INT || f->xtype != CHOLMOD_REAL) {
+  if (!impl_->supernodal()) {
     solve_cholmod(b);
     return;
   }
@@ -186,10 +221,7 @@ void CholmodSolver::solve(VecX& b, Scratch& scratch) const {
   solve_permuted(b, scratch.work, scratch.workspace, false);
 }
 
-bool CholmodSolver::can_solve_alone() const {
-  const cholmod_factor* f = impl_->factor;
-  return f != nullptr && f->is_super && f->itype == CHOLMOD_INT && f->xtype == CHOLMOD_REAL;
-}
+bool CholmodSolver::can_solve_alone() const { return impl_->supernodal(); }
 
 double CholmodSolver::solve_permuted(VecX& b, std::vector<double>& w, SolveWorkspace& workspace, bool threads) const {
   const cholmod_factor* f = impl_->factor;
@@ -217,9 +249,11 @@ void CholmodSolver::solve_cholmod(VecX& b) const {
   rhs.x = b.data();
   rhs.xtype = CHOLMOD_REAL;
   rhs.dtype = CHOLMOD_DOUBLE;
-  if (!cholmod_solve2(CHOLMOD_A, impl_->factor, &rhs, nullptr, &impl_->x, nullptr, &impl_->y,
-                      &impl_->e, &impl_->common))
-    throw std::runtime_error("CHOLMOD solve failed");
+  impl_->with_cholmod_values(true, [&] {
+    if (!cholmod_solve2(CHOLMOD_A, impl_->factor, &rhs, nullptr, &impl_->x, nullptr, &impl_->y, &impl_->e,
+                        &impl_->common))
+      throw std::runtime_error("CHOLMOD solve failed");
+  });
   std::copy_n(static_cast<const double*>(impl_->x->x), b.size(), b.data());
 }
 
@@ -253,14 +287,16 @@ void CholmodSolver::solve_columns(double* b, long ncol, long block_columns,
   if (impl_->factor == nullptr) throw std::logic_error("solve before factorize");
   const BlasThreads blas(1);
   const long n = static_cast<long>(impl_->factor->n), blocks = (ncol + block_columns - 1) / block_columns;
-  for (long k = 0; k < blocks; k += 2) {
-    const long round = std::min<long>(2, blocks - k);
-    parallel_for(static_cast<size_t>(round), 2, [&](size_t i) {
-      const long c0 = (k + static_cast<long>(i)) * block_columns;
-      solve_block(impl_->factor, b + c0 * n, std::min(block_columns, ncol - c0));
-    });
-    if (after_round) after_round(static_cast<double>(k + round) / static_cast<double>(blocks));
-  }
+  impl_->with_cholmod_values(false, [&] {
+    for (long k = 0; k < blocks; k += 2) {
+      const long round = std::min<long>(2, blocks - k);
+      parallel_for(static_cast<size_t>(round), 2, [&](size_t i) {
+        const long c0 = (k + static_cast<long>(i)) * block_columns;
+        solve_block(impl_->factor, b + c0 * n, std::min(block_columns, ncol - c0));
+      });
+      if (after_round) after_round(static_cast<double>(k + round) / static_cast<double>(blocks));
+    }
+  });
 }
 
 double CholmodSolver::solve_megabytes() const {
@@ -277,7 +313,11 @@ Eigen::Index CholmodSolver::size() const {
 double CholmodSolver::factor_megabytes() const {
   const cholmod_factor* f = impl_->factor;
   if (f == nullptr) return 0;
-  return (8.0 * static_cast<double>(f->xsize) + 4.0 * static_cast<double>(f->ssize + 2 * f->n)) / 1e6;
+  const std::lock_guard<std::mutex> lock(impl_->cholmod_values);
+  const double values = f->x != nullptr ? static_cast<double>(f->xsize) : 0;  // CHOLMOD's, if in place
+  return (8.0 * (values + static_cast<double>(impl_->values.values.size())) +
+          4.0 * static_cast<double>(f->ssize + 2 * f->n)) /
+         1e6;
 }
 
 namespace {
@@ -307,7 +347,7 @@ void CholmodSolver::save(std::ostream& out) const {
   put(out, static_cast<const int*>(f->pi), f->nsuper + 1);
   put(out, static_cast<const int*>(f->px), f->nsuper + 1);
   put(out, static_cast<const int*>(f->s), f->ssize);
-  put(out, static_cast<const double*>(f->x), f->xsize);
+  impl_->with_cholmod_values(false, [&] { put(out, static_cast<const double*>(f->x), f->xsize); });
 }
 
 bool CholmodSolver::load(std::istream& in) {
@@ -359,8 +399,7 @@ bool CholmodSolver::load(std::istream& in) {
   const int* s = static_cast<const int*>(f->s);
   for (std::uint64_t k = 0; k < ssize; ++k)
     if (s[k] < 0 || static_cast<std::uint64_t>(s[k]) >= n) return false;
-  impl_->plan = plan_two_lanes(impl_->view());
-  impl_->entries_read = entries_read(impl_->view());
+  impl_->take_values();
   return true;
 }
 

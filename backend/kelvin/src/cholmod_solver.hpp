@@ -40,11 +40,14 @@ class CholmodSolver {
   // (heavier lane + the rest) / all, in factor entries read: the two-thread solve's share of the
   // one-thread time if reading entries is the cost (1: one lane).
   double critical_share() const;
-  // The same through CHOLMOD's own cholmod_solve2 (reference and benchmark baseline).
+  // The same through CHOLMOD's own cholmod_solve2 (reference and benchmark baseline). The solver
+  // keeps the factor's values in the order its own solve reads them (SolveValues); the first
+  // call rebuilds CHOLMOD's layout beside them and keeps it (factor_megabytes grows by it).
   void solve_cholmod(VecX& b) const;
   // Solves A X = B in place for ncol columns (column-major, size() rows each) by cholmod_solve2,
   // block_columns at a time, two blocks at once on two threads, each with its own CHOLMOD
-  // workspace: safe beside any other solve, and the same bits on one thread or two.
+  // workspace: safe beside any other solve, and the same bits on one thread or two. CHOLMOD's
+  // layout of the values is rebuilt for the call and freed after it.
   // after_round(fraction done) runs on the calling thread after every two blocks; it may throw
   // (Cancelled) to stop.
   void solve_columns(double* b, long ncol, long block_columns, const std::function<void(double)>& after_round) const;

@@ -10,84 +10,88 @@ namespace distlab::kelvin {
 
 namespace {
 
-// The kernels walk a supernode in chunks of kChunk columns: the chunk's triangle, then one pass
-// down the rows below it reading the chunk's columns side by side, so each entry of the lower
-// triangle and of the panel below is read once, kChunk columns as concurrent streams, with
-// software prefetch kPrefetch doubles ahead in each (hardware prefetchers stop at every 4 KB
-// page of a column). They replace OpenBLAS dtrsv + dgemv per supernode (and Eigen's kernels for
-// small ones): on the cube at l_x 0.05 (58 MB read per pass) 0.91–0.96x their CPU time, at
-// l_x 0.08 (in cache) 0.51x; medians of 41 solves alternating in one process, same answer to
-// 3e-15 relative.
+// The kernels walk a supernode chunk by chunk (SolveValues): the chunk's triangle, then its tiles
+// of two rows, which read the chunk's columns side by side, so each entry of the lower triangle
+// and of the panel below is read once. They replace OpenBLAS dtrsv + dgemv per supernode. On the
+// cube at l_x 0.05 (58 MB read per pass, 26k vertices) one solve took 0.62–0.66x the time of the
+// kernels over CHOLMOD's layout (8 columns as concurrent streams with software prefetch), medians
+// of 41 solves alternating in one process; the forward pass ran at 23 GB/s there, the back pass
+// at 13 until it read the tiles upwards (25 GB/s: one descending stream, and a chunk's far rows
+// do not wait for the triangle solved just before).
 constexpr int kChunk = 8;
-constexpr int kPrefetch = 128;
-// Two doubles as one SSE2 register (GCC/Clang vector extension): the dot products of the back
-// pass are reductions, which the compiler does not vectorise by itself without -ffast-math.
+// Two doubles as one SSE2 register (GCC/Clang vector extension): one tile row pair per column.
 using Pair = double __attribute__((vector_size(16)));
 Pair load_pair(const double* p) {
   Pair v;
   std::memcpy(&v, p, sizeof v);
   return v;
 }
-void prefetch_chunk(const double* const* col, int r) {
-  if ((r & 7) == 0)  // once per cache line of each column
-    for (int q = 0; q < kChunk; ++q) __builtin_prefetch(col[q] + r + kPrefetch);
-}
+void store_pair(double* p, Pair v) { std::memcpy(p, &v, sizeof v); }
 
-// u: the supernode's rows (its own columns first). Forward: u_own = L_kk⁻¹ u_own, then
-// u_below −= L_below,k u_own.
-void forward_block(const double* block, int nrow, int ncol, double* u) {
+long tiles(int nrow, int r0) { return (nrow - r0 + 1) / 2; }
+long chunk_size(int nrow, int j0, int jb) { return long{jb} * jb + 2L * jb * tiles(nrow, j0 + jb); }
+
+// u: the supernode's rows (its own columns first) and one zero pad. Forward: u_own = L_kk⁻¹ u_own,
+// then u_below −= L_below,k u_own.
+void forward_block(const double* v, int nrow, int ncol, double* u) {
   for (int j0 = 0; j0 < ncol; j0 += kChunk) {
     const int jb = std::min(kChunk, ncol - j0), r0 = j0 + jb;
-    for (int c = j0; c < r0; ++c) {
-      const double* col = block + static_cast<long>(c) * nrow;
-      const double yc = u[c] /= col[c];
-      for (int r = c + 1; r < r0; ++r) u[r] -= col[r] * yc;
+    for (int c = 0; c < jb; ++c) {
+      const double* col = v + c * jb;
+      const double yc = u[j0 + c] /= col[c];
+      for (int r = c + 1; r < jb; ++r) u[j0 + r] -= col[r] * yc;
     }
+    v += jb * jb;
+    const long n = tiles(nrow, r0);
+    double* ur = u + r0;
     if (jb < kChunk) {
-      for (int q = j0; q < r0; ++q) {
-        const double* col = block + static_cast<long>(q) * nrow;
-        for (int r = r0; r < nrow; ++r) u[r] -= col[r] * u[q];
+      for (long t = 0; t < n; ++t, v += 2 * jb, ur += 2) {
+        Pair acc = load_pair(ur);
+        for (int q = 0; q < jb; ++q) acc -= load_pair(v + 2 * q) * u[j0 + q];
+        store_pair(ur, acc);
       }
       continue;
     }
-    const double* a[kChunk];
-    double y[kChunk];
-    for (int q = 0; q < kChunk; ++q) a[q] = block + static_cast<long>(j0 + q) * nrow, y[q] = u[j0 + q];
-    for (int r = r0; r < nrow; ++r) {
-      prefetch_chunk(a, r);
-      u[r] -= ((a[0][r] * y[0] + a[1][r] * y[1]) + (a[2][r] * y[2] + a[3][r] * y[3])) +
-              ((a[4][r] * y[4] + a[5][r] * y[5]) + (a[6][r] * y[6] + a[7][r] * y[7]));
+    Pair y[kChunk];
+    for (int q = 0; q < kChunk; ++q) y[q] = Pair{u[j0 + q], u[j0 + q]};
+    for (long t = 0; t < n; ++t, v += 2 * kChunk, ur += 2) {
+      const Pair sum = ((load_pair(v) * y[0] + load_pair(v + 2) * y[1]) + (load_pair(v + 4) * y[2] + load_pair(v + 6) * y[3])) +
+                       ((load_pair(v + 8) * y[4] + load_pair(v + 10) * y[5]) + (load_pair(v + 12) * y[6] + load_pair(v + 14) * y[7]));
+      store_pair(ur, load_pair(ur) - sum);
     }
   }
 }
 
-// Back: u_own = L_kk⁻ᵀ (u_own − L_below,kᵀ u_below), chunks from the last one up.
-void backward_block(const double* block, int nrow, int ncol, double* u) {
+// Back: u_own = L_kk⁻ᵀ (u_own − L_below,kᵀ u_below), chunks from the last one up, each chunk's
+// tiles from the last one up. u: as above (the pad zero).
+void backward_block(const double* v, int nrow, int ncol, double* u) {
+  const double* end = v;
+  for (int j0 = 0; j0 < ncol; j0 += kChunk) end += chunk_size(nrow, j0, std::min(kChunk, ncol - j0));
   for (int j0 = (ncol - 1) / kChunk * kChunk; j0 >= 0; j0 -= kChunk) {
     const int jb = std::min(kChunk, ncol - j0), r0 = j0 + jb;
-    double dot[kChunk] = {};
+    const double* tri = end - chunk_size(nrow, j0, jb);
+    end = tri;
+    const long n = tiles(nrow, r0);
+    Pair acc[kChunk];
+    for (auto& a : acc) a = Pair{0, 0};
+    const double* t = tri + jb * jb + (n - 1) * 2 * jb;
+    const double* ur = u + r0 + (n - 1) * 2;
     if (jb < kChunk) {
-      for (int q = 0; q < jb; ++q) {
-        const double* col = block + static_cast<long>(j0 + q) * nrow;
-        for (int r = r0; r < nrow; ++r) dot[q] += col[r] * u[r];
+      for (long i = 0; i < n; ++i, t -= 2 * jb, ur -= 2) {
+        const Pair z = load_pair(ur);
+        for (int q = 0; q < jb; ++q) acc[q] += load_pair(t + 2 * q) * z;
       }
     } else {
-      const double* a[kChunk];
-      Pair acc[kChunk];
-      for (int q = 0; q < kChunk; ++q) a[q] = block + static_cast<long>(j0 + q) * nrow, acc[q] = Pair{0, 0};
-      int r = r0;
-      for (; r + 2 <= nrow; r += 2) {
-        prefetch_chunk(a, r);
-        const Pair z = load_pair(u + r);
-        for (int q = 0; q < kChunk; ++q) acc[q] += load_pair(a[q] + r) * z;
+      for (long i = 0; i < n; ++i, t -= 2 * kChunk, ur -= 2) {
+        const Pair z = load_pair(ur);
+        for (int q = 0; q < kChunk; ++q) acc[q] += load_pair(t + 2 * q) * z;
       }
-      for (int q = 0; q < kChunk; ++q) dot[q] = acc[q][0] + acc[q][1] + (r < nrow ? a[q][r] * u[r] : 0.0);
     }
-    for (int c = r0 - 1; c >= j0; --c) {
-      const double* col = block + static_cast<long>(c) * nrow;
-      double t = u[c] - dot[c - j0];
-      for (int r = c + 1; r < r0; ++r) t -= col[r] * u[r];
-      u[c] = t / col[c];
+    for (int c = jb - 1; c >= 0; --c) {
+      const double* col = tri + c * jb;
+      double x = u[j0 + c] - (acc[c][0] + acc[c][1]);
+      for (int r = c + 1; r < jb; ++r) x -= col[r] * u[j0 + r];
+      u[j0 + c] = x / col[c];
     }
   }
 }
@@ -99,7 +103,8 @@ struct Shape {
 };
 Shape shape(const SupernodalFactor& f, int k) {
   const int c0 = f.super[k], ncol = f.super[k + 1] - c0, nrow = f.pi[k + 1] - f.pi[k];
-  return {c0, ncol, nrow, nrow - ncol, f.x + f.px[k], f.s + f.pi[k] + ncol};
+  const double* values = f.values != nullptr ? f.values + f.start[k] : nullptr;  // plans need no values
+  return {c0, ncol, nrow, nrow - ncol, values, f.s + f.pi[k] + ncol};
 }
 
 // Forward step of supernode k: y_k = L_kk⁻¹ w_k, then w_below −= L_below,k y_k. With
@@ -111,7 +116,7 @@ double forward(const SupernodalFactor& f, int k, double* w, double* u, const uns
   if (std::all_of(y, y + s.ncol, [](double v) { return v == 0.0; }))  // nothing flows out
     return entries_read(f, k);
   std::copy_n(y, s.ncol, u);
-  std::fill_n(u + s.ncol, s.nbelow, 0.0);
+  std::fill_n(u + s.ncol, s.nbelow + 1, 0.0);
   forward_block(s.block, s.nrow, s.ncol, u);
   std::copy_n(u, s.ncol, y);
   const double* t = u + s.ncol;  // −(L_below,k y_k)
@@ -133,6 +138,7 @@ void backward(const SupernodalFactor& f, int k, double* w, double* u) {
   double* y = w + s.c0;
   std::copy_n(y, s.ncol, u);
   for (int i = 0; i < s.nbelow; ++i) u[s.ncol + i] = w[s.rows_below[i]];
+  u[s.nrow] = 0;
   backward_block(s.block, s.nrow, s.ncol, u);
   std::copy_n(u, s.ncol, y);
 }
@@ -147,6 +153,54 @@ double entries_read(const SupernodalFactor& f) {
   double total = 0;
   for (int k = 0; k < f.nsuper; ++k) total += entries_read(f, k);
   return total;
+}
+
+SolveValues pack_values(const SupernodalFactor& f, const double* x) {
+  SolveValues out;
+  out.start.resize(static_cast<size_t>(f.nsuper) + 1);
+  long total = 0;
+  for (int k = 0; k < f.nsuper; ++k) {
+    out.start[static_cast<size_t>(k)] = total;
+    const int ncol = f.super[k + 1] - f.super[k], nrow = f.pi[k + 1] - f.pi[k];
+    for (int j0 = 0; j0 < ncol; j0 += kChunk) total += chunk_size(nrow, j0, std::min(kChunk, ncol - j0));
+  }
+  out.start.back() = total;
+  out.values.resize(static_cast<size_t>(total));
+  parallel_for(static_cast<size_t>(f.nsuper), 0, [&](size_t k) {
+    const int ncol = f.super[k + 1] - f.super[k], nrow = f.pi[k + 1] - f.pi[k];
+    const double* block = x + f.px[k];
+    double* v = out.values.data() + out.start[k];
+    for (int j0 = 0; j0 < ncol; j0 += kChunk) {
+      const int jb = std::min(kChunk, ncol - j0), r0 = j0 + jb;
+      auto at = [&](int r, int q) { return block[static_cast<long>(j0 + q) * nrow + r]; };
+      for (int q = 0; q < jb; ++q)
+        for (int r = 0; r < jb; ++r) *v++ = r >= q ? at(j0 + r, q) : 0.0;
+      for (int r = r0; r < nrow; r += 2)
+        for (int q = 0; q < jb; ++q) *v++ = at(r, q), *v++ = r + 1 < nrow ? at(r + 1, q) : 0.0;
+    }
+  });
+  return out;
+}
+
+void unpack_values(const SupernodalFactor& f, double* x) {
+  parallel_for(static_cast<size_t>(f.nsuper), 0, [&](size_t k) {
+    const int ncol = f.super[k + 1] - f.super[k], nrow = f.pi[k + 1] - f.pi[k];
+    double* block = x + f.px[k];
+    std::fill_n(block, static_cast<long>(ncol) * nrow, 0.0);
+    const double* v = f.values + f.start[k];
+    for (int j0 = 0; j0 < ncol; j0 += kChunk) {
+      const int jb = std::min(kChunk, ncol - j0), r0 = j0 + jb;
+      auto at = [&](int r, int q) -> double& { return block[static_cast<long>(j0 + q) * nrow + r]; };
+      for (int q = 0; q < jb; ++q)
+        for (int r = 0; r < jb; ++r, ++v)
+          if (r >= q) at(j0 + r, q) = *v;
+      for (int r = r0; r < nrow; r += 2)
+        for (int q = 0; q < jb; ++q, v += 2) {
+          at(r, q) = v[0];
+          if (r + 1 < nrow) at(r + 1, q) = v[1];
+        }
+    }
+  });
 }
 
 SolvePlan plan_one_lane(const SupernodalFactor& f) {
@@ -234,7 +288,7 @@ SolvePlan plan_two_lanes(const SupernodalFactor& f) {
 
 double solve_supernodal(const SupernodalFactor& f, const SolvePlan& plan, double* w, SolveWorkspace& ws,
                         bool threads) {
-  for (auto& b : ws.below) b.resize(static_cast<size_t>(f.n));
+  for (auto& b : ws.below) b.resize(static_cast<size_t>(f.n) + 1);                                          // + the tiles' pad
   if (ws.lane1_top.size() != static_cast<size_t>(f.n)) ws.lane1_top.assign(static_cast<size_t>(f.n), 0.0);  // kept zero
   std::array<double, 2> skipped{0, 0};
   auto forward_lane = [&](size_t lane) {

@@ -14,16 +14,36 @@
 #include <utility>
 #include <vector>
 
+#include "huge_pages.hpp"
+
 namespace distlab::kelvin {
 
-// The arrays of a supernodal factor L (CHOLMOD names): supernode k owns columns
-// super[k] … super[k+1]−1; its rows are s[pi[k]] … s[pi[k+1]−1] (its own columns first); its
-// values are the dense column-major block x[px[k]] … with pi[k+1]−pi[k] rows.
+// The structure of a supernodal factor L (CHOLMOD names): supernode k owns columns
+// super[k] … super[k+1]−1; its rows are s[pi[k]] … s[pi[k+1]−1] (its own columns first). CHOLMOD
+// keeps its values as the dense column-major block x[px[k]] … with pi[k+1]−pi[k] rows; the solve
+// reads them in its own order instead (SolveValues), from `values + start[k]`.
 struct SupernodalFactor {
   int n = 0, nsuper = 0;
   const int *super = nullptr, *pi = nullptr, *px = nullptr, *s = nullptr;
-  const double* x = nullptr;
+  const double* values = nullptr;
+  const long* start = nullptr;
 };
+
+// The factor's values in the order a solve reads them. Each supernode is cut into chunks of up to
+// 8 columns; a chunk holds its diagonal block (column-major, upper part zero), then the rows below
+// it in tiles of 2 rows × the chunk's columns (a pair of rows per column), the last tile padded
+// with a zero row. The forward pass reads the whole array in ascending addresses; the back pass
+// reads each chunk's tiles from the last one up, then its diagonal block, so it reads the array in
+// descending addresses. Either way the hardware prefetcher sees one stream, where CHOLMOD's
+// column-major blocks made it follow 8 columns at once and restart at every chunk.
+struct SolveValues {
+  HugeVector<double> values;
+  std::vector<long> start;  // per supernode, and the total at nsuper
+};
+// x: CHOLMOD's values for the structure f (f.values and f.start are not used).
+SolveValues pack_values(const SupernodalFactor& f, const double* x);
+// Back to CHOLMOD's layout (px[nsuper] doubles; the unused upper triangles of the diagonal blocks zero).
+void unpack_values(const SupernodalFactor& f, double* x);
 
 // The entries of supernode k a solve pass reads: the lower triangle of its diagonal block and the
 // panel below (CHOLMOD stores the block's upper triangle too; no pass reads it). Without k: all.
@@ -47,7 +67,7 @@ struct SolveWorkspace {
   std::vector<double> lane1_top;             // lane 1's forward updates of top rows (zero between solves)
 };
 
-// Solves L Lᵀ w = w in place (w permuted, size n). The forward pass skips every supernode whose
+// Solves L Lᵀ w = w in place (w permuted, size n; f with its values). The forward pass skips every supernode whose
 // part of w is still zero. Lane 1 runs on a second thread if `threads` is true.
 // Returns the number of factor entries skipped.
 double solve_supernodal(const SupernodalFactor& f, const SolvePlan& plan, double* w, SolveWorkspace& ws,
