@@ -160,7 +160,8 @@ class Field {
   const VecX& vertex_values() const;
 
   // For benchmarks: A_ΩΩ of eq. 21 (full symmetric) and a solve with its CHOLMOD factor, by the
-  // solve set_sigma uses or (cholmod_reference) by CHOLMOD's own cholmod_solve2.
+  // solve set_sigma uses or (cholmod_reference) by CHOLMOD's own cholmod_solve2, which from then on
+  // keeps a second copy of the factor's values in CHOLMOD's layout.
   Eigen::SparseMatrix<double> reduced_matrix() const;
   void solve_reduced(VecX& rhs, bool cholmod_reference = false) const;
   // Threads of each σ solve: 1, or 2 (the default with two or more hardware threads; the
