@@ -6,6 +6,7 @@
 #include <dlfcn.h>
 
 #include <Eigen/SparseCholesky>
+#include <algorithm>
 #include <cstring>
 #include <numeric>
 #include <random>
@@ -96,48 +97,59 @@ TEST(KelvinSolver, BytesReadBySolveCountTheLowerTriangleOnly) {
   const double triangle = 8.0 * n * (n + 1) / 2, indices = 4.0 * n * (n - 1) / 2;
   EXPECT_GE(solver.solve_megabytes(), 2 * triangle / 1e6);
   EXPECT_LE(solver.solve_megabytes(), 2 * (triangle + indices) / 1e6);
-  // The values in the solve's order: the lower triangle and the upper parts of the 8 × 8 diagonal
-  // blocks (15 of them), no longer CHOLMOD's dense 120 × 120 block.
-  const double solve_order = triangle + 8.0 * 15 * 28 + 4.0 * 3 * n;
+  // CHOLMOD makes one supernode of the dense matrix. Its values in the solve's order: the lower
+  // triangle and the upper parts of the 8 × 8 diagonal blocks (15 of them); CHOLMOD's own copy,
+  // the dense 120 × 120 block, stays until released.
+  const double solve_order = triangle + 8.0 * 15 * 28 + 4.0 * 3 * n, cholmod_copy = 8.0 * n * n;
+  EXPECT_DOUBLE_EQ(solver.factor_megabytes(), (solve_order + cholmod_copy) / 1e6);
+  solver.release_cholmod_values();
   EXPECT_DOUBLE_EQ(solver.factor_megabytes(), solve_order / 1e6);
   // A dense right-hand side reads everything.
   VecX b = VecX::LinSpaced(n, -1, 2), x = b;
   solver.solve(x);
   EXPECT_EQ(solver.last_read_fraction(), 1.0);
   EXPECT_LT((spd * x - b).norm(), 1e-12 * b.norm());
-  // CHOLMOD's layout is rebuilt for the columns' solve and freed after it; the reference solve
-  // keeps it.
+  // CHOLMOD's layout is rebuilt for the columns' solve and freed after it, also when the solve is
+  // stopped; the reference solve keeps it.
   Eigen::MatrixXd columns = Eigen::MatrixXd::Identity(n, 3);
   solver.solve_columns(columns.data(), 3, 2, {});
   EXPECT_LT((spd * columns - Eigen::MatrixXd::Identity(n, 3)).norm(), 1e-12);
   EXPECT_DOUBLE_EQ(solver.factor_megabytes(), solve_order / 1e6);
+  EXPECT_THROW(solver.solve_columns(columns.data(), 3, 1, [](double) { throw std::runtime_error("stop"); }),
+               std::runtime_error);
+  EXPECT_DOUBLE_EQ(solver.factor_megabytes(), solve_order / 1e6);
   VecX y = b;
   solver.solve_cholmod(y);
   EXPECT_LT((y - x).norm(), 1e-13 * x.norm());
-  EXPECT_DOUBLE_EQ(solver.factor_megabytes(), (solve_order + 8.0 * n * n) / 1e6);
+  EXPECT_DOUBLE_EQ(solver.factor_megabytes(), (solve_order + cholmod_copy) / 1e6);
 }
 
-// The solve's order holds every value a solve reads, and nothing else but zeros: supernode 0 has
-// 11 columns (chunks of 8 and 3) and 3 rows below them (odd counts below both chunks, so padded
-// tiles), supernode 1 is dense 3 × 3.
+// The solve's order holds every value a solve reads, and nothing else but zeros. Supernode 0 has
+// 11 columns (chunks of 8 and 3) and 15 rows: 7 below the first chunk (an odd count: a padded tile
+// of the kernels' 8-wide path) and 4 below the second; supernode 1 has 3 columns and 1 row below
+// (a padded 3-wide tile); supernode 2 is one entry.
 TEST(KelvinSolver, SolveOrderKeepsTheLowerTrianglesExactly) {
-  const int super[] = {0, 11, 14}, pi[] = {0, 14, 17}, px[] = {0, 154, 163};
-  std::vector<int> rows(17);
-  std::iota(rows.begin(), rows.begin() + 14, 0);
-  std::iota(rows.begin() + 14, rows.end(), 11);
-  SupernodalFactor f{14, 2, super, pi, px, rows.data()};
+  const int super[] = {0, 11, 14, 15}, pi[] = {0, 15, 19, 20}, px[] = {0, 165, 177, 178};
+  std::vector<int> rows(20);
+  std::iota(rows.begin(), rows.begin() + 15, 0);
+  std::iota(rows.begin() + 15, rows.begin() + 19, 11);
+  rows[19] = 14;
+  SupernodalFactor f{15, 3, super, pi, px, rows.data()};
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> u(1, 2);
-  std::vector<double> x(163);
+  std::vector<double> x(178);
   for (double& v : x) v = u(rng);
   const SolveValues packed = pack_values(f, x.data());
-  // 8 × 8 + 6 rows below (3 tiles of 2) × 8, then 3 × 3 + 3 rows below padded to 4 × 3; then 3 × 3.
-  EXPECT_EQ(packed.start, (std::vector<long>{0, 64 + 48 + 9 + 12, 64 + 48 + 9 + 12 + 9}));
+  // 8 × 8 + 4 tiles × 2 rows × 8, then 3 × 3 + 2 tiles × 2 × 3; 3 × 3 + 1 tile × 2 × 3; 1.
+  EXPECT_EQ(packed.start, (std::vector<long>{0, 128 + 21, 128 + 21 + 15, 128 + 21 + 15 + 1}));
+  // Every stored value of the lower triangles is there once (all are in [1, 2]); the rest is zero.
+  const long lower = (165 - 55) + (12 - 3) + 1;
+  EXPECT_EQ(std::count_if(packed.values.begin(), packed.values.end(), [](double v) { return v != 0.0; }), lower);
   f.values = packed.values.data();
   f.start = packed.start.data();
-  std::vector<double> back(163, -1.0);
+  std::vector<double> back(178, -1.0);
   unpack_values(f, back.data());
-  for (int k = 0; k < 2; ++k) {
+  for (int k = 0; k < 3; ++k) {
     const int ncol = super[k + 1] - super[k], nrow = pi[k + 1] - pi[k];
     for (int c = 0; c < ncol; ++c)
       for (int r = 0; r < nrow; ++r) {
@@ -158,6 +170,38 @@ TEST(KelvinSolver, ReloadedFactorSolvesTheSame) {
   a.solve(x);
   b.solve(y);
   EXPECT_EQ((x - y).norm(), 0.0);
+  const Eigen::SparseMatrix<double> full = lower.selfadjointView<Eigen::Lower>();
+  const VecX rhs = VecX::LinSpaced(lower.rows(), -1, 2);
+  EXPECT_LT((full * x - rhs).norm(), 1e-12 * rhs.norm());
+  // Saved again after CHOLMOD's copy was released, the file holds CHOLMOD's values rebuilt from
+  // the solve's order: the same bytes, but for the unused upper parts of the diagonal blocks.
+  a.release_cholmod_values();
+  std::stringstream again;
+  a.save(again);
+  const std::string before = io.str(), after = again.str();
+  ASSERT_EQ(before.size(), after.size());
+  std::uint64_t sizes[8];
+  std::memcpy(sizes, before.data(), sizeof sizes);
+  const std::size_t n = sizes[0], nsuper = sizes[1], ssize = sizes[2], xsize = sizes[3];
+  const std::size_t ints = sizeof sizes, super_at = ints + 4 * 2 * n, pi_at = super_at + 4 * (nsuper + 1),
+                    px_at = pi_at + 4 * (nsuper + 1), x_at = px_at + 4 * (nsuper + 1) + 4 * ssize;
+  ASSERT_EQ(x_at + 8 * xsize, before.size());
+  EXPECT_EQ(before.substr(0, x_at), after.substr(0, x_at));
+  auto at = [](const std::string& bytes, std::size_t offset, auto value) {
+    std::memcpy(&value, bytes.data() + offset, sizeof value);
+    return value;
+  };
+  long compared = 0;
+  for (std::size_t k = 0; k < nsuper; ++k) {
+    const int c0 = at(before, super_at + 4 * k, 0), ncol = at(before, super_at + 4 * (k + 1), 0) - c0;
+    const int nrow = at(before, pi_at + 4 * (k + 1), 0) - at(before, pi_at + 4 * k, 0), p0 = at(before, px_at + 4 * k, 0);
+    for (int c = 0; c < ncol; ++c)
+      for (int r = c; r < nrow; ++r, ++compared) {
+        const std::size_t offset = x_at + 8 * (static_cast<std::size_t>(p0) + static_cast<std::size_t>(c) * nrow + r);
+        ASSERT_EQ(at(before, offset, 0.0), at(after, offset, 0.0)) << "supernode " << k;
+      }
+  }
+  EXPECT_GT(compared, 10000);
 }
 
 // Above 10k unknowns the factor is ordered by nested dissection (METIS) instead of AMD: the solve
@@ -239,6 +283,8 @@ TEST(KelvinSolver, TwoLaneSolveOfAForest) {
   solver.solve_cholmod(ref);
   EXPECT_EQ((one - two).norm(), 0.0);
   EXPECT_LT((two - ref).norm(), 1e-12 * ref.norm());
+  const Eigen::SparseMatrix<double> full = lower.selfadjointView<Eigen::Lower>();
+  EXPECT_LT((full * two - rhs).norm(), 1e-12 * rhs.norm());
 }
 
 // A saved factor whose supernode layout is inconsistent (one block one entry longer than its
@@ -263,6 +309,9 @@ TEST(KelvinSolver, LoadRefusesAnInconsistentSupernodeLayout) {
   std::memcpy(bytes.data() + px1, &px, 4);
   std::stringstream bad(bytes);
   EXPECT_FALSE(b.load(bad));
+  VecX x = VecX::Ones(static_cast<Eigen::Index>(n));  // no factor now, not a half-read one
+  EXPECT_THROW(b.solve(x), std::logic_error);
+  EXPECT_EQ(b.size(), 0);
 }
 
 // The boundary response (boundary_response.hpp) of a 1,728-unknown matrix and 700 random sparse

@@ -490,7 +490,8 @@ void print(const char* title, const std::vector<Row>& rows) {
 
 // A dense solve (b = 1) reads the factor twice (forward and back substitution): its achieved
 // bandwidth is the bytes it reads (Stats::solve_read_mb: the lower triangle of each diagonal
-// block, the panel below and its row indices; not the stored upper triangles) over its time, set
+// block, the panel below and its row indices; not the few stored entries it streams without
+// needing them, supernodal_solve.hpp) over its time, set
 // against this machine's stream measured in the same run (read: the solve's own access; triad:
 // STREAM's figure). The one-thread solve also by CPU time: on the shared machine the wall time
 // includes waiting for a core, the stream (best of 5) catches a quiet moment. "Paired": each of

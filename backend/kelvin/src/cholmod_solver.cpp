@@ -5,6 +5,7 @@
 #include <dlfcn.h>
 
 #include <algorithm>
+#include <atomic>
 #include <functional>
 #include <istream>
 #include <mutex>
@@ -104,10 +105,12 @@ struct CholmodSolver::Impl {
   int solve_threads = std::thread::hardware_concurrency() >= 2 ? 2 : 1;
   mutable double read_fraction = 1;
   double entries_read = 0;  // per pass (supernodal_solve.hpp)
-  // The supernodal factor's values in the solve's order. CHOLMOD's own copy is freed once they are
-  // taken, and rebuilt from them only while a caller needs CHOLMOD's layout (with_cholmod_values).
+  // The supernodal factor's values in the solve's order (take_values). CHOLMOD's own copy stays
+  // until release_cholmod_values(), and is rebuilt from them while a caller needs CHOLMOD's layout
+  // again (with_cholmod_values).
   SolveValues values;
   mutable std::mutex cholmod_values;
+  mutable std::atomic<bool> cholmod_copy{false};  // factor->x is there (read without the lock)
   SupernodalFactor view() const {
     return {static_cast<int>(factor->n), static_cast<int>(factor->nsuper), static_cast<const int*>(factor->super),
             static_cast<const int*>(factor->pi), static_cast<const int*>(factor->px),
@@ -116,32 +119,46 @@ struct CholmodSolver::Impl {
   bool supernodal() const {
     return factor != nullptr && factor->is_super && factor->itype == CHOLMOD_INT && factor->xtype == CHOLMOD_REAL;
   }
-  // After a factorization or a load: the solve plan, and the values in the solve's order.
+  // Drops the factor and everything derived from it: the state after a failed factorize or load.
+  void reset() {
+    cholmod_free_factor(&factor, &common);
+    values = {};
+    plan = {};
+    entries_read = 0;
+    cholmod_copy = false;
+  }
+  // After a factorization or a load: the values in the solve's order and the solve plan.
   void take_values() {
+    cholmod_copy = factor->x != nullptr;
     if (!supernodal()) return;
     values = pack_values(view(), static_cast<const double*>(factor->x));
     plan = plan_two_lanes(view());
     entries_read = kelvin::entries_read(view());
+  }
+  void free_cholmod_copy() const {
     factor->x = cholmod_free(factor->xsize, sizeof(double), factor->x, &common);
+    cholmod_copy = false;
   }
   // Runs fn with CHOLMOD's values in place. `keep`: leave them there afterwards (the reference
-  // solve, timed against ours by the benchmarks), else they are freed again.
+  // solve, timed against ours by the benchmarks), else a copy rebuilt for fn is freed again.
   template <class Fn>
   void with_cholmod_values(bool keep, Fn&& fn) const {
     const std::lock_guard<std::mutex> lock(cholmod_values);
-    const bool rebuilt = factor->x == nullptr;
-    if (rebuilt) {
-      factor->x = cholmod_malloc(factor->xsize, sizeof(double), &common);
-      if (factor->x == nullptr) throw std::bad_alloc();
-      unpack_values(view(), static_cast<double*>(factor->x));
-    }
     struct Release {
       const Impl* impl;
-      bool release;
+      bool release = false;
       ~Release() {
-        if (release) impl->factor->x = cholmod_free(impl->factor->xsize, sizeof(double), impl->factor->x, &impl->common);
+        if (release) impl->free_cholmod_copy();
       }
-    } release{this, rebuilt && !keep};
+    } release{this};
+    if (factor->x == nullptr) {
+      factor->x = cholmod_malloc(factor->xsize, sizeof(double), &common);
+      if (factor->x == nullptr) throw std::bad_alloc();
+      release.release = true;  // freed again if unpacking throws
+      unpack_values(view(), static_cast<double*>(factor->x));
+      cholmod_copy = true;
+      release.release = !keep;
+    }
     fn();
   }
   Impl() {
@@ -179,7 +196,7 @@ void CholmodSolver::factorize(const Eigen::SparseMatrix<double>& lower) {
   a.dtype = CHOLMOD_DOUBLE;
   a.sorted = 1;
   a.packed = 1;
-  cholmod_free_factor(&impl_->factor, &impl_->common);
+  impl_->reset();
   const bool small = lower.rows() < kNestedDissectionMin;
   impl_->common.method[0].ordering = small ? CHOLMOD_AMD : CHOLMOD_METIS;
   impl_->factor = cholmod_analyze(&a, &impl_->common);
@@ -193,11 +210,20 @@ void CholmodSolver::factorize(const Eigen::SparseMatrix<double>& lower) {
     const SerialOpenMP serial;
     cholmod_factorize(&a, impl_->factor, &impl_->common);
   }
-  if (impl_->common.status == CHOLMOD_NOT_POSDEF)
-    throw std::runtime_error("stiffness matrix is not positive definite (degenerate tetrahedra?)");
-  if (impl_->common.status < CHOLMOD_OK) throw std::runtime_error("CHOLMOD factorization failed");
-  impl_->entries_read = 0;
-  impl_->take_values();
+  try {
+    if (impl_->common.status == CHOLMOD_NOT_POSDEF)
+      throw std::runtime_error("stiffness matrix is not positive definite (degenerate tetrahedra?)");
+    if (impl_->common.status < CHOLMOD_OK) throw std::runtime_error("CHOLMOD factorization failed");
+    impl_->take_values();
+  } catch (...) {
+    impl_->reset();  // no factor rather than one without its values ("solve before factorize")
+    throw;
+  }
+}
+
+void CholmodSolver::release_cholmod_values() {
+  const std::lock_guard<std::mutex> lock(impl_->cholmod_values);
+  if (impl_->supernodal() && impl_->factor->x != nullptr) impl_->free_cholmod_copy();
 }
 
 void CholmodSolver::solve(VecX& b) const {
@@ -253,8 +279,8 @@ void CholmodSolver::solve_cholmod(VecX& b) const {
     if (!cholmod_solve2(CHOLMOD_A, impl_->factor, &rhs, nullptr, &impl_->x, nullptr, &impl_->y, &impl_->e,
                         &impl_->common))
       throw std::runtime_error("CHOLMOD solve failed");
+    std::copy_n(static_cast<const double*>(impl_->x->x), b.size(), b.data());
   });
-  std::copy_n(static_cast<const double*>(impl_->x->x), b.size(), b.data());
 }
 
 namespace {
@@ -313,8 +339,7 @@ Eigen::Index CholmodSolver::size() const {
 double CholmodSolver::factor_megabytes() const {
   const cholmod_factor* f = impl_->factor;
   if (f == nullptr) return 0;
-  const std::lock_guard<std::mutex> lock(impl_->cholmod_values);
-  const double values = f->x != nullptr ? static_cast<double>(f->xsize) : 0;  // CHOLMOD's, if in place
+  const double values = impl_->cholmod_copy ? static_cast<double>(f->xsize) : 0;  // CHOLMOD's, if there
   return (8.0 * (values + static_cast<double>(impl_->values.values.size())) +
           4.0 * static_cast<double>(f->ssize + 2 * f->n)) /
          1e6;
@@ -351,56 +376,67 @@ void CholmodSolver::save(std::ostream& out) const {
 }
 
 bool CholmodSolver::load(std::istream& in) {
-  std::uint64_t sizes[8];
-  if (!get(in, sizes, 8)) return false;
-  const std::uint64_t n = sizes[0], nsuper = sizes[1], ssize = sizes[2], xsize = sizes[3];
-  if (n == 0 || n > (1u << 30) || nsuper > n || ssize > (1ull << 34) || xsize > (1ull << 34)) return false;
-  cholmod_common* c = &impl_->common;
-  cholmod_free_factor(&impl_->factor, c);
-  cholmod_factor* f = cholmod_allocate_factor(n, c);
-  if (f == nullptr) return false;
-  // A simplicial symbolic factor with the supernodal sizes set converts to an empty supernodal
-  // numeric one of exactly those sizes; then the arrays are filled from the stream.
-  f->nsuper = nsuper;
-  f->ssize = ssize;
-  f->xsize = xsize;
-  f->ordering = static_cast<int>(sizes[6]);
-  impl_->factor = f;
-  if (!get(in, static_cast<int*>(f->Perm), n) || !get(in, static_cast<int*>(f->ColCount), n)) return false;
-  if (!cholmod_change_factor(CHOLMOD_REAL, 1, 1, 1, 1, f, c) || !f->is_super) return false;
-  // The conversion resets these; the supernodal solve sizes its workspace from maxesize.
-  f->maxcsize = sizes[4];
-  f->maxesize = sizes[5];
-  f->is_monotonic = static_cast<int>(sizes[7]);
-  if (!get(in, static_cast<int*>(f->super), nsuper + 1) || !get(in, static_cast<int*>(f->pi), nsuper + 1) ||
-      !get(in, static_cast<int*>(f->px), nsuper + 1) || !get(in, static_cast<int*>(f->s), ssize) ||
-      !get(in, static_cast<double*>(f->x), xsize))
-    return false;
-  // Structural sanity, so a corrupt file cannot send the solver out of bounds.
-  const int* super = static_cast<const int*>(f->super);
-  const int* pi = static_cast<const int*>(f->pi);
-  const int* px = static_cast<const int*>(f->px);
-  const int* perm = static_cast<const int*>(f->Perm);
-  if (super[0] != 0 || super[nsuper] != static_cast<int>(n) || pi[0] != 0 || px[0] != 0 ||
-      static_cast<std::uint64_t>(pi[nsuper]) > ssize || static_cast<std::uint64_t>(px[nsuper]) > xsize)
-    return false;
-  // Each supernode's rows include its own columns, and its values are its dense rows × columns block.
-  // cholmod_solve2 sizes its workspace for the rows below a diagonal block from maxesize.
-  for (std::uint64_t k = 0; k < nsuper; ++k) {
-    const long ncol = super[k + 1] - super[k], nrow = pi[k + 1] - pi[k];
-    if (ncol <= 0 || nrow < ncol || px[k + 1] - px[k] != nrow * ncol) return false;
-    if (static_cast<std::uint64_t>(nrow - ncol) > f->maxesize) return false;
+  impl_->reset();
+  auto read = [&]() -> bool {
+    std::uint64_t sizes[8];
+    if (!get(in, sizes, 8)) return false;
+    const std::uint64_t n = sizes[0], nsuper = sizes[1], ssize = sizes[2], xsize = sizes[3];
+    if (n == 0 || n > (1u << 30) || nsuper > n || ssize > (1ull << 34) || xsize > (1ull << 34)) return false;
+    cholmod_common* c = &impl_->common;
+    cholmod_factor* f = cholmod_allocate_factor(n, c);
+    if (f == nullptr) return false;
+    // A simplicial symbolic factor with the supernodal sizes set converts to an empty supernodal
+    // numeric one of exactly those sizes; then the arrays are filled from the stream.
+    f->nsuper = nsuper;
+    f->ssize = ssize;
+    f->xsize = xsize;
+    f->ordering = static_cast<int>(sizes[6]);
+    impl_->factor = f;
+    if (!get(in, static_cast<int*>(f->Perm), n) || !get(in, static_cast<int*>(f->ColCount), n)) return false;
+    if (!cholmod_change_factor(CHOLMOD_REAL, 1, 1, 1, 1, f, c) || !f->is_super) return false;
+    // The conversion resets these; the supernodal solve sizes its workspace from maxesize.
+    f->maxcsize = sizes[4];
+    f->maxesize = sizes[5];
+    f->is_monotonic = static_cast<int>(sizes[7]);
+    if (!get(in, static_cast<int*>(f->super), nsuper + 1) || !get(in, static_cast<int*>(f->pi), nsuper + 1) ||
+        !get(in, static_cast<int*>(f->px), nsuper + 1) || !get(in, static_cast<int*>(f->s), ssize) ||
+        !get(in, static_cast<double*>(f->x), xsize))
+      return false;
+    // Structural sanity, so a corrupt file cannot send the solver out of bounds.
+    const int* super = static_cast<const int*>(f->super);
+    const int* pi = static_cast<const int*>(f->pi);
+    const int* px = static_cast<const int*>(f->px);
+    const int* perm = static_cast<const int*>(f->Perm);
+    if (super[0] != 0 || super[nsuper] != static_cast<int>(n) || pi[0] != 0 || px[0] != 0 ||
+        static_cast<std::uint64_t>(pi[nsuper]) > ssize || static_cast<std::uint64_t>(px[nsuper]) > xsize)
+      return false;
+    // Each supernode's rows include its own columns, and its values are its dense rows × columns block.
+    // cholmod_solve2 sizes its workspace for the rows below a diagonal block from maxesize.
+    for (std::uint64_t k = 0; k < nsuper; ++k) {
+      const long ncol = super[k + 1] - super[k], nrow = pi[k + 1] - pi[k];
+      if (ncol <= 0 || nrow < ncol || nrow > static_cast<long>(n) - super[k] || px[k + 1] - px[k] != nrow * ncol)
+        return false;
+      if (static_cast<std::uint64_t>(nrow - ncol) > f->maxesize) return false;
+    }
+    std::vector<char> seen(n, 0);
+    for (std::uint64_t k = 0; k < n; ++k) {
+      if (perm[k] < 0 || static_cast<std::uint64_t>(perm[k]) >= n || seen[static_cast<size_t>(perm[k])]) return false;
+      seen[static_cast<size_t>(perm[k])] = 1;
+    }
+    const int* s = static_cast<const int*>(f->s);
+    for (std::uint64_t k = 0; k < ssize; ++k)
+      if (s[k] < 0 || static_cast<std::uint64_t>(s[k]) >= n) return false;
+    impl_->take_values();
+    return true;
+  };
+  try {
+    if (read()) return true;
+  } catch (...) {
+    impl_->reset();
+    throw;
   }
-  std::vector<char> seen(n, 0);
-  for (std::uint64_t k = 0; k < n; ++k) {
-    if (perm[k] < 0 || static_cast<std::uint64_t>(perm[k]) >= n || seen[static_cast<size_t>(perm[k])]) return false;
-    seen[static_cast<size_t>(perm[k])] = 1;
-  }
-  const int* s = static_cast<const int*>(f->s);
-  for (std::uint64_t k = 0; k < ssize; ++k)
-    if (s[k] < 0 || static_cast<std::uint64_t>(s[k]) >= n) return false;
-  impl_->take_values();
-  return true;
+  impl_->reset();  // no factor rather than a half-read one
+  return false;
 }
 
 }  // namespace distlab::kelvin

@@ -18,8 +18,13 @@ class CholmodSolver {
   CholmodSolver(const CholmodSolver&) = delete;
   CholmodSolver& operator=(const CholmodSolver&) = delete;
 
-  // lower: the lower triangle (with diagonal) of an SPD matrix, compressed column storage.
+  // lower: the lower triangle (with diagonal) of an SPD matrix, compressed column storage. If it
+  // throws, the solver holds no factor.
   void factorize(const Eigen::SparseMatrix<double>& lower);
+  // A supernodal factor's values are kept in the order solve() reads them (SolveValues, 0.62–0.66x
+  // the time of reading CHOLMOD's layout). CHOLMOD's own copy stays after factorize() and load()
+  // until this frees it; the calls that need it later rebuild it from the solve's copy.
+  void release_cholmod_values();
   // Solves A x = b in place (b must have size n): forward and back substitution over the
   // supernodal factor, skipping in the forward pass every supernode whose part of the permuted
   // right-hand side is still zero (b = −A_Ω∂ V_∂ of eq. 20 is nonzero only next to the boundary).
@@ -40,27 +45,27 @@ class CholmodSolver {
   // (heavier lane + the rest) / all, in factor entries read: the two-thread solve's share of the
   // one-thread time if reading entries is the cost (1: one lane).
   double critical_share() const;
-  // The same through CHOLMOD's own cholmod_solve2 (reference and benchmark baseline). The solver
-  // keeps the factor's values in the order its own solve reads them (SolveValues); the first
-  // call rebuilds CHOLMOD's layout beside them and keeps it (factor_megabytes grows by it).
+  // The same through CHOLMOD's own cholmod_solve2 (reference and benchmark baseline). It keeps
+  // CHOLMOD's copy of the values (rebuilt if released; factor_megabytes counts it).
   void solve_cholmod(VecX& b) const;
   // Solves A X = B in place for ncol columns (column-major, size() rows each) by cholmod_solve2,
   // block_columns at a time, two blocks at once on two threads, each with its own CHOLMOD
-  // workspace: safe beside any other solve, and the same bits on one thread or two. CHOLMOD's
-  // layout of the values is rebuilt for the call and freed after it.
-  // after_round(fraction done) runs on the calling thread after every two blocks; it may throw
-  // (Cancelled) to stop.
+  // workspace: safe beside solve(), and the same bits on one thread or two. A released copy of
+  // CHOLMOD's values is rebuilt for the call and freed after it; meanwhile save() and
+  // solve_cholmod() of this solver wait. after_round(fraction done) runs on the calling thread
+  // after every two blocks; it may throw (Cancelled) to stop, and must not call this solver.
   void solve_columns(double* b, long ncol, long block_columns, const std::function<void(double)>& after_round) const;
   // Share of the factor's entries read by the last solve() (forward and back together, in [0.5, 1]).
   double last_read_fraction() const;
   Eigen::Index size() const;
+  // The solve's values, CHOLMOD's copy while it is there, and the row indices.
   double factor_megabytes() const;
   // Bytes one solve() of a dense right-hand side reads from the factor, both passes: the entries
   // of entries_read (supernodal_solve.hpp) and the row indices below each diagonal block.
   double solve_megabytes() const;
 
   void save(std::ostream& out) const;
-  // Returns false if the stream does not hold a consistent factor.
+  // Returns false if the stream does not hold a consistent factor (the solver then holds none).
   bool load(std::istream& in);
 
  private:

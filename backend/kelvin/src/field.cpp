@@ -337,6 +337,7 @@ Field Field::prepare(const mesh::SurfaceMesh& surface, const PrepareOptions& opt
   auto impl = mesh_stage(std::move(valid), centre, options, std::move(oracle), progress);
   impl->build(progress);
   impl->factor(progress);
+  impl->solver.release_cholmod_values();
   impl->finish_stats();
   return Field(std::move(impl));
 }
@@ -687,6 +688,7 @@ Field Field::prepare_cached(const mesh::SurfaceMesh& surface, const PrepareOptio
     cached->build(progress);  // cheap; derived data are not stored
     // The factor must fit the rebuilt system, or the entry is not trusted.
     if (cached->solver.size() == static_cast<Eigen::Index>(cached->interior.size())) {
+      cached->solver.release_cholmod_values();
       cached->finish_stats();
       cached->stats.t_load = seconds_since(t0);
       if (options.feature_angle < 180 && cached->options.feature_angle >= 180)
@@ -703,6 +705,8 @@ Field Field::prepare_cached(const mesh::SurfaceMesh& surface, const PrepareOptio
   impl->finish_stats();
   progress("cache", 0.5);
   save_prepared(*impl, path, key, mac_key);
+  impl->solver.release_cholmod_values();  // saved: the solve's copy is enough from here
+  impl->finish_stats();
   progress("cache", 1.0);
   if (hit) *hit = false;
   return Field(std::move(impl));

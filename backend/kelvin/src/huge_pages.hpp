@@ -1,6 +1,6 @@
 #pragma once
 // Allocator for the large arrays a hint-less query reads at random (packed cells and vertices,
-// the seeding grid): blocks of 2 MB or more are 2 MB aligned and marked MADV_HUGEPAGE, so that
+// the seeding grid), and for the factor's values the solves stream: blocks of 2 MB or more are 2 MB aligned and marked MADV_HUGEPAGE, so that
 // transparent huge pages back them where the kernel allows it ("madvise" mode, Debian's
 // default). A random access into 100 MB of 4 KB pages misses the TLB almost every time, and on
 // a VM each miss is a two-level page walk; with 2 MB pages the TLB covers the whole mesh.

@@ -74,16 +74,17 @@ void backward_block(const double* v, int nrow, int ncol, double* u) {
     const long n = tiles(nrow, r0);
     Pair acc[kChunk];
     for (auto& a : acc) a = Pair{0, 0};
-    const double* t = tri + jb * jb + (n - 1) * 2 * jb;
-    const double* ur = u + r0 + (n - 1) * 2;
+    const double* tiles_begin = tri + jb * jb;
     if (jb < kChunk) {
-      for (long i = 0; i < n; ++i, t -= 2 * jb, ur -= 2) {
-        const Pair z = load_pair(ur);
+      for (long i = n; i-- > 0;) {
+        const double* t = tiles_begin + i * 2 * jb;
+        const Pair z = load_pair(u + r0 + 2 * i);
         for (int q = 0; q < jb; ++q) acc[q] += load_pair(t + 2 * q) * z;
       }
     } else {
-      for (long i = 0; i < n; ++i, t -= 2 * kChunk, ur -= 2) {
-        const Pair z = load_pair(ur);
+      for (long i = n; i-- > 0;) {
+        const double* t = tiles_begin + i * 2 * kChunk;
+        const Pair z = load_pair(u + r0 + 2 * i);
         for (int q = 0; q < kChunk; ++q) acc[q] += load_pair(t + 2 * q) * z;
       }
     }
