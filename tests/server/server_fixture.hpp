@@ -15,6 +15,7 @@
 #include <boost/beast/websocket.hpp>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -41,7 +42,8 @@ inline std::string temp_dir(const std::string& prefix) {
 class ServerProcess {
  public:
   // extra: more `distlab serve` options (limits). cache_dir "" makes a fresh one. max_open_files:
-  // the server's RLIMIT_NOFILE (0: inherited).
+  // the server's RLIMIT_NOFILE (0: inherited); a test that exhausts the server's descriptors sets
+  // it, so that sanitized runs know (ubsan_no_descriptors.supp).
   explicit ServerProcess(std::vector<std::string> extra = {}, std::string cache_dir = "", rlim_t max_open_files = 0)
       : max_open_files_(max_open_files) {
     ::signal(SIGPIPE, SIG_IGN);  // a server closing on a refused upload must not kill the test
@@ -112,6 +114,11 @@ class ServerProcess {
       if (max_open_files_ > 0) {
         const rlimit lim{max_open_files_, max_open_files_};
         ::setrlimit(RLIMIT_NOFILE, &lim);
+        // UBSan's vptr check cannot work without a free descriptor (ubsan_no_descriptors.supp).
+        const char* ubsan = std::getenv("UBSAN_OPTIONS");
+        const std::string options = std::string(ubsan != nullptr ? ubsan : "") + ":suppressions=" +
+                                    std::string(DISTLAB_SOURCE_DIR) + "/tests/server/ubsan_no_descriptors.supp";
+        ::setenv("UBSAN_OPTIONS", options.c_str(), 1);
       }
       ::dup2(fds[1], 1);
       ::close(fds[0]);
