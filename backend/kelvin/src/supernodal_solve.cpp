@@ -63,10 +63,8 @@ void forward_block(const double* v, int nrow, int ncol, double* u) {
 }
 
 // Back: u_own = L_kk⁻ᵀ (u_own − L_below,kᵀ u_below), chunks from the last one up, each chunk's
-// tiles from the last one up. u: as above (the pad zero).
-void backward_block(const double* v, int nrow, int ncol, double* u) {
-  const double* end = v;
-  for (int j0 = 0; j0 < ncol; j0 += kChunk) end += chunk_size(nrow, j0, std::min(kChunk, ncol - j0));
+// tiles from the last one up. end: the supernode's values end there. u: as above (the pad zero).
+void backward_block(const double* end, int nrow, int ncol, double* u) {
   for (int j0 = (ncol - 1) / kChunk * kChunk; j0 >= 0; j0 -= kChunk) {
     const int jb = std::min(kChunk, ncol - j0), r0 = j0 + jb;
     const double* tri = end - chunk_size(nrow, j0, jb);
@@ -140,7 +138,7 @@ void backward(const SupernodalFactor& f, int k, double* w, double* u) {
   std::copy_n(y, s.ncol, u);
   for (int i = 0; i < s.nbelow; ++i) u[s.ncol + i] = w[s.rows_below[i]];
   u[s.nrow] = 0;
-  backward_block(s.block, s.nrow, s.ncol, u);
+  backward_block(f.values + f.start[k + 1], s.nrow, s.ncol, u);
   std::copy_n(u, s.ncol, y);
 }
 }  // namespace
