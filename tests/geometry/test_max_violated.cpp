@@ -6,7 +6,6 @@
 
 #include <bit>
 #include <cmath>
-#include <numbers>
 #include <random>
 #include <vector>
 
@@ -158,6 +157,37 @@ TEST(MaxViolated, DegenerateLatticeNormalsMatchOracle) {
     EXPECT_EQ(max_violated_halfspaces(unit_rows(A)), oracle(A, VecX::Ones(n)));
     ++tested;
   }
+}
+
+// The O(n² log n) bound: equal to the exact count on random rows (general position, where each
+// arrangement vertex has two ties), never below it on degenerate ones, and equal to the oracle on
+// the random polytopes above.
+TEST(MaxViolated, BoundEqualsExactInGeneralPositionAndNeverUndercounts) {
+  std::mt19937 rng(4242);
+  std::normal_distribution<double> gauss;
+  for (int n : {4, 5, 8, 13, 30, 60, 120}) {
+    for (int trial = 0; trial < 6; ++trial) {
+      MatX3 A(n, 3);
+      for (int k = 0; k < n; ++k) A.row(k) = Vec3(gauss(rng), gauss(rng), gauss(rng)).normalized().transpose();
+      SCOPED_TRACE(::testing::Message() << "n=" << n << " trial=" << trial);
+      EXPECT_EQ(max_violated_halfspaces_bound(A), max_violated_halfspaces(A));
+    }
+  }
+  // Degenerate: a prism's 8 side normals on one great circle (the oracle is a subset search), and
+  // lattice normals.
+  // Integer rows for the oracle (exact), unit rows for the functions, as above.
+  const MatX3 prism = rows({{1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {-1, 1, 0}, {-1, 0, 0}, {-1, -1, 0}, {0, -1, 0}, {1, -1, 0}, {0, 0, 1}, {0, 0, -1}});
+  const int exact = max_violated_halfspaces(unit_rows(prism));
+  EXPECT_EQ(exact, oracle(prism, VecX::Ones(10)));
+  EXPECT_GE(max_violated_halfspaces_bound(unit_rows(prism)), exact);
+  std::vector<Vec3> dirs;
+  for (int x = -1; x <= 1; ++x)
+    for (int y = -1; y <= 1; ++y)
+      for (int z = -1; z <= 1; ++z)
+        if (x || y || z) dirs.emplace_back(x, y, z);
+  MatX3 lattice(static_cast<Eigen::Index>(dirs.size()), 3);
+  for (std::size_t k = 0; k < dirs.size(); ++k) lattice.row(static_cast<Eigen::Index>(k)) = dirs[k].normalized().transpose();
+  EXPECT_GE(max_violated_halfspaces_bound(lattice), max_violated_halfspaces(lattice));
 }
 
 TEST(MaxViolated, ParallelRowsFallBack) {

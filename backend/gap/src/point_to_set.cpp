@@ -140,7 +140,7 @@ PointToSet::PointToSet(const Shape& shape, const BaseFunction& phi, const Strict
   } else if (rows > 0) {
     if (!std::isfinite(options.weight_margin) || options.weight_margin <= 0)
       throw InvalidInput("params.weight_margin", "weight_margin must be finite and > 0");
-    const int m = max_violated_halfspaces(A_local_);
+    const int m = rows <= kExactViolatedRows ? max_violated_halfspaces(A_local_) : max_violated_halfspaces_bound(A_local_);
     weights_ = VecX::Constant(rows, 1.0 / (m + options.weight_margin));
   } else if (options.round_weight) {
     if (!(*options.round_weight > 0 && *options.round_weight <= 1))

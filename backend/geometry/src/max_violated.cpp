@@ -82,4 +82,52 @@ int max_violated_halfspaces(const MatX3& A) {
   return best;
 }
 
+int max_violated_halfspaces_bound(const MatX3& A) {
+  const Eigen::Index n = A.rows();
+  if (n < 3) return max_violated_halfspaces(A);
+  // On the great circle {d : a_i . d = 0}, d(θ) = cos θ e1 + sin θ e2 and a_k . d = r_k cos(θ − φ_k):
+  // row k is not strictly negative (a_k . d >= -kTol) on the closed arc |θ − φ_k| <= acos(−kTol/r_k),
+  // or everywhere when r_k <= kTol. U(v) = #{k : a_k . v >= −kTol} = pos(v) + ties(v) bounds the
+  // count of every cell at v (pos(v) + the ties' best half circle), so the largest U over the
+  // arrangement's vertices bounds the largest count; it is that count where a vertex's ties lie in
+  // one open half circle (e.g. two rows in general position).
+  std::vector<double> start, end, candidates;
+  int best = 0;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const Vec3 ai = A.row(i);
+    const Vec3 e1 = ai.unitOrthogonal(), e2 = ai.cross(e1).normalized();
+    start.clear();
+    end.clear();
+    candidates.clear();
+    int always = 0;
+    for (Eigen::Index k = 0; k < n; ++k) {
+      const Vec3 ak = A.row(k);
+      const double p = ak.dot(e1), q = ak.dot(e2), r = std::hypot(p, q);
+      if (r <= kTol) {
+        ++always;
+        continue;
+      }
+      const double phi = std::atan2(q, p), half = std::acos(std::max(-1.0, -kTol / r));
+      double s0 = phi - half;
+      while (s0 < 0) s0 += 2 * std::numbers::pi;
+      while (s0 >= 2 * std::numbers::pi) s0 -= 2 * std::numbers::pi;
+      start.push_back(s0);
+      end.push_back(s0 + 2 * half);
+      if (ai.cross(ak).norm() > 1e-12)  // a vertex ±(a_i × a_k) of the arrangement on this circle
+        for (double t : {phi + std::numbers::pi / 2, phi - std::numbers::pi / 2})
+          candidates.push_back(t - 2 * std::numbers::pi * std::floor(t / (2 * std::numbers::pi)));
+    }
+    std::sort(start.begin(), start.end());
+    std::sort(end.begin(), end.end());
+    for (const double t : candidates) {
+      // Closed arcs [s, e] (e < s + 2π, s in [0, 2π)) holding t: s <= t <= e, or s <= t + 2π <= e.
+      const auto started = std::upper_bound(start.begin(), start.end(), t) - start.begin();
+      const auto ended = std::lower_bound(end.begin(), end.end(), t) - end.begin();
+      const auto wrapped = end.end() - std::lower_bound(end.begin(), end.end(), t + 2 * std::numbers::pi);
+      best = std::max(best, always + static_cast<int>(started - ended + wrapped));
+    }
+  }
+  return best > 0 ? best : max_violated_halfspaces(A);
+}
+
 }  // namespace distlab

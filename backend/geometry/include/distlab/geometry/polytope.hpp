@@ -31,4 +31,11 @@ Polytope polytope_from_points(const std::vector<Vec3>& points, const std::string
 // which is found on the arrangement's vertices +-(a_i x a_j).
 int max_violated_halfspaces(const MatX3& A_unit_rows);
 
+// An upper bound of max_violated_halfspaces in O(n² log n) instead of its O(n³), equal to it where
+// the rows are in general position (each arrangement vertex on exactly two great circles): for
+// polytopes of many rows, e.g. the convex hulls of robots' collision meshes (W_i = 1/(m̄ + eps)
+// with m̄ >= m keeps Property 2). The P2S functions use it above kExactViolatedRows rows.
+int max_violated_halfspaces_bound(const MatX3& A_unit_rows);
+inline constexpr int kExactViolatedRows = 256;
+
 }  // namespace distlab
