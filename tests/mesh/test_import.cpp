@@ -288,6 +288,40 @@ TEST(MeshImport, StlVerticesAreCornersInOrderOfFirstAppearance) {
 
 // Each hostile file is refused with InvalidInput naming the field, without a crash and without
 // allocating what the file declares (peak RSS grows by less than 200 MB over all of them).
+// Collada (the format of many URDF collision meshes) through assimp: the file's <unit meter> scales
+// the vertices, its up_axis does not rotate them (URDF's convention), and the vertices keep the
+// file's order. A Z_UP file in millimetres: vertex (x, y, z) mm is read as (x, y, z) / 1000 m.
+TEST(MeshImport, ColladaAppliesItsUnitNotItsUpAxis) {
+  const std::string dae = R"(<?xml version="1.0" encoding="utf-8"?>
+<COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema" version="1.4.1">
+  <asset><unit name="millimeter" meter="0.001"/><up_axis>Z_UP</up_axis></asset>
+  <library_geometries><geometry id="g"><mesh>
+    <source id="p"><float_array id="pa" count="12">0 0 0 100 0 0 0 200 0 0 0 300</float_array>
+      <technique_common><accessor source="#pa" count="4" stride="3">
+        <param name="X" type="float"/><param name="Y" type="float"/><param name="Z" type="float"/>
+      </accessor></technique_common></source>
+    <vertices id="v"><input semantic="POSITION" source="#p"/></vertices>
+    <triangles count="4"><input semantic="VERTEX" source="#v" offset="0"/><p>0 2 1 0 1 3 0 3 2 1 2 3</p></triangles>
+  </mesh></geometry></library_geometries>
+  <library_visual_scenes><visual_scene id="s"><node id="n"><instance_geometry url="#g"/></node></visual_scene></library_visual_scenes>
+  <scene><instance_visual_scene url="#s"/></scene>
+</COLLADA>)";
+  const SurfaceMesh m = load_mesh(write_file("tet.dae", dae).string());
+  ASSERT_EQ(m.faces.rows(), 4);
+  // assimp may repeat a vertex per face corner; the distinct positions, in order of first use, are the file's.
+  std::vector<Vec3> seen;
+  for (Eigen::Index f = 0; f < m.faces.rows(); ++f)
+    for (int c = 0; c < 3; ++c) {
+      const Vec3 v = m.vertices.row(m.faces(f, c));
+      if (std::find(seen.begin(), seen.end(), v) == seen.end()) seen.push_back(v);
+    }
+  ASSERT_EQ(seen.size(), 4u);
+  const std::vector<Vec3> expected = {{0, 0, 0}, {0, 0.2, 0}, {0.1, 0, 0}, {0, 0, 0.3}};  // first use: 0 2 1, then 3
+  // assimp holds coordinates as floats: equal to float rounding (2^-24 relative).
+  for (std::size_t i = 0; i < 4; ++i) EXPECT_LE((seen[i] - expected[i]).norm(), 6e-8 * expected[i].norm()) << i;
+  EXPECT_THROW(load_mesh(write_file("broken.dae", "<COLLADA><library_geometries>").string()), InvalidInput);
+}
+
 TEST(MeshImport, HostileFilesAreRefusedWithoutExhaustion) {
   rusage before{};
   ::getrusage(RUSAGE_SELF, &before);

@@ -7,6 +7,7 @@
 #include <CGAL/IO/STL.h>
 #include <CGAL/Simple_cartesian.h>
 #include <assimp/DefaultIOSystem.h>
+#include <assimp/config.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 #include <assimp/Exporter.hpp>
@@ -429,28 +430,34 @@ std::vector<std::optional<std::size_t>> gltf_declared_triangles(const std::strin
   return out;
 }
 
-// glTF/GLB through assimp (no post-processing that moves vertices): each mesh's vertices in its
-// accessor's order, meshes in the order the node tree (depth first) places them, with the
-// nodes' transforms applied.
-void read_gltf(const std::string& path, std::vector<Point>& points, Soup& soup, const std::string& field) {
+// glTF/GLB and Collada (format "dae") through assimp (no post-processing that moves vertices):
+// each mesh's vertices in its accessor's order, meshes in the order the node tree (depth first)
+// places them, with the nodes' transforms applied. Collada: its <unit meter> scale is applied and
+// its up_axis is not (URDF's convention: coordinates as the file writes them, in its unit).
+void read_assimp(const std::string& path, const std::string& format, std::vector<Point>& points, Soup& soup,
+                 const std::string& field) {
   Assimp::Importer importer;
   importer.SetIOHandler(new OnlyThisFile(path));  // owned by the importer
+  importer.SetPropertyBool(AI_CONFIG_IMPORT_COLLADA_IGNORE_UP_DIRECTION, true);
   std::string ext = std::filesystem::path(path).extension().string();
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  // A path without the extension (an upload's anonymous file) is a self-contained GLB: read from
-  // memory with the format as assimp's hint.
-  const std::string bytes = ext == ".glb" || ext == ".gltf" ? std::string() : read_all(path);
+  // A path without its format's extension (an upload's anonymous file) is read from memory with
+  // the format as assimp's hint (glTF: a self-contained GLB).
+  const bool named = format == "dae" ? ext == ".dae" : ext == ".glb" || ext == ".gltf";
+  const std::string bytes = named ? std::string() : read_all(path);
+  const char* hint = format == "dae" ? "dae" : "glb";
   const aiScene* scene = bytes.empty() ? importer.ReadFile(path, aiProcess_ValidateDataStructure)
-                                       : importer.ReadFileFromMemory(bytes.data(), bytes.size(), aiProcess_ValidateDataStructure, "glb");
+                                       : importer.ReadFileFromMemory(bytes.data(), bytes.size(), aiProcess_ValidateDataStructure, hint);
   if (scene == nullptr || scene->mRootNode == nullptr) {
     // assimp's message may quote the path (a server temp name): say "the file" instead.
     std::string why = importer.GetErrorString();
     for (const std::string& name : {path, std::filesystem::path(path).filename().string()})
       for (std::size_t at; !name.empty() && (at = why.find(name)) != std::string::npos;) why.replace(at, name.size(), "the file");
-    throw InvalidInput(field, "cannot read the glTF file: " + why);
+    throw InvalidInput(field, std::string("cannot read the ") + (format == "dae" ? "Collada" : "glTF") + " file: " + why);
   }
   // Totals, not primitive by primitive: assimp does not keep the file's primitive order.
-  const auto declared = gltf_declared_triangles(bytes.empty() ? read_all(path) : bytes);
+  const auto declared = format == "dae" ? std::vector<std::optional<std::size_t>>{}
+                                        : gltf_declared_triangles(bytes.empty() ? read_all(path) : bytes);
   if (declared.size() == scene->mNumMeshes && std::all_of(declared.begin(), declared.end(), [](auto& d) { return d.has_value(); })) {
     std::size_t want = 0, got = 0;
     for (unsigned m = 0; m < scene->mNumMeshes; ++m) want += *declared[m], got += scene->mMeshes[m]->mNumFaces;
@@ -540,9 +547,11 @@ SurfaceMesh load_mesh(const std::string& path, const std::string& field, const s
       ok = CGAL::IO::read_OBJ(text, points, soup, quiet);
     } else if (ext == ".gltf" || ext == ".glb") {
       if (ext == ".glb") check_glb(read_all(path), field);
-      read_gltf(path, points, soup, field);
+      read_assimp(path, "glb", points, soup, field);
+    } else if (ext == ".dae") {
+      read_assimp(path, "dae", points, soup, field);
     } else {
-      throw InvalidInput(field, "unsupported mesh format '" + ext + "' (use stl, obj, ply, off, gltf or glb)");
+      throw InvalidInput(field, "unsupported mesh format '" + ext + "' (use stl, obj, ply, off, gltf, glb or dae)");
     }
   } catch (const CGAL::Failure_exception&) {
     ok = false;  // a CGAL precondition on malformed input (debug builds)

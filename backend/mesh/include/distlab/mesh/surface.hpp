@@ -26,7 +26,7 @@ struct SurfaceMesh {
 // k-corner fan)" for a polygon; "face t" when polygon_corners is empty or does not match faces.
 std::string file_face_name(const SurfaceMesh& mesh, Eigen::Index triangle);
 
-// Reads OFF, OBJ, PLY, STL (CGAL's polygon-soup readers) and glTF/GLB (assimp), chosen by the
+// Reads OFF, OBJ, PLY, STL (CGAL's polygon-soup readers) and glTF/GLB and Collada DAE (assimp), chosen by the
 // file's extension. The vertices are the file's own, in the file's order: a position listed twice
 // keeps both entries (nothing is welded here), and faces index them. Polygons with more than three
 // vertices become fans around their first vertex, in the file's face order: the file's face f with
@@ -40,7 +40,8 @@ std::string file_face_name(const SurfaceMesh& mesh, Eigen::Index triangle);
 //   STL: which has none, the distinct corner positions in order of first appearance (facet by
 //        facet, three corners each): corners at the same position are one vertex;
 //   glTF/GLB: each primitive's POSITION accessor in order, primitives in the order the node tree
-//        (depth first) places them, node transforms applied.
+//        (depth first) places them, node transforms applied;
+//   DAE: as glTF, with its <unit meter> applied and its up_axis ignored (URDF's convention).
 // Declared counts (OFF header, PLY elements, binary STL) are checked against the file's size
 // before anything is read, every face index is bounds-checked and every coordinate must be
 // finite. Throws InvalidInput(field) for anything else; messages never quote the path.
