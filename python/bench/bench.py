@@ -1,6 +1,7 @@
 """Benchmarks of distlab from Python, beside the C++ benchmark programs; prints a table and JSON.
 
   PYTHONPATH=build/python /usr/bin/python3 python/bench/bench.py [--pairs 100000] [--json FILE]
+      [--only gap|kelvin|robot ...] [--robot-n 10000]
 
 1. Batched GAP per pair (distlab.gap.distance over N poses) on the pairs of distlab-bench-gap's
    benchmark 1 (10-half-space polytopes, W_i = 1/6, k = 2, h = 0.1, ε = 0.01, σ = 0.989, Newton
@@ -14,12 +15,24 @@
    pass) and not what a batched caller sees.
 2. Kelvin batched query per point (Field.query: one call, GIL released, the points array read in
    place), with and without hints, on a prepared cube, in process CPU time.
+3. Robot distances per configuration (issue 32: Python <= 1.1x C++): Robot.load("panda").distances
+   with corridor_narrow's three boxes (read from assets/scenarios/corridor_narrow.json, its GAP
+   params too) on the configurations distlab-bench-robot times (--save-path, same run, its --json
+   beside them), one thread: GAP tracked and cold (tracking=False), Euclidean; obstacle pairs and
+   obstacles + self ("both"). Each combination's model is built by a first call (the cache a
+   user's batches hit), then the cases run --repeat times interleaved, as the C++ program runs
+   them; Python's process CPU time against the C++ program's (the same measure), median and best.
+   Also the minor page faults per Python call: the fresh output arrays' first touch, which the C++
+   program (reusing its freed heap on one thread) does not pay.
+   The work is checked to be the same: finite distances, the Euclidean minima equal to the C++
+   program's FCL minima, and the mean Newton iterations per pair equal to the C++ program's.
 """
 
 import argparse
 import json
 import os
 import pathlib
+import resource
 import subprocess
 import tempfile
 import time
@@ -27,6 +40,7 @@ import time
 import numpy as np
 
 from distlab import gap, kelvin
+from distlab.robot import Robot
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
@@ -122,6 +136,116 @@ def bench_kelvin(args):
             "query_us_per_point_hints": with_hints, "query_us_per_point_no_hints": without}
 
 
+def bench_robot(args, exe):
+    scenario = json.load(open(ROOT / "assets" / "scenarios" / "corridor_narrow.json"))
+    # The scenario lists {"name", "shape": {type, size, pose}}; distances() takes shape dicts with a "name".
+    obstacles = [dict(o["shape"], name=o["name"]) for o in scenario["obstacles"]]
+    params = scenario["gap"]
+    robot = Robot.load(scenario["robot"])
+    load_before = os.getloadavg()
+    with tempfile.TemporaryDirectory() as tmp:
+        q_path, json_path = os.path.join(tmp, "q.f64"), os.path.join(tmp, "robot.json")
+        subprocess.run([exe, "--n", str(args.robot_n), "--repeat", str(args.repeat), "--assets", str(ROOT / "assets"),
+                        "--save-path", q_path, "--json", json_path], check=True, capture_output=True)
+        q = np.fromfile(q_path, dtype="<f8")
+        cpp = json.load(open(json_path))
+    n = cpp["configurations"]
+    assert q.size == n * robot.dof, (q.size, n, robot.dof)
+    q = q.reshape(n, robot.dof)
+
+    # (metric, pairs, tracking): the C++ program's 1-thread cases (Euclidean has nothing to track).
+    cases = [(m, p, t) for m in ("gap", "euclidean") for p in ("obstacles", "both")
+             for t in ((True, False) if m == "gap" else (True,))]
+
+    def run(case):
+        m, p, t = case
+        return robot.distances(q, obstacles, metric=m, pairs=p, params=params, threads=1, tracking=t)
+
+    for m in ("gap", "euclidean"):  # build each model once (validate included), as a user's first call does
+        for p in ("obstacles", "both"):
+            robot.distances(q[:2], obstacles, metric=m, pairs=p, params=params, threads=1)
+    cpu = {c: [] for c in cases}
+    faults = {c: [] for c in cases}
+    results = {}
+    for r in range(args.repeat):  # interleaved, so that every case sees the same load
+        for c in cases:
+            f0 = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+            c0 = time.process_time()
+            d = run(c)
+            cpu[c].append((time.process_time() - c0) / n * 1e6)
+            faults[c].append(resource.getrusage(resource.RUSAGE_SELF).ru_minflt - f0)
+            if r == 0:
+                results[c] = d
+    load_after = os.getloadavg()
+
+    # The same work: finite; the Euclidean minima are the C++ program's FCL minima (the same pairs:
+    # obstacle pairs first, then the self pairs); Newton iterations as the C++ program's.
+    for c, d in results.items():
+        assert np.isfinite(d.distance).all() and np.isfinite(d.jacobian).all(), c
+    n_obstacle_pairs = results[("euclidean", "obstacles", True)].distance.shape[1]
+    e = results[("euclidean", "both", True)].distance
+    min_e = {"obstacles": float(e[:, :n_obstacle_pairs].min()), "self": float(e[:, n_obstacle_pairs:].min())}
+    min_fcl = cpp["min_fcl_distance"]
+    min_diff = max(abs(min_e[k] - min_fcl[k]) for k in min_e)
+    if cpp["overlapping_pair_distances"] == 0:
+        assert min_diff < 1e-6, (min_e, min_fcl)
+    g = results[("gap", "both", True)].distance
+    min_gap = {"obstacles": float(g[:, :n_obstacle_pairs].min()), "self": float(g[:, n_obstacle_pairs:].min())}
+    tracked_vs_cold = max(float(np.abs(results[("gap", p, True)].distance - results[("gap", p, False)].distance).max())
+                          for p in ("obstacles", "both"))
+
+    def cpp_case(m, p, t):
+        name = "obstacles+self" if p == "both" else p
+        (x,) = [x for x in cpp["cases"]
+                if x["metric"] == m and x["pairs"] == name and x["threads"] == 1 and x["tracking"] == t]
+        return x
+
+    rows = []
+    for c in cases:
+        x = cpp_case(*c)
+        py_med, py_best = float(np.median(cpu[c])), min(cpu[c])
+        cpp_med, cpp_best = x["cpu_us_per_configuration"], min(x.get("runs_cpu_us", [x["cpu_us_per_configuration"]]))
+        rows.append({"metric": c[0], "pairs": c[1], "tracking": c[2], "pair_count": results[c].distance.shape[1],
+                     "python_cpu_us_per_configuration": py_med, "python_cpu_us_best": py_best,
+                     "python_runs_cpu_us": cpu[c], "python_minor_page_faults_per_call": int(np.median(faults[c])),
+                     "cpp_cpu_us_per_configuration": cpp_med, "cpp_cpu_us_best": cpp_best,
+                     "cpp_wall_us_per_configuration": x["us_per_configuration"],
+                     "python_over_cpp": py_med / cpp_med, "python_over_cpp_best": py_best / cpp_best,
+                     "python_newton_iterations_per_pair": float(results[c].iterations.mean()),
+                     "cpp_newton_iterations_per_pair": x["newton_iterations_per_pair"]})
+    return {"configurations": n, "repeat": args.repeat, "threads": 1, "params": params,
+            "loadavg_before": load_before, "loadavg_after": load_after,
+            "cpp_loadavg_before": cpp["loadavg_before"], "cpp_loadavg_after": cpp["loadavg_after"],
+            "min_euclidean": min_e, "min_fcl_cpp": min_fcl, "min_euclidean_minus_fcl_max": min_diff,
+            "cpp_overlapping_pair_distances": cpp["overlapping_pair_distances"], "min_gap": min_gap,
+            "gap_tracked_minus_cold_max": tracked_vs_cold, "cases": rows}
+
+
+def print_robot(r):
+    print(f"Robot distances: Panda, corridor_narrow's 3 boxes, {r['configurations']} configurations of "
+          f"distlab-bench-robot's path (same run), 1 thread, process CPU time per configuration, "
+          f"median (best) of {r['repeat']} interleaved runs")
+    print("  load average (1/5/15 min): Python before {:.2f} {:.2f} {:.2f}, after {:.2f} {:.2f} {:.2f}; "
+          "C++ before {}, after {}; {} cores".format(*r["loadavg_before"], *r["loadavg_after"],
+                                                     r["cpp_loadavg_before"], r["cpp_loadavg_after"], os.cpu_count()))
+    print(f"  {'metric':<9} {'pairs':<10} {'P':>3} {'mode':<8} | {'Python us':>17} | {'C++ us':>17} | "
+          f"{'Python/C++':>13} | {'faults/call':>11} | Newton it/pair Py, C++")
+    for c in r["cases"]:
+        mode = ("tracked" if c["tracking"] else "cold") if c["metric"] == "gap" else "-"
+        print(f"  {c['metric']:<9} {c['pairs']:<10} {c['pair_count']:>3} {mode:<8} | "
+              f"{c['python_cpu_us_per_configuration']:7.2f} ({c['python_cpu_us_best']:7.2f}) | "
+              f"{c['cpp_cpu_us_per_configuration']:7.2f} ({c['cpp_cpu_us_best']:7.2f}) | "
+              f"{c['python_over_cpp']:5.3f} ({c['python_over_cpp_best']:5.3f}) | "
+              f"{c['python_minor_page_faults_per_call']:>11} | "
+              f"{c['python_newton_iterations_per_pair']:.4f}, {c['cpp_newton_iterations_per_pair']:.4f}")
+    print(f"  checks: distances and Jacobians finite; smallest Euclidean distance, obstacle pairs / self pairs: "
+          f"Python {r['min_euclidean']['obstacles']:.6f} / {r['min_euclidean']['self']:.6f} m, C++ FCL "
+          f"{r['min_fcl_cpp']['obstacles']:.6f} / {r['min_fcl_cpp']['self']:.6f} m "
+          f"(largest difference {r['min_euclidean_minus_fcl_max']:.1e}); smallest GAP D "
+          f"{r['min_gap']['obstacles']:.6f} / {r['min_gap']['self']:.6f}; "
+          f"GAP tracked - cold, largest |difference| {r['gap_tracked_minus_cold_max']:.1e}")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--pairs", type=int, default=100_000, help="GAP pairs from Python")
@@ -130,36 +254,59 @@ def main():
     ap.add_argument("--points", type=int, default=200_000, help="Kelvin query points (about)")
     ap.add_argument("--lx", type=float, default=0.1)
     ap.add_argument("--repeat", type=int, default=3, help="best of this many runs")
+    ap.add_argument("--robot-n", type=int, default=10_000, help="robot configurations (distlab-bench-robot --n)")
     ap.add_argument("--bench-gap", default=str(ROOT / "build" / "backend" / "app" / "distlab-bench-gap"))
+    ap.add_argument("--bench-robot", default=str(ROOT / "build" / "backend" / "app" / "distlab-bench-robot"))
+    ap.add_argument("--only", action="append", choices=["gap", "kelvin", "robot"],
+                    help="run only this section (repeatable; default all)")
     ap.add_argument("--json", default=None, help="also write the JSON here")
     args = ap.parse_args()
+    only = set(args.only or ["gap", "kelvin", "robot"])
 
-    g = bench_gap(args, args.bench_gap)
-    k = bench_kelvin(args)
-    rows = [
-        ("GAP Newton per pair, Python batched, 1 thread (CPU)", g["python_1_thread_cpu_us_per_pair"], "us"),
-        ("  the same, wall time", g["python_1_thread_wall_us_per_pair"], "us"),
-        ("  2 threads, wall time", g["python_2_threads_wall_us_per_pair"], "us"),
-        ("  throughput 2 threads / 1 thread (wall)", g["throughput_2_threads_over_1"], "x"),
-        ("  CPU time 2 threads / 1 thread (1: no parallel overhead)", g["cpu_2_threads_over_1"], "x"),
-        (f"GAP Newton per pair, same {g['same_pairs']} pairs: Python (CPU)", g["python_same_pairs_cpu_us_per_pair"], "us"),
-        ("  C++ distlab-bench-gap, whole pass as one (CPU), fastest pass", g["cpp_newton_batch_cpu_us_per_pair"], "us"),
-        ("  Python / C++ (both: a whole pass, CPU time, fastest)", g["python_over_cpp"], "x"),
-        ("  C++ distlab-bench-gap, mean of per-pair minima", g["cpp_newton_us_per_pair_mean"], "us"),
-        ("  Python / C++ per-pair minima (not like for like)", g["python_over_cpp_per_pair_minima"], "x"),
-        ("FCL distance per pair (C++, same pairs), mean", g["fcl_distance_us_per_pair_mean"], "us"),
-        ("Kelvin query per point, hints, grid order (CPU)", k["query_us_per_point_hints"], "us"),
-        ("Kelvin query per point, no hints, random order (CPU)", k["query_us_per_point_no_hints"], "us"),
-    ]
-    print(f"GAP: {g['pairs']} pairs; Kelvin: cube, lx {k['lx']}, {k['n_verts']} vertices, {k['points']} points; "
-          f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
-    for name, value, unit in rows:
-        print(f"  {name:<64} {value:9.3f} {unit}")
-    result = {"gap": g, "kelvin": k}
+    result = {}
+    if only & {"gap", "kelvin"}:
+        print_gap_kelvin(args, only, result)
+    if "robot" in only:
+        result["robot"] = bench_robot(args, args.bench_robot)
+        print_robot(result["robot"])
     print(json.dumps(result, indent=2))
     if args.json:
         with open(args.json, "w") as f:
             json.dump(result, f, indent=2)
+
+
+def print_gap_kelvin(args, only, result):
+    rows = []
+    if "gap" in only:
+        g = result["gap"] = bench_gap(args, args.bench_gap)
+        rows += [
+            ("GAP Newton per pair, Python batched, 1 thread (CPU)", g["python_1_thread_cpu_us_per_pair"], "us"),
+            ("  the same, wall time", g["python_1_thread_wall_us_per_pair"], "us"),
+            ("  2 threads, wall time", g["python_2_threads_wall_us_per_pair"], "us"),
+            ("  throughput 2 threads / 1 thread (wall)", g["throughput_2_threads_over_1"], "x"),
+            ("  CPU time 2 threads / 1 thread (1: no parallel overhead)", g["cpu_2_threads_over_1"], "x"),
+            (f"GAP Newton per pair, same {g['same_pairs']} pairs: Python (CPU)", g["python_same_pairs_cpu_us_per_pair"], "us"),
+            ("  C++ distlab-bench-gap, whole pass as one (CPU), fastest pass", g["cpp_newton_batch_cpu_us_per_pair"], "us"),
+            ("  Python / C++ (both: a whole pass, CPU time, fastest)", g["python_over_cpp"], "x"),
+            ("  C++ distlab-bench-gap, mean of per-pair minima", g["cpp_newton_us_per_pair_mean"], "us"),
+            ("  Python / C++ per-pair minima (not like for like)", g["python_over_cpp_per_pair_minima"], "x"),
+            ("FCL distance per pair (C++, same pairs), mean", g["fcl_distance_us_per_pair_mean"], "us"),
+        ]
+    if "kelvin" in only:
+        k = result["kelvin"] = bench_kelvin(args)
+        rows += [
+            ("Kelvin query per point, hints, grid order (CPU)", k["query_us_per_point_hints"], "us"),
+            ("Kelvin query per point, no hints, random order (CPU)", k["query_us_per_point_no_hints"], "us"),
+        ]
+    what = []
+    if "gap" in result:
+        what.append(f"GAP: {result['gap']['pairs']} pairs")
+    if "kelvin" in result:
+        k = result["kelvin"]
+        what.append(f"Kelvin: cube, lx {k['lx']}, {k['n_verts']} vertices, {k['points']} points")
+    print(f"{'; '.join(what)}; load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
+    for name, value, unit in rows:
+        print(f"  {name:<64} {value:9.3f} {unit}")
 
 
 if __name__ == "__main__":

@@ -1,8 +1,10 @@
-"""distlab from Python: the GAP metric, the Kelvin semantics-aware distance and the CBF rollouts
-in-process (numpy in, numpy out, through the same C++ code and request validation as the
-``distlab`` CLI), and :class:`Client` for the HTTP/WebSocket service.
+"""distlab from Python: the GAP metric, the Kelvin semantics-aware distance, the CBF rollouts and
+robots as a library (every distance of a URDF robot with its joint-space Jacobian) in-process
+(numpy in, numpy out, through the same C++ code and request validation as the ``distlab`` CLI),
+and :class:`Client` for the HTTP/WebSocket service.
 
-Modules: :mod:`distlab.gap`, :mod:`distlab.kelvin`, :mod:`distlab.cbf`, :mod:`distlab.client`.
+Modules: :mod:`distlab.gap`, :mod:`distlab.kelvin`, :mod:`distlab.cbf`, :mod:`distlab.robot`,
+:mod:`distlab.client`.
 """
 
 import os as _os
@@ -29,10 +31,10 @@ def executable(name: str = "distlab") -> str:
     return _os.path.join(bin_dir, name)
 
 
-from . import cbf, gap, kelvin  # noqa: E402  (after DISTLAB_ASSETS is set)
+from . import cbf, gap, kelvin, robot  # noqa: E402  (after DISTLAB_ASSETS is set)
 from .errors import InvalidInput, InvalidInputType  # noqa: E402
 
-__all__ = ["gap", "kelvin", "cbf", "Client", "InvalidInput", "InvalidInputType", "assets_dir", "web_dir",
+__all__ = ["gap", "kelvin", "cbf", "robot", "Client", "InvalidInput", "InvalidInputType", "assets_dir", "web_dir",
            "shaders_dir", "bin_dir", "executable"]
 __version__ = "0.1.0"
 

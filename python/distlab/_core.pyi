@@ -1,7 +1,7 @@
 """Type stubs of the extension module distlab._core (the public API is in distlab.gap,
-distlab.kelvin and distlab.cbf, which wrap it)."""
+distlab.kelvin, distlab.cbf and distlab.robot, which wrap it)."""
 
-from typing import Any, Callable, Dict, Optional, Tuple
+from typing import Any, Callable, Dict, List, Optional, Tuple
 
 import numpy as np
 import numpy.typing as npt
@@ -49,3 +49,61 @@ class KelvinField:
     def stats(self) -> Dict[str, Any]: ...
     def surface(self) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.int32]]: ...
     def centre(self) -> npt.NDArray[np.float64]: ...
+
+class RobotState:
+    """The GAP tracks a robot batch ended with (warm_start of the next call), tied to its model."""
+
+    metric: str
+    def pairs(self) -> List[Dict[str, Any]]: ...
+
+class Robot:
+    @staticmethod
+    def from_file(
+        path: str, package_dirs: Dict[str, str], package_search_dirs: List[str], require_closed_meshes: bool
+    ) -> "Robot": ...
+    @staticmethod
+    def load(name: str) -> "Robot": ...
+    name: str
+    dof: int
+    joint_names: List[str]
+    joint_types: List[str]
+    links: List[str]
+    ee_link: str
+    q_min: npt.NDArray[np.float64]
+    q_max: npt.NDArray[np.float64]
+    velocity_max: npt.NDArray[np.float64]
+    collision_elements: List[Dict[str, Any]]
+    warnings: List[str]
+    def fk(self, q: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]: ...
+    def jacobian(
+        self, q: npt.NDArray[np.float64], link: Optional[str] = None, point: Optional[npt.NDArray[np.float64]] = None
+    ) -> npt.NDArray[np.float64]: ...
+    def distances(
+        self,
+        q: npt.NDArray[np.float64],
+        obstacles: List[Dict[str, Any]],
+        metric: str,
+        pairs: Any,
+        params: Optional[Dict[str, Any]],
+        threads: int,
+        warm_start: Optional[RobotState],
+        tracking: bool,
+    ) -> Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, RobotState]: ...
+    def cbf_rows(
+        self,
+        q: npt.NDArray[np.float64],
+        obstacles: List[Dict[str, Any]],
+        metric: str,
+        pairs: Any,
+        margins: Optional[Dict[str, float]],
+        eta: float,
+        eta_joint: float,
+        params: Optional[Dict[str, Any]],
+        threads: int,
+        warm_start: Optional[RobotState],
+        tracking: bool,
+    ) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], Tuple[Any, ...]]: ...
+
+def cbf_controller_rows(
+    request: Dict[str, Any], q: npt.NDArray[np.float64]
+) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], List[str]]: ...

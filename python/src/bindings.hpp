@@ -7,5 +7,6 @@ namespace distlab::python {
 void bind_gap(pybind11::module_& m);
 void bind_kelvin(pybind11::module_& m);
 void bind_cbf(pybind11::module_& m);
+void bind_robot(pybind11::module_& m);
 
 }  // namespace distlab::python

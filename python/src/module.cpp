@@ -6,7 +6,7 @@
 namespace py = pybind11;
 
 PYBIND11_MODULE(_core, m) {
-  m.doc() = "distlab's numerical cores (GAP, Kelvin, CBF) through the CLI's own request codecs";
+  m.doc() = "distlab's numerical cores (GAP, Kelvin, CBF, robots) through the CLI's own request codecs";
   // InvalidInput(field, message) becomes distlab.errors.InvalidInput (a ValueError, or also a
   // TypeError when the value has the wrong JSON type), with .field.
   // By value: pybind11's ExceptionTranslator is void (*)(std::exception_ptr).
@@ -23,4 +23,5 @@ PYBIND11_MODULE(_core, m) {
   distlab::python::bind_gap(m);
   distlab::python::bind_kelvin(m);
   distlab::python::bind_cbf(m);
+  distlab::python::bind_robot(m);
 }

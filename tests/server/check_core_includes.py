@@ -11,10 +11,10 @@ import re
 import sys
 
 root = pathlib.Path(sys.argv[1])  # backend/server
-FEATURES = ("gap", "kelvin", "cbf")
+FEATURES = ("gap", "kelvin", "cbf", "robot")
 # Public headers that belong to a feature (the codecs the CLI and the Python bindings share).
 FEATURE_HEADERS = {"gap_json.hpp": "gap", "kelvin_json.hpp": "kelvin", "kelvin_objects.hpp": "kelvin",
-                   "cbf_json.hpp": "cbf", "cbf_rollouts.hpp": "cbf"}
+                   "cbf_json.hpp": "cbf", "cbf_rollouts.hpp": "cbf", "robot_json.hpp": "robot"}
 include = re.compile(r'^\s*#\s*include\s*[<"]([^>"]+)[>"]')
 
 

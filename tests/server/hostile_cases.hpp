@@ -947,6 +947,104 @@ inline void cbf_cases(std::vector<Case>& out) {
 }
 
 // ---------------------------------------------------------------------------------------------
+// Robots (POST /api/robot/distances): built-in names, URDF texts an XML parser would choke on,
+// meshes of other sessions, configurations and obstacles out of range, limits.
+
+// A 200 answer's arrays hold numbers only, at any depth (no null for a NaN or an infinity).
+inline bool null_anywhere(const json& j) {
+  if (j.is_null()) return true;
+  if (j.is_array() || j.is_object())
+    for (const auto& v : j)
+      if (null_anywhere(v)) return true;
+  return false;
+}
+
+inline std::function<std::string(const Reply&, Ctx&)> robot_numbers() {
+  return [](const Reply& r, Ctx&) -> std::string {
+    if (r.status != 200) return "";
+    const json j = json::parse(r.body, nullptr, false);
+    if (j.is_discarded()) return " answer is not JSON;";
+    for (const char* k : {"distance", "jacobian", "witness_robot", "witness_obstacle"})
+      if (j.contains(k) && null_anywhere(j[k])) return std::string(" null in ") + k + ";";
+    return "";
+  };
+}
+
+inline void robot_cases(std::vector<Case>& out) {
+  const json q = {1.0582, -1.3811, 0.3629, -1.9647, -0.959, 1.4881, -0.1534};
+  const json wall = {{"type", "box"}, {"name", "wall"}, {"size", {0.32, 0.08, 0.92}}, {"pose", {{"position", {0.52, 0.19, 0.48}}}}};
+  const json valid = {{"robot", "panda"}, {"q", {q, q}}, {"obstacles", json::array({wall})}, {"metric", "gap"}, {"pairs", "both"}, {"params", {{"tol", 1e-10}, {"max_iter", 50}}}};
+  auto post = [&](std::string name, const json& body, Expect e = Expect::client, std::string why = "") {
+    out.push_back(api("robot/" + name, "POST", "/api/robot/distances", body.dump(), e, why));
+    out.back().check = robot_numbers();
+  };
+  const auto with = [&](const std::string& key, const json& value) {
+    json b = valid;
+    b[key] = value;
+    return b;
+  };
+  post("valid", valid, Expect::ok);
+  post("valid_euclidean", with("metric", "euclidean"), Expect::ok);
+  mutate_body(out, "robot/mut", "POST", "/api/robot/distances", valid, true, robot_numbers());
+  // Built-in names that could leave the robots' folder or are not robots.
+  for (const char* name : {"../robots/panda", "..", "/etc/passwd", "panda.urdf", "panda%00", "", "PANDA", "corridor"})
+    post(std::string("name_") + name, with("robot", name));
+  post("name_long", with("robot", std::string(5000, 'a')));
+  // Configurations: one number, none, NaN-like text, past the coordinate bound, too many.
+  post("q_scalar", with("q", 0.5));
+  post("q_empty_rows", with("q", json::array({json::array()})));
+  post("q_ragged", with("q", json::array({q, json::array({0, 0})})));
+  post("q_huge", with("q", json::array({{1e300, 0, 0, 0, 0, 0, 0}})));
+  post("q_10001", with("q", std::vector<json>(10001, q)), Expect::status, "413 past max_robot_configurations");
+  out.back().status = 413;
+  post("q_evaluations", with("q", std::vector<json>(5000, q)), Expect::status, "413 past max_robot_pair_evaluations");
+  out.back().status = 413;
+  post("obstacles_257", with("obstacles", std::vector<json>(257, json{{"type", "sphere"}, {"radius", 0.1}})), Expect::status);
+  out.back().status = 413;
+  post("obstacle_name_twice", with("obstacles", json::array({wall, wall})));
+  post("obstacle_name_long", with("obstacles", json::array({json{{"type", "sphere"}, {"radius", 0.1}, {"name", std::string(100, 'x')}}})));
+  post("pairs_allow_unknown_link", with("pairs", {{"self", true}, {"allow", json::array({json::array({"panda_link1", "../x"})})}}));
+  post("pairs_allow_100k", with("pairs", {{"self", true}, {"allow", std::vector<json>(100000, json::array({"panda_link1", "panda_link2"}))}}));
+  post("params_fixed_point", with("params", {{"solver", "fixed_point"}, {"max_iter", 1000}}), Expect::ok);
+  post("params_max_iter_budget", with("params", {{"max_iter", 2000000}}), Expect::status);
+  out.back().status = 422;
+  // URDF texts: what TinyXML recurses or loops on, entities, huge and broken documents.
+  const auto urdf = [&](std::string name, const std::string& text, Expect e = Expect::client) {
+    post("urdf_" + name, with("robot", {{"urdf", text}}), e);
+  };
+  const std::string chain = "<robot name=\"r\"><link name=\"a\"/><joint name=\"j\" type=\"revolute\"><parent link=\"a\"/><child link=\"b\"/><limit lower=\"-1\" upper=\"1\" effort=\"1\" velocity=\"1\"/></joint><link name=\"b\"><collision><geometry><sphere radius=\"0.1\"/></geometry></collision></link></robot>";
+  urdf("valid_no_q", chain);  // q has 7 numbers, the robot 1 joint
+  urdf("nested_300k", "<robot name=\"r\">" + repeat("<a>", 300000) + "</robot>");
+  urdf("nested_100k_closed", "<robot name=\"r\">" + repeat("<a>", 100000) + repeat("</a>", 100000) + "</robot>");
+  urdf("attributes_70k", "<robot name=\"r\"><link name=\"l\" " + repeat("a=\"\" ", 70000) + "/></robot>");
+  urdf("links_20k", "<robot name=\"r\">" + repeat("<link name=\"l\"/>", 20000) + "</robot>");
+  urdf("cdata", "<robot name=\"r\"><![CDATA[" + repeat("<a>", 1000) + "]]></robot>");
+  urdf("doctype_entities", "<!DOCTYPE r [<!ENTITY a \"aaaaaaaaaa\"><!ENTITY b \"&a;&a;&a;&a;&a;&a;&a;&a;&a;&a;\">]><robot name=\"&b;\"/>");
+  urdf("unquoted", "<robot name=r><link name=a/></robot>");
+  urdf("quote_hides_tags", "<robot name=\"r\"><link name=x\"" + repeat("<a>", 1000) + "\"/></robot>");
+  urdf("pi_with_gt", "<?xml version=\"1.0\" > " + repeat("<a>", 1000) + "?><robot name=\"r\"/>");
+  urdf("unclosed_comment", "<robot name=\"r\"><!-- " + repeat("<a>", 1000));
+  urdf("empty", "");
+  urdf("one_mib_plus", std::string((std::size_t{1} << 20) + 1, ' '));
+  urdf("bad_numbers", "<robot name=\"r\"><link name=\"a\"/><joint name=\"j\" type=\"revolute\"><parent link=\"a\"/><child link=\"b\"/><origin xyz=\"1e400 nan 0\"/><limit lower=\"-1\" upper=\"1\" effort=\"1\" velocity=\"1\"/></joint><link name=\"b\"/></robot>");
+  urdf("cycle", "<robot name=\"r\"><link name=\"a\"/><link name=\"b\"/><joint name=\"j\" type=\"revolute\"><parent link=\"a\"/><child link=\"b\"/><limit lower=\"-1\" upper=\"1\" effort=\"1\" velocity=\"1\"/></joint><joint name=\"k\" type=\"revolute\"><parent link=\"b\"/><child link=\"a\"/><limit lower=\"-1\" upper=\"1\" effort=\"1\" velocity=\"1\"/></joint></robot>");
+  json one = with("robot", {{"urdf", chain}});
+  one["q"] = json::array({0.5});
+  post("urdf_chain_ok", one, Expect::ok);
+  // Meshes: another session's upload, an unknown id, absolute paths and traversal as keys.
+  const std::string mesh_urdf = "<robot name=\"r\"><link name=\"a\"/><joint name=\"j\" type=\"revolute\"><parent link=\"a\"/><child link=\"b\"/><limit lower=\"-1\" upper=\"1\" effort=\"1\" velocity=\"1\"/></joint><link name=\"b\"><collision><geometry><mesh filename=\"/etc/passwd\"/></geometry></collision></link></robot>";
+  one["robot"] = {{"urdf", mesh_urdf}, {"meshes", {{"/etc/passwd", "{other_upload}"}}}};
+  post("mesh_other_sessions_upload", one, Expect::status);
+  out.back().status = 404;
+  one["robot"] = {{"urdf", mesh_urdf}};
+  post("mesh_absolute_path_not_read", one);
+  one["robot"] = {{"urdf", mesh_urdf}, {"meshes", {{"/etc/passwd", "0123"}, {"../../x", "0123"}}}};
+  post("mesh_unknown_upload", one, Expect::status);
+  out.back().status = 404;
+  out.push_back(api("robot/robots_list", "GET", "/api/robot/robots", "", Expect::ok));
+}
+
+// ---------------------------------------------------------------------------------------------
 // Uploads in every accepted format, generated with broken headers, counts and indices.
 
 inline void upload_cases(std::vector<Case>& out) {
@@ -1166,9 +1264,11 @@ inline void upload_cases(std::vector<Case>& out) {
 
 inline void session_cases(std::vector<Case>& out) {
   const std::vector<std::pair<std::string, std::string>> routes = {
-      {"GET", "/api/session"}, {"DELETE", "/api/session"}, {"GET", "/api/jobs"}, {"GET", "/api/jobs/{job}"}, {"POST", "/api/jobs/{job}/cancel"}, {"POST", "/api/kelvin/uploads?format=obj"}, {"POST", "/api/kelvin/objects"}, {"GET", "/api/kelvin/objects"}, {"GET", "/api/kelvin/objects/{object}"}, {"DELETE", "/api/kelvin/objects/{object}"}, {"GET", "/api/kelvin/objects/{object}/sigma"}, {"PUT", "/api/kelvin/objects/{object}/sigma"}, {"PUT", "/api/kelvin/objects/{object}/levels"}, {"POST", "/api/kelvin/objects/{object}/query"}, {"GET", "/api/kelvin/objects/{object}/isosurface?level=0.3"}, {"GET", "/api/kelvin/objects/{object}/surface"}, {"GET", "/api/kelvin/objects/{object}/export?level=0.3"}, {"POST", "/api/cbf/rollouts"}, {"GET", "/api/cbf/rollouts"}, {"GET", "/api/cbf/rollouts/{rollout}"}, {"GET", "/api/cbf/rollouts/{rollout}/frames"}, {"GET", "/api/cbf/rollouts/{rollout}/record"}};
+      {"GET", "/api/session"}, {"DELETE", "/api/session"}, {"GET", "/api/jobs"}, {"GET", "/api/jobs/{job}"}, {"POST", "/api/jobs/{job}/cancel"}, {"POST", "/api/kelvin/uploads?format=obj"}, {"POST", "/api/kelvin/objects"}, {"GET", "/api/kelvin/objects"}, {"GET", "/api/kelvin/objects/{object}"}, {"DELETE", "/api/kelvin/objects/{object}"}, {"GET", "/api/kelvin/objects/{object}/sigma"}, {"PUT", "/api/kelvin/objects/{object}/sigma"}, {"PUT", "/api/kelvin/objects/{object}/levels"}, {"POST", "/api/kelvin/objects/{object}/query"}, {"GET", "/api/kelvin/objects/{object}/isosurface?level=0.3"}, {"GET", "/api/kelvin/objects/{object}/surface"}, {"GET", "/api/kelvin/objects/{object}/export?level=0.3"}, {"POST", "/api/cbf/rollouts"}, {"GET", "/api/cbf/rollouts"}, {"GET", "/api/cbf/rollouts/{rollout}"}, {"GET", "/api/cbf/rollouts/{rollout}/frames"}, {"GET", "/api/cbf/rollouts/{rollout}/record"}, {"POST", "/api/robot/distances"}};
   const std::map<std::string, std::string> bodies = {
-      {"/api/kelvin/uploads?format=obj", kTetraObj}, {"/api/kelvin/objects", json{{"asset", "cube"}, {"lx", 0.2}}.dump()}, {"/api/kelvin/objects/{object}/sigma", json{{"constant", 0.1}}.dump()}, {"/api/kelvin/objects/{object}/levels", json{{"levels", {0.1}}}.dump()}, {"/api/kelvin/objects/{object}/query", json{{"points", {{1, 0, 0}}}}.dump()}, {"/api/cbf/rollouts", json{{"scenario", "corridor"}, {"params", {{"duration", 0.03}}}}.dump()}};
+      {"/api/kelvin/uploads?format=obj", kTetraObj}, {"/api/kelvin/objects", json{{"asset", "cube"}, {"lx", 0.2}}.dump()}, {"/api/kelvin/objects/{object}/sigma", json{{"constant", 0.1}}.dump()}, {"/api/kelvin/objects/{object}/levels", json{{"levels", {0.1}}}.dump()}, {"/api/kelvin/objects/{object}/query", json{{"points", {{1, 0, 0}}}}.dump()}, {"/api/cbf/rollouts", json{{"scenario", "corridor"}, {"params", {{"duration", 0.03}}}}.dump()},
+      // Only a URDF with meshes needs the session (its uploads).
+      {"/api/robot/distances", json{{"robot", {{"urdf", "<robot name=\"r\"/>"}, {"meshes", {{"m.obj", "0123"}}}}}, {"q", json::array({0})}}.dump()}};
   // Forged session ids: refused (401 without one, 404 for one that does not exist).
   const std::vector<std::pair<std::string, std::string>> forged = {
       {"random_hex", "0123456789abcdef0123456789abcdef"}, {"short", "a"}, {"long_4k", std::string(4096, 'f')}, {"non_hex", "zzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzz"}, {"sql", "' OR '1'='1"}, {"traversal", "../../etc/passwd"}, {"unicode", "\xc3\xa9\xc3\xa9"}, {"spaces", "   "}};

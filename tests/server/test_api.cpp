@@ -452,7 +452,7 @@ TEST_F(Api, EveryHeavyRequestIsBounded) {
                             "POST /api/kelvin/objects", "POST /api/kelvin/objects/{id}/query",
                             "GET /api/kelvin/objects/{id}/isosurface", "GET /api/kelvin/objects/{id}/export",
                             "POST /api/cbf/rollouts", "GET /api/cbf/rollouts/{id}/frames",
-                            "GET /api/cbf/rollouts/{id}/record"}) {
+                            "GET /api/cbf/rollouts/{id}/record", "POST /api/robot/distances"}) {
     ASSERT_TRUE(limits["request_bounds"].contains(route)) << route;
     EXPECT_FALSE(limits["request_bounds"][route].empty()) << route << " has no explicit bound";
   }

@@ -32,9 +32,10 @@ TEST(Hostile, Domains) {
   levelset_cases(cases);
   kelvin_cases(cases);
   cbf_cases(cases);
+  robot_cases(cases);
   Runner runner(kServerOptions, standard_setup);
   runner.run_all(cases);
-  runner.report("GAP, level sets, Kelvin, CBF domain values");
+  runner.report("GAP, level sets, Kelvin, CBF, robot domain values");
 }
 
 TEST(Hostile, Uploads) {

@@ -60,7 +60,7 @@ test("GAP sweep plots: D and d on one length axis, units that follow the motion,
   await rot.context().close();
 });
 
-test("CBF rollout plots: velocity, distance and task error with units, legends and captions", async () => {
+test("CBF rollout plots: velocity, distance, task error and pair distances with units, legends and captions", async () => {
   const page = await openView(env.browser, env.server, `#/cbf?s=${encodeURIComponent(JSON.stringify({ duration: 0.5 }))}`);
   await page.waitForFunction(() => /press r|finished|running|rollout/.test(document.getElementById("status")?.textContent ?? ""), null, { timeout: 60000 });
   await page.keyboard.press("r");
@@ -72,12 +72,12 @@ test("CBF rollout plots: velocity, distance and task error with units, legends a
     null,
     { timeout: 120000 },
   );
-  await page.waitForFunction(() => (window.distlab.plots?.() ?? []).length === 3 && window.distlab.plots().every((p) => p.axes.every((a) => a.ticks.length > 1)), null, { timeout: 30000 });
+  await page.waitForFunction(() => (window.distlab.plots?.() ?? []).length === 4 && window.distlab.plots().every((p) => p.axes.every((a) => a.ticks.length > 1)), null, { timeout: 30000 });
   const ps = await plots(page);
   ps.forEach((p, i) => readable(p, `CBF plot ${i} (${p.title})`));
   const ylabels = ps.map((p) => p.axes[1].label);
-  assert.deepEqual(ylabels, ["u (rad/s)", "distance (m)", "‖r‖ (m, 1 − cos)"]);
-  for (const p of ps) assert.equal(p.axes[0].label, "t (s)");
+  assert.deepEqual(ylabels, ["u (rad/s)", "distance (m)", "‖r‖ (m, 1 − cos)", "D (m)"]);
+  assert.deepEqual(ps.map((p) => p.axes[0].label), ["t (s)", "t (s)", "t (s)", "pair (#)"]);
   assert.ok(ps[1].legend.some((l) => l.startsWith("clearance")) && ps[1].legend.some((l) => l.startsWith("min D")), "clearance and min D in one plot");
   await screenshot(page, "readable-cbf-plots");
   assert.deepEqual(page.problems, []);

@@ -20,17 +20,6 @@ Mat3 skew(const Vec3& v) {
   return S;
 }
 
-// GAP options of a shape. A box's violated half-spaces are mutually orthogonal, so its Hessian
-// Σ W_i Φ''(s_i) u_i u_iᵀ has eigenvalues W_i Φ'' < W_i: W_i = 1/(1 + margin) keeps Property 2,
-// like the cylinder's terms. (The gap library's default 1/(m + margin), m = 3 for a box, is the
-// bound for general polytopes; it makes D three times flatter, and at the corridor's q0 it puts
-// the link-5/link-7 pair below δ_auto. The published package uses weight 1 for boxes.)
-P2SOptions gap_options(const Shape& shape, P2SOptions options, double weight_margin) {
-  if (std::holds_alternative<Box>(shape) && !options.weights)
-    options.weights = VecX::Constant(6, 1.0 / (1.0 + weight_margin));
-  return options;
-}
-
 }  // namespace
 
 // The published package's P2S construction (franka-corridor.md, last section): box half-spaces
@@ -129,133 +118,67 @@ void task_objective(const Task& t, double damping, double gain, Eigen::MatrixXd&
 }  // namespace
 
 struct CbfController::Impl {
-  std::vector<GapBody> robot_gap, obstacle_gap;  // GAP metric only
-  std::vector<EuclideanShape> robot_euclid, obstacle_euclid;
-  std::vector<Pose> robot_pose, obstacle_pose;
-  std::vector<Jac> robot_jac;    // Jacobian of each primitive's origin, fixed to its link
-  std::vector<GapTrack> tracks;  // per pair: the last solution, continued along the rollout
-  GapParams exact_params;        // the converged solve (as_published: its reference)
+  std::unique_ptr<robot::DistanceModel> model;
+  robot::DistanceModel::Workspace w;    // FK, the robot's bodies and every pair's track, reused every step
+  robot::DistanceModel::Adjust adjust;  // as_published: the early-stopped distance
   QpSolver qp;
   Eigen::MatrixXd H, C, C_relaxed, H_relaxed;
   Eigen::VectorXd f, d, f_relaxed, d_relaxed;
   GradQ grad;
-  Kinematics kinematics;  // reused every step
 };
 
 CbfController::CbfController(const Scenario& scenario, Metric metric)
     : scenario_(scenario), metric_(metric), impl_(std::make_unique<Impl>()) {
   validate(scenario_);
   robot_ = scenario_.robot;
-  const auto& prims = robot_->primitives();
-  for (int i = 0; i < static_cast<int>(prims.size()); ++i)
-    for (int j = 0; j < static_cast<int>(scenario_.obstacles.size()); ++j)
-      pairs_.push_back({prims[i].name + "/" + scenario_.obstacles[j].name, i, j, false});
-  if (scenario_.self_collision)
-    for (const auto& [i, j] : robot_->self_pairs())
-      pairs_.push_back({prims[i].name + "/" + prims[j].name, i, j, true});
-
   Impl& m = *impl_;
   const bool published = scenario_.gap_mode == GapMode::as_published;
   // as_published: the Newton reference (converged D) runs on the published functions too.
-  m.exact_params = scenario_.gap;
+  GapParams exact = scenario_.gap;
+  robot::DistanceModel::BodyOptions options;
   if (published) {
-    m.exact_params.solver = GapSolver::newton;
-    m.exact_params.tol = 1e-10;
-    m.exact_params.max_iter = 0;
+    exact.solver = GapSolver::newton;
+    exact.tol = 1e-10;
+    exact.max_iter = 0;
+    options = [](const Shape& shape, const P2SOptions&) { return published_options(shape); };
+    m.adjust = [this](int, const GapBody& A, const GapBody& B, GapResult& g, PairSample& s) {
+      s.converged_distance = g.distance;
+      const bool overlap = g.overlap;
+      g = published_distance(A, B, scenario_.gap);
+      g.overlap = overlap;
+    };
   }
-  for (const auto& prim : prims) {
-    m.robot_euclid.emplace_back(prim.shape);
-    if (metric_ == Metric::gap)
-      m.robot_gap.emplace_back(prim.shape, Pose{}, scenario_.gap,
-                               published ? published_options(prim.shape)
-                                         : gap_options(prim.shape, {}, scenario_.gap.weight_margin),
-                               "robot." + prim.name);
-  }
-  for (std::size_t j = 0; j < scenario_.obstacles.size(); ++j) {
-    const Obstacle& o = scenario_.obstacles[j];
-    m.obstacle_euclid.emplace_back(o.shape);
-    m.obstacle_pose.push_back(o.pose);
-    if (metric_ == Metric::gap)
-      m.obstacle_gap.emplace_back(o.shape, o.pose, scenario_.gap,
-                                  published ? published_options(o.shape)
-                                            : gap_options(o.shape, o.options, scenario_.gap.weight_margin),
-                                  "obstacles[" + std::to_string(j) + "]");
-  }
-  m.robot_pose.resize(prims.size());
-  m.robot_jac.resize(prims.size());
-  reset_warm_start();
+  robot::PairSelection selection;
+  selection.self = scenario_.self_collision;
+  m.model = std::make_unique<robot::DistanceModel>(robot_, scenario_.obstacles, metric_, exact, selection, options);
+  m.w = m.model->workspace();
 }
 
 CbfController::~CbfController() = default;
 
+const std::vector<PairInfo>& CbfController::pairs() const { return impl_->model->pairs(); }
+const robot::DistanceModel& CbfController::model() const { return *impl_->model; }
+
 void CbfController::reset_warm_start() {
-  impl_->tracks.assign(pairs_.size(), GapTrack{});
+  impl_->w.tracks.assign(pairs().size(), GapTrack{});
 }
 
 void CbfController::distances(const VecQ& q, std::vector<PairSample>& samples, GradQ& grad) {
-  compute_pairs(robot_->forward(q), samples, grad);
+  robot_->forward(q, impl_->w.kinematics);
+  compute_pairs(samples, grad);
 }
 
-void CbfController::compute_pairs(const Kinematics& k, std::vector<PairSample>& samples, GradQ& grad) {
-  Impl& m = *impl_;
-  const auto& prims = robot_->primitives();
-  for (std::size_t i = 0; i < prims.size(); ++i) {
-    m.robot_pose[i] = robot_->primitive_pose(k, static_cast<int>(i));
-    m.robot_jac[i] = robot_->point_jacobian(k, prims[i].link, m.robot_pose[i].position);
-    if (metric_ == Metric::gap) m.robot_gap[i].set_pose(m.robot_pose[i]);
-  }
-  samples.resize(pairs_.size());
-  grad.resize(static_cast<Eigen::Index>(pairs_.size()), robot_->dof());
-  for (std::size_t p = 0; p < pairs_.size(); ++p) {
-    const PairInfo& pair = pairs_[p];
-    PairSample& s = samples[p];
-    s = PairSample{};
-    Vec6 ga, gb;
-    if (metric_ == Metric::gap) {
-      const GapBody& A = m.robot_gap[pair.a];
-      const GapBody& B = pair.self ? m.robot_gap[pair.b] : m.obstacle_gap[pair.b];
-      // Tracking: Newton from the witnesses predicted from the previous step's solution, which
-      // stops on its error estimate (often after one evaluation); the last separating plane
-      // spares the overlap test. An empty track (first step, after an overlap or a failed
-      // warm solve) is solved cold, as gap_distance does.
-      GapTrack& track = m.tracks[p];
-      s.cold = !track.valid;
-      GapResult g = gap_distance_tracked(A, B, m.exact_params, track);
-      if (!s.cold && !g.converged) {
-        track = GapTrack{};
-        g = gap_distance_tracked(A, B, m.exact_params, track);
-        s.cold = true;
-      }
-      s.clearance = s.cold ? g.euclidean.distance : std::numeric_limits<double>::quiet_NaN();
-      if (scenario_.gap_mode == GapMode::as_published) {
-        s.converged_distance = g.distance;
-        const bool overlap = g.overlap;
-        g = published_distance(A, B, scenario_.gap);
-        g.overlap = overlap;
-      }
-      s.distance = g.distance;
-      s.witness_a = g.witness_a;
-      s.witness_b = g.witness_b;
-      s.overlap = g.overlap;
-      s.iterations = g.iterations;
-      s.converged = g.converged;
-      ga = g.gradient_a;
-      gb = g.gradient_b;
-    } else {
-      const Pose& pb = pair.self ? m.robot_pose[pair.b] : m.obstacle_pose[pair.b];
-      const EuclideanShape& eb = pair.self ? m.robot_euclid[pair.b] : m.obstacle_euclid[pair.b];
-      const EuclideanResult e = euclidean_distance(m.robot_euclid[pair.a], m.robot_pose[pair.a], eb, pb);
-      s.distance = s.clearance = e.distance;
-      s.witness_a = e.witness_a;
-      s.witness_b = e.witness_b;
-      s.overlap = e.distance <= 0;
-      ga = e.gradient_a;
-      gb = e.gradient_b;
-    }
-    // Chain rule: dD/dq = g_vᵀ J_v(o) + g_ωᵀ J_ω for the origin o of each moving shape.
-    grad.row(static_cast<Eigen::Index>(p)) = ga.transpose() * m.robot_jac[pair.a];
-    if (pair.self) grad.row(static_cast<Eigen::Index>(p)) += gb.transpose() * m.robot_jac[pair.b];
-  }
+void CbfController::compute_pairs(std::vector<PairSample>& samples, GradQ& grad) {
+  samples.resize(pairs().size());
+  impl_->model->evaluate_at(impl_->w, true, samples, grad, impl_->adjust);
+}
+
+static RowParams row_params(const Scenario& s, Metric metric) { return {s.margins(metric), s.eta, s.eta_joint}; }
+
+void CbfController::rows(const VecQ& q, Eigen::MatrixXd& C, Eigen::VectorXd& d) {
+  std::vector<PairSample> samples;
+  distances(q, samples, impl_->grad);
+  cbf_rows(*robot_, pairs(), q, samples, impl_->grad, row_params(scenario_, metric_), C, d);
 }
 
 StepOutput CbfController::step(const VecQ& q, bool audit) {
@@ -265,31 +188,17 @@ StepOutput CbfController::step(const VecQ& q, bool audit) {
   const auto t0 = Clock::now();
   const Robot& robot = *robot_;
   const int dof = robot.dof();
-  Kinematics& k = m.kinematics;
+  Kinematics& k = m.w.kinematics;
   robot.forward(q, k);
   const Task task = task_function(k, robot, scenario_.target);
   const auto t1 = Clock::now();
-  compute_pairs(k, out.pairs, m.grad);
+  compute_pairs(out.pairs, m.grad);
   const auto t2 = Clock::now();
 
-  // Rows C u ≥ d: eq. (7) for every pair, then the joint limits.
-  const int np = static_cast<int>(pairs_.size());
-  const int rows = np + 2 * dof;
-  const Margins& margin = scenario_.margins(metric_);
-  m.C.resize(rows, dof);
-  m.d.resize(rows);
-  for (int p = 0; p < np; ++p) {
-    const double delta = pairs_[p].self ? margin.self : margin.obstacle;
-    m.C.row(p) = m.grad.row(p);
-    m.d[p] = -scenario_.eta * (out.pairs[p].distance - delta);
-  }
-  m.C.bottomRows(2 * dof).setZero();
-  for (int i = 0; i < dof; ++i) {
-    m.C(np + i, i) = 1;
-    m.d[np + i] = -scenario_.eta_joint * (q[i] - robot.q_min()[i]);
-    m.C(np + dof + i, i) = -1;
-    m.d[np + dof + i] = -scenario_.eta_joint * (robot.q_max()[i] - q[i]);
-  }
+  // Rows C u ≥ d: eq. (7) for every pair, then the joint limits (every joint is bounded: validate).
+  const int np = static_cast<int>(pairs().size());
+  cbf_rows(robot, pairs(), q, out.pairs, m.grad, row_params(scenario_, metric_), m.C, m.d);
+  const int rows = static_cast<int>(m.C.rows());
   task_objective(task, scenario_.damping, scenario_.task_gain, m.H, m.f);
   QpResult res = m.qp.solve(m.H, m.f, m.C, m.d);
   out.status = res.status;
@@ -347,11 +256,11 @@ StepOutput CbfController::step(const VecQ& q, bool audit) {
     for (int p = 0; p < np; ++p) {
       PairSample& s = out.pairs[p];
       if (std::isnan(s.clearance)) {
-        const PairInfo& pair = pairs_[p];
-        const Pose& pb = pair.self ? m.robot_pose[pair.b] : m.obstacle_pose[pair.b];
-        const EuclideanShape& eb =
-            pair.self ? m.robot_euclid[pair.b] : m.obstacle_euclid[pair.b];
-        s.clearance = euclidean_distance(m.robot_euclid[pair.a], m.robot_pose[pair.a], eb, pb).distance;
+        const PairInfo& pair = pairs()[p];
+        const robot::DistanceModel& model = *m.model;
+        const Pose& pb = pair.self ? m.w.robot_pose[pair.b] : model.obstacles()[pair.b].pose;
+        const EuclideanShape& eb = pair.self ? model.robot_shape(pair.b) : model.obstacle_shape(pair.b);
+        s.clearance = euclidean_distance(model.robot_shape(pair.a), m.w.robot_pose[pair.a], eb, pb).distance;
       }
       out.min_clearance = std::min(out.min_clearance, s.clearance);
     }

@@ -7,7 +7,6 @@
 
 namespace distlab::cbf {
 
-const char* to_string(Metric m) { return m == Metric::gap ? "gap" : "euclidean"; }
 const char* to_string(GapMode m) { return m == GapMode::exact ? "exact" : "as_published"; }
 
 int Scenario::steps() const { return static_cast<int>(std::lround(duration / dt)); }
@@ -88,6 +87,11 @@ void validate(const Scenario& s) {
       throw InvalidInput(f, f + " must be > 0 (or absent: no limit), got " +
                                 std::to_string(s.velocity_limit[i]));
   }
+  if (dof < 1) throw InvalidInput("robot", "the CBF controller needs a robot with at least one moving joint");
+  for (int i = 0; i < dof; ++i)
+    if (!std::isfinite(robot.q_min()[i]) || !std::isfinite(robot.q_max()[i]))
+      throw InvalidInput("robot", "the CBF controller needs every joint bounded: joint \"" + robot.joint_names()[i] +
+                                      "\" has no finite limits (continuous)");
   for (int i = 0; i < dof; ++i) {
     const std::string f = "q0[" + std::to_string(i) + "]";
     if (!std::isfinite(s.q0[i]))

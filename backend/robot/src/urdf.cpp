@@ -1,31 +1,35 @@
-// Robots from URDF (urdfdom). The URDF subset and its two extensions:
-// - joints: revolute (limits and velocity required) and fixed; one tree from one root link.
-// - collisions: <box size>, <cylinder radius length> (axis z, centred), <sphere radius>; a
-//   capsule is a <cylinder> whose <collision> has distlab:capsule="true" (length = its core
-//   segment, as Capsule::height). Every collision needs a unique name.
+// Robots from URDF (urdfdom). The subset and its extensions:
+// - joints: revolute and prismatic (<limit lower upper>; none given: unbounded, with a warning;
+//   velocity optional), continuous (unbounded), fixed, and <mimic joint multiplier offset> of any
+//   moving one (chains followed); one tree from one root link; no moving joint at all is a rigid
+//   body (dof 0). floating and planar joints are refused.
+// - collisions: <box size>, <cylinder radius length> (axis z, centred), <sphere radius>, and
+//   <mesh filename scale> (the convex hull of the mesh's vertices, scaled); a capsule is a
+//   <cylinder> whose <collision> has distlab:capsule="true" (length = its core segment).
 // - <origin ... distlab:quaternion="w x y z"/>: an exact rotation for an origin (rpy must give
 //   the same rotation for other URDF readers; checked to 1e-9).
-// - <distlab:end_effector link="..."/>: the end-effector link (default: the one leaf link).
+// - <distlab:end_effector link="..."/>: the end-effector link (default: the one leaf link, or the
+//   last link in file order when there are several).
 // urdfdom keeps origins only as quaternions computed from rpy; origins are read from the XML
 // text instead so that an rpy rotation about one axis is the exact cos/sin matrix, e.g. the
 // Rx(α) of a DH row Rz(q)·Tz(d)·Rx(α)·Tx(a) (a revolute joint, then a fixed joint).
-#include "distlab/cbf/robot.hpp"
-
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <map>
 #include <mutex>
-#include <set>
 #include <sstream>
 
 #include <tinyxml.h>
 #include <urdf_parser/urdf_parser.h>
 #include <Eigen/Geometry>
 
+#include "collision_mesh.hpp"
 #include "distlab/geometry/error.hpp"
+#include "distlab/robot/robot.hpp"
+#include "urdf_text.hpp"
 
-namespace distlab::cbf {
+namespace distlab::robot {
 namespace {
 
 Pose make_pose(const Vec3& t, const Quat& r = Quat::Identity()) {
@@ -112,10 +116,24 @@ std::string attr(const TiXmlElement* e, const char* name) {
   return v ? v : "";
 }
 
+std::string quoted(const std::string& s) { return "\"" + s.substr(0, 64) + "\""; }
+
 }  // namespace
 
 Pose compose(const Pose& a, const Pose& b) {
   return make_pose(a.position + a.rotation * b.position, (a.rotation * b.rotation).normalized());
+}
+
+std::shared_ptr<const Robot> Robot::from_file(const std::string& path, const std::string& field, UrdfOptions options) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) throw InvalidInput(field, "cannot read the robot file");
+  std::stringstream text;
+  text << f.rdbuf();
+  if (options.base_dir.empty()) {
+    const auto slash = path.find_last_of('/');
+    options.base_dir = slash == std::string::npos ? "." : path.substr(0, slash);
+  }
+  return from_urdf(text.str(), field, options);
 }
 
 std::shared_ptr<const Robot> Robot::load(const std::string& path, const std::string& field) {
@@ -123,17 +141,15 @@ std::shared_ptr<const Robot> Robot::load(const std::string& path, const std::str
   static std::map<std::string, std::shared_ptr<const Robot>> cache;
   std::lock_guard<std::mutex> lock(mutex);
   if (auto it = cache.find(path); it != cache.end()) return it->second;
-  std::ifstream f(path);
-  if (!f) throw std::runtime_error("cannot read a robot file");
-  std::stringstream text;
-  text << f.rdbuf();
-  auto robot = from_urdf(text.str(), field);
+  auto robot = from_file(path, field);
   cache[path] = robot;
   return robot;
 }
 
-std::shared_ptr<const Robot> Robot::from_urdf(const std::string& xml, const std::string& field) {
-  if (xml.size() > (1u << 20)) bad(field, "at most 1 MiB");
+std::shared_ptr<const Robot> Robot::from_urdf(const std::string& xml, const std::string& field,
+                                              const UrdfOptions& options) {
+  if (xml.size() > kMaxUrdfBytes) bad(field, "at most 1 MiB");
+  check_urdf_text(xml, field);  // once, before both parsers below
   const urdf::ModelInterfaceSharedPtr model = urdf::parseURDF(xml);
   if (!model) bad(field, "urdfdom cannot parse it");
   TiXmlDocument doc;
@@ -151,14 +167,15 @@ std::shared_ptr<const Robot> Robot::from_urdf(const std::string& xml, const std:
     link_xml.push_back(e);
   }
   const int nl = static_cast<int>(r->links_.size());
-  if (nl > 256) bad(field, "at most 256 links");
+  if (nl > kMaxLinks) bad(field, "at most " + std::to_string(kMaxLinks) + " links");
 
   // Joints in file order; evaluation order (parents first) below.
   std::vector<RobotJoint> joints;
+  std::map<std::string, int> joint_of_name;  // file order
   r->parent_joint_.assign(nl, -1);
   for (const TiXmlElement* e = root->FirstChildElement("joint"); e; e = e->NextSiblingElement("joint")) {
     const std::string name = attr(e, "name");
-    const std::string jf = field + ": joint \"" + name.substr(0, 64) + "\"";
+    const std::string jf = "joint " + quoted(name);
     const urdf::JointConstSharedPtr uj = model->getJoint(name);
     if (!uj) bad(field, jf + " unknown to urdfdom");
     RobotJoint j;
@@ -169,30 +186,111 @@ std::shared_ptr<const Robot> Robot::from_urdf(const std::string& xml, const std:
     j.origin_R = o.R;
     j.origin_t = o.t;
     j.origin_rotated = o.rotated;
-    if (uj->type == urdf::Joint::REVOLUTE) {
-      if (!uj->limits) bad(field, jf + " needs <limit lower upper velocity>");
+    switch (uj->type) {
+      case urdf::Joint::REVOLUTE:
+      case urdf::Joint::CONTINUOUS:
+        j.type = JointType::revolute;
+        break;
+      case urdf::Joint::PRISMATIC:
+        j.type = JointType::prismatic;
+        break;
+      case urdf::Joint::FIXED:
+        break;
+      default:
+        bad(field, jf + ": type " + quoted(attr(e, "type")) +
+                       " is not supported (supported: revolute, continuous, prismatic, fixed)");
+    }
+    if (j.type != JointType::fixed) {
       const Vec3 axis(uj->axis.x, uj->axis.y, uj->axis.z);
-      if (!(std::abs(axis.norm() - 1) < 1e-9)) bad(field, jf + " axis must be a unit vector");
-      j.axis = axis;
-      if (!(uj->limits->lower < uj->limits->upper))
-        bad(field, jf + " limit lower must be < upper");
-      if (!(uj->limits->velocity > 0)) bad(field, jf + " limit velocity must be > 0");
+      if (!(axis.norm() > 1e-9)) bad(field, jf + ": axis must be a non-zero vector");
+      // urdfdom normalises the axis; keep an exact unit axis as written (bit-identical frames).
+      j.axis = std::abs(axis.norm() - 1) < 1e-12 ? axis : Vec3(axis.normalized());
       j.q = 0;  // numbered below
-    } else if (uj->type != urdf::Joint::FIXED) {
-      bad(field, jf + ": only revolute and fixed joints are supported");
     }
     if (r->parent_joint_[j.child] >= 0) bad(field, jf + ": link has two parents");
     r->parent_joint_[j.child] = static_cast<int>(joints.size());
+    joint_of_name[name] = static_cast<int>(joints.size());
     joints.push_back(std::move(j));
   }
-  if (joints.size() > 256) bad(field, "at most 256 joints");
+  if (static_cast<int>(joints.size()) > kMaxJoints) bad(field, "at most " + std::to_string(kMaxJoints) + " joints");
   int root_link = -1;
   for (int l = 0; l < nl; ++l)
     if (r->parent_joint_[l] < 0) {
-      if (root_link >= 0) bad(field, "links \"" + r->links_[root_link] + "\" and \"" + r->links_[l] +
-                                         "\" both have no parent: one tree is needed");
+      if (root_link >= 0) bad(field, "links " + quoted(r->links_[root_link]) + " and " + quoted(r->links_[l]) +
+                                         " both have no parent: one tree is needed");
       root_link = l;
     }
+  if (root_link < 0) bad(field, "no root link");
+
+  // Independent joints numbered in file order; then each mimic takes its mimicked joint's number.
+  std::vector<int> q_of_file;
+  for (std::size_t ji = 0; ji < joints.size(); ++ji) {
+    RobotJoint& j = joints[ji];
+    if (j.type == JointType::fixed) continue;
+    const urdf::JointConstSharedPtr uj = model->getJoint(j.name);
+    if (uj->mimic) {
+      j.mimic = true;
+      j.multiplier = uj->mimic->multiplier;
+      j.offset = uj->mimic->offset;
+      if (!std::isfinite(j.multiplier) || !std::isfinite(j.offset) || std::abs(j.multiplier) > 1e6 ||
+          std::abs(j.offset) > 1e6)
+        bad(field, "joint " + quoted(j.name) + ": mimic multiplier and offset must be finite");
+      continue;
+    }
+    j.q = static_cast<int>(q_of_file.size());
+    q_of_file.push_back(static_cast<int>(ji));
+  }
+  // A mimic of a mimic follows the chain: θ = m1 (m2 q + o2) + o1.
+  for (RobotJoint& j : joints) {
+    if (!j.mimic) continue;
+    const RobotJoint* source = &j;
+    double multiplier = 1, offset = 0;
+    for (std::size_t hops = 0; source->mimic; ++hops) {
+      const urdf::JointMimic& mimic = *model->getJoint(source->name)->mimic;  // the file's numbers
+      const std::string& mimicked = mimic.joint_name;
+      const auto it = joint_of_name.find(mimicked);
+      if (it == joint_of_name.end())
+        bad(field, "joint " + quoted(j.name) + ": mimics joint " + quoted(mimicked) + ", which the URDF does not have");
+      if (joints[it->second].type == JointType::fixed)
+        bad(field, "joint " + quoted(j.name) + ": mimics joint " + quoted(mimicked) + ", a fixed joint");
+      if (hops > joints.size()) bad(field, "joint " + quoted(j.name) + ": its mimic joints form a cycle");
+      offset += multiplier * mimic.offset;
+      multiplier *= mimic.multiplier;
+      source = &joints[it->second];
+    }
+    j.multiplier = multiplier;
+    j.offset = offset;
+    j.q = source->q;
+  }
+  const int dof = static_cast<int>(q_of_file.size());
+  r->q_min_.resize(dof);
+  r->q_max_.resize(dof);
+  r->velocity_max_.resize(dof);
+  r->q_type_.resize(dof);
+  for (int i = 0; i < dof; ++i) {
+    const RobotJoint& j = joints[q_of_file[i]];
+    const urdf::JointConstSharedPtr uj = model->getJoint(j.name);
+    const std::string jf = "joint " + quoted(j.name);
+    r->q_type_[i] = j.type;
+    constexpr double inf = std::numeric_limits<double>::infinity();
+    if (uj->type == urdf::Joint::CONTINUOUS) {
+      r->q_min_[i] = -inf;
+      r->q_max_[i] = inf;
+    } else if (!uj->limits || (uj->limits->lower == 0 && uj->limits->upper == 0)) {
+      // No <limit>, or one without lower and upper (urdfdom reads both as 0): unbounded.
+      r->q_min_[i] = -inf;
+      r->q_max_[i] = inf;
+      r->warnings_.push_back(jf + " has no lower and upper limit: taken as unbounded");
+    } else {
+      if (!(uj->limits->lower < uj->limits->upper)) bad(field, jf + " limit lower must be < upper");
+      r->q_min_[i] = uj->limits->lower;
+      r->q_max_[i] = uj->limits->upper;
+    }
+    const double v = uj->limits ? uj->limits->velocity : 0.0;
+    if (!(v >= 0) || !std::isfinite(v)) bad(field, jf + " limit velocity must be finite and >= 0");
+    r->velocity_max_[i] = v > 0 ? v : inf;  // 0 or absent: not given
+  }
+
   // Evaluation order: breadth-first from the root (urdfdom has already refused cycles).
   std::vector<int> order;
   std::vector<int> queue = {root_link};
@@ -202,34 +300,20 @@ std::shared_ptr<const Robot> Robot::from_urdf(const std::string& xml, const std:
         order.push_back(static_cast<int>(ji));
         queue.push_back(joints[ji].child);
       }
-  std::vector<int> q_of_file;  // revolute joints numbered in file order
-  for (std::size_t ji = 0; ji < joints.size(); ++ji)
-    if (joints[ji].q >= 0) {
-      joints[ji].q = static_cast<int>(q_of_file.size());
-      q_of_file.push_back(static_cast<int>(ji));
-    }
-  for (int ji : order) r->joints_.push_back(joints[ji]);
+  std::vector<int> eval_of_file(joints.size());
+  for (int ji : order) {
+    eval_of_file[ji] = static_cast<int>(r->joints_.size());
+    r->joints_.push_back(joints[ji]);
+  }
   for (std::size_t k = 0; k < r->joints_.size(); ++k) r->parent_joint_[r->joints_[k].child] = static_cast<int>(k);
-  const int dof = static_cast<int>(q_of_file.size());
-  if (dof < 1) bad(field, "needs at least one revolute joint");
-  r->q_joint_.assign(dof, -1);
-  r->q_min_.resize(dof);
-  r->q_max_.resize(dof);
-  r->velocity_max_.resize(dof);
+  r->q_joint_.resize(dof);
+  for (int i = 0; i < dof; ++i) r->q_joint_[i] = eval_of_file[q_of_file[i]];
+  // Moving ancestors of each link (evaluation order, root first).
+  r->moved_by_.assign(nl, {});
   for (std::size_t k = 0; k < r->joints_.size(); ++k) {
     const RobotJoint& j = r->joints_[k];
-    if (j.q < 0) continue;
-    r->q_joint_[j.q] = static_cast<int>(k);
-    const auto& lim = model->getJoint(j.name)->limits;
-    r->q_min_[j.q] = lim->lower;
-    r->q_max_[j.q] = lim->upper;
-    r->velocity_max_[j.q] = lim->velocity;
-  }
-  // Revolute ancestors of each link (VecQ order, base first).
-  r->moved_by_.assign(nl, {});
-  for (const RobotJoint& j : r->joints_) {
     r->moved_by_[j.child] = r->moved_by_[j.parent];
-    if (j.q >= 0) r->moved_by_[j.child].push_back(j.q);
+    if (j.type != JointType::fixed) r->moved_by_[j.child].push_back(static_cast<int>(k));
   }
 
   // End effector.
@@ -238,62 +322,71 @@ std::shared_ptr<const Robot> Robot::from_urdf(const std::string& xml, const std:
     if (it == link_index.end()) bad(field, "distlab:end_effector link is not a link of the robot");
     r->ee_link_ = it->second;
   } else {
-    std::vector<int> leaves;
-    for (int l = 0; l < nl; ++l) {
-      bool leaf = true;
-      for (const RobotJoint& j : r->joints_) leaf = leaf && j.parent != l;
-      if (leaf) leaves.push_back(l);
-    }
-    if (leaves.size() != 1) bad(field, "several leaf links: name one with <distlab:end_effector link=\"...\"/>");
-    r->ee_link_ = leaves[0];
+    std::vector<bool> leaf(nl, true);
+    for (const RobotJoint& j : r->joints_) leaf[j.parent] = false;
+    for (int l = 0; l < nl; ++l)
+      if (leaf[l]) r->ee_link_ = l;  // the last leaf in file order
   }
 
-  // Collision primitives, in file order.
-  std::set<std::string> names;
+  // Collision elements, in file order.
   for (int l = 0; l < nl; ++l) {
     const urdf::LinkConstSharedPtr ul = model->getLink(r->links_[l]);
-    std::size_t c = 0;
+    int c = 0;
     for (const TiXmlElement* e = link_xml[l]->FirstChildElement("collision"); e;
          e = e->NextSiblingElement("collision"), ++c) {
-      const std::string name = attr(e, "name");
-      const std::string cf = field + ": collision \"" + name.substr(0, 64) + "\" of link \"" + r->links_[l] + "\"";
-      if (name.empty()) bad(field, "every collision of link \"" + r->links_[l] + "\" needs a name");
-      if (!names.insert(name).second) bad(field, cf + ": name used twice");
-      if (c >= ul->collision_array.size() || !ul->collision_array[c]->geometry) bad(field, cf + ": no geometry");
+      const std::string given = attr(e, "name");
+      const std::string name = given.empty() ? r->links_[l] + "/collision[" + std::to_string(c) + "]" : given;
+      const std::string cf = "collision[" + std::to_string(c) + "] " + (given.empty() ? "" : quoted(given) + " ") +
+                             "of link " + quoted(r->links_[l]);
+      if (static_cast<int>(r->primitives_.size()) >= kMaxCollisionElements)
+        bad(field, "at most " + std::to_string(kMaxCollisionElements) + " collision elements");
+      if (c >= static_cast<int>(ul->collision_array.size()) || !ul->collision_array[c]->geometry)
+        bad(field, cf + ": no geometry");
       const urdf::GeometrySharedPtr& g = ul->collision_array[c]->geometry;
-      Shape shape;
+      LinkPrimitive prim{name, l, c, Sphere{1}, Pose{}, ""};
       auto positive = [&](double v, const char* what) {
         if (!(v > 0) || !(v < 100)) bad(field, cf + ": " + what + " must be in (0, 100) m");
         return v;
       };
       if (g->type == urdf::Geometry::BOX) {
         const auto& s = static_cast<const urdf::Box&>(*g).dim;
-        shape = Box{Vec3(positive(s.x, "box size"), positive(s.y, "box size"), positive(s.z, "box size"))};
+        prim.shape = Box{Vec3(positive(s.x, "box size"), positive(s.y, "box size"), positive(s.z, "box size"))};
       } else if (g->type == urdf::Geometry::CYLINDER) {
         const auto& cyl = static_cast<const urdf::Cylinder&>(*g);
         const std::string capsule = attr(e, "distlab:capsule");
-        if (capsule == "true") shape = Capsule{positive(cyl.radius, "radius"), positive(cyl.length, "length")};
-        else if (capsule.empty() || capsule == "false") shape = Cylinder{positive(cyl.radius, "radius"), positive(cyl.length, "length")};
+        if (capsule == "true") prim.shape = Capsule{positive(cyl.radius, "radius"), positive(cyl.length, "length")};
+        else if (capsule.empty() || capsule == "false") prim.shape = Cylinder{positive(cyl.radius, "radius"), positive(cyl.length, "length")};
         else bad(field, cf + ": distlab:capsule must be \"true\" or \"false\"");
       } else if (g->type == urdf::Geometry::SPHERE) {
-        shape = Sphere{positive(static_cast<const urdf::Sphere&>(*g).radius, "radius")};
+        prim.shape = Sphere{positive(static_cast<const urdf::Sphere&>(*g).radius, "radius")};
+      } else if (g->type == urdf::Geometry::MESH) {
+        const auto& m = static_cast<const urdf::Mesh&>(*g);
+        const Vec3 scale(m.scale.x, m.scale.y, m.scale.z);
+        if (!scale.allFinite() || !(scale.cwiseAbs().minCoeff() > 0) || scale.cwiseAbs().maxCoeff() > 1e6)
+          bad(field, cf + ": mesh scale must be finite and non-zero");
+        prim.mesh = m.filename;
+        try {
+          std::string warning;
+          prim.shape = mesh_hull(m.filename, scale, options, field, warning);
+          if (!warning.empty()) r->warnings_.push_back(cf + ": " + warning.substr(std::string("robot URDF: ").size()));
+        } catch (const InvalidInput& error) {
+          // The field stays the caller's; the message names the element before the mesh's defect.
+          std::string what = error.what();
+          if (what.rfind("robot URDF: ", 0) == 0) what.erase(0, 12);
+          throw InvalidInput(error.field(), "robot URDF: " + cf + ": " + what);
+        }
       } else {
-        bad(field, cf + ": only box, cylinder (capsule) and sphere are supported");
+        bad(field, cf + ": unknown geometry (supported: box, cylinder, sphere, mesh)");
       }
       const Origin o = read_origin(e, cf);
-      r->primitives_.push_back({name, l, std::move(shape), make_pose(o.t, o.q)});
+      prim.pose = make_pose(o.t, o.q);
+      r->primitives_.push_back(std::move(prim));
     }
   }
-  // Self-collision pairs: primitives of links at least two revolute joints apart along the tree
-  // path (revolute ancestors of one but not both).
+  // Self-collision pairs: elements of links at least two moving joints apart along the tree path.
   for (int i = 0; i < static_cast<int>(r->primitives_.size()); ++i)
-    for (int j = i + 1; j < static_cast<int>(r->primitives_.size()); ++j) {
-      const auto& a = r->moved_by_[r->primitives_[i].link];
-      const auto& b = r->moved_by_[r->primitives_[j].link];
-      std::size_t common = 0;
-      while (common < a.size() && common < b.size() && a[common] == b[common]) ++common;
-      if ((a.size() - common) + (b.size() - common) >= 2) r->self_pairs_.emplace_back(i, j);
-    }
+    for (int j = i + 1; j < static_cast<int>(r->primitives_.size()); ++j)
+      if (r->joints_between(r->primitives_[i].link, r->primitives_[j].link) >= 2) r->self_pairs_.emplace_back(i, j);
   return r;
 }
 
@@ -303,77 +396,18 @@ int Robot::link_index(const std::string& name) const {
   return -1;
 }
 
+int Robot::joints_between(int link_a, int link_b) const {
+  const auto& a = moved_by_[link_a];
+  const auto& b = moved_by_[link_b];
+  std::size_t common = 0;
+  while (common < a.size() && common < b.size() && a[common] == b[common]) ++common;
+  return static_cast<int>((a.size() - common) + (b.size() - common));
+}
+
 std::vector<std::string> Robot::joint_names() const {
   std::vector<std::string> out;
   for (int k : q_joint_) out.push_back(joints_[k].name);
   return out;
 }
 
-// World frames, parents first. A fixed joint right after a revolute one is evaluated with it as
-// one local transform from the grandparent (how a DH row Rz(q)·Tz(d)·Rx(α)·Tx(a) is evaluated:
-// Rz(q)·Rx(α) and Rz(q)·(a, 0, d) first, then the previous frame).
-Kinematics Robot::forward(const VecQ& q) const {
-  Kinematics k;
-  forward(q, k);
-  return k;
-}
-
-void Robot::forward(const VecQ& q, Kinematics& k) const {
-  const int nl = static_cast<int>(links_.size());
-  k.frames.resize(nl);
-  k.R.resize(nl);
-  for (int l = 0; l < nl; ++l)
-    if (parent_joint_[l] < 0) k.frames[l] = Pose{}, k.R[l] = Mat3::Identity();
-  k.axis.resize(dof());
-  k.origin.resize(dof());
-  k.local_R.resize(joints_.size());
-  k.local_t.resize(joints_.size());
-  std::vector<Mat3>& local_R = k.local_R;
-  std::vector<Vec3>& local_t = k.local_t;
-  for (std::size_t ji = 0; ji < joints_.size(); ++ji) {
-    const RobotJoint& j = joints_[ji];
-    Mat3 R = j.origin_R;
-    if (j.q >= 0) {
-      Mat3 rot;
-      if (j.axis == Vec3::UnitZ()) {
-        const double c = std::cos(q[j.q]), s = std::sin(q[j.q]);
-        rot << c, -s, 0, s, c, 0, 0, 0, 1;
-      } else {
-        rot = Eigen::AngleAxisd(q[j.q], j.axis).toRotationMatrix();
-      }
-      R = j.origin_rotated ? Mat3(j.origin_R * rot) : rot;
-      k.axis[j.q] = k.R[j.parent] * (j.origin_R * j.axis);
-      k.origin[j.q] = k.frames[j.parent].position + k.R[j.parent] * j.origin_t;
-    }
-    local_R[ji] = R;
-    local_t[ji] = j.origin_t;
-    int base = j.parent;
-    const int pj = parent_joint_[j.parent];
-    if (j.q < 0 && pj >= 0 && joints_[pj].q >= 0) {  // fuse with the revolute joint before
-      local_t[ji] = local_t[pj] + local_R[pj] * j.origin_t;
-      local_R[ji] = j.origin_rotated ? Mat3(local_R[pj] * j.origin_R) : local_R[pj];
-      base = joints_[pj].parent;
-    }
-    k.R[j.child] = k.R[base] * local_R[ji];
-    k.frames[j.child].position = k.frames[base].position + k.R[base] * local_t[ji];
-    k.frames[j.child].rotation = Quat(k.R[j.child]).normalized();
-  }
-  k.ee = k.frames[ee_link_];
-  k.ee_R = k.R[ee_link_];
-}
-
-Jac Robot::point_jacobian(const Kinematics& k, int link, const Vec3& p) const {
-  Jac J = Jac::Zero(6, dof());
-  for (int j : moved_by_[link]) {
-    J.block<3, 1>(0, j) = k.axis[j].cross(p - k.origin[j]);
-    J.block<3, 1>(3, j) = k.axis[j];
-  }
-  return J;
-}
-
-Pose Robot::primitive_pose(const Kinematics& k, int i) const {
-  const LinkPrimitive& prim = primitives_[i];
-  return compose(k.frames[prim.link], prim.pose);
-}
-
-}  // namespace distlab::cbf
+}  // namespace distlab::robot

@@ -4,6 +4,7 @@
 #include "cbf/cbf_module.hpp"
 #include "gap/gap_module.hpp"
 #include "kelvin/kelvin_module.hpp"
+#include "robot/robot_module.hpp"
 
 namespace distlab::server {
 
@@ -11,6 +12,7 @@ void add_standard_modules(Service& service) {
   service.add<GapModule>();
   service.add<KelvinModule>();
   service.add<CbfModule>();
+  service.add<RobotModule>();
 }
 
 }  // namespace distlab::server

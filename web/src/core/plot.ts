@@ -1,6 +1,6 @@
-// A small typed wrapper around uPlot for line plots over one x axis: named series on one or two
-// y scales, a vertical marker (current position / time), and a size that follows its container.
-// Used by the GAP sweep and the CBF rollout plots.
+// A small typed wrapper around uPlot for plots over one x axis: named series (lines, bars, or a
+// level per x) on one or two y scales, a vertical marker (current position / time), and a size that
+// follows its container. Used by the GAP sweep and the CBF rollout plots.
 import uPlot from "uplot";
 import "uplot/dist/uPlot.min.css";
 
@@ -13,6 +13,11 @@ export interface PlotSeries {
   width?: number;
   /** Drawn initially (default true); the legend toggles it. */
   show?: boolean;
+  /** "line" (default); "bars": a bar per x from the bottom of the scale; "levels": a horizontal
+   *  segment one x unit wide centred on each x (e.g. a threshold per category). */
+  kind?: "line" | "bars" | "levels";
+  /** Bars: centred on x (0), or left (-1) / right (1) of it, for two bars per x. */
+  align?: -1 | 0 | 1;
 }
 
 export interface PlotOptions {
@@ -31,14 +36,46 @@ export interface PlotOptions {
   legendValues?: boolean;
   /** Logarithmic left axis (values ≤ 0 are not drawn). */
   yLog?: boolean;
+  /** x is a category index 0 … n−1: integer ticks, half a unit of room at either end, and the
+   *  legend shows the category's name under the cursor. */
+  categories?: (i: number) => string;
 }
 
 /** Log-scale range; without any positive value a fixed decade (uPlot would fail to draw the axis). */
 const logRange: uPlot.Range.Function = (_u, min, max) => (min !== null && max !== null && min > 0 && max > 0 ? uPlot.rangeLog(min, max, 10, true) : [0.01, 1]);
 
 const AXIS = { stroke: "#8b949e", grid: { stroke: "#2c323a", width: 1 }, ticks: { stroke: "#2c323a", width: 1 } };
+/** Log-axis tick labels: below 0.001 as powers of ten (uPlot's own labels would round 1e-4 to "0"). */
+const logTicks: uPlot.Axis.Values = (_u, splits) => splits.map((v) => (v === null || v === undefined ? "" : v >= 1e-3 ? String(Number(v.toPrecision(3))) : v.toExponential(0)));
 /** The strip's plots are short: tick labels every 18 px (uPlot's 30 leaves one label, no scale). */
 const Y_TICKS = { space: 18, font: "10px system-ui, sans-serif" };
+
+/** A path builder that also reports how many bars or segments it drew (into counted[i]). */
+function counting(kind: "bars" | "levels", align: -1 | 0 | 1, counted: number[], i: number): uPlot.Series.PathBuilder {
+  let n = 0;
+  const bars = uPlot.paths.bars!({ size: [align === 0 ? 0.7 : 0.4, 40], align, each: () => n++ });
+  const levels: uPlot.Series.PathBuilder = (u, si, i0, i1) => {
+    const stroke = new Path2D();
+    const xs = u.data[0],
+      ys = u.data[si];
+    for (let k = i0; k <= i1; k++) {
+      const y = ys[k];
+      if (y === null || y === undefined) continue;
+      const py = u.valToPos(y, u.series[si].scale ?? "y", true);
+      stroke.moveTo(u.valToPos(xs[k] - 0.5, "x", true), py);
+      stroke.lineTo(u.valToPos(xs[k] + 0.5, "x", true), py);
+      n++;
+    }
+    return { stroke, fill: null, clip: null };
+  };
+  // uPlot builds paths when data or size change and reuses them on other redraws: the count holds.
+  return (u, si, i0, i1) => {
+    n = 0;
+    const paths = kind === "bars" ? bars(u, si, i0, i1) : levels(u, si, i0, i1);
+    counted[i] = n;
+    return paths;
+  };
+}
 
 /** Every plot on the page, for the test hook window.distlab.plots(). */
 const live = new Set<Plot>();
@@ -62,6 +99,8 @@ export class Plot {
   private readonly observer: ResizeObserver;
   private xs: number[] = [];
   private ys: Array<Array<number | null>> = [];
+  /** Per series: bars or level segments in the last drawing (lines: 0). */
+  private readonly counted: number[];
 
   constructor(
     container: HTMLElement,
@@ -72,31 +111,40 @@ export class Plot {
     this.root.style.cssText = "flex: 1; min-width: 0; min-height: 0; position: relative;";
     container.appendChild(this.root);
     this.root.setAttribute("role", "figure");
+    this.counted = options.series.map(() => 0);
     const digits = options.digits ?? 4;
     const fmt = (_u: uPlot, v: number | null) => (v === null || v === undefined ? "—" : v.toFixed(digits));
     const usesY2 = options.series.some((s) => s.scale === "y2");
+    const cat = options.categories;
+    const xAxis: uPlot.Axis = cat ? { incrs: [1, 2, 5, 10, 20, 50, 100, 200, 500], values: (_u, splits) => splits.map((v) => (Number.isInteger(v) ? String(v) : "")) } : {};
     const axes: uPlot.Axis[] = [
-      { ...AXIS, label: options.xLabel },
-      { ...AXIS, ...Y_TICKS, label: options.yLabel ?? "", scale: "y" },
+      { ...AXIS, ...xAxis, label: options.xLabel },
+      { ...AXIS, ...Y_TICKS, label: options.yLabel ?? "", scale: "y", ...(options.yLog ? { values: logTicks } : {}) },
     ];
     if (usesY2) axes.push({ ...AXIS, ...Y_TICKS, label: options.y2Label ?? "", scale: "y2", side: 1, grid: { show: false } });
     const opts: uPlot.Options = {
       title: options.title,
       width: 400,
       height: 200,
-      scales: { x: { time: false }, y: options.yLog ? { distr: 3, auto: true, range: logRange } : { auto: true }, ...(usesY2 ? { y2: { auto: true } } : {}) },
+      scales: {
+        x: cat ? { time: false, range: (_u, min, max) => (min === null || max === null ? [-0.5, 0.5] : [min - 0.5, max + 0.5]) } : { time: false },
+        y: options.yLog ? { distr: 3, auto: true, range: logRange } : { auto: true },
+        ...(usesY2 ? { y2: { auto: true } } : {}),
+      },
       axes,
       series: [
-        { label: options.xLabel, value: fmt },
-        ...options.series.map((s) => ({
+        { label: options.xLabel, value: cat ? (_u: uPlot, v: number | null) => (v === null || v === undefined ? "—" : cat(Math.round(v))) : fmt },
+        ...options.series.map((s, i) => ({
           label: s.label,
           stroke: s.color,
+          fill: s.kind === "bars" ? `${s.color}b0` : undefined,
           width: s.width ?? 1.5,
           dash: s.dash,
           scale: s.scale ?? "y",
           show: s.show ?? true,
           value: fmt,
           points: { show: false },
+          paths: s.kind === "bars" || s.kind === "levels" ? counting(s.kind, s.align ?? 0, this.counted, i) : undefined,
         })),
       ],
       legend: { live: options.legendValues ?? true },
@@ -173,9 +221,9 @@ export class Plot {
       .map((a) => ({ label: String(a.label ?? ""), ticks: (a._values ?? []).filter((v) => v !== null && v !== "").map(String) }));
   }
 
-  /** What is plotted (for tests and exports). */
-  data(): { labels: string[]; x: number[]; y: Array<Array<number | null>> } {
-    return { labels: this.options.series.map((s) => s.label), x: [...this.xs], y: this.ys.map((a) => [...a]) };
+  /** What is plotted (for tests and exports), and per series the bars or level segments drawn. */
+  data(): { labels: string[]; x: number[]; y: Array<Array<number | null>>; drawn: number[] } {
+    return { labels: this.options.series.map((s) => s.label), x: [...this.xs], y: this.ys.map((a) => [...a]), drawn: [...this.counted] };
   }
 
   /** The figure's accessible name: title, axis labels and the caption. */

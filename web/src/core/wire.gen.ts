@@ -242,6 +242,24 @@ export interface paths {
                             max_abs_sigma: number;
                             /** @description values of one POST /api/cbf/sweeps (400, field sweep.values) */
                             max_cbf_sweep_values: number;
+                            /** @description configurations of one POST /api/robot/distances (413 too_many_configurations, field q) */
+                            max_robot_configurations: number;
+                            /** @description configurations × pairs of one POST /api/robot/distances (413 too_many_evaluations, field q) */
+                            max_robot_pair_evaluations: number;
+                            /** @description obstacles of one POST /api/robot/distances (413 too_many_obstacles) */
+                            max_robot_obstacles: number;
+                            /** @description bytes of a robot's URDF text (400, field robot.urdf) */
+                            max_urdf_bytes: number;
+                            /** @description links of a URDF (400, field robot.urdf) */
+                            max_robot_links: number;
+                            /** @description joints of a URDF (400, field robot.urdf) */
+                            max_robot_joints: number;
+                            /** @description collision elements of a URDF (400, field robot.urdf) */
+                            max_robot_collision_elements: number;
+                            /** @description facets of the convex hull of one URDF mesh (400, field robot.meshes[FILENAME]) */
+                            max_robot_mesh_hull_facets: number;
+                            /** @description vertices of one URDF mesh (400, field robot.meshes[FILENAME]) */
+                            max_robot_mesh_vertices: number;
                         };
                     };
                 };
@@ -1787,6 +1805,91 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/robot/robots": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** The built-in robots (assets/robots/NAME.urdf): joints in q order, links, collision elements and the number of default self pairs (the full model a viewer draws: GET /api/cbf/robot?name=NAME) */
+        get: {
+            parameters: {
+                query?: never;
+                header?: never;
+                path?: never;
+                cookie?: never;
+            };
+            requestBody?: never;
+            responses: {
+                /** @description robots */
+                200: {
+                    headers: {
+                        [name: string]: unknown;
+                    };
+                    content: {
+                        "application/json": components["schemas"]["RobotList"];
+                    };
+                };
+            };
+        };
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/robot/distances": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Every distance of a robot and its Jacobian in joint space: robot-obstacle and self pairs at one or many configurations (the robot library's batched call)
+         * @description The robot is a built-in name or a URDF text whose <mesh> filenames map to uploads of this session (POST /api/kelvin/uploads, read in an isolated child process when uploaded; upload in the file's own unit, unit=m, so that the URDF's scale applies); only such a request needs a session (401 / 404 naming the robot.meshes entry). Configurations continue each other's GAP solutions (a trajectory: tracked warm starts), in chunks between which the time limit is checked (408 time_limit). Bounded by max_robot_configurations (413 too_many_configurations, field q), max_robot_pair_evaluations for configurations × pairs (413 too_many_evaluations, field q), max_robot_obstacles (413 too_many_obstacles), max_gap_iterations for params.max_iter (422 over_budget), the URDF limits (max_urdf_bytes, max_robot_links, ..., 400 naming robot.urdf) and max_request_seconds. A URDF text nesting elements deeper than 64 or with more than 64 attributes on one element, or with CDATA, a DOCTYPE or unquoted attribute values, is refused before it is parsed. Every error names its field: q[3][2], obstacles[1].size, robot.meshes["x.stl"], pairs.allow[0], params.tol.
+         */
+        post: {
+            parameters: {
+                query?: never;
+                header?: never;
+                path?: never;
+                cookie?: never;
+            };
+            requestBody: {
+                content: {
+                    "application/json": components["schemas"]["RobotDistancesRequest"];
+                };
+            };
+            responses: {
+                /** @description distances */
+                200: {
+                    headers: {
+                        [name: string]: unknown;
+                    };
+                    content: {
+                        "application/json": components["schemas"]["RobotDistances"];
+                    };
+                };
+                400: components["responses"]["Error"];
+                401: components["responses"]["Error"];
+                404: components["responses"]["Error"];
+                408: components["responses"]["Error"];
+                413: components["responses"]["Error"];
+                422: components["responses"]["Error"];
+            };
+        };
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
 }
 export type webhooks = Record<string, never>;
 export interface components {
@@ -2031,6 +2134,11 @@ export interface components {
             steps_total: number;
             steps_done: number;
             pairs: components["schemas"]["CbfPair"][];
+            /** @description the CBF margins δ of the rollout's metric (the scenario's margins.gap or margins.euclidean): a pair's row keeps its distance above δ (self pairs: self) */
+            margins: {
+                obstacle: number;
+                self: number;
+            };
             /** @description the scenario's obstacles as given ({name, shape: GapShape with pose in the world}) */
             obstacles: components["schemas"]["CbfObstacle"][];
             target: components["schemas"]["CbfPose"];
@@ -2151,8 +2259,16 @@ export interface components {
                 name: string;
                 parent: number;
                 child: number;
-                /** @description index into q, -1 for a fixed joint */
+                /** @description index into q (a mimic joint: its mimicked joint's), -1 for a fixed joint */
                 q: number;
+                /**
+                 * @description revolute (continuous too: q_min/q_max null) rotates about axis, prismatic moves along it
+                 * @enum {string}
+                 */
+                type: "revolute" | "prismatic" | "fixed";
+                /** @description the joint's value is multiplier * q[q] + offset (1 and 0 unless a URDF mimic) */
+                multiplier: number;
+                offset: number;
                 origin: components["schemas"]["CbfPose"];
                 axis: [
                     number,
@@ -2720,6 +2836,127 @@ export interface components {
             };
             n_vertices: number;
             n_faces: number;
+        };
+        RobotDistancesRequest: {
+            robot: string | {
+                /** @description the URDF text, at most max_urdf_bytes bytes: revolute, continuous, prismatic and fixed joints (mimic too), collision box, cylinder, sphere (a capsule: distlab:capsule="true") and mesh (its convex hull, scaled) */
+                urdf: string;
+                /** @description <mesh filename> exactly as the URDF writes it (relative, package:// or absolute: nothing is read from disk) -> upload id; every entry must be used */
+                meshes?: {
+                    [key: string]: string;
+                };
+            };
+            q: [
+                number,
+                ...number[]
+            ] | [
+                number,
+                ...number[]
+            ][];
+            /** @description convex obstacles with world poses (the GAP request's shapes, plus a name) */
+            obstacles?: ({
+                /** @description default obstacleI; names are unique */
+                name?: string;
+            } & components["schemas"]["GapShape"])[];
+            /**
+             * @default gap
+             * @enum {string}
+             */
+            metric: "gap" | "euclidean";
+            pairs?: ("obstacles" | "self" | "both") | {
+                /** @default true */
+                obstacles: boolean;
+                /**
+                 * @description the robot's self pairs: collision elements of links at least two moving joints apart
+                 * @default false
+                 */
+                self: boolean;
+                /** @description [LINK, LINK] self pairs added (needs self) */
+                allow?: [
+                    string,
+                    string
+                ][];
+                /** @description [LINK, LINK] self pairs removed (needs self) */
+                deny?: [
+                    string,
+                    string
+                ][];
+            };
+            params?: components["schemas"]["RobotParams"];
+            comment?: string;
+        };
+        /** @description GAP parameters, as POST /api/gap/distance takes them (defaults: the `distlab gap` ones); ignored by the Euclidean metric but validated */
+        RobotParams: {
+            h?: number;
+            k?: number;
+            eps?: number;
+            sigma?: number;
+            weight_margin?: number;
+            tol?: number;
+            max_iter?: number;
+            /** @enum {string} */
+            solver?: "newton" | "fixed_point";
+            /** @description false: no jacobian in the answer */
+            gradient?: boolean;
+            /** @description check Property 2 on every robot element and obstacle in a pair first (GAP; cached per shape) */
+            validate?: boolean;
+        };
+        RobotPair: {
+            /** @description ELEMENT/OBSTACLE or ELEMENT/ELEMENT */
+            name: string;
+            link: string;
+            /** @description the robot's collision element (its name, or LINK/collision[I]) */
+            element: string;
+            self: boolean;
+            /** @description an obstacle pair's obstacle */
+            obstacle?: string;
+            /** @description a self pair's second element */
+            other?: {
+                link: string;
+                element: string;
+            };
+        };
+        /** @description N configurations (always N-leading arrays), P pairs (in pairs order), dof joints; world frame, metres */
+        RobotDistances: {
+            /** @description the built-in's name or the URDF's robot name */
+            robot: string;
+            dof: number;
+            joint_names: string[];
+            /** @enum {string} */
+            metric: "gap" | "euclidean";
+            n: number;
+            /** @description what the robot library noticed in the URDF and accepted, e.g. a mesh that is not closed (its vertices' convex hull is used) */
+            warnings: string[];
+            pairs: components["schemas"]["RobotPair"][];
+            /** @description (N, P): GAP D = sqrt(2 Lambda) or the Euclidean distance; 0 on overlap */
+            distance: number[][];
+            /** @description (N, P, dof): dD/dq, exact (chain rule through the point Jacobians); absent with params.gradient false */
+            jacobian?: number[][][];
+            /** @description (N, P, 3): on the robot's element */
+            witness_robot: components["schemas"]["Vec3"][][];
+            /** @description (N, P, 3): on the obstacle, or on a self pair's second element */
+            witness_obstacle: components["schemas"]["Vec3"][][];
+            overlap: boolean[][];
+            converged: boolean[][];
+            /** @description GAP solver iterations (0 for Euclidean) */
+            iterations: number[][];
+        };
+        RobotList: {
+            robots: {
+                name: string;
+                dof: number;
+                /** @description the order of q */
+                joint_names: string[];
+                /** @description names for pairs.allow / pairs.deny */
+                links: string[];
+                /** @description collision elements, the pairs' ELEMENT */
+                elements: {
+                    name: string;
+                    link: string;
+                }[];
+                /** @description default self pairs (pairs "self") */
+                self_pairs: number;
+            }[];
         };
     };
     responses: {

@@ -56,6 +56,7 @@ json CbfRollout::status_json() const {
             {"dt", scenario.dt},
             {"steps_total", steps_total},
             {"pairs", pair_list},
+            {"margins", {{"obstacle", scenario.margins(metric).obstacle}, {"self", scenario.margins(metric).self}}},
             {"obstacles", scenario_json.value("obstacles", json::array())},
             {"target", pose_json(scenario.target)},
             {"stream", {{"batch_steps", stream.batch_steps}, {"pairs", stream.pairs}, {"poses", stream.poses}}}};
@@ -127,7 +128,10 @@ json cbf_robot_json(const cbf::Robot& robot) {
     Pose origin;
     origin.position = jt.origin_t;
     origin.rotation = Quat(jt.origin_R);
-    joints.push_back({{"name", jt.name}, {"parent", jt.parent}, {"child", jt.child}, {"q", jt.q}, {"origin", pose_json(origin)}, {"axis", vec_json(jt.axis)}});
+    const char* type = jt.type == robot::JointType::revolute    ? "revolute"
+                       : jt.type == robot::JointType::prismatic ? "prismatic"
+                                                                : "fixed";
+    joints.push_back({{"name", jt.name}, {"parent", jt.parent}, {"child", jt.child}, {"q", jt.q}, {"type", type}, {"multiplier", jt.multiplier}, {"offset", jt.offset}, {"origin", pose_json(origin)}, {"axis", vec_json(jt.axis)}});
   }
   json prims = json::array();
   for (const cbf::LinkPrimitive& p : robot.primitives())
@@ -138,7 +142,8 @@ json cbf_robot_json(const cbf::Robot& robot) {
           {"dof", robot.dof()},
           {"convention",
            "URDF: joints in evaluation order (parents first); child frame = parent frame · origin · "
-           "Rot(axis, q[q]) (q = -1: fixed), the base link is the world; a primitive's world pose is "
+           "Rot(axis, θ) (revolute) or Trans(axis θ) (prismatic), θ = multiplier · q[q] + offset (q = -1: "
+           "fixed), the base link is the world; a primitive's world pose is "
            "frame[link] · pose; quaternions are [w, x, y, z]"},
           {"links", robot.links()},
           {"joints", joints},

@@ -256,16 +256,10 @@ void CbfModule::register_routes() {
                r->steps_total = steps;
                cbf::RolloutOptions options = parsed.options;
                options.record_pairs = options.record_pairs || stream.pairs;
-               {
-                 // The pair list without building the controller's GAP bodies.
-                 const auto& prims = robot.primitives();
-                 for (int i = 0; i < static_cast<int>(prims.size()); ++i)
-                   for (int j = 0; j < static_cast<int>(sc.obstacles.size()); ++j)
-                     r->pairs.push_back({prims[i].name + "/" + sc.obstacles[j].name, i, j, false});
-                 if (sc.self_collision)
-                   for (const auto& [i, j] : robot.self_pairs())
-                     r->pairs.push_back({prims[i].name + "/" + prims[j].name, i, j, true});
-               }
+               // The pair list without building the controller's GAP bodies.
+               robot::PairSelection selection;
+               selection.self = sc.self_collision;
+               r->pairs = robot::select_pairs(robot, sc.obstacles, selection);
 
                std::weak_ptr<Session> weak = session;
                auto job = jobs_.submit(session->id, "cbf_rollout", {{"scenario", sc.name}, {"metric", cbf::to_string(parsed.metric)}},

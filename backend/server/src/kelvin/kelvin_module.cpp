@@ -72,7 +72,7 @@ void KelvinModule::joined(const std::shared_ptr<Session>& session, const std::sh
 void KelvinModule::describe_session(Session& session, json& out) {
   std::lock_guard lock(session.mutex);
   out["objects"] = kelvin_state(session).objects.size();
-  out["uploads"] = kelvin_state(session).uploads.size();
+  out["uploads"] = uploads(session).uploads.size();
 }
 
 }  // namespace distlab::server

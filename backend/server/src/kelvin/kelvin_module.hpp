@@ -13,19 +13,14 @@
 #include "distlab/server/kelvin_objects.hpp"
 #include "distlab/server/module.hpp"
 #include "distlab/server/service.hpp"
+#include "distlab/server/uploads.hpp"
 
 namespace distlab::server {
 
-struct Upload {
-  mesh::SurfaceMesh surface;
-  std::string format;
-  std::size_t bytes = 0;
-};
-
-// The Kelvin part of a session (Session::state, guarded by the session's mutex).
+// The Kelvin part of a session (Session::state, guarded by the session's mutex); its uploads are
+// the session's (uploads.hpp), which other modules read too.
 struct KelvinSessionState : ModuleState {
   std::map<std::string, std::shared_ptr<KelvinObject>> objects;
-  std::map<std::string, std::shared_ptr<Upload>> uploads;
 };
 
 class KelvinModule final : public Module {
@@ -46,8 +41,9 @@ class KelvinModule final : public Module {
 
  private:
   const std::string& registry_cache_dir() const { return core_.cache_dir(); }
-  // This session's uploads and objects; call with session.mutex held.
+  // This session's objects and uploads; call with session.mutex held.
   static KelvinSessionState& kelvin_state(Session& session) { return session.state<KelvinSessionState>(); }
+  static SessionUploads& uploads(Session& session) { return session.state<SessionUploads>(); }
   std::shared_ptr<KelvinObject> require_object(const Session& session, const Request& request);
 
   // estimate_only: checks the inputs and answers estimate_json, creating nothing.

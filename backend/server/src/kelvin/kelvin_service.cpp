@@ -111,8 +111,8 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
   } else if (body.contains("upload")) {
     if (!body["upload"].is_string()) throw InvalidInput("upload", "upload must be an upload id");
     std::lock_guard lock(session->mutex);
-    auto it = kelvin_state(*session).uploads.find(body["upload"].get<std::string>());
-    if (it == kelvin_state(*session).uploads.end()) throw ApiError(404, "unknown_upload", "no such upload in this session", "upload");
+    auto it = uploads(*session).uploads.find(body["upload"].get<std::string>());
+    if (it == uploads(*session).uploads.end()) throw ApiError(404, "unknown_upload", "no such upload in this session", "upload");
     surface = it->second->surface;
     source["upload"] = it->first;
   } else {

@@ -52,7 +52,7 @@ void KelvinModule::register_routes() {
                      throw ApiError(413, "too_many_triangles", "at most " + std::to_string(lim.max_upload_triangles) + " triangles", "body");
                  {
                    std::lock_guard lock(session->mutex);
-                   if (kelvin_state(*session).uploads.size() >= lim.max_uploads_per_session)
+                   if (uploads(*session).uploads.size() >= lim.max_uploads_per_session)
                      throw ApiError(429, "too_many_uploads", "this session has too many uploads");
                  }
                  // The file's unit: a name or a factor to metres (not both); metres by default.
@@ -80,7 +80,7 @@ void KelvinModule::register_routes() {
                  const std::string id = random_id();
                  {
                    std::lock_guard lock(session->mutex);
-                   kelvin_state(*session).uploads.emplace(id, up);
+                   uploads(*session).uploads.emplace(id, up);
                  }
                  json answer = {{"upload", id}, {"n_vertices", up->surface.vertices.rows()}, {"n_faces", up->surface.faces.rows()}, {"scale", scale}};
                  if (!unit.empty()) answer["unit"] = unit;

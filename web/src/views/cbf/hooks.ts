@@ -68,7 +68,7 @@ export function installHooks(parts: () => CbfParts): () => void {
     drawn: () => copy(drawn(parts())),
     plots: () => {
       const p = parts().results?.plots;
-      return copy(p ? { velocity: p.velocity.data(), distance: p.distance.data(), error: p.error.data() } : {});
+      return copy(p ? { velocity: p.velocity.data(), distance: p.distance.data(), error: p.error.data(), pairs: p.pairs.plot.data() } : {});
     },
     /** The smoothness table as shown: the record's number behind every cell and its text. */
     table: () => copy(table(parts().results?.summary ?? null)),

@@ -10,13 +10,21 @@ export function poseMatrix(p: { position?: number[]; quaternion?: number[] } | P
   return new THREE.Matrix4().compose(new THREE.Vector3(px, py, pz), new THREE.Quaternion(x, y, z, w).normalize(), new THREE.Vector3(1, 1, 1));
 }
 
-/** World frame of every link: child = parent · origin · Rot(axis, q[joint.q]) (joints are listed parents first). */
+/**
+ * World frame of every link: child = parent · origin · Rot(axis, θ) (revolute) or Trans(axis θ)
+ * (prismatic), θ = multiplier · q[joint.q] + offset (joints are listed parents first).
+ */
 export function linkFrames(robot: CbfRobot, q: number[]): THREE.Matrix4[] {
   const out = robot.links.map(() => new THREE.Matrix4());
   const m = new THREE.Matrix4();
   for (const j of robot.joints) {
     const T = out[j.parent].clone().multiply(poseMatrix(j.origin));
-    if (j.q >= 0) T.multiply(m.makeRotationAxis(new THREE.Vector3(...j.axis).normalize(), q[j.q] ?? 0));
+    if (j.q >= 0) {
+      const theta = j.multiplier * (q[j.q] ?? 0) + j.offset;
+      const axis = new THREE.Vector3(...j.axis).normalize();
+      if (j.type === "prismatic") T.multiply(m.makeTranslation(axis.x * theta, axis.y * theta, axis.z * theta));
+      else T.multiply(m.makeRotationAxis(axis, theta));
+    }
     out[j.child] = T;
   }
   return out;

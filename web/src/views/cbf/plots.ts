@@ -1,25 +1,25 @@
 // The rollout plots in the bottom strip (paper Fig. 4 and friends): joint velocities u_j(t), the
 // distances over time (true clearance and the controller's smallest D), the task error ‖r‖; every
 // rollout of the run in the same plot (the first solid, the second dashed), one velocity series per
-// joint of the run's robot, a line at the current time, a click seeks there. Rebuilt per run (the
-// series depend on the rollouts and the robot).
+// joint of the run's robot, a line at the current time, a click seeks there; and every pair's
+// distance at that time beside its margin (pair_bars.ts). Rebuilt per run (the series depend on
+// the rollouts and the robot).
 import { Plot, type PlotSeries } from "../../core/plot";
 import type { FrameStore } from "./frames";
+import { PairBars, type PairSource } from "./pair_bars";
 import type { RolloutSpec } from "./specs";
 
 const JOINT_COLORS = ["#4e79a7", "#f28e2b", "#e15759", "#76b7b2", "#59a14f", "#edc948", "#b07aa1", "#ff9da7", "#9c755f"];
 const hex = (c: number) => `#${c.toString(16).padStart(6, "0")}`;
 const dash = (k: number) => (k > 0 ? [5, 3] : undefined);
 
-export interface PlotSource {
-  key: string;
-  store: FrameStore | null;
-}
+export type PlotSource = PairSource;
 
 export class RolloutPlots {
   readonly velocity: Plot;
   readonly distance: Plot;
   readonly error: Plot;
+  readonly pairs: PairBars;
   private timer = 0;
   private dirty = false;
   /** Plot refreshes and their JS time (data copy + uPlot setData), for measurements. */
@@ -55,7 +55,7 @@ export class RolloutPlots {
       digits: 4,
       legendValues: false,
     });
-    this.velocity.root.style.flex = "2.2";
+    this.velocity.root.style.flex = "1.5";
     const dSeries: PlotSeries[] = [];
     for (const s of specs) {
       dSeries.push({ label: `clearance ${s.short}`, color: hex(s.color), width: 2 });
@@ -81,8 +81,9 @@ export class RolloutPlots {
       digits: 5,
       legendValues: false,
     });
-    this.error.root.style.flex = "0.9";
+    this.error.root.style.flex = "1";
     for (const p of [this.velocity, this.distance, this.error]) p.onPick(onPick);
+    this.pairs = new PairBars(container, specs);
   }
 
   /** Only joint j (1 … dof) or all (0). */
@@ -130,12 +131,14 @@ export class RolloutPlots {
       x,
       bySource.map((s) => pad(s, (st, len) => st.scalarSeries(st.taskError, len), true)),
     );
+    this.pairs.setSources(sources);
     this.refreshMs.push(performance.now() - t0);
     if (this.refreshMs.length > 1000) this.refreshMs.splice(0, 500);
   }
 
   setTime(t: number | null): void {
     for (const p of [this.velocity, this.distance, this.error]) p.setMarker(t);
+    this.pairs.setTime(t);
   }
 
   dispose(): void {
@@ -143,5 +146,6 @@ export class RolloutPlots {
     this.velocity.dispose();
     this.distance.dispose();
     this.error.dispose();
+    this.pairs.dispose();
   }
 }

@@ -10,30 +10,14 @@
 #include <vector>
 
 #include "distlab/cbf/qp.hpp"
+#include "distlab/cbf/rows.hpp"
 #include "distlab/cbf/scenario.hpp"
 
 namespace distlab::cbf {
 
-struct PairInfo {
-  std::string name;  // "link7_box/wall1"
-  int a;             // robot primitive index
-  int b;             // obstacle index (self = false) or robot primitive index (self = true)
-  bool self;
-};
-
-struct PairSample {
-  double distance = 0;   // the controller's D (GAP or Euclidean)
-  double clearance = 0;  // true Euclidean distance (NaN if not audited)
-  Vec3 witness_a = Vec3::Zero();
-  Vec3 witness_b = Vec3::Zero();
-  bool overlap = false;
-  int iterations = 0;  // GAP solver iterations (0 for Euclidean)
-  bool converged = true;
-  bool cold = false;  // GAP: solved from the Euclidean witnesses instead of warm-started
-  // gap.mode as_published: the converged D of the same P2S functions (Newton), beside the
-  // early-stopped `distance` the controller used; NaN in the other modes.
-  double converged_distance = std::numeric_limits<double>::quiet_NaN();
-};
+// The pairs and their per-step records are the robot module's (DistanceModel).
+using PairInfo = robot::RobotPair;
+using PairSample = robot::PairDistance;
 
 struct StepTiming {       // microseconds, steady_clock
   double kinematics = 0;  // FK, Jacobians, task function
@@ -82,7 +66,7 @@ class CbfController {
   CbfController(const CbfController&) = delete;
   CbfController& operator=(const CbfController&) = delete;
 
-  const std::vector<PairInfo>& pairs() const { return pairs_; }
+  const std::vector<PairInfo>& pairs() const;
   const Robot& robot() const { return *robot_; }
   Metric metric() const { return metric_; }
 
@@ -92,17 +76,19 @@ class CbfController {
 
   // The distance rows at q without the QP (for tests): row i is ∇_q D of pair i.
   void distances(const VecQ& q, std::vector<PairSample>& samples, GradQ& grad);
+  // The rows C u ≥ d of the QP at q (cbf_rows), as step() builds them, continuing the same tracks.
+  void rows(const VecQ& q, Eigen::MatrixXd& C, Eigen::VectorXd& d);
+  const robot::DistanceModel& model() const;
 
   void reset_warm_start();
   const Scenario& scenario() const { return scenario_; }
 
  private:
   struct Impl;
-  void compute_pairs(const Kinematics& k, std::vector<PairSample>& samples, GradQ& grad);
+  void compute_pairs(std::vector<PairSample>& samples, GradQ& grad);  // at impl_'s kinematics
   Scenario scenario_;
   Metric metric_;
   std::shared_ptr<const Robot> robot_;
-  std::vector<PairInfo> pairs_;
   std::unique_ptr<Impl> impl_;
 };
 

@@ -7,14 +7,24 @@
 #include <string>
 #include <vector>
 
-#include "distlab/cbf/robot.hpp"
 #include "distlab/gap/distance.hpp"
+#include "distlab/robot/distances.hpp"
+#include "distlab/robot/robot.hpp"
 
 namespace distlab::cbf {
 
-enum class Metric { gap,
-                    euclidean };
-const char* to_string(Metric m);
+// The robot module's vocabulary (backend/robot), which the controller is built on.
+using robot::compose;
+using robot::GradQ;
+using robot::Jac;
+using robot::Kinematics;
+using robot::LinkPrimitive;
+using robot::Metric;
+using robot::Obstacle;
+using robot::Robot;
+using robot::RobotJoint;
+using robot::to_string;
+using robot::VecQ;
 
 // How the GAP rows are computed (scenario field gap.mode).
 // - exact: the project's P2S functions, Newton warm-started from the previous step, converged.
@@ -27,13 +37,6 @@ const char* to_string(Metric m);
 enum class GapMode { exact,
                      as_published };
 const char* to_string(GapMode m);
-
-struct Obstacle {
-  std::string name;
-  Shape shape;
-  Pose pose;             // world
-  P2SOptions options{};  // GAP weights / ρ ball (defaults of the gap library)
-};
 
 struct Margins {
   double obstacle;  // δ_obs

@@ -60,7 +60,8 @@ struct CbfRollout {
   std::size_t steps_done() const;
   const std::vector<cbf::StepRecord>& steps_locked() const { return record ? record->steps : steps; }
   // {"id", "state", "scenario", "metric", "steps_total", "steps_done", "dt", "pairs": [{"name",
-  //  "a", "b", "self"}], "obstacles", "target", "stream", "robot"} (+ "summary" when ended).
+  //  "a", "b", "self"}], "margins": {"obstacle", "self"} (the metric's δ), "obstacles", "target",
+  //  "stream", "robot"} (+ "summary" when ended).
   nlohmann::json status_json() const;
 };
 

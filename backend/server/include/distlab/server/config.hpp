@@ -39,6 +39,12 @@ struct Limits {
   std::size_t max_gap_pairs = 2000;
   int max_gap_iterations = 1000000;       // params.max_iter of one GAP pair (0: the solver's default)
   std::size_t query_chunk_points = 4096;  // Kelvin queries check the time limit this often
+  // POST /api/robot/distances: configurations, configurations × pairs (each a distance, two
+  // witnesses and a dof-long gradient: ~350 bytes of JSON for 7 joints, so ~18 MB at the limit),
+  // and obstacles (each built and checked for Property 2 once per request).
+  std::size_t max_robot_configurations = 10000;
+  std::size_t max_robot_pair_evaluations = 50000;
+  std::size_t max_robot_obstacles = 256;
   // Connections: beyond max_connections a new one is closed at once; a client that sends no
   // complete header (idle or slowloris) or body within read_timeout_seconds is closed.
   std::size_t max_connections = 512;
@@ -93,6 +99,9 @@ void for_each_limit(L& l, F&& f) {
   f("max_gap_pairs", l.max_gap_pairs);
   f("max_gap_iterations", l.max_gap_iterations);
   f("query_chunk_points", l.query_chunk_points);
+  f("max_robot_configurations", l.max_robot_configurations);
+  f("max_robot_pair_evaluations", l.max_robot_pair_evaluations);
+  f("max_robot_obstacles", l.max_robot_obstacles);
   f("max_connections", l.max_connections);
   f("read_timeout_seconds", l.read_timeout_seconds);
   f("import_memory_bytes", l.import_memory_bytes);

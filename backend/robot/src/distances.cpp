@@ -1,0 +1,248 @@
+#include "distlab/robot/distances.hpp"
+
+#include <algorithm>
+#include <mutex>
+#include <thread>
+
+#include "distlab/geometry/error.hpp"
+#include "distlab/geometry/parallel.hpp"
+#include "distlab/geometry/progress.hpp"
+
+namespace distlab::robot {
+
+const char* to_string(Metric m) { return m == Metric::gap ? "gap" : "euclidean"; }
+
+P2SOptions gap_body_options(const Shape& shape, P2SOptions options, double weight_margin) {
+  if (std::holds_alternative<Box>(shape) && !options.weights)
+    options.weights = VecX::Constant(6, 1.0 / (1.0 + weight_margin));
+  return options;
+}
+
+namespace {
+
+// Self pairs of the selection: Robot::self_pairs, plus the allowed link pairs, less the denied.
+std::vector<std::pair<int, int>> self_pairs(const Robot& robot, const PairSelection& s) {
+  const auto links = [&](const std::vector<std::pair<std::string, std::string>>& list, const char* name) {
+    std::vector<std::pair<int, int>> out;
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      const std::string f = std::string("pairs.") + name + "[" + std::to_string(i) + "]";
+      const int a = robot.link_index(list[i].first), b = robot.link_index(list[i].second);
+      if (a < 0 || b < 0)
+        throw InvalidInput(f, f + ": \"" + (a < 0 ? list[i].first : list[i].second).substr(0, 64) +
+                                  "\" is not a link of the robot");
+      out.emplace_back(std::min(a, b), std::max(a, b));
+    }
+    return out;
+  };
+  const auto allow = links(s.allow, "allow"), deny = links(s.deny, "deny");
+  const auto listed = [](const std::vector<std::pair<int, int>>& list, int la, int lb) {
+    return std::find(list.begin(), list.end(), std::make_pair(std::min(la, lb), std::max(la, lb))) != list.end();
+  };
+  const auto& prims = robot.primitives();
+  std::vector<std::pair<int, int>> out;
+  for (int i = 0; i < static_cast<int>(prims.size()); ++i)
+    for (int j = i + 1; j < static_cast<int>(prims.size()); ++j) {
+      const int la = prims[i].link, lb = prims[j].link;
+      const bool apart = robot.joints_between(la, lb) >= 2;
+      if ((apart || listed(allow, la, lb)) && !listed(deny, la, lb)) out.emplace_back(i, j);
+    }
+  return out;
+}
+
+}  // namespace
+
+std::vector<RobotPair> select_pairs(const Robot& robot, const std::vector<Obstacle>& obstacles,
+                                    const PairSelection& selection) {
+  const auto& prims = robot.primitives();
+  std::vector<RobotPair> pairs;
+  if (selection.obstacles)
+    for (int i = 0; i < static_cast<int>(prims.size()); ++i)
+      for (int j = 0; j < static_cast<int>(obstacles.size()); ++j)
+        pairs.push_back({i, j, false, prims[i].name + "/" + obstacles[j].name});
+  if (selection.self)
+    for (const auto& [i, j] : self_pairs(robot, selection))
+      pairs.push_back({i, j, true, prims[i].name + "/" + prims[j].name});
+  return pairs;
+}
+
+DistanceModel::DistanceModel(std::shared_ptr<const Robot> robot, std::vector<Obstacle> obstacles, Metric metric,
+                             const GapParams& params, const PairSelection& selection, const BodyOptions& options)
+    : robot_(std::move(robot)), obstacles_(std::move(obstacles)), metric_(metric), params_(params), pool_(std::make_shared<Pool>()) {
+  if (metric_ == Metric::gap) check_params(params_);
+  const auto body_options = [&](const Shape& shape, const P2SOptions& given) {
+    return options ? options(shape, given) : gap_body_options(shape, given, params_.weight_margin);
+  };
+  pairs_ = select_pairs(*robot_, obstacles_, selection);
+  const auto& prims = robot_->primitives();
+  for (const LinkPrimitive& prim : prims) {
+    robot_euclid_.emplace_back(prim.shape);
+    if (metric_ == Metric::gap)
+      robot_gap_.emplace_back(prim.shape, Pose{}, params_, body_options(prim.shape, {}), "robot." + prim.name);
+  }
+  for (std::size_t j = 0; j < obstacles_.size(); ++j) {
+    const Obstacle& o = obstacles_[j];
+    obstacle_euclid_.emplace_back(o.shape);
+    if (metric_ == Metric::gap)
+      obstacle_gap_.emplace_back(o.shape, o.pose, params_, body_options(o.shape, o.options),
+                                 "obstacles[" + std::to_string(j) + "]");
+  }
+}
+
+struct DistanceModel::Pool {
+  std::mutex mutex;
+  std::vector<std::unique_ptr<Workspace>> free;
+};
+
+std::unique_ptr<DistanceModel::Workspace> DistanceModel::acquire() const {
+  {
+    std::lock_guard lock(pool_->mutex);
+    if (!pool_->free.empty()) {
+      std::unique_ptr<Workspace> w = std::move(pool_->free.back());
+      pool_->free.pop_back();
+      w->tracks.assign(pairs_.size(), GapTrack{});
+      return w;
+    }
+  }
+  return std::make_unique<Workspace>(workspace());
+}
+
+void DistanceModel::recycle(std::unique_ptr<Workspace> w) const {
+  std::lock_guard lock(pool_->mutex);
+  if (pool_->free.size() < 64) pool_->free.push_back(std::move(w));
+}
+
+DistanceModel::Workspace DistanceModel::workspace() const {
+  Workspace w;
+  w.robot_gap = robot_gap_;
+  w.robot_pose.resize(robot_->primitives().size());
+  w.robot_jac.resize(robot_->primitives().size());
+  w.tracks.assign(pairs_.size(), GapTrack{});
+  return w;
+}
+
+void DistanceModel::evaluate(const VecQ& q, Workspace& w, bool tracking, std::span<PairDistance> out, GradQ& grad,
+                             const Adjust& adjust) const {
+  robot_->check_q(q);
+  robot_->forward(q, w.kinematics);
+  evaluate_at(w, tracking, out, grad, adjust);
+}
+
+void DistanceModel::evaluate_at(Workspace& w, bool tracking, std::span<PairDistance> out, GradQ& grad,
+                                const Adjust& adjust) const {
+  const Kinematics& k = w.kinematics;
+  const auto& prims = robot_->primitives();
+  for (std::size_t i = 0; i < prims.size(); ++i) {
+    w.robot_pose[i] = robot_->primitive_pose(k, static_cast<int>(i));
+    robot_->point_jacobian(k, prims[i].link, w.robot_pose[i].position, w.robot_jac[i]);
+    if (metric_ == Metric::gap) w.robot_gap[i].set_pose(w.robot_pose[i]);
+  }
+  grad.resize(static_cast<Eigen::Index>(pairs_.size()), robot_->dof());
+  for (std::size_t p = 0; p < pairs_.size(); ++p) {
+    const RobotPair& pair = pairs_[p];
+    PairDistance& s = out[p];
+    s = PairDistance{};
+    Vec6 ga, gb;
+    if (metric_ == Metric::gap) {
+      const GapBody& A = w.robot_gap[pair.a];
+      const GapBody& B = pair.self ? w.robot_gap[pair.b] : obstacle_gap_[pair.b];
+      // Tracking: Newton from the witnesses predicted from the previous solution, stopping on its
+      // error estimate; an empty track (first call, after an overlap or a failed warm solve) is
+      // solved cold, as gap_distance does.
+      GapTrack& track = w.tracks[p];
+      if (!tracking) track = GapTrack{};
+      s.cold = !track.valid;
+      GapResult g = gap_distance_tracked(A, B, params_, track);
+      if (!s.cold && !g.converged) {
+        track = GapTrack{};
+        g = gap_distance_tracked(A, B, params_, track);
+        s.cold = true;
+      }
+      s.clearance = s.cold ? g.euclidean.distance : std::numeric_limits<double>::quiet_NaN();
+      if (adjust) adjust(static_cast<int>(p), A, B, g, s);
+      s.distance = g.distance;
+      s.witness_a = g.witness_a;
+      s.witness_b = g.witness_b;
+      s.overlap = g.overlap;
+      s.iterations = g.iterations;
+      s.converged = g.converged;
+      ga = g.gradient_a;
+      gb = g.gradient_b;
+    } else {
+      const Pose& pb = pair.self ? w.robot_pose[pair.b] : obstacles_[pair.b].pose;
+      const EuclideanShape& eb = pair.self ? robot_euclid_[pair.b] : obstacle_euclid_[pair.b];
+      const EuclideanResult e = euclidean_distance(robot_euclid_[pair.a], w.robot_pose[pair.a], eb, pb);
+      s.distance = s.clearance = e.distance;
+      s.witness_a = e.witness_a;
+      s.witness_b = e.witness_b;
+      s.overlap = e.distance <= 0;
+      ga = e.gradient_a;
+      gb = e.gradient_b;
+    }
+    // Chain rule: dD/dq = g_vᵀ J_v(o) + g_ωᵀ J_ω for the origin o of each moving shape.
+    grad.row(static_cast<Eigen::Index>(p)) = ga.transpose() * w.robot_jac[pair.a];
+    if (pair.self) grad.row(static_cast<Eigen::Index>(p)) += gb.transpose() * w.robot_jac[pair.b];
+  }
+}
+
+DistanceBatch distances(const DistanceModel& model, std::span<const double> q, int n, const BatchOptions& options) {
+  const int dof = model.dof();
+  const int np = static_cast<int>(model.pairs().size());
+  if (n < 0 || q.size() != static_cast<std::size_t>(n) * static_cast<std::size_t>(dof))
+    throw InvalidInput("q", "q must have shape (N, " + std::to_string(dof) + ")");
+  if (!options.warm_start.empty() && options.warm_start.size() != static_cast<std::size_t>(np))
+    throw InvalidInput("warm_start", "warm_start holds the tracks of another pair set (" +
+                                         std::to_string(options.warm_start.size()) + " pairs, not " + std::to_string(np) + ")");
+  for (int i = 0; i < n; ++i)
+    model.robot().check_q(Eigen::Map<const VecQ>(q.data() + static_cast<std::size_t>(i) * dof, dof),
+                          "q[" + std::to_string(i) + "]");
+
+  DistanceBatch b;
+  b.n = n;
+  b.pairs = np;
+  b.dof = dof;
+  const auto cells = static_cast<std::size_t>(n) * static_cast<std::size_t>(np);
+  b.distance.resize(cells);
+  b.jacobian.resize(cells * dof);
+  b.witness_robot.resize(cells * 3);
+  b.witness_obstacle.resize(cells * 3);
+  b.overlap.resize(cells);
+  b.converged.resize(cells);
+  b.iterations.resize(cells);
+  static const unsigned hw = std::max(1u, std::thread::hardware_concurrency());  // reads /sys: once
+  const auto runs = static_cast<std::size_t>(
+      std::max(1, std::min(n, static_cast<int>(options.threads == 0 ? hw : options.threads))));
+  std::vector<GapTrack> last;
+  parallel_for(runs, static_cast<unsigned>(runs), [&](std::size_t r) {
+    const int begin = static_cast<int>(static_cast<std::size_t>(n) * r / runs);
+    const int end = static_cast<int>(static_cast<std::size_t>(n) * (r + 1) / runs);
+    std::unique_ptr<DistanceModel::Workspace> held = model.acquire();
+    DistanceModel::Workspace& w = *held;
+    if (r == 0 && !options.warm_start.empty()) w.tracks.assign(options.warm_start.begin(), options.warm_start.end());
+    std::vector<PairDistance> out(static_cast<std::size_t>(np));
+    GradQ grad(np, dof);
+    for (int i = begin; i < end; ++i) {
+      if (options.cancel != nullptr && options.cancel->load(std::memory_order_relaxed)) throw Cancelled();
+      model.robot().forward(Eigen::Map<const VecQ>(q.data() + static_cast<std::size_t>(i) * dof, dof), w.kinematics);
+      model.evaluate_at(w, options.tracking, out, grad);
+      for (int p = 0; p < np; ++p) {
+        const std::size_t c = static_cast<std::size_t>(i) * np + p;
+        const PairDistance& s = out[p];
+        b.distance[c] = s.distance;
+        for (int d = 0; d < 3; ++d) {
+          b.witness_robot[c * 3 + d] = s.witness_a[d];
+          b.witness_obstacle[c * 3 + d] = s.witness_b[d];
+        }
+        for (int j = 0; j < dof; ++j) b.jacobian[c * dof + j] = grad(p, j);
+        b.overlap[c] = s.overlap;
+        b.converged[c] = s.converged;
+        b.iterations[c] = s.iterations;
+      }
+    }
+    if (r + 1 == runs) last = w.tracks;
+    model.recycle(std::move(held));
+  });
+  b.tracks = std::move(last);
+  return b;
+}
+
+}  // namespace distlab::robot

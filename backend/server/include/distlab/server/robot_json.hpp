@@ -1,0 +1,99 @@
+#pragma once
+// The robot feature's JSON codec, shared by POST /api/robot/distances (routes_robot.cpp) and the
+// Python bindings (distlab.robot): the obstacles, the pair selection, the metric and the
+// Property 2 check of a DistanceModel's bodies are read and checked here once, so both name the
+// same fields ("obstacles[1].size[0]", "pairs.allow[0]") and follow the same rules.
+//
+// Request:  {"robot": NAME | {"urdf": TEXT, "meshes"?: {FILENAME: UPLOAD_ID}},
+//            "q": [dof numbers] | [[dof numbers], ...],
+//            "obstacles"?: [SHAPE + optional "name"],       (SHAPE as gap_json's, world pose)
+//            "metric"?: "gap" | "euclidean",                  (default gap)
+//            "pairs"?: "obstacles" | "self" | "both" | {"obstacles", "self", "allow", "deny"},
+//            "params"?: PARAMS, "comment"?}                   (PARAMS as gap_json's)
+//           NAME: assets/robots/NAME.urdf. FILENAME: a <mesh filename> exactly as the URDF writes
+//           it; UPLOAD_ID: an upload of this session (POST /api/kelvin/uploads, unit m: the URDF's
+//           scale then applies), already parsed in the isolated child. allow / deny: [[LINK, LINK],
+//           ...] self pairs added / removed (they need "self": true).
+// Response: {"robot", "dof", "joint_names", "metric", "n", "warnings" (the robot's: a mesh that is
+//            not closed, whose vertices' hull is used), "pairs": [{"name", "link", "element",
+//            "self", "obstacle" | "other": {"link", "element"}}], "distance": (N, P),
+//            "jacobian": (N, P, dof) (unless params.gradient is false), "witness_robot",
+//            "witness_obstacle": (N, P, 3), "overlap", "converged", "iterations": (N, P)}:
+//           always N-leading arrays, also for one configuration.
+// Errors:   InvalidInput / ApiError naming the field: "q[3][2]", "obstacles[1].size",
+//           "robot.meshes[\"x.stl\"]", "pairs.allow[0]", "params.tol", ...
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "distlab/robot/distances.hpp"
+#include "distlab/robot/robot.hpp"
+#include "distlab/server/config.hpp"
+#include "distlab/server/gap_json.hpp"
+#include "distlab/server/uploads.hpp"
+
+namespace distlab::server {
+
+// Obstacles of the Python bindings' calls (the server's bound is Limits::max_robot_obstacles).
+inline constexpr std::size_t kMaxRobotObstacles = 1000;
+
+// [SHAPE + optional "name"], at most `max` (InvalidInput("obstacles") above it), each a GAP
+// request shape with its world "pose". A name has 1 to 64 characters; an obstacle without one is
+// "obstacle<i>" (i its index, as in the CBF scenarios). Names are distinct, since they name the
+// pairs: a repeated one (given, or a default that another obstacle took) is
+// InvalidInput("obstacles[i].name"). Other errors name "obstacles[i].<key>".
+std::vector<robot::Obstacle> parse_robot_obstacles(const nlohmann::json& j, std::size_t max = kMaxRobotObstacles);
+
+// "obstacles" | "self" | "both" | {"obstacles": bool, "self": bool, "allow": [[LINK, LINK], ...],
+// "deny": [...]} (allow / deny edit the self pairs, so they need "self": true); errors name
+// "pairs", "pairs.<key>", "pairs.allow[i]", ... (an unknown link: DistanceModel, "pairs.allow[i]").
+robot::PairSelection parse_pair_selection(const nlohmann::json& j);
+
+// "gap" | "euclidean"; InvalidInput("metric") otherwise.
+robot::Metric parse_robot_metric(const nlohmann::json& j);
+
+// Property 2 (validate_p2s, cached per shape) of every GAP body in one of the model's pairs, each
+// body once, on all cores; `checkpoint` runs before each. A failing obstacle is
+// InvalidInput("obstacles[i]"), a failing collision element InvalidInput(robot_field) whose
+// message names the element.
+void validate_robot_bodies(const robot::DistanceModel& model, const std::string& robot_field,
+                           const std::function<void()>& checkpoint = {});
+
+// Where a request's robot comes from.
+struct RobotSources {
+  std::string robots_dir;  // the built-in robots, NAME.urdf
+  // The session's upload `id`; throws ApiError (401 without a session, 404 unknown_upload) naming
+  // `field`, the meshes entry that gave the id.
+  std::function<std::shared_ptr<const Upload>(const std::string& id, const std::string& field)> upload;
+};
+
+// A request, parsed and checked against the limits; `model` holds the robot, the obstacles, the
+// metric, the GAP parameters and the pairs.
+struct RobotDistancesRequest {
+  std::shared_ptr<const robot::DistanceModel> model;
+  std::string robot_name;   // the built-in's name, or the URDF's <robot name>
+  std::string robot_field;  // "robot" or "robot.urdf": where the robot was given
+  bool validate = true;     // params.validate (GAP): Property 2 of every body in a pair
+  bool gradient = true;     // params.gradient: the answer has "jacobian"
+  std::vector<double> q;    // n × dof, row-major
+  int n = 0;
+};
+
+RobotDistancesRequest parse_robot_distances(const nlohmann::json& body, const RobotSources& sources, const Limits& limits);
+
+// Checks Property 2 of every GAP body in a pair (validate_robot_bodies) when the request asks for
+// it, then every configuration in chunks; `checkpoint` runs between chunks (the
+// request's time limit). Configurations continue each other's GAP solutions (a trajectory).
+robot::DistanceBatch run_robot_distances(const RobotDistancesRequest& request, const std::function<void()>& checkpoint);
+
+// The answer (above). std::runtime_error for a non-finite number, which is never sent.
+nlohmann::json encode_robot_distances(const RobotDistancesRequest& request, const robot::DistanceBatch& batch);
+
+// The built-in robots (NAME.urdf in robots_dir), sorted: {"robots": [{"name", "dof",
+// "joint_names", "links", "elements": [{"name", "link"}], "self_pairs"}]}.
+nlohmann::json robots_json(const std::string& robots_dir);
+
+}  // namespace distlab::server

@@ -1,0 +1,307 @@
+// Every Jacobian distances() returns, dD/dq, against central differences of the distance it
+// returns (issue 32: 1e-6 relative): the Panda and the mesh robot of mesh_robot.hpp (prismatic,
+// continuous and mimic joints), both metrics, obstacle and self pairs, at random configurations
+// and at pairs placed 1e-4 m from contact.
+//
+// Differences: each D solved cold (tracking off), central differences at steps h and h/2,
+// Richardson-extrapolated (truncation O(h⁴)). GAP's D falls like a high power of the Euclidean
+// distance d near contact, so its scale of variation is d: h = 1e-3 d (joint units; the Panda's
+// points move at most ~1.2 m per radian), rounded down to a power of ten so that pairs share
+// their differences. The Euclidean distance of shapes with unique nearest features varies on
+// the shapes' own scale (curvature radii, edge lengths), not d: h = 1e-5.
+//
+// "Relative" is to |∂D/∂x| · |∂w/∂q_j|, the gradient of D in the shapes' positions times the
+// speed of the nearest points w per unit joint velocity, summed over the pair's moving shapes
+// and maximised over the joints (and at least ‖dD/dq‖∞): dD/dq_j = n · ∂w/∂q_j for the Euclidean
+// distance, so this bounds it. Not |dD/dq_j| alone: where a pair's distance is stationary in the
+// joints (a cylinder turning about its own axis, two links moved rigidly together, w moving
+// across n) dD/dq cancels to ~1e-18 or to a small fraction of |∂w/∂q|, and the pose gradient's
+// own accuracy is relative to |∂D/∂x| (FCL's nearest points are certified to a duality gap of
+// 1e-14, their direction to ~1e-7: collision/euclidean_distance.cpp; on a cylinder–capsule pair
+// dD/dq_1 = 4.2743130e-3 against the differences' converged 4.2743190e-3, a 1.4e-6 part of it,
+// where |∂w/∂q_1| = 0.16).
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "mesh_robot.hpp"
+#include "robot_test_util.hpp"
+
+#include "distlab/gap/distance.hpp"
+#include "distlab/robot/distances.hpp"
+
+namespace distlab::robot {
+namespace {
+
+constexpr double kBound = 1e-6;  // relative, issue 32
+constexpr double kNear = 1e-4;   // Euclidean distance of the near-contact pairs
+
+DistanceBatch at(const DistanceModel& model, const VecQ& q) {
+  BatchOptions cold;
+  cold.threads = 1;
+  cold.tracking = false;
+  return distances(model, std::span<const double>(q.data(), static_cast<std::size_t>(q.size())), 1, cold);
+}
+
+// The Euclidean distance of every pair at q (the GAP steps' scale).
+std::vector<double> clearances(const DistanceModel& model, const VecQ& q) {
+  const Robot& robot = model.robot();
+  const Kinematics k = robot.forward(q);
+  std::vector<double> out;
+  for (const RobotPair& p : model.pairs()) {
+    const Pose pa = robot.primitive_pose(k, p.a);
+    const Pose pb = p.self ? robot.primitive_pose(k, p.b) : model.obstacles()[p.b].pose;
+    const EuclideanShape& b = p.self ? model.robot_shape(p.b) : model.obstacle_shape(p.b);
+    out.push_back(euclidean_distance(model.robot_shape(p.a), pa, b, pb).distance);
+  }
+  return out;
+}
+
+// Per pair, |∂D/∂x| · |∂w/∂q| (above): the pose gradient of D from gap_distance of bodies built
+// as DistanceModel documents or from FCL, the nearest points from FCL.
+std::vector<double> term_scales(const DistanceModel& model, const VecQ& q) {
+  const Robot& robot = model.robot();
+  const Kinematics k = robot.forward(q);
+  const GapParams& params = model.params();
+  const auto& prims = robot.primitives();
+  std::vector<double> out;
+  for (const RobotPair& p : model.pairs()) {
+    const Pose pa = robot.primitive_pose(k, p.a);
+    const Pose pb = p.self ? robot.primitive_pose(k, p.b) : model.obstacles()[p.b].pose;
+    const EuclideanShape& eb = p.self ? model.robot_shape(p.b) : model.obstacle_shape(p.b);
+    const EuclideanResult e = euclidean_distance(model.robot_shape(p.a), pa, eb, pb);
+    Vec6 ga = e.gradient_a, gb = e.gradient_b;
+    if (model.metric() == Metric::gap) {
+      const Shape& sb = p.self ? prims[p.b].shape : model.obstacles()[p.b].shape;
+      const P2SOptions none;
+      const GapBody A(prims[p.a].shape, pa, params, gap_body_options(prims[p.a].shape, none, params.weight_margin));
+      const GapBody B(sb, pb, params, gap_body_options(sb, p.self ? none : model.obstacles()[p.b].options, params.weight_margin));
+      const GapResult r = gap_distance(A, B, params);
+      ga = r.gradient_a, gb = r.gradient_b;
+    }
+    const Jac Ja = robot.point_jacobian(k, prims[p.a].link, e.witness_a);
+    const Jac Jb = p.self ? robot.point_jacobian(k, prims[p.b].link, e.witness_b) : Jac::Zero(6, robot.dof());
+    double scale = 0;
+    for (int j = 0; j < robot.dof(); ++j)
+      scale = std::max(scale, ga.head<3>().norm() * Ja.col(j).head<3>().norm() + gb.head<3>().norm() * Jb.col(j).head<3>().norm());
+    out.push_back(scale);
+  }
+  return out;
+}
+
+struct Checked {
+  int pairs = 0, near = 0;
+  double worst = 0;        // of error / (kBound · scale)
+  double worst_plain = 0;  // of error / ‖dD/dq‖∞ (reported, not asserted)
+  double widest = 0;       // of scale / ‖dD/dq‖∞
+};
+
+// ‖FD − ∇D‖∞ ≤ kBound · |∂D/∂x| · |∂w/∂q| (above) for every pair at q; overlapping pairs (D = 0, ∇D = 0) are refused
+// by the callers' choice of q.
+void expect_gradients_match_differences(const DistanceModel& model, const VecQ& q, const std::string& tag,
+                                        Checked& checked) {
+  const int dof = model.dof(), np = static_cast<int>(model.pairs().size());
+  const DistanceBatch b = at(model, q);
+  const std::vector<double> d = clearances(model, q), terms = term_scales(model, q);
+  // Pairs grouped by step.
+  std::map<double, std::vector<int>> by_step;
+  for (int p = 0; p < np; ++p) {
+    ASSERT_FALSE(b.overlap[p]) << tag << " " << model.pairs()[p].name;
+    ASSERT_GT(d[p], 0.5 * kNear) << tag << " " << model.pairs()[p].name;
+    const double h = model.metric() == Metric::gap ? std::pow(10.0, std::floor(std::log10(1e-3 * d[p]))) : 1e-5;
+    by_step[h].push_back(p);
+  }
+  for (const auto& [h, pairs] : by_step) {
+    Eigen::MatrixXd fd(np, dof);
+    for (int j = 0; j < dof; ++j) {
+      const auto central = [&](double s) {
+        VecQ qp = q, qm = q;
+        qp[j] += s;
+        qm[j] -= s;
+        const DistanceBatch bp = at(model, qp), bm = at(model, qm);
+        Eigen::VectorXd c(np);
+        for (int p = 0; p < np; ++p) c[p] = (bp.distance[p] - bm.distance[p]) / (2 * s);
+        return c;
+      };
+      fd.col(j) = (4 * central(h / 2) - central(h)) / 3;
+    }
+    for (int p : pairs) {
+      const Eigen::Map<const Eigen::RowVectorXd> g(&b.jacobian[static_cast<std::size_t>(p) * dof], dof);
+      const double scale = std::max(terms[p], g.cwiseAbs().maxCoeff()), error = (fd.row(p) - g).cwiseAbs().maxCoeff();
+      EXPECT_LE(error, kBound * scale) << tag << " " << to_string(model.metric()) << " " << model.pairs()[p].name
+                                       << ": D " << b.distance[p] << ", d " << d[p] << ", step " << h << ", scale " << scale
+                                       << "\n  gradient " << g << "\n  differences " << fd.row(p);
+      EXPECT_GT(scale, 0) << tag << " " << model.pairs()[p].name;
+      ++checked.pairs;
+      checked.worst = std::max(checked.worst, error / (kBound * scale));
+      if (g.cwiseAbs().maxCoeff() > 0) {
+        checked.worst_plain = std::max(checked.worst_plain, error / g.cwiseAbs().maxCoeff());
+        checked.widest = std::max(checked.widest, scale / g.cwiseAbs().maxCoeff());
+      }
+      checked.near += d[p] < 2 * kNear;
+    }
+  }
+}
+
+// A configuration where every pair of the model is at least `gap` apart (Euclidean).
+VecQ clear_configuration(const DistanceModel& model, std::mt19937_64& rng, double gap) {
+  for (int draw = 0; draw < 10000; ++draw) {
+    const VecQ q = test::random_q(rng, model.robot());
+    const std::vector<double> d = clearances(model, q);
+    if (*std::min_element(d.begin(), d.end()) >= gap) return q;
+  }
+  ADD_FAILURE() << "no configuration with every pair " << gap << " apart";
+  return VecQ::Zero(model.dof());
+}
+
+// The corridor's boxes (franka-corridor.md, corridor_narrow), a sphere and a capsule.
+void record(const std::string& name, const Checked& c) {
+  char text[160];
+  std::snprintf(text, sizeof text, "%d pairs (%d near contact); worst error %.3g of the bound, %.3g of |dD/dq|; scale up to %.3g |dD/dq|",
+                c.pairs, c.near, c.worst, c.worst_plain, c.widest);
+  ::testing::Test::RecordProperty(name, text);
+}
+
+std::vector<Obstacle> panda_obstacles() {
+  return {{"wall1", Box{Vec3(0.35, 0.05, 0.90)}, {Vec3(0.53, 0.16, 0.45), Quat::Identity()}},
+          {"wall2", Box{Vec3(0.35, 0.05, 0.90)}, {Vec3(0.53, -0.16, 0.45), Quat::Identity()}},
+          {"roof", Box{Vec3(0.35, 0.35, 0.05)}, {Vec3(0.53, 0, 0.925), Quat::Identity()}},
+          {"ball", Sphere{0.06}, {Vec3(-0.3, 0.35, 0.6), Quat::Identity()}},
+          {"rod", Capsule{0.04, 0.3}, {Vec3(-0.2, -0.4, 0.3), Quat(0.8, 0.3, -0.4, 0.2).normalized()}}};
+}
+
+PairSelection both() {
+  PairSelection s;
+  s.self = true;
+  return s;
+}
+
+TEST(DistanceJacobians, PandaRandomConfigurations) {
+  for (const Metric metric : {Metric::gap, Metric::euclidean}) {
+    const DistanceModel model(test::panda(), panda_obstacles(), metric, GapParams{}, both());
+    ASSERT_EQ(model.pairs().size(), 9u * 5u + 25u);
+    std::mt19937_64 rng(metric == Metric::gap ? 1 : 2);
+    Checked checked;
+    for (int trial = 0; trial < 6; ++trial)
+      expect_gradients_match_differences(model, clear_configuration(model, rng, 1e-3),
+                                         "trial " + std::to_string(trial), checked);
+    EXPECT_EQ(checked.pairs, 6 * 70);
+    record(to_string(metric), checked);
+  }
+}
+
+TEST(DistanceJacobians, MeshRobotRandomConfigurations) {
+  test::TempDir dir;
+  const test::MeshRobot spec = test::write_mesh_robot(dir);
+  const auto robot = Robot::from_file(spec.urdf_path, "robot", spec.options);
+  const std::vector<Obstacle> obstacles = {
+      {"ball", Sphere{0.05}, {Vec3(0.45, -0.1, 0.55), Quat::Identity()}},
+      {"slab", Box{Vec3(0.3, 0.2, 0.04)}, {Vec3(0.1, 0.1, -0.25), Quat(0.9, 0.1, -0.3, 0.2).normalized()}}};
+  for (const Metric metric : {Metric::gap, Metric::euclidean}) {
+    const DistanceModel model(robot, obstacles, metric, GapParams{}, both());
+    ASSERT_EQ(model.pairs().size(), 7u * 2u + 11u);
+    std::mt19937_64 rng(metric == Metric::gap ? 3 : 4);
+    Checked checked;
+    for (int trial = 0; trial < 6; ++trial)
+      expect_gradients_match_differences(model, clear_configuration(model, rng, 1e-3),
+                                         "trial " + std::to_string(trial), checked);
+    EXPECT_EQ(checked.pairs, 6 * 25);
+    record(to_string(metric), checked);
+  }
+}
+
+// Moves `o` along the line of the nearest points of element `i` at q to kNear from it (the slab
+// between the nearest points' planes keeps separating them: the distance falls by the move).
+void place_near(const DistanceModel& model, const VecQ& q, int i, Obstacle& o) {
+  const Robot& robot = model.robot();
+  const Pose pose = robot.primitive_pose(robot.forward(q), i);
+  const EuclideanShape& a = model.robot_shape(i);
+  const EuclideanShape b(o.shape);
+  const EuclideanResult e = euclidean_distance(a, pose, b, o.pose);
+  ASSERT_GT(e.distance, kNear);
+  o.pose.position -= (e.distance - kNear) * (e.witness_b - e.witness_a) / e.distance;
+  EXPECT_NEAR(euclidean_distance(a, pose, b, o.pose).distance, kNear, 1e-12);
+}
+
+// A sphere and a capsule 1e-4 m from two elements of the Panda (the rest ≥ 5 mm away), obstacle
+// and self pairs.
+TEST(DistanceJacobians, PandaObstaclesNearContact) {
+  std::mt19937_64 rng(5);
+  const auto panda = test::panda();
+  for (const Metric metric : {Metric::gap, Metric::euclidean}) {
+    Checked checked;
+    for (int trial = 0; trial < 4; ++trial) {
+      // Elements: the link-7 gripper box and the link-5 cylinder, then the link-6 cylinder and the link-5 box.
+      const int first = trial % 2 ? 6 : 8, second = trial % 2 ? 4 : 5;
+      const DistanceModel self(panda, {}, metric, GapParams{}, both());
+      for (int attempt = 0;; ++attempt) {
+        ASSERT_LT(attempt, 1000) << "no placement";
+        const VecQ q = clear_configuration(self, rng, 5e-3);
+        const Kinematics k = panda->forward(q);
+        std::vector<Obstacle> obstacles = {
+            {"ball", Sphere{0.04}, {panda->primitive_pose(k, first).position + 0.3 * test::random_unit(rng), Quat::Identity()}},
+            {"rod", Capsule{0.03, 0.12}, {panda->primitive_pose(k, second).position + 0.3 * test::random_unit(rng), test::random_rotation(rng)}}};
+        place_near(self, q, first, obstacles[0]);
+        place_near(self, q, second, obstacles[1]);
+        const DistanceModel model(panda, obstacles, metric, GapParams{}, both());
+        std::vector<double> d = clearances(model, q);
+        int near = 0;
+        for (double x : d) near += x < 2 * kNear;
+        std::sort(d.begin(), d.end());
+        if (near != 2 || d[2] < 5e-3) continue;  // another element is close too: draw again
+        expect_gradients_match_differences(model, q, "trial " + std::to_string(trial), checked);
+        break;
+      }
+    }
+    EXPECT_EQ(checked.near, 8) << to_string(metric);
+    record(to_string(metric), checked);
+  }
+}
+
+// Self pairs 1e-4 m from contact: a configuration on the segment from one where the pair is
+// apart to one where it overlaps, found by bisection on its Euclidean distance.
+TEST(DistanceJacobians, PandaSelfPairsNearContact) {
+  std::mt19937_64 rng(6);
+  const auto panda = test::panda();
+  PairSelection self_only;
+  self_only.obstacles = false;
+  self_only.self = true;
+  for (const Metric metric : {Metric::gap, Metric::euclidean}) {
+    const DistanceModel model(panda, {}, metric, GapParams{}, self_only);
+    Checked checked;
+    int found = 0;
+    for (int draw = 0; draw < 20000 && found < 4; ++draw) {
+      const VecQ q1 = test::random_q(rng, *panda);
+      const std::vector<double> d1 = clearances(model, q1);
+      int overlapping = -1, count = 0;
+      for (int p = 0; p < static_cast<int>(d1.size()); ++p)
+        if (d1[p] <= 0) overlapping = p, ++count;
+      if (count != 1) continue;  // exactly one pair overlaps at q1
+      const VecQ q0 = clear_configuration(model, rng, 0.02);
+      double lo = 0, hi = 1;  // distance at lo > kNear, at hi 0
+      VecQ q;
+      double dp = 0;
+      for (int it = 0; it < 100; ++it) {
+        const double t = 0.5 * (lo + hi);
+        q = (1 - t) * q0 + t * q1;
+        dp = clearances(model, q)[overlapping];
+        if (std::abs(dp - kNear) < 1e-7) break;
+        (dp > kNear ? lo : hi) = t;
+      }
+      std::vector<double> d = clearances(model, q);
+      std::sort(d.begin(), d.end());
+      if (std::abs(dp - kNear) >= 1e-7 || d[0] < 0.5 * kNear || d[1] < 5e-3) continue;
+      expect_gradients_match_differences(model, q, model.pairs()[overlapping].name, checked);
+      ++found;
+    }
+    EXPECT_EQ(found, 4) << to_string(metric);
+    EXPECT_EQ(checked.near, 4) << to_string(metric);
+    record(to_string(metric), checked);
+  }
+}
+
+}  // namespace
+}  // namespace distlab::robot
