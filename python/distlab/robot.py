@@ -14,15 +14,23 @@ configuration gives the same arrays with that axis removed (``distance`` ``(P,)`
 ``jacobian`` ``(P, dof)``, ``fk`` ``(L, 7)``, ``cbf_rows`` ``A`` ``(R, dof)``, ...).
 
 **Obstacles** are GAP request shapes (the dicts :func:`distlab.gap.solve` takes, e.g. a
-``distlab.gap`` shape's ``spec()`` with a ``"pose"`` added), each with its world ``"pose"`` and
+``distlab.gap`` shape's ``spec()`` with a ``"pose"`` added), each with its world ``"pose"``
+(``{"position": [x, y, z], "quaternion": [w, x, y, z]}``, either part optional: the identity) and
 an optional ``"name"`` of 1 to 64 characters (default ``"obstacle<i>"``, i its index, as in the
 CBF scenarios and ``POST /api/robot/distances``). Names are distinct, since they name the pairs:
 a repeated one, given or default, raises :class:`distlab.InvalidInput` naming
 ``"obstacles[i].name"``; other bad input names its field too (``"obstacles[1].size[0]"``). GAP weights: a box
 without ``"weights"`` (an obstacle or a robot's ``<box>``) gets W = 1/(1 + weight_margin) on
-each face, as in the CBF scenarios (its faces are orthogonal, so Property 2 holds with that
-weight), not the gap library's general-polytope default; other shapes get the gap library's
-defaults, so a mesh element's distance is the ``convex_hull`` request's.
+each face, as in the CBF scenarios, where the Property 2 validator accepts that weight for the
+box and the params, else (thin walls, large floors) the gap library's general-polytope default
+1/(3 + weight_margin); other shapes get the gap library's defaults, so a mesh element's distance
+is the ``convex_hull`` request's. Shapes far smaller than ``h`` (a millimetre box with h = 0.1)
+break Property 2 under any weight: ``validate`` refuses them naming the body; a smaller ``h``
+(or the Euclidean metric) takes them.
+
+**Witness points.** Euclidean: the nearest points of the two shapes. GAP: the solution (a*, b*)
+of the metric's min–max (the alternating projection's fixed point, eq. 2), which lies near the
+shapes but not on their surfaces; ‖a* − b*‖ is not D.
 
 **The order of the pairs** (the P axis): first the robot–obstacle pairs, collision element
 major: for each collision element in :attr:`Robot.collision_elements` order (links in URDF file
@@ -94,8 +102,9 @@ class Distances:
     - ``distance`` ``(N, P)``: D (GAP, sqrt(2Λ)) or the Euclidean distance; 0 on overlap.
     - ``jacobian`` ``(N, P, dof)``: dD/dq, exact (the pose gradients through the point
       Jacobians).
-    - ``witness_robot`` ``(N, P, 3)``: the witness point on the robot's collision element (world).
-    - ``witness_obstacle`` ``(N, P, 3)``: on the obstacle, or on the second element of a self pair.
+    - ``witness_robot`` ``(N, P, 3)``: the robot side's witness point (world): the nearest point of
+      the collision element (Euclidean) or the metric's a* (GAP: near the element, not on it).
+    - ``witness_obstacle`` ``(N, P, 3)``: the same for the obstacle, or the self pair's second element.
     - ``overlap``, ``converged`` ``(N, P)`` bool; ``iterations`` ``(N, P)`` int (GAP Newton steps).
     - ``pairs``: the pair table, one dict per pair in the order of the P axis: ``name``
       (``"ELEMENT/OBSTACLE"`` or ``"ELEMENT/ELEMENT"``), ``self``, ``link``, ``element`` (its index
@@ -163,8 +172,8 @@ class CbfRows(tuple):
 
 class Robot:
     """A robot from URDF: revolute, continuous, prismatic and fixed joints (and ``<mimic>``),
-    collision elements ``<box>``, ``<cylinder>``, ``<sphere>`` and ``<mesh>`` (STL/OBJ/PLY/OFF, its
-    convex hull, ``scale`` honoured). Immutable."""
+    collision elements ``<box>``, ``<cylinder>``, ``<sphere>`` and ``<mesh>`` (STL/OBJ/PLY/OFF,
+    glTF/GLB or Collada DAE; its convex hull, ``scale`` honoured). Immutable."""
 
     def __init__(self, core: "_core.Robot"):
         self._core = core

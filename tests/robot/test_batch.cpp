@@ -13,6 +13,7 @@
 
 #include "robot_test_util.hpp"
 
+#include "distlab/gap/validator.hpp"
 #include "distlab/geometry/progress.hpp"
 #include "distlab/robot/distances.hpp"
 
@@ -193,7 +194,7 @@ TEST(RobotBatch, UntrackedEqualsColdGapDistancePerConfiguration) {
   const DistanceModel model(panda, obstacles, Metric::gap, params, with_self());
   const DistanceBatch b = distances(model, q, n, options(2, false));
   const auto body = [&](const Shape& shape, const Pose& pose, const P2SOptions& o = {}) {
-    return GapBody(shape, pose, params, gap_body_options(shape, o, params.weight_margin));
+    return GapBody(shape, pose, params, gap_body_options(shape, o, params));
   };
   int compared = 0;
   for (int c = 0; c < n; ++c) {
@@ -252,6 +253,33 @@ TEST(RobotBatch, WarmStartContinuesTheTracks) {
   const DistanceModel obstacles_only(panda, corridor(), Metric::gap, GapParams{}, PairSelection{});
   const std::string e = error_of([&] { distances(obstacles_only, rest, n - first, warm); });
   EXPECT_EQ(e.rfind("warm_start: ", 0), 0u) << e;
+}
+
+// A box's orthogonal-face weight 1/(1 + margin) where it keeps Property 2, the gap library's
+// general rule where it does not (a thin wall, a large floor: the validator finds an eigenvalue
+// >= 1 with the face weight, none with the general rule). A millimetre box breaks it under both
+// with h = 0.1 (a limit of the parameters, not of the weights): validation refuses it.
+TEST(RobotBatch, BoxWeightsKeepProperty2) {
+  const GapParams params;
+  const double face = 1.0 / (1.0 + params.weight_margin);
+  const auto weights_of = [&](const Vec3& size) { return gap_body_options(Box{size}, {}, params).weights; };
+  const auto corridor = weights_of(Vec3(0.3, 0.1, 0.9));
+  ASSERT_TRUE(corridor.has_value());
+  EXPECT_DOUBLE_EQ((*corridor)[0], face);
+  for (const Vec3& size : {Vec3(0.1, 1, 1), Vec3(4, 4, 0.05)}) {
+    SCOPED_TRACE(::testing::Message() << size.transpose());
+    P2SOptions face_weights;
+    face_weights.weights = VecX::Constant(6, face);
+    const GapBody with_face(Box{size}, Pose{}, params, face_weights, "box");
+    EXPECT_FALSE(validate_p2s(with_face.p2s()).ok);  // the premise: the face weight breaks it here
+    EXPECT_FALSE(weights_of(size).has_value());      // so the general rule is kept
+    const GapBody chosen(Box{size}, Pose{}, params, gap_body_options(Box{size}, {}, params), "box");
+    EXPECT_TRUE(validate_p2s(chosen.p2s()).ok);
+  }
+  // Given weights are the caller's.
+  P2SOptions given;
+  given.weights = VecX::Constant(6, 0.2);
+  EXPECT_DOUBLE_EQ((*gap_body_options(Box{Vec3(0.1, 1, 1)}, given, params).weights)[0], 0.2);
 }
 
 TEST(RobotBatch, BadConfigurationsNameTheirIndex) {

@@ -77,8 +77,8 @@ std::vector<double> term_scales(const DistanceModel& model, const VecQ& q) {
     if (model.metric() == Metric::gap) {
       const Shape& sb = p.self ? prims[p.b].shape : model.obstacles()[p.b].shape;
       const P2SOptions none;
-      const GapBody A(prims[p.a].shape, pa, params, gap_body_options(prims[p.a].shape, none, params.weight_margin));
-      const GapBody B(sb, pb, params, gap_body_options(sb, p.self ? none : model.obstacles()[p.b].options, params.weight_margin));
+      const GapBody A(prims[p.a].shape, pa, params, gap_body_options(prims[p.a].shape, none, params));
+      const GapBody B(sb, pb, params, gap_body_options(sb, p.self ? none : model.obstacles()[p.b].options, params));
       const GapResult r = gap_distance(A, B, params);
       ga = r.gradient_a, gb = r.gradient_b;
     }

@@ -205,7 +205,7 @@ TEST_F(MeshUrdf, MeshDistancesEqualThoseOfTheSameHull) {
         const Jac J = robot->point_jacobian(k, robot->primitives()[pair.a].link, robot->primitive_pose(k, pair.a).position);
         if (metric == Metric::gap) {
           const GapBody A(polytope_from_points(scaled(e, e.mesh.vertices), "hull"), pose, params);
-          const GapBody B(o.shape, o.pose, params, gap_body_options(o.shape, {}, params.weight_margin));
+          const GapBody B(o.shape, o.pose, params, gap_body_options(o.shape, {}, params));
           const GapResult r = gap_distance(A, B, params);
           ASSERT_TRUE(r.converged);
           if (r.overlap) {

@@ -88,7 +88,18 @@ TEST(RobotUrdf, InputOutsideTheSubsetIsRefusedNamingIt) {
   EXPECT_NE(field_of(parse(head + R"(<collision name="c"><origin rpy="0 0 1" distlab:quaternion="1 0 0 0"/><geometry><sphere radius="0.1"/></geometry></collision></link>)" + joint + "</robot>")).find("different rotations"), std::string::npos);
   EXPECT_NE(field_of(parse(head + R"(<collision name="c" distlab:capsule="yes"><geometry><cylinder radius="0.1" length="0.2"/></geometry></collision></link>)" + joint + "</robot>")).find("distlab:capsule"), std::string::npos);
   // Two roots: urdfdom itself refuses the tree.
-  EXPECT_EQ(field_of(parse(head + "</link><link name=\"c\"/>" + joint + "</robot>")), "robot: robot URDF: urdfdom cannot parse it");
+  // The tree is checked before urdfdom (which leaks a ring of links on a cycle): two roots, a
+  // cycle, a link defined twice.
+  EXPECT_NE(field_of(parse(head + "</link><link name=\"c\"/>" + joint + "</robot>")).find("both have no parent"), std::string::npos);
+  const std::string ring = R"(<robot name="r"><link name="a"/><link name="b"/>)"
+                           R"(<joint name="j1" type="fixed"><parent link="a"/><child link="b"/></joint>)"
+                           R"(<joint name="j2" type="fixed"><parent link="b"/><child link="a"/></joint></robot>)";
+  EXPECT_NE(field_of(parse(ring)).find("form a cycle"), std::string::npos) << field_of(parse(ring));
+  EXPECT_NE(field_of(parse(R"(<robot name="r"><link name="a"/><link name="a"/></robot>)")).find("defined twice"), std::string::npos);
+  // urdfdom's own reason (console_bridge's error log) is in the message, not on stderr.
+  const std::string bad_origin = field_of(parse(head + "</link>" + R"(<joint name="j" type="fixed"><origin xyz="1 2"/><parent link="a"/><child link="b"/></joint></robot>)"));
+  EXPECT_EQ(bad_origin.rfind("robot: robot URDF: urdfdom cannot parse it: ", 0), 0u) << bad_origin;
+  EXPECT_GT(bad_origin.size(), std::string("robot: robot URDF: urdfdom cannot parse it: ").size()) << bad_origin;
   // No moving joint: a rigid body.
   const auto rigid = Robot::from_urdf(R"(<robot name="r"><link name="a"><collision><geometry><sphere radius="0.1"/></geometry></collision></link></robot>)");
   EXPECT_EQ(rigid->dof(), 0);

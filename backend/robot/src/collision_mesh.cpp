@@ -53,7 +53,8 @@ std::string resolve_mesh_path(const std::string& filename, const UrdfOptions& op
                                     "\" must name a file inside its package: package://NAME/path (no \"..\")");
     if (const auto it = options.package_dirs.find(name); it != options.package_dirs.end()) return it->second + "/" + inside;
     for (const std::string& dir : options.package_search_dirs) {
-      const std::string path = dir + "/" + name + "/" + inside;
+      std::string path = dir;
+      path.append("/").append(name).append("/").append(inside);
       struct stat st {};
       if (::stat(path.c_str(), &st) == 0) return path;
     }

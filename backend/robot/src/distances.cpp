@@ -4,6 +4,7 @@
 #include <mutex>
 #include <thread>
 
+#include "distlab/gap/validator.hpp"
 #include "distlab/geometry/error.hpp"
 #include "distlab/geometry/parallel.hpp"
 #include "distlab/geometry/progress.hpp"
@@ -12,10 +13,14 @@ namespace distlab::robot {
 
 const char* to_string(Metric m) { return m == Metric::gap ? "gap" : "euclidean"; }
 
-P2SOptions gap_body_options(const Shape& shape, P2SOptions options, double weight_margin) {
-  if (std::holds_alternative<Box>(shape) && !options.weights)
-    options.weights = VecX::Constant(6, 1.0 / (1.0 + weight_margin));
-  return options;
+P2SOptions gap_body_options(const Shape& shape, P2SOptions options, const GapParams& params) {
+  if (!std::holds_alternative<Box>(shape) || options.weights) return options;
+  P2SOptions box = options;
+  box.weights = VecX::Constant(6, 1.0 / (1.0 + params.weight_margin));
+  // Property 2 near the ρ sphere also depends on the box's proportions to h: the orthogonal-face
+  // weight is kept only where the validator finds no eigenvalue ≥ 1 (verdicts are cached).
+  const GapBody body(shape, Pose{}, params, box, "box");
+  return validate_p2s(body.p2s()).ok ? box : options;
 }
 
 namespace {
@@ -70,7 +75,7 @@ DistanceModel::DistanceModel(std::shared_ptr<const Robot> robot, std::vector<Obs
     : robot_(std::move(robot)), obstacles_(std::move(obstacles)), metric_(metric), params_(params), pool_(std::make_shared<Pool>()) {
   if (metric_ == Metric::gap) check_params(params_);
   const auto body_options = [&](const Shape& shape, const P2SOptions& given) {
-    return options ? options(shape, given) : gap_body_options(shape, given, params_.weight_margin);
+    return options ? options(shape, given) : gap_body_options(shape, given, params_);
   };
   pairs_ = select_pairs(*robot_, obstacles_, selection);
   const auto& prims = robot_->primitives();

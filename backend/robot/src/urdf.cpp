@@ -13,13 +13,16 @@
 // urdfdom keeps origins only as quaternions computed from rpy; origins are read from the XML
 // text instead so that an rpy rotation about one axis is the exact cos/sin matrix, e.g. the
 // Rx(α) of a DH row Rz(q)·Tz(d)·Rx(α)·Tx(a) (a revolute joint, then a fixed joint).
+#include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <map>
 #include <mutex>
 #include <sstream>
 
+#include <console_bridge/console.h>
 #include <tinyxml.h>
 #include <urdf_parser/urdf_parser.h>
 #include <Eigen/Geometry>
@@ -118,6 +121,74 @@ std::string attr(const TiXmlElement* e, const char* name) {
 
 std::string quoted(const std::string& s) { return "\"" + s.substr(0, 64) + "\""; }
 
+// urdfdom says why it refuses a description through console_bridge (to stderr by default, where a
+// caller never sees it and a server's log fills up): its errors are captured for the exception.
+// The handler is process-wide, so parses take turns.
+class CapturedErrors : public console_bridge::OutputHandler {
+ public:
+  void log(const std::string& text, console_bridge::LogLevel level, const char* /*file*/, int /*line*/) override {
+    if (level < console_bridge::CONSOLE_BRIDGE_LOG_ERROR || text_.size() > 400) return;
+    if (!text_.empty()) text_ += "; ";
+    text_ += text.substr(0, 200);
+  }
+  const std::string& text() const { return text_; }
+
+ private:
+  std::string text_;
+};
+
+// The links and joints must form one tree before urdfdom sees them: on a cycle (no root link)
+// urdfdom 3.0 fails with its links holding each other (shared pointers in a ring), which leaks
+// them on every such request.
+void check_tree(const TiXmlElement* robot, const std::string& field) {
+  std::map<std::string, std::string> parent;  // child link -> parent link
+  std::map<std::string, int> links;
+  for (const TiXmlElement* e = robot->FirstChildElement("link"); e; e = e->NextSiblingElement("link"))
+    if (++links[attr(e, "name")] > 1) bad(field, "link " + quoted(attr(e, "name")) + " is defined twice");
+  std::map<std::string, int> joints;
+  for (const TiXmlElement* e = robot->FirstChildElement("joint"); e; e = e->NextSiblingElement("joint")) {
+    const std::string jf = "joint " + quoted(attr(e, "name"));
+    if (++joints[attr(e, "name")] > 1) bad(field, jf + " is defined twice");
+    const TiXmlElement* p = e->FirstChildElement("parent");
+    const TiXmlElement* c = e->FirstChildElement("child");
+    if (!p || !c) bad(field, jf + " needs <parent link> and <child link>");
+    const std::string pl = attr(p, "link"), cl = attr(c, "link");
+    if (!links.count(pl) || !links.count(cl)) bad(field, jf + " names a link the URDF does not define");
+    if (!parent.emplace(cl, pl).second) bad(field, jf + ": link " + quoted(cl) + " has two parents");
+  }
+  if (static_cast<int>(links.size()) > kMaxLinks) bad(field, "at most " + std::to_string(kMaxLinks) + " links");
+  if (static_cast<int>(joints.size()) > kMaxJoints) bad(field, "at most " + std::to_string(kMaxJoints) + " joints");
+  std::vector<std::string> roots;
+  for (const auto& [link, count] : links)
+    if (!parent.count(link)) roots.push_back(link);
+  if (roots.size() > 1)
+    bad(field, "links " + quoted(roots[0]) + " and " + quoted(roots[1]) + " both have no parent: one tree is needed");
+  for (const auto& [link, count] : links) {  // walk up from every link: a root, or a cycle
+    std::string at = link;
+    for (std::size_t steps = 0; parent.count(at); ++steps) {
+      if (steps > parent.size()) bad(field, "the joints form a cycle through link " + quoted(link) + ": one tree is needed");
+      at = parent.at(at);
+    }
+  }
+}
+
+urdf::ModelInterfaceSharedPtr parse_urdf(const std::string& xml, std::string& errors) {
+  static std::mutex mutex;
+  const std::lock_guard lock(mutex);
+  CapturedErrors captured;
+  console_bridge::useOutputHandler(&captured);
+  urdf::ModelInterfaceSharedPtr model;
+  try {
+    model = urdf::parseURDF(xml);
+  } catch (...) {
+    console_bridge::restorePreviousOutputHandler();
+    throw;
+  }
+  console_bridge::restorePreviousOutputHandler();
+  errors = captured.text();
+  return model;
+}
+
 }  // namespace
 
 Pose compose(const Pose& a, const Pose& b) {
@@ -126,7 +197,10 @@ Pose compose(const Pose& a, const Pose& b) {
 
 std::shared_ptr<const Robot> Robot::from_file(const std::string& path, const std::string& field, UrdfOptions options) {
   std::ifstream f(path, std::ios::binary);
-  if (!f) throw InvalidInput(field, "cannot read the robot file");
+  if (!f) {
+    const std::string name = path.substr(path.find_last_of('/') + 1);  // npos + 1 = 0: all of it
+    throw InvalidInput(field, "cannot read the robot file \"" + name.substr(0, 200) + "\": " + std::strerror(errno));
+  }
   std::stringstream text;
   text << f.rdbuf();
   if (options.base_dir.empty()) {
@@ -150,12 +224,14 @@ std::shared_ptr<const Robot> Robot::from_urdf(const std::string& xml, const std:
                                               const UrdfOptions& options) {
   if (xml.size() > kMaxUrdfBytes) bad(field, "at most 1 MiB");
   check_urdf_text(xml, field);  // once, before both parsers below
-  const urdf::ModelInterfaceSharedPtr model = urdf::parseURDF(xml);
-  if (!model) bad(field, "urdfdom cannot parse it");
   TiXmlDocument doc;
   doc.Parse(xml.c_str());
   const TiXmlElement* root = doc.RootElement();
   if (doc.Error() || !root) bad(field, "not XML");
+  check_tree(root, field);
+  std::string reason;
+  const urdf::ModelInterfaceSharedPtr model = parse_urdf(xml, reason);
+  if (!model) bad(field, "urdfdom cannot parse it" + (reason.empty() ? std::string() : ": " + reason));
 
   auto r = std::make_shared<Robot>();
   r->name_ = model->getName();
@@ -373,7 +449,9 @@ std::shared_ptr<const Robot> Robot::from_urdf(const std::string& xml, const std:
           // The field stays the caller's; the message names the element before the mesh's defect.
           std::string what = error.what();
           if (what.rfind("robot URDF: ", 0) == 0) what.erase(0, 12);
-          throw InvalidInput(error.field(), "robot URDF: " + cf + ": " + what);
+          std::string message = "robot URDF: ";
+          message.append(cf).append(": ").append(what);
+          throw InvalidInput(error.field(), message);
         }
       } else {
         bad(field, cf + ": unknown geometry (supported: box, cylinder, sphere, mesh)");

@@ -9,6 +9,6 @@ namespace distlab::robot {
 // from_urdf reads origins with) recurses once per nesting level and looks up every attribute among
 // the element's earlier ones, so 40 000 levels cost it 13 s per parse and 100 000 overflow an 8 MB
 // stack, and 100 000 attributes of one element cost it 28 s. A URDF nests about 6 deep.
-void check_urdf_text(const std::string& xml, const std::string& field);
+void check_urdf_text(const std::string& text, const std::string& field);
 
 }  // namespace distlab::robot

@@ -69,10 +69,13 @@ struct PairDistance {
 };
 
 // GAP options of a robot's or an obstacle's shape. A box's violated half-spaces are mutually
-// orthogonal, so its Hessian Σ W_i Φ''(s_i) u_i u_iᵀ has eigenvalues W_i Φ'' < W_i: W_i = 1/(1 +
-// margin) keeps Property 2, like the cylinder's terms (the gap library's default 1/(m + margin),
-// m = 3 for a box, is the bound for general polytopes and makes D three times flatter).
-P2SOptions gap_body_options(const Shape& shape, P2SOptions options, double weight_margin);
+// orthogonal, so its Hessian Σ W_i Φ''(s_i) u_i u_iᵀ has eigenvalues W_i Φ'' < W_i far from it:
+// W_i = 1/(1 + margin), like the cylinder's terms, where the validator (validate_p2s) confirms
+// Property 2 for that box and these params; the gap library's default 1/(m + margin), m = 3, is
+// the bound for general polytopes and makes D three times flatter, and stays where the box's
+// proportions break Property 2 near the ρ sphere (thin or large boxes against h). Given weights
+// and other shapes: unchanged.
+P2SOptions gap_body_options(const Shape& shape, P2SOptions options, const GapParams& params);
 
 // The robot, the obstacles, the metric and the pairs, built once (GAP bodies, FCL geometry); read
 // only after construction, so one model serves many threads, each with its own Workspace.

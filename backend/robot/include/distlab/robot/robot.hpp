@@ -31,7 +31,7 @@ inline constexpr std::size_t kMaxUrdfBytes = std::size_t{1} << 20;
 inline constexpr int kMaxLinks = 256;
 inline constexpr int kMaxJoints = 256;
 inline constexpr int kMaxCollisionElements = 512;
-inline constexpr int kMaxMeshHullRows = 8192;  // facets of one mesh's hull
+inline constexpr int kMaxMeshHullRows = 16384;  // facets of one mesh's hull
 inline constexpr std::size_t kMaxMeshVertices = 2'000'000;
 
 // A convex collision element fixed to link `link` (index into Robot::links()) at `pose` in that
