@@ -55,11 +55,19 @@ from typing import Any, Mapping, Optional, Sequence, Union
 import numpy as np
 
 from . import _core
-from .errors import InvalidInputType
+from .errors import InvalidInput, InvalidInputType
 
 __all__ = ["Robot", "Distances", "CbfRows"]
 
 PairsArg = Union[str, Mapping[str, Any]]
+
+
+def _threads(threads) -> int:
+    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)):
+        raise InvalidInputType("threads", f"threads must be an integer >= 0 (0: every core), got {type(threads).__name__}")
+    if threads < 0:
+        raise InvalidInput("threads", f"threads must be >= 0 (0: every core), got {threads}")
+    return int(threads)
 
 
 def _q_array(q) -> np.ndarray:
@@ -304,7 +312,7 @@ class Robot:
 
         Runs without the GIL; Ctrl-C stops a long batch (KeyboardInterrupt)."""
         q = _q_array(q)
-        out = self._core.distances(q, _obstacles(obstacles), metric, pairs, _params(params), int(threads),
+        out = self._core.distances(q, _obstacles(obstacles), metric, pairs, _params(params), _threads(threads),
                                    _state(warm_start), bool(tracking))
         return Distances(out, q.ndim == 1)
 
@@ -319,7 +327,7 @@ class Robot:
         q = _q_array(q)
         A, b, out = self._core.cbf_rows(q, _obstacles(obstacles), metric, pairs,
                                         None if margins is None else dict(margins), float(eta), float(eta_joint),
-                                        _params(params), int(threads), _state(warm_start), bool(tracking))
+                                        _params(params), _threads(threads), _state(warm_start), bool(tracking))
         single = q.ndim == 1
         return CbfRows(A[0] if single else A, b[0] if single else b, Distances(out, single))
 

@@ -733,6 +733,8 @@ def test_bad_input_names_the_field(panda):
     assert invalid(panda.distances, q, [obstacles[0], needle]) == "obstacles[1]"
     assert panda.distances(q, [obstacles[0], needle], params={"validate": False}).distance.shape == (18,)
     assert panda.distances(q, [obstacles[0], needle], pairs="self").distance.shape == (25,)  # not in a pair
+    assert invalid(panda.distances, q, obstacles, threads=-1) == "threads"
+    assert invalid(panda.cbf_rows, q, obstacles, threads=1.5) == "threads"
     assert invalid(panda.distances, q, obstacles, metric="manhattan") == "metric"
     assert invalid(panda.distances, q, obstacles, pairs="all") == "pairs"
     assert invalid(panda.distances, q, obstacles, pairs={"self": True, "allow": [["panda_link1", "nope"]]}) == "pairs.allow[0]"
