@@ -185,10 +185,9 @@ inline std::string obj(const PolyMesh& m) {
   return out;
 }
 
-inline std::string ascii_ply(const PolyMesh& m) {
-  std::string out = "ply\nformat ascii 1.0\nelement vertex " + std::to_string(m.vertices.size()) +
-                    "\nproperty double x\nproperty double y\nproperty double z\nelement face " +
-                    std::to_string(m.faces.size()) + "\nproperty list uchar int vertex_indices\nend_header\n";
+// Vertex lines "x y z", then face lines "k i0 … i(k−1)": the body of both OFF and ASCII PLY.
+inline std::string vertex_and_face_lines(const PolyMesh& m) {
+  std::string out;
   for (const Vec3& v : m.vertices) out += numbers(v) + "\n";
   for (const auto& f : m.faces) {
     out += std::to_string(f.size());
@@ -198,15 +197,16 @@ inline std::string ascii_ply(const PolyMesh& m) {
   return out;
 }
 
+inline std::string ascii_ply(const PolyMesh& m) {
+  std::string out = "ply\nformat ascii 1.0\nelement vertex " + std::to_string(m.vertices.size()) +
+                    "\nproperty double x\nproperty double y\nproperty double z\nelement face " +
+                    std::to_string(m.faces.size()) + "\nproperty list uchar int vertex_indices\nend_header\n";
+  return out + vertex_and_face_lines(m);
+}
+
 inline std::string off(const PolyMesh& m) {
   std::string out = "OFF\n" + std::to_string(m.vertices.size()) + " " + std::to_string(m.faces.size()) + " 0\n";
-  for (const Vec3& v : m.vertices) out += numbers(v) + "\n";
-  for (const auto& f : m.faces) {
-    out += std::to_string(f.size());
-    for (int i : f) out += " " + std::to_string(i);
-    out += "\n";
-  }
-  return out;
+  return out + vertex_and_face_lines(m);
 }
 
 // The box [−h, h] with quads, outward.

@@ -242,8 +242,7 @@ std::shared_ptr<const Robot> Robot::from_urdf(const std::string& xml, const std:
     r->links_.push_back(attr(e, "name"));
     link_xml.push_back(e);
   }
-  const int nl = static_cast<int>(r->links_.size());
-  if (nl > kMaxLinks) bad(field, "at most " + std::to_string(kMaxLinks) + " links");
+  const int nl = static_cast<int>(r->links_.size());  // check_tree: at most kMaxLinks, one tree
 
   // Joints in file order; evaluation order (parents first) below.
   std::vector<RobotJoint> joints;
@@ -283,20 +282,13 @@ std::shared_ptr<const Robot> Robot::from_urdf(const std::string& xml, const std:
       j.axis = std::abs(axis.norm() - 1) < 1e-12 ? axis : Vec3(axis.normalized());
       j.q = 0;  // numbered below
     }
-    if (r->parent_joint_[j.child] >= 0) bad(field, jf + ": link has two parents");
     r->parent_joint_[j.child] = static_cast<int>(joints.size());
     joint_of_name[name] = static_cast<int>(joints.size());
     joints.push_back(std::move(j));
   }
-  if (static_cast<int>(joints.size()) > kMaxJoints) bad(field, "at most " + std::to_string(kMaxJoints) + " joints");
-  int root_link = -1;
-  for (int l = 0; l < nl; ++l)
-    if (r->parent_joint_[l] < 0) {
-      if (root_link >= 0) bad(field, "links " + quoted(r->links_[root_link]) + " and " + quoted(r->links_[l]) +
-                                         " both have no parent: one tree is needed");
-      root_link = l;
-    }
-  if (root_link < 0) bad(field, "no root link");
+  int root_link = -1;  // the one link without a parent (check_tree)
+  for (int l = 0; l < nl && root_link < 0; ++l)
+    if (r->parent_joint_[l] < 0) root_link = l;
 
   // Independent joints numbered in file order; then each mimic takes its mimicked joint's number.
   std::vector<int> q_of_file;
