@@ -7,6 +7,11 @@ distance with its exact gradient in joint space, for one configuration or a batc
     d.distance, d.jacobian, d.pairs                  # (N, P), (N, P, dof), the pair table
     d = robot.distances(q_next, [box], pairs="both", warm_start=d)   # a control loop: tracked
     A, b = robot.cbf_rows(q, [box])                  # A u >= b for your own QP
+    wrench = robot.field_barrier([{"mesh": {"asset": "wrench"}, "lx": 0.002, "sigma": {...}, "delta": 0.2,
+                                   "pose": {"position": [0.5, 0, 0.0025]}}],
+                                 [{"link": "panda_leftfinger", "sample": 16}])
+    h, grad = wrench.evaluate(q)                     # a Kelvin field as a barrier: h and ∇_q h
+    A, b = robot.cbf_rows(q, [box], fields=wrench)   # its rows between the pairs and the joint limits
 
 **Shapes of q and of the results.** ``q`` is one configuration ``(dof,)`` or a batch ``(N, dof)``
 (joints in :attr:`Robot.joint_names` order). A batch gives arrays with a leading N axis; one
@@ -57,7 +62,7 @@ import numpy as np
 from . import _core
 from .errors import InvalidInput, InvalidInputType
 
-__all__ = ["Robot", "Distances", "CbfRows"]
+__all__ = ["Robot", "Distances", "CbfRows", "FieldBarrier"]
 
 PairsArg = Union[str, Mapping[str, Any]]
 
@@ -151,10 +156,12 @@ class Distances:
 class CbfRows(tuple):
     """``(A, b)``: the CBF rows ``A u >= b`` of every configuration (unpacks as a tuple).
 
-    ``A`` ``(N, R, dof)``, ``b`` ``(N, R)`` (N absent for one configuration), R = P + the
-    joint-limit rows. Row ``p < P`` is pair p of ``distances.pairs``:
+    ``A`` ``(N, R, dof)``, ``b`` ``(N, R)`` (N absent for one configuration), R = P + the field
+    rows + the joint-limit rows. Row ``p < P`` is pair p of ``distances.pairs``:
     ``∇_q D_p · u >= −η (D_p − δ)``, δ = ``margins["self"]`` for a self pair, else
-    ``margins["obstacle"]``; then per joint with a finite lower limit (joint order)
+    ``margins["obstacle"]``; then, with ``fields``, row ``P + r`` is the barrier's row r
+    (:attr:`FieldBarrier.names`): ``∇_q h_r · u >= −η (h_r − δ_r)``; then per joint with a finite
+    lower limit (joint order)
     ``u_i >= −η_q (q_i − q_min_i)``, then per joint with a finite upper limit
     ``−u_i >= −η_q (q_max_i − q_i)`` (continuous joints have neither).
     Also ``.distances`` (the :class:`Distances` they come from) and ``.state`` (for ``warm_start``).
@@ -176,6 +183,54 @@ class CbfRows(tuple):
     @property
     def state(self):
         return self.distances.state
+
+
+class FieldBarrier:
+    """Kelvin fields as barriers (the semantics-aware distance h of kelvin-semantics-aware-distance.txt)
+    on points fixed to the robot's links: one row per (field, control point), field-major, each
+    keeping ``h(x(q)) >= δ`` of its field. Make one with :meth:`Robot.field_barrier`.
+
+    ``fields``: the CBF scenarios' entries, ``{"name"?, "mesh": {"asset": NAME} | {"path": FILE},
+    "lx" | "lx_fraction", "grading"?, "center"?, "far_radius"?, "feature_angle"?, "repair"?,
+    "repair_options"?, "pose"?: {"position", "quaternion" [w, x, y, z]}, "sigma"?: as
+    :meth:`distlab.kelvin.Field.set_sigma` takes it as a dict (``per_vertex`` in the file's vertex
+    order, ``axis``, ``brushes``, ``constant``), "delta"?: δ (default 0)}``, prepared once through
+    the disk cache (``cache_dir``; default the user's cache, as ``distlab serve``).
+    ``control_points``: ``{"link", "point": [x, y, z] (link frame), "name"?}`` or ``{"link",
+    "element"?: a collision element's name, "sample": COUNT}`` (points on the element surfaces).
+
+    The rows use the paper's smoothed ∇h (continuous across cells, so u changes continuously);
+    ``evaluate(q, gradient="cell")`` gives the derivative of the interpolated h instead, which is
+    what finite differences of h see (they differ by O(l_x))."""
+
+    def __init__(self, core):
+        self._core = core
+
+    def evaluate(self, q, gradient: str = "smoothed"):
+        """``(h, grad)``: h ``(N, R)`` and ∇_q h ``(N, R, dof)`` (N absent for one configuration),
+        rows as :attr:`names`. A control point inside an object (h undefined) raises
+        RuntimeError naming it."""
+        q = _q_array(q)
+        h, g, status = self._core.evaluate(q, gradient)
+        if (status != 0).any():
+            n, r = np.argwhere(status != 0)[0]
+            raise RuntimeError(f"{self.names[r]}: h is undefined at configuration {n} (the point is inside the object)")
+        return (h[0], g[0]) if q.ndim == 1 else (h, g)
+
+    @property
+    def names(self) -> list:
+        """Row names ``"POINT/FIELD"``, field-major."""
+        return self._core.names
+
+    @property
+    def margins(self) -> np.ndarray:
+        """δ of every row."""
+        return np.asarray(self._core.margins)
+
+    @property
+    def points(self) -> list:
+        """The control points: ``{"name", "link", "point"}`` (link frame), sampled ones expanded."""
+        return self._core.points
 
 
 class Robot:
@@ -318,18 +373,32 @@ class Robot:
 
     def cbf_rows(self, q, obstacles: Sequence[Mapping[str, Any]] = (), metric: str = "gap", pairs: PairsArg = "both",
                  margins: Optional[Mapping[str, float]] = None, eta: float = 0.5, eta_joint: float = 0.5,
-                 params: Any = None, threads: int = 0, warm_start: Any = None, tracking: bool = True) -> CbfRows:
+                 params: Any = None, threads: int = 0, warm_start: Any = None, tracking: bool = True,
+                 fields: Optional[FieldBarrier] = None) -> CbfRows:
         """The CBF rows ``A u >= b`` (u the joint velocity) of the corridor controller (paper eq. 7)
         for your own QP, from the same distances (see :class:`CbfRows`). ``margins``:
         ``{"obstacle": δ_obs, "self": δ_self}`` (either may be left out); default the scenario's
-        for the metric (gap 0.002 / 0.0001, euclidean 0.03 / 0.01). The other arguments as
-        :meth:`distances`."""
+        for the metric (gap 0.002 / 0.0001, euclidean 0.03 / 0.01). ``fields``: a
+        :class:`FieldBarrier` of this robot, whose rows come after the pairs' (the built-in
+        controller's order). The other arguments as :meth:`distances`."""
         q = _q_array(q)
+        if fields is not None and not isinstance(fields, FieldBarrier):
+            raise InvalidInputType("fields", "fields must be a FieldBarrier (Robot.field_barrier)")
         A, b, out = self._core.cbf_rows(q, _obstacles(obstacles), metric, pairs,
                                         None if margins is None else dict(margins), float(eta), float(eta_joint),
-                                        _params(params), _threads(threads), _state(warm_start), bool(tracking))
+                                        _params(params), _threads(threads), _state(warm_start), bool(tracking),
+                                        None if fields is None else fields._core)
         single = q.ndim == 1
         return CbfRows(A[0] if single else A, b[0] if single else b, Distances(out, single))
+
+    def field_barrier(self, fields: Sequence[Mapping[str, Any]], control_points: Sequence[Mapping[str, Any]],
+                      cache_dir: Optional[Union[str, os.PathLike]] = None) -> FieldBarrier:
+        """Kelvin fields as barriers on this robot's control points (see :class:`FieldBarrier`):
+        prepares every field (seconds the first time, then from the cache). Bad input raises
+        :class:`distlab.InvalidInput` naming the field (``"fields[0].lx"``,
+        ``"control_points[2].link"``)."""
+        return FieldBarrier(_core.FieldBarrier(self._core, [dict(f) for f in fields], [dict(c) for c in control_points],
+                                               None if cache_dir is None else os.fspath(cache_dir)))
 
     def __repr__(self):
         return f"Robot({self.name!r}, dof={self.dof}, {len(self.links)} links)"

@@ -22,6 +22,7 @@
 #include "distlab/robot/distances.hpp"
 #include "distlab/robot/robot.hpp"
 #include "distlab/server/cbf_json.hpp"
+#include "distlab/server/data_dirs.hpp"
 #include "distlab/server/gap_json.hpp"
 #include "distlab/server/json_fields.hpp"
 #include "distlab/server/robot_json.hpp"
@@ -103,6 +104,7 @@ class PyRobot {
   // Property 2 failure.
   PyRobot(std::shared_ptr<const robot::Robot> r, std::string field) : robot_(std::move(r)), field_(std::move(field)) {}
   const robot::Robot& robot() const { return *robot_; }
+  const std::shared_ptr<const robot::Robot>& shared() const { return robot_; }
 
   std::shared_ptr<const ModelEntry> model(const py::object& obstacles, const std::string& metric,
                                           const py::object& pairs, const py::object& params) {
@@ -207,6 +209,83 @@ py::tuple robot_distances(PyRobot& self, const Array& q, const py::object& obsta
   return batch_tuple(std::move(b), std::move(entry));
 }
 
+// Kelvin fields as barriers of a robot's control points (cbf/fields.hpp): the scenario's "fields"
+// and "control_points", prepared once (through the disk cache), evaluated for any q.
+class PyFieldBarrier {
+ public:
+  PyFieldBarrier(const PyRobot& r, const py::object& fields, const py::object& control_points, const py::object& cache_dir)
+      : robot_(r.shared()) {
+    cbf::Scenario s;
+    s.robot = robot_;
+    const json j = {{"fields", to_json(fields, "fields")}, {"control_points", to_json(control_points, "control_points")}};
+    if (!j["fields"].is_array() || j["fields"].empty()) throw InvalidInput("fields", "fields needs at least one Kelvin object");
+    if (!j["control_points"].is_array() || j["control_points"].empty())
+      throw InvalidInput("control_points", "control_points needs at least one entry");
+    const std::string cache = cache_dir.is_none() ? server::default_cache_dir() : std::string(py::str(cache_dir));
+    const server::FieldPreparer prepare = [cache](const mesh::SurfaceMesh& m, const kelvin::PrepareOptions& o, const std::string&) {
+      return cache.empty() ? kelvin::Field::prepare(m, o) : kelvin::Field::prepare_cached(m, o, cache);
+    };
+    {
+      py::gil_scoped_release release;
+      server::parse_scenario_fields(j, "", "", prepare, s);
+    }
+    barrier_ = std::make_unique<cbf::FieldBarrier>(std::move(s.fields), std::move(s.control_points));
+    for (const cbf::SceneField& f : barrier_->fields())
+      for (const cbf::ControlPoint& c : barrier_->points()) {
+        names_.push_back(c.name + "/" + f.name);
+        margins_.push_back(f.margin);
+      }
+  }
+  const robot::Robot& robot() const { return *robot_; }
+  cbf::FieldBarrier& barrier() { return *barrier_; }
+  const std::vector<double>& margins() const { return margins_; }
+  const std::vector<std::string>& names() const { return names_; }
+  py::list points() const {
+    py::list out;
+    for (const cbf::ControlPoint& c : barrier_->points())
+      out.append(py::dict(py::arg("name") = c.name, py::arg("link") = robot_->links()[static_cast<std::size_t>(c.link)],
+                          py::arg("point") = py::make_tuple(c.point.x(), c.point.y(), c.point.z())));
+    return out;
+  }
+
+  // h (N, R), ∇_q h (N, R, dof) and status (N, R) (0 ok, 1 inside, 2 V ≤ 0: h and ∇h NaN) for q
+  // (N, dof), in turn (each row's cell search starts at its previous cell).
+  py::tuple evaluate(const Array& q, const std::string& gradient) {
+    if (gradient != "smoothed" && gradient != "cell") throw InvalidInput("gradient", "gradient is \"smoothed\" or \"cell\"");
+    const Configs c = read_q(q, *robot_);
+    const int rows = barrier_->rows(), dof = robot_->dof();
+    std::vector<double> h(static_cast<std::size_t>(c.n) * rows), g(static_cast<std::size_t>(c.n) * rows * dof);
+    std::vector<std::int32_t> status(static_cast<std::size_t>(c.n) * rows);
+    {
+      py::gil_scoped_release release;
+      std::vector<cbf::FieldPointSample> s;
+      Eigen::MatrixXd grad;
+      robot::Kinematics k;
+      for (int i = 0; i < c.n; ++i) {
+        robot_->forward(Eigen::Map<const VecQ>(c.data + static_cast<std::size_t>(i) * dof, dof), k);
+        barrier_->evaluate(*robot_, k, s, grad, gradient == "cell" ? kelvin::Gradient::cell : kelvin::Gradient::smoothed);
+        for (int r = 0; r < rows; ++r) {
+          const std::size_t cell = static_cast<std::size_t>(i) * rows + r;
+          h[cell] = s[static_cast<std::size_t>(r)].h;
+          status[cell] = static_cast<std::int32_t>(s[static_cast<std::size_t>(r)].status);
+          for (int j = 0; j < dof; ++j)
+            g[cell * dof + j] = s[static_cast<std::size_t>(r)].status == kelvin::Status::ok ? grad(r, j) : std::nan("");
+        }
+      }
+    }
+    const py::ssize_t n = c.n;
+    return py::make_tuple(owning(std::move(h), {n, rows}, py::dtype::of<double>()),
+                          owning(std::move(g), {n, rows, dof}, py::dtype::of<double>()),
+                          owning(std::move(status), {n, rows}, py::dtype::of<std::int32_t>()));
+  }
+
+ private:
+  std::shared_ptr<const robot::Robot> robot_;
+  std::unique_ptr<cbf::FieldBarrier> barrier_;
+  std::vector<std::string> names_;
+  std::vector<double> margins_;
+};
+
 // margins: None (the scenario defaults of the metric) or {"obstacle", "self"} (either may be left out).
 cbf::Margins parse_margins(const json& j, robot::Metric metric) {
   cbf::Margins m = cbf::Scenario{}.margins(metric);
@@ -231,7 +310,10 @@ double positive(double v, const char* field) {
 // Jacobians): (A (N, R, dof), b (N, R), the distances' tuple).
 py::tuple robot_cbf_rows(PyRobot& self, const Array& q, const py::object& obstacles, const std::string& metric,
                          const py::object& pairs, const py::object& margins, double eta, double eta_joint,
-                         const py::object& params, unsigned threads, const py::object& warm_start, bool tracking) {
+                         const py::object& params, unsigned threads, const py::object& warm_start, bool tracking,
+                         PyFieldBarrier* fields) {
+  if (fields && fields->robot().name() != self.robot().name())
+    throw InvalidInput("fields", "the field barrier belongs to robot \"" + fields->robot().name() + "\"");
   const robot::Robot& robot = self.robot();
   const Configs c = read_q(q, robot);
   std::shared_ptr<const ModelEntry> entry = self.model(obstacles, metric, pairs, params);
@@ -240,22 +322,32 @@ py::tuple robot_cbf_rows(PyRobot& self, const Array& q, const py::object& obstac
   const auto warm = read_warm_start(warm_start, *entry, tracking);
   robot::DistanceBatch b = run_batch(*entry, c, threads, warm.get(), tracking);
   const int np = b.pairs, dof = b.dof;
-  const int rows = np + cbf::joint_limit_rows(robot);
+  const int nf = fields ? fields->barrier().rows() : 0;
+  const int rows = np + nf + cbf::joint_limit_rows(robot);
   std::vector<double> A(static_cast<std::size_t>(c.n) * rows * dof), d(static_cast<std::size_t>(c.n) * rows);
   {
     py::gil_scoped_release release;
     const auto& table = entry->model->pairs();
     std::vector<robot::PairDistance> distances(static_cast<std::size_t>(np));
     GradQ grad(np, dof);
-    Eigen::MatrixXd C;
+    Eigen::MatrixXd C, field_grad;
     Eigen::VectorXd dv;
+    std::vector<cbf::FieldPointSample> field_samples;
+    robot::Kinematics k;
     using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
     for (int i = 0; i < c.n; ++i) {
       const std::size_t cell = static_cast<std::size_t>(i) * np;
       for (int p = 0; p < np; ++p) distances[p].distance = b.distance[cell + p];
       grad = Eigen::Map<const RowMajor>(b.jacobian.data() + cell * dof, np, dof);
       const VecQ qi = Eigen::Map<const VecQ>(c.data + static_cast<std::size_t>(i) * dof, dof);
-      cbf::cbf_rows(robot, table, qi, distances, grad, rp, C, dv);
+      cbf::FieldRows field_rows;
+      if (fields) {
+        robot.forward(qi, k);
+        fields->barrier().evaluate(robot, k, field_samples, field_grad);
+        cbf::require_defined(field_samples, fields->barrier().fields(), fields->barrier().points());
+        field_rows = {field_samples, &field_grad, fields->margins()};
+      }
+      cbf::cbf_rows(robot, table, qi, distances, grad, rp, C, dv, field_rows);
       Eigen::Map<RowMajor>(A.data() + static_cast<std::size_t>(i) * rows * dof, rows, dof) = C;
       Eigen::Map<Eigen::VectorXd>(d.data() + static_cast<std::size_t>(i) * rows, rows) = dv;
     }
@@ -420,7 +512,7 @@ py::tuple cbf_controller_rows(const py::object& request, const Array& q) {
   cbf::CbfController controller(r.scenario, r.metric);
   const Configs c = read_q(q, controller.robot());
   const int dof = controller.robot().dof();
-  const int rows = static_cast<int>(controller.pairs().size()) + cbf::joint_limit_rows(controller.robot());
+  const int rows = static_cast<int>(controller.pairs().size()) + controller.field_rows() + cbf::joint_limit_rows(controller.robot());
   std::vector<double> A(static_cast<std::size_t>(c.n) * rows * dof), d(static_cast<std::size_t>(c.n) * rows);
   {
     py::gil_scoped_release release;
@@ -472,7 +564,14 @@ void bind_robot(py::module_& m) {
       .def("fk", &robot_fk, py::arg("q"))
       .def("jacobian", &robot_jacobian, py::arg("q"), py::arg("link") = py::none(), py::arg("point") = py::none())
       .def("distances", &robot_distances, py::arg("q"), py::arg("obstacles"), py::arg("metric"), py::arg("pairs"), py::arg("params"), py::arg("threads"), py::arg("warm_start"), py::arg("tracking"))
-      .def("cbf_rows", &robot_cbf_rows, py::arg("q"), py::arg("obstacles"), py::arg("metric"), py::arg("pairs"), py::arg("margins"), py::arg("eta"), py::arg("eta_joint"), py::arg("params"), py::arg("threads"), py::arg("warm_start"), py::arg("tracking"));
+      .def("cbf_rows", &robot_cbf_rows, py::arg("q"), py::arg("obstacles"), py::arg("metric"), py::arg("pairs"), py::arg("margins"), py::arg("eta"), py::arg("eta_joint"), py::arg("params"), py::arg("threads"), py::arg("warm_start"), py::arg("tracking"), py::arg("fields"));
+  py::class_<PyFieldBarrier>(m, "FieldBarrier")
+      .def(py::init<const PyRobot&, const py::object&, const py::object&, const py::object&>(), py::arg("robot"),
+           py::arg("fields"), py::arg("control_points"), py::arg("cache_dir"))
+      .def("evaluate", &PyFieldBarrier::evaluate, py::arg("q"), py::arg("gradient"))
+      .def_property_readonly("names", &PyFieldBarrier::names)
+      .def_property_readonly("margins", [](const PyFieldBarrier& b) { return b.margins(); })
+      .def_property_readonly("points", &PyFieldBarrier::points);
   m.def("cbf_controller_rows", &cbf_controller_rows, py::arg("request"), py::arg("q"));
 }
 

@@ -84,7 +84,7 @@ TEST(Corridor, GapExactPaperMarginEntersTheSlotAndSaysWhyItStops) {
   expect_safe(r, margins_of("corridor", Metric::gap));
   ASSERT_FALSE(r.final_state.active.empty());
   const ActiveConstraint& top = r.final_state.active.front();
-  EXPECT_TRUE(top.pair) << top.name;
+  EXPECT_EQ(top.kind, cbf::ActiveConstraint::Kind::pair) << top.name;
   EXPECT_NE(top.name.find('/'), std::string::npos) << top.name;
   EXPECT_GT(top.multiplier, 0.0);
   EXPECT_NEAR(top.distance, top.margin, 1e-3) << top.name;

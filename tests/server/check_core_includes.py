@@ -3,8 +3,9 @@
 no core file (backend/server/src/*.{cpp,hpp} and the core headers) includes a feature module's
 header or names a type a feature declares (not even forward: a module keeps its per-session state
 in its own ModuleState); no module includes a core file from src/; and no feature module includes
-another's (the shape codec gap_json.hpp, which the CLI, the Python bindings and the CBF scenarios
-share, is open to every module but not to the core). modules.cpp, the wiring, is the one file that
+another's (the shared codecs are open to every module but not to the core: gap_json.hpp, shapes,
+which the CLI, the Python bindings and the CBF scenarios share; kelvin_json.hpp, meshes, σ and
+repair requests, which the CBF scenarios' Kelvin fields share). modules.cpp, the wiring, is the one file that
 names them all. Exits 1 naming each offending line."""
 import pathlib
 import re
@@ -65,7 +66,7 @@ for path in files:
                 and (root / "src" / target).exists()):
             bad.append(f"{path.relative_to(root)}:{n}: {mine} reaches into the core's src/ for {target}")
         f = feature_of(m.group(1), path)
-        shared_codec = m.group(1) == "distlab/server/gap_json.hpp" and mine != "core"
+        shared_codec = m.group(1) in ("distlab/server/gap_json.hpp", "distlab/server/kelvin_json.hpp") and mine != "core"
         if f is not None and f != mine and not shared_codec:
             bad.append(f"{path.relative_to(root)}:{n}: {mine} includes {m.group(1)} ({f})")
 print("\n".join(bad) if bad else "the core includes no feature header and names no feature type; no module includes another's")

@@ -38,18 +38,12 @@ const char* kUsage =
     "  --ws-rate X  --ws-burst X  --import-memory-bytes N  --import-seconds X\n"
     "  --limit NAME=VALUE       any limit of GET /api/limits by its name (e.g. max_connections=64)\n";
 
-std::string default_cache() {
-  if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg != nullptr && *xdg) return std::string(xdg) + "/distlab";
-  if (const char* home = std::getenv("HOME"); home != nullptr && *home) return std::string(home) + "/.cache/distlab";
-  return "";
-}
-
 int run_serve(const std::vector<std::string>& args, std::istream&, std::ostream& out, std::ostream& err) {
   std::string host = "127.0.0.1";
   unsigned long port = 8080;
   server::ServiceConfig config;
   std::string assets_dir, web_dir;  // as given; found by find_data_dir below
-  config.cache_dir = default_cache();
+  config.cache_dir = server::default_cache_dir();
   server::Limits& lim = config.limits;
   try {
     for (std::size_t i = 0; i < args.size(); ++i) {

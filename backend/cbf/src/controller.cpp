@@ -119,8 +119,11 @@ void task_objective(const Task& t, double damping, double gain, Eigen::MatrixXd&
 
 struct CbfController::Impl {
   std::unique_ptr<robot::DistanceModel> model;
-  robot::DistanceModel::Workspace w;    // FK, the robot's bodies and every pair's track, reused every step
-  robot::DistanceModel::Adjust adjust;  // as_published: the early-stopped distance
+  robot::DistanceModel::Workspace w;      // FK, the robot's bodies and every pair's track, reused every step
+  robot::DistanceModel::Adjust adjust;    // as_published: the early-stopped distance
+  std::unique_ptr<FieldBarrier> barrier;  // the scenario's fields, if any
+  std::vector<double> field_margins;      // δ per field row
+  Eigen::MatrixXd field_grad;
   QpSolver qp;
   Eigen::MatrixXd H, C, C_relaxed, H_relaxed;
   Eigen::VectorXd f, d, f_relaxed, d_relaxed;
@@ -152,15 +155,32 @@ CbfController::CbfController(const Scenario& scenario, Metric metric)
   selection.self = scenario_.self_collision;
   m.model = std::make_unique<robot::DistanceModel>(robot_, scenario_.obstacles, metric_, exact, selection, options);
   m.w = m.model->workspace();
+  if (!scenario_.fields.empty()) {
+    m.barrier = std::make_unique<FieldBarrier>(scenario_.fields, scenario_.control_points);
+    for (const SceneField& f : scenario_.fields) m.field_margins.insert(m.field_margins.end(), scenario_.control_points.size(), f.margin);
+  }
 }
 
 CbfController::~CbfController() = default;
 
 const std::vector<PairInfo>& CbfController::pairs() const { return impl_->model->pairs(); }
 const robot::DistanceModel& CbfController::model() const { return *impl_->model; }
+const FieldBarrier* CbfController::barrier() const { return impl_->barrier.get(); }
+int CbfController::field_rows() const { return impl_->barrier ? impl_->barrier->rows() : 0; }
 
 void CbfController::reset_warm_start() {
   impl_->w.tracks.assign(pairs().size(), GapTrack{});
+  if (impl_->barrier) impl_->barrier->reset_hints();
+}
+
+// h and ∇_q h at every control point (at impl_'s kinematics); throws FieldUndefined.
+static FieldRows field_rows_at(FieldBarrier* barrier, const Robot& robot, const Kinematics& k,
+                               std::vector<FieldPointSample>& samples, Eigen::MatrixXd& grad,
+                               const std::vector<double>& margins) {
+  if (!barrier) return {};
+  barrier->evaluate(robot, k, samples, grad);
+  require_defined(samples, barrier->fields(), barrier->points());
+  return {samples, &grad, margins};
 }
 
 void CbfController::distances(const VecQ& q, std::vector<PairSample>& samples, GradQ& grad) {
@@ -177,8 +197,11 @@ static RowParams row_params(const Scenario& s, Metric metric) { return {s.margin
 
 void CbfController::rows(const VecQ& q, Eigen::MatrixXd& C, Eigen::VectorXd& d) {
   std::vector<PairSample> samples;
+  std::vector<FieldPointSample> field_samples;
   distances(q, samples, impl_->grad);
-  cbf_rows(*robot_, pairs(), q, samples, impl_->grad, row_params(scenario_, metric_), C, d);
+  const FieldRows fields = field_rows_at(impl_->barrier.get(), *robot_, impl_->w.kinematics, field_samples,
+                                         impl_->field_grad, impl_->field_margins);
+  cbf_rows(*robot_, pairs(), q, samples, impl_->grad, row_params(scenario_, metric_), C, d, fields);
 }
 
 StepOutput CbfController::step(const VecQ& q, bool audit) {
@@ -193,11 +216,14 @@ StepOutput CbfController::step(const VecQ& q, bool audit) {
   const Task task = task_function(k, robot, scenario_.target);
   const auto t1 = Clock::now();
   compute_pairs(out.pairs, m.grad);
+  const auto tf = Clock::now();
+  const FieldRows fields = field_rows_at(m.barrier.get(), robot, k, out.field_points, m.field_grad, m.field_margins);
   const auto t2 = Clock::now();
 
-  // Rows C u ≥ d: eq. (7) for every pair, then the joint limits (every joint is bounded: validate).
-  const int np = static_cast<int>(pairs().size());
-  cbf_rows(robot, pairs(), q, out.pairs, m.grad, row_params(scenario_, metric_), m.C, m.d);
+  // Rows C u ≥ d: eq. (7) for every pair, the fields' rows, then the joint limits (every joint
+  // is bounded: validate).
+  const int np = static_cast<int>(pairs().size()) + field_rows();
+  cbf_rows(robot, pairs(), q, out.pairs, m.grad, row_params(scenario_, metric_), m.C, m.d, fields);
   const int rows = static_cast<int>(m.C.rows());
   task_objective(task, scenario_.damping, scenario_.task_gain, m.H, m.f);
   QpResult res = m.qp.solve(m.H, m.f, m.C, m.d);
@@ -246,14 +272,15 @@ StepOutput CbfController::step(const VecQ& q, bool audit) {
   out.r = task.r;
   out.task_error = task.r.norm();
   out.timing.kinematics = us_since(t0, t1);
-  out.timing.distance = us_since(t1, t2);
+  out.timing.distance = us_since(t1, tf);
+  out.timing.field = us_since(tf, t2);
   out.timing.qp = us_since(t2, t3);
   out.timing.step = us_since(t0, t3);
 
   out.min_clearance = std::numeric_limits<double>::infinity();
   if (audit) {
     const auto a0 = Clock::now();
-    for (int p = 0; p < np; ++p) {
+    for (int p = 0; p < static_cast<int>(out.pairs.size()); ++p) {
       PairSample& s = out.pairs[p];
       if (std::isnan(s.clearance)) {
         const PairInfo& pair = pairs()[p];

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <limits>
 
+#include "distlab/geometry/error.hpp"
+
 namespace distlab::cbf {
 
 FinalState final_state(CbfController& controller, const VecQ& q) {
@@ -27,7 +29,16 @@ FinalState final_state(CbfController& controller, const VecQ& q) {
     const int row = out.active[k];
     ActiveConstraint a;
     a.multiplier = out.multiplier[k];
-    if (row < np) {
+    if (row >= np && row < np + controller.field_rows()) {  // a Kelvin field's row
+      const FieldBarrier& b = *controller.barrier();
+      const std::size_t r = static_cast<std::size_t>(row - np), points = b.points().size();
+      const SceneField& field = b.fields()[r / points];
+      a.name = b.points()[r % points].name + "/" + field.name;
+      a.kind = ActiveConstraint::Kind::field;
+      a.distance = out.field_points[r].h;
+      a.margin = field.margin;
+      a.clearance = std::numeric_limits<double>::quiet_NaN();
+    } else if (row < np) {
       const PairSample& s = out.pairs[row];
       a.name = pairs[row].name;
       a.distance = s.distance;
@@ -35,9 +46,10 @@ FinalState final_state(CbfController& controller, const VecQ& q) {
       a.clearance = s.clearance;
       a.converged_distance = s.converged_distance;
     } else {
-      const int i = (row - np) % robot.dof();
-      const bool lower = row - np < robot.dof();
-      a.pair = false;
+      const int j = row - np - controller.field_rows();
+      const int i = j % robot.dof();
+      const bool lower = j < robot.dof();
+      a.kind = ActiveConstraint::Kind::joint_limit;
       a.name = std::to_string(i + 1);  // appended in steps: GCC 12's -Wrestrict misfires on "q" + …
       a.name.insert(0, 1, 'q');
       a.name.append(lower ? " >= q_min" : " <= q_max");
@@ -51,10 +63,41 @@ FinalState final_state(CbfController& controller, const VecQ& q) {
   return f;
 }
 
+void require_safe_start(const Scenario& scenario, const VecQ& q) {
+  if (scenario.fields.empty()) return;
+  FieldBarrier barrier(scenario.fields, scenario.control_points);
+  std::vector<FieldPointSample> samples;
+  Eigen::MatrixXd grad;
+  barrier.evaluate(*scenario.robot, scenario.robot->forward(q), samples, grad);
+  const std::size_t points = scenario.control_points.size();
+  for (std::size_t r = 0; r < samples.size(); ++r) {
+    const SceneField& f = scenario.fields[r / points];
+    const std::string where = "control point \"" + scenario.control_points[r % points].name + "\" starts ";
+    if (samples[r].status != kelvin::Status::ok)
+      throw InvalidInput("control_points", where + "inside the object of field \"" + f.name + "\" (h is undefined there)");
+    if (samples[r].h < f.margin)
+      throw InvalidInput("control_points", where + "inside the unsafe set of field \"" + f.name + "\": h = " +
+                                               std::to_string(samples[r].h) + " < delta = " + std::to_string(f.margin) +
+                                               "; no CBF can hold it there (move q0 or the object)");
+  }
+}
+
 RolloutRecord rollout(const Scenario& scenario, Metric metric, const RolloutOptions& options) {
   const auto w0 = std::chrono::steady_clock::now();
   CbfController controller(scenario, metric);
+  require_safe_start(scenario, scenario.q0);
+  std::vector<FieldSurface> surfaces;
+  for (const SceneField& f : scenario.fields) surfaces.emplace_back(f);
+  std::vector<Vec3> points(scenario.control_points.size());
   RolloutRecord rec;
+  rec.control_points = scenario.control_points;
+  for (std::size_t i = 0; i < scenario.fields.size(); ++i) {
+    const SceneField& f = scenario.fields[i];
+    rec.field_names.push_back(f.name);
+    rec.field_margins.push_back(f.margin);
+    const MatX3& v = f.field->surface().vertices;
+    rec.safety_distances.push_back(surfaces[i].forbidden_offset(f.margin, (v.colwise().maxCoeff() - v.colwise().minCoeff()).norm() / 200));
+  }
   rec.metric = metric;
   rec.dt = scenario.dt;
   rec.pairs = controller.pairs();
@@ -68,7 +111,14 @@ RolloutRecord rollout(const Scenario& scenario, Metric metric, const RolloutOpti
       rec.cancelled = true;
       break;
     }
-    StepOutput out = controller.step(q, options.audit_clearance);
+    StepOutput out;
+    try {
+      out = controller.step(q, options.audit_clearance);
+    } catch (const FieldUndefined& e) {  // the barrier no longer exists here: stop, say why
+      rec.failure = e.what();
+      rec.failure_step = i;
+      break;
+    }
     StepRecord s;
     s.t = i * scenario.dt;
     s.q = q;
@@ -84,6 +134,12 @@ RolloutRecord rollout(const Scenario& scenario, Metric metric, const RolloutOpti
     s.timing = out.timing;
     for (const PairSample& p : out.pairs) rec.cold_solves += p.cold && metric == Metric::gap;
     if (options.record_pairs) s.pairs = std::move(out.pairs);
+    if (const FieldBarrier* b = controller.barrier()) {
+      const Kinematics k = controller.robot().forward(q);
+      for (std::size_t p = 0; p < points.size(); ++p) points[p] = b->world_point(k, static_cast<int>(p));
+      for (const FieldSurface& surface : surfaces) s.field_contacts.push_back(surface.contact(points));
+      s.field_points = std::move(out.field_points);
+    }
     if (s.relaxed || s.held) rec.infeasible_steps.push_back(i);
     if (options.audit_clearance) rec.min_clearance = std::min(rec.min_clearance, s.min_clearance);
     rec.timing.kinematics += s.timing.kinematics;
@@ -91,6 +147,7 @@ RolloutRecord rollout(const Scenario& scenario, Metric metric, const RolloutOpti
     rec.timing.qp += s.timing.qp;
     rec.timing.step += s.timing.step;
     rec.timing.audit += s.timing.audit;
+    rec.timing.field += s.timing.field;
     q += out.u * scenario.dt;
     rec.steps.push_back(std::move(s));
     if (options.progress && !options.progress(i, rec.steps.back())) {
@@ -104,12 +161,13 @@ RolloutRecord rollout(const Scenario& scenario, Metric metric, const RolloutOpti
   rec.timing.qp /= count;
   rec.timing.step /= count;
   rec.timing.audit /= count;
+  rec.timing.field /= count;
   if (!options.audit_clearance) rec.min_clearance = std::numeric_limits<double>::quiet_NaN();
   rec.q_final = q;
   const Robot& robot = controller.robot();
   rec.final_task_error = task_function(robot.forward(q), robot, scenario.target).r.norm();
-  rec.reached = !rec.cancelled && rec.final_task_error < scenario.goal_tolerance;
-  rec.final_state = final_state(controller, q);
+  rec.reached = !rec.cancelled && rec.failure.empty() && rec.final_task_error < scenario.goal_tolerance;
+  if (rec.failure.empty()) rec.final_state = final_state(controller, q);
   rec.wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
   return rec;

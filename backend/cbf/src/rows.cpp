@@ -12,10 +12,11 @@ int joint_limit_rows(const Robot& robot) {
 
 void cbf_rows(const Robot& robot, std::span<const robot::RobotPair> pairs, const VecQ& q,
               std::span<const robot::PairDistance> distances, const GradQ& grad, const RowParams& params,
-              Eigen::MatrixXd& C, Eigen::VectorXd& d) {
+              Eigen::MatrixXd& C, Eigen::VectorXd& d, const FieldRows& fields) {
   const int np = static_cast<int>(pairs.size());
+  const int nf = static_cast<int>(fields.samples.size());
   const int dof = robot.dof();
-  const int rows = np + joint_limit_rows(robot);
+  const int rows = np + nf + joint_limit_rows(robot);
   C.resize(rows, dof);
   d.resize(rows);
   for (int p = 0; p < np; ++p) {
@@ -23,8 +24,12 @@ void cbf_rows(const Robot& robot, std::span<const robot::RobotPair> pairs, const
     C.row(p) = grad.row(p);
     d[p] = -params.eta * (distances[p].distance - delta);
   }
-  C.bottomRows(rows - np).setZero();
-  int r = np;
+  for (int f = 0; f < nf; ++f) {
+    C.row(np + f) = fields.grad->row(f);
+    d[np + f] = -params.eta * (fields.samples[f].h - fields.margins[f]);
+  }
+  C.bottomRows(rows - np - nf).setZero();
+  int r = np + nf;
   for (int i = 0; i < dof; ++i)
     if (std::isfinite(robot.q_min()[i])) {
       C(r, i) = 1;

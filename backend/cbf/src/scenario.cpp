@@ -102,6 +102,25 @@ void validate(const Scenario& s) {
                                 std::to_string(robot.q_max()[i]) + "]");
   }
   if (s.obstacles.size() > 1000) throw InvalidInput("obstacles", "at most 1000 obstacles");
+  if (s.fields.size() > kMaxSceneFields)
+    throw InvalidInput("fields", "at most " + std::to_string(kMaxSceneFields) + " fields");
+  if (s.control_points.size() > kMaxControlPoints)
+    throw InvalidInput("control_points", "at most " + std::to_string(kMaxControlPoints) + " control points");
+  if (s.fields.empty() != s.control_points.empty())
+    throw InvalidInput(s.fields.empty() ? "control_points" : "fields",
+                       "fields and control_points go together: a field constrains the control points, and "
+                       "control points without a field constrain nothing");
+  for (std::size_t i = 0; i < s.fields.size(); ++i) {
+    const std::string f = "fields[" + std::to_string(i) + "]";
+    if (!s.fields[i].field) throw InvalidInput(f, f + " has no prepared field");
+    if (!std::isfinite(s.fields[i].margin)) throw InvalidInput(f + ".delta", f + ".delta must be finite");
+  }
+  for (std::size_t i = 0; i < s.control_points.size(); ++i) {
+    const ControlPoint& c = s.control_points[i];
+    const std::string f = "control_points[" + std::to_string(i) + "]";
+    if (c.link < 0 || c.link >= static_cast<int>(robot.links().size())) throw InvalidInput(f + ".link", f + " is on no link of the robot");
+    if (!c.point.allFinite()) throw InvalidInput(f + ".point", f + ".point must be finite");
+  }
 }
 
 }  // namespace distlab::cbf

@@ -410,8 +410,7 @@ void evaluate_boundary(Field::Impl& m, const SigmaSpec& sigma, bool apart) {
       const Vec3& w = m.boundary_weights[static_cast<size_t>(b)];
       for (int k = 0; k < 3; ++k) s += w[k] * (*sigma.per_vertex)[m.surface.faces(f, k)];
     }
-    for (const auto& a : sigma.axis) s += evaluate(a, x);
-    for (const auto& br : sigma.brushes) s = apply(br, s, x);
+    s = evaluate(sigma, x, s);
     chains[b] = s;
     sigmas[b] = boundary_sigma_of(sigma, apart, s);
     // The terms are each in range (validate); their sum must be too, where it is used.

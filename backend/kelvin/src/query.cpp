@@ -13,16 +13,33 @@ Sample undefined(Status status) {
   return {nan, Vec3::Constant(nan), status};
 }
 
-// Interpolates V and its vertex gradients in cell c at barycentric lambda, then maps to x.
-Sample evaluate(const Field::Impl& m, int c, const double lambda[4], const Vec3& p, const Vec3& y) {
+// ∇_y of V interpolated linearly in cell c: Σ V_k ∇λ_k, with ∇λ_1..3 the rows of the inverse of the
+// edge matrix (the normals of barycentric(), divided by the volume term) and ∇λ_0 = −Σ the others.
+Vec3 cell_gradient(const PackedMesh& m, int c) {
+  const int* t = m.cells[static_cast<size_t>(c)].v;
+  const auto vertex = [&](int k) -> const VertexRecord& { return m.vertices[static_cast<size_t>(t[k])]; };
+  using Point = Eigen::Map<const Vec3>;
+  const Vec3 a = Point(vertex(0).y);
+  const Vec3 e1 = Vec3(Point(vertex(1).y)) - a, e2 = Vec3(Point(vertex(2).y)) - a, e3 = Vec3(Point(vertex(3).y)) - a;
+  const Vec3 n1 = e2.cross(e3), n2 = e3.cross(e1), n3 = e1.cross(e2);
+  const double inv = 1.0 / e1.dot(n1), v0 = vertex(0).value;
+  return ((vertex(1).value - v0) * n1 + (vertex(2).value - v0) * n2 + (vertex(3).value - v0) * n3) * inv;
+}
+
+// Interpolates V and its vertex gradients (or V's own gradient in the cell) in cell c at
+// barycentric lambda, then maps to x.
+Sample evaluate(const Field::Impl& m, int c, const double lambda[4], const Vec3& p, const Vec3& y, Gradient kind) {
   double v = 0;
   Vec3 gv = Vec3::Zero();
-  const bool with_gradient = m.has_gradients;  // set_sigma(…, gradients = false) skips them
+  // set_sigma(…, gradients = false) skips the vertex gradients; the cell's own needs only V.
+  const bool with_gradient = kind == Gradient::cell || m.has_gradients;
+  const bool smoothed = kind == Gradient::smoothed && with_gradient;
   for (int k = 0; k < 4; ++k) {
     const VertexRecord& r = m.packed.vertices[static_cast<size_t>(m.packed.cells[static_cast<size_t>(c)].v[k])];
     v += lambda[k] * r.value;
-    if (with_gradient) gv += lambda[k] * Vec3(Eigen::Map<const Vec3>(r.gradient));
+    if (smoothed) gv += lambda[k] * Vec3(Eigen::Map<const Vec3>(r.gradient));
   }
+  if (kind == Gradient::cell) gv = cell_gradient(m.packed, c);
   if (!(v > 0)) return undefined(Status::nonpositive);
   const double y2 = y.squaredNorm();
   Sample s;
@@ -37,7 +54,7 @@ Sample evaluate(const Field::Impl& m, int c, const double lambda[4], const Vec3&
 
 }  // namespace
 
-Sample Field::query(const Vec3& x, int* hint) const {
+Sample Field::query(const Vec3& x, int* hint, Gradient kind) const {
   const Impl& m = *impl_;
   const Vec3 p = x - m.centre;
   const double p2 = p.squaredNorm();
@@ -45,7 +62,7 @@ Sample Field::query(const Vec3& x, int* hint) const {
   const Vec3 y = p / p2;  // eq. 5
   const Location loc = m.locator.locate(m.packed, y, hint ? *hint : -1);
   if (hint) *hint = loc.cell;
-  if (!loc.outside_hull && m.packed.in_domain[static_cast<size_t>(loc.cell)]) return evaluate(m, loc.cell, loc.lambda, p, y);
+  if (!loc.outside_hull && m.packed.in_domain[static_cast<size_t>(loc.cell)]) return evaluate(m, loc.cell, loc.lambda, p, y, kind);
   // Not in a domain cell: either on the domain's boundary (a point on a shared face, edge or
   // vertex, located in the outside cell by rounding), inside the object, or in a sliver between
   // the input surface and the mesher's piecewise-flat boundary. A domain cell that shares the
@@ -78,12 +95,12 @@ Sample Field::query(const Vec3& x, int* hint) const {
     frontier.swap(next);
   }
   constexpr double on_face = 1e-9;  // relative to the cell: rounding, not extrapolation
-  if (best >= 0 && best_min >= -on_face) return evaluate(m, best, best_lambda, p, y);
+  if (best >= 0 && best_min >= -on_face) return evaluate(m, best, best_lambda, p, y, kind);
   if (best < 0 || m.oracle->inside(x)) return undefined(Status::inside);
   double sum = 0;  // extend from the nearest domain cell, clamped to it
   for (double& l : best_lambda) sum += (l = std::max(l, 0.0));
   for (double& l : best_lambda) l /= sum;
-  return evaluate(m, best, best_lambda, p, y);
+  return evaluate(m, best, best_lambda, p, y, kind);
 }
 
 std::vector<Sample> Field::query(const std::vector<Vec3>& points) const {

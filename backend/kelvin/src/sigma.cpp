@@ -29,6 +29,13 @@ double apply(const BrushSigma& t, double sigma, const Vec3& x) {
   return t.towards ? (1 - w) * sigma + w * t.value : sigma + w * t.value;
 }
 
+double evaluate(const SigmaSpec& sigma, const Vec3& x, double base) {
+  double s = base;
+  for (const auto& a : sigma.axis) s += evaluate(a, x);
+  for (const auto& br : sigma.brushes) s = apply(br, s, x);
+  return s;
+}
+
 namespace {
 
 void finite(double v, const std::string& field) {

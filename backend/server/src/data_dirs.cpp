@@ -35,4 +35,10 @@ std::string find_data_dir(const std::string& option, const char* env, const std:
                            ", " + relative + " and share/distlab/" + installed + " beside the binary and above it); give " + option + " DIR");
 }
 
+std::string default_cache_dir() {
+  if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg != nullptr && *xdg) return std::string(xdg) + "/distlab";
+  if (const char* home = std::getenv("HOME"); home != nullptr && *home) return std::string(home) + "/.cache/distlab";
+  return "";
+}
+
 }  // namespace distlab::server

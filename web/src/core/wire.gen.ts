@@ -2087,6 +2087,10 @@ export interface components {
             robot?: string;
             obstacles: components["schemas"]["CbfObstacle"][];
             target: components["schemas"]["CbfPose"];
+            fields?: components["schemas"]["CbfField"][];
+            control_points?: components["schemas"]["CbfControlPoint"][];
+            /** @enum {string} */
+            field_mode?: "barrier" | "hull";
         };
         CbfRolloutRequest: {
             scenario: string | components["schemas"]["CbfScenario"];
@@ -2101,6 +2105,16 @@ export interface components {
                 record_pairs: boolean;
                 /** @default true */
                 audit: boolean;
+                /** @description per scenario field, by index: its sigma and/or delta replaced */
+                fields?: {
+                    sigma?: Record<string, never>;
+                    delta?: number;
+                }[];
+                /**
+                 * @description hull: each field's object becomes its convex hull, an obstacle of the pair rows (the comparison without semantics)
+                 * @enum {string}
+                 */
+                field_mode?: "barrier" | "hull";
             };
             comment?: string;
             /** @description how steps stream over /ws (not part of `distlab cbf`) */
@@ -2464,6 +2478,43 @@ export interface components {
             };
             /** @description rad/s, > 0: |u_i| clipped per joint after the QP (one number: every joint; null or absent: no limit); "robot": the URDF's velocity limits */
             velocity_limit?: number | null | "robot" | number[];
+        };
+        /** @description A Kelvin object as a barrier (cbf_fields.hpp): every control point keeps h >= delta. One of lx (metres) and lx_fraction (of the bounding box's diagonal); the other keys as POST /api/kelvin/objects; sigma as the Kelvin σ (per_vertex in the file's vertex order, axis, brushes, constant). */
+        CbfField: {
+            name?: string;
+            comment?: string;
+            mesh: {
+                asset?: string;
+                path?: string;
+            };
+            lx?: number;
+            lx_fraction?: number;
+            grading?: number;
+            center?: [
+                number,
+                number,
+                number
+            ];
+            far_radius?: number;
+            feature_angle?: number;
+            /** @enum {string} */
+            repair?: "none" | "fix" | "wrap";
+            repair_options?: Record<string, never>;
+            pose?: components["schemas"]["CbfPose"];
+            sigma?: Record<string, never>;
+            delta?: number;
+        };
+        /** @description A point fixed to a link (point in the link frame), or count points sampled on the surfaces of the link's collision elements (element: one of them by name), named LINK[/ELEMENT]#i. */
+        CbfControlPoint: {
+            link: string;
+            name?: string;
+            point?: [
+                number,
+                number,
+                number
+            ];
+            element?: string;
+            sample?: number;
         };
         /** @description {a, b, params} or {pairs: [{a, b}], params} */
         GapRequest: {

@@ -1,6 +1,8 @@
 // CBF scenarios and rollout requests as JSON: strict parsing with field paths, and the record.
 #include "distlab/server/cbf_json.hpp"
 
+#include "cbf_fields.hpp"
+
 #include "distlab/server/data_dirs.hpp"
 #include "distlab/server/json_fields.hpp"
 
@@ -13,6 +15,7 @@
 #include <fstream>
 #include <initializer_list>
 #include <limits>
+#include <map>
 #include <sstream>
 #include <string_view>
 
@@ -121,13 +124,13 @@ void validated(const cbf::Scenario& s, const std::string& field) {
   }
 }
 
-}  // namespace
-
-cbf::Scenario parse_scenario(const json& j, const std::string& field, const std::string& assets_dir) {
+// parse_scenario with its fields planned, not prepared (cbf_fields.hpp): everything is checked
+// before anything is prepared.
+cbf::Scenario scenario_of(const json& j, const std::string& field, const std::string& assets_dir, FieldPlan& plan) {
   require_object(j, field);
   for (const auto& [key, value] : j.items()) {
-    static const std::initializer_list<std::string_view> own = {"name", "comment", "robot",
-                                                                "obstacles", "target"};
+    static const std::initializer_list<std::string_view> own = {"name", "comment", "robot", "obstacles", "target",
+                                                                "fields", "control_points", "field_mode"};
     if (std::find(own.begin(), own.end(), key) == own.end() &&
         std::find(kSettings.begin(), kSettings.end(), key) == kSettings.end())
       fail(key_path(field, key), "unknown key \"" + key.substr(0, 64) + "\"");
@@ -155,7 +158,19 @@ cbf::Scenario parse_scenario(const json& j, const std::string& field, const std:
   }
   s.target = json_pose(required(j, field, "target"), key_path(field, "target"), /*position_required=*/true);
   required(j, field, "q0");
+  plan_scenario_fields(j, field, assets_dir, plan, s);
   apply_settings(j, field, s);
+  validated(s, field);
+  return s;
+}
+
+}  // namespace
+
+cbf::Scenario parse_scenario(const json& j, const std::string& field, const std::string& assets_dir,
+                             const FieldPreparer& prepare) {
+  FieldPlan plan;
+  cbf::Scenario s = scenario_of(j, field, assets_dir, plan);
+  prepare_planned_fields(s, plan, prepare);
   validated(s, field);
   return s;
 }
@@ -202,26 +217,37 @@ nlohmann::json read_scenario_file(const std::string& path) {
   // A broken asset is an internal error, not the caller's.
   try {
     json j = parse_json_text(text.str());
-    // The scenario's robot from the same assets directory.
-    parse_scenario(j, "scenario", fs::path(path).parent_path().parent_path().string());
+    // The scenario's robot from the same assets directory. Its Kelvin objects are checked as
+    // hulls (the mesh is read, nothing is prepared): the run prepares them.
+    json check = j;
+    if (check.is_object() && check.contains("fields")) check["field_mode"] = "hull";
+    parse_scenario(check, "scenario", fs::path(path).parent_path().parent_path().string());
     return j;
   } catch (const std::exception& e) {
     throw std::runtime_error("scenario file " + path + ": " + e.what());
   }
 }
 
-CbfRequest parse_cbf_request(const json& r, const std::string& assets_dir) {
+namespace {
+
+CbfRequest request_of(const json& r, const std::string& assets_dir, FieldPlan& plan) {
   require_object(r, "");
   check_keys(r, "", {"scenario", "metric", "params", "comment"});
   if (auto it = r.find("comment"); it != r.end()) string(*it, "comment");
   CbfRequest out;
   const json& sj = required(r, "", "scenario");
+  const json no_params = json::object();
+  const json& params = r.contains("params") ? r["params"] : no_params;
+  require_object(params, "params");
   if (sj.is_string()) {
     const std::string path = scenario_path(sj.get<std::string>(), assets_dir);
-    out.scenario = parse_scenario(read_scenario_file(path), "scenario",
-                                  fs::path(path).parent_path().parent_path().string());
+    json scenario = read_scenario_file(path);
+    apply_field_params(scenario, params);
+    out.scenario = scenario_of(scenario, "scenario", fs::path(path).parent_path().parent_path().string(), plan);
   } else {
-    out.scenario = parse_scenario(sj, "scenario", assets_dir);
+    json scenario = sj;
+    apply_field_params(scenario, params);
+    out.scenario = scenario_of(scenario, "scenario", assets_dir, plan);
   }
   if (auto it = r.find("metric"); it != r.end()) {
     const std::string m = string(*it, "metric");
@@ -232,7 +258,7 @@ CbfRequest parse_cbf_request(const json& r, const std::string& assets_dir) {
   if (auto it = r.find("params"); it != r.end()) {
     require_object(*it, "params");
     for (const auto& [key, value] : it->items())
-      if (key != "record_pairs" && key != "audit" &&
+      if (key != "record_pairs" && key != "audit" && key != "fields" && key != "field_mode" &&
           std::find(kSettings.begin(), kSettings.end(), key) == kSettings.end())
         fail("params." + key.substr(0, 64), "unknown key \"" + key.substr(0, 64) + "\"");
     apply_settings(*it, "params", out.scenario);
@@ -246,6 +272,20 @@ CbfRequest parse_cbf_request(const json& r, const std::string& assets_dir) {
       throw InvalidInput("params." + e.field(), e.what());
     }
   }
+  return out;
+}
+
+}  // namespace
+
+CbfRequest plan_cbf_request(const json& request, const std::string& assets_dir, FieldPlan& plan) {
+  return request_of(request, assets_dir, plan);
+}
+
+CbfRequest parse_cbf_request(const json& request, const std::string& assets_dir, const FieldPreparer& prepare) {
+  FieldPlan plan;
+  CbfRequest out = request_of(request, assets_dir, plan);
+  prepare_planned_fields(out.scenario, plan, prepare);
+  validated(out.scenario, "scenario");
   return out;
 }
 
@@ -263,7 +303,8 @@ json encode_final_state(const cbf::FinalState& f) {
   json active = json::array();
   for (const cbf::ActiveConstraint& a : f.active)
     active.push_back({{"name", a.name},
-                      {"kind", a.pair ? "pair" : "joint_limit"},
+                      {"kind", a.kind == cbf::ActiveConstraint::Kind::pair ? "pair" : a.kind == cbf::ActiveConstraint::Kind::field ? "field"
+                                                                                                                                   : "joint_limit"},
                       {"distance", a.distance},
                       {"margin", a.margin},
                       {"clearance", finite_or_null(a.clearance)},
@@ -336,6 +377,10 @@ json encode_record(const cbf::RolloutRecord& rec, const std::string& scenario_na
                 {"q_final", vec_json(rec.q_final)},
                 {"final", encode_final_state(rec.final_state)}}}};
   out["gap_mode"] = cbf::to_string(rec.gap_mode);
+  if (!rec.field_names.empty()) {
+    out["kelvin"] = encode_fields(rec);
+    out["timing"]["field_us_mean"] = rec.timing.field;
+  }
   if (pairs) {
     if (rec.gap_mode == cbf::GapMode::as_published && rec.metric == cbf::Metric::gap)
       out["converged_distance"] = std::move(conv);
@@ -373,7 +418,7 @@ json run_cbf_request(const json& request) {
   return encode_record(cbf::rollout(r.scenario, r.metric, r.options), r.scenario.name);
 }
 
-CbfSweep parse_cbf_sweep(const json& request, const std::string& assets_dir, std::size_t max_values) {
+CbfSweep plan_cbf_sweep(const json& request, const std::string& assets_dir, std::size_t max_values, std::vector<FieldPlan>& plans) {
   require_object(request, "");
   const json& sw = required(request, "", "sweep");
   require_object(sw, "sweep");
@@ -411,7 +456,8 @@ CbfSweep parse_cbf_sweep(const json& request, const std::string& assets_dir, std
     (*node)[path.back()] = out.values[i];
     const std::string vf = "sweep.values[" + std::to_string(i) + "]";
     try {
-      out.runs.push_back(parse_cbf_request(r, assets_dir));
+      plans.emplace_back();
+      out.runs.push_back(request_of(r, assets_dir, plans.back()));
     } catch (const InvalidInput& e) {
       const std::string& f = e.field();
       // An unknown key at or on the way to the parameter: the path names no parameter.
@@ -422,6 +468,17 @@ CbfSweep parse_cbf_sweep(const json& request, const std::string& assets_dir, std
       throw;
     }
     out.requests.push_back(std::move(r));
+  }
+  return out;
+}
+
+CbfSweep parse_cbf_sweep(const json& request, const std::string& assets_dir, std::size_t max_values) {
+  std::vector<FieldPlan> plans;
+  CbfSweep out = plan_cbf_sweep(request, assets_dir, max_values, plans);
+  std::map<std::string, cbf::SceneField> prepared;  // the runs' fields are the same: prepared once
+  for (std::size_t i = 0; i < out.runs.size(); ++i) {
+    prepare_planned_fields(out.runs[i].scenario, plans[i], {}, {}, &prepared);
+    validated(out.runs[i].scenario, "scenario");
   }
   return out;
 }

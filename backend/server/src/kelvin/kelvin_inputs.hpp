@@ -10,11 +10,9 @@
 #include "distlab/mesh/surface.hpp"
 #include "distlab/server/config.hpp"
 #include "distlab/server/http.hpp"
+#include "distlab/server/kelvin_json.hpp"
 
 namespace distlab::server {
-
-// The mesh formats an asset or upload may have (what assimp reads here).
-inline constexpr const char* kMeshExtensions[] = {".stl", ".ply", ".obj", ".glb", ".off"};
 
 // An array of at most max finite numbers; more is 413 too_many_levels.
 std::vector<double> parse_levels(const nlohmann::json& j, const std::string& field, std::size_t max);

@@ -97,12 +97,14 @@ kelvin::SigmaSpec parse_sigma(const json& j) {
   return s;
 }
 
-std::string asset_path(const std::string& name) {
+std::string asset_path(const std::string& name, const std::string& assets_dir) {
   for (char c : name)
     if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_' && c != '-')
       throw InvalidInput("mesh.asset", "asset names are letters, digits, '_' and '-'");
-  for (const fs::path root : data_dir_candidates("DISTLAB_ASSETS", "assets", "assets"))
-    for (const char* ext : {".stl", ".ply", ".obj", ".glb", ".off"})
+  const std::vector<std::string> roots =
+      assets_dir.empty() ? data_dir_candidates("DISTLAB_ASSETS", "assets", "assets") : std::vector<std::string>{assets_dir};
+  for (const fs::path root : roots)
+    for (const char* ext : kMeshExtensions)
       if (fs::is_regular_file(root / (name + ext))) return (root / (name + ext)).string();
   throw InvalidInput("mesh.asset", "unknown asset \"" + name + "\" (looked in $DISTLAB_ASSETS and assets/)");
 }

@@ -175,8 +175,7 @@ std::vector<double> sigma_at_vertices(const kelvin::SigmaSpec& sigma, const mesh
     const Vec3 x = surface.vertices.row(v).transpose();
     double& s = out[static_cast<std::size_t>(v)];
     if (sigma.per_vertex && v < sigma.per_vertex->size()) s += (*sigma.per_vertex)[v];
-    for (const auto& a : sigma.axis) s += kelvin::evaluate(a, x);
-    for (const auto& b : sigma.brushes) s = kelvin::apply(b, s, x);
+    s = kelvin::evaluate(sigma, x, s);
   }
   return out;
 }

@@ -25,6 +25,7 @@ struct StepTiming {       // microseconds, steady_clock
   double qp = 0;          // assembling and solving the QP (and the relaxed one if needed)
   double step = 0;        // all of the above
   double audit = 0;       // GAP only: true Euclidean clearance of every pair (not control)
+  double field = 0;       // Kelvin fields: h and ∇_q h at every control point (part of step)
 };
 
 struct StepOutput {
@@ -38,10 +39,12 @@ struct StepOutput {
   bool held = false;     // even the relaxation failed; u = 0
   double slack = 0;
   int active_rows = 0;
-  std::vector<int> active;         // active QP rows: pair p is row p, then u_i ≥ … (lower joint
-                                   // limit of joint i) at pairs + i, upper at pairs + dof + i
-  std::vector<double> multiplier;  // the active rows' multipliers, same order
-  bool clipped = false;            // u was clipped to the scenario's velocity limits
+  std::vector<FieldPointSample> field_points;  // per field row (FieldBarrier: field-major)
+  std::vector<int> active;                     // active QP rows: pair p is row p, field row r is pairs + r,
+                                               // then u_i ≥ … (lower joint limit of joint i) at
+                                               // pairs + field rows + i, upper at pairs + field rows + dof + i
+  std::vector<double> multiplier;              // the active rows' multipliers, same order
+  bool clipped = false;                        // u was clipped to the scenario's velocity limits
   StepTiming timing;
 };
 
@@ -71,7 +74,8 @@ class CbfController {
   Metric metric() const { return metric_; }
 
   // One control step at q. `audit`: also compute the true Euclidean clearance of every pair
-  // (free for the Euclidean metric; extra FCL calls for GAP, timed separately).
+  // (free for the Euclidean metric; extra FCL calls for GAP, timed separately). Throws
+  // FieldUndefined when a control point is where h is not defined (inside an object).
   StepOutput step(const VecQ& q, bool audit = true);
 
   // The distance rows at q without the QP (for tests): row i is ∇_q D of pair i.
@@ -79,6 +83,9 @@ class CbfController {
   // The rows C u ≥ d of the QP at q (cbf_rows), as step() builds them, continuing the same tracks.
   void rows(const VecQ& q, Eigen::MatrixXd& C, Eigen::VectorXd& d);
   const robot::DistanceModel& model() const;
+  // The Kelvin field rows (nullptr when the scenario has no fields).
+  const FieldBarrier* barrier() const;
+  int field_rows() const;
 
   void reset_warm_start();
   const Scenario& scenario() const { return scenario_; }

@@ -23,15 +23,22 @@ struct StepRecord {
   std::vector<int> active;  // active QP rows (StepOutput::active)
   StepTiming timing;
   std::vector<PairSample> pairs;  // empty unless RolloutOptions::record_pairs
+  // Kelvin fields: h at every control point (field-major, as FieldBarrier) and, per field, where
+  // the points are relative to its object's surface.
+  std::vector<FieldPointSample> field_points;
+  std::vector<FieldContact> field_contacts;
 };
 
 // One constraint active at the final state: why the arm stops where it does.
 struct ActiveConstraint {
-  std::string name;                                                      // pair name ("link5_cylinder/wall1") or "q5 >= q_min" / "q5 <= q_max"
-  bool pair = true;                                                      // a distance row (else a joint limit)
-  double distance = 0;                                                   // the controller's D (pairs) or the joint's distance to its limit
-  double margin = 0;                                                     // δ of the row (pairs), 0 for joint limits
-  double clearance = 0;                                                  // true Euclidean clearance of the pair (NaN for joint limits)
+  enum class Kind { pair,
+                    field,
+                    joint_limit };
+  std::string name;                                                      // pair name ("link5_cylinder/wall1"), "POINT/FIELD", or "q5 >= q_min" / "q5 <= q_max"
+  Kind kind = Kind::pair;                                                // a pair's distance row, a field's row or a joint limit
+  double distance = 0;                                                   // the controller's D (pairs), h (fields) or the joint's distance to its limit
+  double margin = 0;                                                     // δ of the row (pairs and fields), 0 for joint limits
+  double clearance = 0;                                                  // true Euclidean clearance of the pair (NaN for the others)
   double converged_distance = std::numeric_limits<double>::quiet_NaN();  // as_published only
   double multiplier = 0;                                                 // the QP's multiplier: how hard the row pushes back against the task
 };
@@ -46,7 +53,7 @@ struct FinalState {
 };
 
 struct TimingSummary {  // means over the steps, microseconds
-  double kinematics = 0, distance = 0, qp = 0, step = 0, audit = 0;
+  double kinematics = 0, distance = 0, qp = 0, step = 0, audit = 0, field = 0;
 };
 
 struct RolloutRecord {
@@ -66,6 +73,14 @@ struct RolloutRecord {
   FinalState final_state;
   TimingSummary timing;
   double wall_seconds = 0;  // the whole rollout, recording included
+  // Kelvin fields: the control points, and why the rollout stopped early if a field row could
+  // not be formed (FieldUndefined at a step: the message and the step); empty otherwise.
+  std::vector<ControlPoint> control_points;
+  std::vector<std::string> field_names;
+  std::vector<double> field_margins;     // δ per field
+  std::vector<double> safety_distances;  // per field: FieldSurface::forbidden_offset(δ, object diagonal / 200)
+  std::string failure;
+  int failure_step = -1;
 };
 
 struct RolloutOptions {
@@ -76,7 +91,12 @@ struct RolloutOptions {
   const std::atomic<bool>* cancel = nullptr;
 };
 
+// Throws InvalidInput("control_points") before the first step when a control point starts where
+// h is undefined or below its field's δ (outside the safe set: no CBF can hold it there).
 RolloutRecord rollout(const Scenario& scenario, Metric metric, const RolloutOptions& options = {});
+
+// The start check of rollout: every control point at q has h ≥ δ in every field.
+void require_safe_start(const Scenario& scenario, const VecQ& q);
 
 // The state at q: end-effector error, closest pair, and the QP rows active there (one control
 // step at q; its u is not applied).

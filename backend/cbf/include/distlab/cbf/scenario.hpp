@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "distlab/cbf/fields.hpp"
 #include "distlab/gap/distance.hpp"
 #include "distlab/robot/distances.hpp"
 #include "distlab/robot/robot.hpp"
@@ -72,6 +73,10 @@ struct Scenario {
   double goal_tolerance = 1e-3;
   // Relaxed QP of an infeasible step: one slack s ≥ 0 on every distance row, cost ½·w·s².
   double slack_weight = 1e4;
+  // Kelvin objects as barriers (fields.hpp): every control point against every field, one row
+  // each, with the scenario's eta.
+  std::vector<SceneField> fields;
+  std::vector<ControlPoint> control_points;
 
   const Margins& margins(Metric m) const {
     return m == Metric::gap ? gap_margins : euclidean_margins;

@@ -75,6 +75,12 @@ enum class Status : std::uint8_t {
   nonpositive,  // the discrete V ≤ 0 there, so h = -ln(GV) does not exist (see numerics notes)
 };
 
+// Which ∇h a query returns (Field::query).
+enum class Gradient : std::uint8_t {
+  smoothed,  // the paper's: vertex gradients of V interpolated like V (continuous across cells)
+  cell,      // the derivative of the h the query returns: V's gradient in the cell (jumps at faces)
+};
+
 struct Sample {
   double h = 0;
   Vec3 gradient = Vec3::Zero();
@@ -137,7 +143,9 @@ class Field {
   // V (volume-weighted over each star [36]) interpolated like V, then eq. 18. It is continuous,
   // whereas h (V interpolated linearly per cell) has a derivative that jumps across faces; the two
   // differ by O(l_x), and the smoothed one is the closer to the exact ∇h (test_gradient.cpp).
-  Sample query(const Vec3& x, int* hint = nullptr) const;
+  // Gradient::cell returns instead the derivative of the returned h inside its cell (what finite
+  // differences of h see), also when set_sigma skipped the vertex gradients.
+  Sample query(const Vec3& x, int* hint = nullptr, Gradient kind = Gradient::smoothed) const;
   std::vector<Sample> query(const std::vector<Vec3>& points) const;  // coherent order helps
 
   // Closed, oriented boundary of {h ≥ level} (marching tetrahedra mapped back by eq. 5),

@@ -56,6 +56,10 @@ double weight(const BrushSigma& term, const Vec3& x);
 // σ at x after the brush, given σ at x from the terms before it (towards or added).
 double apply(const BrushSigma& term, double sigma, const Vec3& x);
 
+// σ at surface point x: `base` (the constant and the per-vertex values interpolated at x, the
+// part that is not a function of x alone) plus the axis terms, then the brushes in order.
+double evaluate(const SigmaSpec& sigma, const Vec3& x, double base);
+
 // Throws InvalidInput naming the offending field (prefix "sigma") on bad values, including any
 // term outside [−kMaxAbsSigma, kMaxAbsSigma]; n_vertices is the length per_vertex must have.
 void validate(const SigmaSpec& sigma, Eigen::Index n_vertices);

@@ -8,13 +8,15 @@
 //            "gap": {h, k, eps, sigma, weight_margin, tol, max_iter, solver,
 //                    mode: "exact" | "as_published"},
 //            "velocity_limit": null | number | [dof] | "robot" (rad/s, u clipped per joint;
-//            "robot": the URDF's limit velocity)}
+//            "robot": the URDF's limit velocity), "fields", "control_points" (Kelvin objects as
+//            barriers: cbf_fields.hpp)}
 //            (SHAPE as in gap_json, pose in the world; every key but obstacles/target/q0 optional,
 //            defaults from cbf::Scenario).
 // Request:  {"scenario": NAME | SCENARIO, "metric": "gap" | "euclidean", "params": {...}?,
 //            "comment"?}; NAME is a file assets/scenarios/NAME.json; params override the
 //            scenario's dt, duration, q0, task_gain, damping, eta, eta_joint, self_collision,
-//            goal_tolerance, slack_weight, margins, gap, and set the output: "record_pairs"
+//            goal_tolerance, slack_weight, margins, gap, fields (σ and δ by index), field_mode, and
+//            set the output: "record_pairs"
 //            (true: every pair's distance and witnesses per step), "audit" (true: true
 //            Euclidean clearance per step; needed for min_distance with GAP).
 // Response: see encode_record.
@@ -32,12 +34,23 @@
 
 namespace distlab::server {
 
+// Prepares a scenario's Kelvin object (its "fields" entry): the surface and options in, the
+// prepared field out (σ is solved on it afterwards). Unset: kelvin::Field::prepare_cached in
+// default_cache_dir() (the disk cache `distlab serve` uses by default).
+using FieldPreparer = std::function<kelvin::Field(const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& options,
+                                                  const std::string& field)>;
+
 inline constexpr double kMaxScenarioDuration = 600.0;  // seconds of simulated time per request
 
 // Throws InvalidInput naming the field (prefixed with `field`, e.g. "scenario.q0[2]"). The robot
 // ("robot": NAME, default "panda") is assets/robots/NAME.urdf, looked up as scenario_path does.
 cbf::Scenario parse_scenario(const nlohmann::json& j, const std::string& field = "scenario",
-                             const std::string& assets_dir = "");
+                             const std::string& assets_dir = "", const FieldPreparer& prepare = {});
+// Reads "fields" and "control_points" of scenario JSON j (the keys of a scenario: cbf_fields.hpp)
+// into s, whose robot is set; `field` prefixes error paths. The fields are prepared by `prepare`.
+void parse_scenario_fields(const nlohmann::json& j, const std::string& field, const std::string& assets_dir,
+                           const FieldPreparer& prepare, cbf::Scenario& s);
+
 // assets/robots/NAME.urdf, parsed once (an unknown name is InvalidInput(field); a broken file is
 // std::runtime_error).
 std::shared_ptr<const cbf::Robot> load_robot(const std::string& name, const std::string& assets_dir = "",
@@ -56,7 +69,8 @@ struct CbfRequest {
   cbf::Metric metric = cbf::Metric::gap;
   cbf::RolloutOptions options;
 };
-CbfRequest parse_cbf_request(const nlohmann::json& request, const std::string& assets_dir = "");
+CbfRequest parse_cbf_request(const nlohmann::json& request, const std::string& assets_dir = "",
+                             const FieldPreparer& prepare = {});
 
 // {"scenario", "metric", "dt", "steps", "pairs": [names], "t": [...], "q": [[7]...], "u": [[7]...],
 //  "task_error": [...], "min_distance": [...], "infeasible_steps": [indices], "slack": {index: s},

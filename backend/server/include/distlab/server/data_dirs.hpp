@@ -17,4 +17,8 @@ std::vector<std::string> data_dir_candidates(const char* env, const std::string&
 std::string find_data_dir(const std::string& option, const char* env, const std::string& relative,
                           const std::string& installed, const std::string& given = "");
 
+// The prepared Kelvin objects' disk cache by default: $XDG_CACHE_HOME/distlab, else
+// ~/.cache/distlab, else "" (none: a temporary directory for the service).
+std::string default_cache_dir();
+
 }  // namespace distlab::server

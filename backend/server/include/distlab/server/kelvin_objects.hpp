@@ -22,6 +22,7 @@
 #include "distlab/mesh/repair.hpp"
 #include "distlab/mesh/surface.hpp"
 #include "distlab/server/config.hpp"
+#include "distlab/server/kelvin_json.hpp"
 
 namespace distlab::server {
 
@@ -179,32 +180,9 @@ struct KelvinObject {
   nlohmann::json status_json();  // locks
 };
 
-// σ at each input vertex (constant + per-vertex + axis + brush terms).
-std::vector<double> sigma_at_vertices(const kelvin::SigmaSpec& sigma, const mesh::SurfaceMesh& surface);
-
-// σ as the user gave it, checked against the object (every term, per_vertex's length and its
-// duplicated positions, the sum at every user vertex: InvalidInput naming the field), as the
-// field solves it (per welded vertex).
-kelvin::SigmaSpec field_sigma(const kelvin::SigmaSpec& user, const mesh::SurfaceMesh& surface,
-                              const std::vector<int>& to_welded, Eigen::Index n_welded);
-// The same for an object repaired or wrapped: per_vertex carried to the repaired surface by
-// to_repaired (call with the object's mutex held, after the repair).
+// field_sigma of kelvin_json.hpp for an object repaired or wrapped: per_vertex carried to the
+// repaired surface by to_repaired (call with the object's mutex held, after the repair).
 kelvin::SigmaSpec field_sigma(const kelvin::SigmaSpec& user, const KelvinObject& object);
-// σ as solved (field_sigma) with per_vertex replaced by the user's values carried to a repaired
-// surface by to_repaired (mesh::nearest_face_transfer from the user's mesh).
-kelvin::SigmaSpec carry_sigma(kelvin::SigmaSpec solved, const kelvin::SigmaSpec& user, const mesh::Transfer& to_repaired);
-
-// "repair": "none" | "fix" | "wrap" and "repair_options" of a request (fix: max_hole_edges; wrap:
-// alpha and offset in metres), checked against the limits (InvalidInput naming the field).
-struct RepairRequest {
-  std::string kind = "none";
-  nlohmann::json options = nlohmann::json::object();
-};
-RepairRequest parse_repair(const nlohmann::json& body, const Limits& limits);
-// Runs mesh::fix or mesh::wrap on the user's mesh; the result and its report (fix: steps; wrap:
-// alpha, offset and the Hausdorff distances; both: n_vertices, n_faces). Cancellable by `progress`.
-std::pair<mesh::RepairResult, nlohmann::json> run_repair_request(const mesh::SurfaceMesh& user, const RepairRequest& request,
-                                                                 std::size_t max_faces, const Progress& progress = {});
 
 // 128-bit FNV-1a of a mesh's vertices and faces (hex): equal for equal surfaces, so that a client
 // sees when two levels gave the same iso-surface.
@@ -213,23 +191,6 @@ std::string mesh_digest(const mesh::SurfaceMesh& surface);
 inline std::string sigma_key(const KelvinObject& o, const nlohmann::json& sigma) {
   return o.surface_digest + sigma.dump();
 }
-
-// A rough vertex count of the preparation, for the vertex budget: the exterior mesh has element
-// size l_x up to far_radius · R (R: the bounding radius), and beyond it the mesh of the inverted
-// ball |y| < 1 / (far_radius · R) has the same order of vertices, so the count grows like
-// (far_radius · R / l_x)³ (far_radius below 1 counts as 1). The constant is fitted to the cube
-// asset (1608 vertices at l_x 0.2, 11891 at 0.1); measured ratios are in the notes of issue 15.
-inline constexpr double kVertexEstimateConstant = 20.0;
-// With the graded sizing (grading > 0) its refinement near sharp edges (the server's feature angle,
-// PrepareOptions' default) adds kGradedEdgeVerticesPerLength · (their length) / l_x: the volume
-// term, eq. 23's, bounds the rest (grading only coarsens away from the edges).
-double estimate_vertices(const mesh::SurfaceMesh& surface, double lx, double far_radius = 1.0, double grading = 0.0);
-// The grading to estimate with: the requested one, or eq. 23's (0) when prepare chooses, which
-// takes the graded sizing only where it predicts at most kAutoGradedShare of eq. 23's vertices.
-inline double sizing_for_budget(const kelvin::PrepareOptions& o) { return o.grading.value_or(0.0); }
-// The smallest l_x whose estimate fits `budget` vertices (the estimate above solved for l_x);
-// +infinity when none does (the surface alone has budget vertices or more).
-double smallest_lx_within(const mesh::SurfaceMesh& surface, double budget, double far_radius = 1.0);
 
 // What a client needs to choose l_x for a surface: {"bounding_box": {"min", "max", "diagonal"},
 // "lx_range": {"min", "max"} or null when no l_x fits, "lx_fraction_range": the same over the

@@ -1,0 +1,105 @@
+// Outcomes of the semantic CBF scenario wrench_grasp (assets/scenarios/wrench_grasp.json): the
+// Panda's finger pads and the paper's wrench (kelvin-semantics-aware-distance.txt, case (a) of
+// eq. 24) run three ways. Outcomes only, never times.
+#include <cmath>
+#include <filesystem>
+#include <map>
+
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include "distlab/server/cbf_json.hpp"
+
+namespace distlab::cbf {
+namespace {
+
+using nlohmann::json;
+
+const std::string kAssets = std::string(DISTLAB_SOURCE_DIR) + "/assets";
+
+// The wrench is prepared once per process, through a disk cache of the test's own (removed at exit).
+struct CacheDir {
+  std::filesystem::path path = std::filesystem::temp_directory_path() / ("distlab-wrench-grasp-" + std::to_string(::getpid()));
+  CacheDir() { std::filesystem::create_directories(path); }
+  ~CacheDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path, ec);
+  }
+};
+kelvin::Field prepare(const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& options, const std::string&) {
+  static const CacheDir dir;
+  return kelvin::Field::prepare_cached(surface, options, dir.path.string());
+}
+
+const RolloutRecord& run(const json& params) {
+  static std::map<std::string, RolloutRecord> cache;
+  const std::string key = params.dump();
+  if (auto it = cache.find(key); it != cache.end()) return it->second;
+  const json request = {{"scenario", "wrench_grasp"}, {"metric", "euclidean"}, {"params", params}};
+  const server::CbfRequest r = server::parse_cbf_request(request, kAssets, prepare);
+  return cache.emplace(key, rollout(r.scenario, r.metric, r.options)).first->second;
+}
+
+const json kSemantic = json::object();
+const json kAvoid = {{"fields", {{{"sigma", json::object()}}}}};
+const json kHull = {{"field_mode", "hull"}};
+
+double min_h(const RolloutRecord& rec) {
+  double m = INFINITY;
+  for (const StepRecord& s : rec.steps)
+    for (const FieldPointSample& p : s.field_points) m = std::min(m, p.h);
+  return m;
+}
+
+TEST(WrenchGrasp, SemanticSigmaLetsThePadsReachTheHandleAndKeepsThemFromTheEnds) {
+  const RolloutRecord& rec = run(kSemantic);
+  ASSERT_TRUE(rec.failure.empty()) << rec.failure;
+  EXPECT_TRUE(rec.infeasible_steps.empty());
+  EXPECT_TRUE(rec.reached) << rec.final_task_error;
+  const double delta = rec.field_margins[0];
+  EXPECT_GE(min_h(rec), delta);  // every control point, every step
+  const FieldContact& end = rec.steps.back().field_contacts[0];
+  EXPECT_LE(end.allowed_distance, 0.002);  // the pads at the handle
+  EXPECT_GT(end.sigma, delta);             // where contact is allowed
+  double forbidden = INFINITY;
+  for (const StepRecord& s : rec.steps) forbidden = std::min(forbidden, s.field_contacts[0].forbidden_distance);
+  EXPECT_GT(rec.safety_distances[0], 0.001);
+  EXPECT_GE(forbidden, rec.safety_distances[0]);
+  std::printf(
+      "semantic: min h %.4f (delta %.2f), pads to handle %.4f m, sigma there %.3f, to the ends >= %.4f m "
+      "(safety distance %.4f m)\n",
+      min_h(rec), delta, end.allowed_distance, end.sigma, forbidden, rec.safety_distances[0]);
+}
+
+TEST(WrenchGrasp, ZeroSigmaKeepsThePadsAwayFromTheWholeSurface) {
+  const RolloutRecord& rec = run(kAvoid);
+  ASSERT_TRUE(rec.failure.empty()) << rec.failure;
+  EXPECT_TRUE(rec.infeasible_steps.empty());
+  const double delta = rec.field_margins[0];
+  EXPECT_GE(min_h(rec), delta);
+  const FieldContact& end = rec.steps.back().field_contacts[0];
+  // σ = 0: h ≥ δ holds off the surface, so the pads stop clearly farther than the semantic run's.
+  EXPECT_GT(end.distance, 0.003);
+  EXPECT_EQ(end.sigma, 0);
+  std::printf("sigma 0: min h %.4f, pads to the wrench %.4f m at the end, gripper opening %.4f m\n", min_h(rec),
+              end.distance, 2 * rec.q_final[7]);
+}
+
+TEST(WrenchGrasp, TheConvexHullWithEuclideanDistancesStopsThePadsAboveTheHandle) {
+  const RolloutRecord& rec = run(kHull);
+  ASSERT_TRUE(rec.field_names.empty());  // the hull is an obstacle, not a field
+  EXPECT_TRUE(rec.infeasible_steps.empty());
+  EXPECT_FALSE(rec.reached);
+  // Held at the Euclidean margin from the hull, which covers the handle's sides.
+  double hull_clearance = INFINITY;
+  for (std::size_t p = 0; p < rec.pairs.size(); ++p)
+    if (rec.pairs[p].name.ends_with("/wrench")) hull_clearance = std::min(hull_clearance, rec.steps.back().pairs[p].clearance);
+  EXPECT_NEAR(hull_clearance, 0.002, 2e-4);
+  EXPECT_GT(rec.final_state.position_error, 0.003);
+  std::printf("hull: clearance to the hull %.4f m, TCP %.4f m from the target\n", hull_clearance,
+              rec.final_state.position_error);
+}
+
+}  // namespace
+}  // namespace distlab::cbf
