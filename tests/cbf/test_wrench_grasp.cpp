@@ -3,12 +3,15 @@
 // eq. 24) run three ways. Outcomes only, never times.
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <functional>
 #include <map>
 
 #include <unistd.h>
 
 #include <gtest/gtest.h>
 
+#include "distlab/geometry/error.hpp"
 #include "distlab/server/cbf_json.hpp"
 
 namespace distlab::cbf {
@@ -99,6 +102,64 @@ TEST(WrenchGrasp, TheConvexHullWithEuclideanDistancesStopsThePadsAboveTheHandle)
   EXPECT_GT(rec.final_state.position_error, 0.003);
   std::printf("hull: clearance to the hull %.4f m, TCP %.4f m from the target\n", hull_clearance,
               rec.final_state.position_error);
+}
+
+TEST(WrenchGrasp, ReachingForAForbiddenEndTheBarrierOpensTheFingers) {
+  // The target moved over the ring end (σ = −0.5 there): the task pulls the pads onto the end,
+  // the field rows push them off; the QP opens the fingers (u of the finger joint) so that the
+  // hand arrives with the pads beside the end, every point at h ≥ δ.
+  std::ifstream in(kAssets + "/scenarios/wrench_grasp.json");
+  json scenario = json::parse(in);
+  scenario["target"]["position"][0] = 0.455;
+  const server::CbfRequest r = server::parse_cbf_request({{"scenario", scenario}, {"metric", "euclidean"}}, kAssets, prepare);
+  const RolloutRecord rec = rollout(r.scenario, r.metric, r.options);
+  ASSERT_TRUE(rec.failure.empty()) << rec.failure;
+  EXPECT_TRUE(rec.infeasible_steps.empty());
+  EXPECT_GE(min_h(rec), rec.field_margins[0]);
+  double forbidden = INFINITY;
+  for (const StepRecord& s : rec.steps) forbidden = std::min(forbidden, s.field_contacts[0].forbidden_distance);
+  EXPECT_GE(forbidden, rec.safety_distances[0]);
+  EXPECT_GT(forbidden, 0.005);                          // far more than the handle's 1.5 mm
+  EXPECT_GT(rec.q_final[7], r.scenario.q0[7] + 0.005);  // the fingers opened
+  std::printf("over the ring end: min h %.4f, pads to the end >= %.4f m, finger opening %.4f -> %.4f m\n", min_h(rec), forbidden,
+              2 * r.scenario.q0[7], 2 * rec.q_final[7]);
+}
+
+// Bad fields and control points are refused naming the field, before any run.
+TEST(WrenchGrasp, ErrorsNameTheField) {
+  json scenario;
+  {
+    std::ifstream in(kAssets + "/scenarios/wrench_grasp.json");
+    scenario = json::parse(in);
+  }
+  const auto field_of = [&](const std::function<void(json&)>& edit, const json& params = json::object()) {
+    json s = scenario;
+    edit(s);
+    try {
+      server::parse_cbf_request({{"scenario", s}, {"metric", "euclidean"}, {"params", params}}, kAssets, prepare);
+    } catch (const InvalidInput& e) {
+      return e.field();
+    }
+    return std::string("(accepted)");
+  };
+  EXPECT_EQ(field_of([](json& s) { s["control_points"][0]["link"] = "panda_link99"; }), "scenario.control_points[0].link");
+  EXPECT_EQ(field_of([](json& s) { s["control_points"][0]["point"] = {0, 0}; }), "scenario.control_points[0].point");
+  EXPECT_EQ(field_of([](json& s) { s["control_points"][24]["sample"] = 0; }), "scenario.control_points[24].sample");
+  EXPECT_EQ(field_of([](json& s) { s["control_points"][24]["element"] = "nope"; }), "scenario.control_points[24].element");
+  EXPECT_EQ(field_of([](json& s) { s["fields"][0]["mesh"] = {{"asset", "no_such_mesh"}}; }), "scenario.fields[0].mesh.asset");
+  EXPECT_EQ(field_of([](json& s) { s["fields"][0].erase("lx"); }), "scenario.fields[0].lx");
+  EXPECT_EQ(field_of([](json& s) { s["fields"][0]["lx_fraction"] = 0.1; }), "scenario.fields[0].lx");  // both given
+  EXPECT_EQ(field_of([](json& s) { s["fields"][0]["sigma"]["axis"]["width"] = -1; }).rfind("scenario.fields[0].sigma", 0), 0U);
+  EXPECT_EQ(field_of([](json& s) { s["fields"][0]["colour"] = 1; }), "scenario.fields[0].colour");
+  EXPECT_EQ(field_of([](json& s) { s.erase("control_points"); }), "scenario.fields");
+  EXPECT_EQ(field_of([](json&) {}, {{"fields", json::array()}}), "params.fields");
+  EXPECT_EQ(field_of([](json&) {}, {{"fields", {{{"lx", 1}}}}}), "params.fields[0].lx");
+  EXPECT_EQ(field_of([](json&) {}, {{"field_mode", "mesh"}}), "params.field_mode");
+  // A start inside the unsafe set (the hand lowered onto the ends: δ above what h is there).
+  EXPECT_EQ(field_of([](json&) {}, {{"fields", {{{"delta", 5}}}}}), "(accepted)");  // parsing accepts it ...
+  const server::CbfRequest r = server::parse_cbf_request(
+      {{"scenario", "wrench_grasp"}, {"metric", "euclidean"}, {"params", {{"fields", {{{"delta", 5}}}}}}}, kAssets, prepare);
+  EXPECT_THROW(rollout(r.scenario, r.metric, r.options), InvalidInput);  // ... the run's start check refuses it
 }
 
 }  // namespace

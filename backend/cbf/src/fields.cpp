@@ -59,13 +59,15 @@ std::vector<ControlPoint> sample_control_points(const robot::Robot& robot, const
                        element.empty() ? "link \"" + link + "\" has no collision elements to sample"
                                        : "link \"" + link + "\" has no collision element \"" + element + "\"");
   std::vector<ControlPoint> out;
+  std::string prefix = link;
+  if (!element.empty()) prefix.append("/").append(element);
+  prefix += "#";
   const int per = count / static_cast<int>(elements.size()), extra = count % static_cast<int>(elements.size());
   for (std::size_t e = 0; e < elements.size(); ++e) {
     const int n = per + (static_cast<int>(e) < extra ? 1 : 0);
     for (int i = 0; i < n; ++i) {
       const Vec3 local = surface_along(elements[e]->shape, fibonacci_direction(i, n));
-      out.push_back({link + (element.empty() ? "" : "/" + element) + "#" + std::to_string(out.size()), l,
-                     elements[e]->pose.to_world(local)});
+      out.push_back({prefix + std::to_string(out.size()), l, elements[e]->pose.to_world(local)});
     }
   }
   return out;
