@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <thread>
 
 #include "distlab/geometry/error.hpp"
 #include "distlab/kelvin/digest.hpp"
@@ -202,6 +203,36 @@ TEST(KelvinPrepare, CacheRoundTripAndCorruptionIsRebuilt) {
   // A different lx is a different entry.
   Field::prepare_cached(surface, sphere_options(0.25), dir.string(), {}, &hit);
   EXPECT_FALSE(hit);
+  fs::remove_all(dir);
+}
+
+// Two threads of one process preparing the same content into one cache directory: each writes
+// its own temporary file (once both wrote ".tmp.<pid>", and one rename failed or an entry mixed
+// their bytes), the entry left is complete, and no temporary file stays behind.
+TEST(KelvinPrepare, CacheEntryWrittenByTwoThreadsAtOnce) {
+  const fs::path dir = fresh_dir("threads");
+  const auto surface = sphere_mesh(kSphere);
+  std::vector<long> vertices(2, 0);
+  std::vector<std::string> errors(2);
+  std::vector<std::thread> threads;
+  for (int t = 0; t < 2; ++t)
+    threads.emplace_back([&, t] {
+      try {
+        vertices[static_cast<std::size_t>(t)] = Field::prepare_cached(surface, sphere_options(0.2), dir.string()).stats().n_verts;
+      } catch (const std::exception& e) {
+        errors[static_cast<std::size_t>(t)] = e.what();
+      }
+    });
+  for (auto& t : threads) t.join();
+  EXPECT_EQ(errors[0], "");
+  EXPECT_EQ(errors[1], "");
+  EXPECT_EQ(vertices[0], vertices[1]);
+  bool hit = false;
+  const Field loaded = Field::prepare_cached(surface, sphere_options(0.2), dir.string(), {}, &hit);
+  EXPECT_TRUE(hit);
+  EXPECT_EQ(loaded.stats().n_verts, vertices[0]);
+  for (const auto& entry : fs::directory_iterator(dir))
+    EXPECT_EQ(entry.path().filename().string().find(".tmp."), std::string::npos) << entry.path();
   fs::remove_all(dir);
 }
 

@@ -4,6 +4,8 @@
 #include <sys/random.h>
 #include <sys/stat.h>
 #include <unistd.h>
+#include <atomic>
+#include <cerrno>
 
 #include <cstring>
 #include <filesystem>
@@ -24,25 +26,39 @@ constexpr double kChosen = -1;
 constexpr size_t kKeyBytes = 32;
 constexpr char kKeyFile[] = "cache.key";
 
-// A fresh key, written to a private temporary file and renamed over the key file.
-std::string new_mac_key(const std::string& path) {
-  std::string key(kKeyBytes, '\0');
+// A temporary name next to `path` that no other writer uses: per process and per call, so two
+// threads of one process preparing the same content never write into one file.
+std::string private_temporary(const std::string& path) {
+  static std::atomic<std::uint64_t> calls{0};
+  return path + ".tmp." + std::to_string(::getpid()) + "." + std::to_string(calls.fetch_add(1));
+}
+
+// A fresh key, written to a private temporary file, then linked in as the key file if there is
+// none (the first of concurrent writers wins; false: another one did, read its key) or renamed
+// over an untrusted one (`replace`).
+bool new_mac_key(const std::string& path, bool replace, std::string& key) {
+  key.assign(kKeyBytes, '\0');
   for (size_t got = 0; got < key.size();) {
     const ssize_t n = ::getrandom(key.data() + got, key.size() - got, 0);
     if (n <= 0) throw std::runtime_error("cannot read random bytes for the cache key");
     got += static_cast<size_t>(n);
   }
-  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
+  const std::string tmp = private_temporary(path);
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_NOFOLLOW | O_CLOEXEC, 0600);
   if (fd < 0) throw std::runtime_error("cannot create the cache key " + tmp + ": " + std::strerror(errno));
   const bool ok = ::fchmod(fd, 0600) == 0 && ::write(fd, key.data(), key.size()) == static_cast<ssize_t>(key.size()) &&
                   ::fsync(fd) == 0;
   ::close(fd);
-  if (!ok || ::rename(tmp.c_str(), path.c_str()) != 0) {
+  if (ok && !replace && ::link(tmp.c_str(), path.c_str()) != 0 && errno == EEXIST) {
+    ::unlink(tmp.c_str());
+    return false;
+  }
+  if (!ok || (replace ? ::rename(tmp.c_str(), path.c_str()) != 0 : ::access(path.c_str(), F_OK) != 0)) {
     ::unlink(tmp.c_str());
     throw std::runtime_error("cannot write the cache key " + path);
   }
-  return key;
+  if (!replace) ::unlink(tmp.c_str());
+  return true;
 }
 
 }  // namespace
@@ -54,17 +70,20 @@ std::string new_mac_key(const std::string& path) {
 std::string cache_mac_key(const std::string& dir) {
   std::filesystem::create_directories(dir);
   const std::string path = (std::filesystem::path(dir) / kKeyFile).string();
-  const int fd = ::open(path.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC);
-  if (fd >= 0) {
-    struct stat st {};
+  for (int attempt = 0;; ++attempt) {
+    const int fd = ::open(path.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC);
     std::string key(kKeyBytes, '\0');
-    const bool ok = ::fstat(fd, &st) == 0 && S_ISREG(st.st_mode) && st.st_uid == ::geteuid() &&
-                    (st.st_mode & 07777) == 0600 && st.st_size == static_cast<off_t>(kKeyBytes) &&
-                    ::read(fd, key.data(), key.size()) == static_cast<ssize_t>(key.size());
-    ::close(fd);
-    if (ok) return key;
+    if (fd >= 0) {
+      struct stat st {};
+      const bool ok = ::fstat(fd, &st) == 0 && S_ISREG(st.st_mode) && st.st_uid == ::geteuid() &&
+                      (st.st_mode & 07777) == 0600 && st.st_size == static_cast<off_t>(kKeyBytes) &&
+                      ::read(fd, key.data(), key.size()) == static_cast<ssize_t>(key.size());
+      ::close(fd);
+      if (ok) return key;
+    }
+    // No file: create it unless a concurrent writer did first (then read theirs, once more).
+    if (new_mac_key(path, fd >= 0 || attempt > 0, key)) return key;
   }
-  return new_mac_key(path);
 }
 
 namespace {
@@ -140,7 +159,7 @@ void save_prepared(const Field::Impl& m, const std::string& path, const std::str
   // Write a private temporary file, flush it to disk, then rename over the final name: readers
   // see either no file or a complete one.
   std::filesystem::create_directories(std::filesystem::path(path).parent_path());
-  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
+  const std::string tmp = private_temporary(path);
   {
     std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
     f.write(reinterpret_cast<const char*>(&size), sizeof(size));
