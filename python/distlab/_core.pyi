@@ -102,7 +102,21 @@ class Robot:
         threads: int,
         warm_start: Optional[RobotState],
         tracking: bool,
+        fields: Optional[FieldBarrier],
     ) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], Tuple[Any, ...]]: ...
+
+class FieldBarrier:
+    """Kelvin fields as barriers on a robot's control points (cbf/fields.hpp), prepared once."""
+
+    names: List[str]
+    margins: List[float]
+    points: List[Dict[str, Any]]
+    def __init__(
+        self, robot: Robot, fields: List[Dict[str, Any]], control_points: List[Dict[str, Any]], cache_dir: Optional[str]
+    ) -> None: ...
+    def evaluate(
+        self, q: npt.NDArray[np.float64], gradient: str
+    ) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.int32]]: ...
 
 def cbf_controller_rows(
     request: Dict[str, Any], q: npt.NDArray[np.float64]
