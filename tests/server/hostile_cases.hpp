@@ -922,6 +922,36 @@ inline void cbf_cases(std::vector<Case>& out) {
   roll("inline_robot_other", {{"scenario", {{"robot", "ur5"}, {"obstacles", json::array()}, {"target", {{"position", {0.5, 0, 0.5}}}}, {"q0", {0, 0, 0, -1.5, 0, 1.5, 0}}}}});
   roll("inline_obstacle_degenerate", {{"scenario", {{"obstacles", {{{"shape", {{"type", "box"}, {"size", {0, 0, 0}}}}}}}, {"target", {{"position", {0.5, 0, 0.5}}}}, {"q0", {0, 0, 0, -1.5, 0, 1.5, 0}}}}});
   roll("inline_target_huge", {{"scenario", {{"obstacles", json::array()}, {"target", {{"position", {1e300, 0, 0}}}}, {"q0", {0, 0, 0, -1.5, 0, 1.5, 0}}}}});
+  // Kelvin fields in an inline scenario: refused before any job prepares them.
+  const json wrench = {{"name", "w"}, {"mesh", {{"asset", "wrench"}}}, {"lx", 0.002}, {"center", {0.015, 0, 0}}, {"delta", 0.2}};
+  const json inline_base = {{"obstacles", json::array()}, {"target", {{"position", {0.5, 0, 0.5}}}}, {"q0", {0, 0, 0, -1.5, 0, 1.5, 0}}, {"control_points", {{{"link", "panda_link7"}, {"point", {0, 0, 0}}}}}};
+  auto with_field = [&](const json& field, const json& extra = json::object()) {
+    json sc = inline_base;
+    sc["fields"] = json::array({field});
+    for (const auto& [k, v] : extra.items()) sc[k] = v;
+    return json{{"scenario", sc}, {"metric", "euclidean"}, {"params", shortp}};
+  };
+  json f = wrench;
+  f["mesh"] = {{"path", "/etc/passwd"}};
+  roll("field_mesh_path", with_field(f));
+  out.back().check = field_is("scenario.fields[0].mesh.path");
+  f = wrench;
+  f["mesh"] = {{"asset", "../../etc/passwd"}};
+  roll("field_asset_traversal", with_field(f));
+  f = wrench;
+  f["lx"] = 1e-300;
+  roll("field_lx_tiny", with_field(f));
+  out.back().check = field_is("scenario.fields[0].lx");
+  f = wrench;
+  f["far_radius"] = 1e300;
+  roll("field_far_radius_huge", with_field(f));
+  f = wrench;
+  f["sigma"] = {{"per_vertex", std::vector<double>(3, 1.0)}};
+  roll("field_per_vertex_short", with_field(f));
+  roll("field_nine", with_field(wrench, {{"fields", std::vector<json>(9, wrench)}}));
+  roll("field_sample_huge", with_field(wrench, {{"control_points", {{{"link", "panda_link7"}, {"sample", 1e9}}}}}));
+  roll("field_point_unknown_link", with_field(wrench, {{"control_points", {{{"link", "../panda_link7"}, {"point", {0, 0, 0}}}}}}));
+  roll("field_params_sigma_count", {{"scenario", "wrench_grasp"}, {"params", {{"duration", 0.03}, {"fields", json::array({json::object(), json::object()})}}}});
   roll("valid_short", {{"scenario", "corridor"}, {"params", shortp}}, Expect::ok);
   mutate_body(out, "cbf/mut", "POST", "/api/cbf/rollouts",
               {{"scenario", "corridor"}, {"metric", "euclidean"}, {"params", {{"duration", 0.03}, {"dt", 0.01}, {"eta", 0.5}, {"goal_tolerance", 0.001}, {"self_collision", false}}}},
@@ -943,6 +973,13 @@ inline void cbf_cases(std::vector<Case>& out) {
   get("frames_count_zero", "/api/cbf/rollouts/{rollout}/frames?count=0", Expect::any);
   get("frames_count_fraction", "/api/cbf/rollouts/{rollout}/frames?count=2.5");
   get("record_ok", "/api/cbf/rollouts/{rollout}/record", Expect::ok);
+  get("fields_none", "/api/cbf/rollouts/{rollout}/fields");  // a corridor rollout: 404 no_fields
+  get("fields_levels_text", "/api/cbf/rollouts/{rollout}/fields?levels=abc");
+  get("fields_levels_nan", "/api/cbf/rollouts/{rollout}/fields?levels=nan");
+  get("fields_levels_inf", "/api/cbf/rollouts/{rollout}/fields?levels=1e999");
+  get("fields_levels_empty", "/api/cbf/rollouts/{rollout}/fields?levels=,,");
+  get("fields_levels_many", "/api/cbf/rollouts/{rollout}/fields?levels=" + std::string(20000, '1'));
+  get("fields_levels_twice", "/api/cbf/rollouts/{rollout}/fields?levels=0&levels=1");
   get("rollout_unknown", "/api/cbf/rollouts/ffffffffffffffffffffffffffffffff");
 }
 

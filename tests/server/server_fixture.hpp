@@ -183,6 +183,15 @@ inline std::string new_session(httplib::Client& c) {
 
 inline httplib::Headers session_headers(const std::string& id) { return {{"X-Distlab-Session", id}}; }
 
+// GET path as session s, expecting `status`; the body as JSON.
+inline json get_json(httplib::Client& c, const std::string& s, const std::string& path, int status = 200) {
+  auto r = c.Get(path, session_headers(s));
+  EXPECT_TRUE(r);
+  if (!r) return json();
+  EXPECT_EQ(r->status, status) << path << ": " << r->body;
+  return body_json(r);
+}
+
 // A blocking WebSocket client with timeouts (Boost.Beast).
 class WsClient {
  public:

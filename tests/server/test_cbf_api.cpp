@@ -88,14 +88,6 @@ std::string follow(WsClient& ws, const std::string& id, std::map<std::size_t, js
   return final_state;
 }
 
-json get_json(httplib::Client& c, const std::string& s, const std::string& path, int status = 200) {
-  auto r = c.Get(path, session_headers(s));
-  EXPECT_TRUE(r);
-  if (!r) return json();
-  EXPECT_EQ(r->status, status) << path << ": " << r->body;
-  return body_json(r);
-}
-
 // POST /api/jobs/{id}/cancel as session s; true when accepted.
 bool cancel_job(httplib::Client& c, const std::string& s, const std::string& id) {
   auto r = c.Post(("/api/jobs/" + id + "/cancel"), session_headers(s), "", "application/json");

@@ -195,6 +195,14 @@ def test_every_operation_answers_as_documented(server):
     api.call("GET", "/api/cbf/rollouts/{id}", {"id": rid})
     api.call("GET", "/api/cbf/rollouts/{id}/frames", {"id": rid})
     api.call("GET", "/api/cbf/rollouts/{id}/record", {"id": rid})
+    # A scenario with a Kelvin field: the job prepares it, the frames and record carry h, and the
+    # field's object and iso-surfaces come once.
+    wrench = api.call("POST", "/api/cbf/rollouts", json={"scenario": "wrench_grasp", "metric": "euclidean",
+                                                         "params": {"duration": 0.1}}).json()["rollout"]["id"]
+    assert wait_job(api, wrench, sid)["state"] == "succeeded"
+    for route in ("/api/cbf/rollouts/{id}", "/api/cbf/rollouts/{id}/frames", "/api/cbf/rollouts/{id}/record"):
+        api.call("GET", route, {"id": wrench})
+    api.call("GET", "/api/cbf/rollouts/{id}/fields", {"id": wrench}, params={"levels": "0,0.1"})
     sweep = api.call("POST", "/api/cbf/sweeps", json={"scenario": "corridor", "params": {"duration": 0.2},
                                                       "sweep": {"parameter": "duration", "values": [0.1, 0.2]}}).json()
     assert wait_job(api, sweep["sweep"]["id"], sid)["state"] == "succeeded"

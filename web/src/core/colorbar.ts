@@ -14,6 +14,22 @@ export interface ColorBarState {
   ticks: number[];
   /** Each tick's distance from the bar's bottom, a fraction of its height. */
   tickPositions: number[];
+  /** Values marked across the bar (a threshold), and the colour of values below `below.value`. */
+  marks: Array<{ value: number; label: string }>;
+  below: { value: number; color: string } | null;
+}
+
+/** What a bar shows besides its map: marked values, and one colour for values below a threshold
+ *  (e.g. h below the barrier's δ, drawn red). */
+export interface ColorBarExtras {
+  marks?: Array<{ value: number; label: string }>;
+  below?: { value: number; color: string };
+}
+
+/** "#rrggbb" as RGBA bytes. */
+function hexBytes(color: string): number[] {
+  const v = parseInt(color.slice(1), 16);
+  return [(v >> 16) & 255, (v >> 8) & 255, v & 255, 255];
 }
 
 const fmt = (x: number) => (x === 0 ? "0" : Math.abs(x) >= 1e4 || Math.abs(x) < 1e-3 ? x.toExponential(2) : String(Number(x.toPrecision(4))));
@@ -65,21 +81,27 @@ export class ColorBar {
   }
 
   /** Draws the bar for a scale resolved to `range`; `data` is the quantity's own min and max. */
-  update(scale: ColorScale, range: [number, number], data: [number, number] | null): void {
+  update(scale: ColorScale, range: [number, number], data: [number, number] | null, extras: ColorBarExtras = {}): void {
     const [lo, hi] = range;
     const centred = isDiverging(scale.map);
     const lut = colormapBytes(scale.map);
+    const below = extras.below ? hexBytes(extras.below.color) : null;
     // Row y (0 = top = hi) shows the colour of the value there, through the same normalisation
     // as the picture (so a centred map's two halves are stretched as they are on screen).
     const img = new ImageData(1, 256);
     for (let y = 0; y < 256; y++) {
       const v = hi - ((hi - lo) * y) / 255;
+      if (below && extras.below && v < extras.below.value) {
+        img.data.set(below, y * 4);
+        continue;
+      }
       const k = Math.round(normalize(v, lo, hi, centred) * 255) * 4;
       img.data.set(lut.subarray(k, k + 4), y * 4);
     }
     this.canvas.getContext("2d")!.putImageData(img, 0, 0);
     const ticks = colorbarTicks(lo, hi, centred);
     const pos = ticks.map((t) => (t - lo) / (hi - lo));
+    const marks = (extras.marks ?? []).filter((m) => m.value >= lo && m.value <= hi);
     this.ticksEl.replaceChildren(
       ...ticks.map((t, i) => {
         const d = document.createElement("div");
@@ -88,9 +110,16 @@ export class ColorBar {
         d.textContent = fmt(t);
         return d;
       }),
+      ...marks.map((m) => {
+        const d = document.createElement("div");
+        d.className = "colorbar-tick colorbar-mark";
+        d.style.bottom = `${(((m.value - lo) / (hi - lo)) * 100).toFixed(2)}%`;
+        d.textContent = m.label;
+        return d;
+      }),
     );
     this.dataEl.textContent = data ? `data ${fmt(data[0])} … ${fmt(data[1])}\nshown ${fmt(lo)} … ${fmt(hi)}` : `shown ${fmt(lo)} … ${fmt(hi)}`;
-    this.current = { title: this.title, unit: this.unit, map: scale.map, range: [lo, hi], dataRange: data, ticks, tickPositions: pos };
+    this.current = { title: this.title, unit: this.unit, map: scale.map, range: [lo, hi], dataRange: data, ticks, tickPositions: pos, marks, below: extras.below ?? null };
   }
 
   /** Another quantity of the same unit (the GAP slice shows e_S or E_S). */

@@ -218,6 +218,8 @@ export interface paths {
                             cbf_rollouts_kept_per_session: number;
                             /** @description rollouts kept over all sessions; older ended ones are forgotten */
                             cbf_rollouts_kept_total: number;
+                            /** @description rollouts (all sessions) that keep their prepared Kelvin fields for GET /api/cbf/rollouts/{id}/fields after their job ended; older ones release them (410 fields_released) */
+                            cbf_fields_kept_total: number;
                             /** @description sessions over all clients; idle ones (no socket, idle past session_idle_seconds) are evicted first (429 too_many_sessions) */
                             max_sessions: number;
                             /** @description sessions held by one client address; past it that address's least recently used session without a socket is evicted, else 429 too_many_sessions */
@@ -668,7 +670,10 @@ export interface paths {
         };
         get?: never;
         put?: never;
-        /** Target feasibility: the best robot-obstacle clearance reachable at the scenario's exact target pose over the arm's redundancy (q7 scanned, joints 1-6 solved), the configuration and pair that limit it, the GAP D there, and whether each metric's obstacle margin can hold there */
+        /**
+         * Target feasibility: the best robot-obstacle clearance reachable at the scenario's exact target pose over the arm's redundancy (q7 scanned, joints 1-6 solved), the configuration and pair that limit it, the GAP D there, and whether each metric's obstacle margin can hold there
+         * @description Kelvin fields are checked as for POST /api/cbf/rollouts (400, 422 over_budget) and prepared synchronously (shared with a rollout that holds them, else from the cache directory: seconds, the first time longer).
+         */
         post: {
             parameters: {
                 query?: never;
@@ -739,7 +744,7 @@ export interface paths {
         put?: never;
         /**
          * Start a rollout (a job of this session; its steps stream over /ws as cbf_frames; progress and cancel as for every job)
-         * @description Bounds (GET /api/limits): max_cbf_steps and max_cbf_pair_steps (422 too_long, field scenario.duration or params.duration), max_cbf_duration, max_cbf_batch_steps (400, field stream.batch_steps), max_jobs_per_session and max_jobs_total (429 too_many_jobs), max_job_seconds; a session keeps its cbf_rollouts_kept_per_session most recent rollouts (cbf_rollouts_kept_total over all).
+         * @description Bounds (GET /api/limits): max_cbf_steps and max_cbf_pair_steps (422 too_long, field scenario.duration or params.duration), max_cbf_duration, max_cbf_batch_steps (400, field stream.batch_steps), max_jobs_per_session and max_jobs_total (429 too_many_jobs), max_job_seconds; a session keeps its cbf_rollouts_kept_per_session most recent rollouts (cbf_rollouts_kept_total over all). With Kelvin fields: everything is checked before the job starts (a field's mesh, σ and options, 400 naming scenario.fields[i]...; an inline scenario's mesh.path is refused, the service reads assets only; l_x below min_lx or a vertex estimate over max_vertex_estimate is 422 over_budget naming scenario.fields[i].lx); the job prepares the fields in the server's cache directory first, reporting Kelvin's stages (load, invert, mesh, build, decomp, cache, solve) before stage rollout; a field another rollout holds is shared.
          */
         post: {
             parameters: {
@@ -941,7 +946,7 @@ export interface paths {
         put?: never;
         /**
          * A parameter sweep as one job: the rollout once per value of one parameter, with per-run summaries (final error, min clearance, total variation); progress and cancel as for every job
-         * @description Every run is checked before the job starts (400 naming sweep.parameter, sweep.values or sweep.values[i]). The runs go in parallel on the compute pool; the job's stage is "K of N runs done", its fraction over all runs' steps. Bounds (GET /api/limits): max_cbf_steps and max_cbf_pair_steps per run (422 too_long, field sweep.values[i]), max_jobs_per_session and max_jobs_total (429), max_job_seconds.
+         * @description Every run is checked before the job starts (400 naming sweep.parameter, sweep.values or sweep.values[i]). The runs go in parallel on the compute pool; the job's stage is "K of N runs done", its fraction over all runs' steps. Bounds (GET /api/limits): max_cbf_steps and max_cbf_pair_steps per run (422 too_long, field sweep.values[i]), max_jobs_per_session and max_jobs_total (429), max_job_seconds. Kelvin fields are checked as for POST /api/cbf/rollouts (400, 422 over_budget) and prepared once for all runs at the job's start, with Kelvin's stages.
          */
         post: {
             parameters: {
@@ -1026,6 +1031,60 @@ export interface paths {
                 };
                 401: components["responses"]["Error"];
                 404: components["responses"]["Error"];
+            };
+        };
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/cbf/rollouts/{id}/fields": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * The Kelvin objects of a rollout's scenario with σ per vertex, and iso-surfaces of h (msgpack), once: the frames carry h at the control points per step
+         * @description levels: comma-separated h levels for every field (at most max_levels; 413 too_many_levels), default 0 and the field's δ. 404 no_fields for a scenario without fields; 409 not_ready while the job prepares them (ask once its frames arrive), 409 fields_failed; 410 fields_released once cbf_fields_kept_total newer rollouts hold theirs (their job ended). The work is bounded by the field's vertex budget (max_vertex_estimate) and max_levels.
+         */
+        get: {
+            parameters: {
+                query?: {
+                    /** @description e.g. 0,0.2 */
+                    levels?: string;
+                };
+                header?: {
+                    /** @description session id (or the distlab_session cookie) */
+                    "X-Distlab-Session"?: components["parameters"]["Session"];
+                };
+                path: {
+                    /** @description rollout id */
+                    id: string;
+                };
+                cookie?: never;
+            };
+            requestBody?: never;
+            responses: {
+                /** @description the objects and iso-surfaces */
+                200: {
+                    headers: {
+                        [name: string]: unknown;
+                    };
+                    content: {
+                        "application/msgpack": components["schemas"]["CbfFieldGeometry"];
+                    };
+                };
+                400: components["responses"]["Error"];
+                401: components["responses"]["Error"];
+                404: components["responses"]["Error"];
+                409: components["responses"]["Error"];
+                410: components["responses"]["Error"];
+                413: components["responses"]["Error"];
             };
         };
         put?: never;
@@ -2172,6 +2231,17 @@ export interface components {
                 cancelled: boolean;
             };
             job?: components["schemas"]["Job"];
+            /** @description With Kelvin fields: their state (preparing in the job's first stages, then ready; released once cbf_fields_kept_total newer rollouts hold theirs; failed), the control points and the objects (GET .../fields draws them). */
+            kelvin?: {
+                /** @enum {string} */
+                state: "preparing" | "ready" | "released" | "failed";
+                control_points: components["schemas"]["CbfFieldControlPoint"][];
+                fields: {
+                    name: string;
+                    delta: number;
+                    pose: components["schemas"]["CbfPose"];
+                }[];
+            };
         };
         /** @description Also the WebSocket text message type cbf_frames. Steps [first, first+count) of a rollout; per-pair arrays follow the rollout's pairs order, poses follow GET /api/cbf/robot's primitives order. All positions in the world frame, metres. */
         CbfFrames: {
@@ -2217,6 +2287,8 @@ export interface components {
                     number,
                     number
                 ][];
+                /** @description with Kelvin fields: per field (the rollout's kelvin.fields order) */
+                kelvin?: components["schemas"]["CbfFieldStep"][];
             }[];
         };
         /** @description The record of `distlab cbf` (same names and numbers). */
@@ -2255,12 +2327,15 @@ export interface components {
                 qp_us_mean: number;
                 audit_us_mean: number;
                 wall_s: number;
+                /** @description with fields: h and its gradient at every control point, per step */
+                field_us_mean?: number;
             };
             /** @enum {string} */
             gap_mode: "exact" | "as_published";
             /** @description gap.mode as_published with record_pairs: per step, the converged D of every pair (beside the early-stopped distance) */
             converged_distance?: (number | null)[][];
             summary: components["schemas"]["CbfRecordSummary"];
+            kelvin?: components["schemas"]["CbfRecordKelvin"];
         };
         CbfRobot: {
             name: string;
@@ -2406,8 +2481,11 @@ export interface components {
                 active: {
                     /** @description pair name (link5_cylinder/wall1) or joint limit (q5 >= q_min) */
                     name: string;
-                    /** @enum {string} */
-                    kind: "pair" | "joint_limit";
+                    /**
+                     * @description field: a Kelvin field's row (name POINT/FIELD, distance its h, margin its δ)
+                     * @enum {string}
+                     */
+                    kind: "pair" | "field" | "joint_limit";
                     /** @description the controller's D, or the joint's distance to its limit */
                     distance: number;
                     margin: number;
@@ -2515,6 +2593,70 @@ export interface components {
             ];
             element?: string;
             sample?: number;
+        };
+        /** @description A control point as parsed (sampled ones named LINK[/ELEMENT]#i): its link's index in GET /api/cbf/robot's links and the point in that link's frame. */
+        CbfFieldControlPoint: {
+            name: string;
+            link: number;
+            point: [
+                number,
+                number,
+                number
+            ];
+        };
+        /** @description One Kelvin field at one step (encode_field_step): h at every control point (the rollout's control_points order; null where undefined), and where the points are relative to the object's surface: the control point closest to it (closest_point, an index), its distance (m), the closest surface point (world) and σ there; the smallest distance of any point to the faces with σ > δ at every corner (allowed) and to those with σ < 0 at every corner (forbidden), null without such faces. */
+        CbfFieldStep: {
+            h: (number | null)[];
+            closest: [
+                number,
+                number,
+                number
+            ];
+            closest_sigma: number;
+            distance: number | null;
+            closest_point: number;
+            allowed_distance: number | null;
+            forbidden_distance: number | null;
+        };
+        /** @description The Kelvin fields of a rollout (scenarios with fields): per field the values of CbfFieldStep as columns, one entry per step; safety_distance: the distance along the outward normal of the forbidden faces at which h reaches δ (null without forbidden faces). failure: the step at which a field row could not be formed (a control point inside the object) and why; the rollout stopped there. */
+        CbfRecordKelvin: {
+            control_points: components["schemas"]["CbfFieldControlPoint"][];
+            fields: {
+                name: string;
+                delta: number;
+                safety_distance: number | null;
+                h: (number | null)[][];
+                closest: [
+                    number,
+                    number,
+                    number
+                ][];
+                closest_sigma: number[];
+                distance: (number | null)[];
+                closest_point: number[];
+                allowed_distance: (number | null)[];
+                forbidden_distance: (number | null)[];
+            }[];
+            failure?: {
+                step: number;
+                message: string;
+            };
+        };
+        /** @description msgpack map: a rollout's Kelvin objects and iso-surfaces of h, in each object's frame (world = pose · x). surface: the mesh as the scenario's file gives it (its vertices in its order) with σ per vertex as scalars; isosurfaces: one MeshFrame per level with its level (empty and h_min for a level the field never takes). */
+        CbfFieldGeometry: {
+            /** @constant */
+            type: "cbf_fields";
+            rollout: string;
+            fields: {
+                index: number;
+                name: string;
+                delta: number;
+                pose: components["schemas"]["CbfPose"];
+                /** @constant */
+                frame: "object";
+                surface: components["schemas"]["MeshFrame"];
+                isosurfaces: components["schemas"]["MeshFrame"][];
+            }[];
         };
         /** @description {a, b, params} or {pairs: [{a, b}], params} */
         GapRequest: {

@@ -1,12 +1,15 @@
 #pragma once
 // The CBF feature as a module of the service: scenarios, robots and rollouts (routes_cbf.cpp), the
-// rollouts kept per session (cbf_rollouts.hpp), and the WebSocket message "cbf_replay".
+// rollouts kept per session (cbf_rollouts.hpp), their Kelvin fields (cbf_field_service.hpp), and
+// the WebSocket message "cbf_replay".
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "cbf_field_service.hpp"
 #include "distlab/server/cbf_json.hpp"
 #include "distlab/server/cbf_rollouts.hpp"
 #include "distlab/server/module.hpp"
@@ -34,13 +37,20 @@ class CbfModule final : public Module {
     limits["cbf_rollouts_kept_per_session"] = cbf.kept_per_session;
     limits["cbf_rollouts_kept_total"] = cbf.kept_total;
     limits["max_cbf_sweep_values"] = cbf.max_sweep_values;
+    limits["cbf_fields_kept_total"] = cbf.fields_kept_total;
   }
 
  private:
   void cbf_ws_message(const std::shared_ptr<Session>& session, const std::shared_ptr<WsSink>& socket,
                       const nlohmann::json& msg);
 
+  // A scenario's Kelvin fields (cbf_field_service.hpp) for a planned request: held ones shared,
+  // the others prepared in the service's cache directory; progress reports their stages.
+  void prepare_fields(cbf::Scenario& scenario, const FieldPlan& plan, const Progress& progress,
+                      std::map<std::string, cbf::SceneField>& prepared);
+
   std::shared_ptr<CbfRolloutStore> cbf_rollouts_;
+  SharedFields shared_fields_;
 };
 
 }  // namespace distlab::server

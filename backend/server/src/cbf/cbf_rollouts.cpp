@@ -7,6 +7,7 @@
 #include <type_traits>
 #include <variant>
 
+#include "cbf_fields.hpp"
 #include "distlab/server/cbf_json.hpp"
 #include "distlab/server/json_fields.hpp"
 
@@ -60,7 +61,13 @@ json CbfRollout::status_json() const {
             {"obstacles", scenario_json.value("obstacles", json::array())},
             {"target", pose_json(scenario.target)},
             {"stream", {{"batch_steps", stream.batch_steps}, {"pairs", stream.pairs}, {"poses", stream.poses}}}};
+  if (!fields.empty()) {
+    json list = json::array();
+    for (const CbfRolloutField& f : fields) list.push_back({{"name", f.name}, {"delta", f.delta}, {"pose", pose_json(f.pose)}});
+    j["kelvin"] = {{"control_points", encode_control_points(control_points)}, {"fields", std::move(list)}};
+  }
   std::lock_guard lock(mutex);
+  if (!fields.empty()) j["kelvin"]["state"] = fields_state;
   j["state"] = state;
   j["steps_done"] = steps_locked().size();
   if (record) {
@@ -115,6 +122,11 @@ json cbf_frames_json(const CbfRollout& r, std::size_t first, std::size_t count) 
                            w.rotation.y(), w.rotation.z()});
         }
         f["poses"] = std::move(poses);
+      }
+      if (!s.field_contacts.empty()) {
+        json kelvin = json::array();
+        for (std::size_t k = 0; k < s.field_contacts.size(); ++k) kelvin.push_back(encode_field_step(s, k, r.control_points.size()));
+        f["kelvin"] = std::move(kelvin);
       }
       frames.push_back(std::move(f));
     }
@@ -182,6 +194,20 @@ void CbfRolloutStore::add(const std::shared_ptr<CbfRollout>& r,
   };
   trim([&](const CbfRollout& x) { return x.session == r->session; }, limits_.kept_per_session);
   trim([](const CbfRollout&) { return true; }, limits_.kept_total);
+}
+
+void CbfRolloutStore::fields_ready(const std::shared_ptr<CbfRollout>& r) {
+  std::lock_guard lock(mutex_);
+  with_fields_.erase(std::remove_if(with_fields_.begin(), with_fields_.end(), [](const auto& w) { return w.expired(); }), with_fields_.end());
+  with_fields_.push_back(r);
+  while (with_fields_.size() > std::max<std::size_t>(1, limits_.fields_kept_total)) {
+    if (auto old = with_fields_.front().lock()) {
+      std::lock_guard l(old->mutex);
+      for (CbfRolloutField& f : old->fields) f.field.reset();
+      old->fields_state = "released";
+    }
+    with_fields_.erase(with_fields_.begin());
+  }
 }
 
 std::shared_ptr<CbfRollout> CbfRolloutStore::find(const std::string& session, const std::string& id) const {

@@ -1,17 +1,23 @@
 // CBF endpoints: scenarios, the robot description, rollouts as jobs whose steps stream over the
-// WebSocket ("cbf_frames"), their status, frames and full record (same JSON as `distlab cbf`).
+// WebSocket ("cbf_frames"), their status, frames and full record (same JSON as `distlab cbf`), and
+// the Kelvin fields of their scenarios. A request is checked in full on the request thread (its
+// fields planned: read and checked against the budget, cbf_fields.hpp); the fields are prepared
+// in the job, whose progress shows Kelvin's stages before "rollout".
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <mutex>
+#include <optional>
 
 #include "cbf_module.hpp"
 #include "distlab/geometry/error.hpp"
 #include "distlab/server/cbf_json.hpp"
 #include "distlab/server/cbf_rollouts.hpp"
+#include "distlab/server/frames.hpp"
 #include "distlab/server/json_fields.hpp"
 #include "distlab/server/request_params.hpp"
+#include "distlab/server/service.hpp"
 
 namespace distlab::server {
 
@@ -19,6 +25,23 @@ using json = nlohmann::json;
 namespace fs = std::filesystem;
 
 namespace {
+
+// "levels=A,B,...": finite numbers, at most max (413 too_many_levels).
+std::vector<double> parse_levels(const std::string& text, std::size_t max) {
+  std::vector<double> out;
+  for (std::size_t b = 0; b <= text.size();) {
+    const std::size_t e = std::min(text.find(',', b), text.size());
+    const std::string item = text.substr(b, e - b);
+    char* end = nullptr;
+    const double v = std::strtod(item.c_str(), &end);
+    if (item.empty() || end != item.c_str() + item.size() || !std::isfinite(v))
+      throw InvalidInput("levels", "levels must be finite numbers separated by commas");
+    out.push_back(v);
+    if (out.size() > max) throw ApiError(413, "too_many_levels", "at most " + std::to_string(max) + " levels (max_levels)", "levels");
+    b = e + 1;
+  }
+  return out;
+}
 
 CbfStreamOptions parse_stream(const json& j, const CbfLimits& limits) {
   CbfStreamOptions s;
@@ -43,14 +66,34 @@ std::string duration_field(const json& body) {
   return "scenario.duration";
 }
 
-// The job's work: runs the rollout, keeps every step, streams batches to the session's sockets.
-json run_rollout(const std::shared_ptr<CbfRollout>& r, cbf::RolloutOptions options,
-                 const std::weak_ptr<Session>& weak, Job& job) {
+// A job cancelled while queued ends without running its work: its rollout, still "queued", ended
+// with it (and so did the preparation of its fields).
+void settle(CbfRollout& r, const Job& job) {
+  const JobState s = job.state();
+  if (s == JobState::queued || s == JobState::running) return;
+  std::lock_guard lock(r.mutex);
+  if (r.state != "queued") return;
+  r.state = s == JobState::cancelled ? "cancelled" : "failed";
+  if (!r.fields.empty() && r.fields_state == "preparing") r.fields_state = "failed";
+}
+
+// The job's work: prepares the scenario (its fields), runs the rollout, keeps every step, streams
+// batches to the session's sockets.
+json run_rollout(const std::shared_ptr<CbfRollout>& r, cbf::RolloutOptions options, const std::weak_ptr<Session>& weak, Job& job,
+                 const std::function<cbf::Scenario(Job&)>& prepare) {
   using Clock = std::chrono::steady_clock;
   r->id_known.wait();
   {
     std::lock_guard lock(r->mutex);
     r->state = "running";
+  }
+  cbf::Scenario scenario;
+  try {
+    scenario = prepare(job);
+  } catch (...) {
+    std::lock_guard lock(r->mutex);
+    r->state = job.cancelled() ? "cancelled" : "failed";
+    throw;
   }
   std::size_t sent = 0;
   auto last = Clock::now();
@@ -84,7 +127,7 @@ json run_rollout(const std::shared_ptr<CbfRollout>& r, cbf::RolloutOptions optio
   };
   cbf::RolloutRecord rec;
   try {
-    rec = cbf::rollout(r->scenario, r->metric, options);
+    rec = cbf::rollout(scenario, r->metric, options);
   } catch (...) {
     std::lock_guard lock(r->mutex);
     r->state = "failed";
@@ -201,7 +244,10 @@ void CbfModule::register_routes() {
   // second: a q7 grid with IK per point.)
   Route feasibility{"POST", "/api/cbf/feasibility", [this, limits](Request& req) {
                       const json body = parse_body(req);
-                      const CbfRequest parsed = parse_cbf_request(body, config_.assets_dir);
+                      refuse_mesh_paths(body);
+                      FieldPlan plan;
+                      CbfRequest parsed = plan_cbf_request(body, config_.assets_dir, plan);
+                      for (const PlannedField& p : plan.fields) check_field_budget(p, config_.limits);
                       // About 4000 IK configurations are examined, each against every pair.
                       const cbf::Robot& robot = *parsed.scenario.robot;
                       const std::size_t pairs = robot.primitives().size() * parsed.scenario.obstacles.size() +
@@ -211,11 +257,15 @@ void CbfModule::register_routes() {
                                        std::to_string(pairs) + " pairs: the feasibility scan allows at most " +
                                            std::to_string(limits.max_pair_steps / 4000) + " on this server",
                                        "scenario.obstacles");
+                      // The fields are prepared here, synchronously: usually held by the rollout
+                      // just run, else from the cache directory (seconds; the first time longer).
+                      std::map<std::string, cbf::SceneField> prepared;
+                      prepare_fields(parsed.scenario, plan, {}, prepared);
                       return json_response(200, encode_feasibility(cbf::target_feasibility(parsed.scenario),
                                                                    parsed.scenario));
                     }};
   feasibility.heavy = true;
-  feasibility.bounds = {"max_body_bytes", "max_cbf_pair_steps"};
+  feasibility.bounds = {"max_body_bytes", "max_cbf_pair_steps", "min_lx", "max_vertex_estimate"};
   router_.add(std::move(feasibility));
 
   Route post{"POST", "/api/cbf/rollouts", [this, limits](Request& req) {
@@ -227,7 +277,10 @@ void CbfModule::register_routes() {
                  stream = parse_stream(*it, limits);
                  body.erase("stream");
                }
-               const CbfRequest parsed = parse_cbf_request(body, config_.assets_dir);
+               refuse_mesh_paths(body);
+               auto plan = std::make_shared<FieldPlan>();
+               const CbfRequest parsed = plan_cbf_request(body, config_.assets_dir, *plan);
+               for (const PlannedField& p : plan->fields) check_field_budget(p, config_.limits);
                const cbf::Scenario& sc = parsed.scenario;
                const int steps = sc.steps();
                if (steps > limits.max_steps)
@@ -260,10 +313,32 @@ void CbfModule::register_routes() {
                robot::PairSelection selection;
                selection.self = sc.self_collision;
                r->pairs = robot::select_pairs(robot, sc.obstacles, selection);
+               r->control_points = plan->control_points;
+               r->fields = rollout_fields(*plan);
 
+               // The job's first part: the fields, prepared (or shared) with the job's progress.
+               auto prepare = [this, r, plan](Job& j) {
+                 cbf::Scenario s = r->scenario;
+                 if (plan->fields.empty()) return s;
+                 std::map<std::string, cbf::SceneField> prepared;
+                 try {
+                   prepare_fields(s, *plan, Progress{[&j](const std::string& stage, double f) { j.report(stage, f); }, &j.cancel}, prepared);
+                 } catch (...) {
+                   std::lock_guard lock(r->mutex);
+                   r->fields_state = "failed";
+                   throw;
+                 }
+                 {
+                   std::lock_guard lock(r->mutex);
+                   for (std::size_t i = 0; i < r->fields.size(); ++i) r->fields[i].field = s.fields[i].field;
+                   r->fields_state = "ready";
+                 }
+                 cbf_rollouts_->fields_ready(r);
+                 return s;
+               };
                std::weak_ptr<Session> weak = session;
                auto job = jobs_.submit(session->id, "cbf_rollout", {{"scenario", sc.name}, {"metric", cbf::to_string(parsed.metric)}},
-                                       [r, options, weak](Job& j) mutable { return run_rollout(r, options, weak, j); });
+                                       [r, options, weak, prepare](Job& j) mutable { return run_rollout(r, options, weak, j, prepare); });
                r->id = job->id;
                r->id_set.set_value();
                cbf_rollouts_->add(r, [this](const std::string& s) { return sessions_.find(s) != nullptr; });
@@ -275,7 +350,7 @@ void CbfModule::register_routes() {
   // and pair-steps; finished rollouts past the kept counts are forgotten, oldest first.
   post.bounds = {"max_body_bytes", "max_cbf_steps", "max_cbf_duration", "max_cbf_pair_steps", "max_cbf_batch_steps",
                  "max_jobs_per_session", "max_jobs_total", "max_job_seconds", "cbf_rollouts_kept_per_session",
-                 "cbf_rollouts_kept_total"};
+                 "cbf_rollouts_kept_total", "min_lx", "max_vertex_estimate", "cbf_fields_kept_total"};
   router_.add(std::move(post));
 
   // POST /api/cbf/sweeps: a rollout request with "sweep": {"parameter", "values"} (cbf_json.hpp),
@@ -284,7 +359,11 @@ void CbfModule::register_routes() {
   Route sweep_post{"POST", "/api/cbf/sweeps", [this, limits, sweeps](Request& req) {
                      auto session = require_session(req);
                      const json body = parse_body(req);
-                     auto sweep = std::make_shared<CbfSweep>(parse_cbf_sweep(body, config_.assets_dir, limits.max_sweep_values));
+                     refuse_mesh_paths(body);
+                     auto plans = std::make_shared<std::vector<FieldPlan>>();
+                     auto sweep = std::make_shared<CbfSweep>(plan_cbf_sweep(body, config_.assets_dir, limits.max_sweep_values, *plans));
+                     for (const FieldPlan& plan : *plans)
+                       for (const PlannedField& p : plan.fields) check_field_budget(p, config_.limits);
                      for (std::size_t i = 0; i < sweep->runs.size(); ++i) {
                        const cbf::Scenario& sc = sweep->runs[i].scenario;
                        const std::size_t steps = static_cast<std::size_t>(sc.steps());
@@ -305,7 +384,12 @@ void CbfModule::register_routes() {
                                 {"parameter", sweep->parameter},
                                 {"values", sweep->values}};
                      auto job = jobs_.submit(session->id, "cbf_sweep", {{"parameter", sweep->parameter}},
-                                             [this, s, sweep](Job& j) {
+                                             [this, s, sweep, plans](Job& j) {
+                                               // The runs' fields, prepared once for all of them.
+                                               std::map<std::string, cbf::SceneField> prepared;
+                                               const Progress progress{[&j](const std::string& stage, double f) { j.report(stage, f); }, &j.cancel};
+                                               for (std::size_t i = 0; i < sweep->runs.size(); ++i)
+                                                 prepare_fields(sweep->runs[i].scenario, (*plans)[i], progress, prepared);
                                                return run_sweep(
                                                    s, *sweep, j, [this](std::function<void()> task) { return post_compute(std::move(task)); },
                                                    compute_.size());
@@ -319,7 +403,7 @@ void CbfModule::register_routes() {
                    }};
   sweep_post.heavy = true;  // parses every run's request
   sweep_post.bounds = {"max_body_bytes", "max_cbf_sweep_values", "max_cbf_steps", "max_cbf_pair_steps", "max_jobs_per_session",
-                       "max_jobs_total", "max_job_seconds"};
+                       "max_jobs_total", "max_job_seconds", "min_lx", "max_vertex_estimate"};
   router_.add(std::move(sweep_post));
   router_.add({"GET", "/api/cbf/sweeps/{id}", [this, sweeps](Request& req) {
                  auto session = require_session(req);
@@ -342,13 +426,17 @@ void CbfModule::register_routes() {
     auto session = require_session(req);
     auto r = cbf_rollouts_->find(session->id, req.params.at("id"));
     if (!r) throw ApiError(404, "unknown_rollout", "no such rollout in this session");
+    if (auto j = jobs_.find(session->id, r->id)) settle(*r, *j);
     return std::make_pair(session, r);
   };
 
   router_.add({"GET", "/api/cbf/rollouts", [this](Request& req) {
                  auto session = require_session(req);
                  json list = json::array();
-                 for (const auto& r : cbf_rollouts_->list(session->id)) list.push_back(r->status_json());
+                 for (const auto& r : cbf_rollouts_->list(session->id)) {
+                   if (auto j = jobs_.find(session->id, r->id)) settle(*r, *j);
+                   list.push_back(r->status_json());
+                 }
                  return json_response(200, {{"rollouts", list}});
                }});
   router_.add({"GET", "/api/cbf/rollouts/{id}", [this, require_rollout](Request& req) {
@@ -387,6 +475,29 @@ void CbfModule::register_routes() {
   record.heavy = true;
   record.bounds = {"max_cbf_steps", "max_cbf_pair_steps"};
   router_.add(std::move(record));
+  // The objects of a rollout's Kelvin fields and their iso-surfaces (cbf_field_service.hpp), once:
+  // the frames carry what changes per step.
+  Route fields{"GET", "/api/cbf/rollouts/{id}/fields", [this, require_rollout](Request& req) {
+                 auto [session, r] = require_rollout(req);
+                 std::optional<std::vector<double>> levels;
+                 single_query(req, "levels");
+                 if (auto it = req.query.find("levels"); it != req.query.end()) levels = parse_levels(it->second, config_.limits.max_levels);
+                 Response out;
+                 out.content_type = "application/msgpack";
+                 out.body = to_msgpack(fields_frame(*r, levels));
+                 return out;
+               }};
+  fields.heavy = true;
+  fields.bounds = {"max_vertex_estimate", "max_levels", "cbf_fields_kept_total"};
+  router_.add(std::move(fields));
+}
+
+void CbfModule::prepare_fields(cbf::Scenario& scenario, const FieldPlan& plan, const Progress& progress,
+                               std::map<std::string, cbf::SceneField>& prepared) {
+  if (plan.fields.empty()) return;
+  prepared.merge(shared_fields_.held(plan));
+  prepare_planned_fields(scenario, plan, service_preparer(core_.cache_dir(), config_.limits, progress, shared_fields_), progress, &prepared);
+  shared_fields_.remember(prepared);
 }
 
 // WebSocket {"type": "cbf_replay", "rollout", "from"?}: the frames computed so far, to this socket

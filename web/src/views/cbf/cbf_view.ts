@@ -2,7 +2,11 @@
 // collision primitives and joints) in the scenario's obstacles, rollouts computed by the server
 // streaming in step by step (GAP beside Euclidean, or any two rollouts overlaid), a timeline to play and scrub, witness segments of the closest pairs, plots of the
 // joint velocities, distances and task error, and the records' smoothness and timing numbers.
+// A scenario's Kelvin fields (issue 33) add the object painted with σ, the shells of h = 0 and δ,
+// the control points coloured by h per step, their plots and a hover that reads σ and h.
+import * as THREE from "three";
 import { api, ApiError, errorText } from "../../core/api";
+import { ColorBar } from "../../core/colorbar";
 import type { Shortcut } from "../../core/keys";
 import { showError, toast } from "../../core/toast";
 import type { View, ViewHost } from "../../core/view";
@@ -11,12 +15,13 @@ import "./cbf.css";
 import { drawStep } from "./draw_step";
 import { installHooks } from "./hooks";
 import { primitivePoses } from "./kinematics";
-import { addOverlay, showLegend } from "./overlay";
+import { BELOW_DELTA } from "./fields";
+import { addOverlay, showLegend, type LegendLine } from "./overlay";
 import { Panel } from "./panel";
 import { Results } from "./results";
 import { stopRouting, type Rollout } from "./rollout";
-import { endedStatus, progressLabel, Run, runningStatus } from "./run";
-import { CbfScene } from "./scene";
+import { endedStatus, progressFraction, progressLabel, Run, runningStatus } from "./run";
+import { CbfScene, type World } from "./scene";
 import { cbfShortcuts } from "./shortcuts";
 import { runSpecs, sameSpecs, specGapParams, type RolloutSpec } from "./specs";
 import { parseValues, runSweep, SweepPlot, type SweepJson } from "./sweep";
@@ -40,6 +45,9 @@ export class CbfView implements View {
   private run: Run | null = null;
   private readout: HTMLDivElement | null = null;
   private legend: HTMLDivElement | null = null;
+  private hover: HTMLDivElement | null = null;
+  private sigmaBar: ColorBar | null = null;
+  private hBar: ColorBar | null = null;
   private q0Poses: Float32Array | null = null;
   private shown: RolloutSpec[] = [];
   private error: string | null = null;
@@ -60,6 +68,21 @@ export class CbfView implements View {
     vp.controls.target.set(0.3, 0, 0.45);
     vp.controls.update();
     ({ readout: this.readout, legend: this.legend } = addOverlay(host.canvas));
+    this.sigmaBar = new ColorBar(host.canvas, "σ on the object", "dimensionless", "colorbar-sigma");
+    this.hBar = new ColorBar(host.canvas, "h at the control points", "dimensionless", "colorbar-h");
+    this.hover = document.createElement("div");
+    this.hover.className = "cbf-hover";
+    this.hover.dataset.testid = "cbf-hover";
+    this.hover.hidden = true;
+    host.canvas.appendChild(this.hover);
+    const onMove = (e: PointerEvent) => this.onPointer(e);
+    const onLeave = () => this.hover && (this.hover.hidden = true);
+    vp.renderer.domElement.addEventListener("pointermove", onMove);
+    vp.renderer.domElement.addEventListener("pointerleave", onLeave);
+    this.cleanup.push(() => {
+      vp.renderer.domElement.removeEventListener("pointermove", onMove);
+      vp.renderer.domElement.removeEventListener("pointerleave", onLeave);
+    });
     this.timeline = new Timeline(
       host.canvas,
       (s) => this.draw(s),
@@ -91,6 +114,7 @@ export class CbfView implements View {
       changed: (what) => this.changed(what),
       sweep: (parameter, values) => this.blurThen(() => void this.startSweep(parameter, values)),
       frame: () => this.blurThen(() => this.frameAll()),
+      frameFields: () => this.blurThen(() => this.frameFields()),
       copyLink: () => void navigator.clipboard?.writeText(location.href).then(() => toast("link copied", "ok")),
     });
     this.results = new Results(host.bottom, this.panel.extra, (t) => {
@@ -112,6 +136,8 @@ export class CbfView implements View {
         error: this.error,
         sweep: this.sweep,
         sweepPlot: this.sweepPlot,
+        colorbars: [this.sigmaBar?.state, this.hBar?.state].filter((b) => b != null),
+        hover: this.hover && !this.hover.hidden ? this.hover.textContent : null,
       })),
       vp.onBeforeRender(() => this.timings.beforeRender()),
     );
@@ -160,7 +186,7 @@ export class CbfView implements View {
   private setRobot(robot: CbfRobot): void {
     if (this.state.joint > robot.dof) this.state.joint = 0;
     this.panel!.setRobot(robot.name, robot.joint_names);
-    this.results!.build(runSpecs(this.state), robot.dof, this.state.joint);
+    this.results!.build(runSpecs(this.state, this.hasFields()), robot.dof, this.state.joint);
   }
 
   /** Draws obstacles, target and the robot at q0 (a malformed edited scenario draws what it can). */
@@ -171,15 +197,21 @@ export class CbfView implements View {
     } catch {
       /* the server names what is wrong when it is run */
     }
-    this.show(runSpecs(this.state));
+    this.show(runSpecs(this.state, this.hasFields()));
   }
 
   /** Shows these rollouts' worlds and names them in the legend. */
   private show(specs: RolloutSpec[]): void {
     this.shown = specs;
     this.scene!.arrange(specs, this.state.layout);
-    showLegend(this.legend!, specs);
+    this.showFields();
     this.draw(this.timeline!.step);
+  }
+
+  /** Whether the scenario shown has Kelvin fields (the σ = 0 and hull comparisons need them). */
+  private hasFields(): boolean {
+    const f = (this.scenario as { fields?: unknown } | null)?.fields;
+    return Array.isArray(f) && f.length > 0;
   }
 
   private runEdited(v: Record<string, unknown>): void {
@@ -201,7 +233,7 @@ export class CbfView implements View {
     this.save();
   }
 
-  private changed(what: "scenario" | "metric" | "gap" | "compare" | "duration" | "speed" | "draw" | "joint" | "layout"): void {
+  private changed(what: "scenario" | "metric" | "gap" | "compare" | "duration" | "speed" | "draw" | "joint" | "layout" | "fields"): void {
     switch (what) {
       case "scenario":
         this.state.duration = null; // each scenario runs for its own duration unless set
@@ -210,7 +242,7 @@ export class CbfView implements View {
       case "metric":
       case "gap":
       case "compare": {
-        const want = runSpecs(this.state);
+        const want = runSpecs(this.state, this.hasFields());
         const run = this.run;
         const have = run ? want.map((w) => run.specs.find((s) => sameSpecs([s], [w]))) : [];
         if (run && have.every((s) => s))
@@ -233,6 +265,10 @@ export class CbfView implements View {
       case "draw":
         this.draw(this.timeline!.step);
         break;
+      case "fields":
+        this.showFields();
+        this.draw(this.timeline!.step);
+        break;
       case "joint":
         this.results?.showJoint(this.state.joint);
         break;
@@ -245,6 +281,7 @@ export class CbfView implements View {
   private dropRun(): void {
     this.run?.dispose();
     this.run = null;
+    if (this.scene) for (const w of this.scene.worlds.values()) w.fields.clear(); // the run's fields go with it
     this.host.progress(null);
     this.panel?.setRunning(false);
     this.timeline?.pause();
@@ -261,23 +298,26 @@ export class CbfView implements View {
   private async start(): Promise<void> {
     if (!this.robot || !this.scene) return;
     this.dropRun();
-    const specs = runSpecs(this.state);
+    const specs = runSpecs(this.state, this.hasFields());
     this.error = null;
     this.results!.build(specs, this.robot.dof, this.state.joint);
     this.results!.started(specs);
     this.state.run = true;
     this.save();
     const scenario = this.state.inline ?? this.state.scenario;
+    const fields = (this.scenario as { fields?: unknown[] } | null)?.fields;
     const run = (this.run = new Run(
       scenario,
       specs,
       this.duration(),
+      Array.isArray(fields) ? fields.length : 0,
       { primitives: this.robot.primitives.length, dof: this.robot.dof },
       {
         frames: (r, _added, arrived) => this.onFrames(r, arrived),
         progress: (x) => this.onProgress(x),
         ended: (r) => this.onEnded(r),
         done: (x, err) => this.onDone(x, err),
+        fields: (r) => this.onFields(r),
       },
     ));
     this.panel!.setRunning(true);
@@ -289,8 +329,109 @@ export class CbfView implements View {
 
   private onProgress(run: Run): void {
     if (run !== this.run || run.finished) return;
-    this.host.progress(progressLabel(run), run.fraction, () => void run.cancel());
+    // A rollout with fields names its control points when the server accepts it.
+    for (const r of run.rollouts) {
+      const w = this.scene!.world(r.spec);
+      if (r.id && r.status?.kelvin && w.fields.owner !== r.id) {
+        w.fields.setControlPoints(r.status.kelvin.control_points);
+        w.fields.owner = r.id;
+        this.showFields();
+        this.draw(this.timeline!.step);
+      }
+    }
+    this.host.progress(progressLabel(run), progressFraction(run), () => void run.cancel());
     this.host.status(runningStatus(run));
+  }
+
+  /** A rollout's Kelvin objects and shells arrived (GET .../fields): drawn in its world. */
+  private onFields(r: Rollout): void {
+    if (!this.run?.rollouts.includes(r) || !this.scene) return;
+    if (r.geometryError || !r.geometry) {
+      this.reportError(r.geometryError ?? new Error("no field geometry"), `${r.spec.label}: Kelvin field geometry`);
+      return;
+    }
+    this.scene.world(r.spec).fields.setGeometry(r.geometry, this.state.sigmaColor);
+    this.showFields();
+    this.draw(this.timeline!.step);
+  }
+
+  /** The fields' drawing options, colour bars and legend lines, for the worlds shown. */
+  private showFields(): void {
+    if (!this.scene) return;
+    const worlds = this.shown.map((s) => this.scene!.world(s));
+    const s = this.state;
+    for (const w of worlds) {
+      w.fields.setVisible({ object: s.fieldObject, shells: s.fieldShells, points: s.fieldPoints });
+      w.fields.setSigmaScale(s.sigmaColor);
+    }
+    const object = worlds.flatMap((w) => w.fields.objects)[0];
+    if (this.sigmaBar) {
+      this.sigmaBar.visible = !!object && s.fieldObject;
+      if (object) this.sigmaBar.update(s.sigmaColor, object.colorRange, Number.isFinite(object.sigmaRange[0]) ? object.sigmaRange : null);
+    }
+    // h: a sequential map from 0 to the largest h streamed (at least 2δ), red below δ.
+    const stores = this.shown.map((sp) => this.run?.rollout(sp.key)?.store).filter((x) => x && x.fieldCount > 0);
+    const kelvin = this.run?.rollouts.find((r) => r.status?.kelvin)?.status?.kelvin;
+    const delta = kelvin ? Math.max(...kelvin.fields.map((f) => f.delta)) : 0;
+    const hMax = Math.max(2 * delta, ...stores.map((x) => (Number.isFinite(x!.hMax) ? x!.hMax : 0)));
+    const range: [number, number] = [0, hMax > 0 ? hMax : 1];
+    for (const w of worlds) w.fields.setHScale({ map: "viridis", range, delta });
+    if (this.hBar) {
+      this.hBar.visible = worlds.some((w) => w.fields.hasPoints) && s.fieldPoints;
+      this.hBar.update({ map: "viridis", mode: "fixed", min: range[0], max: range[1] }, range, null, {
+        marks: [{ value: delta, label: `δ ${delta}` }],
+        below: { value: delta, color: BELOW_DELTA },
+      });
+    }
+    showLegend(this.legend!, this.shown, this.fieldLegend(worlds));
+  }
+
+  private fieldLegend(worlds: World[]): LegendLine[] {
+    const css = (c: THREE.Color) => `#${c.getHexString()}`;
+    const lines: LegendLine[] = [];
+    worlds.forEach((w, k) => {
+      const o = w.fields.objects[0];
+      if (!o) return;
+      const overlaid = k > 0 && this.state.layout === "overlay";
+      if (!overlaid && this.state.fieldObject) lines.push(["#d9a0a0", `▣ ${o.name}: σ painted (colour bar σ: red > 0 contact allowed, blue < 0 forbidden)`]);
+      if (this.state.fieldShells)
+        for (const l of o.levels) {
+          const what = Math.abs(l.level) < 1e-12 ? "zero level set" : Math.abs(l.level - o.delta) < 1e-12 ? "= δ, the barrier's level" : "";
+          const text = l.empty ? `◯ h = ${l.level}: not taken (h ≥ ${l.hMin?.toFixed(3)} everywhere)` : `◯ ${w.spec.short}: shell h = ${l.level}${what ? ` (${what})` : ""}`;
+          lines.push([css(o.shells.colorOf(l.level)), text]);
+        }
+    });
+    if (this.state.fieldPoints && worlds.some((w) => w.fields.hasPoints)) {
+      lines.push([BELOW_DELTA, "● control points coloured by h (colour bar h; red: h < δ)"]);
+      lines.push(["#ffe066", "— nearest control point to the object's closest point"]);
+    }
+    return lines;
+  }
+
+  /** σ on an object or a control point's h under the pointer (the hover line). */
+  private onPointer(e: PointerEvent): void {
+    const vp = this.viewport;
+    if (!vp || !this.scene || !this.hover || e.buttons) return;
+    const rect = vp.renderer.domElement.getBoundingClientRect();
+    const ray = new THREE.Raycaster();
+    ray.setFromCamera(new THREE.Vector2(((e.clientX - rect.left) / rect.width) * 2 - 1, -((e.clientY - rect.top) / rect.height) * 2 + 1), vp.camera);
+    let best: { text: string; distance: number } | null = null;
+    for (const spec of this.shown) {
+      const w = this.scene.world(spec);
+      const hit = w.fields.pick(ray);
+      if (!hit || (best && best.distance <= hit.distance)) continue;
+      if (hit.kind === "surface") best = { text: `${hit.object}: σ ${hit.sigma.toFixed(3)} here`, distance: hit.distance };
+      else {
+        const h = w.fields.pointH[hit.index];
+        best = { text: `${w.fields.controlPoint(hit.index)?.name ?? "point"} (${spec.short}): h ${Number.isFinite(h) ? h.toFixed(4) : "—"}`, distance: hit.distance };
+      }
+    }
+    this.hover.hidden = !best;
+    if (best) {
+      this.hover.textContent = best.text;
+      this.hover.style.left = `${e.clientX - this.host.canvas.getBoundingClientRect().left + 14}px`;
+      this.hover.style.top = `${e.clientY - this.host.canvas.getBoundingClientRect().top + 14}px`;
+    }
   }
 
   private onFrames(r: Rollout, arrived: number): void {
@@ -309,6 +450,7 @@ export class CbfView implements View {
       tl.seek(length - 1, "play");
       this.draw(tl.step); // the other world may lag: draw both
     } else if (world.step < tl.step) this.draw(tl.step); // this robot was waiting for these steps
+    if (r.store?.fieldCount) this.showFields(); // h's colour range grows with the frames
     this.results!.frames(run);
   }
 
@@ -351,7 +493,7 @@ export class CbfView implements View {
       return;
     }
     if (this.sweepRunning) return;
-    const [first] = runSpecs(this.state);
+    const [first] = runSpecs(this.state, this.hasFields());
     const gap = specGapParams(first);
     const body = {
       scenario: this.state.inline ?? this.state.scenario,
@@ -400,7 +542,8 @@ export class CbfView implements View {
     if (!this.scene || !vp) return;
     const t0 = performance.now();
     const dt = this.timeline!.dt;
-    const lines = this.shown.map((s) => drawStep(this.scene!.world(s), this.run?.rollout(s.key), step, this.q0Poses, this.state));
+    const q0 = { poses: this.q0Poses, q: this.scenario?.q0 ?? null };
+    const lines = this.shown.map((s) => drawStep(this.scene!.world(s), this.run?.rollout(s.key), step, q0, this.state));
     if (this.readout) this.readout.textContent = lines.join("\n");
     this.results?.setTime(this.timeline!.length ? step * dt : null);
     if (this.run) {
@@ -416,6 +559,15 @@ export class CbfView implements View {
     const box = this.scene.bounds();
     if (box.isEmpty()) return;
     this.viewport.frame(box.expandByScalar(0.05));
+  }
+
+  /** The camera on the Kelvin objects of the rollouts shown (nothing without them). */
+  private frameFields(): void {
+    if (!this.scene || !this.viewport) return;
+    const box = new THREE.Box3();
+    this.scene.root.updateMatrixWorld(true);
+    for (const s of this.shown) for (const o of this.scene.world(s).fields.objects) box.expandByObject(o.surface);
+    if (!box.isEmpty()) this.viewport.frame(box.expandByScalar(0.06));
   }
 
   private reportError(e: unknown, context: string): void {
@@ -450,6 +602,7 @@ export class CbfView implements View {
       run: () => void this.start(),
       cancel: () => void this.run?.cancel(),
       frame: () => this.frameAll(),
+      frameFields: () => this.frameFields(),
     });
   }
 
@@ -469,6 +622,9 @@ export class CbfView implements View {
     this.panel?.dispose();
     this.readout?.remove();
     this.legend?.remove();
+    this.hover?.remove();
+    this.sigmaBar?.dispose();
+    this.hBar?.dispose();
     this.sweepPlot?.dispose();
     this.viewport?.dispose();
     this.viewport = null;

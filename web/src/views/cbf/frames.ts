@@ -1,9 +1,10 @@
 // The steps of one rollout, kept compactly as they stream in (typed arrays indexed by step, not
 // thousands of small JSON objects): q, u, task error, true clearance, per-pair distance and
-// witnesses, primitive poses. Steps may arrive twice (live batches and a replay) or out of order
+// witnesses, primitive poses, and with Kelvin fields h at every control point and the closest
+// surface point per field. Steps may arrive twice (live batches and a replay) or out of order
 // after a reconnect: each index is stored once; `contiguous` is the prefix without holes.
 // The number of joints is the robot's (GET /api/cbf/robot: dof).
-import type { CbfFrame } from "./types";
+import type { CbfFieldStep, CbfFrame } from "./types";
 
 class Grow<T extends Float64Array | Float32Array> {
   data: T;
@@ -34,6 +35,17 @@ export class FrameStore {
   readonly witnessB: Grow<Float32Array>;
   readonly poses: Grow<Float32Array>;
   readonly flags = new Grow((n) => new Float32Array(n), 1); // 0 ok, 1 relaxed, 2 held
+  /** Kelvin fields, per step: h per (field, control point), field-major; per field the smallest h,
+   *  the closest surface point (world), σ there, its distance, the control point it is closest to,
+   *  and the distances to the allowed and forbidden faces (NaN: undefined or none). */
+  readonly h: Grow<Float64Array>;
+  readonly minH: Grow<Float64Array>;
+  readonly closest: Grow<Float32Array>;
+  readonly closestSigma: Grow<Float64Array>;
+  readonly closestDistance: Grow<Float64Array>;
+  readonly closestPoint: Grow<Float64Array>;
+  readonly allowedDistance: Grow<Float64Array>;
+  readonly forbiddenDistance: Grow<Float64Array>;
   private present = new Uint8Array(0);
   /** Steps [0, contiguous) are all here. */
   contiguous = 0;
@@ -42,13 +54,26 @@ export class FrameStore {
   received = 0;
   hasPairs = false;
   hasPoses = false;
+  /** The largest h over every step and control point received (the colour range of h). */
+  hMax = -Infinity;
 
   constructor(
     readonly pairCount: number,
     readonly primitiveCount: number,
     readonly dt: number,
     readonly dof: number,
+    readonly fieldCount = 0,
+    readonly pointCount = 0,
   ) {
+    const perField = (n: number) => new Float64Array(n);
+    this.h = new Grow(perField, fieldCount * pointCount);
+    this.minH = new Grow(perField, fieldCount);
+    this.closest = new Grow((n) => new Float32Array(n), fieldCount * 3);
+    this.closestSigma = new Grow(perField, fieldCount);
+    this.closestDistance = new Grow(perField, fieldCount);
+    this.closestPoint = new Grow(perField, fieldCount);
+    this.allowedDistance = new Grow(perField, fieldCount);
+    this.forbiddenDistance = new Grow(perField, fieldCount);
     this.q = new Grow((n) => new Float64Array(n), dof);
     this.u = new Grow((n) => new Float64Array(n), dof);
     this.distance = new Grow((n) => new Float64Array(n), pairCount);
@@ -95,11 +120,41 @@ export class FrameStore {
         const base = i * this.primitiveCount * 7;
         f.poses.forEach((p, k) => this.poses.data.set(p, base + k * 7));
       }
+      if (f.kelvin && f.kelvin.length === this.fieldCount) this.addFields(i, f.kelvin);
       if (i + 1 > this.extent) this.extent = i + 1;
     }
     while (this.contiguous < this.extent && this.present[this.contiguous]) this.contiguous++;
     this.received += added;
     return added;
+  }
+
+  private addFields(i: number, kelvin: CbfFieldStep[]): void {
+    const P = this.pointCount,
+      F = this.fieldCount;
+    const v = (x: number | null) => x ?? NaN;
+    kelvin.forEach((k, f) => {
+      let m = Infinity;
+      for (let p = 0; p < P; p++) {
+        const h = v(k.h[p] ?? null);
+        this.h.data[(i * F + f) * P + p] = h;
+        if (h < m) m = h;
+        if (h > this.hMax) this.hMax = h;
+      }
+      this.minH.data[i * F + f] = Number.isFinite(m) ? m : NaN;
+      this.closest.data.set(k.closest, (i * F + f) * 3);
+      this.closestSigma.data[i * F + f] = k.closest_sigma;
+      this.closestDistance.data[i * F + f] = v(k.distance);
+      this.closestPoint.data[i * F + f] = k.closest_point;
+      this.allowedDistance.data[i * F + f] = v(k.allowed_distance);
+      this.forbiddenDistance.data[i * F + f] = v(k.forbidden_distance);
+    });
+  }
+
+  /** Field f's values of a per-field series over [0, n). */
+  fieldSeries(g: Grow<Float64Array>, f: number, n: number): Float64Array {
+    const out = new Float64Array(n);
+    for (let i = 0; i < n; i++) out[i] = g.data[i * this.fieldCount + f];
+    return out;
   }
 
   has(i: number): boolean {
@@ -119,6 +174,7 @@ export class FrameStore {
       this.present = p;
     }
     for (const g of [this.q, this.u, this.taskError, this.minDistance, this.minD, this.distance, this.witnessA, this.witnessB, this.poses, this.flags]) g.ensure(steps);
+    for (const g of [this.h, this.minH, this.closest, this.closestSigma, this.closestDistance, this.closestPoint, this.allowedDistance, this.forbiddenDistance]) g.ensure(steps);
   }
 
   /** Joint j's velocity over [0, n). */

@@ -2,6 +2,7 @@
 // browser tests and for measuring (nothing here changes the view's state).
 import * as THREE from "three";
 import { errorText } from "../../core/api";
+import type { ColorBarState } from "../../core/colorbar";
 import type { Viewport } from "../../core/viewport";
 import type { Results } from "./results";
 import type { Run } from "./run";
@@ -27,6 +28,10 @@ export interface CbfParts {
   error: string | null;
   sweep: SweepJson | null;
   sweepPlot: SweepPlot | null;
+  /** The colour bars shown (σ on the object, h at the control points). */
+  colorbars: ColorBarState[];
+  /** The hover line shown (σ or h under the pointer), or null. */
+  hover: string | null;
 }
 
 export function installHooks(parts: () => CbfParts): () => void {
@@ -79,6 +84,26 @@ export function installHooks(parts: () => CbfParts): () => void {
     },
     /** The last sweep as the server answered it, and what its plot shows. */
     sweep: () => copy({ sweep: parts().sweep, plot: parts().sweepPlot?.plot.data() ?? null }),
+    /** Per rollout key shown: its Kelvin objects (σ, shells) and control points as drawn. */
+    fields: () => copy(fields(parts())),
+    get colorbars() {
+      return copy(parts().colorbars);
+    },
+    get hover() {
+      return parts().hover;
+    },
+    plotsFields: () => {
+      const f = parts().results?.plots?.fields;
+      return copy(f ? { h: f.h.data(), distance: f.distance.data() } : null);
+    },
+    /** Page coordinates of a world point (to hover it with the mouse). */
+    toScreen: (p: [number, number, number]) => {
+      const vp = parts().viewport;
+      if (!vp) return null;
+      const r = vp.renderer.domElement.getBoundingClientRect();
+      const v = new THREE.Vector3(p[0], p[1], p[2]).project(vp.camera);
+      return { x: r.left + ((v.x + 1) / 2) * r.width, y: r.top + ((1 - v.y) / 2) * r.height };
+    },
     frameStats: () => parts().viewport?.frameStats() ?? null,
     resetFrameStats: () => parts().viewport?.resetFrameStats(),
   });
@@ -123,6 +148,48 @@ function drawn({ scene, shown }: CbfParts) {
     out[spec.key] = { step: w.step, poses, witnesses: [...w.witnesses.shown], visible: w.group.visible, color: w.robotColor() };
   }
   return out;
+}
+
+function fields({ scene, shown }: CbfParts) {
+  const out: Record<string, unknown> = {};
+  if (!scene) return out;
+  for (const spec of shown) {
+    const f = scene.world(spec).fields;
+    const p = new THREE.Vector3();
+    out[spec.key] = {
+      owner: f.owner,
+      objects: f.objects.map((o) => ({
+        name: o.name,
+        delta: o.delta,
+        visible: o.surface.visible && o.group.visible,
+        vertices: o.surface.geometry.getAttribute("position").count,
+        faces: (o.surface.geometry.index?.count ?? 0) / 3,
+        sigmaRange: o.sigmaRange,
+        colorRange: o.colorRange,
+        colors: distinctColors(o.surface.geometry.getAttribute("color") as THREE.BufferAttribute),
+        shells: o.shells.meshes().map((m) => ({
+          level: m.userData.level as number,
+          faces: (m.geometry.index?.count ?? 0) / 3,
+          visible: m.visible && o.shells.group.visible,
+          color: (m.material as THREE.MeshStandardMaterial).color.getHex(),
+          opacity: (m.material as THREE.MeshStandardMaterial).opacity,
+        })),
+        levels: o.levels,
+      })),
+      points: f.hasPoints
+        ? { count: f.pointH.length, h: Array.from(f.pointH), colors: f.pointColors(), positions: f.pointH.length ? Array.from(f.pointAt(0, p).toArray()) : [] }
+        : null,
+    };
+  }
+  return out;
+}
+
+/** How many distinct vertex colours a colour attribute holds (a painted surface has many). */
+function distinctColors(attr: THREE.BufferAttribute | undefined): number {
+  if (!attr) return 0;
+  const seen = new Set<string>();
+  for (let i = 0; i < attr.count && seen.size < 1000; i++) seen.add(`${attr.getX(i).toFixed(3)},${attr.getY(i).toFixed(3)},${attr.getZ(i).toFixed(3)}`);
+  return seen.size;
 }
 
 function table(summary: Results["summary"] | null) {

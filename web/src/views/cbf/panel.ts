@@ -2,6 +2,7 @@
 // rollout compared with it, duration), playback and drawing options, an editor for the scenario JSON (posted inline, the
 // server's verdict shown under it), and the numbers of the finished run (Summary) below.
 import GUI, { type Controller } from "lil-gui";
+import { addColorControls } from "../../core/colorbar";
 import { METRIC_CHOICES, SPEEDS, WITNESS_MODES, type CbfState, type CompareChoice, type GapModeChoice } from "./state";
 
 export interface PanelActions {
@@ -10,10 +11,12 @@ export interface PanelActions {
   /** The editor's text parsed as a JSON object (the panel refuses anything else itself). */
   runEdited(scenario: Record<string, unknown>): void;
   revertEdited(): void;
-  changed(what: "scenario" | "metric" | "gap" | "compare" | "duration" | "speed" | "draw" | "joint" | "layout"): void;
+  changed(what: "scenario" | "metric" | "gap" | "compare" | "duration" | "speed" | "draw" | "joint" | "layout" | "fields"): void;
   /** A sweep of one params key over these values (as typed), with the first rollout's settings. */
   sweep(parameter: string, values: string): void;
   frame(): void;
+  /** Frames the Kelvin objects (and the control points near them). */
+  frameFields(): void;
   copyLink(): void;
 }
 
@@ -58,6 +61,8 @@ export class Panel {
       "GAP exact": "gap_exact",
       "GAP as published, 2e-4 / 300": "gap_as_published_sim",
       "GAP as published, 5e-4 / 20": "gap_as_published_real",
+      "σ = 0 (pure avoidance; Kelvin fields)": "sigma_zero",
+      "object hulls (Euclidean; Kelvin fields)": "hull",
     } satisfies Record<string, CompareChoice>)
       .name("compare with")
       .onChange(() => actions.changed("compare"));
@@ -95,6 +100,20 @@ export class Panel {
       .onChange(() => actions.changed("draw"));
     p.add(actions, "frame").name("frame the scene (f)");
     p.add(actions, "copyLink").name("copy link");
+
+    const k = this.gui.addFolder("Kelvin fields (scenarios with objects)");
+    k.add(state, "fieldObject")
+      .name("object, σ painted")
+      .onChange(() => actions.changed("fields"));
+    k.add(state, "fieldShells")
+      .name("shells h = 0 and δ")
+      .onChange(() => actions.changed("fields"));
+    k.add(state, "fieldPoints")
+      .name("control points (h)")
+      .onChange(() => actions.changed("fields"));
+    k.add(actions, "frameFields").name("frame the object (o)");
+    addColorControls(k.addFolder("σ colours"), state.sigmaColor, () => actions.changed("fields"));
+    k.close();
 
     const sw = this.gui.addFolder("Parameter sweep (one server job)");
     const sweep = { parameter: "margins.gap.obstacle", values: "0.002, 0.0005, 0.0002, 0.0001", run: () => actions.sweep(sweep.parameter, sweep.values) };

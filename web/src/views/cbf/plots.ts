@@ -5,6 +5,7 @@
 // distance at that time beside its margin (pair_bars.ts). Rebuilt per run (the series depend on
 // the rollouts and the robot).
 import { Plot, type PlotSeries } from "../../core/plot";
+import { FieldPlots, type FieldSource } from "./field_plots";
 import type { FrameStore } from "./frames";
 import { PairBars, type PairSource } from "./pair_bars";
 import type { RolloutSpec } from "./specs";
@@ -13,13 +14,16 @@ const JOINT_COLORS = ["#4e79a7", "#f28e2b", "#e15759", "#76b7b2", "#59a14f", "#e
 const hex = (c: number) => `#${c.toString(16).padStart(6, "0")}`;
 const dash = (k: number) => (k > 0 ? [5, 3] : undefined);
 
-export type PlotSource = PairSource;
+export type PlotSource = PairSource & FieldSource;
 
 export class RolloutPlots {
   readonly velocity: Plot;
   readonly distance: Plot;
   readonly error: Plot;
   readonly pairs: PairBars;
+  /** The Kelvin fields' plots, once a rollout of the run streams fields. */
+  fields: FieldPlots | null = null;
+  private time: number | null = null;
   private timer = 0;
   private dirty = false;
   /** Plot refreshes and their JS time (data copy + uPlot setData), for measurements. */
@@ -27,12 +31,12 @@ export class RolloutPlots {
   refreshMs: number[] = [];
 
   constructor(
-    container: HTMLElement,
+    private readonly container: HTMLElement,
     readonly specs: RolloutSpec[],
     /** The robot's joints (one velocity series each per rollout). */
     readonly dof: number,
     joint: number,
-    onPick: (t: number) => void,
+    private readonly onPick: (t: number) => void,
   ) {
     const vSeries: PlotSeries[] = [];
     for (let j = 0; j < dof; j++)
@@ -132,13 +136,20 @@ export class RolloutPlots {
       bySource.map((s) => pad(s, (st, len) => st.scalarSeries(st.taskError, len), true)),
     );
     this.pairs.setSources(sources);
+    if (!this.fields && bySource.some((st) => st && st.fieldCount > 0)) {
+      this.fields = new FieldPlots(this.container, this.specs, this.onPick);
+      this.fields.setTime(this.time);
+    }
+    this.fields?.refresh(sources, x);
     this.refreshMs.push(performance.now() - t0);
     if (this.refreshMs.length > 1000) this.refreshMs.splice(0, 500);
   }
 
   setTime(t: number | null): void {
+    this.time = t;
     for (const p of [this.velocity, this.distance, this.error]) p.setMarker(t);
     this.pairs.setTime(t);
+    this.fields?.setTime(t);
   }
 
   dispose(): void {
@@ -147,5 +158,6 @@ export class RolloutPlots {
     this.distance.dispose();
     this.error.dispose();
     this.pairs.dispose();
+    this.fields?.dispose();
   }
 }

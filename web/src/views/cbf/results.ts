@@ -61,5 +61,5 @@ export class Results {
 }
 
 function sources(run: Run) {
-  return run.rollouts.map((r) => ({ key: r.spec.key, store: r.store, status: r.status }));
+  return run.rollouts.map((r) => ({ key: r.spec.key, store: r.store, status: r.status, record: r.record }));
 }

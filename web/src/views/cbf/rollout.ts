@@ -2,12 +2,14 @@
 // possibly before the POST answer names the id — they are held until claimed), job progress,
 // the end (final job message or a slow poll, whichever comes first), holes filled from
 // GET .../frames, a replay after a reconnect, and the record (smoothness, timing) at the end.
+// With Kelvin fields the job prepares them first (its stages: Kelvin's, then "rollout"), and once
+// frames come the objects and iso-surfaces are fetched once (GET .../fields).
 import { api, ApiError } from "../../core/api";
 import { socket, type TextMessage } from "../../core/socket";
 import { FrameStore } from "./frames";
-import { specGapParams, type RolloutSpec } from "./specs";
+import { specFieldParams, specGapParams, type RolloutSpec } from "./specs";
 import type { PostResponse } from "../../core/wire";
-import type { CbfFramesMessage, CbfRecord, CbfRolloutStatus, JobJson, Metric, RolloutState } from "./types";
+import type { CbfFieldGeometry, CbfFramesMessage, CbfRecord, CbfRolloutStatus, JobJson, Metric, RolloutState } from "./types";
 
 /** Frames whose rollout id the page does not know yet (the POST answer is still on its way). */
 const unclaimed = new Map<string, CbfFramesMessage[]>();
@@ -49,6 +51,8 @@ export interface RolloutRequest {
   /** Its metric and GAP distance (gap.mode as_published and its stopping rule). */
   spec: RolloutSpec;
   duration: number;
+  /** The scenario's Kelvin fields (params.fields of a σ = 0 run has one entry per field). */
+  fieldCount: number;
 }
 
 /** What the page needs of the robot to keep frames: its primitive and joint counts. */
@@ -63,6 +67,8 @@ export interface RolloutEvents {
   progress(r: Rollout): void;
   ended(r: Rollout): void;
   error(r: Rollout, e: unknown): void;
+  /** The Kelvin objects arrived (r.geometry), or could not be fetched (r.geometryError). */
+  fields(r: Rollout): void;
 }
 
 export class Rollout {
@@ -74,6 +80,13 @@ export class Rollout {
   stepsDone = 0;
   record: CbfRecord | null = null;
   error: ApiError | Error | null = null;
+  /** The job's stage and fraction (Kelvin's stages while the fields are prepared, then "rollout"). */
+  stage = "";
+  stageFraction = 0;
+  /** The Kelvin objects and iso-surfaces (GET .../fields), once fetched. */
+  geometry: CbfFieldGeometry | null = null;
+  geometryError: unknown = null;
+  private geometryAsked = false;
   /** Non-empty "cbf_frames" messages taken from the WebSocket, and pages fetched over REST. */
   wsMessages = 0;
   restPages = 0;
@@ -118,6 +131,7 @@ export class Rollout {
         record_pairs: false,
         audit: true,
         ...(gap ? { gap } : {}),
+        ...specFieldParams(this.spec, this.request.fieldCount),
       },
       stream: { batch_steps: 25, pairs: true, poses: true },
     };
@@ -138,7 +152,8 @@ export class Rollout {
     this.status = r.rollout;
     this.state = r.rollout.state;
     this.stepsTotal = r.rollout.steps_total;
-    this.store = new FrameStore(r.rollout.pairs.length, this.robot.primitives, r.rollout.dt, this.robot.dof);
+    const kelvin = r.rollout.kelvin;
+    this.store = new FrameStore(r.rollout.pairs.length, this.robot.primitives, r.rollout.dt, this.robot.dof, kelvin?.fields.length ?? 0, kelvin?.control_points.length ?? 0);
     owners.set(this.id, this);
     const early = unclaimed.get(this.id) ?? [];
     unclaimed.delete(this.id);
@@ -156,6 +171,7 @@ export class Rollout {
     this.stepsDone = Math.max(this.stepsDone, m.steps_done);
     this.stepsTotal = m.steps_total;
     const added = this.store.add(m.frames);
+    if (added > 0 && this.store.fieldCount > 0) void this.loadFields();
     if (added > 0) {
       if (!this.times.firstFrame) this.times.firstFrame = arrived;
       this.times.lastFrame = arrived;
@@ -170,8 +186,24 @@ export class Rollout {
     await api.post(`/api/jobs/${this.id}/cancel`).catch(() => undefined);
   }
 
+  /** The objects and iso-surfaces of the fields, once (they are prepared when frames come). */
+  private async loadFields(): Promise<void> {
+    if (this.geometryAsked || !this.id) return;
+    this.geometryAsked = true;
+    try {
+      this.geometry = await api.msgpack<CbfFieldGeometry>("GET", `/api/cbf/rollouts/${this.id}/fields`);
+    } catch (e) {
+      this.geometryError = e;
+    }
+    if (!this.disposed) this.events.fields(this);
+  }
+
   private onJob(j: JobJson | undefined): void {
     if (!j || j.id !== this.id || this.disposed) return;
+    if (j.stage !== undefined) {
+      this.stage = j.stage;
+      this.stageFraction = j.fraction ?? 0;
+    }
     if (j.state === "running" || j.state === "queued") {
       if (this.state === "queued") this.state = "running";
       this.events.progress(this);
@@ -220,6 +252,8 @@ export class Rollout {
       if (s.state === "failed") {
         this.state = "failed";
         this.error ??= new Error("the rollout failed on the server");
+      } else if (s.state === "cancelled" && s.steps_done === 0) {
+        this.state = "cancelled"; // before its first step (while its fields were prepared): no record
       } else {
         this.record = await api.get<CbfRecord>(`/api/cbf/rollouts/${id}/record`);
         this.state = s.state;

@@ -12,6 +12,8 @@ export interface RunEvents {
   ended(r: Rollout): void;
   /** The whole run is over (all rollouts ended, or one failed to start). */
   done(run: Run, error: unknown | null): void;
+  /** A rollout's Kelvin objects arrived (or failed to). */
+  fields(r: Rollout): void;
 }
 
 export class Run {
@@ -24,6 +26,8 @@ export class Run {
     readonly scenario: RolloutRequest["scenario"],
     readonly specs: RolloutSpec[],
     readonly duration: number,
+    /** The scenario's Kelvin fields (0: none). */
+    readonly fieldCount: number,
     robot: RobotSize,
     private readonly events: RunEvents,
   ) {
@@ -32,8 +36,9 @@ export class Run {
       progress: () => !this.disposed && events.progress(this),
       ended: (r) => !this.disposed && this.onEnded(r),
       error: () => undefined, // reported through ended/done
+      fields: (r) => !this.disposed && events.fields(r),
     };
-    this.rollouts = specs.map((spec) => new Rollout({ scenario, spec, duration }, robot, ev));
+    this.rollouts = specs.map((spec) => new Rollout({ scenario, spec, duration, fieldCount }, robot, ev));
   }
 
   get running(): boolean {
@@ -100,16 +105,38 @@ export class Run {
   }
 }
 
-/** The progress bar's label: the rollout being computed and its steps. */
+/** The rollout being computed (or waiting to be). */
+function current(run: Run): Rollout | undefined {
+  return run.rollouts.find((r) => r.running && r.id) ?? run.rollouts.find((r) => r.running);
+}
+
+/** Whether a rollout's job is still preparing its Kelvin fields (a stage before "rollout"). */
+export function preparing(r: Rollout | undefined): boolean {
+  return !!r && r.running && !!r.status?.kelvin && r.stepsDone === 0 && r.stage !== "" && r.stage !== "rollout";
+}
+
+/** The progress bar's label: the rollout being computed and its steps, or the field it prepares. */
 export function progressLabel(run: Run): string {
-  const current = run.rollouts.find((r) => r.running && r.id) ?? run.rollouts.find((r) => r.running);
-  const what = current ? `${current.spec.label} rollout` : "rollout";
-  const steps = current ? ` ${current.stepsDone} / ${current.stepsTotal || "…"} steps` : "";
+  const r = current(run);
+  if (r && preparing(r)) {
+    const names = r.status!.kelvin!.fields.map((f) => `“${f.name}”`).join(", ");
+    return `${r.spec.label} rollout: preparing the Kelvin field ${names} — ${r.stage} ${Math.round(100 * r.stageFraction)} %`;
+  }
+  const what = r ? `${r.spec.label} rollout` : "rollout";
+  const steps = r ? ` ${r.stepsDone} / ${r.stepsTotal || "…"} steps` : "";
   return `${what}:${steps}`;
+}
+
+/** The progress bar's fraction: the preparation's while the current rollout prepares its fields. */
+export function progressFraction(run: Run): number {
+  const r = current(run);
+  return r && preparing(r) ? r.stageFraction : run.fraction;
 }
 
 /** The status line while a run computes. */
 export function runningStatus(run: Run): string {
+  if (preparing(current(run)))
+    return "preparing the scenario's Kelvin field (meshed and factored once, then read from the server's cache) — the rollout starts when it is ready (Esc cancels)";
   return `computing ${run.specs.map((s) => s.label).join(", then ")} — frames stream in as they are computed (Esc cancels)`;
 }
 
@@ -121,9 +148,10 @@ export function stopReason(final: CbfFinalState | undefined, reached: boolean): 
   if (!final) return reached ? "reached the target" : "target not reached";
   const where = reached ? "reached the target" : `stopped ${cm(final.position_error)} from the target`;
   const rows = final.active
-    .filter((a) => a.kind === "pair")
+    .filter((a) => a.kind === "pair" || a.kind === "field")
     .slice(0, 2)
     .map((a) => {
+      if (a.kind === "field") return `${a.name} (h ${num(a.distance)} vs δ ${num(a.margin)})`;
       const conv = a.converged_distance !== null ? `, converged D ${num(a.converged_distance)}` : "";
       const clear = a.clearance !== null ? `, clearance ${cm(a.clearance)}` : "";
       return `${a.name} (D ${num(a.distance)} vs δ ${num(a.margin)}${clear}${conv})`;

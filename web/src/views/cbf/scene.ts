@@ -1,8 +1,9 @@
 // The 3D scene, z up: per rollout of the run a "world" group holding the robot's collision
-// primitives, the scenario's obstacles (transparent), the target frame (axes) and the witness
-// segments of the pairs. Overlay puts both robots in one corridor; side by side moves the second
+// primitives, the scenario's obstacles (transparent), the target frame (axes), the witness
+// segments of the pairs and the rollout's Kelvin fields (fields.ts). Overlay puts both robots in one corridor; side by side moves the second
 // world along y.
 import * as THREE from "three";
+import { FieldLayer } from "./fields";
 import type { FrameStore } from "./frames";
 import { shapeGeometry } from "../../core/shapes";
 import { poseMatrix } from "./kinematics";
@@ -69,6 +70,7 @@ export class World {
   readonly obstacles = new THREE.Group();
   readonly target = new THREE.AxesHelper(0.12);
   readonly name: THREE.Sprite;
+  readonly fields = new FieldLayer();
   private readonly links: THREE.Mesh[] = [];
   witnesses: Witnesses;
   private pairCapacity = 0;
@@ -77,8 +79,9 @@ export class World {
 
   constructor(
     readonly spec: RolloutSpec,
-    robot: CbfRobot,
+    readonly robotModel: CbfRobot,
   ) {
+    const robot = robotModel;
     const mat = new THREE.MeshStandardMaterial({ color: spec.robotColor, roughness: 0.5, metalness: 0.1, transparent: true, opacity: 1 });
     for (const p of robot.primitives) {
       const m = new THREE.Mesh(shapeGeometry(p.shape), mat);
@@ -90,7 +93,7 @@ export class World {
     this.witnesses = new Witnesses(spec.color, 0);
     this.name = label(spec.short, spec.color);
     this.name.position.set(0, 0, 1.25);
-    this.group.add(this.robot, this.obstacles, this.target, this.witnesses, this.name);
+    this.group.add(this.robot, this.obstacles, this.target, this.witnesses, this.name, this.fields.group);
   }
 
   setScenario(sc: Pick<CbfScenario, "obstacles" | "target">): void {
@@ -139,13 +142,15 @@ export class World {
     this.setPoses(store.poses.data, k * store.primitiveCount * 7);
     this.step = k;
     this.witnesses.set(pairs, store.witnessA.data, store.witnessB.data, k * store.pairCount);
+    if (this.fields.hasPoints) this.fields.showStep(store, k, this.robotModel);
   }
 
   /** Draws the robot at q0 (its primitives' poses, if known), without witnesses. */
-  showQ0(poses: Float32Array | null): void {
+  showQ0(poses: Float32Array | null, q0: number[] | null = null): void {
     if (poses) this.setPoses(poses);
     this.step = -1;
     this.witnesses.set([], new Float32Array(0), new Float32Array(0), 0);
+    if (this.fields.hasPoints && q0) this.fields.showQ(this.robotModel, q0);
   }
 
   /** The colour the robot is drawn in (null: a robot without primitives). */
@@ -180,6 +185,7 @@ export class CbfScene {
     let w = this.worlds.get(spec.key);
     if (w && w.spec.label !== spec.label) {
       this.root.remove(w.group);
+      w.fields.dispose();
       w.group.traverse((o) => (o as THREE.Mesh).geometry?.dispose());
       w = undefined;
     }
@@ -195,6 +201,7 @@ export class CbfScene {
   /** Takes the worlds out of the scene (another robot replaces them). */
   remove(): void {
     this.root.removeFromParent();
+    for (const w of this.worlds.values()) w.fields.dispose();
     this.root.traverse((o) => (o as THREE.Mesh).geometry?.dispose());
   }
 
@@ -217,6 +224,7 @@ export class CbfScene {
       w.target.visible = !second;
       w.name.visible = side;
       w.setOpacity(both && !side ? 0.7 : 1);
+      w.fields.setOverlaid(second, spec.color);
     });
   }
 
@@ -227,6 +235,7 @@ export class CbfScene {
       if (!w.group.visible) continue;
       box.expandByObject(w.obstacles);
       box.expandByObject(w.robot);
+      for (const o of w.fields.objects) box.expandByObject(o.surface);
     }
     return box;
   }

@@ -16,6 +16,8 @@ export interface ShortcutTarget {
   run(): void;
   cancel(): void;
   frame(): void;
+  /** The camera on the Kelvin objects. */
+  frameFields(): void;
 }
 
 export function cbfShortcuts(v: ShortcutTarget): Shortcut[] {
@@ -59,5 +61,6 @@ export function cbfShortcuts(v: ShortcutTarget): Shortcut[] {
     { key: "j", description: "plot joints: all → 1 → … → the last", run: cycle((s) => (s.joint = (s.joint + 1) % (v.dof() + 1)), "joint") },
     { key: "l", description: "two robots: overlay / side by side", run: cycle((s) => (s.layout = s.layout === "overlay" ? "side" : "overlay"), "layout") },
     { key: "f", description: "frame the scene", run: () => v.frame() },
+    { key: "o", description: "frame the Kelvin object", run: () => v.frameFields() },
   ];
 }

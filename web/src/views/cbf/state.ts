@@ -1,6 +1,8 @@
 // The view's shareable state (the URL): scenario (a name, or an edited inline scenario), which
 // metric(s), duration, the current time and how things are drawn. A link with `run` set re-runs
 // the rollout(s) on load and returns to `t`.
+import { readColorScale } from "../../core/colorbar";
+import type { ColorScale } from "../../core/colormap";
 import { num, str } from "../../core/urlstate";
 import type { Layout } from "./scene";
 
@@ -13,8 +15,9 @@ export const SPEEDS = [0.1, 0.25, 0.5, 1, 2, 4, 10] as const;
 export const GAP_MODES = ["exact", "as_published_sim", "as_published_real"] as const;
 export type GapModeChoice = (typeof GAP_MODES)[number];
 
-/** The second rollout of a run, drawn over the first on the same plots and robot. */
-export const COMPARE_CHOICES = ["none", "euclidean", "gap_exact", "gap_as_published_sim", "gap_as_published_real"] as const;
+/** The second rollout of a run, drawn over the first on the same plots and robot (sigma_zero and
+ *  hull: the first's metric with σ = 0, or with the objects' hulls; scenarios with Kelvin fields). */
+export const COMPARE_CHOICES = ["none", "euclidean", "gap_exact", "gap_as_published_sim", "gap_as_published_real", "sigma_zero", "hull"] as const;
 export type CompareChoice = (typeof COMPARE_CHOICES)[number];
 
 /** The request's params.gap for a GAP mode (null: the scenario's own, exact by default). */
@@ -42,6 +45,12 @@ export interface CbfState {
   /** The joint plotted alone (1 … the robot's dof), or 0 = all joints. */
   joint: number;
   run: boolean;
+  /** Kelvin fields: what is drawn (the object painted with σ, the shells of h = 0 and δ, the
+   *  control points) and σ's colour scale (the Kelvin view's default). */
+  fieldObject: boolean;
+  fieldShells: boolean;
+  fieldPoints: boolean;
+  sigmaColor: ColorScale;
 }
 
 export function defaultState(): CbfState {
@@ -59,6 +68,10 @@ export function defaultState(): CbfState {
     layout: "overlay",
     joint: 0,
     run: false,
+    fieldObject: true,
+    fieldShells: true,
+    fieldPoints: true,
+    sigmaColor: { map: "coolwarm", mode: "symmetric", min: -1, max: 1 },
   };
 }
 
@@ -81,6 +94,10 @@ export function parseState(raw: Record<string, unknown>): CbfState {
     // Clamped to the robot's joints once it is known (the view's setRobot).
     joint: Math.round(num(raw.joint, d.joint, 0, 64)),
     run: raw.run === true,
+    fieldObject: raw.fieldObject !== false,
+    fieldShells: raw.fieldShells !== false,
+    fieldPoints: raw.fieldPoints !== false,
+    sigmaColor: readColorScale(raw.sigmaColor, d.sigmaColor),
   };
 }
 

@@ -27,7 +27,16 @@ function cell(tag: "td" | "th", text: string, spec?: RolloutSpec): HTMLElement {
 export function rolloutNote(r: Rollout): string | undefined {
   if (!r.id) return r.state === "failed" && r.error ? `refused — ${errorText(r.error)}` : "not run";
   if (r.state === "cancelled") return `cancelled after ${r.stepsDone} of ${r.stepsTotal} steps (numbers over those)`;
+  const failure = r.record?.kelvin?.failure;
+  if (failure) return `stopped at step ${failure.step}: ${failure.message}`;
   return r.error ? r.error.message : undefined;
+}
+
+/** The smallest finite value over a record's fields of what `of` picks (null: none). */
+function fieldMin(r: CbfRecord, of: (f: NonNullable<CbfRecord["kelvin"]>["fields"][number]) => Array<number | null>): number | null {
+  let m = Infinity;
+  for (const f of r.kelvin?.fields ?? []) for (const v of of(f)) if (v !== null && v < m) m = v;
+  return Number.isFinite(m) ? m : null;
 }
 
 export class Summary {
@@ -109,6 +118,17 @@ export class Summary {
       ["min clearance (m)", (r) => r.summary.min_distance],
       ["infeasible steps", (r) => r.infeasible_steps.length],
     ];
+    // Kelvin fields (issue 33): the outcomes the semantic run is read by.
+    if (done.some((r) => r.record.kelvin))
+      rows.push(
+        ["min h over the run (≥ δ)", (r) => fieldMin(r, (f) => f.h.flat())],
+        ["δ", (r) => fieldMin(r, (f) => [f.delta])],
+        ["final distance to allowed faces (m)", (r) => fieldMin(r, (f) => f.allowed_distance.slice(-1))],
+        ["min distance to forbidden faces (m)", (r) => fieldMin(r, (f) => f.forbidden_distance)],
+        ["safety distance (m)", (r) => fieldMin(r, (f) => [f.safety_distance])],
+        ["closest point's σ at the end", (r) => r.kelvin?.fields[0]?.closest_sigma.at(-1) ?? null],
+        ["a field row failed at step", (r) => r.kelvin?.failure?.step ?? null],
+      );
     for (const [name, get, fixed] of rows) {
       const tr = document.createElement("tr");
       tr.append(cell("td", name));

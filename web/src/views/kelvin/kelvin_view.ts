@@ -14,7 +14,7 @@ import { Viewport } from "../../core/viewport";
 import { BrushTool } from "./brush_tool";
 import { EditTracer } from "./edit_trace";
 import { downloadIsoSurfaces } from "./iso_export";
-import { IsoLayers, type IsoFrameInfo } from "./iso_layers";
+import { IsoLayers, type IsoFrameInfo } from "../../core/iso_layers";
 import { DEFAULT_BASE, defaultLx, readState, writeStateJson, type KelvinState } from "./kelvin_state";
 import { ObjectJob, estimate, estimateText, repairText, uploadMesh, uploadText, type Estimate, type ObjectStatus, type Source } from "./object_source";
 import { statsRows, statusLine } from "./object_stats";

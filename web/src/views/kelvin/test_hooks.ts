@@ -4,7 +4,7 @@ import type { ColorBarState } from "../../core/colorbar";
 import type { HistogramData } from "../../core/histogram";
 import { Color } from "three";
 import type { Viewport } from "../../core/viewport";
-import type { IsoFrameInfo } from "./iso_layers";
+import type { IsoFrameInfo } from "../../core/iso_layers";
 import type { ObjectStatus } from "./object_source";
 import type { ProbeReading } from "./probe";
 import type { SigmaBody } from "./sigma";

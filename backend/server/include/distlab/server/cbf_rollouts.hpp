@@ -28,6 +28,9 @@ struct CbfLimits {
   std::size_t kept_per_session = 4;                // most recent rollouts kept (older finished ones go)
   std::size_t kept_total = 32;                     // also: sweeps kept (all sessions)
   std::size_t max_sweep_values = kMaxSweepValues;  // runs of one POST /api/cbf/sweeps
+  // Rollouts (all sessions) that keep their prepared Kelvin fields for GET .../fields once their
+  // job has ended, newest first: a field is large (wrench_grasp's: a `distlab cbf` run peaks at 0.4 GB, 20 MB without).
+  std::size_t fields_kept_total = 2;
 };
 
 struct CbfStreamOptions {
@@ -35,6 +38,16 @@ struct CbfStreamOptions {
   double batch_seconds = 0.05;  // ... and is sent at least this often while steps come
   bool pairs = true;            // per-pair distance, clearance and witnesses in frames
   bool poses = true;            // world pose of every robot primitive in frames
+};
+
+// A Kelvin object of a rollout's scenario, as the viewer draws it.
+struct CbfRolloutField {
+  std::string name;
+  double delta = 0;
+  Pose pose;                                   // object frame in the world
+  mesh::SurfaceMesh surface;                   // object frame: the file's vertices in the file's order
+  std::vector<double> sigma;                   // σ at those vertices
+  std::shared_ptr<const kelvin::Field> field;  // set when prepared, reset when released (under the rollout's mutex)
 };
 
 struct CbfRollout {
@@ -51,6 +64,11 @@ struct CbfRollout {
   CbfStreamOptions stream;
   int steps_total = 0;
   std::vector<cbf::PairInfo> pairs;
+  // Kelvin fields (empty without): the control points and objects; fields_state (under mutex) is
+  // preparing | ready | released | failed.
+  std::vector<cbf::ControlPoint> control_points;
+  std::vector<CbfRolloutField> fields;
+  std::string fields_state = "preparing";
 
   mutable std::mutex mutex;
   std::vector<cbf::StepRecord> steps;                // computed so far (moved into `record` at the end)
@@ -61,11 +79,13 @@ struct CbfRollout {
   const std::vector<cbf::StepRecord>& steps_locked() const { return record ? record->steps : steps; }
   // {"id", "state", "scenario", "metric", "steps_total", "steps_done", "dt", "pairs": [{"name",
   //  "a", "b", "self"}], "margins": {"obstacle", "self"} (the metric's δ), "obstacles", "target",
-  //  "stream", "robot"} (+ "summary" when ended).
+  //  "stream", "robot"} (+ "summary" when ended; + "kelvin": {"state", "control_points",
+  //  "fields": [{"name", "delta", "pose"}]} with fields).
   nlohmann::json status_json() const;
 };
 
-// A "cbf_frames" message of steps [first, first + count) (clamped to what exists).
+// A "cbf_frames" message of steps [first, first + count) (clamped to what exists); with fields,
+// each frame's "kelvin": [per field: encode_field_step].
 nlohmann::json cbf_frames_json(const CbfRollout& rollout, std::size_t first, std::size_t count);
 // GET /api/cbf/robot?name=: the URDF as data: links, joints (origin, axis), limits, end effector,
 // every collision primitive and the self-collision pairs.
@@ -80,11 +100,15 @@ class CbfRolloutStore {
   void add(const std::shared_ptr<CbfRollout>& r, const std::function<bool(const std::string&)>& alive);
   std::shared_ptr<CbfRollout> find(const std::string& session, const std::string& id) const;  // owner only
   std::vector<std::shared_ptr<CbfRollout>> list(const std::string& session) const;
+  // r's fields are prepared: it keeps them, and rollouts past limits().fields_kept_total newer
+  // ones release theirs (a running job keeps its own reference until it ends).
+  void fields_ready(const std::shared_ptr<CbfRollout>& r);
 
  private:
   CbfLimits limits_;
   mutable std::mutex mutex_;
-  std::vector<std::shared_ptr<CbfRollout>> rollouts_;  // oldest first
+  std::vector<std::shared_ptr<CbfRollout>> rollouts_;   // oldest first
+  std::vector<std::weak_ptr<CbfRollout>> with_fields_;  // holding prepared fields, oldest first
 };
 
 }  // namespace distlab::server

@@ -1,9 +1,11 @@
-// Iso-surfaces of h from the frames the server pushes: transparent, nested (outer shells drawn
-// first), the zero level set (the safe set's boundary) opaque-ish orange, the others blue and
-// fainter the further out. A frame older than the one shown (sigma_version) is dropped.
+// Iso-surfaces of h from the server's mesh frames (the Kelvin view's pushed frames, the CBF view's
+// rollout fields): transparent, nested (outer shells drawn first), the zero level set (the safe
+// set's boundary) opaque-ish orange, the others blue and fainter the further out; or all in one
+// tint (a second rollout's shells over the first's). A frame older than the one shown
+// (sigma_version) is dropped.
 import * as THREE from "three";
-import { toGeometry, type MeshFrame } from "../../core/meshframe";
-import { isSoftwareRenderer } from "../../core/viewport";
+import { toGeometry, type MeshFrame } from "./meshframe";
+import { isSoftwareRenderer } from "./viewport";
 
 export interface IsoFrameInfo {
   level: number;
@@ -40,6 +42,7 @@ export class IsoLayers {
   readonly group = new THREE.Group();
   private shells = new Map<number, Shell>();
   private levels: number[] = [];
+  private tint: THREE.Color | null = null;
   opacity = 0.28;
 
   setLevels(levels: number[]): void {
@@ -106,6 +109,21 @@ export class IsoLayers {
     this.restyle();
   }
 
+  /** Every shell in one colour, lighter further out (null: orange zero level, blue others). */
+  setTint(color: number | null): void {
+    this.tint = color === null ? null : new THREE.Color(color);
+    this.restyle();
+  }
+
+  /** The colour a level's shell is drawn in (legends). */
+  colorOf(level: number): THREE.Color {
+    const positive = this.levels.filter((l) => l > 0);
+    const top = positive.length ? Math.max(...positive) : 1;
+    const out = Math.max(0, Math.min(1, level / top));
+    if (this.tint) return this.tint.clone().lerp(new THREE.Color(0xffffff), 0.45 * out);
+    return Math.abs(level) < 1e-12 ? ZERO.clone() : OUTER.clone().lerp(new THREE.Color(0x9fd0ff), out);
+  }
+
   clear(): void {
     this.setLevels([]);
   }
@@ -116,7 +134,7 @@ export class IsoLayers {
     for (const [level, s] of this.shells) {
       const m = s.mesh.material;
       const zero = Math.abs(level) < 1e-12;
-      m.color.copy(zero ? ZERO : OUTER.clone().lerp(new THREE.Color(0x9fd0ff), Math.max(0, Math.min(1, level / top))));
+      m.color.copy(this.colorOf(level));
       m.opacity = zero ? Math.min(1, this.opacity + 0.15) : this.opacity * (1 - 0.5 * Math.max(0, Math.min(1, level / top)));
       // Colour and opacity are uniforms: no needsUpdate (that re-derives the program every frame).
       // Transparent shells without depth writes: draw the outermost (largest level) first.

@@ -1,0 +1,170 @@
+// The service's side of a scenario's Kelvin fields (cbf_field_service.hpp).
+#include "cbf_field_service.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "distlab/geometry/error.hpp"
+#include "distlab/server/frames.hpp"
+#include "distlab/server/http.hpp"
+#include "distlab/server/json_fields.hpp"
+
+namespace distlab::server {
+
+using json = nlohmann::json;
+
+namespace {
+
+// The budget of POST /api/kelvin/objects: l_x at least min_lx, the vertex estimate within
+// max_vertex_estimate (422 over_budget naming lx_field, with the smallest l_x that fits).
+void check_budget(const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& options, const std::string& lx_field,
+                  const Limits& lim) {
+  if (options.lx < lim.min_lx)
+    throw ApiError(422, "over_budget", lx_field + " gives lx " + json(options.lx).dump() + " m, but lx must be at least " + json(lim.min_lx).dump() + " m on this server",
+                   lx_field);
+  const auto budget = static_cast<double>(lim.max_vertex_estimate);
+  const double estimate = estimate_vertices(surface, options.lx, options.far_radius, sizing_for_budget(options));
+  if (estimate > budget) {
+    const double fits = std::max(lim.min_lx, smallest_lx_within(surface, budget, options.far_radius));
+    throw ApiError(422, "over_budget",
+                   lx_field + ": lx " + json(options.lx).dump() + " m would make about " + json(std::round(estimate)).dump() +
+                       " vertices, over this server's budget of " + std::to_string(lim.max_vertex_estimate) +
+                       (std::isfinite(fits) ? "; lx " + json(fits).dump() + " m or larger fits" : "; the surface alone is over it"),
+                   lx_field);
+  }
+}
+
+}  // namespace
+
+void refuse_mesh_paths(const json& request) {
+  if (!request.is_object()) return;
+  const auto sc = request.find("scenario");
+  if (sc == request.end() || !sc->is_object()) return;  // a name: a file of the assets
+  const auto fields = sc->find("fields");
+  if (fields == sc->end() || !fields->is_array()) return;
+  for (std::size_t i = 0; i < fields->size(); ++i) {
+    const json& f = (*fields)[i];
+    if (f.is_object() && f.contains("mesh") && f["mesh"].is_object() && f["mesh"].contains("path"))
+      throw InvalidInput(json_key_path(json_index_path("scenario.fields", i), "mesh.path"),
+                         "the service reads no file paths: give a built-in mesh as mesh.asset (GET /api/kelvin/assets)");
+  }
+}
+
+void check_field_budget(const PlannedField& p, const Limits& lim) {
+  check_budget(p.prepared, p.options, p.lx_field, lim);
+  if (p.repair.kind != "none") return;  // the repaired surface is checked when it is made
+  kelvin::PrepareOptions options = p.options;
+  options.max_vertices = std::max<std::size_t>(100, lim.max_vertex_estimate);
+  try {
+    kelvin::check_prepare_inputs(p.prepared, options);
+  } catch (const InvalidInput& e) {
+    const std::string& f = e.field();
+    throw InvalidInput(f == "lx" ? p.lx_field : json_key_path(p.field, f.empty() ? "mesh" : f), e.what());
+  }
+}
+
+FieldPreparer service_preparer(const std::string& cache_dir, const Limits& lim, const Progress& progress, SharedFields& shared) {
+  return [cache_dir, lim, progress, &shared](const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& options, const std::string& field) {
+    check_budget(surface, options, json_key_path(field, "lx"), lim);
+    kelvin::PrepareOptions capped = options;
+    capped.max_vertices = std::max<std::size_t>(100, lim.max_vertex_estimate);
+    const std::shared_ptr<std::timed_mutex> content = shared.preparation_lock(surface, capped);
+    std::unique_lock lock(*content, std::defer_lock);
+    while (!lock.try_lock_for(std::chrono::milliseconds(100))) progress.check();
+    return kelvin::Field::prepare_cached(surface, capped, cache_dir, progress);
+  };
+}
+
+std::shared_ptr<std::timed_mutex> SharedFields::preparation_lock(const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& o) {
+  // FNV-1a over the surface's numbers and the options prepare reads.
+  std::uint64_t h = 1469598103934665603ull;
+  auto mix = [&h](const void* data, std::size_t bytes) {
+    const auto* p = static_cast<const unsigned char*>(data);
+    for (std::size_t i = 0; i < bytes; ++i) h = (h ^ p[i]) * 1099511628211ull;
+  };
+  mix(surface.vertices.data(), sizeof(double) * static_cast<std::size_t>(surface.vertices.size()));
+  mix(surface.faces.data(), sizeof(int) * static_cast<std::size_t>(surface.faces.size()));
+  const Vec3 centre = o.centre.value_or(Vec3::Constant(std::nan("")));
+  const double options[] = {o.lx, o.far_radius, o.feature_angle, o.grading.value_or(-1), centre.x(), centre.y(), centre.z()};
+  mix(options, sizeof options);
+  const std::string key = std::to_string(h) + "/" + std::to_string(surface.vertices.rows()) + "/" + std::to_string(surface.faces.rows());
+  std::lock_guard lock(mutex_);
+  for (auto it = preparing_.begin(); it != preparing_.end();) it = it->second.expired() ? preparing_.erase(it) : std::next(it);
+  std::weak_ptr<std::timed_mutex>& slot = preparing_[key];
+  auto m = slot.lock();
+  if (!m) slot = m = std::make_shared<std::timed_mutex>();
+  return m;
+}
+
+std::map<std::string, cbf::SceneField> SharedFields::held(const FieldPlan& plan) const {
+  std::map<std::string, cbf::SceneField> out;
+  std::lock_guard lock(mutex_);
+  for (const PlannedField& p : plan.fields) {
+    auto it = fields_.find(p.key);
+    if (it == fields_.end()) continue;
+    if (auto field = it->second.second.lock()) {
+      cbf::SceneField sf = it->second.first;
+      sf.field = std::move(field);
+      out.emplace(p.key, std::move(sf));
+    }
+  }
+  return out;
+}
+
+void SharedFields::remember(const std::map<std::string, cbf::SceneField>& prepared) {
+  std::lock_guard lock(mutex_);
+  for (auto it = fields_.begin(); it != fields_.end();) it = it->second.second.expired() ? fields_.erase(it) : std::next(it);
+  for (const auto& [key, sf] : prepared) {
+    cbf::SceneField light = sf;
+    light.field.reset();
+    fields_.insert_or_assign(key, std::make_pair(std::move(light), std::weak_ptr<const kelvin::Field>(sf.field)));
+  }
+}
+
+std::vector<CbfRolloutField> rollout_fields(const FieldPlan& plan) {
+  std::vector<CbfRolloutField> out;
+  for (const PlannedField& p : plan.fields)
+    out.push_back({p.scene.name, p.scene.margin, p.scene.pose, p.surface, sigma_at_vertices(p.user_sigma, p.surface), nullptr});
+  return out;
+}
+
+json fields_frame(const CbfRollout& r, const std::optional<std::vector<double>>& levels) {
+  if (r.fields.empty()) throw ApiError(404, "no_fields", "this rollout's scenario has no Kelvin fields");
+  std::vector<std::shared_ptr<const kelvin::Field>> prepared;
+  std::string state;
+  {
+    std::lock_guard lock(r.mutex);
+    state = r.fields_state;
+    for (const CbfRolloutField& f : r.fields) prepared.push_back(f.field);
+  }
+  if (state == "preparing")
+    throw ApiError(409, "not_ready", "the rollout's fields are being prepared (its job's stages); ask again once its frames arrive");
+  if (state == "failed") throw ApiError(409, "fields_failed", "the rollout's fields could not be prepared (its job's error says why)");
+  if (state == "released")
+    throw ApiError(410, "fields_released",
+                   "this rollout's prepared fields were released for newer rollouts' (cbf_fields_kept_total in GET /api/limits); run it again");
+  json fields = json::array();
+  for (std::size_t i = 0; i < r.fields.size(); ++i) {
+    const CbfRolloutField& f = r.fields[i];
+    std::vector<double> wanted = levels ? *levels : std::vector<double>{0.0};
+    if (!levels && f.delta != 0) wanted.push_back(f.delta);
+    json isosurfaces = json::array();
+    for (const double level : wanted) {
+      const mesh::SurfaceMesh iso = prepared[i]->isosurface(level);
+      json frame = mesh_frame(iso, {{"type", "isosurface"}, {"level", level}});
+      if (iso.faces.rows() == 0) frame["empty"] = true, frame["h_min"] = prepared[i]->minimum();
+      isosurfaces.push_back(std::move(frame));
+    }
+    fields.push_back({{"index", i},
+                      {"name", f.name},
+                      {"delta", f.delta},
+                      {"pose", pose_json(f.pose)},
+                      {"frame", "object"},
+                      {"surface", mesh_frame(f.surface, {{"type", "surface"}}, &f.sigma)},
+                      {"isosurfaces", std::move(isosurfaces)}});
+  }
+  return {{"type", "cbf_fields"}, {"rollout", r.id}, {"fields", std::move(fields)}};
+}
+
+}  // namespace distlab::server
