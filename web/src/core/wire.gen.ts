@@ -218,6 +218,10 @@ export interface paths {
                             cbf_rollouts_kept_per_session: number;
                             /** @description rollouts kept over all sessions; older ended ones are forgotten */
                             cbf_rollouts_kept_total: number;
+                            /** @description Kelvin objects (fields) of one CBF scenario */
+                            max_cbf_fields: number;
+                            /** @description control points of one CBF scenario (sampled ones counted) */
+                            max_cbf_control_points: number;
                             /** @description rollouts (all sessions) that keep their prepared Kelvin fields for GET /api/cbf/rollouts/{id}/fields after their job ended; older ones release them (410 fields_released) */
                             cbf_fields_kept_total: number;
                             /** @description sessions over all clients; idle ones (no socket, idle past session_idle_seconds) are evicted first (429 too_many_sessions) */

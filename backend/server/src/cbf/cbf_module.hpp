@@ -38,6 +38,8 @@ class CbfModule final : public Module {
     limits["cbf_rollouts_kept_total"] = cbf.kept_total;
     limits["max_cbf_sweep_values"] = cbf.max_sweep_values;
     limits["cbf_fields_kept_total"] = cbf.fields_kept_total;
+    limits["max_cbf_fields"] = cbf::kMaxSceneFields;
+    limits["max_cbf_control_points"] = cbf::kMaxControlPoints;
   }
 
  private:
