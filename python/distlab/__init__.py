@@ -32,9 +32,9 @@ def executable(name: str = "distlab") -> str:
 
 
 from . import cbf, gap, kelvin, robot  # noqa: E402  (after DISTLAB_ASSETS is set)
-from .errors import InvalidInput, InvalidInputType  # noqa: E402
+from .errors import FieldUndefined, InvalidInput, InvalidInputType  # noqa: E402
 
-__all__ = ["gap", "kelvin", "cbf", "robot", "Client", "InvalidInput", "InvalidInputType", "assets_dir", "web_dir",
+__all__ = ["gap", "kelvin", "cbf", "robot", "Client", "InvalidInput", "InvalidInputType", "FieldUndefined", "assets_dir", "web_dir",
            "shaders_dir", "bin_dir", "executable"]
 __version__ = "0.1.0"
 

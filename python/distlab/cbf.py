@@ -61,7 +61,7 @@ def rollout(
     ``progress(step, t)`` is called every ``every`` steps; Ctrl-C (KeyboardInterrupt) or an
     exception raised by it stops the rollout and propagates.
 
-    Returns the record: ``t`` (S,), ``q`` and ``u`` (S, 7), ``task_error``, ``min_distance``,
+    Returns the record: ``t`` (S,), ``q`` and ``u`` (S, dof), ``task_error``, ``min_distance``,
     ``distance`` (S, pairs), ``witness_a``/``witness_b`` (S, pairs, 3), ``timing``, ``summary``,
     ``smoothness`` ... (numpy arrays where numeric)."""
     request: dict = {"scenario": scenario if isinstance(scenario, str) else dict(scenario), "metric": metric}

@@ -2,7 +2,7 @@
 
 import re
 
-__all__ = ["InvalidInput", "InvalidInputType", "invalid_input"]
+__all__ = ["InvalidInput", "InvalidInputType", "FieldUndefined", "invalid_input"]
 
 
 class InvalidInput(ValueError):
@@ -18,6 +18,13 @@ class InvalidInput(ValueError):
 class InvalidInputType(InvalidInput, TypeError):
     """Bad input whose value has the wrong type (a string where a number belongs, ...): both a
     ValueError (as every InvalidInput) and a TypeError."""
+
+
+class FieldUndefined(RuntimeError):
+    """A Kelvin field's barrier row does not exist at this configuration: a control point is
+    inside an object (h is defined outside only). Where σ > δ the safe set reaches the object's
+    surface, so a controller that lets a point touch there must expect this and stop or back off;
+    the message names the point and the field."""
 
 
 # The JSON readers (backend/server json_fields.hpp) end a type mismatch with ", got <JSON type>".

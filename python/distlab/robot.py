@@ -60,7 +60,7 @@ from typing import Any, Mapping, Optional, Sequence, Union
 import numpy as np
 
 from . import _core
-from .errors import InvalidInput, InvalidInputType
+from .errors import FieldUndefined, InvalidInput, InvalidInputType
 
 __all__ = ["Robot", "Distances", "CbfRows", "FieldBarrier"]
 
@@ -209,12 +209,12 @@ class FieldBarrier:
     def evaluate(self, q, gradient: str = "smoothed"):
         """``(h, grad)``: h ``(N, R)`` and ∇_q h ``(N, R, dof)`` (N absent for one configuration),
         rows as :attr:`names`. A control point inside an object (h undefined) raises
-        RuntimeError naming it."""
+        :class:`distlab.errors.FieldUndefined` (a RuntimeError) naming it."""
         q = _q_array(q)
         h, g, status = self._core.evaluate(q, gradient)
         if (status != 0).any():
             n, r = np.argwhere(status != 0)[0]
-            raise RuntimeError(f"{self.names[r]}: h is undefined at configuration {n} (the point is inside the object)")
+            raise FieldUndefined(f"{self.names[r]}: h is undefined at configuration {n} (the point is inside the object)")
         return (h[0], g[0]) if q.ndim == 1 else (h, g)
 
     @property

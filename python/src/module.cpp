@@ -1,5 +1,6 @@
 // distlab._core: the C++ half of the distlab package (the pure-Python modules wrap it).
 #include "bindings.hpp"
+#include "distlab/cbf/fields.hpp"
 #include "distlab/geometry/error.hpp"
 #include "distlab/server/gap_json.hpp"
 
@@ -18,6 +19,8 @@ PYBIND11_MODULE(_core, m) {
       PyErr_SetObject(reinterpret_cast<PyObject*>(Py_TYPE(error.ptr())), error.ptr());
     } catch (const distlab::server::JsonSyntaxError& e) {
       PyErr_SetString(PyExc_ValueError, e.what());
+    } catch (const distlab::cbf::FieldUndefined& e) {
+      PyErr_SetString(py::module_::import("distlab.errors").attr("FieldUndefined").ptr(), e.what());
     }
   });
   distlab::python::bind_gap(m);

@@ -11,6 +11,7 @@
 
 #include <gtest/gtest.h>
 
+#include "distlab/cbf/feasibility.hpp"
 #include "distlab/geometry/error.hpp"
 #include "distlab/server/cbf_json.hpp"
 
@@ -42,6 +43,13 @@ const RolloutRecord& run(const json& params) {
   const json request = {{"scenario", "wrench_grasp"}, {"metric", "euclidean"}, {"params", params}};
   const server::CbfRequest r = server::parse_cbf_request(request, kAssets, prepare);
   return cache.emplace(key, rollout(r.scenario, r.metric, r.options)).first->second;
+}
+
+// wrench_grasp as parsed (its field prepared through the test's cache).
+const Scenario& run_scenario() {
+  static const Scenario s =
+      server::parse_cbf_request({{"scenario", "wrench_grasp"}, {"metric", "euclidean"}}, kAssets, prepare).scenario;
+  return s;
 }
 
 const json kSemantic = json::object();
@@ -155,11 +163,22 @@ TEST(WrenchGrasp, ErrorsNameTheField) {
   EXPECT_EQ(field_of([](json&) {}, {{"fields", json::array()}}), "params.fields");
   EXPECT_EQ(field_of([](json&) {}, {{"fields", {{{"lx", 1}}}}}), "params.fields[0].lx");
   EXPECT_EQ(field_of([](json&) {}, {{"field_mode", "mesh"}}), "params.field_mode");
+  // A σ given in params is named there, not in the scenario it replaced.
+  EXPECT_EQ(field_of([](json&) {}, {{"fields", {{{"sigma", {{"per_vertex", {0.5, 0.5, 0.5}}}}}}}}),
+            "params.fields[0].sigma.per_vertex");
+  EXPECT_EQ(field_of([](json& s) { s["fields"][0]["sigma"]["per_vertex"] = {0.5, 0.5}; }),
+            "scenario.fields[0].sigma.per_vertex");
   // A start inside the unsafe set (the hand lowered onto the ends: δ above what h is there).
   EXPECT_EQ(field_of([](json&) {}, {{"fields", {{{"delta", 5}}}}}), "(accepted)");  // parsing accepts it ...
   const server::CbfRequest r = server::parse_cbf_request(
       {{"scenario", "wrench_grasp"}, {"metric", "euclidean"}, {"params", {{"fields", {{{"delta", 5}}}}}}}, kAssets, prepare);
   EXPECT_THROW(rollout(r.scenario, r.metric, r.options), InvalidInput);  // ... the run's start check refuses it
+  // ... and the feasibility check says so before any run.
+  const json feasibility = server::encode_feasibility(target_feasibility(r.scenario), r.scenario);
+  EXPECT_EQ(feasibility["start_safe"], false);
+  EXPECT_NE(feasibility["start_problem"].get<std::string>().find("unsafe set of field \"wrench\""), std::string::npos)
+      << feasibility.dump();
+  EXPECT_EQ(server::encode_feasibility(target_feasibility(run_scenario()), run_scenario())["start_safe"], true);
 }
 
 }  // namespace

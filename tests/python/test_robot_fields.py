@@ -190,14 +190,14 @@ def test_a_point_inside_the_wrench_is_named(hand, scenario, cache_dir, along):
     moved_fields = [dict(scenario["fields"][0], pose={"position": list(x - [0.02, 0, 0])})]
     moved = hand.field_barrier(moved_fields, [right, left], cache_dir=cache_dir)
     assert moved.names == ["right_pad_face_11/wrench", "left_pad_face_11/wrench"]
-    with pytest.raises(RuntimeError, match="^left_pad_face_11/wrench: h is undefined at configuration 0 "):
+    with pytest.raises(distlab.FieldUndefined, match="^left_pad_face_11/wrench: h is undefined at configuration 0 "):
         moved.evaluate(along[2])
-    with pytest.raises(RuntimeError, match="^left_pad_face_11/wrench: h is undefined at configuration 2 "):
+    with pytest.raises(distlab.FieldUndefined, match="^left_pad_face_11/wrench: h is undefined at configuration 2 "):
         moved.evaluate(along[:3])
     h, _ = moved.evaluate(along[:2])  # elsewhere it is defined
     assert np.all(np.isfinite(h))
     # The rows cannot be formed there either.
-    with pytest.raises(RuntimeError, match="left_pad_face_11"):
+    with pytest.raises(distlab.FieldUndefined, match="left_pad_face_11"):
         hand.cbf_rows(along[2], [], "euclidean", fields=moved)
     # A rollout starting there is refused before its first step, naming the point.
     sc = dict(scenario, fields=moved_fields, control_points=[right, left], q0=list(along[2]))

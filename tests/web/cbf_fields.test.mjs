@@ -4,7 +4,8 @@
 // with σ painted, the shells of h = 0 and δ are in the scene (the overlaid run's tinted), the
 // control points are in the scene coloured by h (red exactly where h < δ), h and the plots follow
 // the records, the colour bars and legend name it all, hovering reads σ and h, and nothing logs an
-// error.
+// error. The shells' iso-levels chosen in the panel (or the link) are refetched and named, and
+// levels the server refuses are reported while the shells drawn stay.
 import { test } from "node:test";
 import assert from "node:assert/strict";
 import { C, hash } from "./cbf_page.mjs";
@@ -12,6 +13,15 @@ import { openView, screenshot, serverAndBrowser } from "./harness.mjs";
 
 const env = serverAndBrowser();
 const GREY = 0x9aa4ae; // a control point whose h is not known
+
+// wrench_grasp in the CBF view, Euclidean, with the view settings `extra` (hash()).
+function openWrench(extra) {
+  return openView(
+    env.browser,
+    env.server,
+    hash({ scenario: "wrench_grasp", metric: "euclidean", ...extra }),
+  );
+}
 
 // The CBF view loaded its scenario and waits for "r" (run).
 function viewReady(page) {
@@ -25,16 +35,7 @@ function viewReady(page) {
 }
 
 test("wrench_grasp: the field is prepared with progress, drawn, and its σ = 0 run overlaid", async () => {
-  const page = await openView(
-    env.browser,
-    env.server,
-    hash({
-      scenario: "wrench_grasp",
-      metric: "euclidean",
-      compare: "sigma_zero",
-      duration: 0.5,
-    }),
-  );
+  const page = await openWrench({ compare: "sigma_zero", duration: 0.5 });
   await viewReady(page);
   const scenarios = await page.evaluate(() =>
     [...document.querySelectorAll("select")].flatMap((s) =>
@@ -217,16 +218,112 @@ test("wrench_grasp: the field is prepared with progress, drawn, and its σ = 0 r
   );
   await screenshot(page, "cbf-fields");
   assert.deepEqual(page.problems, []);
+
+  // The iso-levels typed in the panel: both runs' shells refetched at them (?levels=), named in
+  // the legend and kept in the link.
+  await page.click(".lil-gui .lil-title:has-text('Kelvin fields')");
+  const levelsInput = page.locator('[data-testid="cbf-iso-levels"] input');
+  const setLevels = async (text) => {
+    await levelsInput.fill(text);
+    await levelsInput.press("Enter");
+  };
+  const CHOSEN = [0.1, 0.3, 0.6];
+  await setLevels("0.1, 0.3, 0.6");
+  await page.waitForFunction(
+    () =>
+      Object.values(window.distlab.cbf.fields()).every(
+        (w) => w.objects[0]?.shells.length === 3,
+      ),
+    null,
+    { timeout: 60000 },
+  );
+  const chosen = await C(page, "c.fields()");
+  for (const [key, w] of Object.entries(chosen)) {
+    const o = w.objects[0];
+    assert.deepEqual(
+      o.shells.map((s) => s.level),
+      CHOSEN,
+      `${key}: the shells are at the chosen levels`,
+    );
+    assert.deepEqual(
+      o.levels.map((l) => [l.level, l.empty]),
+      CHOSEN.map((l) => [l, false]),
+    );
+    for (const s of o.shells)
+      assert.ok(
+        s.faces > 100 && s.visible && s.opacity < 1,
+        `${key} shell h = ${s.level}: ${JSON.stringify(s)}`,
+      );
+  }
+  assert.notEqual(
+    chosen.euclidean.objects[0].shells[0].faces,
+    chosen.euclidean.objects[0].shells[2].faces,
+    "different levels, different shells",
+  );
+  const legendLines = async () =>
+    page
+      .locator('[data-testid="cbf-legend"] > div')
+      .evaluateAll((d) => d.map((x) => x.textContent));
+  const chosenLegend = await legendLines();
+  for (const short of ["Eucl", "Eucl σ=0"])
+    for (const l of CHOSEN)
+      assert.ok(
+        chosenLegend.some((t) => t.startsWith(`◯ ${short}: shell h = ${l} (`)),
+        `legend names ${short}'s shell h = ${l}: ${chosenLegend.join(" | ")}`,
+      );
+  assert.ok(
+    !chosenLegend.some((t) => /shell h = (0|0\.2) /.test(t)),
+    "the default shells are gone from the legend",
+  );
+  assert.equal((await C(page, "c.state")).isoLevels, "0.1, 0.3, 0.6");
+  await page.waitForFunction(
+    () =>
+      decodeURIComponent(location.hash).includes('"isoLevels":"0.1, 0.3, 0.6"'),
+    null,
+    { timeout: 10000 },
+  );
+  await screenshot(page, "cbf-fields-iso-levels");
+
+  // What the server refuses (not numbers: 400; more than its max_levels: 413) is shown as an
+  // error and the shells drawn stay, the panel back to their levels.
+  for (const [bad, why] of [
+    ["abc", /iso-levels "abc": levels must be finite numbers/],
+    [
+      Array.from({ length: 17 }, (_, i) => (i + 1) / 100).join(","),
+      /iso-levels "[\d.,]+": levels: at most 16 levels \(max_levels\)/,
+    ],
+  ]) {
+    await setLevels(bad);
+    await page
+      .locator("#toasts .toast-error", { hasText: why })
+      .waitFor({ timeout: 30000 });
+    assert.match(
+      await page.locator("#status").textContent(),
+      /^error: levels(:| must be)/,
+    );
+    const kept = await C(page, "c.fields()");
+    for (const key of ["euclidean", "euclidean2"])
+      assert.deepEqual(
+        kept[key].objects[0].shells,
+        chosen[key].objects[0].shells,
+        `${key}: shells kept after "${bad}"`,
+      );
+    assert.equal((await C(page, "c.state")).isoLevels, "0.1, 0.3, 0.6");
+    assert.equal(await levelsInput.inputValue(), "0.1, 0.3, 0.6");
+    assert.deepEqual(await legendLines(), chosenLegend);
+  }
+  assert.deepEqual(
+    page.problems.filter(
+      (p) => !/the server responded with a status of (400|413)/.test(p),
+    ),
+    [],
+  );
   await page.close();
 });
 
 test("the first run's progress names the field's preparation", async () => {
   // A field this server has not prepared (another l_x): its stages show in the progress bar.
-  const page = await openView(
-    env.browser,
-    env.server,
-    hash({ scenario: "wrench_grasp", metric: "euclidean", duration: 0.05 }),
-  );
+  const page = await openWrench({ duration: 0.05 });
   await viewReady(page);
   const scenario = await page.evaluate(() =>
     window.distlab.api.get("/api/cbf/scenarios/wrench_grasp"),
@@ -266,6 +363,31 @@ test("the first run's progress names the field's preparation", async () => {
     () => window.distlab.cbf.fields().euclidean?.objects.length === 1,
     null,
     { timeout: 60000 },
+  );
+  assert.deepEqual(page.problems, []);
+  await page.close();
+});
+
+test("iso-levels in the link: the run's shells are drawn at them", async () => {
+  const page = await openWrench({ duration: 0.05, isoLevels: "0,0.35" });
+  await viewReady(page);
+  await page.keyboard.press("r");
+  await page.waitForFunction(
+    () => window.distlab.cbf.fields().euclidean?.objects[0]?.shells.length,
+    null,
+    { timeout: 600000 },
+  );
+  const o = (await C(page, "c.fields()")).euclidean.objects[0];
+  assert.deepEqual(
+    o.shells.map((s) => s.level),
+    [0, 0.35],
+  );
+  const legend = await page.locator('[data-testid="cbf-legend"]').textContent();
+  assert.ok(legend.includes("Eucl: shell h = 0 (zero level set)"), legend);
+  assert.ok(legend.includes("Eucl: shell h = 0.35 (iso-level)"), legend);
+  assert.equal(
+    await page.locator('[data-testid="cbf-iso-levels"] input').inputValue(),
+    "0,0.35",
   );
   assert.deepEqual(page.problems, []);
   await page.close();

@@ -4,6 +4,9 @@
 #include <cmath>
 #include <limits>
 
+#include "distlab/cbf/rollout.hpp"
+#include "distlab/geometry/error.hpp"
+
 namespace distlab::cbf {
 namespace {
 
@@ -69,6 +72,11 @@ Feasibility target_feasibility(const Scenario& scenario, const FeasibilityOption
   };
 
   Feasibility f;
+  try {
+    require_safe_start(sc, sc.q0);
+  } catch (const InvalidInput& e) {
+    f.start_problem = e.what();
+  }
   Candidate best{VecQ::Zero(dof), -std::numeric_limits<double>::infinity(), -1};
   // Seeds: q0 and a fixed spread over joints 1–6 (elbow and wrist branches), plus continuation
   // from the previous grid point's solutions.

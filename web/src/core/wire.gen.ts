@@ -2519,6 +2519,10 @@ export interface components {
             euclidean_feasible?: boolean;
             gap_feasible?: boolean;
             configurations: number;
+            /** @description scenarios with Kelvin fields: every control point starts at h >= delta outside every object (else the run is refused) */
+            start_safe?: boolean;
+            /** @description why the start is outside a field's safe set */
+            start_problem?: string;
         };
         /** @description the settings a scenario and a request's params share (params override the scenario's) */
         CbfSettings: {
@@ -2640,6 +2644,14 @@ export interface components {
                 closest_point: number[];
                 allowed_distance: (number | null)[];
                 forbidden_distance: (number | null)[];
+                /** @description the run's outcomes: the smallest h over control points and steps (and it minus delta), the final distance of the control points to the object and to its allowed faces (sigma > delta), the closest they came to its forbidden faces (sigma < 0); null where undefined */
+                summary?: {
+                    min_h?: number | null;
+                    min_h_over_delta?: number | null;
+                    final_distance?: number | null;
+                    final_allowed_distance?: number | null;
+                    min_forbidden_distance?: number | null;
+                };
             }[];
             failure?: {
                 step: number;

@@ -221,10 +221,22 @@ json encode_fields(const cbf::RolloutRecord& rec) {
     json field = {{"name", rec.field_names[f]}, {"delta", rec.field_margins[f]}, {"safety_distance", nullable(rec.safety_distances[f])}};
     for (const char* key : {"h", "closest", "closest_sigma", "distance", "closest_point", "allowed_distance", "forbidden_distance"})
       field[key] = json::array();
+    // The outcomes over the run: the smallest h (and its margin over δ), the control points'
+    // final distance to the object and to its allowed faces, the closest they came to its
+    // forbidden ones.
+    double min_h = INFINITY, min_forbidden = INFINITY;
     for (const cbf::StepRecord& s : rec.steps) {
       json step = encode_field_step(s, f, np);
       for (auto& [key, value] : step.items()) field[key].push_back(std::move(value));
+      for (std::size_t p = 0; p < np; ++p) min_h = std::min(min_h, s.field_points[f * np + p].h);
+      min_forbidden = std::min(min_forbidden, s.field_contacts[f].forbidden_distance);
     }
+    const cbf::FieldContact* last = rec.steps.empty() ? nullptr : &rec.steps.back().field_contacts[f];
+    field["summary"] = {{"min_h", nullable(min_h)},
+                        {"min_h_over_delta", nullable(min_h - rec.field_margins[f])},
+                        {"final_distance", last ? nullable(last->distance) : json(nullptr)},
+                        {"final_allowed_distance", last ? nullable(last->allowed_distance) : json(nullptr)},
+                        {"min_forbidden_distance", nullable(min_forbidden)}};
     fields.push_back(std::move(field));
   }
   json out = {{"control_points", encode_control_points(rec.control_points)}, {"fields", fields}};

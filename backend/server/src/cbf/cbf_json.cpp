@@ -230,6 +230,21 @@ nlohmann::json read_scenario_file(const std::string& path) {
 
 namespace {
 
+// A scenario field's σ or δ that params.fields replaced is named by its path in params:
+// "scenario.fields[0].sigma.per_vertex" -> "params.fields[0].sigma.per_vertex".
+std::string params_field(const std::string& field, const json& params) {
+  const auto it = params.find("fields");
+  if (it == params.end() || !it->is_array()) return field;
+  for (std::size_t i = 0; i < it->size(); ++i)
+    for (const char* key : {"sigma", "delta"}) {
+      const std::string from = key_path(index_path("scenario.fields", i), key);
+      if ((*it)[i].is_object() && (*it)[i].contains(key) && field.rfind(from, 0) == 0 &&
+          (field.size() == from.size() || field[from.size()] == '.' || field[from.size()] == '['))
+        return key_path(index_path("params.fields", i), key) + field.substr(from.size());
+    }
+  return field;
+}
+
 CbfRequest request_of(const json& r, const std::string& assets_dir, FieldPlan& plan) {
   require_object(r, "");
   check_keys(r, "", {"scenario", "metric", "params", "comment"});
@@ -239,15 +254,19 @@ CbfRequest request_of(const json& r, const std::string& assets_dir, FieldPlan& p
   const json no_params = json::object();
   const json& params = r.contains("params") ? r["params"] : no_params;
   require_object(params, "params");
-  if (sj.is_string()) {
-    const std::string path = scenario_path(sj.get<std::string>(), assets_dir);
-    json scenario = read_scenario_file(path);
-    apply_field_params(scenario, params);
-    out.scenario = scenario_of(scenario, "scenario", fs::path(path).parent_path().parent_path().string(), plan);
-  } else {
-    json scenario = sj;
-    apply_field_params(scenario, params);
-    out.scenario = scenario_of(scenario, "scenario", assets_dir, plan);
+  try {
+    if (sj.is_string()) {
+      const std::string path = scenario_path(sj.get<std::string>(), assets_dir);
+      json scenario = read_scenario_file(path);
+      apply_field_params(scenario, params);
+      out.scenario = scenario_of(scenario, "scenario", fs::path(path).parent_path().parent_path().string(), plan);
+    } else {
+      json scenario = sj;
+      apply_field_params(scenario, params);
+      out.scenario = scenario_of(scenario, "scenario", assets_dir, plan);
+    }
+  } catch (const InvalidInput& e) {
+    throw InvalidInput(params_field(e.field(), params), e.what());
   }
   if (auto it = r.find("metric"); it != r.end()) {
     const std::string m = string(*it, "metric");
@@ -391,7 +410,18 @@ json encode_record(const cbf::RolloutRecord& rec, const std::string& scenario_na
   return out;
 }
 
+static json feasibility_of(const cbf::Feasibility& f, const cbf::Scenario& s);
+
 json encode_feasibility(const cbf::Feasibility& f, const cbf::Scenario& s) {
+  json out = feasibility_of(f, s);
+  if (!s.fields.empty()) {
+    out["start_safe"] = f.start_problem.empty();
+    if (!f.start_problem.empty()) out["start_problem"] = f.start_problem;
+  }
+  return out;
+}
+
+static json feasibility_of(const cbf::Feasibility& f, const cbf::Scenario& s) {
   if (!f.reachable)
     return {{"scenario", s.name}, {"reachable", false}, {"configurations", f.configurations}};
   return {{"scenario", s.name},

@@ -2,8 +2,9 @@
 // collision primitives and joints) in the scenario's obstacles, rollouts computed by the server
 // streaming in step by step (GAP beside Euclidean, or any two rollouts overlaid), a timeline to play and scrub, witness segments of the closest pairs, plots of the
 // joint velocities, distances and task error, and the records' smoothness and timing numbers.
-// A scenario's Kelvin fields (issue 33) add the object painted with σ, the shells of h = 0 and δ,
-// the control points coloured by h per step, their plots and a hover that reads σ and h.
+// A scenario's Kelvin fields (issue 33) add the object painted with σ, the shells of h = 0 and δ
+// (or of the iso-levels typed in the panel), the control points coloured by h per step, their
+// plots and a hover that reads σ and h.
 import * as THREE from "three";
 import { api, ApiError, errorText } from "../../core/api";
 import { ColorBar } from "../../core/colorbar";
@@ -17,7 +18,7 @@ import { installHooks } from "./hooks";
 import { primitivePoses } from "./kinematics";
 import { BELOW_DELTA } from "./fields";
 import { addOverlay, showLegend, type LegendLine } from "./overlay";
-import { Panel } from "./panel";
+import { Panel, type PanelChange } from "./panel";
 import { Results } from "./results";
 import { stopRouting, type Rollout } from "./rollout";
 import { endedStatus, progressFraction, progressLabel, Run, runningStatus } from "./run";
@@ -25,11 +26,11 @@ import { CbfScene, type World } from "./scene";
 import { cbfShortcuts } from "./shortcuts";
 import { runSpecs, sameSpecs, specGapParams, type RolloutSpec } from "./specs";
 import { parseValues, runSweep, SweepPlot, type SweepJson } from "./sweep";
-import { parseState, stateJson, type CbfState } from "./state";
+import { levelsQuery, parseState, stateJson, type CbfState } from "./state";
 import { Timeline } from "./timeline";
 import { DrawTimings } from "./timings";
 import type { GetResponse } from "../../core/wire";
-import type { CbfFeasibility, CbfRobot, CbfScenario } from "./types";
+import type { CbfFeasibility, CbfFieldGeometry, CbfRobot, CbfScenario } from "./types";
 
 export class CbfView implements View {
   private viewport: Viewport | null = null;
@@ -56,11 +57,15 @@ export class CbfView implements View {
   private sweep: SweepJson | null = null;
   private sweepPlot: SweepPlot | null = null;
   private sweepRunning = false;
+  /** The iso-levels drawn (as typed): the panel returns to them when the server refuses new ones. */
+  private appliedLevels = "";
+  private levelsSeq = 0;
   private cleanup: Array<() => void> = [];
 
   async mount(host: ViewHost, raw: Record<string, unknown>): Promise<void> {
     this.host = host;
     this.state = parseState(raw);
+    this.appliedLevels = this.state.isoLevels;
     document.body.classList.add("cbf-mounted");
     this.cleanup.push(() => document.body.classList.remove("cbf-mounted"));
     const vp = (this.viewport = new Viewport(host.canvas, { up: "z" }));
@@ -233,7 +238,7 @@ export class CbfView implements View {
     this.save();
   }
 
-  private changed(what: "scenario" | "metric" | "gap" | "compare" | "duration" | "speed" | "draw" | "joint" | "layout" | "fields"): void {
+  private changed(what: PanelChange): void {
     switch (what) {
       case "scenario":
         this.state.duration = null; // each scenario runs for its own duration unless set
@@ -269,6 +274,9 @@ export class CbfView implements View {
         this.showFields();
         this.draw(this.timeline!.step);
         break;
+      case "levels":
+        void this.applyLevels(); // saves once the server took them
+        return;
       case "joint":
         this.results?.showJoint(this.state.joint);
         break;
@@ -320,6 +328,7 @@ export class CbfView implements View {
         fields: (r) => this.onFields(r),
       },
     ));
+    for (const r of run.rollouts) r.fieldLevels = levelsQuery(this.state.isoLevels);
     this.panel!.setRunning(true);
     this.onProgress(run);
     this.show(specs);
@@ -346,6 +355,11 @@ export class CbfView implements View {
   /** A rollout's Kelvin objects and shells arrived (GET .../fields): drawn in its world. */
   private onFields(r: Rollout): void {
     if (!this.run?.rollouts.includes(r) || !this.scene) return;
+    if (r.levelsError) {
+      // The link's iso-levels were refused: the server's default ones are drawn instead (said once).
+      if (this.state.isoLevels) this.refuseLevels(r.levelsError, this.state.isoLevels, "");
+      r.levelsError = null;
+    }
     if (r.geometryError || !r.geometry) {
       this.reportError(r.geometryError ?? new Error("no field geometry"), `${r.spec.label}: Kelvin field geometry`);
       return;
@@ -353,6 +367,46 @@ export class CbfView implements View {
     this.scene.world(r.spec).fields.setGeometry(r.geometry, this.state.sigmaColor);
     this.showFields();
     this.draw(this.timeline!.step);
+  }
+
+  /** The iso-levels typed in the panel: every rollout's shells refetched at them (GET .../fields
+   *  ?levels=…) and redrawn together, or, if the server refuses them (not numbers: 400, more than
+   *  its max_levels: 413), its error shown, the shells kept and the panel back to the levels drawn. */
+  private async applyLevels(): Promise<void> {
+    const text = this.state.isoLevels;
+    const query = levelsQuery(text);
+    const seq = ++this.levelsSeq;
+    const run = this.run;
+    const fetched = run?.rollouts.filter((r) => r.id && r.geometry) ?? [];
+    let got: CbfFieldGeometry[];
+    try {
+      got = await Promise.all(fetched.map((r) => (r.geometryLevels === query ? Promise.resolve(r.geometry!) : r.fetchFields(query))));
+    } catch (e) {
+      if (seq === this.levelsSeq && this.viewport) this.refuseLevels(e, text, this.appliedLevels);
+      return;
+    }
+    if (seq !== this.levelsSeq || run !== this.run || !this.viewport) return;
+    fetched.forEach((r, i) => {
+      r.geometry = got[i];
+      r.geometryLevels = query;
+      this.scene!.world(r.spec).fields.setGeometry(got[i], this.state.sigmaColor);
+    });
+    for (const r of run?.rollouts ?? []) r.fieldLevels = query; // those still to fetch theirs
+    this.appliedLevels = text;
+    if (run) {
+      this.showFields();
+      this.draw(this.timeline!.step);
+      if (fetched.length) this.host.status(`shells at h = ${query || "0 and δ"}`);
+    }
+    this.save();
+  }
+
+  /** The server refused the iso-levels `text`: its error shown, the panel back to `back`. */
+  private refuseLevels(e: unknown, text: string, back: string): void {
+    this.reportError(e, `iso-levels "${text}"`);
+    this.state.isoLevels = this.appliedLevels = back;
+    this.panel?.refresh();
+    this.save();
   }
 
   /** The fields' drawing options, colour bars and legend lines, for the worlds shown. */
@@ -396,7 +450,14 @@ export class CbfView implements View {
       if (!overlaid && this.state.fieldObject) lines.push(["#d9a0a0", `▣ ${o.name}: σ painted (colour bar σ: red > 0 contact allowed, blue < 0 forbidden)`]);
       if (this.state.fieldShells)
         for (const l of o.levels) {
-          const what = Math.abs(l.level) < 1e-12 ? "zero level set" : Math.abs(l.level - o.delta) < 1e-12 ? "= δ, the barrier's level" : "";
+          const what =
+            Math.abs(l.level) < 1e-12
+              ? "zero level set"
+              : Math.abs(l.level - o.delta) < 1e-12
+                ? "= δ, the barrier's level"
+                : l.level < o.delta
+                  ? "iso-level, below δ"
+                  : "iso-level";
           const text = l.empty ? `◯ h = ${l.level}: not taken (h ≥ ${l.hMin?.toFixed(3)} everywhere)` : `◯ ${w.spec.short}: shell h = ${l.level}${what ? ` (${what})` : ""}`;
           lines.push([css(o.shells.colorOf(l.level)), text]);
         }

@@ -1,9 +1,10 @@
 // A rollout's Kelvin fields in its world (issue 33): each object's surface painted with σ (the
-// Kelvin view's colour map and range), the iso-surfaces of h at 0 and δ as translucent shells
-// (core/iso_layers, as the Kelvin view draws them), the control points as small spheres coloured
-// by h (red below δ: outside the barrier's safe set), and per field a segment from the control
-// point closest to the object to the closest surface point. Objects and shells are in each
-// object's frame (the server's frames), placed by its pose; control points follow the links.
+// Kelvin view's colour map and range), the iso-surfaces of h at 0 and δ (or the iso-levels chosen
+// in the panel) as translucent shells (core/iso_layers, as the Kelvin view draws them), the
+// control points as small spheres coloured by h (red below δ: outside the barrier's safe set),
+// and per field a segment from the control point closest to the object to the closest surface
+// point. Objects and shells are in each object's frame (the server's frames), placed by its pose;
+// control points follow the links.
 import * as THREE from "three";
 import { finiteRange, resolveRange, VertexColorizer, type ColorScale } from "../../core/colormap";
 import { IsoLayers } from "../../core/iso_layers";

@@ -5,13 +5,15 @@ import GUI, { type Controller } from "lil-gui";
 import { addColorControls } from "../../core/colorbar";
 import { METRIC_CHOICES, SPEEDS, WITNESS_MODES, type CbfState, type CompareChoice, type GapModeChoice } from "./state";
 
+export type PanelChange = "scenario" | "metric" | "gap" | "compare" | "duration" | "speed" | "draw" | "joint" | "layout" | "fields" | "levels";
+
 export interface PanelActions {
   run(): void;
   cancel(): void;
   /** The editor's text parsed as a JSON object (the panel refuses anything else itself). */
   runEdited(scenario: Record<string, unknown>): void;
   revertEdited(): void;
-  changed(what: "scenario" | "metric" | "gap" | "compare" | "duration" | "speed" | "draw" | "joint" | "layout" | "fields"): void;
+  changed(what: PanelChange): void;
   /** A sweep of one params key over these values (as typed), with the first rollout's settings. */
   sweep(parameter: string, values: string): void;
   frame(): void;
@@ -106,8 +108,16 @@ export class Panel {
       .name("object, σ painted")
       .onChange(() => actions.changed("fields"));
     k.add(state, "fieldShells")
-      .name("shells h = 0 and δ")
+      .name("shells (iso-levels of h)")
       .onChange(() => actions.changed("fields"));
+    // The levels of h drawn as shells (GET .../fields?levels=…): refetched when typed (Enter or
+    // leaving the field); the server refuses what is not a list of numbers or too long a one.
+    const levels = k
+      .add(state, "isoLevels")
+      .name("iso-levels")
+      .onFinishChange(() => actions.changed("levels"));
+    levels.domElement.title = "values of h, comma-separated (empty: 0 and δ)";
+    levels.domElement.dataset.testid = "cbf-iso-levels";
     k.add(state, "fieldPoints")
       .name("control points (h)")
       .onChange(() => actions.changed("fields"));

@@ -86,6 +86,12 @@ export class Rollout {
   /** The Kelvin objects and iso-surfaces (GET .../fields), once fetched. */
   geometry: CbfFieldGeometry | null = null;
   geometryError: unknown = null;
+  /** The iso-levels to fetch the shells at (levelsQuery's form; "": the server's 0 and δ), and
+   *  those the geometry has. */
+  fieldLevels = "";
+  geometryLevels = "";
+  /** The server refused fieldLevels when the fields were first fetched (the default ones shown). */
+  levelsError: ApiError | null = null;
   private geometryAsked = false;
   /** Non-empty "cbf_frames" messages taken from the WebSocket, and pages fetched over REST. */
   wsMessages = 0;
@@ -186,14 +192,33 @@ export class Rollout {
     await api.post(`/api/jobs/${this.id}/cancel`).catch(() => undefined);
   }
 
-  /** The objects and iso-surfaces of the fields, once (they are prepared when frames come). */
+  /** GET .../fields with these iso-levels (levelsQuery's "0.1,0.3"; "": the server's 0 and δ). */
+  fetchFields(levels: string): Promise<CbfFieldGeometry> {
+    const q = levels ? `?levels=${encodeURIComponent(levels)}` : "";
+    return api.msgpack<CbfFieldGeometry>("GET", `/api/cbf/rollouts/${this.id}/fields${q}`);
+  }
+
+  /** The objects and iso-surfaces of the fields, once (they are prepared when frames come), at
+   *  fieldLevels (again if they changed meanwhile). Levels the server refuses are reported
+   *  (levelsError) and its default ones drawn. */
   private async loadFields(): Promise<void> {
     if (this.geometryAsked || !this.id) return;
     this.geometryAsked = true;
-    try {
-      this.geometry = await api.msgpack<CbfFieldGeometry>("GET", `/api/cbf/rollouts/${this.id}/fields`);
-    } catch (e) {
-      this.geometryError = e;
+    for (let guard = 0; guard < 4 && !this.disposed; guard++) {
+      const levels = this.fieldLevels;
+      try {
+        this.geometry = await this.fetchFields(levels);
+        this.geometryLevels = levels;
+        this.geometryError = null;
+      } catch (e) {
+        if (levels && e instanceof ApiError && e.field === "levels") {
+          this.levelsError = e;
+          this.fieldLevels = "";
+          continue;
+        }
+        this.geometryError = e;
+      }
+      if (this.fieldLevels === levels) break;
     }
     if (!this.disposed) this.events.fields(this);
   }

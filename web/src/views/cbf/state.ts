@@ -50,6 +50,8 @@ export interface CbfState {
   fieldObject: boolean;
   fieldShells: boolean;
   fieldPoints: boolean;
+  /** The iso-levels of h drawn as shells, as typed (comma-separated numbers; empty: 0 and δ). */
+  isoLevels: string;
   sigmaColor: ColorScale;
 }
 
@@ -71,8 +73,18 @@ export function defaultState(): CbfState {
     fieldObject: true,
     fieldShells: true,
     fieldPoints: true,
+    isoLevels: "",
     sigmaColor: { map: "coolwarm", mode: "symmetric", min: -1, max: 1 },
   };
+}
+
+/** The iso-levels as the server's ?levels= takes them ("0.1,0.3"; "": its default, 0 and δ). The
+ *  server checks them (finite numbers, at most its max_levels) and names what is wrong. */
+export function levelsQuery(text: string): string {
+  return text
+    .split(/[\s,;]+/)
+    .filter((x) => x !== "")
+    .join(",");
 }
 
 export function parseState(raw: Record<string, unknown>): CbfState {
@@ -97,6 +109,7 @@ export function parseState(raw: Record<string, unknown>): CbfState {
     fieldObject: raw.fieldObject !== false,
     fieldShells: raw.fieldShells !== false,
     fieldPoints: raw.fieldPoints !== false,
+    isoLevels: typeof raw.isoLevels === "string" ? raw.isoLevels.slice(0, 400) : d.isoLevels,
     sigmaColor: readColorScale(raw.sigmaColor, d.sigmaColor),
   };
 }

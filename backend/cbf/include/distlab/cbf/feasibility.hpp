@@ -30,6 +30,9 @@ struct Feasibility {
   // The margins to compare with (the scenario's δ_obs per metric).
   bool euclidean_feasible = false;  // clearance ≥ δ_obs (Euclidean)
   bool gap_feasible = false;        // gap_distance ≥ δ_obs (GAP)
+  // Kelvin fields: why the start q0 is outside a field's safe set (a control point inside an
+  // object or with h < δ: the run would be refused, rollout.hpp require_safe_start); empty if not.
+  std::string start_problem;
 };
 
 Feasibility target_feasibility(const Scenario& scenario, const FeasibilityOptions& options = {});
