@@ -228,10 +228,10 @@ def test_rollout_records_the_fields(hand, barrier, cache_dir, scenario):
     (f,) = kelvin["fields"]
     assert f["name"] == "wrench" and f["delta"] == 0.2
     assert 0 < f["safety_distance"] < 0.01  # metres: the zero level set a few mm outside the ends
-    shapes = {"h": (S, 72), "closest": (S, 3), "closest_sigma": (S,), "distance": (S,), "closest_point": (S,),
+    shapes = {"h": (S, 72), "closest": (S, 3), "closest_sigma": (S,), "distance": (S,), "closest_control_point": (S,),
               "allowed_distance": (S,), "forbidden_distance": (S,)}
     assert {k: np.shape(f[k]) for k in shapes} == shapes
-    assert np.issubdtype(np.asarray(f["closest_point"]).dtype, np.integer)
+    assert np.issubdtype(np.asarray(f["closest_control_point"]).dtype, np.integer)
     for k in shapes:
         assert np.all(np.isfinite(f[k])), k
     # h is the barrier's at the recorded q (a fresh barrier walks the same cells).

@@ -158,7 +158,7 @@ TEST_F(CbfFieldsApi, WrenchGraspPreparesInTheServersCacheStreamsAndRecords) {
     EXPECT_EQ(k["h"], field["h"][i]);
     EXPECT_EQ(k["closest"], field["closest"][i]);
     EXPECT_EQ(k["closest_sigma"], field["closest_sigma"][i]);
-    EXPECT_EQ(k["closest_point"], field["closest_point"][i]);
+    EXPECT_EQ(k["closest_control_point"], field["closest_control_point"][i]);
     EXPECT_EQ(k["allowed_distance"], field["allowed_distance"][i]);
     EXPECT_EQ(k["forbidden_distance"], field["forbidden_distance"][i]);
     for (const json& h : k["h"]) EXPECT_GE(h.get<double>(), 0.2) << "step " << i;

@@ -2612,7 +2612,7 @@ export interface components {
                 number
             ];
         };
-        /** @description One Kelvin field at one step (encode_field_step): h at every control point (the rollout's control_points order; null where undefined), and where the points are relative to the object's surface: the control point closest to it (closest_point, an index), its distance (m), the closest surface point (world) and σ there; the smallest distance of any point to the faces with σ > δ at every corner (allowed) and to those with σ < 0 at every corner (forbidden), null without such faces. */
+        /** @description One Kelvin field at one step (encode_field_step): h at every control point (the rollout's control_points order; null where undefined), and where the points are relative to the object's surface: the control point closest to it (closest_control_point, an index), its distance (m), the closest surface point (world) and σ there; the smallest distance of any point to the faces with σ > δ at every corner (allowed) and to those with σ < 0 at every corner (forbidden), null without such faces. */
         CbfFieldStep: {
             h: (number | null)[];
             closest: [
@@ -2622,7 +2622,7 @@ export interface components {
             ];
             closest_sigma: number;
             distance: number | null;
-            closest_point: number;
+            closest_control_point: number;
             allowed_distance: number | null;
             forbidden_distance: number | null;
         };
@@ -2641,7 +2641,7 @@ export interface components {
                 ][];
                 closest_sigma: number[];
                 distance: (number | null)[];
-                closest_point: number[];
+                closest_control_point: number[];
                 allowed_distance: (number | null)[];
                 forbidden_distance: (number | null)[];
                 /** @description the run's outcomes: the smallest h over control points and steps (and it minus delta), the final distance of the control points to the object and to its allowed faces (sigma > delta), the closest they came to its forbidden faces (sigma < 0); null where undefined */

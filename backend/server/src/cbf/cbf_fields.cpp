@@ -208,7 +208,7 @@ json encode_field_step(const cbf::StepRecord& s, std::size_t f, std::size_t poin
           {"closest", vec_json(c.closest)},
           {"closest_sigma", c.sigma},
           {"distance", nullable(c.distance)},
-          {"closest_point", c.point},
+          {"closest_control_point", c.point},
           {"allowed_distance", nullable(c.allowed_distance)},
           {"forbidden_distance", nullable(c.forbidden_distance)}};
 }
@@ -219,7 +219,7 @@ json encode_fields(const cbf::RolloutRecord& rec) {
   for (std::size_t f = 0; f < rec.field_names.size(); ++f) {
     // The steps' values as columns: one array per key of encode_field_step.
     json field = {{"name", rec.field_names[f]}, {"delta", rec.field_margins[f]}, {"safety_distance", nullable(rec.safety_distances[f])}};
-    for (const char* key : {"h", "closest", "closest_sigma", "distance", "closest_point", "allowed_distance", "forbidden_distance"})
+    for (const char* key : {"h", "closest", "closest_sigma", "distance", "closest_control_point", "allowed_distance", "forbidden_distance"})
       field[key] = json::array();
     // The outcomes over the run: the smallest h (and its margin over δ), the control points'
     // final distance to the object and to its allowed faces, the closest they came to its

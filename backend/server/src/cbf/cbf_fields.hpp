@@ -60,13 +60,13 @@ void apply_field_params(nlohmann::json& scenario, const nlohmann::json& params);
 
 // The record's Kelvin part: {"control_points": [{"name", "link", "point"}], "fields": [{"name",
 // "delta", "safety_distance" (FieldSurface::forbidden_offset at δ), "h": [[per point] per step], "closest": [[x,y,z] per step], "closest_sigma": [...],
-// "distance": [...], "closest_point": [index per step], "allowed_distance": [...],
+// "distance": [...], "closest_control_point": [index per step], "allowed_distance": [...],
 // "forbidden_distance": [...], "summary": {"min_h", "min_h_over_delta", "final_distance",
 // "final_allowed_distance", "min_forbidden_distance"}}], "failure"?: {"step", "message"}}; null
 // entries where undefined.
 nlohmann::json encode_fields(const cbf::RolloutRecord& record);
 // Its pieces: the control points, and one field's values at one step ({"h": [per point],
-// "closest", "closest_sigma", "distance", "closest_point", "allowed_distance",
+// "closest", "closest_sigma", "distance", "closest_control_point", "allowed_distance",
 // "forbidden_distance"}), which a streamed frame carries per field and the record as columns.
 nlohmann::json encode_control_points(const std::vector<cbf::ControlPoint>& points);
 nlohmann::json encode_field_step(const cbf::StepRecord& step, std::size_t field, std::size_t points);

@@ -144,7 +144,7 @@ export class FrameStore {
       this.closest.data.set(k.closest, (i * F + f) * 3);
       this.closestSigma.data[i * F + f] = k.closest_sigma;
       this.closestDistance.data[i * F + f] = v(k.distance);
-      this.closestPoint.data[i * F + f] = k.closest_point;
+      this.closestPoint.data[i * F + f] = k.closest_control_point;
       this.allowedDistance.data[i * F + f] = v(k.allowed_distance);
       this.forbiddenDistance.data[i * F + f] = v(k.forbidden_distance);
     });
