@@ -9,6 +9,7 @@
 #include "distlab/server/frames.hpp"
 #include "distlab/server/http.hpp"
 #include "distlab/server/json_fields.hpp"
+#include "distlab/server/kelvin_json.hpp"
 
 namespace distlab::server {
 
@@ -77,18 +78,7 @@ FieldPreparer service_preparer(const std::string& cache_dir, const Limits& lim, 
 }
 
 std::shared_ptr<std::timed_mutex> SharedFields::preparation_lock(const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& o) {
-  // FNV-1a over the surface's numbers and the options prepare reads.
-  std::uint64_t h = 1469598103934665603ull;
-  auto mix = [&h](const void* data, std::size_t bytes) {
-    const auto* p = static_cast<const unsigned char*>(data);
-    for (std::size_t i = 0; i < bytes; ++i) h = (h ^ p[i]) * 1099511628211ull;
-  };
-  mix(surface.vertices.data(), sizeof(double) * static_cast<std::size_t>(surface.vertices.size()));
-  mix(surface.faces.data(), sizeof(int) * static_cast<std::size_t>(surface.faces.size()));
-  const Vec3 centre = o.centre.value_or(Vec3::Constant(std::nan("")));
-  const double options[] = {o.lx, o.far_radius, o.feature_angle, o.grading.value_or(-1), centre.x(), centre.y(), centre.z()};
-  mix(options, sizeof options);
-  const std::string key = std::to_string(h) + "/" + std::to_string(surface.vertices.rows()) + "/" + std::to_string(surface.faces.rows());
+  const std::string key = content_key(surface, o);
   std::lock_guard lock(mutex_);
   for (auto it = preparing_.begin(); it != preparing_.end();) it = it->second.expired() ? preparing_.erase(it) : std::next(it);
   std::weak_ptr<std::timed_mutex>& slot = preparing_[key];

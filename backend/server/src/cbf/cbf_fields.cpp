@@ -107,8 +107,6 @@ std::vector<cbf::ControlPoint> parse_control_point(const json& j, const std::str
   return {c};
 }
 
-json nullable(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
-
 }  // namespace
 
 void apply_field_params(json& scenario, const json& params) {
@@ -202,15 +200,15 @@ json encode_control_points(const std::vector<cbf::ControlPoint>& points) {
 
 json encode_field_step(const cbf::StepRecord& s, std::size_t f, std::size_t points) {
   json h = json::array();
-  for (std::size_t p = 0; p < points; ++p) h.push_back(nullable(s.field_points[f * points + p].h));
+  for (std::size_t p = 0; p < points; ++p) h.push_back(finite_or_null(s.field_points[f * points + p].h));
   const cbf::FieldContact& c = s.field_contacts[f];
   return {{"h", std::move(h)},
           {"closest", vec_json(c.closest)},
           {"closest_sigma", c.sigma},
-          {"distance", nullable(c.distance)},
+          {"distance", finite_or_null(c.distance)},
           {"closest_control_point", c.point},
-          {"allowed_distance", nullable(c.allowed_distance)},
-          {"forbidden_distance", nullable(c.forbidden_distance)}};
+          {"allowed_distance", finite_or_null(c.allowed_distance)},
+          {"forbidden_distance", finite_or_null(c.forbidden_distance)}};
 }
 
 json encode_fields(const cbf::RolloutRecord& rec) {
@@ -218,7 +216,7 @@ json encode_fields(const cbf::RolloutRecord& rec) {
   const std::size_t np = rec.control_points.size();
   for (std::size_t f = 0; f < rec.field_names.size(); ++f) {
     // The steps' values as columns: one array per key of encode_field_step.
-    json field = {{"name", rec.field_names[f]}, {"delta", rec.field_margins[f]}, {"safety_distance", nullable(rec.safety_distances[f])}};
+    json field = {{"name", rec.field_names[f]}, {"delta", rec.field_margins[f]}, {"safety_distance", finite_or_null(rec.safety_distances[f])}};
     for (const char* key : {"h", "closest", "closest_sigma", "distance", "closest_control_point", "allowed_distance", "forbidden_distance"})
       field[key] = json::array();
     // The outcomes over the run: the smallest h (and its margin over δ), the control points'
@@ -232,11 +230,11 @@ json encode_fields(const cbf::RolloutRecord& rec) {
       min_forbidden = std::min(min_forbidden, s.field_contacts[f].forbidden_distance);
     }
     const cbf::FieldContact* last = rec.steps.empty() ? nullptr : &rec.steps.back().field_contacts[f];
-    field["summary"] = {{"min_h", nullable(min_h)},
-                        {"min_h_over_delta", nullable(min_h - rec.field_margins[f])},
-                        {"final_distance", last ? nullable(last->distance) : json(nullptr)},
-                        {"final_allowed_distance", last ? nullable(last->allowed_distance) : json(nullptr)},
-                        {"min_forbidden_distance", nullable(min_forbidden)}};
+    field["summary"] = {{"min_h", finite_or_null(min_h)},
+                        {"min_h_over_delta", finite_or_null(min_h - rec.field_margins[f])},
+                        {"final_distance", last ? finite_or_null(last->distance) : json(nullptr)},
+                        {"final_allowed_distance", last ? finite_or_null(last->allowed_distance) : json(nullptr)},
+                        {"min_forbidden_distance", finite_or_null(min_forbidden)}};
     fields.push_back(std::move(field));
   }
   json out = {{"control_points", encode_control_points(rec.control_points)}, {"fields", fields}};

@@ -39,6 +39,10 @@ nlohmann::json run_kelvin_request(const nlohmann::json& request, const kelvin::P
 // Parses the "sigma" object (field prefix "sigma").
 kelvin::SigmaSpec parse_sigma(const nlohmann::json& j);
 
+// Content key of a preparation: SHA-256 of the surface and options (hex, kelvin/digest.hpp).
+// Entries with the same key are also compared exactly before they are shared.
+std::string content_key(const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& options);
+
 // The mesh formats an asset or upload may have (what assimp reads here).
 inline constexpr const char* kMeshExtensions[] = {".stl", ".ply", ".obj", ".glb", ".off"};
 

@@ -94,10 +94,6 @@ struct PreparedField {
   bool gradients_ = false;  // `field` holds vertex gradients for solved_
 };
 
-// Content key of a preparation: SHA-256 of the surface and options (hex, kelvin/digest.hpp).
-// Entries with the same key are also compared exactly before they are shared.
-std::string content_key(const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& options);
-
 class PreparedRegistry {
  public:
   // Boundary responses: at most response_bytes each, response_bytes_total together.
