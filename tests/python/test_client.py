@@ -193,14 +193,15 @@ def test_mesh_frames_decode_without_copies(server):
     np.testing.assert_array_equal(frame["scalars"], np.float32(0.3))
 
 
-# A unit cube of polygons whose defect is at a known face of the file: faces 0-3 are quads
-# (triangles 0-7), face 4 (front, y = 0) a pentagon through the midpoint m of the top front edge
-# (triangles 8-10), face 5 (top) a pentagon (4, m, 5, 6, 7) whose fan's first triangle (4, m, 5)
-# has zero area: triangle 11 of the fans, face 5 of the file.
+# A unit cube of polygons whose defect is at a known face of the file: faces 0-4 are quads
+# (triangles 0-9), face 5 (top) a hexagon (4, q, m, 5, 6, 7) through the points q and m of its
+# front edge (triangles 10-13), and face 6 the quad (4, 5, m, q) on that edge: no area, so it stays
+# the fan around its first corner, whose first triangle (4, 5, m) is triangle 14, face 6 of the file.
 POLYGON_CUBE_VERTICES = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1),
-                         (0.5, 0, 1)]
-POLYGON_CUBE_FACES = [(0, 3, 2, 1), (3, 7, 6, 2), (0, 4, 7, 3), (1, 2, 6, 5), (0, 1, 5, 8, 4), (4, 8, 5, 6, 7)]
-DEGENERATE_FACE = "degenerate (zero-area) face 5 (triangle 0 of its 5-corner fan)"
+                         (0.5, 0, 1), (0.25, 0, 1)]
+POLYGON_CUBE_FACES = [(0, 3, 2, 1), (3, 7, 6, 2), (0, 4, 7, 3), (1, 2, 6, 5), (0, 1, 5, 4), (4, 9, 8, 5, 6, 7),
+                      (4, 5, 8, 9)]
+DEGENERATE_FACE = "degenerate (zero-area) face 6 (triangle 0 of its 4-corner polygon)"
 
 
 def polygon_cube(fmt):

@@ -31,12 +31,13 @@
 
 #include "distlab/geometry/error.hpp"
 #include "distlab/mesh/surface.hpp"
+#include "polygons.hpp"
 
 namespace distlab::mesh {
 
 namespace {
 
-using Point = CGAL::Simple_cartesian<double>::Point_3;
+using detail::Point;
 using Soup = std::vector<std::vector<std::size_t>>;
 
 // The STL check from the first bytes of a file (head: at least its first 1024 bytes, or all of
@@ -489,28 +490,6 @@ void read_assimp(const std::string& path, const std::string& format, std::vector
   }
 }
 
-// A polygon (over 3 corners) that repeats a vertex: a corner equal to the one before it (in
-// cyclic order) is a zero-length edge, and dropping it leaves the same polygon, so it is dropped
-// (while over 3 corners remain). A vertex repeated at corners that are not neighbours pinches
-// the polygon into two loops: no fan of it is the file's surface, so it is refused, by name.
-// A triangle that repeats a vertex is kept: the surface checks or "fix" deal with it.
-void simplify_polygon(std::vector<std::size_t>& polygon, std::size_t f, const std::string& field) {
-  std::vector<std::pair<std::size_t, std::size_t>> kept;  // (vertex, the file's corner number)
-  for (std::size_t k = 0; k < polygon.size(); ++k)
-    if (polygon[k] != polygon[(k + polygon.size() - 1) % polygon.size()]) kept.emplace_back(polygon[k], k);
-  if (kept.size() < 3) return;  // no polygon left to keep: its fan's zero-area triangles go to the checks
-  std::vector<std::pair<std::size_t, std::size_t>> sorted = kept;
-  std::sort(sorted.begin(), sorted.end());
-  for (std::size_t i = 1; i < sorted.size(); ++i)
-    if (sorted[i].first == sorted[i - 1].first)
-      throw InvalidInput(field, "face " + std::to_string(f) + " lists vertex " + std::to_string(sorted[i].first) +
-                                    " at corners " + std::to_string(sorted[i - 1].second) + " and " + std::to_string(sorted[i].second) +
-                                    ", which are not neighbours (numbers from 0): the polygon pinches into two loops, "
-                                    "which no polygon is; split it into two faces");
-  polygon.clear();
-  for (const auto& [v, k] : kept) polygon.push_back(v);
-}
-
 }  // namespace
 
 std::optional<std::uint32_t> binary_stl_triangles(std::string_view bytes, const std::string& field) {
@@ -561,23 +540,19 @@ SurfaceMesh load_mesh(const std::string& path, const std::string& field, const s
     throw InvalidInput(field, "cannot read the " + format + " file: it is malformed or truncated" +
                                   (format == "obj" ? ", or a face index is out of range" : ""));
 
-  // Faces index the file's vertices; polygons become fans around their first vertex.
+  // Faces index the file's vertices; polygons become triangles of the same vertices.
   const std::size_t nv = points.size();
   if (nv > static_cast<std::size_t>(std::numeric_limits<int>::max()))
     throw InvalidInput(field, "the file has too many vertices");
-  std::size_t triangles = 0;
   for (std::size_t f = 0; f < soup.size(); ++f) {
     if (soup[f].size() < 3) throw InvalidInput(field, "face " + std::to_string(f) + " has fewer than 3 vertices");
     for (const std::size_t i : soup[f])
       if (i >= nv)
         throw InvalidInput(field, "face " + std::to_string(f) + " has a vertex index out of range (the file has " +
                                       std::to_string(nv) + " vertices)");
-    if (soup[f].size() > 3) simplify_polygon(soup[f], f, field);
-    triangles += soup[f].size() - 2;
   }
   if (soup.empty())
     throw InvalidInput(field, "the file has " + std::to_string(nv) + " vertices but no faces: a point cloud is not a surface");
-  if (triangles == 0) throw InvalidInput(field, "the mesh file contains no triangles");
   SurfaceMesh out;
   out.vertices.resize(static_cast<Eigen::Index>(nv), 3);
   for (std::size_t v = 0; v < nv; ++v) {
@@ -586,13 +561,24 @@ SurfaceMesh load_mesh(const std::string& path, const std::string& field, const s
       throw InvalidInput(field, "vertex " + std::to_string(v) + " has a non-finite coordinate (NaN or infinity)");
     out.vertices.row(static_cast<Eigen::Index>(v)) << p.x(), p.y(), p.z();
   }
-  out.faces.resize(static_cast<Eigen::Index>(triangles), 3);
-  Eigen::Index t = 0;
-  for (const auto& polygon : soup)
-    for (std::size_t k = 1; k + 1 < polygon.size(); ++k)
-      out.faces.row(t++) << static_cast<int>(polygon[0]), static_cast<int>(polygon[k]), static_cast<int>(polygon[k + 1]);
+  std::vector<detail::Triangle> triangles;
+  triangles.reserve(soup.size());
+  bool polygons = false;
+  for (std::size_t f = 0; f < soup.size(); ++f) {
+    if (soup[f].size() == 3) {
+      triangles.push_back({soup[f][0], soup[f][1], soup[f][2]});
+      continue;
+    }
+    const std::vector<detail::Triangle> split = detail::triangulate_polygon(points, soup[f], f, field);
+    triangles.insert(triangles.end(), split.begin(), split.end());
+    polygons = polygons || split.size() != 1;
+  }
+  if (triangles.empty()) throw InvalidInput(field, "the mesh file contains no triangles");
+  out.faces.resize(static_cast<Eigen::Index>(triangles.size()), 3);
+  for (std::size_t t = 0; t < triangles.size(); ++t)
+    for (int k = 0; k < 3; ++k) out.faces(static_cast<Eigen::Index>(t), k) = static_cast<int>(triangles[t][static_cast<std::size_t>(k)]);
   // The corner counts, so that what is said about a triangle names the user's face.
-  if (triangles != soup.size())
+  if (polygons)
     for (const auto& polygon : soup) out.polygon_corners.push_back(static_cast<int>(polygon.size()));
   return out;
 }
@@ -609,7 +595,7 @@ std::string file_face_name(const SurfaceMesh& mesh, Eigen::Index triangle) {
       if (total != mesh.faces.rows()) break;
       if (fan == 1) return "face " + std::to_string(f);
       return "face " + std::to_string(f) + " (triangle " + std::to_string(triangle - first) + " of its " +
-             std::to_string(corners[f]) + "-corner fan)";
+             std::to_string(corners[f]) + "-corner polygon)";
     }
     first += fan;
   }

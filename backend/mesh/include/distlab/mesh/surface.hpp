@@ -17,24 +17,32 @@ struct SurfaceMesh {
   MatX3 vertices;  // one row per vertex
   FacesX3 faces;   // counter-clockwise seen from outside (outward normals)
   // The file's faces when some had over three corners: polygon_corners[f] = k_f, the corner count
-  // of the file's face f (load_mesh's fans below: faces holds Σ (k_f − 2) rows). Empty: face f is
-  // the file's face f. Whatever changes the faces' count or order must clear it.
+  // of the file's face f (load_mesh's triangulation below: faces holds Σ (k_f − 2) rows). Empty:
+  // face f is the file's face f. Whatever changes the faces' count or order must clear it.
   std::vector<int> polygon_corners = {};
 };
 
 // Triangle t as the user numbers it: "face F" (the file's face), or "face F (triangle j of its
-// k-corner fan)" for a polygon; "face t" when polygon_corners is empty or does not match faces.
+// k-corner polygon)" for a polygon; "face t" when polygon_corners is empty or does not match faces.
 std::string file_face_name(const SurfaceMesh& mesh, Eigen::Index triangle);
 
 // Reads OFF, OBJ, PLY, STL (CGAL's polygon-soup readers) and glTF/GLB and Collada DAE (assimp), chosen by the
 // file's extension. The vertices are the file's own, in the file's order: a position listed twice
-// keeps both entries (nothing is welded here), and faces index them. Polygons with more than three
-// vertices become fans around their first vertex, in the file's face order: the file's face f with
-// corners (v0 … v(k−1)) is triangles T(f) + j = (v0, v(j+1), v(j+2)), j = 0 … k − 3, where
+// keeps both entries (nothing is welded here), and faces index them. A polygon (over three
+// corners) becomes k − 2 triangles of its own corners, no vertex added or renumbered, turning as
+// it does, in the file's face order: the file's face f is triangles T(f) … T(f) + k_f − 3, where
 // T(f) = Σ_{g<f} (k_g − 2); so per-face data in the file's order is spread to triangles (or
-// triangle data gathered per file face) by that prefix sum. A corner equal to its predecessor
-// (cyclically) is dropped first (a zero-length edge: the same polygon); a vertex repeated at
-// corners that are not neighbours is refused naming the face, vertex and corners. Per format,
+// triangle data gathered per file face) by that prefix sum. The triangles are CGAL's constrained
+// Delaunay triangulation of the polygon seen along its normal (one coordinate dropped), which
+// takes non-convex and slightly non-planar polygons, and a hole written as one loop that runs in
+// and out along a bridge edge; a polygon with two corners one behind the other along its normal
+// is triangulated in space (CGAL's hole filling). First, a corner equal to (or at the position
+// of) its predecessor, cyclically, is dropped (a zero-length edge: the same polygon), and a face
+// listing one cycle of corners r times over is that cycle; k counts what is left. A polygon
+// without area (collinear corners) stays the fan around its first corner, zero-area triangles
+// that the surface checks name. A polygon that is no disk is refused naming the file's face and
+// why: its edges cross, a corner lies on an edge, a vertex at corners apart pinches it into loops,
+// or its outline overlaps itself. Per format,
 // "the file's vertices" are:
 //   OFF, OBJ, PLY: the vertex list (OBJ "v" lines, the PLY "vertex" element) in order;
 //   STL: which has none, the distinct corner positions in order of first appearance (facet by
