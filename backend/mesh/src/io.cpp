@@ -1,10 +1,9 @@
-// Mesh import in the file's own vertex order (CGAL's polygon-soup readers; assimp for glTF), and
+// Mesh import in the file's own vertex order (CGAL's polygon-soup readers; stl.cpp; assimp for glTF), and
 // export through assimp. Counts declared in headers are checked against the file's size before a
 // reader allocates anything, and every index and coordinate is checked before it is used.
 #include <CGAL/IO/OBJ.h>
 #include <CGAL/IO/OFF.h>
 #include <CGAL/IO/PLY.h>
-#include <CGAL/IO/STL.h>
 #include <CGAL/Simple_cartesian.h>
 #include <assimp/DefaultIOSystem.h>
 #include <assimp/config.h>
@@ -32,6 +31,7 @@
 #include "distlab/geometry/error.hpp"
 #include "distlab/mesh/surface.hpp"
 #include "polygons.hpp"
+#include "stl.hpp"
 
 namespace distlab::mesh {
 
@@ -39,31 +39,6 @@ namespace {
 
 using detail::Point;
 using Soup = std::vector<std::vector<std::size_t>>;
-
-// The STL check from the first bytes of a file (head: at least its first 1024 bytes, or all of
-// it) and its size: only the header, the count and the text test are needed.
-std::optional<std::uint32_t> stl_triangles(std::string_view head, std::uint64_t size, const std::string& field) {
-  std::uint32_t n = 0;
-  if (size >= 84 && head.size() >= 84) {
-    std::memcpy(&n, head.data() + 80, 4);                           // little-endian, as the format and every target are
-    if (size == 84 + 50 * static_cast<std::uint64_t>(n)) return n;  // some binary headers start with "solid"
-  }
-  head = head.substr(0, 1024);
-  const bool text = head.find_first_not_of(" \t\r\n") != std::string_view::npos &&
-                    head.substr(head.find_first_not_of(" \t\r\n")).rfind("solid", 0) == 0 &&
-                    std::none_of(head.begin(), head.end(), [](char c) {
-                      const auto u = static_cast<unsigned char>(c);
-                      return u < 0x20 && c != '\t' && c != '\r' && c != '\n';
-                    });
-  if (text) return std::nullopt;
-  std::string why = "not a valid STL file: an ASCII STL starts with \"solid\", and a binary STL is exactly 84 + 50·n bytes (n triangles)";
-  if (size < 84)
-    why += ", but the file has only " + std::to_string(size) + " bytes";
-  else
-    why += "; its header says n = " + std::to_string(n) + ", i.e. " + std::to_string(84 + 50 * static_cast<std::uint64_t>(n)) +
-           " bytes, but the file has " + std::to_string(size) + " bytes";
-  throw InvalidInput(field, why);
-}
 
 std::string read_all(const std::string& path) {
   std::ifstream in(path, std::ios::binary | std::ios::ate);
@@ -355,28 +330,6 @@ void check_ply(const std::string& bytes, const std::string& field) {
       }
 }
 
-// Binary STL has no shared vertices: corners with the same position are welded, each taking the
-// index of its first appearance (corner order: facet by facet, three corners each), as CGAL's
-// ASCII STL reader does.
-void read_binary_stl(const std::string& bytes, std::uint32_t n, std::vector<Point>& points, Soup& soup,
-                     const std::string& field) {
-  std::map<std::array<float, 3>, std::size_t> first;
-  soup.reserve(n);
-  for (std::uint32_t f = 0; f < n; ++f) {
-    std::vector<std::size_t> corners;
-    for (int c = 0; c < 3; ++c) {
-      std::array<float, 3> p;
-      std::memcpy(p.data(), bytes.data() + 84 + 50 * static_cast<std::size_t>(f) + 12 * (1 + c), 12);
-      if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
-        throw InvalidInput(field, "triangle " + std::to_string(f) + " has a non-finite coordinate (NaN or infinity)");
-      auto [it, inserted] = first.emplace(p, points.size());
-      if (inserted) points.emplace_back(p[0], p[1], p[2]);
-      corners.push_back(it->second);
-    }
-    soup.push_back(std::move(corners));
-  }
-}
-
 // Opens the one file being imported and nothing else: a glTF buffer's "uri" must not make the
 // server read its own files into a mesh.
 class OnlyThisFile : public Assimp::DefaultIOSystem {
@@ -492,10 +445,6 @@ void read_assimp(const std::string& path, const std::string& format, std::vector
 
 }  // namespace
 
-std::optional<std::uint32_t> binary_stl_triangles(std::string_view bytes, const std::string& field) {
-  return stl_triangles(bytes, bytes.size(), field);
-}
-
 SurfaceMesh load_mesh(const std::string& path, const std::string& field, const std::string& format_in) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec))
@@ -510,11 +459,7 @@ SurfaceMesh load_mesh(const std::string& path, const std::string& field, const s
   try {
     const auto quiet = CGAL::parameters::verbose(false);
     if (ext == ".stl") {
-      const std::string bytes = read_all(path);
-      if (const auto n = stl_triangles(bytes, bytes.size(), field))
-        read_binary_stl(bytes, *n, points, soup, field);
-      else
-        ok = CGAL::IO::read_STL(path, points, soup, quiet.use_binary_mode(false));
+      detail::read_stl(read_all(path), points, soup, field);
     } else if (ext == ".off") {
       check_off(read_all(path), field);
       ok = CGAL::IO::read_OFF(path, points, soup, quiet);

@@ -26,7 +26,7 @@ struct SurfaceMesh {
 // k-corner polygon)" for a polygon; "face t" when polygon_corners is empty or does not match faces.
 std::string file_face_name(const SurfaceMesh& mesh, Eigen::Index triangle);
 
-// Reads OFF, OBJ, PLY, STL (CGAL's polygon-soup readers) and glTF/GLB and Collada DAE (assimp), chosen by the
+// Reads OFF, OBJ, PLY (CGAL's polygon-soup readers), STL (a reader of its own) and glTF/GLB and Collada DAE (assimp), chosen by the
 // file's extension. The vertices are the file's own, in the file's order: a position listed twice
 // keeps both entries (nothing is welded here), and faces index them. A polygon (over three
 // corners) becomes k − 2 triangles of its own corners, no vertex added or renumbered, turning as
@@ -50,6 +50,10 @@ std::string file_face_name(const SurfaceMesh& mesh, Eigen::Index triangle);
 //   glTF/GLB: each primitive's POSITION accessor in order, primitives in the order the node tree
 //        (depth first) places them, node transforms applied;
 //   DAE: as glTF, with its <unit meter> applied and its up_axis ignored (URDF's convention).
+// STL is binary when its size is 84 + 50·n for the count n its header gives, else ASCII when its
+// first word is "solid" (followed by anything: a tab, a name with spaces) and then facets or
+// "endsolid" follow, or the file is text; a refusal says which and why (a binary file's size
+// against its count, or the ASCII line that breaks the format).
 // Declared counts (OFF header, PLY elements, binary STL) are checked against the file's size
 // before anything is read, every face index is bounds-checked and every coordinate must be
 // finite. Throws InvalidInput(field) for anything else; messages never quote the path.
@@ -58,8 +62,8 @@ std::string file_face_name(const SurfaceMesh& mesh, Eigen::Index triangle);
 SurfaceMesh load_mesh(const std::string& path, const std::string& field = "mesh.path", const std::string& format = "");
 
 // The bytes of an .stl file: a binary STL (80-byte header, uint32 n, n records of 50 bytes) is
-// exactly 84 + 50·n bytes; returns n. An ASCII STL (starts with "solid", no binary bytes):
-// nullopt. Anything else throws InvalidInput(field) saying the file is not a valid STL.
+// exactly 84 + 50·n bytes; returns n. An ASCII STL (as load_mesh decides, above): nullopt.
+// Anything else throws InvalidInput(field) saying the file is not a valid STL and why.
 std::optional<std::uint32_t> binary_stl_triangles(std::string_view bytes, const std::string& field);
 
 // Writes through assimp; format is "stl", "obj", "ply" or "glb". Throws InvalidInput(field).
