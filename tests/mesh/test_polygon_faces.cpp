@@ -236,6 +236,17 @@ TEST(PolygonFaces, FoldedPolygonIsTriangulatedInSpace) {
   EXPECT_NEAR(sum.x(), 0.0, 1e-12);
   EXPECT_NEAR(sum.y(), -0.15, 1e-12);
   EXPECT_NEAR(sum.z(), 1.0, 1e-12);
+
+  // Triangulating in space searches in O(k³): over 200 corners such a face is refused, by name.
+  std::vector<V3> circle;
+  Polygon loop;
+  for (int i = 0; i < 200; ++i) {
+    circle.push_back({std::cos(i * M_PI / 100), std::sin(i * M_PI / 100), 0});
+    loop.push_back(i);
+  }
+  circle.push_back({1, 0, 0.3});  // above corner 0
+  loop.insert(loop.begin() + 1, 200);
+  expect_refused("big_fold.obj", obj(circle, {{0, 1, 2}, loop}), "face 1 folds over itself: its vertices 0 and 200 coincide seen along its normal, and with its 201 corners (over 200)");
 }
 
 // A square with a square hole written as one loop that runs in along a bridge edge and back out

@@ -62,24 +62,30 @@ std::vector<Triangle> fan(const std::vector<std::size_t>& c) {
   return out;
 }
 
-// The corner where the outline comes back to a position it left (not its neighbour): where a
-// polygon that is no disk pinches.
+// The first corner where the outline comes back to a position it left (not its neighbour), with
+// the corner it left: where a polygon that is no disk pinches.
 std::string pinch(const std::vector<int>& id, const std::vector<std::size_t>& corners, const std::vector<std::size_t>& number) {
-  for (std::size_t j = 0; j < id.size(); ++j)
-    for (std::size_t i = 0; i < j; ++i)
-      if (id[i] == id[j]) {
-        const std::string at = " at corners " + std::to_string(number[i]) + " and " + std::to_string(number[j]);
-        return corners[i] == corners[j] ? " lists vertex " + std::to_string(corners[i]) + at
-                                        : " lists vertices " + std::to_string(corners[i]) + " and " + std::to_string(corners[j]) + " (one position)" + at;
-      }
+  std::map<int, std::size_t> first;
+  for (std::size_t j = 0; j < id.size(); ++j) {
+    const auto [it, inserted] = first.emplace(id[j], j);
+    if (inserted) continue;
+    const std::size_t i = it->second;
+    const std::string at = " at corners " + std::to_string(number[i]) + " and " + std::to_string(number[j]);
+    return corners[i] == corners[j] ? " lists vertex " + std::to_string(corners[i]) + at
+                                    : " lists vertices " + std::to_string(corners[i]) + " and " + std::to_string(corners[j]) + " (one position)" + at;
+  }
   return {};
 }
 
 // A polygon too far from planar to be seen along one direction (two corners one behind the
 // other): CGAL's hole filling, which triangulates the polyline in space (minimizing the worst
-// dihedral angle, then the area).
+// dihedral angle, then the area). Its search takes up to O(k³) time: larger polygons are refused.
+constexpr std::size_t kMaxCornersInSpace = 200;
 std::vector<Triangle> in_space(const std::vector<Point>& points, const std::vector<std::size_t>& corners, const std::string& why,
                                const std::string& field) {
+  if (corners.size() > kMaxCornersInSpace)
+    throw InvalidInput(field, why + " with its " + std::to_string(corners.size()) + " corners (over " + std::to_string(kMaxCornersInSpace) +
+                                  ") it is not triangulated in space; split it into flatter faces");
   std::vector<K::Point_3> polyline;
   polyline.reserve(corners.size());
   for (const std::size_t v : corners) polyline.emplace_back(points[v].x(), points[v].y(), points[v].z());
