@@ -71,6 +71,13 @@ TEST(KelvinPrepare, RefusesBadInputNamingTheField) {
   EXPECT_EQ(refused_field(ball, o).rfind("center: center lies outside", 0), 0u) << refused_field(ball, o);
   o.centre = Vec3(0.495, 0, 0);
   EXPECT_EQ(refused_field(ball, o).rfind("center: center is too close", 0), 0u) << refused_field(ball, o);
+  // A sheet 1 cm thick and 1 m wide (a wrapped open sheet is one): said to be one, with the wrap's
+  // offset that would make it a solid.
+  PrepareOptions automatic;  // the centre chosen: the deepest point
+  automatic.lx = 0.2;
+  const std::string sheet = refused_field(mesh::box(Vec3(1, 1, 0.01)), automatic);
+  EXPECT_EQ(sheet.rfind("mesh: the object is nowhere thicker than 0.01", 0), 0u) << sheet;
+  EXPECT_NE(sheet.find("repair_options.offset"), std::string::npos) << sheet;
   for (double lx : {0.0, -1.0, std::nan(""), 5.0}) {
     o = sphere_options(lx);
     EXPECT_EQ(refused_field(ball, o).rfind("lx: ", 0), 0u) << lx << " " << refused_field(ball, o);
@@ -243,8 +250,9 @@ TEST(KelvinPrepare, CacheEntryWrittenByTwoThreadsAtOnce) {
 std::string forged_entry(const fs::path& from, const std::string& key) {
   std::string bytes = read_file(from);
   const std::string mac_key = read_file(from.parent_path() / "cache.key");
-  const size_t key_at = 8 + sizeof("distlab-kelvin-cache-v9") + 8;
-  EXPECT_EQ(bytes.compare(8, 23, "distlab-kelvin-cache-v9"), 0);
+  static constexpr char kTag[] = "distlab-kelvin-cache-v10";  // cache.cpp's kFormat
+  const size_t key_at = 8 + sizeof(kTag) + 8;
+  EXPECT_EQ(bytes.compare(8, sizeof(kTag) - 1, kTag), 0);
   bytes.replace(key_at, key.size(), key);
   const Digest mac = hmac_sha256(mac_key, std::string_view(bytes).substr(8, bytes.size() - 8 - 32));
   bytes.replace(bytes.size() - 32, 32, reinterpret_cast<const char*>(mac.data()), 32);
@@ -312,7 +320,7 @@ TEST(KelvinPrepare, CacheEntryChangedWithoutTheKeyIsRebuilt) {
   // The first tet-mesh point: after the tag, the key and the surface, inputs and parameters.
   const auto nv = static_cast<size_t>(surface.vertices.rows()), nf = static_cast<size_t>(surface.faces.rows());
   const std::string name = file.stem().string();
-  const size_t points_at = 8 + sizeof("distlab-kelvin-cache-v9") + 8 + name.size() + 8 + 24 * nv + 8 + 12 * nf + 7 * 8 + 4 * 8 + 8;
+  const size_t points_at = 8 + sizeof("distlab-kelvin-cache-v10") + 8 + name.size() + 8 + 24 * nv + 8 + 12 * nf + 7 * 8 + 4 * 8 + 8;
   ASSERT_LT(points_at + 8 * 30, 8 + size);
   for (int attack = 0; attack < 2; ++attack) {
     std::string bytes = original;

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <map>
 
 #include "distlab/geometry/error.hpp"
@@ -58,10 +60,18 @@ static std::pair<mesh::SurfaceMesh, Vec3> validated(const mesh::SurfaceMesh& inp
   const double r_max = (surface.vertices.rowwise() - centre.transpose()).rowwise().norm().maxCoeff();
   const double clearance = oracle->distance(centre);
   // The inverted surface spans radii 1/r_max … 1/clearance: a tiny clearance makes it enormous.
-  if (clearance < 0.02 * r_max)
-    throw InvalidInput("center", "center is too close to the surface (" + std::to_string(clearance) +
-                                     " m; at least 2% of the object's radius " + std::to_string(r_max) +
-                                     " m is needed)");
+  if (clearance < 0.02 * r_max) {
+    if (o.centre)
+      throw InvalidInput("center", "center is too close to the surface (" + std::to_string(clearance) +
+                                       " m; at least 2% of the object's radius " + std::to_string(r_max) +
+                                       " m is needed): choose a point deeper inside");
+    // The deepest point is this shallow: a sheet, or the thin shell a wrap makes around one.
+    throw InvalidInput("mesh", "the object is nowhere thicker than " + std::to_string(2 * clearance) +
+                                   " m, under 4% of its radius " + std::to_string(r_max) +
+                                   " m: a Kelvin field needs a solid, and this is a thin sheet or shell (a wrapped sheet is "
+                                   "2 × the wrap's offset thick: repair_options.offset ≥ " + std::to_string(0.02 * r_max) +
+                                   " m makes it one)");
+  }
   if (o.lx > r_max) throw InvalidInput("lx", "lx is larger than the object (" + std::to_string(r_max) + " m)");
   // Rough vertex estimate: ~1 vertex per 1.5 l_x³ of the uniform region, capped for safety.
   const double region = 4.18879 * std::pow(o.far_radius * r_max, 3);
@@ -134,6 +144,8 @@ static std::unique_ptr<Field::Impl> mesh_stage(mesh::SurfaceMesh surface, const 
   params.max_refinement_evaluations = o.max_refinement_steps;
   std::string warning;
   impl->tm = mesh_inverted_domain(inverted, params, progress, &warning);
+  const long pinched = make_boundary_manifold(impl->tm);
+  if (std::getenv("DISTLAB_MESH_DEBUG")) std::fprintf(stderr, "mesh: %ld cells left the domain at pinches\n", pinched);
   reorder_spatially(impl->tm);
   impl->stats.t_mesh = seconds_since(t0);
   impl->surface = std::move(surface);

@@ -1,5 +1,15 @@
 // Marching tetrahedra on U = |y| V (so the vertex at y = 0, i.e. infinity, needs no special
 // case): the boundary of {h ≥ level} = {U ≤ e^(−level)}, mapped back by eq. 5.
+//
+// Closed 2-manifolds at every level: the domain's boundary is one (make_boundary_manifold), and
+// no vertex value equals the level, which is what the two rules below ensure.
+// - At σ's smallest boundary value, {h ≥ level} is the whole exterior (h ≥ min σ by the maximum
+//   principle), so the surface is the object's own (the domain's boundary facets). The discrete
+//   h dips below min σ by up to ~1% in a few interior vertices near slivers (P1 elements keep no
+//   maximum principle); at that level those dips would be pockets touching the surface.
+// - Every other level is taken as level − kLevelShift, consistently: boundary vertices where σ
+//   equals the level (a painted region, σ = 0 elsewhere) then lie strictly inside the region, and
+//   crossings near them stay away from them by more than float32 rounding (an STL's precision).
 #include <algorithm>
 #include <bit>
 #include <cmath>
@@ -12,21 +22,25 @@
 namespace distlab::kelvin {
 namespace {
 
+constexpr double kLevelShift = 1e-5;
+
 class Builder {
  public:
-  // Values within 1e-9 (relative) of the level count as in: on the boundary U = |y| · e^(−σ)/|y|
-  // equals e^(−σ) only to rounding, and at the level σ itself (the object's surface for constant
-  // σ, the web's zero level for σ = 0) those last bits made slivers of crossing triangles that
-  // overlapped the surface facets with the opposite orientation. One byte per vertex: the cell
-  // loop reads 4 per cell at random, and bytes stay in cache where the doubles of u do not.
+  // One byte per vertex: the cell loop reads 4 per cell at random, and bytes stay in cache where
+  // the doubles of u do not.
   Builder(const Field::Impl& m, const VecX& u, double level_u) : m_(m), u_(u), level_(level_u), in_(static_cast<size_t>(u.size())) {
-    for (Eigen::Index v = 0; v < u.size(); ++v) in_[static_cast<size_t>(v)] = u[v] <= level_u * (1 + 1e-9);
+    for (Eigen::Index v = 0; v < u.size(); ++v) in_[static_cast<size_t>(v)] = u[v] <= level_u;
     rehash(1 << 12);
   }
 
   // Output vertex for mesh vertex a (a == b) or for the level crossing on edge (a, b); shared by
   // every triangle that touches it, which makes the surface watertight.
   int vertex(int a, int b) {
+    if (a != b) {  // a crossing that rounds onto an end is that end (then faces that collapse are left out)
+      const double t = (level_ - u_[a]) / (u_[b] - u_[a]);
+      if (!(t > 0)) b = a;
+      else if (!(t < 1)) a = b;
+    }
     if (a > b) std::swap(a, b);
     const auto key = (static_cast<std::uint64_t>(a) << 32) | static_cast<std::uint32_t>(b);
     std::size_t i = slot(key);
@@ -39,8 +53,7 @@ class Builder {
     values_[i] = static_cast<int>(points_.size());
     Vec3 y = m_.tm.points.row(a);
     if (a != b) {
-      const double t = std::clamp((level_ - u_[a]) / (u_[b] - u_[a]), 0.0, 1.0);  // in() snaps
-      y += t * (Vec3(m_.tm.points.row(b)) - y);
+      y += (level_ - u_[a]) / (u_[b] - u_[a]) * (Vec3(m_.tm.points.row(b)) - y);
     }
     ys_.push_back(y);
     points_.emplace_back(m_.centre + y / y.squaredNorm());
@@ -51,6 +64,7 @@ class Builder {
   // triangle is planar there. The inversion reverses orientation, so the x-space triangle then
   // faces the pushed-forward n_y when its vertex order is reversed.
   void triangle(int i, int j, int k, const Vec3& n_y) {
+    if (i == j || j == k || i == k) return;
     const Vec3 &a = ys_[static_cast<size_t>(i)], &b = ys_[static_cast<size_t>(j)], &c = ys_[static_cast<size_t>(k)];
     if ((b - a).cross(c - a).dot(n_y) > 0) tris_.emplace_back(i, k, j);
     else tris_.emplace_back(i, j, k);
@@ -109,41 +123,43 @@ mesh::SurfaceMesh Field::isosurface(double level) const {
   if (!std::isfinite(level)) throw InvalidInput("isosurfaces.levels", "levels must be finite numbers");
   VecX u(m.tm.points.rows());
   for (Eigen::Index v = 0; v < u.size(); ++v) u[v] = m.tm.points.row(v).norm() * m.V[v];
-  Builder out(m, u, std::exp(-level));
+  double u_boundary = 0;  // e^(−min σ): U = |y| · e^(−σ)/|y| on the boundary
+  for (const int v : m.boundary) u_boundary = std::max(u_boundary, u[v]);
+  const double lowest_sigma = -std::log(u_boundary);
+  const bool at_boundary = std::abs(level - lowest_sigma) <= 1e-9 * std::max(1.0, std::abs(lowest_sigma));
+  Builder out(m, u, at_boundary ? u_boundary : std::exp(-(level - kLevelShift)));
 
   bool crosses = false;  // some cell has the level inside: the field takes it
-  for (int c : m.domain_tets) {
-    int v[4], n_in = 0;
-    for (int k = 0; k < 4; ++k) n_in += out.in(v[k] = m.tm.tets(c, k));
-    if (n_in == 0 || n_in == 4) continue;
-    crosses = true;
-    // −∇U in this cell points into {h ≥ level}.
-    // ∇U solves D ∇U = ΔU (rows of D: edges from v[0]); D⁻¹ has columns (d_j × d_k) / det D.
-    Mat3 d;
-    for (int k = 0; k < 3; ++k) d.row(k) = m.tm.points.row(v[k + 1]) - m.tm.points.row(v[0]);
-    const Vec3 du(u[v[1]] - u[v[0]], u[v[2]] - u[v[0]], u[v[3]] - u[v[0]]);
-    const Vec3 c0 = d.row(1).cross(d.row(2)), c1 = d.row(2).cross(d.row(0)), c2 = d.row(0).cross(d.row(1));
-    const double det = d.row(0).dot(c0);
-    const Vec3 into = det != 0 ? Vec3(-(du[0] * c0 + du[1] * c1 + du[2] * c2) / det)
-                               : Vec3(-d.colPivHouseholderQr().solve(du));  // degenerate cell
-    int ins[4], outs[4], ni = 0, no = 0;
-    for (const int vk : v) (out.in(vk) ? ins[ni++] : outs[no++]) = vk;
-    if (ni == 1 || no == 1) {
-      const int lone = ni == 1 ? ins[0] : outs[0];
-      const int* rest = ni == 1 ? outs : ins;
-      out.triangle(out.vertex(lone, rest[0]), out.vertex(lone, rest[1]), out.vertex(lone, rest[2]), into);
-    } else {
-      const int a = out.vertex(ins[0], outs[0]), b = out.vertex(ins[0], outs[1]),
-                e = out.vertex(ins[1], outs[1]), f = out.vertex(ins[1], outs[0]);
-      out.triangle(a, b, e, into);
-      out.triangle(a, e, f, into);
+  if (!at_boundary)
+    for (int c : m.domain_tets) {
+      int v[4], n_in = 0;
+      for (int k = 0; k < 4; ++k) n_in += out.in(v[k] = m.tm.tets(c, k));
+      if (n_in == 0 || n_in == 4) continue;
+      crosses = true;
+      // −∇U in this cell points into {h ≥ level}.
+      // ∇U solves D ∇U = ΔU (rows of D: edges from v[0]); D⁻¹ has columns (d_j × d_k) / det D.
+      Mat3 d;
+      for (int k = 0; k < 3; ++k) d.row(k) = m.tm.points.row(v[k + 1]) - m.tm.points.row(v[0]);
+      const Vec3 du(u[v[1]] - u[v[0]], u[v[2]] - u[v[0]], u[v[3]] - u[v[0]]);
+      const Vec3 c0 = d.row(1).cross(d.row(2)), c1 = d.row(2).cross(d.row(0)), c2 = d.row(0).cross(d.row(1));
+      const double det = d.row(0).dot(c0);
+      const Vec3 into = det != 0 ? Vec3(-(du[0] * c0 + du[1] * c1 + du[2] * c2) / det)
+                                 : Vec3(-d.colPivHouseholderQr().solve(du));  // degenerate cell
+      int ins[4], outs[4], ni = 0, no = 0;
+      for (const int vk : v) (out.in(vk) ? ins[ni++] : outs[no++]) = vk;
+      if (ni == 1 || no == 1) {
+        const int lone = ni == 1 ? ins[0] : outs[0];
+        const int* rest = ni == 1 ? outs : ins;
+        out.triangle(out.vertex(lone, rest[0]), out.vertex(lone, rest[1]), out.vertex(lone, rest[2]), into);
+      } else {
+        const int a = out.vertex(ins[0], outs[0]), b = out.vertex(ins[0], outs[1]),
+                  e = out.vertex(ins[1], outs[1]), f = out.vertex(ins[1], outs[0]);
+        out.triangle(a, b, e, into);
+        out.triangle(a, e, f, into);
+      }
     }
-  }
-  // Every vertex in {h ≥ level} (U(y = 0) = 0 is always in it): level ≤ minimum(). Below it
-  // the field never takes the level (empty); at it (to rounding: U = |y| · e^(−σ)/|y| on the
-  // boundary) {h = level} is where the surface has its smallest σ, e.g. the object itself for
-  // constant σ = level, and the facets below are that set.
-  if (!crosses) {
+  // No crossing and below every value: the field never takes the level (empty).
+  if (!crosses && !at_boundary) {
     const double lowest = minimum();
     if (level < lowest - 1e-9 * std::max(1.0, std::abs(lowest))) return {};
   }

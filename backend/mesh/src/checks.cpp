@@ -4,6 +4,9 @@
 #include <CGAL/Surface_mesh.h>
 
 #include <algorithm>
+#include <array>
+#include <bit>
+#include <cstdint>
 #include <numeric>
 #include <unordered_map>
 #include <vector>
@@ -27,7 +30,108 @@ int find(std::vector<int>& parent, int i) {
   return i;
 }
 
+std::vector<std::vector<int>> stars(const SurfaceMesh& mesh) {
+  std::vector<std::vector<int>> star(static_cast<size_t>(mesh.vertices.rows()));
+  for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f)
+    for (int k = 0; k < 3; ++k) star[static_cast<size_t>(mesh.faces(f, k))].push_back(static_cast<int>(f));
+  return star;
+}
+
+// Whether the faces around v (none is harmless) form one fan: joined across edges through v.
+bool one_fan(const SurfaceMesh& mesh, const std::vector<int>& faces, int v) {
+  if (faces.empty()) return true;
+  std::vector<int> parent(faces.size());
+  std::iota(parent.begin(), parent.end(), 0);
+  // Faces sharing an edge through v are joined; key them by the other edge endpoint.
+  std::unordered_map<int, int> by_neighbour;
+  for (size_t i = 0; i < faces.size(); ++i)
+    for (int k = 0; k < 3; ++k) {
+      const int w = mesh.faces(faces[i], k);
+      if (w == v) continue;
+      auto [it, inserted] = by_neighbour.emplace(w, static_cast<int>(i));
+      if (!inserted) parent[static_cast<size_t>(find(parent, static_cast<int>(i)))] = find(parent, it->second);
+    }
+  const int root = find(parent, 0);
+  for (size_t i = 1; i < faces.size(); ++i)
+    if (find(parent, static_cast<int>(i)) != root) return false;
+  return true;
+}
+
 }  // namespace
+
+SurfaceReport inspect_surface(const SurfaceMesh& mesh) {
+  SurfaceReport r;
+  r.faces = static_cast<long>(mesh.faces.rows());
+  // Welded at float32: what an STL or glTF file of the surface carries, the coarsest the
+  // project writes, so a surface that passes here passes as any of its files.
+  SurfaceMesh w;
+  w.faces = mesh.faces;
+  {
+    struct Hash {
+      std::size_t operator()(const std::array<std::uint32_t, 3>& p) const {
+        return std::hash<std::uint64_t>{}((static_cast<std::uint64_t>(p[0]) * 0x9E3779B97F4A7C15ull) ^
+                                          (static_cast<std::uint64_t>(p[1]) << 21) ^ p[2]);
+      }
+    };
+    std::unordered_map<std::array<std::uint32_t, 3>, int, Hash> index;
+    index.reserve(static_cast<size_t>(mesh.vertices.rows()));
+    std::vector<int> to(static_cast<size_t>(mesh.vertices.rows()));
+    w.vertices.resize(mesh.vertices.rows(), 3);
+    for (Eigen::Index v = 0; v < mesh.vertices.rows(); ++v) {
+      std::array<std::uint32_t, 3> bits{};
+      for (int k = 0; k < 3; ++k) bits[static_cast<size_t>(k)] = std::bit_cast<std::uint32_t>(static_cast<float>(mesh.vertices(v, k)) + 0.0f);  // −0 is +0
+      const auto [it, inserted] = index.emplace(bits, static_cast<int>(index.size()));
+      if (inserted) w.vertices.row(it->second) = mesh.vertices.row(v);
+      to[static_cast<size_t>(v)] = it->second;
+    }
+    w.vertices.conservativeResize(static_cast<Eigen::Index>(index.size()), 3);
+    for (Eigen::Index f = 0; f < w.faces.rows(); ++f)
+      for (int k = 0; k < 3; ++k) w.faces(f, k) = to[static_cast<size_t>(w.faces(f, k))];
+  }
+  r.vertices = static_cast<long>(w.vertices.rows());
+  std::unordered_map<std::uint64_t, int> edges;
+  for (Eigen::Index f = 0; f < w.faces.rows(); ++f) {
+    const int a = w.faces(f, 0), b = w.faces(f, 1), c = w.faces(f, 2);
+    if (a == b || b == c || c == a) {
+      ++r.degenerate_faces;
+      continue;
+    }
+    for (int k = 0; k < 3; ++k) ++edges[edge_key(w.faces(f, k), w.faces(f, (k + 1) % 3))];
+  }
+  for (const auto& [key, count] : edges) {
+    if (count == 1) ++r.boundary_edges;
+    else if (count > 2) ++r.non_manifold_edges;
+  }
+  const std::vector<std::vector<int>> star = stars(w);
+  for (int v = 0; v < static_cast<int>(w.vertices.rows()); ++v)
+    if (!one_fan(w, star[static_cast<size_t>(v)], v)) ++r.non_manifold_vertices;
+  // Components: faces joined across shared edges.
+  std::vector<int> parent(static_cast<size_t>(w.faces.rows()));
+  std::iota(parent.begin(), parent.end(), 0);
+  std::unordered_map<std::uint64_t, int> first_face;
+  for (Eigen::Index f = 0; f < w.faces.rows(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      auto [it, inserted] = first_face.emplace(edge_key(w.faces(f, k), w.faces(f, (k + 1) % 3)), static_cast<int>(f));
+      if (!inserted) parent[static_cast<size_t>(find(parent, static_cast<int>(f)))] = find(parent, it->second);
+    }
+  for (size_t f = 0; f < parent.size(); ++f) r.components += find(parent, static_cast<int>(f)) == static_cast<int>(f);
+  r.volume = r.faces > 0 ? signed_volume(mesh) : 0.0;
+  return r;
+}
+
+std::string surface_defects(const SurfaceReport& r) {
+  if (r.faces == 0) return "no faces";
+  std::string out;
+  auto add = [&out](long n, const char* one, const char* many) {
+    if (n == 0) return;
+    out += (out.empty() ? "" : ", ") + std::to_string(n) + " " + (n == 1 ? one : many);
+  };
+  add(r.boundary_edges, "edge in one face only (open)", "edges in one face only (open)");
+  add(r.non_manifold_edges, "edge in more than two faces", "edges in more than two faces");
+  add(r.non_manifold_vertices, "vertex where two sheets touch", "vertices where two sheets touch");
+  add(r.degenerate_faces, "face collapsed at float32 precision", "faces collapsed at float32 precision");
+  return out;
+}
 
 std::string topology_defect(const SurfaceMesh& mesh, const std::vector<int>& names) {
   const auto name = [&](std::uint64_t v) {
@@ -79,28 +183,10 @@ std::string topology_defect(const SurfaceMesh& mesh, const std::vector<int>& nam
     return "inconsistently oriented faces at edge " + edge_name(flipped);
 
   // Non-manifold vertices: the faces around a vertex must form a single fan.
-  std::vector<std::vector<int>> star(static_cast<size_t>(nv));
-  for (int f = 0; f < nf; ++f)
-    for (int k = 0; k < 3; ++k) star[static_cast<size_t>(mesh.faces(f, k))].push_back(f);
-  for (int v = 0; v < nv; ++v) {
-    const auto& faces = star[static_cast<size_t>(v)];
-    if (faces.empty()) continue;  // unreferenced vertices are harmless
-    std::vector<int> parent(faces.size());
-    std::iota(parent.begin(), parent.end(), 0);
-    // Faces sharing an edge through v are joined; key them by the other edge endpoint.
-    std::unordered_map<int, int> by_neighbour;
-    for (size_t i = 0; i < faces.size(); ++i)
-      for (int k = 0; k < 3; ++k) {
-        const int w = mesh.faces(faces[i], k);
-        if (w == v) continue;
-        auto [it, inserted] = by_neighbour.emplace(w, static_cast<int>(i));
-        if (!inserted) parent[static_cast<size_t>(find(parent, static_cast<int>(i)))] = find(parent, it->second);
-      }
-    const int root = find(parent, 0);
-    for (size_t i = 1; i < faces.size(); ++i)
-      if (find(parent, static_cast<int>(i)) != root)
-        return "non-manifold vertex " + name(static_cast<std::uint64_t>(v)) + " (two surface sheets touch there)";
-  }
+  const std::vector<std::vector<int>> star = stars(mesh);
+  for (int v = 0; v < nv; ++v)
+    if (!one_fan(mesh, star[static_cast<size_t>(v)], v))
+      return "non-manifold vertex " + name(static_cast<std::uint64_t>(v)) + " (two surface sheets touch there)";
   return {};
 }
 

@@ -88,4 +88,10 @@ double choose_grading(const mesh::SurfaceMesh& inverted, const MeshingParams& pa
 TetMesh mesh_inverted_domain(const mesh::SurfaceMesh& inverted, const MeshingParams& params,
                              const Progress& progress, std::string* warning = nullptr);
 
+// Makes the boundary of the domain cells a closed 2-manifold: at every vertex, the domain cells
+// around it and the other cells (the hull counting as one) each form one face-connected piece.
+// Where two parts of the domain meet at an edge or a vertex only, the smaller parts' cells around
+// it leave the domain (the object grows by them). Returns how many cells left it.
+long make_boundary_manifold(TetMesh& tm);
+
 }  // namespace distlab::kelvin

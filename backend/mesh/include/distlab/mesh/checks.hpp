@@ -22,4 +22,20 @@ void require_closed_manifold(SurfaceMesh& mesh, const std::string& field = "mesh
 // message (e.g. the user's first file vertex of a welded vertex); empty: v itself.
 std::string topology_defect(const SurfaceMesh& mesh, const std::vector<int>& names = {});
 
+// What an exported surface is, counted on its vertices welded at float32 (an STL's precision),
+// independently of how it was made: closed (every edge in exactly two faces), a 2-manifold (also
+// one fan of faces around every vertex, no face collapsed by the weld), its face-connected pieces
+// and enclosed volume (positive: outward faces).
+struct SurfaceReport {
+  long vertices = 0, faces = 0;
+  long boundary_edges = 0, non_manifold_edges = 0, non_manifold_vertices = 0, degenerate_faces = 0;
+  long components = 0;
+  double volume = 0;
+  bool closed() const { return faces > 0 && boundary_edges == 0 && non_manifold_edges == 0; }
+  bool manifold() const { return closed() && non_manifold_vertices == 0 && degenerate_faces == 0; }
+};
+SurfaceReport inspect_surface(const SurfaceMesh& mesh);
+// Empty for a closed 2-manifold; else its defects with their counts, for a refusal.
+std::string surface_defects(const SurfaceReport& report);
+
 }  // namespace distlab::mesh
