@@ -14,6 +14,7 @@
 #include "distlab/mesh/checks.hpp"
 #include "distlab/mesh/primitives.hpp"
 #include "distlab/mesh/repair.hpp"
+#include "mesh/cgal_mesh.hpp"
 
 using namespace distlab;
 using namespace distlab::mesh;
@@ -88,20 +89,14 @@ TEST(Fix, FillingTheHoleClosesTheSphere) {
   EXPECT_GT(signed_volume(r.surface), 0);
 }
 
-Mesh to_cgal(const SurfaceMesh& m) {
-  Mesh sm;
-  std::vector<Mesh::Vertex_index> v;
-  for (Eigen::Index i = 0; i < m.vertices.rows(); ++i) v.push_back(sm.add_vertex(K::Point_3(m.vertices(i, 0), m.vertices(i, 1), m.vertices(i, 2))));
-  for (Eigen::Index f = 0; f < m.faces.rows(); ++f) sm.add_face(v[m.faces(f, 0)], v[m.faces(f, 1)], v[m.faces(f, 2)]);
-  return sm;
-}
+using distlab::test::to_cgal;
 
 // The wrap of the open sphere is closed and manifold; its one-sided distances (grid samples)
 // agree with CGAL's approximate_Hausdorff_distance (random samples, 4000 per m²) within 10 %,
 // and wrap → input is at least the offset (the wrap's vertices lie on the offset surface).
 TEST(Wrap, AnOpenSphereIsWrappedAndItsDistancesAgreeWithCgal) {
   const SurfaceMesh open = sphere_with_hole();
-  const RepairResult r = wrap(open, {0.2, 0.01}, 200000);
+  const RepairResult r = wrap(open, {0.2, 0.01}, {200000, 1e9, 1e9});
   EXPECT_EQ(topology_defect(r.surface), "");
   EXPECT_GT(signed_volume(r.surface), 0);
   const Mesh a = to_cgal(open), b = to_cgal(r.surface);
@@ -112,7 +107,66 @@ TEST(Wrap, AnOpenSphereIsWrappedAndItsDistancesAgreeWithCgal) {
   EXPECT_NEAR(r.input_to_result, in_to_wrap, 0.1 * in_to_wrap);
   EXPECT_NEAR(r.result_to_input, wrap_to_in, 0.1 * wrap_to_in);
   EXPECT_GE(r.result_to_input, 0.009);
-  EXPECT_THROW(wrap(open, {0.001, 0.0001}, 10000), InvalidInput);  // too many faces for the limit
+  EXPECT_THROW(wrap(open, {0.001, 0.0001}, {10000, 1e9, 1e9}), InvalidInput);  // too many faces for the limit
+}
+
+// A UV torus (major radius 1, minor 0.3), n × 2n quads split in two.
+SurfaceMesh torus(int n) {
+  SurfaceMesh m;
+  m.vertices.resize(2 * n * n, 3);
+  m.faces.resize(4 * n * n, 3);
+  for (int i = 0; i < 2 * n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const double u = M_PI * i / n, v = 2 * M_PI * j / n;
+      m.vertices.row(i * n + j) << (1 + 0.3 * std::cos(v)) * std::cos(u), (1 + 0.3 * std::cos(v)) * std::sin(u), 0.3 * std::sin(v);
+      const int a = i * n + j, b = ((i + 1) % (2 * n)) * n + j, c = ((i + 1) % (2 * n)) * n + (j + 1) % n, d = i * n + (j + 1) % n;
+      m.faces.row(2 * (i * n + j)) << a, b, c;
+      m.faces.row(2 * (i * n + j) + 1) << a, c, d;
+    }
+  return m;
+}
+
+// The estimate is within a factor of 2 of the wrap's face count on closed shapes at 5k+ faces
+// (calibrated on these and the CAD part in issue 36's note), and the smallest α it suggests fits.
+TEST(WrapEstimate, IsWithinAFactorOfTwoOfTheFacesMade) {
+  struct Case {
+    const char* name;
+    SurfaceMesh mesh;
+    double alpha;
+  };
+  const Case cases[] = {{"sphere", icosphere(1.0, 4), 0.05}, {"torus", torus(40), 0.03}, {"box", box(Vec3(1, 0.5, 0.3)), 0.025}};
+  for (const Case& c : cases) {
+    const WrapOptions o{c.alpha, c.alpha / 30};
+    const WrapEstimate e = estimate_wrap(c.mesh, o);
+    const RepairResult r = wrap(c.mesh, o, {1000000, 1e9, 1e9});
+    const double ratio = e.faces / static_cast<double>(r.surface.faces.rows());
+    std::printf("%s α %.3f: estimate %.0f faces, wrap %ld (ratio %.2f)\n", c.name, c.alpha, e.faces, static_cast<long>(r.surface.faces.rows()), ratio);
+    EXPECT_GT(r.surface.faces.rows(), 5000) << c.name;
+    EXPECT_GT(ratio, 0.5) << c.name;
+    EXPECT_LT(ratio, 2.0) << c.name;
+  }
+}
+
+// A tiny α is refused before any wrapping (no progress is reported), naming the α that fits,
+// and that α's estimate is within the budget while a slightly smaller one is not.
+TEST(WrapEstimate, ATinyAlphaIsRefusedUpFrontNamingTheAlphaThatFits) {
+  const SurfaceMesh s = icosphere(1.0, 4);
+  const WrapBudget budget{20000, 1e9, 1e9};
+  int reports = 0;
+  Progress progress;
+  progress.report = [&](const std::string&, double f) { reports += f > 0; };
+  try {
+    wrap(s, {0.001, 0}, budget, "repair_options", progress);
+    FAIL() << "a wrap of ~50M faces was accepted";
+  } catch (const InvalidInput& e) {
+    EXPECT_EQ(e.field(), "repair_options.alpha");
+    EXPECT_NE(std::string(e.what()).find("use alpha ≥"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(reports, 0);
+  const double fit = smallest_alpha_within(s, {}, budget);
+  EXPECT_LE(estimate_wrap(s, {fit, 0}).faces, 20000);
+  EXPECT_GT(estimate_wrap(s, {fit * 0.99, 0}).faces, 20000);
+  EXPECT_NO_THROW(require_wrap_within(s, {fit, 0}, budget));
 }
 
 // The transfer of a mesh onto its own vertices is the identity.
@@ -131,7 +185,7 @@ TEST(Transfer, OntoItsOwnVerticesIsTheIdentity) {
 // the closed form within the measured distances (and within the offset plus the chord error).
 TEST(Transfer, SigmaLinearInZRoundTripsThroughTheWrap) {
   const SurfaceMesh open = sphere_with_hole();
-  const RepairResult r = wrap(open, {0.2, 0.01}, 200000);
+  const RepairResult r = wrap(open, {0.2, 0.01}, {200000, 1e9, 1e9});
   std::vector<double> z_user(static_cast<std::size_t>(open.vertices.rows()));
   for (std::size_t v = 0; v < z_user.size(); ++v) z_user[v] = open.vertices(static_cast<Eigen::Index>(v), 2);
   const Transfer forward = nearest_face_transfer(open, r.surface.vertices);
@@ -159,7 +213,7 @@ TEST(Wrap, ReportsMonotoneProgressFromInsideTheFloodFill) {
     EXPECT_EQ(stage, "repair");
     seen.push_back(f);
   };
-  wrap(sphere_with_hole(), {0.1, 0.01}, 200000, "repair_options", progress);
+  wrap(sphere_with_hole(), {0.1, 0.01}, {200000, 1e9, 1e9}, "repair_options", progress);
   ASSERT_GE(seen.size(), 3u);
   EXPECT_EQ(seen.front(), 0.0);
   EXPECT_EQ(seen.back(), 1.0);
@@ -182,7 +236,7 @@ TEST(Wrap, ACancelInsideTheFloodFillStopsItAtTheNextGate) {
       cancel = true;
     }
   };
-  EXPECT_THROW(wrap(sphere_with_hole(), {0.1, 0.01}, 200000, "repair_options", progress), Cancelled);
+  EXPECT_THROW(wrap(sphere_with_hole(), {0.1, 0.01}, {200000, 1e9, 1e9}, "repair_options", progress), Cancelled);
   EXPECT_GT(at, 0);
   EXPECT_LT(at, 0.8);  // inside the flood fill, not after it
   EXPECT_EQ(after, 0);

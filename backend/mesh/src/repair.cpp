@@ -19,7 +19,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <functional>
+#include <limits>
 
 #include "distlab/geometry/error.hpp"
 #include "distlab/mesh/checks.hpp"
@@ -69,36 +71,36 @@ SurfaceMesh from_cgal(const Mesh& sm) {
 
 double diagonal(const SurfaceMesh& m) { return (m.vertices.colwise().maxCoeff() - m.vertices.colwise().minCoeff()).norm(); }
 
-// The largest distance from a to the surface b, sampled on a by CGAL's sample_triangle_soup on a
-// grid (deterministic) of about 50 points per face, plus every face's corners.
-double one_sided_distance(const SurfaceMesh& a, const SurfaceMesh& b, const Progress& progress) {
+constexpr double kMaxDistanceSamples = 250000;  // per pass: ~25 MB and 0.6 s
+
+double area_of(const SurfaceMesh& m) {
   double area = 0;
-  for (Eigen::Index f = 0; f < a.faces.rows(); ++f) {
-    const Vec3 p = a.vertices.row(a.faces(f, 0)), q = a.vertices.row(a.faces(f, 1)), r = a.vertices.row(a.faces(f, 2));
+  for (Eigen::Index f = 0; f < m.faces.rows(); ++f) {
+    const Vec3 p = m.vertices.row(m.faces(f, 0)), q = m.vertices.row(m.faces(f, 1)), r = m.vertices.row(m.faces(f, 2));
     area += 0.5 * (q - p).cross(r - p).norm();
   }
-  std::vector<Point> samples;
-  if (area > 0)
-    PMP::sample_triangle_soup(points_of(a), triangles_of(a), std::back_inserter(samples),
-                              PMP::parameters::use_grid_sampling(true).grid_spacing(std::sqrt(area / (50.0 * static_cast<double>(a.faces.rows())))));
-  MatX3 at(static_cast<Eigen::Index>(samples.size()), 3);
-  for (std::size_t i = 0; i < samples.size(); ++i) at.row(static_cast<Eigen::Index>(i)) << samples[i].x(), samples[i].y(), samples[i].z();
-  const Transfer t = nearest_face_transfer(b, at, progress);
-  return t.distances.empty() ? 0.0 : *std::max_element(t.distances.begin(), t.distances.end());
+  return area;
 }
 
 // CGAL's flood fill calls this before each gate (a facet between outside and inside): the place
 // where the job's token is polled, and where inserted Steiner points give the progress.
 struct WrapVisitor : CGAL::Alpha_wraps_3::internal::Wrapping_default_visitor {
   const Progress* progress = nullptr;
+  const std::string* field = nullptr;
+  double alpha = 0;
   double expected_vertices = 1;
+  std::size_t max_steiner_points = 0;
   std::size_t steiner_points = 0;
 
   template <typename Wrapper, typename Gate>
   void before_facet_treatment(const Wrapper&, const Gate&) const { progress->check(); }
   template <typename Wrapper, typename VertexHandle>
   void after_Steiner_point_insertion(const Wrapper&, VertexHandle) {
-    if (++steiner_points % 256 == 0)
+    if (++steiner_points > max_steiner_points)  // the estimate was low for this input: stop here
+      throw InvalidInput(*field + ".alpha", "α " + std::to_string(alpha) + " m: the wrap passed " + std::to_string(max_steiner_points) +
+                                                " points, over this server's budget (its surface would have more faces than " +
+                                                std::to_string(max_steiner_points) + "); use a larger alpha");
+    if (steiner_points % 256 == 0)
       (*progress)("repair", 0.8 * std::min(0.99, static_cast<double>(steiner_points) / expected_vertices));
   }
 };
@@ -144,7 +146,8 @@ RepairResult fix(const SurfaceMesh& user, const FixOptions& options, const std::
       for ([[maybe_unused]] auto e : CGAL::halfedges_around_face(h, sm)) ++edges;
       if (edges > static_cast<std::size_t>(options.max_hole_edges)) continue;
       std::vector<Mesh::Face_index> patch;
-      PMP::triangulate_hole(sm, h, std::back_inserter(patch));
+      PMP::triangulate_hole(sm, h, std::back_inserter(patch),
+                            PMP::parameters::use_delaunay_triangulation(true).do_not_use_cubic_algorithm(edges > static_cast<std::size_t>(kCubicHoleEdges)));
       filled += !patch.empty();
     }
   }
@@ -167,42 +170,105 @@ RepairResult fix(const SurfaceMesh& user, const FixOptions& options, const std::
   return out;
 }
 
-RepairResult wrap(const SurfaceMesh& user, const WrapOptions& options, std::size_t max_faces, const std::string& field,
+WrapEstimate estimate_wrap(const SurfaceMesh& user, const WrapOptions& options) {
+  WrapEstimate e;
+  e.alpha = options.alpha > 0 ? options.alpha : diagonal(user) / 20;
+  e.offset = options.offset > 0 ? options.offset : e.alpha / 30;
+  if (!(e.alpha > 0) || !(e.offset > 0)) return e;
+  const auto input = static_cast<double>(user.faces.rows());
+  e.faces = area_of(user) / (e.alpha * e.alpha) * (1 + 0.25 * std::sqrt(e.alpha / e.offset));
+  e.megabytes = 100 + 1.0e-3 * input + 1.3e-3 * e.faces;
+  // The two distance passes: 2.5 µs per sample (sampled_distance's count).
+  const double samples = std::min(kMaxDistanceSamples, 50 * input) + std::min(kMaxDistanceSamples, 50 * e.faces);
+  e.seconds = 1e-6 * (e.faces * (50 + std::sqrt(input)) + 10 * input + 2.5 * samples);
+  return e;
+}
+
+namespace {
+bool within(const WrapEstimate& e, const WrapBudget& b) {
+  return e.faces <= static_cast<double>(b.max_faces) && e.megabytes <= b.max_megabytes && e.seconds <= b.max_seconds;
+}
+}  // namespace
+
+double smallest_alpha_within(const SurfaceMesh& user, const WrapOptions& options, const WrapBudget& budget) {
+  // Every term falls as α grows: bisect on log α between a fitting and a failing value.
+  const double d = diagonal(user);
+  WrapOptions o = options;
+  const auto fits = [&](double alpha) {
+    o.alpha = alpha;
+    return within(estimate_wrap(user, o), budget);
+  };
+  double hi = std::max(d, options.offset) * 4, lo = hi;
+  if (!(d > 0) || !fits(hi)) return std::numeric_limits<double>::infinity();
+  while (fits(lo) && lo > 1e-12 * hi) lo /= 2;
+  for (int i = 0; i < 60; ++i) {
+    const double mid = std::sqrt(lo * hi);
+    (fits(mid) ? hi : lo) = mid;
+  }
+  return hi;
+}
+
+void require_wrap_within(const SurfaceMesh& user, const WrapOptions& options, const WrapBudget& budget, const std::string& field) {
+  const WrapEstimate e = estimate_wrap(user, options);
+  if (within(e, budget)) return;
+  const double fit = smallest_alpha_within(user, options, budget);
+  const auto num = [](double x) {
+    char b[32];
+    std::snprintf(b, sizeof b, "%.4g", x);
+    return std::string(b);
+  };
+  const std::string advice = std::isfinite(fit) ? "; use alpha ≥ " + num(fit) + " m to fit" : "; no alpha fits: the input has too many faces";
+  throw InvalidInput(field + ".alpha", "α " + num(e.alpha) + " m (offset " + num(e.offset) + " m) would make about " + num(std::round(e.faces)) +
+                                           " faces, " + num(std::round(e.megabytes)) + " MB and " + num(std::round(e.seconds)) +
+                                           " s, over this server's budget of " + std::to_string(budget.max_faces) + " faces, " +
+                                           num(budget.max_megabytes) + " MB and " + num(budget.max_seconds) + " s" + advice);
+}
+
+double sampled_distance(const SurfaceMesh& a, const SurfaceMesh& b, const Progress& progress) {
+  if (a.faces.rows() == 0 || b.faces.rows() == 0) return 0;
+  const auto n = static_cast<std::size_t>(std::min(kMaxDistanceSamples, 50 * static_cast<double>(a.faces.rows())));
+  std::vector<Point> samples;
+  if (area_of(a) > 0)
+    PMP::sample_triangle_soup(points_of(a), triangles_of(a), std::back_inserter(samples),
+                              PMP::parameters::use_random_uniform_sampling(true).number_of_points_on_faces(n).random_seed(0).do_sample_edges(false).do_sample_vertices(false));
+  MatX3 at(static_cast<Eigen::Index>(samples.size()) + a.vertices.rows(), 3);
+  at.topRows(a.vertices.rows()) = a.vertices;
+  for (std::size_t i = 0; i < samples.size(); ++i)
+    at.row(a.vertices.rows() + static_cast<Eigen::Index>(i)) << samples[i].x(), samples[i].y(), samples[i].z();
+  const Transfer t = nearest_face_transfer(b, at, progress);
+  return t.distances.empty() ? 0.0 : *std::max_element(t.distances.begin(), t.distances.end());
+}
+
+RepairResult wrap(const SurfaceMesh& user, const WrapOptions& options, const WrapBudget& budget, const std::string& field,
                   const Progress& progress) {
   progress("repair", 0.0);
   RepairResult out;
-  const double d = diagonal(user);
-  out.alpha = options.alpha > 0 ? options.alpha : d / 20;
-  out.offset = options.offset > 0 ? options.offset : out.alpha / 30;
+  const WrapEstimate e = estimate_wrap(user, options);
+  out.alpha = e.alpha;
+  out.offset = e.offset;
   if (!(out.alpha > 0) || !(out.offset > 0)) throw InvalidInput(field, "the mesh has no extent to wrap");
-  // The wrap has about area / α² faces (a few per α-sized patch): refuse before wrapping.
-  double area = 0;
-  for (Eigen::Index f = 0; f < user.faces.rows(); ++f) {
-    const Vec3 a = user.vertices.row(user.faces(f, 0)), b = user.vertices.row(user.faces(f, 1)), c = user.vertices.row(user.faces(f, 2));
-    area += 0.5 * (b - a).cross(c - a).norm();
-  }
-  const double expected = 4 * area / (out.alpha * out.alpha);
-  if (expected > static_cast<double>(max_faces))
-    throw InvalidInput(field + ".alpha", "α " + std::to_string(out.alpha) + " m would make about " + std::to_string(std::llround(expected)) +
-                                             " faces, over this server's " + std::to_string(max_faces) + "; use a larger α");
+  require_wrap_within(user, options, budget, field);
   const std::vector<Point> points = points_of(user);
   const auto triangles = triangles_of(user);
   Mesh wrapped;
   WrapVisitor visitor;
   visitor.progress = &progress;
-  visitor.expected_vertices = std::max(1.0, expected / 2);  // a closed surface has about F / 2 vertices
+  visitor.field = &field;
+  visitor.alpha = out.alpha;
+  visitor.expected_vertices = std::max(1.0, e.faces / 2);  // a closed surface has about F / 2 vertices
+  visitor.max_steiner_points = budget.max_faces;
   CGAL::alpha_wrap_3(points, triangles, out.alpha, out.offset, wrapped, CGAL::parameters::default_values(),
                      CGAL::parameters::visitor(std::ref(visitor)));
   progress("repair", 0.8);
   out.surface = from_cgal(wrapped);
-  if (static_cast<std::size_t>(out.surface.faces.rows()) > max_faces)
+  if (static_cast<std::size_t>(out.surface.faces.rows()) > budget.max_faces)
     throw InvalidInput(field + ".alpha", "the wrap has " + std::to_string(out.surface.faces.rows()) + " faces, over this server's " +
-                                             std::to_string(max_faces) + "; use a larger α");
+                                             std::to_string(budget.max_faces) + "; use a larger alpha");
   if (out.surface.faces.rows() == 0) throw InvalidInput(field, "wrapping produced no surface");
   if (signed_volume(out.surface) < 0) out.surface.faces.col(1).swap(out.surface.faces.col(2));
-  out.input_to_result = one_sided_distance(user, out.surface, progress);
+  out.input_to_result = sampled_distance(user, out.surface, progress);
   progress("repair", 0.9);
-  out.result_to_input = one_sided_distance(out.surface, user, progress);
+  out.result_to_input = sampled_distance(out.surface, user, progress);
   progress("repair", 1.0);
   return out;
 }

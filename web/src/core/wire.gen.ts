@@ -195,8 +195,12 @@ export interface paths {
                             max_response_bytes: number;
                             /** @description memory of the boundary responses of all prepared fields held in memory, first come first served (fields no object holds any more give theirs up first); a preparation whose response does not fit solves strokes with the factor */
                             max_response_bytes_total: number;
-                            /** @description faces a "wrap" may make, estimated (4 · area / α²) before wrapping and counted after (the job fails, field repair_options.alpha) */
+                            /** @description faces a "wrap" may make: estimated before it runs (area / α² · (1 + 0.25 √(α / offset))), refused up front over it (422 over_budget, field repair_options.alpha, naming the α that fits); the running wrap stops (the job fails, same field) past this many Steiner points or faces */
                             max_repair_faces: number;
+                            /** @description memory a "wrap" may take, estimated before it runs (100 MB + 1.0 kB per input face + 1.3 kB per wrap face); refused up front over it (422 over_budget, field repair_options.alpha) */
+                            max_repair_bytes: number;
+                            /** @description seconds a "wrap" may take, estimated before it runs (from the wrap's and the input's faces); refused up front over it (422 over_budget, field repair_options.alpha) */
+                            max_repair_seconds: number;
                             /**
                              * @description GET .../isosurface and .../export extract one level each (a repeated level is 413 too_many_levels, field level); several levels: PUT .../levels, at most max_levels
                              * @constant
@@ -2924,10 +2928,14 @@ export interface components {
             repair_options?: {
                 /** @description fix: holes bounded by at most this many edges are filled (default 0) */
                 max_hole_edges?: number;
-                /** @description wrap: metres (default: diagonal / 20); a wrap over max_repair_faces faces is refused */
+                /** @description wrap: metres (default: diagonal / 20); a wrap estimated over max_repair_faces faces, max_repair_bytes or max_repair_seconds is refused at once (422 over_budget, field repair_options.alpha, the message naming the smallest alpha that fits) */
                 alpha?: number;
                 /** @description wrap: metres (default alpha / 30) */
                 offset?: number;
+            };
+            /** @description before the repair and preparation: CGAL Surface_mesh_simplification (edge collapse, Lindstrom–Turk) of the welded surface (manifold and oriented, else 400 field simplify) down to at most faces faces, in the object's job (state repairing, stage simplify); simplify_report gives the one-sided Hausdorff distance from the input (CGAL's bounded-error Hausdorff distance, 5 %). sigma.per_vertex reaches the simplified surface as it reaches a repaired one (nearest_face_transfer). */
+            simplify?: {
+                faces: number;
             };
         };
         KelvinObject: {
@@ -2969,6 +2977,20 @@ export interface components {
             center?: components["schemas"]["Vec3"];
             key: string;
             repair_report?: components["schemas"]["RepairReport"];
+            /** @description the simplify option the object was made with */
+            simplify?: {
+                faces?: number;
+            };
+            simplify_report?: {
+                faces?: number;
+                n_input_faces?: number;
+                n_faces?: number;
+                n_vertices?: number;
+                hausdorff?: {
+                    /** @description metres: the one-sided Hausdorff distance from the welded input to the simplified surface */
+                    input_to_simplified?: number;
+                };
+            };
             /**
              * @description the repair the object was made with
              * @enum {string}

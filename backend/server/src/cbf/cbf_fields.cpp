@@ -171,7 +171,7 @@ void prepare_planned_fields(cbf::Scenario& s, const FieldPlan& plan, const Field
     cbf::SceneField out = p.scene;
     mesh::SurfaceMesh surface = p.prepared;
     if (p.repair.kind != "none") {
-      auto [result, report] = prefixed(p.field, [&] { return run_repair_request(p.surface, p.repair, Limits{}.max_repair_faces, progress); });
+      auto [result, report] = prefixed(p.field, [&] { return run_repair_request(p.surface, p.repair, wrap_budget(Limits{}), progress); });
       out.sigma = carry_sigma(std::move(out.sigma), p.user_sigma, mesh::nearest_face_transfer(p.surface, result.surface.vertices, progress));
       surface = std::move(result.surface);
     }

@@ -164,7 +164,7 @@ json run_kelvin_request(const json& r, const kelvin::Progress& progress) {
   json repair_report;
   mesh::SurfaceMesh repaired;
   if (repair.kind != "none") {
-    auto [result, report] = run_repair_request(surface, repair, Limits{}.max_repair_faces, progress);
+    auto [result, report] = run_repair_request(surface, repair, wrap_budget(Limits{}), progress);
     repaired = std::move(result.surface);
     repair_report = std::move(report);
     solved = carry_sigma(std::move(solved), sigma, mesh::nearest_face_transfer(surface, repaired.vertices));

@@ -160,6 +160,8 @@ json KelvinObject::status_json() {
   json j = {{"id", id}, {"state", state}, {"job", job}, {"source", source}, {"n_input_vertices", surface.vertices.rows()}, {"n_input_faces", surface.faces.rows()}, {"n_welded_vertices", welded.vertices.rows()}, {"repair", repair}, {"sigma_version", sigma_version}, {"levels", levels}, {"key", key}};
   if (!error.is_null()) j["error"] = error;
   if (!repair_report.is_null()) j["repair_report"] = repair_report;
+  if (simplify_faces > 0) j["simplify"] = {{"faces", simplify_faces}};
+  if (!simplify_report.is_null()) j["simplify_report"] = simplify_report;
   if (prepared) {
     const kelvin::Stats& st = prepared->field.stats();
     j["stats"] = {{"n_verts", st.n_verts}, {"n_tets", st.n_tets}, {"size_mb", st.size_mb}, {"t_mesh", st.t_mesh}, {"t_build", st.t_build}, {"t_decomp", st.t_decomp}, {"t_solve", st.t_solve}, {"grading", st.grading}, {"response_mb", st.response_mb}, {"cache_hit", prepared->cache_hit}, {"shared", shared}};
@@ -200,7 +202,19 @@ kelvin::SigmaSpec carry_sigma(kelvin::SigmaSpec solved, const kelvin::SigmaSpec&
 
 kelvin::SigmaSpec field_sigma(const kelvin::SigmaSpec& user, const KelvinObject& o) {
   kelvin::SigmaSpec out = field_sigma(user, o.surface, o.to_welded, o.welded.vertices.rows());
-  return o.repair == "none" ? out : carry_sigma(std::move(out), user, o.to_repaired);
+  return o.reshaped() ? carry_sigma(std::move(out), user, o.to_repaired) : out;
+}
+
+std::size_t parse_simplify(const json& body, const Limits& lim) {
+  if (!body.contains("simplify")) return 0;
+  const json& s = body["simplify"];
+  json_require_object(s, "simplify");
+  json_check_keys(s, "simplify", {"faces"});
+  if (!s.contains("faces")) throw InvalidInput("simplify.faces", "simplify needs faces (the face count to simplify to)");
+  const json& n = s["faces"];
+  if (!n.is_number_integer() || n.get<std::int64_t>() < 4 || n.get<std::int64_t>() > static_cast<std::int64_t>(lim.max_upload_triangles))
+    throw InvalidInput("simplify.faces", "faces must be a whole number in [4, " + std::to_string(lim.max_upload_triangles) + "]");
+  return n.get<std::size_t>();
 }
 
 // "repair": "none" | "fix" | "wrap" and its "repair_options" (fix: max_hole_edges; wrap: alpha and
@@ -236,8 +250,21 @@ RepairRequest parse_repair(const json& body, const Limits& lim) {
   return r;
 }
 
+namespace {
+mesh::WrapOptions wrap_options(const RepairRequest& request) {
+  mesh::WrapOptions w;
+  w.alpha = request.options.value("alpha", 0.0);
+  w.offset = request.options.value("offset", 0.0);
+  return w;
+}
+}  // namespace
+
+void require_repair_within(const mesh::SurfaceMesh& user, const RepairRequest& request, const Limits& limits) {
+  if (request.kind == "wrap") mesh::require_wrap_within(user, wrap_options(request), wrap_budget(limits), "repair_options");
+}
+
 std::pair<mesh::RepairResult, json> run_repair_request(const mesh::SurfaceMesh& user, const RepairRequest& request,
-                                                       std::size_t max_faces, const Progress& progress) {
+                                                       const mesh::WrapBudget& budget, const Progress& progress) {
   mesh::RepairResult r;
   json report;
   if (request.kind == "fix") {
@@ -248,10 +275,7 @@ std::pair<mesh::RepairResult, json> run_repair_request(const mesh::SurfaceMesh& 
     for (const auto& [name, n] : r.steps) steps[name] = n;
     report = {{"kind", "fix"}, {"steps", steps}};
   } else {
-    mesh::WrapOptions w;
-    w.alpha = request.options.value("alpha", 0.0);
-    w.offset = request.options.value("offset", 0.0);
-    r = mesh::wrap(user, w, max_faces, "repair_options", progress);
+    r = mesh::wrap(user, wrap_options(request), budget, "repair_options", progress);
     report = {{"kind", "wrap"}, {"alpha", r.alpha}, {"offset", r.offset}, {"hausdorff", {{"input_to_wrap", r.input_to_result}, {"wrap_to_input", r.result_to_input}}}};
   }
   report["n_vertices"] = r.surface.vertices.rows();

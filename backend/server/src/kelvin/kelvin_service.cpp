@@ -10,6 +10,7 @@
 #include "distlab/kelvin/sigma.hpp"
 #include "distlab/mesh/checks.hpp"
 #include "distlab/mesh/repair.hpp"
+#include "distlab/mesh/simplify.hpp"
 #include "distlab/mesh/weld.hpp"
 #include "distlab/server/gap_json.hpp"
 #include "distlab/server/json_fields.hpp"
@@ -28,7 +29,16 @@ namespace {
 // Repairs or wraps the object's user mesh and sets everything that depends on the result, under
 // the object's lock: the surface to prepare, the σ transfer, the report, the content key.
 void run_repair(KelvinObject& o, const kelvin::PrepareOptions& options, const Limits& lim, const Progress& progress) {
-  auto [r, report] = run_repair_request(o.surface, {o.repair, o.repair_options}, lim.max_repair_faces, progress);
+  // Simplify first (the point is to make big scans small before anything else), on the weld.
+  json simplify_report;
+  mesh::RepairResult r;
+  json report;
+  if (o.simplify_faces > 0) {
+    mesh::SimplifyResult s = mesh::simplify(o.welded, o.simplify_faces, "simplify", progress);
+    simplify_report = {{"faces", o.simplify_faces}, {"n_input_faces", o.welded.faces.rows()}, {"n_faces", s.surface.faces.rows()}, {"n_vertices", s.surface.vertices.rows()}, {"hausdorff", {{"input_to_simplified", s.input_to_result}}}};
+    r.surface = std::move(s.surface);
+  }
+  if (o.repair != "none") std::tie(r, report) = run_repair_request(o.simplify_faces > 0 ? r.surface : o.surface, {o.repair, o.repair_options}, wrap_budget(lim), progress);
   // What prepare would refuse (a centre outside, a surface over budget), refused now by name.
   const double estimate = estimate_vertices(r.surface, options.lx, options.far_radius, sizing_for_budget(options));
   if (estimate > static_cast<double>(lim.max_vertex_estimate))
@@ -41,6 +51,7 @@ void run_repair(KelvinObject& o, const kelvin::PrepareOptions& options, const Li
   o.repaired = std::move(r.surface);
   o.to_repaired = std::move(transfer);
   o.repair_report = report;
+  o.simplify_report = simplify_report;
   o.key = content_key(o.repaired, options);
   o.field_sigma = field_sigma(o.sigma, o);
   o.state = "preparing";
@@ -61,7 +72,7 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
   if (!body.is_object()) throw InvalidInput("", "the request must be an object");
   for (const auto& [k, v] : body.items())
     if (k != "asset" && k != "upload" && k != "mesh" && k != "lx" && k != "lx_fraction" && k != "center" && k != "far_radius" &&
-        k != "grading" && k != "sigma" && k != "levels" && k != "repair" && k != "repair_options" && k != "comment")
+        k != "grading" && k != "sigma" && k != "levels" && k != "repair" && k != "repair_options" && k != "simplify" && k != "comment")
       throw InvalidInput(k, "unknown key \"" + k.substr(0, 64) + "\"");
   const int sources = static_cast<int>(body.contains("asset")) + static_cast<int>(body.contains("upload")) +
                       static_cast<int>(body.contains("mesh"));
@@ -87,6 +98,7 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
     if (!(*options.grading >= 0)) throw InvalidInput("grading", "grading must be in [0, 1]");
   }
   const RepairRequest repair = parse_repair(body, lim);
+  const std::size_t simplify_faces = parse_simplify(body, lim);
   json source = json::object();
   if (options.centre) source["center"] = {options.centre->x(), options.centre->y(), options.centre->z()};
   if (body.contains("far_radius")) source["far_radius"] = options.far_radius;
@@ -121,6 +133,12 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
   }
   if (static_cast<std::size_t>(surface.faces.rows()) > lim.max_upload_triangles)
     throw ApiError(413, "too_many_triangles", "at most " + std::to_string(lim.max_upload_triangles) + " triangles", "mesh");
+  // A wrap over its budget is refused here, before a job (and its memory) exists.
+  try {
+    require_repair_within(surface, repair, lim);
+  } catch (const InvalidInput& e) {
+    throw ApiError(422, "over_budget", e.field() + ": " + e.what(), e.field());
+  }
   // The user's mesh keeps its vertex order for the API; the field is prepared on the weld. The
   // budget counts every parameter that grows the mesh (lx and far_radius); the field named is
   // far_radius when the request would fit with the default far radius.
@@ -135,7 +153,9 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
   if (options.lx < lim.min_lx)
     throw ApiError(422, "over_budget", lx_field + " gives lx " + json(options.lx).dump() + " m, but lx must be at least " + json(lim.min_lx).dump() + " m on this server", lx_field);
   const auto budget = static_cast<double>(lim.max_vertex_estimate);
-  const double estimate = estimate_vertices(welded.surface, options.lx, options.far_radius, sizing_for_budget(options));
+  // A simplified surface has about faces / 2 vertices instead of the weld's.
+  const double simplified = simplify_faces > 0 ? static_cast<double>(std::min<Eigen::Index>(welded.surface.vertices.rows(), static_cast<Eigen::Index>(simplify_faces / 2 + 2))) - static_cast<double>(welded.surface.vertices.rows()) : 0.0;
+  const double estimate = estimate_vertices(welded.surface, options.lx, options.far_radius, sizing_for_budget(options)) + simplified;
   if (estimate_only) {
     json out = estimate_json(welded.surface, options, estimate);
     // A repair request's surface checks are of the repaired surface, made in the job: the user's
@@ -183,7 +203,8 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
   object->to_welded = std::move(welded.to_welded);
   object->repair = repair.kind;
   object->repair_options = repair.options;
-  if (repair.kind != "none") object->state = "repairing";
+  object->simplify_faces = simplify_faces;
+  if (object->reshaped()) object->state = "repairing";
   object->surface_digest = mesh_digest(object->surface);
   object->sigma_key = sigma_key(*object, json::object());
   if (body.contains("sigma")) {
@@ -211,7 +232,7 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
         kelvin::Progress progress;
         progress.report = [&j](const std::string& stage, double fraction) { j.report(stage, fraction); };
         progress.cancel = &j.cancel;
-        if (object->repair != "none") {
+        if (object->reshaped()) {
           // The long part of a repair request (the user's mesh is already imported and checked):
           // fix and wrap poll the job's token and report stage "repair".
           run_repair(*object, options, config_.limits, progress);
@@ -219,7 +240,7 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
         }
         j.report("load", 0.0);
         bool from_memory = false;
-        auto prepared = registry_.acquire(object->repair == "none" ? object->welded : object->repaired, options, progress, &from_memory);
+        auto prepared = registry_.acquire(object->reshaped() ? object->repaired : object->welded, options, progress, &from_memory);
         {
           std::lock_guard lock(object->mutex);
           object->prepared = prepared;
@@ -312,7 +333,7 @@ void KelvinModule::set_sigma(const std::shared_ptr<Session>& session, const std:
   {
     std::lock_guard lock(object->mutex);
     // A repaired object carries σ to its repaired surface once that exists (the job does it then).
-    if (object->repair != "none" && object->repaired.faces.rows() > 0) solved = field_sigma(spec, *object);
+    if (object->reshaped() && object->repaired.faces.rows() > 0) solved = field_sigma(spec, *object);
     object->sigma = std::move(spec);
     object->field_sigma = std::move(solved);
     object->sigma_json = sigma_json;

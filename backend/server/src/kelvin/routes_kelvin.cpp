@@ -271,7 +271,7 @@ void KelvinModule::register_routes() {
                    solved = object->field_sigma;
                    version = object->sigma_version;
                    // None while repairing, nor after a repair that failed or was cancelled.
-                   repaired = object->repair != "none" && object->repaired.faces.rows() > 0;
+                   repaired = object->reshaped() && object->repaired.faces.rows() > 0;
                  }
                  if (of == "repaired" && !repaired)
                    throw ApiError(409, "not_repaired",

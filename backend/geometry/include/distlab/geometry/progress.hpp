@@ -14,7 +14,7 @@ class Cancelled : public std::runtime_error {
 };
 
 struct Progress {
-  // stage is "repair" (mesh::fix, mesh::wrap) or Kelvin's "load", "invert", "mesh", "build",
+  // stage is "repair" (mesh::fix, mesh::wrap), "simplify" (mesh::simplify) or Kelvin's "load", "invert", "mesh", "build",
   // "decomp", "solve", "cache", "response"; fraction in [0, 1].
   std::function<void(const std::string& stage, double fraction)> report;
   const std::atomic<bool>* cancel = nullptr;

@@ -17,11 +17,42 @@ namespace distlab::mesh {
 struct FixOptions {
   int max_hole_edges = 0;  // holes bounded by at most this many edges are filled (0: none)
 };
+// triangulate_hole's fallback (its cubic search over all the hole's edges) is allowed only on
+// holes up to this many edges: larger ones are filled by the Delaunay-restricted search alone
+// (fast: a 950-edge wavy hole in 0.14 s) or stay open and are named in the refusal.
+inline constexpr int kCubicHoleEdges = 300;
 
 struct WrapOptions {
   double alpha = 0;   // metres; 0: diagonal / 20 (CGAL's relative α 20)
   double offset = 0;  // metres; 0: α / 30
 };
+
+// What a wrap costs, predicted before it runs from the input's face count and area, α and the
+// offset (defaults resolved as wrap does). Calibrated on CGAL 5.5's alpha_wrap_3 (issue 36's note:
+// spheres, tori, open sheets, the 2CylinderEngine CAD part; α from diagonal/20 to /200):
+//   faces   = area / α² · (1 + 0.25 √(α / offset))  — within ×2 of the wrap on closed shapes at
+//             10k+ faces; CAD parts (inner surfaces) come out below it; open sheets above it (to
+//             ×3 at offset α/30: both sides of a thin part refine to the offset), which the run's
+//             own Steiner-point cap catches;
+//   memory  = 100 MB + 1.0 kB per input face (AABB tree, soup) + 1.3 kB per wrap face (Delaunay);
+//   seconds = wrap faces · (50 + √input faces) µs + 10 µs per input face (the queries near dense
+//             input cost more) + 2.5 µs per sample of the two distance passes.
+struct WrapEstimate {
+  double alpha = 0, offset = 0;
+  double faces = 0, megabytes = 0, seconds = 0;
+};
+// A wrap's bounds (the server's limits table); a wrap predicted over any of them is refused.
+struct WrapBudget {
+  std::size_t max_faces = 0;
+  double max_megabytes = 0, max_seconds = 0;
+};
+WrapEstimate estimate_wrap(const SurfaceMesh& user, const WrapOptions& options);
+// The smallest α (at the offset given, or α / 30 when none is) whose estimate fits the budget;
+// +infinity when none does (the input alone is over the memory or time budget).
+double smallest_alpha_within(const SurfaceMesh& user, const WrapOptions& options, const WrapBudget& budget);
+// Throws InvalidInput(field + ".alpha") naming the prediction and the α that fits, before any work.
+void require_wrap_within(const SurfaceMesh& user, const WrapOptions& options, const WrapBudget& budget,
+                         const std::string& field = "repair_options");
 
 struct RepairResult {
   SurfaceMesh surface;                                   // closed, manifold, outward oriented
@@ -41,10 +72,17 @@ struct RepairResult {
 RepairResult fix(const SurfaceMesh& user, const FixOptions& options, const std::string& field = "repair",
                  const Progress& progress = {});
 
-// Throws InvalidInput(field) when α or offset is not positive or the wrap would exceed max_faces
-// (estimated from 4 · area / α² before wrapping, counted after).
-RepairResult wrap(const SurfaceMesh& user, const WrapOptions& options, std::size_t max_faces,
+// Throws InvalidInput(field) when α or offset is not positive, or (field.alpha) when the estimate
+// is over the budget (require_wrap_within) or the running wrap inserts more Steiner points than
+// budget.max_faces (a closed surface has about F / 2 vertices: twice the expected count) or
+// makes more faces than that.
+RepairResult wrap(const SurfaceMesh& user, const WrapOptions& options, const WrapBudget& budget,
                   const std::string& field = "repair_options", const Progress& progress = {});
+
+// The largest distance from the surface a to the surface b, sampled on a: its vertices and
+// min(50 per face, 250k) points uniformly by area (CGAL's random uniform sampling, fixed seed),
+// so the count and memory are bounded however thin a's triangles are.
+double sampled_distance(const SurfaceMesh& a, const SurfaceMesh& b, const Progress& progress = {});
 
 // The transfer rule, both directions: a point takes the value at the closest point of the
 // closest triangle of `from`, interpolated barycentrically from that triangle's three vertices

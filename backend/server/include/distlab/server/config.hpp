@@ -53,10 +53,16 @@ struct Limits {
   // and this CPU and wall-clock time; beyond either it is refused (400, field body).
   std::size_t import_memory_bytes = std::size_t{1} << 30;
   double import_seconds = 20;
-  // "repair": "fix" fills holes of at most max_hole_edges edges; "wrap" refuses an α that would
-  // make more than max_repair_faces faces (this bounds its memory; a cancel stops it).
+  // "repair": "fix" fills holes of at most max_hole_edges edges; "wrap" is estimated before it
+  // runs (mesh::estimate_wrap: faces, memory, seconds from the input's faces and area, α and the
+  // offset) and refused up front (422, field repair_options.alpha, naming the α that fits) when
+  // over max_repair_faces, max_repair_bytes or max_repair_seconds; while it runs, more Steiner
+  // points than max_repair_faces stop it (a cancel too). The 2CylinderEngine CAD part at
+  // α = diagonal / 200 makes 144k faces in 29 s and 342 MB.
   std::size_t max_hole_edges = 1000;
   std::size_t max_repair_faces = 200000;
+  std::size_t max_repair_bytes = std::size_t{1} << 30;
+  double max_repair_seconds = 300;
   // Each preparation gets its boundary response (kelvin/field.hpp: strokes at ~0.2× a full solve
   // instead of ~0.8×) if it takes at most max_response_bytes and all live preparations' responses
   // stay within max_response_bytes_total; otherwise strokes are solved with the factor. The
@@ -108,6 +114,8 @@ void for_each_limit(L& l, F&& f) {
   f("import_seconds", l.import_seconds);
   f("max_hole_edges", l.max_hole_edges);
   f("max_repair_faces", l.max_repair_faces);
+  f("max_repair_bytes", l.max_repair_bytes);
+  f("max_repair_seconds", l.max_repair_seconds);
   f("max_response_bytes", l.max_response_bytes);
   f("max_response_bytes_total", l.max_response_bytes_total);
 }

@@ -69,10 +69,18 @@ struct RepairRequest {
   nlohmann::json options = nlohmann::json::object();
 };
 RepairRequest parse_repair(const nlohmann::json& body, const Limits& limits);
+// "simplify": {"faces": N} of a request: N in [4, max_upload_triangles]; 0 when absent.
+std::size_t parse_simplify(const nlohmann::json& body, const Limits& limits);
+// The wrap's bounds from the limits table.
+inline mesh::WrapBudget wrap_budget(const Limits& l) {
+  return {l.max_repair_faces, static_cast<double>(l.max_repair_bytes) / 1e6, l.max_repair_seconds};
+}
+// A wrap request over the budget, refused before any work (InvalidInput repair_options.alpha).
+void require_repair_within(const mesh::SurfaceMesh& user, const RepairRequest& request, const Limits& limits);
 // Runs mesh::fix or mesh::wrap on the user's mesh; the result and its report (fix: steps; wrap:
 // alpha, offset and the Hausdorff distances; both: n_vertices, n_faces). Cancellable by `progress`.
 std::pair<mesh::RepairResult, nlohmann::json> run_repair_request(const mesh::SurfaceMesh& user, const RepairRequest& request,
-                                                                 std::size_t max_faces, const Progress& progress = {});
+                                                                 const mesh::WrapBudget& budget, const Progress& progress = {});
 
 // A rough vertex count of the preparation, for the vertex budget: the exterior mesh has element
 // size l_x up to far_radius · R (R: the bounding radius), and beyond it the mesh of the inverted

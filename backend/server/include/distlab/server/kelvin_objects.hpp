@@ -149,6 +149,11 @@ struct KelvinObject {
   mesh::SurfaceMesh repaired;
   mesh::Transfer to_repaired;
   nlohmann::json repair_report;
+  // "simplify": {"faces": N} (mesh/simplify.hpp), before the repair: `repaired` is then the
+  // simplified (and repaired) surface, reached by `to_repaired` like a repair's.
+  std::size_t simplify_faces = 0;  // 0: none
+  nlohmann::json simplify_report;
+  bool reshaped() const { return repair != "none" || simplify_faces > 0; }  // prepared on `repaired`
 
   std::mutex mutex;                 // guards everything below
   std::string state = "preparing";  // repairing | preparing | ready | failed | cancelled
