@@ -44,6 +44,13 @@ class Field:
         max_vertices: Optional[int] = None,
         cache_dir: Optional[Union[str, os.PathLike]] = None,
         progress: Optional[Callable[[str, float], Any]] = None,
+        *,
+        unit: Optional[str] = None,
+        scale: Optional[float] = None,
+        components: Optional[str] = None,
+        simplify: Optional[int] = None,
+        repair: Optional[str] = None,
+        repair_options: Optional[dict] = None,
     ) -> "Field":
         """Prepares ``mesh``: a file path (STL, OBJ, PLY, GLB, OFF) or ``(vertices (n, 3), faces
         (m, 3))`` arrays of a closed, oriented surface, with exterior element size ``lx`` (metres).
@@ -54,10 +61,21 @@ class Field:
         prepared field there (by content) and loads it on the next call with the same input.
         ``progress(stage, fraction)`` is called as work advances; Ctrl-C (KeyboardInterrupt), or an
         exception raised by ``progress``, cancels the preparation cleanly and propagates. σ starts
-        at 0 everywhere."""
+        at 0 everywhere.
+
+        As the service's objects: ``unit`` ("m", "cm", "mm", "in") or ``scale`` (metres per unit
+        of the mesh); ``components`` "all" (one field around every piece) or "largest" (the piece
+        enclosing the largest volume); ``simplify`` a face count to simplify to (edge collapse,
+        before the repair); ``repair`` "fix" or "wrap" with ``repair_options`` (fix:
+        max_hole_edges; wrap: alpha, offset in metres), bounded by the service's default limits.
+        Their reports are in ``stats()`` ("components", "simplify", "repair"). With any of these
+        the field is prepared on the reshaped surface, and ``set_sigma(per_vertex=...)`` takes one
+        value per vertex of ``surface`` (that surface's own)."""
         options = {"lx": lx, "center": center, "far_radius": far_radius, "grading": grading,
                    "feature_angle": feature_angle,
-                   "max_vertices": max_vertices}
+                   "max_vertices": max_vertices, "unit": unit, "scale": scale, "components": components,
+                   "simplify": None if simplify is None else {"faces": simplify},
+                   "repair": repair, "repair_options": repair_options}
         cache = None if cache_dir is None else os.fspath(cache_dir)
         if isinstance(mesh, (str, os.PathLike)):
             core = _core.KelvinField.prepare(None, None, os.fspath(mesh), options, cache, progress)
@@ -105,12 +123,16 @@ class Field:
         """The closed surface {h = level}: vertices (n, 3) float64, faces (m, 3) int32."""
         return self._core.isosurface(float(level))
 
-    def export(self, path: Union[str, os.PathLike], level: float, format: Optional[str] = None) -> None:
+    def export(self, path: Union[str, os.PathLike], level: float, format: Optional[str] = None) -> dict:
         """Writes the iso-surface {h = level} to ``path`` (``format`` stl, obj, ply or glb; default
-        from the file's extension)."""
+        from the file's extension) and returns its check: ``closed``, ``manifold``,
+        ``components``, ``volume`` and the defect counts, taken on the surface welded at float32.
+        A surface that is not a closed 2-manifold is not written (``distlab.InvalidInput`` on
+        ``level``). At σ's smallest value on the surface the surface is the object's own; every
+        other level is extracted at level − 1e-5 (so no vertex of the mesh lies exactly on it)."""
         path = os.fspath(path)
         fmt = format or os.path.splitext(path)[1].lstrip(".").lower()
-        self._core.export(path, float(level), fmt)
+        return self._core.export(path, float(level), fmt)
 
     @property
     def stats(self) -> dict:

@@ -9,6 +9,7 @@
 #include "convert.hpp"
 #include "distlab/kelvin/field.hpp"
 #include "distlab/mesh/surface.hpp"
+#include "distlab/mesh/weld.hpp"
 #include "distlab/server/gap_json.hpp"
 #include "distlab/server/json_fields.hpp"
 #include "distlab/server/kelvin_json.hpp"
@@ -79,6 +80,18 @@ class PyField {
       po.feature_angle = server::json_number(*v, "feature_angle");
     if (auto v = server::json_optional(o, "max_vertices"); v && !v->is_null())
       po.max_vertices = static_cast<std::size_t>(server::json_integer(*v, "max_vertices", 100, 100000000));
+    // The file's unit (metres per unit, like the service's uploads) and the reshaping, read as
+    // the CLI request reads them.
+    double scale = 1.0;
+    if (auto u = server::json_optional(o, "unit"); u && !u->is_null()) scale = server::unit_scale(server::json_string(*u, "unit"));
+    if (auto v = server::json_optional(o, "scale"); v && !v->is_null()) {
+      if (auto u = server::json_optional(o, "unit"); u && !u->is_null()) throw InvalidInput("scale", "give unit or scale, not both");
+      scale = server::json_positive(*v, "scale");
+    }
+    json reshape_body = json::object();
+    for (const char* k : {"components", "simplify", "repair", "repair_options"})
+      if (auto v = server::json_optional(o, k); v && !v->is_null()) reshape_body[k] = *v;
+    const server::ReshapeRequest reshape = server::parse_reshape(reshape_body, server::Limits{});
     mesh::SurfaceMesh surface;
     std::string cache;
     if (!cache_dir.is_none()) cache = py::str(cache_dir);
@@ -89,6 +102,11 @@ class PyField {
     } else {
       surface = mesh_from_arrays(vertices, faces);
     }
+    if (scale != 1.0) {
+      surface.vertices *= scale;
+      if (!(surface.vertices.cwiseAbs().maxCoeff() <= server::kMaxCoordinate))
+        throw InvalidInput("scale", "a coordinate times the scale is beyond the coordinate limit");
+    }
     Interruptible interrupt(progress);
     kelvin::Progress pr;
     pr.cancel = interrupt.flag();
@@ -96,9 +114,13 @@ class PyField {
     std::unique_ptr<PyField> field;
     interrupt.run([&] {
       bool hit = false;
-      field = std::make_unique<PyField>(cache.empty() ? kelvin::Field::prepare(surface, po, pr)
-                                                      : kelvin::Field::prepare_cached(surface, po, cache, pr, &hit));
+      server::Reshaped reshaped;
+      if (reshape.any()) reshaped = server::reshape_surface(surface, mesh::weld(surface).surface, reshape, server::Limits{}, pr);
+      const mesh::SurfaceMesh& prepared = reshape.any() ? reshaped.surface : surface;
+      field = std::make_unique<PyField>(cache.empty() ? kelvin::Field::prepare(prepared, po, pr)
+                                                      : kelvin::Field::prepare_cached(prepared, po, cache, pr, &hit));
       field->cache_hit_ = hit;
+      field->reports_ = {{"repair", reshaped.repair_report}, {"simplify", reshaped.simplify_report}, {"components", reshaped.components_report}};
       field->field_.set_sigma(kelvin::SigmaSpec{});
     });
     return field;
@@ -167,10 +189,21 @@ class PyField {
     return arrays(m);
   }
 
-  void export_mesh(const std::string& path, double level, const std::string& format) const {
+  // Writes only a closed 2-manifold (else InvalidInput on level); returns its check.
+  py::object export_mesh(const std::string& path, double level, const std::string& format) const {
     server::json_number(json(level), "level");
-    py::gil_scoped_release release;
-    mesh::save_mesh(field_.isosurface(level), path, format, "format");
+    json check;
+    {
+      py::gil_scoped_release release;
+      const mesh::SurfaceMesh iso = field_.isosurface(level);
+      const mesh::SurfaceReport report = mesh::inspect_surface(iso);
+      if (iso.faces.rows() > 0 && !report.manifold())
+        throw InvalidInput("level", "the iso-surface at h = " + json(level).dump() + " is not a closed 2-manifold (" +
+                                        mesh::surface_defects(report) + "); not written");
+      mesh::save_mesh(iso, path, format, "format");
+      check = server::surface_check_json(report);
+    }
+    return to_python(check);
   }
 
   py::dict stats() const {
@@ -191,6 +224,8 @@ class PyField {
     py::list warnings;
     for (const std::string& w : s.warnings) warnings.append(w);
     d["warnings"] = warnings;
+    for (const auto& [k, v] : reports_.items())
+      if (!v.is_null()) d[k.c_str()] = to_python(v);
     return d;
   }
 
@@ -203,6 +238,7 @@ class PyField {
  private:
   kelvin::Field field_;
   bool cache_hit_ = false;
+  json reports_ = json::object();  // components, simplify, repair: what reshaped the surface
 };
 
 }  // namespace

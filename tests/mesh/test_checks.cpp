@@ -106,3 +106,25 @@ TEST(MeshChecks, InwardOrientationIsFlipped) {
   require_closed_manifold(m);
   EXPECT_NEAR(signed_volume(m), 1.0, 1e-12);
 }
+
+// "components": "largest": the piece enclosing the largest volume, whichever comes first in the
+// file, with its vertices in their file order.
+TEST(Checks, LargestPieceIsTheOneEnclosingTheMostVolume) {
+  const SurfaceMesh small = box(Vec3(0.2, 0.2, 0.2));
+  SurfaceMesh big = box(Vec3(1, 2, 1));
+  big.vertices.rowwise() += Eigen::RowVector3d(3, 0, 0);
+  for (const bool big_first : {true, false}) {
+    const SurfaceMesh both = big_first ? merge(big, small) : merge(small, big);
+    long pieces = 0;
+    const SurfaceMesh piece = largest_piece(both, &pieces);
+    EXPECT_EQ(pieces, 2);
+    EXPECT_NEAR(signed_volume(piece), 2.0, 1e-12);
+    ASSERT_EQ(piece.vertices.rows(), big.vertices.rows());
+    EXPECT_EQ(piece.faces.rows(), big.faces.rows());
+    EXPECT_TRUE(piece.vertices.isApprox(big.vertices));  // the big box's own vertices, in order
+    EXPECT_TRUE(inspect_surface(piece).manifold());
+  }
+  long pieces = 0;
+  EXPECT_EQ(largest_piece(small, &pieces).faces.rows(), small.faces.rows());
+  EXPECT_EQ(pieces, 1);
+}

@@ -70,8 +70,20 @@ def test_isosurface_and_export(sphere_field, tmp_path):
     np.testing.assert_allclose(radii, 0.5 * np.exp(0.2), rtol=0.05)  # σ + ln(r/R) = 0.5
     assert F.shape[1] == 3 and F.max() < len(V)
     path = tmp_path / "iso.stl"
-    sphere_field.export(path, 0.5)
+    check = sphere_field.export(path, 0.5)
     assert path.stat().st_size == 84 + 50 * len(F)
+    assert check["closed"] and check["manifold"] and check["components"] == 1
+    np.testing.assert_allclose(check["volume"], 4 / 3 * np.pi * (0.5 * np.exp(0.2)) ** 3, rtol=0.05)
+    # The level σ itself is the object's surface: closed too, by a count of our own on the file's
+    # float32 corners (every edge in exactly two triangles).
+    check = sphere_field.export(path, 0.3)
+    corners = np.fromfile(path, dtype=np.dtype([("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")]), offset=84)["v"]
+    _, ids = np.unique(corners.reshape(-1, 3), axis=0, return_inverse=True)
+    tri = ids.reshape(-1, 3)
+    edges = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
+    _, uses = np.unique(edges, axis=0, return_counts=True)
+    assert set(uses.tolist()) == {2} and check["manifold"]
+    np.testing.assert_allclose(check["volume"], 4 / 3 * np.pi * 0.5 ** 3, rtol=0.05)  # chords of the meshed sphere
 
 
 def test_per_vertex_sigma_follows_the_surface(sphere_field):
@@ -94,6 +106,40 @@ def test_prepare_from_arrays_and_cache(tmp_path):
     assert f2.stats["cache_hit"]
     x = [[1.0, 0.3, 0.2]]
     assert f1.query(x)[0][0] == f2.query(x)[0][0]
+
+
+CUBE_V = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]], float) - 0.5
+CUBE_F = np.array([[0, 2, 1], [0, 3, 2], [4, 5, 6], [4, 6, 7], [0, 1, 5], [0, 5, 4],
+                   [1, 2, 6], [1, 6, 5], [2, 3, 7], [2, 7, 6], [3, 0, 4], [3, 4, 7]])
+
+
+def test_prepare_takes_the_services_unit_components_simplify_and_repair():
+    # unit: the mesh in millimetres is the metre cube.
+    mm = kelvin.Field.prepare((CUBE_V * 1000, CUBE_F), lx=0.3, unit="mm")
+    V, _ = mm.surface
+    np.testing.assert_allclose(np.abs(V).max(), 0.5)
+    assert kelvin.Field.prepare((CUBE_V * 2, CUBE_F), lx=0.3, scale=0.5).surface[0].max() == 0.5
+    # components: a small cube beside the big one is an obstacle with "all" and gone with "largest".
+    two = (np.vstack([CUBE_V, 0.2 * CUBE_V + [1.5, 0, 0]]), np.vstack([CUBE_F, CUBE_F + 8]))
+    inside_small = [[1.5, 0.0, 0.0]]
+    both = kelvin.Field.prepare(two, lx=0.3)
+    assert both.query(inside_small)[2][0] == kelvin.INSIDE
+    largest = kelvin.Field.prepare(two, lx=0.3, components="largest")
+    h, _, status = largest.query(inside_small)
+    assert status[0] == 0 and h[0] > 0
+    assert largest.stats["components"]["pieces"] == 2 and len(largest.surface[0]) == 8
+    # simplify: a 5120-face sphere to at most 500 faces, its distance reported.
+    sphere = kelvin.Field.prepare(SPHERE, lx=0.2, simplify=500)
+    assert len(sphere.surface[1]) <= 500 < sphere.stats["simplify"]["n_input_faces"]
+    assert 0 < sphere.stats["simplify"]["hausdorff"]["input_to_simplified"] < 0.05
+    # repair: the cube with one face missing is refused as it is and prepared by "fix".
+    with pytest.raises(distlab.InvalidInput):
+        kelvin.Field.prepare((CUBE_V, CUBE_F[:-1]), lx=0.3)
+    fixed = kelvin.Field.prepare((CUBE_V, CUBE_F[:-1]), lx=0.3, repair="fix", repair_options={"max_hole_edges": 3})
+    assert fixed.stats["repair"]["kind"] == "fix" and len(fixed.surface[1]) == 12
+    # the CLI's request reads the same keys.
+    out = kelvin.solve({"mesh": {"asset": "cube"}, "lx": 0.3, "components": "largest"})
+    assert out["components"]["pieces"] == 1
 
 
 def test_an_exception_in_progress_cancels():
@@ -146,6 +192,11 @@ BAD = [
     (lambda: kelvin.solve({"mesh": {"asset": "cube"}, "lx": 0.1, "grading": 2}), distlab.InvalidInput, "grading"),
     (lambda: kelvin.solve({"mesh": {"asset": "nope"}, "lx": 0.1}), distlab.InvalidInput, "mesh.asset"),
     (lambda: kelvin.solve({"mesh": {"asset": "cube"}, "lx": 0.1, "extra": 1}), distlab.InvalidInput, "extra"),
+    (lambda: kelvin.Field.prepare(SPHERE, lx=0.2, unit="ft"), distlab.InvalidInput, "unit"),
+    (lambda: kelvin.Field.prepare(SPHERE, lx=0.2, unit="mm", scale=2), distlab.InvalidInput, "scale"),
+    (lambda: kelvin.Field.prepare(SPHERE, lx=0.2, components="some"), distlab.InvalidInput, "components"),
+    (lambda: kelvin.Field.prepare(SPHERE, lx=0.2, simplify=2), distlab.InvalidInput, "simplify.faces"),
+    (lambda: kelvin.Field.prepare(SPHERE, lx=0.2, repair="glue"), distlab.InvalidInput, "repair"),
 ]
 
 

@@ -1215,7 +1215,11 @@ inline void upload_cases(std::vector<Case>& out) {
   up("counts_text", "off", "OFF\nfour four 0\n");
   up("index_out_of_range", "off", "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 77\n", Expect::client, "6 importer SIGSEGV");
   up("index_negative", "off", "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 -1 2 3\n", Expect::client, "6 importer SIGSEGV");
-  up("face_255_vertices", "off", "OFF\n4 1 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n255 " + repeat("0 1 2 ", 85) + "\n");
+  // A face listing one cycle r times over is that cycle (real OBJ exports have them, issue 36):
+  // 85 × (0 1 2) is one triangle, and one triangle is an open sheet. 63 × (0 1 2 3) + (0 1 2) is no
+  // cycle: a 255-corner face that pinches (and over the 3D fallback's corner bound).
+  up("face_255_vertices_one_cycle", "off", "OFF\n4 1 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n255 " + repeat("0 1 2 ", 85) + "\n", Expect::ok);
+  up("face_255_vertices", "off", "OFF\n4 1 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n255 " + repeat("0 1 2 3 ", 63) + "0 1 2\n");
   up("face_count_lies", "off", "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n9 0 2 1\n", Expect::client, "7 declared counts");
   up("face_missing", "off", "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n", Expect::client, "6 importer crash");
   up("vertex_nan", "off", "OFF\n4 4 0\nnan 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n", Expect::client, "6/7 importer: non-finite coordinates accepted");

@@ -116,5 +116,40 @@ TEST_F(RepairBounds, SimplifyReportsItsDistanceAndCarriesSigma) {
   EXPECT_EQ(body_json(r)["error"]["field"], "simplify.faces") << r->body;
 }
 
+// "components": "largest" (issue 36, item 6): two spheres, the small one dropped; σ per file
+// vertex (z / 2) still reaches the kept piece, and the small sphere's inside is no longer inside.
+TEST_F(RepairBounds, TheLargestPieceAloneIsPrepared) {
+  json body = sphere_request(2);
+  json& v = body["mesh"]["vertices"];
+  json& f = body["mesh"]["faces"];
+  json& sigma = body["sigma"]["per_vertex"];
+  const std::size_t n = v.size(), m = f.size();
+  for (std::size_t i = 0; i < n; ++i) {  // a copy at 0.3 scale beside it, at x = 3
+    v.push_back({3 + 0.3 * v[i][0].get<double>(), 0.3 * v[i][1].get<double>(), 0.3 * v[i][2].get<double>()});
+    sigma.push_back(0.5 * v.back()[2].get<double>());
+  }
+  for (std::size_t i = 0; i < m; ++i) f.push_back({f[i][0].get<std::size_t>() + n, f[i][1].get<std::size_t>() + n, f[i][2].get<std::size_t>() + n});
+  body["components"] = "largest";
+  body.erase("lx_fraction");  // a fraction of the whole mesh's diagonal: larger than the piece kept
+  body["lx"] = 0.3;
+  auto r = create(body);
+  ASSERT_EQ(r->status, 202) << r->body;
+  const json st = settle(body_json(r)["object"]["id"]);
+  ASSERT_EQ(st["state"], "ready") << st.dump();
+  EXPECT_EQ(st["components"], "largest");
+  EXPECT_EQ(st["components_report"]["pieces"], 2);
+  EXPECT_EQ(st["components_report"]["n_vertices"], n);
+  const std::string id = st["id"];
+  r = c.Post(("/api/kelvin/objects/" + id + "/query"), session_headers(s), json{{"points", {{3.0, 0.0, 0.0}, {0.0, 0.0, 0.0}}}}.dump(), "application/json");
+  ASSERT_EQ(r->status, 200) << r->body;
+  const json q = body_json(r);
+  EXPECT_TRUE(q["h"][0].is_number()) << q.dump();  // the small sphere's centre: outside now
+  EXPECT_TRUE(q["h"][1].is_null()) << q.dump();    // the kept sphere's centre: inside
+  body["components"] = "some";
+  r = create(body);
+  EXPECT_EQ(r->status, 400);
+  EXPECT_EQ(body_json(r)["error"]["field"], "components");
+}
+
 }  // namespace
 }  // namespace distlab::test

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <array>
 #include <bit>
+#include <cmath>
 #include <cstdint>
 #include <numeric>
 #include <unordered_map>
@@ -57,7 +58,62 @@ bool one_fan(const SurfaceMesh& mesh, const std::vector<int>& faces, int v) {
   return true;
 }
 
+// Per face, its piece (faces joined across shared edges), numbered from 0 in face order.
+std::vector<int> face_pieces(const SurfaceMesh& mesh) {
+  std::vector<int> parent(static_cast<size_t>(mesh.faces.rows()));
+  std::iota(parent.begin(), parent.end(), 0);
+  std::unordered_map<std::uint64_t, int> first_face;
+  for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      auto [it, inserted] = first_face.emplace(edge_key(mesh.faces(f, k), mesh.faces(f, (k + 1) % 3)), static_cast<int>(f));
+      if (!inserted) parent[static_cast<size_t>(find(parent, static_cast<int>(f)))] = find(parent, it->second);
+    }
+  std::vector<int> label(parent.size(), -1), piece(parent.size());
+  int n = 0;
+  for (size_t f = 0; f < parent.size(); ++f) {
+    int& l = label[static_cast<size_t>(find(parent, static_cast<int>(f)))];
+    if (l < 0) l = n++;
+    piece[f] = l;
+  }
+  return piece;
+}
+
 }  // namespace
+
+SurfaceMesh largest_piece(const SurfaceMesh& mesh, long* pieces) {
+  const std::vector<int> piece = face_pieces(mesh);
+  const int n = piece.empty() ? 0 : *std::max_element(piece.begin(), piece.end()) + 1;
+  if (pieces != nullptr) *pieces = n;
+  std::vector<double> volume(static_cast<size_t>(n), 0.0);  // divergence theorem, per piece
+  for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f) {
+    const Vec3 a = mesh.vertices.row(mesh.faces(f, 0)), b = mesh.vertices.row(mesh.faces(f, 1)), c = mesh.vertices.row(mesh.faces(f, 2));
+    volume[static_cast<size_t>(piece[static_cast<size_t>(f)])] += a.dot(b.cross(c)) / 6.0;
+  }
+  int best = 0;
+  for (int i = 1; i < n; ++i)
+    if (std::abs(volume[static_cast<size_t>(i)]) > std::abs(volume[static_cast<size_t>(best)])) best = i;
+  std::vector<int> to(static_cast<size_t>(mesh.vertices.rows()), -1);
+  SurfaceMesh out;
+  long nf = 0, nv = 0;
+  for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f) nf += piece[static_cast<size_t>(f)] == best;
+  out.faces.resize(nf, 3);
+  nf = 0;
+  for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f)
+    if (piece[static_cast<size_t>(f)] == best)
+      for (int k = 0; k < 3; ++k) to[static_cast<size_t>(mesh.faces(f, k))] = 0;  // used
+  for (int& v : to)
+    if (v == 0) v = static_cast<int>(++nv);  // in the mesh's vertex order, from 1 here
+  for (int& v : to) --v;
+  out.vertices.resize(nv, 3);
+  for (Eigen::Index v = 0; v < mesh.vertices.rows(); ++v)
+    if (to[static_cast<size_t>(v)] >= 0) out.vertices.row(to[static_cast<size_t>(v)]) = mesh.vertices.row(v);
+  for (Eigen::Index f = 0; f < mesh.faces.rows(); ++f)
+    if (piece[static_cast<size_t>(f)] == best) {
+      for (int k = 0; k < 3; ++k) out.faces(nf, k) = to[static_cast<size_t>(mesh.faces(f, k))];
+      ++nf;
+    }
+  return out;
+}
 
 SurfaceReport inspect_surface(const SurfaceMesh& mesh) {
   SurfaceReport r;
@@ -105,16 +161,8 @@ SurfaceReport inspect_surface(const SurfaceMesh& mesh) {
   const std::vector<std::vector<int>> star = stars(w);
   for (int v = 0; v < static_cast<int>(w.vertices.rows()); ++v)
     if (!one_fan(w, star[static_cast<size_t>(v)], v)) ++r.non_manifold_vertices;
-  // Components: faces joined across shared edges.
-  std::vector<int> parent(static_cast<size_t>(w.faces.rows()));
-  std::iota(parent.begin(), parent.end(), 0);
-  std::unordered_map<std::uint64_t, int> first_face;
-  for (Eigen::Index f = 0; f < w.faces.rows(); ++f)
-    for (int k = 0; k < 3; ++k) {
-      auto [it, inserted] = first_face.emplace(edge_key(w.faces(f, k), w.faces(f, (k + 1) % 3)), static_cast<int>(f));
-      if (!inserted) parent[static_cast<size_t>(find(parent, static_cast<int>(f)))] = find(parent, it->second);
-    }
-  for (size_t f = 0; f < parent.size(); ++f) r.components += find(parent, static_cast<int>(f)) == static_cast<int>(f);
+  std::vector<int> piece = face_pieces(w);
+  r.components = piece.empty() ? 0 : *std::max_element(piece.begin(), piece.end()) + 1;
   r.volume = r.faces > 0 ? signed_volume(mesh) : 0.0;
   return r;
 }

@@ -70,12 +70,12 @@ export class Api {
     return this.call("POST", path, bytes) as Promise<T>;
   }
   /** GET a binary body: msgpack is decoded, anything else returned as a Blob. */
-  async binary(path: string): Promise<{ blob: Blob; contentType: string; filename?: string }> {
+  async binary(path: string): Promise<{ blob: Blob; contentType: string; filename?: string; headers: Headers }> {
     const r = await this.fetchWithSession("GET", path);
     const blob = await r.blob();
     const cd = r.headers.get("content-disposition") ?? "";
     const m = /filename="?([^";]+)"?/.exec(cd);
-    return { blob, contentType: r.headers.get("content-type") ?? "", filename: m?.[1] };
+    return { blob, contentType: r.headers.get("content-type") ?? "", filename: m?.[1], headers: r.headers };
   }
   async msgpack<T = Json>(method: string, path: string, body?: Json): Promise<T> {
     const r = await this.fetchWithSession(method, path, body);

@@ -1822,7 +1822,7 @@ export interface paths {
         };
         /**
          * Iso-surface download as STL, OBJ, PLY or GLB
-         * @description One level per request (isosurface_levels_per_request; a repeated level or format parameter is refused with its field); several levels: PUT .../levels (at most max_levels) and the WebSocket's isosurface frames. Its work grows with the object's vertex count, which max_vertex_estimate bounds when the object is created (422 over_budget there). A level the field never takes (below its smallest value, e.g. any level below a constant σ) is 422 empty_isosurface (field level), whose message gives the smallest h; the level σ itself is the object's surface. The header X-Distlab-Isosurface-Digest (128-bit FNV-1a of the surface's vertices and faces) is equal for exports that carry the same surface.
+         * @description One level per request (isosurface_levels_per_request; a repeated level or format parameter is refused with its field); several levels: PUT .../levels (at most max_levels) and the WebSocket's isosurface frames. Its work grows with the object's vertex count, which max_vertex_estimate bounds when the object is created (422 over_budget there). A level the field never takes (below its smallest value, e.g. any level below a constant σ) is 422 empty_isosurface (field level), whose message gives the smallest h; at σ's smallest value on the surface the surface is the object's own, and every other level is extracted at level − 1e-5 (so that no mesh vertex lies exactly on it). Every export is a closed 2-manifold, checked on its vertices welded at float32: the header X-Distlab-Surface-Check carries that check (SurfaceCheck), and a surface that fails it is not exported (422 not_manifold, field level, with the defects counted). The header X-Distlab-Isosurface-Digest (SHA-256 of the surface's vertices and faces) is equal for exports that carry the same surface.
          */
         get: {
             parameters: {
@@ -1847,6 +1847,8 @@ export interface paths {
                     headers: {
                         /** @description equal for equal surfaces: two levels that give the same surface say so */
                         "X-Distlab-Isosurface-Digest"?: string;
+                        /** @description the SurfaceCheck of the exported surface, as JSON */
+                        "X-Distlab-Surface-Check"?: string;
                         [name: string]: unknown;
                     };
                     content: {
@@ -2044,6 +2046,8 @@ export interface components {
                 isosurface?: number;
                 since_edit?: number;
             };
+            /** @description isosurface frames with faces: the surface's check (as the export's X-Distlab-Surface-Check) */
+            check?: components["schemas"]["SurfaceCheck"];
         };
         Job: {
             id: string;
@@ -2937,6 +2941,11 @@ export interface components {
             simplify?: {
                 faces: number;
             };
+            /**
+             * @description all (default): one field around every face-connected piece of the mesh; largest: only the piece enclosing the largest volume (the others are dropped, e.g. stray shells or open sheets of a scan). Applied first, then simplify, then repair; σ per_vertex still counts the file's vertices (carried to the piece by the nearest-face rule). With repair none, the piece must be closed (refused on components otherwise).
+             * @enum {string}
+             */
+            components?: "all" | "largest";
         };
         KelvinObject: {
             id: string;
@@ -2996,6 +3005,17 @@ export interface components {
              * @enum {string}
              */
             repair: "none" | "fix" | "wrap";
+            /**
+             * @description present when the request asked for the largest piece
+             * @enum {string}
+             */
+            components?: "largest";
+            /** @description components largest: how many pieces the mesh had, and the kept piece's size */
+            components_report?: {
+                pieces?: number;
+                n_vertices?: number;
+                n_faces?: number;
+            };
         };
         /** @description a prepared field's size and preparation times (seconds) */
         KelvinStats: {
@@ -3067,6 +3087,17 @@ export interface components {
             };
             n_vertices: number;
             n_faces: number;
+        };
+        /** @description What an iso-surface is, counted on its vertices welded at float32 (an STL's precision), independently of how it was made: closed (every edge in exactly two faces), manifold (closed, one fan of faces around every vertex, no face collapsed by the weld), its face-connected components and enclosed volume (m³, positive for outward faces). */
+        SurfaceCheck: {
+            closed: boolean;
+            manifold: boolean;
+            components: number;
+            volume: number;
+            boundary_edges: number;
+            non_manifold_edges: number;
+            non_manifold_vertices: number;
+            degenerate_faces: number;
         };
         RobotDistancesRequest: {
             robot: string | {

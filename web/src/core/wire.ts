@@ -9,6 +9,7 @@ export type Job = Schemas["Job"];
 export type KelvinObject = Schemas["KelvinObject"];
 export type KelvinStats = Schemas["KelvinStats"];
 export type RepairReport = Schemas["RepairReport"];
+export type SurfaceCheck = Schemas["SurfaceCheck"];
 export type Sigma = Schemas["Sigma"];
 export type AxisTerm = Schemas["AxisTerm"];
 export type CbfFrames = Schemas["CbfFrames"];

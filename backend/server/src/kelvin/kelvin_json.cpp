@@ -110,8 +110,8 @@ std::string asset_path(const std::string& name, const std::string& assets_dir) {
 }
 
 json run_kelvin_request(const json& r, const kelvin::Progress& progress) {
-  object_with(r, "", {"mesh", "lx", "center", "far_radius", "grading", "feature_angle", "max_vertices", "cache", "sigma", "query", "isosurfaces", "repair", "repair_options", "comment"});
-  const RepairRequest repair = parse_repair(r, Limits{});
+  object_with(r, "", {"mesh", "lx", "center", "far_radius", "grading", "feature_angle", "max_vertices", "cache", "sigma", "query", "isosurfaces", "repair", "repair_options", "simplify", "components", "comment"});
+  const ReshapeRequest reshape = parse_reshape(r, Limits{});
   if (!r.contains("mesh")) throw InvalidInput("mesh", "mesh is required");
   const json& m = r["mesh"];
   object_with(m, "mesh", {"path", "asset"});
@@ -160,16 +160,14 @@ json run_kelvin_request(const json& r, const kelvin::Progress& progress) {
   const mesh::SurfaceMesh surface = mesh::load_mesh(path, m.contains("path") ? "mesh.path" : "mesh.asset");
   const mesh::Welded welded = mesh::weld(surface);
   kelvin::SigmaSpec solved = field_sigma(sigma, surface, welded.to_welded, welded.surface.vertices.rows());
-  // "fix" / "wrap": the field is prepared on the repaired surface, σ carried to it (repair.hpp).
-  json repair_report;
-  mesh::SurfaceMesh repaired;
-  if (repair.kind != "none") {
-    auto [result, report] = run_repair_request(surface, repair, wrap_budget(Limits{}), progress);
-    repaired = std::move(result.surface);
-    repair_report = std::move(report);
-    solved = carry_sigma(std::move(solved), sigma, mesh::nearest_face_transfer(surface, repaired.vertices));
+  // "components" / "simplify" / "repair": the field is prepared on the reshaped surface, σ
+  // carried to it (ReshapeRequest).
+  Reshaped reshaped;
+  if (reshape.any()) {
+    reshaped = reshape_surface(surface, welded.surface, reshape, Limits{}, progress);
+    solved = carry_sigma(std::move(solved), sigma, mesh::nearest_face_transfer(surface, reshaped.surface.vertices));
   }
-  const mesh::SurfaceMesh& prepared = repair.kind == "none" ? welded.surface : repaired;
+  const mesh::SurfaceMesh& prepared = reshape.any() ? reshaped.surface : welded.surface;
   bool hit = false;
   kelvin::Field field = r.contains("cache")
                             ? kelvin::Field::prepare_cached(prepared, options, text(r["cache"], "cache"), progress, &hit)
@@ -184,7 +182,9 @@ json run_kelvin_request(const json& r, const kelvin::Progress& progress) {
   // Fallbacks taken while preparing (e.g. edge protection skipped on thin features).
   if (!st.warnings.empty()) out["warnings"] = st.warnings;
   out["mesh"] = {{"n_vertices", surface.vertices.rows()}, {"n_faces", surface.faces.rows()}, {"n_welded_vertices", welded.surface.vertices.rows()}};
-  if (!repair_report.is_null()) out["repair"] = repair_report;
+  if (!reshaped.repair_report.is_null()) out["repair"] = reshaped.repair_report;
+  if (!reshaped.simplify_report.is_null()) out["simplify"] = reshaped.simplify_report;
+  if (!reshaped.components_report.is_null()) out["components"] = reshaped.components_report;
   json h = json::array(), grad = json::array(), inside = json::array();
   int hint = -1;
   for (const Vec3& x : points) {
@@ -205,8 +205,13 @@ json run_kelvin_request(const json& r, const kelvin::Progress& progress) {
         throw InvalidInput("isosurfaces.levels[" + std::to_string(i) + "]",
                            "the field never takes h = " + json(levels[i]).dump() + ": its smallest value is h = " +
                                json(field.minimum()).dump() + ", and {h = level} is empty below it");
+      const mesh::SurfaceReport check = mesh::inspect_surface(iso);
+      if (!check.manifold())
+        throw InvalidInput("isosurfaces.levels[" + std::to_string(i) + "]",
+                           "the iso-surface at h = " + json(levels[i]).dump() + " is not a closed 2-manifold (" +
+                               mesh::surface_defects(check) + "); not written");
       mesh::save_mesh(iso, file.string(), iso_format, "isosurfaces.format");
-      files.push_back({{"level", levels[i]}, {"path", file.string()}, {"n_verts", iso.vertices.rows()}, {"n_faces", iso.faces.rows()}, {"digest", mesh_digest(iso)}});
+      files.push_back({{"level", levels[i]}, {"path", file.string()}, {"n_verts", iso.vertices.rows()}, {"n_faces", iso.faces.rows()}, {"digest", mesh_digest(iso)}, {"check", surface_check_json(check)}});
     }
     out["isosurfaces"] = files;
   }

@@ -4,12 +4,15 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <map>
 
 #include "distlab/geometry/error.hpp"
 #include "distlab/kelvin/digest.hpp"
 #include "distlab/kelvin/progress.hpp"
 #include "distlab/kelvin/sigma.hpp"
 #include "distlab/kelvin/surface_tools.hpp"
+#include "distlab/mesh/checks.hpp"
+#include "distlab/mesh/simplify.hpp"
 #include "distlab/server/json_fields.hpp"
 
 namespace distlab::server {
@@ -157,10 +160,12 @@ std::size_t PreparedRegistry::size() const {
 
 json KelvinObject::status_json() {
   std::lock_guard lock(mutex);
-  json j = {{"id", id}, {"state", state}, {"job", job}, {"source", source}, {"n_input_vertices", surface.vertices.rows()}, {"n_input_faces", surface.faces.rows()}, {"n_welded_vertices", welded.vertices.rows()}, {"repair", repair}, {"sigma_version", sigma_version}, {"levels", levels}, {"key", key}};
+  json j = {{"id", id}, {"state", state}, {"job", job}, {"source", source}, {"n_input_vertices", surface.vertices.rows()}, {"n_input_faces", surface.faces.rows()}, {"n_welded_vertices", welded.vertices.rows()}, {"repair", reshape.repair.kind}, {"sigma_version", sigma_version}, {"levels", levels}, {"key", key}};
   if (!error.is_null()) j["error"] = error;
   if (!repair_report.is_null()) j["repair_report"] = repair_report;
-  if (simplify_faces > 0) j["simplify"] = {{"faces", simplify_faces}};
+  if (reshape.simplify_faces > 0) j["simplify"] = {{"faces", reshape.simplify_faces}};
+  if (reshape.largest_piece) j["components"] = "largest";
+  if (!components_report.is_null()) j["components_report"] = components_report;
   if (!simplify_report.is_null()) j["simplify_report"] = simplify_report;
   if (prepared) {
     const kelvin::Stats& st = prepared->field.stats();
@@ -281,6 +286,51 @@ std::pair<mesh::RepairResult, json> run_repair_request(const mesh::SurfaceMesh& 
   report["n_vertices"] = r.surface.vertices.rows();
   report["n_faces"] = r.surface.faces.rows();
   return {std::move(r), std::move(report)};
+}
+
+double unit_scale(const std::string& unit, const std::string& field) {
+  static const std::map<std::string, double> units = {{"m", 1.0}, {"cm", 0.01}, {"mm", 0.001}, {"in", 0.0254}};
+  const auto it = units.find(unit);
+  if (it == units.end()) throw InvalidInput(field, field + " must be m, cm, mm or in");
+  return it->second;
+}
+
+ReshapeRequest parse_reshape(const json& body, const Limits& limits) {
+  ReshapeRequest r;
+  if (body.contains("components")) {
+    const json& c = body["components"];
+    if (c != "all" && c != "largest") throw InvalidInput("components", "components must be \"all\" or \"largest\"");
+    r.largest_piece = c == "largest";
+  }
+  r.simplify_faces = parse_simplify(body, limits);
+  r.repair = parse_repair(body, limits);
+  return r;
+}
+
+Reshaped reshape_surface(const mesh::SurfaceMesh& user, const mesh::SurfaceMesh& welded, const ReshapeRequest& request,
+                         const Limits& limits, const Progress& progress) {
+  Reshaped out;
+  // The repair of an untouched surface sees the user's own (fix merges what it must).
+  out.surface = request.largest_piece || request.simplify_faces > 0 ? welded : user;
+  if (request.largest_piece) {
+    long pieces = 0;
+    out.surface = mesh::largest_piece(welded, &pieces);
+    out.components_report = {{"pieces", pieces}, {"n_vertices", out.surface.vertices.rows()}, {"n_faces", out.surface.faces.rows()}};
+  }
+  // Simplify before the repair: the point is to make big scans small before anything else.
+  if (request.simplify_faces > 0) {
+    const std::size_t input_faces = static_cast<std::size_t>(out.surface.faces.rows());
+    mesh::SimplifyResult s = mesh::simplify(out.surface, request.simplify_faces, "simplify", progress);
+    out.simplify_report = {{"faces", request.simplify_faces}, {"n_input_faces", input_faces}, {"n_faces", s.surface.faces.rows()}, {"n_vertices", s.surface.vertices.rows()}, {"hausdorff", {{"input_to_simplified", s.input_to_result}}}};
+    out.surface = std::move(s.surface);
+  }
+  if (request.repair.kind != "none") {
+    require_repair_within(out.surface, request.repair, limits);
+    auto [r, report] = run_repair_request(out.surface, request.repair, wrap_budget(limits), progress);
+    out.surface = std::move(r.surface);
+    out.repair_report = std::move(report);
+  }
+  return out;
 }
 
 double estimate_vertices(const mesh::SurfaceMesh& surface, double lx, double far_radius, double grading) {

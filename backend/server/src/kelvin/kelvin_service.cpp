@@ -10,7 +10,6 @@
 #include "distlab/kelvin/sigma.hpp"
 #include "distlab/mesh/checks.hpp"
 #include "distlab/mesh/repair.hpp"
-#include "distlab/mesh/simplify.hpp"
 #include "distlab/mesh/weld.hpp"
 #include "distlab/server/gap_json.hpp"
 #include "distlab/server/json_fields.hpp"
@@ -29,16 +28,7 @@ namespace {
 // Repairs or wraps the object's user mesh and sets everything that depends on the result, under
 // the object's lock: the surface to prepare, the σ transfer, the report, the content key.
 void run_repair(KelvinObject& o, const kelvin::PrepareOptions& options, const Limits& lim, const Progress& progress) {
-  // Simplify first (the point is to make big scans small before anything else), on the weld.
-  json simplify_report;
-  mesh::RepairResult r;
-  json report;
-  if (o.simplify_faces > 0) {
-    mesh::SimplifyResult s = mesh::simplify(o.welded, o.simplify_faces, "simplify", progress);
-    simplify_report = {{"faces", o.simplify_faces}, {"n_input_faces", o.welded.faces.rows()}, {"n_faces", s.surface.faces.rows()}, {"n_vertices", s.surface.vertices.rows()}, {"hausdorff", {{"input_to_simplified", s.input_to_result}}}};
-    r.surface = std::move(s.surface);
-  }
-  if (o.repair != "none") std::tie(r, report) = run_repair_request(o.simplify_faces > 0 ? r.surface : o.surface, {o.repair, o.repair_options}, wrap_budget(lim), progress);
+  Reshaped r = reshape_surface(o.surface, o.welded, o.reshape, lim, progress);
   // What prepare would refuse (a centre outside, a surface over budget), refused now by name.
   const double estimate = estimate_vertices(r.surface, options.lx, options.far_radius, sizing_for_budget(options));
   if (estimate > static_cast<double>(lim.max_vertex_estimate))
@@ -50,8 +40,9 @@ void run_repair(KelvinObject& o, const kelvin::PrepareOptions& options, const Li
   std::lock_guard lock(o.mutex);
   o.repaired = std::move(r.surface);
   o.to_repaired = std::move(transfer);
-  o.repair_report = report;
-  o.simplify_report = simplify_report;
+  o.repair_report = std::move(r.repair_report);
+  o.simplify_report = std::move(r.simplify_report);
+  o.components_report = std::move(r.components_report);
   o.key = content_key(o.repaired, options);
   o.field_sigma = field_sigma(o.sigma, o);
   o.state = "preparing";
@@ -72,7 +63,7 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
   if (!body.is_object()) throw InvalidInput("", "the request must be an object");
   for (const auto& [k, v] : body.items())
     if (k != "asset" && k != "upload" && k != "mesh" && k != "lx" && k != "lx_fraction" && k != "center" && k != "far_radius" &&
-        k != "grading" && k != "sigma" && k != "levels" && k != "repair" && k != "repair_options" && k != "simplify" && k != "comment")
+        k != "grading" && k != "sigma" && k != "levels" && k != "repair" && k != "repair_options" && k != "simplify" && k != "components" && k != "comment")
       throw InvalidInput(k, "unknown key \"" + k.substr(0, 64) + "\"");
   const int sources = static_cast<int>(body.contains("asset")) + static_cast<int>(body.contains("upload")) +
                       static_cast<int>(body.contains("mesh"));
@@ -97,8 +88,9 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
     options.grading = json_number(body["grading"], "grading", kelvin::kMaxGrading);
     if (!(*options.grading >= 0)) throw InvalidInput("grading", "grading must be in [0, 1]");
   }
-  const RepairRequest repair = parse_repair(body, lim);
-  const std::size_t simplify_faces = parse_simplify(body, lim);
+  const ReshapeRequest reshape = parse_reshape(body, lim);
+  const RepairRequest& repair = reshape.repair;
+  const std::size_t simplify_faces = reshape.simplify_faces;
   json source = json::object();
   if (options.centre) source["center"] = {options.centre->x(), options.centre->y(), options.centre->z()};
   if (body.contains("far_radius")) source["far_radius"] = options.far_radius;
@@ -160,7 +152,7 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
     json out = estimate_json(welded.surface, options, estimate);
     // A repair request's surface checks are of the repaired surface, made in the job: the user's
     // open mesh is no problem here, only the budget (and l_x) can be judged before.
-    if (repair.kind != "none" && !out["problem"].is_null() && out["problem"]["field"] != "lx") out["problem"] = nullptr;
+    if ((repair.kind != "none" || reshape.largest_piece) && !out["problem"].is_null() && out["problem"]["field"] != "lx") out["problem"] = nullptr;
     return out;
   }
   if (estimate > budget) {
@@ -180,7 +172,14 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
   // The job's meshing cap is the same budget, and whatever prepare would refuse (a surface that
   // is not closed, a centre outside or too near the surface) is refused now, before a job starts.
   options.max_vertices = std::max<std::size_t>(100, lim.max_vertex_estimate);
-  if (repair.kind == "none") {
+  if (repair.kind == "none" && reshape.largest_piece) {
+    // The piece prepared is checked, in its own numbering (the others are dropped).
+    const mesh::SurfaceMesh piece = mesh::largest_piece(welded.surface);
+    if (const std::string defect = mesh::topology_defect(piece); !defect.empty())
+      throw InvalidInput("components", "the largest piece is not a closed manifold surface: " + defect +
+                                           " (numbers of the piece's own vertices and faces); \"repair\": \"fix\" or \"wrap\" can make it one");
+    kelvin::check_prepare_inputs(piece, options);
+  } else if (repair.kind == "none") {
     // Topology first, named in the file's numbering: a welded vertex is its first file vertex.
     std::vector<int> names(static_cast<std::size_t>(welded.surface.vertices.rows()), -1);
     for (std::size_t i = 0; i < welded.to_welded.size(); ++i)
@@ -201,9 +200,7 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
   object->surface = std::move(surface);
   object->welded = std::move(welded.surface);
   object->to_welded = std::move(welded.to_welded);
-  object->repair = repair.kind;
-  object->repair_options = repair.options;
-  object->simplify_faces = simplify_faces;
+  object->reshape = reshape;
   if (object->reshaped()) object->state = "repairing";
   object->surface_digest = mesh_digest(object->surface);
   object->sigma_key = sigma_key(*object, json::object());

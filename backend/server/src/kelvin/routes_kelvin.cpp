@@ -56,16 +56,14 @@ void KelvinModule::register_routes() {
                      throw ApiError(429, "too_many_uploads", "this session has too many uploads");
                  }
                  // The file's unit: a name or a factor to metres (not both); metres by default.
-                 static const std::map<std::string, double> units = {{"m", 1.0}, {"cm", 0.01}, {"mm", 0.001}, {"in", 0.0254}};
                  if (req.query.count("unit") && req.query.count("scale"))
                    throw InvalidInput("scale", "give unit or scale, not both");
                  double scale = 1.0;
                  std::string unit = "m";
                  if (auto u = req.query.find("unit"); u != req.query.end()) {
                    single_query(req, "unit");
-                   if (!units.count(u->second)) throw InvalidInput("unit", "unit must be m, cm, mm or in");
+                   scale = unit_scale(u->second);
                    unit = u->second;
-                   scale = units.at(unit);
                  } else if (req.query.count("scale")) {
                    scale = query_number(req, "scale");
                    if (!(scale > 0) || scale > kMaxCoordinate) throw InvalidInput("scale", "scale must be in (0, 1e6] (metres per file unit)");
@@ -246,7 +244,7 @@ void KelvinModule::register_routes() {
               const mesh::SurfaceMesh m = isosurface(*prepared, sigma, key, level);
               Response r;
               r.content_type = "application/msgpack";
-              r.body = to_msgpack(mesh_frame(m, {{"type", "isosurface"}, {"object", object->id}, {"level", level}, {"index", 0}, {"count", 1}, {"sigma_version", version}, {"digest", mesh_digest(m)}}));
+              r.body = to_msgpack(mesh_frame(m, {{"type", "isosurface"}, {"object", object->id}, {"level", level}, {"index", 0}, {"count", 1}, {"sigma_version", version}, {"digest", mesh_digest(m)}, {"check", surface_check_json(mesh::inspect_surface(m))}}));
               return r;
             }};
   iso.heavy = true;
@@ -304,6 +302,12 @@ void KelvinModule::register_routes() {
               std::uint64_t version;
               auto prepared = ready(object, sigma, key, version);
               const mesh::SurfaceMesh m = isosurface(*prepared, sigma, key, level);
+              const mesh::SurfaceReport check = mesh::inspect_surface(m);
+              if (!check.manifold())
+                throw ApiError(422, "not_manifold",
+                               "the iso-surface at h = " + json(level).dump() + " is not a closed 2-manifold (" +
+                                   mesh::surface_defects(check) + "); not exported",
+                               "level");
               const fs::path dir = fs::path(registry_cache_dir()) / ("export-" + random_id());
               fs::create_directories(dir);
               Response r;
@@ -324,6 +328,7 @@ void KelvinModule::register_routes() {
               r.content_type = types.at(format);
               // Equal digests: the same surface (e.g. two levels of one export session); see openapi.json.
               r.headers.emplace_back("X-Distlab-Isosurface-Digest", mesh_digest(m));
+              r.headers.emplace_back("X-Distlab-Surface-Check", surface_check_json(check).dump());
               r.headers.emplace_back("Content-Disposition", "attachment; filename=\"isosurface-" + object->id.substr(0, 8) + "." + format + "\"");
               return r;
             }};

@@ -35,6 +35,10 @@ struct SurfaceReport {
   bool manifold() const { return closed() && non_manifold_vertices == 0 && degenerate_faces == 0; }
 };
 SurfaceReport inspect_surface(const SurfaceMesh& mesh);
+// The face-connected piece (across shared edges) enclosing the largest volume, its vertices
+// renumbered in their order in `mesh`; *pieces: how many there were. For a welded mesh.
+SurfaceMesh largest_piece(const SurfaceMesh& mesh, long* pieces = nullptr);
+
 // Empty for a closed 2-manifold; else its defects with their counts, for a refusal.
 std::string surface_defects(const SurfaceReport& report);
 

@@ -8,14 +8,20 @@
 //                      "axis"?: AXIS | [AXIS, ...], "brushes"?: [BRUSH, ...]} (terms add up; brushes
 //                      apply in order, "towards" ones move σ towards their value),
 //            "query": [[x, y, z], ...]?,
-//            "isosurfaces": {"levels": [...], "format": "ply"|"stl"|"obj"|"glb", "path": FILE}?}
+//            "isosurfaces": {"levels": [...], "format": "ply"|"stl"|"obj"|"glb", "path": FILE}?,
+//            "components"?: "all"|"largest", "simplify"?: {"faces": N}, "repair"?: "none"|"fix"|"wrap",
+//            "repair_options"?: {...}} (ReshapeRequest below)
 //            AXIS = {"axis": [x,y,z], "d0", "sigma_nom", "origin"?: [x,y,z], "width"?} (eq. 24)
 //            BRUSH = {"center": [x,y,z], "radius", "value", "falloff"?, "mode"?: "add"|"towards"}
 // Response: {"stats": {"n_verts", "n_tets", "size_mb", "t_mesh", "t_build", "t_decomp",
 //            "t_solve", "cache_hit"}, "mesh": {"n_vertices", "n_faces", "n_welded_vertices"},
 //            "query": {"h": [...], "gradient": [[...], ...], "inside": [...]},
-//            "isosurfaces": [{"level", "path", "n_verts", "n_faces", "digest"}, ...]}.
-//            A level the field never takes (at or below its minimum) is an error naming it.
+//            "isosurfaces": [{"level", "path", "n_verts", "n_faces", "digest", "check"}, ...]}.
+//            A level the field never takes (at or below its minimum) is an error naming it, and
+//            so is a surface that is not a closed 2-manifold (never written). "check": SURFACE_CHECK.
+//            SURFACE_CHECK = {"closed", "manifold", "components", "volume", "boundary_edges",
+//            "non_manifold_edges", "non_manifold_vertices", "degenerate_faces"}, counted on the
+//            surface welded at float32 (mesh/checks.hpp).
 //            h and gradient are null where undefined (inside, or V ≤ 0 there).
 //            With several levels the files are PATH-stem_<i>.ext, one per level.
 // Errors:   {"error": {"code", "message", "field"}} as for GAP.
@@ -28,10 +34,19 @@
 
 #include "distlab/geometry/progress.hpp"
 #include "distlab/kelvin/field.hpp"
+#include "distlab/mesh/checks.hpp"
 #include "distlab/mesh/repair.hpp"
 #include "distlab/server/config.hpp"
 
 namespace distlab::server {
+
+// A file's unit, metres per unit: "m", "cm", "mm", "in" (else InvalidInput on `field`).
+double unit_scale(const std::string& unit, const std::string& field = "unit");
+
+// SURFACE_CHECK above: what an exported iso-surface is, sent with it.
+inline nlohmann::json surface_check_json(const mesh::SurfaceReport& r) {
+  return {{"closed", r.closed()}, {"manifold", r.manifold()}, {"components", r.components}, {"volume", r.volume}, {"boundary_edges", r.boundary_edges}, {"non_manifold_edges", r.non_manifold_edges}, {"non_manifold_vertices", r.non_manifold_vertices}, {"degenerate_faces", r.degenerate_faces}};
+}
 
 // Runs a whole request. Throws InvalidInput (with the field) on bad input.
 nlohmann::json run_kelvin_request(const nlohmann::json& request, const kelvin::Progress& progress = {});
@@ -81,6 +96,25 @@ void require_repair_within(const mesh::SurfaceMesh& user, const RepairRequest& r
 // alpha, offset and the Hausdorff distances; both: n_vertices, n_faces). Cancellable by `progress`.
 std::pair<mesh::RepairResult, nlohmann::json> run_repair_request(const mesh::SurfaceMesh& user, const RepairRequest& request,
                                                                  const mesh::WrapBudget& budget, const Progress& progress = {});
+
+// How a request reshapes the user's surface before preparation, in this order: "components":
+// "all" (default: one field around every piece) | "largest" (the piece enclosing the largest
+// volume; the others are dropped), "simplify", "repair". The service, the CLI, the CBF fields
+// and Python read and apply it alike.
+struct ReshapeRequest {
+  bool largest_piece = false;
+  std::size_t simplify_faces = 0;
+  RepairRequest repair;
+  bool any() const { return largest_piece || simplify_faces > 0 || repair.kind != "none"; }
+};
+ReshapeRequest parse_reshape(const nlohmann::json& body, const Limits& limits);
+struct Reshaped {
+  mesh::SurfaceMesh surface;                                         // the surface to prepare (closed: the preparation checks it)
+  nlohmann::json components_report, simplify_report, repair_report;  // null where not done
+};
+// `welded`: mesh::weld(user).surface. The repair is refused up front when over its budget.
+Reshaped reshape_surface(const mesh::SurfaceMesh& user, const mesh::SurfaceMesh& welded, const ReshapeRequest& request,
+                         const Limits& limits, const Progress& progress = {});
 
 // A rough vertex count of the preparation, for the vertex budget: the exterior mesh has element
 // size l_x up to far_radius · R (R: the bounding radius), and beyond it the mesh of the inverted

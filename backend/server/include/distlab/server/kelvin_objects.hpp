@@ -141,19 +141,15 @@ struct KelvinObject {
   mesh::SurfaceMesh welded;
   std::vector<int> to_welded;  // user vertex -> welded vertex (−1: used by no face)
   std::string surface_digest;  // mesh_digest(surface)
-  // "fix" or "wrap" (repair.hpp): the field is prepared on `repaired` instead of `welded`, and
-  // σ per user vertex reaches it by `to_repaired` (the nearest-face rule). Both are set by the
-  // preparation job under `mutex` while state is "repairing", and never change afterwards.
-  std::string repair = "none";
-  nlohmann::json repair_options = nlohmann::json::object();
+  // "components", "simplify", "repair" (ReshapeRequest, kelvin_json.hpp): the field is prepared
+  // on `repaired` instead of `welded`, and σ per user vertex reaches it by `to_repaired` (the
+  // nearest-face rule). Both are set by the preparation job under `mutex` while state is
+  // "repairing", and never change afterwards.
+  ReshapeRequest reshape;
   mesh::SurfaceMesh repaired;
   mesh::Transfer to_repaired;
-  nlohmann::json repair_report;
-  // "simplify": {"faces": N} (mesh/simplify.hpp), before the repair: `repaired` is then the
-  // simplified (and repaired) surface, reached by `to_repaired` like a repair's.
-  std::size_t simplify_faces = 0;  // 0: none
-  nlohmann::json simplify_report;
-  bool reshaped() const { return repair != "none" || simplify_faces > 0; }  // prepared on `repaired`
+  nlohmann::json repair_report, simplify_report, components_report;
+  bool reshaped() const { return reshape.any(); }  // prepared on `repaired`
 
   std::mutex mutex;                 // guards everything below
   std::string state = "preparing";  // repairing | preparing | ready | failed | cancelled
