@@ -216,6 +216,9 @@ test("export downloads every shown level, and the server's importer reads each f
   await page.waitForFunction(() => true);
   for (let i = 0; i < 50 && downloads.length < 2; i++) await page.waitForTimeout(200);
   assert.equal(downloads.length, 2, "one file per shown level");
+  // The server's check of each file (X-Distlab-Surface-Check) is said after its download.
+  const said = await page.$$eval(".toast", (ts) => ts.map((t) => t.textContent ?? ""));
+  assert.ok(said.some((t) => /closed 2-manifold, 1 component, volume/.test(t)), `toasts: ${JSON.stringify(said)}`);
   const session = (await (await fetch(env.server.url + "api/session", { method: "POST" })).json()).session;
   for (const d of downloads) {
     assert.match(d.suggestedFilename(), /^sphere-h(0|0\.4)\.ply$/);
