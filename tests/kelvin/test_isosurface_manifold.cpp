@@ -4,12 +4,16 @@
 // by an edge count of this file's own on the surface welded at float32, not by the library's flag.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <filesystem>
+#include <fstream>
 #include <map>
 #include <numbers>
 #include <set>
+#include <string>
 #include <vector>
 
 #include "distlab/kelvin/field.hpp"
@@ -189,8 +193,26 @@ std::vector<SigmaSpec> sigma_sweep(const mesh::SurfaceMesh& s) {
   return out;
 }
 
+// An L-shaped prism read from an OBJ whose caps are single non-convex 6-corner polygons (the
+// loader triangulates them; a fan from the first corner would cover the notch).
+mesh::SurfaceMesh l_prism_from_obj() {
+  const auto path = std::filesystem::temp_directory_path() / ("distlab_l_prism_" + std::to_string(::getpid()) + ".obj");
+  {
+    std::ofstream obj(path);
+    const double l[6][2] = {{2, 1}, {1, 1}, {1, 2}, {0, 2}, {0, 0}, {2, 0}};  // counter-clockwise
+    for (const double z : {0.0, 1.0})
+      for (const auto& p : l) obj << "v " << 0.5 * p[0] << " " << 0.5 * p[1] << " " << 0.5 * z << "\n";
+    obj << "f 6 5 4 3 2 1\nf 7 8 9 10 11 12\n";
+    for (int i = 0; i < 6; ++i) obj << "f " << i + 1 << " " << (i + 1) % 6 + 1 << " " << 7 + (i + 1) % 6 << " " << 7 + i << "\n";
+  }
+  mesh::SurfaceMesh m = mesh::load_mesh(path.string());
+  std::filesystem::remove(path);
+  return m;
+}
+
 TEST(KelvinIsoSurface, EveryLevelIsAClosedManifoldIncludingTheBoundaryLevel) {
   const std::vector<Shape> shapes = {
+      {"L prism (polygon OBJ)", l_prism_from_obj(), 0.1},
       {"torus", torus(0.5, 0.2, 48, 24), 0.12},
       {"two boxes", mesh::merge(mesh::box(Vec3(0.4, 0.4, 0.4)), shifted(mesh::box(Vec3(0.3, 0.5, 0.2)), Vec3(0.6, 0.1, 0))), 0.1},
       {"thin plate", mesh::box(Vec3(1.0, 0.8, 0.03)), 0.1},
