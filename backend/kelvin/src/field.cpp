@@ -69,9 +69,8 @@ static std::pair<mesh::SurfaceMesh, Vec3> validated(const mesh::SurfaceMesh& inp
     throw InvalidInput("mesh", "the object is nowhere thicker than " + std::to_string(2 * clearance) +
                                    " m, under 4% of its radius " + std::to_string(r_max) +
                                    " m: a Kelvin field needs a solid, and this is a thin sheet or shell (a wrapped sheet is "
-                                   "2 × the wrap's offset thick: repair_options.offset ≥ " +
-                                   std::to_string(0.02 * r_max) +
-                                   " m makes it one)");
+                                   "2 × the wrap's offset thick, and grows by it: repair_options.offset ≥ " +
+                                   std::to_string(0.03 * r_max) + " m makes it one)");
   }
   if (o.lx > r_max) throw InvalidInput("lx", "lx is larger than the object (" + std::to_string(r_max) + " m)");
   // Rough vertex estimate: ~1 vertex per 1.5 l_x³ of the uniform region, capped for safety.
