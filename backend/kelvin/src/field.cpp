@@ -144,8 +144,10 @@ static std::unique_ptr<Field::Impl> mesh_stage(mesh::SurfaceMesh surface, const 
   params.max_refinement_evaluations = o.max_refinement_steps;
   std::string warning;
   impl->tm = mesh_inverted_domain(inverted, params, progress, &warning);
+  const auto t_pinch = std::chrono::steady_clock::now();
   const long pinched = make_boundary_manifold(impl->tm);
-  if (std::getenv("DISTLAB_MESH_DEBUG")) std::fprintf(stderr, "mesh: %ld cells left the domain at pinches\n", pinched);
+  if (std::getenv("DISTLAB_MESH_DEBUG"))
+    std::fprintf(stderr, "mesh: %ld cells left the domain at pinches (%.3f s)\n", pinched, seconds_since(t_pinch));
   reorder_spatially(impl->tm);
   impl->stats.t_mesh = seconds_since(t0);
   impl->surface = std::move(surface);

@@ -104,6 +104,18 @@ class StarComponents {
   int v_ = -1;
 };
 
+// Whether v's star has cells on both sides (the hull counting as outside).
+bool on_boundary(const TetMesh& tm, const Stars& stars, int v) {
+  bool in = false, out = false;
+  for (int i = stars.start[static_cast<size_t>(v)]; i < stars.start[static_cast<size_t>(v) + 1]; ++i) {
+    const int c = stars.cells[static_cast<size_t>(i)];
+    (tm.in_domain[static_cast<size_t>(c)] ? in : out) = true;
+    for (int k = 0; k < 4 && !out; ++k) out = tm.neighbours(c, k) < 0 && tm.tets(c, k) != v;
+    if (in && out) return true;
+  }
+  return false;
+}
+
 }  // namespace
 
 long make_boundary_manifold(TetMesh& tm) {
@@ -132,6 +144,7 @@ long make_boundary_manifold(TetMesh& tm) {
     const int v = work.back();
     work.pop_back();
     queued[static_cast<size_t>(v)] = 0;
+    if (!on_boundary(tm, stars, v)) continue;  // most vertices: all in or all out, nothing to label
     star.label(v);
     if (star.manifold()) continue;
     // First keep the largest piece of the domain around v; if the outside is still split (the
