@@ -159,6 +159,10 @@ TEST(WrenchGrasp, ErrorsNameTheField) {
   EXPECT_EQ(field_of([](json& s) { s["fields"][0]["lx_fraction"] = 0.1; }), "scenario.fields[0].lx");  // both given
   EXPECT_EQ(field_of([](json& s) { s["fields"][0]["sigma"]["axis"]["width"] = -1; }).rfind("scenario.fields[0].sigma", 0), 0U);
   EXPECT_EQ(field_of([](json& s) { s["fields"][0]["colour"] = 1; }), "scenario.fields[0].colour");
+  // The Kelvin objects' reshaping keys, read by the same codec (ReshapeRequest).
+  EXPECT_EQ(field_of([](json& s) { s["fields"][0]["components"] = "some"; }), "scenario.fields[0].components");
+  EXPECT_EQ(field_of([](json& s) { s["fields"][0]["simplify"] = {{"faces", 2}}; }), "scenario.fields[0].simplify.faces");
+  EXPECT_EQ(field_of([](json& s) { s["fields"][0]["repair"] = "glue"; }), "scenario.fields[0].repair");
   EXPECT_EQ(field_of([](json& s) { s.erase("control_points"); }), "scenario.fields");
   EXPECT_EQ(field_of([](json&) {}, {{"fields", json::array()}}), "params.fields");
   EXPECT_EQ(field_of([](json&) {}, {{"fields", {{{"lx", 1}}}}}), "params.fields[0].lx");

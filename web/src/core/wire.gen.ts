@@ -2591,6 +2591,15 @@ export interface components {
             ];
             far_radius?: number;
             feature_angle?: number;
+            /**
+             * @description as a Kelvin object's
+             * @enum {string}
+             */
+            components?: "all" | "largest";
+            /** @description as a Kelvin object's */
+            simplify?: {
+                faces?: number;
+            };
             /** @enum {string} */
             repair?: "none" | "fix" | "wrap";
             repair_options?: Record<string, never>;

@@ -54,7 +54,7 @@ void refuse_mesh_paths(const json& request) {
 
 void check_field_budget(const PlannedField& p, const Limits& lim) {
   check_budget(p.prepared, p.options, p.lx_field, lim);
-  if (p.repair.kind != "none") return;  // the repaired surface is checked when it is made
+  if (p.reshape.any()) return;  // the reshaped surface is checked when it is made
   kelvin::PrepareOptions options = p.options;
   options.max_vertices = std::max<std::size_t>(100, lim.max_vertex_estimate);
   try {

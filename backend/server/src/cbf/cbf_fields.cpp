@@ -47,7 +47,7 @@ kelvin::Field prepare_default(const mesh::SurfaceMesh& surface, const kelvin::Pr
 std::optional<PlannedField> plan_field(const json& j, std::size_t index, const std::string& f, const std::string& assets_dir,
                                        std::vector<cbf::Obstacle>* hull_obstacles) {
   json_require_object(j, f);
-  json_check_keys(j, f, {"name", "mesh", "lx", "lx_fraction", "grading", "center", "far_radius", "feature_angle", "repair", "repair_options", "pose", "sigma", "delta", "comment"});
+  json_check_keys(j, f, {"name", "mesh", "lx", "lx_fraction", "grading", "center", "far_radius", "feature_angle", "components", "simplify", "repair", "repair_options", "pose", "sigma", "delta", "comment"});
   PlannedField p;
   p.field = f;
   cbf::SceneField& out = p.scene;
@@ -81,7 +81,7 @@ std::optional<PlannedField> plan_field(const json& j, std::size_t index, const s
   if (j.contains("center")) options.centre = json_vec3(j["center"], json_key_path(f, "center"), kMaxCoordinate);
   if (j.contains("far_radius")) options.far_radius = json_number(j["far_radius"], json_key_path(f, "far_radius"), kelvin::kMaxFarRadius);
   if (j.contains("feature_angle")) options.feature_angle = json_number(j["feature_angle"], json_key_path(f, "feature_angle"), 180);
-  p.repair = prefixed(f, [&] { return parse_repair(j, Limits{}); });
+  p.reshape = prefixed(f, [&] { return parse_reshape(j, Limits{}); });
   p.user_sigma = j.contains("sigma") ? prefixed(f, [&] { return parse_sigma(j["sigma"]); }) : kelvin::SigmaSpec{};
   // σ per file vertex → per welded vertex (carried to the repaired surface when it is made).
   out.sigma = prefixed(f, [&] { return field_sigma(p.user_sigma, p.surface, welded.to_welded, welded.surface.vertices.rows()); });
@@ -170,10 +170,10 @@ void prepare_planned_fields(cbf::Scenario& s, const FieldPlan& plan, const Field
       }
     cbf::SceneField out = p.scene;
     mesh::SurfaceMesh surface = p.prepared;
-    if (p.repair.kind != "none") {
-      auto [result, report] = prefixed(p.field, [&] { return run_repair_request(p.surface, p.repair, wrap_budget(Limits{}), progress); });
-      out.sigma = carry_sigma(std::move(out.sigma), p.user_sigma, mesh::nearest_face_transfer(p.surface, result.surface.vertices, progress));
-      surface = std::move(result.surface);
+    if (p.reshape.any()) {
+      Reshaped r = prefixed(p.field, [&] { return reshape_surface(p.surface, p.prepared, p.reshape, Limits{}, progress); });
+      out.sigma = carry_sigma(std::move(out.sigma), p.user_sigma, mesh::nearest_face_transfer(p.surface, r.surface.vertices, progress));
+      surface = std::move(r.surface);
     }
     kelvin::Field field = prefixed(p.field, [&] { return (prepare ? prepare : prepare_default)(surface, p.options, p.field); });
     progress("solve", 0);

@@ -1,7 +1,8 @@
 #pragma once
 // A scenario's Kelvin objects and control points (cbf/fields.hpp) as JSON:
 //   "fields": [{"name"?, "mesh": {"asset": NAME} | {"path": FILE}, "lx" | "lx_fraction",
-//               "grading"?, "center"?, "far_radius"?, "feature_angle"?, "repair"?, "repair_options"?,
+//               "grading"?, "center"?, "far_radius"?, "feature_angle"?, "components"?, "simplify"?,
+//               "repair"?, "repair_options"? (ReshapeRequest, as the Kelvin requests),
 //               "pose"?: {"position", "quaternion"}, "sigma"?: SIGMA (as the Kelvin requests:
 //               per_vertex in the file's vertex order, axis terms, brushes), "delta"?: δ (0)}]
 //   "control_points": [{"link", "point": [x, y, z] (link frame), "name"?}
@@ -31,9 +32,9 @@ struct PlannedField {
   cbf::SceneField scene;         // name, pose, δ, σ over `prepared`'s vertices; no field yet
   mesh::SurfaceMesh surface;     // as the file gives it (its vertices in its order)
   kelvin::SigmaSpec user_sigma;  // σ as given (per_vertex per file vertex)
-  mesh::SurfaceMesh prepared;    // the welded surface: what is prepared (unless repaired)
+  mesh::SurfaceMesh prepared;    // the welded surface: what is prepared (unless reshaped)
   kelvin::PrepareOptions options;
-  RepairRequest repair;
+  ReshapeRequest reshape;
 };
 // A scenario's fields and control points (checked against the robot) before preparation.
 struct FieldPlan {
