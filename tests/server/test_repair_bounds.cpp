@@ -116,6 +116,36 @@ TEST_F(RepairBounds, SimplifyReportsItsDistanceAndCarriesSigma) {
   EXPECT_EQ(body_json(r)["error"]["field"], "simplify.faces") << r->body;
 }
 
+// POST /api/kelvin/estimate tells a wrap's prediction before anything runs; the wrap then made
+// has that many faces to the estimate's stated accuracy on closed shapes (×1.6; ×2 here). At a
+// few thousand faces: at a few hundred (α 0.25 here) it read 474 for 1262.
+TEST_F(RepairBounds, TheEstimateRouteTellsTheWrapsPrediction) {
+  json body = sphere_request(3);
+  body["repair"] = "wrap";
+  body["repair_options"] = {{"alpha", 0.12}};
+  auto r = c.Post("/api/kelvin/estimate", session_headers(s), body.dump(), "application/json");
+  ASSERT_EQ(r->status, 200) << r->body;
+  const json e = body_json(r)["repair_estimate"];
+  ASSERT_TRUE(e.is_object()) << r->body;
+  EXPECT_EQ(e["alpha"], 0.12);
+  const double predicted = e["faces"];
+  EXPECT_GT(e["megabytes"].get<double>(), 0);
+  EXPECT_GT(e["seconds"].get<double>(), 0);
+  r = create(body);
+  ASSERT_EQ(r->status, 202) << r->body;
+  const json st = settle(body_json(r)["object"]["id"]);
+  ASSERT_EQ(st["state"], "ready") << st.dump();
+  const double made = st["repair_report"]["n_faces"];
+  std::printf("wrap alpha 0.12 on the unit sphere: predicted %.0f faces, made %.0f\n", predicted, made);
+  EXPECT_LT(predicted, 2 * made);
+  EXPECT_GT(predicted, made / 2);
+  body.erase("repair_options");
+  body["repair"] = "fix";  // no prediction for fix
+  r = c.Post("/api/kelvin/estimate", session_headers(s), body.dump(), "application/json");
+  ASSERT_EQ(r->status, 200) << r->body;
+  EXPECT_FALSE(body_json(r).contains("repair_estimate"));
+}
+
 // "components": "largest" (issue 36, item 6): two spheres, the small one dropped; σ per file
 // vertex (z / 2) still reaches the kept piece, and the small sphere's inside is no longer inside.
 TEST_F(RepairBounds, TheLargestPieceAloneIsPrepared) {

@@ -1363,6 +1363,14 @@ export interface paths {
                                 field: string;
                                 message: string;
                             } | null;
+                            /** @description "repair": "wrap": the wrap's prediction before it runs (mesh::estimate_wrap; faces within ×1.6 on closed shapes, up to ×7 low on open sheets, whose running wrap stops at max_repair_faces), with the α and offset it would use; a wrap over the budget is 422 over_budget instead */
+                            repair_estimate?: {
+                                alpha?: number;
+                                offset?: number;
+                                faces?: number;
+                                megabytes?: number;
+                                seconds?: number;
+                            };
                         };
                     };
                 };

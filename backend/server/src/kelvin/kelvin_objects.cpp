@@ -264,6 +264,12 @@ mesh::WrapOptions wrap_options(const RepairRequest& request) {
 }
 }  // namespace
 
+json repair_estimate_json(const mesh::SurfaceMesh& user, const RepairRequest& request) {
+  if (request.kind != "wrap") return nullptr;
+  const mesh::WrapEstimate e = mesh::estimate_wrap(user, wrap_options(request));
+  return {{"alpha", e.alpha}, {"offset", e.offset}, {"faces", std::round(e.faces)}, {"megabytes", e.megabytes}, {"seconds", e.seconds}};
+}
+
 void require_repair_within(const mesh::SurfaceMesh& user, const RepairRequest& request, const Limits& limits) {
   if (request.kind == "wrap") mesh::require_wrap_within(user, wrap_options(request), wrap_budget(limits), "repair_options");
 }

@@ -153,6 +153,7 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
     // A repair request's surface checks are of the repaired surface, made in the job: the user's
     // open mesh is no problem here, only the budget (and l_x) can be judged before.
     if ((repair.kind != "none" || reshape.largest_piece) && !out["problem"].is_null() && out["problem"]["field"] != "lx") out["problem"] = nullptr;
+    if (json wrap = repair_estimate_json(surface, repair); !wrap.is_null()) out["repair_estimate"] = std::move(wrap);
     return out;
   }
   if (estimate > budget) {
