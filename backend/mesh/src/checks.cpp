@@ -4,8 +4,6 @@
 #include <CGAL/Surface_mesh.h>
 
 #include <algorithm>
-#include <array>
-#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <numeric>
@@ -15,6 +13,7 @@
 #include "distlab/geometry/error.hpp"
 #include "distlab/mesh/cgal_surface.hpp"
 #include "distlab/mesh/checks.hpp"
+#include "distlab/mesh/weld.hpp"
 
 namespace distlab::mesh {
 namespace {
@@ -120,30 +119,9 @@ SurfaceReport inspect_surface(const SurfaceMesh& mesh) {
   r.faces = static_cast<long>(mesh.faces.rows());
   // Welded at float32: what an STL or glTF file of the surface carries, the coarsest the
   // project writes, so a surface that passes here passes as any of its files.
-  SurfaceMesh w;
-  w.faces = mesh.faces;
-  {
-    struct Hash {
-      std::size_t operator()(const std::array<std::uint32_t, 3>& p) const {
-        return std::hash<std::uint64_t>{}((static_cast<std::uint64_t>(p[0]) * 0x9E3779B97F4A7C15ull) ^
-                                          (static_cast<std::uint64_t>(p[1]) << 21) ^ p[2]);
-      }
-    };
-    std::unordered_map<std::array<std::uint32_t, 3>, int, Hash> index;
-    index.reserve(static_cast<size_t>(mesh.vertices.rows()));
-    std::vector<int> to(static_cast<size_t>(mesh.vertices.rows()));
-    w.vertices.resize(mesh.vertices.rows(), 3);
-    for (Eigen::Index v = 0; v < mesh.vertices.rows(); ++v) {
-      std::array<std::uint32_t, 3> bits{};
-      for (int k = 0; k < 3; ++k) bits[static_cast<size_t>(k)] = std::bit_cast<std::uint32_t>(static_cast<float>(mesh.vertices(v, k)) + 0.0f);  // −0 is +0
-      const auto [it, inserted] = index.emplace(bits, static_cast<int>(index.size()));
-      if (inserted) w.vertices.row(it->second) = mesh.vertices.row(v);
-      to[static_cast<size_t>(v)] = it->second;
-    }
-    w.vertices.conservativeResize(static_cast<Eigen::Index>(index.size()), 3);
-    for (Eigen::Index f = 0; f < w.faces.rows(); ++f)
-      for (int k = 0; k < 3; ++k) w.faces(f, k) = to[static_cast<size_t>(w.faces(f, k))];
-  }
+  SurfaceMesh rounded = mesh;
+  rounded.vertices = mesh.vertices.cast<float>().cast<double>();
+  const SurfaceMesh w = weld(rounded).surface;
   r.vertices = static_cast<long>(w.vertices.rows());
   std::unordered_map<std::uint64_t, int> edges;
   for (Eigen::Index f = 0; f < w.faces.rows(); ++f) {

@@ -2054,7 +2054,7 @@ export interface components {
                 isosurface?: number;
                 since_edit?: number;
             };
-            /** @description isosurface frames with faces: the surface's check (as the export's X-Distlab-Surface-Check) */
+            /** @description GET .../isosurface: the surface's check (as the export's X-Distlab-Surface-Check); not in the WebSocket's frames, whose σ edits are latency-bound (the check costs about twice the extraction) */
             check?: components["schemas"]["SurfaceCheck"];
         };
         Job: {

@@ -115,7 +115,6 @@ void KelvinModule::send_frames(const std::shared_ptr<Session>& session, const st
     json frame = mesh_frame(iso, {{"type", "isosurface"}, {"object", object->id}, {"level", levels[i]}, {"index", i}, {"count", levels.size()}, {"sigma_version", version}, {"digest", mesh_digest(iso)}});
     // A level the field never takes: no geometry, and the smallest h it does take.
     if (iso.faces.rows() == 0) frame["empty"] = true, frame["h_min"] = minimum;
-    else frame["check"] = surface_check_json(mesh::inspect_surface(iso));
     frame["server_ms"] = {{"solve", Ms(t1 - t0).count()}, {"isosurface", Ms(t2 - t1).count()}};
     // From the σ edit's arrival to this frame (queueing included); 0 for the initial σ.
     if (version > 0) frame["server_ms"]["since_edit"] = Ms(std::chrono::steady_clock::now() - sigma_at).count();
