@@ -170,6 +170,13 @@ TEST_F(RepairBounds, TheLargestPieceAloneIsPrepared) {
   EXPECT_EQ(st["components_report"]["pieces"], 2);
   EXPECT_EQ(st["components_report"]["n_vertices"], n);
   const std::string id = st["id"];
+  // The kept sphere's vertices are file vertices: σ = z / 2 exactly (float32 frames).
+  const auto frame = json::from_msgpack(c.Get(("/api/kelvin/objects/" + id + "/surface?of=repaired"), session_headers(s))->body);
+  const auto pos = server::read_float32(frame["positions"]);
+  const auto values = server::read_float32(frame["scalars"]);
+  ASSERT_EQ(values.size(), n);
+  ASSERT_EQ(pos.size(), 3 * n);
+  for (std::size_t j = 0; j < n; ++j) EXPECT_NEAR(values[j], 0.5 * pos[3 * j + 2], 1e-6) << j;
   r = c.Post(("/api/kelvin/objects/" + id + "/query"), session_headers(s), json{{"points", {{3.0, 0.0, 0.0}, {0.0, 0.0, 0.0}}}}.dump(), "application/json");
   ASSERT_EQ(r->status, 200) << r->body;
   const json q = body_json(r);
