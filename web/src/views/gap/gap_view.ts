@@ -1,5 +1,5 @@
-// View 1, the GAP explorer: two shapes dragged with a gizmo, GAP (Λ, D, witness points) beside
-// the Euclidean distance live, parameters with the validator's verdict, iso-surfaces and a slice
+// View 1, the GAP explorer: two shapes dragged with a gizmo, GAP (Λ, D, witness points, the
+// gradient of D as arrows) beside the Euclidean distance live, parameters with the validator's verdict, iso-surfaces and a slice
 // of e_S / E_S (Fig. 1 in 3D), and a sweep plot of D and dD/ds along a straight motion of B.
 import * as THREE from "three";
 import { TransformControls } from "three/addons/controls/TransformControls.js";
@@ -16,11 +16,12 @@ import { Readout, statusLine, type GapResult } from "./readout";
 import { installSliceHover } from "./slice_hover";
 import { ColorBar } from "../../core/colorbar";
 import { COLORS, GapScene } from "./scene";
+import { GRADIENT_COLORS, GradientArrows } from "./gradient";
 import { setPose, shapeBody, shapeRequest } from "./shapes";
 import { defaultState, paramsBody, parseState, type GapState } from "./state";
 import { Sweep } from "./sweep";
 
-type DistanceInput = Pick<GapState, "a" | "b" | "params">;
+type DistanceInput = Pick<GapState, "a" | "b" | "params"> & { gradient: boolean };
 
 export class GapView implements View {
   private host!: ViewHost;
@@ -32,6 +33,8 @@ export class GapView implements View {
   private panel!: GapPanel;
   private readout!: Readout;
   private iso!: IsoLayer;
+  private arrows!: GradientArrows;
+  private legendEl!: HTMLElement;
   private sliceReading: () => unknown = () => null;
   private sweep!: Sweep;
   private distance!: LatestWins<DistanceInput, GapResult>;
@@ -52,6 +55,8 @@ export class GapView implements View {
     this.scene = new GapScene(vp.scene);
     this.scene.setShape("a", this.state.a);
     this.scene.setShape("b", this.state.b);
+    this.arrows = new GradientArrows();
+    vp.scene.add(this.arrows.group);
 
     this.gizmo = new TransformControls(vp.camera, vp.renderer.domElement);
     this.gizmo.size = 0.9;
@@ -62,7 +67,7 @@ export class GapView implements View {
     this.gizmo.addEventListener("mouseUp", () => this.scheduleSweep(0));
 
     this.readout = new Readout(host.canvas);
-    host.canvas.appendChild(legend());
+    host.canvas.appendChild((this.legendEl = legend()));
 
     this.panel = new GapPanel(host.panel, this.state, this.gizmoState, (c) => this.changed(c), {
       reset: () => this.reset(),
@@ -92,7 +97,7 @@ export class GapView implements View {
         // they changed since the last accepted check (saves ~10 ms of server time per drag step).
         const key = JSON.stringify([shapeBody(i.a), shapeBody(i.b), i.params]);
         const validate = key !== this.validatedKey;
-        const body = { a: shapeRequest(i.a), b: shapeRequest(i.b), params: paramsBody(i.params, { gradient: false, validate }) };
+        const body = { a: shapeRequest(i.a), b: shapeRequest(i.b), params: paramsBody(i.params, { gradient: i.gradient, validate }) };
         const r = await api.post<GapResult>("/api/gap/distance", body);
         if (validate && r.validation?.a?.ok && r.validation?.b?.ok) this.validatedKey = key;
         this.roundTrips.push(performance.now() - t0);
@@ -147,6 +152,16 @@ export class GapView implements View {
         return;
       case "sweep":
         break;
+      case "display":
+        // The arrows' scale needs no request; the gradient itself does when it was not asked for.
+        if (this.state.display.gradient && this.result && !this.result.gradient_a) this.requestDistance();
+        else {
+          this.showGradient(this.result, { a: this.state.a.position, b: this.state.b.position });
+          if (this.result) this.readout.show(this.result, this.state.params.solver, this.state.display.gradient);
+        }
+        this.viewport?.invalidate();
+        this.save();
+        return;
     }
     this.viewport?.invalidate();
     this.requestDistance();
@@ -156,7 +171,7 @@ export class GapView implements View {
 
   private requestDistance(): number {
     const s = this.state;
-    return this.distance.submit(structuredClone({ a: s.a, b: s.b, params: s.params }));
+    return this.distance.submit(structuredClone({ a: s.a, b: s.b, params: s.params, gradient: s.display.gradient }));
   }
 
   private showDistance(r: LatestResult<DistanceInput, GapResult>): void {
@@ -173,6 +188,7 @@ export class GapView implements View {
       this.scene.gap.set(null, null);
       this.scene.euclid.set(null, null);
       this.scene.pen.set(null, null);
+      this.showGradient(null, null);
       const text = this.reportError(r.error, "distance");
       this.readout.error(text);
       this.host.status(`refused or failed — see the readout (${r.error instanceof ApiError && r.error.field ? r.error.field : "error"})`);
@@ -181,7 +197,8 @@ export class GapView implements View {
     }
     const res = (this.result = r.output);
     this.lastError = "";
-    this.readout.show(res, r.input.params.solver);
+    this.readout.show(res, r.input.params.solver, this.state.display.gradient);
+    this.showGradient(res, { a: r.input.a.position, b: r.input.b.position });
     this.host.status(statusLine(res, r.input.params.solver));
     this.scene.gap.set(res.witness_a, res.witness_b);
     this.scene.euclid.set(res.euclidean.witness_a, res.euclidean.witness_b);
@@ -192,6 +209,19 @@ export class GapView implements View {
     if (va && vb)
       this.panel.setVerdict(va.ok && vb.ok, `✓ Property 2 holds: largest Hessian eigenvalue of E_S ${va.max_eigenvalue.toFixed(4)} (A), ${vb.max_eigenvalue.toFixed(4)} (B) < 1`);
     this.viewport?.invalidate();
+  }
+
+  /** The arrows of a result's gradient (null: none) and their legend lines with the scale. */
+  private showGradient(r: GapResult | null, origins: { a: number[]; b: number[] } | null): void {
+    const o = origins ?? { a: [0, 0, 0], b: [0, 0, 0] };
+    this.arrows.set(r, { a: o.a as [number, number, number], b: o.b as [number, number, number] }, this.state.display);
+    const text = this.arrows.legend();
+    for (const k of ["linear", "angular"] as const) {
+      const el = this.legendEl.querySelector<HTMLElement>(`[data-testid=gap-legend-grad-${k}]`);
+      if (!el) continue;
+      el.textContent = text[k];
+      el.hidden = !text[k];
+    }
   }
 
   /** Shows an error readably (toast once per distinct message, red verdict for parameters). */
@@ -253,6 +283,7 @@ export class GapView implements View {
     Object.assign(s.params, d.params);
     Object.assign(s.iso, d.iso);
     Object.assign(s.sweep, d.sweep);
+    Object.assign(s.display, d.display);
     this.panel.refresh();
     this.changed("iso");
     this.frameAll();
@@ -312,6 +343,8 @@ export class GapView implements View {
       euclidean: () => this.result?.euclidean.distance ?? null,
       /** Witness points drawn in the 3D view (null: hidden). */
       drawn: () => ({ gap: this.scene.gap.ends, euclid: this.scene.euclid.ends, pen: this.scene.pen.ends }),
+      /** The gradient arrows drawn (world start and tip of each, the scales in use; null: none). */
+      arrows: () => this.arrows.drawn(),
       requests: () => this.distance.sent,
       inFlight: () => this.distance.inFlight,
       readout: () => this.readout.text(),
@@ -343,6 +376,7 @@ export class GapView implements View {
     this.cleanup.forEach((f) => f());
     this.distance?.dispose();
     this.iso?.dispose();
+    this.arrows?.dispose();
     this.sweep?.dispose();
     this.gizmo?.detach();
     this.gizmo?.dispose();
@@ -401,6 +435,14 @@ function legend(): HTMLElement {
     const d = document.createElement("div");
     d.style.color = color;
     d.textContent = text;
+    el.appendChild(d);
+  }
+  // The gradient arrows' lines, with their scale (filled in by showGradient).
+  for (const k of ["linear", "angular"] as const) {
+    const d = document.createElement("div");
+    d.style.color = hex(GRADIENT_COLORS[k]);
+    d.dataset.testid = `gap-legend-grad-${k}`;
+    d.hidden = true;
     el.appendChild(d);
   }
   return el;

@@ -1,13 +1,14 @@
-// The control panel (lil-gui in host.panel): shapes and sizes, gizmo, GAP parameters with the
-// validator's verdict, level sets and slice, and the sweep. Controllers edit the state objects in
-// place and report what kind of change happened; the view decides what to recompute.
+// The control panel (lil-gui in host.panel): shapes and sizes, gizmo, the gradient arrows, GAP
+// parameters with the validator's verdict, level sets and slice, and the sweep. Controllers edit
+// the state objects in place and report what kind of change happened; the view decides what to
+// recompute.
 import { addColorControls } from "../../core/colorbar";
 import GUI, { type Controller } from "lil-gui";
 import { SHAPE_TYPES, type ShapeState } from "./shapes";
 import { exactNumbers } from "../../core/exact_number";
 import { AXES, FIELDS, MOTIONS, SOLVERS, SURFACES, formatLevels, parseLevels, sigmaOfEps, type GapState } from "./state";
 
-export type Change = "shape-a" | "shape-b" | "params" | "iso" | "slice-style" | "sweep" | "gizmo";
+export type Change = "shape-a" | "shape-b" | "params" | "iso" | "slice-style" | "sweep" | "gizmo" | "display";
 
 export interface GizmoState {
   selected: "a" | "b";
@@ -44,6 +45,18 @@ export class GapPanel {
     g.add(gizmo, "space", ["world", "local"])
       .name("axes (q)")
       .onChange(() => changed("gizmo"));
+
+    const d = this.gui.addFolder("Gradient of D");
+    d.add(state.display, "gradient")
+      .name("show ∇D arrows")
+      .onChange(() => changed("display"));
+    // Arrow metres per unit of gradient; 0: chosen from the gradient shown (the legend says which).
+    d.add(state.display, "linearScale", 0, 10, 0.01)
+      .name("∂D/∂p scale (m per m/m, 0 auto)")
+      .onFinishChange(() => changed("display"));
+    d.add(state.display, "angularScale", 0, 100, 0.1)
+      .name("∂D/∂θ scale (m per m/rad, 0 auto)")
+      .onFinishChange(() => changed("display"));
 
     const p = this.gui.addFolder("GAP parameters");
     // No min/max: what the server refuses is the validator's verdict, shown below.

@@ -1,6 +1,7 @@
 // The explorer's whole state (what a shared URL restores): both shapes, GAP parameters,
-// iso-surface levels and slice, and the sweep. Reads from the URL are typed and clamped so a
-// hand-edited link cannot inject the wrong type; the server still validates every number.
+// iso-surface levels and slice, the sweep, and what the 3D view draws (the gradient arrows and
+// their scale). Reads from the URL are typed and clamped so a hand-edited link cannot inject the
+// wrong type; the server still validates every number.
 import { readColorScale } from "../../core/colorbar";
 import type { ColorScale } from "../../core/colormap";
 import { num, numArray, str } from "../../core/urlstate";
@@ -52,12 +53,24 @@ export interface SweepState {
   samples: number;
 }
 
+/** What the 3D view draws besides the shapes (display toggles a link carries). */
+export interface DisplayState {
+  /** The gradient of D for both shapes: ∂D/∂p as a straight arrow at the shape's witness point,
+   *  ∂D/∂θ as an axis with a curved arrow about the shape's origin (requests gradient: true). */
+  gradient: boolean;
+  /** Arrow metres per unit of gradient: per (m/m) for ∂D/∂p, per (m/rad) for ∂D/∂θ; 0: chosen
+   *  from the gradient shown (gradient.ts, autoScale). */
+  linearScale: number;
+  angularScale: number;
+}
+
 export interface GapState {
   a: ShapeState;
   b: ShapeState;
   params: GapParams;
   iso: IsoState;
   sweep: SweepState;
+  display: DisplayState;
 }
 
 export function defaultState(): GapState {
@@ -77,6 +90,7 @@ export function defaultState(): GapState {
       color: { map: "viridis", mode: "auto", min: 0, max: 0.01 },
     },
     sweep: { motion: "translate", axis: "y", range: 0.8, samples: 121 },
+    display: { gradient: true, linearScale: 0, angularScale: 0 },
   };
 }
 
@@ -108,6 +122,7 @@ export function parseState(raw: Record<string, unknown>): GapState {
   const p = obj(raw.params);
   const iso = obj(raw.iso);
   const sw = obj(raw.sweep);
+  const disp = obj(raw.display);
   const eps = num(p.eps, d.params.eps);
   const sigma = num(p.sigma, sigmaOfEps(eps) ?? d.params.sigma);
   return {
@@ -138,6 +153,11 @@ export function parseState(raw: Record<string, unknown>): GapState {
       axis: str(sw.axis, AXES, d.sweep.axis),
       range: num(sw.range, d.sweep.range, 1e-3, 10),
       samples: Math.round(num(sw.samples, d.sweep.samples, 5, 1000)),
+    },
+    display: {
+      gradient: typeof disp.gradient === "boolean" ? disp.gradient : d.display.gradient,
+      linearScale: num(disp.linearScale, d.display.linearScale, 0, 1e6),
+      angularScale: num(disp.angularScale, d.display.angularScale, 0, 1e6),
     },
   };
 }
