@@ -161,8 +161,11 @@ def test_every_operation_answers_as_documented(server):
 
     # Kelvin: an upload, an object prepared as a job, its field, σ, levels, frames and export.
     api.call("GET", "/api/kelvin/assets")
-    api.call("POST", "/api/kelvin/uploads", params={"format": "stl"}, data=(ROOT / "assets" / "cube.stl").read_bytes(),
-             headers={**api.headers, "Content-Type": "application/octet-stream"})
+    up = api.call("POST", "/api/kelvin/uploads", params={"format": "stl"}, data=(ROOT / "assets" / "cube.stl").read_bytes(),
+                  headers={**api.headers, "Content-Type": "application/octet-stream"}).json()
+    api.call("POST", "/api/kelvin/uploads/reuse", json={"digest": up["digest"]})
+    api.call("GET", "/api/kelvin/uploads/{id}/surface", {"id": up["upload"]})
+    api.call("GET", "/api/kelvin/uploads/{id}/defects", {"id": up["upload"]})
     create = {"asset": "cube", "lx": 0.3}
     api.call("POST", "/api/kelvin/estimate", json=create)
     made = api.call("POST", "/api/kelvin/objects", json=create).json()

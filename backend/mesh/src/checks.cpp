@@ -159,6 +159,124 @@ std::string surface_defects(const SurfaceReport& r) {
   return out;
 }
 
+MeshDefects find_defects(const SurfaceMesh& user, std::size_t max_items) {
+  MeshDefects d;
+  const Welded welded = weld(user);
+  const SurfaceMesh& w = welded.surface;
+  const auto nv = static_cast<std::size_t>(w.vertices.rows());
+  const auto nf = static_cast<std::size_t>(w.faces.rows());
+  // A welded vertex is named by its first file vertex (the refusals' numbering).
+  std::vector<int> name(nv, -1);
+  for (std::size_t i = 0; i < welded.to_welded.size(); ++i)
+    if (const int k = welded.to_welded[i]; k >= 0 && name[static_cast<std::size_t>(k)] < 0) name[static_cast<std::size_t>(k)] = static_cast<int>(i);
+  const auto keep = [&](auto& list, auto item) {
+    if (list.size() < max_items) list.push_back(item);
+    else d.truncated = true;
+  };
+  const auto pair_of = [&](std::uint64_t key) {
+    const int a = name[key >> 32], b = name[key & 0xffffffffu];
+    return std::array<int, 2>{std::min(a, b), std::max(a, b)};
+  };
+  const double scale = nv > 0 ? (w.vertices.colwise().maxCoeff() - w.vertices.colwise().minCoeff()).norm() : 0.0;
+  std::vector<char> degenerate(nf, 0);
+  std::unordered_map<std::uint64_t, int> edges;
+  edges.reserve(nf * 2);
+  for (std::size_t f = 0; f < nf; ++f) {
+    const auto r = static_cast<Eigen::Index>(f);
+    const int a = w.faces(r, 0), b = w.faces(r, 1), c = w.faces(r, 2);
+    const Vec3 pa = w.vertices.row(a), pb = w.vertices.row(b), pc = w.vertices.row(c);
+    const bool repeated = a == b || b == c || c == a;
+    // The zero-area rule of require_closed_manifold.
+    if (repeated || (pb - pa).cross(pc - pa).norm() <= 1e-14 * scale * scale) {
+      degenerate[f] = 1;
+      ++d.degenerate_faces;
+      keep(d.degenerate, static_cast<int>(f));
+    }
+    if (repeated) continue;  // no edges (inspect_surface's rule)
+    for (int k = 0; k < 3; ++k) ++edges[edge_key(w.faces(r, k), w.faces(r, (k + 1) % 3))];
+  }
+  std::vector<std::uint64_t> open, shared;
+  for (const auto& [key, count] : edges) {
+    if (count == 1) open.push_back(key);
+    else if (count > 2) shared.push_back(key);
+  }
+  d.boundary_edges = static_cast<long>(open.size());
+  d.non_manifold_edges = static_cast<long>(shared.size());
+  std::vector<std::array<int, 2>> named;
+  for (auto* keys : {&open, &shared}) {
+    named.clear();
+    for (const std::uint64_t key : *keys) named.push_back(pair_of(key));
+    std::sort(named.begin(), named.end());
+    for (const auto& e : named) keep(keys == &open ? d.boundary : d.non_manifold, e);
+  }
+  const std::vector<std::vector<int>> star = stars(w);
+  std::vector<int> pinched;
+  for (std::size_t v = 0; v < nv; ++v)
+    if (!one_fan(w, star[v], static_cast<int>(v))) pinched.push_back(name[v]);
+  d.non_manifold_vertices = static_cast<long>(pinched.size());
+  std::sort(pinched.begin(), pinched.end());
+  for (const int v : pinched) keep(d.pinched, v);
+
+  // Pieces, their volumes and their faces as runs; the largest as largest_piece chooses it.
+  const std::vector<int> piece = face_pieces(w);
+  const int n_pieces = piece.empty() ? 0 : *std::max_element(piece.begin(), piece.end()) + 1;
+  d.pieces.resize(static_cast<std::size_t>(n_pieces));
+  std::size_t runs = 0;
+  int open_piece = -1;  // the piece whose last run ends at face f − 1 (−1: that run is not listed)
+  for (std::size_t f = 0; f < nf; ++f) {
+    MeshDefects::Piece& p = d.pieces[static_cast<std::size_t>(piece[f])];
+    const auto r = static_cast<Eigen::Index>(f);
+    const Vec3 a = w.vertices.row(w.faces(r, 0)), b = w.vertices.row(w.faces(r, 1)), c = w.vertices.row(w.faces(r, 2));
+    p.volume += a.dot(b.cross(c)) / 6.0;
+    ++p.faces;
+    if (open_piece == piece[f]) {
+      ++p.runs.back()[1];
+    } else if (runs < max_items) {
+      p.runs.push_back({static_cast<long>(f), 1});
+      ++runs;
+      open_piece = piece[f];
+    } else {
+      d.truncated = true;
+      open_piece = -1;
+    }
+  }
+  for (int i = 0; i < n_pieces; ++i)
+    if (d.largest < 0 || std::abs(d.pieces[static_cast<std::size_t>(i)].volume) > std::abs(d.pieces[static_cast<std::size_t>(d.largest)].volume)) d.largest = i;
+
+  // Self-intersections among the faces a halfedge mesh takes (face i of it: row of_face[i]).
+  using Mesh = CGAL::Surface_mesh<K::Point_3>;
+  Mesh sm;
+  std::vector<Mesh::Vertex_index> vi;
+  vi.reserve(nv);
+  for (std::size_t v = 0; v < nv; ++v) {
+    const auto r = static_cast<Eigen::Index>(v);
+    vi.push_back(sm.add_vertex(K::Point_3(w.vertices(r, 0), w.vertices(r, 1), w.vertices(r, 2))));
+  }
+  std::vector<int> of_face;
+  for (std::size_t f = 0; f < nf; ++f) {
+    const auto r = static_cast<Eigen::Index>(f);
+    const auto at = [&](int k) { return vi[static_cast<std::size_t>(w.faces(r, k))]; };
+    if (degenerate[f] || sm.add_face(at(0), at(1), at(2)) == Mesh::null_face()) {
+      ++d.unchecked_faces;
+      continue;
+    }
+    of_face.push_back(static_cast<int>(f));
+  }
+  std::vector<std::pair<Mesh::Face_index, Mesh::Face_index>> pairs;
+  if (max_items > 0 && sm.number_of_faces() > 1)
+    CGAL::Polygon_mesh_processing::self_intersections(sm, std::back_inserter(pairs),
+                                                      CGAL::parameters::maximum_number(static_cast<unsigned>(std::min<std::size_t>(max_items, 1u << 30))));
+  d.self_intersections = static_cast<long>(pairs.size());
+  d.self_intersections_complete = max_items > 0 && pairs.size() < max_items;
+  for (const auto& [f, g] : pairs) {
+    const int a = of_face[f.idx()], b = of_face[g.idx()];
+    d.intersecting.push_back({std::min(a, b), std::max(a, b)});
+  }
+  std::sort(d.intersecting.begin(), d.intersecting.end());
+  if (!d.self_intersections_complete && nf > 1) d.truncated = true;
+  return d;
+}
+
 std::string topology_defect(const SurfaceMesh& mesh, const std::vector<int>& names) {
   const auto name = [&](std::uint64_t v) {
     return std::to_string(v < names.size() ? static_cast<std::uint64_t>(names[v]) : v);

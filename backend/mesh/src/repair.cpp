@@ -166,6 +166,10 @@ RepairResult fix(const SurfaceMesh& user, const FixOptions& options, const std::
   } catch (const InvalidInput& e) {
     throw InvalidInput(field, std::string("repair is not enough (try \"wrap\"): after it, ") + e.what());
   }
+  // How far the fix moved the surface: input → fixed is ~0 unless faces were removed; fixed →
+  // input is how far a filled hole's patch lies from the input.
+  out.input_to_result = sampled_distance(user, out.surface, progress);
+  out.result_to_input = sampled_distance(out.surface, user, progress);
   progress("repair", 1.0);
   return out;
 }

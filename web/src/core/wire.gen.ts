@@ -201,6 +201,8 @@ export interface paths {
                             max_repair_bytes: number;
                             /** @description seconds a "wrap" may take, estimated before it runs (from the wrap's and the input's faces); refused up front over it (422 over_budget, field repair_options.alpha) */
                             max_repair_seconds: number;
+                            /** @description entries of each list of GET /api/kelvin/uploads/{id}/defects (boundary and non-manifold edges, non-manifold vertices, degenerate faces, intersecting face pairs, the components' face runs); the counts are whole, truncated says a list stopped */
+                            max_defect_items: number;
                             /**
                              * @description GET .../isosurface and .../export extract one level each (a repeated level is 413 too_many_levels, field level); several levels: PUT .../levels, at most max_levels
                              * @constant
@@ -1247,7 +1249,7 @@ export interface paths {
         put?: never;
         /**
          * Upload a mesh file (raw body) for later objects
-         * @description The file is parsed in a child process limited by import_memory_bytes and import_seconds; a file it cannot parse within them, a declared count the file's size cannot hold, a face index out of range or a NaN/infinite coordinate is a 400 naming field body. The upload's vertices are the file's own, in the file's order (STL: distinct corner positions in order of first appearance; glTF/GLB: POSITION accessors in node order), duplicates kept. Uploads are read from an anonymous in-memory file: none is ever written to the cache directory. A file of points or lines only says that it has no faces; a UTF-16 OBJ (with a byte-order mark) is read as text. The answer gives the bounding box (metres, after unit or scale) and the l_x range that fits this server's vertex budget.
+         * @description The file is parsed in a child process limited by import_memory_bytes and import_seconds; a file it cannot parse within them, a declared count the file's size cannot hold, a face index out of range or a NaN/infinite coordinate is a 400 naming field body. The upload's vertices are the file's own, in the file's order (STL: distinct corner positions in order of first appearance; glTF/GLB: POSITION accessors in node order), duplicates kept. Uploads are read from an anonymous in-memory file: none is ever written to the cache directory. A file of points or lines only says that it has no faces; a UTF-16 OBJ (with a byte-order mark) is read as text. The answer gives the bounding box (metres, after unit or scale) and the l_x range that fits this server's vertex budget. The answer's digest (SHA-256 of the mesh as read: vertex and face counts, the vertices in metres after the unit or scale, the faces; the object's surface_digest) is what a shared link names the upload by. With the query parameter digest (a link's), a file whose mesh has another digest is refused (422 different_mesh, field body) and not kept.
          */
         post: {
             parameters: {
@@ -1257,6 +1259,8 @@ export interface paths {
                     unit?: "m" | "cm" | "mm" | "in";
                     /** @description metres per file unit; not with unit */
                     scale?: number;
+                    /** @description the digest the mesh must have (a link's upload given again): another mesh is refused with 422 different_mesh */
+                    digest?: string;
                 };
                 header?: {
                     /** @description session id (or the distlab_session cookie) */
@@ -1277,36 +1281,14 @@ export interface paths {
                         [name: string]: unknown;
                     };
                     content: {
-                        "application/json": {
-                            upload?: string;
-                            /** @description vertices of the file in the file's order, duplicated positions kept (the length of sigma.per_vertex) */
-                            n_vertices?: number;
-                            n_faces?: number;
-                            /** @description metres per file unit applied */
-                            scale?: number;
-                            unit?: string;
-                            bounding_box?: {
-                                min?: components["schemas"]["Vec3"];
-                                max?: components["schemas"]["Vec3"];
-                                diagonal?: number;
-                            };
-                            /** @description [max(min_lx, the smallest l_x whose vertex estimate fits max_vertex_estimate), half the largest bounding-box extent] at far_radius 1; null when none fits */
-                            lx_range?: {
-                                min?: number;
-                                max?: number;
-                            } | null;
-                            /** @description lx_range over the diagonal */
-                            lx_fraction_range?: {
-                                min?: number;
-                                max?: number;
-                            } | null;
-                        };
+                        "application/json": components["schemas"]["KelvinUpload"];
                     };
                 };
                 400: components["responses"]["Error"];
                 401: components["responses"]["Error"];
                 404: components["responses"]["Error"];
                 413: components["responses"]["Error"];
+                422: components["responses"]["Error"];
                 429: components["responses"]["Error"];
             };
         };
@@ -1882,6 +1864,151 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/kelvin/uploads/reuse": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Use a mesh this server holds, named by its digest (a shared link's upload)
+         * @description Uploads are held by the server across sessions while any session holds them (not on disk: a restart or the sessions' expiry forgets them), indexed by digest. This answers only whether a mesh with that digest is held, and when it is, adds it to this session as a new upload (the same answer as POST /api/kelvin/uploads, with reused true). What another session did with it (its file name, objects, sigma) is not reachable: the digest already names the mesh, and that is all it gives. Absent: 404 upload_not_held, field digest (upload the file again, with ?digest= to have it checked).
+         */
+        post: {
+            parameters: {
+                query?: never;
+                header?: {
+                    /** @description session id (or the distlab_session cookie) */
+                    "X-Distlab-Session"?: components["parameters"]["Session"];
+                };
+                path?: never;
+                cookie?: never;
+            };
+            requestBody: {
+                content: {
+                    "application/json": {
+                        digest: string;
+                        comment?: string;
+                    };
+                };
+            };
+            responses: {
+                /** @description the mesh, as an upload of this session */
+                201: {
+                    headers: {
+                        [name: string]: unknown;
+                    };
+                    content: {
+                        "application/json": components["schemas"]["KelvinUpload"];
+                    };
+                };
+                400: components["responses"]["Error"];
+                401: components["responses"]["Error"];
+                404: components["responses"]["Error"];
+                429: components["responses"]["Error"];
+            };
+        };
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/kelvin/uploads/{id}/surface": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * An upload's mesh as a msgpack MeshFrame (the file's vertices in its order, metres; triangles in the file's face order)
+         * @description To draw an upload before preparing it (with GET .../defects). Metadata: type surface, of upload, upload, digest.
+         */
+        get: {
+            parameters: {
+                query?: never;
+                header?: {
+                    /** @description session id (or the distlab_session cookie) */
+                    "X-Distlab-Session"?: components["parameters"]["Session"];
+                };
+                path: {
+                    id: string;
+                };
+                cookie?: never;
+            };
+            requestBody?: never;
+            responses: {
+                /** @description frame */
+                200: {
+                    headers: {
+                        [name: string]: unknown;
+                    };
+                    content: {
+                        "application/msgpack": components["schemas"]["MeshFrame"];
+                    };
+                };
+                401: components["responses"]["Error"];
+                404: components["responses"]["Error"];
+            };
+        };
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/kelvin/uploads/{id}/defects": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Where an upload is not a closed 2-manifold: counts and the defects' geometry, to draw before a repair
+         * @description Open and non-manifold edges as vertex pairs in the file's vertex numbering, non-manifold vertices, degenerate faces, pairs of self-intersecting faces in the file's face order, and the face-connected pieces (the one components "largest" keeps). Each list is bounded by max_defect_items. A closed 2-manifold has every count 0 except components.
+         */
+        get: {
+            parameters: {
+                query?: never;
+                header?: {
+                    /** @description session id (or the distlab_session cookie) */
+                    "X-Distlab-Session"?: components["parameters"]["Session"];
+                };
+                path: {
+                    id: string;
+                };
+                cookie?: never;
+            };
+            requestBody?: never;
+            responses: {
+                /** @description defects */
+                200: {
+                    headers: {
+                        [name: string]: unknown;
+                    };
+                    content: {
+                        "application/json": components["schemas"]["KelvinDefects"];
+                    };
+                };
+                401: components["responses"]["Error"];
+                404: components["responses"]["Error"];
+            };
+        };
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/robot/robots": {
         parameters: {
             query?: never;
@@ -2027,7 +2154,7 @@ export interface components {
             indices: string;
             /** Format: binary */
             scalars?: string;
-            /** @description isosurface frames: 128-bit FNV-1a (hex) of the surface's vertices and faces */
+            /** @description SHA-256 (hex) of the surface's vertex and face counts, vertices and faces: isosurface frames, and an upload's frame (its digest) */
             digest?: string;
             /** @description isosurface frames: the field never takes this level */
             empty?: boolean;
@@ -2038,10 +2165,10 @@ export interface components {
             /** @description Kelvin frames: the σ version the frame shows */
             sigma_version?: number;
             /**
-             * @description GET .../surface: which surface
+             * @description GET .../objects/{id}/surface: which surface; GET .../uploads/{id}/surface: upload
              * @enum {string}
              */
-            of?: "input" | "repaired";
+            of?: "input" | "repaired" | "upload";
             /** @description isosurface frames */
             level?: number;
             /** @description isosurface frames: the level's index among the watched levels */
@@ -2056,6 +2183,8 @@ export interface components {
             };
             /** @description GET .../isosurface: the surface's check (as the export's X-Distlab-Surface-Check); not in the WebSocket's frames, whose σ edits are latency-bound (the check costs about twice the extraction) */
             check?: components["schemas"]["SurfaceCheck"];
+            /** @description GET .../uploads/{id}/surface: the upload's id */
+            upload?: string;
         };
         Job: {
             id: string;
@@ -3033,6 +3162,8 @@ export interface components {
                 n_vertices?: number;
                 n_faces?: number;
             };
+            /** @description SHA-256 of the mesh as the user gave it (an upload's digest) */
+            surface_digest?: string;
         };
         /** @description a prepared field's size and preparation times (seconds) */
         KelvinStats: {
@@ -3089,7 +3220,7 @@ export interface components {
             /** @description echoed in the reply to this message, to this socket only */
             request?: string | number;
         };
-        /** @description what repair "fix" changed (counts per step) or what "wrap" made (alpha, offset, one-sided Hausdorff distances in metres), and the repaired surface's size */
+        /** @description what repair "fix" changed (counts per step) or what "wrap" made (alpha, offset), the one-sided Hausdorff distances between the input and the result in metres, and the repaired surface's size */
         RepairReport: {
             /** @enum {string} */
             kind: "fix" | "wrap";
@@ -3098,9 +3229,14 @@ export interface components {
             };
             alpha?: number;
             offset?: number;
+            /** @description wrap: input_to_wrap and wrap_to_input; fix: input_to_fixed and fixed_to_input (sampled: the vertices and up to 250k points by area) */
             hausdorff?: {
-                input_to_wrap: number;
-                wrap_to_input: number;
+                input_to_wrap?: number;
+                wrap_to_input?: number;
+                /** @description fix: farthest input point from the fixed surface (≈ 0 unless faces were removed) */
+                input_to_fixed?: number;
+                /** @description fix: farthest fixed point from the input (how far a filled hole lies from it) */
+                fixed_to_input?: number;
             };
             n_vertices: number;
             n_faces: number;
@@ -3115,6 +3251,100 @@ export interface components {
             non_manifold_edges: number;
             non_manifold_vertices: number;
             degenerate_faces: number;
+        };
+        /** @description an upload of this session: its id, what the server read, and the l_x range that fits */
+        KelvinUpload: {
+            upload: string;
+            /** @description vertices of the file in the file's order, duplicated positions kept (the length of sigma.per_vertex) */
+            n_vertices: number;
+            n_faces: number;
+            /** @description metres per file unit applied */
+            scale: number;
+            unit?: string;
+            bounding_box?: {
+                min?: components["schemas"]["Vec3"];
+                max?: components["schemas"]["Vec3"];
+                diagonal?: number;
+            };
+            /** @description [max(min_lx, the smallest l_x whose vertex estimate fits max_vertex_estimate), half the largest bounding-box extent] at far_radius 1; null when none fits */
+            lx_range?: {
+                min?: number;
+                max?: number;
+            } | null;
+            /** @description lx_range over the diagonal */
+            lx_fraction_range?: {
+                min?: number;
+                max?: number;
+            } | null;
+            /** @description SHA-256 (hex) of the mesh as read, in metres: equal digests, the same mesh; a link names the upload by it */
+            digest: string;
+            /** @description size of the uploaded file */
+            bytes: number;
+            /** @enum {string} */
+            format: "stl" | "obj" | "ply" | "glb" | "off";
+            /**
+             * @description POST .../uploads/reuse: the mesh another upload on this server had
+             * @constant
+             */
+            reused?: true;
+        };
+        /** @description where an upload is not a closed 2-manifold, found on its exact weld as preparation sees it (a vertex is the file's first vertex at its position, as the refusals number them; a face is the file's triangle: for polygon faces, their triangles in file order, GET .../surface's). Each list holds at most max_defect_items entries, in ascending order; counts are whole. */
+        KelvinDefects: {
+            upload: string;
+            counts: {
+                /** @description edges in one face only (open) */
+                boundary_edges: number;
+                /** @description edges in more than two faces */
+                non_manifold_edges: number;
+                /** @description vertices where two sheets touch */
+                non_manifold_vertices: number;
+                /** @description faces repeating a vertex or without area */
+                degenerate_faces: number;
+                /** @description pairs of intersecting faces found (at most max_defect_items: see self_intersections_complete) */
+                self_intersections: number;
+                /** @description face-connected pieces (across shared edges) */
+                components: number;
+            };
+            /** @description false: the search stopped at max_defect_items pairs, there may be more */
+            self_intersections_complete: boolean;
+            /** @description faces not tested for self-intersection: degenerate ones, and those a halfedge mesh refuses (at a non-manifold edge or vertex; CGAL's self_intersections needs one) */
+            unchecked_faces: number;
+            /** @description open edges as [vertex, vertex] (file numbering, lower first) */
+            boundary_edges: [
+                number,
+                number
+            ][];
+            /** @description edges in more than two faces, as [vertex, vertex] */
+            non_manifold_edges: [
+                number,
+                number
+            ][];
+            /** @description file vertices where two sheets touch */
+            non_manifold_vertices: number[];
+            /** @description faces (file order) */
+            degenerate_faces: number[];
+            /** @description pairs of intersecting faces [f, g], f < g (file order; CGAL's self_intersections) */
+            self_intersections: [
+                number,
+                number
+            ][];
+            /** @description the pieces in order of their first face */
+            components: {
+                faces: number;
+                /** @description enclosed volume (m³; negative: inward faces) */
+                volume: number;
+                /** @description its faces as [first face, count] runs (all pieces' runs together: at most max_defect_items) */
+                runs: [
+                    number,
+                    number
+                ][];
+            }[];
+            /** @description the piece components "largest" keeps (largest enclosed volume); -1 without faces */
+            largest_component: number;
+            /** @description max_defect_items of this server */
+            max_items: number;
+            /** @description a list stopped at max_items */
+            truncated: boolean;
         };
         RobotDistancesRequest: {
             robot: string | {

@@ -5,6 +5,7 @@
 #include <atomic>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -45,6 +46,11 @@ class KelvinModule final : public Module {
   static KelvinSessionState& kelvin_state(Session& session) { return session.state<KelvinSessionState>(); }
   static SessionUploads& uploads(Session& session) { return session.state<SessionUploads>(); }
   std::shared_ptr<KelvinObject> require_object(const Session& session, const Request& request);
+  std::shared_ptr<const Upload> require_upload(Session& session, const Request& request);
+  // Adds an upload to the session and to held_; the upload's description (POST .../uploads).
+  nlohmann::json add_upload(Session& session, const std::shared_ptr<const Upload>& upload);
+  // The mesh with this digest if some session still holds it.
+  std::shared_ptr<const Upload> held(const std::string& digest);
 
   // estimate_only: checks the inputs and answers estimate_json, creating nothing.
   nlohmann::json create_object(const std::shared_ptr<Session>& session, const nlohmann::json& body,
@@ -61,6 +67,12 @@ class KelvinModule final : public Module {
                    WsSink* only = nullptr);
 
   PreparedRegistry registry_;
+  // Every session's uploads by digest (weak: a mesh is held while a session holds it). A link
+  // names an upload by its digest; POST .../uploads/reuse gives the asking session the same mesh.
+  // That is all the digest proves (the mesh's identity): nothing else of the uploading session
+  // (its file name, objects, σ) is reachable this way.
+  std::mutex held_mutex_;
+  std::map<std::string, std::weak_ptr<const Upload>> held_;
   std::atomic<double> prepare_seconds_per_vertex_{0};  // of the last computed preparation
 };
 

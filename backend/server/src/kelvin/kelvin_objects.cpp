@@ -160,7 +160,7 @@ std::size_t PreparedRegistry::size() const {
 
 json KelvinObject::status_json() {
   std::lock_guard lock(mutex);
-  json j = {{"id", id}, {"state", state}, {"job", job}, {"source", source}, {"n_input_vertices", surface.vertices.rows()}, {"n_input_faces", surface.faces.rows()}, {"n_welded_vertices", welded.vertices.rows()}, {"repair", reshape.repair.kind}, {"sigma_version", sigma_version}, {"levels", levels}, {"key", key}};
+  json j = {{"id", id}, {"state", state}, {"job", job}, {"source", source}, {"n_input_vertices", surface.vertices.rows()}, {"n_input_faces", surface.faces.rows()}, {"n_welded_vertices", welded.vertices.rows()}, {"surface_digest", surface_digest}, {"repair", reshape.repair.kind}, {"sigma_version", sigma_version}, {"levels", levels}, {"key", key}};
   if (!error.is_null()) j["error"] = error;
   if (!repair_report.is_null()) j["repair_report"] = repair_report;
   if (reshape.simplify_faces > 0) j["simplify"] = {{"faces", reshape.simplify_faces}};
@@ -284,7 +284,7 @@ std::pair<mesh::RepairResult, json> run_repair_request(const mesh::SurfaceMesh& 
     r = mesh::fix(user, f, "repair", progress);
     json steps = json::object();
     for (const auto& [name, n] : r.steps) steps[name] = n;
-    report = {{"kind", "fix"}, {"steps", steps}};
+    report = {{"kind", "fix"}, {"steps", steps}, {"hausdorff", {{"input_to_fixed", r.input_to_result}, {"fixed_to_input", r.result_to_input}}}};
   } else {
     r = mesh::wrap(user, wrap_options(request), budget, "repair_options", progress);
     report = {{"kind", "wrap"}, {"alpha", r.alpha}, {"offset", r.offset}, {"hausdorff", {{"input_to_wrap", r.input_to_result}, {"wrap_to_input", r.result_to_input}}}};

@@ -47,12 +47,15 @@ export function uploadText(name: string, u: Uploaded): string {
 /** The repair's report as the server gives it. */
 export function repairText(r: RepairReport): string {
   const size = `${r.n_vertices.toLocaleString("en")} vertices, ${r.n_faces.toLocaleString("en")} triangles`;
-  if (r.kind === "wrap" && r.hausdorff)
-    return `wrapped at α ${metres(r.alpha ?? 0)}, offset ${metres(r.offset ?? 0)}: ${size}; farthest input → wrap ${metres(r.hausdorff.input_to_wrap)}, wrap → input ${metres(r.hausdorff.wrap_to_input)}`;
+  const h = r.hausdorff;
+  if (r.kind === "wrap" && h?.input_to_wrap !== undefined && h.wrap_to_input !== undefined)
+    return `wrapped at α ${metres(r.alpha ?? 0)}, offset ${metres(r.offset ?? 0)}: ${size}; farthest input → wrap ${metres(h.input_to_wrap)}, wrap → input ${metres(h.wrap_to_input)}`;
   const steps = Object.entries(r.steps ?? {})
     .filter(([, n]) => n > 0)
     .map(([k, n]) => `${k.replace(/_/g, " ")} ${n}`);
-  return `fixed (${steps.length ? steps.join(", ") : "nothing to change"}): ${size}`;
+  const moved =
+    h?.input_to_fixed !== undefined && h.fixed_to_input !== undefined ? `; farthest input → fixed ${metres(h.input_to_fixed)}, fixed → input ${metres(h.fixed_to_input)}` : "";
+  return `fixed (${steps.length ? steps.join(", ") : "nothing to change"}): ${size}${moved}`;
 }
 
 /** POST /api/kelvin/estimate: the server's own vertex estimate and budget for these inputs. */

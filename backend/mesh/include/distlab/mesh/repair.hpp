@@ -58,8 +58,8 @@ struct RepairResult {
   SurfaceMesh surface;                                   // closed, manifold, outward oriented
   std::vector<std::pair<std::string, long long>> steps;  // fix: what each step changed, in order
   double alpha = 0, offset = 0;                          // wrap: the values used
-  // wrap: one-sided Hausdorff distances from one surface, sampled on a grid (about 50 points a
-  // face, CGAL's sample_triangle_soup), to the other: input → wrap and wrap → input (metres).
+  // One-sided Hausdorff distances from one surface, sampled (sampled_distance), to the other:
+  // input → result and result → input (metres), for fix and wrap.
   double input_to_result = 0, result_to_input = 0;
 };
 

@@ -63,6 +63,9 @@ struct Limits {
   std::size_t max_repair_faces = 200000;
   std::size_t max_repair_bytes = std::size_t{1} << 30;
   double max_repair_seconds = 300;
+  // GET /api/kelvin/uploads/{id}/defects lists at most this many of each defect (edges, vertices,
+  // faces, intersecting pairs, a piece's face runs); the counts are whole.
+  std::size_t max_defect_items = 10000;
   // Each preparation gets its boundary response (kelvin/field.hpp: strokes at ~0.2× a full solve
   // instead of ~0.8×) if it takes at most max_response_bytes and all live preparations' responses
   // stay within max_response_bytes_total; otherwise strokes are solved with the factor. The
@@ -116,6 +119,7 @@ void for_each_limit(L& l, F&& f) {
   f("max_repair_faces", l.max_repair_faces);
   f("max_repair_bytes", l.max_repair_bytes);
   f("max_repair_seconds", l.max_repair_seconds);
+  f("max_defect_items", l.max_defect_items);
   f("max_response_bytes", l.max_response_bytes);
   f("max_response_bytes_total", l.max_response_bytes_total);
 }

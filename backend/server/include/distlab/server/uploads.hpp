@@ -17,6 +17,10 @@ struct Upload {
   mesh::SurfaceMesh surface;  // the file's vertices in its order, times the upload's unit or scale
   std::string format;
   std::size_t bytes = 0;
+  std::string unit;  // "m", "cm", "mm", "in", or "" when a scale was given
+  double scale = 1;  // metres per file unit
+  // SHA-256 of `surface` (the Kelvin module's mesh_digest): what a link names the mesh by.
+  std::string digest;
 };
 
 // A session's uploads (Session::state, guarded by the session's mutex), at most
