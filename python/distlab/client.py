@@ -10,7 +10,7 @@ from __future__ import annotations
 import json
 import os
 import time
-from typing import Any, Callable, Dict, Iterator, Mapping, Optional, Tuple, Union
+from typing import TYPE_CHECKING, Any, Callable, Dict, Iterator, Mapping, Optional, Tuple, Union
 from urllib.parse import urlsplit, urlunsplit
 
 import msgpack
@@ -19,6 +19,9 @@ import requests
 import websocket
 
 from .errors import InvalidInput
+
+if TYPE_CHECKING:
+    from .scene import Scene
 
 __all__ = ["Client", "CbfSweep", "KelvinObject", "Live", "ServiceError", "decode_mesh_frame"]
 
@@ -54,13 +57,15 @@ def _arrays(x):
 
 
 # The arrays of mesh frames (frames.hpp): little-endian float32 / uint32, and their row widths.
-_FRAME_ARRAYS = {"positions": ("<f4", 3), "indices": ("<u4", 3), "scalars": ("<f4", 1), "sigma": ("<f4", 1)}
+_FRAME_ARRAYS = {"positions": ("<f4", 3), "indices": ("<u4", 3), "scalars": ("<f4", 1), "sigma": ("<f4", 1),
+                 "colors": ("<f4", 3)}
 _BIN_HEADER = {0xC4: 2, 0xC5: 3, 0xC6: 5}  # msgpack bin 8/16/32: type byte + length bytes
 
 
 def decode_mesh_frame(data: bytes) -> dict:
     """A msgpack mesh frame (a WebSocket binary message or a REST download): ``positions`` (n, 3)
-    float32, ``indices`` (m, 3) uint32, ``scalars`` (n,) float32 when present, as read-only numpy
+    float32, ``indices`` (m, 3) uint32 (a lines scene item's: (m, 2)), ``scalars`` (n,) and ``colors``
+    (n, 3) float32 when present, as read-only numpy
     views of ``data`` itself (no copy: their offsets are found by walking the map), the other keys
     as sent."""
     unpacker = msgpack.Unpacker(raw=False, max_buffer_size=max(len(data), 1))
@@ -74,10 +79,14 @@ def decode_mesh_frame(data: bytes) -> dict:
             out[key] = unpacker.unpack()
             continue
         unpacker.skip()
-        dtype, width = _FRAME_ARRAYS[key]
+        dtype = _FRAME_ARRAYS[key][0]
         count = (unpacker.tell() - start - header) // np.dtype(dtype).itemsize
-        a = np.frombuffer(data, dtype=dtype, count=count, offset=start + header)
-        out[key] = a.reshape(-1, width) if width > 1 else a
+        out[key] = np.frombuffer(data, dtype=dtype, count=count, offset=start + header)
+    for key, (_, width) in _FRAME_ARRAYS.items():
+        if key == "indices" and out.get("kind") == "lines":
+            width = 2  # scene items' line segments
+        if isinstance(out.get(key), np.ndarray) and width > 1:
+            out[key] = out[key].reshape(-1, width)
     return out
 
 
@@ -121,6 +130,30 @@ class Client:
     def limits(self) -> dict:
         """The service's limits (GET /api/limits)."""
         return self._request("GET", "/api/limits")
+
+    def page_url(self, view: str = "gap") -> str:
+        """The front end's page of a view in this session: it shows this client's scene items."""
+        return f"{self.url}/?session={self.session}#/{view}"
+
+    @property
+    def scene(self) -> "Scene":
+        """Your own meshes, points, lines and frames in the session's pages (:class:`distlab.scene.Scene`)."""
+        from .scene import Scene
+
+        return Scene(self)
+
+    def record(self, path: Union[str, os.PathLike], *, seconds: Optional[float] = None, frames: Optional[int] = None,
+               view: str = "gap", fps: float = 30, width: int = 960, height: int = 600, timeout: float = 120) -> dict:
+        """Records a view of this session (its scene items included) in headless chromium: a WebM
+        video when ``path`` ends in .webm, else PNG frames (``path`` a directory: frame_0000.png ...;
+        a pattern such as ``out/f_%03d.png``; or ``out.png``: out_0000.png ...). Give ``seconds`` or
+        ``frames`` (bounded by max_record_seconds, max_record_frames, max_record_fps); the page's
+        window is ``width`` x ``height``. Returns the recording (``files``, ``camera``: the clip
+        matrix the page drew with). Ctrl-C or ``timeout`` (seconds beyond its length) stops it."""
+        from .scene import record
+
+        return record(self, path, seconds=seconds, frames=frames, view=view, fps=fps, width=width, height=height,
+                      timeout=timeout)
 
     def close(self) -> None:
         """Ends the session (its jobs are cancelled)."""

@@ -234,6 +234,23 @@ def test_every_operation_answers_as_documented(server):
                                                    "obstacles": [{"type": "sphere", "radius": 0.1, "pose": {"position": [1, 0, 0]}}],
                                                    "params": {"gradient": False}})
 
+    # Scene items (a msgpack frame in, relayed to the socket) and a recording's parts, as a page makes them.
+    tri = {"kind": "mesh", "positions": bytes(36), "indices": b"\0\0\0\0\1\0\0\0\2\0\0\0",
+           "color": [1, 0, 0]}
+    frame = {"headers": {**api.headers, "Content-Type": "application/msgpack"}}
+    api.call("PUT", "/api/scene/items/{name}", {"name": "tri"}, data=msgpack.packb(tri), **frame)
+    api.call("PUT", "/api/scene/items/{name}/pose", {"name": "tri"}, json={"pose": {"position": [0, 0, 1]}})
+    api.call("GET", "/api/scene/items")
+    api.call("DELETE", "/api/scene/items/{name}", {"name": "tri"})
+    api.call("DELETE", "/api/scene/items")
+    rec = {"id": api.call("POST", "/api/scene/recordings", json={"view": "gap", "format": "png", "frames": 1}).json()["id"]}
+    api.call("PUT", "/api/scene/recordings/{id}/parts/{index}", {**rec, "index": 0}, data=b"\x89PNG",
+             headers={**api.headers, "Content-Type": "application/octet-stream"})
+    api.call("POST", "/api/scene/recordings/{id}/finish", rec, json={"camera": {"matrix": [1.0] * 16, "width": 4, "height": 3}})
+    api.call("GET", "/api/scene/recordings/{id}", rec)
+    api.call("GET", "/api/scene/recordings/{id}/parts/{index}", {**rec, "index": 0})
+    api.call("DELETE", "/api/scene/recordings/{id}", rec)
+
     # The WebSocket's messages so far, each against its schema.
     time.sleep(0.5)
     stop.set()
@@ -242,7 +259,8 @@ def test_every_operation_answers_as_documented(server):
     api.call("DELETE", "/api/kelvin/objects/{id}", obj)
     api.call("DELETE", "/api/session")
     kinds = set()
-    binary = {"surface": "MeshFrame", "isosurface": "MeshFrame", "surface_sigma": "SurfaceSigmaFrame"}
+    binary = {"surface": "MeshFrame", "isosurface": "MeshFrame", "surface_sigma": "SurfaceSigmaFrame",
+              "scene_item": "SceneItemFrame"}
     for opcode, data in received:
         if opcode == websocket.ABNF.OPCODE_TEXT:
             msg = json.loads(data)
@@ -252,7 +270,8 @@ def test_every_operation_answers_as_documented(server):
             assert msg.get("type") in binary, f"undocumented binary message {msg.get('type')}"
             api.validate(api.schema(binary[msg["type"]]), msg, f"WebSocket binary message {msg['type']}")
         kinds.add(msg["type"])
-    assert {"hello", "pong", "job", "object", "sigma", "cbf_frames", "surface", "isosurface"} <= kinds, kinds
+    assert {"hello", "pong", "job", "object", "sigma", "cbf_frames", "surface", "isosurface", "scene_item", "scene_pose",
+            "scene_remove", "scene_clear"} <= kinds, kinds
 
     documented = {(m, p) for p, item in doc["paths"].items() for m in item if m != "parameters"}
     assert documented - api.covered == set(), "operations no answer was checked for"

@@ -2,10 +2,12 @@
 // progress bar, screenshot, shortcuts. Views are loaded lazily (one chunk each).
 import "./style.css";
 import { api } from "./core/api";
+import { recordIfAsked } from "./core/recorder";
 import { allShortcuts, installKeyHandler, registerGlobal, setViewShortcuts } from "./core/keys";
 import { socket } from "./core/socket";
 import { setToastScope, showError } from "./core/toast";
 import { hashFor, parseHash, writeState } from "./core/urlstate";
+import { startUserScene, userSceneItems } from "./core/user_scene";
 import type { View, ViewEntry, ViewHost } from "./core/view";
 
 const views: ViewEntry[] = [
@@ -124,11 +126,13 @@ function boot(): void {
     el.textContent = s === "open" ? "connected" : s === "connecting" ? "connecting…" : "offline — reconnecting";
     el.className = `conn-${s}`;
   });
+  startUserScene(socket);
   socket.start();
   window.addEventListener("hashchange", () => void route());
   void route();
+  void recordIfAsked();
   // Test and debugging hooks (read-only views of what the user sees).
-  Object.assign(window, { distlab: Object.assign((window as unknown as { distlab?: object }).distlab ?? {}, { api, socket, screenshot }) });
+  Object.assign(window, { distlab: Object.assign((window as unknown as { distlab?: object }).distlab ?? {}, { api, socket, screenshot, scene: userSceneItems }) });
 }
 
 boot();

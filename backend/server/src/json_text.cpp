@@ -27,7 +27,7 @@ namespace {
 
 class Builder final : public json::json_sax_t {
  public:
-  explicit Builder(json& root) : root_(root) {}
+  Builder(json& root, bool binary) : root_(root), binary_(binary) {}
 
   bool null() override { return add(json(nullptr)); }
   bool boolean(bool v) override { return add(json(v)); }
@@ -35,7 +35,8 @@ class Builder final : public json::json_sax_t {
   bool number_unsigned(number_unsigned_t v) override { return add(json(v)); }
   bool number_float(number_float_t v, const string_t&) override { return add(json(v)); }
   bool string(string_t& v) override { return add(json(std::move(v))); }
-  bool binary(binary_t&) override { return false; }  // JSON text has no binary values
+  // JSON text has no binary values; msgpack's "bin" values are the frames' arrays.
+  bool binary(binary_t& v) override { return binary_ && add(json::binary(std::move(v))); }
   bool start_object(std::size_t) override { return open(json::object()); }
   bool start_array(std::size_t) override { return open(json::array()); }
   bool end_object() override { return close(); }
@@ -104,6 +105,7 @@ class Builder final : public json::json_sax_t {
   }
 
   json& root_;
+  bool binary_;
   std::vector<Frame> stack_;
   std::string key_;
 };
@@ -115,11 +117,21 @@ json parse_json_text(std::string_view text, std::size_t max_bytes) {
     throw InvalidInput("", "request too large: " + std::to_string(text.size()) + " bytes, the limit is " +
                                std::to_string(max_bytes) + " (max_body_bytes)");
   json root;
-  Builder builder(root);
+  Builder builder(root, false);
   const bool ok = json::sax_parse(text.begin(), text.end(), &builder);
   if (builder.invalid_) throw *builder.invalid_;
   if (builder.syntax_) throw *builder.syntax_;
   if (!ok) throw JsonSyntaxError("malformed JSON", 0);
+  return root;
+}
+
+json parse_msgpack(std::string_view bytes) {
+  json root;
+  Builder builder(root, true);
+  const bool ok = json::sax_parse(bytes.begin(), bytes.end(), &builder, json::input_format_t::msgpack);
+  if (builder.invalid_) throw *builder.invalid_;
+  if (builder.syntax_ || !ok)
+    throw InvalidInput("body", "malformed msgpack" + (builder.syntax_ ? std::string(": ") + builder.syntax_->what() : std::string()));
   return root;
 }
 

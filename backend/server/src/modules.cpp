@@ -5,6 +5,7 @@
 #include "gap/gap_module.hpp"
 #include "kelvin/kelvin_module.hpp"
 #include "robot/robot_module.hpp"
+#include "scene/scene_module.hpp"
 
 namespace distlab::server {
 
@@ -13,6 +14,7 @@ void add_standard_modules(Service& service) {
   service.add<KelvinModule>();
   service.add<CbfModule>();
   service.add<RobotModule>();
+  service.add<SceneModule>();
 }
 
 }  // namespace distlab::server

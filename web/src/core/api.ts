@@ -27,7 +27,8 @@ type Json = unknown;
 const SESSION_KEY = "distlab.session";
 
 export class Api {
-  private session: string | null = sessionStorage.getItem(SESSION_KEY);
+  // ?session=ID joins that session (a page of a Python client's session: its scene, its recordings).
+  private session: string | null = new URLSearchParams(location.search).get("session") ?? sessionStorage.getItem(SESSION_KEY);
   private creating: Promise<string> | null = null;
   private newSessionListeners: Array<(id: string) => void> = [];
 

@@ -40,6 +40,12 @@ function standInTrianglesWanted(): number {
   return isSoftwareRenderer() ? 25_000 : 0;
 }
 
+const createdListeners = new Set<(vp: Viewport) => void>();
+/** Calls f with every viewport made from now on (the user's scene items join each view's). */
+export function onViewportCreated(f: (vp: Viewport) => void): void {
+  createdListeners.add(f);
+}
+
 /** After the last interactive frame, this long without one brings the full resolution back. */
 const SETTLE_MS = 250;
 
@@ -109,6 +115,7 @@ export class Viewport {
     this.resizeObserver = new ResizeObserver(() => this.resize());
     this.resizeObserver.observe(container);
     this.resize();
+    createdListeners.forEach((f) => f(this));
   }
 
   /** Something visible changed: draw it at the next animation frame (once, however often called). */

@@ -272,6 +272,20 @@ export interface paths {
                             max_robot_mesh_hull_facets: number;
                             /** @description vertices of one URDF mesh (400, field robot.meshes[FILENAME]) */
                             max_robot_mesh_vertices: number;
+                            /** @description scene items a session holds (413 too_many_items, field name) */
+                            max_scene_items: number;
+                            /** @description vertices of one scene item (413 too_many_vertices, field positions) */
+                            max_scene_vertices: number;
+                            /** @description bytes of a session's scene item frames together (413 too_many_bytes, field body) */
+                            max_scene_bytes: number;
+                            /** @description length of a recording (413 too_long, field seconds or frames) */
+                            max_record_seconds: number;
+                            /** @description frames of a recording (413 too_long, field frames or seconds) */
+                            max_record_frames: number;
+                            /** @description frames per second of a recording (413 too_fast, field fps) */
+                            max_record_fps: number;
+                            /** @description bytes of a recording's parts (413 too_large, field body) */
+                            max_record_bytes: number;
                         };
                     };
                 };
@@ -2094,6 +2108,454 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/scene/items": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** The session's scene items (names, kinds, views, sizes, poses) and their bytes */
+        get: {
+            parameters: {
+                query?: never;
+                header?: {
+                    /** @description session id (or the distlab_session cookie) */
+                    "X-Distlab-Session"?: components["parameters"]["Session"];
+                };
+                path?: never;
+                cookie?: never;
+            };
+            requestBody?: never;
+            responses: {
+                /** @description items */
+                200: {
+                    headers: {
+                        [name: string]: unknown;
+                    };
+                    content: {
+                        "application/json": components["schemas"]["SceneItems"];
+                    };
+                };
+                401: components["responses"]["Error"];
+                404: components["responses"]["Error"];
+            };
+        };
+        put?: never;
+        post?: never;
+        /** Removes every scene item of the session (the pages get scene_clear) */
+        delete: {
+            parameters: {
+                query?: never;
+                header?: {
+                    /** @description session id (or the distlab_session cookie) */
+                    "X-Distlab-Session"?: components["parameters"]["Session"];
+                };
+                path?: never;
+                cookie?: never;
+            };
+            requestBody?: never;
+            responses: {
+                /** @description cleared */
+                204: {
+                    headers: {
+                        [name: string]: unknown;
+                    };
+                    content?: never;
+                };
+                401: components["responses"]["Error"];
+                404: components["responses"]["Error"];
+            };
+        };
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/scene/items/{name}": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        /**
+         * Adds (or replaces) a scene item: a mesh, points, line segments or a coordinate frame drawn in the session's pages
+         * @description The body is one msgpack map, the codec of the mesh frames (positions: bin float32 xyz per vertex; indices: bin uint32, 3 per triangle of a mesh or 2 per segment of lines; colors: bin float32 rgb in [0, 1] per vertex; scalars: bin float32 per vertex, drawn with a colormap). Every page of the session (and only of this session) gets it as a scene_item frame on /ws, and a page opened later gets every item when it joins. Refused naming the field: NaN or |x| > 1e6 (positions[i][k]), an index out of range (indices[f][k]), a wrong byte count, an unknown kind or view; max_scene_vertices (413 too_many_vertices, positions), max_scene_items (413 too_many_items, name), max_scene_bytes (413 too_many_bytes, body).
+         */
+        put: {
+            parameters: {
+                query?: never;
+                header?: {
+                    /** @description session id (or the distlab_session cookie) */
+                    "X-Distlab-Session"?: components["parameters"]["Session"];
+                };
+                path: {
+                    /** @description the item's name: 1 to 64 letters, digits, '_' and '-' */
+                    name: string;
+                };
+                cookie?: never;
+            };
+            requestBody: {
+                content: {
+                    "application/msgpack": components["schemas"]["SceneItemFrame"];
+                };
+            };
+            responses: {
+                /** @description the item as kept */
+                200: {
+                    headers: {
+                        [name: string]: unknown;
+                    };
+                    content: {
+                        "application/json": components["schemas"]["SceneItem"];
+                    };
+                };
+                400: components["responses"]["Error"];
+                401: components["responses"]["Error"];
+                404: components["responses"]["Error"];
+                413: components["responses"]["Error"];
+            };
+        };
+        post?: never;
+        /** Removes a scene item (the pages get scene_remove) */
+        delete: {
+            parameters: {
+                query?: never;
+                header?: {
+                    /** @description session id (or the distlab_session cookie) */
+                    "X-Distlab-Session"?: components["parameters"]["Session"];
+                };
+                path: {
+                    /** @description the item's name: 1 to 64 letters, digits, '_' and '-' */
+                    name: string;
+                };
+                cookie?: never;
+            };
+            requestBody?: never;
+            responses: {
+                /** @description removed */
+                204: {
+                    headers: {
+                        [name: string]: unknown;
+                    };
+                    content?: never;
+                };
+                400: components["responses"]["Error"];
+                401: components["responses"]["Error"];
+                404: components["responses"]["Error"];
+            };
+        };
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/scene/items/{name}/pose": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        /** Moves a scene item: its pose (the pages get scene_pose) */
+        put: {
+            parameters: {
+                query?: never;
+                header?: {
+                    /** @description session id (or the distlab_session cookie) */
+                    "X-Distlab-Session"?: components["parameters"]["Session"];
+                };
+                path: {
+                    /** @description the item's name: 1 to 64 letters, digits, '_' and '-' */
+                    name: string;
+                };
+                cookie?: never;
+            };
+            requestBody: {
+                content: {
+                    "application/json": components["schemas"]["ScenePose"];
+                };
+            };
+            responses: {
+                /** @description the item as kept */
+                200: {
+                    headers: {
+                        [name: string]: unknown;
+                    };
+                    content: {
+                        "application/json": components["schemas"]["SceneItem"];
+                    };
+                };
+                400: components["responses"]["Error"];
+                401: components["responses"]["Error"];
+                404: components["responses"]["Error"];
+            };
+        };
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/scene/recordings": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Asks for a recording of a view: a page of the session opened with ?session=ID&record=RECORDING records its canvas (WebM through MediaRecorder, or PNG frames) and uploads it here (Client.record opens headless chromium for it)
+         * @description One recording per session (a new one replaces the last). Bounded by max_record_seconds and max_record_frames (413 too_long naming seconds or frames), max_record_fps (413 too_fast, fps) and max_record_bytes for its parts (413 too_large, body).
+         */
+        post: {
+            parameters: {
+                query?: never;
+                header?: {
+                    /** @description session id (or the distlab_session cookie) */
+                    "X-Distlab-Session"?: components["parameters"]["Session"];
+                };
+                path?: never;
+                cookie?: never;
+            };
+            requestBody: {
+                content: {
+                    "application/json": components["schemas"]["RecordingRequest"];
+                };
+            };
+            responses: {
+                /** @description the recording, waiting for its page */
+                201: {
+                    headers: {
+                        [name: string]: unknown;
+                    };
+                    content: {
+                        "application/json": components["schemas"]["Recording"];
+                    };
+                };
+                400: components["responses"]["Error"];
+                401: components["responses"]["Error"];
+                404: components["responses"]["Error"];
+                413: components["responses"]["Error"];
+            };
+        };
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/scene/recordings/{id}": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** A recording's state (waiting, recording, done, failed), parts, bytes and the camera it was made with */
+        get: {
+            parameters: {
+                query?: never;
+                header?: {
+                    /** @description session id (or the distlab_session cookie) */
+                    "X-Distlab-Session"?: components["parameters"]["Session"];
+                };
+                path: {
+                    /** @description the recording's id */
+                    id: string;
+                };
+                cookie?: never;
+            };
+            requestBody?: never;
+            responses: {
+                /** @description the recording */
+                200: {
+                    headers: {
+                        [name: string]: unknown;
+                    };
+                    content: {
+                        "application/json": components["schemas"]["Recording"];
+                    };
+                };
+                401: components["responses"]["Error"];
+                404: components["responses"]["Error"];
+            };
+        };
+        put?: never;
+        post?: never;
+        /** Cancels and forgets a recording (a page still recording gets 404 for its next part and stops) */
+        delete: {
+            parameters: {
+                query?: never;
+                header?: {
+                    /** @description session id (or the distlab_session cookie) */
+                    "X-Distlab-Session"?: components["parameters"]["Session"];
+                };
+                path: {
+                    /** @description the recording's id */
+                    id: string;
+                };
+                cookie?: never;
+            };
+            requestBody?: never;
+            responses: {
+                /** @description forgotten */
+                204: {
+                    headers: {
+                        [name: string]: unknown;
+                    };
+                    content?: never;
+                };
+                401: components["responses"]["Error"];
+                404: components["responses"]["Error"];
+            };
+        };
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/scene/recordings/{id}/parts/{index}": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** A part of a recording: a PNG frame or the WebM video */
+        get: {
+            parameters: {
+                query?: never;
+                header?: {
+                    /** @description session id (or the distlab_session cookie) */
+                    "X-Distlab-Session"?: components["parameters"]["Session"];
+                };
+                path: {
+                    /** @description the recording's id */
+                    id: string;
+                    /** @description the part's index (PNG: the frame, from 0; WebM: 0) */
+                    index: string;
+                };
+                cookie?: never;
+            };
+            requestBody?: never;
+            responses: {
+                /** @description the part */
+                200: {
+                    headers: {
+                        [name: string]: unknown;
+                    };
+                    content: {
+                        "image/png": string;
+                        "video/webm": string;
+                    };
+                };
+                400: components["responses"]["Error"];
+                401: components["responses"]["Error"];
+                404: components["responses"]["Error"];
+            };
+        };
+        /** A page's part of a recording, in order (PNG frame i, or the one WebM) */
+        put: {
+            parameters: {
+                query?: never;
+                header?: {
+                    /** @description session id (or the distlab_session cookie) */
+                    "X-Distlab-Session"?: components["parameters"]["Session"];
+                };
+                path: {
+                    /** @description the recording's id */
+                    id: string;
+                    /** @description the part's index (PNG: the frame, from 0; WebM: 0) */
+                    index: string;
+                };
+                cookie?: never;
+            };
+            requestBody: {
+                content: {
+                    "application/octet-stream": string;
+                };
+            };
+            responses: {
+                /** @description the recording */
+                200: {
+                    headers: {
+                        [name: string]: unknown;
+                    };
+                    content: {
+                        "application/json": components["schemas"]["Recording"];
+                    };
+                };
+                400: components["responses"]["Error"];
+                401: components["responses"]["Error"];
+                404: components["responses"]["Error"];
+                409: components["responses"]["Error"];
+                413: components["responses"]["Error"];
+            };
+        };
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/scene/recordings/{id}/finish": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /** The page's end of a recording: the camera it recorded with, or why it could not */
+        post: {
+            parameters: {
+                query?: never;
+                header?: {
+                    /** @description session id (or the distlab_session cookie) */
+                    "X-Distlab-Session"?: components["parameters"]["Session"];
+                };
+                path: {
+                    /** @description the recording's id */
+                    id: string;
+                };
+                cookie?: never;
+            };
+            requestBody: {
+                content: {
+                    "application/json": components["schemas"]["RecordingFinish"];
+                };
+            };
+            responses: {
+                /** @description the recording */
+                200: {
+                    headers: {
+                        [name: string]: unknown;
+                    };
+                    content: {
+                        "application/json": components["schemas"]["Recording"];
+                    };
+                };
+                400: components["responses"]["Error"];
+                401: components["responses"]["Error"];
+                404: components["responses"]["Error"];
+                409: components["responses"]["Error"];
+            };
+        };
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
 }
 export type webhooks = Record<string, never>;
 export interface components {
@@ -2274,7 +2736,7 @@ export interface components {
         /** @description a text message a client sends on /ws */
         WsClientMessage: components["schemas"]["WsPing"] | components["schemas"]["WsState"] | components["schemas"]["WsCancel"] | components["schemas"]["WsCbfReplay"] | components["schemas"]["WsWatch"] | components["schemas"]["WsSigma"];
         /** @description a text message the server sends on /ws (cbf_frames: CbfFrames) */
-        WsServerMessage: components["schemas"]["WsHello"] | components["schemas"]["WsPong"] | components["schemas"]["WsJob"] | components["schemas"]["WsError"] | components["schemas"]["CbfFrames"] | components["schemas"]["WsObject"] | components["schemas"]["WsSigmaAck"];
+        WsServerMessage: components["schemas"]["WsHello"] | components["schemas"]["WsPong"] | components["schemas"]["WsJob"] | components["schemas"]["WsError"] | components["schemas"]["CbfFrames"] | components["schemas"]["WsObject"] | components["schemas"]["WsSigmaAck"] | components["schemas"]["WsScenePose"] | components["schemas"]["WsSceneRemove"] | components["schemas"]["WsSceneClear"];
         /** @description GET /api/session (each module adds its counts) */
         SessionInfo: {
             session: string;
@@ -2286,6 +2748,8 @@ export interface components {
             objects: number;
             /** @description uploads not yet made into objects */
             uploads: number;
+            /** @description scene items of the session */
+            scene_items: number;
         };
         /** @description A scene, target, start and controller constants. Keys other than obstacles/target/q0 are optional (defaults: the corridor's). Unknown keys are refused. */
         CbfScenario: WithRequired<components["schemas"]["CbfSettings"], "q0"> & {
@@ -3466,6 +3930,149 @@ export interface components {
                 /** @description default self pairs (pairs "self") */
                 self_pairs: number;
             }[];
+        };
+        /** @description a scene item as a msgpack map (the client's; the relayed scene_item frame adds type, name, n_vertices and n_faces or n_segments) */
+        SceneItemFrame: {
+            /** @constant */
+            type?: "scene_item";
+            name?: string;
+            /** @enum {unknown} */
+            kind: "mesh" | "points" | "lines" | "frame";
+            /**
+             * @description the view that draws it (default all)
+             * @enum {unknown}
+             */
+            view?: "all" | "gap" | "kelvin" | "cbf";
+            /**
+             * Format: binary
+             * @description float32 LE xyz per vertex (not for a frame); at most max_scene_vertices vertices
+             */
+            positions?: string;
+            /**
+             * Format: binary
+             * @description uint32 LE: 3 per triangle (mesh) or 2 per segment (lines)
+             */
+            indices?: string;
+            /**
+             * Format: binary
+             * @description float32 LE rgb in [0, 1] per vertex
+             */
+            colors?: string;
+            /**
+             * Format: binary
+             * @description float32 LE per vertex, drawn with a colormap over their range
+             */
+            scalars?: string;
+            /** @description one colour for the whole item */
+            color?: [
+                number,
+                number,
+                number
+            ];
+            /** @description points: pixels; frame: axis length in metres */
+            size?: number;
+            pose?: components["schemas"]["ScenePoseValue"];
+            n_vertices?: number;
+            n_faces?: number;
+            n_segments?: number;
+        };
+        /** @description position and unit quaternion [w, x, y, z]; the item's vertices are in this frame */
+        ScenePoseValue: {
+            position?: components["schemas"]["Vec3"];
+            quaternion?: [
+                number,
+                number,
+                number,
+                number
+            ];
+        };
+        ScenePose: {
+            pose: components["schemas"]["ScenePoseValue"];
+        };
+        SceneItem: {
+            name: string;
+            /** @enum {unknown} */
+            kind: "mesh" | "points" | "lines" | "frame";
+            /** @enum {unknown} */
+            view: "all" | "gap" | "kelvin" | "cbf";
+            n_vertices: number;
+            n_faces?: number;
+            n_segments?: number;
+            pose?: components["schemas"]["ScenePoseValue"];
+            /** @description of its frame, counted against max_scene_bytes */
+            bytes: number;
+        };
+        SceneItems: {
+            items: components["schemas"]["SceneItem"][];
+            bytes: number;
+        };
+        RecordingRequest: {
+            /** @enum {unknown} */
+            view: "gap" | "kelvin" | "cbf";
+            /** @enum {unknown} */
+            format: "webm" | "png";
+            seconds?: number;
+            frames?: number;
+            /** @description default 30 */
+            fps?: number;
+        };
+        Recording: {
+            id: string;
+            /** @enum {unknown} */
+            view: "gap" | "kelvin" | "cbf";
+            /** @enum {unknown} */
+            format: "webm" | "png";
+            fps: number;
+            frames: number;
+            seconds: number;
+            /** @enum {unknown} */
+            state: "waiting" | "recording" | "done" | "failed";
+            parts: number;
+            bytes: number;
+            camera: null | components["schemas"]["RecordingCamera"];
+            error?: string;
+        };
+        /** @description clip coordinates from world coordinates (projection × view, 16 numbers column-major) and the canvas's pixels */
+        RecordingCamera: {
+            matrix: [
+                number,
+                number,
+                number,
+                number,
+                number,
+                number,
+                number,
+                number,
+                number,
+                number,
+                number,
+                number,
+                number,
+                number,
+                number,
+                number
+            ];
+            width: number;
+            height: number;
+        };
+        RecordingFinish: {
+            camera?: components["schemas"]["RecordingCamera"];
+            error?: string;
+        };
+        WsScenePose: {
+            /** @constant */
+            type: "scene_pose";
+            name: string;
+            pose: components["schemas"]["ScenePoseValue"];
+        };
+        WsSceneRemove: {
+            /** @constant */
+            type: "scene_remove";
+            name: string;
+        };
+        WsSceneClear: {
+            /** @constant */
+            type: "scene_clear";
         };
     };
     responses: {

@@ -74,6 +74,17 @@ struct Limits {
   // object holds any more (kept for reuse) give theirs up when a preparation needs the room.
   std::size_t max_response_bytes = std::size_t{512} << 20;
   std::size_t max_response_bytes_total = std::size_t{1} << 30;
+  // The user's own scene items (Client.scene, routes_scene.cpp): per session at most this many
+  // items, of at most max_scene_vertices vertices each, max_scene_bytes of frames together.
+  std::size_t max_scene_items = 64;
+  std::size_t max_scene_vertices = 1000000;
+  std::size_t max_scene_bytes = std::size_t{64} << 20;
+  // Client.record: one recording per session of at most max_record_seconds (video) or
+  // max_record_frames (PNG), at most max_record_fps, held in memory up to max_record_bytes.
+  double max_record_seconds = 60;
+  std::size_t max_record_frames = 600;
+  double max_record_fps = 60;
+  std::size_t max_record_bytes = std::size_t{256} << 20;
 };
 
 // The one table of limits: f(name, field) for each field of Limits (L: Limits or const Limits).
@@ -122,6 +133,13 @@ void for_each_limit(L& l, F&& f) {
   f("max_defect_items", l.max_defect_items);
   f("max_response_bytes", l.max_response_bytes);
   f("max_response_bytes_total", l.max_response_bytes_total);
+  f("max_scene_items", l.max_scene_items);
+  f("max_scene_vertices", l.max_scene_vertices);
+  f("max_scene_bytes", l.max_scene_bytes);
+  f("max_record_seconds", l.max_record_seconds);
+  f("max_record_frames", l.max_record_frames);
+  f("max_record_fps", l.max_record_fps);
+  f("max_record_bytes", l.max_record_bytes);
 }
 
 struct ServiceConfig {

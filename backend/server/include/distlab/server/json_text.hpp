@@ -30,6 +30,11 @@ class JsonSyntaxError : public std::runtime_error {
 // number that overflows a double (e.g. 1e999; the field names where it is).
 nlohmann::json parse_json_text(std::string_view text, std::size_t max_bytes = Limits{}.max_body_bytes);
 
+// A msgpack body (frames.hpp's codec, e.g. a scene item) with the same depth and duplicate-key
+// limits; "bin" values become json::binary. Malformed bytes are InvalidInput naming "body". The
+// caller bounds the size (the route's body limit).
+nlohmann::json parse_msgpack(std::string_view bytes);
+
 // User-supplied names go into messages; keep them short (cut on a UTF-8 boundary).
 std::string shorten(const std::string& s, std::size_t max = 64);
 

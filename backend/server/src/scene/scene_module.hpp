@@ -1,0 +1,26 @@
+#pragma once
+// The user's own geometry in the views (issue 37 item 7): meshes, points, line segments and
+// coordinate frames a client (distlab.Client.scene) puts into its session's pages by name, relayed
+// as msgpack frames (frames.hpp) on the session's WebSocket; and recordings of a view
+// (Client.record), which a page of the session makes and uploads here for the client to fetch
+// (routes_scene.cpp).
+#include <memory>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "distlab/server/module.hpp"
+
+namespace distlab::server {
+
+class SceneModule final : public Module {
+ public:
+  using Module::Module;
+  std::string name() const override { return "scene"; }
+  void register_routes() override;
+  // A joining socket (a page opened later, a reconnection) gets every item of the session.
+  void joined(const std::shared_ptr<Session>& session, const std::shared_ptr<WsSink>& socket) override;
+  void describe_session(Session& session, nlohmann::json& out) override;
+};
+
+}  // namespace distlab::server

@@ -1,0 +1,96 @@
+// The page side of Client.record: a page opened with ?session=ID&record=RECORDING (by headless
+// chromium, which Client.record starts) reads the recording's request, waits until its view and
+// the session's scene items are drawn, records the view's canvas (WebM through MediaRecorder, or
+// one PNG per frame) and uploads it part by part; the server keeps it for the client to fetch.
+// A recording forgotten on the server (cancelled) answers 404 to the next part: the page stops.
+import { api, errorText } from "./api";
+import { socket } from "./socket";
+import { currentViewport, userSceneItems } from "./user_scene";
+import type { Viewport } from "./viewport";
+
+interface Recording {
+  id: string;
+  view: string;
+  format: "webm" | "png";
+  fps: number;
+  frames: number;
+  seconds: number;
+}
+
+const nextFrame = () => new Promise<number>((resolve) => requestAnimationFrame(resolve));
+const sleep = (ms: number) => new Promise((resolve) => window.setTimeout(resolve, ms));
+
+/** Resolves once `ready()` holds, checked every animation frame; rejects after `ms`. */
+async function until(ready: () => boolean, what: string, ms = 20000): Promise<void> {
+  const end = performance.now() + ms;
+  while (!ready()) {
+    if (performance.now() > end) throw new Error(`the page did not get ready to record: ${what}`);
+    await nextFrame();
+  }
+}
+
+/** Every frame for `seconds` drawn anew, so that the canvas stream gets them. */
+async function drawFor(vp: Viewport, seconds: number): Promise<void> {
+  const end = performance.now() + seconds * 1000;
+  while (performance.now() < end) {
+    vp.invalidate();
+    await nextFrame();
+  }
+}
+
+async function recordWebm(vp: Viewport, r: Recording): Promise<Blob> {
+  const type = ["video/webm;codecs=vp9", "video/webm;codecs=vp8", "video/webm"].find((t) => MediaRecorder.isTypeSupported(t));
+  if (!type) throw new Error("this browser's MediaRecorder writes no WebM");
+  const recorder = new MediaRecorder(vp.renderer.domElement.captureStream(r.fps), { mimeType: type });
+  const chunks: Blob[] = [];
+  recorder.ondataavailable = (e) => e.data.size && chunks.push(e.data);
+  const stopped = new Promise((resolve) => (recorder.onstop = resolve));
+  recorder.start();
+  await drawFor(vp, r.seconds);
+  recorder.stop();
+  await stopped;
+  return new Blob(chunks, { type: "video/webm" });
+}
+
+async function record(id: string): Promise<void> {
+  const path = `/api/scene/recordings/${encodeURIComponent(id)}`;
+  const r = await api.get<Recording>(path);
+  // The view's viewport, the socket, and every item the session holds now, drawn.
+  const held = ((await api.get<{ items: unknown[] }>("/api/scene/items")).items ?? []).length;
+  await until(() => currentViewport() !== null && socket.state === "open", "no open view");
+  await until(() => userSceneItems().length >= held, "the scene items did not arrive");
+  await nextFrame();
+  await nextFrame();
+  const vp = currentViewport()!;
+  if (r.format === "png") {
+    const t0 = performance.now();
+    for (let i = 0; i < r.frames; i++) {
+      await sleep(t0 + (i * 1000) / r.fps - performance.now());
+      await api.put(`${path}/parts/${i}`, await vp.screenshot());
+    }
+  } else {
+    await api.put(`${path}/parts/0`, await recordWebm(vp, r));
+  }
+  const canvas = vp.renderer.domElement;
+  const clip = vp.camera.projectionMatrix.clone().multiply(vp.camera.matrixWorldInverse);
+  await api.post(`${path}/finish`, { camera: { matrix: clip.elements, width: canvas.width, height: canvas.height } });
+}
+
+// A recording page shows the view's canvas alone, filling the window (no bars, panel or plots).
+const RECORDING_CSS = `#topbar, #progress, #panel, #bottom, #toasts { display: none !important; }
+#app { position: fixed !important; inset: 0 !important; display: block !important; }
+#canvas { width: 100% !important; height: 100% !important; }`;
+
+/** Records the view when the page's URL asks for it (?record=ID); otherwise does nothing. */
+export async function recordIfAsked(): Promise<void> {
+  const id = new URLSearchParams(location.search).get("record");
+  if (!id) return;
+  const style = document.createElement("style");
+  style.textContent = RECORDING_CSS;
+  document.head.appendChild(style);
+  try {
+    await record(id);
+  } catch (e) {
+    await api.post(`/api/scene/recordings/${encodeURIComponent(id)}/finish`, { error: errorText(e) }).catch(() => undefined);
+  }
+}
