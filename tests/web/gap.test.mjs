@@ -1,7 +1,8 @@
 // The GAP explorer against the real server: it loads, a real mouse drag on the gizmo changes D,
 // the readout equals a direct POST /api/gap/distance for the state in the URL, refused
 // parameters show the server's message, the sweep plot holds GAP and Euclidean series (and its
-// derivative is the derivative of D), a shared URL restores the same D. Measurements (drag →
+// derivative is the derivative of D), a shared URL restores the same D; an error toast goes once
+// its value is valid again, a refused sweep marks its plots stale. Measurements (drag →
 // readout latency, frame intervals while orbiting) are printed, never asserted.
 import { test } from "node:test";
 import assert from "node:assert/strict";
@@ -245,4 +246,67 @@ test("a shared URL restores the same shapes and D; frames while orbiting", async
   assert.deepEqual(page2.problems, []);
   await page.context().close();
   await page2.context().close();
+});
+
+/** The explorer with h set to `value` through its field (Enter), until the verdict says ok or bad. */
+async function setH(page, value, verdict) {
+  const input = page.locator(".lil-gui .lil-controller", { has: page.locator(".lil-name", { hasText: "h (eq. 4)" }) }).locator("input");
+  await input.fill(String(value));
+  await input.press("Enter");
+  await page.waitForFunction((v) => document.querySelector("[data-testid=gap-verdict]")?.classList.contains(v), verdict);
+}
+
+test("an error toast goes once the value it is about is valid again", async () => {
+  const page = await openView(env.browser, env.server, "#/gap");
+  await settled(page);
+  await setH(page, 0, "bad");
+  assert.match((await page.locator(".toast-error").allTextContents()).join("\n"), /params\.h/);
+  // Fixed: the next distance succeeds and the toast about h goes with it (it lived 8 s before).
+  await setH(page, 0.1, "ok");
+  const about = (await page.locator(".toast-error").allTextContents()).filter((t) => /params\.h/.test(t));
+  assert.deepEqual(about, [], "no error toast about h once h is valid");
+  // A level list typed wrong: its toast goes when the list is valid.
+  const levels = page.locator(".lil-gui .lil-controller", { has: page.locator(".lil-name", { hasText: /^E_S levels$/ }) }).locator("input");
+  await levels.fill("0.002, x");
+  await levels.press("Enter");
+  await page.locator(".toast-error", { hasText: "E_S levels" }).waitFor();
+  await levels.fill("0.002, 0.004");
+  await levels.press("Enter");
+  assert.equal(await page.locator(".toast-error", { hasText: "E_S levels" }).count(), 0, "no toast about the levels once they are valid");
+  const other = page.problems.filter((p) => !/status of 400/.test(p));
+  assert.deepEqual(other, []);
+  await page.context().close();
+});
+
+test("a refused sweep marks the plots' curves stale until a sweep succeeds", async () => {
+  const page = await openView(env.browser, env.server, "#/gap");
+  await settled(page);
+  await page.waitForFunction(() => window.distlab.gap.sweep().data !== null, null, { timeout: 60000 });
+  const stale = () => hook(page, "sweep()").then((s) => s.plots.map((p) => p.stale ?? null));
+  assert.deepEqual(await stale(), [null, null], "the first sweep's curves are current");
+  const sweeps = (await hook(page, "sweep()")).requests;
+  await setH(page, 0, "bad");
+  // The sweep of h = 0 is refused too: the curves drawn are h = 0.1's and must say so.
+  await page.waitForFunction((n) => window.distlab.gap.sweep().requests > n, sweeps);
+  const marked = await page
+    .waitForFunction(() => window.distlab.gap.sweep().plots.every((p) => p.stale), null, { timeout: 15000 })
+    .then(
+      () => true,
+      () => false,
+    );
+  assert.ok(marked, "after the refused sweep, both plots are marked stale");
+  for (const s of await stale()) assert.match(s, /refused: params\.h/);
+  const marks = page.locator("#bottom .plot-stale");
+  assert.equal(await marks.count(), 2);
+  for (const m of await marks.all()) {
+    assert.ok(await m.isVisible(), "the mark is over the curves");
+    assert.match(await m.textContent(), /not updated — the sweep was refused: params\.h/);
+  }
+  await screenshot(page, "gap-sweep-stale");
+  await setH(page, 0.1, "ok");
+  await page.waitForFunction(() => window.distlab.gap.sweep().plots.every((p) => p.stale === null), null, { timeout: 60000 });
+  for (const m of await marks.all()) assert.equal(await m.isVisible(), false, "the curves are current again");
+  const other = page.problems.filter((p) => !/status of 400/.test(p));
+  assert.deepEqual(other, []);
+  await page.context().close();
 });

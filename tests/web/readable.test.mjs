@@ -2,6 +2,7 @@
 // axes with tick labels and units, a legend and a sentence saying what each curve is (D and d on
 // one length axis); overlapping shapes in the GAP view show the Euclidean signed distance and the
 // penetration depth beside Λ, equal to the closed form, with the penetration's witness points drawn.
+// The CBF joint-velocity plot, whose legend lists only names, shows the values under the cursor.
 import { test } from "node:test";
 import assert from "node:assert/strict";
 import { openView, screenshot, serverAndBrowser } from "./harness.mjs";
@@ -80,6 +81,50 @@ test("CBF rollout plots: velocity, distance, task error and pair distances with 
   assert.deepEqual(ps.map((p) => p.axes[0].label), ["t (s)", "t (s)", "t (s)", "pair (#)"]);
   assert.ok(ps[1].legend.some((l) => l.startsWith("clearance")) && ps[1].legend.some((l) => l.startsWith("min D")), "clearance and min D in one plot");
   await screenshot(page, "readable-cbf-plots");
+  assert.deepEqual(page.problems, []);
+  await page.context().close();
+});
+
+test("CBF joint velocities: the values under the cursor are shown beside it, those of the plotted series", async () => {
+  const page = await openView(env.browser, env.server, `#/cbf?s=${encodeURIComponent(JSON.stringify({ duration: 0.5 }))}`);
+  await page.waitForFunction(() => /press r/.test(document.getElementById("status")?.textContent ?? ""), null, { timeout: 60000 });
+  await page.keyboard.press("r");
+  await page.waitForFunction(
+    () => {
+      const r = window.distlab?.cbf?.rollouts;
+      return !!r && r.length > 0 && r.every((x) => ["finished", "cancelled", "failed"].includes(x.state)) && document.getElementById("progress").hidden;
+    },
+    null,
+    { timeout: 120000 },
+  );
+  const plot = page.locator("#bottom .plot", { has: page.locator(".u-title", { hasText: "joint velocities" }) });
+  const over = await plot.locator(".u-over").boundingBox();
+  await page.mouse.move(over.x + over.width * 0.6, over.y + over.height * 0.5);
+  const box = plot.locator(".plot-cursor-values");
+  const shown = await box
+    .waitFor({ state: "visible", timeout: 10000 })
+    .then(
+      () => true,
+      () => false,
+    );
+  assert.ok(shown, "hovering the joint-velocity plot shows the values at the cursor");
+  const rows = await box.locator(":scope > div").allTextContents();
+  const t = Number(/^t \(s\) = (\S+)$/.exec(rows[0])?.[1]);
+  const { velocity } = await page.evaluate(() => window.distlab.cbf.plots());
+  const i = velocity.x.findIndex((x) => Math.abs(x - t) < 1e-9);
+  assert.ok(i > 0, `the cursor's time ${t} s is a plotted step (${rows[0]})`);
+  const expected = velocity.labels.flatMap((label, k) => (velocity.y[k][i] === null ? [] : [`${label}: ${velocity.y[k][i].toFixed(4)}`]));
+  assert.ok(expected.length >= 7, "a value per joint at least");
+  assert.deepEqual(rows.slice(1), expected, "each series' value at that step, named as in the legend");
+  // Showing one joint (j): only its values.
+  await page.keyboard.press("j");
+  await page.mouse.move(over.x + over.width * 0.6, over.y + over.height * 0.4);
+  await page.waitForFunction(() => document.querySelector(".plot-cursor-values")?.children.length < 4);
+  const one = await box.locator(":scope > div").allTextContents();
+  assert.ok(one.slice(1).every((r) => /^u1 /.test(r)), `joint 1 only: ${one}`);
+  await screenshot(page, "readable-cbf-velocity-cursor");
+  await page.mouse.move(2, 2);
+  await box.waitFor({ state: "hidden" });
   assert.deepEqual(page.problems, []);
   await page.context().close();
 });

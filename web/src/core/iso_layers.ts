@@ -32,7 +32,36 @@ interface Shell {
  *  in either order; only their shading differs slightly. A GPU keeps the physically based look. */
 function shellMaterial(): ShellMaterial {
   const common = { transparent: true, depthWrite: false, side: THREE.DoubleSide };
-  return isSoftwareRenderer() ? new THREE.MeshLambertMaterial({ ...common, forceSinglePass: true }) : new THREE.MeshStandardMaterial({ ...common, roughness: 0.6 });
+  const m = isSoftwareRenderer() ? new THREE.MeshLambertMaterial({ ...common, forceSinglePass: true }) : new THREE.MeshStandardMaterial({ ...common, roughness: 0.6 });
+  facingFade(m);
+  return m;
+}
+
+/** How much of a shell's opacity is left where it faces the viewer (1 where seen edge-on). */
+export const FACING_OPACITY = 0.1;
+
+/** A shell h = level meets the object's surface along the contour σ = level (on the surface h = σ)
+ *  and runs close to it beside that contour; seen through it, translucent and lit facet by facet
+ *  at the field's resolution, the σ colours of the surface were tinted patch by patch (blotchy),
+ *  and the zero shell's orange shifted every σ colour away from its colour bar. Here a shell's
+ *  opacity falls to FACING_OPACITY of itself where it faces the viewer and stays where it is seen
+ *  edge-on: the shells read by their outlines (as in x-ray views of nested surfaces) and the
+ *  surface's colours show through them nearly unchanged. */
+function facingFade(m: ShellMaterial): void {
+  m.userData.facingOpacity = FACING_OPACITY;
+  m.onBeforeCompile = (shader) => {
+    shader.uniforms.facingOpacity = { value: FACING_OPACITY };
+    shader.fragmentShader = shader.fragmentShader.replace("void main() {", "uniform float facingOpacity;\nvoid main() {").replace(
+      "#include <normal_fragment_maps>",
+      `#include <normal_fragment_maps>
+      {
+        float facing = abs( dot( normalize( normal ), normalize( vViewPosition ) ) );
+        float edge = 1.0 - facing;
+        diffuseColor.a *= mix( facingOpacity, 1.0, pow( edge, 4.0 ) );
+      }`,
+    );
+  };
+  m.customProgramCacheKey = () => "iso-shell-facing-fade";
 }
 
 const ZERO = new THREE.Color(0xff9f1c);
@@ -124,18 +153,22 @@ export class IsoLayers {
     return Math.abs(level) < 1e-12 ? ZERO.clone() : OUTER.clone().lerp(new THREE.Color(0x9fd0ff), out);
   }
 
+  /** The opacity a level's shell is drawn with (where seen edge-on; facing the viewer, FACING_OPACITY of it). */
+  opacityOf(level: number): number {
+    const positive = this.levels.filter((l) => l > 0);
+    const top = positive.length ? Math.max(...positive) : 1;
+    return Math.abs(level) < 1e-12 ? Math.min(1, this.opacity + 0.15) : this.opacity * (1 - 0.5 * Math.max(0, Math.min(1, level / top)));
+  }
+
   clear(): void {
     this.setLevels([]);
   }
 
   private restyle(): void {
-    const positive = this.levels.filter((l) => l > 0);
-    const top = positive.length ? Math.max(...positive) : 1;
     for (const [level, s] of this.shells) {
       const m = s.mesh.material;
-      const zero = Math.abs(level) < 1e-12;
       m.color.copy(this.colorOf(level));
-      m.opacity = zero ? Math.min(1, this.opacity + 0.15) : this.opacity * (1 - 0.5 * Math.max(0, Math.min(1, level / top)));
+      m.opacity = this.opacityOf(level);
       // Colour and opacity are uniforms: no needsUpdate (that re-derives the program every frame).
       // Transparent shells without depth writes: draw the outermost (largest level) first.
       s.mesh.renderOrder = 10 - this.levels.indexOf(level) / Math.max(1, this.levels.length);

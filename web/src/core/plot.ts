@@ -1,6 +1,8 @@
 // A small typed wrapper around uPlot for plots over one x axis: named series (lines, bars, or a
-// level per x) on one or two y scales, a vertical marker (current position / time), and a size that
-// follows its container. Used by the GAP sweep and the CBF rollout plots.
+// level per x) on one or two y scales, a vertical marker (current position / time), the values
+// under the cursor (in the legend, or beside the cursor when the legend is kept short), a mark on
+// curves that no longer match the input (a refused request), and a size that follows its
+// container. Used by the GAP sweep and the CBF rollout plots.
 import uPlot from "uplot";
 import "uplot/dist/uPlot.min.css";
 
@@ -32,10 +34,13 @@ export interface PlotOptions {
   series: PlotSeries[];
   /** Digits shown in the legend. */
   digits?: number;
-  /** Values under the cursor in the legend (default true; false keeps a many-series legend short). */
+  /** Values under the cursor in the legend (default true; false keeps a many-series legend short
+   *  and shows them in a box beside the cursor instead). */
   legendValues?: boolean;
   /** Logarithmic left axis (values ≤ 0 are not drawn). */
   yLog?: boolean;
+  /** Logarithmic x axis (x must be positive). */
+  xLog?: boolean;
   /** x is a category index 0 … n−1: integer ticks, half a unit of room at either end, and the
    *  legend shows the category's name under the cursor. */
   categories?: (i: number) => string;
@@ -43,6 +48,15 @@ export interface PlotOptions {
 
 /** Log-scale range; without any positive value a fixed decade (uPlot would fail to draw the axis). */
 const logRange: uPlot.Range.Function = (_u, min, max) => (min !== null && max !== null && min > 0 && max > 0 ? uPlot.rangeLog(min, max, 10, true) : [0.01, 1]);
+
+/** A log x range from the data's ends to the 1…9 × 10^k steps around them (uPlot's rangeLog rounds
+ *  the top up to a power of ten: 1e-4 … 2e-3 became 1e-4 … 1e-2, the data in half the axis). */
+const xLogRange: uPlot.Range.Function = (_u, min, max) => {
+  if (min === null || max === null || !(min > 0) || !(max > 0)) return [0.01, 1];
+  const step = (v: number) => 10 ** Math.floor(Math.log10(v));
+  const round = (v: number) => Number(v.toPrecision(12));
+  return [round(Math.floor(min / step(min)) * step(min)), round(Math.ceil(max / step(max)) * step(max))];
+};
 
 const AXIS = { stroke: "#8b949e", grid: { stroke: "#2c323a", width: 1 }, ticks: { stroke: "#2c323a", width: 1 } };
 /** Log-axis tick labels: below 0.001 as powers of ten (uPlot's own labels would round 1e-4 to "0"). */
@@ -89,6 +103,7 @@ function describePlots() {
       axes: p.axes(),
       legend: [...p.root.querySelectorAll(".u-legend .u-series th")].map((e) => e.textContent ?? "").filter((t) => t),
       caption: p.root.querySelector(".plot-caption")?.textContent ?? "",
+      stale: p.stale,
     }));
 }
 
@@ -101,6 +116,11 @@ export class Plot {
   private ys: Array<Array<number | null>> = [];
   /** Per series: bars or level segments in the last drawing (lines: 0). */
   private readonly counted: number[];
+  /** The mark over curves that are not those of the current input (null: current). */
+  private readonly staleEl: HTMLDivElement;
+  private staleText: string | null = null;
+  /** The values under the cursor when the legend does not show them. */
+  private tip: HTMLDivElement | null = null;
 
   constructor(
     container: HTMLElement,
@@ -116,7 +136,11 @@ export class Plot {
     const fmt = (_u: uPlot, v: number | null) => (v === null || v === undefined ? "—" : v.toFixed(digits));
     const usesY2 = options.series.some((s) => s.scale === "y2");
     const cat = options.categories;
-    const xAxis: uPlot.Axis = cat ? { incrs: [1, 2, 5, 10, 20, 50, 100, 200, 500], values: (_u, splits) => splits.map((v) => (Number.isInteger(v) ? String(v) : "")) } : {};
+    const xAxis: uPlot.Axis = cat
+      ? { incrs: [1, 2, 5, 10, 20, 50, 100, 200, 500], values: (_u, splits) => splits.map((v) => (Number.isInteger(v) ? String(v) : "")) }
+      : options.xLog
+        ? { values: logTicks, space: 24 } // a strip's plot may be 60 px wide: still a label per decade
+        : {};
     const axes: uPlot.Axis[] = [
       { ...AXIS, ...xAxis, label: options.xLabel },
       { ...AXIS, ...Y_TICKS, label: options.yLabel ?? "", scale: "y", ...(options.yLog ? { values: logTicks } : {}) },
@@ -127,7 +151,11 @@ export class Plot {
       width: 400,
       height: 200,
       scales: {
-        x: cat ? { time: false, range: (_u, min, max) => (min === null || max === null ? [-0.5, 0.5] : [min - 0.5, max + 0.5]) } : { time: false },
+        x: cat
+          ? { time: false, range: (_u, min, max) => (min === null || max === null ? [-0.5, 0.5] : [min - 0.5, max + 0.5]) }
+          : options.xLog
+            ? { time: false, distr: 3, range: xLogRange }
+            : { time: false },
         y: options.yLog ? { distr: 3, auto: true, range: logRange } : { auto: true },
         ...(usesY2 ? { y2: { auto: true } } : {}),
       },
@@ -149,7 +177,7 @@ export class Plot {
       ],
       legend: { live: options.legendValues ?? true },
       cursor: { drag: { x: false, y: false } },
-      hooks: { draw: [(u) => this.drawMarker(u)] },
+      hooks: { draw: [(u) => this.drawMarker(u)], ...(options.legendValues === false ? { setCursor: [(u: uPlot) => this.showCursorValues(u)] } : {}) },
     };
     this.u = new uPlot(opts, [[], ...options.series.map(() => [])], this.root);
     const caption = document.createElement("p");
@@ -157,6 +185,22 @@ export class Plot {
     caption.style.cssText = "margin: 0 4px 2px; font-size: 10px; line-height: 1.25; color: var(--muted);";
     caption.textContent = options.caption;
     this.root.appendChild(caption);
+    this.staleEl = document.createElement("div");
+    this.staleEl.className = "plot-stale";
+    this.staleEl.style.cssText =
+      "position: absolute; inset: 0; align-items: center; justify-content: center; padding: 4px 12px; text-align: center; font-size: 12px; color: var(--bad, #ff6b6b); background: rgba(23, 26, 31, 0.72); pointer-events: none;";
+    this.staleEl.setAttribute("role", "status");
+    this.staleEl.hidden = true;
+    this.staleEl.style.display = "none"; // an inline display would override [hidden]
+    this.u.over.appendChild(this.staleEl);
+    if (options.legendValues === false) {
+      this.tip = document.createElement("div");
+      this.tip.className = "plot-cursor-values";
+      this.tip.style.cssText =
+        "position: absolute; top: 4px; padding: 3px 6px; font-size: 10px; line-height: 1.3; white-space: nowrap; background: rgba(29, 33, 39, 0.92); border-radius: 4px; pointer-events: none; z-index: 1;";
+      this.tip.hidden = true;
+      this.u.over.appendChild(this.tip);
+    }
     this.describe();
     live.add(this);
     const w = window as unknown as { distlab?: Record<string, unknown> };
@@ -174,6 +218,55 @@ export class Plot {
       return Array.from(y, (v) => (v === null || Number.isFinite(v) ? v : null));
     });
     this.u.setData([this.xs, ...this.ys] as uPlot.AlignedData);
+  }
+
+  /** Marks the curves as not matching the current input (e.g. after a refused request): dimmed,
+   *  with the reason over them; null: they are current again. */
+  setStale(reason: string | null): void {
+    this.staleText = reason;
+    this.staleEl.textContent = reason ? `not updated — ${reason}` : "";
+    this.staleEl.hidden = !reason;
+    this.staleEl.style.display = reason ? "flex" : "none";
+    this.root.classList.toggle("stale", Boolean(reason));
+  }
+
+  get stale(): string | null {
+    return this.staleText;
+  }
+
+  /** The values under the cursor beside it (plots whose legend lists only the names). */
+  private showCursorValues(u: uPlot): void {
+    const tip = this.tip;
+    if (!tip) return;
+    const i = u.cursor.idx;
+    if (i === null || i === undefined || u.cursor.left === undefined || u.cursor.left < 0) return void (tip.hidden = true);
+    const digits = this.options.digits ?? 4;
+    const x = this.xs[i];
+    const rows: HTMLDivElement[] = [];
+    const head = document.createElement("div");
+    head.textContent = `${this.options.xLabel} = ${this.options.categories ? this.options.categories(Math.round(x)) : Number(x.toPrecision(6))}`;
+    rows.push(head);
+    this.options.series.forEach((s, k) => {
+      const v = this.ys[k]?.[i];
+      if (!u.series[k + 1].show || v === null || v === undefined) return;
+      const row = document.createElement("div");
+      row.style.color = s.color;
+      row.textContent = `${s.label}: ${v.toFixed(digits)}`;
+      rows.push(row);
+    });
+    tip.replaceChildren(...rows);
+    tip.hidden = false;
+    // Beside the cursor, on the side with room.
+    const left = u.cursor.left;
+    const right = left > u.over.clientWidth / 2;
+    tip.style.left = right ? "" : `${left + 12}px`;
+    tip.style.right = right ? `${u.over.clientWidth - left + 12}px` : "";
+  }
+
+  /** What the box beside the cursor shows (null: hidden or none), for tests. */
+  cursorValues(): string[] | null {
+    if (!this.tip || this.tip.hidden) return null;
+    return [...this.tip.children].map((e) => e.textContent ?? "");
   }
 
   /** A vertical line at x (e.g. the current position); null hides it. */
@@ -221,9 +314,17 @@ export class Plot {
       .map((a) => ({ label: String(a.label ?? ""), ticks: (a._values ?? []).filter((v) => v !== null && v !== "").map(String) }));
   }
 
-  /** What is plotted (for tests and exports), and per series the bars or level segments drawn. */
-  data(): { labels: string[]; x: number[]; y: Array<Array<number | null>>; drawn: number[] } {
-    return { labels: this.options.series.map((s) => s.label), x: [...this.xs], y: this.ys.map((a) => [...a]), drawn: [...this.counted] };
+  /** What is plotted (for tests and exports), per series the bars or level segments drawn, the
+   *  x axis's distribution (1 linear, 3 log) and why the curves are stale (null: current). */
+  data(): { labels: string[]; x: number[]; y: Array<Array<number | null>>; drawn: number[]; xDistr: number; stale: string | null } {
+    return {
+      labels: this.options.series.map((s) => s.label),
+      x: [...this.xs],
+      y: this.ys.map((a) => [...a]),
+      drawn: [...this.counted],
+      xDistr: this.u.scales.x.distr ?? 1,
+      stale: this.staleText,
+    };
   }
 
   /** The figure's accessible name: title, axis labels and the caption. */

@@ -14,12 +14,17 @@ export function setToastScope(view: string): void {
   });
 }
 
-export function toast(message: string, kind: ToastKind = "info", ms = kind === "error" ? 8000 : 3000): void {
+/** `key` names what the toast is about (an input, a kind of request): a newer toast with the same
+ *  key replaces it, and dismissToasts(key) removes it once that input is valid or that request
+ *  succeeds (an error must not outlive its cause). */
+export function toast(message: string, kind: ToastKind = "info", ms = kind === "error" ? 8000 : 3000, key?: string): void {
   const box = document.getElementById("toasts");
   if (!box) return;
+  if (key) dismissToasts(key);
   const el = document.createElement("div");
   el.className = `toast toast-${kind}`;
   el.dataset.view = scope;
+  if (key) el.dataset.key = key;
   el.setAttribute("role", kind === "error" ? "alert" : "status");
   el.textContent = message;
   el.addEventListener("click", () => el.remove());
@@ -27,11 +32,18 @@ export function toast(message: string, kind: ToastKind = "info", ms = kind === "
   window.setTimeout(() => el.remove(), ms);
 }
 
-/** Shows any thrown value as a readable error; returns its text. */
-export function showError(e: unknown, context?: string): string {
+/** Removes the toasts about `key` (its input became valid, or its request succeeded). */
+export function dismissToasts(key: string): void {
+  document.querySelectorAll<HTMLElement>("#toasts .toast").forEach((el) => {
+    if (el.dataset.key === key) el.remove();
+  });
+}
+
+/** Shows any thrown value as a readable error (about `key`, see toast); returns its text. */
+export function showError(e: unknown, context?: string, key?: string): string {
   const text = errorText(e);
   const full = context ? `${context}: ${text}` : text;
-  toast(full, "error");
+  toast(full, "error", undefined, key);
   console.warn(full);
   return full;
 }

@@ -9,7 +9,7 @@ import * as THREE from "three";
 import { api, ApiError, errorText } from "../../core/api";
 import { ColorBar } from "../../core/colorbar";
 import type { Shortcut } from "../../core/keys";
-import { showError, toast } from "../../core/toast";
+import { dismissToasts, showError, toast } from "../../core/toast";
 import type { View, ViewHost } from "../../core/view";
 import { Viewport } from "../../core/viewport";
 import "./cbf.css";
@@ -165,7 +165,7 @@ export class CbfView implements View {
     try {
       sc = this.state.inline ? (this.state.inline as unknown as CbfScenario) : await api.get<CbfScenario>(`/api/cbf/scenarios/${encodeURIComponent(this.state.scenario)}`);
     } catch (e) {
-      this.reportError(e, `scenario "${this.state.scenario}"`);
+      this.reportError(e, `scenario "${this.state.scenario}"`, "cbf:scenario");
       return;
     }
     // The scenario's robot (assets/robots/NAME.urdf) draws the arm: another one replaces the worlds.
@@ -182,6 +182,7 @@ export class CbfView implements View {
       this.setRobot(this.robot);
     }
     this.scenario = sc;
+    dismissToasts("cbf:scenario");
     this.panel!.showScenario(sc);
     this.panel!.showDuration(this.duration());
     this.showScenario(sc);
@@ -393,6 +394,7 @@ export class CbfView implements View {
     });
     for (const r of run?.rollouts ?? []) r.fieldLevels = query; // those still to fetch theirs
     this.appliedLevels = text;
+    dismissToasts("cbf:levels");
     if (run) {
       this.showFields();
       this.draw(this.timeline!.step);
@@ -403,7 +405,7 @@ export class CbfView implements View {
 
   /** The server refused the iso-levels `text`: its error shown, the panel back to `back`. */
   private refuseLevels(e: unknown, text: string, back: string): void {
-    this.reportError(e, `iso-levels "${text}"`);
+    this.reportError(e, `iso-levels "${text}"`, "cbf:levels");
     this.state.isoLevels = this.appliedLevels = back;
     this.panel?.refresh();
     this.save();
@@ -516,7 +518,7 @@ export class CbfView implements View {
   }
 
   private onEnded(r: Rollout): void {
-    if (r.state === "failed" && r.error) this.reportError(r.error, `${r.spec.label} rollout`);
+    if (r.state === "failed" && r.error) this.reportError(r.error, `${r.spec.label} rollout`, "cbf:run");
     if (this.run) this.results!.ended(this.run);
   }
 
@@ -525,12 +527,15 @@ export class CbfView implements View {
     this.host.progress(null);
     this.panel!.setRunning(false);
     if (error) {
-      this.reportError(error, "rollout");
+      this.reportError(error, "rollout", "cbf:run");
       if (run.rollouts.every((r) => !r.store)) {
         this.state.run = false;
         this.save();
       }
-    } else this.panel!.setVerdict(this.state.inline ? "ok" : "", this.state.inline ? "the server accepted the edited scenario" : "");
+    } else {
+      this.panel!.setVerdict(this.state.inline ? "ok" : "", this.state.inline ? "the server accepted the edited scenario" : "");
+      dismissToasts("cbf:run");
+    }
     if (this.restoreT !== null) this.restoreTime();
     this.results!.ended(run);
     this.draw(this.timeline!.step);
@@ -550,7 +555,8 @@ export class CbfView implements View {
   private async startSweep(parameter: string, text: string): Promise<void> {
     const values = parseValues(text);
     if (!values) {
-      showError(new Error("sweep values: numbers separated by commas"), "sweep");
+      showError(new Error("sweep values: numbers separated by commas"), "sweep", "cbf:sweep");
+      this.sweepPlot?.setStale("the values typed are not numbers separated by commas; these curves are of the previous sweep");
       return;
     }
     if (this.sweepRunning) return;
@@ -580,9 +586,12 @@ export class CbfView implements View {
       if (!this.viewport) return;
       this.sweepPlot?.dispose();
       this.sweepPlot = new SweepPlot(this.host.bottom, s);
+      dismissToasts("cbf:sweep");
       this.host.status(`sweep ${s.job?.state ?? "ended"}: ${s.entries.length} of ${s.values.length} runs of ${first.label} over ${parameter}`);
     } catch (e) {
-      this.reportError(e, "sweep");
+      this.reportError(e, "sweep", "cbf:sweep");
+      // The curves shown are of the previous sweep, not of the one refused.
+      this.sweepPlot?.setStale(`the sweep of ${parameter} failed: ${errorText(e)}; these curves are of the previous sweep`);
     } finally {
       this.sweepRunning = false;
       this.host.progress(null);
@@ -631,12 +640,13 @@ export class CbfView implements View {
     if (!box.isEmpty()) this.viewport.frame(box.expandByScalar(0.06));
   }
 
-  private reportError(e: unknown, context: string): void {
+  /** `key`: what the error is about, its toast going when that succeeds (toast.ts). */
+  private reportError(e: unknown, context: string, key?: string): void {
     const text = errorText(e);
     const field = e instanceof ApiError ? (e.field ?? "") : "";
     this.error = text;
     if (field.startsWith("scenario") || field.startsWith("params")) this.panel?.setVerdict("bad", `✗ ${text}`);
-    showError(e, context);
+    showError(e, context, key);
     this.host.status(`error: ${text}`);
   }
 

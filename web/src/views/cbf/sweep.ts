@@ -31,15 +31,27 @@ export function parseValues(text: string): number[] | null {
   return v.length && v.every(Number.isFinite) ? v : null;
 }
 
+/** Whether values are drawn on a log axis: all positive and spanning more than a decade (a margin
+ *  swept over 1e-4 … 2e-3 would put all but one run in the first tenth of a linear axis). */
+export function logSpaced(values: number[]): boolean {
+  const lo = Math.min(...values),
+    hi = Math.max(...values);
+  return values.length > 1 && lo > 0 && hi / lo > 10;
+}
+
 /** The sweep's plot in the bottom strip: cm against the parameter, total variation on the right axis. */
 export class SweepPlot {
   readonly plot: Plot;
   constructor(container: HTMLElement, s: SweepJson) {
+    // The view sweeps numbers (parseValues); the server echoes each run's value as sent.
+    const at = (x: CbfSweepEntry) => Number(x.value);
+    const xLog = logSpaced(s.entries.map(at));
     this.plot = new Plot(container, {
       title: `sweep of ${s.parameter} (${s.entries.length} of ${s.values.length} runs)`,
       caption:
         "One rollout per value of the parameter: the end-effector's final distance to its target and the smallest clearance (cm, left axis), and the summed total variation of the joint velocities u (right axis).",
-      xLabel: s.parameter,
+      xLabel: xLog ? `${s.parameter} (log axis)` : s.parameter,
+      xLog,
       yLabel: "distance (cm)",
       y2Label: "TV of u (rad/s)",
       series: [
@@ -51,11 +63,14 @@ export class SweepPlot {
     });
     this.plot.root.dataset.testid = "cbf-sweep-plot";
     this.plot.root.style.flex = "1.4";
-    // The view sweeps numbers (parseValues); the server echoes each run's value as sent.
-    const at = (x: CbfSweepEntry) => Number(x.value);
     const e = [...s.entries].sort((a, b) => at(a) - at(b));
     this.plot.setData(e.map(at), [e.map((x) => 100 * x.position_error), e.map((x) => (x.min_clearance === null ? null : 100 * x.min_clearance)), e.map((x) => x.total_variation)]);
   }
+  /** The curves are of an earlier sweep than the one asked for (refused: the reason). */
+  setStale(reason: string | null): void {
+    this.plot.setStale(reason);
+  }
+
   dispose(): void {
     this.plot.dispose();
   }

@@ -6,7 +6,7 @@ import { TransformControls } from "three/addons/controls/TransformControls.js";
 import { api, ApiError } from "../../core/api";
 import type { Shortcut } from "../../core/keys";
 import { LatestWins, type LatestResult } from "../../core/latest";
-import { toast } from "../../core/toast";
+import { dismissToasts, toast } from "../../core/toast";
 import type { View, ViewHost } from "../../core/view";
 import { Viewport } from "../../core/viewport";
 import "./gap.css";
@@ -74,11 +74,12 @@ export class GapView implements View {
       copyLink: () => void navigator.clipboard?.writeText(location.href).then(() => toast("link copied", "ok")),
       frame: () => this.frameAll(),
     });
-    this.panel.onLevelError = (m) => toast(m, "error");
+    this.panel.onLevelError = (field, m) => (m === null ? dismissToasts(`gap:${field}`) : toast(m, "error", undefined, `gap:${field}`));
 
     this.iso = new IsoLayer(
       (err) => {
         if (err) this.reportError(err, "level sets");
+        else this.cleared("level sets");
         vp.invalidate();
       },
       (busy) => host.progress(busy ? "computing level sets…" : null),
@@ -87,7 +88,7 @@ export class GapView implements View {
     const hover = installSliceHover(vp, this.iso, host.canvas, () => this.state.iso);
     this.cleanup.push(() => hover.remove());
     this.sliceReading = hover.last;
-    this.sweep = new Sweep(host.bottom, (err) => err && this.reportError(err, "sweep"));
+    this.sweep = new Sweep(host.bottom, (err) => (err ? this.reportError(err, "sweep") : this.cleared("sweep")));
     host.showBottom(true);
 
     this.distance = new LatestWins(
@@ -196,7 +197,7 @@ export class GapView implements View {
       return;
     }
     const res = (this.result = r.output);
-    this.lastError = "";
+    this.cleared("distance"); // the input the server refused is valid again
     this.readout.show(res, r.input.params.solver, this.state.display.gradient);
     this.showGradient(res, { a: r.input.a.position, b: r.input.b.position });
     this.host.status(statusLine(res, r.input.params.solver));
@@ -224,6 +225,12 @@ export class GapView implements View {
     }
   }
 
+  /** A request of this kind succeeded: its error toast goes (and the same error would show again). */
+  private cleared(what: string): void {
+    dismissToasts(`gap:${what}`);
+    if (what === "distance" || this.lastError.startsWith(`${what}: `)) this.lastError = "";
+  }
+
   /** Shows an error readably (toast once per distinct message, red verdict for parameters). */
   private reportError(e: unknown, what: string): string {
     const text = e instanceof ApiError ? e.readable : e instanceof Error ? e.message : String(e);
@@ -235,7 +242,7 @@ export class GapView implements View {
     const key = `${what}: ${text}`;
     if (key !== this.lastError && (!refusal || what === "distance")) {
       this.lastError = key;
-      toast(`${what}: ${text}`, "error");
+      toast(`${what}: ${text}`, "error", undefined, `gap:${what}`);
     }
     return text;
   }

@@ -110,10 +110,11 @@ export class GapPanel {
           try {
             state.iso[f] = parseLevels(text, f === "weak" ? "e_S levels" : "E_S levels");
             c.domElement.classList.remove("gap-invalid");
+            this.onLevelError?.(f, null);
             changed("iso");
           } catch (e) {
             c.domElement.classList.add("gap-invalid");
-            this.onLevelError?.(e instanceof Error ? e.message : String(e));
+            this.onLevelError?.(f, e instanceof Error ? e.message : String(e));
           }
         });
       this.levelCtrls.push(c);
@@ -156,7 +157,8 @@ export class GapPanel {
     this.sigmaCtrl.updateDisplay();
   }
 
-  onLevelError?: (message: string) => void;
+  /** A level list typed in field `field` ("weak" or "strict") is invalid (its message) or valid again (null). */
+  onLevelError?: (field: string, message: string | null) => void;
 
   private shapeFolder(which: "a" | "b"): void {
     const s: ShapeState = this.state[which];

@@ -5,7 +5,7 @@
 // angular velocity, world frame, about the shape's origin). The Euclidean derivative jumps or
 // kinks where its witness points switch; GAP's stays smooth.
 import * as THREE from "three";
-import { api } from "../../core/api";
+import { api, ApiError, errorText } from "../../core/api";
 import { LatestWins, type LatestResult } from "../../core/latest";
 import { Plot } from "../../core/plot";
 import type { GapResult } from "./readout";
@@ -118,9 +118,14 @@ export class Sweep {
 
   private apply(r: LatestResult<SweepInput, SweepData>): void {
     if (r.error !== undefined || !r.output) {
-      this.onDone(r.error ?? new Error("no sweep"));
+      // The curves drawn are those of the previous input: say so over them.
+      const e = r.error ?? new Error("no sweep");
+      const how = e instanceof ApiError && e.status >= 400 && e.status < 500 ? "refused" : "failed";
+      for (const p of [this.dPlot, this.derivPlot]) p.setStale(`the sweep was ${how}: ${errorText(e)}`);
+      this.onDone(e);
       return;
     }
+    for (const p of [this.dPlot, this.derivPlot]) p.setStale(null);
     const d = r.output;
     this.last = d;
     const unit = r.input.sweep.motion === "translate" ? `B moves along ${r.input.sweep.axis} by s (m)` : `B turns about ${r.input.sweep.axis} by s (rad)`;

@@ -8,13 +8,14 @@ import { HistogramPlot } from "../../core/histogram";
 import type { Shortcut } from "../../core/keys";
 import { isMeshFrame, toGeometry, type MeshFrame } from "../../core/meshframe";
 import { socket, type BinaryFrame } from "../../core/socket";
-import { showError, toast } from "../../core/toast";
+import { dismissToasts, showError, toast } from "../../core/toast";
 import type { View, ViewHost } from "../../core/view";
 import { Viewport } from "../../core/viewport";
 import { BrushTool } from "./brush_tool";
 import { EditTracer } from "./edit_trace";
 import { downloadIsoSurfaces } from "./iso_export";
 import { IsoLayers, type IsoFrameInfo } from "../../core/iso_layers";
+import { IsoLegend } from "../../core/iso_legend";
 import { DEFAULT_BASE, defaultLx, readState, writeStateJson, type KelvinState } from "./kelvin_state";
 import { ObjectJob, estimate, estimateText, repairText, uploadMesh, uploadText, type Estimate, type ObjectStatus, type Source } from "./object_source";
 import { statsRows, statusLine } from "./object_stats";
@@ -70,6 +71,7 @@ export class KelvinView implements View {
   private sliceAtVersion = -1;
   private sigmaBar: ColorBar | null = null;
   private hBar: ColorBar | null = null;
+  private isoLegend: IsoLegend | null = null;
   private histogram: HistogramPlot | null = null;
   private assets: string[] = [];
   private longLinkTold = false;
@@ -103,6 +105,7 @@ export class KelvinView implements View {
     this.slice.setColor(this.state.sliceColor);
     this.sigmaBar = new ColorBar(host.canvas, "σ on the surface", "dimensionless", "colorbar-sigma");
     this.hBar = new ColorBar(host.canvas, "h on the slice", "dimensionless, −ln U", "colorbar-h");
+    this.isoLegend = new IsoLegend(host.canvas, "iso-surfaces of h (dimensionless)", (l) => (l === 0 ? "(zero level set)" : ""));
     vp.scene.add(this.slice.plane);
     this.probe = new Probe(host.canvas);
     this.probe.onChange = () => vp.invalidate();
@@ -178,6 +181,18 @@ export class KelvinView implements View {
       },
       colorbars: () => [this.sigmaBar?.state, this.hBar?.state].filter((b) => b != null),
       sigmaHistogram: () => this.histogram?.data ?? null,
+      isoLegend: () => this.isoLegend?.rows ?? [],
+      shells: () =>
+        this.iso.meshes().map((m) => {
+          const mat = m.material as THREE.MeshLambertMaterial;
+          return {
+            level: this.iso.levelOf(m) ?? NaN,
+            color: `#${mat.color.getHexString()}`,
+            opacity: mat.opacity,
+            facingOpacity: mat.userData.facingOpacity ?? 1,
+            visible: m.visible && this.iso.group.visible,
+          };
+        }),
       pickAt: (x, y) => {
         const vp = this.viewport;
         if (!vp) return [];
@@ -209,6 +224,7 @@ export class KelvinView implements View {
     this.surfaces.reset();
     this.iso.clear();
     this.iso.setLevels(this.state.levels);
+    this.updateIsoLegend();
     this.slice?.setObject(null, new THREE.Box3());
     this.probe?.setObject(null, new THREE.Box3());
     this.sigmaVersion = 0;
@@ -449,6 +465,7 @@ export class KelvinView implements View {
     if (!info) return;
     this.edits.frameAccepted(f, info.sigma_version, this.sigmaVersion, t0);
     this.frameLog.push(info);
+    this.updateIsoLegend();
     if (this.frameLog.length > 500) this.frameLog.shift();
     this.viewport?.invalidate();
     this.sigmaSync.framesShown();
@@ -545,9 +562,14 @@ export class KelvinView implements View {
   // ---- levels, slice, probe, style ----
   private levelsChanged(): void {
     this.iso.setLevels(this.state.levels);
+    this.updateIsoLegend();
     this.save();
     const id = this.objectId;
-    if (id) void api.put(`/api/kelvin/objects/${id}/levels`, { levels: this.state.levels }).catch((e) => showError(e, "levels"));
+    if (id)
+      void api.put(`/api/kelvin/objects/${id}/levels`, { levels: this.state.levels }).then(
+        () => dismissToasts("kelvin:levels"),
+        (e) => showError(e, "levels", "kelvin:levels"),
+      );
     this.viewport?.invalidate();
   }
 
@@ -562,6 +584,7 @@ export class KelvinView implements View {
   private restyle(): void {
     this.iso.setVisible(this.state.showIso);
     this.iso.setOpacity(this.state.opacity);
+    this.updateIsoLegend();
     if (this.brush) {
       this.brush.enabled = this.state.brush.on;
       this.brush.settings = { value: this.state.brush.value, radius: this.state.brush.radius, falloff: this.state.brush.falloff };
@@ -592,6 +615,11 @@ export class KelvinView implements View {
     if (!this.hBar || !sl) return;
     this.hBar.visible = sl.shown;
     if (sl.shown) this.hBar.update(this.state.sliceColor, sl.colorRange, sl.dataRange);
+  }
+
+  /** The shells' legend: each watched level with its colour, while the shells are shown. */
+  private updateIsoLegend(): void {
+    this.isoLegend?.update(this.iso, this.state.levels, this.state.showIso);
   }
 
   /** Once per stroke or σ change, not per stamp (the picture's colours follow every stamp). */
@@ -725,6 +753,7 @@ export class KelvinView implements View {
     this.slice?.dispose();
     this.sigmaBar?.dispose();
     this.hBar?.dispose();
+    this.isoLegend?.dispose();
     this.histogram?.dispose();
     this.panel?.dispose();
     this.dropSurface();

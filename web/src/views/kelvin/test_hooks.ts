@@ -5,6 +5,7 @@ import type { HistogramData } from "../../core/histogram";
 import { Color } from "three";
 import type { Viewport } from "../../core/viewport";
 import type { IsoFrameInfo } from "../../core/iso_layers";
+import type { IsoLegendRow } from "../../core/iso_legend";
 import type { ObjectStatus } from "./object_source";
 import type { ProbeReading } from "./probe";
 import type { SigmaBody } from "./sigma";
@@ -57,6 +58,10 @@ export interface KelvinHookSource {
   /** The colour bars shown (σ on the surface, h on the slice). */
   colorbars(): ColorBarState[];
   sigmaHistogram(): HistogramData | null;
+  /** The iso-surface legend's rows (level, colour, opacity, shell drawn). */
+  isoLegend(): IsoLegendRow[];
+  /** The shells as drawn: level, material colour and opacity, the share of it left facing the viewer. */
+  shells(): Array<{ level: number; color: string; opacity: number; facingOpacity: number; visible: boolean }>;
   /** What a ray through a page point meets, nearest first ("surface", "iso 0.25", "slice"). */
   pickAt(x: number, y: number): string[];
 }
@@ -133,6 +138,12 @@ export function installHooks(view: KelvinHookSource): void {
     },
     get sigmaHistogram() {
       return copy(view.sigmaHistogram());
+    },
+    get isoLegend() {
+      return copy(view.isoLegend());
+    },
+    get shells() {
+      return copy(view.shells());
     },
     pickAt: (x: number, y: number) => view.pickAt(x, y),
     /** σ and the colour (sRGB bytes) at every k-th display vertex of the surface. */
