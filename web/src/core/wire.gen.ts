@@ -3312,6 +3312,7 @@ export interface components {
             iterations: number;
             converged: boolean;
             overlap: boolean;
+            /** @description dD/d(v, ω) of A's pose, world frame (params.gradient): [0..3] ∂D/∂p, metres of D per metre of translation (m/m); [3..6] ∂D/∂θ, metres of D per radian of rotation about A's own origin (m/rad); zero on overlap */
             gradient_a?: [
                 number,
                 number,
@@ -3320,6 +3321,7 @@ export interface components {
                 number,
                 number
             ];
+            /** @description dD/d(v, ω) of B's pose, world frame (params.gradient): [0..3] ∂D/∂p, metres of D per metre of translation (m/m); [3..6] ∂D/∂θ, metres of D per radian of rotation about B's own origin (m/rad); zero on overlap */
             gradient_b?: [
                 number,
                 number,
@@ -3351,6 +3353,7 @@ export interface components {
             signed_distance: number;
             witness_a: components["schemas"]["Vec3"];
             witness_b: components["schemas"]["Vec3"];
+            /** @description dd/d(v, ω) of A's pose for the Euclidean distance, as the result's gradient_a: [0..3] m/m, [3..6] m/rad about A's origin, world frame; zero on overlap */
             gradient_a?: [
                 number,
                 number,
@@ -3359,6 +3362,7 @@ export interface components {
                 number,
                 number
             ];
+            /** @description dd/d(v, ω) of B's pose for the Euclidean distance, as the result's gradient_b: [0..3] m/m, [3..6] m/rad about B's origin, world frame; zero on overlap */
             gradient_b?: [
                 number,
                 number,
