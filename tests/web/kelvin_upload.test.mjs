@@ -1,7 +1,8 @@
 // The Kelvin view's upload dialog (issue 20, item 8) with a real open mesh in millimetres from
 // Debian's assimp-testmodels (the spider, 150 × 80 × 193 mm, not closed): the file unit scales it
-// to metres, the server's refusal of the open mesh is shown as the server words it, and "wrap"
-// shows the wrap's report and its surface over the input's before the object is ready.
+// to metres, the server's refusal of the open mesh is shown as the server words it, the mesh is
+// drawn with its open edges and waits for a repair, and "wrap" (prepared on request) shows the
+// wrap's report and its surface over the input's before the object is ready.
 import { test } from "node:test";
 import assert from "node:assert/strict";
 import { existsSync, readFileSync } from "node:fs";
@@ -41,8 +42,16 @@ test("an open millimetre mesh: its size in metres, the server's refusal, then wr
   assert.match(est.problem.message, /boundary edge|not closed|manifold/);
   await screenshot(page, "kelvin-upload-refused");
 
+  // Before any repair: the open mesh is drawn with its open edges marked, nothing is prepared.
+  const drawn = await K(page, "k.upload");
+  assert.ok(drawn.awaitingPrepare && drawn.defects.counts.boundary_edges > 0, JSON.stringify(drawn.defects?.counts));
+  const { max_defect_items } = await page.evaluate(() => window.distlab.api.get("/api/limits"));
+  assert.equal(drawn.defects.edges.filter((e) => e.kind === "open").length, Math.min(drawn.defects.counts.boundary_edges, max_defect_items));
+  assert.equal(await K(page, "k.objectId"), null);
+
   // Wrap: the report and the wrap's wireframe arrive with the repair, then the object is prepared.
   await select(page, "repair").selectOption("wrap");
+  await page.getByRole("button", { name: "prepare with these options" }).click();
   await page.waitForFunction(() => window.distlab.kelvin.overlayTriangles > 0 || /refused/.test(document.querySelector("[data-testid=kelvin-upload-report]")?.textContent ?? ""), null, { timeout: 600000, polling: 200 });
   assert.ok((await K(page, "k.overlayTriangles")) > 0, `no wrap drawn: "${await report(page)}", object ${JSON.stringify(await K(page, "k.object"))}`);
   await page.waitForFunction(() => window.distlab.kelvin.ready === true, null, { timeout: 900000, polling: 500 });

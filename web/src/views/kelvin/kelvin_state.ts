@@ -1,8 +1,10 @@
-// The view's shareable state (the URL's s= JSON): object, l_x, σ (preset or base constant plus
-// painted brushes), iso-levels, slice, brush settings. Every read is typed and bounded.
+// The view's shareable state (the URL's s= JSON): object (an asset, or an upload named by its
+// digest), the reshaping (repair and its options, simplify, components), l_x, σ (preset or base
+// constant plus painted brushes), iso-levels, slice, brush settings, camera. Every read is typed
+// and bounded.
 import { readColorScale } from "../../core/colorbar";
 import type { ColorScale } from "../../core/colormap";
-import { num, str } from "../../core/urlstate";
+import { num, numArray, str } from "../../core/urlstate";
 import { packBrushes, presetNames, unpackBrushes, type Brush, type PresetName } from "./sigma";
 import { sliceAxes, type SliceAxis } from "./slice_layer";
 
@@ -13,9 +15,32 @@ export const uploadUnits = ["m", "cm", "mm", "in"] as const;
 export type UploadUnit = (typeof uploadUnits)[number];
 export const repairs = ["none", "fix", "wrap"] as const;
 export type Repair = (typeof repairs)[number];
+export const componentChoices = ["all", "largest"] as const;
+export type Components = (typeof componentChoices)[number];
 
-export interface KelvinState {
-  object: string; // an asset name, or "upload" (not restorable: uploads live in the session)
+/** An uploaded mesh as a link names it: the digest the server gives it (SHA-256 of the mesh as read,
+ *  in metres: the same file in another unit is another mesh), the file's name and size, its unit. */
+export interface UploadRef {
+  digest: string;
+  name: string;
+  bytes: number;
+  unit: UploadUnit;
+}
+
+/** How the surface is reshaped before preparing (the request's repair, repair_options, simplify,
+ *  components): each option of the server, 0 meaning the server's default. */
+export interface Reshape {
+  repair: Repair;
+  holeEdges: number; // fix: holes bounded by at most this many edges are filled
+  alpha: number; // wrap: α in metres (0: diagonal / 20)
+  offset: number; // wrap: offset in metres (0: α / 30)
+  simplify: number; // faces to simplify to first (0: none)
+  components: Components;
+}
+
+export interface KelvinState extends Reshape {
+  object: string; // an asset name, or "upload" (the mesh `upload` names)
+  upload?: UploadRef;
   lx: number;
   preset: PresetName;
   base: number;
@@ -32,7 +57,8 @@ export interface KelvinState {
   sliceColor: ColorScale;
   format: ExportFormat;
   unit: UploadUnit;
-  repair: Repair;
+  /** The camera as last placed (orbit target and position, metres). */
+  camera?: { position: number[]; target: number[] };
 }
 
 /** A quick default l_x per built-in asset (seconds to prepare on a laptop, not the paper's). */
@@ -58,6 +84,11 @@ export function defaults(object = "cube"): KelvinState {
     format: "stl",
     unit: "m",
     repair: "none",
+    holeEdges: 0,
+    alpha: 0,
+    offset: 0,
+    simplify: 0,
+    components: "all",
   };
 }
 
@@ -78,6 +109,20 @@ function readSigmaFileRef(v: unknown): KelvinState["sigmaFile"] {
   const o = (v && typeof v === "object" ? v : {}) as Record<string, unknown>;
   const stamps = num(o.stamps, 0, 0, 1e7);
   return stamps > 0 && typeof o.digest === "string" && /^[0-9a-f]{16}$/.test(o.digest) ? { stamps: Math.round(stamps), digest: o.digest } : undefined;
+}
+
+function readUploadRef(v: unknown): UploadRef | undefined {
+  const o = (v && typeof v === "object" ? v : {}) as Record<string, unknown>;
+  if (typeof o.digest !== "string" || !/^[0-9a-f]{64}$/.test(o.digest)) return undefined;
+  const name = typeof o.name === "string" && o.name.length > 0 ? o.name.slice(0, 255) : "the uploaded file";
+  return { digest: o.digest, name, bytes: Math.round(num(o.bytes, 0, 0, 1e12)), unit: str(o.unit, uploadUnits, "m") };
+}
+
+function readCamera(v: unknown): KelvinState["camera"] {
+  const o = (v && typeof v === "object" ? v : {}) as Record<string, unknown>;
+  const p = numArray(o.position, 3, []),
+    t = numArray(o.target, 3, []);
+  return p.length === 3 && t.length === 3 && p.some((x, k) => x !== t[k]) ? { position: p, target: t } : undefined;
 }
 
 export function readState(raw: Record<string, unknown>): KelvinState {
@@ -111,11 +156,19 @@ export function readState(raw: Record<string, unknown>): KelvinState {
     format: str(raw.format, exportFormats, "stl"),
     unit: str(raw.unit, uploadUnits, "m"),
     repair: str(raw.repair, repairs, "none"),
+    upload: object === "upload" ? readUploadRef(raw.upload) : undefined,
+    holeEdges: Math.round(num(raw.holeEdges, 0, 0, 1e7)),
+    alpha: num(raw.alpha, 0, 0, 1e6),
+    offset: num(raw.offset, 0, 0, 1e6),
+    simplify: Math.round(num(raw.simplify, 0, 0, 1e8)),
+    components: str(raw.components, componentChoices, "all"),
+    camera: readCamera(raw.camera),
   };
 }
 
 export function writeStateJson(s: KelvinState): Record<string, unknown> {
   const out: Record<string, unknown> = { object: s.object, lx: s.lx, levels: s.levels };
+  if (s.object === "upload" && s.upload) out.upload = s.upload;
   if (s.preset !== "none") out.preset = s.preset;
   if (s.base !== DEFAULT_BASE) out.base = s.base;
   if (s.brushes.length) out.brushes = packBrushes(s.brushes);
@@ -130,5 +183,11 @@ export function writeStateJson(s: KelvinState): Record<string, unknown> {
   if (s.format !== "stl") out.format = s.format;
   if (s.unit !== "m") out.unit = s.unit;
   if (s.repair !== "none") out.repair = s.repair;
+  if (s.holeEdges > 0) out.holeEdges = s.holeEdges;
+  if (s.alpha > 0) out.alpha = s.alpha;
+  if (s.offset > 0) out.offset = s.offset;
+  if (s.simplify > 0) out.simplify = s.simplify;
+  if (s.components !== "all") out.components = s.components;
+  if (s.camera) out.camera = s.camera;
   return out;
 }

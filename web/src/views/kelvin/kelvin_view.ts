@@ -1,6 +1,8 @@
 // View 2, the semantic distance explorer (issue 5): prepare a Kelvin object (built-in or
 // uploaded) with a progress bar, paint σ on its surface, watch iso-surfaces of h pushed by the
-// server, slice h on a plane, probe h and ∇h, export iso-surfaces. State lives in the URL.
+// server, slice h on a plane, probe h and ∇h, export iso-surfaces. State lives in the URL. An
+// upload is drawn with its defects before it is prepared, with the repair's options; a link names
+// it by its digest and never shows another object (issue 37).
 import * as THREE from "three";
 import { api, ApiError } from "../../core/api";
 import { ColorBar } from "../../core/colorbar";
@@ -16,8 +18,22 @@ import { EditTracer } from "./edit_trace";
 import { downloadIsoSurfaces } from "./iso_export";
 import { IsoLayers, type IsoFrameInfo } from "../../core/iso_layers";
 import { IsoLegend } from "../../core/iso_legend";
-import { DEFAULT_BASE, defaultLx, readState, writeStateJson, type KelvinState } from "./kelvin_state";
-import { ObjectJob, estimate, estimateText, repairText, uploadMesh, uploadText, type Estimate, type ObjectStatus, type Source } from "./object_source";
+import { DEFAULT_BASE, defaultLx, readState, writeStateJson, type KelvinState, type UploadUnit } from "./kelvin_state";
+import {
+  ObjectJob,
+  estimate,
+  estimateText,
+  repairEstimateText,
+  repairText,
+  reuseUpload,
+  uploadGeometry,
+  uploadMesh,
+  uploadText,
+  type Estimate,
+  type ObjectStatus,
+  type Source,
+  type Uploaded,
+} from "./object_source";
 import { statsRows, statusLine } from "./object_stats";
 import { Panel } from "./panel";
 import { Probe } from "./probe";
@@ -27,6 +43,8 @@ import { SigmaSync } from "./sigma_sync";
 import { SliceLayer } from "./slice_layer";
 import { SurfaceLayer } from "./surface_layer";
 import { SurfaceSource } from "./surface_source";
+import { defectColors, defectLines, DefectsLayer, holeSizes, isClosedManifold } from "./upload_defects";
+import { UploadNotice } from "./upload_link";
 import { installHooks, type Timings } from "./test_hooks";
 import type { Limits } from "../../core/wire";
 import "./kelvin.css";
@@ -49,6 +67,12 @@ export class KelvinView implements View {
   private uploadedFile: File | null = null; // uploaded again when its unit changes
   private uploadLine = ""; // the upload dialog's first line: what the server read
   private overlay: THREE.LineSegments | null = null; // a repair's surface over the input's
+  private defectsLayer: DefectsLayer | null = null; // the upload as its file has it, defects marked
+  private notice: UploadNotice | null = null; // a link's upload that this server does not hold
+  private awaitPrepare = false; // an upload's repair is being chosen: prepared on request
+  private pendingCamera: KelvinState["camera"] = undefined; // a link's camera, for the first framing
+  private framedKey = ""; // what the camera was last framed on (an asset, an upload's digest)
+  private limits: Partial<Limits> = {};
   private ticket = 0;
   private offs: Array<() => void> = [];
   private strokes: number[] = []; // brushes.length at each stroke's start (undo)
@@ -79,6 +103,7 @@ export class KelvinView implements View {
   async mount(host: ViewHost, raw: Record<string, unknown>): Promise<void> {
     this.host = host;
     this.state = readState(raw);
+    this.pendingCamera = this.state.camera;
     const vp = (this.viewport = new Viewport(host.canvas));
     vp.grid.visible = false;
     vp.scene.add(this.iso.group);
@@ -90,11 +115,7 @@ export class KelvinView implements View {
         .catch((e) => (showError(e, "cannot list the built-in objects"), ["cube"])),
     ]);
     if (this.viewport !== vp) return; // unmounted meanwhile
-    if (this.state.object === "upload") {
-      toast("the shared link used an uploaded mesh, which lives only in its session: showing the cube", "info", 6000);
-      this.state.object = "cube";
-      this.state.lx = defaultLx.cube;
-    }
+    this.limits = limits;
     this.slice = new SliceLayer(limits.max_query_points ?? 10000);
     this.slice.onError = (e) => showError(e, "slice");
     this.slice.onSampled = () => {
@@ -136,7 +157,7 @@ export class KelvinView implements View {
         if (this.uploadedFile && this.state.object === "upload") void this.uploadFile(this.uploadedFile);
         else this.save();
       },
-      repairChanged: () => void this.load(),
+      repairChanged: () => this.repairChanged(),
       sigmaChanged: () => this.sigmaEdited(true),
       presetChosen: () => this.applyPreset(),
       undoStroke: () => this.undo(),
@@ -148,8 +169,15 @@ export class KelvinView implements View {
       exportShown: () => void this.exportShown(),
       saveSigma: () => this.saveSigma(),
       loadSigma: (f) => void this.loadSigma(f),
+      prepare: () => this.prepareNow(),
+      defectsToggled: () => this.showDefectMarks(),
     });
+    this.panel.setRepairLimits(limits);
     this.assets = assets;
+    this.notice = new UploadNotice(host.canvas, (f) => void this.uploadFile(f));
+    const cameraMoved = () => this.cameraMoved();
+    vp.controls.addEventListener("end", cameraMoved);
+    this.offs.push(() => vp.controls.removeEventListener("end", cameraMoved));
     this.showSigmaNotice();
     if (limits.min_lx !== undefined) this.panel.setMinLx(limits.min_lx);
     this.histogram = new HistogramPlot(this.panel.sigmaHistogram, "σ (dimensionless)", "% of vertices");
@@ -165,6 +193,7 @@ export class KelvinView implements View {
       status: () => this.status,
       ready: () => Boolean(this.objectId && this.surface) && this.allShownAtLeast(this.sigmaVersion),
       overlayTriangles: () => (this.overlay ? this.overlay.userData.triangles : 0),
+      upload: () => this.uploadHooks(),
       surfaceSource: () => this.surfaces.origin,
       frames: () => this.frameLog,
       shown: () => this.iso.shown(),
@@ -207,7 +236,8 @@ export class KelvinView implements View {
       },
     });
     this.restyle();
-    await this.load();
+    if (this.state.object === "upload") await this.openLinkedUpload();
+    else await this.load();
   }
 
   // ---- the object ----
@@ -221,6 +251,10 @@ export class KelvinView implements View {
     this.status = null;
     this.dropSurface();
     this.dropOverlay();
+    if (this.defectsLayer) {
+      this.defectsLayer.group.visible = this.state.object === "upload";
+      this.defectsLayer.setInputVisible(true);
+    }
     this.surfaces.reset();
     this.iso.clear();
     this.iso.setLevels(this.state.levels);
@@ -229,9 +263,17 @@ export class KelvinView implements View {
     this.probe?.setObject(null, new THREE.Box3());
     this.sigmaVersion = 0;
     this.save();
+    if (this.state.object === "upload" && !this.upload) {
+      // A link's upload that this server does not hold: its notice, and no other object.
+      if (!this.notice?.shown) this.notice?.show(this.state.upload ?? null);
+      this.panel?.setEstimate("", null);
+      this.host.progress(null);
+      this.host.status(`waiting for ${this.objectName()} to be uploaded`);
+      return;
+    }
     const source: Source = this.state.object === "upload" && this.upload ? this.upload : { asset: this.state.object };
     const name = this.objectName();
-    const repair = this.state.repair;
+    const repair = this.state;
     const uploadLines = this.state.object === "upload" && this.uploadLine ? [this.uploadLine] : [];
     this.panel?.setReport(uploadLines);
     this.panel?.setEstimate("estimating…", null);
@@ -242,11 +284,16 @@ export class KelvinView implements View {
       if (ticket !== this.ticket) return;
       // A refused l_x (below the server's minimum) is shown under the field; anything else is an error.
       if (e instanceof ApiError && e.field === "lx") this.panel?.setEstimate(`cannot prepare ${name}: ${e.readable}`, { field: "lx", message: e.message });
-      else this.panel?.setEstimate(showError(e, `cannot estimate ${name}`), null);
+      else if (e instanceof ApiError && /^(repair|simplify|components)/.test(e.field ?? "")) {
+        // A repair option the server refuses up front (a wrap over its budget): under the options.
+        this.panel?.setEstimate(`cannot prepare ${name} with these repair options`, null);
+        this.panel?.setRepairEstimate(`refused: ${e.readable}`, true);
+      } else this.panel?.setEstimate(showError(e, `cannot estimate ${name}`), null);
       return;
     }
     if (ticket !== this.ticket) return;
     this.panel?.setEstimate(estimateText(est), est.problem);
+    this.panel?.setRepairEstimate(repairEstimateText(est, this.state));
     if (est.problem) {
       // l_x is flagged under its field; a refused mesh is an error of its own.
       const text = `${name} at l_x = ${this.state.lx}: ${est.problem.message}`;
@@ -257,6 +304,13 @@ export class KelvinView implements View {
       }
       this.host.status(text);
       this.panel?.setStats([["object", text]]);
+      return;
+    }
+    if (this.awaitPrepare && this.state.object === "upload") {
+      // The user chooses the repair first; "prepare with these options" goes on.
+      this.host.progress(null);
+      this.panel?.setRepairEstimate(`${repairEstimateText(est, this.state)} · then "prepare with these options"`);
+      this.host.status(`${name}: not prepared yet (choose the repair, then prepare)`);
       return;
     }
     const job = (this.job = new ObjectJob());
@@ -303,6 +357,7 @@ export class KelvinView implements View {
 
   /** Another object: l_x and the brush follow its size (the previous object's would not fit). */
   private objectSwitched(): void {
+    this.awaitPrepare = false;
     this.state.lx = defaultLx[this.state.object] ?? this.state.lx;
     this.state.brush.radius = 0; // chosen from the new surface's size when it arrives
     this.panel?.refresh();
@@ -348,6 +403,7 @@ export class KelvinView implements View {
     s.setColor(this.state.sigmaColor);
     s.setSigma(this.sigmaBody());
     vp.scene.add(s.mesh);
+    this.defectsLayer?.setInputVisible(false); // the prepared object's own surface replaces it
     // A large surface gets a simplified stand-in for the frames drawn while orbiting (once made).
     void s.makeStandIn(vp.standInTriangles).then((standIn) => {
       if (standIn && this.surface === s) vp.setStandIn(s.mesh, standIn.geometry);
@@ -360,7 +416,7 @@ export class KelvinView implements View {
     }
     this.restyle();
     this.updateHistogram();
-    this.frameObject();
+    this.frameOnce(s.bounds);
     this.warmUp();
     this.slice?.setObject(this.objectId, s.bounds);
     this.probe?.setObject(this.objectId, s.bounds);
@@ -382,8 +438,40 @@ export class KelvinView implements View {
   }
 
   private frameObject(): void {
-    const b = this.surface?.bounds;
+    const b = this.surface?.bounds ?? this.defectsLayer?.bounds;
     if (b) this.viewport?.frame(b.clone().expandByScalar(b.getSize(new THREE.Vector3()).length() * 0.2));
+    this.cameraMoved();
+  }
+
+  /** The camera is framed once per object (not again when l_x or σ change): on a link's camera
+   *  when it has one, else on the object. */
+  private frameOnce(bounds: THREE.Box3): void {
+    const key = this.state.object === "upload" ? `upload ${this.state.upload?.digest ?? ""}` : this.state.object;
+    const vp = this.viewport;
+    if (key === this.framedKey || !vp) return;
+    this.framedKey = key;
+    const c = this.pendingCamera;
+    this.pendingCamera = undefined;
+    if (!c) return this.frameObject();
+    const r = Math.max(1e-3, bounds.getSize(new THREE.Vector3()).length() / 2);
+    vp.camera.position.fromArray(c.position);
+    vp.controls.target.fromArray(c.target);
+    vp.camera.near = r / 100;
+    vp.camera.far = r * 100 + vp.camera.position.distanceTo(vp.controls.target);
+    vp.camera.updateProjectionMatrix();
+    vp.controls.update();
+    vp.invalidate();
+    this.state.camera = c;
+    this.save();
+  }
+
+  /** The camera goes into the link (to six significant digits). */
+  private cameraMoved(): void {
+    const vp = this.viewport;
+    if (!vp) return;
+    const round = (v: THREE.Vector3) => v.toArray().map((x) => Number(x.toPrecision(6)));
+    this.state.camera = { position: round(vp.camera.position), target: round(vp.controls.target) };
+    this.save();
   }
 
   private dropSurface(): void {
@@ -395,33 +483,169 @@ export class KelvinView implements View {
     this.surface = null;
   }
 
+  // ---- uploads ----
+  /** A file chosen in the panel, or in a link's notice: there, the server checks that it is the
+   *  linked mesh (in the link's unit), and the link's view (σ, l_x, repair, camera) is kept. */
   private async uploadFile(file: File): Promise<void> {
+    const fromLink = this.notice?.shown === true;
+    const linked = fromLink ? (this.notice?.ref ?? undefined) : undefined;
+    const unit: UploadUnit = linked?.unit ?? this.state.unit;
     this.host.progress(`uploading ${file.name}`);
     try {
-      const r = await uploadMesh(file, this.state.unit);
+      const r = await uploadMesh(file, unit, linked?.digest);
       this.uploadedFile = file;
-      this.uploadLine = uploadText(file.name, r);
-      this.panel?.setReport([this.uploadLine]);
       toast(`${file.name}: ${r.n_vertices} vertices, ${r.n_faces} triangles`, "ok");
-      this.upload = { upload: r.upload, name: file.name };
+      const name = linked?.name ?? file.name;
+      this.state.upload = { digest: r.digest, name, bytes: r.bytes, unit };
+      this.state.unit = unit;
+      if (fromLink) {
+        this.panel?.refresh();
+        return await this.adoptUpload(r, name, true);
+      }
       // l_x from the file's size: a thirtieth of its diagonal, coarser if over the budget.
-      const e = await estimate(this.upload, this.state.lx, this.state.repair);
+      const e = await estimate({ upload: r.upload, name }, this.state.lx);
       const lx = Math.max(e.lx_for_budget, e.diagonal / 30);
-      const unit = 10 ** (Math.floor(Math.log10(lx)) - 1); // two significant digits, rounded up
-      this.state.lx = Number((Math.ceil(lx / unit) * unit).toPrecision(12));
+      const step = 10 ** (Math.floor(Math.log10(lx)) - 1); // two significant digits, rounded up
+      this.state.lx = Number((Math.ceil(lx / step) * step).toPrecision(12));
       this.state.object = "upload";
       this.state.preset = "none";
       this.state.brushes = [];
       this.state.brush.radius = 0;
       this.strokes = [];
       this.panel?.refresh();
-      await this.load();
+      await this.adoptUpload(r, name, false);
     } catch (e) {
       this.host.progress(null);
+      if (fromLink && e instanceof ApiError && e.code === "different_mesh") {
+        const text = `${file.name} is not the linked file: ${e.message}`;
+        this.notice?.refused(text);
+        this.host.status(text);
+        return;
+      }
       const text = showError(e, `cannot use ${file.name}`);
       this.host.status(text);
-      this.panel?.setReport([text], true);
+      if (fromLink) this.notice?.refused(text);
+      else this.panel?.setReport([text], true);
     }
+  }
+
+  /** A link's upload: the server's copy when it holds that mesh, else the notice asking for the
+   *  file (never another object). */
+  private async openLinkedUpload(): Promise<void> {
+    const ref = this.state.upload;
+    this.upload = null;
+    if (ref) this.state.unit = ref.unit;
+    try {
+      if (!ref) throw new ApiError(404, "upload_not_named", "the link does not name its upload");
+      const r = await reuseUpload(ref.digest);
+      if (!this.viewport || this.state.upload !== ref) return;
+      await this.adoptUpload(r, ref.name, true);
+    } catch (e) {
+      if (!this.viewport || this.state.upload !== ref) return;
+      if (!(e instanceof ApiError && e.status === 404)) showError(e, `cannot look up ${ref?.name ?? "the upload"}`);
+      this.notice?.show(ref ?? null);
+      // This page's own file, which a restarted server forgot: given again, checked against the link.
+      if (ref && this.uploadedFile) return await this.uploadFile(this.uploadedFile);
+      await this.load();
+    }
+  }
+
+  /** An upload of this session becomes the object: drawn with its defects first; a fresh upload
+   *  with defects waits for its repair to be chosen, a link's is prepared as the link says. */
+  private async adoptUpload(r: Uploaded, name: string, fromLink: boolean): Promise<void> {
+    this.upload = { upload: r.upload, name };
+    this.uploadLine = uploadText(name, r);
+    this.notice?.hide();
+    this.panel?.setReport([this.uploadLine]);
+    const clean = await this.showDefects(r.upload, fromLink);
+    this.awaitPrepare = !fromLink && !clean;
+    await this.load();
+  }
+
+  /** Draws the upload with its defects marked and lists them; true when it has none. */
+  private async showDefects(id: string, fromLink: boolean): Promise<boolean> {
+    this.dropDefects();
+    let layer: DefectsLayer;
+    try {
+      const { frame, defects } = await uploadGeometry(id);
+      if (!this.viewport || !this.upload || !("upload" in this.upload) || this.upload.upload !== id) return false;
+      layer = this.defectsLayer = new DefectsLayer(frame, defects);
+    } catch (e) {
+      showError(e, "cannot draw the upload's defects");
+      return false;
+    }
+    const d = layer.defects;
+    layer.setMarksVisible(this.panel?.view.showDefects ?? true);
+    this.viewport.scene.add(layer.group);
+    const colors: Record<string, string> = {
+      open: defectColors.open,
+      edges: defectColors.nonManifold,
+      vertices: defectColors.vertex,
+      pair: defectColors.intersecting,
+      degenerate: defectColors.intersecting,
+      pieces: defectColors.dropped,
+    };
+    const color = (line: string) => Object.entries(colors).find(([k]) => line.includes(k))?.[1];
+    const clean = isClosedManifold(d);
+    this.panel?.setDefects([
+      { text: clean ? "a closed 2-manifold without intersecting faces: no repair needed" : "defects (marked on the mesh):" },
+      ...defectLines(d).map((text) => ({ text, color: color(text) })),
+    ]);
+    // A fresh upload's hole size: its largest hole, within this server's limit.
+    const holes = d.truncated ? [] : holeSizes(d.boundary_edges as Array<[number, number]>);
+    if (!fromLink && holes.length) {
+      this.state.holeEdges = Math.min(holes[0], this.limits.max_hole_edges ?? holes[0]);
+      this.panel?.refresh();
+    }
+    this.frameOnce(layer.bounds);
+    this.viewport.invalidate();
+    return clean;
+  }
+
+  private dropDefects(): void {
+    if (!this.defectsLayer) return;
+    this.viewport?.scene.remove(this.defectsLayer.group);
+    this.defectsLayer.dispose();
+    this.defectsLayer = null;
+    this.panel?.setDefects([]);
+  }
+
+  private showDefectMarks(): void {
+    this.defectsLayer?.setMarksVisible(this.panel?.view.showDefects ?? true);
+    this.viewport?.invalidate();
+  }
+
+  /** A repair option changed: an upload waits for "prepare", an asset is prepared at once. */
+  private repairChanged(): void {
+    if (this.state.object === "upload") this.awaitPrepare = true;
+    void this.load();
+  }
+
+  private prepareNow(): void {
+    this.awaitPrepare = false;
+    void this.load();
+  }
+
+  private uploadHooks() {
+    const layer = this.defectsLayer,
+      vp = this.viewport;
+    return {
+      ref: this.state.upload ?? null,
+      id: this.upload && "upload" in this.upload ? this.upload.upload : null,
+      notice: this.notice?.text ?? null,
+      refusal: this.notice?.refusalText ?? "",
+      awaitingPrepare: this.awaitPrepare,
+      defects: layer
+        ? {
+            counts: layer.defects.counts,
+            vertices: layer.vertexCount,
+            edges: layer.markedEdges(),
+            inputShown: layer.inputVisible,
+            marksShown: layer.marksVisible && layer.group.visible,
+          }
+        : null,
+      camera: vp ? { position: vp.camera.position.toArray(), target: vp.controls.target.toArray() } : null,
+    };
   }
 
   private onSocketOpen(): void {
@@ -441,11 +665,9 @@ export class KelvinView implements View {
         if (id !== this.objectId) return;
         if (e instanceof ApiError && e.status === 404) {
           toast("the server forgot this object (restarted?): preparing it again", "info");
-          if (this.state.object === "upload") {
-            this.state.object = "cube";
-            this.state.lx = defaultLx.cube;
-          }
-          void this.load();
+          // An upload is asked for again by its digest (or the notice says it is gone).
+          if (this.state.object === "upload") void this.openLinkedUpload();
+          else void this.load();
         }
       },
     );
@@ -731,7 +953,8 @@ export class KelvinView implements View {
 
   /** The object's name as shown: the uploaded file's, or the asset's. */
   private objectName(): string {
-    return this.state.object === "upload" && this.upload && "name" in this.upload ? this.upload.name : this.state.object;
+    if (this.state.object !== "upload") return this.state.object;
+    return this.upload && "name" in this.upload ? this.upload.name : (this.state.upload?.name ?? "the uploaded mesh");
   }
 
   private updateStats(): void {
@@ -756,6 +979,8 @@ export class KelvinView implements View {
     this.isoLegend?.dispose();
     this.histogram?.dispose();
     this.panel?.dispose();
+    this.notice?.dispose();
+    this.dropDefects();
     this.dropSurface();
     this.dropOverlay();
     this.viewport?.dispose();

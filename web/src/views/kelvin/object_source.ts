@@ -3,7 +3,9 @@
 // before we listened is never waited for). The job can be cancelled.
 import { api, ApiError } from "../../core/api";
 import { socket, type TextMessage } from "../../core/socket";
-import type { Estimate, Job, KelvinObject, KelvinStats, RepairReport } from "../../core/wire";
+import type { MeshFrame } from "../../core/meshframe";
+import type { Estimate, Job, KelvinObject, KelvinStats, RepairReport, Schemas } from "../../core/wire";
+import type { Reshape } from "./kelvin_state";
 
 export type ObjectStats = KelvinStats;
 export type ObjectStatus = KelvinObject;
@@ -15,21 +17,29 @@ export type Source = { asset: string } | { upload: string; name: string };
 
 export const uploadFormats = ["stl", "obj", "ply", "glb", "off"] as const;
 
-/** The upload's answer: counts, the box in metres (after the unit) and the l_x range that fits. */
-export interface Uploaded {
-  upload: string;
-  n_vertices: number;
-  n_faces: number;
-  unit?: string;
-  bounding_box?: { min: number[]; max: number[]; diagonal: number };
-  lx_range?: { min: number; max: number } | null;
-}
+/** The upload's answer: counts, its digest, the box in metres (after the unit) and the l_x range that fits. */
+export type Uploaded = Schemas["KelvinUpload"];
+/** Where an upload is not a closed 2-manifold (GET /api/kelvin/uploads/{id}/defects). */
+export type Defects = Schemas["KelvinDefects"];
 
-/** Uploads a mesh file in `unit`; the server imports it and refuses bad meshes with a message. */
-export async function uploadMesh(file: File, unit = "m"): Promise<Uploaded> {
+/** Uploads a mesh file in `unit`; the server imports it and refuses bad meshes with a message.
+ *  With `digest` (a link's), the server refuses a file whose mesh is another one. */
+export async function uploadMesh(file: File, unit = "m", digest?: string): Promise<Uploaded> {
   const ext = file.name.split(".").pop()?.toLowerCase() ?? "";
   if (!(uploadFormats as readonly string[]).includes(ext)) throw new ApiError(400, "bad_format", `${file.name}: the file must end in .${uploadFormats.join(", .")}`, "file");
-  return api.upload(`/api/kelvin/uploads?format=${ext}&unit=${encodeURIComponent(unit)}`, await file.arrayBuffer());
+  const expect = digest ? `&digest=${digest}` : "";
+  return api.upload(`/api/kelvin/uploads?format=${ext}&unit=${encodeURIComponent(unit)}${expect}`, await file.arrayBuffer());
+}
+
+/** The mesh with this digest as an upload of this session, if the server holds it (404 otherwise). */
+export function reuseUpload(digest: string): Promise<Uploaded> {
+  return api.post<Uploaded>("/api/kelvin/uploads/reuse", { digest });
+}
+
+/** An upload's mesh (the file's vertices in its order, metres) and where it is not closed. */
+export async function uploadGeometry(id: string): Promise<{ frame: MeshFrame; defects: Defects }> {
+  const [frame, defects] = await Promise.all([api.get<MeshFrame>(`/api/kelvin/uploads/${id}/surface`), api.get<Defects>(`/api/kelvin/uploads/${id}/defects`)]);
+  return { frame, defects };
 }
 
 const metres = (x: number) => `${Number(x.toPrecision(3))} m`;
@@ -38,8 +48,10 @@ const metres = (x: number) => `${Number(x.toPrecision(3))} m`;
 export function uploadText(name: string, u: Uploaded): string {
   const parts = [`${name}: ${u.n_vertices.toLocaleString("en")} vertices, ${u.n_faces.toLocaleString("en")} triangles`];
   const b = u.bounding_box;
-  if (b) parts.push(`size ${b.max.map((hi, k) => Number((hi - b.min[k]).toPrecision(3))).join(" × ")} m (file unit ${u.unit ?? "scaled"})`);
-  if (u.lx_range) parts.push(`l_x from ${metres(u.lx_range.min)} to ${metres(u.lx_range.max)}`);
+  const lo = b?.min,
+    hi = b?.max;
+  if (lo && hi) parts.push(`size ${hi.map((x, k) => Number((x - lo[k]).toPrecision(3))).join(" × ")} m (file unit ${u.unit ?? "scaled"})`);
+  if (u.lx_range?.min !== undefined && u.lx_range.max !== undefined) parts.push(`l_x from ${metres(u.lx_range.min)} to ${metres(u.lx_range.max)}`);
   else if (b) parts.push("no l_x fits this server's budget");
   return parts.join(" · ");
 }
@@ -61,14 +73,29 @@ export function repairText(r: RepairReport): string {
 /** POST /api/kelvin/estimate: the server's own vertex estimate and budget for these inputs. */
 export type { Estimate };
 
-export function sourceBody(source: Source, lx: number, repair = "none"): Record<string, unknown> {
-  const body: Record<string, unknown> = "asset" in source ? { asset: source.asset, lx } : { upload: source.upload, lx };
-  if (repair !== "none") body.repair = repair;
+/** The request's reshaping keys; options left at 0 are the server's defaults (not sent). */
+export function reshapeBody(r: Reshape): Record<string, unknown> {
+  const body: Record<string, unknown> = {};
+  if (r.repair !== "none") body.repair = r.repair;
+  const options: Record<string, number> = {};
+  if (r.repair === "fix" && r.holeEdges > 0) options.max_hole_edges = r.holeEdges;
+  if (r.repair === "wrap" && r.alpha > 0) options.alpha = r.alpha;
+  if (r.repair === "wrap" && r.offset > 0) options.offset = r.offset;
+  if (Object.keys(options).length) body.repair_options = options;
+  if (r.simplify > 0) body.simplify = { faces: r.simplify };
+  if (r.components !== "all") body.components = r.components;
   return body;
 }
 
-export function estimate(source: Source, lx: number, repair = "none"): Promise<Estimate> {
-  return api.post<Estimate>("/api/kelvin/estimate", sourceBody(source, lx, repair) as never);
+const noReshape: Reshape = { repair: "none", holeEdges: 0, alpha: 0, offset: 0, simplify: 0, components: "all" };
+
+export function sourceBody(source: Source, lx: number, reshape: Reshape = noReshape): Record<string, unknown> {
+  const body: Record<string, unknown> = "asset" in source ? { asset: source.asset, lx } : { upload: source.upload, lx };
+  return { ...body, ...reshapeBody(reshape) };
+}
+
+export function estimate(source: Source, lx: number, reshape: Reshape = noReshape): Promise<Estimate> {
+  return api.post<Estimate>("/api/kelvin/estimate", sourceBody(source, lx, reshape) as never);
 }
 
 /** What the panel says before preparing: the expected size and time against the budget. */
@@ -79,6 +106,22 @@ export function estimateText(e: Estimate): string {
       ? "time unknown until a preparation has run on this server"
       : `≈ ${e.seconds_estimate < 10 ? e.seconds_estimate.toFixed(1) : Math.round(e.seconds_estimate)} s`;
   return `expected ≈ ${n} field vertices of this server's budget of ${e.max_vertex_estimate.toLocaleString("en")} · ${time}`;
+}
+
+/** What the chosen reshaping will do, with the server's prediction for a wrap. */
+export function repairEstimateText(e: Estimate, r: Reshape): string {
+  const parts: string[] = [];
+  if (r.components === "largest") parts.push("keeps the piece enclosing the largest volume");
+  if (r.simplify > 0) parts.push(`simplifies to ${r.simplify.toLocaleString("en")} faces`);
+  if (r.repair === "fix") parts.push(r.holeEdges > 0 ? `fix fills holes of up to ${r.holeEdges.toLocaleString("en")} edges` : "fix fills no hole (hole size 0)");
+  const w = e.repair_estimate;
+  if (r.repair === "wrap" && w?.alpha !== undefined && w.offset !== undefined) {
+    const s = w.seconds ?? 0;
+    parts.push(
+      `wrap at α ${metres(w.alpha)}, offset ${metres(w.offset)}: ≈ ${Math.round(w.faces ?? 0).toLocaleString("en")} faces, ${Math.round(w.megabytes ?? 0)} MB, ${s < 10 ? s.toFixed(1) : Math.round(s)} s (the server's prediction)`,
+    );
+  }
+  return parts.length ? parts.join("; ") : "no repair chosen: the mesh is prepared as it is";
 }
 
 export interface PrepareCallbacks {
@@ -98,9 +141,9 @@ export class ObjectJob {
   private objectId: string | null = null;
 
   /** Creates the object and resolves when it is ready (rejects on failure or cancel). */
-  async prepare(source: Source, lx: number, extra: Record<string, unknown>, cb: PrepareCallbacks, repair = "none"): Promise<ObjectStatus> {
+  async prepare(source: Source, lx: number, extra: Record<string, unknown>, cb: PrepareCallbacks, reshape: Reshape = noReshape): Promise<ObjectStatus> {
     const cancel = () => void this.cancel();
-    const body: Record<string, unknown> = { ...extra, ...sourceBody(source, lx, repair) };
+    const body: Record<string, unknown> = { ...extra, ...sourceBody(source, lx, reshape) };
     let repairSeen = false;
     const seen = (o: ObjectStatus) => {
       if (!repairSeen && o.repair_report && cb.repaired) {

@@ -1,11 +1,13 @@
-// The right-hand panel (lil-gui): object and l_x, upload, σ (presets, base, brush, undo, reset),
+// The right-hand panel (lil-gui): object and l_x, upload, the repair of an upload (every option of
+// the server with its limits, the defects found, prepare), σ (presets, base, brush, undo, reset),
 // iso-levels, slice, export, and a statistics table. It edits the KelvinState in place and calls
 // back; the view decides what that means for the server.
 import GUI, { type Controller } from "lil-gui";
 import { addColorControls } from "../../core/colorbar";
 import { exactNumber, exactNumbers, recheck, setFieldMessage } from "../../core/exact_number";
 import { presets } from "./sigma";
-import { exportFormats, repairs, uploadUnits, type KelvinState } from "./kelvin_state";
+import type { Limits } from "../../core/wire";
+import { componentChoices, exportFormats, repairs, uploadUnits, type KelvinState } from "./kelvin_state";
 import { sliceAxes } from "./slice_layer";
 
 export interface PanelActions {
@@ -14,6 +16,9 @@ export interface PanelActions {
   upload(file: File): void;
   unitChanged(): void;
   repairChanged(): void;
+  /** Prepare the upload with the repair options chosen. */
+  prepare(): void;
+  defectsToggled(): void;
   sigmaChanged(): void;
   presetChosen(): void;
   undoStroke(): void;
@@ -36,6 +41,14 @@ export class Panel {
   private readonly lx: Controller;
   private readonly estimate: HTMLDivElement;
   private readonly report: HTMLDivElement;
+  private readonly holeEdges: Controller;
+  private readonly simplify: Controller;
+  private readonly limitsLine: HTMLDivElement;
+  private readonly wrapControls: Controller[];
+  private readonly repairEstimate: HTMLDivElement;
+  private readonly defectsBox: HTMLDivElement;
+  /** View settings that are not part of the link. */
+  readonly view = { showDefects: true };
   readonly sigmaHistogram: HTMLDivElement;
   private sigmaInput: HTMLInputElement;
   /** Says when the link's σ is in a file that is not loaded yet. */
@@ -71,17 +84,43 @@ export class Panel {
         .name("file unit")
         .onChange(() => a.unitChanged()),
     );
-    this.add(
-      obj
-        .add(state, "repair", repairs)
-        .name("repair")
-        .onChange(() => a.repairChanged()),
-    );
     obj.add({ upload: () => this.fileInput.click() }, "upload").name("upload a mesh…");
     this.report = document.createElement("div");
     this.report.className = "kelvin-estimate kelvin-upload-report";
     this.report.dataset.testid = "kelvin-upload-report";
     obj.$children.appendChild(this.report);
+
+    // The repair: every option the server takes, bounded by its limits; an upload's defects are
+    // drawn and counted first, and "prepare" applies the options.
+    const rep = this.gui.addFolder("Repair");
+    const changed = () => {
+      this.showRepairControls(state);
+      a.repairChanged();
+    };
+    this.add(rep.add(state, "repair", repairs).name("repair").onChange(changed));
+    this.holeEdges = this.add(rep.add(state, "holeEdges", 0, 1000, 1).name("fix: holes up to (edges)").onFinishChange(changed));
+    this.wrapControls = [
+      this.add(rep.add(state, "alpha").min(0).name("wrap: α (m; 0: diagonal / 20)").onFinishChange(changed)),
+      this.add(rep.add(state, "offset").min(0).name("wrap: offset (m; 0: α / 30)").onFinishChange(changed)),
+    ];
+    this.simplify = this.add(rep.add(state, "simplify", 0, 200000, 1).name("simplify to (faces; 0: keep)").onFinishChange(changed));
+    this.add(rep.add(state, "components", componentChoices).name("components").onChange(changed));
+    rep
+      .add(this.view, "showDefects")
+      .name("show defects")
+      .onChange(() => a.defectsToggled());
+    rep.add({ prepare: () => a.prepare() }, "prepare").name("prepare with these options");
+    const limitsLine = (this.limitsLine = document.createElement("div"));
+    limitsLine.className = "kelvin-estimate";
+    limitsLine.dataset.testid = "kelvin-repair-limits";
+    this.repairEstimate = document.createElement("div");
+    this.repairEstimate.className = "kelvin-estimate";
+    this.repairEstimate.dataset.testid = "kelvin-repair-estimate";
+    this.defectsBox = document.createElement("div");
+    this.defectsBox.className = "kelvin-estimate kelvin-defects";
+    this.defectsBox.dataset.testid = "kelvin-defects";
+    rep.$children.append(this.defectsBox, this.repairEstimate, limitsLine);
+    this.showRepairControls(state);
 
     const sig = this.gui.addFolder("σ (contact allowed where σ > 0)");
     const presetLabels: Record<string, string> = { none: "none (base σ + brushes)" };
@@ -228,6 +267,37 @@ export class Panel {
     else recheck(this.lx);
   }
 
+  /** The server's limits bound the repair's controls and are stated under them. */
+  setRepairLimits(limits: Partial<Limits>): void {
+    if (limits.max_hole_edges !== undefined) this.holeEdges.max(limits.max_hole_edges);
+    if (limits.max_upload_triangles !== undefined) this.simplify.max(limits.max_upload_triangles);
+    this.limitsLine.textContent = repairLimitsText(limits);
+  }
+
+  /** Only the chosen repair's options are shown. */
+  showRepairControls(state: KelvinState): void {
+    this.holeEdges.show(state.repair === "fix");
+    this.wrapControls.forEach((c) => c.show(state.repair === "wrap"));
+  }
+
+  /** An upload's defects, one line per kind with its mark's colour (none: not an upload). */
+  setDefects(lines: Array<{ text: string; color?: string }>): void {
+    this.defectsBox.replaceChildren(
+      ...lines.map((l) => {
+        const p = document.createElement("div");
+        p.textContent = l.text;
+        if (l.color) p.style.setProperty("--mark", l.color);
+        return p;
+      }),
+    );
+  }
+
+  /** What the chosen repair will do or did not get to do (the wrap's prediction, a refusal, "press prepare"). */
+  setRepairEstimate(text: string, bad = false): void {
+    this.repairEstimate.textContent = text;
+    this.repairEstimate.classList.toggle("bad", bad);
+  }
+
   /** The upload dialog's lines (size, refusal, repair report); `bad` marks a refusal. */
   setReport(lines: string[], bad = false): void {
     this.report.replaceChildren(
@@ -260,6 +330,16 @@ export class Panel {
     this.sigmaInput.remove();
     this.stats.remove();
   }
+}
+
+/** The server's bounds on the repair options, as the panel states them. */
+function repairLimitsText(l: Partial<Limits>): string {
+  const n = (x: number | undefined) => (x === undefined ? "?" : x.toLocaleString("en"));
+  const mb = l.max_repair_bytes === undefined ? "?" : Math.round(l.max_repair_bytes / 2 ** 20).toLocaleString("en");
+  return (
+    `this server: fix fills holes of at most ${n(l.max_hole_edges)} edges; a wrap is estimated before it runs and refused over ` +
+    `${n(l.max_repair_faces)} faces, ${mb} MB or ${n(l.max_repair_seconds)} s; simplify to 4 … ${n(l.max_upload_triangles)} faces`
+  );
 }
 
 /** A hidden file chooser (a panel button clicks it); each chosen file goes to `chosen`. */

@@ -52,6 +52,9 @@ export interface KelvinHookSource {
   displayTriangles(): number;
   /** Triangles of a repair's surface drawn over the input (0: none). */
   overlayTriangles(): number;
+  /** The upload: the link's reference, its id here, the notice of a link's missing file and its
+   *  refusal, the defects drawn (counts, marked edges with their file vertices and positions), the camera. */
+  upload(): unknown;
   surface(): SurfaceLayer | null;
   /** σ at the input mesh's vertices, evaluated here (the server sends the same as surface scalars). */
   localSigmaAtInputVertices(): number[];
@@ -117,6 +120,9 @@ export function installHooks(view: KelvinHookSource): void {
     },
     get overlayTriangles() {
       return view.overlayTriangles();
+    },
+    get upload() {
+      return copy(view.upload());
     },
     /** The surface's stand-in while orbiting: its triangles and the simplifier's error bound (m). */
     get standIn() {
