@@ -2,11 +2,13 @@
 reach the session's own sockets (and no other session's), bad items are refused naming the field,
 and recordings made by the page in headless chromium show the items where they are."""
 
+import _thread
 import json
 import re
 import signal
 import subprocess
 import tempfile
+import threading
 
 import matplotlib.image
 import numpy as np
@@ -236,3 +238,23 @@ def test_a_cancelled_recording_is_forgotten(server, tmp_path):
     with pytest.raises(ServiceError) as info:  # what the page's next part gets: it stops
         c._request("PUT", f"/api/scene/recordings/{rec['id']}/parts/0", data=b"png")
     assert (info.value.status, info.value.code) == (404, "unknown_recording")
+
+
+def test_ctrl_c_stops_a_recording_and_the_service_forgets_it(server, tmp_path):
+    c = distlab.Client(server)
+    made, request = [], c._request
+
+    def spy(method, route, **kw):  # Ctrl-C once the recording exists and its page is starting
+        answer = request(method, route, **kw)
+        if (method, route) == ("POST", "/api/scene/recordings"):
+            made.append(answer["id"])
+            threading.Timer(0.5, _thread.interrupt_main).start()
+        return answer
+
+    c._request = spy
+    with pytest.raises(KeyboardInterrupt):
+        c.record(tmp_path / "long.webm", seconds=LIMITS["max_record_frames"], fps=1, view="gap")
+    with pytest.raises(ServiceError) as info:
+        request("GET", f"/api/scene/recordings/{made[0]}")
+    assert (info.value.status, info.value.code) == (404, "unknown_recording")
+    assert not (tmp_path / "long.webm").exists()

@@ -7,7 +7,7 @@ import { allShortcuts, installKeyHandler, registerGlobal, setViewShortcuts } fro
 import { socket } from "./core/socket";
 import { setToastScope, showError } from "./core/toast";
 import { hashFor, parseHash, writeState } from "./core/urlstate";
-import { startUserScene, userSceneItems } from "./core/user_scene";
+import { startUserScene, userSceneItems, userSceneView } from "./core/user_scene";
 import type { View, ViewEntry, ViewHost } from "./core/view";
 
 const views: ViewEntry[] = [
@@ -57,6 +57,7 @@ async function route(): Promise<void> {
   if (current?.id === entry.id) return; // state edits within a view do not remount it
   const ticket = ++mounting;
   setToastScope(entry.id);
+  userSceneView(entry.id);
   current?.view.unmount();
   current = null;
   host.canvas.replaceChildren();

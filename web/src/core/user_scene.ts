@@ -31,10 +31,7 @@ group.name = "user scene";
 const items = new Map<string, { frame: ItemFrame; object: THREE.Object3D }>();
 let viewport: Viewport | null = null;
 
-/** The view shown now (the shell's route, #/<view>...). */
-function currentView(): string {
-  return /^#\/(\w+)/.exec(location.hash)?.[1] ?? "gap";
-}
+let view = "gap"; // the view the shell shows (it says so before mounting one)
 
 function applyPose(o: THREE.Object3D, pose?: Pose): void {
   const p = pose?.position ?? [0, 0, 0];
@@ -86,9 +83,15 @@ function dispose(o: THREE.Object3D): void {
   });
 }
 
-function showFor(view: string): void {
-  for (const { frame, object } of items.values()) object.visible = frame.view === "all" || frame.view === view;
+function showFor(shown: string): void {
+  for (const { frame, object } of items.values()) object.visible = frame.view === "all" || frame.view === shown;
   viewport?.invalidate();
+}
+
+/** The shell is about to show this view ("gap", "kelvin", "cbf"): its items are the ones drawn. */
+export function userSceneView(id: string): void {
+  view = id;
+  showFor(view);
 }
 
 function remove(name: string): void {
@@ -104,7 +107,7 @@ export function startUserScene(socket: Socket): void {
   onViewportCreated((vp) => {
     viewport = vp;
     vp.scene.add(group); // leaves the previous view's scene
-    showFor(currentView());
+    showFor(view);
   });
   socket.onFrame((f) => {
     if (f.type !== "scene_item") return;
@@ -115,7 +118,7 @@ export function startUserScene(socket: Socket): void {
     applyPose(object, frame.pose);
     items.set(frame.name, { frame, object });
     group.add(object);
-    showFor(currentView());
+    showFor(view);
   });
   socket.on("scene_pose", (m) => {
     const item = items.get(m.name as string);
