@@ -191,7 +191,7 @@ void SceneModule::describe_session(Session& session, json& out) {
 }
 
 void SceneModule::register_routes() {
-  const Limits& lim = config_.limits;
+  const Limits& limits = config_.limits;  // the body limits; handlers read config_ when they run
 
   router_.add({"GET", "/api/scene/items", [this](Request& req) {
                  auto s = require_session(req);
@@ -203,7 +203,8 @@ void SceneModule::register_routes() {
                }});
 
   // The body is the item's msgpack frame; adding under an existing name replaces that item.
-  Route put{"PUT", "/api/scene/items/{name}", [this, &lim](Request& req) {
+  Route put{"PUT", "/api/scene/items/{name}", [this](Request& req) {
+              const Limits& lim = config_.limits;
               auto s = require_session(req);
               const std::string name = item_name(req.params["name"]);
               const json item = parse_item(name, req.body, lim);
@@ -231,7 +232,7 @@ void SceneModule::register_routes() {
               s->broadcast(frame, true);
               return json_response(200, summary);
             }};
-  put.body_limit = lim.max_scene_bytes + (std::size_t{64} << 10);  // room for the frame's keys
+  put.body_limit = limits.max_scene_bytes + (std::size_t{64} << 10);  // room for the frame's keys
   router_.add(std::move(put));
 
   router_.add({"PUT", "/api/scene/items/{name}/pose", [this](Request& req) {
@@ -284,7 +285,8 @@ void SceneModule::register_routes() {
 
   // -- recordings ------------------------------------------------------------------------------
 
-  router_.add({"POST", "/api/scene/recordings", [this, &lim](Request& req) {
+  router_.add({"POST", "/api/scene/recordings", [this](Request& req) {
+                 const Limits& lim = config_.limits;
                  auto s = require_session(req);
                  const json body = parse_body(req);
                  json_require_object(body, "");
@@ -324,7 +326,8 @@ void SceneModule::register_routes() {
                }});
 
   // The page's parts in order: PNG frames 0, 1, ... (at most the recording's frames), or one WebM.
-  Route part{"PUT", "/api/scene/recordings/{id}/parts/{index}", [this, &lim](Request& req) {
+  Route part{"PUT", "/api/scene/recordings/{id}/parts/{index}", [this](Request& req) {
+               const Limits& lim = config_.limits;
                auto s = require_session(req);
                const std::size_t index = part_index(req.params["index"]);
                std::lock_guard lock(s->mutex);
@@ -343,7 +346,7 @@ void SceneModule::register_routes() {
                r->state = "recording";
                return json_response(200, r->to_json());
              }};
-  part.body_limit = lim.max_record_bytes;
+  part.body_limit = limits.max_record_bytes;
   router_.add(std::move(part));
 
   // The page's end: {"camera": {"matrix": 16 numbers (clip from world, column-major), "width",
