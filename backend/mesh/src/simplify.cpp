@@ -2,7 +2,6 @@
 #include "distlab/mesh/simplify.hpp"
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
-#include <CGAL/Polygon_mesh_processing/distance.h>
 #include <CGAL/Polygon_mesh_processing/polygon_soup_to_polygon_mesh.h>
 #include <CGAL/Surface_mesh.h>
 #include <CGAL/Surface_mesh_simplification/Edge_collapse_visitor_base.h>
@@ -12,7 +11,7 @@
 #include <algorithm>
 
 #include "distlab/geometry/error.hpp"
-#include "distlab/mesh/repair.hpp"
+#include "distlab/mesh/hausdorff.hpp"
 
 namespace distlab::mesh {
 namespace {
@@ -23,10 +22,10 @@ using Mesh = CGAL::Surface_mesh<Point>;
 namespace PMP = CGAL::Polygon_mesh_processing;
 namespace SMS = CGAL::Surface_mesh_simplification;
 
-// Polls the job's token every 1024 selected edges and reports the share of the collapses done.
-// Input faces per call of CGAL's bounded-error Hausdorff distance (about 200 MB each).
-constexpr Eigen::Index kHausdorffPieceFaces = 100000;
+// The reported distance's error, relative to itself.
+constexpr double kRelativeError = 0.05;
 
+// Polls the job's token every 1024 selected edges and reports the share of the collapses done.
 struct Visitor : SMS::Edge_collapse_visitor_base<Mesh> {
   const Progress* progress = nullptr;
   double target_edges = 0;
@@ -81,40 +80,8 @@ SimplifyResult simplify(const SurfaceMesh& input, std::size_t faces, const std::
     int k = 0;
     for (auto v : CGAL::vertices_around_face(sm.halfedge(f), sm)) out.surface.faces(static_cast<Eigen::Index>(f.idx()), std::min(k++, 2)) = static_cast<int>(v.idx());
   }
-  // The sampled maximum is a lower bound (14 % low on a bumpy sphere: the farthest point is inside
-  // a face); CGAL's bounded-error Hausdorff distance, to 5 % of it, gives the distance itself.
-  const double lower = sampled_distance(input, out.surface, progress);
-  progress("simplify", 0.92);
-  // CGAL's bounded-error distance keeps about 2 KB per input face at once (3.9 GB, 98 s on a 2M-face
-  // scan even at an error of 100 %; 7.8 GB at 5 %): it runs on pieces of the input's faces in turn.
-  // The one-sided distance of the input is the largest of its pieces', each known to the same error.
-  if (lower > 0) {
-    const Eigen::Index n = input.faces.rows();
-    for (Eigen::Index first = 0; first < n; first += kHausdorffPieceFaces) {
-      progress("simplify", 0.92 + 0.08 * static_cast<double>(first) / static_cast<double>(n));
-      const Eigen::Index count = std::min<Eigen::Index>(kHausdorffPieceFaces, n - first);
-      std::vector<int> index(static_cast<std::size_t>(input.vertices.rows()), -1);
-      std::vector<Point> piece_points;
-      std::vector<std::array<std::size_t, 3>> piece_triangles;
-      piece_triangles.reserve(static_cast<std::size_t>(count));
-      for (Eigen::Index f = first; f < first + count; ++f) {
-        std::array<std::size_t, 3> t{};
-        for (int k = 0; k < 3; ++k) {
-          int& i = index[static_cast<std::size_t>(input.faces(f, k))];
-          if (i < 0) {
-            i = static_cast<int>(piece_points.size());
-            const auto v = input.faces(f, k);
-            piece_points.emplace_back(input.vertices(v, 0), input.vertices(v, 1), input.vertices(v, 2));
-          }
-          t[static_cast<std::size_t>(k)] = static_cast<std::size_t>(i);
-        }
-        piece_triangles.push_back(t);
-      }
-      Mesh piece;  // faces of a manifold, oriented mesh: one too
-      PMP::polygon_soup_to_polygon_mesh(piece_points, piece_triangles, piece);
-      out.input_to_result = std::max(out.input_to_result, PMP::bounded_error_Hausdorff_distance<CGAL::Sequential_tag>(piece, sm, 0.05 * lower));
-    }
-  }
+  const Progress distance{[&](const std::string&, double f) { progress("simplify", 0.9 + 0.1 * f); }, progress.cancel};
+  out.input_to_result = hausdorff_distance(input, out.surface, kRelativeError, "simplify", distance).value;
   progress("simplify", 1.0);
   return out;
 }

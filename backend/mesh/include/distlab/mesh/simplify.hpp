@@ -1,7 +1,7 @@
 #pragma once
 // Simplifying big inputs (scans) before preparation (issue 36): CGAL Surface_mesh_simplification's
 // edge collapse with its default Lindstrom–Turk cost and placement, down to a face count, with the one-sided
-// Hausdorff distance from the input to the result reported (repair.hpp's sampled_distance).
+// Hausdorff distance from the input to the result reported (hausdorff.hpp).
 #include <cstddef>
 #include <string>
 
@@ -12,8 +12,8 @@ namespace distlab::mesh {
 
 struct SimplifyResult {
   SurfaceMesh surface;  // at most the requested faces; closed if the input was
-  // metres: CGAL's bounded_error_Hausdorff_distance from the input to the result, with an error
-  // of 5 % of the sampled maximum (repair.hpp's sampled_distance, a lower bound)
+  // metres: the one-sided Hausdorff distance from the input to the result, within 5 % of itself
+  // (hausdorff.hpp)
   double input_to_result = 0;
 };
 
