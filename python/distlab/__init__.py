@@ -4,7 +4,8 @@ robots as a library (every distance of a URDF robot with its joint-space Jacobia
 and :class:`Client` for the HTTP/WebSocket service.
 
 Modules: :mod:`distlab.gap`, :mod:`distlab.kelvin`, :mod:`distlab.cbf`, :mod:`distlab.robot`,
-:mod:`distlab.client`.
+:mod:`distlab.client` (with :mod:`distlab.scene`: your own geometry in the service's views, and
+recordings of them).
 """
 
 import os as _os

@@ -163,6 +163,7 @@ def _chromium() -> str:
 def _png_paths(path: str, n: int) -> List[str]:
     """Where PNG frame i goes: DIR/frame_0000.png, or PATTERN % i (frame_%03d.png), or STEM_0000.png."""
     if path.endswith(".png"):
+        os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
         if re.search(r"%0?\d*d", path):
             return [path % i for i in range(n)]
         return [f"{path[:-4]}_{i:04d}.png" for i in range(n)]

@@ -175,8 +175,8 @@ def test_record_png_shows_the_mesh_where_it_is(server, tmp_path):
     assert all(red_at(f, pixel(shown["camera"], here)) for f in shown["files"])
     assert not red_at(shown["files"][0], pixel(shown["camera"], there))
     c.scene.set_pose("box", there)
-    moved = c.record(tmp_path / "moved_%02d.png", frames=1, view="gap", width=640, height=480)
-    assert moved["files"] == [str(tmp_path / "moved_00.png")]
+    moved = c.record(tmp_path / "new" / "moved_%02d.png", frames=1, view="gap", width=640, height=480)
+    assert moved["files"] == [str(tmp_path / "new" / "moved_00.png")]
     assert red_at(moved["files"][0], pixel(moved["camera"], there))
     assert not red_at(moved["files"][0], pixel(moved["camera"], here))
     # An item for another view is not drawn in this one.
