@@ -2,7 +2,6 @@
 // progress bar, screenshot, shortcuts. Views are loaded lazily (one chunk each).
 import "./style.css";
 import { api } from "./core/api";
-import { recordIfAsked } from "./core/recorder";
 import { allShortcuts, installKeyHandler, registerGlobal, setViewShortcuts } from "./core/keys";
 import { socket } from "./core/socket";
 import { setToastScope, showError } from "./core/toast";
@@ -131,7 +130,8 @@ function boot(): void {
   socket.start();
   window.addEventListener("hashchange", () => void route());
   void route();
-  void recordIfAsked();
+  // A page opened by Client.record (?record=ID) records its view (a chunk of its own).
+  if (new URLSearchParams(location.search).has("record")) void import("./core/recorder").then((m) => m.recordIfAsked());
   // Test and debugging hooks (read-only views of what the user sees).
   Object.assign(window, { distlab: Object.assign((window as unknown as { distlab?: object }).distlab ?? {}, { api, socket, screenshot, scene: userSceneItems }) });
 }

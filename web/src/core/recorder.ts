@@ -5,7 +5,8 @@
 // A recording forgotten on the server (cancelled) answers 404 to the next part: the page stops.
 import { api, errorText } from "./api";
 import { socket } from "./socket";
-import { currentViewport, userSceneItems } from "./user_scene";
+import { userSceneItems } from "./user_scene";
+import { currentViewport } from "./user_scene_draw";
 import type { Viewport } from "./viewport";
 
 interface Recording {

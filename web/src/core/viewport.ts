@@ -4,6 +4,7 @@
 // for the status bar and the browser tests (window.distlab.stats()).
 import * as THREE from "three";
 import { OrbitControls } from "three/addons/controls/OrbitControls.js";
+import { drawUserScene } from "./user_scene_draw";
 
 let softwareRenderer: boolean | null = null;
 
@@ -40,12 +41,6 @@ function standInTrianglesWanted(): number {
   return isSoftwareRenderer() ? 25_000 : 0;
 }
 
-const createdListeners = new Set<(vp: Viewport) => void>();
-/** Calls f with every viewport made from now on (the user's scene items join each view's). */
-export function onViewportCreated(f: (vp: Viewport) => void): void {
-  createdListeners.add(f);
-}
-
 /** After the last interactive frame, this long without one brings the full resolution back. */
 const SETTLE_MS = 250;
 
@@ -77,6 +72,7 @@ export class Viewport {
   /** Measuring only: read one pixel back after each frame so its time includes the GPU's (a stall). */
   syncRender = false;
   private readonly pixel = new Uint8Array(4);
+  private readonly stopUserScene: () => void;
 
   constructor(
     readonly container: HTMLElement,
@@ -115,7 +111,7 @@ export class Viewport {
     this.resizeObserver = new ResizeObserver(() => this.resize());
     this.resizeObserver.observe(container);
     this.resize();
-    createdListeners.forEach((f) => f(this));
+    this.stopUserScene = drawUserScene(this); // the user's own items (Client.scene) in every view
   }
 
   /** Something visible changed: draw it at the next animation frame (once, however often called). */
@@ -272,6 +268,7 @@ export class Viewport {
   }
 
   dispose(): void {
+    this.stopUserScene();
     this.disposed = true;
     cancelAnimationFrame(this.raf);
     window.clearTimeout(this.settleTimer);
