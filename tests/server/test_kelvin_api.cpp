@@ -592,7 +592,7 @@ TEST_F(KelvinApi, UploadsAndInlineMeshes) {
   EXPECT_EQ(body_json(r)["error"]["field"], "body");
   EXPECT_NE(body_json(r)["error"]["message"].get<std::string>().find("not a valid STL"), std::string::npos) << r->body;
   // A well-formed binary STL with one triangle more than the limit: refused before parsing.
-  n = 200001;
+  n = body_json(c.Get("/api/limits"))["max_upload_triangles"].get<std::uint32_t>() + 1;
   huge.assign(84 + 50 * std::size_t{n}, '\0');
   std::memcpy(huge.data() + 80, &n, 4);
   r = c.Post("/api/kelvin/uploads?format=stl", session_headers(s), huge, "application/octet-stream");

@@ -163,9 +163,10 @@ def test_every_operation_answers_as_documented(server):
     api.call("GET", "/api/kelvin/assets")
     up = api.call("POST", "/api/kelvin/uploads", params={"format": "stl"}, data=(ROOT / "assets" / "cube.stl").read_bytes(),
                   headers={**api.headers, "Content-Type": "application/octet-stream"}).json()
-    api.call("POST", "/api/kelvin/uploads/reuse", json={"digest": up["digest"]})
+    reused = api.call("POST", "/api/kelvin/uploads/reuse", json={"digest": up["digest"]}).json()
     api.call("GET", "/api/kelvin/uploads/{id}/surface", {"id": up["upload"]})
     api.call("GET", "/api/kelvin/uploads/{id}/defects", {"id": up["upload"]})
+    api.call("DELETE", "/api/kelvin/uploads/{id}", {"id": reused["upload"]})
     create = {"asset": "cube", "lx": 0.3}
     api.call("POST", "/api/kelvin/estimate", json=create)
     made = api.call("POST", "/api/kelvin/objects", json=create).json()

@@ -1,6 +1,8 @@
 // Mesh uploads are parsed in a child process (distlab import-mesh): every hostile file is a 4xx
 // JSON error naming field body, the server keeps answering, and an upload's vertices are the
 // file's own, duplicates included.
+#include <algorithm>
+
 #include "mesh/hostile_meshes.hpp"
 #include "server/server_fixture.hpp"
 
@@ -45,7 +47,9 @@ TEST_F(UploadImport, ImportLimitsArePublished) {
   const json limits = body_json(c.Get("/api/limits"));
   EXPECT_EQ(limits["import_memory_bytes"], std::size_t{1} << 30);
   EXPECT_EQ(limits["import_seconds"], 20);
-  EXPECT_EQ(limits["request_bounds"]["POST /api/kelvin/uploads"].size(), 5u) << limits.dump();
+  const json& bounds = limits["request_bounds"]["POST /api/kelvin/uploads"];
+  for (const char* name : {"max_upload_bytes", "max_upload_triangles", "max_held_triangles_per_address", "import_memory_bytes", "import_seconds"})
+    EXPECT_NE(std::find(bounds.begin(), bounds.end(), name), bounds.end()) << name << " in " << bounds.dump();
 }
 
 }  // namespace

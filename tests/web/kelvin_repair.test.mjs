@@ -58,7 +58,7 @@ test("an upload's defects are drawn and counted before preparing; fix with a hol
   // Every repair option is a control; the server's limits are stated.
   const limits = await page.evaluate(() => window.distlab.api.get("/api/limits"));
   const stated = await page.locator("[data-testid=kelvin-repair-limits]").textContent();
-  for (const n of [limits.max_hole_edges, limits.max_repair_faces, limits.max_upload_triangles]) assert.ok(stated.includes(n.toLocaleString("en")), `"${stated}" states ${n}`);
+  for (const n of [limits.max_hole_edges, limits.max_repair_faces, limits.max_object_triangles]) assert.ok(stated.includes(n.toLocaleString("en")), `"${stated}" states ${n}`);
   await field(page, "repair").locator("select").selectOption("wrap");
   for (const name of ["wrap: α (m; 0: diagonal / 20)", "wrap: offset (m; 0: α / 30)", "simplify to (faces; 0: keep)", "components"]) assert.ok(await field(page, name).isVisible(), name);
   // The wrap's prediction, as POST /api/kelvin/estimate gives it.

@@ -155,6 +155,8 @@ export interface paths {
                             max_upload_bytes: number;
                             /** @description triangles of an uploaded or inline mesh (413 too_many_triangles) */
                             max_upload_triangles: number;
+                            /** @description triangles of the surface a Kelvin object prepares: a bigger mesh needs "simplify": {"faces": N ≤ this} or "repair": "wrap" (422 too_many_triangles, field simplify.faces) */
+                            max_object_triangles: number;
                             /** @description smallest l_x of a Kelvin object, metres (422 over_budget, field lx) */
                             min_lx: number;
                             /** @description estimated vertices of one prepared Kelvin field: the vertex budget (422 over_budget, field lx) */
@@ -183,6 +185,10 @@ export interface paths {
                             max_gap_pairs: number;
                             /** @description mesh uploads kept per session (429) */
                             max_uploads_per_session: number;
+                            /** @description triangles one client address holds in uploads and Kelvin objects together (413 too_many_held_triangles; DELETE uploads or objects to make room) */
+                            max_held_triangles_per_address: number;
+                            /** @description triangles the server holds in uploads and Kelvin objects for all clients (503 busy) */
+                            max_held_triangles: number;
                             /** @description params.max_iter of one GAP pair (422 over_budget) */
                             max_gap_iterations: number;
                             /** @description address space of the child process that parses one mesh upload; an upload needing more is refused (400, field body) */
@@ -2018,6 +2024,47 @@ export interface paths {
         put?: never;
         post?: never;
         delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/kelvin/uploads/{id}": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        post?: never;
+        /** Delete an upload: its triangles leave the client's share (max_held_triangles_per_address); objects made from it keep theirs */
+        delete: {
+            parameters: {
+                query?: never;
+                header?: {
+                    /** @description session id (or the distlab_session cookie) */
+                    "X-Distlab-Session"?: components["parameters"]["Session"];
+                };
+                path: {
+                    id: string;
+                };
+                cookie?: never;
+            };
+            requestBody?: never;
+            responses: {
+                /** @description deleted */
+                204: {
+                    headers: {
+                        [name: string]: unknown;
+                    };
+                    content?: never;
+                };
+                401: components["responses"]["Error"];
+                404: components["responses"]["Error"];
+            };
+        };
         options?: never;
         head?: never;
         patch?: never;

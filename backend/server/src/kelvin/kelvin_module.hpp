@@ -73,6 +73,8 @@ class KelvinModule final : public Module {
   // (its file name, objects, σ) is reachable this way.
   std::mutex held_mutex_;
   std::map<std::string, std::weak_ptr<const Upload>> held_;
+  // Uploads' and objects' triangles, per client address and in all.
+  HeldTriangles held_triangles_{config_.limits.max_held_triangles_per_address, config_.limits.max_held_triangles};
   std::atomic<double> prepare_seconds_per_vertex_{0};  // of the last computed preparation
 };
 

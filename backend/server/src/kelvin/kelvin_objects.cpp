@@ -217,8 +217,8 @@ std::size_t parse_simplify(const json& body, const Limits& lim) {
   json_check_keys(s, "simplify", {"faces"});
   if (!s.contains("faces")) throw InvalidInput("simplify.faces", "simplify needs faces (the face count to simplify to)");
   const json& n = s["faces"];
-  if (!n.is_number_integer() || n.get<std::int64_t>() < 4 || n.get<std::int64_t>() > static_cast<std::int64_t>(lim.max_upload_triangles))
-    throw InvalidInput("simplify.faces", "faces must be a whole number in [4, " + std::to_string(lim.max_upload_triangles) + "]");
+  if (!n.is_number_integer() || n.get<std::int64_t>() < 4 || n.get<std::int64_t>() > static_cast<std::int64_t>(lim.max_object_triangles))
+    throw InvalidInput("simplify.faces", "faces must be a whole number in [4, " + std::to_string(lim.max_object_triangles) + "]");
   return n.get<std::size_t>();
 }
 

@@ -125,6 +125,13 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
   }
   if (static_cast<std::size_t>(surface.faces.rows()) > lim.max_upload_triangles)
     throw ApiError(413, "too_many_triangles", "at most " + std::to_string(lim.max_upload_triangles) + " triangles", "mesh");
+  // A scan is prepared only once simplified or wrapped to what a preparation takes.
+  const auto faces = static_cast<std::size_t>(surface.faces.rows());
+  if (faces > lim.max_object_triangles && simplify_faces == 0 && repair.kind != "wrap")
+    throw ApiError(422, "too_many_triangles",
+                   "the mesh has " + std::to_string(faces) + " triangles and a preparation takes at most " + std::to_string(lim.max_object_triangles) +
+                       ": add \"simplify\": {\"faces\": N} with N ≤ " + std::to_string(lim.max_object_triangles) + ", or \"repair\": \"wrap\"",
+                   "simplify.faces");
   // A wrap over its budget is refused here, before a job (and its memory) exists.
   try {
     require_repair_within(surface, repair, lim);
@@ -197,6 +204,8 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
   source["repair"] = repair.kind;
 
   auto object = std::make_shared<KelvinObject>();
+  object->held = held_triangles_.reserve(session->address, faces, body.contains("upload") ? "upload" : body.contains("asset") ? "asset"
+                                                                                                                              : "mesh");
   object->id = random_id();
   object->key = content_key(welded.surface, options);
   object->source = source;

@@ -68,6 +68,7 @@ json KelvinModule::add_upload(Session& session, const std::shared_ptr<const Uplo
     std::lock_guard lock(session.mutex);
     if (uploads(session).uploads.size() >= lim.max_uploads_per_session)
       throw ApiError(429, "too_many_uploads", "this session has too many uploads");
+    uploads(session).held.emplace(id, held_triangles_.reserve(session.address, static_cast<std::size_t>(up->surface.faces.rows()), "body"));
     uploads(session).uploads.emplace(id, up);
   }
   {
@@ -160,7 +161,7 @@ void KelvinModule::register_routes() {
                  return json_response(201, add_upload(*session, up));
                }};
   upload.heavy = true;
-  upload.bounds = {"max_upload_bytes", "max_upload_triangles", "max_uploads_per_session", "import_memory_bytes", "import_seconds"};
+  upload.bounds = {"max_upload_bytes", "max_upload_triangles", "max_uploads_per_session", "max_held_triangles_per_address", "max_held_triangles", "import_memory_bytes", "import_seconds"};
   upload.body_limit = config_.limits.max_upload_bytes;
   router_.add(std::move(upload));
 
@@ -181,8 +182,18 @@ void KelvinModule::register_routes() {
                 answer["reused"] = true;
                 return json_response(201, answer);
               }};
-  reuse.bounds = {"max_body_bytes", "max_uploads_per_session"};
+  reuse.heavy = true;  // the answer welds the mesh (up to max_upload_triangles)
+  reuse.bounds = {"max_body_bytes", "max_uploads_per_session", "max_held_triangles_per_address", "max_held_triangles"};
   router_.add(std::move(reuse));
+
+  // Gives the upload's triangles back to the client's share (objects made from it keep their own).
+  router_.add({"DELETE", "/api/kelvin/uploads/{id}", [this](Request& req) {
+                 auto session = require_session(req);
+                 std::lock_guard lock(session->mutex);
+                 if (uploads(*session).uploads.erase(req.params.at("id")) == 0) throw ApiError(404, "unknown_upload", "no such upload in this session", "id");
+                 uploads(*session).held.erase(req.params.at("id"));
+                 return no_content_response();
+               }});
 
   router_.add({"GET", "/api/kelvin/uploads/{id}/surface", [this](Request& req) {
                  auto session = require_session(req);
@@ -207,7 +218,7 @@ void KelvinModule::register_routes() {
                  return json_response(202, create_object(session, parse_body(req)));
                }};
   create.heavy = true;
-  create.bounds = {"max_body_bytes", "max_upload_triangles", "min_lx", "max_vertex_estimate", "max_objects_per_session", "max_jobs_per_session", "max_jobs_total", "max_hole_edges", "max_repair_faces"};
+  create.bounds = {"max_body_bytes", "max_upload_triangles", "max_object_triangles", "max_held_triangles_per_address", "max_held_triangles", "min_lx", "max_vertex_estimate", "max_objects_per_session", "max_jobs_per_session", "max_jobs_total", "max_hole_edges", "max_repair_faces"};
   router_.add(std::move(create));
 
   Route estimate{"POST", "/api/kelvin/estimate", [this](Request& req) {
@@ -215,7 +226,7 @@ void KelvinModule::register_routes() {
                    return json_response(200, create_object(session, parse_body(req), true));
                  }};
   estimate.heavy = true;
-  estimate.bounds = {"max_body_bytes", "max_upload_triangles", "min_lx", "max_vertex_estimate"};
+  estimate.bounds = {"max_body_bytes", "max_upload_triangles", "max_object_triangles", "min_lx", "max_vertex_estimate"};
   router_.add(std::move(estimate));
 
   router_.add({"GET", "/api/kelvin/objects", [this](Request& req) {

@@ -502,8 +502,14 @@ export class KelvinView implements View {
         this.panel?.refresh();
         return await this.adoptUpload(r, name, true);
       }
+      // A scan over what a preparation takes is simplified to that first (the Repair folder can lower it).
+      const most = this.limits.max_object_triangles;
+      if (most !== undefined && r.n_faces > most && (this.state.simplify === 0 || this.state.simplify > most)) {
+        this.state.simplify = most;
+        toast(`${file.name} has ${r.n_faces.toLocaleString("en")} triangles: it is simplified to ${most.toLocaleString("en")} first (Repair)`, "ok");
+      }
       // l_x from the file's size: a thirtieth of its diagonal, coarser if over the budget.
-      const e = await estimate({ upload: r.upload, name }, this.state.lx);
+      const e = await estimate({ upload: r.upload, name }, this.state.lx, this.state);
       const lx = Math.max(e.lx_for_budget, e.diagonal / 30);
       const step = 10 ** (Math.floor(Math.log10(lx)) - 1); // two significant digits, rounded up
       this.state.lx = Number((Math.ceil(lx / step) * step).toPrecision(12));

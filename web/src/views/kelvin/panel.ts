@@ -270,7 +270,7 @@ export class Panel {
   /** The server's limits bound the repair's controls and are stated under them. */
   setRepairLimits(limits: Partial<Limits>): void {
     if (limits.max_hole_edges !== undefined) this.holeEdges.max(limits.max_hole_edges);
-    if (limits.max_upload_triangles !== undefined) this.simplify.max(limits.max_upload_triangles);
+    if (limits.max_object_triangles !== undefined) this.simplify.max(limits.max_object_triangles);
     this.limitsLine.textContent = repairLimitsText(limits);
   }
 
@@ -338,7 +338,7 @@ function repairLimitsText(l: Partial<Limits>): string {
   const mb = l.max_repair_bytes === undefined ? "?" : Math.round(l.max_repair_bytes / 2 ** 20).toLocaleString("en");
   return (
     `this server: fix fills holes of at most ${n(l.max_hole_edges)} edges; a wrap is estimated before it runs and refused over ` +
-    `${n(l.max_repair_faces)} faces, ${mb} MB or ${n(l.max_repair_seconds)} s; simplify to 4 … ${n(l.max_upload_triangles)} faces`
+    `${n(l.max_repair_faces)} faces, ${mb} MB or ${n(l.max_repair_seconds)} s; simplify to 4 … ${n(l.max_object_triangles)} faces`
   );
 }
 

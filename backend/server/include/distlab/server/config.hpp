@@ -10,10 +10,19 @@ namespace distlab::server {
 inline constexpr std::size_t kIsosurfaceLevelsPerRequest = 1;
 
 struct Limits {
-  std::size_t max_body_bytes = std::size_t{8} << 20;     // JSON requests
-  std::size_t max_upload_bytes = std::size_t{64} << 20;  // mesh uploads
-  std::size_t max_upload_triangles = 200000;
+  std::size_t max_body_bytes = std::size_t{8} << 20;  // JSON requests
+  // Mesh uploads: scans of up to max_upload_triangles are read (a binary STL of 2M triangles is
+  // 100 MB, parsed by the importer's child in ~340 MB). A preparation takes a surface of at most
+  // max_object_triangles: a bigger one is simplified ("simplify": {"faces": N}) or wrapped first.
+  std::size_t max_upload_bytes = std::size_t{128} << 20;
+  std::size_t max_upload_triangles = 2000000;
+  std::size_t max_object_triangles = 200000;
   std::size_t max_uploads_per_session = 8;
+  // The triangles the server holds for clients (every upload a session keeps, and every Kelvin
+  // object's input surface: ~100 bytes each), per client address and in all; over either, a new
+  // upload or object is refused (413 for the address, 503 for the server) until some are deleted.
+  std::size_t max_held_triangles_per_address = 6000000;
+  std::size_t max_held_triangles = 24000000;
   double min_lx = 0.002;  // absolute floor of l_x, metres (the paper's wrench cases)
   // Vertex budget of one prepared object, as estimated (estimate_vertices): the wrench at l_x 0.002
   // is estimated at ~301k (84k made), so the paper's cases fit.
@@ -95,7 +104,10 @@ void for_each_limit(L& l, F&& f) {
   f("max_body_bytes", l.max_body_bytes);
   f("max_upload_bytes", l.max_upload_bytes);
   f("max_upload_triangles", l.max_upload_triangles);
+  f("max_object_triangles", l.max_object_triangles);
   f("max_uploads_per_session", l.max_uploads_per_session);
+  f("max_held_triangles_per_address", l.max_held_triangles_per_address);
+  f("max_held_triangles", l.max_held_triangles);
   f("min_lx", l.min_lx);
   f("max_vertex_estimate", l.max_vertex_estimate);
   f("max_sessions", l.max_sessions);

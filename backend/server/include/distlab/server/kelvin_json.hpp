@@ -84,7 +84,7 @@ struct RepairRequest {
   nlohmann::json options = nlohmann::json::object();
 };
 RepairRequest parse_repair(const nlohmann::json& body, const Limits& limits);
-// "simplify": {"faces": N} of a request: N in [4, max_upload_triangles]; 0 when absent.
+// "simplify": {"faces": N} of a request: N in [4, max_object_triangles]; 0 when absent.
 std::size_t parse_simplify(const nlohmann::json& body, const Limits& limits);
 // The wrap's bounds from the limits table.
 inline mesh::WrapBudget wrap_budget(const Limits& l) {
