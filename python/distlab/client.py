@@ -225,16 +225,23 @@ class Client:
         answer = self._request("POST", "/api/kelvin/uploads", params=params, data=bytes(mesh))
         return answer if info else answer["upload"]
 
+    def delete_upload(self, upload: str) -> None:
+        """Forgets an upload: its triangles leave this client's share of the server's
+        (``max_held_triangles_per_address``); objects made from it keep their own."""
+        self._request("DELETE", f"/api/kelvin/uploads/{upload}")
+
     def kelvin_object(self, *, asset: Optional[str] = None, upload: Optional[str] = None,
                       mesh: Optional[Tuple[Any, Any]] = None, lx: Optional[float] = None,
                       lx_fraction: Optional[float] = None, center=None, far_radius=None, grading=None,
                       sigma: Optional[Mapping[str, Any]] = None, levels=None, repair: str = "none",
-                      repair_options: Optional[Mapping[str, Any]] = None,
+                      repair_options: Optional[Mapping[str, Any]] = None, simplify: Optional[int] = None,
+                      components: Optional[str] = None,
                       progress: Optional[Callable[[str, float], Any]] = None, wait: bool = True) -> "KelvinObject":
         """Creates a Kelvin object from a built-in ``asset``, an ``upload`` id or ``mesh`` =
         (vertices, faces), with ``lx`` (metres) or ``lx_fraction`` (of the bounding-box diagonal);
         ``repair`` "fix" or "wrap" (``repair_options``: max_hole_edges; alpha, offset) makes an open
-        or non-manifold mesh closed first. With ``wait`` waits for its preparation
+        or non-manifold mesh closed first; ``simplify`` (faces) reduces a scan first (the server's
+        ``max_object_triangles`` bounds what it prepares); ``components`` "all" or "largest". With ``wait`` waits for its preparation
         (``progress(stage, fraction)``)."""
         if (lx is None) == (lx_fraction is None):
             raise ValueError("give lx or lx_fraction, exactly one")
@@ -245,6 +252,10 @@ class Client:
             body["repair"] = repair
         if repair_options is not None:
             body["repair_options"] = _plain(repair_options)
+        if simplify is not None:
+            body["simplify"] = {"faces": simplify}
+        if components is not None:
+            body["components"] = components
         if asset is not None:
             body["asset"] = asset
         if upload is not None:

@@ -5,6 +5,7 @@
 #include <CGAL/AABB_tree.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Polygon_mesh_processing/distance.h>
+#include <CGAL/Polygon_mesh_processing/self_intersections.h>
 #include <CGAL/Surface_mesh.h>
 #include <gtest/gtest.h>
 
@@ -98,4 +99,17 @@ TEST(Simplify, ACancelStopsIt) {
   };
   EXPECT_THROW(simplify(icosphere(1.0, 5), 100, "simplify", progress), Cancelled);
   EXPECT_GE(reports, 2);
+}
+
+// A scan's noise (a ripple finer than the grid): edge collapses that would turn a face over are
+// refused, so the result does not cross itself (7 pairs of faces did without that rule), which a
+// preparation would refuse.
+TEST(Simplify, ANoisyScanSimplifiesWithoutCrossingItself) {
+  const SurfaceMesh input = rippled_torus(316);  // 199,712 faces
+  const SimplifyResult r = simplify(input, 20000);
+  EXPECT_LE(r.surface.faces.rows(), 20000);
+  EXPECT_EQ(topology_defect(r.surface), "");
+  std::vector<std::pair<Mesh::Face_index, Mesh::Face_index>> crossing;
+  CGAL::Polygon_mesh_processing::self_intersections(to_cgal(r.surface), std::back_inserter(crossing));
+  EXPECT_EQ(crossing.size(), 0u);
 }

@@ -227,3 +227,37 @@ def test_polygon_file_refusals_name_the_files_face(server, fmt, tmp_path):
     code, answer = run_cli("kelvin", {"mesh": {"path": str(path)}, "lx": 0.3})
     assert code == 2, answer
     assert DEGENERATE_FACE in answer["error"]["message"], answer
+
+
+def lat_long_sphere(n):
+    """The unit sphere on n rings of 2n points and two poles: 4 n (n - 1) + 4 n faces, closed."""
+    rings = [(np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t))
+             for t in np.pi * np.arange(1, n + 1) / (n + 1) for p in np.pi * np.arange(2 * n) / n]
+    V = np.array([(0, 0, 1)] + rings + [(0, 0, -1)], float)
+    at = lambda i, j: 1 + i * 2 * n + j % (2 * n)  # noqa: E731
+    F = [(0, at(0, j), at(0, j + 1)) for j in range(2 * n)]
+    F += [f for i in range(n - 1) for j in range(2 * n)
+          for f in ((at(i, j), at(i + 1, j), at(i + 1, j + 1)), (at(i, j), at(i + 1, j + 1), at(i, j + 1)))]
+    F += [(len(V) - 1, at(n - 1, j + 1), at(n - 1, j)) for j in range(2 * n)]
+    return V, np.array(F)
+
+
+def test_simplify_and_delete_an_upload(server):
+    # A 1,600-face sphere simplified to 200 faces: the object reports the reduction; a deleted
+    # upload is gone (404 naming id).
+    c = distlab.Client(server)
+    V, F = lat_long_sphere(20)
+    assert len(F) == 1600
+    obj = c.kelvin_object(mesh=(V, F), lx_fraction=0.2, simplify=200, components="largest")
+    info = obj.info()
+    assert info["state"] == "ready"
+    assert info["simplify_report"]["n_input_faces"] == len(F) and info["simplify_report"]["n_faces"] <= 200
+    assert info["components_report"]["pieces"] == 1
+    with pytest.raises(ServiceError) as bad:
+        c.kelvin_object(mesh=(V, F), lx_fraction=0.2, simplify=2)
+    assert bad.value.field == "simplify.faces"
+    upload = c.upload(ROOT / "assets" / "cube.stl")
+    c.delete_upload(upload)
+    with pytest.raises(ServiceError) as gone:
+        c.delete_upload(upload)
+    assert gone.value.status == 404 and gone.value.field == "id"

@@ -2,11 +2,11 @@
 // (mesh::hausdorff_distance), beside the distance a user would otherwise call: CGAL's
 // bounded_error_Hausdorff_distance on the whole input at the same error:
 //   distlab-bench-simplify [--faces 2000000] [--target 100000] [--baseline-max 500000]
-// The scan is a torus whose radius carries bumps and a ripple finer than the target's faces (a
-// scan's noise). Prints a Markdown row per size and one JSON line per size; peak memory is the
+// The scan is mesh::rippled_torus (bumps and a ripple finer than its grid: a scan's noise). Prints a Markdown row per size and one JSON line per size; peak memory is the
 // process's VmHWM, so the baseline runs last.
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Polygon_mesh_processing/distance.h>
+#include <CGAL/Polygon_mesh_processing/self_intersections.h>
 #include <CGAL/Surface_mesh.h>
 
 #include <chrono>
@@ -17,29 +17,12 @@
 #include <vector>
 
 #include "distlab/mesh/hausdorff.hpp"
+#include "distlab/mesh/primitives.hpp"
 #include "distlab/mesh/simplify.hpp"
 
 using namespace distlab;
 
 namespace {
-
-// An n × n grid on a torus (major radius 1, minor 0.3): 2 n² faces.
-mesh::SurfaceMesh scan(int n) {
-  mesh::SurfaceMesh s;
-  s.vertices.resize(static_cast<Eigen::Index>(n) * n, 3);
-  s.faces.resize(2 * static_cast<Eigen::Index>(n) * n, 3);
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j < n; ++j) {
-      const double u = 2 * M_PI * i / n, v = 2 * M_PI * j / n;
-      const double r = 0.3 * (1 + 0.05 * std::sin(17 * u) * std::sin(11 * v)) + 0.002 * std::sin(191 * u + 7 * v);
-      const Eigen::Index k = static_cast<Eigen::Index>(i) * n + j;
-      s.vertices.row(k) << (1 + r * std::cos(v)) * std::cos(u), (1 + r * std::cos(v)) * std::sin(u), r * std::sin(v);
-      const int a = i * n + j, b = ((i + 1) % n) * n + j, c = ((i + 1) % n) * n + (j + 1) % n, d = i * n + (j + 1) % n;
-      s.faces.row(2 * k) << a, b, c;
-      s.faces.row(2 * k + 1) << a, c, d;
-    }
-  return s;
-}
 
 CGAL::Surface_mesh<CGAL::Epick::Point_3> to_cgal(const mesh::SurfaceMesh& m) {
   CGAL::Surface_mesh<CGAL::Epick::Point_3> sm;
@@ -75,24 +58,29 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape): a bench
     else if (a == "--baseline-max") baseline_max = v;
   }
   const int n = static_cast<int>(std::lround(std::sqrt(faces / 2.0)));
-  const mesh::SurfaceMesh input = scan(n);
+  const mesh::SurfaceMesh input = mesh::rippled_torus(n);
   mesh::SimplifyResult r;
   const double t_simplify = seconds([&] { r = mesh::simplify(input, static_cast<std::size_t>(target)); });
   mesh::HausdorffDistance h;
   const double t_distance = seconds([&] { h = mesh::hausdorff_distance(input, r.surface, 0.05, "distance"); });
   const double mb = peak_mb();
+  // Pairs of the result's faces that intersect (a preparation refuses any).
+  std::vector<std::pair<CGAL::SM_Face_index, CGAL::SM_Face_index>> crossing;
+  CGAL::Polygon_mesh_processing::self_intersections(to_cgal(r.surface), std::back_inserter(crossing));
   double t_cgal = -1, cgal = -1;
   if (input.faces.rows() <= baseline_max) {
     const auto a = to_cgal(input), b = to_cgal(r.surface);
     t_cgal = seconds([&] { cgal = CGAL::Polygon_mesh_processing::bounded_error_Hausdorff_distance<CGAL::Sequential_tag>(a, b, h.error); });
   }
-  std::printf("| input faces | result faces | simplify s (with its distance) | distance s | refined faces | distance mm | ± mm | "
-              "CGAL whole s | CGAL mm | peak MB before CGAL |\n|---|---|---|---|---|---|---|---|---|---|\n");
-  std::printf("| %ld | %ld | %.1f | %.2f | %ld | %.4f | %.4f | %s | %s | %.0f |\n", static_cast<long>(input.faces.rows()),
+  std::printf(
+      "| input faces | result faces | simplify s (with its distance) | distance s | refined faces | distance mm | ± mm | "
+      "CGAL whole s | CGAL mm | peak MB before CGAL | self-intersecting pairs |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
+  std::printf("| %ld | %ld | %.1f | %.2f | %ld | %.4f | %.4f | %s | %s | %.0f | %zu |\n", static_cast<long>(input.faces.rows()),
               static_cast<long>(r.surface.faces.rows()), t_simplify, t_distance, h.faces_refined, 1e3 * h.value, 1e3 * h.error,
-              t_cgal < 0 ? "—" : std::to_string(t_cgal).substr(0, 6).c_str(), cgal < 0 ? "—" : std::to_string(1e3 * cgal).substr(0, 6).c_str(), mb);
-  std::printf("{\"input_faces\": %ld, \"result_faces\": %ld, \"simplify_seconds\": %.3f, \"distance_seconds\": %.3f, \"faces_refined\": %ld, "
-              "\"distance\": %.6g, \"error\": %.3g, \"cgal_seconds\": %.3f, \"cgal_distance\": %.6g, \"peak_mb\": %.0f}\n",
-              static_cast<long>(input.faces.rows()), static_cast<long>(r.surface.faces.rows()), t_simplify, t_distance, h.faces_refined,
-              h.value, h.error, t_cgal, cgal, mb);
+              t_cgal < 0 ? "—" : std::to_string(t_cgal).substr(0, 6).c_str(), cgal < 0 ? "—" : std::to_string(1e3 * cgal).substr(0, 6).c_str(), mb, crossing.size());
+  std::printf(
+      "{\"input_faces\": %ld, \"result_faces\": %ld, \"simplify_seconds\": %.3f, \"distance_seconds\": %.3f, \"faces_refined\": %ld, "
+      "\"distance\": %.6g, \"error\": %.3g, \"cgal_seconds\": %.3f, \"cgal_distance\": %.6g, \"peak_mb\": %.0f, \"self_intersections\": %zu}\n",
+      static_cast<long>(input.faces.rows()), static_cast<long>(r.surface.faces.rows()), t_simplify, t_distance, h.faces_refined,
+      h.value, h.error, t_cgal, cgal, mb, crossing.size());
 }

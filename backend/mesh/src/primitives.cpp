@@ -1,4 +1,4 @@
-// Procedural boxes and icospheres.
+// Procedural boxes, icospheres and tori.
 #include <cmath>
 #include <map>
 #include <vector>
@@ -21,6 +21,23 @@ SurfaceMesh box(const Vec3& size) {
       0, 4, 2, 2, 4, 6,         // x-
       1, 3, 5, 3, 7, 5;         // x+
   return m;
+}
+
+SurfaceMesh rippled_torus(int n) {
+  SurfaceMesh s;
+  s.vertices.resize(static_cast<Eigen::Index>(n) * n, 3);
+  s.faces.resize(2 * static_cast<Eigen::Index>(n) * n, 3);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const double u = 2 * M_PI * i / n, v = 2 * M_PI * j / n;
+      const double r = 0.3 * (1 + 0.05 * std::sin(17 * u) * std::sin(11 * v)) + 0.002 * std::sin(191 * u + 7 * v);
+      const Eigen::Index k = static_cast<Eigen::Index>(i) * n + j;
+      s.vertices.row(k) << (1 + r * std::cos(v)) * std::cos(u), (1 + r * std::cos(v)) * std::sin(u), r * std::sin(v);
+      const int a = i * n + j, b = ((i + 1) % n) * n + j, c = ((i + 1) % n) * n + (j + 1) % n, d = i * n + (j + 1) % n;
+      s.faces.row(2 * k) << a, b, c;
+      s.faces.row(2 * k + 1) << a, c, d;
+    }
+  return s;
 }
 
 SurfaceMesh icosphere(double radius, int level, const Vec3& centre) {

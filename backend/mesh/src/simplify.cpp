@@ -5,6 +5,7 @@
 #include <CGAL/Polygon_mesh_processing/polygon_soup_to_polygon_mesh.h>
 #include <CGAL/Surface_mesh.h>
 #include <CGAL/Surface_mesh_simplification/Edge_collapse_visitor_base.h>
+#include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/Bounded_normal_change_filter.h>
 #include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/Count_stop_predicate.h>
 #include <CGAL/Surface_mesh_simplification/edge_collapse.h>
 
@@ -67,7 +68,9 @@ SimplifyResult simplify(const SurfaceMesh& input, std::size_t faces, const std::
   Visitor visitor;
   visitor.progress = &progress;
   visitor.target_edges = static_cast<double>(target_edges);
-  SMS::edge_collapse(sm, stop, CGAL::parameters::visitor(visitor));  // Lindstrom–Turk cost and placement
+  // Lindstrom–Turk cost and placement; no collapse may turn a face over (a turned face is how a
+  // collapse makes the surface cross itself, which a preparation refuses).
+  SMS::edge_collapse(sm, stop, CGAL::parameters::visitor(visitor).filter(SMS::Bounded_normal_change_filter<>()));
   sm.collect_garbage();
   progress("simplify", 0.9);
   out.surface.vertices.resize(static_cast<Eigen::Index>(sm.number_of_vertices()), 3);

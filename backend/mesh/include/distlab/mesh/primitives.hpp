@@ -10,6 +10,10 @@ SurfaceMesh box(const Vec3& size);
 // Icosphere: the icosahedron subdivided `level` times, vertices projected onto the sphere.
 SurfaceMesh icosphere(double radius, int level, const Vec3& centre = Vec3::Zero());
 
+// A scan-like torus (radii 1 and 0.3, n × n grid: 2 n² faces) whose tube radius carries bumps of
+// 5 % and a ripple finer than the grid (a scan's noise): big inputs of tests and benchmarks.
+SurfaceMesh rippled_torus(int n);
+
 // Concatenation of disjoint meshes (indices shifted).
 SurfaceMesh merge(const SurfaceMesh& a, const SurfaceMesh& b);
 
