@@ -1,10 +1,14 @@
 """Shared fixtures: the CLI binary next to the built package, and exact comparison of responses."""
 
+import contextlib
 import json
 import math
 import os
 import pathlib
+import re
+import signal
 import subprocess
+import tempfile
 
 import numpy as np
 import pytest
@@ -63,3 +67,19 @@ def exe():
     if not os.access(EXE, os.X_OK):
         pytest.fail(f"the distlab CLI is not built at {EXE} (set DISTLAB_EXE)")
     return EXE
+
+
+@contextlib.contextmanager
+def serving(exe, *flags):
+    """`distlab serve` on a free loopback port with a temporary cache and these flags: its URL;
+    stopped by SIGTERM afterwards, which must end it cleanly."""
+    with tempfile.TemporaryDirectory() as cache:
+        proc = subprocess.Popen([exe, "serve", "--host", "127.0.0.1", "--port", "0", "--cache-dir", cache,
+                                 "--assets", str(ROOT / "assets"), *flags], stdout=subprocess.PIPE, text=True)
+        m = re.search(r"127\.0\.0\.1:(\d+)", proc.stdout.readline())
+        assert m, "no port printed"
+        try:
+            yield f"http://127.0.0.1:{m.group(1)}"
+        finally:
+            proc.send_signal(signal.SIGTERM)
+            assert proc.wait(timeout=30) == 0

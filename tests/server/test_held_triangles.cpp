@@ -80,7 +80,7 @@ TEST_F(HeldTriangles, OneAddressHoldsAtMostItsShareUntilItDeletes) {
   for (const std::string& session : {s, t}) {
     auto r = upload(c, session, stl);
     ASSERT_EQ(r->status, 413) << r->body;
-    EXPECT_EQ(body_json(r)["error"]["code"], "too_many_held_triangles");
+    EXPECT_EQ(body_json(r)["error"]["code"], "too_much_held");
     EXPECT_EQ(body_json(r)["error"]["field"], "body");
   }
   const std::string first = body_json(a)["upload"];

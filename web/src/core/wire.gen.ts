@@ -185,7 +185,7 @@ export interface paths {
                             max_gap_pairs: number;
                             /** @description mesh uploads kept per session (429) */
                             max_uploads_per_session: number;
-                            /** @description triangles one client address holds in uploads and Kelvin objects together (413 too_many_held_triangles; DELETE uploads or objects to make room) */
+                            /** @description triangles one client address holds in uploads and Kelvin objects together (413 too_much_held; DELETE uploads or objects to make room) */
                             max_held_triangles_per_address: number;
                             /** @description triangles the server holds in uploads and Kelvin objects for all clients (503 busy) */
                             max_held_triangles: number;
@@ -292,6 +292,10 @@ export interface paths {
                             max_record_fps: number;
                             /** @description bytes of a recording's parts (413 too_large, field body) */
                             max_record_bytes: number;
+                            /** @description bytes one client address holds in scene items and recordings together (413 too_much_held) */
+                            max_held_bytes_per_address: number;
+                            /** @description bytes the server holds in scene items and recordings for all clients (503 busy) */
+                            max_held_bytes: number;
                         };
                     };
                 };

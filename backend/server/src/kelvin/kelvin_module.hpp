@@ -74,7 +74,8 @@ class KelvinModule final : public Module {
   std::mutex held_mutex_;
   std::map<std::string, std::weak_ptr<const Upload>> held_;
   // Uploads' and objects' triangles, per client address and in all.
-  HeldTriangles held_triangles_{config_.limits.max_held_triangles_per_address, config_.limits.max_held_triangles};
+  ClientShare held_triangles_{"triangles", "max_held_triangles_per_address", config_.limits.max_held_triangles_per_address, "max_held_triangles",
+                              config_.limits.max_held_triangles, "uploads or objects (DELETE /api/kelvin/uploads/{id}, /api/kelvin/objects/{id})"};
   std::atomic<double> prepare_seconds_per_vertex_{0};  // of the last computed preparation
 };
 

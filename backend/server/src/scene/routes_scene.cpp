@@ -34,8 +34,9 @@ struct Recording {  // NOLINT(bugprone-exception-escape)
   std::string state;  // waiting, recording, done, failed
   std::vector<std::string> parts;
   std::size_t bytes = 0;
-  json camera;        // the page's camera when it recorded (null until done)
-  std::string error;  // a failed recording's reason, from the page
+  json camera;                                 // the page's camera when it recorded (null until done)
+  std::vector<ClientShare::Reservation> held;  // the parts' bytes, in the client's share
+  std::string error;                           // a failed recording's reason, from the page
   json to_json() const {
     json j = spec;
     j["id"] = id;
@@ -51,6 +52,7 @@ struct Recording {  // NOLINT(bugprone-exception-escape)
 struct SceneState final : ModuleState {
   std::map<std::string, json> items;  // name -> its frame, as relayed
   std::map<std::string, std::size_t> item_bytes;
+  std::map<std::string, ClientShare::Reservation> held;  // the items' bytes, in the client's share
   std::size_t bytes = 0;
   std::shared_ptr<Recording> recording;  // one per session; a new one replaces it
 };
@@ -224,6 +226,7 @@ void SceneModule::register_routes() {
                                      std::to_string(st.bytes - replaced + frame.size()) + ", above max_scene_bytes (" +
                                      std::to_string(lim.max_scene_bytes) + ")",
                                  "body");
+                st.held[name] = held_bytes_.reserve(s->address, frame.size(), "body");
                 st.bytes = st.bytes - replaced + frame.size();
                 st.item_bytes[name] = frame.size();
                 st.items[name] = item;
@@ -264,6 +267,7 @@ void SceneModule::register_routes() {
                    if (!st.items.count(name)) throw ApiError(404, "unknown_item", "no scene item \"" + name + "\" in this session", "name");
                    st.bytes -= st.item_bytes.at(name);
                    st.item_bytes.erase(name);
+                   st.held.erase(name);
                    st.items.erase(name);
                  }
                  s->broadcast(json{{"type", "scene_remove"}, {"name", name}}.dump(), false);
@@ -277,6 +281,7 @@ void SceneModule::register_routes() {
                    SceneState& st = scene(*s);
                    st.items.clear();
                    st.item_bytes.clear();
+                   st.held.clear();
                    st.bytes = 0;
                  }
                  s->broadcast(json{{"type", "scene_clear"}}.dump(), false);
@@ -341,6 +346,7 @@ void SceneModule::register_routes() {
                if (req.body.empty()) throw InvalidInput("body", "a part has bytes");
                if (r->bytes + req.body.size() > lim.max_record_bytes)
                  throw ApiError(413, "too_large", "the recording would exceed max_record_bytes (" + std::to_string(lim.max_record_bytes) + ")", "body");
+               r->held.push_back(held_bytes_.reserve(s->address, req.body.size(), "body"));
                r->bytes += req.body.size();
                r->parts.push_back(std::move(req.body));
                r->state = "recording";

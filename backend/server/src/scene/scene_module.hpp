@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "distlab/server/client_share.hpp"
 #include "distlab/server/module.hpp"
 
 namespace distlab::server {
@@ -21,6 +22,11 @@ class SceneModule final : public Module {
   // A joining socket (a page opened later, a reconnection) gets every item of the session.
   void joined(const std::shared_ptr<Session>& session, const std::shared_ptr<WsSink>& socket) override;
   void describe_session(Session& session, nlohmann::json& out) override;
+
+ private:
+  // Items' and recordings' bytes, per client address and in all.
+  ClientShare held_bytes_{"bytes", "max_held_bytes_per_address", config_.limits.max_held_bytes_per_address, "max_held_bytes",
+                          config_.limits.max_held_bytes, "scene items or recordings (DELETE /api/scene/items, /api/scene/recordings/{id})"};
 };
 
 }  // namespace distlab::server

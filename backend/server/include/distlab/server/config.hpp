@@ -94,6 +94,10 @@ struct Limits {
   std::size_t max_record_frames = 600;
   double max_record_fps = 60;
   std::size_t max_record_bytes = std::size_t{256} << 20;
+  // The bytes the server holds for clients in scene items and recordings, per client address and
+  // in all (as max_held_triangles for meshes): 413 too_much_held, 503 busy.
+  std::size_t max_held_bytes_per_address = std::size_t{1} << 30;
+  std::size_t max_held_bytes = std::size_t{4} << 30;
 };
 
 // The one table of limits: f(name, field) for each field of Limits (L: Limits or const Limits).
@@ -152,6 +156,8 @@ void for_each_limit(L& l, F&& f) {
   f("max_record_frames", l.max_record_frames);
   f("max_record_fps", l.max_record_fps);
   f("max_record_bytes", l.max_record_bytes);
+  f("max_held_bytes_per_address", l.max_held_bytes_per_address);
+  f("max_held_bytes", l.max_held_bytes);
 }
 
 struct ServiceConfig {

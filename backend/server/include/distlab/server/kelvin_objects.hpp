@@ -140,9 +140,9 @@ struct KelvinObject {
   // out) is indexed like its vertices. The field is prepared on `welded` (mesh/weld.hpp).
   mesh::SurfaceMesh surface;
   mesh::SurfaceMesh welded;
-  std::vector<int> to_welded;       // user vertex -> welded vertex (−1: used by no face)
-  std::string surface_digest;       // mesh_digest(surface)
-  HeldTriangles::Reservation held;  // surface's triangles, in its client's share (uploads.hpp)
+  std::vector<int> to_welded;     // user vertex -> welded vertex (−1: used by no face)
+  std::string surface_digest;     // mesh_digest(surface)
+  ClientShare::Reservation held;  // surface's triangles, in its client's share (client_share.hpp)
   // "components", "simplify", "repair" (ReshapeRequest, kelvin_json.hpp): the field is prepared
   // on `repaired` instead of `welded`, and σ per user vertex reaches it by `to_repaired` (the
   // nearest-face rule). Both are set by the preparation job under `mutex` while state is

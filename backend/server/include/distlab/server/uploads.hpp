@@ -6,10 +6,10 @@
 #include <cstddef>
 #include <map>
 #include <memory>
-#include <mutex>
 #include <string>
 
 #include "distlab/mesh/surface.hpp"
+#include "distlab/server/client_share.hpp"
 #include "distlab/server/session.hpp"
 
 namespace distlab::server {
@@ -24,50 +24,11 @@ struct Upload {
   std::string digest;
 };
 
-// The triangles the server holds for its clients, counted per client address and in all
-// (Limits::max_held_triangles_per_address, max_held_triangles): a reservation is taken before the
-// memory is, and gives its triangles back when it is destroyed with whatever holds it (an upload's
-// session entry, a Kelvin object). Thread-safe.
-class HeldTriangles {
- public:
-  struct Counts {
-    std::mutex mutex;
-    std::map<std::string, std::size_t> by_address;
-    std::size_t total = 0;
-  };
-  class Reservation {
-   public:
-    Reservation() = default;
-    Reservation(std::shared_ptr<Counts> counts, std::string address, std::size_t triangles)
-        : counts_(std::move(counts)), address_(std::move(address)), triangles_(triangles) {}
-    Reservation(Reservation&& o) noexcept { *this = std::move(o); }
-    Reservation& operator=(Reservation&& o) noexcept;
-    Reservation(const Reservation&) = delete;
-    Reservation& operator=(const Reservation&) = delete;
-    ~Reservation() { release(); }
-
-   private:
-    void release() noexcept;
-    std::shared_ptr<Counts> counts_;
-    std::string address_;
-    std::size_t triangles_ = 0;
-  };
-
-  HeldTriangles(std::size_t per_address, std::size_t total) : per_address_(per_address), total_(total) {}
-  // ApiError 413 naming `field` when the address would hold more than its share, 503 when the
-  // server would hold more than its total.
-  Reservation reserve(const std::string& address, std::size_t triangles, const std::string& field);
-
- private:
-  std::size_t per_address_, total_;
-  std::shared_ptr<Counts> counts_ = std::make_shared<Counts>();
-};
-
 // A session's uploads (Session::state, guarded by the session's mutex), at most
-// Limits::max_uploads_per_session, each with its reservation of held triangles.
+// Limits::max_uploads_per_session, each with its reservation of held triangles (client_share.hpp).
 struct SessionUploads : ModuleState {
   std::map<std::string, std::shared_ptr<const Upload>> uploads;
-  std::map<std::string, HeldTriangles::Reservation> held;
+  std::map<std::string, ClientShare::Reservation> held;  // triangles, in the client's share
 };
 
 }  // namespace distlab::server
