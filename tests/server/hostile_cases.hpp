@@ -1296,7 +1296,7 @@ inline void upload_cases(std::vector<Case>& out) {
   out.push_back(make("upload/no_session", [](Ctx&) { return http("POST", "/api/kelvin/uploads?format=obj", kTetraObj); }));
   out.push_back(make("upload/declared_over_limit", [](Ctx& c) {
     return "POST /api/kelvin/uploads?format=stl HTTP/1.1\r\nHost: x\r\nConnection: close\r\nX-Distlab-Session: " + c.session +
-           "\r\nContent-Length: 70000000\r\n\r\n";
+           "\r\nContent-Length: 200000000\r\n\r\n";  // over max_upload_bytes (128 MB)
   }));
 }
 

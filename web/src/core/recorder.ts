@@ -30,10 +30,11 @@ async function until(ready: () => boolean, what: string, ms = 20000): Promise<vo
   }
 }
 
-/** Every frame for `seconds` drawn anew, so that the canvas stream gets them. */
+/** Every frame for `seconds` drawn anew, so that the canvas stream gets them; at least two (a
+ *  video with a duration) when a slow renderer (software WebGL on a loaded machine) takes longer. */
 async function drawFor(vp: Viewport, seconds: number): Promise<void> {
   const end = performance.now() + seconds * 1000;
-  while (performance.now() < end) {
+  for (let drawn = 0; performance.now() < end || drawn < 2; drawn++) {
     vp.invalidate();
     await nextFrame();
   }
