@@ -72,6 +72,10 @@ inline std::vector<std::pair<std::string, std::string>> hostile_meshes() {
       {"off", "4OFF\n3 1 0\n0 0 0 0\n1 0 0 1\n0 1 0 1\n3 0 1 2\n"},  // w = 0: 0/0
       {"ply", ply_header("ascii", 4294967295u, 1) + "0 0 0\n3 0 0 0\n"},
       {"ply", ply_header("binary_little_endian", 4294967295u, 1) + std::string(64, '\0')},
+      // An integer coordinate: CGAL's reader dereferenced a null pointer on it (found by fuzzing).
+      {"ply",
+       "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty int32 z\nelement face 1\n"
+       "property list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"},
       {"obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n"},
       {"obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -9 1 2\n"},
       {"obj", "v 1e999 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"},

@@ -267,6 +267,13 @@ void check_ply(const std::string& bytes, const std::string& field) {
       const auto count_size = sizes.find(counted), item_size = sizes.find(item);
       if (count_size == sizes.end() || item_size == sizes.end())
         throw InvalidInput(field, "unknown PLY property type in '" + line.substr(0, 64) + "'");
+      // CGAL reads a vertex's x, y and z as float or double only (another type is a null pointer
+      // inside its reader).
+      std::string name;
+      w >> name;
+      const bool real = item == "float" || item == "float32" || item == "double" || item == "float64";
+      if (elements.back().name == "vertex" && (name == "x" || name == "y" || name == "z") && (type == "list" || !real))
+        throw InvalidInput(field, "the PLY vertex property '" + name + "' must be a float or double, not '" + line.substr(0, 64) + "'");
       elements.back().properties.push_back({type == "list" ? count_size->second : 0, item_size->second});
     }
   }
