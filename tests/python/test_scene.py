@@ -4,9 +4,6 @@ and recordings made by the page in headless chromium show the items where they a
 
 import _thread
 import json
-import re
-import signal
-import subprocess
 import tempfile
 import threading
 
@@ -16,7 +13,7 @@ import pytest
 
 import distlab
 from distlab.client import ServiceError, decode_mesh_frame
-from conftest import ROOT
+from conftest import ROOT, serving
 
 LIMITS = {"max_scene_items": 3, "max_scene_vertices": 1000, "max_record_frames": 8}
 
@@ -26,18 +23,9 @@ def server(exe):
     web = ROOT / "web" / "dist"
     if not (web / "index.html").exists():
         pytest.fail(f"no front-end build at {web} (bash .ci/build-web)")
-    with tempfile.TemporaryDirectory() as cache:
-        limits = [a for k, v in LIMITS.items() for a in ("--limit", f"{k}={v}")]
-        proc = subprocess.Popen([exe, "serve", "--host", "127.0.0.1", "--port", "0", "--cache-dir", cache, "--web", str(web),
-                                 "--assets", str(ROOT / "assets"), "--threads", "2", *limits], stdout=subprocess.PIPE, text=True)
-        m = re.search(r"127\.0\.0\.1:(\d+)", proc.stdout.readline())
-        assert m, "no port printed"
-        url = f"http://127.0.0.1:{m.group(1)}"
-        try:
-            yield url
-        finally:
-            proc.send_signal(signal.SIGTERM)
-            assert proc.wait(timeout=30) == 0
+    limits = [a for k, v in LIMITS.items() for a in ("--limit", f"{k}={v}")]
+    with serving(exe, "--web", str(web), "--threads", "2", *limits) as url:
+        yield url
 
 
 def until_pong(live):
