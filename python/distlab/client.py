@@ -10,7 +10,8 @@ from __future__ import annotations
 import json
 import os
 import time
-from typing import TYPE_CHECKING, Any, Callable, Dict, Iterator, Mapping, Optional, Tuple, Union
+import warnings
+from typing import TYPE_CHECKING, Any, Callable, Dict, Iterator, List, Mapping, Optional, Tuple, Union
 from urllib.parse import urlsplit, urlunsplit
 
 import msgpack
@@ -91,18 +92,78 @@ def decode_mesh_frame(data: bytes) -> dict:
 
 
 class Client:
-    """The service at ``url`` (e.g. ``http://127.0.0.1:8080``) with a new session (or ``session``)."""
+    """The service at ``url`` (e.g. ``http://127.0.0.1:8080``) with a new session (or ``session``).
 
-    def __init__(self, url: str, session: Optional[str] = None, timeout: float = 60.0):
+    Behind replicas (docker/replicas), cookies keep the session on its replica. When the session
+    is gone (its replica stopped, or it expired), the next request re-creates it with ``recover``
+    (the default): a new session, this client's uploads sent again and its Kelvin objects made
+    again with their σ (their fields come from the shared store, not prepared again); the
+    ``KelvinObject`` handles stay valid. A RuntimeWarning says so and ``recoveries`` counts it.
+    Jobs of the lost session (rollouts, sweeps) and scene items are not re-created. To re-send
+    uploads the client keeps their bytes until :meth:`delete_upload`."""
+
+    def __init__(self, url: str, session: Optional[str] = None, timeout: float = 60.0, *, recover: bool = True):
         self.url = url.rstrip("/")
         self.timeout = timeout
+        self.recover = recover
+        self.recoveries = 0
         self.http = requests.Session()
-        self.session = session or self._request("POST", "/api/session")["session"]
+        self._objects: List["KelvinObject"] = []  # what a new session makes again
+        self._uploads: Dict[str, Tuple[bytes, dict]] = {}  # upload id -> (file bytes, query)
+        self._renamed: Dict[str, str] = {}  # upload and job ids of a lost session -> their successors
+        self._recovering = False
+        self.session = session or self._send("POST", "/api/session")["session"]
         self.http.headers["X-Distlab-Session"] = self.session
 
     # -- plumbing -------------------------------------------------------------------------------
 
-    def _request(self, method: str, path: str, *, raw: bool = False, **kwargs):
+    def _request(self, method: str, path: Union[str, Callable[[], str]], *, raw: bool = False, **kwargs):
+        """A request of this session; ``path`` may be a function (an object's path after a recovery)."""
+        try:
+            return self._send(method, path() if callable(path) else path, raw=raw, **kwargs)
+        except ServiceError as e:
+            if e.code != "unknown_session" or not self.recover or self._recovering:
+                raise
+        self._recover()
+        return self._send(method, path() if callable(path) else path, raw=raw, **kwargs)
+
+    def _recover(self) -> None:
+        """A new session with this client's uploads and Kelvin objects (see the class)."""
+        self._recovering = True
+        try:
+            lost = self.session
+            for cookie in [c for c in self.http.cookies if c.name == "distlab_session"]:
+                self.http.cookies.clear(cookie.domain, cookie.path, cookie.name)
+            del self.http.headers["X-Distlab-Session"]
+            self.session = self._send("POST", "/api/session")["session"]
+            self.http.headers["X-Distlab-Session"] = self.session
+            for old, (data, query) in list(self._uploads.items()):
+                self._renamed[old] = self._send("POST", "/api/kelvin/uploads", params=query, data=data)["upload"]
+                self._uploads[self._renamed[old]] = self._uploads.pop(old)
+            for obj in self._objects:
+                body = dict(obj._body)
+                if "upload" in body:
+                    body["upload"] = self._current(body["upload"])
+                answer = self._send("POST", "/api/kelvin/objects", json=body)
+                obj.id, self._renamed[obj.job] = answer["object"]["id"], answer["job"]["id"]
+                obj.job, obj._body = answer["job"]["id"], body
+                self.wait(obj.job)
+                if obj._sigma is not None:
+                    self._send("PUT", obj._path("/sigma"), json=obj._sigma)
+            self.recoveries += 1
+            warnings.warn(f"distlab session {lost} was lost (its replica stopped or it expired): re-created as "
+                          f"{self.session} with {len(self._uploads)} upload(s) and {len(self._objects)} object(s)",
+                          RuntimeWarning, stacklevel=3)
+        finally:
+            self._recovering = False
+
+    def _current(self, name: str) -> str:
+        """An upload's or job's id in the current session (ids of lost sessions are renamed)."""
+        while name in self._renamed:
+            name = self._renamed[name]
+        return name
+
+    def _send(self, method: str, path: str, *, raw: bool = False, **kwargs):
         r = self.http.request(method, self.url + path, timeout=self.timeout, **kwargs)
         if r.status_code >= 400:
             try:
@@ -119,8 +180,10 @@ class Client:
     def _ws(self) -> websocket.WebSocket:
         parts = urlsplit(self.url)
         scheme = "wss" if parts.scheme == "https" else "ws"
+        # The cookies go along: behind replicas, they choose the session's replica.
+        cookies = "; ".join(f"{c.name}={c.value}" for c in self.http.cookies)
         ws = websocket.create_connection(urlunsplit((scheme, parts.netloc, "/ws", f"session={self.session}", "")),
-                                         timeout=self.timeout)
+                                         timeout=self.timeout, cookie=cookies or None)
         return ws
 
     def health(self) -> dict:
@@ -156,8 +219,12 @@ class Client:
                       timeout=timeout)
 
     def close(self) -> None:
-        """Ends the session (its jobs are cancelled)."""
-        self._request("DELETE", "/api/session")
+        """Ends the session (its jobs are cancelled); one already gone is not re-created."""
+        try:
+            self._send("DELETE", "/api/session")
+        except ServiceError as e:
+            if e.code != "unknown_session":
+                raise
 
     def __enter__(self):
         return self
@@ -175,11 +242,11 @@ class Client:
 
     def job(self, job_id: str) -> dict:
         """A job's state (GET /api/jobs/ID): state, stage, fraction, error."""
-        return self._request("GET", f"/api/jobs/{job_id}")
+        return self._request("GET", lambda: f"/api/jobs/{self._current(job_id)}")
 
     def cancel(self, job_id: str) -> None:
         """Asks the service to cancel a job (it stops at its next checkpoint)."""
-        self._request("POST", f"/api/jobs/{job_id}/cancel")
+        self._request("POST", lambda: f"/api/jobs/{self._current(job_id)}/cancel")
 
     def wait(self, job_id: str, progress: Optional[Callable[[str, float], Any]] = None,
              poll: float = 0.05, timeout: float = 3600) -> dict:
@@ -223,12 +290,15 @@ class Client:
         if scale is not None:
             params["scale"] = repr(float(scale))
         answer = self._request("POST", "/api/kelvin/uploads", params=params, data=bytes(mesh))
+        if self.recover:
+            self._uploads[answer["upload"]] = (bytes(mesh), params)
         return answer if info else answer["upload"]
 
     def delete_upload(self, upload: str) -> None:
         """Forgets an upload: its triangles leave this client's share of the server's
         (``max_held_triangles_per_address``); objects made from it keep their own."""
-        self._request("DELETE", f"/api/kelvin/uploads/{upload}")
+        self._request("DELETE", lambda: f"/api/kelvin/uploads/{self._current(upload)}")
+        self._uploads.pop(self._current(upload), None)
 
     def kelvin_object(self, *, asset: Optional[str] = None, upload: Optional[str] = None,
                       mesh: Optional[Tuple[Any, Any]] = None, lx: Optional[float] = None,
@@ -259,7 +329,7 @@ class Client:
         if asset is not None:
             body["asset"] = asset
         if upload is not None:
-            body["upload"] = upload
+            body["upload"] = self._current(upload)
         if mesh is not None:
             body["mesh"] = {"vertices": np.asarray(mesh[0]).tolist(), "faces": np.asarray(mesh[1]).tolist()}
         for key, value in (("center", center), ("far_radius", far_radius), ("grading", grading), ("sigma", sigma), ("levels", levels)):
@@ -267,6 +337,9 @@ class Client:
                 body[key] = _plain(value)
         answer = self._request("POST", "/api/kelvin/objects", json=body)
         obj = KelvinObject(self, answer["object"]["id"], answer["job"]["id"])
+        if self.recover:
+            obj._body = body
+            self._objects.append(obj)
         if wait:
             self.wait(obj.job, progress)
         return obj
@@ -406,7 +479,9 @@ class Live:
         for key, value in (("per_vertex", per_vertex), ("constant", constant), ("axis", axis), ("brushes", brushes)):
             if value is not None:
                 sigma[key] = _plain(value)
-        return self._call({"type": "sigma", "object": obj.id, "sigma": sigma})["sigma_version"]
+        version = self._call({"type": "sigma", "object": obj.id, "sigma": sigma})["sigma_version"]
+        obj._sigma = sigma
+        return version
 
     def messages(self) -> Iterator[dict]:
         """What the service pushes, in order of arrival (blocks; the client's timeout applies)."""
@@ -470,13 +545,15 @@ class KelvinObject:
 
     def __init__(self, client: Client, object_id: str, job: str):
         self.client, self.id, self.job = client, object_id, job
+        self._body: Dict[str, Any] = {}  # the request that made it, and its last σ: a recovery's
+        self._sigma: Optional[Dict[str, Any]] = None
 
     def _path(self, tail: str = "") -> str:
         return f"/api/kelvin/objects/{self.id}{tail}"
 
     def info(self) -> dict:
         """State, stats, sigma_version, levels."""
-        return _arrays(self.client._request("GET", self._path()))
+        return _arrays(self.client._request("GET", self._path))
 
     def set_sigma(self, per_vertex=None, *, constant: Optional[float] = None, axis=None, brushes=None) -> dict:
         """PUT σ (the terms add up; per_vertex in the file's vertex order); the new sigma state."""
@@ -484,35 +561,39 @@ class KelvinObject:
         for key, value in (("per_vertex", per_vertex), ("constant", constant), ("axis", axis), ("brushes", brushes)):
             if value is not None:
                 body[key] = _plain(value)
-        return self.client._request("PUT", self._path("/sigma"), json=body)
+        answer = self.client._request("PUT", lambda: self._path("/sigma"), json=body)
+        self._sigma = body
+        return answer
 
     def query(self, points) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
         """h (N,), ∇h (N, 3) (NaN where undefined) and inside (N,) at points (N, 3)."""
         p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-        r = self.client._request("POST", self._path("/query"), json={"points": p.tolist()})
+        r = self.client._request("POST", lambda: self._path("/query"), json={"points": p.tolist()})
         h = np.array([np.nan if v is None else v for v in r["h"]], dtype=np.float64)
         g = np.array([[np.nan] * 3 if v is None else v for v in r["gradient"]], dtype=np.float64).reshape(-1, 3)
         return h, g, np.array(r["inside"], dtype=bool)
 
     def isosurface(self, level: float) -> Tuple[np.ndarray, np.ndarray]:
         """The iso-surface {h = level}: vertices (n, 3) float32, faces (m, 3) uint32."""
-        f = decode_mesh_frame(self.client._request("GET", self._path("/isosurface"), params={"level": level}, raw=True))
+        f = decode_mesh_frame(self.client._request("GET", lambda: self._path("/isosurface"), params={"level": level}, raw=True))
         return f["positions"], f["indices"]
 
     def surface(self) -> dict:
         """The object's surface frame (positions, indices, σ per vertex as scalars)."""
-        return decode_mesh_frame(self.client._request("GET", self._path("/surface"), raw=True))
+        return decode_mesh_frame(self.client._request("GET", lambda: self._path("/surface"), raw=True))
 
     def export(self, path: Union[str, os.PathLike], level: float, format: Optional[str] = None) -> None:
         """Downloads the iso-surface {h = level} as STL, OBJ, PLY or GLB into ``path``."""
         fmt = format or os.path.splitext(os.fspath(path))[1].lstrip(".").lower()
-        data = self.client._request("GET", self._path("/export"), params={"level": level, "format": fmt}, raw=True)
+        data = self.client._request("GET", lambda: self._path("/export"), params={"level": level, "format": fmt}, raw=True)
         with open(path, "wb") as f:
             f.write(data)
 
     def delete(self) -> None:
         """Deletes the object from the session."""
-        self.client._request("DELETE", self._path())
+        self.client._request("DELETE", self._path)
+        if self in self.client._objects:
+            self.client._objects.remove(self)
 
 
 def _plain(x):

@@ -70,10 +70,10 @@ def exe():
 
 
 @contextlib.contextmanager
-def serving(exe, *flags):
-    """`distlab serve` on a free loopback port with a temporary cache and these flags: its URL;
-    stopped by SIGTERM afterwards, which must end it cleanly."""
-    with tempfile.TemporaryDirectory() as cache:
+def serving(exe, *flags, cache_dir=None):
+    """`distlab serve` on a free loopback port with a temporary cache (or ``cache_dir``) and these
+    flags: its URL; stopped by SIGTERM afterwards, which must end it cleanly."""
+    with (contextlib.nullcontext(cache_dir) if cache_dir else tempfile.TemporaryDirectory()) as cache:
         proc = subprocess.Popen([exe, "serve", "--host", "127.0.0.1", "--port", "0", "--cache-dir", cache,
                                  "--assets", str(ROOT / "assets"), *flags], stdout=subprocess.PIPE, text=True)
         m = re.search(r"127\.0\.0\.1:(\d+)", proc.stdout.readline())
