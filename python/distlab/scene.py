@@ -34,14 +34,35 @@ if TYPE_CHECKING:
 __all__ = ["Scene", "record", "pose_json"]
 
 _VIEWS = ("all", "gap", "kelvin", "cbf")
+_NAME = re.compile(r"^[A-Za-z0-9_-]{1,64}$")  # the service's rule for an item's name (routes_scene.cpp)
+
+
+def _name(name) -> str:
+    """An item's name, checked here so that a '/' or an empty name is not read as another route."""
+    if not isinstance(name, str) or not _NAME.match(name):
+        raise InvalidInput("name", f"an item's name has 1 to 64 letters, digits, '_' and '-', got {name!r}")
+    return name
+
+
+def _numbers(x, field: str) -> np.ndarray:
+    """x as float64, refused naming the field when it does not hold finite numbers."""
+    a = np.asarray(x)
+    if a.dtype.kind not in "biuf":
+        raise InvalidInput(field, f"{field} must hold numbers, got {a.dtype} ({np.ravel(a)[:1].tolist()}...)")
+    a = a.astype(np.float64)
+    if not np.all(np.isfinite(a)):
+        bad = np.argwhere(~np.isfinite(a))[0]
+        raise InvalidInput(field + "".join(f"[{i}]" for i in bad), f"{field} must be finite")
+    return a
 
 
 def pose_json(pose, field: str = "pose") -> dict:
     """A pose as the service reads it ({"position", "quaternion" [w, x, y, z]}) from a 4x4 rigid
     transform, ``[x, y, z, qw, qx, qy, qz]``, a position (3,), or ``(position, quaternion)``."""
     if isinstance(pose, tuple) and len(pose) == 2:
-        return {"position": np.asarray(pose[0], float).tolist(), "quaternion": np.asarray(pose[1], float).tolist()}
-    p = np.asarray(pose, dtype=np.float64)
+        return {"position": _numbers(pose[0], field + ".position").tolist(),
+                "quaternion": _numbers(pose[1], field + ".quaternion").tolist()}
+    p = _numbers(pose, field)
     if p.shape == (3,):
         return {"position": p.tolist()}
     if p.shape == (7,):
@@ -49,7 +70,7 @@ def pose_json(pose, field: str = "pose") -> dict:
     if p.shape != (4, 4):
         raise InvalidInput(field, f"{field} must be a 4x4 transform, [x, y, z, qw, qx, qy, qz] or a position (3,); got shape {p.shape}")
     R = p[:3, :3]
-    if not np.all(np.isfinite(p)) or np.abs(R.T @ R - np.eye(3)).max() > 1e-6 or np.linalg.det(R) <= 0 \
+    if np.abs(R.T @ R - np.eye(3)).max() > 1e-6 or np.linalg.det(R) <= 0 \
             or not np.array_equal(p[3], [0, 0, 0, 1]):
         raise InvalidInput(field, f"{field} must be a rigid transform (orthonormal rotation, det +1, last row 0 0 0 1)")
     # Shepperd's method: the largest of w, x, y, z first, then the others from it.
@@ -79,6 +100,8 @@ def _rows(a, width: int, dtype, field: str) -> bytes:
         if x.size and x.min() < 0:
             bad = np.argwhere(x < 0)[0]
             raise InvalidInput(f"{field}[{bad[0]}][{bad[1]}]", f"{field} must be >= 0")
+    elif x.dtype.kind not in "biuf":
+        raise InvalidInput(field, f"{field} must hold numbers, got {x.dtype}")
     return np.ascontiguousarray(x, dtype=np.dtype(dtype).newbyteorder("<")).tobytes()
 
 
@@ -107,7 +130,7 @@ class Scene:
             frame["size"] = float(size)
         if pose is not None:
             frame["pose"] = pose_json(pose)
-        return self.client._request("PUT", f"/api/scene/items/{name}", data=msgpack.packb(frame, use_bin_type=True),
+        return self.client._request("PUT", f"/api/scene/items/{_name(name)}", data=msgpack.packb(frame, use_bin_type=True),
                                     headers={"Content-Type": "application/msgpack"})
 
     def add_mesh(self, name: str, vertices, faces, *, color=None, colors=None, values=None, pose=None,
@@ -138,11 +161,11 @@ class Scene:
 
     def set_pose(self, name: str, pose) -> dict:
         """Moves an item: its new pose (4x4, [x, y, z, qw, qx, qy, qz] or a position)."""
-        return self.client._request("PUT", f"/api/scene/items/{name}/pose", json={"pose": pose_json(pose)})
+        return self.client._request("PUT", f"/api/scene/items/{_name(name)}/pose", json={"pose": pose_json(pose)})
 
     def remove(self, name: str) -> None:
         """Removes an item (unknown names raise ServiceError, 404)."""
-        self.client._request("DELETE", f"/api/scene/items/{name}")
+        self.client._request("DELETE", f"/api/scene/items/{_name(name)}")
 
     def clear(self) -> None:
         """Removes every item of the session."""
@@ -177,6 +200,10 @@ def record(client: "Client", path, *, seconds: Optional[float] = None, frames: O
     """See :meth:`distlab.Client.record`."""
     path = os.fspath(path)
     fmt = "webm" if path.endswith(".webm") else "png"
+    ext = os.path.splitext(path)[1].lower()
+    if ext not in ("", ".webm", ".png") and not os.path.isdir(path):
+        raise InvalidInput("path", f"a recording is a .webm video or PNG frames (a .png name or pattern, or a "
+                                   f"directory), got {ext!r}")
     body: Dict[str, Any] = {"view": view, "format": fmt, "fps": fps}
     if seconds is not None:
         body["seconds"] = seconds

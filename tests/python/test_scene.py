@@ -93,7 +93,7 @@ def test_bad_items_are_refused_naming_the_field(server):
         (lambda: c.scene.add_mesh("m", V, [[0, 1, 3]]), 400, "indices[0][2]"),
         (lambda: c.scene.add_mesh("m", V, F, view="plots"), 400, "view"),
         (lambda: c.scene.add_mesh("m", V, F, colors=np.full((3, 3), 2.0)), 400, "colors[0][0]"),
-        (lambda: c.scene.add_mesh("bad name", V, F), 400, "name"),
+        (lambda: c._request("PUT", "/api/scene/items/bad%20name", data=b"\x80"), 400, "name"),
         (lambda: c.scene.add_points("p", np.zeros((LIMITS["max_scene_vertices"] + 1, 3))), 413, "positions"),
         (lambda: c.scene.set_pose("nothing", np.eye(4)), 404, "name"),
         (lambda: c.record(tempfile.mkdtemp(), frames=LIMITS["max_record_frames"] + 1), 413, "frames"),
@@ -116,9 +116,17 @@ def test_bad_items_are_refused_naming_the_field(server):
         with pytest.raises(ServiceError) as info:
             c._request("PUT", "/api/scene/items/m", data=body)
         assert (info.value.status, info.value.field) == (400, field), info.value
-    with pytest.raises(distlab.InvalidInput) as info:  # shapes are the client's to check
-        c.scene.add_mesh("m", V.ravel(), F)
-    assert info.value.field == "positions"
+    # Shapes, numbers, names and the file kind are the client's to check, naming the field.
+    for call, field in [(lambda: c.scene.add_mesh("m", V.ravel(), F), "positions"),
+                        (lambda: c.scene.add_points("p", [["a", "b", "c"]]), "positions"),
+                        (lambda: c.scene.set_pose("p0", [np.nan, 0, 0]), "pose[0]"),
+                        (lambda: c.scene.set_pose("p0", ([0, 0, 0], [1, 0, "x", 0])), "pose.quaternion"),
+                        (lambda: c.scene.add_mesh("a/b", V, F), "name"),
+                        (lambda: c.scene.remove(""), "name"),
+                        (lambda: c.record("clip.mp4", frames=1), "path")]:
+        with pytest.raises(distlab.InvalidInput) as info:
+            call()
+        assert not isinstance(info.value, ServiceError) and info.value.field == field, info.value
 
 
 def unproject(M, ndc):
