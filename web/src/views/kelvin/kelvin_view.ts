@@ -37,7 +37,7 @@ import {
 import { statsRows, statusLine } from "./object_stats";
 import { Panel } from "./panel";
 import { Probe } from "./probe";
-import { composeSigma, evaluateAll, evaluateAt, presets, type Brush, type SigmaBody } from "./sigma";
+import { composeSigma, evaluateAll, evaluateAt, linkPrecision, presets, type Brush, type SigmaBody } from "./sigma";
 import { brushesDigest, parseSigmaFile, sigmaFileText, SigmaFileError } from "./sigma_file";
 import { SigmaSync } from "./sigma_sync";
 import { SliceLayer } from "./slice_layer";
@@ -704,8 +704,9 @@ export class KelvinView implements View {
     return composeSigma(this.state.preset, this.state.base, this.state.brushes);
   }
 
-  private stamp(b: Brush, eventTime: number, strokeStart: boolean): void {
+  private stamp(painted: Brush, eventTime: number, strokeStart: boolean): void {
     if (!this.surface) return;
+    const b = linkPrecision(painted);
     if (strokeStart) this.strokes.push(this.state.brushes.length);
     this.dropSigmaFileRef();
     this.state.brushes.push(b);

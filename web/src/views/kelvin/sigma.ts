@@ -93,11 +93,17 @@ export function composeSigma(preset: PresetName, base: number, brushes: Brush[])
   return body;
 }
 
-/** Brushes in the URL: [x, y, z, radius, value, falloff], 5 significant digits, and a 7th
- *  element 1 for a brush towards its value (links from before it hold added brushes). */
+const r5 = (x: number) => Number(x.toPrecision(5));
+/** A brush as a link holds it (5 significant digits). The page paints with this brush, so that
+ *  a link, the σ file and the page that made them describe one σ exactly. */
+export function linkPrecision(b: Brush): Brush {
+  return { ...b, center: [r5(b.center[0]), r5(b.center[1]), r5(b.center[2])], radius: r5(b.radius), value: r5(b.value), falloff: r5(b.falloff) };
+}
+
+/** Brushes in the URL: [x, y, z, radius, value, falloff] (linkPrecision), and a 7th element 1
+ *  for a brush towards its value (links from before it hold added brushes). */
 export function packBrushes(list: Brush[]): number[][] {
-  const r = (x: number) => Number(x.toPrecision(5));
-  return list.map((b) => [...b.center.map(r), r(b.radius), r(b.value), r(b.falloff), ...(b.mode === "towards" ? [1] : [])]);
+  return list.map((b) => [...b.center.map(r5), r5(b.radius), r5(b.value), r5(b.falloff), ...(b.mode === "towards" ? [1] : [])]);
 }
 export function unpackBrushes(v: unknown): Brush[] {
   if (!Array.isArray(v)) return [];
