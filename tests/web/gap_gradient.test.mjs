@@ -100,6 +100,10 @@ test("the readout's gradient of D is the finite difference of D through the API;
   };
   const kLin = scaleOf(await legend("linear"), "m/m");
   const kAng = scaleOf(await legend("angular"), "m/rad");
+  // Where D and a*, b* are read, the page says what they are not (a newcomer read D as d).
+  const readout = (await page.locator(".gap-readout").textContent()) ?? "";
+  assert.match(readout, /D is 0 on contact but not the Euclidean d/);
+  assert.match(readout, /smooth witness points, off the surfaces/);
   const drawn = await hook(page, "arrows()");
   for (const k of ["a", "b"]) {
     const witness = (await vector(page, `gap-witness-${k}`)).v;

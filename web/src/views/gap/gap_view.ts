@@ -432,7 +432,7 @@ function legend(): HTMLElement {
   el.className = "gap-legend";
   const hex = (c: number) => `#${c.toString(16).padStart(6, "0")}`;
   const items: Array<[string, string]> = [
-    [hex(COLORS.gap), "● GAP witness points a, b"],
+    [hex(COLORS.gap), "● GAP witness points a*, b* (smooth: off the surfaces)"],
     [hex(COLORS.euclid), "● Euclidean nearest points"],
     [hex(COLORS.pen), "● Euclidean penetration witness points (overlap)"],
     ["#5b9bd5", "■ e_S iso-surfaces (weak, eq. 5)"],

@@ -79,8 +79,11 @@ export class Readout {
       this.line("legend-gap", `● GAP        D = ${fmt(r.distance)} m`, "gap-d"),
       this.line("legend-gap", `             Λ = ${fmt(r.lambda)} m²`, "gap-lambda"),
       this.line("legend-gap", `             ${r.iterations} iterations (${solver})${r.converged ? "" : " — not converged"}`, "gap-iter"),
-      this.line("legend-gap", `             witness a = ${vec(r.witness_a)} m`, "gap-witness-a"),
-      this.line("legend-gap", `             witness b = ${vec(r.witness_b)} m`, "gap-witness-b"),
+      this.line("legend-gap", `             witness a* = ${vec(r.witness_a)} m`, "gap-witness-a"),
+      this.line("legend-gap", `             witness b* = ${vec(r.witness_b)} m`, "gap-witness-b"),
+      // What a newcomer misreads: D beside d, and a*, b* off the surfaces.
+      this.line("muted", "             D is 0 on contact but not the Euclidean d: near contact D ∝ d^(k+1);", "gap-note-d"),
+      this.line("muted", "             a*, b* are eq. 2's smooth witness points, off the surfaces", "gap-note-witness"),
       ...grad,
       this.line("legend-euclid", `● Euclidean  d = ${fmt(r.euclidean.distance)} m`, "euclid-d"),
       this.line("legend-euclid", `             signed d = ${fmt(r.euclidean.signed_distance)} m`, "euclid-signed"),
