@@ -5,7 +5,11 @@ and :class:`Client` for the HTTP/WebSocket service.
 
 Modules: :mod:`distlab.gap`, :mod:`distlab.kelvin`, :mod:`distlab.cbf`, :mod:`distlab.robot`,
 :mod:`distlab.client` (with :mod:`distlab.scene`: your own geometry in the service's views, and
-recordings of them).
+recordings of them), :mod:`distlab.batch` (batch calls on a Dask cluster).
+
+Optional dependencies, imported only when used: requests, websocket-client and msgpack for
+:class:`Client`; dask.distributed (Debian: python3-distributed) for the ``client=`` of
+:func:`distlab.cbf.sweep`, :func:`distlab.gap.distance` and :func:`distlab.kelvin.prepare_many`.
 """
 
 import os as _os
@@ -32,10 +36,10 @@ def executable(name: str = "distlab") -> str:
     return _os.path.join(bin_dir, name)
 
 
-from . import cbf, gap, kelvin, robot  # noqa: E402  (after DISTLAB_ASSETS is set)
+from . import batch, cbf, gap, kelvin, robot  # noqa: E402  (after DISTLAB_ASSETS is set)
 from .errors import FieldUndefined, InvalidInput, InvalidInputType  # noqa: E402
 
-__all__ = ["gap", "kelvin", "cbf", "robot", "Client", "InvalidInput", "InvalidInputType", "FieldUndefined", "assets_dir", "web_dir",
+__all__ = ["gap", "kelvin", "cbf", "robot", "batch", "Client", "InvalidInput", "InvalidInputType", "FieldUndefined", "assets_dir", "web_dir",
            "shaders_dir", "bin_dir", "executable"]
 __version__ = "0.1.0"
 

@@ -14,6 +14,11 @@ class InvalidInput(ValueError):
         self.field = field
         self.message = message
 
+    def __reduce__(self):
+        # Pickled with both arguments (the default would call __init__ with the text alone): it
+        # crosses processes as a Dask task's error (distlab.batch).
+        return type(self), (self.field, self.message)
+
 
 class InvalidInputType(InvalidInput, TypeError):
     """Bad input whose value has the wrong type (a string where a number belongs, ...): both a

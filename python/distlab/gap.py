@@ -9,11 +9,14 @@ Poses: arrays of 7 numbers ``[x, y, z, qw, qx, qy, qz]`` or 4x4 rigid transforms
 from __future__ import annotations
 
 import dataclasses
-from typing import Any, Callable, Mapping, Optional, Sequence
+import re
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence
 
 import numpy as np
 
 from . import _core
+from . import batch as _batch
+from .errors import InvalidInput
 
 __all__ = ["Box", "Sphere", "Cylinder", "Capsule", "Polytope", "ConvexHull", "Params", "Result",
            "distance", "solve"]
@@ -182,7 +185,8 @@ def _poses(pose, field: str):
 
 def distance(a, pose_a, b, pose_b, params: Optional[Params] = None, *, threads: int = 0,
              warm_start: Optional[Mapping[str, Any]] = None,
-             progress: Optional[Callable[[int, int], Any]] = None) -> Result:
+             progress: Optional[Callable[[int, int], Any]] = None,
+             client: Any = None, chunk: Optional[int] = None, wait: bool = True) -> Any:
     """The GAP distance between shape ``a`` at ``pose_a`` and ``b`` at ``pose_b``.
 
     One pose each gives one result; ``(N, 7)`` or ``(N, 4, 4)`` poses give N results (a single
@@ -194,7 +198,16 @@ def distance(a, pose_a, b, pose_b, params: Optional[Params] = None, *, threads: 
     ``progress(done, total)`` is called about every 0.1 s and at the end; Ctrl-C
     (KeyboardInterrupt), or an exception raised by ``progress``, stops the batch and propagates.
     Bad input raises :class:`distlab.InvalidInput` (a ValueError; also a TypeError for a wrong
-    type) naming the field."""
+    type) naming the field.
+
+    ``client``: a ``dask.distributed.Client`` (:mod:`distlab.batch`; dask is imported only then):
+    the pairs go to the workers in chunks of ``chunk`` pairs (default: about 512 kB of poses,
+    witnesses and tracks per chunk), each chunk one call on ``threads`` threads of its worker (0
+    there: 1, as a worker runs one task per thread), and the Result is the same as the local
+    call's, bit for bit, in the input's order; ``progress(done, total)`` counts the pairs of all
+    chunks, and an error names the pair in the whole batch (``pose_b[12345]``). With
+    ``wait=False`` the call returns the :class:`distlab.batch.Batch` at once (``progress()``,
+    ``wait(progress)``, ``cancel()``, ``result()``: the Result)."""
     pa, single_a = _poses(pose_a, "pose_a")
     pb, single_b = _poses(pose_b, "pose_b")
     params = Params() if params is None else params
@@ -206,11 +219,68 @@ def distance(a, pose_a, b, pose_b, params: Optional[Params] = None, *, threads: 
         wb = np.asarray(warm_start["witness_b"], dtype=np.float64).reshape(-1, 3)
         if warm_start.get("track") is not None:
             track = np.asarray(warm_start["track"], dtype=np.float64).reshape(len(wa), -1)
-    out = _core.gap_batch(_shape_spec(a, "a"), pa, _shape_spec(b, "b"), pb, pdict, int(threads), wa, wb, euclidean,
-                          progress, track)
-    if single_a and single_b:
+    spec_a, spec_b = _shape_spec(a, "a"), _shape_spec(b, "b")
+    if client is None:
+        if not wait:
+            raise ValueError("wait=False needs a client")
+        out = _core.gap_batch(spec_a, pa, spec_b, pb, pdict, int(threads), wa, wb, euclidean, progress, track)
+        return _result(out, single_a and single_b)
+    _batch.require_client(client)
+
+    def rows(x):
+        return x.shape[0] if x.ndim else -1
+
+    n = max(rows(pa), rows(pb))
+    per_pair = [x for x in (pa, pb) if rows(x) != 1] + [x for x in (wa, wb, track) if x is not None]
+    if all(rows(x) == n for x in per_pair) and min(rows(pa), rows(pb)) >= 0:
+        if chunk is None:
+            row_bytes = sum(x[0].nbytes for x in per_pair if len(x)) or 56
+            chunk = max(256, (512 << 10) // row_bytes)
+        if int(chunk) < 1:
+            raise InvalidInput("chunk", "chunk must be at least 1 pair")
+        starts = list(range(0, n, int(chunk))) or [0]
+        ends = starts[1:] + [n]
+    else:  # arrays that do not line up: one task, whose call says what is wrong
+        starts, ends, per_pair = [0], [1], []
+
+    def part(x, s, e):
+        return x if not any(x is y for y in per_pair) else np.ascontiguousarray(x[s:e])
+
+    tasks = [(spec_a, part(pa, s, e), spec_b, part(pb, s, e), pdict, int(threads) or 1, part(wa, s, e),
+              part(wb, s, e), euclidean, part(track, s, e)) for s, e in zip(starts, ends)]
+    b = _batch.Batch(client, "gap-distance", _distance_task, tasks,
+                     lambda parts: _result(_concatenate(parts), single_a and single_b),
+                     _batch.sum_report([e - s for s, e in zip(starts, ends)]),
+                     lambda i, error: _chunk_error(starts[i], error))
+    return b.wait(progress) if wait else b
+
+
+def _result(out: Dict[str, Any], single: bool) -> Result:
+    if single:
         out = {k: (None if v is None else (v[0].item() if v.ndim == 1 else v[0])) for k, v in out.items()}
     return Result(out)
+
+
+def _distance_task(spec_a, pa, spec_b, pb, pdict, threads, wa, wb, euclidean, track, report) -> dict:
+    """A task of distance(client=): one chunk of pairs, on the worker."""
+    return _core.gap_batch(spec_a, pa, spec_b, pb, pdict, threads, wa, wb, euclidean,
+                           lambda done, total: report(done), track)
+
+
+def _concatenate(parts: List[dict]) -> dict:
+    return {k: None if v is None else np.concatenate([p[k] for p in parts]) for k, v in parts[0].items()}
+
+
+_PAIR_FIELD = re.compile(r"^(pose_a|pose_b|warm_start\.witness_a|warm_start\.witness_b)\[(\d+)\]")
+
+
+def _chunk_error(start: int, error: BaseException) -> BaseException:
+    """A chunk's error about its pair k names pair start + k of the whole batch."""
+    m = _PAIR_FIELD.match(error.field) if isinstance(error, InvalidInput) else None
+    if m is None or start == 0:
+        return error
+    local, whole = m.group(0), f"{m.group(1)}[{start + int(m.group(2))}]"
+    return type(error)(whole + error.field[m.end():], error.message.replace(local, whole))
 
 
 def default_params() -> Params:

@@ -6,13 +6,16 @@ surface and query h and ∇h, extract or export iso-surfaces of h."""
 from __future__ import annotations
 
 import os
-from typing import Any, Callable, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
 from . import _core
+from . import batch as _batch
 
-__all__ = ["solve", "Field", "INSIDE", "NONPOSITIVE"]
+__all__ = ["solve", "Field", "prepare_many", "INSIDE", "NONPOSITIVE"]
+
+Mesh = Union[str, os.PathLike, Tuple[Any, Any]]
 
 #: status codes of :meth:`Field.query` (0: ok)
 INSIDE = 1
@@ -151,3 +154,68 @@ class Field:
     def center(self) -> np.ndarray:
         """The inversion centre."""
         return self._core.centre()
+
+
+def prepare_many(meshes: Sequence[Mesh], lx: float, *, cache_dir: Union[str, os.PathLike],
+                 progress: Optional[Callable[[str, float], Any]] = None, client: Any = None, wait: bool = True,
+                 **options: Any) -> Any:
+    """Prepares every mesh of ``meshes`` (each a path or ``(vertices, faces)``, as
+    :meth:`Field.prepare` takes them) with ``lx`` and the same ``options`` (``center``,
+    ``grading``, ``unit``, ``repair``, ... as :meth:`Field.prepare`'s) into ``cache_dir``, the
+    cache directory :meth:`Field.prepare` then loads each field from. Returns each field's
+    :attr:`Field.stats` (``cache_hit`` for one that was there already), in the order of
+    ``meshes``. ``progress(stage, fraction)``: stage ``"K of N fields prepared"``, fraction the
+    mean of the preparations' progress through their stages; Ctrl-C (KeyboardInterrupt), or an
+    exception raised by ``progress``, cancels the preparations and propagates.
+
+    Without ``client`` the meshes are prepared one after another in this process. ``client``: a
+    ``dask.distributed.Client`` (:mod:`distlab.batch`; dask is imported only then): one task per
+    mesh on the workers, each preparing through ``cache_dir`` exactly as :meth:`Field.prepare`
+    does here (the same field, bit for bit), so ``cache_dir`` and the mesh files must be the same
+    paths on the workers (one machine, or a shared filesystem); ``(vertices, faces)`` travel with
+    their tasks as numpy arrays. With ``wait=False`` the call returns the
+    :class:`distlab.batch.Batch` at once (``progress()``, ``wait(progress)``, ``cancel()``,
+    ``result()``)."""
+    cache = os.path.abspath(os.fspath(cache_dir))
+    meshes = [os.path.abspath(os.fspath(m)) if isinstance(m, (str, os.PathLike))
+              else (np.asarray(m[0], dtype=np.float64), np.asarray(m[1])) for m in meshes]
+    report = _batch.count_report("fields prepared")
+    if client is None:
+        if not wait:
+            raise ValueError("wait=False needs a client")
+        finished = [False] * len(meshes)
+        partial = [0.0] * len(meshes)
+        out: List[Dict[str, Any]] = []
+
+        def one(i: int):
+            def task_progress(fraction: float) -> None:
+                partial[i] = max(partial[i], fraction)
+                if progress is not None:
+                    progress(*report(finished, partial))
+            return task_progress
+
+        for i, mesh in enumerate(meshes):
+            out.append(_prepare_task(mesh, lx, cache, options, one(i)))
+            finished[i] = True
+            if progress is not None:
+                progress(*report(finished, partial))
+        return out
+    tasks = [(mesh, lx, cache, options) for mesh in meshes]
+    b = _batch.Batch(client, "kelvin-prepare", _prepare_task, tasks, list, report)
+    return b.wait(progress) if wait else b
+
+
+def _prepare_task(mesh: Mesh, lx: float, cache_dir: str, options: Mapping[str, Any],
+                  report: Callable[[float], None]) -> Dict[str, Any]:
+    """One preparation of prepare_many (a task of its client=): the field's stats."""
+    def stages(stage: str, fraction: float) -> None:
+        if stage in _STAGES and not (stage == "cache" and fraction < 0.5):
+            report((_STAGES.index(stage) + fraction) / len(_STAGES))
+
+    return Field.prepare(mesh, lx, cache_dir=cache_dir, progress=stages, **options).stats
+
+
+# A preparation's stages in their order (geometry/progress.hpp): its progress through them, each
+# stage counting as much as another. "cache" below 0.5 is the store's look-up before meshing, from
+# 0.5 the saving after the factorization; "wait": another process prepares the same field.
+_STAGES = ("simplify", "repair", "load", "invert", "wait", "mesh", "build", "decomp", "cache")
