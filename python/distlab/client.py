@@ -212,7 +212,8 @@ class Client:
         a pattern such as ``out/f_%03d.png``; or ``out.png``: out_0000.png ...). Give ``seconds`` or
         ``frames`` (bounded by max_record_seconds, max_record_frames, max_record_fps); the page's
         window is ``width`` x ``height``. Returns the recording (``files``, ``camera``: the clip
-        matrix the page drew with). Ctrl-C or ``timeout`` (seconds beyond its length) stops it."""
+        matrix the page drew with; ``recorded``: the frames the file holds and the seconds they
+        span, longer than asked when the page draws slower than ``fps``). Ctrl-C or ``timeout`` (seconds beyond its length) stops it."""
         from .scene import record
 
         return record(self, path, seconds=seconds, frames=frames, view=view, fps=fps, width=width, height=height,

@@ -30,28 +30,44 @@ async function until(ready: () => boolean, what: string, ms = 20000): Promise<vo
   }
 }
 
-/** Every frame for `seconds` drawn anew, so that the canvas stream gets them; at least two (a
- *  video with a duration) when a slow renderer (software WebGL on a loaded machine) takes longer. */
-async function drawFor(vp: Viewport, seconds: number): Promise<void> {
-  const end = performance.now() + seconds * 1000;
-  for (let drawn = 0; performance.now() < end || drawn < 2; drawn++) {
-    vp.invalidate();
-    await nextFrame();
-  }
+/** What a recording holds: its frames and the time they span (the last one shown for 1 / fps). */
+interface Recorded {
+  frames: number;
+  seconds: number;
 }
 
-async function recordWebm(vp: Viewport, r: Recording): Promise<Blob> {
+/** The recording's frames, each drawn anew and handed to `take` at its time (frame i at i / fps
+ *  from the first; later when the renderer is slower: software WebGL on a loaded machine). */
+async function drawFrames(vp: Viewport, r: Recording, take: (i: number) => Promise<void> | void): Promise<Recorded> {
+  let t0 = 0;
+  for (let i = 0; i < r.frames; i++) {
+    if (i > 0) await sleep(t0 + (i * 1000) / r.fps - performance.now());
+    vp.invalidate();
+    const t = await nextFrame(); // the view draws in this animation frame
+    await nextFrame();
+    if (i === 0) t0 = t;
+    await take(i);
+  }
+  return { frames: r.frames, seconds: (performance.now() - t0) / 1000 + 1 / r.fps };
+}
+
+/** A WebM of exactly the recording's frames: the canvas stream takes a frame only when asked
+ *  (captureStream(0) + requestFrame), so a slow renderer makes a longer video, never fewer frames. */
+async function recordWebm(vp: Viewport, r: Recording): Promise<{ blob: Blob; recorded: Recorded }> {
   const type = ["video/webm;codecs=vp9", "video/webm;codecs=vp8", "video/webm"].find((t) => MediaRecorder.isTypeSupported(t));
   if (!type) throw new Error("this browser's MediaRecorder writes no WebM");
-  const recorder = new MediaRecorder(vp.renderer.domElement.captureStream(r.fps), { mimeType: type });
+  const stream = vp.renderer.domElement.captureStream(0);
+  const track = stream.getVideoTracks()[0] as MediaStreamTrack & { requestFrame(): void };
+  const recorder = new MediaRecorder(stream, { mimeType: type });
   const chunks: Blob[] = [];
   recorder.ondataavailable = (e) => e.data.size && chunks.push(e.data);
   const stopped = new Promise((resolve) => (recorder.onstop = resolve));
   recorder.start();
-  await drawFor(vp, r.seconds);
+  const recorded = await drawFrames(vp, r, () => track.requestFrame());
+  await sleep(1000 / r.fps); // the last frame's time on screen
   recorder.stop();
   await stopped;
-  return new Blob(chunks, { type: "video/webm" });
+  return { blob: new Blob(chunks, { type: "video/webm" }), recorded };
 }
 
 async function record(id: string): Promise<void> {
@@ -64,18 +80,17 @@ async function record(id: string): Promise<void> {
   await nextFrame();
   await nextFrame();
   const vp = currentViewport()!;
+  let recorded: Recorded;
   if (r.format === "png") {
-    const t0 = performance.now();
-    for (let i = 0; i < r.frames; i++) {
-      await sleep(t0 + (i * 1000) / r.fps - performance.now());
-      await api.put(`${path}/parts/${i}`, await vp.screenshot());
-    }
+    recorded = await drawFrames(vp, r, async (i) => void (await api.put(`${path}/parts/${i}`, await vp.screenshot())));
   } else {
-    await api.put(`${path}/parts/0`, await recordWebm(vp, r));
+    const webm = await recordWebm(vp, r);
+    recorded = webm.recorded;
+    await api.put(`${path}/parts/0`, webm.blob);
   }
   const canvas = vp.renderer.domElement;
   const clip = vp.camera.projectionMatrix.clone().multiply(vp.camera.matrixWorldInverse);
-  await api.post(`${path}/finish`, { camera: { matrix: clip.elements, width: canvas.width, height: canvas.height } });
+  await api.post(`${path}/finish`, { camera: { matrix: clip.elements, width: canvas.width, height: canvas.height }, recorded: { ...recorded } });
 }
 
 // A recording page shows the view's canvas alone, filling the window (no bars, panel or plots).

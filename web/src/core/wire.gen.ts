@@ -4086,6 +4086,8 @@ export interface components {
             bytes: number;
             camera: null | components["schemas"]["RecordingCamera"];
             error?: string;
+            /** @description null until done; frames and seconds above are what was asked */
+            recorded: null | components["schemas"]["RecordingRecorded"];
         };
         /** @description clip coordinates from world coordinates (projection × view, 16 numbers column-major) and the canvas's pixels */
         RecordingCamera: {
@@ -4113,6 +4115,7 @@ export interface components {
         RecordingFinish: {
             camera?: components["schemas"]["RecordingCamera"];
             error?: string;
+            recorded?: components["schemas"]["RecordingRecorded"];
         };
         WsScenePose: {
             /** @constant */
@@ -4128,6 +4131,11 @@ export interface components {
         WsSceneClear: {
             /** @constant */
             type: "scene_clear";
+        };
+        /** @description what the page recorded: the frames it drew into the file and the time they span (frames / fps when the renderer kept up, more when it drew slower) */
+        RecordingRecorded: {
+            frames: number;
+            seconds: number;
         };
     };
     responses: {

@@ -35,6 +35,7 @@ struct Recording {  // NOLINT(bugprone-exception-escape)
   std::vector<std::string> parts;
   std::size_t bytes = 0;
   json camera;                                 // the page's camera when it recorded (null until done)
+  json recorded;                               // the frames the page drew into it and their span (null until done)
   std::vector<ClientShare::Reservation> held;  // the parts' bytes, in the client's share
   std::string error;                           // a failed recording's reason, from the page
   json to_json() const {
@@ -44,6 +45,7 @@ struct Recording {  // NOLINT(bugprone-exception-escape)
     j["parts"] = parts.size();
     j["bytes"] = bytes;
     j["camera"] = camera;
+    j["recorded"] = recorded;
     if (!error.empty()) j["error"] = error;
     return j;
   }
@@ -356,12 +358,12 @@ void SceneModule::register_routes() {
   router_.add(std::move(part));
 
   // The page's end: {"camera": {"matrix": 16 numbers (clip from world, column-major), "width",
-  // "height"}} when it recorded, or {"error": "why not"}.
+  // "height"}, "recorded": {"frames", "seconds"}} when it recorded, or {"error": "why not"}.
   router_.add({"POST", "/api/scene/recordings/{id}/finish", [this](Request& req) {
                  auto s = require_session(req);
                  const json body = parse_body(req);
                  json_require_object(body, "");
-                 json_check_keys(body, "", {"camera", "error"});
+                 json_check_keys(body, "", {"camera", "recorded", "error"});
                  json camera = nullptr;
                  if (const json* c = json_optional(body, "camera")) {
                    json_require_object(*c, "camera");
@@ -370,6 +372,13 @@ void SceneModule::register_routes() {
                    camera = {{"matrix", vec_json(m)},
                              {"width", json_integer(json_required(*c, "camera", "width"), "camera.width", 1, 16384)},
                              {"height", json_integer(json_required(*c, "camera", "height"), "camera.height", 1, 16384)}};
+                 }
+                 json recorded = nullptr;
+                 if (const json* d = json_optional(body, "recorded")) {
+                   json_require_object(*d, "recorded");
+                   json_check_keys(*d, "recorded", {"frames", "seconds"});
+                   recorded = {{"frames", json_integer(json_required(*d, "recorded", "frames"), "recorded.frames", 1, static_cast<long long>(config_.limits.max_record_frames))},
+                               {"seconds", json_positive(json_required(*d, "recorded", "seconds"), "recorded.seconds")}};
                  }
                  const std::string error = body.contains("error") ? shorten(json_string(body["error"], "error"), 500) : "";
                  std::lock_guard lock(s->mutex);
@@ -381,6 +390,7 @@ void SceneModule::register_routes() {
                  r->state = error.empty() ? "done" : "failed";
                  r->error = error;
                  r->camera = camera;
+                 r->recorded = recorded;
                  return json_response(200, r->to_json());
                }});
 
