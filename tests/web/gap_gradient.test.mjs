@@ -112,6 +112,10 @@ test("the readout's gradient of D is the finite difference of D through the API;
     close(arrows.linear.origin, witness, 1e-5, `${k}'s ∂D/∂p arrow starts at its witness point`);
     const lin = arrows.linear.tip.map((v, i) => v - arrows.linear.origin[i]);
     close(lin, shown[k].slice(0, 3).map((g) => kLin * g), 1e-5 * kLin, `${k}'s ∂D/∂p arrow is ${kLin} m per m/m`);
+    // Each linear arrow is named at its tip (both start at nearly the same point between the shapes).
+    assert.equal(arrows.linear.label?.text, `∂D/∂p ${k.toUpperCase()}`);
+    const beyond = arrows.linear.label.at.map((v, i) => v - arrows.linear.tip[i]);
+    close(beyond, lin.map((v) => (0.02 * v) / Math.hypot(...lin)), 1e-6, `${k}'s label sits 2 cm beyond its tip`);
     close(arrows.angular.origin, state[k].position, 1e-9, `${k}'s ∂D/∂θ axis starts at its origin`);
     const ang = arrows.angular.tip.map((v, i) => v - arrows.angular.origin[i]);
     close(ang, shown[k].slice(3).map((g) => kAng * g), 1e-5 * kAng, `${k}'s ∂D/∂θ axis is ${kAng} m per m/rad`);

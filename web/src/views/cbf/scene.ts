@@ -7,27 +7,13 @@ import { FieldLayer } from "./fields";
 import type { FrameStore } from "./frames";
 import { shapeGeometry } from "../../core/shapes";
 import { poseMatrix } from "./kinematics";
+import { textLabel } from "../../core/label";
 import type { RolloutSpec } from "./specs";
 import type { CbfRobot, CbfScenario } from "./types";
 
 export const SIDE_OFFSET = 1.4; // m along y between the worlds in "side by side"
 
 export type Layout = "overlay" | "side";
-
-function label(text: string, color: number): THREE.Sprite {
-  const c = document.createElement("canvas");
-  c.width = 256;
-  c.height = 64;
-  const ctx = c.getContext("2d")!;
-  ctx.font = "bold 40px system-ui, sans-serif";
-  ctx.fillStyle = `#${color.toString(16).padStart(6, "0")}`;
-  ctx.textAlign = "center";
-  ctx.textBaseline = "middle";
-  ctx.fillText(text, 128, 32);
-  const s = new THREE.Sprite(new THREE.SpriteMaterial({ map: new THREE.CanvasTexture(c), depthTest: false, transparent: true }));
-  s.scale.set(0.4, 0.1, 1);
-  return s;
-}
 
 /** Segments between the witness points of chosen pairs, with dots at both ends. */
 class Witnesses extends THREE.Group {
@@ -91,7 +77,7 @@ export class World {
       this.robot.add(m);
     }
     this.witnesses = new Witnesses(spec.color, 0);
-    this.name = label(spec.short, spec.color);
+    this.name = textLabel(spec.short, spec.color);
     this.name.position.set(0, 0, 1.25);
     this.group.add(this.robot, this.obstacles, this.target, this.witnesses, this.name, this.fields.group);
   }

@@ -6,6 +6,7 @@
 // (the sense of rotation that increases D, right-hand rule). An arrow's length is k × |part|,
 // one k per part for both shapes; the legend says k.
 import * as THREE from "three";
+import { textLabel } from "../../core/label";
 import type { DisplayState } from "./state";
 
 export type Vec3 = [number, number, number];
@@ -40,13 +41,16 @@ const UP = new THREE.Vector3(0, 1, 0);
 const SHAFT = 0.004; // m
 const HEAD = 0.012;
 
-/** A straight arrow from an origin along a direction (a cylinder and a cone along the group's +y). */
+/** A straight arrow from an origin along a direction (a cylinder and a cone along the group's +y),
+ *  named at its tip when given a label (whose shape's arrow it is: the two linear arrows start
+ *  at nearly the same point between the shapes). */
 class StraightArrow extends THREE.Group {
   private readonly shaft: THREE.Mesh;
   private readonly head: THREE.Mesh;
+  readonly label: THREE.Sprite | null;
   length = 0;
 
-  constructor(mat: THREE.Material, cylinder: THREE.BufferGeometry, cone: THREE.BufferGeometry) {
+  constructor(mat: THREE.Material, cylinder: THREE.BufferGeometry, cone: THREE.BufferGeometry, label?: { text: string; color: number }) {
     super();
     this.shaft = new THREE.Mesh(cylinder, mat);
     this.head = new THREE.Mesh(cone, mat);
@@ -55,6 +59,8 @@ class StraightArrow extends THREE.Group {
       m.frustumCulled = false;
       this.add(m);
     }
+    this.label = label ? textLabel(label.text, label.color, 0.025) : null;
+    if (this.label) this.add(this.label);
     this.visible = false;
   }
 
@@ -69,13 +75,15 @@ class StraightArrow extends THREE.Group {
     this.shaft.position.set(0, (length - head) / 2, 0);
     this.head.scale.set(HEAD, head, HEAD);
     this.head.position.set(0, length - head / 2, 0);
+    this.label?.position.set(0, length + 0.02, 0);
     this.updateMatrixWorld(true);
   }
 
-  /** Its start and tip in world coordinates (null: hidden). */
-  ends(): { origin: Vec3; tip: Vec3 } | null {
+  /** Its start and tip in world coordinates, and its label's text and place (null: hidden). */
+  ends(): { origin: Vec3; tip: Vec3; label?: { text: string; at: Vec3 } } | null {
     if (!this.visible) return null;
-    return { origin: this.position.toArray() as Vec3, tip: this.localToWorld(new THREE.Vector3(0, this.length, 0)).toArray() as Vec3 };
+    const out = { origin: this.position.toArray() as Vec3, tip: this.localToWorld(new THREE.Vector3(0, this.length, 0)).toArray() as Vec3 };
+    return this.label ? { ...out, label: { text: String(this.label.userData.text), at: this.label.getWorldPosition(new THREE.Vector3()).toArray() as Vec3 } } : out;
   }
 }
 
@@ -131,11 +139,13 @@ export interface GradientInput {
   gradient_b: number[];
 }
 
-/** What is drawn, in world coordinates, for the tests: each arrow's start and tip. */
+type ArrowEnds = NonNullable<ReturnType<StraightArrow["ends"]>>;
+
+/** What is drawn, in world coordinates, for the tests: each arrow's start, tip and label. */
 export interface DrawnGradient {
   scales: { linear: number; angular: number };
-  a: { linear: { origin: Vec3; tip: Vec3 } | null; angular: { origin: Vec3; tip: Vec3 } | null };
-  b: { linear: { origin: Vec3; tip: Vec3 } | null; angular: { origin: Vec3; tip: Vec3 } | null };
+  a: { linear: ArrowEnds | null; angular: ArrowEnds | null };
+  b: { linear: ArrowEnds | null; angular: ArrowEnds | null };
 }
 
 export class GradientArrows {
@@ -156,7 +166,8 @@ export class GradientArrows {
     const ang = material(GRADIENT_COLORS.angular);
     this.geometries = [cylinder, cone];
     this.materials = [lin, ang];
-    this.linear = { a: new StraightArrow(lin, cylinder, cone), b: new StraightArrow(lin, cylinder, cone) };
+    const named = (k: string) => ({ text: `∂D/∂p ${k}`, color: GRADIENT_COLORS.linear });
+    this.linear = { a: new StraightArrow(lin, cylinder, cone, named("A")), b: new StraightArrow(lin, cylinder, cone, named("B")) };
     this.angular = { a: new CurvedArrow(ang, cylinder, cone), b: new CurvedArrow(ang, cylinder, cone) };
     this.group.add(this.linear.a, this.linear.b, this.angular.a, this.angular.b);
     this.group.name = "gradient-arrows";
@@ -201,6 +212,10 @@ export class GradientArrows {
   }
 
   dispose(): void {
+    for (const arrow of [this.linear.a, this.linear.b]) {
+      arrow.label?.material.map?.dispose();
+      arrow.label?.material.dispose();
+    }
     this.angular.a.release();
     this.angular.b.release();
     this.geometries.forEach((g) => g.dispose());
