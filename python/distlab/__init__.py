@@ -3,7 +3,8 @@ robots as a library (every distance of a URDF robot with its joint-space Jacobia
 (numpy in, numpy out, through the same C++ code and request validation as the ``distlab`` CLI),
 and :class:`Client` for the HTTP/WebSocket service.
 
-Modules: :mod:`distlab.gap`, :mod:`distlab.kelvin`, :mod:`distlab.cbf`, :mod:`distlab.robot`,
+Modules: :mod:`distlab.gap`, :mod:`distlab.kelvin` (with :mod:`distlab.cache`, the store of
+prepared fields that processes and machines share), :mod:`distlab.cbf`, :mod:`distlab.robot`,
 :mod:`distlab.client` (with :mod:`distlab.scene`: your own geometry in the service's views, and
 recordings of them), :mod:`distlab.batch` (batch calls on a Dask cluster).
 
@@ -36,10 +37,10 @@ def executable(name: str = "distlab") -> str:
     return _os.path.join(bin_dir, name)
 
 
-from . import batch, cbf, gap, kelvin, robot  # noqa: E402  (after DISTLAB_ASSETS is set)
+from . import batch, cache, cbf, gap, kelvin, robot  # noqa: E402  (after DISTLAB_ASSETS is set)
 from .errors import FieldUndefined, InvalidInput, InvalidInputType  # noqa: E402
 
-__all__ = ["gap", "kelvin", "cbf", "robot", "batch", "Client", "InvalidInput", "InvalidInputType", "FieldUndefined", "assets_dir", "web_dir",
+__all__ = ["gap", "kelvin", "cbf", "robot", "batch", "cache", "Client", "InvalidInput", "InvalidInputType", "FieldUndefined", "assets_dir", "web_dir",
            "shaders_dir", "bin_dir", "executable"]
 __version__ = "0.1.0"
 

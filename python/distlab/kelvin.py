@@ -48,6 +48,7 @@ class Field:
         cache_dir: Optional[Union[str, os.PathLike]] = None,
         progress: Optional[Callable[[str, float], Any]] = None,
         *,
+        cache_budget: Optional[int] = None,
         unit: Optional[str] = None,
         scale: Optional[float] = None,
         components: Optional[str] = None,
@@ -61,7 +62,11 @@ class Field:
         ``grading`` (0: the paper's sizing, eq. 23; > 0: graded, fewer vertices; None: chosen per
         object and ``lx``, reported as ``stats()["grading"]``), ``feature_angle``,
         ``max_vertices``: as in the CLI request. ``cache_dir``: saves the
-        prepared field there (by content) and loads it on the next call with the same input.
+        prepared field there (by content) and loads it on the next call with the same input: the
+        field store (:mod:`distlab.cache`), which processes and machines may share; while one
+        prepares a field, the others asking for it wait (progress stage ``"wait"``) and load it
+        (``stats["t_wait"]``: seconds waited). ``cache_budget``: bytes the store's entries may
+        take; after writing, the least recently used ones are evicted down to it.
         ``progress(stage, fraction)`` is called as work advances; Ctrl-C (KeyboardInterrupt), or an
         exception raised by ``progress``, cancels the preparation cleanly and propagates. σ starts
         at 0 everywhere.
@@ -78,7 +83,7 @@ class Field:
                    "feature_angle": feature_angle,
                    "max_vertices": max_vertices, "unit": unit, "scale": scale, "components": components,
                    "simplify": None if simplify is None else {"faces": simplify},
-                   "repair": repair, "repair_options": repair_options}
+                   "repair": repair, "repair_options": repair_options, "cache_budget": cache_budget}
         cache = None if cache_dir is None else os.fspath(cache_dir)
         if isinstance(mesh, (str, os.PathLike)):
             core = _core.KelvinField.prepare(None, None, os.fspath(mesh), options, cache, progress)

@@ -1,5 +1,6 @@
 // distlab.kelvin: the CLI's request (solve) and a prepared Field held in Python.
 #include <cmath>
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -10,6 +11,7 @@
 #include "distlab/kelvin/field.hpp"
 #include "distlab/mesh/surface.hpp"
 #include "distlab/mesh/weld.hpp"
+#include "distlab/server/data_dirs.hpp"
 #include "distlab/server/gap_json.hpp"
 #include "distlab/server/json_fields.hpp"
 #include "distlab/server/kelvin_json.hpp"
@@ -93,8 +95,12 @@ class PyField {
       if (auto v = server::json_optional(o, k); v && !v->is_null()) reshape_body[k] = *v;
     const server::ReshapeRequest reshape = server::parse_reshape(reshape_body, server::Limits{});
     mesh::SurfaceMesh surface;
-    std::string cache;
-    if (!cache_dir.is_none()) cache = py::str(cache_dir);
+    kelvin::FieldStore store;
+    if (!cache_dir.is_none()) store.dir = py::str(cache_dir);
+    if (auto v = server::json_optional(o, "cache_budget"); v && !v->is_null()) {
+      if (store.dir.empty()) throw InvalidInput("cache_budget", "cache_budget needs cache_dir");
+      store.budget_bytes = server::parse_cache_budget(*v, "cache_budget");
+    }
     if (!path.is_none()) {
       const std::string p = py::str(path);
       py::gil_scoped_release release;
@@ -117,8 +123,8 @@ class PyField {
       server::Reshaped reshaped;
       if (reshape.any()) reshaped = server::reshape_surface(surface, mesh::weld(surface).surface, reshape, server::Limits{}, pr);
       const mesh::SurfaceMesh& prepared = reshape.any() ? reshaped.surface : surface;
-      field = std::make_unique<PyField>(cache.empty() ? kelvin::Field::prepare(prepared, po, pr)
-                                                      : kelvin::Field::prepare_cached(prepared, po, cache, pr, &hit));
+      field = std::make_unique<PyField>(store.dir.empty() ? kelvin::Field::prepare(prepared, po, pr)
+                                                          : kelvin::Field::prepare_cached(prepared, po, store, pr, &hit));
       field->cache_hit_ = hit;
       field->reports_ = {{"repair", reshaped.repair_report}, {"simplify", reshaped.simplify_report}, {"components", reshaped.components_report}};
       field->field_.set_sigma(kelvin::SigmaSpec{});
@@ -221,6 +227,7 @@ class PyField {
     d["linear_boundary"] = s.linear_boundary;
     d["linear_by_response"] = s.linear_by_response;
     d["cache_hit"] = cache_hit_;
+    d["t_wait"] = s.t_wait;
     py::list warnings;
     for (const std::string& w : s.warnings) warnings.append(w);
     d["warnings"] = warnings;
@@ -241,10 +248,36 @@ class PyField {
   json reports_ = json::object();  // components, simplify, repair: what reshaped the surface
 };
 
+// distlab.cache: the JSON of `distlab cache` (kelvin_json.hpp), as dicts.
+py::object cache_call(const std::function<json()>& f) {
+  json j;
+  {
+    py::gil_scoped_release release;
+    j = f();
+  }
+  return to_python(j);
+}
+
 }  // namespace
 
 void bind_kelvin(py::module_& m) {
   m.def("kelvin_solve", &kelvin_solve, py::arg("request"), py::arg("progress") = py::none());
+  m.def("cache_default_dir", &server::default_cache_dir);
+  m.def(
+      "cache_ls", [](const std::string& dir) { return cache_call([&] { return server::cache_ls_json(dir); }); }, py::arg("dir"));
+  m.def(
+      "cache_verify", [](const std::string& dir, bool fix) { return cache_call([&] { return server::cache_verify_json(dir, fix); }); },
+      py::arg("dir"), py::arg("fix"));
+  m.def(
+      "cache_gc",
+      [](const std::string& dir, const py::object& budget, double keep_recent) {
+        kelvin::FieldStore store{dir};
+        if (!budget.is_none()) store.budget_bytes = server::parse_cache_budget(to_json(budget, "budget"), "budget");
+        if (!(keep_recent >= 0 && keep_recent <= 1e9)) throw InvalidInput("keep_recent", "keep_recent must be in [0, 1e9] seconds");
+        store.keep_recent_seconds = keep_recent;
+        return cache_call([&] { return server::cache_gc_json(store); });
+      },
+      py::arg("dir"), py::arg("budget"), py::arg("keep_recent"));
   py::class_<PyField>(m, "KelvinField")
       .def_static("prepare", &PyField::prepare, py::arg("vertices"), py::arg("faces"), py::arg("path"),
                   py::arg("options"), py::arg("cache_dir"), py::arg("progress"))

@@ -1,20 +1,23 @@
 // On-disk cache of prepared objects: SHA-256 content names, authenticated with HMAC-SHA256
-// under a key private to the cache directory, written atomically.
+// under a key private to the cache directory, written atomically. The entry files' layout; how
+// processes share them is the store's (store.cpp).
 #include <fcntl.h>
 #include <sys/random.h>
 #include <sys/stat.h>
 #include <unistd.h>
-#include <atomic>
+#include <algorithm>
 #include <cerrno>
 
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <optional>
 #include <sstream>
 
 #include "distlab/kelvin/digest.hpp"
 #include "field_impl.hpp"
+#include "store_impl.hpp"
 
 namespace distlab::kelvin {
 namespace {
@@ -26,11 +29,16 @@ constexpr double kChosen = -1;
 constexpr size_t kKeyBytes = 32;
 constexpr char kKeyFile[] = "cache.key";
 
-// A temporary name next to `path` that no other writer uses: per process and per call, so two
-// threads of one process preparing the same content never write into one file.
-std::string private_temporary(const std::string& path) {
-  static std::atomic<std::uint64_t> calls{0};
-  return path + ".tmp." + std::to_string(::getpid()) + "." + std::to_string(calls.fetch_add(1));
+bool write_all(int fd, const void* data, std::size_t n) {
+  const auto* p = static_cast<const char*>(data);
+  while (n > 0) {
+    const ssize_t w = ::write(fd, p, n);
+    if (w < 0 && errno == EINTR) continue;
+    if (w <= 0) return false;
+    p += w;
+    n -= static_cast<std::size_t>(w);
+  }
+  return true;
 }
 
 // A fresh key, written to a private temporary file, then linked in as the key file if there is
@@ -61,7 +69,26 @@ bool new_mac_key(const std::string& path, bool replace, std::string& key) {
   return true;
 }
 
+// The key file if it is trusted; *exists: whether there was a file at all.
+std::optional<std::string> trusted_key(const std::string& path, bool* exists) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC);
+  if (exists) *exists = fd >= 0;
+  if (fd < 0) return std::nullopt;
+  std::string key(kKeyBytes, '\0');
+  struct stat st {};
+  const bool ok = ::fstat(fd, &st) == 0 && S_ISREG(st.st_mode) && st.st_uid == ::geteuid() &&
+                  (st.st_mode & 07777) == 0600 && st.st_size == static_cast<off_t>(kKeyBytes) &&
+                  ::read(fd, key.data(), key.size()) == static_cast<ssize_t>(key.size());
+  ::close(fd);
+  if (!ok) return std::nullopt;
+  return key;
+}
+
 }  // namespace
+
+std::optional<std::string> read_cache_mac_key(const std::string& dir) {
+  return trusted_key((std::filesystem::path(dir) / kKeyFile).string(), nullptr);
+}
 
 // The key is trusted only as a regular file (not a link) of this user, mode 0600, of exactly 32
 // bytes. Anything else (another owner or mode, a truncated file) is replaced by a new key rather
@@ -71,18 +98,11 @@ std::string cache_mac_key(const std::string& dir) {
   std::filesystem::create_directories(dir);
   const std::string path = (std::filesystem::path(dir) / kKeyFile).string();
   for (int attempt = 0;; ++attempt) {
-    const int fd = ::open(path.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC);
-    std::string key(kKeyBytes, '\0');
-    if (fd >= 0) {
-      struct stat st {};
-      const bool ok = ::fstat(fd, &st) == 0 && S_ISREG(st.st_mode) && st.st_uid == ::geteuid() &&
-                      (st.st_mode & 07777) == 0600 && st.st_size == static_cast<off_t>(kKeyBytes) &&
-                      ::read(fd, key.data(), key.size()) == static_cast<ssize_t>(key.size());
-      ::close(fd);
-      if (ok) return key;
-    }
+    bool exists = false;
+    if (auto key = trusted_key(path, &exists)) return *key;
     // No file: create it unless a concurrent writer did first (then read theirs, once more).
-    if (new_mac_key(path, fd >= 0 || attempt > 0, key)) return key;
+    std::string key;
+    if (new_mac_key(path, exists || attempt > 0, key)) return key;
   }
 }
 
@@ -135,8 +155,8 @@ std::string prepare_key(const mesh::SurfaceMesh& s, const PrepareOptions& o, con
   return h.hex();
 }
 
-void save_prepared(const Field::Impl& m, const std::string& path, const std::string& key,
-                   const std::string& mac_key) {
+void save_prepared(const Field::Impl& m, const std::string& tmp, const std::string& key,
+                   const std::string& mac_key, const Progress& progress) {
   Writer w;
   w.raw(kFormat, sizeof(kFormat));
   w.array(key.data(), key.size());
@@ -156,41 +176,122 @@ void save_prepared(const Field::Impl& m, const std::string& path, const std::str
   const Digest mac = hmac_sha256(mac_key, payload);
   const std::uint64_t size = payload.size();
 
-  // Write a private temporary file, flush it to disk, then rename over the final name: readers
-  // see either no file or a complete one.
-  std::filesystem::create_directories(std::filesystem::path(path).parent_path());
-  const std::string tmp = private_temporary(path);
-  {
-    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    f.write(reinterpret_cast<const char*>(&size), sizeof(size));
-    f.write(payload.data(), static_cast<std::streamsize>(payload.size()));
-    f.write(reinterpret_cast<const char*>(mac.data()), static_cast<std::streamsize>(mac.size()));
-    f.flush();
-    if (!f) {
-      std::filesystem::remove(tmp);
-      throw std::runtime_error("cannot write cache file " + tmp);
+  // The temporary is private to this call; the store links it in once it is complete and on disk.
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
+  if (fd < 0) throw std::runtime_error("cannot write cache file " + tmp + ": " + std::strerror(errno));
+  try {
+    bool ok = write_all(fd, &size, sizeof(size));
+    constexpr std::size_t kChunk = std::size_t{64} << 10;
+    for (std::size_t done = 0; ok && done < payload.size();) {
+      const std::size_t n = std::min(kChunk, payload.size() - done);
+      ok = write_all(fd, payload.data() + done, n);
+      done += n;
+      progress("cache", 0.5 + 0.4 * static_cast<double>(done) / static_cast<double>(payload.size()));
+    }
+    if (!ok || !write_all(fd, mac.data(), mac.size()) || ::fsync(fd) != 0)
+      throw std::runtime_error("cannot write cache file " + tmp + ": " + std::strerror(errno));
+  } catch (...) {
+    ::close(fd);
+    ::unlink(tmp.c_str());
+    throw;
+  }
+  ::close(fd);
+}
+
+namespace {
+
+// An entry's framing: u64 payload size, payload, HMAC-SHA256 of the payload. "" when it holds
+// (payload and the stored MAC read), else "unreadable" or "truncated" (shorter or longer than
+// its size says).
+std::string read_framed(const std::string& path, std::string& payload, Digest& stored) {
+  std::ifstream f(path, std::ios::binary | std::ios::ate);
+  if (!f) return "unreadable";
+  const auto file_size = static_cast<std::uint64_t>(f.tellg());
+  f.seekg(0);
+  std::uint64_t size = 0;
+  if (!f.read(reinterpret_cast<char*>(&size), sizeof(size)) || file_size < sizeof(size) + stored.size() ||
+      size != file_size - sizeof(size) - stored.size())
+    return "truncated";  // or trailing garbage
+  payload.assign(size, '\0');
+  if (!f.read(payload.data(), static_cast<std::streamsize>(size)) ||
+      !f.read(reinterpret_cast<char*>(stored.data()), static_cast<std::streamsize>(stored.size())) || f.peek() != EOF)
+    return "truncated";
+  return "";
+}
+
+}  // namespace
+
+std::string verify_entry(const std::string& path, const std::string& name, const std::string* mac_key) {
+  std::string payload;
+  Digest stored{};
+  if (std::string bad = read_framed(path, payload, stored); !bad.empty()) return bad;
+  if (mac_key == nullptr) return "no_key";
+  if (!same_digest(hmac_sha256(*mac_key, payload), stored)) return "bad_mac";
+  Reader r(std::move(payload));
+  char format[sizeof(kFormat)];
+  if (!r.raw(format, sizeof(format)) || std::memcmp(format, kFormat, sizeof(kFormat)) != 0) return "old_format";
+  std::uint64_t key_size = 0;
+  if (!r.pod(key_size) || key_size != name.size()) return "wrong_name";
+  std::string stored_key(key_size, '\0');
+  if (!r.raw(stored_key.data(), key_size) || stored_key != name) return "wrong_name";
+  return "ok";
+}
+
+bool read_entry_header(const std::string& path, StoreEntry& e) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC);
+  if (fd < 0) return false;
+  struct stat st {};
+  const auto file_size = ::fstat(fd, &st) == 0 ? static_cast<std::uint64_t>(st.st_size) : 0;
+  std::uint64_t at = sizeof(std::uint64_t);  // after the payload's size
+  auto read = [&](void* p, std::size_t n) {
+    const bool ok = at + n <= file_size && ::pread(fd, p, n, static_cast<off_t>(at)) == static_cast<ssize_t>(n);
+    at += n;
+    return ok;
+  };
+  auto count = [&](std::uint64_t& n, std::size_t item) {  // a length-prefixed array: its length, skipped
+    if (!read(&n, sizeof(n)) || n > file_size / item) return false;
+    at += n * item;
+    return at <= file_size;
+  };
+  char tag[64] = {};
+  const ssize_t got = ::pread(fd, tag, sizeof(tag) - 1, static_cast<off_t>(at));
+  e.format.assign(tag, got > 0 ? ::strnlen(tag, static_cast<std::size_t>(got)) : 0);
+  e.current = got >= static_cast<ssize_t>(sizeof(kFormat)) && std::memcmp(tag, kFormat, sizeof(kFormat)) == 0;
+  bool ok = got > 0;
+  if (e.current) {  // the rest of the layout is known for this format only
+    at += sizeof(kFormat);
+    std::uint64_t key_size = 0, nv = 0, nf = 0, np = 0, nt = 0;
+    double inputs[kInputs];
+    ok = count(key_size, 1) && count(nv, sizeof(double)) && count(nf, sizeof(int)) && read(inputs, sizeof(inputs));
+    at += 4 * sizeof(double);  // params
+    std::uint64_t nn = 0, nd = 0;
+    ok = ok && count(np, sizeof(double)) && count(nt, sizeof(int)) && count(nn, sizeof(int)) && read(&nd, sizeof(nd)) &&
+         nd <= file_size;
+    std::string in_domain(ok ? nd : 0, '\0');
+    ok = ok && read(in_domain.data(), in_domain.size());
+    if (ok) {
+      e.surface_vertices = static_cast<long>(nv / 3);
+      e.surface_faces = static_cast<long>(nf / 3);
+      e.n_verts = static_cast<long>(np / 3);
+      e.n_tets = static_cast<long>(std::count_if(in_domain.begin(), in_domain.end(), [](char c) { return c != 0; }));
+      e.lx = inputs[0];
+      e.far_radius = inputs[1];
+      e.feature_angle = inputs[2];
+      e.centre = {inputs[3], inputs[4], inputs[5]};
+      e.grading = inputs[6];
     }
   }
-  if (FILE* f = std::fopen(tmp.c_str(), "rb")) {
-    ::fsync(fileno(f));
-    std::fclose(f);
-  }
-  std::filesystem::rename(tmp, path);
+  ::close(fd);
+  return ok;
 }
 
 std::unique_ptr<Field::Impl> load_prepared(const std::string& path, const std::string& key,
                                            const mesh::SurfaceMesh& surface, const PrepareOptions& requested,
                                            const std::string& mac_key) {
   if (!requested.centre) return nullptr;
-  std::ifstream f(path, std::ios::binary);
-  if (!f) return nullptr;
-  std::uint64_t size = 0;
+  std::string payload;
   Digest stored{};
-  if (!f.read(reinterpret_cast<char*>(&size), sizeof(size)) || size > (1ull << 36)) return nullptr;
-  std::string payload(size, '\0');
-  if (!f.read(payload.data(), static_cast<std::streamsize>(size)) ||
-      !f.read(reinterpret_cast<char*>(stored.data()), static_cast<std::streamsize>(stored.size())) || f.peek() != EOF)
-    return nullptr;  // truncated or trailing garbage
+  if (!read_framed(path, payload, stored).empty()) return nullptr;  // absent, truncated or trailing garbage
   // Corrupt, or written by someone without the key (an unkeyed checksum could be recomputed).
   if (!same_digest(hmac_sha256(mac_key, payload), stored)) return nullptr;
 

@@ -12,6 +12,7 @@
 #include "distlab/mesh/checks.hpp"
 #include "field_impl.hpp"
 #include "reorder.hpp"
+#include "store_impl.hpp"
 
 namespace distlab::kelvin {
 namespace {
@@ -686,40 +687,66 @@ std::vector<Vec3> Field::boundary_points() const {
 namespace distlab::kelvin {
 
 Field Field::prepare_cached(const mesh::SurfaceMesh& surface, const PrepareOptions& options,
-                            const std::string& cache_dir, const Progress& progress, bool* hit) {
+                            const FieldStore& store, const Progress& progress, bool* hit) {
   std::unique_ptr<SurfaceOracle> oracle;
   auto [valid, centre] = validated(surface, options, oracle, progress);
   const std::string key = prepare_key(valid, options, centre);
-  const std::string mac_key = cache_mac_key(cache_dir);
-  const std::string path = cache_dir + "/" + key + ".kelvin";
+  const std::string mac_key = cache_mac_key(store.dir);
+  const std::string path = store_entry_path(store.dir, key);
   progress("cache", 0.0);
-  const auto t0 = std::chrono::steady_clock::now();
   PrepareOptions requested = options;
   requested.centre = centre;
-  if (auto cached = load_prepared(path, key, valid, requested, mac_key)) {
+  std::unique_ptr<Field::Impl> cached;
+  double t_load = 0;
+  const auto load = [&] {
+    const auto t0 = std::chrono::steady_clock::now();
+    cached = load_prepared(path, key, valid, requested, mac_key);
+    if (!cached) return false;
     cached->oracle = std::make_unique<SurfaceOracle>(cached->surface);
     cached->build(progress);  // cheap; derived data are not stored
     // The factor must fit the rebuilt system, or the entry is not trusted.
-    if (cached->solver.size() == static_cast<Eigen::Index>(cached->interior.size())) {
-      cached->solver.release_cholmod_values();
-      cached->finish_stats();
-      cached->stats.t_load = seconds_since(t0);
-      if (options.feature_angle < 180 && cached->options.feature_angle >= 180)
-        cached->stats.warnings.push_back("sharp-edge protection (feature_angle " + std::to_string(std::lround(options.feature_angle)) +
-                                         ") did not converge (features thinner than the element size); meshed "
-                                         "without edge protection (feature_angle 180)");
-      if (hit) *hit = true;
-      return Field(std::move(cached));
+    if (cached->solver.size() != static_cast<Eigen::Index>(cached->interior.size())) {
+      cached.reset();
+      return false;
     }
+    t_load = seconds_since(t0);
+    return true;
+  };
+  // Loaded, or this call holds the lease to prepare it (others wanting it wait meanwhile).
+  double waited = 0;
+  std::unique_ptr<PreparationLease> lease = await_entry(store, path, load, progress, &waited);
+  if (!lease) {
+    cached->solver.release_cholmod_values();
+    cached->finish_stats();
+    cached->stats.t_load = t_load;
+    cached->stats.t_wait = waited;
+    if (options.feature_angle < 180 && cached->options.feature_angle >= 180)
+      cached->stats.warnings.push_back("sharp-edge protection (feature_angle " + std::to_string(std::lround(options.feature_angle)) +
+                                       ") did not converge (features thinner than the element size); meshed "
+                                       "without edge protection (feature_angle 180)");
+    if (hit) *hit = true;
+    return Field(std::move(cached));
   }
+  cached.reset();
   auto impl = mesh_stage(std::move(valid), centre, options, std::move(oracle), progress);
   impl->build(progress);
   impl->factor(progress);
   impl->finish_stats();
   progress("cache", 0.5);
-  save_prepared(*impl, path, key, mac_key);
+  const std::string tmp = private_temporary(path);
+  save_prepared(*impl, tmp, key, mac_key, progress);
+  // An entry there already is kept if it is servable (the first complete entry wins).
+  publish_entry(tmp, path, [&] { return load_prepared(path, key, impl->surface, requested, mac_key) != nullptr; });
+  lease.reset();
+  if (store.budget_bytes > 0) {
+    try {
+      gc_store(store);
+    } catch (const std::exception&) {  // eviction is housekeeping: the field is prepared and stored
+    }
+  }
   impl->solver.release_cholmod_values();  // saved: the solve's copy is enough from here
   impl->finish_stats();
+  impl->stats.t_wait = waited;
   progress("cache", 1.0);
   if (hit) *hit = false;
   return Field(std::move(impl));

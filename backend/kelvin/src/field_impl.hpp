@@ -92,7 +92,9 @@ std::string cache_mac_key(const std::string& dir);
 std::unique_ptr<Field::Impl> load_prepared(const std::string& path, const std::string& key,
                                            const mesh::SurfaceMesh& surface, const PrepareOptions& requested,
                                            const std::string& mac_key);
-void save_prepared(const Field::Impl& m, const std::string& path, const std::string& key,
-                   const std::string& mac_key);
+// save writes the entry to `tmp`, a new private file (progress "cache" 0.5 to 0.9 while it
+// writes), flushed to disk; the store publishes it (store_impl.hpp).
+void save_prepared(const Field::Impl& m, const std::string& tmp, const std::string& key,
+                   const std::string& mac_key, const Progress& progress = {});
 
 }  // namespace distlab::kelvin

@@ -73,7 +73,7 @@ FieldPreparer service_preparer(const std::string& cache_dir, const Limits& lim, 
     const std::shared_ptr<std::timed_mutex> content = shared.preparation_lock(surface, capped);
     std::unique_lock lock(*content, std::defer_lock);
     while (!lock.try_lock_for(std::chrono::milliseconds(100))) progress.check();
-    return kelvin::Field::prepare_cached(surface, capped, cache_dir, progress);
+    return kelvin::Field::prepare_cached(surface, capped, field_store(cache_dir, lim), progress);
   };
 }
 

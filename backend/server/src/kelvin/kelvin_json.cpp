@@ -109,8 +109,14 @@ std::string asset_path(const std::string& name, const std::string& assets_dir) {
   throw InvalidInput("mesh.asset", "unknown asset \"" + name + "\" (looked in $DISTLAB_ASSETS and assets/)");
 }
 
+std::uint64_t parse_cache_budget(const json& j, const std::string& field) {
+  const double b = number(j, field);
+  if (!(b >= 1 && b <= 1e18 && b == std::floor(b))) throw InvalidInput(field, field + " must be a whole number of bytes, at least 1");
+  return static_cast<std::uint64_t>(b);
+}
+
 json run_kelvin_request(const json& r, const kelvin::Progress& progress) {
-  object_with(r, "", {"mesh", "lx", "center", "far_radius", "grading", "feature_angle", "max_vertices", "cache", "sigma", "query", "isosurfaces", "repair", "repair_options", "simplify", "components", "comment"});
+  object_with(r, "", {"mesh", "lx", "center", "far_radius", "grading", "feature_angle", "max_vertices", "cache", "cache_budget", "sigma", "query", "isosurfaces", "repair", "repair_options", "simplify", "components", "comment"});
   const ReshapeRequest reshape = parse_reshape(r, Limits{});
   if (!r.contains("mesh")) throw InvalidInput("mesh", "mesh is required");
   const json& m = r["mesh"];
@@ -132,6 +138,14 @@ json run_kelvin_request(const json& r, const kelvin::Progress& progress) {
     if (!(mv >= 100 && mv <= 1e8 && mv == std::floor(mv)))
       throw InvalidInput("max_vertices", "max_vertices must be an integer in [100, 1e8]");
     options.max_vertices = static_cast<std::size_t>(mv);
+  }
+  // The field store (kelvin/store.hpp) and its budget: after writing, least recently used entries
+  // go until the entries take at most cache_budget bytes.
+  kelvin::FieldStore store;
+  if (r.contains("cache")) store.dir = text(r["cache"], "cache");
+  if (r.contains("cache_budget")) {
+    if (!r.contains("cache")) throw InvalidInput("cache_budget", "cache_budget needs cache (the store's directory)");
+    store.budget_bytes = parse_cache_budget(r["cache_budget"], "cache_budget");
   }
   kelvin::SigmaSpec sigma = r.contains("sigma") ? parse_sigma(r["sigma"]) : kelvin::SigmaSpec{};
   std::vector<Vec3> points;
@@ -169,9 +183,8 @@ json run_kelvin_request(const json& r, const kelvin::Progress& progress) {
   }
   const mesh::SurfaceMesh& prepared = reshape.any() ? reshaped.surface : welded.surface;
   bool hit = false;
-  kelvin::Field field = r.contains("cache")
-                            ? kelvin::Field::prepare_cached(prepared, options, text(r["cache"], "cache"), progress, &hit)
-                            : kelvin::Field::prepare(prepared, options, progress);
+  kelvin::Field field = r.contains("cache") ? kelvin::Field::prepare_cached(prepared, options, store, progress, &hit)
+                                            : kelvin::Field::prepare(prepared, options, progress);
   field.set_sigma(solved);
 
   json out;
@@ -179,6 +192,8 @@ json run_kelvin_request(const json& r, const kelvin::Progress& progress) {
   out["stats"] = {{"n_verts", st.n_verts}, {"n_tets", st.n_tets}, {"size_mb", st.size_mb}, {"t_mesh", st.t_mesh}, {"t_build", st.t_build}, {"t_decomp", st.t_decomp}, {"t_solve", st.t_solve}, {"grading", st.grading}, {"cache_hit", hit}};
   // On a cache hit t_mesh and t_decomp are the original preparation's; t_load is this load.
   if (hit) out["stats"]["t_load"] = st.t_load;
+  // Waited for another process preparing the same field (its lease) before loading or taking over.
+  if (r.contains("cache")) out["stats"]["t_wait"] = st.t_wait;
   // Fallbacks taken while preparing (e.g. edge protection skipped on thin features).
   if (!st.warnings.empty()) out["warnings"] = st.warnings;
   out["mesh"] = {{"n_vertices", surface.vertices.rows()}, {"n_faces", surface.faces.rows()}, {"n_welded_vertices", welded.surface.vertices.rows()}};

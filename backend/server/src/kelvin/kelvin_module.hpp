@@ -28,7 +28,7 @@ class KelvinModule final : public Module {
  public:
   explicit KelvinModule(Service& core)
       : Module(core),
-        registry_(core.cache_dir(), config_.limits.max_response_bytes, config_.limits.max_response_bytes_total) {}
+        registry_(field_store(core.cache_dir(), config_.limits), config_.limits.max_response_bytes, config_.limits.max_response_bytes_total) {}
 
   std::string name() const override { return "kelvin"; }
   void register_routes() override;

@@ -124,9 +124,9 @@ std::shared_ptr<PreparedField> PreparedRegistry::acquire(const mesh::SurfaceMesh
   };
   try {
     bool hit = false;
-    kelvin::Field field = cache_dir_.empty()
+    kelvin::Field field = store_.dir.empty()
                               ? kelvin::Field::prepare(surface, options, progress)
-                              : kelvin::Field::prepare_cached(surface, options, cache_dir_, progress, &hit);
+                              : kelvin::Field::prepare_cached(surface, options, store_, progress, &hit);
     const double response_mb = field.boundary_response_megabytes();
     const auto response_bytes = static_cast<std::size_t>(std::llround(response_mb * 1e6));
     std::unique_ptr<ResponseBudget::Share> share;

@@ -11,6 +11,7 @@
 #include "distlab/geometry/types.hpp"
 #include "distlab/kelvin/progress.hpp"
 #include "distlab/kelvin/sigma.hpp"
+#include "distlab/kelvin/store.hpp"
 #include "distlab/kelvin/tet_mesh.hpp"
 #include "distlab/mesh/surface.hpp"
 
@@ -66,6 +67,9 @@ struct Stats {
   // t_build is measured again (derived data are rebuilt) and t_load is the time of the load.
   bool cached = false;
   double t_load = 0;
+  // prepare_cached: seconds it waited for another process's preparation of the same field (its
+  // lease, store.hpp) before loading it or taking over.
+  double t_wait = 0;
   std::vector<std::string> warnings;  // e.g. edge protection skipped for thin features
 };
 
@@ -99,10 +103,16 @@ class Field {
   static Field prepare(const mesh::SurfaceMesh& surface, const PrepareOptions& options,
                        const Progress& progress = {});
   // As prepare, but reuses <cache_dir>/<content hash>.kelvin when present and intact, and
-  // writes it atomically otherwise. *hit (if given) tells whether the cache was used.
+  // writes it atomically otherwise. *hit (if given) tells whether the cache was used. Safe for
+  // many processes and machines on one directory (store.hpp): while one prepares a field, the
+  // others wanting it wait for it (progress stage "wait") and load it.
+  static Field prepare_cached(const mesh::SurfaceMesh& surface, const PrepareOptions& options,
+                              const FieldStore& store, const Progress& progress = {}, bool* hit = nullptr);
   static Field prepare_cached(const mesh::SurfaceMesh& surface, const PrepareOptions& options,
                               const std::string& cache_dir, const Progress& progress = {},
-                              bool* hit = nullptr);
+                              bool* hit = nullptr) {
+    return prepare_cached(surface, options, FieldStore{cache_dir}, progress, hit);
+  }
 
   Field(Field&&) noexcept;
   Field& operator=(Field&&) noexcept;

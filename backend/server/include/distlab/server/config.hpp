@@ -98,6 +98,14 @@ struct Limits {
   // in all (as max_held_triangles for meshes): 413 too_much_held, 503 busy.
   std::size_t max_held_bytes_per_address = std::size_t{1} << 30;
   std::size_t max_held_bytes = std::size_t{4} << 30;
+  // The field store (--cache-dir, kelvin/store.hpp), which servers, the CLI and Dask workers may
+  // share: after writing an entry the server evicts the least recently used ones until the
+  // entries take at most max_cache_bytes (0: no budget; entries used in the last minute are kept).
+  // A preparation's lease on its entry is renewed every cache_lease_seconds / 4; another process
+  // takes a lease over that it has not seen renewed for cache_lease_seconds (at once when its
+  // holder was a process of the same machine that is gone).
+  std::size_t max_cache_bytes = std::size_t{16} << 30;
+  double cache_lease_seconds = 60;
 };
 
 // The one table of limits: f(name, field) for each field of Limits (L: Limits or const Limits).
@@ -158,6 +166,8 @@ void for_each_limit(L& l, F&& f) {
   f("max_record_bytes", l.max_record_bytes);
   f("max_held_bytes_per_address", l.max_held_bytes_per_address);
   f("max_held_bytes", l.max_held_bytes);
+  f("max_cache_bytes", l.max_cache_bytes);
+  f("cache_lease_seconds", l.cache_lease_seconds);
 }
 
 struct ServiceConfig {

@@ -2,7 +2,8 @@
 // The JSON schema of Kelvin requests (issue 3), shared by `distlab kelvin` and later the server.
 //
 // Request:  {"mesh": {"path": FILE} | {"asset": NAME}, "lx": number, "center": [x, y, z]?,
-//            "far_radius": number?, "cache": DIR?,
+//            "far_radius": number?, "cache": DIR? (the field store, kelvin/store.hpp),
+//            "cache_budget": bytes? (with cache: evict least recently used entries down to it),
 //            "sigma": {"constant"?, "per_vertex"?: [one per vertex of the file, in its order;
 //                      vertices at one position carry one value],
 //                      "axis"?: AXIS | [AXIS, ...], "brushes"?: [BRUSH, ...]} (terms add up; brushes
@@ -14,7 +15,7 @@
 //            AXIS = {"axis": [x,y,z], "d0", "sigma_nom", "origin"?: [x,y,z], "width"?} (eq. 24)
 //            BRUSH = {"center": [x,y,z], "radius", "value", "falloff"?, "mode"?: "add"|"towards"}
 // Response: {"stats": {"n_verts", "n_tets", "size_mb", "t_mesh", "t_build", "t_decomp",
-//            "t_solve", "cache_hit"}, "mesh": {"n_vertices", "n_faces", "n_welded_vertices"},
+//            "t_solve", "cache_hit", "t_load" (hits), "t_wait" (with cache)}, "mesh": {"n_vertices", "n_faces", "n_welded_vertices"},
 //            "query": {"h": [...], "gradient": [[...], ...], "inside": [...]},
 //            "isosurfaces": [{"level", "path", "n_verts", "n_faces", "digest", "check"}, ...]}.
 //            A level the field never takes (at or below its minimum) is an error naming it, and
@@ -25,6 +26,7 @@
 //            h and gradient are null where undefined (inside, or V ≤ 0 there).
 //            With several levels the files are PATH-stem_<i>.ext, one per level.
 // Errors:   {"error": {"code", "message", "field"}} as for GAP.
+#include <cstdint>
 #include <functional>
 #include <string>
 #include <utility>
@@ -34,6 +36,7 @@
 
 #include "distlab/geometry/progress.hpp"
 #include "distlab/kelvin/field.hpp"
+#include "distlab/kelvin/store.hpp"
 #include "distlab/mesh/checks.hpp"
 #include "distlab/mesh/repair.hpp"
 #include "distlab/server/config.hpp"
@@ -135,5 +138,28 @@ inline double sizing_for_budget(const kelvin::PrepareOptions& o) { return o.grad
 // The smallest l_x whose estimate fits `budget` vertices (the estimate above solved for l_x);
 // +infinity when none does (the surface alone has budget vertices or more).
 double smallest_lx_within(const mesh::SurfaceMesh& surface, double budget, double far_radius = 1.0);
+
+// The field store (kelvin/store.hpp) of the service and the CBF fields: the directory with the
+// budget and lease of the limits table (max_cache_bytes, cache_lease_seconds).
+inline kelvin::FieldStore field_store(const std::string& dir, const Limits& limits) {
+  kelvin::FieldStore store{dir, limits.max_cache_bytes};
+  store.lease_seconds = limits.cache_lease_seconds;
+  return store;
+}
+// A store's budget in a request: a whole number of bytes, at least 1 (else InvalidInput on field).
+std::uint64_t parse_cache_budget(const nlohmann::json& j, const std::string& field);
+// `distlab cache ls | verify | gc` and distlab.cache in Python: one JSON for both (InvalidInput
+// "dir" when dir is not a directory).
+// ls:     {"dir", "bytes", "entries": [{"name", "bytes", "last_used" (Unix s), "current", "format",
+//          and for a current one "lx", "far_radius", "feature_angle", "grading" (null: chosen),
+//          "center", "surface_vertices", "surface_faces", "n_verts", "n_tets"}] (most recently
+//          used first), "leases": [{"name", "host", "pid", "started", "renewed", "lease_seconds",
+//          "state"}], "temporaries": [file names]}
+// verify: {"dir", "entries": [{"name", "bytes", "status", "removed"}], "ok", "bad", "removed"}
+// gc:     {"dir", "budget" (null: none), "keep_recent_seconds", "bytes_before", "bytes_after",
+//          "evicted": [names], "kept_recent", "removed": [file names]}
+nlohmann::json cache_ls_json(const std::string& dir);
+nlohmann::json cache_verify_json(const std::string& dir, bool fix);
+nlohmann::json cache_gc_json(const kelvin::FieldStore& store);
 
 }  // namespace distlab::server

@@ -97,9 +97,10 @@ struct PreparedField {
 
 class PreparedRegistry {
  public:
-  // Boundary responses: at most response_bytes each, response_bytes_total together.
-  PreparedRegistry(std::string cache_dir, std::size_t response_bytes, std::size_t response_bytes_total)
-      : cache_dir_(std::move(cache_dir)),
+  // Boundary responses: at most response_bytes each, response_bytes_total together. Prepared
+  // through the store (none if store.dir is empty).
+  PreparedRegistry(kelvin::FieldStore store, std::size_t response_bytes, std::size_t response_bytes_total)
+      : store_(std::move(store)),
         response_bytes_(response_bytes),
         responses_(std::make_shared<ResponseBudget>(response_bytes_total)) {}
   // The prepared field for this content: from memory, else waits for another job preparing the
@@ -122,7 +123,7 @@ class PreparedRegistry {
   Entry* find_locked(const std::string& key, const mesh::SurfaceMesh& s, const kelvin::PrepareOptions& o);
   std::unique_ptr<ResponseBudget::Share> take_response(std::size_t bytes);
 
-  std::string cache_dir_;
+  kelvin::FieldStore store_;
   std::size_t response_bytes_;
   std::shared_ptr<ResponseBudget> responses_;
   mutable std::mutex mutex_;
