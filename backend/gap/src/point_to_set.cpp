@@ -14,6 +14,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 
 #include "distlab/geometry/error.hpp"
 #include "distlab/geometry/overloaded.hpp"
@@ -182,57 +186,95 @@ void PointToSet::set_pose(const Pose& pose) {
     A_world_ = A_local_ * R_.transpose();
     b_world_ = b_local_ + A_world_ * pose.position;
     const auto n = static_cast<size_t>(A_world_.rows());
-    rows_.resize(n);
     // Padded to an even count with a row never violated (0·p − 1 < 0).
     const size_t padded = n + n % 2;
-    soa_.assign(4 * padded, 0.0);
-    std::fill(soa_.begin() + static_cast<std::ptrdiff_t>(3 * padded), soa_.end(), 1.0);
+    soa_.assign(kRowArrays * padded, 0.0);
+    std::fill(soa_.begin() + static_cast<std::ptrdiff_t>(3 * padded), soa_.begin() + static_cast<std::ptrdiff_t>(4 * padded), 1.0);
     for (size_t i = 0; i < n; ++i) {
-      HalfSpace& r = rows_[i];
       const auto row = static_cast<Eigen::Index>(i);
-      const Vec3 u = A_world_.row(row).transpose();
-      const double w = weights_[row];
-      r = {{u.x(), u.y(), u.z()}, b_world_[row], w, {w * u.x() * u.x(), w * u.x() * u.y(), w * u.x() * u.z(), w * u.y() * u.y(), w * u.y() * u.z(), w * u.z() * u.z()}};
-      for (int q = 0; q < 3; ++q) soa_[q * padded + i] = u[q];
+      for (int q = 0; q < 3; ++q) soa_[q * padded + i] = A_world_(row, q);
       soa_[3 * padded + i] = b_world_[row];
+      soa_[4 * padded + i] = weights_[row];
     }
   }
   rho_center_world_ = pose.to_world(rho_.center);
 }
 
-// Eq. (5) over the rows; only violated rows (s > 0) contribute, and each adds a rank-one
-// Hessian term d2 W u uᵀ from the row's precomputed weighted outer product. The s of two rows
-// are computed at once (SSE2 lanes, the same operations and rounding as one at a time) from the
-// structure-of-arrays copy; most rows are not violated and cost little more than that. The
-// order is a template argument: no test of it per violated row.
+// Eq. (5) over the rows; only violated rows (s > 0) contribute, each a rank-one Hessian term
+// Φ'' W u uᵀ. The s of two rows are computed at once (SSE2 lanes, the same operations and
+// rounding as one at a time) from the structure-of-arrays rows (soa_). The violated rows are
+// marked first without a branch (about a third of the rows are violated, at random: a branch per
+// row mispredicted about once in three rows), then their terms are added in row order. The order
+// is a template argument: no test of it per violated row.
+namespace {
+
+typedef double V2 __attribute__((vector_size(16), aligned(8)));  // unaligned loads
+
+// Bit 0: s[0] > 0, bit 1: s[1] > 0 (one compare and movmskpd with SSE2).
+inline std::uint64_t violated_pair(V2 s) {
+#ifdef __SSE2__
+  return static_cast<std::uint64_t>(_mm_movemask_pd(_mm_cmpgt_pd(s, _mm_setzero_pd())));
+#else
+  return std::uint64_t{s[0] > 0} | std::uint64_t{s[1] > 0} << 1;
+#endif
+}
+
+// Eq. (5)'s sum over violated rows, to derivative order Order, in the order the rows are added:
+// W Φ, W Φ' u and Φ'' W u uᵀ, W u uᵀ formed as (W u_i) u_j where a row is violated (the same
+// products that were once stored per row).
+template <int Order>
+struct Sums {
+  double value = 0, g[3] = {0, 0, 0}, h[6] = {0, 0, 0, 0, 0, 0};
+  void add(double w, double ux, double uy, double uz, double phi, double d1, double d2) {
+    value += w * phi;
+    if constexpr (Order >= 1) {
+      const double c = w * d1;
+      g[0] += c * ux, g[1] += c * uy, g[2] += c * uz;
+    }
+    if constexpr (Order >= 2) {
+      const double wx = w * ux, wy = w * uy, wz = w * uz;
+      h[0] += d2 * (wx * ux), h[1] += d2 * (wx * uy), h[2] += d2 * (wx * uz);
+      h[3] += d2 * (wy * uy), h[4] += d2 * (wy * uz), h[5] += d2 * (wz * uz);
+    }
+  }
+  P2SValue result() const {
+    P2SValue v;
+    v.value = value;
+    v.gradient = Vec3(g[0], g[1], g[2]);
+    v.hessian << h[0], h[1], h[2], h[1], h[3], h[4], h[2], h[4], h[5];
+    return v;
+  }
+};
+
+}  // namespace
+
 template <int Order>
 P2SValue PointToSet::halfspaces_world(const Vec3& p) const {
-  typedef double V2 __attribute__((vector_size(16), aligned(8)));  // unaligned loads
-  double value = 0, g[3] = {0, 0, 0}, h[6] = {0, 0, 0, 0, 0, 0};
-  const auto add = [&](const HalfSpace& r, double s) {
-    const auto j = phi_.jet(s);
-    value += r.w * j.value;
-    if constexpr (Order >= 1) {
-      const double c = r.w * j.d1;
-      for (int q = 0; q < 3; ++q) g[q] += c * r.u[q];
-    }
-    if constexpr (Order >= 2)
-      for (int q = 0; q < 6; ++q) h[q] += j.d2 * r.wuu[q];
-  };
+  Sums<Order> sums;
   const V2 px = {p.x(), p.x()}, py = {p.y(), p.y()}, pz = {p.z(), p.z()};
-  const size_t padded = soa_.size() / 4;
-  const double *ux = soa_.data(), *uy = ux + padded, *uz = uy + padded, *ub = uz + padded;
-  for (size_t i = 0; i < padded; i += 2) {
-    const V2 s = *reinterpret_cast<const V2*>(ux + i) * px + *reinterpret_cast<const V2*>(uy + i) * py +
-                 *reinterpret_cast<const V2*>(uz + i) * pz - *reinterpret_cast<const V2*>(ub + i);
-    if (s[0] > 0) add(rows_[i], s[0]);
-    if (s[1] > 0) add(rows_[i + 1], s[1]);  // a padding row is never violated
+  const size_t padded = soa_.size() / kRowArrays;
+  const double *ux = soa_.data(), *uy = ux + padded, *uz = uy + padded, *ub = uz + padded, *uw = ub + padded;
+  // Rows in chunks of 64: one bit per violated row, their s kept beside.
+  constexpr size_t kChunk = 64;
+  alignas(16) double sv[kChunk];
+  for (size_t start = 0; start < padded; start += kChunk) {
+    const size_t count = std::min(padded - start, kChunk);
+    std::uint64_t violated = 0;
+    for (size_t i = 0; i < count; i += 2) {
+      const size_t at = start + i;
+      const V2 s = *reinterpret_cast<const V2*>(ux + at) * px + *reinterpret_cast<const V2*>(uy + at) * py +
+                   *reinterpret_cast<const V2*>(uz + at) * pz - *reinterpret_cast<const V2*>(ub + at);
+      *reinterpret_cast<V2*>(sv + i) = s;
+      violated |= violated_pair(s) << i;  // a padding row is never violated
+    }
+    for (; violated; violated &= violated - 1) {
+      const auto i = static_cast<size_t>(__builtin_ctzll(violated));
+      const size_t at = start + i;
+      const auto j = phi_.jet(sv[i]);
+      sums.add(uw[at], ux[at], uy[at], uz[at], j.value, j.d1, j.d2);
+    }
   }
-  P2SValue v;
-  v.value = value;
-  v.gradient = Vec3(g[0], g[1], g[2]);
-  v.hessian << h[0], h[1], h[2], h[1], h[3], h[4], h[2], h[4], h[5];
-  return v;
+  return sums.result();
 }
 
 template <class T>

@@ -83,7 +83,6 @@ class PointToSet {
   // Euclidean start is computed; no effect on results.
   void prefetch() const {
     prefetch_bytes(soa_.data(), soa_.size() * sizeof(double));
-    prefetch_bytes(rows_.data(), rows_.size() * sizeof(HalfSpace));
   }
   // The same for a polytope's vertices, which the Euclidean start's support calls read first:
   // on a cold call their misses otherwise stall each of GJK's first support points.
@@ -121,15 +120,11 @@ class PointToSet {
   MatX3 A_local_, A_world_;  // half-spaces (polytopes and boxes)
   VecX b_local_, b_world_;
   VecX weights_;
-  // World-frame rows with their weights, for the evaluation loop (set_pose).
-  struct HalfSpace {
-    double u[3];    // unit normal
-    double b;       // offset: the row is violated where u·p > b
-    double w;       // W_i
-    double wuu[6];  // W_i u uᵀ: xx, xy, xz, yy, yz, zz
-  };
-  std::vector<HalfSpace> rows_;
-  // The rows' u_x, u_y, u_z and b as four arrays, each padded to an even count (halfspaces_world).
+  // The world-frame rows for the evaluation (set_pose): five arrays, u_x, u_y, u_z (the unit
+  // normal), b (the row is violated where u·p > b) and W_i, each padded to an even count. 40
+  // bytes a row: a cold call fetches few cache lines (the weighted outer products W u uᵀ are
+  // formed where a row is violated instead of being stored).
+  static constexpr size_t kRowArrays = 5;
   std::vector<double> soa_;
   double round_weight_ = 1.0;
   Ball rho_{Vec3::Zero(), 1.0};
