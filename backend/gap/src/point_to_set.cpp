@@ -277,6 +277,59 @@ P2SValue PointToSet::halfspaces_world(const Vec3& p) const {
   return sums.result();
 }
 
+unsigned PointToSet::violated_rows(const Vec3& p, double* s, unsigned* index) const {
+  const V2 px = {p.x(), p.x()}, py = {p.y(), p.y()}, pz = {p.z(), p.z()};
+  const size_t padded = soa_.size() / kRowArrays;
+  const double *ux = soa_.data(), *uy = ux + padded, *uz = uy + padded, *ub = uz + padded;
+  unsigned n = 0;
+  for (size_t i = 0; i < padded; i += 2) {
+    // The same operations as halfspaces_world; listed without a branch.
+    const V2 si = *reinterpret_cast<const V2*>(ux + i) * px + *reinterpret_cast<const V2*>(uy + i) * py +
+                  *reinterpret_cast<const V2*>(uz + i) * pz - *reinterpret_cast<const V2*>(ub + i);
+    s[n] = si[0], index[n] = static_cast<unsigned>(i), n += si[0] > 0;
+    s[n] = si[1], index[n] = static_cast<unsigned>(i + 1), n += si[1] > 0;  // a padding row is never violated
+  }
+  return n;
+}
+
+template <int Order>
+P2SValue PointToSet::sum_rows(const unsigned* index, const Term* terms, unsigned count) const {
+  Sums<Order> sums;
+  const size_t padded = soa_.size() / kRowArrays;
+  const double *ux = soa_.data(), *uy = ux + padded, *uz = uy + padded, *uw = uz + 2 * padded;
+  for (unsigned k = 0; k < count; ++k) {
+    const unsigned i = index[k];
+    sums.add(uw[i], ux[i], uy[i], uz[i], terms[k].value, terms[k].d1, terms[k].d2);
+  }
+  return sums.result();
+}
+
+void PointToSet::strict_pair(const Vec3& p, const PointToSet& other, const Vec3& q, int order, P2SValue& out,
+                             P2SValue& other_out) const {
+  const size_t rows = soa_.size() / kRowArrays, other_rows = other.soa_.size() / kRowArrays;  // padded; 0: round
+  if (rows == 0 || other_rows == 0 || rows > kPairRows || other_rows > kPairRows || !phi_.same_as(other.phi_)) {
+    out = strict(p, order);
+    other_out = other.strict(q, order);
+    return;
+  }
+  double s[2 * kPairRows];
+  unsigned index[2 * kPairRows];
+  const unsigned n = violated_rows(p, s, index);
+  const unsigned m = n + other.violated_rows(q, s + n, index + n);
+  Term terms[2 * kPairRows];
+  for (unsigned k = 0; k < m; ++k) {
+    const auto j = phi_.jet(s[k]);
+    terms[k] = {j.value, j.d1, j.d2};
+  }
+  const auto sum = [&](const PointToSet& set, const unsigned* at, const Term* t, unsigned count) {
+    return order >= 2 ? set.sum_rows<2>(at, t, count) : order == 1 ? set.sum_rows<1>(at, t, count)
+                                                                   : set.sum_rows<0>(at, t, count);
+  };
+  const P2SValue e = sum(*this, index, terms, n), other_e = sum(other, index + n, terms + n, m - n);
+  out = strict_from_weak(e, p, strict_, rho_, rho_center_world_, order);
+  other_out = strict_from_weak(other_e, q, other.strict_, other.rho_, other.rho_center_world_, order);
+}
+
 template <class T>
 P2SValueT<T> PointToSet::capsule_local(const Vec3T<T>& p, int order) const {
   const auto& cap = std::get<Capsule>(shape_);

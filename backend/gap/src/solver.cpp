@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <type_traits>
 #include <utility>
 
 namespace distlab {
@@ -114,6 +115,18 @@ struct SaddleT {
 };
 using Saddle = SaddleT<double>;
 
+// E_B at x.a and E_A at x.b, to second order (together where the shapes allow:
+// PointToSet::strict_pair, the same values).
+template <class T, class E>
+void evaluate(const E& A, const E& B, SaddleT<T>& x) {
+  if constexpr (std::is_same_v<E, PointToSet>) {
+    B.strict_pair(x.a, A, x.b, 2, x.eb, x.ea);
+  } else {
+    x.eb = B.strict(x.a, 2);
+    x.ea = A.strict(x.b, 2);
+  }
+}
+
 // The Newton step (δa, δb) of the saddle equations below from their residuals rb, ra and the
 // Hessians Eb = ∂²E_B(a), Ea = ∂²E_A(b). With Hb = Eb − I, Ha = Ea − I:
 // (Hb δa + δb = −rb, δa + Ha δb = −ra), so (I − Hb Ha) δb = Hb ra − rb and δa = −ra − Ha δb.
@@ -190,8 +203,7 @@ bool joint_newton(const E& A, const E& B, SaddleT<T>& s, T tol, int max_iter, in
       next->a = cur->a + alpha * da;
       next->ba = cur->ba + alpha * dba;
       next->b = next->a + next->ba;
-      next->eb = B.strict(next->a, 2);
-      next->ea = A.strict(next->b, 2);
+      evaluate<T>(A, B, *next);
       V rbn, ran;
       const T m = residual(*next, rbn, ran);
       if (m < (1 - T(1e-4) * alpha) * merit || m == 0) {
@@ -357,8 +369,8 @@ bool predict_witnesses(const WitnessSolution& last, const Pose& last_pose_a, con
 
 void solve_predicted(const PointToSet& A, const PointToSet& B, const Prediction& p, double tol, int max_iter,
                      WitnessSolution& out) {
-  // E_A at b, E_B at a, built in place rather than zeroed (a 288-byte rep stos) and assigned.
-  Saddle s{p.a, p.a + p.ba, p.ba, A.strict(p.a + p.ba, 2), B.strict(p.a, 2)};
+  Saddle s{p.a, p.a + p.ba, p.ba, {}, {}};
+  evaluate<double>(A, B, s);  // E_A at b, E_B at a
   // The Hessians at the last other point and where (first the carried ones, exact at the anchors).
   Mat3 hb = p.hessian_b, ha = p.hessian_a;
   Vec3 at_a = p.anchor_a, at_b = p.anchor_b;
@@ -393,7 +405,7 @@ void solve_predicted(const PointToSet& A, const PointToSet& B, const Prediction&
     }
     hb = s.eb.hessian, ha = s.ea.hessian, at_a = s.a, at_b = s.b;
     s.a += da, s.ba += dba, s.b = s.a + s.ba;
-    s.eb = B.strict(s.a, 2), s.ea = A.strict(s.b, 2);
+    evaluate<double>(A, B, s);
   }
   // Not certified (or not finite): solve_newton, globally convergent, from the last point.
   if (!s.a.allFinite() || !s.ba.allFinite()) s.a = p.a, s.b = p.b;

@@ -40,6 +40,8 @@ class BaseFunction {
 
   double h() const { return h_; }
   int k() const { return k_; }
+  // The same Φ (it depends on h and k alone).
+  bool same_as(const BaseFunction& other) const { return h_ == other.h_ && k_ == other.k_; }
 
  private:
   // s > 0: series in ln(1+s) or closed form (T = double and long double, base_function.cpp).

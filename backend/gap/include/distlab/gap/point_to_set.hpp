@@ -73,6 +73,13 @@ class PointToSet {
   // e_S and E_S at a world point. `order` 0: value only, 1: + gradient, 2: + Hessian.
   P2SValue weak(const Vec3& p, int order) const;
   P2SValue strict(const Vec3& p, int order) const;
+  // strict() of this shape at p and of `other` at q (the solver's E_B at a and E_A at b), the
+  // same values bit for bit. Between polytopes (or boxes) with the same Φ the two evaluations
+  // are done together: their violated rows are listed first, then every Φ term of both is
+  // evaluated in one loop, then each sum is taken in row order. One evaluation alone leaves the
+  // core waiting on each term's chain of dependent operations; here the other's fill the gaps.
+  void strict_pair(const Vec3& p, const PointToSet& other, const Vec3& q, int order, P2SValue& out,
+                   P2SValue& other_out) const;
   // E_S in scalar T (long double) with the shape at `pose`, from the shape's own data (the
   // world-frame rows set_pose caches are doubles): the formulas of strict(), without double's
   // rounding, which near contact is ~1e-9 of D (s = u·p − b ~ 1e-7 against |p| ~ 0.3). A
@@ -109,6 +116,16 @@ class PointToSet {
   P2SValueT<T> weak_local(const Vec3T<T>& p, int order) const;
   template <int Order>
   P2SValue halfspaces_world(const Vec3& p) const;
+  // strict_pair's pieces: the rows violated at p (s > 0) in row order, their s and indices
+  // (returns the count; at most kPairRows padded rows), and eq. (5)'s sum over them from their Φ
+  // terms, as halfspaces_world adds them.
+  static constexpr size_t kPairRows = 64;
+  struct Term {
+    double value, d1, d2;
+  };
+  unsigned violated_rows(const Vec3& p, double* s, unsigned* index) const;
+  template <int Order>
+  P2SValue sum_rows(const unsigned* index, const Term* terms, unsigned count) const;
   template <class T>
   P2SValueT<T> capsule_local(const Vec3T<T>& p, int order) const;
 
