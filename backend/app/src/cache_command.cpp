@@ -104,8 +104,9 @@ std::string local_time(double unix_seconds) {
 double unix_now() { return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count(); }
 
 void ls_table(const json& j, std::ostream& out) {
+  // SURFACE is the input surface (vertices/faces), FIELD the prepared tet mesh's vertices.
   out << std::left << std::setw(18) << "NAME" << std::setw(12) << "SIZE" << std::setw(21) << "LAST USED" << std::setw(9) << "LX"
-      << std::setw(9) << "FACES" << std::setw(9) << "VERTS"
+      << std::setw(16) << "SURFACE V/F" << std::setw(13) << "FIELD VERTS"
       << "FORMAT\n";
   for (const json& e : j["entries"]) {
     const bool current = e.value("current", false);
@@ -114,11 +115,15 @@ void ls_table(const json& j, std::ostream& out) {
     if (current) {
       std::ostringstream lx;
       lx << e["lx"].get<double>();
-      out << std::setw(9) << lx.str() << std::setw(9) << e["surface_faces"].get<long>() << std::setw(9) << e["n_verts"].get<long>();
+      const std::string surface = std::to_string(e["surface_vertices"].get<long>()) + "/" + std::to_string(e["surface_faces"].get<long>());
+      out << std::setw(9) << lx.str() << std::setw(16) << surface << std::setw(13) << e["n_verts"].get<long>();
     } else {
-      out << std::setw(27) << "";
+      out << std::setw(38) << "";
     }
-    out << (current ? "current" : e.value("format", std::string("unreadable"))) << "\n";
+    // ls reads headers only: a damaged body shows as current until verify reads it whole.
+    out << (current ? "current" : e.value("readable", false) ? "old: " + e.value("format", std::string())
+                                                             : std::string("unreadable"))
+        << "\n";
   }
   out << j["entries"].size() << " entries, " << human_bytes(j["bytes"].get<double>()) << "\n";
   const double now = unix_now();
