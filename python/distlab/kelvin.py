@@ -12,6 +12,7 @@ import numpy as np
 
 from . import _core
 from . import batch as _batch
+from .errors import InvalidInput
 
 __all__ = ["solve", "Field", "prepare_many", "INSIDE", "NONPOSITIVE"]
 
@@ -200,14 +201,28 @@ def prepare_many(meshes: Sequence[Mesh], lx: float, *, cache_dir: Union[str, os.
             return task_progress
 
         for i, mesh in enumerate(meshes):
-            out.append(_prepare_task(mesh, lx, cache, options, one(i)))
+            try:
+                out.append(_prepare_task(mesh, lx, cache, options, one(i)))
+            except InvalidInput as e:
+                raise _mesh_error(i, mesh, e) from None
             finished[i] = True
             if progress is not None:
                 progress(*report(finished, partial))
         return out
     tasks = [(mesh, lx, cache, options) for mesh in meshes]
-    b = _batch.Batch(client, "kelvin-prepare", _prepare_task, tasks, list, report)
+    b = _batch.Batch(client, "kelvin-prepare", _prepare_task, tasks, list, report,
+                     lambda i, e: _mesh_error(i, meshes[i], e))
     return b.wait(progress) if wait else b
+
+
+def _mesh_error(i: int, mesh: Mesh, error: BaseException) -> BaseException:
+    """An error of one mesh's preparation names the mesh in the batch (meshes[i] and its path):
+    with hundreds of meshes, "path: no such file" does not say which."""
+    if not isinstance(error, InvalidInput):
+        return error
+    what = f"meshes[{i}]" + (f" ({mesh})" if isinstance(mesh, str) else "")
+    mesh_field = error.field in ("", "path", "mesh") or error.field.startswith(("vertices", "faces", "mesh."))
+    return type(error)(f"meshes[{i}]" if mesh_field else error.field, f"{what}: {error.message}")
 
 
 def _prepare_task(mesh: Mesh, lx: float, cache_dir: str, options: Mapping[str, Any],

@@ -198,12 +198,19 @@ def test_kelvin_prepare_many_fills_the_cache_as_locally(client, tmp_path):
                 assert x.tobytes() == y.tobytes()
 
 
-def test_kelvin_prepare_many_error_crosses_from_the_worker(client, tmp_path):
+def test_kelvin_prepare_many_error_crosses_from_the_worker_naming_the_mesh(client, tmp_path):
+    meshes = [(CUBE_V, CUBE_F), (CUBE_V, CUBE_F[:-1])]
     with pytest.raises(distlab.InvalidInput) as local:
-        kelvin.prepare_many([(CUBE_V, CUBE_F[:-1])], lx=0.3, cache_dir=tmp_path)
+        kelvin.prepare_many(meshes, lx=0.3, cache_dir=tmp_path)
     with pytest.raises(distlab.InvalidInput) as ours:
-        kelvin.prepare_many([(CUBE_V, CUBE_F), (CUBE_V, CUBE_F[:-1])], lx=0.3, cache_dir=tmp_path, client=client)
+        kelvin.prepare_many(meshes, lx=0.3, cache_dir=tmp_path, client=client)
     assert (ours.value.field, ours.value.message) == (local.value.field, local.value.message)
+    assert ours.value.field == "meshes[1]" and ours.value.message.startswith("meshes[1]: "), ours.value
+    # A file that is not there: its index and its path (with hundreds of meshes, which one).
+    missing = str(tmp_path / "missing.stl")
+    with pytest.raises(distlab.InvalidInput) as info:
+        kelvin.prepare_many([ROOT / "assets" / "cube.stl", missing], lx=0.3, cache_dir=tmp_path, client=client)
+    assert info.value.field == "meshes[1]" and f"meshes[1] ({missing})" in info.value.message, info.value
 
 
 @pytest.mark.parametrize("how", ["cancel", "sigint", "progress raises"])
