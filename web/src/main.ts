@@ -5,7 +5,7 @@ import { api } from "./core/api";
 import { allShortcuts, installKeyHandler, registerGlobal, setViewShortcuts } from "./core/keys";
 import { socket } from "./core/socket";
 import { setToastScope, showError } from "./core/toast";
-import { hashFor, parseHash, writeState } from "./core/urlstate";
+import { cancelStateWrite, hashFor, parseHash, writeState } from "./core/urlstate";
 import { startUserScene, userSceneItems, userSceneView } from "./core/user_scene";
 import type { View, ViewEntry, ViewHost } from "./core/view";
 
@@ -19,16 +19,14 @@ const $ = <T extends HTMLElement>(id: string) => document.getElementById(id) as 
 let current: { id: string; view: View } | null = null;
 let mounting = 0;
 
-const host: ViewHost = {
+// What every view's host shares; hostFor adds the state writes of one view.
+const host: Omit<ViewHost, "saveState"> = {
   canvas: $("canvas"),
   panel: $("panel"),
   bottom: $("bottom"),
   showBottom(show) {
     $("bottom").hidden = !show;
     document.body.classList.toggle("with-bottom", show);
-  },
-  saveState(state, shrink) {
-    if (current) writeState(current.id, state, shrink);
   },
   status(text) {
     $("status").textContent = text;
@@ -47,6 +45,18 @@ const host: ViewHost = {
   },
 };
 
+/** The host a view is mounted with: the shell's, but its state writes go to the URL only while
+ *  that view is the one shown. A view left behind (its debounced writes, a job or a request that
+ *  ends after the switch) never writes another view's link. */
+function hostFor(id: string, view: View): ViewHost {
+  return {
+    ...host,
+    saveState(state, shrink) {
+      if (current?.view === view) writeState(id, state, shrink);
+    },
+  };
+}
+
 async function route(): Promise<void> {
   const { view: id, state } = await parseHash();
   const entry = views.find((v) => v.id === id) ?? views[0];
@@ -57,6 +67,7 @@ async function route(): Promise<void> {
   const ticket = ++mounting;
   setToastScope(entry.id);
   userSceneView(entry.id);
+  cancelStateWrite(); // the view being left may have a write pending
   current?.view.unmount();
   current = null;
   host.canvas.replaceChildren();
@@ -72,7 +83,7 @@ async function route(): Promise<void> {
     if (ticket !== mounting) return;
     current = { id: entry.id, view };
     setViewShortcuts(view.shortcuts());
-    await view.mount(host, state);
+    await view.mount(hostFor(entry.id, view), state);
   } catch (e) {
     showError(e, `cannot open ${entry.title}`);
   }

@@ -47,15 +47,29 @@ export async function compactHash(view: string, state: Record<string, unknown>):
 let pending: number | undefined;
 let writes = 0;
 /** Records a view's state in the URL without adding a history entry per drag step. A state whose
- *  link would be over LINK_BUDGET is written as `shrink` makes it (the view's reference to a file). */
+ *  link would be over LINK_BUDGET is written as `shrink` makes it (the view's reference to a file).
+ *  The write lands only while the hash still routes to `view`: a write left pending by a view the
+ *  user has just left (its change, then a tab click within the 150 ms) must not turn the new
+ *  view's link back into the old one's. */
 export function writeState(view: string, state: Record<string, unknown>, shrink?: (s: Record<string, unknown>) => Promise<Record<string, unknown>>): void {
   clearTimeout(pending);
   const ticket = ++writes;
   pending = window.setTimeout(async () => {
     let h = await compactHash(view, state);
     if (h === null) h = (await compactHash(view, shrink ? await shrink(state) : {})) ?? `#/${view}`;
-    if (ticket === writes && h !== location.hash) history.replaceState(null, "", h);
+    if (ticket === writes && routedView() === view && h !== location.hash) history.replaceState(null, "", h);
   }, 150);
+}
+
+/** Drops the state write not yet made (the shell calls it when it leaves a view). */
+export function cancelStateWrite(): void {
+  clearTimeout(pending);
+  writes++;
+}
+
+/** The view the hash routes to now ("" for none), as parseHash reads it. */
+function routedView(hash = location.hash): string {
+  return /^#\/([a-z0-9_-]+)(?:\?|$)/i.exec(hash)?.[1].toLowerCase() ?? "";
 }
 
 function toBase64Url(bytes: Uint8Array): string {

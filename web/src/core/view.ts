@@ -10,7 +10,8 @@ export interface ViewHost {
   readonly bottom: HTMLElement;
   showBottom(show: boolean): void;
   /** Persist the view's state in the URL (shareable links); `shrink` gives the state to write
-   *  when the link would be too long (see urlstate.ts). */
+   *  when the link would be too long (see urlstate.ts). Only while the view is shown: once the
+   *  user has left it, its calls (and its writes still pending) change nothing. */
   saveState(state: Record<string, unknown>, shrink?: (s: Record<string, unknown>) => Promise<Record<string, unknown>>): void;
   /** A line of text in the status bar (e.g. "D = 0.1234 m"). */
   status(text: string): void;
