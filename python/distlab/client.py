@@ -12,14 +12,14 @@ import os
 import time
 import warnings
 from typing import TYPE_CHECKING, Any, Callable, Dict, Iterator, List, Mapping, Optional, Tuple, Union
-from urllib.parse import urlsplit, urlunsplit
+from urllib.parse import quote, urlsplit, urlunsplit
 
 import msgpack
 import numpy as np
 import requests
 import websocket
 
-from .errors import InvalidInput
+from .errors import InvalidInput, InvalidInputType
 
 if TYPE_CHECKING:
     from .scene import Scene
@@ -109,7 +109,8 @@ class Client:
         self.recoveries = 0
         self.http = requests.Session()
         self._objects: List["KelvinObject"] = []  # what a new session makes again
-        self._uploads: Dict[str, Tuple[bytes, dict]] = {}  # upload id -> (file bytes, query)
+        # upload id -> (file bytes, query), or (None, {"digest"}) for one reused by its digest
+        self._uploads: Dict[str, Tuple[Optional[bytes], dict]] = {}
         self._renamed: Dict[str, str] = {}  # upload and job ids of a lost session -> their successors
         self._recovering = False
         self.session = session or self._send("POST", "/api/session")["session"]
@@ -138,7 +139,10 @@ class Client:
             self.session = self._send("POST", "/api/session")["session"]
             self.http.headers["X-Distlab-Session"] = self.session
             for old, (data, query) in list(self._uploads.items()):
-                self._renamed[old] = self._send("POST", "/api/kelvin/uploads", params=query, data=data)["upload"]
+                if data is None:  # reused by its digest: the server must hold it still
+                    self._renamed[old] = self._send("POST", "/api/kelvin/uploads/reuse", json=query)["upload"]
+                else:
+                    self._renamed[old] = self._send("POST", "/api/kelvin/uploads", params=query, data=data)["upload"]
                 self._uploads[self._renamed[old]] = self._uploads.pop(old)
             for obj in self._objects:
                 body = dict(obj._body)
@@ -275,10 +279,13 @@ class Client:
     # -- Kelvin ---------------------------------------------------------------------------------
 
     def upload(self, mesh: Union[str, os.PathLike, bytes], format: Optional[str] = None, *,
-               unit: Optional[str] = None, scale: Optional[float] = None, info: bool = False) -> Any:
+               unit: Optional[str] = None, scale: Optional[float] = None, digest: Optional[str] = None,
+               info: bool = False) -> Any:
         """Uploads a mesh file (path or bytes; ``format`` from the extension by default) in its
         ``unit`` ("m", "cm", "mm", "in") or ``scale`` (metres per file unit); its id, or with
-        ``info`` the whole answer (``bounding_box``, ``lx_range``, ``lx_fraction_range``, ...)."""
+        ``info`` the whole answer (``digest``, ``bounding_box``, ``lx_range``, ``lx_fraction_range``,
+        ...). With ``digest`` (the mesh a link or :meth:`reuse_upload` names) a file whose mesh has
+        another digest is refused: ServiceError 422 ``different_mesh``, field ``body``."""
         if unit is not None and scale is not None:
             raise ValueError("give unit or scale, not both")
         if not isinstance(mesh, (bytes, bytearray)):
@@ -290,6 +297,8 @@ class Client:
             params["unit"] = unit
         if scale is not None:
             params["scale"] = repr(float(scale))
+        if digest is not None:
+            params["digest"] = _digest(digest)
         answer = self._request("POST", "/api/kelvin/uploads", params=params, data=bytes(mesh))
         if self.recover:
             self._uploads[answer["upload"]] = (bytes(mesh), params)
@@ -298,8 +307,71 @@ class Client:
     def delete_upload(self, upload: str) -> None:
         """Forgets an upload: its triangles leave this client's share of the server's
         (``max_held_triangles_per_address``); objects made from it keep their own."""
-        self._request("DELETE", lambda: f"/api/kelvin/uploads/{self._current(upload)}")
+        self._request("DELETE", lambda: self._upload_path(upload))
         self._uploads.pop(self._current(upload), None)
+
+    def reuse_upload(self, digest: str, *, info: bool = False) -> Any:
+        """A mesh this server already holds (an upload of any session, while one holds it), named
+        by its ``digest`` (SHA-256, 64 lower-case hex digits: an upload's ``info["digest"]``, an
+        object's ``surface_digest``, a shared link's), made an upload of this session without
+        sending the file (POST /api/kelvin/uploads/reuse); its id, or with ``info`` the whole
+        answer (as :meth:`upload`'s, with ``reused`` True). Nothing else of the session that
+        uploaded it is given. A digest the server does not hold (no session holds it any more, or
+        another server) raises ServiceError 404 ``upload_not_held``, field ``digest``: upload the
+        file again, with ``upload(path, digest=digest)`` to have it checked."""
+        body = {"digest": _digest(digest)}
+        answer = self._request("POST", "/api/kelvin/uploads/reuse", json=body)
+        if self.recover:
+            self._uploads[answer["upload"]] = (None, body)
+        return answer if info else answer["upload"]
+
+    def upload_surface(self, upload: str) -> dict:
+        """An upload's mesh as the server read it, to look at before preparing it (GET
+        /api/kelvin/uploads/ID/surface): ``positions`` (n, 3) float32, the file's vertices in its
+        order, in metres (after the unit or scale); ``indices`` (m, 3) uint32, its triangles in the
+        file's face order (a polygon's triangles in order); ``digest``, ``upload``. The numbering
+        is the one :meth:`upload_defects` and refusals use. An id not of this session raises
+        ServiceError 404 naming field ``id``."""
+        return decode_mesh_frame(self._request("GET", lambda: self._upload_path(upload, "/surface"), raw=True))
+
+    def upload_defects(self, upload: str, *, geometry: bool = True) -> dict:
+        """Where an upload is not a closed 2-manifold (GET /api/kelvin/uploads/ID/defects), as the
+        preparation sees it, in the numbering of :meth:`upload_surface`: ``counts`` (whole
+        counts: boundary_edges, non_manifold_edges, non_manifold_vertices, degenerate_faces,
+        self_intersections, components), and the lists as int64 arrays, each at most ``max_items``
+        long (``truncated`` says one stopped there): ``boundary_edges`` and ``non_manifold_edges``
+        (k, 2) vertex pairs, ``non_manifold_vertices`` (k,), ``degenerate_faces`` (k,) faces,
+        ``self_intersections`` (k, 2) face pairs (``self_intersections_complete``,
+        ``unchecked_faces``); ``components`` (each with ``faces``, ``volume`` in m³ and ``runs``
+        (r, 2) [first face, count]) and ``largest_component``. With ``geometry`` (one request more,
+        the upload's surface) also ``geometry``: the defects' coordinates in metres, float32,
+        ``boundary_edges`` and ``non_manifold_edges`` (k, 2, 3) segment ends,
+        ``non_manifold_vertices`` (k, 3), ``degenerate_faces`` (k, 3, 3) triangle corners and
+        ``self_intersections`` (k, 2, 3, 3) triangle pairs. An id not of this session raises
+        ServiceError 404 naming field ``id``."""
+        answer = self._request("GET", lambda: self._upload_path(upload, "/defects"))
+        out = dict(answer)
+        for key, width in _DEFECT_LISTS.items():
+            out[key] = np.asarray(answer[key], dtype=np.int64).reshape((-1, width) if width else (-1,))
+        out["components"] = [dict(c, runs=np.asarray(c["runs"], dtype=np.int64).reshape(-1, 2))
+                             for c in answer["components"]]
+        if geometry:
+            surface = self.upload_surface(upload)
+            p, f = surface["positions"], surface["indices"].astype(np.int64)
+            out["geometry"] = {
+                "boundary_edges": p[out["boundary_edges"]],
+                "non_manifold_edges": p[out["non_manifold_edges"]],
+                "non_manifold_vertices": p[out["non_manifold_vertices"]],
+                "degenerate_faces": p[f[out["degenerate_faces"]]],
+                "self_intersections": p[f[out["self_intersections"]]],
+            }
+        return out
+
+    def _upload_path(self, upload: str, tail: str = "") -> str:
+        """An upload's path in the current session (its id quoted: an id is never a path)."""
+        if not isinstance(upload, str):
+            raise InvalidInputType("id", f"an upload id is a string, got {type(upload).__name__}")
+        return f"/api/kelvin/uploads/{quote(self._current(upload), safe='')}{tail}"
 
     def kelvin_object(self, *, asset: Optional[str] = None, upload: Optional[str] = None,
                       mesh: Optional[Tuple[Any, Any]] = None, lx: Optional[float] = None,
@@ -595,6 +667,18 @@ class KelvinObject:
         self.client._request("DELETE", self._path)
         if self in self.client._objects:
             self.client._objects.remove(self)
+
+
+# GET /api/kelvin/uploads/ID/defects: its lists and their row widths (0: a flat list).
+_DEFECT_LISTS = {"boundary_edges": 2, "non_manifold_edges": 2, "non_manifold_vertices": 0, "degenerate_faces": 0,
+                 "self_intersections": 2}
+
+
+def _digest(digest) -> str:
+    """A mesh digest as the service takes it (it checks the 64 hex digits and names ``digest``)."""
+    if not isinstance(digest, str):
+        raise InvalidInputType("digest", f"digest must be a string of 64 hex digits, got {type(digest).__name__}")
+    return digest
 
 
 def _plain(x):
