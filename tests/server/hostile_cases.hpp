@@ -3,6 +3,7 @@
 // domain values, uploads in every accepted format, sessions, WebSocket frames and static paths.
 // Each case names the request and the class of answer it must get (hostile_harness.hpp).
 #include <cstdint>
+#include <tuple>
 
 #include "fuzz/mesh_bytes.hpp"
 #include "server/hostile_harness.hpp"
@@ -485,6 +486,20 @@ inline void gap_cases(std::vector<Case>& out) {
     out.push_back(api("gap/" + name, "POST", "/api/gap/distance", body.dump(), e, why));
     out.back().check = no_null(keys);
   };
+  // A quaternion whose norm overflows a double ([1e308, 1e308, 1e308, 1e308]) is the rotation of
+  // [1, 1, 1, 1] (120° about the diagonal); its q / |q| was the zero quaternion, which Eigen turns
+  // into the identity: the box was silently not rotated.
+  {
+    const json sphere_a = {{"type", "sphere"}, {"radius", 0.3}};
+    auto turned = [](double q) { return json{{"type", "box"}, {"size", {0.4, 0.2, 0.1}}, {"pose", {{"position", {1, 0, 0}}, {"quaternion", {q, q, q, q}}}}}; };
+    pair("pose_quaternion_1e308", sphere_a, turned(1e308), nullptr, Expect::ok, "new: an overflowing quaternion norm zeroed the rotation");
+    out.back().check = [sphere_a, turned](const Reply& r, Ctx& ctx) -> std::string {
+      const json got = json::parse(r.body, nullptr, false);
+      const json want = json::parse(call(ctx, "POST", "/api/gap/distance", json{{"a", sphere_a}, {"b", turned(1)}}.dump()).body, nullptr, false);
+      if (!got.is_object() || !want.is_object() || !got.contains("distance") || !want.contains("distance")) return " no distance to compare;";
+      return got["distance"] == want["distance"] ? "" : " distance " + got["distance"].dump() + ", with the quaternion [1, 1, 1, 1] " + want["distance"].dump() + ";";
+    };
+  }
   // Shapes (as a): degenerate, out of range, malformed.
   const std::vector<std::pair<std::string, json>> bad_shapes = {
       {"box_zero", {{"type", "box"}, {"size", {0, 1, 1}}}},
@@ -1556,6 +1571,479 @@ inline void ws_cases(std::vector<Case>& out) {
     return o;
   };
   out.push_back(many);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Scene items and recordings (routes_scene.cpp): an item is one msgpack frame, so the msgpack
+// itself is hostile here too (truncated, lying counts, deep, the wrong types), then every field
+// of the item, the pose route, the limits, the recordings' requests, parts and ends, and another
+// session's names. Every refusal must name its field (the request as a whole: "", the msgpack
+// itself: "body"). Run with small scene limits (test_hostile_requests.cpp, Hostile.Scene).
+
+namespace scene {
+
+// The limits the Scene runner starts the server with (the one-over cases stay a few kB).
+inline constexpr std::size_t kItems = 4, kVertices = 1000, kBytes = 50000, kRecordFrames = 4, kRecordBytes = 100000;
+
+inline std::string msgpack_request(const std::string& method, const std::string& target, const std::string& body,
+                                   const std::string& session, const std::string& extra_headers = "") {
+  std::string r = method + " " + target + " HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n";
+  if (!session.empty()) r += "X-Distlab-Session: " + session + "\r\n";
+  return r + "Content-Type: application/msgpack\r\nContent-Length: " + std::to_string(body.size()) + "\r\n" +
+         extra_headers + "\r\n" + body;
+}
+
+inline std::string packed(const json& j) {
+  const auto v = json::to_msgpack(j);
+  return {v.begin(), v.end()};
+}
+
+// A msgpack bin of 4-byte little-endian values (the frames' arrays).
+template <class T>
+json bin(const std::vector<T>& values) {
+  static_assert(sizeof(T) == 4);
+  std::vector<std::uint8_t> b(values.size() * 4);
+  if (!b.empty()) std::memcpy(b.data(), values.data(), b.size());
+  return json::binary(std::move(b));
+}
+
+inline json bytes(std::size_t n) { return json::binary(std::vector<std::uint8_t>(n, 0)); }
+
+// n points on a line, 3 floats each.
+inline std::vector<float> line_points(std::size_t n) {
+  std::vector<float> p(3 * n, 0.0f);
+  for (std::size_t i = 0; i < n; ++i) p[3 * i] = static_cast<float>(i) * 0.001f;
+  return p;
+}
+
+// A triangle: three points, one face.
+inline json triangle() {
+  return {{"kind", "mesh"}, {"positions", bin<float>({0, 0, 0, 1, 0, 0, 0, 1, 0})}, {"indices", bin<std::uint32_t>({0, 1, 2})}};
+}
+inline json points() { return {{"kind", "points"}, {"positions", bin<float>({0, 0, 0, 1, 0, 0, 0, 1, 0})}}; }
+
+// The error names `field` and, when `code` is given, has that code.
+inline std::function<std::string(const Reply&, Ctx&)> names(std::string field, std::string code = "") {
+  return [field, code](const Reply& r, Ctx& ctx) -> std::string {
+    std::string problem = field_is(field)(r, ctx);
+    const json j = json::parse(r.body, nullptr, false);
+    if (problem.empty() && !code.empty() && j["error"].value("code", "") != code)
+      problem = " error code \"" + j["error"].value("code", "") + "\", not \"" + code + "\";";
+    return problem;
+  };
+}
+
+// A 2xx whose pose has a unit quaternion (a rotation, not its overflow).
+inline std::string unit_pose(const Reply& r, Ctx&) {
+  const json j = json::parse(r.body, nullptr, false);
+  if (!j.is_object() || !j.contains("pose")) return " no pose in the answer;";
+  double n2 = 0;
+  for (const auto& q : j["pose"]["quaternion"]) n2 += q.get<double>() * q.get<double>();
+  return std::abs(n2 - 1) < 1e-12 ? "" : " the pose's quaternion has norm² " + json(n2).dump() + ", not 1 (" + r.body.substr(0, 160) + ");";
+}
+
+// Sessions and what the other one holds: an item and a recording (never this session's).
+inline void setup(Ctx& ctx, ServerProcess& server) {
+  ctx.web_dir = server.web_dir();
+  ctx.session = make_session(ctx);
+  ctx.other_session = make_session(ctx);
+  exchange(ctx.port, msgpack_request("PUT", "/api/scene/items/theirs", packed(points()), ctx.other_session), 30);
+  const json r = json::parse(call(ctx, "POST", "/api/scene/recordings", json{{"view", "gap"}, {"format", "png"}, {"frames", 2}}.dump(), ctx.other_session).body,
+                             nullptr, false);
+  ctx.other_recording = r.is_object() && r.contains("id") ? r["id"].get<std::string>() : "";
+  // The item the pose cases move.
+  exchange(ctx.port, msgpack_request("PUT", "/api/scene/items/posed", packed(points()), ctx.session), 30);
+}
+
+}  // namespace scene
+
+inline void scene_cases(std::vector<Case>& out) {
+  using namespace scene;
+  const float qnan = std::numeric_limits<float>::quiet_NaN(), pinf = std::numeric_limits<float>::infinity();
+  const double dnan = std::numeric_limits<double>::quiet_NaN(), dinf = std::numeric_limits<double>::infinity();
+
+  // PUT /api/scene/items/{name} with raw bytes; `field`: the field the refusal must name.
+  auto item_bytes = [&](std::string name, std::string body, Expect e, std::string field, std::string code = "", std::string target = "/api/scene/items/x") {
+    out.push_back(make(
+        "scene/item_" + name, [body, target](Ctx& c) { return msgpack_request("PUT", target, body, c.session); }, e));
+    if (e == Expect::client || e == Expect::status) out.back().check = names(field, code);
+  };
+  auto item = [&](std::string name, json frame, std::string field) { item_bytes(name, packed(frame), Expect::client, field); };
+  auto with = [](json base, const std::string& key, json value) {
+    base[key] = std::move(value);
+    return base;
+  };
+
+  // Valid items of each kind (the answers must be summaries, no NaN).
+  item_bytes("points_ok", packed(points()), Expect::ok, "");
+  item_bytes("mesh_ok", packed(triangle()), Expect::ok, "");
+  item_bytes("lines_ok", packed({{"kind", "lines"}, {"positions", bin<float>({0, 0, 0, 1, 0, 0})}, {"indices", bin<std::uint32_t>({0, 1})}}), Expect::ok, "");
+  item_bytes("frame_ok", packed({{"kind", "frame"}, {"size", 0.2}, {"view", "cbf"}, {"pose", {{"position", {0, 0, 1}}}}}), Expect::ok, "");
+  item_bytes("full_ok", packed(with(with(with(triangle(), "colors", bin<float>({1, 0, 0, 0, 1, 0, 0, 0, 1})), "scalars", bin<float>({-1e30f, 0, 1e30f})), "view", "kelvin")),
+             Expect::ok, "");
+
+  // The msgpack itself: truncated, trailing bytes, lying counts and lengths, not msgpack.
+  const std::string valid = packed(triangle());
+  item_bytes("msgpack_empty", "", Expect::client, "body");
+  item_bytes("msgpack_truncated_half", valid.substr(0, valid.size() / 2), Expect::client, "body");
+  item_bytes("msgpack_truncated_last_byte", valid.substr(0, valid.size() - 1), Expect::client, "body");
+  item_bytes("msgpack_one_byte_map", std::string("\x82", 1), Expect::client, "body");
+  item_bytes("msgpack_trailing_byte", valid + std::string(1, '\0'), Expect::client, "body");
+  item_bytes("msgpack_two_frames", valid + valid, Expect::client, "body");
+  item_bytes("msgpack_json_text", triangle().dump(), Expect::client, "body");
+  item_bytes("msgpack_reserved_c1", std::string("\x81\xa4kind\xc1", 7), Expect::client, "body");
+  item_bytes("msgpack_map32_count_huge", std::string("\xdf\xff\xff\xff\xff\xa4kind", 10), Expect::client, "body");
+  item_bytes("msgpack_array32_count_huge", std::string("\x81\xa9positions\xdd\xff\xff\xff\xff", 16), Expect::client, "body");
+  item_bytes("msgpack_bin32_length_huge", std::string("\x82\xa4kind\xa6points\xa9positions\xc6\xff\xff\xff\xff\0\0\0\0", 32), Expect::client, "body");
+  item_bytes("msgpack_str32_length_huge", std::string("\x81\xdb\xff\xff\xff\xff", 6), Expect::client, "body");
+  item_bytes("msgpack_ext32_length_huge", std::string("\x82\xa4kind\xa6points\xa9positions\xc9\xff\xff\xff\xff\x01", 29), Expect::client, "body");
+  item_bytes("msgpack_key_not_string", std::string("\x81\x01\x02", 3), Expect::client, "body");
+  item_bytes("msgpack_key_binary", std::string("\x81\xc4\x04kind\xa6points", 14), Expect::client, "body");
+  item_bytes("msgpack_nested_100000", std::string(100000, '\x91'), Expect::client, "");  // the depth limit: the request as a whole
+  item_bytes("msgpack_nested_maps", repeat(std::string("\x81\xa1k", 3), 1000) + std::string("\xc0", 1), Expect::client, "");
+  item_bytes("msgpack_root_nil", std::string("\xc0", 1), Expect::client, "");
+  item_bytes("msgpack_root_array", packed(json::array({1, 2, 3})), Expect::client, "");
+  item_bytes("msgpack_root_binary", std::string("\xc4\x01x", 3), Expect::client, "");
+  item_bytes("msgpack_root_nan", std::string("\xcb\x7f\xf8\0\0\0\0\0\0", 9), Expect::client, "");
+  item_bytes("msgpack_duplicate_key", std::string("\x82\xa4kind\xa4mesh\xa4kind\xa4mesh", 21), Expect::client, "kind");
+  std::string junk(4000, '\0');
+  std::mt19937 g(11);
+  for (auto& ch : junk) ch = static_cast<char>(g());
+  item_bytes("msgpack_random_bytes", junk, Expect::client, "body");
+  item_bytes("msgpack_random_after_map", std::string("\x83", 1) + junk, Expect::client, "body");
+
+  // Keys and kinds.
+  item("kind_missing", {{"positions", bin<float>({0, 0, 0})}}, "kind");
+  item("kind_unknown", with(points(), "kind", "cube"), "kind");
+  item("kind_empty", with(points(), "kind", ""), "kind");
+  item("kind_number", with(points(), "kind", 1), "kind");
+  item("kind_nil", with(points(), "kind", nullptr), "kind");
+  item("kind_array", with(points(), "kind", {"points"}), "kind");
+  item("view_unknown", with(points(), "view", "plots"), "view");
+  item("view_number", with(points(), "view", 3), "view");
+  item("view_nil", with(points(), "view", nullptr), "view");
+  item("unknown_key", with(points(), "zz_unknown", 1), "zz_unknown");
+  item("server_key_type", with(points(), "type", "scene_item"), "type");
+  item("server_key_n_vertices", with(points(), "n_vertices", 1000000), "n_vertices");
+  item("server_key_name", with(points(), "name", "other"), "name");
+  // Arrays: missing, not bin (an ext is no bin either), lengths that are no rows.
+  item("positions_missing", {{"kind", "points"}}, "positions");
+  item("positions_array", with(points(), "positions", {0, 0, 0, 1, 0, 0}), "positions");
+  item("positions_string", with(points(), "positions", "000"), "positions");
+  item("positions_nil", with(points(), "positions", nullptr), "positions");
+  item("positions_ext", with(points(), "positions", json::binary(std::vector<std::uint8_t>(36, 0), 5)), "positions");
+  item("positions_empty", with(points(), "positions", bytes(0)), "positions");
+  item("positions_13_bytes", with(points(), "positions", bytes(13)), "positions");
+  item("positions_one_float", with(points(), "positions", bytes(4)), "positions");
+  item("indices_ext", with(triangle(), "indices", json::binary(std::vector<std::uint8_t>(12, 0), 1)), "indices");
+  item("colors_ext", with(points(), "colors", json::binary(std::vector<std::uint8_t>(36, 0), 2)), "colors");
+  item("scalars_ext", with(points(), "scalars", json::binary(std::vector<std::uint8_t>(12, 0), 3)), "scalars");
+  // NaN, infinities and huge coordinates.
+  item("positions_nan", with(points(), "positions", bin<float>({0, 0, 0, 1, 0, qnan, 0, 1, 0})), "positions[1][2]");
+  item("positions_inf", with(points(), "positions", bin<float>({pinf, 0, 0, 1, 0, 0, 0, 1, 0})), "positions[0][0]");
+  item("positions_minus_inf", with(points(), "positions", bin<float>({0, 0, 0, 1, 0, 0, 0, -pinf, 0})), "positions[2][1]");
+  item("positions_1e7", with(points(), "positions", bin<float>({1e7f, 0, 0})), "positions[0][0]");
+  item("positions_float_max", with(points(), "positions", bin<float>({0, 0, std::numeric_limits<float>::max()})), "positions[0][2]");
+  item_bytes("positions_denormal", packed(with(points(), "positions", bin<float>({1e-45f, 0, 0}))), Expect::ok, "");
+  item("colors_nan", with(points(), "colors", bin<float>({qnan, 0, 0, 0, 0, 0, 0, 0, 0})), "colors[0][0]");
+  item("colors_above_one", with(points(), "colors", bin<float>({0, 0, 0, 0, 2, 0, 0, 0, 0})), "colors[1][1]");
+  item("colors_negative", with(points(), "colors", bin<float>({0, 0, 0, 0, 0, 0, 0, 0, -0.5f})), "colors[2][2]");
+  item("colors_short", with(points(), "colors", bin<float>({0, 0, 0})), "colors");
+  item("colors_array", with(points(), "colors", {0, 0, 0, 0, 0, 0, 0, 0, 0}), "colors");
+  item("scalars_nan", with(points(), "scalars", bin<float>({0, qnan, 0})), "scalars[1][0]");
+  item("scalars_inf", with(points(), "scalars", bin<float>({-pinf, 0, 0})), "scalars[0][0]");
+  item("scalars_short", with(points(), "scalars", bin<float>({0, 0})), "scalars");
+  // Indices: missing, where none belong, out of range, not whole rows.
+  item("indices_missing", {{"kind", "mesh"}, {"positions", bin<float>({0, 0, 0, 1, 0, 0, 0, 1, 0})}}, "indices");
+  item("indices_on_points", with(points(), "indices", bin<std::uint32_t>({0, 1, 2})), "indices");
+  item("indices_empty", with(triangle(), "indices", bytes(0)), "indices");
+  item("indices_out_of_range", with(triangle(), "indices", bin<std::uint32_t>({0, 1, 3})), "indices[0][2]");
+  item("indices_uint32_max", with(triangle(), "indices", bin<std::uint32_t>({0, 0xFFFFFFFFu, 2})), "indices[0][1]");
+  item("indices_11_bytes", with(triangle(), "indices", bytes(11)), "indices");
+  item("indices_lines_odd", {{"kind", "lines"}, {"positions", bin<float>({0, 0, 0, 1, 0, 0})}, {"indices", bin<std::uint32_t>({0, 1, 1})}}, "indices");
+  item("indices_array", with(triangle(), "indices", {0, 1, 2}), "indices");
+  item("frame_with_positions", {{"kind", "frame"}, {"positions", bin<float>({0, 0, 0})}}, "positions");
+  item("frame_with_indices", {{"kind", "frame"}, {"indices", bin<std::uint32_t>({0, 0, 0})}}, "indices");
+  // Colour, size and pose: msgpack carries NaN and infinities that JSON text cannot.
+  item("color_nan", with(points(), "color", {dnan, 0, 0}), "color[0]");
+  item("color_inf", with(points(), "color", {0, dinf, 0}), "color[1]");
+  item("color_above_one", with(points(), "color", {0, 0, 2}), "color[2]");
+  item("color_two", with(points(), "color", {0, 0}), "color");
+  item("color_string", with(points(), "color", "red"), "color");
+  item("size_nan", with(points(), "size", dnan), "size");
+  item("size_inf", with(points(), "size", dinf), "size");
+  item("size_zero", with(points(), "size", 0), "size");
+  item("size_negative", with(points(), "size", -1), "size");
+  item("size_1e300", with(points(), "size", 1e300), "size");
+  item("size_string", with(points(), "size", "2"), "size");
+  item("size_binary", with(points(), "size", bytes(4)), "size");
+  item("pose_position_nan", with(points(), "pose", {{"position", {dnan, 0, 0}}}), "pose.position[0]");
+  item("pose_position_inf", with(points(), "pose", {{"position", {0, 0, -dinf}}}), "pose.position[2]");
+  item("pose_position_1e300", with(points(), "pose", {{"position", {0, 1e300, 0}}}), "pose.position[1]");
+  item("pose_quaternion_zero", with(points(), "pose", {{"quaternion", {0, 0, 0, 0}}}), "pose.quaternion");
+  item("pose_quaternion_nan", with(points(), "pose", {{"quaternion", {1, dnan, 0, 0}}}), "pose.quaternion[1]");
+  item("pose_quaternion_three", with(points(), "pose", {{"quaternion", {1, 0, 0}}}), "pose.quaternion");
+  item("pose_unknown_key", with(points(), "pose", {{"scale", 2}}), "pose.scale");
+  item("pose_array", with(points(), "pose", {0, 0, 0}), "pose");
+  // A quaternion whose norm overflows a double is still a direction: normalised, not zeroed.
+  item_bytes("pose_quaternion_1e308", packed(with(points(), "pose", {{"quaternion", {1e308, 1e308, 1e308, 1e308}}})), Expect::ok, "");
+  out.back().check = unit_pose;
+
+  // Names: the path's; a name that is no name is refused naming it.
+  for (const auto& [label, name] : std::vector<std::pair<std::string, std::string>>{
+           {"space", "a%20b"}, {"dot", "."}, {"dots", ".."}, {"long_65", std::string(65, 'n')}, {"nul", "a%00"}, {"unicode", "%C3%A9"}, {"slash", "a%2Fb"}})
+    item_bytes("name_" + label, valid, Expect::client, "name", "", "/api/scene/items/" + name);
+
+  // The limits, each in a session of its own: vertices, items, bytes, the body.
+  auto fresh = [&](std::string name, std::function<std::string(Ctx&, const std::string&)> request, Expect e, std::string field, std::string code) {
+    out.push_back(make(
+        "scene/" + name, [request](Ctx& c) { return request(c, make_session(c)); }, e));
+    out.back().check = names(std::move(field), std::move(code));
+  };
+  auto put_in = [](Ctx& c, const std::string& s, const std::string& name, const json& frame) {
+    exchange(c.port, msgpack_request("PUT", "/api/scene/items/" + name, packed(frame), s), 30);
+  };
+  fresh(
+      "limit_vertices", [](Ctx&, const std::string& s) {
+        return msgpack_request("PUT", "/api/scene/items/many", packed({{"kind", "points"}, {"positions", bin(line_points(kVertices + 1))}}), s);
+      },
+      Expect::status, "positions", "too_many_vertices");
+  out.back().status = 413;
+  fresh(
+      "limit_items", [put_in](Ctx& c, const std::string& s) {
+        for (std::size_t i = 0; i < kItems; ++i) put_in(c, s, std::string("p").append(std::to_string(i)), points());
+        return msgpack_request("PUT", "/api/scene/items/one_more", packed(points()), s);
+      },
+      Expect::status, "name", "too_many_items");
+  out.back().status = 413;
+  fresh(
+      "limit_items_replace_ok", [put_in](Ctx& c, const std::string& s) {
+        for (std::size_t i = 0; i < kItems; ++i) put_in(c, s, std::string("p").append(std::to_string(i)), points());
+        return msgpack_request("PUT", "/api/scene/items/p0", packed(triangle()), s);  // replacing is no new item
+      },
+      Expect::ok, "", "");
+  out.back().check = {};
+  fresh(
+      "limit_bytes", [put_in](Ctx& c, const std::string& s) {
+        // Two items of 1000 coloured points with values: 28 kB each, 56 kB together, above 50 kB.
+        const std::vector<float> p = line_points(kVertices), colors(3 * kVertices, 0.5f), values(kVertices, 1.0f);
+        const json big = {{"kind", "points"}, {"positions", bin(p)}, {"colors", bin(colors)}, {"scalars", bin(values)}};
+        put_in(c, s, "first", big);
+        return msgpack_request("PUT", "/api/scene/items/second", packed(big), s);
+      },
+      Expect::status, "body", "too_many_bytes");
+  out.back().status = 413;
+  // Bodies above the route's limit (max_scene_bytes + 64 kB), declared: refused before they are read
+  // (nothing sent after the head, so that the server's close cannot reset the answer away).
+  out.push_back(make(
+      "scene/item_body_declared_over_limit", [](Ctx& c) {
+        return "PUT /api/scene/items/x HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\nX-Distlab-Session: " + c.session +
+               "\r\nContent-Type: application/msgpack\r\nContent-Length: " + std::to_string(kBytes + (64 << 10) + 1) + "\r\n\r\n";
+      },
+      Expect::status));
+  out.back().status = 413;
+  out.push_back(make(
+      "scene/item_body_declared_4gb", [](Ctx& c) {
+        return "PUT /api/scene/items/x HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\nX-Distlab-Session: " + c.session +
+               "\r\nContent-Type: application/msgpack\r\nContent-Length: 4294967296\r\n\r\n";
+      },
+      Expect::status));
+  out.back().status = 413;
+
+  // Sessions: none, forged, another session's item and recording.
+  out.push_back(make(
+      "scene/item_no_session", [valid](Ctx&) { return msgpack_request("PUT", "/api/scene/items/x", valid, ""); }, Expect::status));
+  out.back().status = 401;
+  out.push_back(make(
+      "scene/item_forged_session", [valid](Ctx&) { return msgpack_request("PUT", "/api/scene/items/x", valid, "0123456789abcdef0123456789abcdef"); }, Expect::status));
+  out.back().status = 404;
+  out.push_back(make(
+      "scene/items_list_no_session", [](Ctx&) { return http("GET", "/api/scene/items"); }, Expect::status));
+  out.back().status = 401;
+  out.push_back(make(
+      "scene/clear_forged_session", [](Ctx&) { return http("DELETE", "/api/scene/items", "", "ffffffffffffffffffffffffffffffff"); }, Expect::status));
+  out.back().status = 404;
+  auto other = [&](std::string name, std::string method, std::string target, std::string body, std::string field, int status = 404) {
+    out.push_back(make(
+        "scene/other_session_" + name, [method, target, body](Ctx& c) {
+          std::string t = target;
+          for (std::size_t p; (p = t.find("{other_recording}")) != std::string::npos;) t.replace(p, 17, c.other_recording);
+          return http(method, t, body, c.session);
+        },
+        Expect::status));
+    out.back().status = status;
+    out.back().check = names(field);
+  };
+  other("item_pose", "PUT", "/api/scene/items/theirs/pose", json{{"pose", {{"position", {0, 0, 0}}}}}.dump(), "name");
+  other("item_delete", "DELETE", "/api/scene/items/theirs", "", "name");
+  other("recording_get", "GET", "/api/scene/recordings/{other_recording}", "", "id");
+  other("recording_part", "PUT", "/api/scene/recordings/{other_recording}/parts/0", "PNG", "id");
+  other("recording_finish", "POST", "/api/scene/recordings/{other_recording}/finish", json{{"error", "no"}}.dump(), "id");
+  other("recording_part_get", "GET", "/api/scene/recordings/{other_recording}/parts/0", "", "id");
+  other("recording_delete", "DELETE", "/api/scene/recordings/{other_recording}", "", "id");
+
+  // The pose route (JSON text), on this session's item "posed".
+  const std::string pose_target = "/api/scene/items/posed/pose";
+  auto pose = [&](std::string name, std::string body, Expect e, std::string field, std::string target = "/api/scene/items/posed/pose") {
+    out.push_back(api("scene/pose_" + name, "PUT", target, body, e));
+    if (e == Expect::client) out.back().check = names(field);
+  };
+  pose("ok", json{{"pose", {{"position", {1, 2, 3}}, {"quaternion", {0, 0, 0, 2}}}}}.dump(), Expect::ok, "");
+  out.back().check = unit_pose;
+  pose("quaternion_1e308", json{{"pose", {{"quaternion", {1e308, -1e308, 1e308, 1e308}}}}}.dump(), Expect::ok, "");
+  out.back().check = unit_pose;
+  pose("quaternion_tiny", json{{"pose", {{"quaternion", {1e-200, 1e-200, 0, 0}}}}}.dump(), Expect::client, "pose.quaternion");
+  pose("position_1e999", "{\"pose\":{\"position\":[1e999,0,0]}}", Expect::client, "pose.position[0]");
+  pose("position_nan_token", "{\"pose\":{\"position\":[NaN,0,0]}}", Expect::client, "");
+  pose("missing", "{}", Expect::client, "pose");
+  pose("not_object", "[1]", Expect::client, "");
+  pose("empty_body", "", Expect::client, "");
+  pose("unknown_item", json{{"pose", {{"position", {0, 0, 0}}}}}.dump(), Expect::client, "name", "/api/scene/items/nothing/pose");
+  out.back().expect = Expect::status;
+  out.back().status = 404;
+  pose("bad_name", json{{"pose", {{"position", {0, 0, 0}}}}}.dump(), Expect::client, "name", "/api/scene/items/a%20b/pose");
+  mutate_body(out, "scene/pose_mut", "PUT", pose_target, {{"pose", {{"position", {0.1, 0.2, 0.3}}, {"quaternion", {1, 0, 0, 0}}}}});
+  out.push_back(api("scene/delete_unknown_item", "DELETE", "/api/scene/items/nothing", "", Expect::status));
+  out.back().status = 404;
+  out.back().check = names("name", "unknown_item");
+  out.push_back(api("scene/delete_bad_name", "DELETE", "/api/scene/items/" + std::string(100, 'x'), "", Expect::client));
+  out.back().check = names("name");
+  out.push_back(api("scene/list_ok", "GET", "/api/scene/items", "", Expect::ok));
+
+  // Recordings: the request.
+  auto rec = [&](std::string name, json body, Expect e, std::string field, std::string code = "") {
+    out.push_back(api("scene/recording_" + name, "POST", "/api/scene/recordings", body.dump(), e));
+    if (e != Expect::ok && e != Expect::any) out.back().check = names(field, code);
+  };
+  const json png = {{"view", "gap"}, {"format", "png"}, {"frames", 2}};
+  rec("ok", png, Expect::ok, "");
+  // A duration whose frame count (seconds * fps) no integer holds: the count was cast to one (UB;
+  // the message said "-9223372036854775808 frames").
+  for (const auto& [label, seconds, fps] : std::vector<std::tuple<std::string, double, double>>{
+           {"1e300", 1e300, 30}, {"1e18_fps_60", 1e18, 60}, {"max_double_fps_60", std::numeric_limits<double>::max(), 60}}) {
+    rec("seconds_" + label, {{"view", "gap"}, {"format", "webm"}, {"seconds", seconds}, {"fps", fps}}, Expect::status, "seconds", "too_long");
+    out.back().status = 413;
+    out.back().check = [named = out.back().check](const Reply& r, Ctx& c) -> std::string {
+      const json j = json::parse(r.body, nullptr, false);
+      const std::string message = j.is_object() && j.contains("error") ? j["error"].value("message", "") : "";
+      return named(r, c) + (message.find("-9") == std::string::npos ? "" : " a negative count in \"" + message + "\";");
+    };
+  }
+  rec("frames_1e300", {{"view", "gap"}, {"format", "png"}, {"frames", 1e300}}, Expect::client, "frames");
+  rec("frames_over", {{"view", "gap"}, {"format", "png"}, {"frames", kRecordFrames + 1}}, Expect::status, "frames", "too_long");
+  out.back().status = 413;
+  rec("frames_fraction", {{"view", "gap"}, {"format", "png"}, {"frames", 1.5}}, Expect::client, "frames");
+  rec("fps_tiny", {{"view", "gap"}, {"format", "png"}, {"frames", 1}, {"fps", 1e-300}}, Expect::status, "frames", "too_long");
+  out.back().status = 413;
+  rec("fps_over", {{"view", "gap"}, {"format", "png"}, {"frames", 1}, {"fps", 1000}}, Expect::status, "fps", "too_fast");
+  out.back().status = 413;
+  rec("seconds_and_frames", {{"view", "gap"}, {"format", "png"}, {"frames", 1}, {"seconds", 1}}, Expect::client, "seconds");
+  rec("neither", {{"view", "gap"}, {"format", "png"}}, Expect::client, "seconds");
+  rec("view_plots", with(png, "view", "plots"), Expect::client, "view");
+  rec("view_all", with(png, "view", "all"), Expect::client, "view");
+  rec("format_gif", with(png, "format", "gif"), Expect::client, "format");
+  mutate_body(out, "scene/recording_mut", "POST", "/api/scene/recordings", {{"view", "gap"}, {"format", "png"}, {"frames", 2}, {"fps", 10}});
+
+  // Recordings: parts and ends, each on a fresh recording of 2 PNG frames.
+  auto on_recording = [&](std::string name, std::function<std::string(Ctx&, const std::string&)> request, Expect e, std::string field, int status = 0) {
+    out.push_back(make(
+        "scene/" + name, [request](Ctx& c) {
+          const json r = json::parse(call(c, "POST", "/api/scene/recordings", json{{"view", "gap"}, {"format", "png"}, {"frames", 2}}.dump(), c.session).body, nullptr, false);
+          return request(c, r.is_object() && r.contains("id") ? r["id"].get<std::string>() : "none");
+        },
+        e));
+    out.back().status = status;
+    if (e != Expect::ok) out.back().check = names(field);
+  };
+  auto part = [](Ctx& c, const std::string& id, int i) { return call(c, "PUT", "/api/scene/recordings/" + id + "/parts/" + std::to_string(i), "PNG", c.session); };
+  for (const auto& [label, index] : std::vector<std::pair<std::string, std::string>>{
+           {"text", "abc"}, {"negative", "-1"}, {"huge", "99999999999"}, {"fraction", "0.5"}, {"plus", "%2B0"}, {"ahead", "1"}}) {
+    const std::string i = index;
+    on_recording(
+        "part_index_" + label, [i](Ctx& c, const std::string& id) { return http("PUT", "/api/scene/recordings/" + id + "/parts/" + i, "PNG", c.session); },
+        Expect::client, "index");
+  }
+  on_recording(
+      "part_beyond_frames", [part](Ctx& c, const std::string& id) {
+        part(c, id, 0);
+        part(c, id, 1);
+        return http("PUT", "/api/scene/recordings/" + id + "/parts/2", "PNG", c.session);
+      },
+      Expect::client, "index");
+  on_recording(
+      "part_empty", [](Ctx& c, const std::string& id) { return http("PUT", "/api/scene/recordings/" + id + "/parts/0", "", c.session); },
+      Expect::client, "body");
+  on_recording(
+      "part_declared_over_limit", [](Ctx& c, const std::string& id) {
+        return "PUT /api/scene/recordings/" + id + "/parts/0 HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\nX-Distlab-Session: " + c.session +
+               "\r\nContent-Length: " + std::to_string(kRecordBytes + 1) + "\r\n\r\n";
+      },
+      Expect::status, "", 413);
+  out.back().check = {};
+  on_recording(
+      "parts_over_bytes", [](Ctx& c, const std::string& id) {
+        call(c, "PUT", "/api/scene/recordings/" + id + "/parts/0", std::string(kRecordBytes / 2 + 1, 'x'), c.session);
+        return http("PUT", "/api/scene/recordings/" + id + "/parts/1", std::string(kRecordBytes / 2, 'x'), c.session);
+      },
+      Expect::status, "body", 413);
+  on_recording(
+      "part_after_finish", [](Ctx& c, const std::string& id) {
+        call(c, "POST", "/api/scene/recordings/" + id + "/finish", json{{"error", "gave up"}}.dump(), c.session);
+        return http("PUT", "/api/scene/recordings/" + id + "/parts/0", "PNG", c.session);
+      },
+      Expect::status, "id", 409);
+  on_recording(
+      "finish_twice", [](Ctx& c, const std::string& id) {
+        call(c, "POST", "/api/scene/recordings/" + id + "/finish", json{{"error", "gave up"}}.dump(), c.session);
+        return http("POST", "/api/scene/recordings/" + id + "/finish", json{{"error", "again"}}.dump(), c.session);
+      },
+      Expect::status, "id", 409);
+  on_recording(
+      "finish_parts_missing", [part](Ctx& c, const std::string& id) {
+        part(c, id, 0);
+        return http("POST", "/api/scene/recordings/" + id + "/finish", "{}", c.session);
+      },
+      Expect::client, "id");
+  std::vector<double> m15(15, 0.0), m16(16, 0.0);
+  const std::vector<std::pair<std::string, std::pair<json, std::string>>> finishes = {
+      {"matrix_15", {{{"camera", {{"matrix", m15}, {"width", 10}, {"height", 10}}}}, "camera.matrix"}},
+      {"matrix_1e999", {json::object(), "camera.matrix[3]"}},
+      {"width_zero", {{{"camera", {{"matrix", m16}, {"width", 0}, {"height", 10}}}}, "camera.width"}},
+      {"width_huge", {{{"camera", {{"matrix", m16}, {"width", 1e9}, {"height", 10}}}}, "camera.width"}},
+      {"height_string", {{{"camera", {{"matrix", m16}, {"width", 10}, {"height", "10"}}}}, "camera.height"}},
+      {"camera_unknown_key", {{{"camera", {{"matrix", m16}, {"width", 10}, {"height", 10}, {"fov", 1}}}}, "camera.fov"}},
+      {"camera_not_object", {{{"camera", "front"}}, "camera"}},
+      {"error_number", {{{"error", 5}}, "error"}},
+      {"unknown_key", {{{"done", true}}, "done"}}};
+  for (const auto& [label, spec] : finishes) {
+    std::string body = spec.first.dump();
+    if (label == "matrix_1e999") body = "{\"camera\":{\"matrix\":[0,0,0,1e999,0,0,0,0,0,0,0,0,0,0,0,0],\"width\":10,\"height\":10}}";
+    on_recording(
+        "finish_" + label, [part, body](Ctx& c, const std::string& id) {
+          part(c, id, 0);
+          part(c, id, 1);
+          return http("POST", "/api/scene/recordings/" + id + "/finish", body, c.session);
+        },
+        Expect::client, spec.second);
+  }
+  on_recording(
+      "finish_error_long_ok", [](Ctx& c, const std::string& id) {
+        return http("POST", "/api/scene/recordings/" + id + "/finish", json{{"error", std::string(10000, 'e')}}.dump(), c.session);
+      },
+      Expect::ok, "");
+  on_recording(
+      "part_get_missing", [](Ctx& c, const std::string& id) { return http("GET", "/api/scene/recordings/" + id + "/parts/5", "", c.session); },
+      Expect::status, "index", 404);
+  on_recording(
+      "part_get_text", [](Ctx& c, const std::string& id) { return http("GET", "/api/scene/recordings/" + id + "/parts/x", "", c.session); },
+      Expect::client, "index");
+  out.push_back(api("scene/recording_unknown_get", "GET", "/api/scene/recordings/0000", "", Expect::status));
+  out.back().status = 404;
+  out.back().check = names("id", "unknown_recording");
+  out.push_back(api("scene/recording_unknown_delete", "DELETE", "/api/scene/recordings/0000", "", Expect::status));
+  out.back().status = 404;
+  out.back().check = names("id", "unknown_recording");
+  out.push_back(api("scene/clear_ok", "DELETE", "/api/scene/items", "", Expect::ok));
 }
 
 }  // namespace distlab::test::hostile

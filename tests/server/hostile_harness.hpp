@@ -252,7 +252,8 @@ struct Ctx {
   std::string session, other_session;  // other: a second session owning its own resources
   std::string object, other_object;    // ready Kelvin objects (cube)
   std::string other_upload, other_job, other_rollout, rollout, job;
-  std::string upload_session;  // uploads go here (rotated before the per-session cap)
+  std::string upload_session;   // uploads go here (rotated before the per-session cap)
+  std::string other_recording;  // a recording of the other session (scene suite)
   std::string web_dir;
   int uploads_in_session = 0;
 };

@@ -1,5 +1,5 @@
 // The hostile-request corpus against the real server (hostile_cases.hpp): after every case the
-// server must still answer, with no crash, hang, NaN/inf, 5xx or wrong class of answer. Three
+// server must still answer, with no crash, hang, NaN/inf, 5xx or wrong class of answer. Four
 // groups with a server each, so that ctest can run them side by side.
 #include "server/hostile_cases.hpp"
 
@@ -50,6 +50,20 @@ TEST(Hostile, Uploads) {
   Runner runner(kUploadOptions, standard_setup);
   runner.run_all(cases);
   runner.report("uploads (STL, OBJ, PLY, OFF, GLB)");
+}
+
+// The scene items and recordings at small limits (hostile_cases.hpp, scene::k*): the cases one over
+// a limit stay a few kB.
+TEST(Hostile, Scene) {
+  std::vector<Case> cases;
+  scene_cases(cases);
+  const auto limit = [](const std::string& name, std::size_t v) { return name + "=" + std::to_string(v); };
+  Runner runner({"--max-request-seconds", "30", "--limit", limit("max_scene_items", scene::kItems), "--limit",
+                 limit("max_scene_vertices", scene::kVertices), "--limit", limit("max_scene_bytes", scene::kBytes), "--limit",
+                 limit("max_record_frames", scene::kRecordFrames), "--limit", limit("max_record_bytes", scene::kRecordBytes)},
+                scene::setup);
+  runner.run_all(cases);
+  runner.report("scene items (msgpack frames), poses, recordings");
 }
 
 }  // namespace

@@ -35,8 +35,15 @@ class Builder final : public json::json_sax_t {
   bool number_unsigned(number_unsigned_t v) override { return add(json(v)); }
   bool number_float(number_float_t v, const string_t&) override { return add(json(v)); }
   bool string(string_t& v) override { return add(json(std::move(v))); }
-  // JSON text has no binary values; msgpack's "bin" values are the frames' arrays.
-  bool binary(binary_t& v) override { return binary_ && add(json::binary(std::move(v))); }
+  // JSON text has no binary values; msgpack's "bin" values are the frames' arrays. An ext value
+  // arrives here too, with its type as the subtype: kept, so that it is not taken for a bin.
+  bool binary(binary_t& v) override {
+    if (!binary_) return false;
+    const bool ext = v.has_subtype();
+    const auto type = v.subtype();
+    auto& bytes = static_cast<binary_t::container_type&>(v);
+    return add(ext ? json::binary(std::move(bytes), type) : json::binary(std::move(bytes)));
+  }
   bool start_object(std::size_t) override { return open(json::object()); }
   bool start_array(std::size_t) override { return open(json::array()); }
   bool end_object() override { return close(); }

@@ -2233,7 +2233,7 @@ export interface paths {
         get?: never;
         /**
          * Adds (or replaces) a scene item: a mesh, points, line segments or a coordinate frame drawn in the session's pages
-         * @description The body is one msgpack map, the codec of the mesh frames (positions: bin float32 xyz per vertex; indices: bin uint32, 3 per triangle of a mesh or 2 per segment of lines; colors: bin float32 rgb in [0, 1] per vertex; scalars: bin float32 per vertex, drawn with a colormap). Every page of the session (and only of this session) gets it as a scene_item frame on /ws, and a page opened later gets every item when it joins. Refused naming the field: NaN or |x| > 1e6 (positions[i][k]), an index out of range (indices[f][k]), a wrong byte count, an unknown kind or view; max_scene_vertices (413 too_many_vertices, positions), max_scene_items (413 too_many_items, name), max_scene_bytes (413 too_many_bytes, body).
+         * @description The body is one msgpack map, the codec of the mesh frames (positions: bin float32 xyz per vertex; indices: bin uint32, 3 per triangle of a mesh or 2 per segment of lines; colors: bin float32 rgb in [0, 1] per vertex; scalars: bin float32 per vertex, drawn with a colormap). Every page of the session (and only of this session) gets it as a scene_item frame on /ws, and a page opened later gets every item when it joins. Refused naming the field: NaN or |x| > 1e6 (positions[i][k]), an index out of range (indices[f][k]), a wrong byte count, an ext value where a bin belongs, an unknown kind or view; max_scene_vertices (413 too_many_vertices, positions), max_scene_items (413 too_many_items, name), max_scene_bytes (413 too_many_bytes, body).
          */
         put: {
             parameters: {

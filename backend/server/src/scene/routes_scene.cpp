@@ -85,7 +85,10 @@ std::string one_of(const json& j, const std::string& field, const std::vector<st
 template <class T>
 std::vector<T> bin_values(const json& item, const std::string& field, std::size_t width) {
   const json& v = item.at(field);
-  if (!v.is_binary()) throw InvalidInput(field, field + " must be msgpack bin (little-endian 4-byte values), got " + std::string(v.type_name()));
+  // An ext value parses as binary with a subtype; it is no bin, and relayed it would reach the pages as an ext.
+  if (!v.is_binary() || v.get_binary().has_subtype())
+    throw InvalidInput(field, field + " must be msgpack bin (little-endian 4-byte values), got " +
+                                  (v.is_binary() ? "ext type " + std::to_string(v.get_binary().subtype()) : std::string(v.type_name())));
   const auto& b = v.get_binary();
   if (b.size() % (4 * width) != 0)
     throw InvalidInput(field, field + " has " + std::to_string(b.size()) + " bytes, not a multiple of " + std::to_string(4 * width) + " (" +
@@ -310,10 +313,12 @@ void SceneModule::register_routes() {
                  const double frames = body.contains("seconds") ? std::ceil(json_positive(body["seconds"], "seconds") * fps)
                                                                 : json_integer(body["frames"], "frames", 1);
                  const double seconds = frames / fps;
-                 if (frames > static_cast<double>(lim.max_record_frames))
-                   throw ApiError(413, "too_long", std::to_string(static_cast<long long>(frames)) + " frames, above the limit of " + std::to_string(lim.max_record_frames) + " (max_record_frames)", field);
+                 // The duration first: within it, frames (seconds * fps, fps <= max_record_fps) fits the
+                 // integer it is printed as; seconds 1e300 made a frame count no integer holds.
                  if (seconds > lim.max_record_seconds)
                    throw ApiError(413, "too_long", json(seconds).dump() + " s, above the limit of " + json(lim.max_record_seconds).dump() + " s (max_record_seconds)", field);
+                 if (frames > static_cast<double>(lim.max_record_frames))
+                   throw ApiError(413, "too_long", std::to_string(static_cast<long long>(frames)) + " frames, above the limit of " + std::to_string(lim.max_record_frames) + " (max_record_frames)", field);
                  spec["fps"] = fps;
                  spec["frames"] = static_cast<std::size_t>(frames);
                  spec["seconds"] = seconds;

@@ -171,9 +171,13 @@ inline Pose json_pose(const nlohmann::json& j, const std::string& field, bool po
     if (!q->is_array() || q->size() != 4)
       throw InvalidInput(qf, "expected [w, x, y, z] (4 numbers), got " +
                                  (q->is_array() ? std::to_string(q->size()) + " elements" : std::string(q->type_name())));
-    double c[4];
-    for (std::size_t i = 0; i < 4; ++i) c[i] = json_number((*q)[i], json_index_path(qf, i));
-    const double norm = Eigen::Vector4d(c[0], c[1], c[2], c[3]).stableNorm();
+    Eigen::Vector4d c;
+    for (std::size_t i = 0; i < 4; ++i) c[static_cast<Eigen::Index>(i)] = json_number((*q)[i], json_index_path(qf, i));
+    double norm = c.stableNorm();
+    if (std::isinf(norm)) {  // |q| beyond a double's range (all four 1e308): q / |q| was the zero quaternion
+      c /= c.cwiseAbs().maxCoeff();
+      norm = c.stableNorm();
+    }
     if (!(norm >= kMinQuaternionNorm)) throw InvalidInput(qf, "quaternion has (near) zero norm; it must be a rotation");
     pose.rotation = Quat(c[0] / norm, c[1] / norm, c[2] / norm, c[3] / norm);
   }
