@@ -296,6 +296,10 @@ export interface paths {
                             max_held_bytes_per_address: number;
                             /** @description bytes the server holds in scene items and recordings for all clients (503 busy) */
                             max_held_bytes: number;
+                            /** @description the field store's budget (--cache-dir, shared with other servers, the CLI and Dask workers): after writing an entry the server evicts the least recently used ones until the entries take at most this (0: no budget; entries used in the last minute are kept); distlab cache gc --budget does the same by hand */
+                            max_cache_bytes: number;
+                            /** @description a preparation holds a lease on its store entry, renewed every cache_lease_seconds / 4; a process wanting the same field waits for it (job stage "wait") and takes the lease over once it has not seen it renewed for this long (at once when the holder was a process of the same machine that is gone) */
+                            cache_lease_seconds: number;
                         };
                     };
                 };
