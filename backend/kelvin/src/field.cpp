@@ -689,7 +689,10 @@ namespace distlab::kelvin {
 Field Field::prepare_cached(const mesh::SurfaceMesh& surface, const PrepareOptions& options,
                             const FieldStore& store, const Progress& progress, bool* hit) {
   std::unique_ptr<SurfaceOracle> oracle;
-  auto [valid, centre] = validated(surface, options, oracle, progress);
+  // Named, not a structured binding: clang before 16 cannot capture one in the lambdas below.
+  auto checked = validated(surface, options, oracle, progress);
+  mesh::SurfaceMesh& valid = checked.first;
+  const Vec3& centre = checked.second;
   const std::string key = prepare_key(valid, options, centre);
   const std::string mac_key = cache_mac_key(store.dir);
   const std::string path = store_entry_path(store.dir, key);
