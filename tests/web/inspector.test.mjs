@@ -51,7 +51,9 @@ test("GAP: typed numbers are sent exactly; σ follows ε as √(1 − 2ε) until
   await waitFor(page, seen, (p) => p.sigma === 0.9999, "σ 0.9999");
   await type(page, "ε (eq. 6)", "0.015");
   await waitFor(page, seen, (p) => p.eps === 0.015 && p.sigma === 0.9999, "ε 0.015 with σ kept");
-  // A shared link keeps the override.
+  // A shared link keeps the override. The view writes its state to the URL 150 ms after a change:
+  // read the link once it has stood still for 500 ms (it was read before the last write landed).
+  await page.waitForFunction(() => new Promise((done) => { const h = location.hash; setTimeout(() => done(location.hash === h), 500); }));
   const url = page.url();
   const again = await openView(env.browser, env.server, url.slice(url.indexOf("#")));
   assert.equal(await again.evaluate(() => document.querySelector(".lil-gui input[type=checkbox]") !== null), true);
