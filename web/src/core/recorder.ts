@@ -39,16 +39,18 @@ interface Recorded {
 /** The recording's frames, each drawn anew and handed to `take` at its time (frame i at i / fps
  *  from the first; later when the renderer is slower: software WebGL on a loaded machine). */
 async function drawFrames(vp: Viewport, r: Recording, take: (i: number) => Promise<void> | void): Promise<Recorded> {
-  let t0 = 0;
+  let first = 0,
+    last = 0;
   for (let i = 0; i < r.frames; i++) {
-    if (i > 0) await sleep(t0 + (i * 1000) / r.fps - performance.now());
+    if (i > 0) await sleep(first + (i * 1000) / r.fps - performance.now());
     vp.invalidate();
-    const t = await nextFrame(); // the view draws in this animation frame
+    await nextFrame(); // the view draws in this animation frame
     await nextFrame();
-    if (i === 0) t0 = t;
+    last = performance.now(); // when the frame is taken: what a WebM block's time is
+    if (i === 0) first = last;
     await take(i);
   }
-  return { frames: r.frames, seconds: (performance.now() - t0) / 1000 + 1 / r.fps };
+  return { frames: r.frames, seconds: (last - first) / 1000 + 1 / r.fps };
 }
 
 /** A WebM of exactly the recording's frames: the canvas stream takes a frame only when asked
