@@ -87,10 +87,10 @@ test("Kelvin: switching the object sets l_x and the brush from its size, with th
     const diagonal = 0.0986; // the wrench asset's bounding-box diagonal (m)
     assert.ok(st.brush.radius > 0 && st.brush.radius < 0.2 * diagonal, `brush radius ${st.brush.radius} follows the wrench`);
     const shown = await page.evaluate(() => window.__estimateAtPrepare);
-    assert.match(shown ?? "", /expected ≈ [\d,]+ field vertices of this server's budget of [\d,]+ · (≈ [\d.]+ s|time unknown)/);
-    // The number shown is the server's own estimate (the created object's source records it).
+    assert.match(shown ?? "", /expected ≈ [\d,]+ field vertices \((eq\. 23|graded) sizing\), ≈ [\d.]+ s at [\d.]+ ms per vertex, (measured here over \d+ preparations?|this server's default)/);
+    // The number shown is the server's own prediction (the created object's job reports the same).
     const n = Number(/≈ ([\d,]+) field/.exec(shown)[1].replace(/,/g, ""));
-    assert.equal(n, await page.evaluate(() => window.distlab.kelvin.object.source.vertex_estimate));
+    assert.equal(n, await page.evaluate(() => window.distlab.kelvin.object.estimate.vertices_predicted));
     await screenshot(page, "inspector-kelvin-wrench-estimate");
   });
 });
@@ -107,7 +107,7 @@ test("Kelvin: l_x below the server's minimum or over its budget is flagged inlin
     // Finer than the budget allows on the cube: the estimate's refusal, inline, before any job.
     await type(page, "l_x", "0.0123");
     await page.waitForFunction(() => document.querySelector("[data-testid=kelvin-estimate]")?.classList.contains("bad"));
-    assert.match(await page.locator("[data-testid=kelvin-estimate]").textContent(), /expected ≈ [\d,]+ field vertices/);
+    assert.match(await page.locator("[data-testid=kelvin-estimate]").textContent(), /not prepared: about \d+ vertices, over this server's budget/);
     assert.match(await msg.first().textContent(), /over this server's budget/);
     assert.deepEqual(creates.map((b) => b.lx).filter((lx) => lx < 0.05), [], "no object was requested at a refused l_x");
     assert.equal((await page.evaluate(() => window.distlab.kelvin.state)).lx, 0.0123, "kept as typed (the field's step is 0.001)");

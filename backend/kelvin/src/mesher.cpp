@@ -271,10 +271,31 @@ SizingPrediction predict_vertices(const mesh::SurfaceMesh& inverted, const Meshi
   double edges = 0;  // in x, where the graded sizing's edge refinement is measured
   if (params.feature_angle < 180)
     for (const K::Segment_3& e : sharp_segments(inverted, params.feature_angle)) edges += std::sqrt(CGAL::to_double(e.squared_length()));
-  return {kVerticesPerSizingIntegral * paper, kVerticesPerSizingIntegral * graded + kGradedEdgeVerticesTypical * edges / params.lx};
+  // ∫ dA_y / l_y² over the inverted surface, measured in x (eq. 5 is its own inverse): a face of
+  // area A_x at |x| has l_y |x|² = max(l_x, min_size |x|²) there, so it adds A_x / that².
+  double surface = 0;
+  for (Eigen::Index f = 0; f < inverted.faces.rows(); ++f) {
+    Vec3 x[3];
+    for (int k = 0; k < 3; ++k) {
+      const Vec3 y = inverted.vertices.row(inverted.faces(f, k)).transpose();
+      x[k] = y / y.squaredNorm();
+    }
+    const double area = 0.5 * (x[1] - x[0]).cross(x[2] - x[0]).norm();
+    const double size = std::max(params.lx, params.min_size * ((x[0] + x[1] + x[2]) / 3).squaredNorm());
+    surface += area / (size * size);
+  }
+  SizingPrediction out;
+  out.paper = kVerticesPerSizingIntegral * paper;
+  out.graded = kVerticesPerSizingIntegral * graded + kGradedEdgeVerticesTypical * edges / params.lx;
+  out.volume_paper = paper;
+  out.volume_graded = graded;
+  out.surface = surface;
+  out.edge_length = edges;
+  return out;
 }
 
-double choose_grading(const mesh::SurfaceMesh& inverted, const MeshingParams& params, const Progress& progress) {
+double choose_grading(const mesh::SurfaceMesh& inverted, const MeshingParams& params, const Progress& progress,
+                      SizingPrediction* prediction) {
   // ∫ dV_y / l_y³ of eq. 23 is at most twice (4/3)π / (ρ l_x)³, ρ = √(min_size / l_x) where l_y
   // reaches min_size: once inside |y| < ρ (l_y = min_size), once outside (l_y⁻³ = (|y|² l_x)⁻³).
   const double rho = std::sqrt(params.min_size / params.lx);
@@ -283,6 +304,7 @@ double choose_grading(const mesh::SurfaceMesh& inverted, const MeshingParams& pa
   MeshingParams graded = params;
   graded.grading = kAutoGrading;
   const SizingPrediction p = predict_vertices(inverted, graded, progress);
+  if (prediction != nullptr) *prediction = p;
   return p.graded <= kAutoGradedShare * p.paper ? kAutoGrading : 0;
 }
 

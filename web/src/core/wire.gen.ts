@@ -1335,7 +1335,7 @@ export interface paths {
         };
         get?: never;
         put?: never;
-        /** What creating this Kelvin object would cost, creating nothing: the server's vertex estimate against its budget, the smallest l_x within it, a time from the last computed preparation, and the refusal if any (same body as POST /api/kelvin/objects) */
+        /** What creating this Kelvin object would cost, creating nothing: the field vertices the mesher's sizing prediction gives for the sizing the preparation will choose, the seconds they take at this server's measured rate, the vertex count the budget counts against max_vertex_estimate, the smallest l_x within it, and the refusal if any (same body as POST /api/kelvin/objects) */
         post: {
             parameters: {
                 query?: never;
@@ -1359,6 +1359,7 @@ export interface paths {
                     };
                     content: {
                         "application/json": {
+                            /** @description the count the vertex budget (max_vertex_estimate) is checked against: a closed form in the bounding radius over l_x, an upper bound of the field's vertices (3–30× the field's vertices on the assets), not a prediction: see vertices_predicted */
                             vertex_estimate: number;
                             max_vertex_estimate: number;
                             min_lx: number;
@@ -1366,7 +1367,7 @@ export interface paths {
                             diagonal: number;
                             /** @description the smallest l_x within max_vertex_estimate (at least min_lx) */
                             lx_for_budget: number;
-                            /** @description vertex_estimate times the seconds per vertex of the last computed preparation on this server; null before one */
+                            /** @description vertices_predicted times seconds_per_vertex.value; null when vertices_predicted is */
                             seconds_estimate: number | null;
                             /** @description why POST /api/kelvin/objects would refuse these inputs (field, message) */
                             problem: {
@@ -1381,6 +1382,22 @@ export interface paths {
                                 megabytes?: number;
                                 seconds?: number;
                             };
+                            /** @description the field vertices (stats.n_verts) the preparation will make: the mesher's sizing prediction for the sizing it will mesh (grading), with a trial meshing at a coarse l_x where eq. 23 protects sharp edges (kelvin::predict_preparation; within 1.5× on the assets and wrapped real meshes). Null when the request's repair (fix, wrap) makes the surface, or for a mesh over max_object_triangles: the object's estimate has it once the surface exists (prediction_note says which) */
+                            vertices_predicted: number | null;
+                            /** @description the sizing the preparation will mesh (stats.grading: 0 is eq. 23), given or chosen */
+                            grading: number | null;
+                            /** @description grading is the preparation's choice (the request gave none) */
+                            grading_chosen: boolean | null;
+                            /** @description this server's seconds per field vertex: the sum of stats.t_prepare over the sum of stats.n_verts of its last 16 computed preparations (cache hits and shared ones are not computations), or a default before the first */
+                            seconds_per_vertex: {
+                                value: number;
+                                /** @enum {string} */
+                                source: "default" | "measured";
+                                /** @description how many computed preparations the value is measured over (0: the default) */
+                                preparations: number;
+                            };
+                            /** @description why vertices_predicted is null (the repair makes the surface; a mesh over max_object_triangles; the trial meshing did not end within max_request_seconds: the answer is still 200; a refusal), or what it was predicted on when that is not the surface prepared (simplify: the mesh before it) */
+                            prediction_note: string | null;
                         };
                     };
                 };
@@ -3687,6 +3704,25 @@ export interface components {
             };
             /** @description SHA-256 of the mesh as the user gave it (an upload's digest) */
             surface_digest?: string;
+            /** @description what the preparation job predicted before preparing, on the surface it prepares (after the repair of a repair request): the estimate's fields of POST /api/kelvin/estimate; absent until then or when it could not predict */
+            estimate?: {
+                /** @description the field vertices (stats.n_verts) the preparation will make: the mesher's sizing prediction for the sizing it will mesh (grading), with a trial meshing at a coarse l_x where eq. 23 protects sharp edges (kelvin::predict_preparation; within 1.5× on the assets and wrapped real meshes). Null when the request's repair (fix, wrap) makes the surface, or for a mesh over max_object_triangles: the object's estimate has it once the surface exists (prediction_note says which) */
+                vertices_predicted: number | null;
+                /** @description the sizing the preparation will mesh (stats.grading: 0 is eq. 23), given or chosen */
+                grading: number | null;
+                /** @description grading is the preparation's choice (the request gave none) */
+                grading_chosen: boolean | null;
+                /** @description this server's seconds per field vertex: the sum of stats.t_prepare over the sum of stats.n_verts of its last 16 computed preparations (cache hits and shared ones are not computations), or a default before the first */
+                seconds_per_vertex: {
+                    value: number;
+                    /** @enum {string} */
+                    source: "default" | "measured";
+                    /** @description how many computed preparations the value is measured over (0: the default) */
+                    preparations: number;
+                };
+                /** @description vertices_predicted times seconds_per_vertex.value; null when vertices_predicted is */
+                seconds_estimate: number | null;
+            };
         };
         /** @description a prepared field's size and preparation times (seconds) */
         KelvinStats: {
@@ -3705,6 +3741,8 @@ export interface components {
             response_mb?: number;
             cache_hit?: boolean;
             shared?: boolean;
+            /** @description wall seconds this server took to make the prepared field: the preparation's stages (load, invert, mesh, build, decomp, response) or, on a cache hit, its load; what seconds_per_vertex is measured from */
+            t_prepare?: number;
         };
         /** @description eq. 24: tanh((|e_lᵀ(x − origin)| − d0) / width) σ_nom */
         AxisTerm: {

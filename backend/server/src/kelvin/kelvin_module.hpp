@@ -15,6 +15,7 @@
 #include "distlab/server/module.hpp"
 #include "distlab/server/service.hpp"
 #include "distlab/server/uploads.hpp"
+#include "prepare_estimate.hpp"
 
 namespace distlab::server {
 
@@ -55,8 +56,16 @@ class KelvinModule final : public Module {
   // estimate_only: checks the inputs and answers estimate_json, creating nothing.
   nlohmann::json create_object(const std::shared_ptr<Session>& session, const nlohmann::json& body,
                                bool estimate_only = false);
-  nlohmann::json estimate_json(const mesh::SurfaceMesh& welded, kelvin::PrepareOptions options, double estimate) const;
-  void record_prepare_time(const nlohmann::json& stats);
+  // `predicted`: the surface the preparation will prepare, or null when the request's repair
+  // makes it (then the estimate predicts nothing and says so).
+  nlohmann::json estimate_json(const mesh::SurfaceMesh& welded, kelvin::PrepareOptions options, double estimate,
+                               const mesh::SurfaceMesh* predicted, bool reshaped);
+  // kelvin::predict_preparation through predictions_ (options.max_vertices as the job's).
+  // Throws what it throws (InvalidInput: the refusal the preparation would give; kelvin::Cancelled
+  // once *cancel is set).
+  kelvin::PreparePrediction predict(const mesh::SurfaceMesh& surface, kelvin::PrepareOptions options,
+                                    const std::atomic<bool>* cancel = nullptr);
+  std::optional<kelvin::PreparePrediction> cached_prediction(const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& options);
   // origin: the socket that sent the edit (gets the acknowledgement with its request id).
   void set_sigma(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,
                  const nlohmann::json& sigma, WsSink* origin = nullptr, const nlohmann::json& request = nullptr);
@@ -76,7 +85,8 @@ class KelvinModule final : public Module {
   // Uploads' and objects' triangles, per client address and in all.
   ClientShare held_triangles_{"triangles", "max_held_triangles_per_address", config_.limits.max_held_triangles_per_address, "max_held_triangles",
                               config_.limits.max_held_triangles, "uploads or objects (DELETE /api/kelvin/uploads/{id}, /api/kelvin/objects/{id})"};
-  std::atomic<double> prepare_seconds_per_vertex_{0};  // of the last computed preparation
+  PrepareRate prepare_rate_;     // seconds per field vertex of the preparations computed here
+  PredictionCache predictions_;  // predict()'s last answers
 };
 
 }  // namespace distlab::server

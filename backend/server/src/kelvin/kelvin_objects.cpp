@@ -123,6 +123,7 @@ std::shared_ptr<PreparedField> PreparedRegistry::acquire(const mesh::SurfaceMesh
     cv_.notify_all();
   };
   try {
+    const auto t0 = std::chrono::steady_clock::now();
     bool hit = false;
     kelvin::Field field = store_.dir.empty()
                               ? kelvin::Field::prepare(surface, options, progress)
@@ -134,6 +135,7 @@ std::shared_ptr<PreparedField> PreparedRegistry::acquire(const mesh::SurfaceMesh
     if (share && !field.build_boundary_response(response_mb, progress)) share.reset();
     auto prepared = std::make_shared<PreparedField>(key, std::move(field));
     prepared->cache_hit = hit;
+    prepared->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     prepared->response_share = std::move(share);
     release(prepared);
     return prepared;
@@ -167,9 +169,10 @@ json KelvinObject::status_json() {
   if (reshape.largest_piece) j["components"] = "largest";
   if (!components_report.is_null()) j["components_report"] = components_report;
   if (!simplify_report.is_null()) j["simplify_report"] = simplify_report;
+  if (!estimate.is_null()) j["estimate"] = estimate;
   if (prepared) {
     const kelvin::Stats& st = prepared->field.stats();
-    j["stats"] = {{"n_verts", st.n_verts}, {"n_tets", st.n_tets}, {"size_mb", st.size_mb}, {"t_mesh", st.t_mesh}, {"t_build", st.t_build}, {"t_decomp", st.t_decomp}, {"t_solve", st.t_solve}, {"grading", st.grading}, {"response_mb", st.response_mb}, {"cache_hit", prepared->cache_hit}, {"shared", shared}};
+    j["stats"] = {{"n_verts", st.n_verts}, {"n_tets", st.n_tets}, {"size_mb", st.size_mb}, {"t_mesh", st.t_mesh}, {"t_build", st.t_build}, {"t_decomp", st.t_decomp}, {"t_solve", st.t_solve}, {"grading", st.grading}, {"response_mb", st.response_mb}, {"cache_hit", prepared->cache_hit}, {"shared", shared}, {"t_prepare", prepared->seconds}};
     const Vec3 c = prepared->field.centre();
     j["center"] = {c.x(), c.y(), c.z()};
   }

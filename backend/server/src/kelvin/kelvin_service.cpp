@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <optional>
 
 #include "distlab/geometry/error.hpp"
 #include "distlab/kelvin/progress.hpp"
@@ -156,10 +157,24 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
   const double simplified = simplify_faces > 0 ? static_cast<double>(std::min<Eigen::Index>(welded.surface.vertices.rows(), static_cast<Eigen::Index>(simplify_faces / 2 + 2))) - static_cast<double>(welded.surface.vertices.rows()) : 0.0;
   const double estimate = estimate_vertices(welded.surface, options.lx, options.far_radius, sizing_for_budget(options)) + simplified;
   if (estimate_only) {
-    json out = estimate_json(welded.surface, options, estimate);
-    // A repair request's surface checks are of the repaired surface, made in the job: the user's
-    // open mesh is no problem here, only the budget (and l_x) can be judged before.
-    if ((repair.kind != "none" || reshape.largest_piece) && !out["problem"].is_null() && out["problem"]["field"] != "lx") out["problem"] = nullptr;
+    // The vertices are predicted on the surface the preparation will prepare: the weld, its
+    // largest piece, or for a simplification the weld it simplifies (the same shape; a mesh
+    // over max_object_triangles is not predicted: that costs seconds). A fix or wrap makes the
+    // surface in the job, which predicts then (the object's "estimate").
+    std::optional<mesh::SurfaceMesh> piece;
+    const mesh::SurfaceMesh* predicted = nullptr;
+    std::string note;
+    if (repair.kind != "none") {
+      note = "the " + repair.kind + " makes the surface: its field vertices are predicted once it exists (the object's estimate)";
+    } else if (faces > lim.max_object_triangles) {
+      note = "the mesh has more than max_object_triangles triangles: its field vertices are predicted once simplified (the object's estimate)";
+    } else {
+      if (reshape.largest_piece) piece = mesh::largest_piece(welded.surface);
+      predicted = piece ? &*piece : &welded.surface;
+      if (simplify_faces > 0) note = "predicted on the mesh before simplify (the same shape)";
+    }
+    json out = estimate_json(welded.surface, options, estimate, predicted, reshape.any());
+    if (!note.empty() && out["prediction_note"].is_null()) out["prediction_note"] = note;
     if (json wrap = repair_estimate_json(surface, repair); !wrap.is_null()) out["repair_estimate"] = std::move(wrap);
     return out;
   }
@@ -245,11 +260,30 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
           // The long part of a repair request (the user's mesh is already imported and checked):
           // fix and wrap poll the job's token and report stage "repair".
           run_repair(*object, options, config_.limits, progress);
-          announce();
         }
+        // What this preparation will make, predicted on the surface it prepares: the estimate's
+        // when this request was estimated (POST /api/kelvin/estimate), else predicted now where
+        // the estimate could not (a repaired or simplified surface); a refusal is left to the
+        // preparation to give.
+        const mesh::SurfaceMesh& to_prepare = object->reshaped() ? object->repaired : object->welded;
+        json predicted = nullptr;
+        try {
+          std::optional<kelvin::PreparePrediction> p = cached_prediction(to_prepare, options);
+          if (!p && object->reshaped()) p = predict(to_prepare, options, &j.cancel);
+          if (p) predicted = prediction_json(p, prepare_rate_.rate());
+        } catch (const kelvin::Cancelled&) {
+          throw;
+        } catch (const std::exception&) {
+          // No prediction (the preparation gives any refusal itself).
+        }
+        {
+          std::lock_guard lock(object->mutex);
+          object->estimate = std::move(predicted);
+        }
+        if (object->reshaped()) announce();  // the repair's report and the prediction on its surface
         j.report("load", 0.0);
         bool from_memory = false;
-        auto prepared = registry_.acquire(object->reshaped() ? object->repaired : object->welded, options, progress, &from_memory);
+        auto prepared = registry_.acquire(to_prepare, options, progress, &from_memory);
         {
           std::lock_guard lock(object->mutex);
           object->prepared = prepared;
@@ -259,8 +293,10 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
         j.report("ready", 1.0);
         announce();
         if (auto s = weak_session.lock()) schedule_frames(s, object);
+        // This server's seconds per vertex learn from what it computed (not from a cache or
+        // another object's preparation).
+        if (!from_memory && !prepared->cache_hit) prepare_rate_.record(prepared->seconds, static_cast<double>(prepared->field.stats().n_verts));
         const json status = object->status_json();
-        record_prepare_time(status.value("stats", json::object()));
         return json{{"object", object->id}, {"stats", status.value("stats", json::object())}};
       } catch (const kelvin::Cancelled&) {
         {
@@ -300,9 +336,11 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
 }
 
 // What POST /api/kelvin/objects would do with these inputs, without doing it: the server's vertex
-// estimate against its budget, the smallest l_x within the budget, the time the last computed
-// preparation here suggests (linear in vertices: a rough guide), and the refusal, if any.
-json KelvinModule::estimate_json(const mesh::SurfaceMesh& welded, kelvin::PrepareOptions options, double estimate) const {
+// count against its budget, the smallest l_x within the budget, the refusal if any, and the
+// prediction: the field vertices the mesher's sizing prediction gives for the sizing the
+// preparation will choose, and the seconds they take at this server's measured rate.
+json KelvinModule::estimate_json(const mesh::SurfaceMesh& welded, kelvin::PrepareOptions options, double estimate,
+                                 const mesh::SurfaceMesh* predicted, bool reshaped) {
   const Limits& lim = config_.limits;
   const auto budget = static_cast<double>(lim.max_vertex_estimate);
   const Vec3 lo = welded.vertices.colwise().minCoeff().transpose(), hi = welded.vertices.colwise().maxCoeff().transpose();
@@ -311,9 +349,8 @@ json KelvinModule::estimate_json(const mesh::SurfaceMesh& welded, kelvin::Prepar
               {"min_lx", lim.min_lx},
               {"diagonal", (hi - lo).norm()},
               {"lx_for_budget", std::max(lim.min_lx, smallest_lx_within(welded, budget, options.far_radius))},
-              {"seconds_estimate", nullptr},
-              {"problem", nullptr}};
-  if (const double rate = prepare_seconds_per_vertex_.load(); rate > 0) out["seconds_estimate"] = rate * estimate;
+              {"problem", nullptr},
+              {"prediction_note", nullptr}};
   try {
     if (estimate > budget)
       throw InvalidInput("lx", "about " + std::to_string(std::llround(estimate)) + " vertices, over this server's budget of " +
@@ -321,16 +358,45 @@ json KelvinModule::estimate_json(const mesh::SurfaceMesh& welded, kelvin::Prepar
     options.max_vertices = std::max<std::size_t>(100, lim.max_vertex_estimate);
     kelvin::check_prepare_inputs(welded, options);
   } catch (const InvalidInput& e) {
-    out["problem"] = {{"field", e.field()}, {"message", e.what()}};
+    // A reshaping request's surface checks are of the surface it makes, in the job: the user's
+    // open mesh is no problem here, only the budget (and l_x) can be judged before.
+    if (!reshaped || e.field() == "lx") out["problem"] = {{"field", e.field()}, {"message", e.what()}};
   }
+  std::optional<kelvin::PreparePrediction> prediction;
+  if (predicted != nullptr && out["problem"].is_null()) {
+    const CancelAfter deadline(lim.max_request_seconds);  // the trial meshing stops there
+    try {
+      prediction = predict(*predicted, options, deadline.flag());
+    } catch (const kelvin::Cancelled&) {
+      out["prediction_note"] = "not predicted within this server's max_request_seconds (" + json(lim.max_request_seconds).dump() +
+                               " s): the preparation's meshing will take at least as long";
+    } catch (const InvalidInput& e) {
+      // What the preparation would refuse (a thin sheet, l_x beyond the object's radius about
+      // its centre) is known now.
+      if (!reshaped) out["problem"] = {{"field", e.field()}, {"message", e.what()}};
+      out["prediction_note"] = std::string("not predicted: ") + e.what();
+    } catch (const std::exception&) {
+      // Whatever else the mesher refuses is the preparation's to report, as it was.
+      out["prediction_note"] = "not predicted: the mesher failed on this surface (the preparation will say how)";
+    }
+  }
+  out.update(prediction_json(prediction, prepare_rate_.rate()));
   return out;
 }
 
-void KelvinModule::record_prepare_time(const json& stats) {
-  if (stats.value("cache_hit", false) || stats.value("shared", false)) return;
-  const double seconds = stats.value("t_mesh", 0.0) + stats.value("t_build", 0.0) + stats.value("t_decomp", 0.0);
-  const double n = stats.value("n_verts", 0.0);
-  if (seconds > 0 && n > 0) prepare_seconds_per_vertex_.store(seconds / n);
+kelvin::PreparePrediction KelvinModule::predict(const mesh::SurfaceMesh& surface, kelvin::PrepareOptions options,
+                                                const std::atomic<bool>* cancel) {
+  if (auto hit = cached_prediction(surface, options)) return *hit;
+  options.max_vertices = std::max<std::size_t>(100, config_.limits.max_vertex_estimate);
+  kelvin::Progress progress;
+  progress.cancel = cancel;
+  const kelvin::PreparePrediction p = kelvin::predict_preparation(surface, options, progress);
+  predictions_.put(content_key(surface, options), p);
+  return p;
+}
+
+std::optional<kelvin::PreparePrediction> KelvinModule::cached_prediction(const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& options) {
+  return predictions_.find(content_key(surface, options));
 }
 
 void KelvinModule::set_sigma(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,

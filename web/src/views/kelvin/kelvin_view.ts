@@ -26,6 +26,7 @@ import {
   repairEstimateText,
   repairText,
   reuseUpload,
+  sourceBody,
   uploadGeometry,
   uploadMesh,
   uploadText,
@@ -70,6 +71,9 @@ export class KelvinView implements View {
   private defectsLayer: DefectsLayer | null = null; // the upload as its file has it, defects marked
   private notice: UploadNotice | null = null; // a link's upload that this server does not hold
   private awaitPrepare = false; // an upload's repair is being chosen: prepared on request
+  /** The server's estimate of each request asked here (JSON of its body), and the text shown for the current one. */
+  private readonly estimates = new Map<string, Estimate>();
+  private estimateShown = "";
   private pendingCamera: KelvinState["camera"] = undefined; // a link's camera, for the first framing
   private framedKey = ""; // what the camera was last framed on (an asset, an upload's digest)
   private limits: Partial<Limits> = {};
@@ -276,10 +280,14 @@ export class KelvinView implements View {
     const repair = this.state;
     const uploadLines = this.state.object === "upload" && this.uploadLine ? [this.uploadLine] : [];
     this.panel?.setReport(uploadLines);
-    this.panel?.setEstimate("estimating…", null);
-    let est: Estimate;
+    // One estimate per request (object, l_x, reshaping): asked once, then the same text wherever
+    // and whenever it is shown for that request (before, during and after its preparation).
+    const key = JSON.stringify(sourceBody(source, this.state.lx, repair));
+    let est: Estimate | undefined = this.estimates.get(key);
+    if (!est) this.panel?.setEstimate("estimating…", null);
     try {
-      est = await estimate(source, this.state.lx, repair);
+      est ??= await estimate(source, this.state.lx, repair);
+      this.rememberEstimate(key, est);
     } catch (e) {
       if (ticket !== this.ticket) return;
       // A refused l_x (below the server's minimum) is shown under the field; anything else is an error.
@@ -292,7 +300,9 @@ export class KelvinView implements View {
       return;
     }
     if (ticket !== this.ticket) return;
-    this.panel?.setEstimate(estimateText(est), est.problem);
+    const pending = repair.repair !== "none" ? `the ${repair.repair}` : "the simplification";
+    this.estimateShown = estimateText(est, pending);
+    this.panel?.setEstimate(this.estimateShown, est.problem);
     this.panel?.setRepairEstimate(repairEstimateText(est, this.state));
     if (est.problem) {
       // l_x is flagged under its field; a refused mesh is an error of its own.
@@ -328,6 +338,14 @@ export class KelvinView implements View {
           progress: (stage, fraction, cancel) => ticket === this.ticket && this.host.progress(label(stage), fraction, cancel),
           created: (id) => ticket === this.ticket && this.adopt(id),
           repaired: (o) => ticket === this.ticket && void this.showRepair(o, uploadLines, ticket),
+          // What the server could not predict before the repair made the surface, its job did.
+          estimated: (o) => {
+            if (ticket !== this.ticket || !o.estimate || est.vertices_predicted !== null) return;
+            const known = { ...est, ...o.estimate };
+            this.rememberEstimate(key, known);
+            this.estimateShown = estimateText(known);
+            this.panel?.setEstimate(this.estimateShown, null);
+          },
         },
         repair,
       );
@@ -964,10 +982,17 @@ export class KelvinView implements View {
     return this.upload && "name" in this.upload ? this.upload.name : (this.state.upload?.name ?? "the uploaded mesh");
   }
 
+  /** Estimates by request (a few dozen: a session's l_x and repair choices). */
+  private rememberEstimate(key: string, est: Estimate): void {
+    this.estimates.delete(key);
+    this.estimates.set(key, est);
+    if (this.estimates.size > 64) this.estimates.delete(this.estimates.keys().next().value as string);
+  }
+
   private updateStats(): void {
     const st = this.status?.stats ?? {};
     const name = this.objectName();
-    this.panel?.setStats(statsRows(name, this.state.lx, st, this.surface?.inputVertices, this.timings.prepareMs.at(-1)));
+    this.panel?.setStats(statsRows(name, this.state.lx, st, this.surface?.inputVertices, this.timings.prepareMs.at(-1), this.estimateShown));
     this.host.status(statusLine(name, st));
   }
 

@@ -98,14 +98,22 @@ export function estimate(source: Source, lx: number, reshape: Reshape = noReshap
   return api.post<Estimate>("/api/kelvin/estimate", sourceBody(source, lx, reshape) as never);
 }
 
-/** What the panel says before preparing: the expected size and time against the budget. */
-export function estimateText(e: Estimate): string {
-  const n = e.vertex_estimate.toLocaleString("en");
-  const time =
-    e.seconds_estimate === null
-      ? "time unknown until a preparation has run on this server"
-      : `≈ ${e.seconds_estimate < 10 ? e.seconds_estimate.toFixed(1) : Math.round(e.seconds_estimate)} s`;
-  return `expected ≈ ${n} field vertices of this server's budget of ${e.max_vertex_estimate.toLocaleString("en")} · ${time}`;
+/** The prediction's numbers, from POST /api/kelvin/estimate or an object's `estimate` (made by its
+ *  job once a repair has made the surface). */
+export type Prediction = Pick<Estimate, "vertices_predicted" | "grading" | "seconds_estimate" | "seconds_per_vertex">;
+
+const seconds = (s: number) => (s < 10 ? s.toFixed(1) : String(Math.round(s)));
+
+/** What the panel says before (and while) preparing: the server's predicted field vertices for the
+ *  sizing it will choose, and the time they take at this server's seconds per vertex. `pending`:
+ *  what makes the surface when the server could not predict before it exists (a fix or wrap). */
+export function estimateText(e: Prediction & { problem?: Estimate["problem"] }, pending = "the repair"): string {
+  if (e.problem) return `not prepared: ${e.problem.message}`;
+  if (e.vertices_predicted === null || e.seconds_estimate === null) return `field vertices: predicted once ${pending} has made the surface`;
+  const sizing = e.grading === null ? "" : e.grading > 0 ? " (graded sizing)" : " (eq. 23 sizing)";
+  const r = e.seconds_per_vertex;
+  const rate = `${(r.value * 1000).toPrecision(2)} ms per vertex, ${r.source === "measured" ? `measured here over ${r.preparations} preparation${r.preparations === 1 ? "" : "s"}` : "this server's default until it has prepared one"}`;
+  return `expected ≈ ${e.vertices_predicted.toLocaleString("en")} field vertices${sizing}, ≈ ${seconds(e.seconds_estimate)} s at ${rate}`;
 }
 
 /** What the chosen reshaping will do, with the server's prediction for a wrap. */
@@ -130,6 +138,8 @@ export interface PrepareCallbacks {
   created(id: string): void;
   /** A repair request's surface is made (before the field is prepared on it): its report. */
   repaired?(status: ObjectStatus): void;
+  /** The job's prediction, made on the surface it prepares (after a repair), before it prepares. */
+  estimated?(status: ObjectStatus): void;
 }
 
 const working = (s: ObjectStatus["state"]) => s === "repairing" || s === "preparing";
@@ -145,10 +155,15 @@ export class ObjectJob {
     const cancel = () => void this.cancel();
     const body: Record<string, unknown> = { ...extra, ...sourceBody(source, lx, reshape) };
     let repairSeen = false;
+    let estimateSeen = false;
     const seen = (o: ObjectStatus) => {
       if (!repairSeen && o.repair_report && cb.repaired) {
         repairSeen = true;
         cb.repaired(o);
+      }
+      if (!estimateSeen && o.estimate && cb.estimated) {
+        estimateSeen = true;
+        cb.estimated(o);
       }
     };
     let settle: ((s: ObjectStatus) => void) | null = null;

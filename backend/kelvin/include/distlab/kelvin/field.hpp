@@ -97,6 +97,26 @@ struct Sample {
 // accepts a job.
 void check_prepare_inputs(const mesh::SurfaceMesh& surface, const PrepareOptions& options);
 
+// What prepare will mesh for these inputs, before it meshes: the sizing it meshes (options.grading,
+// or choose_grading's choice, made exactly as prepare makes it: same centre, inverted surface and
+// MeshingParams) and the field vertices (Stats::n_verts) of that sizing: predict_vertices' volume
+// terms (the graded sizing's with its edge term), kSurfaceVerticesPerSizingIntegral · its surface
+// term, and for eq. 23 with protected sharp edges what a trial meshing at a coarse l_x makes beyond
+// those terms (field.cpp). Within 1.5× of Stats::n_verts on the assets and wrapped real meshes
+// (tests/server/test_estimates.cpp). Runs prepare's checks first (InvalidInput as prepare would
+// throw) and, without options.centre, the same deepest-point search; costs that search plus
+// 0.05–0.3 s, and the trial (about as long as meshing kProtectionTrialVertices plus the protection's
+// own vertices: 0.1–5 s) where it runs. Deterministic. progress: its cancel only.
+struct PreparePrediction {
+  double vertices = 0;  // predicted Stats::n_verts of the sizing meshed
+  double grading = 0;   // the sizing prepare meshes (Stats::grading)
+  bool chosen = false;  // grading was chosen (options.grading not given)
+  Vec3 centre = Vec3::Zero();
+  double protection_trial_lx = 0;  // l_x of the trial meshing (0: none ran)
+};
+PreparePrediction predict_preparation(const mesh::SurfaceMesh& surface, const PrepareOptions& options,
+                                      const Progress& progress = {});
+
 class Field {
  public:
   // Validates the surface (closed, manifold, oriented) and builds everything σ-independent.

@@ -58,6 +58,10 @@ inline constexpr double kGradedEdgeFloor = 0.25;
 struct SizingPrediction {
   double paper = 0;   // eq. 23 (grading 0)
   double graded = 0;  // params.grading
+  // The model's parts: ∫ dV_y / l_y³ over Ω_inv of both sizings, ∫ dA_y / l_y² over the inverted
+  // surface (the same for both: the graded sizing adds nothing on the surface), the sharp edges'
+  // length in x (feature_angle; 0 if 180).
+  double volume_paper = 0, volume_graded = 0, surface = 0, edge_length = 0;
 };
 SizingPrediction predict_vertices(const mesh::SurfaceMesh& inverted, const MeshingParams& params,
                                   const Progress& progress = {});
@@ -67,6 +71,11 @@ inline constexpr double kVerticesPerSizingIntegral = 0.71;
 // The cube measured 55–63 vertices per metre of sharp edge per 1/l_x (l_x 0.15–0.03); the
 // server's vertex budget counts the upper bound kGradedEdgeVerticesPerLength (surface_tools.hpp).
 inline constexpr double kGradedEdgeVerticesTypical = 60;
+// Vertices per unit of SizingPrediction::surface (∫ dA_y / l_y² over the inverted surface) beyond
+// the volume term, both sizings: fitted on the sphere (204–9.6k vertices at l_x 0.15–0.035, where
+// the volume term alone is 54–90% of the count) and checked on the cube and wraps without edge
+// protection (issue 37). Not part of choose_grading's comparison, which is as it was.
+inline constexpr double kSurfaceVerticesPerSizingIntegral = 0.45;
 
 // The sizing PrepareOptions::grading chooses when not given: the graded sizing kAutoGrading
 // (goal 3's table of issue 19: at l_x 0.02 on the cube 185k vertices against eq. 23's 394k, more
@@ -79,7 +88,10 @@ inline constexpr double kGradedEdgeVerticesTypical = 60;
 inline constexpr double kAutoGrading = 0.05;
 inline constexpr double kAutoGradedShare = 2.0 / 3.0;
 inline constexpr double kAutoPredictFrom = 5'000;
-double choose_grading(const mesh::SurfaceMesh& inverted, const MeshingParams& params, const Progress& progress = {});
+// *prediction (if given) receives predict_vertices' counts when the choice made one (at or above
+// kAutoPredictFrom; its graded count is kAutoGrading's), and is left alone otherwise.
+double choose_grading(const mesh::SurfaceMesh& inverted, const MeshingParams& params, const Progress& progress = {},
+                      SizingPrediction* prediction = nullptr);
 
 // CGAL Mesh_3 on the region bounded by the (already inverted, outward-oriented) surface with
 // l_y(y) of MeshingParams::grading (eq. 23 when grading is 0). Deterministic: fixed seeds, no time limits.

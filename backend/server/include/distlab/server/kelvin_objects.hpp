@@ -57,6 +57,9 @@ struct PreparedField {
   const std::string key;
   kelvin::Field field;
   bool cache_hit = false;
+  // Wall seconds PreparedRegistry::acquire took to make it: the preparation's stages (load,
+  // invert, mesh, build, decomp, response) or, on a cache hit, the load.
+  double seconds = 0;
   std::unique_ptr<ResponseBudget::Share> response_share;  // held while field has its boundary response
 
   // Runs fn(const kelvin::Field&) with `sigma` solved (sigma_key identifies it exactly). Vertex
@@ -153,6 +156,9 @@ struct KelvinObject {
   mesh::Transfer to_repaired;
   nlohmann::json repair_report, simplify_report, components_report;
   bool reshaped() const { return reshape.any(); }  // prepared on `repaired`
+  // What the preparation job predicted before it prepared (the surface it prepares, its sizing
+  // choice; prepare_estimate.hpp), under `mutex`; null until then or if it could not predict.
+  nlohmann::json estimate;
 
   std::mutex mutex;                 // guards everything below
   std::string state = "preparing";  // repairing | preparing | ready | failed | cancelled
