@@ -390,7 +390,7 @@ kelvin::PreparePrediction KelvinModule::predict(const mesh::SurfaceMesh& surface
   options.max_vertices = std::max<std::size_t>(100, config_.limits.max_vertex_estimate);
   kelvin::Progress progress;
   progress.cancel = cancel;
-  const kelvin::PreparePrediction p = kelvin::predict_preparation(surface, options, progress);
+  kelvin::PreparePrediction p = kelvin::predict_preparation(surface, options, progress);
   predictions_.put(content_key(surface, options), p);
   return p;
 }
