@@ -3,6 +3,7 @@
 import { test } from "node:test";
 import assert from "node:assert/strict";
 import { openView, screenshot, serverAndBrowser, startServer } from "./harness.mjs";
+import { gridBox, objText } from "./grid_box.mjs";
 
 const env = serverAndBrowser();
 
@@ -27,6 +28,52 @@ test("an unknown route falls back to the first view; keyboard 2 opens the second
   await page.keyboard.press("2");
   await page.waitForFunction(() => location.hash.startsWith("#/kelvin"));
   assert.deepEqual(page.problems, []);
+});
+
+// Tab links carried no state (issue 37 leftover): leaving a view by a tab and coming back by its tab
+// (or its key) mounted it with its defaults, so a moved GAP shape or an uploaded Kelvin object was
+// gone until Back. Each view comes back as it was left, its tab links to its full state, and the
+// address bar shows that state once it is back.
+test("a view left by its tab comes back as it was: the GAP shape moved, the Kelvin upload, both in their links", async () => {
+  const route = (page) => page.evaluate(() => location.hash);
+  const stateOf = (hash) => JSON.parse(decodeURIComponent(/\?s=(.*)$/.exec(hash)?.[1] ?? "%7B%7D"));
+  const settled = (page, view) => page.waitForFunction((v) => location.hash.startsWith(`#/${v}?s=`) && window.distlab?.[v] !== undefined, view);
+  const page = await openView(env.browser, env.server, "#/gap");
+  await page.keyboard.press("ArrowRight"); // B 1 cm along +x
+  await page.waitForFunction(() => location.hash.includes("%22b%22"));
+  await page.waitForTimeout(400); // the link is written 150 ms after the change
+  const gapLink = await route(page);
+  const moved = stateOf(gapLink);
+  assert.ok(Math.abs(moved.b.position[0] - 0.56) < 1e-9, gapLink); // from 0.55
+
+  await page.click("#tabs a[data-view=kelvin]");
+  await page.waitForFunction(() => window.distlab?.kelvin?.ready === true, null, { polling: 100 });
+  assert.equal(await page.locator("#tabs a[data-view=gap]").getAttribute("href"), gapLink, "the GAP tab links to GAP's state");
+  const box = gridBox([0.3, 0.2, 0.2], 2);
+  await page.setInputFiles("input[data-testid=kelvin-upload]", {
+    name: "tab-box.obj",
+    mimeType: "text/plain",
+    buffer: Buffer.from(objText(box)),
+  });
+  await page.waitForFunction(() => window.distlab.kelvin.ready && window.distlab.kelvin.state.object === "upload" && window.distlab.kelvin.object?.surface_digest, null, {
+    polling: 100,
+  });
+  const digest = await page.evaluate(() => window.distlab.kelvin.object.surface_digest);
+  await page.waitForFunction((d) => location.hash.includes(d), digest);
+
+  await page.click("#tabs a[data-view=gap]");
+  await settled(page, "gap");
+  assert.deepEqual(stateOf(await route(page)), moved, "GAP comes back with B moved, and its link says so");
+  assert.ok((await page.locator("#tabs a[data-view=kelvin]").getAttribute("href")).includes(digest), "the Kelvin tab links to the upload");
+
+  await page.keyboard.press("2"); // the Kelvin view's key
+  await page.waitForFunction(() => window.distlab?.kelvin?.ready === true && window.distlab.kelvin.object, null, { polling: 100 });
+  assert.equal(await page.evaluate(() => window.distlab.kelvin.state.object), "upload");
+  assert.equal(await page.evaluate(() => window.distlab.kelvin.object.surface_digest), digest, "the same uploaded mesh, not the cube");
+  assert.equal(await page.evaluate(() => window.distlab.kelvin.object.n_input_vertices), box.vertices.length);
+  await page.waitForFunction((d) => location.hash.startsWith("#/kelvin?s=") && location.hash.includes(d), digest);
+  assert.deepEqual(page.problems, []);
+  await page.context().close();
 });
 
 test("the page reconnects after the server restarts on the same port", async () => {

@@ -5,7 +5,7 @@ import { api } from "./core/api";
 import { allShortcuts, installKeyHandler, registerGlobal, setViewShortcuts } from "./core/keys";
 import { socket } from "./core/socket";
 import { setToastScope, showError } from "./core/toast";
-import { cancelStateWrite, hashFor, parseHash, writeState } from "./core/urlstate";
+import { cancelStateWrite, hashFor, linkFor, parseHash, writeState, type Shrink } from "./core/urlstate";
 import { startUserScene, userSceneItems, userSceneView } from "./core/user_scene";
 import type { View, ViewEntry, ViewHost } from "./core/view";
 
@@ -45,6 +45,22 @@ const host: Omit<ViewHost, "saveState"> = {
   },
 };
 
+/** Each view's last state while the page is open: its tab links to it, and leaving a view and
+ *  coming back (tab, key, or a bare #/<view>) mounts it again as it was left (a GAP shape moved, an
+ *  upload), instead of its defaults. Kept unshrunk: a link over the budget restores in full here. */
+const kept = new Map<string, { state: Record<string, unknown>; shrink?: Shrink; href: string }>();
+
+function keep(id: string, state: Record<string, unknown>, shrink?: Shrink): void {
+  const entry = { state, shrink, href: hashFor(id, state) };
+  kept.set(id, entry);
+  void linkFor(id, state, shrink).then((href) => {
+    if (kept.get(id) !== entry) return;
+    entry.href = href;
+    const tab = document.querySelector<HTMLAnchorElement>(`#tabs a[data-view=${id}]`);
+    if (tab) tab.href = href;
+  });
+}
+
 /** The host a view is mounted with: the shell's, but its state writes go to the URL only while
  *  that view is the one shown. A view left behind (its debounced writes, a job or a request that
  *  ends after the switch) never writes another view's link. */
@@ -52,13 +68,15 @@ function hostFor(id: string, view: View): ViewHost {
   return {
     ...host,
     saveState(state, shrink) {
-      if (current?.view === view) writeState(id, state, shrink);
+      if (current?.view !== view) return;
+      keep(id, state, shrink);
+      writeState(id, state, shrink);
     },
   };
 }
 
 async function route(): Promise<void> {
-  const { view: id, state } = await parseHash();
+  const { view: id, state: linked } = await parseHash();
   const entry = views.find((v) => v.id === id) ?? views[0];
   if (!views.some((v) => v.id === id)) {
     history.replaceState(null, "", hashFor(entry.id));
@@ -78,12 +96,17 @@ async function route(): Promise<void> {
   host.status("");
   document.querySelectorAll<HTMLAnchorElement>("#tabs a").forEach((a) => a.classList.toggle("active", a.dataset.view === entry.id));
   document.title = `distlab · ${entry.title}`;
+  const last = kept.get(entry.id);
+  const back = last !== undefined && (location.hash === hashFor(entry.id) || location.hash === last.href);
+  const state = back ? last.state : linked;
   try {
     const view = await entry.load();
     if (ticket !== mounting) return;
     current = { id: entry.id, view };
     setViewShortcuts(view.shortcuts());
-    await view.mount(hostFor(entry.id, view), state);
+    const viewHost = hostFor(entry.id, view);
+    viewHost.saveState(state, back ? last.shrink : undefined); // the address bar and the tab show the state mounted
+    await view.mount(viewHost, state);
   } catch (e) {
     showError(e, `cannot open ${entry.title}`);
   }

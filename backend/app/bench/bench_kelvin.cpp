@@ -23,6 +23,7 @@
 #include <cmath>
 #include <cstdio>
 #include <ctime>
+#include <filesystem>
 #include <fstream>
 #include <optional>
 #include <random>
@@ -32,10 +33,12 @@
 #include <tuple>
 #include <vector>
 
+#include <unistd.h>
 #include <nlohmann/json.hpp>
 
 #include "cholmod_solver.hpp"  // private to distlab_kelvin: the factorization Field::prepare runs
 #include "distlab/geometry/parallel.hpp"
+#include "distlab/kelvin/digest.hpp"
 #include "distlab/kelvin/field.hpp"
 #include "distlab/kelvin/surface_tools.hpp"
 #include "distlab/mesh/primitives.hpp"
@@ -671,6 +674,133 @@ nlohmann::json sizing_table(const std::vector<double>& lxs, const std::vector<do
   return out;
 }
 
+// Issue 38's mesher table: distlab's mesher against plain CGAL Mesh_3 with the paper's sizing
+// (eq. 23) on the same inverted surface (kelvin::meshing_surface; distlab-mesh3-plain, a child
+// process), in one run, the sides alternating which goes first. "Ours" is what Stats::t_mesh
+// times in a preparation: the sizing's choice (grading "auto"), Mesh_3 and the manifold boundary.
+struct MesherCase {
+  std::string object;
+  mesh::SurfaceMesh surface;
+  Vec3 centre;
+  double lx = 0, feature_angle = 60;
+  std::optional<double> grading;  // none: choose_grading, as a preparation without one
+};
+struct MesherSide {
+  std::vector<double> t;
+  long n_verts = 0;
+  double grading = 0;
+  double t_refine = 0, t_exude = 0;  // plain: the means of Mesh_3's refinement and exudation
+  double t_choice = 0;               // ours: choose_grading's part of t (grading "auto"), mean
+  std::string digest;                // ours: SHA-256 of the points, cells and domain flags (same mesh, same digest)
+};
+
+std::string load_average() {
+  std::ifstream in("/proc/loadavg");
+  std::string a, b, c;
+  in >> a >> b >> c;
+  return a + " " + b + " " + c;
+}
+
+MeshingParams mesher_params(const MesherCase& c, double far_radius, mesh::SurfaceMesh& inverted) {
+  inverted = c.surface;
+  double r_max = 0;
+  for (Eigen::Index v = 0; v < inverted.vertices.rows(); ++v) {
+    const Vec3 p = Vec3(inverted.vertices.row(v)) - c.centre;
+    r_max = std::max(r_max, p.norm());
+    inverted.vertices.row(v) = p / p.squaredNorm();  // eq. 5
+  }
+  MeshingParams params;  // as Field::prepare sets them (field.cpp, mesh_stage)
+  params.lx = c.lx;
+  params.min_size = c.lx / std::pow(far_radius * r_max, 2);
+  params.feature_angle = c.feature_angle;
+  params.max_vertices = 2'000'000;
+  params.max_protection_evaluations = 1e7;  // the bench's objects converge (the wrench runs without protection)
+  return params;
+}
+
+void ours_once(const MesherCase& c, double far_radius, MesherSide& out) {
+  mesh::SurfaceMesh inverted;
+  MeshingParams params = mesher_params(c, far_radius, inverted);
+  const auto t0 = Clock::now();
+  params.grading = c.grading ? *c.grading : choose_grading(inverted, params);
+  out.t_choice += since(t0);
+  TetMesh tm = mesh_inverted_domain(inverted, params, {});
+  make_boundary_manifold(tm);
+  out.t.push_back(since(t0));
+  out.n_verts = tm.points.rows();
+  out.grading = params.grading;
+  Sha256 sha;
+  sha.add(tm.points.data(), sizeof(double) * static_cast<size_t>(tm.points.size()));
+  sha.add(tm.tets.data(), sizeof(int) * static_cast<size_t>(tm.tets.size()));
+  sha.add(tm.in_domain.data(), tm.in_domain.size());
+  const std::string digest = sha.hex();
+  if (!out.digest.empty() && digest != out.digest) throw std::runtime_error("the mesher made two different meshes of one input");
+  out.digest = digest;
+}
+
+void plain_once(const MesherCase& c, double far_radius, int threads, const std::string& exe, MesherSide& out) {
+  mesh::SurfaceMesh inverted;
+  const MeshingParams params = mesher_params(c, far_radius, inverted);
+  const mesh::SurfaceMesh poly = meshing_surface(inverted, params);
+  const std::string off = "/tmp/distlab-bench-kelvin-" + std::to_string(::getpid()) + ".off";
+  {
+    std::ofstream f(off);
+    f << "OFF\n"
+      << poly.vertices.rows() << " " << poly.faces.rows() << " 0\n";
+    char line[128];
+    for (Eigen::Index v = 0; v < poly.vertices.rows(); ++v) {
+      std::snprintf(line, sizeof line, "%.17g %.17g %.17g\n", poly.vertices(v, 0), poly.vertices(v, 1), poly.vertices(v, 2));
+      f << line;
+    }
+    for (Eigen::Index k = 0; k < poly.faces.rows(); ++k) f << "3 " << poly.faces(k, 0) << " " << poly.faces(k, 1) << " " << poly.faces(k, 2) << "\n";
+  }
+  char args[256];
+  std::snprintf(args, sizeof args, " %s %.17g %.17g %.17g %d", off.c_str(), params.lx, params.min_size, params.feature_angle, threads);
+  FILE* p = ::popen((exe + args).c_str(), "r");
+  if (p == nullptr) throw std::runtime_error("cannot start " + exe);
+  std::string text;
+  char buf[4096];
+  while (std::fgets(buf, sizeof buf, p) != nullptr) text += buf;
+  const int status = ::pclose(p);
+  std::remove(off.c_str());
+  if (status != 0) throw std::runtime_error(exe + " failed: " + text);
+  const nlohmann::json j = nlohmann::json::parse(text);
+  out.t.push_back(j.at("t_mesh").get<double>());
+  out.n_verts = j.at("n_verts").get<long>();
+  out.t_refine += j.at("t_refine").get<double>();
+  out.t_exude += j.at("t_exude").get<double>();
+}
+
+nlohmann::json mesher_table(const std::vector<MesherCase>& cases, double far_radius, int reps, int plain_threads, const std::string& plain_exe) {
+  const std::string load_before = load_average();
+  std::printf(
+      "\nMesher (issue 38): distlab's (the sizing's choice, Mesh_3, the manifold boundary: Stats::t_mesh) against "
+      "plain CGAL Mesh_3 with eq. 23 on the same inverted surface (%s, %d thread%s), medians of %d runs alternating "
+      "which goes first; load before: %s\n| object | l_x | sizing | N_verts | t_mesh s | of it sizing choice s | µs/vertex | plain N_verts | plain t "
+      "s | plain refine s | plain exude s | plain µs/vertex | t ratio | per-vertex ratio | mesh digest |\n"
+      "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+      plain_exe.c_str(), plain_threads, plain_threads > 1 ? "s" : "", reps, load_before.c_str());
+  nlohmann::json out = nlohmann::json::array();
+  for (const MesherCase& c : cases) {
+    MesherSide ours, plain;
+    for (int r = 0; r < reps; ++r)
+      for (int side = 0; side < 2; ++side) {
+        if ((side == 0) == (r % 2 == 0)) ours_once(c, far_radius, ours);
+        else if (!plain_exe.empty()) plain_once(c, far_radius, plain_threads, plain_exe, plain);
+      }
+    const double t = median(ours.t), tp = plain.t.empty() ? std::nan("") : median(plain.t);
+    const double us = 1e6 * t / static_cast<double>(ours.n_verts), usp = 1e6 * tp / static_cast<double>(plain.n_verts);
+    std::printf("| %s | %.3g | %s | %ld | %.2f | %.2f | %.1f | %ld | %.2f | %.2f | %.2f | %.1f | %.2f | %.2f | %s |\n", c.object.c_str(), c.lx,
+                (c.grading ? std::to_string(ours.grading).substr(0, 4) : "auto " + std::to_string(ours.grading).substr(0, 4)).c_str(),
+                ours.n_verts, t, ours.t_choice / reps, us, plain.n_verts, tp, plain.t_refine / reps, plain.t_exude / reps, usp, t / tp, us / usp, ours.digest.substr(0, 12).c_str());
+    std::fflush(stdout);
+    out.push_back({{"object", c.object}, {"lx", c.lx}, {"grading", ours.grading}, {"grading_chosen", !c.grading}, {"n_verts", ours.n_verts}, {"digest", ours.digest}, {"t_mesh", t}, {"t_mesh_runs", ours.t}, {"plain_n_verts", plain.n_verts}, {"plain_t_mesh", tp}, {"plain_t_mesh_runs", plain.t}, {"plain_t_refine_mean", plain.t_refine / reps}, {"plain_t_exude_mean", plain.t_exude / reps}, {"plain_threads", plain_threads}, {"t_sizing_choice_mean", ours.t_choice / reps}});
+  }
+  const std::string load_after = load_average();
+  std::printf("load after: %s\n", load_after.c_str());
+  return {{"rows", out}, {"load_before", load_before}, {"load_after", load_after}, {"reps", reps}};
+}
+
 std::vector<double> parse_list(const std::string& s) {
   std::vector<double> out;
   std::stringstream ss(s);
@@ -688,14 +818,20 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
   long lu_max = 60000;
   double wrench_lx = 0.002, wrench_features = 180, far_radius = 1.0;
   bool table1 = true, table2 = true;
-  std::vector<double> sphere_lxs, sizing_lxs, gradings = {0.0, 0.3};
+  std::vector<double> sphere_lxs, sizing_lxs, gradings = {0.0, 0.3}, mesher_lxs;
+  std::string mesher_gradings = "auto,0", mesher_objects = "cube,wrench";
+  int mesher_reps = 3, mesher_threads = 1;
+  bool mesher_plain = true;
   double grading = 0;
   if (argc == 2 && std::string(argv[1]) == "--help") {
     std::puts(
         "usage: distlab-bench-kelvin [--assets DIR] [--lx 0.2,0.15,...] [--grid 1000] [--lu-max 60000]\n"
         "  [--wrench-lx 0.002] [--wrench-features 180] [--json FILE] [--table2-only 1] [--table1-only 1]\n"
         "  [--sphere-rmse 0.1,0.05,...] [--cache-dir DIR (reuse prepared objects)] [--far-radius 1] [--grading 0]\n"
-        "  [--sizing-table 0.05,0.03 (accuracy against vertices, per grading) [--gradings 0,0.3]]");
+        "  [--sizing-table 0.05,0.03 (accuracy against vertices, per grading) [--gradings 0,0.3]]\n"
+        "  [--mesher 0.03,0.02 (the mesher against plain CGAL Mesh_3, eq. 23) [--mesher-gradings auto,0]\n"
+        "   [--mesher-objects cube,wrench (the wrench at --wrench-lx)] [--mesher-reps 3] [--mesher-threads 1 (plain's)]\n"
+        "   [--mesher-plain 0 (ours only)]]");
     return 0;
   }
   for (int i = 1; i + 1 < argc; i += 2) {
@@ -715,6 +851,12 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
     else if (k == "--grading") grading = std::stod(v);  // PrepareOptions::grading of every object
     else if (k == "--sizing-table") sizing_lxs = parse_list(v), table1 = table2 = false;
     else if (k == "--gradings") gradings = parse_list(v);
+    else if (k == "--mesher") mesher_lxs = parse_list(v), table1 = table2 = false;
+    else if (k == "--mesher-gradings") mesher_gradings = v;
+    else if (k == "--mesher-objects") mesher_objects = v;
+    else if (k == "--mesher-reps") mesher_reps = std::stoi(v);
+    else if (k == "--mesher-threads") mesher_threads = std::stoi(v);
+    else if (k == "--mesher-plain") mesher_plain = v != "0";
     else {
       std::fprintf(stderr, "unknown option %s\n", k.c_str());
       return 2;
@@ -845,6 +987,24 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
   }
 
   nlohmann::json out;
+  if (!mesher_lxs.empty()) {
+    std::vector<std::optional<double>> sizings;
+    {
+      std::stringstream ss(mesher_gradings);
+      for (std::string item; std::getline(ss, item, ',');)
+        sizings.push_back(item == "auto" ? std::nullopt : std::optional<double>(std::stod(item)));
+    }
+    std::vector<MesherCase> cases;
+    std::stringstream ss(mesher_objects);
+    for (std::string object; std::getline(ss, object, ',');) {
+      if (object != "cube" && object != "wrench") throw std::runtime_error("--mesher-objects: cube or wrench");
+      const mesh::SurfaceMesh surface = object == "cube" ? cube : mesh::weld(mesh::load_mesh(assets + "/wrench.stl")).surface;
+      for (double lx : object == "cube" ? mesher_lxs : std::vector<double>{wrench_lx})
+        for (const auto& g : sizings) cases.push_back({object, surface, Vec3::Zero(), lx, object == "cube" ? 60.0 : wrench_features, g});
+    }
+    const std::string exe = std::filesystem::canonical("/proc/self/exe").parent_path() / "distlab-mesh3-plain";
+    out["mesher"] = mesher_table(cases, far_radius, mesher_reps, mesher_threads, mesher_plain ? exe : "");
+  }
   if (!sizing_lxs.empty()) out["sizing"] = sizing_table(sizing_lxs, gradings, far_radius, grid);
   if (!sphere_json.is_null()) out["sphere_rmse"] = sphere_json;
   for (const Row& r : rows) out["table1"].push_back(to_json(r));

@@ -229,6 +229,27 @@ TetMesh mesh_once(const mesh::SurfaceMesh& inverted, const MeshingParams& params
 
 }  // namespace
 
+mesh::SurfaceMesh meshing_surface(const mesh::SurfaceMesh& inverted, const MeshingParams& params) {
+  const Polyhedron poly = boundary_polyhedron(inverted, params.boundary_edge_length > 0 ? params.boundary_edge_length : params.lx);
+  mesh::SurfaceMesh out;
+  out.vertices.resize(static_cast<Eigen::Index>(poly.number_of_vertices()), 3);
+  std::unordered_map<Polyhedron::Vertex_index, int> index;
+  for (auto v : poly.vertices()) {
+    const int i = static_cast<int>(index.size());
+    index.emplace(v, i);
+    const auto& p = poly.point(v);
+    out.vertices.row(i) << p.x(), p.y(), p.z();
+  }
+  out.faces.resize(static_cast<Eigen::Index>(poly.number_of_faces()), 3);
+  Eigen::Index f = 0;
+  for (auto face : poly.faces()) {
+    int k = 0;
+    for (auto v : CGAL::vertices_around_face(poly.halfedge(face), poly)) out.faces(f, k++) = index.at(v);
+    ++f;
+  }
+  return out;
+}
+
 SizingPrediction predict_vertices(const mesh::SurfaceMesh& inverted, const MeshingParams& params, const Progress& progress) {
   // The polyhedron the mesher meshes, its edges bisected to 2 l_x (the bulge of the sphere
   // patches matters little to a count).

@@ -44,6 +44,14 @@ export async function compactHash(view: string, state: Record<string, unknown>):
   return location.href.split("#")[0].length + z.length <= LINK_BUDGET ? z : null;
 }
 
+/** The smaller state a view gives for a link over LINK_BUDGET (its reference to a file). */
+export type Shrink = (s: Record<string, unknown>) => Promise<Record<string, unknown>>;
+
+/** The link a state is written as: compactHash, or `shrink`'s form when that is over LINK_BUDGET. */
+export async function linkFor(view: string, state: Record<string, unknown>, shrink?: Shrink): Promise<string> {
+  return (await compactHash(view, state)) ?? (await compactHash(view, shrink ? await shrink(state) : {})) ?? `#/${view}`;
+}
+
 let pending: number | undefined;
 let writes = 0;
 /** Records a view's state in the URL without adding a history entry per drag step. A state whose
@@ -51,12 +59,11 @@ let writes = 0;
  *  The write lands only while the hash still routes to `view`: a write left pending by a view the
  *  user has just left (its change, then a tab click within the 150 ms) must not turn the new
  *  view's link back into the old one's. */
-export function writeState(view: string, state: Record<string, unknown>, shrink?: (s: Record<string, unknown>) => Promise<Record<string, unknown>>): void {
+export function writeState(view: string, state: Record<string, unknown>, shrink?: Shrink): void {
   clearTimeout(pending);
   const ticket = ++writes;
   pending = window.setTimeout(async () => {
-    let h = await compactHash(view, state);
-    if (h === null) h = (await compactHash(view, shrink ? await shrink(state) : {})) ?? `#/${view}`;
+    const h = await linkFor(view, state, shrink);
     if (ticket === writes && routedView() === view && h !== location.hash) history.replaceState(null, "", h);
   }, 150);
 }

@@ -1,5 +1,6 @@
 // What the shell gives a view, and what a view gives the shell.
 import type { Shortcut } from "./keys";
+import type { Shrink } from "./urlstate";
 
 export interface ViewHost {
   /** Fills the main area; a view puts its Viewport here. */
@@ -12,7 +13,7 @@ export interface ViewHost {
   /** Persist the view's state in the URL (shareable links); `shrink` gives the state to write
    *  when the link would be too long (see urlstate.ts). Only while the view is shown: once the
    *  user has left it, its calls (and its writes still pending) change nothing. */
-  saveState(state: Record<string, unknown>, shrink?: (s: Record<string, unknown>) => Promise<Record<string, unknown>>): void;
+  saveState(state: Record<string, unknown>, shrink?: Shrink): void;
   /** A line of text in the status bar (e.g. "D = 0.1234 m"). */
   status(text: string): void;
   /** Progress bar: fraction in [0, 1], or null to hide. */

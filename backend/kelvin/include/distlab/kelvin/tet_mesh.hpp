@@ -100,6 +100,11 @@ double choose_grading(const mesh::SurfaceMesh& inverted, const MeshingParams& pa
 TetMesh mesh_inverted_domain(const mesh::SurfaceMesh& inverted, const MeshingParams& params,
                              const Progress& progress, std::string* warning = nullptr);
 
+// The surface Mesh_3 meshes for these params: the inverted surface with its edges bisected in x
+// to params.boundary_edge_length (l_x if 0), in y. For a baseline on the same surface
+// (distlab-bench-kelvin --mesher).
+mesh::SurfaceMesh meshing_surface(const mesh::SurfaceMesh& inverted, const MeshingParams& params);
+
 // Makes the boundary of the domain cells a closed 2-manifold: at every vertex, the domain cells
 // around it and the other cells (the hull counting as one) each form one face-connected piece.
 // Where two parts of the domain meet at an edge or a vertex only, the smaller parts' cells around
