@@ -511,15 +511,19 @@ std::string follow_job(WsClient& ws, const std::string& id, std::vector<json>& p
   return final_state;
 }
 
-// A sweep of the GAP obstacle margin over the published corridor (35 s): one job with progress,
-// each entry exactly the record of the single run with that margin (`distlab cbf`, bit for bit:
-// JSON numbers round-trip), and the outcome: the paper's margin 0.002 stops far short,
-// 0.0002 reaches within 2 cm. `distlab cbf` with the same "sweep" gives the same entries.
+// A sweep of the GAP obstacle margin over the first 5 s of the published corridor: one job with
+// progress, each entry exactly the record of the single run with that margin (`distlab cbf`, bit
+// for bit: JSON numbers round-trip); `distlab cbf` with the same "sweep" gives the same entries.
+// The margins' outcomes over the whole 35 s are test_corridor_outcomes.cpp's (six runs of 35 s
+// here took 160 s under ASan).
 TEST_F(CbfApi, SweepEntriesAreTheSingleRuns) {
   const std::string s = new_session(c);
   auto ws_owner = connect(server_->port(), s);
   const json values = {0.002, 0.0002};
-  const json request = {{"scenario", "corridor"}, {"metric", "gap"}, {"sweep", {{"parameter", "margins.gap.obstacle"}, {"values", values}}}};
+  const json request = {{"scenario", "corridor"},
+                        {"metric", "gap"},
+                        {"params", {{"duration", 5}}},
+                        {"sweep", {{"parameter", "margins.gap.obstacle"}, {"values", values}}}};
   auto r = c.Post("/api/cbf/sweeps", session_headers(s), request.dump(), "application/json");
   ASSERT_TRUE(r);
   ASSERT_EQ(r->status, 202) << r->body;
@@ -549,7 +553,7 @@ TEST_F(CbfApi, SweepEntriesAreTheSingleRuns) {
     EXPECT_EQ(e["index"], i);
     EXPECT_EQ(e["value"], values[i]);
     // The single run, written out independently of the sweep's own request building.
-    const json single = {{"scenario", "corridor"}, {"metric", "gap"}, {"params", {{"margins", {{"gap", {{"obstacle", values[i]}}}}}, {"audit", true}}}};
+    const json single = {{"scenario", "corridor"}, {"metric", "gap"}, {"params", {{"duration", 5}, {"margins", {{"gap", {{"obstacle", values[i]}}}}}, {"audit", true}}}};
     const json rec = run_cli(single);
     ASSERT_TRUE(rec.contains("summary")) << rec.dump().substr(0, 300);
     EXPECT_EQ(e["summary"], rec["summary"]) << "value " << values[i];
@@ -563,9 +567,8 @@ TEST_F(CbfApi, SweepEntriesAreTheSingleRuns) {
     for (const json& v : rec["smoothness"]["total_variation"]) tv += v.get<double>();
     EXPECT_EQ(e["total_variation"].get<double>(), tv);
   }
-  // franka-corridor.md: with converged D the paper's margin settles ~16 cm short, 0.0002 ~1.5 cm.
-  EXPECT_GT(sweep["entries"][0]["position_error"].get<double>(), 0.10);
-  EXPECT_LE(sweep["entries"][1]["position_error"].get<double>(), 0.02);
+  EXPECT_EQ(sweep["entries"][0]["steps"], 500);  // dt 0.01 over 5 s
+  EXPECT_NE(sweep["entries"][0]["position_error"], sweep["entries"][1]["position_error"]);
   for (const json& e : sweep["entries"]) EXPECT_GT(e["min_clearance"].get<double>(), 0.0);
 
   json cli = run_cli(request);
