@@ -1,6 +1,6 @@
 // GAP benchmark (issue 2): the paper's Section IV-A experiments, with FCL in the same run.
 //   distlab-bench-gap [--pairs N] [--box-pairs N] [--seed S] [--json FILE] [--newton-only]
-//   [--repeat R] [--passes P] [--save-cases FILE | --load-cases FILE] [--validate N]
+//   [--boxes-only] [--repeat R] [--passes P] [--save-cases FILE | --load-cases FILE] [--validate N]
 //   [--tracking SEQUENCES]
 // --tracking S: benchmark 3's number of sequences of 100 nearby poses (default 200; 0: none).
 // --repeat R: each pair is timed R times back to back and the fastest call counts (same for FCL
@@ -9,8 +9,9 @@
 // --passes P: P whole passes over the pairs (benchmarks 1 and 2), the fastest pass per pair counts (cold
 // calls every time; only scheduler interruptions drop out). Default 1.
 // --newton-only: benchmark 1's FCL and Newton runs alone (no reference, no plain iteration, no
-// benchmark 2), for profiling. --save-cases/--load-cases FILE: benchmark 1's polytope pairs as
-// JSON, so they can be loaded without CGAL (whose interval arithmetic breaks under valgrind):
+// benchmark 2), for profiling. --boxes-only: benchmark 2 alone (its pairs then differ from the
+// full run's; with --newton-only, without the plain iteration). --save-cases/--load-cases FILE:
+// benchmark 1's polytope pairs as JSON, so they can be loaded without CGAL (whose interval arithmetic breaks under valgrind):
 //   distlab-bench-gap --pairs 2000 --newton-only --save-cases cases.json
 //   valgrind --tool=callgrind --toggle-collect='distlab::gap_distance(*' distlab-bench-gap
 //     --newton-only --load-cases cases.json     (instructions per pair = total / pairs)
@@ -300,6 +301,54 @@ std::pair<Polytope, Pose> polytope_from_json(const nlohmann::json& j) {
   return {p, Pose{Vec3(t[0], t[1], t[2]), Quat(q[0], q[1], q[2], q[3])}};
 }
 
+// Benchmark 2: boxes and cylinders, h from 0.01 to 0.08; the same pairs for GAP and FCL (the
+// plain iteration too unless `newton_only`).
+void run_boxes(int box_pairs, const GapParams& paper, bool newton_only, std::mt19937_64& rng, nlohmann::json& out) {
+  std::printf("GAP benchmark 2: %d box/cylinder pairs, h = 0.01 .. 0.08 (times in us, GAP's incl. its start)\n",
+              box_pairs);
+  std::printf("  %-6s %-22s %-22s %-22s %9s %6s\n", "h", "FCL mean +- sd", "GAP plain 1e-3", "GAP Newton 1e-10",
+              "Newton/FCL", "unconv");
+  nlohmann::json by_h = nlohmann::json::array();
+  std::uniform_real_distribution<double> pos(-0.5, 0.5), size(0.05, 0.4);
+  Run all_fcl, all_plain, all_newton;
+  for (int hi = 1; hi <= 8; ++hi) {
+    GapParams p = paper;
+    p.h = 0.01 * hi;
+    std::vector<Case> bc;
+    while (static_cast<int>(bc.size()) < box_pairs / 8) {
+      auto shape = [&](int kind) -> Shape {
+        if (kind == 0) return Box{Vec3(size(rng), size(rng), size(rng))};
+        return Cylinder{size(rng) / 2, size(rng)};
+      };
+      Case c{GapBody(shape(bc.size() % 2), Pose{Vec3::Zero(), random_rotation(rng)}, p),
+             GapBody(shape((bc.size() / 2) % 2), Pose{Vec3(pos(rng), pos(rng), pos(rng)) * 1.5, random_rotation(rng)}, p)};
+      const auto e = euclidean_distance(c.a.euclidean(), c.a.pose(), c.b.euclidean(), c.b.pose());
+      if (e.distance >= 0.05) bc.push_back(std::move(c));
+    }
+    GapParams pp = p, pn = p;
+    pp.solver = GapSolver::fixed_point, pp.tol = 1e-3, pp.max_iter = 100000;
+    pn.solver = GapSolver::newton, pn.tol = 1e-10;
+    const Run f = best_of_passes([&] { return run_fcl(bc); });
+    const Run rp = newton_only ? Run{} : best_of_passes([&] { return run_gap(bc, pp, {}); });
+    const Run rn = best_of_passes([&] { return run_gap(bc, pn, {}); });
+    const Stats sf = stats(f.us), sp = stats(rp.us), sn = stats(rn.us);
+    std::printf("  %-6.2f %8.2f +- %-10.2f %8.2f +- %-10.2f %8.2f +- %-10.2f %9.2f %6d\n", p.h, sf.mean,
+                sf.stddev, sp.mean, sp.stddev, sn.mean, sn.stddev, sn.mean / sf.mean,
+                rn.not_converged + rp.not_converged);
+    by_h.push_back({{"h", p.h}, {"fcl", run_json(f)}, {"newton_tol_1e-10", run_json(rn)}});
+    if (!newton_only) by_h.back()["plain_tol_1e-3"] = run_json(rp);
+    all_fcl.us.insert(all_fcl.us.end(), f.us.begin(), f.us.end());
+    all_plain.us.insert(all_plain.us.end(), rp.us.begin(), rp.us.end());
+    all_newton.us.insert(all_newton.us.end(), rn.us.begin(), rn.us.end());
+  }
+  const Stats af = stats(all_fcl.us), ap = stats(all_plain.us), an = stats(all_newton.us);
+  std::printf("  %-6s %8.2f +- %-10.2f %8.2f +- %-10.2f %8.2f +- %-10.2f %9.2f\n", "all", af.mean, af.stddev,
+              ap.mean, ap.stddev, an.mean, an.stddev, an.mean / af.mean);
+  std::printf("  (paper: GAP 40 +- 31 us, Euclidean 29 +- 4 us)\n");
+  out["boxes_cylinders"] = {{"pairs", box_pairs}, {"by_h", by_h}, {"all", {{"fcl", to_json(af)}, {"newton_tol_1e-10", to_json(an)}, {"newton_over_fcl_mean", an.mean / af.mean}}}};
+  if (!newton_only) out["boxes_cylinders"]["all"]["plain_tol_1e-3"] = to_json(ap);
+}
+
 }  // namespace
 
 // A failing benchmark ends on its uncaught exception (std::terminate prints it).
@@ -307,7 +356,7 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
   int pairs = 50000, box_pairs = 40000;
   unsigned long seed = 1;
   std::string json_path;
-  bool newton_only = false;
+  bool newton_only = false, boxes_only = false;
   std::string save_path, load_path;
   int validate_pairs = 0;
   int tracking_sequences = 200, tracking_steps = 100;
@@ -318,6 +367,7 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
     else if (!std::strcmp(argv[i], "--seed")) seed = std::strtoul(next(), nullptr, 10);
     else if (!std::strcmp(argv[i], "--json")) json_path = next();
     else if (!std::strcmp(argv[i], "--newton-only")) newton_only = true;
+    else if (!std::strcmp(argv[i], "--boxes-only")) boxes_only = true;
     else if (!std::strcmp(argv[i], "--repeat")) g_repeat = std::max(1, std::atoi(next()));
     else if (!std::strcmp(argv[i], "--passes")) g_passes = std::max(1, std::atoi(next()));
     else if (!std::strcmp(argv[i], "--save-cases")) save_path = next();
@@ -325,7 +375,7 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
     else if (!std::strcmp(argv[i], "--validate")) validate_pairs = std::max(1, std::atoi(next()));
     else if (!std::strcmp(argv[i], "--tracking")) tracking_sequences = std::max(0, std::atoi(next()));
     else {
-      std::fprintf(stderr, "usage: %s [--pairs N] [--box-pairs N] [--seed S] [--json FILE] [--newton-only] [--repeat R] [--passes P] [--save-cases FILE | --load-cases FILE] [--validate N] [--tracking SEQUENCES]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--pairs N] [--box-pairs N] [--seed S] [--json FILE] [--newton-only] [--boxes-only] [--repeat R] [--passes P] [--save-cases FILE | --load-cases FILE] [--validate N] [--tracking SEQUENCES]\n", argv[0]);
       return 2;
     }
   }
@@ -335,6 +385,11 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
   // 1. The paper's experiment: 10-half-space polytopes, true distance >= 5 cm, k = 2, h = 0.1,
   // W_i = 1/6, eps = 0.01, sigma = 0.989; the plain iteration stops at ||a[k+1] − a[k]|| < 1e-3.
   const GapParams paper = bench::paper_params();
+  if (boxes_only) {
+    run_boxes(box_pairs, paper, newton_only, rng, out);
+    if (!json_path.empty()) std::ofstream(json_path) << out.dump(2) << "\n";
+    return 0;
+  }
   const P2SOptions sixth = bench::paper_polytope_options();
   std::vector<Case> cases;
   std::uniform_real_distribution<double> pos(-0.5, 0.5);
@@ -484,46 +539,7 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
   print_tracking(run_tracking(cases, newton, tracking_sequences, tracking_steps, rng),
                  tracking_sequences, tracking_steps, out);
 
-  // 2. Boxes and cylinders, h from 0.01 to 0.08; the same pairs for GAP and FCL.
-  std::printf("GAP benchmark 2: %d box/cylinder pairs, h = 0.01 .. 0.08 (times in us, GAP's incl. its start)\n",
-              box_pairs);
-  std::printf("  %-6s %-22s %-22s %-22s %6s\n", "h", "FCL mean +- sd", "GAP plain 1e-3", "GAP Newton 1e-10", "unconv");
-  nlohmann::json by_h = nlohmann::json::array();
-  std::uniform_real_distribution<double> size(0.05, 0.4);
-  Run all_fcl, all_plain, all_newton;
-  for (int hi = 1; hi <= 8; ++hi) {
-    GapParams p = paper;
-    p.h = 0.01 * hi;
-    std::vector<Case> bc;
-    while (static_cast<int>(bc.size()) < box_pairs / 8) {
-      auto shape = [&](int kind) -> Shape {
-        if (kind == 0) return Box{Vec3(size(rng), size(rng), size(rng))};
-        return Cylinder{size(rng) / 2, size(rng)};
-      };
-      Case c{GapBody(shape(bc.size() % 2), Pose{Vec3::Zero(), random_rotation(rng)}, p),
-             GapBody(shape((bc.size() / 2) % 2), Pose{Vec3(pos(rng), pos(rng), pos(rng)) * 1.5, random_rotation(rng)}, p)};
-      const auto e = euclidean_distance(c.a.euclidean(), c.a.pose(), c.b.euclidean(), c.b.pose());
-      if (e.distance >= 0.05) bc.push_back(std::move(c));
-    }
-    GapParams pp = p, pn = p;
-    pp.solver = GapSolver::fixed_point, pp.tol = 1e-3, pp.max_iter = 100000;
-    pn.solver = GapSolver::newton, pn.tol = 1e-10;
-    const Run f = best_of_passes([&] { return run_fcl(bc); });
-    const Run rp = best_of_passes([&] { return run_gap(bc, pp, {}); });
-    const Run rn = best_of_passes([&] { return run_gap(bc, pn, {}); });
-    const Stats sf = stats(f.us), sp = stats(rp.us), sn = stats(rn.us);
-    std::printf("  %-6.2f %8.2f +- %-10.2f %8.2f +- %-10.2f %8.2f +- %-10.2f %6d\n", p.h, sf.mean,
-                sf.stddev, sp.mean, sp.stddev, sn.mean, sn.stddev, rn.not_converged + rp.not_converged);
-    by_h.push_back({{"h", p.h}, {"fcl", run_json(f)}, {"plain_tol_1e-3", run_json(rp)}, {"newton_tol_1e-10", run_json(rn)}});
-    all_fcl.us.insert(all_fcl.us.end(), f.us.begin(), f.us.end());
-    all_plain.us.insert(all_plain.us.end(), rp.us.begin(), rp.us.end());
-    all_newton.us.insert(all_newton.us.end(), rn.us.begin(), rn.us.end());
-  }
-  const Stats af = stats(all_fcl.us), ap = stats(all_plain.us), an = stats(all_newton.us);
-  std::printf("  %-6s %8.2f +- %-10.2f %8.2f +- %-10.2f %8.2f +- %-10.2f\n", "all", af.mean, af.stddev,
-              ap.mean, ap.stddev, an.mean, an.stddev);
-  std::printf("  (paper: GAP 40 +- 31 us, Euclidean 29 +- 4 us)\n");
-  out["boxes_cylinders"] = {{"pairs", box_pairs}, {"by_h", by_h}, {"all", {{"fcl", to_json(af)}, {"plain_tol_1e-3", to_json(ap)}, {"newton_tol_1e-10", to_json(an)}}}};
+  run_boxes(box_pairs, paper, false, rng, out);
   if (!json_path.empty()) std::ofstream(json_path) << out.dump(2) << "\n";
   return 0;
 }
