@@ -8,7 +8,7 @@ import { api, ApiError } from "../../core/api";
 import { ColorBar } from "../../core/colorbar";
 import { HistogramPlot } from "../../core/histogram";
 import type { Shortcut } from "../../core/keys";
-import { isMeshFrame, toGeometry, type MeshFrame } from "../../core/meshframe";
+import { floats, isMeshFrame, toGeometry, uints, type MeshFrame } from "../../core/meshframe";
 import { socket, type BinaryFrame } from "../../core/socket";
 import { dismissToasts, showError, toast } from "../../core/toast";
 import type { View, ViewHost } from "../../core/view";
@@ -46,6 +46,7 @@ import { SurfaceLayer } from "./surface_layer";
 import { SurfaceSource } from "./surface_source";
 import { defectColors, defectLines, DefectsLayer, holeSizes, isClosedManifold } from "./upload_defects";
 import { UploadNotice } from "./upload_link";
+import { repairAdvice, type Advice } from "./repair_advice";
 import { installHooks, type Timings } from "./test_hooks";
 import type { Limits } from "../../core/wire";
 import "./kelvin.css";
@@ -69,6 +70,7 @@ export class KelvinView implements View {
   private uploadLine = ""; // the upload dialog's first line: what the server read
   private overlay: THREE.LineSegments | null = null; // a repair's surface over the input's
   private defectsLayer: DefectsLayer | null = null; // the upload as its file has it, defects marked
+  private advice: Advice | null = null; // the repair its defects call for
   private notice: UploadNotice | null = null; // a link's upload that this server does not hold
   private awaitPrepare = false; // an upload's repair is being chosen: prepared on request
   /** The server's estimate of each request asked here (JSON of its body), and the text shown for the current one. */
@@ -594,6 +596,7 @@ export class KelvinView implements View {
       const { frame, defects } = await uploadGeometry(id);
       if (!this.viewport || !this.upload || !("upload" in this.upload) || this.upload.upload !== id) return false;
       layer = this.defectsLayer = new DefectsLayer(frame, defects);
+      this.advice = repairAdvice(defects, uints(frame.indices), floats(frame.positions), this.limits);
     } catch (e) {
       showError(e, "cannot draw the upload's defects");
       return false;
@@ -614,7 +617,14 @@ export class KelvinView implements View {
     this.panel?.setDefects([
       { text: clean ? "a closed 2-manifold without intersecting faces: no repair needed" : "defects (marked on the mesh):" },
       ...defectLines(d).map((text) => ({ text, color: color(text) })),
+      ...(this.advice?.text ? [{ text: this.advice.text }] : []),
     ]);
+    // A mesh over max_object_triangles was set to simplify on upload; simplify runs before any
+    // repair and needs a closed surface, so a defective one takes the advice instead.
+    if (!fromLink && this.advice && this.state.simplify > 0 && this.advice.simplify === 0) {
+      Object.assign(this.state, { repair: this.advice.repair, simplify: 0, components: this.advice.components });
+      this.panel?.refresh();
+    }
     // A fresh upload's hole size: its largest hole, within this server's limit.
     const holes = d.truncated ? [] : holeSizes(d.boundary_edges as Array<[number, number]>);
     if (!fromLink && holes.length) {
@@ -627,6 +637,7 @@ export class KelvinView implements View {
   }
 
   private dropDefects(): void {
+    this.advice = null;
     if (!this.defectsLayer) return;
     this.viewport?.scene.remove(this.defectsLayer.group);
     this.defectsLayer.dispose();
@@ -666,6 +677,7 @@ export class KelvinView implements View {
             edges: layer.markedEdges(),
             inputShown: layer.inputVisible,
             marksShown: layer.marksVisible && layer.group.visible,
+            advice: this.advice,
           }
         : null,
       camera: vp ? { position: vp.camera.position.toArray(), target: vp.controls.target.toArray() } : null,
