@@ -89,5 +89,32 @@ test("an upload's defects are drawn and counted before preparing; fix with a hol
   assert.ok(report.includes(`farthest input → fixed ${m(r.hausdorff.input_to_fixed)}, fixed → input ${m(r.hausdorff.fixed_to_input)}`), report);
   assert.ok(!(await K(page, "k.upload.defects.inputShown")), "the prepared surface replaces the input's drawing");
   await screenshot(page, "kelvin-repair-fixed");
+
+  // The repaired object is shared as any upload (issue 37 leftover: the panel had no frame or copy
+  // link): "copy link" gives the upload by its digest with the repair; opened in another session
+  // it is the same repaired object. "frame the object" brings a camera moved away back.
+  await page.context().grantPermissions(["clipboard-read", "clipboard-write"]);
+  await page.getByRole("button", { name: "copy link" }).click();
+  await page.waitForFunction(() => [...document.querySelectorAll(".toast")].some((t) => t.textContent.includes("link copied")));
+  const link = await page.evaluate(() => navigator.clipboard.readText());
+  const linked = JSON.parse(decodeURIComponent(/\?s=(.*)$/.exec(link)[1]));
+  assert.deepEqual(linked.upload, { digest: o.surface_digest, name: "holey-box.obj", bytes: Buffer.byteLength(objText(mesh)), unit: "m" }, link);
+  assert.equal(linked.repair, "fix");
+  await page.getByRole("button", { name: "frame the object (f)" }).click();
+  const framed = await K(page, "k.upload.camera");
+  const box = await page.locator("canvas.viewport-canvas").boundingBox();
+  await page.mouse.move(box.x + box.width / 2, box.y + box.height / 2);
+  await page.mouse.wheel(0, 800); // zoom out
+  await page.waitForFunction((z) => Math.abs(window.distlab.kelvin.upload.camera.position[2] - z) > 1e-3, framed.position[2]);
+  await page.getByRole("button", { name: "frame the object (f)" }).click();
+  const back = await K(page, "k.upload.camera");
+  for (const k of ["position", "target"]) back[k].forEach((x, i) => assert.ok(Math.abs(x - framed[k][i]) < 1e-9, `framed ${k}: ${back[k]} vs ${framed[k]}`));
+  const other = await openView(env.browser, env.server, "#" + link.split("#")[1]);
+  await other.waitForFunction(() => window.distlab.kelvin.ready === true && window.distlab.kelvin.object?.repair_report, null, { timeout: 300000, polling: 100 });
+  const opened = await K(other, "k.object");
+  assert.equal(opened.surface_digest, o.surface_digest);
+  assert.deepEqual([opened.repair_report.kind, opened.repair_report.n_faces, opened.repair_report.steps], [r.kind, r.n_faces, r.steps], "the same repair (its distances are sampled)");
+  assert.deepEqual(other.problems, []);
+  await other.context().close();
   assert.deepEqual(page.problems.filter((p) => !p.includes("the server responded with a status")), []);
 });

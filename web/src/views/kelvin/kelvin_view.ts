@@ -11,6 +11,7 @@ import type { Shortcut } from "../../core/keys";
 import { floats, isMeshFrame, toGeometry, uints, type MeshFrame } from "../../core/meshframe";
 import { socket, type BinaryFrame } from "../../core/socket";
 import { dismissToasts, showError, toast } from "../../core/toast";
+import { linkFor } from "../../core/urlstate";
 import type { View, ViewHost } from "../../core/view";
 import { Viewport } from "../../core/viewport";
 import { BrushTool } from "./brush_tool";
@@ -177,6 +178,8 @@ export class KelvinView implements View {
       loadSigma: (f) => void this.loadSigma(f),
       prepare: () => this.prepareNow(),
       defectsToggled: () => this.showDefectMarks(),
+      frame: () => this.frameObject(),
+      copyLink: () => void this.copyLink(),
     });
     this.panel.setRepairLimits(limits);
     this.assets = assets;
@@ -977,15 +980,25 @@ export class KelvinView implements View {
 
   // ---- bookkeeping ----
   private save(): void {
-    // Too many brush stamps for a link: it refers to the σ file instead (saved by the user).
-    this.host.saveState(writeStateJson(this.state), async (json) => {
-      const rest = { ...json };
-      delete rest.brushes;
-      if (!this.longLinkTold)
-        toast(`σ has ${this.state.brushes.length} brush stamps, too many for a link: the link refers to its σ file (save it with "save σ file…")`, "info", 8000);
-      this.longLinkTold = true;
-      return { ...rest, sigmaFile: { stamps: this.state.brushes.length, digest: await brushesDigest(this.state.brushes) } };
-    });
+    this.host.saveState(writeStateJson(this.state), this.shrinkLink);
+  }
+
+  /** Too many brush stamps for a link: it refers to the σ file instead (saved by the user). */
+  private readonly shrinkLink = async (json: Record<string, unknown>): Promise<Record<string, unknown>> => {
+    const rest = { ...json };
+    delete rest.brushes;
+    if (!this.longLinkTold)
+      toast(`σ has ${this.state.brushes.length} brush stamps, too many for a link: the link refers to its σ file (save it with "save σ file…")`, "info", 8000);
+    this.longLinkTold = true;
+    return { ...rest, sigmaFile: { stamps: this.state.brushes.length, digest: await brushesDigest(this.state.brushes) } };
+  };
+
+  /** The link of the view as it is now (not the address bar's, written 150 ms after a change): an
+   *  upload by its digest, name and size, with its repair options, as any upload. */
+  private async copyLink(): Promise<void> {
+    const href = location.href.split("#")[0] + (await linkFor("kelvin", writeStateJson(this.state), this.shrinkLink));
+    await navigator.clipboard?.writeText(href);
+    toast("link copied", "ok");
   }
 
   /** The object's name as shown: the uploaded file's, or the asset's. */

@@ -30,6 +30,9 @@ export interface PanelActions {
   exportShown(): void;
   saveSigma(): void;
   loadSigma(file: File): void;
+  frame(): void;
+  /** The view's link (an upload by its digest, with its repair) to the clipboard. */
+  copyLink(): void;
 }
 
 export class Panel {
@@ -85,6 +88,8 @@ export class Panel {
         .onChange(() => a.unitChanged()),
     );
     obj.add({ upload: () => this.fileInput.click() }, "upload").name("upload a mesh…");
+    obj.add({ frame: () => a.frame() }, "frame").name("frame the object (f)");
+    obj.add({ copyLink: () => a.copyLink() }, "copyLink").name("copy link");
     this.report = document.createElement("div");
     this.report.className = "kelvin-estimate kelvin-upload-report";
     this.report.dataset.testid = "kelvin-upload-report";
