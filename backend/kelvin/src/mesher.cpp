@@ -6,6 +6,8 @@
 // changes the cell and vertex bases: it must precede every CGAL include here, and no other
 // translation unit may instantiate Mesh_3.
 #define CGAL_MESH_3_USE_LAZY_SORTED_REFINEMENT_QUEUE
+#include "mesh3_heap_queue.hpp"  // those queues as heaps: the same order, the same mesh
+
 #include <CGAL/AABB_traits.h>
 #include <CGAL/AABB_tree.h>
 #include <CGAL/AABB_triangle_primitive.h>
