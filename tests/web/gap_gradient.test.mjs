@@ -6,7 +6,7 @@
 import { test } from "node:test";
 import assert from "node:assert/strict";
 import { hook, settled, shapeFromUrl, urlState } from "./gap_page.mjs";
-import { openView, screenshot, serverAndBrowser } from "./harness.mjs";
+import { openView, pagePixels, screenshot, serverAndBrowser } from "./harness.mjs";
 
 const env = serverAndBrowser();
 
@@ -164,5 +164,28 @@ test("the gradient toggle and the arrows' scale are in the link; off, no gradien
   assert.deepEqual(page.problems, []);
   assert.deepEqual(closed.problems, []);
   await closed.context().close();
+  await page.context().close();
+});
+
+// B's ∂D/∂θ is drawn from B's origin, where the transform handles of the selected shape (B by
+// default) sit; the handles (TransformControls, drawn last) covered it (issue 37 leftover). The
+// canvas at points along B's angular axis, away from its arc, shows the arrow's colour.
+test("B's ∂D/∂θ axis is drawn over the transform handles at B's origin", async () => {
+  const page = await openView(env.browser, env.server, hash(STATE));
+  await settled(page);
+  assert.equal(await hook(page, "selected()"), "b", "the handles are on B");
+  const axis = (await hook(page, "arrows()")).b.angular;
+  // Along the axis, short of its arc (0.6 of its length) and its head.
+  const along = Array.from({ length: 36 }, (_, i) => 0.1 + (0.8 * i) / 35).filter((f) => f < 0.5 || (f > 0.72 && f < 0.85));
+  const at = along.map((f) => axis.origin.map((o, i) => o + f * (axis.tip[i] - o)));
+  const screen = [];
+  for (const p of at) screen.push(await page.evaluate((q) => window.distlab.gap.toScreen(q), p));
+  await page.mouse.move(2, 790); // no handle highlighted under the mouse
+  await page.waitForTimeout(300);
+  const arrow = [0x4d, 0xd0, 0xe1]; // GRADIENT_COLORS.angular
+  const colours = await pagePixels(page, screen, arrow);
+  for (const [k, c] of colours.entries()) assert.ok(c.every((v, i) => Math.abs(v - arrow[i]) <= 40), `at ${along[k].toFixed(2)} of the axis: ${c}, not the arrow's ${arrow}`);
+  await screenshot(page, "gap-gradient-handles");
+  assert.deepEqual(page.problems, []);
   await page.context().close();
 });

@@ -135,3 +135,28 @@ export async function kelvinStroke(page, from, to, steps = 12) {
   for (let i = 1; i <= steps; i++) await page.mouse.move(a.x + ((b.x - a.x) * i) / steps, a.y + ((b.y - a.y) * i) / steps);
   await page.mouse.up();
 }
+
+/** The page's pixels (sRGB bytes) at page positions, from a screenshot taken now; with `near`, the
+ *  pixel of the 3 × 3 around each position closest to that colour (for lines a pixel or two wide). */
+export async function pagePixels(page, positions, near = null) {
+  const png = (await page.screenshot()).toString("base64");
+  return page.evaluate(
+    async ({ png, positions, near }) => {
+      const img = new Image();
+      img.src = `data:image/png;base64,${png}`;
+      await img.decode();
+      const c = document.createElement("canvas");
+      [c.width, c.height] = [img.width, img.height];
+      const ctx = c.getContext("2d");
+      ctx.drawImage(img, 0, 0);
+      const off = (px) => Math.max(...px.map((v, i) => Math.abs(v - near[i])));
+      return positions.map((s) => {
+        if (!near) return Array.from(ctx.getImageData(Math.round(s.x), Math.round(s.y), 1, 1).data.slice(0, 3));
+        const d = ctx.getImageData(Math.round(s.x) - 1, Math.round(s.y) - 1, 3, 3).data;
+        const px = Array.from({ length: 9 }, (_, k) => Array.from(d.slice(4 * k, 4 * k + 3)));
+        return px.reduce((best, p) => (off(p) < off(best) ? p : best));
+      });
+    },
+    { png, positions, near },
+  );
+}

@@ -6,7 +6,7 @@ import assert from "node:assert/strict";
 import { createRequire } from "node:module";
 import path from "node:path";
 import { pathToFileURL } from "node:url";
-import { openView, screenshot, serverAndBrowser } from "./harness.mjs";
+import { openView, pagePixels, screenshot, serverAndBrowser } from "./harness.mjs";
 
 const env = serverAndBrowser();
 const source = process.env.DISTLAB_SOURCE_DIR ?? path.resolve(import.meta.dirname, "../..");
@@ -27,22 +27,9 @@ const PAINTED = { object: "cube", lx: 0.1, base: -0.5, levels: [0, 0.25, 0.5], b
 async function pixelsAt(page, points) {
   await page.mouse.move(2, 790); // no hover read-out or brush ring over the samples
   await page.waitForTimeout(600);
-  const png = (await page.screenshot()).toString("base64");
   const at = [];
   for (const p of points) at.push(await K(page, `k.toScreen(${JSON.stringify(p)})`));
-  return page.evaluate(
-    async ({ png, at }) => {
-      const img = new Image();
-      img.src = `data:image/png;base64,${png}`;
-      await img.decode();
-      const c = document.createElement("canvas");
-      [c.width, c.height] = [img.width, img.height];
-      const ctx = c.getContext("2d");
-      ctx.drawImage(img, 0, 0);
-      return at.map((s) => Array.from(ctx.getImageData(Math.round(s.x), Math.round(s.y), 1, 1).data.slice(0, 3)));
-    },
-    { png, at },
-  );
+  return pagePixels(page, at);
 }
 
 const maxChannel = (a, b) => Math.max(...a.map((v, k) => Math.abs(v - b[k])));

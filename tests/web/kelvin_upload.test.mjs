@@ -72,3 +72,34 @@ test("an open millimetre mesh: its size in metres, the server's refusal, then wr
   await screenshot(page, "kelvin-upload-wrapped");
   assert.deepEqual(page.problems.filter((p) => !p.includes("the server responded with a status")), []);
 });
+
+// A tiny object and a coarse l_x (issue 37 leftover): l_x 0.1 m on a 1 cm box drew only the
+// server's "lx is larger than the object" under the field, with no word of what l_x is or what to
+// use. The note relates l_x to the object's diagonal and offers the value an upload starts from;
+// it sets it, and the object is prepared; at that l_x the note is gone.
+test("a tiny object: the note says what l_x is against its size and sets the suggested value", async () => {
+  const { gridBox, objText } = await import("./grid_box.mjs");
+  const page = await openView(env.browser, env.server, hash({ object: "cube", lx: 0.1, levels: [0] }));
+  await page.waitForFunction(() => window.distlab.kelvin.ready === true, null, { polling: 100 });
+  await page.setInputFiles("input[data-testid=kelvin-upload]", { name: "tiny.obj", mimeType: "text/plain", buffer: Buffer.from(objText(gridBox([0.01, 0.01, 0.01], 2))) });
+  await page.waitForFunction(() => window.distlab.kelvin.ready === true && window.distlab.kelvin.state.object === "upload", null, { polling: 100 });
+  const limits = await page.evaluate(() => window.distlab.api.get("/api/limits"));
+  const start = await K(page, "k.state.lx");
+  assert.equal(start, Math.max(limits.min_lx, 0.01 * Math.sqrt(3) / 30), "the upload starts at a thirtieth of its diagonal, or this server's smallest l_x");
+  const note = page.locator("[data-testid=kelvin-lx-note]");
+  assert.ok(await note.isHidden(), "no note while l_x resolves the object");
+  const input = page.locator(".lil-controller:has(.lil-name:text-is('l_x')) input");
+  await input.fill("0.1");
+  await input.press("Enter");
+  await note.waitFor({ state: "visible" });
+  const text = await note.textContent();
+  assert.match(text, /l_x is the edge length of the field's tetrahedra at the surface: 0\.1 m is 5\.8× the object's diagonal \(0\.0173 m\)/, text);
+  assert.match(text, new RegExp(`Suggested: ${start} m \\(this server's smallest l_x\\)`), text);
+  // Nothing is prepared at l_x 0.1 m: the iso legend does not say its shell is being computed.
+  await page.waitForFunction(() => !window.distlab.kelvin.upload.awaitingPrepare && /no field prepared/.test(document.querySelector("[data-testid=iso-legend]")?.textContent ?? ""), null, { timeout: 20000 });
+  assert.doesNotMatch(await page.locator("[data-testid=iso-legend]").textContent(), /computing/);
+  await page.getByRole("button", { name: `use l_x = ${start} m` }).click();
+  await page.waitForFunction((lx) => window.distlab.kelvin.ready === true && window.distlab.kelvin.object?.source?.lx === lx, start, { polling: 100 });
+  await note.waitFor({ state: "hidden" });
+  assert.deepEqual(page.problems.filter((p) => !p.includes("the server responded with a status")), []);
+});

@@ -36,8 +36,10 @@ export class IsoLegend {
     (parent.querySelector<HTMLElement>(":scope > .colorbars") ?? parent).appendChild(this.el);
   }
 
-  /** The shells' levels, colours and opacities as drawn now; `visible`: the shells are shown. */
-  update(iso: IsoLayers, levels: number[], visible: boolean): void {
+  /** The shells' levels, colours and opacities as drawn now; `visible`: the shells are shown;
+   *  `coming`: a field is prepared or being prepared, so a missing shell is on its way (else it
+   *  never comes: nothing is prepared, e.g. a refused l_x or an upload waiting for its repair). */
+  update(iso: IsoLayers, levels: number[], visible: boolean, coming = true): void {
     const drawn = new Set(iso.shown().map((s) => s.level));
     this.rows = [...levels]
       .sort((a, b) => a - b)
@@ -56,7 +58,7 @@ export class IsoLegend {
         swatch.style.opacity = String(Math.max(0.35, Math.min(1, 2 * r.opacity))); // a faint shell stays visible here
         const text = document.createElement("span");
         const note = this.describe(r.level);
-        text.textContent = `h = ${fmt(r.level)}${note ? ` ${note}` : ""}${r.shown ? "" : " (computing…)"}`;
+        text.textContent = `h = ${fmt(r.level)}${note ? ` ${note}` : ""}${r.shown ? "" : coming ? " (computing…)" : " (no field prepared)"}`;
         row.append(swatch, text);
         return row;
       }),

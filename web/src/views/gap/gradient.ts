@@ -38,6 +38,10 @@ function material(color: number): THREE.MeshBasicMaterial {
 }
 
 const UP = new THREE.Vector3(0, 1, 0);
+/** An arrow is a THREE.Group of this render order: three.js sorts a group's meshes by it before
+ *  their own renderOrder, so the arrows are drawn after the transform handles (TransformControls:
+ *  renderOrder Infinity, group order 0), which otherwise cover B's ∂D/∂θ at its origin. */
+const ABOVE_HANDLES = 1;
 const SHAFT = 0.004; // m
 const HEAD = 0.012;
 
@@ -62,6 +66,7 @@ class StraightArrow extends THREE.Group {
     this.label = label ? textLabel(label.text, label.color, 0.025) : null;
     if (this.label) this.add(this.label);
     this.visible = false;
+    this.renderOrder = ABOVE_HANDLES;
   }
 
   set(origin: THREE.Vector3, dir: THREE.Vector3, length: number): void {
@@ -106,6 +111,7 @@ class CurvedArrow extends THREE.Group {
     }
     this.axis.add(this.arc, this.head);
     this.add(this.axis);
+    this.renderOrder = ABOVE_HANDLES;
   }
 
   set(origin: THREE.Vector3, dir: THREE.Vector3, length: number): void {

@@ -47,6 +47,7 @@ import { SurfaceLayer } from "./surface_layer";
 import { SurfaceSource } from "./surface_source";
 import { defectColors, defectLines, DefectsLayer, holeSizes, isClosedManifold } from "./upload_defects";
 import { UploadNotice } from "./upload_link";
+import { lxNote, suggestedLx } from "./lx_note";
 import { repairAdvice, type Advice } from "./repair_advice";
 import { installHooks, type Timings } from "./test_hooks";
 import type { Limits } from "../../core/wire";
@@ -81,6 +82,7 @@ export class KelvinView implements View {
   private framedKey = ""; // what the camera was last framed on (an asset, an upload's digest)
   private limits: Partial<Limits> = {};
   private ticket = 0;
+  private loads = 0; // load() calls running: a field may be on its way
   private offs: Array<() => void> = [];
   private strokes: number[] = []; // brushes.length at each stroke's start (undo)
   private sigmaVersion = 0;
@@ -250,7 +252,19 @@ export class KelvinView implements View {
   }
 
   // ---- the object ----
+  /** Prepares the object the state names (or waits for the user's repair), then says in the
+   *  iso legend whether its shells are coming. */
   private async load(): Promise<void> {
+    this.loads++;
+    try {
+      await this.loadObject();
+    } finally {
+      this.loads--;
+      this.updateIsoLegend();
+    }
+  }
+
+  private async loadObject(): Promise<void> {
     const ticket = ++this.ticket;
     await this.job?.cancel();
     this.job = null;
@@ -295,6 +309,7 @@ export class KelvinView implements View {
       this.rememberEstimate(key, est);
     } catch (e) {
       if (ticket !== this.ticket) return;
+      this.panel?.setLxNote("", null, () => {});
       // A refused l_x (below the server's minimum) is shown under the field; anything else is an error.
       if (e instanceof ApiError && e.field === "lx") this.panel?.setEstimate(`cannot prepare ${name}: ${e.readable}`, { field: "lx", message: e.message });
       else if (e instanceof ApiError && /^(repair|simplify|components)/.test(e.field ?? "")) {
@@ -305,6 +320,12 @@ export class KelvinView implements View {
       return;
     }
     if (ticket !== this.ticket) return;
+    const note = lxNote(est, this.state.lx);
+    this.panel?.setLxNote(note.text, note.suggestion, (lx) => {
+      this.state.lx = lx;
+      this.panel?.refresh();
+      void this.load();
+    });
     const pending = repair.repair !== "none" ? `the ${repair.repair}` : "the simplification";
     this.estimateShown = estimateText(est, pending);
     this.panel?.setEstimate(this.estimateShown, est.problem);
@@ -532,10 +553,7 @@ export class KelvinView implements View {
         toast(`${file.name} has ${r.n_faces.toLocaleString("en")} triangles: it is simplified to ${most.toLocaleString("en")} first (Repair)`, "ok");
       }
       // l_x from the file's size: a thirtieth of its diagonal, coarser if over the budget.
-      const e = await estimate({ upload: r.upload, name }, this.state.lx, this.state);
-      const lx = Math.max(e.lx_for_budget, e.diagonal / 30);
-      const step = 10 ** (Math.floor(Math.log10(lx)) - 1); // two significant digits, rounded up
-      this.state.lx = Number((Math.ceil(lx / step) * step).toPrecision(12));
+      this.state.lx = suggestedLx(await estimate({ upload: r.upload, name }, this.state.lx, this.state));
       this.state.object = "upload";
       this.state.preset = "none";
       this.state.brushes = [];
@@ -881,7 +899,7 @@ export class KelvinView implements View {
 
   /** The shells' legend: each watched level with its colour, while the shells are shown. */
   private updateIsoLegend(): void {
-    this.isoLegend?.update(this.iso, this.state.levels, this.state.showIso);
+    this.isoLegend?.update(this.iso, this.state.levels, this.state.showIso, this.loads > 0 || this.objectId !== null);
   }
 
   /** Once per stroke or σ change, not per stamp (the picture's colours follow every stamp). */

@@ -43,6 +43,7 @@ export class Panel {
   private fileInput: HTMLInputElement;
   private readonly lx: Controller;
   private readonly estimate: HTMLDivElement;
+  private readonly lxNote: HTMLDivElement;
   private readonly report: HTMLDivElement;
   private readonly holeEdges: Controller;
   private readonly simplify: Controller;
@@ -78,6 +79,12 @@ export class Panel {
     this.estimate.className = "kelvin-estimate";
     this.estimate.dataset.testid = "kelvin-estimate";
     obj.$children.appendChild(this.estimate);
+    // What l_x means for this object when it is too coarse for it, and the value to use.
+    this.lxNote = document.createElement("div");
+    this.lxNote.className = "kelvin-estimate";
+    this.lxNote.dataset.testid = "kelvin-lx-note";
+    this.lxNote.hidden = true;
+    obj.$children.appendChild(this.lxNote);
     this.fileInput = fileInput(container, ".stl,.obj,.ply,.glb,.off", "kelvin-upload", (f) => a.upload(f));
     // The upload dialog: the file's unit and the repair, then the file; the server's answer (size
     // in metres, the l_x that fits, a refusal, the repair's report) is shown under them.
@@ -270,6 +277,17 @@ export class Panel {
     this.estimate.classList.toggle("bad", problem !== null);
     if (problem?.field === "lx") setFieldMessage(this.lx, problem.message);
     else recheck(this.lx);
+  }
+
+  /** The note on l_x (lx_note.ts), with a button that sets the suggested value. */
+  setLxNote(text: string, suggestion: number | null, use: (lx: number) => void): void {
+    this.lxNote.hidden = !text;
+    this.lxNote.textContent = text;
+    if (suggestion === null) return;
+    const b = document.createElement("button");
+    b.textContent = `use l_x = ${suggestion} m`;
+    b.onclick = () => use(suggestion);
+    this.lxNote.append(" ", b);
   }
 
   /** The server's limits bound the repair's controls and are stated under them. */
