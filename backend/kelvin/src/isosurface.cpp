@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "distlab/geometry/error.hpp"
+#include "distlab/mesh/marching_tetrahedra.hpp"
 #include "field_impl.hpp"
 
 namespace distlab::kelvin {
@@ -145,18 +146,10 @@ mesh::SurfaceMesh Field::isosurface(double level) const {
       const double det = d.row(0).dot(c0);
       const Vec3 into = det != 0 ? Vec3(-(du[0] * c0 + du[1] * c1 + du[2] * c2) / det)
                                  : Vec3(-d.colPivHouseholderQr().solve(du));  // degenerate cell
-      int ins[4], outs[4], ni = 0, no = 0;
-      for (const int vk : v) (out.in(vk) ? ins[ni++] : outs[no++]) = vk;
-      if (ni == 1 || no == 1) {
-        const int lone = ni == 1 ? ins[0] : outs[0];
-        const int* rest = ni == 1 ? outs : ins;
-        out.triangle(out.vertex(lone, rest[0]), out.vertex(lone, rest[1]), out.vertex(lone, rest[2]), into);
-      } else {
-        const int a = out.vertex(ins[0], outs[0]), b = out.vertex(ins[0], outs[1]),
-                  e = out.vertex(ins[1], outs[1]), f = out.vertex(ins[1], outs[0]);
-        out.triangle(a, b, e, into);
-        out.triangle(a, e, f, into);
-      }
+      const bool in[4] = {out.in(v[0]), out.in(v[1]), out.in(v[2]), out.in(v[3])};
+      mesh::march_tetrahedron(
+          v, in, [&](int a, int b) { return out.vertex(a, b); },
+          [&](int a, int b, int e) { out.triangle(a, b, e, into); });
     }
   // No crossing and below every value: the field never takes the level (empty).
   if (!crosses && !at_boundary) {

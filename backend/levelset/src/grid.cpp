@@ -8,6 +8,7 @@
 
 #include "distlab/geometry/error.hpp"
 #include "distlab/geometry/parallel.hpp"
+#include "distlab/mesh/marching_tetrahedra.hpp"
 
 namespace distlab::levelset {
 namespace {
@@ -89,9 +90,8 @@ mesh::SurfaceMesh marching_tetrahedra(const Grid& grid, double level) {
         Vec3 p[8];
         for (int c = 0; c < 8; ++c) p[c] = grid.node(i + (c & 1), j + ((c >> 1) & 1), k + ((c >> 2) & 1));
         for (const auto& tet : kTets) {
-          int in[4], out[4], ni = 0, no = 0;
-          for (const int v : tet) (f[v] < 0 ? in[ni++] : out[no++]) = v;
-          if (ni == 0 || no == 0) continue;
+          const bool in[4] = {f[tet[0]] < 0, f[tet[1]] < 0, f[tet[2]] < 0, f[tet[3]] < 0};
+          if (in[0] == in[1] && in[1] == in[2] && in[2] == in[3]) continue;
           // Gradient of the linear interpolant on this tetrahedron: the side normals face.
           Mat3 m;
           Vec3 df;
@@ -100,26 +100,17 @@ mesh::SurfaceMesh marching_tetrahedra(const Grid& grid, double level) {
             df[r] = f[tet[r + 1]] - f[tet[0]];
           }
           const Vec3 grad = m.partialPivLu().solve(df);
-          auto emit = [&](int a, int b, int c) {
+          const auto cross = [&](int a, int b) {  // a inside, b outside
+            return vertex_on(node[a], node[b], f[a], f[b], p[a], p[b]);
+          };
+          const auto emit = [&](int a, int b, int c) {
             if (a == b || b == c || a == c) return;
             const Vec3 normal = (verts[static_cast<std::size_t>(b)] - verts[static_cast<std::size_t>(a)])
                                     .cross(verts[static_cast<std::size_t>(c)] - verts[static_cast<std::size_t>(a)]);
             if (normal.dot(grad) < 0) std::swap(b, c);
             tris.emplace_back(a, b, c);
           };
-          auto cross = [&](int a, int b) {  // a inside, b outside
-            return vertex_on(node[a], node[b], f[a], f[b], p[a], p[b]);
-          };
-          if (ni == 1) {
-            emit(cross(in[0], out[0]), cross(in[0], out[1]), cross(in[0], out[2]));
-          } else if (ni == 3) {
-            emit(cross(in[0], out[0]), cross(in[1], out[0]), cross(in[2], out[0]));
-          } else {
-            const int a = cross(in[0], out[0]), b = cross(in[0], out[1]);
-            const int c = cross(in[1], out[1]), d = cross(in[1], out[0]);
-            emit(a, b, c);
-            emit(a, c, d);
-          }
+          mesh::march_tetrahedron(tet, in, cross, emit);
         }
       }
 
