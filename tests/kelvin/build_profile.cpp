@@ -110,7 +110,7 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
     const Field field = Field::prepare_cached(cube, o, dir, {}, &hit);
     PrepareOptions requested = o;
     requested.centre = field.centre();
-    const std::string key = prepare_key(field.surface(), o, field.centre());
+    const std::string key = entry_key(prepare_key(field.surface(), requested));
     const std::string path = dir + "/" + key + ".kelvin";
     std::vector<double> total;
     std::map<std::string, std::vector<double>> phase;  // build phase -> seconds

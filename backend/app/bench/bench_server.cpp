@@ -153,18 +153,18 @@ int breakdown(const std::string& assets, const std::string& cache, double lx, in
     bytes = server::to_msgpack(server::mesh_frame(iso, {{"type", "isosurface"}, {"level", 0.3}})).size();
   });
   std::string digest;
-  const double t_digest = median_ms(reps, [&](int) { digest = server::mesh_digest(iso); });
+  const double t_digest = median_ms(reps, [&](int) { digest = kelvin::surface_digest(iso); });
   // One edit as the server's frame loop runs it: σ → V, marching tets, frame, digest, msgpack.
   const double t_edit = median_ms(reps, [&](int i) {
     field.set_sigma(sigma(reps + i), false);
     const mesh::SurfaceMesh m = field.isosurface(0.3);
-    json frame = server::mesh_frame(m, {{"type", "isosurface"}, {"level", 0.3}, {"digest", server::mesh_digest(m)}});
+    json frame = server::mesh_frame(m, {{"type", "isosurface"}, {"level", 0.3}, {"digest", kelvin::surface_digest(m)}});
     bytes = server::to_msgpack(frame).size();
   });
   // A σ version after the first sends σ per input vertex only (the surface went out once).
   std::size_t sigma_bytes = 0;
   const double t_surface = median_ms(reps, [&](int i) {
-    const auto values = server::sigma_at_vertices(sigma(i), surface);
+    const auto values = kelvin::evaluate_at_vertices(sigma(i), surface.vertices);
     sigma_bytes = server::to_msgpack(server::scalars_frame(values, {{"type", "surface_sigma"}})).size();
   });
   // A brush stroke (stroke_stamps) after `before` earlier strokes, solved by linearity (the σ

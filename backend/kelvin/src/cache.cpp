@@ -143,15 +143,36 @@ class Reader {
 
 }  // namespace
 
-std::string prepare_key(const mesh::SurfaceMesh& s, const PrepareOptions& o, const Vec3& centre) {
-  Sha256 h;
-  h.add(kFormat, sizeof(kFormat));
+namespace {
+
+void add_surface(Sha256& h, const mesh::SurfaceMesh& s) {
   const std::int64_t rows[2] = {s.vertices.rows(), s.faces.rows()};
   h.add(rows, sizeof(rows));
   h.add(s.vertices.data(), sizeof(double) * static_cast<size_t>(s.vertices.size()));
   h.add(s.faces.data(), sizeof(int) * static_cast<size_t>(s.faces.size()));
-  const double params[7] = {o.lx, o.far_radius, o.feature_angle, centre.x(), centre.y(), centre.z(), o.grading.value_or(kChosen)};
-  h.add(params, sizeof(params));
+}
+
+}  // namespace
+
+std::string surface_digest(const mesh::SurfaceMesh& s) {
+  Sha256 h;
+  add_surface(h, s);
+  return h.hex();
+}
+
+std::string prepare_key(const mesh::SurfaceMesh& s, const PrepareOptions& o) {
+  Sha256 h;
+  add_surface(h, s);
+  const Vec3 c = o.centre.value_or(Vec3::Constant(std::nan("")));
+  const double inputs[8] = {o.lx, o.far_radius, o.feature_angle, c.x(), c.y(), c.z(), o.centre ? 1.0 : 0.0, o.grading.value_or(kChosen)};
+  h.add(inputs, sizeof(inputs));
+  return h.hex();
+}
+
+std::string entry_key(const std::string& content_key) {
+  Sha256 h;
+  h.add(kFormat, sizeof(kFormat));
+  h.add(content_key.data(), content_key.size());
   return h.hex();
 }
 

@@ -769,12 +769,12 @@ Field Field::prepare_cached(const mesh::SurfaceMesh& surface, const PrepareOptio
   auto checked = validated(surface, options, oracle, progress);
   mesh::SurfaceMesh& valid = checked.first;
   const Vec3& centre = checked.second;
-  const std::string key = prepare_key(valid, options, centre);
+  PrepareOptions requested = options;
+  requested.centre = centre;
+  const std::string key = entry_key(prepare_key(valid, requested));
   const std::string mac_key = cache_mac_key(store.dir);
   const std::string path = store_entry_path(store.dir, key);
   progress("cache", 0.0);
-  PrepareOptions requested = options;
-  requested.centre = centre;
   std::unique_ptr<Field::Impl> cached;
   double t_load = 0;
   const auto load = [&] {

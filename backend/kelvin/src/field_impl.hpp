@@ -81,8 +81,9 @@ struct Field::Impl {
   void finish_stats();
 };
 
-// Content hash (SHA-256, hex) of everything that determines a prepared object.
-std::string prepare_key(const mesh::SurfaceMesh& surface, const PrepareOptions& options, const Vec3& centre);
+// The name of a store entry: the content key (prepare_key) qualified by the entry format, so that
+// processes of two versions sharing a directory keep their entries apart.
+std::string entry_key(const std::string& content_key);
 // HMAC key of a cache directory (<dir>/cache.key, 32 bytes, mode 0600, created at first use).
 std::string cache_mac_key(const std::string& dir);
 // Cache I/O. A file is u64 payload size, payload, HMAC-SHA256(mac_key, payload). load returns

@@ -36,6 +36,16 @@ double evaluate(const SigmaSpec& sigma, const Vec3& x, double base) {
   return s;
 }
 
+std::vector<double> evaluate_at_vertices(const SigmaSpec& sigma, const MatX3& vertices) {
+  std::vector<double> out(static_cast<std::size_t>(vertices.rows()), sigma.constant);
+  for (Eigen::Index v = 0; v < vertices.rows(); ++v) {
+    double& s = out[static_cast<std::size_t>(v)];
+    if (sigma.per_vertex && v < sigma.per_vertex->size()) s += (*sigma.per_vertex)[v];
+    s = evaluate(sigma, vertices.row(v).transpose(), s);
+  }
+  return out;
+}
+
 namespace {
 
 void finite(double v, const std::string& field) {
@@ -125,6 +135,15 @@ SigmaSpec weld_sigma(const SigmaSpec& user, const std::vector<int>& to_welded, E
   }
   out.per_vertex = welded;
   return out;
+}
+
+SigmaSpec field_sigma(const SigmaSpec& user, const MatX3& user_vertices, const std::vector<int>& to_welded,
+                      Eigen::Index n_welded) {
+  SigmaSpec welded = weld_sigma(user, to_welded, n_welded);
+  const std::vector<double> total = evaluate_at_vertices(user, user_vertices);
+  for (std::size_t v = 0; v < total.size(); ++v)
+    require_sigma_in_range(total[v], user_vertices.row(static_cast<Eigen::Index>(v)).transpose(), "vertex " + std::to_string(v));
+  return welded;
 }
 
 }  // namespace distlab::kelvin

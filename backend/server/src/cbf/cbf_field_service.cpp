@@ -78,7 +78,7 @@ FieldPreparer service_preparer(const std::string& cache_dir, const Limits& lim, 
 }
 
 std::shared_ptr<std::timed_mutex> SharedFields::preparation_lock(const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& o) {
-  const std::string key = content_key(surface, o);
+  const std::string key = kelvin::prepare_key(surface, o);
   std::lock_guard lock(mutex_);
   for (auto it = preparing_.begin(); it != preparing_.end();) it = it->second.expired() ? preparing_.erase(it) : std::next(it);
   std::weak_ptr<std::timed_mutex>& slot = preparing_[key];
@@ -115,7 +115,7 @@ void SharedFields::remember(const std::map<std::string, cbf::SceneField>& prepar
 std::vector<CbfRolloutField> rollout_fields(const FieldPlan& plan) {
   std::vector<CbfRolloutField> out;
   for (const PlannedField& p : plan.fields)
-    out.push_back({p.scene.name, p.scene.margin, p.scene.pose, p.surface, sigma_at_vertices(p.user_sigma, p.surface), nullptr});
+    out.push_back({p.scene.name, p.scene.margin, p.scene.pose, p.surface, kelvin::evaluate_at_vertices(p.user_sigma, p.surface.vertices), nullptr});
   return out;
 }
 

@@ -84,7 +84,7 @@ std::optional<PlannedField> plan_field(const json& j, std::size_t index, const s
   p.reshape = prefixed(f, [&] { return parse_reshape(j, Limits{}); });
   p.user_sigma = j.contains("sigma") ? prefixed(f, [&] { return parse_sigma(j["sigma"]); }) : kelvin::SigmaSpec{};
   // σ per file vertex → per welded vertex (carried to the repaired surface when it is made).
-  out.sigma = prefixed(f, [&] { return field_sigma(p.user_sigma, p.surface, welded.to_welded, welded.surface.vertices.rows()); });
+  out.sigma = prefixed(f, [&] { return kelvin::field_sigma(p.user_sigma, p.surface.vertices, welded.to_welded, welded.surface.vertices.rows()); });
   p.prepared = std::move(welded.surface);
   return p;
 }

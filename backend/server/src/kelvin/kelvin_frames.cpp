@@ -93,7 +93,7 @@ void KelvinModule::send_frames(const std::shared_ptr<Session>& session, const st
     return object->frames_version != frames_version;
   };
   if (send_surface || send_sigma) {
-    const std::vector<double> sigma_values = sigma_at_vertices(sigma, object->surface);
+    const std::vector<double> sigma_values = kelvin::evaluate_at_vertices(sigma, object->surface.vertices);
     if (send_surface)
       send(mesh_frame(object->surface, {{"type", "surface"}, {"object", object->id}, {"sigma_version", version}}, &sigma_values));
     else
@@ -112,7 +112,7 @@ void KelvinModule::send_frames(const std::shared_ptr<Session>& session, const st
       return out;
     });
     const auto t2 = std::chrono::steady_clock::now();
-    json frame = mesh_frame(iso, {{"type", "isosurface"}, {"object", object->id}, {"level", levels[i]}, {"index", i}, {"count", levels.size()}, {"sigma_version", version}, {"digest", mesh_digest(iso)}});
+    json frame = mesh_frame(iso, {{"type", "isosurface"}, {"object", object->id}, {"level", levels[i]}, {"index", i}, {"count", levels.size()}, {"sigma_version", version}, {"digest", kelvin::surface_digest(iso)}});
     // A level the field never takes: no geometry, and the smallest h it does take.
     if (iso.faces.rows() == 0) frame["empty"] = true, frame["h_min"] = minimum;
     frame["server_ms"] = {{"solve", Ms(t1 - t0).count()}, {"isosurface", Ms(t2 - t1).count()}};

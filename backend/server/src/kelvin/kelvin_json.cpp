@@ -173,7 +173,7 @@ json run_kelvin_request(const json& r, const kelvin::Progress& progress) {
   // prepared on the welded surface (mesh/weld.hpp).
   const mesh::SurfaceMesh surface = mesh::load_mesh(path, m.contains("path") ? "mesh.path" : "mesh.asset");
   const mesh::Welded welded = mesh::weld(surface);
-  kelvin::SigmaSpec solved = field_sigma(sigma, surface, welded.to_welded, welded.surface.vertices.rows());
+  kelvin::SigmaSpec solved = kelvin::field_sigma(sigma, surface.vertices, welded.to_welded, welded.surface.vertices.rows());
   // "components" / "simplify" / "repair": the field is prepared on the reshaped surface, σ
   // carried to it (ReshapeRequest).
   Reshaped reshaped;
@@ -226,7 +226,7 @@ json run_kelvin_request(const json& r, const kelvin::Progress& progress) {
                            "the iso-surface at h = " + json(levels[i]).dump() + " is not a closed 2-manifold (" +
                                mesh::surface_defects(check) + "); not written");
       mesh::save_mesh(iso, file.string(), iso_format, "isosurfaces.format");
-      files.push_back({{"level", levels[i]}, {"path", file.string()}, {"n_verts", iso.vertices.rows()}, {"n_faces", iso.faces.rows()}, {"digest", mesh_digest(iso)}, {"check", surface_check_json(check)}});
+      files.push_back({{"level", levels[i]}, {"path", file.string()}, {"n_verts", iso.vertices.rows()}, {"n_faces", iso.faces.rows()}, {"digest", kelvin::surface_digest(iso)}, {"check", surface_check_json(check)}});
     }
     out["isosurfaces"] = files;
   }

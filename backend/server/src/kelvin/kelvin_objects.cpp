@@ -7,7 +7,6 @@
 #include <map>
 
 #include "distlab/geometry/error.hpp"
-#include "distlab/kelvin/digest.hpp"
 #include "distlab/kelvin/progress.hpp"
 #include "distlab/kelvin/sigma.hpp"
 #include "distlab/kelvin/surface_tools.hpp"
@@ -31,26 +30,7 @@ bool same_surface(const mesh::SurfaceMesh& a, const mesh::SurfaceMesh& b) {
          a.vertices == b.vertices && a.faces == b.faces;
 }
 
-// The surface, then (if given) the preparation options: the content key of the shared registry.
-std::string surface_hash(const mesh::SurfaceMesh& s, const kelvin::PrepareOptions* o) {
-  kelvin::Sha256 h;
-  const std::int64_t rows[2] = {s.vertices.rows(), s.faces.rows()};
-  h.add(rows, sizeof rows);
-  h.add(s.vertices.data(), sizeof(double) * static_cast<std::size_t>(s.vertices.size()));
-  h.add(s.faces.data(), sizeof(int) * static_cast<std::size_t>(s.faces.size()));
-  if (o != nullptr) {
-    const Vec3 c = o->centre.value_or(Vec3::Constant(std::nan("")));
-    const double params[8] = {o->lx, o->far_radius, o->feature_angle, c.x(), c.y(), c.z(), o->centre ? 1.0 : 0.0, o->grading.value_or(-1)};  // -1: chosen by prepare
-    h.add(params, sizeof params);
-  }
-  return h.hex();
-}
-
 }  // namespace
-
-std::string content_key(const mesh::SurfaceMesh& s, const kelvin::PrepareOptions& o) { return surface_hash(s, &o); }
-
-std::string mesh_digest(const mesh::SurfaceMesh& s) { return surface_hash(s, nullptr); }
 
 PreparedRegistry::Entry* PreparedRegistry::find_locked(const std::string& key, const mesh::SurfaceMesh& s,
                                                        const kelvin::PrepareOptions& o) {
@@ -80,7 +60,7 @@ std::size_t ResponseBudget::used() const {
 std::shared_ptr<PreparedField> PreparedRegistry::acquire(const mesh::SurfaceMesh& surface,
                                                          const kelvin::PrepareOptions& options,
                                                          const kelvin::Progress& progress, bool* from_memory) {
-  const std::string key = content_key(surface, options);
+  const std::string key = kelvin::prepare_key(surface, options);
   if (from_memory) *from_memory = false;
   {
     std::unique_lock lock(mutex_);
@@ -179,27 +159,6 @@ json KelvinObject::status_json() {
   return j;
 }
 
-std::vector<double> sigma_at_vertices(const kelvin::SigmaSpec& sigma, const mesh::SurfaceMesh& surface) {
-  std::vector<double> out(static_cast<std::size_t>(surface.vertices.rows()), sigma.constant);
-  for (Eigen::Index v = 0; v < surface.vertices.rows(); ++v) {
-    const Vec3 x = surface.vertices.row(v).transpose();
-    double& s = out[static_cast<std::size_t>(v)];
-    if (sigma.per_vertex && v < sigma.per_vertex->size()) s += (*sigma.per_vertex)[v];
-    s = kelvin::evaluate(sigma, x, s);
-  }
-  return out;
-}
-
-kelvin::SigmaSpec field_sigma(const kelvin::SigmaSpec& user, const mesh::SurfaceMesh& surface,
-                              const std::vector<int>& to_welded, Eigen::Index n_welded) {
-  kelvin::SigmaSpec welded = kelvin::weld_sigma(user, to_welded, n_welded);
-  const std::vector<double> total = sigma_at_vertices(user, surface);
-  for (std::size_t v = 0; v < total.size(); ++v)
-    kelvin::require_sigma_in_range(total[v], surface.vertices.row(static_cast<Eigen::Index>(v)).transpose(),
-                                   "vertex " + std::to_string(v));
-  return welded;
-}
-
 kelvin::SigmaSpec carry_sigma(kelvin::SigmaSpec solved, const kelvin::SigmaSpec& user, const mesh::Transfer& to_repaired) {
   if (!user.per_vertex) return solved;
   const std::vector<double> values(user.per_vertex->data(), user.per_vertex->data() + user.per_vertex->size());
@@ -209,7 +168,7 @@ kelvin::SigmaSpec carry_sigma(kelvin::SigmaSpec solved, const kelvin::SigmaSpec&
 }
 
 kelvin::SigmaSpec field_sigma(const kelvin::SigmaSpec& user, const KelvinObject& o) {
-  kelvin::SigmaSpec out = field_sigma(user, o.surface, o.to_welded, o.welded.vertices.rows());
+  kelvin::SigmaSpec out = kelvin::field_sigma(user, o.surface.vertices, o.to_welded, o.welded.vertices.rows());
   return o.reshaped() ? carry_sigma(std::move(out), user, o.to_repaired) : out;
 }
 

@@ -44,7 +44,7 @@ void run_repair(KelvinObject& o, const kelvin::PrepareOptions& options, const Li
   o.repair_report = std::move(r.repair_report);
   o.simplify_report = std::move(r.simplify_report);
   o.components_report = std::move(r.components_report);
-  o.key = content_key(o.repaired, options);
+  o.key = kelvin::prepare_key(o.repaired, options);
   o.field_sigma = field_sigma(o.sigma, o);
   o.state = "preparing";
 }
@@ -222,18 +222,18 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
   object->held = held_triangles_.reserve(session->address, faces, body.contains("upload") ? "upload" : body.contains("asset") ? "asset"
                                                                                                                               : "mesh");
   object->id = random_id();
-  object->key = content_key(welded.surface, options);
+  object->key = kelvin::prepare_key(welded.surface, options);
   object->source = source;
   object->surface = std::move(surface);
   object->welded = std::move(welded.surface);
   object->to_welded = std::move(welded.to_welded);
   object->reshape = reshape;
   if (object->reshaped()) object->state = "repairing";
-  object->surface_digest = mesh_digest(object->surface);
+  object->surface_digest = kelvin::surface_digest(object->surface);
   object->sigma_key = sigma_key(*object, json::object());
   if (body.contains("sigma")) {
     object->sigma = parse_sigma(body["sigma"]);
-    object->field_sigma = field_sigma(object->sigma, object->surface, object->to_welded, object->welded.vertices.rows());
+    object->field_sigma = kelvin::field_sigma(object->sigma, object->surface.vertices, object->to_welded, object->welded.vertices.rows());
     object->sigma_json = body["sigma"];
     object->sigma_key = sigma_key(*object, body["sigma"]);
   }
@@ -391,19 +391,19 @@ kelvin::PreparePrediction KelvinModule::predict(const mesh::SurfaceMesh& surface
   kelvin::Progress progress;
   progress.cancel = cancel;
   kelvin::PreparePrediction p = kelvin::predict_preparation(surface, options, progress);
-  predictions_.put(content_key(surface, options), p);
+  predictions_.put(kelvin::prepare_key(surface, options), p);
   return p;
 }
 
 std::optional<kelvin::PreparePrediction> KelvinModule::cached_prediction(const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& options) {
-  return predictions_.find(content_key(surface, options));
+  return predictions_.find(kelvin::prepare_key(surface, options));
 }
 
 void KelvinModule::set_sigma(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,
                              const json& sigma_json, WsSink* origin, const json& request) {
   kelvin::SigmaSpec spec = parse_sigma(sigma_json);
   // surface, welded and to_welded are set at creation and never change: no lock needed.
-  kelvin::SigmaSpec solved = field_sigma(spec, object->surface, object->to_welded, object->welded.vertices.rows());
+  kelvin::SigmaSpec solved = kelvin::field_sigma(spec, object->surface.vertices, object->to_welded, object->welded.vertices.rows());
   std::uint64_t version;
   {
     std::lock_guard lock(object->mutex);

@@ -47,7 +47,7 @@ class PrepareRate {
   std::deque<std::pair<double, double>> recent_;  // seconds, vertices
 };
 
-// The last kSize predictions by content key (content_key: the surface and the options), so that
+// The last kSize predictions by content key (kelvin::prepare_key: the surface and the options), so that
 // an estimate asked again, and the job that follows it, cost nothing more. Thread-safe.
 class PredictionCache {
  public:

@@ -152,7 +152,7 @@ void KelvinModule::register_routes() {
                  up->scale = scale;
                  if (static_cast<std::size_t>(up->surface.faces.rows()) > lim.max_upload_triangles)
                    throw ApiError(413, "too_many_triangles", "at most " + std::to_string(lim.max_upload_triangles) + " triangles", "body");
-                 up->digest = mesh_digest(up->surface);
+                 up->digest = kelvin::surface_digest(up->surface);
                  if (!expected.empty() && up->digest != expected)
                    throw ApiError(422, "different_mesh",
                                   "this file's mesh has the digest " + up->digest + ", not the expected " + expected +
@@ -367,7 +367,7 @@ void KelvinModule::register_routes() {
               const mesh::SurfaceMesh m = isosurface(*prepared, sigma, key, level);
               Response r;
               r.content_type = "application/msgpack";
-              r.body = to_msgpack(mesh_frame(m, {{"type", "isosurface"}, {"object", object->id}, {"level", level}, {"index", 0}, {"count", 1}, {"sigma_version", version}, {"digest", mesh_digest(m)}, {"check", surface_check_json(mesh::inspect_surface(m))}}));
+              r.body = to_msgpack(mesh_frame(m, {{"type", "isosurface"}, {"object", object->id}, {"level", level}, {"index", 0}, {"count", 1}, {"sigma_version", version}, {"digest", kelvin::surface_digest(m)}, {"check", surface_check_json(mesh::inspect_surface(m))}}));
               return r;
             }};
   iso.heavy = true;
@@ -400,9 +400,9 @@ void KelvinModule::register_routes() {
                  // A repaired object's σ at the user's vertices is what the field solves, read back
                  // by the same nearest-face rule that carried it there (repair.hpp).
                  std::vector<double> values;
-                 if (!repaired) values = sigma_at_vertices(sigma, object->surface);
-                 else if (of == "repaired") values = sigma_at_vertices(solved, object->repaired);
-                 else values = mesh::nearest_face_transfer(object->repaired, object->surface.vertices).apply(sigma_at_vertices(solved, object->repaired));
+                 if (!repaired) values = kelvin::evaluate_at_vertices(sigma, object->surface.vertices);
+                 else if (of == "repaired") values = kelvin::evaluate_at_vertices(solved, object->repaired.vertices);
+                 else values = mesh::nearest_face_transfer(object->repaired, object->surface.vertices).apply(kelvin::evaluate_at_vertices(solved, object->repaired.vertices));
                  const mesh::SurfaceMesh& shown = of == "repaired" ? object->repaired : object->surface;
                  Response r;
                  r.content_type = "application/msgpack";
@@ -450,7 +450,7 @@ void KelvinModule::register_routes() {
               fs::remove_all(dir, ec);
               r.content_type = types.at(format);
               // Equal digests: the same surface (e.g. two levels of one export session); see openapi.json.
-              r.headers.emplace_back("X-Distlab-Isosurface-Digest", mesh_digest(m));
+              r.headers.emplace_back("X-Distlab-Isosurface-Digest", kelvin::surface_digest(m));
               r.headers.emplace_back("X-Distlab-Surface-Check", surface_check_json(check).dump());
               r.headers.emplace_back("Content-Disposition", "attachment; filename=\"isosurface-" + object->id.substr(0, 8) + "." + format + "\"");
               return r;

@@ -51,6 +51,17 @@ struct PrepareOptions {
   double max_refinement_steps = 1e8;
 };
 
+// SHA-256 (hex, digest.hpp) of a surface: its vertex and face counts, vertices and faces. Equal
+// surfaces have equal digests (an upload's link names its mesh by it).
+std::string surface_digest(const mesh::SurfaceMesh& surface);
+
+// The content key of a preparation: the surface as in surface_digest, then the inputs that
+// decide the field (l_x, far_radius, feature_angle, the centre or none, grading or none). The
+// field store names its entries by it (with the centre prepare chose), the server's registry
+// its fields (with the centre as requested). Fields under one key are compared exactly before
+// one is used for another (the key alone is never trusted).
+std::string prepare_key(const mesh::SurfaceMesh& surface, const PrepareOptions& options);
+
 struct Stats {
   long n_verts = 0, n_tets = 0;
   double grading = 0;  // the sizing meshed: PrepareOptions::grading or its choice

@@ -68,11 +68,20 @@ void validate(const SigmaSpec& sigma, Eigen::Index n_vertices);
 // and the sum when |σ| > kMaxAbsSigma. where: how x is known to the user ("vertex 12", …).
 void require_sigma_in_range(double total, const Vec3& x, const std::string& where);
 
+// σ at every vertex of a surface, all terms summed: the constant, per_vertex[v] (if given, one
+// value per row of `vertices`), the axis terms, then the brushes.
+std::vector<double> evaluate_at_vertices(const SigmaSpec& sigma, const MatX3& vertices);
+
 // σ given per user vertex (to_welded.size() values, see mesh/weld.hpp) as σ per welded vertex.
 // Validates (field names index user vertices). User vertices at one position (same welded vertex)
 // must carry the same value to 1e-9 · max(1, |σ|): they are one point of the surface, and a
 // silent average would hide a σ array that belongs to another mesh or order. Unused vertices
 // (to_welded −1) are validated and otherwise ignored.
 SigmaSpec weld_sigma(const SigmaSpec& user, const std::vector<int>& to_welded, Eigen::Index n_welded);
+
+// The σ a field solves for σ as the user gave it on `user_vertices` (the mesh before welding):
+// weld_sigma, after the summed σ is checked at every user vertex (require_sigma_in_range).
+SigmaSpec field_sigma(const SigmaSpec& user, const MatX3& user_vertices, const std::vector<int>& to_welded,
+                      Eigen::Index n_welded);
 
 }  // namespace distlab::kelvin

@@ -57,10 +57,6 @@ nlohmann::json run_kelvin_request(const nlohmann::json& request, const kelvin::P
 // Parses the "sigma" object (field prefix "sigma").
 kelvin::SigmaSpec parse_sigma(const nlohmann::json& j);
 
-// Content key of a preparation: SHA-256 of the surface and options (hex, kelvin/digest.hpp).
-// Entries with the same key are also compared exactly before they are shared.
-std::string content_key(const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& options);
-
 // The mesh formats an asset or upload may have (what assimp reads here).
 inline constexpr const char* kMeshExtensions[] = {".stl", ".ply", ".obj", ".glb", ".off"};
 
@@ -68,15 +64,7 @@ inline constexpr const char* kMeshExtensions[] = {".stl", ".ply", ".obj", ".glb"
 // in $DISTLAB_ASSETS, ./assets, or an assets/ folder above the executable.
 std::string asset_path(const std::string& name, const std::string& assets_dir = "");
 
-// σ at each input vertex (constant + per-vertex + axis + brush terms).
-std::vector<double> sigma_at_vertices(const kelvin::SigmaSpec& sigma, const mesh::SurfaceMesh& surface);
-
-// σ as the user gave it, checked against the object (every term, per_vertex's length and its
-// duplicated positions, the sum at every user vertex: InvalidInput naming the field), as the
-// field solves it (per welded vertex).
-kelvin::SigmaSpec field_sigma(const kelvin::SigmaSpec& user, const mesh::SurfaceMesh& surface,
-                              const std::vector<int>& to_welded, Eigen::Index n_welded);
-// σ as solved (field_sigma) with per_vertex replaced by the user's values carried to a repaired
+// σ as solved (kelvin::field_sigma) with per_vertex replaced by the user's values carried to a repaired
 // surface by to_repaired (mesh::nearest_face_transfer from the user's mesh).
 kelvin::SigmaSpec carry_sigma(kelvin::SigmaSpec solved, const kelvin::SigmaSpec& user, const mesh::Transfer& to_repaired);
 

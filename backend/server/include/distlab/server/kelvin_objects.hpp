@@ -145,7 +145,7 @@ struct KelvinObject {
   mesh::SurfaceMesh surface;
   mesh::SurfaceMesh welded;
   std::vector<int> to_welded;     // user vertex -> welded vertex (−1: used by no face)
-  std::string surface_digest;     // mesh_digest(surface)
+  std::string surface_digest;     // kelvin::surface_digest(surface)
   ClientShare::Reservation held;  // surface's triangles, in its client's share (client_share.hpp)
   // "components", "simplify", "repair" (ReshapeRequest, kelvin_json.hpp): the field is prepared
   // on `repaired` instead of `welded`, and σ per user vertex reaches it by `to_repaired` (the
@@ -186,13 +186,9 @@ struct KelvinObject {
   nlohmann::json status_json();  // locks
 };
 
-// field_sigma of kelvin_json.hpp for an object repaired or wrapped: per_vertex carried to the
+// kelvin::field_sigma for an object repaired or wrapped: per_vertex carried to the
 // repaired surface by to_repaired (call with the object's mutex held, after the repair).
 kelvin::SigmaSpec field_sigma(const kelvin::SigmaSpec& user, const KelvinObject& object);
-
-// 128-bit FNV-1a of a mesh's vertices and faces (hex): equal for equal surfaces, so that a client
-// sees when two levels gave the same iso-surface.
-std::string mesh_digest(const mesh::SurfaceMesh& surface);
 
 inline std::string sigma_key(const KelvinObject& o, const nlohmann::json& sigma) {
   return o.surface_digest + sigma.dump();

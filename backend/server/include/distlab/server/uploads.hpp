@@ -20,7 +20,7 @@ struct Upload {
   std::size_t bytes = 0;
   std::string unit;  // "m", "cm", "mm", "in", or "" when a scale was given
   double scale = 1;  // metres per file unit
-  // SHA-256 of `surface` (the Kelvin module's mesh_digest): what a link names the mesh by.
+  // SHA-256 of `surface` (kelvin::surface_digest): what a link names the mesh by.
   std::string digest;
 };
 
