@@ -71,8 +71,13 @@ class _Reporter:
 
 
 def _run(batch: str, index: int, work: Callable[..., Any], args: tuple) -> Any:
-    """One task: work(*args, report), report taking the task's progress value."""
-    return work(*args, _Reporter(batch, index))
+    """One task: work(*args, report), report taking the task's progress value. A task its batch
+    stopped returns None: the batch is cancelled and reads nothing, and an exception would be
+    logged by the worker as a failed task ("Compute Failed ... _Stopped") on every cancel."""
+    try:
+        return work(*args, _Reporter(batch, index))
+    except _Stopped:
+        return None
 
 
 def _on_event(event) -> None:

@@ -10,7 +10,10 @@ class InvalidInput(ValueError):
     ``""`` for the request as a whole), as in the service's ``{"error": {"field"}}``."""
 
     def __init__(self, field: str, message: str):
-        super().__init__(f"{field}: {message}" if field else message)
+        # A message that starts with its field (the C++ sweep's "sweep.values[2] = -1: …") is
+        # not prefixed with it again.
+        named = not field or (message.startswith(field) and message[len(field):len(field) + 1] in (" ", ":"))
+        super().__init__(message if named else f"{field}: {message}")
         self.field = field
         self.message = message
 

@@ -230,7 +230,8 @@ def distance(a, pose_a, b, pose_b, params: Optional[Params] = None, *, threads: 
     def rows(x):
         return x.shape[0] if x.ndim else -1
 
-    n = max(rows(pa), rows(pb))
+    # Pairs: the rows of the poses that are not one pose (broadcast), one when both are.
+    n = next((rows(x) for x in (pa, pb) if rows(x) != 1), 1)
     per_pair = [x for x in (pa, pb) if rows(x) != 1] + [x for x in (wa, wb, track) if x is not None]
     if all(rows(x) == n for x in per_pair) and min(rows(pa), rows(pb)) >= 0:
         if chunk is None:
@@ -240,8 +241,9 @@ def distance(a, pose_a, b, pose_b, params: Optional[Params] = None, *, threads: 
             raise InvalidInput("chunk", "chunk must be at least 1 pair")
         starts = list(range(0, n, int(chunk))) or [0]
         ends = starts[1:] + [n]
-    else:  # arrays that do not line up: one task, whose call says what is wrong
-        starts, ends, per_pair = [0], [1], []
+    else:  # arrays that do not line up: the local call names the field, here, before any task
+        _core.gap_batch(spec_a, pa, spec_b, pb, pdict, 1, wa, wb, euclidean, _refuse_to_compute, track)
+        raise AssertionError("gap_batch accepted poses that do not line up")  # it checks them first
 
     def part(x, s, e):
         return x if not any(x is y for y in per_pair) else np.ascontiguousarray(x[s:e])
@@ -253,6 +255,10 @@ def distance(a, pose_a, b, pose_b, params: Optional[Params] = None, *, threads: 
                      _batch.sum_report([e - s for s, e in zip(starts, ends)]),
                      lambda i, error: _chunk_error(starts[i], error))
     return b.wait(progress) if wait else b
+
+
+def _refuse_to_compute(done: int, total: int) -> None:
+    raise AssertionError("gap_batch started on poses that do not line up")
 
 
 def _result(out: Dict[str, Any], single: bool) -> Result:

@@ -117,6 +117,10 @@ def test_cbf_bad_value_is_named_as_locally(client):
         cbf.sweep("corridor", "margins.gap.obstacle", values, params={"duration": 0.2}, client=client)
     assert local.value.field == "sweep.values[2]"
     assert (ours.value.field, ours.value.message) == (local.value.field, local.value.message)
+    # The message names the value already: the error's text says it once (was "sweep.values[2]:
+    # sweep.values[2] = -1: …").
+    assert str(ours.value) == str(local.value) == local.value.message
+    assert str(ours.value).startswith("sweep.values[2] = -1: ") and str(ours.value).count("sweep.values") == 1
 
 
 @pytest.mark.parametrize("warm", [False, True])
@@ -164,6 +168,45 @@ def test_gap_error_names_the_pair_of_the_whole_batch(client, bad, field):
         gap.distance(A, pose_a, B, poses, client=client, chunk=500)
     assert local.value.field == field
     assert (ours.value.field, ours.value.message) == (local.value.field, local.value.message)
+
+
+@pytest.mark.parametrize("bad,field", [("poses", "pose_b"), ("warm start", "warm_start.witness_a")])
+def test_gap_arrays_that_do_not_line_up_are_refused_before_any_task(client, bad, field):
+    # A count mismatch was sent as one task and found on a worker; now it is refused here with the
+    # local call's error, so even wait=False raises at once (no Batch) and nothing is submitted.
+    poses = random_poses(2000)
+    A, B = gap.Box([0.2, 0.1, 0.15]), gap.Sphere(0.05)
+    pose_a, warm = (random_poses(3), None) if bad == "poses" else (None, gap.distance(A, None, B, poses[:10]))
+    with pytest.raises(distlab.InvalidInput) as local:
+        gap.distance(A, pose_a, B, poses, warm_start=warm)
+    assert local.value.field.startswith(field), local.value
+    before = len(client.futures)
+    with pytest.raises(distlab.InvalidInput) as ours:
+        gap.distance(A, pose_a, B, poses, warm_start=warm, client=client, chunk=500, wait=False)
+    assert (ours.value.field, ours.value.message) == (local.value.field, local.value.message)
+    assert len(client.futures) == before, "no task was submitted"
+
+
+def test_a_cancelled_task_leaves_no_failure_in_the_worker_logs(client):
+    # A stopped task raised _Stopped, which every worker logged as "Compute Failed" with its
+    # traceback on every cancel; it now ends quietly (its batch reads nothing).
+    import logging
+
+    def level(n, dask_worker=None):
+        logging.getLogger("distributed.worker").setLevel(n)
+
+    client.run(level, logging.WARNING)  # the module's cluster is silenced to ERROR
+    try:
+        batch = cbf.sweep("corridor", "duration", [600.0, 600.0], client=client, wait=False)
+        while not (all(running_keys(client, batch).values()) and batch.progress()[1] > 0):
+            time.sleep(0.05)
+        batch.cancel()
+        wait_until_idle(client, batch)
+        time.sleep(0.3)
+        logs = [line for records in client.get_worker_logs().values() for _, line in records if batch.id in line]
+        assert not [line for line in logs if "_Stopped" in line or "Compute Failed" in line], logs
+    finally:
+        client.run(level, logging.ERROR)
 
 
 def test_kelvin_prepare_many_fills_the_cache_as_locally(client, tmp_path):
