@@ -430,7 +430,7 @@ TEST(GapCli, SizeLimits) {
   expect_error(run_distlab(json{{"pairs", pairs}}.dump()), 2, "invalid_input", "pairs");
   // More polytope rows than allowed.
   json rows = json::array(), offsets = json::array();
-  for (std::size_t i = 0; i <= distlab::server::kMaxPolytopeRows; ++i) {
+  for (std::size_t i = 0; i <= distlab::server::Limits{}.max_polytope_rows; ++i) {
     const double t = 0.1 * static_cast<double>(i);
     rows.push_back({std::cos(t), std::sin(t), 0.3});
     offsets.push_back(1.0);

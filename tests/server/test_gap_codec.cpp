@@ -41,7 +41,7 @@ TEST(GapCodec, ConcentricSpheresPenetrateByTheSumOfTheRadii) {
 TEST(GapCodec, TheCheckpointRunsBeforeEveryPenetration) {
   std::atomic<int> calls{0};
   const json out = run_gap_request(
-      concentric_pairs(6), [&] { ++calls; }, 100);
+      concentric_pairs(6), [&] { ++calls; }, Limits{});
   ASSERT_EQ(out["results"].size(), 6u);
   // Once before the chunk, once before each of the 6 penetrations (more before: parsing).
   EXPECT_GE(calls.load(), 7);
@@ -51,7 +51,7 @@ TEST(GapCodec, TheCheckpointRunsBeforeEveryPenetration) {
                    concentric_pairs(6), [&] {
                      if (--left < 0) throw std::runtime_error("deadline");
                    },
-                   100),
+                   Limits{}),
                std::runtime_error);
 }
 

@@ -19,12 +19,12 @@ Reads one JSON request on stdin, writes the JSON response on stdout (compact; --
 request   {"a": SHAPE, "b": SHAPE, "params": PARAMS}
           {"pairs": [{"a": SHAPE, "b": SHAPE}, ...], "params": PARAMS}   (at most 2000: max_gap_pairs)
           an optional top-level "comment" string is ignored
-SHAPE     {"type": "polytope", "A": [[x,y,z], ...], "b": [...]}         (at most 1000 rows)
+SHAPE     {"type": "polytope", "A": [[x,y,z], ...], "b": [...]}         (at most 1000: max_polytope_rows)
           {"type": "box", "size": [x, y, z]}                            (full edge lengths)
           {"type": "sphere", "radius": r}
           {"type": "cylinder", "radius": r, "height": l}                (full length along z)
           {"type": "capsule", "radius": r, "height": l}                 (core segment along z)
-          {"type": "convex_hull", "points": [[x,y,z], ...]}             (at most 100000 points)
+          {"type": "convex_hull", "points": [[x,y,z], ...]}             (at most 100000: max_hull_points)
           optional: "pose": {"position": [x,y,z], "quaternion": [w,x,y,z]} (normalised),
                     "weights": [...] (polytope, box, convex_hull: one per half-space),
                     "rho": {"center": [x,y,z], "radius": R} (shape frame, must cover the shape)

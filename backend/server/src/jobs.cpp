@@ -125,6 +125,9 @@ void JobManager::run(const std::shared_ptr<Job>& job, const std::function<json(J
   } catch (const ApiError& e) {
     final_state = JobState::failed;
     error = {{"code", e.code()}, {"message", e.what()}, {"field", e.field()}};
+  } catch (const LimitExceeded& e) {
+    final_state = JobState::failed;
+    error = {{"code", e.code()}, {"message", e.what()}, {"field", e.field()}};
   } catch (const InvalidInput& e) {
     final_state = job->cancelled() ? JobState::cancelled : JobState::failed;
     error = {{"code", "invalid_input"}, {"message", e.what()}, {"field", e.field()}};

@@ -62,6 +62,8 @@ Response guarded(const std::function<Response()>& fn) {
     return fn();
   } catch (const ApiError& e) {
     return error_response(e.status(), e.code(), e.what(), e.field());
+  } catch (const LimitExceeded& e) {
+    return error_response(e.status(), e.code(), e.what(), e.field());
   } catch (const InvalidInput& e) {
     return error_response(400, "invalid_input", e.what(), e.field());
   } catch (const JsonSyntaxError& e) {

@@ -13,6 +13,7 @@
 #include "distlab/gap/validator.hpp"
 #include "distlab/geometry/parallel.hpp"
 #include "distlab/geometry/polytope.hpp"
+#include "distlab/server/http.hpp"
 #include "distlab/server/json_fields.hpp"
 
 namespace distlab::server {
@@ -36,10 +37,10 @@ Polytope checked_extent(Polytope P, const std::string& field) {
   return P;
 }
 
-Polytope parse_polytope(const json& j, const std::string& field) {
+Polytope parse_polytope(const json& j, const std::string& field, const Limits& limits) {
   const std::string af = json_key_path(field, "A"), bf = json_key_path(field, "b");
-  const json& A = json_array(json_required(j, field, "A"), af, kMaxPolytopeRows, "rows");
-  const json& b = json_array(json_required(j, field, "b"), bf, kMaxPolytopeRows, "offsets");
+  const json& A = json_array(json_required(j, field, "A"), af, limits.max_polytope_rows, "rows");
+  const json& b = json_array(json_required(j, field, "b"), bf, limits.max_polytope_rows, "offsets");
   MatX3 Am(static_cast<Eigen::Index>(A.size()), 3);
   for (std::size_t i = 0; i < A.size(); ++i)
     Am.row(static_cast<Eigen::Index>(i)) = json_vec3(A[i], json_index_path(af, i)).transpose();
@@ -49,17 +50,17 @@ Polytope parse_polytope(const json& j, const std::string& field) {
   return checked_extent(make_polytope(Am, bv, field), field);
 }
 
-Polytope parse_hull(const json& j, const std::string& field) {
+Polytope parse_hull(const json& j, const std::string& field, const Limits& limits) {
   const std::string pf = json_key_path(field, "points");
-  const json& pts = json_array(json_required(j, field, "points"), pf, kMaxHullPoints, "points");
+  const json& pts = json_array(json_required(j, field, "points"), pf, limits.max_hull_points, "points");
   std::vector<Vec3> points;
   points.reserve(pts.size());
   for (std::size_t i = 0; i < pts.size(); ++i)
     points.push_back(json_vec3(pts[i], json_index_path(pf, i), kMaxCoordinate));
   Polytope P = polytope_from_points(points, field);
-  if (static_cast<std::size_t>(P.rows()) > kMaxPolytopeRows)
+  if (static_cast<std::size_t>(P.rows()) > limits.max_polytope_rows)
     fail(pf, "the hull has " + std::to_string(P.rows()) + " facets, above the limit of " +
-                 std::to_string(kMaxPolytopeRows));
+                 std::to_string(limits.max_polytope_rows));
   return P;
 }
 
@@ -82,7 +83,7 @@ struct Prototype {
 
 // ---------------------------------------------------------------------------------------------
 
-ShapeSpec parse_shape(const json& j, const std::string& field) {
+ShapeSpec parse_shape(const json& j, const std::string& field, const Limits& limits) {
   json_require_object(j, field);
   const std::string tf = json_key_path(field, "type");
   const json& type_j = json_required(j, field, "type");
@@ -92,10 +93,10 @@ ShapeSpec parse_shape(const json& j, const std::string& field) {
   ShapeSpec spec;
   if (type == "polytope") {
     json_check_keys(j, field, {"type", "A", "b", "pose", "weights", "rho"});
-    spec.shape = parse_polytope(j, field);
+    spec.shape = parse_polytope(j, field, limits);
   } else if (type == "convex_hull") {
     json_check_keys(j, field, {"type", "points", "pose", "weights", "rho"});
-    spec.shape = parse_hull(j, field);
+    spec.shape = parse_hull(j, field, limits);
   } else if (type == "box") {
     json_check_keys(j, field, {"type", "size", "pose", "weights", "rho"});
     spec.shape = Box{json_vec<3>(json_required(j, field, "size"), json_key_path(field, "size"), kMaxCoordinate, true)};
@@ -119,7 +120,7 @@ ShapeSpec parse_shape(const json& j, const std::string& field) {
     spec.pose = json_pose(*it, json_key_path(field, "pose"));
   if (const auto it = j.find("weights"); it != j.end()) {
     const std::string wf = json_key_path(field, "weights");
-    const json& w = json_array(*it, wf, kMaxPolytopeRows, "weights");
+    const json& w = json_array(*it, wf, limits.max_polytope_rows, "weights");
     VecX weights(static_cast<Eigen::Index>(w.size()));
     for (std::size_t i = 0; i < w.size(); ++i)
       weights[static_cast<Eigen::Index>(i)] = json_number(w[i], json_index_path(wf, i));
@@ -136,7 +137,7 @@ ShapeSpec parse_shape(const json& j, const std::string& field) {
   return spec;
 }
 
-GapRequestParams parse_params(const json& j, const std::string& field) {
+GapRequestParams parse_params(const json& j, const std::string& field, const Limits& limits) {
   GapRequestParams out;
   if (j.is_null()) {
     check_params(out.params);
@@ -155,7 +156,12 @@ GapRequestParams parse_params(const json& j, const std::string& field) {
   if (auto v = get("sigma")) p.sigma = json_number(*v, f("sigma"));
   if (auto v = get("weight_margin")) p.weight_margin = json_number(*v, f("weight_margin"));
   if (auto v = get("tol")) p.tol = json_number(*v, f("tol"));
-  if (auto v = get("max_iter")) p.max_iter = json_integer(*v, f("max_iter"));
+  if (auto v = get("max_iter")) {
+    p.max_iter = json_integer(*v, f("max_iter"));
+    if (p.max_iter > limits.max_gap_iterations)
+      throw LimitExceeded(422, "over_budget", f("max_iter"),
+                          f("max_iter") + " must be at most " + std::to_string(limits.max_gap_iterations) + " on this server");
+  }
   if (auto v = get("solver")) {
     if (!v->is_string())
       fail(f("solver"), "expected \"fixed_point\" or \"newton\", got " + type_of(*v));
@@ -200,11 +206,13 @@ json encode_result(const GapResult& r, bool gradient, const std::optional<Penetr
   return out;
 }
 
-json run_gap_request(const json& request, const std::function<void()>& checkpoint, std::size_t max_pairs) {
+json run_gap_request(const json& request, const std::function<void()>& checkpoint, const Limits& limits) {
   const auto check = [&] {
     if (checkpoint) checkpoint();
   };
   json_require_object(request, "");
+  if (const auto it = request.find("pairs"); it != request.end() && it->is_array() && it->size() > limits.max_gap_pairs)
+    throw LimitExceeded(413, "too_many_pairs", "pairs", "at most " + std::to_string(limits.max_gap_pairs) + " pairs per request");
   json_check_keys(request, "", {"a", "b", "pairs", "params", "comment"});
   if (const auto it = request.find("comment"); it != request.end() && !it->is_string())
     fail("comment", "expected a string, got " + type_of(*it));
@@ -213,13 +221,13 @@ json run_gap_request(const json& request, const std::function<void()>& checkpoin
     for (const char* k : {"a", "b"})
       if (request.contains(k)) fail(k, "give either \"a\" and \"b\" or \"pairs\", not both");
   const auto params_it = request.find("params");
-  const GapRequestParams rp = parse_params(params_it == request.end() ? json() : *params_it);
+  const GapRequestParams rp = parse_params(params_it == request.end() ? json() : *params_it, "params", limits);
   const GapParams& params = rp.params;
 
   // Every shape instance in request order, with its path.
   std::vector<std::pair<const json*, std::string>> instances;
   if (batch) {
-    const json& pairs = json_array(request["pairs"], "pairs", max_pairs, "pairs");
+    const json& pairs = json_array(request["pairs"], "pairs", limits.max_gap_pairs, "pairs");
     instances.reserve(2 * pairs.size());
     for (std::size_t i = 0; i < pairs.size(); ++i) {
       const std::string pf = json_index_path("pairs", i);
@@ -250,7 +258,7 @@ json run_gap_request(const json& request, const std::function<void()>& checkpoin
   std::vector<std::optional<Prototype>> protos(first_instance.size());
   parallel_for(protos.size(), 0, [&](std::size_t k) {
     const auto& [j, field] = instances[first_instance[k]];
-    const ShapeSpec spec = parse_shape(*j, field);
+    const ShapeSpec spec = parse_shape(*j, field, limits);
     protos[k].emplace(
         Prototype{field, GapBody(spec.shape, Pose{}, params, spec.options, field), {}});
   });

@@ -11,10 +11,6 @@
 
 namespace distlab::server {
 
-// grid.padding is relative to the shape's bounding radius; beyond this the grid box is no longer
-// a picture of the shape (and 1e300 would reach infinite coordinates).
-constexpr double kMaxGridPadding = 100;
-
 using json = nlohmann::json;
 
 namespace {
@@ -37,27 +33,13 @@ std::vector<double> levels(const json& j, const std::string& field, std::size_t 
 void GapModule::register_routes() {
   Route distance{"POST", "/api/gap/distance", [this](Request& req) {
                    const json body = parse_body(req);
-                   if (body.is_object() && body.contains("pairs") && body["pairs"].is_array() &&
-                       body["pairs"].size() > config_.limits.max_gap_pairs)
-                     throw ApiError(413, "too_many_pairs",
-                                    "at most " + std::to_string(config_.limits.max_gap_pairs) + " pairs per request",
-                                    "pairs");
                    const Limits& lim = config_.limits;
-                   if (body.is_object() && body.contains("params") && body["params"].is_object() &&
-                       body["params"].contains("max_iter")) {
-                     const int max_iter = json_integer(body["params"]["max_iter"], "params.max_iter");
-                     if (max_iter > lim.max_gap_iterations)
-                       throw ApiError(422, "over_budget",
-                                      "params.max_iter must be at most " + std::to_string(lim.max_gap_iterations) +
-                                          " on this server",
-                                      "params.max_iter");
-                   }
                    const Deadline deadline(lim.max_request_seconds);
                    return json_response(200, run_gap_request(
                                                  body, [&] {
                                                    deadline.check("send fewer pairs per request");
                                                  },
-                                                 lim.max_gap_pairs));
+                                                 lim));
                  }};
   distance.heavy = true;
   distance.bounds = {"max_body_bytes", "max_gap_pairs", "max_gap_iterations", "max_request_seconds"};
@@ -68,8 +50,8 @@ void GapModule::register_routes() {
                     const Limits& lim = config_.limits;
                     only_keys(body, "", {"shape", "params", "levels", "grid", "plane", "format", "comment"});
                     if (!body.contains("shape")) throw InvalidInput("shape", "shape is required");
-                    const ShapeSpec spec = parse_shape(body["shape"], "shape");
-                    const GapRequestParams gp = parse_params(body.contains("params") ? body["params"] : json(nullptr), "params");
+                    const ShapeSpec spec = parse_shape(body["shape"], "shape", lim);
+                    const GapRequestParams gp = parse_params(body.contains("params") ? body["params"] : json(nullptr), "params", lim);
                     levelset::GapLevelsetOptions o;
                     if (body.contains("levels")) {
                       only_keys(body["levels"], "levels", {"weak", "strict"});
@@ -81,7 +63,7 @@ void GapModule::register_routes() {
                       const json& g = body["grid"];
                       only_keys(g, "grid", {"resolution", "padding", "bounds"});
                       if (g.contains("resolution")) o.resolution = json_integer(g["resolution"], "grid.resolution", 4, lim.max_grid_resolution);
-                      if (g.contains("padding")) o.padding = json_number(g["padding"], "grid.padding", kMaxGridPadding);
+                      if (g.contains("padding")) o.padding = json_number(g["padding"], "grid.padding", lim.max_grid_padding);
                       if (g.contains("bounds")) {
                         only_keys(g["bounds"], "grid.bounds", {"min", "max"});
                         if (!g["bounds"].contains("min") || !g["bounds"].contains("max"))

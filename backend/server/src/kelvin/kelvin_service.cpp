@@ -83,11 +83,11 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
   if (body.contains("center")) options.centre = json_vec3(body["center"], "center", kMaxCoordinate);
   if (body.contains("far_radius")) {
     options.far_radius = json_number(body["far_radius"], "far_radius", kelvin::kMaxFarRadius);
-    if (!(options.far_radius >= 0.5)) throw InvalidInput("far_radius", "far_radius must be in [0.5, 1000]");
+    if (!(options.far_radius >= 0.5)) throw InvalidInput("far_radius", "far_radius must be in [0.5, " + json(kelvin::kMaxFarRadius).dump() + "]");
   }
   if (body.contains("grading")) {  // absent: prepare chooses
     options.grading = json_number(body["grading"], "grading", kelvin::kMaxGrading);
-    if (!(*options.grading >= 0)) throw InvalidInput("grading", "grading must be in [0, 1]");
+    if (!(*options.grading >= 0)) throw InvalidInput("grading", "grading must be in [0, " + json(kelvin::kMaxGrading).dump() + "]");
   }
   const ReshapeRequest reshape = parse_reshape(body, lim);
   const RepairRequest& repair = reshape.repair;

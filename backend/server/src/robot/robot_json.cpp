@@ -162,8 +162,10 @@ const std::string& element_link(const robot::Robot& r, int element) {
 
 }  // namespace
 
-std::vector<robot::Obstacle> parse_robot_obstacles(const json& j, std::size_t max) {
-  json_array(j, "obstacles", max, "obstacles");
+std::vector<robot::Obstacle> parse_robot_obstacles(const json& j, const Limits& limits) {
+  if (j.is_array() && j.size() > limits.max_robot_obstacles)
+    throw LimitExceeded(413, "too_many_obstacles", "obstacles", "at most " + std::to_string(limits.max_robot_obstacles) + " obstacles per request");
+  json_array(j, "obstacles", limits.max_robot_obstacles, "obstacles");
   std::vector<robot::Obstacle> out;
   std::map<std::string, std::size_t> taken;  // name → the obstacle that has it
   for (std::size_t i = 0; i < j.size(); ++i) {
@@ -180,7 +182,7 @@ std::vector<robot::Obstacle> parse_robot_obstacles(const json& j, std::size_t ma
     if (const auto [at, fresh] = taken.emplace(name, i); !fresh)
       fail(nf, (given != nullptr ? "obstacle name " + in_quotes(name) : f + " has no name and its default " + in_quotes(name)) +
                    " is already " + json_index_path("obstacles", at->second) + "'s: names identify the pairs, give each obstacle its own");
-    ShapeSpec spec = parse_shape(shape, f);
+    ShapeSpec spec = parse_shape(shape, f, limits);
     out.push_back({std::move(name), std::move(spec.shape), spec.pose, std::move(spec.options)});
   }
   return out;
@@ -259,17 +261,12 @@ RobotDistancesRequest parse_robot_distances(const json& body, const RobotSources
   const json* mj = json_optional(body, "metric");
   const robot::Metric metric = mj != nullptr ? parse_robot_metric(*mj) : robot::Metric::gap;
   const json* pj = json_optional(body, "params");
-  const GapRequestParams params = parse_params(pj != nullptr ? *pj : json(nullptr), "params");
-  if (params.params.max_iter > limits.max_gap_iterations)
-    throw ApiError(422, "over_budget", "params.max_iter must be at most " + std::to_string(limits.max_gap_iterations) + " on this server",
-                   "params.max_iter");
+  const GapRequestParams params = parse_params(pj != nullptr ? *pj : json(nullptr), "params", limits);
   const robot::PairSelection pairs = parse_pair_selection(body.contains("pairs") ? body["pairs"] : json("obstacles"));
   const json none = json::array();
   const json* given = json_optional(body, "obstacles");
   const json& oj = given != nullptr ? *given : none;
-  if (oj.is_array() && oj.size() > limits.max_robot_obstacles)
-    throw ApiError(413, "too_many_obstacles", "at most " + std::to_string(limits.max_robot_obstacles) + " obstacles per request", "obstacles");
-  std::vector<robot::Obstacle> obstacles = parse_robot_obstacles(oj, limits.max_robot_obstacles);
+  std::vector<robot::Obstacle> obstacles = parse_robot_obstacles(oj, limits);
 
   RobotDistancesRequest out;
   const json& rj = json_required(body, "", "robot");

@@ -46,7 +46,14 @@ struct Limits {
   int max_grid_resolution = 128;
   int max_plane_resolution = 512;
   std::size_t max_gap_pairs = 2000;
-  int max_gap_iterations = 1000000;       // params.max_iter of one GAP pair (0: the solver's default)
+  int max_gap_iterations = 1000000;  // params.max_iter of one GAP pair (0: the solver's default)
+  // GAP shapes, so that one shape cannot pin the parser and the P2S build: rows (and weights) of a
+  // polytope and facets of a convex_hull's hull; input points of a convex_hull. grid.padding of
+  // POST /api/gap/levelsets, relative to the shape's bounding radius: beyond it the grid box is no
+  // longer a picture of the shape (and 1e300 reached infinite coordinates).
+  std::size_t max_polytope_rows = 1000;
+  std::size_t max_hull_points = 100000;
+  double max_grid_padding = 100;
   std::size_t query_chunk_points = 4096;  // Kelvin queries check the time limit this often
   // POST /api/robot/distances: configurations, configurations × pairs (each a distance, two
   // witnesses and a dof-long gradient: ~350 bytes of JSON for 7 joints, so ~18 MB at the limit),
@@ -142,6 +149,9 @@ void for_each_limit(L& l, F&& f) {
   f("max_plane_resolution", l.max_plane_resolution);
   f("max_gap_pairs", l.max_gap_pairs);
   f("max_gap_iterations", l.max_gap_iterations);
+  f("max_polytope_rows", l.max_polytope_rows);
+  f("max_hull_points", l.max_hull_points);
+  f("max_grid_padding", l.max_grid_padding);
   f("query_chunk_points", l.query_chunk_points);
   f("max_robot_configurations", l.max_robot_configurations);
   f("max_robot_pair_evaluations", l.max_robot_pair_evaluations);

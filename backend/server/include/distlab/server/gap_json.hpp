@@ -37,11 +37,10 @@
 
 namespace distlab::server {
 
-// Limits of the codec itself, so one request cannot pin the parser (the JSON text's own limits are
-// json_text.hpp's). The request size and the pairs per batch are Limits (config.hpp): the CLI uses
-// their defaults, the server its own.
-inline constexpr std::size_t kMaxPolytopeRows = 1000;  // rows of a polytope, facets of a hull
-inline constexpr std::size_t kMaxHullPoints = 100000;  // input points of a convex_hull
+// The codec is the one place that checks a GAP request, against the limits table (config.hpp:
+// max_gap_pairs, max_gap_iterations, max_polytope_rows, max_hull_points; the JSON text's own
+// limits are json_text.hpp's). The CLI and Python pass its defaults, the server its own. Past a
+// limit: LimitExceeded (http.hpp) naming the field.
 
 // A shape of the request, parsed and checked (not yet built into P2S functions).
 struct ShapeSpec {
@@ -49,22 +48,23 @@ struct ShapeSpec {
   Pose pose;
   P2SOptions options;
 };
-ShapeSpec parse_shape(const nlohmann::json& j, const std::string& field);
+ShapeSpec parse_shape(const nlohmann::json& j, const std::string& field, const Limits& limits = {});
 
 struct GapRequestParams {
   GapParams params;
   bool validate = true;  // run validate_p2s on every distinct shape and refuse on failure
 };
-// Also runs check_params. `j` may be null (all defaults).
-GapRequestParams parse_params(const nlohmann::json& j, const std::string& field = "params");
+// Also runs check_params. `j` may be null (all defaults). max_iter above max_gap_iterations: 422
+// over_budget.
+GapRequestParams parse_params(const nlohmann::json& j, const std::string& field = "params", const Limits& limits = {});
 
 // Runs a whole request; throws InvalidInput (with the field) on bad input and
 // std::runtime_error on an internal failure (e.g. a non-finite result, which is never emitted).
 // `checkpoint` (if given) is called between stages and between chunks of pairs; it may throw
 // to stop the work (the service's time limit).
-// At most max_pairs pairs (InvalidInput "pairs" beyond).
+// At most max_gap_pairs pairs (413 too_many_pairs, checked before anything else of the request).
 nlohmann::json run_gap_request(const nlohmann::json& request, const std::function<void()>& checkpoint = {},
-                               std::size_t max_pairs = Limits{}.max_gap_pairs);
+                               const Limits& limits = {});
 
 // Encodes one result (validation reports are added by run_gap_request). `pen`: the Euclidean
 // penetration of an overlapping pair (euclidean.penetration, and signed_distance = -depth).

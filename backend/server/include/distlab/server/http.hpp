@@ -10,6 +10,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "distlab/geometry/error.hpp"
+
 namespace distlab::server {
 
 struct Request {
@@ -37,6 +39,21 @@ struct Response {
 };
 
 // An API failure with its status: becomes {"error": {"code", "message", "field"}}.
+// Input past a limit of the table (config.hpp), thrown by a feature's codec, the one place that
+// checks it: HTTP answers status and code (413 too_many_pairs, 422 over_budget, ...); the CLI
+// and Python, which know only invalid input, see the InvalidInput it is.
+class LimitExceeded : public InvalidInput {
+ public:
+  LimitExceeded(int status, std::string code, const std::string& field, const std::string& message)
+      : InvalidInput(field, message), status_(status), code_(std::move(code)) {}
+  int status() const { return status_; }
+  const std::string& code() const { return code_; }
+
+ private:
+  int status_;
+  std::string code_;
+};
+
 class ApiError : public std::runtime_error {
  public:
   ApiError(int status, std::string code, const std::string& message, std::string field = "")

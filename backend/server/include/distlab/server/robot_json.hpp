@@ -37,15 +37,12 @@
 
 namespace distlab::server {
 
-// Obstacles of the Python bindings' calls (the server's bound is Limits::max_robot_obstacles).
-inline constexpr std::size_t kMaxRobotObstacles = 1000;
-
-// [SHAPE + optional "name"], at most `max` (InvalidInput("obstacles") above it), each a GAP
+// [SHAPE + optional "name"], at most max_robot_obstacles (413 too_many_obstacles), each a GAP
 // request shape with its world "pose". A name has 1 to 64 characters; an obstacle without one is
 // "obstacle<i>" (i its index, as in the CBF scenarios). Names are distinct, since they name the
 // pairs: a repeated one (given, or a default that another obstacle took) is
 // InvalidInput("obstacles[i].name"). Other errors name "obstacles[i].<key>".
-std::vector<robot::Obstacle> parse_robot_obstacles(const nlohmann::json& j, std::size_t max = kMaxRobotObstacles);
+std::vector<robot::Obstacle> parse_robot_obstacles(const nlohmann::json& j, const Limits& limits = {});
 
 // "obstacles" | "self" | "both" | {"obstacles": bool, "self": bool, "allow": [[LINK, LINK], ...],
 // "deny": [...]} (allow / deny edit the self pairs, so they need "self": true); errors name
