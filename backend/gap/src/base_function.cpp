@@ -143,17 +143,16 @@ void BaseFunction::build_rational_form() {
   rational_terms_ = N + 1;
 }
 
-BaseFunction::BaseFunction(double h, int k) : h_(h), k_(k) {
-  if (!std::isfinite(h) || h <= 0)
-    throw InvalidInput("params.h", "h must be a finite number > 0, got " + std::to_string(h));
-  if (k < 2 || k > kMaxK)
-    throw InvalidInput("params.k", "k must be an integer in [2, " + std::to_string(kMaxK) +
-                                       "], got " + std::to_string(k));
-  binom_.assign(k, 0.0);
-  double c = 1.0;
-  for (int i = 0; i < k; ++i) {
-    binom_[i] = (i % 2 ? -c : c);
-    c = c * (k - 1 - i) / (i + 1);
+// Built once per (h, k) for up to kMaxCachedSeries pairs (requests may name any h; past that
+// each BaseFunction builds its own), then shared.
+constexpr std::size_t kMaxCachedSeries = 256;
+
+std::shared_ptr<const BaseFunction::Series> BaseFunction::series_for(double h, int k) {
+  static std::mutex mutex;
+  static std::map<std::pair<double, int>, std::shared_ptr<const Series>> cache;
+  {
+    const std::lock_guard<std::mutex> lock(mutex);
+    if (const auto found = cache.find({h, k}); found != cache.end()) return found->second;
   }
   // Φ''(t) = (1 − e^(−t/h))^(k−1) as a series in t = L; its coefficients grow like
   // ((k−1)/h)^n/n!, so the series is used while u = (k−1) L / h <= series_limit_u(k) (and
@@ -171,29 +170,49 @@ BaseFunction::BaseFunction(double h, int k) : h_(h), k_(k) {
   const Poly p0 = integrate_times_exp(p1);
   // Truncate where the next term is below 1e-19 at the series limit: coefficients decay like
   // w^n/n! with w the larger of u's limit and 2L (from the e^t, e^2t factors of Φ', Φ).
+  auto series = std::make_shared<Series>();
   const double u_max = series_limit_u(k);
-  series_limit_ = std::min(u_max, u_max * h / (k - 1));
-  const double w = std::max(u_max, 2 * series_limit_);
+  series->limit = std::min(u_max, u_max * h / (k - 1));
+  const double w = std::max(u_max, 2 * series->limit);
   int terms = 8;
   for (double bound = 1; terms < kSeriesTerms; ++terms) {
     bound = std::pow(w, terms) / std::tgamma(terms + 1.0);
     if (bound < 1e-19) break;
   }
-  c0_.assign(p0.begin(), p0.begin() + terms);
-  c1_.assign(p1.begin(), p1.begin() + terms);
-  c2_.assign(p.begin(), p.begin() + terms);
+  series->c0.assign(p0.begin(), p0.begin() + terms);
+  series->c1.assign(p1.begin(), p1.begin() + terms);
+  series->c2.assign(p.begin(), p.begin() + terms);
+  const std::lock_guard<std::mutex> lock(mutex);
+  if (cache.size() < kMaxCachedSeries) cache.emplace(std::pair{h, k}, series);
+  return series;
+}
+
+BaseFunction::BaseFunction(double h, int k) : h_(h), k_(k) {
+  if (!std::isfinite(h) || h <= 0)
+    throw InvalidInput("params.h", "h must be a finite number > 0, got " + std::to_string(h));
+  if (k < 2 || k > kMaxK)
+    throw InvalidInput("params.k", "k must be an integer in [2, " + std::to_string(kMaxK) +
+                                       "], got " + std::to_string(k));
+  binom_.assign(k, 0.0);
+  double c = 1.0;
+  for (int i = 0; i < k; ++i) {
+    binom_[i] = (i % 2 ? -c : c);
+    c = c * (k - 1 - i) / (i + 1);
+  }
+  series_ = series_for(h, k);
   build_rational_form();
 }
 
 template <class T>
 BaseFunction::JetT<T> BaseFunction::series(T L) const {
   // Three Horner chains interleaved (independent, so they pipeline).
-  const size_t n = c0_.size();
-  T v0 = c0_[n - 1], v1 = c1_[n - 1], v2 = c2_[n - 1];
+  const std::vector<double>&c0 = series_->c0, &c1 = series_->c1, &c2 = series_->c2;
+  const size_t n = c0.size();
+  T v0 = c0[n - 1], v1 = c1[n - 1], v2 = c2[n - 1];
   for (size_t i = n - 1; i-- > 0;) {
-    v0 = v0 * L + c0_[i];
-    v1 = v1 * L + c1_[i];
-    v2 = v2 * L + c2_[i];
+    v0 = v0 * L + c0[i];
+    v1 = v1 * L + c1[i];
+    v2 = v2 * L + c2[i];
   }
   return {v0, v1, v2};
 }
@@ -223,7 +242,7 @@ BaseFunction::JetT<T> BaseFunction::closed_form(T s, T L) const {
 template <class T>
 BaseFunction::JetT<T> BaseFunction::general_jet(T s) const {
   const T L = std::log1p(s);
-  return L <= series_limit_ ? series(L) : closed_form(s, L);
+  return L <= series_->limit ? series(L) : closed_form(s, L);
 }
 
 template BaseFunction::JetT<double> BaseFunction::general_jet(double) const;

@@ -2,6 +2,7 @@
 // The base k-P2S function Φ of the GAP paper (Definition 4, eq. 4), for any integer k >= 2 and
 // h > 0:  Φ''(s) = (1 − (s+1)^(−1/h))^(k−1) for s >= 0, and Φ(s) = 0 for s <= 0.
 #include <array>
+#include <memory>
 #include <type_traits>
 #include <vector>
 
@@ -63,9 +64,15 @@ class BaseFunction {
   double h_;
   int k_;
   std::vector<double> binom_;  // (−1)^i C(k−1, i), i = 0..k−1
-  double series_limit_;        // L = ln(1+s) below which the series in L is used
-  // Taylor coefficients in L = ln(1 + s) of Φ, Φ', Φ'' (all three are entire functions of L).
-  std::vector<double> c0_, c1_, c2_;
+  // Taylor coefficients in L = ln(1 + s) of Φ, Φ', Φ'' (all three are entire functions of L)
+  // and the L below which the series is used. Built from long-double products of 60-term
+  // series (~100 µs, 40 GAP solves), so once per (h, k) and shared (series_for in the .cpp).
+  struct Series {
+    std::vector<double> c0, c1, c2;
+    double limit = 0;
+  };
+  std::shared_ptr<const Series> series_;
+  static std::shared_ptr<const Series> series_for(double h, int k);
 
   // When n = 1/h is an integer (3 <= n, (k−1) n <= kMaxDegree), Φ^(d) is a rational function of
   // s without cancellation: Φ^(d)(s) = s^(k+1−d) P_d(s) / (1+s)^N, N = (k−1) n, where the
