@@ -4,6 +4,7 @@
 // assimp-testmodels uploaded and wrapped (their wrap makes the surface: the job predicts on it
 // before it prepares); the time is those vertices at this server's seconds per vertex, a default
 // before its first preparation and measured over the ones it computed afterwards.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -138,6 +139,102 @@ TEST_F(Estimates, WrappedUploadsFieldVerticesAreWithinOneAndAHalfTimesThePredict
     EXPECT_EQ(job["grading"], st["stats"]["grading"]);
     c.Delete("/api/kelvin/objects/" + st["id"].get<std::string>(), h);
   }
+}
+
+// A preparation's progress follows its stages' real shares (issue 38 goal 3): a server measures
+// each stage's seconds (stats.t_stages) on what it computes, the next estimate of the sizing
+// predicts each stage from them (seconds_per_vertex.stages, at the predicted vertices by the
+// published size exponents), and that preparation's job weighs its stages by those predicted
+// seconds: its fraction is monotone and each stage begins at the share of the stages before it.
+// A server of its own, so that the eq. 23 rates are this test's preparations alone.
+class StageShares : public SharedServerTest<StageShares> {};
+
+TEST_F(StageShares, TheNextJobWeighsItsStagesByTheMeasuredShares) {
+  const std::string s = new_session(c);
+  const httplib::Headers h = session_headers(s);
+  auto post = [&](const std::string& path, const json& body, int status) {
+    auto r = c.Post(path, h, body.dump(), "application/json");
+    EXPECT_TRUE(r && r->status == status) << path << ": " << (r ? r->body : "no answer");
+    return body_json(r);
+  };
+  const std::vector<std::string> stages = {"load", "mesh", "build", "decomp", "cache", "response"};
+  WsClient ws(server_->port(), s);
+  WsClient::Message m;
+  // Each job's events (its stage and fraction), in order, until it ends.
+  auto follow = [&](const std::string& job) {
+    std::vector<std::pair<std::string, double>> events;
+    const bool ended = ws.until(
+        [&](const WsClient::Message& msg) {
+          if (msg.binary || msg.j.value("type", "") != "job" || msg.j["job"]["id"] != job) return false;
+          const json& j = msg.j["job"];
+          if (j["state"] == "running") events.emplace_back(j["stage"], j["fraction"].get<double>());
+          return j["state"] != "running" && j["state"] != "queued";
+        },
+        m, 120);
+    EXPECT_TRUE(ended) << "the job did not end";
+    EXPECT_EQ(m.j["job"]["state"], "succeeded") << m.data;
+    return events;
+  };
+  // A: the cube, eq. 23 (grading 0): the first of its sizing, predicted from the typical rates.
+  const json body_a = {{"asset", "cube"}, {"lx", 0.1}, {"grading", 0}};
+  const json ea = post("/api/kelvin/estimate", body_a, 200);
+  EXPECT_EQ(ea["seconds_per_vertex"]["source"], "default");
+  EXPECT_EQ(ea["seconds_per_vertex"]["sizing"], "eq23");
+  const json ca = post("/api/kelvin/objects", body_a, 202);
+  follow(ca["job"]["id"]);
+  const json a = get_json(c, s, "/api/kelvin/objects/" + ca["object"]["id"].get<std::string>());
+  ASSERT_TRUE(a["stats"].contains("t_stages")) << a.dump();
+  const json& ta = a["stats"]["t_stages"];
+  const double na = a["stats"]["n_verts"];
+
+  // B: the wrench, eq. 23: predicted from A's stages, each at B's predicted vertices.
+  const json body_b = {{"asset", "wrench"}, {"lx", 0.005}, {"grading", 0}};
+  const json eb = post("/api/kelvin/estimate", body_b, 200);
+  const json& rate = eb["seconds_per_vertex"];
+  EXPECT_EQ(rate["source"], "measured");
+  EXPECT_EQ(rate["preparations"], 1);
+  const double nb = eb["vertices_predicted"];
+  double total = 0;
+  for (const auto& stage : stages) {
+    const double p = rate["size_exponents"][stage];
+    const double expected = ta[stage].get<double>() * std::pow(nb / na, p);
+    EXPECT_NEAR(eb["stage_seconds"][stage].get<double>(), expected, 1e-9 * (1 + expected)) << stage;
+    total += eb["stage_seconds"][stage].get<double>();
+  }
+  ASSERT_GT(total, 0);
+  const json cb = post("/api/kelvin/objects", body_b, 202);
+  const auto events = follow(cb["job"]["id"]);
+  const json b = get_json(c, s, "/api/kelvin/objects/" + cb["object"]["id"].get<std::string>());
+  EXPECT_EQ(b["estimate"]["stage_seconds"], eb["stage_seconds"]) << "one prediction per request";
+  // The job's fraction never goes back, and each stage's first event is at the predicted shares
+  // of the stages before it.
+  double last = 0, before = 0;
+  std::size_t seen = 0;
+  std::string previous;
+  for (const auto& [stage, fraction] : events) {
+    EXPECT_GE(fraction, last) << stage;
+    last = fraction;
+    // The stages whose first report is at 0 ("invert" begins the meshing; Mesh_3 reports from 0.1).
+    const auto at = std::find(stages.begin(), stages.end(), stage == "invert" ? "mesh" : stage);
+    const bool starts = stage == "invert" || stage == "build" || stage == "decomp" || stage == "response";
+    if (stage == previous || !starts) {
+      previous = stage;
+      continue;
+    }
+    previous = stage;
+    before = 0;
+    for (auto i = stages.begin(); i != at; ++i) before += eb["stage_seconds"][*i].get<double>();
+    EXPECT_NEAR(fraction, before / total, 1e-9) << "the first event of " << stage;
+    ++seen;
+  }
+  EXPECT_GE(seen, 3U) << "invert, build and decomp at least";
+  std::printf("| object | stage | predicted s | predicted share | real s | real share |\n|---|---|---|---|---|---|\n");
+  double real = 0;
+  for (const auto& stage : stages) real += b["stats"]["t_stages"][stage].get<double>();
+  for (const auto& stage : stages)
+    std::printf("| wrench 0.005 eq. 23 | %s | %.3f | %.3f | %.3f | %.3f |\n", stage.c_str(), eb["stage_seconds"][stage].get<double>(),
+                eb["stage_seconds"][stage].get<double>() / total, b["stats"]["t_stages"][stage].get<double>(),
+                b["stats"]["t_stages"][stage].get<double>() / real);
 }
 
 }  // namespace

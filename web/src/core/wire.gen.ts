@@ -191,12 +191,6 @@ export interface paths {
                             max_held_triangles: number;
                             /** @description params.max_iter of one GAP pair (422 over_budget) */
                             max_gap_iterations: number;
-                            /** @description rows A, b and weights of a GAP polytope, and facets of a convex_hull's hull (400 naming the field): one shape cannot pin the parser and the P2S build */
-                            max_polytope_rows: number;
-                            /** @description input points of a GAP convex_hull (400 naming the field) */
-                            max_hull_points: number;
-                            /** @description grid.padding of POST /api/gap/levelsets, relative to the shape's bounding radius (400): beyond it the grid box is no picture of the shape, and 1e300 reached infinite coordinates */
-                            max_grid_padding: number;
                             /** @description address space of the child process that parses one mesh upload; an upload needing more is refused (400, field body) */
                             import_memory_bytes: number;
                             /** @description CPU and wall-clock seconds of the child process that parses one mesh upload (400, field body) */
@@ -1364,7 +1358,7 @@ export interface paths {
                         [name: string]: unknown;
                     };
                     content: {
-                        "application/json": {
+                        "application/json": components["schemas"]["KelvinPrediction"] & {
                             /** @description the count the vertex budget (max_vertex_estimate) is checked against: a closed form in the bounding radius over l_x, an upper bound of the field's vertices (3–30× the field's vertices on the assets), not a prediction: see vertices_predicted */
                             vertex_estimate: number;
                             max_vertex_estimate: number;
@@ -1373,8 +1367,6 @@ export interface paths {
                             diagonal: number;
                             /** @description the smallest l_x within max_vertex_estimate (at least min_lx) */
                             lx_for_budget: number;
-                            /** @description vertices_predicted times seconds_per_vertex.value; null when vertices_predicted is */
-                            seconds_estimate: number | null;
                             /** @description why POST /api/kelvin/objects would refuse these inputs (field, message) */
                             problem: {
                                 field: string;
@@ -1387,20 +1379,6 @@ export interface paths {
                                 faces?: number;
                                 megabytes?: number;
                                 seconds?: number;
-                            };
-                            /** @description the field vertices (stats.n_verts) the preparation will make: the mesher's sizing prediction for the sizing it will mesh (grading), with a trial meshing at a coarse l_x where eq. 23 protects sharp edges (kelvin::predict_preparation; within 1.5× on the assets and wrapped real meshes). Null when the request's repair (fix, wrap) makes the surface, or for a mesh over max_object_triangles: the object's estimate has it once the surface exists (prediction_note says which) */
-                            vertices_predicted: number | null;
-                            /** @description the sizing the preparation will mesh (stats.grading: 0 is eq. 23), given or chosen */
-                            grading: number | null;
-                            /** @description grading is the preparation's choice (the request gave none) */
-                            grading_chosen: boolean | null;
-                            /** @description this server's seconds per field vertex: the sum of stats.t_prepare over the sum of stats.n_verts of its last 16 computed preparations (cache hits and shared ones are not computations), or a default before the first */
-                            seconds_per_vertex: {
-                                value: number;
-                                /** @enum {string} */
-                                source: "default" | "measured";
-                                /** @description how many computed preparations the value is measured over (0: the default) */
-                                preparations: number;
                             };
                             /** @description why vertices_predicted is null (the repair makes the surface; a mesh over max_object_triangles; the trial meshing did not end within max_request_seconds: the answer is still 200; a refusal), or what it was predicted on when that is not the surface prepared (simplify: the mesh before it) */
                             prediction_note: string | null;
@@ -2733,6 +2711,7 @@ export interface components {
             state: "queued" | "running" | "succeeded" | "failed" | "cancelled";
             /** @description kelvin_prepare: "repair" (a repair request's fix or wrap; cancellable like every stage), then "load", "invert", "mesh", "build", "decomp", "solve", "cache", "response" (the boundary response, when the limits allow it) */
             stage?: string;
+            /** @description kelvin_prepare: during "repair" the repair's own fraction; from "load" on the preparation's overall fraction, never decreasing: Σ over its stages of the stage's predicted seconds (the object's estimate.stage_seconds, or this server's stage rates when the request was not estimated) × the stage's fraction, over their sum (kelvin::StageProgress) */
             fraction?: number;
             seconds?: number;
             object?: string;
@@ -3711,24 +3690,7 @@ export interface components {
             /** @description SHA-256 of the mesh as the user gave it (an upload's digest) */
             surface_digest?: string;
             /** @description what the preparation job predicted before preparing, on the surface it prepares (after the repair of a repair request): the estimate's fields of POST /api/kelvin/estimate; absent until then or when it could not predict */
-            estimate?: {
-                /** @description the field vertices (stats.n_verts) the preparation will make: the mesher's sizing prediction for the sizing it will mesh (grading), with a trial meshing at a coarse l_x where eq. 23 protects sharp edges (kelvin::predict_preparation; within 1.5× on the assets and wrapped real meshes). Null when the request's repair (fix, wrap) makes the surface, or for a mesh over max_object_triangles: the object's estimate has it once the surface exists (prediction_note says which) */
-                vertices_predicted: number | null;
-                /** @description the sizing the preparation will mesh (stats.grading: 0 is eq. 23), given or chosen */
-                grading: number | null;
-                /** @description grading is the preparation's choice (the request gave none) */
-                grading_chosen: boolean | null;
-                /** @description this server's seconds per field vertex: the sum of stats.t_prepare over the sum of stats.n_verts of its last 16 computed preparations (cache hits and shared ones are not computations), or a default before the first */
-                seconds_per_vertex: {
-                    value: number;
-                    /** @enum {string} */
-                    source: "default" | "measured";
-                    /** @description how many computed preparations the value is measured over (0: the default) */
-                    preparations: number;
-                };
-                /** @description vertices_predicted times seconds_per_vertex.value; null when vertices_predicted is */
-                seconds_estimate: number | null;
-            };
+            estimate?: components["schemas"]["KelvinPrediction"];
         };
         /** @description a prepared field's size and preparation times (seconds) */
         KelvinStats: {
@@ -3749,6 +3711,8 @@ export interface components {
             shared?: boolean;
             /** @description wall seconds this server took to make the prepared field: the preparation's stages (load, invert, mesh, build, decomp, response) or, on a cache hit, its load; what seconds_per_vertex is measured from */
             t_prepare?: number;
+            /** @description seconds each stage of this preparation took, timed from its progress reports; present when this object's job computed it (not found in memory or the store): what the server's stage rates are measured from */
+            t_stages?: components["schemas"]["KelvinStageSeconds"];
         };
         /** @description eq. 24: tanh((|e_lᵀ(x − origin)| − d0) / width) σ_nom */
         AxisTerm: {
@@ -3912,6 +3876,41 @@ export interface components {
             max_items: number;
             /** @description a list stopped at max_items */
             truncated: boolean;
+        };
+        /** @description seconds (or a per-stage number) of each stage of a preparation, in the order they run (kelvin::kPrepareStages): load (the checks and the centre's search), mesh (with invert), build, decomp, cache (the store's write), response (the boundary response, when the limits allow it) */
+        KelvinStageSeconds: {
+            load: number;
+            mesh: number;
+            build: number;
+            decomp: number;
+            cache: number;
+            response: number;
+        };
+        /** @description what a preparation will make and take, predicted before it runs (kelvin::predict_preparation and this server's measured stage rates): POST /api/kelvin/estimate's and an object's estimate */
+        KelvinPrediction: {
+            /** @description the field vertices (stats.n_verts) the preparation will make: the mesher's sizing prediction for the sizing it will mesh (grading), with a trial meshing at a coarse l_x where eq. 23 protects sharp edges (kelvin::predict_preparation; within 1.5× on the assets and wrapped real meshes). Null when the request's repair (fix, wrap) makes the surface, or for a mesh over max_object_triangles: the object's estimate has it once the surface exists (prediction_note says which) */
+            vertices_predicted: number | null;
+            /** @description the sizing the preparation will mesh (stats.grading: 0 is eq. 23), given or chosen */
+            grading: number | null;
+            /** @description grading is the preparation's choice (the request gave none) */
+            grading_chosen: boolean | null;
+            /** @description vertices_predicted times seconds_per_vertex.value (the sum of stage_seconds); null when vertices_predicted is */
+            seconds_estimate: number | null;
+            /** @description this server's seconds per field vertex of each stage, for the sizing predicted (eq23, graded: the graded sizing's meshing costs about twice per vertex; any: both, when the sizing is not predicted) at the predicted vertices: a stage's seconds at n vertices are c·n^p (p: size_exponents), c its seconds measured (stats.t_stages) over Σ n^p of the sizing's last 16 computed preparations (cache hits and shared ones are not computations), or typical values before the sizing's first */
+            seconds_per_vertex: {
+                /** @description the stages' sum */
+                value: number;
+                /** @enum {string} */
+                source: "default" | "measured";
+                /** @description how many computed preparations of the sizing the value is measured over (0: the default) */
+                preparations: number;
+                /** @enum {string} */
+                sizing: "eq23" | "graded" | "any";
+                stages: components["schemas"]["KelvinStageSeconds"];
+                size_exponents: components["schemas"]["KelvinStageSeconds"];
+            };
+            /** @description the predicted seconds of each stage (vertices_predicted × seconds_per_vertex.stages): the job's progress weighs its stages by them; null when vertices_predicted is */
+            stage_seconds: components["schemas"]["KelvinStageSeconds"] | null;
         };
         RobotDistancesRequest: {
             robot: string | {

@@ -253,8 +253,13 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
         if (auto s = weak_session.lock()) s->broadcast(json{{"type", "object"}, {"object", object->status_json()}}.dump(), false);
       };
       try {
+        // The job's fraction: a repair's own while it repairs, then the preparation's overall
+        // fraction, its stages weighed by their predicted seconds (set below, once predicted).
+        std::optional<kelvin::StageProgress> stages;
         kelvin::Progress progress;
-        progress.report = [&j](const std::string& stage, double fraction) { j.report(stage, fraction); };
+        progress.report = [&j, &stages](const std::string& stage, double fraction) {
+          j.report(stage, stages ? stages->report(stage, fraction) : fraction);
+        };
         progress.cancel = &j.cancel;
         if (object->reshaped()) {
           // The long part of a repair request (the user's mesh is already imported and checked):
@@ -267,10 +272,11 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
         // preparation to give.
         const mesh::SurfaceMesh& to_prepare = object->reshaped() ? object->repaired : object->welded;
         json predicted = nullptr;
+        std::optional<kelvin::PreparePrediction> p;
         try {
-          std::optional<kelvin::PreparePrediction> p = cached_prediction(to_prepare, options);
+          p = cached_prediction(to_prepare, options);
           if (!p && object->reshaped()) p = predict(to_prepare, options, &j.cancel);
-          if (p) predicted = prediction_json(p, prepare_rate_.rate());
+          if (p) predicted = prediction_json(p, prepare_rate_);
         } catch (const kelvin::Cancelled&) {
           throw;
         } catch (const std::exception&) {
@@ -280,14 +286,20 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
           std::lock_guard lock(object->mutex);
           object->estimate = std::move(predicted);
         }
+        // Unpredicted (a request not estimated first), the shares are the rates of the sizing
+        // asked for (or of both sizings) at the size of the preparations measured.
+        stages.emplace(stage_shares(p, prepare_rate_, options.grading));
         if (object->reshaped()) announce();  // the repair's report and the prediction on its surface
         j.report("load", 0.0);
         bool from_memory = false;
         auto prepared = registry_.acquire(to_prepare, options, progress, &from_memory);
+        stages->finish();
+        const bool computed = !from_memory && !prepared->cache_hit;
         {
           std::lock_guard lock(object->mutex);
           object->prepared = prepared;
           object->shared = from_memory;
+          if (computed) object->stage_seconds = stages->seconds();
           object->state = "ready";
         }
         j.report("ready", 1.0);
@@ -295,7 +307,7 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
         if (auto s = weak_session.lock()) schedule_frames(s, object);
         // This server's seconds per vertex learn from what it computed (not from a cache or
         // another object's preparation).
-        if (!from_memory && !prepared->cache_hit) prepare_rate_.record(prepared->seconds, static_cast<double>(prepared->field.stats().n_verts));
+        if (computed) prepare_rate_.record(prepared->field.stats().grading, stages->seconds(), static_cast<double>(prepared->field.stats().n_verts));
         const json status = object->status_json();
         return json{{"object", object->id}, {"stats", status.value("stats", json::object())}};
       } catch (const kelvin::Cancelled&) {
@@ -380,7 +392,7 @@ json KelvinModule::estimate_json(const mesh::SurfaceMesh& welded, kelvin::Prepar
       out["prediction_note"] = "not predicted: the mesher failed on this surface (the preparation will say how)";
     }
   }
-  out.update(prediction_json(prediction, prepare_rate_.rate()));
+  out.update(prediction_json(prediction, prepare_rate_, options.grading));
   return out;
 }
 

@@ -1,5 +1,6 @@
 #include "prepare_estimate.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
@@ -7,19 +8,51 @@ namespace distlab::server {
 
 using json = nlohmann::json;
 
-void PrepareRate::record(double seconds, double vertices) {
-  if (!(seconds > 0) || !(vertices > 0) || !std::isfinite(seconds) || !std::isfinite(vertices)) return;
+static std::size_t sizing_index(double grading) { return grading > 0 ? 1 : 0; }
+
+void PrepareRate::record(double grading, const kelvin::StageSeconds& seconds, double vertices) {
+  double total = 0;
+  for (double s : seconds) {
+    if (!(s >= 0) || !std::isfinite(s)) return;
+    total += s;
+  }
+  if (!(total > 0) || !(vertices > 0) || !std::isfinite(vertices) || !std::isfinite(grading)) return;
   std::lock_guard lock(mutex_);
-  recent_.emplace_back(seconds, vertices);
-  if (recent_.size() > kWindow) recent_.pop_front();
+  auto& recent = recent_[sizing_index(grading)];
+  recent.push_back({seconds, vertices});
+  if (recent.size() > kWindow) recent.pop_front();
 }
 
-PrepareRate::Rate PrepareRate::rate() const {
-  std::lock_guard lock(mutex_);
-  if (recent_.empty()) return {};
-  double seconds = 0, vertices = 0;
-  for (const auto& [s, n] : recent_) seconds += s, vertices += n;
-  return {seconds / vertices, recent_.size()};
+PrepareRate::Rate PrepareRate::rate(std::optional<double> grading, std::optional<double> vertices) const {
+  Rate out;
+  out.sizing = !grading ? "any" : *grading > 0 ? "graded"
+                                               : "eq23";
+  kelvin::StageSeconds seconds{}, sizes{};  // Σ seconds and Σ n^p of each stage
+  double n_sum = 0;
+  {
+    std::lock_guard lock(mutex_);
+    for (std::size_t k = 0; k < 2; ++k) {
+      if (grading && k != sizing_index(*grading)) continue;
+      for (const auto& m : recent_[k]) {
+        for (std::size_t i = 0; i < kelvin::kPrepareStageCount; ++i) {
+          seconds[i] += m.seconds[i];
+          sizes[i] += std::pow(m.vertices, kelvin::kStageSizeExponents[i]);
+        }
+        n_sum += m.vertices;
+        ++out.preparations;
+      }
+    }
+  }
+  const double n = std::max(1.0, vertices.value_or(out.preparations > 0 ? n_sum / static_cast<double>(out.preparations) : 1e4));
+  if (out.preparations == 0) {
+    out.stages = kelvin::typical_stage_seconds(grading.value_or(kelvin::kAutoGrading), n);
+    for (double& s : out.stages) s /= n;
+  } else {
+    for (std::size_t i = 0; i < kelvin::kPrepareStageCount; ++i)
+      out.stages[i] = seconds[i] / sizes[i] * std::pow(n, kelvin::kStageSizeExponents[i] - 1);
+  }
+  for (double s : out.stages) out.seconds_per_vertex += s;
+  return out;
 }
 
 std::optional<kelvin::PreparePrediction> PredictionCache::find(const std::string& key) {
@@ -62,21 +95,44 @@ CancelAfter::~CancelAfter() {
   if (thread_.joinable()) thread_.join();
 }
 
-json prediction_json(const std::optional<kelvin::PreparePrediction>& p, const PrepareRate::Rate& rate) {
+json prediction_json(const std::optional<kelvin::PreparePrediction>& p, const PrepareRate& rates, std::optional<double> grading) {
+  const auto n = p ? std::llround(p->vertices) : 0;
+  const PrepareRate::Rate rate = p ? rates.rate(p->grading, static_cast<double>(n)) : rates.rate(grading, std::nullopt);
+  json stages = json::object(), exponents = json::object();
+  for (std::size_t i = 0; i < kelvin::kPrepareStageCount; ++i) {
+    stages[kelvin::kPrepareStages[i]] = rate.stages[i];
+    exponents[kelvin::kPrepareStages[i]] = kelvin::kStageSizeExponents[i];
+  }
   json out = {{"vertices_predicted", nullptr},
               {"grading", nullptr},
               {"grading_chosen", nullptr},
               {"seconds_estimate", nullptr},
+              {"stage_seconds", nullptr},
               {"seconds_per_vertex",
-               {{"value", rate.seconds_per_vertex}, {"source", rate.preparations > 0 ? "measured" : "default"}, {"preparations", rate.preparations}}}};
+               {{"value", rate.seconds_per_vertex},
+                {"source", rate.preparations > 0 ? "measured" : "default"},
+                {"preparations", rate.preparations},
+                {"sizing", rate.sizing},
+                {"stages", stages},
+                {"size_exponents", exponents}}}};
   if (p) {
-    const auto n = std::llround(p->vertices);
     out["vertices_predicted"] = n;
     out["grading"] = p->grading;
     out["grading_chosen"] = p->chosen;
     out["seconds_estimate"] = static_cast<double>(n) * rate.seconds_per_vertex;
+    for (auto& s : stages) s = s.get<double>() * static_cast<double>(n);
+    out["stage_seconds"] = std::move(stages);
   }
   return out;
+}
+
+kelvin::StageSeconds stage_shares(const std::optional<kelvin::PreparePrediction>& p, const PrepareRate& rates,
+                                  std::optional<double> grading) {
+  if (!p) return rates.rate(grading, std::nullopt).stages;  // at the measured preparations' mean size
+  const auto n = static_cast<double>(std::llround(p->vertices));
+  kelvin::StageSeconds shares = rates.rate(p->grading, n).stages;
+  for (double& s : shares) s *= n;
+  return shares;
 }
 
 }  // namespace distlab::server

@@ -18,33 +18,40 @@
 #include <nlohmann/json.hpp>
 
 #include "distlab/kelvin/field.hpp"
+#include "distlab/kelvin/stages.hpp"
 #include "distlab/mesh/surface.hpp"
 
 namespace distlab::server {
 
-// Seconds per field vertex of the preparations this server computed (PreparedField::seconds over
-// Stats::n_verts; cache hits and shared preparations are not computations): the sum of the
-// seconds over the sum of the vertices of the last kWindow, so a large preparation weighs by its
-// size and the rate follows a faster (or busier) server within kWindow preparations. Before the
-// first, kDefault. Thread-safe.
+// The seconds each stage (kelvin::kPrepareStages) of a preparation takes, as this server measured
+// them on the preparations it computed, per sizing (eq. 23 and graded: the graded sizing's
+// meshing costs about twice per vertex): timed by kelvin::StageProgress from the job's own
+// progress reports (cache hits and shared preparations are not computations). A stage's seconds
+// at n vertices are c n^p (p: kelvin::kStageSizeExponents), c the sum of its seconds over the sum
+// of n^p of the sizing's last kWindow, so a large preparation weighs by its size and the rate
+// follows a faster (or busier) server within kWindow preparations. Before the sizing's first,
+// kelvin::typical_stage_seconds. Thread-safe.
 class PrepareRate {
  public:
-  // Measured on the 2-core development machine (issue 37): 0.1–0.5 ms per vertex for the
-  // assets and wrapped uploads at 0.5k–45k vertices (load average about 2), up to 0.8 ms with
-  // other builds running; the graded sizing about twice eq. 23's. Only a start: the first computed
-  // preparation replaces it.
-  static constexpr double kDefault = 3e-4;
   static constexpr std::size_t kWindow = 16;
   struct Rate {
-    double seconds_per_vertex = kDefault;
-    std::size_t preparations = 0;  // measured ones in the window; 0: the default
+    kelvin::StageSeconds stages{};  // seconds per vertex of each stage, at the vertices asked
+    double seconds_per_vertex = 0;  // their sum
+    std::size_t preparations = 0;   // measured ones in the window; 0: the typical rates
+    const char* sizing = "any";     // "eq23", "graded", or "any" (both windows: the sizing unknown)
   };
-  void record(double seconds, double vertices);
-  Rate rate() const;
+  void record(double grading, const kelvin::StageSeconds& seconds, double vertices);
+  // The rate of the sizing `grading` meshes (without it, of both sizings' preparations
+  // together) at `vertices` (without them, the measured preparations' mean; 10^4 before any).
+  Rate rate(std::optional<double> grading, std::optional<double> vertices) const;
 
  private:
+  struct Measured {
+    kelvin::StageSeconds seconds;
+    double vertices;
+  };
   mutable std::mutex mutex_;
-  std::deque<std::pair<double, double>> recent_;  // seconds, vertices
+  std::deque<Measured> recent_[2];  // eq. 23, graded
 };
 
 // The last kSize predictions by content key (kelvin::prepare_key: the surface and the options), so that
@@ -80,9 +87,17 @@ class CancelAfter {
   std::thread thread_;
 };
 
-// {"vertices_predicted", "grading", "grading_chosen", "seconds_estimate", "seconds_per_vertex":
-// {"value", "source": "default" | "measured", "preparations"}}; with no prediction the first
-// three and the seconds are null.
-nlohmann::json prediction_json(const std::optional<kelvin::PreparePrediction>& p, const PrepareRate::Rate& rate);
+// {"vertices_predicted", "grading", "grading_chosen", "seconds_estimate", "stage_seconds",
+// "seconds_per_vertex": {"value", "source": "default" | "measured", "preparations", "sizing",
+// "stages", "size_exponents"}}: the rate of the sizing predicted at the vertices predicted; with
+// no prediction the first three, the seconds and the stage seconds are null and the rate is the
+// sizing's given in `grading` (or any) at the measured preparations' mean vertices.
+nlohmann::json prediction_json(const std::optional<kelvin::PreparePrediction>& p, const PrepareRate& rates,
+                               std::optional<double> grading = std::nullopt);
+// The shares of a preparation's stages for its progress (kelvin::StageProgress): the predicted
+// seconds of each stage (the rate of the sizing predicted, or of `grading`, at the predicted
+// vertices or the measured preparations' mean).
+kelvin::StageSeconds stage_shares(const std::optional<kelvin::PreparePrediction>& p, const PrepareRate& rates,
+                                  std::optional<double> grading);
 
 }  // namespace distlab::server

@@ -12,6 +12,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <shared_mutex>
 #include <string>
 #include <vector>
@@ -19,6 +20,7 @@
 #include <nlohmann/json.hpp>
 
 #include "distlab/kelvin/field.hpp"
+#include "distlab/kelvin/stages.hpp"
 #include "distlab/mesh/repair.hpp"
 #include "distlab/mesh/surface.hpp"
 #include "distlab/server/config.hpp"
@@ -166,6 +168,9 @@ struct KelvinObject {
   nlohmann::json error;
   std::shared_ptr<PreparedField> prepared;
   bool shared = false;  // the preparation was found in memory (another session or object)
+  // Seconds each stage of the preparation took (kelvin::kPrepareStages), when this object's job
+  // computed it (not found in memory or the store); stats.t_stages.
+  std::optional<kelvin::StageSeconds> stage_seconds;
 
   kelvin::SigmaSpec sigma;        // as given: per_vertex per user vertex
   kelvin::SigmaSpec field_sigma;  // what the field solves: per_vertex per welded vertex
