@@ -48,6 +48,7 @@ import { SurfaceSource } from "./surface_source";
 import { defectColors, defectLines, DefectsLayer, holeSizes, isClosedManifold } from "./upload_defects";
 import { UploadNotice } from "./upload_link";
 import { lxNote, suggestedLx } from "./lx_note";
+import { TimeLeft, timeLeftText } from "./time_left";
 import { repairAdvice, type Advice } from "./repair_advice";
 import { installHooks, type Timings } from "./test_hooks";
 import type { Limits } from "../../core/wire";
@@ -351,7 +352,15 @@ export class KelvinView implements View {
     }
     const job = (this.job = new ObjectJob());
     const t0 = performance.now();
-    const label = (stage: string) => `preparing ${name} (l_x = ${this.state.lx})${stage ? ": " + stage : ""}`;
+    // The bar is the job's overall fraction; the label says the stage and the time left, counted
+    // down between the job's reports.
+    const clock = new TimeLeft(est.seconds_estimate);
+    let shown: { stage: string; fraction: number | undefined; cancel: () => void } | null = null;
+    const label = (stage: string) => {
+      const left = timeLeftText(clock.left());
+      return `preparing ${name} (l_x = ${this.state.lx})${stage ? ": " + stage : ""}${left ? " · " + left : ""}`;
+    };
+    const countdown = window.setInterval(() => shown && ticket === this.ticket && this.host.progress(label(shown.stage), shown.fraction, shown.cancel), 500);
     this.host.progress(label(""), undefined, () => void job.cancel());
     this.host.status(label(""));
     let status: ObjectStatus;
@@ -361,13 +370,19 @@ export class KelvinView implements View {
         this.state.lx,
         { sigma: this.sigmaBody(), levels: this.state.levels },
         {
-          progress: (stage, fraction, cancel) => ticket === this.ticket && this.host.progress(label(stage), fraction, cancel),
+          progress: (stage, fraction, cancel) => {
+            if (ticket !== this.ticket) return;
+            shown = { stage, fraction, cancel };
+            clock.report(stage, fraction ?? 0);
+            this.host.progress(label(stage), fraction, cancel);
+          },
           created: (id) => ticket === this.ticket && this.adopt(id),
           repaired: (o) => ticket === this.ticket && void this.showRepair(o, uploadLines, ticket),
           // What the server could not predict before the repair made the surface, its job did.
           estimated: (o) => {
             if (ticket !== this.ticket || !o.estimate || est.vertices_predicted !== null) return;
             const known = { ...est, ...o.estimate };
+            clock.predicted = known.seconds_estimate;
             this.rememberEstimate(key, known);
             this.estimateShown = estimateText(known);
             this.panel?.setEstimate(this.estimateShown, null);
@@ -376,6 +391,7 @@ export class KelvinView implements View {
         repair,
       );
     } catch (e) {
+      window.clearInterval(countdown);
       if (ticket !== this.ticket) return;
       this.host.progress(null);
       const text = e instanceof ApiError && e.code === "cancelled" ? "preparation cancelled" : showError(e, `cannot prepare ${name}`);
@@ -384,6 +400,7 @@ export class KelvinView implements View {
       this.panel?.setStats([["object", `${name}: ${text}`]]);
       return;
     }
+    window.clearInterval(countdown);
     if (ticket !== this.ticket) return;
     this.timings.prepareMs.push(performance.now() - t0);
     this.status = status;
