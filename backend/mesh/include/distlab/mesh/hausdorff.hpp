@@ -18,7 +18,9 @@ struct HausdorffDistance {
 // (of 1e-4 of `from`'s size where the distance is below that: every vertex of `from` may lie on `to`).
 // The vertices' distances give a lower bound L; a face none of whose points can be farther than
 // L + error (its corners' largest distance to one triangle of `to` is at most that: the distance
-// to a triangle is convex, so that bounds every point of the face) is settled; CGAL's bounded-error Hausdorff
+// to a triangle is convex, so that bounds every point of the face) is settled; so is a face whose
+// parts, split by planes through the edges of the triangles of `to` near it (a face straddling a
+// flat or folded edge of `to`), each have such a triangle. CGAL's bounded-error Hausdorff
 // distance runs on the others only. `from` may be any triangle soup.
 // Reports stage `stage` to `progress` and throws Cancelled once its token is set.
 HausdorffDistance hausdorff_distance(const SurfaceMesh& from, const SurfaceMesh& to, double relative_error,
