@@ -227,15 +227,13 @@ def _mesh_error(i: int, mesh: Mesh, error: BaseException) -> BaseException:
 
 def _prepare_task(mesh: Mesh, lx: float, cache_dir: str, options: Mapping[str, Any],
                   report: Callable[[float], None]) -> Dict[str, Any]:
-    """One preparation of prepare_many (a task of its client=): the field's stats."""
-    def stages(stage: str, fraction: float) -> None:
-        if stage in _STAGES and not (stage == "cache" and fraction < 0.5):
-            report((_STAGES.index(stage) + fraction) / len(_STAGES))
+    """One preparation of prepare_many (a task of its client=): the field's stats. Its progress
+    is the preparation's overall fraction, its stages weighed by their typical seconds for the
+    sizing asked (the service's kelvin::StageProgress; meshing takes most of it, not a sixth)."""
+    grading = options.get("grading")
+    stages = _core.KelvinStageProgress(**({} if grading is None else {"grading": float(grading)}))
 
-    return Field.prepare(mesh, lx, cache_dir=cache_dir, progress=stages, **options).stats
+    def progress(stage: str, fraction: float) -> None:
+        report(stages.report(stage, fraction))
 
-
-# A preparation's stages in their order (geometry/progress.hpp): its progress through them, each
-# stage counting as much as another. "cache" below 0.5 is the store's look-up before meshing, from
-# 0.5 the saving after the factorization; "wait": another process prepares the same field.
-_STAGES = ("simplify", "repair", "load", "invert", "wait", "mesh", "build", "decomp", "cache")
+    return Field.prepare(mesh, lx, cache_dir=cache_dir, progress=progress, **options).stats

@@ -9,6 +9,7 @@
 #include "bindings.hpp"
 #include "convert.hpp"
 #include "distlab/kelvin/field.hpp"
+#include "distlab/kelvin/stages.hpp"
 #include "distlab/mesh/surface.hpp"
 #include "distlab/mesh/weld.hpp"
 #include "distlab/server/data_dirs.hpp"
@@ -278,6 +279,18 @@ void bind_kelvin(py::module_& m) {
         return cache_call([&] { return server::cache_gc_json(store); });
       },
       py::arg("dir"), py::arg("budget"), py::arg("keep_recent"));
+  // A preparation's overall fraction from its (stage, fraction) reports, its stages weighed by
+  // their typical seconds at `vertices` for the sizing `grading` (kelvin::StageProgress: the
+  // server's, without its measured rates); `response`: a boundary response is built (the server
+  // builds one, Field.prepare does not).
+  py::class_<kelvin::StageProgress>(m, "KelvinStageProgress")
+      .def(py::init([](double grading, double vertices, bool response) {
+             kelvin::StageSeconds shares = kelvin::typical_stage_seconds(grading, vertices);
+             if (!response) shares.back() = 0;
+             return std::make_unique<kelvin::StageProgress>(shares);
+           }),
+           py::arg("grading") = kelvin::kAutoGrading, py::arg("vertices") = 1e4, py::arg("response") = false)
+      .def("report", &kelvin::StageProgress::report, py::arg("stage"), py::arg("fraction"));
   py::class_<PyField>(m, "KelvinField")
       .def_static("prepare", &PyField::prepare, py::arg("vertices"), py::arg("faces"), py::arg("path"),
                   py::arg("options"), py::arg("cache_dir"), py::arg("progress"))
