@@ -48,6 +48,28 @@ Response no_content_response() {
   return r;
 }
 
+nlohmann::json ErrorAnswer::body() const { return {{"code", code}, {"message", message}, {"field", field}}; }
+
+ErrorAnswer error_answer(const std::exception_ptr& error, const std::string& internal_code,
+                         const std::string& internal_message, const char* log_context) {
+  try {
+    std::rethrow_exception(error);
+  } catch (const ApiError& e) {
+    return {e.status(), e.code(), e.what(), e.field()};
+  } catch (const LimitExceeded& e) {
+    return {e.status(), e.code(), e.what(), e.field()};
+  } catch (const InvalidInput& e) {
+    return {400, "invalid_input", e.what(), e.field()};
+  } catch (const JsonSyntaxError& e) {
+    return {400, "malformed_json", "malformed JSON at byte " + std::to_string(e.byte()), ""};
+  } catch (const std::bad_alloc&) {
+    return {503, "out_of_memory", "the server ran out of memory for this request", ""};
+  } catch (const std::exception& e) {
+    if (log_context != nullptr) std::fprintf(stderr, "distlab serve: %s: %s\n", log_context, e.what());
+    return {500, internal_code, internal_message, ""};
+  }
+}
+
 Response error_response(int status, const std::string& code, const std::string& message,
                         const std::string& field) {
   return json_response(status, {{"error", {{"code", code}, {"message", message}, {"field", field}}}});

@@ -122,20 +122,13 @@ void JobManager::run(const std::shared_ptr<Job>& job, const std::function<json(J
     if (job->cancelled()) throw Cancelled();
   } catch (const Cancelled&) {  // the one cancellation of every module's work
     final_state = JobState::cancelled;
-  } catch (const ApiError& e) {
+  } catch (const ApiError&) {  // a refusal of the API fails the job, cancelled or not
     final_state = JobState::failed;
-    error = {{"code", e.code()}, {"message", e.what()}, {"field", e.field()}};
-  } catch (const LimitExceeded& e) {
-    final_state = JobState::failed;
-    error = {{"code", e.code()}, {"message", e.what()}, {"field", e.field()}};
-  } catch (const InvalidInput& e) {
+    error = error_answer(std::current_exception()).body();
+  } catch (const std::exception&) {
     final_state = job->cancelled() ? JobState::cancelled : JobState::failed;
-    error = {{"code", "invalid_input"}, {"message", e.what()}, {"field", e.field()}};
-  } catch (const std::exception& e) {
-    // Not the client's input: its text may name server files, so it goes to the log only.
-    final_state = job->cancelled() ? JobState::cancelled : JobState::failed;
-    std::fprintf(stderr, "distlab serve: job %s failed: %s\n", job->kind.c_str(), e.what());
-    error = {{"code", "job_failed"}, {"message", "internal error (logged on the server)"}, {"field", ""}};
+    const std::string context = "job " + job->kind + " failed";
+    error = error_answer(std::current_exception(), "job_failed", "internal error (logged on the server)", context.c_str()).body();
   }
   if (final_state == JobState::cancelled) {
     std::lock_guard lock(job->mutex_);

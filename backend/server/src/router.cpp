@@ -60,19 +60,9 @@ const Route* Router::match(const std::string& method, const std::string& path, R
 Response guarded(const std::function<Response()>& fn) {
   try {
     return fn();
-  } catch (const ApiError& e) {
-    return error_response(e.status(), e.code(), e.what(), e.field());
-  } catch (const LimitExceeded& e) {
-    return error_response(e.status(), e.code(), e.what(), e.field());
-  } catch (const InvalidInput& e) {
-    return error_response(400, "invalid_input", e.what(), e.field());
-  } catch (const JsonSyntaxError& e) {
-    return error_response(400, "malformed_json", e.what());
-  } catch (const std::bad_alloc&) {
-    return error_response(503, "out_of_memory", "the server ran out of memory for this request");
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "distlab serve: internal error: %s\n", e.what());
-    return error_response(500, "internal_error", "internal error");
+  } catch (const std::exception&) {
+    const ErrorAnswer a = error_answer(std::current_exception());
+    return error_response(a.status, a.code, a.message, a.field);
   }
 }
 

@@ -290,10 +290,9 @@ void Service::ws_message(const std::shared_ptr<Session>& session, const std::sha
   json msg;
   try {
     msg = parse_json_text(data, data.size());  // held to max_ws_message_bytes by the socket
-  } catch (const JsonSyntaxError& e) {
-    return reply_error(400, "malformed_json", "malformed JSON at byte " + std::to_string(e.byte()), "");
-  } catch (const InvalidInput& e) {
-    return reply_error(400, "invalid_input", e.what(), e.field());
+  } catch (const std::exception&) {
+    const ErrorAnswer a = error_answer(std::current_exception());
+    return reply_error(a.status, a.code, a.message, a.field);
   }
   const Response r = guarded([&]() -> Response {
     if (!msg.is_object() || !msg.contains("type") || !msg["type"].is_string())

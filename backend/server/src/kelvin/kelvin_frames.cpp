@@ -28,11 +28,9 @@ void KelvinModule::schedule_frames(const std::shared_ptr<Session>& session, cons
       if (auto s = weak.lock()) {
         try {
           send_frames(s, object);
-        } catch (const InvalidInput& e) {
-          s->broadcast(json{{"type", "error"}, {"status", 400}, {"error", {{"code", "invalid_input"}, {"message", e.what()}, {"field", e.field()}}}}.dump(), false);
-        } catch (const std::exception& e) {
-          std::fprintf(stderr, "distlab serve: frames failed: %s\n", e.what());  // may name server files
-          s->broadcast(json{{"type", "error"}, {"status", 500}, {"error", {{"code", "frame_failed"}, {"message", "internal error (logged on the server)"}, {"field", ""}}}}.dump(), false);
+        } catch (const std::exception&) {
+          const ErrorAnswer a = error_answer(std::current_exception(), "frame_failed", "internal error (logged on the server)", "frames failed");
+          s->broadcast(json{{"type", "error"}, {"status", a.status}, {"error", a.body()}}.dump(), false);
         }
       }
       std::lock_guard lock(object->mutex);

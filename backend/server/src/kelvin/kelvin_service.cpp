@@ -317,19 +317,11 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
         }
         announce();
         throw;
-      } catch (const InvalidInput& e) {
-        {
+      } catch (const std::exception&) {
+        {  // the job's own mapping logs an internal error
           std::lock_guard lock(object->mutex);
           object->state = j.cancelled() ? "cancelled" : "failed";
-          object->error = {{"code", "invalid_input"}, {"message", e.what()}, {"field", e.field()}};
-        }
-        announce();
-        throw;
-      } catch (const std::exception& e) {
-        {
-          std::lock_guard lock(object->mutex);
-          object->state = j.cancelled() ? "cancelled" : "failed";
-          object->error = {{"code", "job_failed"}, {"message", "internal error (logged on the server)"}, {"field", ""}};
+          object->error = error_answer(std::current_exception(), "job_failed", "internal error (logged on the server)", nullptr).body();
         }
         announce();
         throw;

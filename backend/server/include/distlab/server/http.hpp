@@ -1,6 +1,7 @@
 #pragma once
 // Transport-neutral HTTP request/response values and the error type of the API: the Beast layer
 // converts to and from these, so the router and the endpoints can be tested without sockets.
+#include <exception>
 #include <map>
 #include <set>
 #include <stdexcept>
@@ -66,6 +67,22 @@ class ApiError : public std::runtime_error {
   int status_;
   std::string code_, field_;
 };
+
+// An error answer: its HTTP status and {"code", "message", "field"} (body()).
+struct ErrorAnswer {
+  int status = 500;
+  std::string code, message, field;
+  nlohmann::json body() const;
+};
+
+// The one mapping of an exception (a request's, a job's, a WebSocket message's, a frame's) to the
+// error answer: ApiError and LimitExceeded as they say, InvalidInput 400 invalid_input,
+// JsonSyntaxError 400 malformed_json, bad_alloc 503 out_of_memory. Anything else is the server's
+// fault: 500 with `internal_code` and `internal_message`; its own text may name server files, so
+// it goes only to the log, as "distlab serve: <log_context>: <text>" (no line when log_context is
+// null: the caller rethrows to a mapping that logs it).
+ErrorAnswer error_answer(const std::exception_ptr& error, const std::string& internal_code = "internal_error",
+                         const std::string& internal_message = "internal error", const char* log_context = "internal error");
 
 Response json_response(int status, const nlohmann::json& body);
 // 204 No Content: no body and no Content-Type (the answer to a DELETE).
