@@ -191,6 +191,12 @@ export interface paths {
                             max_held_triangles: number;
                             /** @description params.max_iter of one GAP pair (422 over_budget) */
                             max_gap_iterations: number;
+                            /** @description rows A, b and weights of a GAP polytope, and facets of a convex_hull's hull (400 naming the field): one shape cannot pin the parser and the P2S build */
+                            max_polytope_rows: number;
+                            /** @description input points of a GAP convex_hull (400 naming the field) */
+                            max_hull_points: number;
+                            /** @description grid.padding of POST /api/gap/levelsets, relative to the shape's bounding radius (400): beyond it the grid box is no picture of the shape, and 1e300 reached infinite coordinates */
+                            max_grid_padding: number;
                             /** @description address space of the child process that parses one mesh upload; an upload needing more is refused (400, field body) */
                             import_memory_bytes: number;
                             /** @description CPU and wall-clock seconds of the child process that parses one mesh upload (400, field body) */
