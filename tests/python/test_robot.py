@@ -591,7 +591,8 @@ def test_warm_start_is_refused_from_another_model(panda):
     moved = [dict(o) for o in obstacles]
     moved[0] = dict(moved[0], pose={"position": [0.52, 0.2, 0.48]})
     assert field_of(obstacles=moved)[0] == "warm_start"
-    assert field_of(metric="euclidean") == ("warm_start", 'warm_start: warm_start comes from the metric "gap", not "euclidean"')
+    # The message names its field itself, so the text does not repeat it (InvalidInput).
+    assert field_of(metric="euclidean") == ("warm_start", 'warm_start comes from the metric "gap", not "euclidean"')
     assert field_of(pairs="obstacles")[0] == "warm_start"
     assert field_of(params=dict(params, h=0.2))[0] == "warm_start"
     assert field_of(warm_start="state")[0] == "warm_start"
