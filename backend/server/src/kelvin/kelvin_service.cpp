@@ -12,6 +12,7 @@
 #include "distlab/mesh/checks.hpp"
 #include "distlab/mesh/repair.hpp"
 #include "distlab/mesh/weld.hpp"
+#include "distlab/server/deadline.hpp"
 #include "distlab/server/gap_json.hpp"
 #include "distlab/server/json_fields.hpp"
 #include "distlab/server/kelvin_json.hpp"

@@ -78,23 +78,6 @@ void PredictionCache::put(const std::string& key, const kelvin::PreparePredictio
   }
 }
 
-CancelAfter::CancelAfter(double seconds) {
-  if (!(seconds > 0)) return;
-  thread_ = std::thread([this, seconds] {
-    std::unique_lock lock(mutex_);
-    if (!cv_.wait_for(lock, std::chrono::duration<double>(seconds), [this] { return done_; })) flag_.store(true);
-  });
-}
-
-CancelAfter::~CancelAfter() {
-  {
-    std::lock_guard lock(mutex_);
-    done_ = true;
-  }
-  cv_.notify_all();
-  if (thread_.joinable()) thread_.join();
-}
-
 json prediction_json(const std::optional<kelvin::PreparePrediction>& p, const PrepareRate& rates, std::optional<double> grading) {
   const auto n = p ? std::llround(p->vertices) : 0;
   const PrepareRate::Rate rate = p ? rates.rate(p->grading, static_cast<double>(n)) : rates.rate(grading, std::nullopt);

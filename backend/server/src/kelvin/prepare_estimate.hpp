@@ -3,15 +3,12 @@
 // (issue 37 item 3): the field vertices the mesher's sizing prediction gives for the request's own
 // sizing choice (kelvin::predict_preparation), and the time those vertices take at this server's
 // measured seconds per vertex.
-#include <atomic>
-#include <condition_variable>
 #include <cstddef>
 #include <deque>
 #include <list>
 #include <mutex>
 #include <optional>
 #include <string>
-#include <thread>
 #include <unordered_map>
 #include <utility>
 
@@ -66,25 +63,6 @@ class PredictionCache {
   std::mutex mutex_;
   std::list<std::pair<std::string, kelvin::PreparePrediction>> order_;  // most recent first
   std::unordered_map<std::string, decltype(order_)::iterator> index_;
-};
-
-// A flag that becomes true `seconds` after construction (a watchdog thread; never when seconds
-// is not positive): the cancel token of work a request bounds by max_request_seconds.
-class CancelAfter {
- public:
-  explicit CancelAfter(double seconds);
-  ~CancelAfter();
-  CancelAfter(const CancelAfter&) = delete;
-  CancelAfter& operator=(const CancelAfter&) = delete;
-  const std::atomic<bool>* flag() const { return &flag_; }
-  bool fired() const { return flag_.load(); }
-
- private:
-  std::atomic<bool> flag_{false};
-  std::mutex mutex_;
-  std::condition_variable cv_;
-  bool done_ = false;
-  std::thread thread_;
 };
 
 // {"vertices_predicted", "grading", "grading_chosen", "seconds_estimate", "stage_seconds",
