@@ -55,10 +55,14 @@ test("a view left by its tab comes back as it was: the GAP shape moved, the Kelv
     mimeType: "text/plain",
     buffer: Buffer.from(objText(box)),
   });
-  await page.waitForFunction(() => window.distlab.kelvin.ready && window.distlab.kelvin.state.object === "upload" && window.distlab.kelvin.object?.surface_digest, null, {
-    polling: 100,
-  });
-  const digest = await page.evaluate(() => window.distlab.kelvin.object.surface_digest);
+  // state.object turns "upload" before the cube's status is replaced: wait for the uploaded mesh's
+  // own object (its surface digest is the upload's digest) and read it in the same evaluation.
+  const uploaded = () => {
+    const k = window.distlab.kelvin;
+    const d = k.upload.ref?.digest;
+    return k.ready && k.state.object === "upload" && d !== undefined && k.object?.surface_digest === d ? d : false;
+  };
+  const digest = await (await page.waitForFunction(uploaded, null, { polling: 100 })).jsonValue();
   await page.waitForFunction((d) => location.hash.includes(d), digest);
 
   await page.click("#tabs a[data-view=gap]");
