@@ -12,11 +12,15 @@ import re
 import sys
 
 root = pathlib.Path(sys.argv[1])  # backend/server
-FEATURES = ("gap", "kelvin", "cbf", "robot")
-# Public headers that belong to a feature (the codecs the CLI and the Python bindings share).
-FEATURE_HEADERS = {"gap_json.hpp": "gap", "kelvin_json.hpp": "kelvin", "kelvin_objects.hpp": "kelvin",
-                   "cbf_json.hpp": "cbf", "cbf_rollouts.hpp": "cbf", "robot_json.hpp": "robot"}
 include = re.compile(r'^\s*#\s*include\s*[<"]([^>"]+)[>"]')
+# The features are the modules the registry wires in (src/modules.cpp: #include "<feature>/..."), so
+# a new feature cannot be taken for core; a folder of src/ the registry does not name is reported.
+FEATURES = tuple(sorted({m.group(1).split("/")[0] for line in (root / "src/modules.cpp").read_text(encoding="utf-8").splitlines()
+                         if (m := include.match(line)) and "/" in m.group(1) and not m.group(1).startswith("distlab/")}))
+unwired = [d.name for d in sorted((root / "src").iterdir()) if d.is_dir() and d.name not in FEATURES]
+# A feature's public headers (the codecs the CLI and the Python bindings share) live in its folder:
+# src/<feature>/include/distlab/server/.
+FEATURE_HEADERS = {h.name: f for f in FEATURES for h in (root / "src" / f / "include").rglob("*.hpp")}
 
 
 def feature_of(target: str, including: pathlib.Path):
@@ -33,8 +37,6 @@ def owner(path: pathlib.Path):
     rel = path.relative_to(root)
     if rel.parts[0] == "src" and len(rel.parts) > 2 and rel.parts[1] in FEATURES:
         return rel.parts[1]
-    if rel.parts[0] == "include" and path.name in FEATURE_HEADERS:
-        return FEATURE_HEADERS[path.name]
     return "core"
 
 
@@ -50,7 +52,7 @@ for path in files:
             feature_types.setdefault(name, owner(path))
 feature_name = re.compile(r"\b(" + "|".join(sorted(feature_types)) + r")\b") if feature_types else None
 
-bad = []
+bad = [f"src/{d}: a folder that src/modules.cpp does not wire in as a feature" for d in unwired]
 for path in files:
     mine = owner(path)
     for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
