@@ -80,6 +80,7 @@ Module::Module(Service& core)
     : core_(core), config_(core.config_), router_(core.router_), sessions_(core.sessions_), jobs_(core.jobs_), compute_(core.compute_) {}
 
 std::shared_ptr<Session> Module::require_session(const Request& request) { return core_.require_session(request); }
+std::shared_ptr<Session> Module::require_session(const Caller& caller) { return core_.require_session(caller.session_id); }
 bool Module::post_compute(std::function<void()> fn) { return core_.post_compute(std::move(fn)); }
 
 void Service::shutdown() {
@@ -126,8 +127,9 @@ bool Service::post_compute(std::function<void()> fn) {
   return compute_.post(std::move(fn), config_.limits.max_pending_requests);
 }
 
-std::shared_ptr<Session> Service::require_session(const Request& request) {
-  const std::string id = request.session_id();
+std::shared_ptr<Session> Service::require_session(const Request& request) { return require_session(request.session_id()); }
+
+std::shared_ptr<Session> Service::require_session(const std::string& id) {
   if (id.empty())
     throw ApiError(401, "session_required",
                    "this endpoint needs a session: POST /api/session, then send its id in the "

@@ -15,6 +15,7 @@
 #include "distlab/server/config.hpp"
 #include "distlab/server/http.hpp"
 #include "distlab/server/jobs.hpp"
+#include "distlab/server/route_table.hpp"
 #include "distlab/server/router.hpp"
 #include "distlab/server/session.hpp"
 #include "distlab/server/worker_pool.hpp"
@@ -50,6 +51,7 @@ class Module {
  protected:
   // The core's parts a module uses (the same names the Service itself uses).
   std::shared_ptr<Session> require_session(const Request& request);
+  std::shared_ptr<Session> require_session(const Caller& caller);  // a table's handler (route_table.hpp)
   bool post_compute(std::function<void()> fn);
 
   Service& core_;

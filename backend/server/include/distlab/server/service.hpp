@@ -73,6 +73,8 @@ class Service {
   bool post_compute(std::function<void()> fn);
   // The request's session; ApiError 401 without an id, 404 for an unknown one.
   std::shared_ptr<Session> require_session(const Request& request);
+  // The caller's session (route_table.hpp's Caller): 401 session_required without one, 404 unknown_session.
+  std::shared_ptr<Session> require_session(const std::string& session_id);
 
   // WebSocket: the session of an upgrade request, or nullptr with the refusal to send.
   std::shared_ptr<Session> ws_authorize(const Request& request, Response& refusal);
