@@ -32,7 +32,7 @@ class KelvinModule final : public Module {
         registry_(field_store(core.cache_dir(), config_.limits), config_.limits.max_response_bytes, config_.limits.max_response_bytes_total) {}
 
   std::string name() const override { return "kelvin"; }
-  void register_routes() override;
+  void register_routes() override;  // objects (routes_kelvin.cpp)
   std::vector<std::string> ws_types() const override { return {"watch", "sigma"}; }
   void ws_message(const std::shared_ptr<Session>& session, const std::shared_ptr<WsSink>& socket,
                   const nlohmann::json& msg, const nlohmann::json& request) override;
@@ -42,6 +42,7 @@ class KelvinModule final : public Module {
   void describe_session(Session& session, nlohmann::json& out) override;
 
  private:
+  void register_upload_routes();  // assets and uploads (routes_kelvin_uploads.cpp)
   const std::string& registry_cache_dir() const { return core_.cache_dir(); }
   // This session's objects and uploads; call with session.mutex held.
   static KelvinSessionState& kelvin_state(Session& session) { return session.state<KelvinSessionState>(); }
