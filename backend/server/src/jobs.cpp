@@ -13,22 +13,6 @@ namespace distlab::server {
 using json = nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
-const char* to_string(JobState s) {
-  switch (s) {
-    case JobState::queued:
-      return "queued";
-    case JobState::running:
-      return "running";
-    case JobState::succeeded:
-      return "succeeded";
-    case JobState::failed:
-      return "failed";
-    case JobState::cancelled:
-      return "cancelled";
-  }
-  return "unknown";
-}
-
 Job::Job(std::string id_, std::string session_, std::string kind_, json meta_)
     : id(std::move(id_)), session(std::move(session_)), kind(std::move(kind_)), meta(std::move(meta_)), created_(Clock::now()) {}
 

@@ -15,16 +15,12 @@
 
 #include <nlohmann/json.hpp>
 
+#include "distlab/server/lifecycle.hpp"
 #include "distlab/server/worker_pool.hpp"
 
 namespace distlab::server {
 
-enum class JobState { queued,
-                      running,
-                      succeeded,
-                      failed,
-                      cancelled };
-const char* to_string(JobState s);
+using JobState = Lifecycle;
 
 class Job {
  public:
