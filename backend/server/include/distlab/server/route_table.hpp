@@ -32,6 +32,8 @@ enum class Work { light, heavy };
 // A route without input, or without a result beyond its status.
 struct Nothing {};
 inline Nothing decode_nothing(const Request& /*request*/, const Limits& /*limits*/) { return {}; }
+inline Response encode_no_content(const Nothing& /*nothing*/) { return no_content_response(); }  // 204
+inline Response encode_no_content(const Nothing& /*none*/) { return no_content_response(); }  // 204
 
 template <class M>
 using RouteRun = std::function<Response(M& owner, Request& request, const Limits& limits)>;
@@ -47,9 +49,10 @@ struct RouteRow {
   std::size_t body_limit = 0;  // 0: the server's max_body_bytes
 };
 
-// decode → handle → encode, the three parts of a row.
-template <class M, class In, class Out>
-RouteRun<M> codec(In (*decode)(const Request&, const Limits&), Out (M::*handle)(const In&, const Caller&),
+// decode → handle → encode, the three parts of a row. A decode that keeps a large body takes
+// `Request&` (Req = Request) and moves it; any other takes `const Request&`.
+template <class M, class In, class Out, class Req>
+RouteRun<M> codec(In (*decode)(Req&, const Limits&), Out (M::*handle)(const In&, const Caller&),
                   Response (*encode)(const Out&)) {
   return [decode, handle, encode](M& owner, Request& request, const Limits& limits) {
     const In input = decode(request, limits);
