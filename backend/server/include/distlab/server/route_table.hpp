@@ -33,7 +33,6 @@ enum class Work { light, heavy };
 struct Nothing {};
 inline Nothing decode_nothing(const Request& /*request*/, const Limits& /*limits*/) { return {}; }
 inline Response encode_no_content(const Nothing& /*nothing*/) { return no_content_response(); }  // 204
-inline Response encode_no_content(const Nothing& /*none*/) { return no_content_response(); }  // 204
 
 template <class M>
 using RouteRun = std::function<Response(M& owner, Request& request, const Limits& limits)>;
