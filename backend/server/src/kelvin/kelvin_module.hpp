@@ -15,6 +15,7 @@
 #include "distlab/server/module.hpp"
 #include "distlab/server/service.hpp"
 #include "distlab/server/uploads.hpp"
+#include "kelvin_upload_codec.hpp"
 #include "prepare_estimate.hpp"
 
 namespace distlab::server {
@@ -43,14 +44,21 @@ class KelvinModule final : public Module {
 
  private:
   void register_upload_routes();  // assets and uploads (routes_kelvin_uploads.cpp)
+  // The upload routes' handlers (routes_kelvin_uploads.cpp; their codec kelvin_upload_codec.hpp).
+  AssetNames list_assets(const Nothing& none, const Caller& caller);
+  UploadDescription create_upload(const std::shared_ptr<const Upload>& upload, const Caller& caller);
+  UploadDescription reuse_upload(const UploadDigest& in, const Caller& caller);
+  Nothing delete_upload(const UploadId& in, const Caller& caller);
+  UploadSurface upload_surface(const UploadId& in, const Caller& caller);
+  UploadDefects upload_defects(const UploadId& in, const Caller& caller);
   const std::string& registry_cache_dir() const { return core_.cache_dir(); }
   // This session's objects and uploads; call with session.mutex held.
   static KelvinSessionState& kelvin_state(Session& session) { return session.state<KelvinSessionState>(); }
   static SessionUploads& uploads(Session& session) { return session.state<SessionUploads>(); }
   std::shared_ptr<KelvinObject> require_object(const Session& session, const Request& request);
-  std::shared_ptr<const Upload> require_upload(Session& session, const Request& request);
+  std::shared_ptr<const Upload> require_upload(Session& session, const std::string& id);
   // Adds an upload to the session and to held_; the upload's description (POST .../uploads).
-  nlohmann::json add_upload(Session& session, const std::shared_ptr<const Upload>& upload);
+  UploadDescription add_upload(Session& session, const std::shared_ptr<const Upload>& upload);
   // The mesh with this digest if some session still holds it.
   std::shared_ptr<const Upload> held(const std::string& digest);
 

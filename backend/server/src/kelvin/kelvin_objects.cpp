@@ -331,24 +331,4 @@ double smallest_lx_within(const mesh::SurfaceMesh& surface, double budget, doubl
   return std::max(1.0, far_radius) * r * std::cbrt(kVertexEstimateConstant / room) * (1 + 1e-9);
 }
 
-// The range's top is half the largest extent, not the diagonal (see below).
-json size_report(const mesh::SurfaceMesh& welded, const Limits& limits) {
-  const Vec3 lo = welded.vertices.colwise().minCoeff().transpose();
-  const Vec3 hi = welded.vertices.colwise().maxCoeff().transpose();
-  const double diagonal = (hi - lo).norm();
-  const double smallest = std::max(limits.min_lx, smallest_lx_within(welded, static_cast<double>(limits.max_vertex_estimate)));
-  json out = {{"bounding_box", {{"min", {lo.x(), lo.y(), lo.z()}}, {"max", {hi.x(), hi.y(), hi.z()}}, {"diagonal", diagonal}}}};
-  // Preparation refuses l_x beyond the object's radius about its centre, which is at least half
-  // the largest extent (two surface points that far apart are both within the radius).
-  const double largest = 0.5 * (hi - lo).maxCoeff();
-  if (smallest <= largest && diagonal > 0) {
-    out["lx_range"] = {{"min", smallest}, {"max", largest}};
-    out["lx_fraction_range"] = {{"min", smallest / diagonal}, {"max", largest / diagonal}};
-  } else {
-    out["lx_range"] = nullptr;
-    out["lx_fraction_range"] = nullptr;
-  }
-  return out;
-}
-
 }  // namespace distlab::server

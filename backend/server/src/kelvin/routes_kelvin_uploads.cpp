@@ -1,62 +1,110 @@
 // Kelvin upload endpoints: the built-in assets, uploads (parsed in the isolated child), their reuse
-// by digest, surfaces and defects. Objects are routes_kelvin.cpp's.
+// by digest, surfaces and defects, as a table (route_table.hpp) of the codec's decode and encode
+// (kelvin_upload_codec.hpp) around these handlers. Objects are routes_kelvin.cpp's.
 #include <algorithm>
+#include <array>
 #include <filesystem>
 
-#include "distlab/geometry/error.hpp"
+#include "distlab/geometry/types.hpp"
 #include "distlab/mesh/checks.hpp"
 #include "distlab/mesh/weld.hpp"
-#include "distlab/server/frames.hpp"
-#include "distlab/server/json_fields.hpp"
+#include "distlab/server/kelvin_json.hpp"
 #include "distlab/server/request_params.hpp"
-#include "kelvin_inputs.hpp"
 #include "kelvin_module.hpp"
 
 namespace distlab::server {
 
-using json = nlohmann::json;
 namespace fs = std::filesystem;
+
+void KelvinModule::register_upload_routes() {
+  using M = KelvinModule;
+  const Limits& lim = config_.limits;
+  add_routes<M>(router_, *this, lim,
+                {{"GET", "/api/kelvin/assets", Work::light, {}, codec(decode_nothing, &M::list_assets, encode_assets)},
+                 {"POST", "/api/kelvin/uploads", Work::heavy, {"max_upload_bytes", "max_upload_triangles", "max_uploads_per_session", "max_held_triangles_per_address", "max_held_triangles", "import_memory_bytes", "import_seconds"}, codec(decode_upload, &M::create_upload, encode_upload), lim.max_upload_bytes},
+                 // Heavy: the answer welds the mesh (up to max_upload_triangles).
+                 {"POST", "/api/kelvin/uploads/reuse", Work::heavy, {"max_body_bytes", "max_uploads_per_session", "max_held_triangles_per_address", "max_held_triangles"}, codec(decode_reuse, &M::reuse_upload, encode_upload)},
+                 {"DELETE", "/api/kelvin/uploads/{id}", Work::light, {}, codec(decode_upload_id, &M::delete_upload, encode_no_content)},
+                 {"GET", "/api/kelvin/uploads/{id}/surface", Work::light, {}, codec(decode_upload_id, &M::upload_surface, encode_upload_surface)},
+                 {"GET", "/api/kelvin/uploads/{id}/defects", Work::heavy, {"max_upload_triangles", "max_defect_items"}, codec(decode_upload_id, &M::upload_defects, encode_upload_defects)}});
+}
 
 namespace {
 
-// A digest as the API writes it: 64 lower-case hex digits (kelvin::Sha256::hex).
-std::string valid_digest(const std::string& text, const std::string& field) {
-  const bool ok = text.size() == 64 && std::all_of(text.begin(), text.end(), [](char c) { return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'); });
-  if (!ok) throw InvalidInput(field, field + " must be 64 lower-case hex digits (an upload's digest)");
-  return text;
-}
-
-// GET /api/kelvin/uploads/{id}/defects: counts, then the lists (at most max_items entries each).
-json defects_json(const std::string& id, const mesh::MeshDefects& d, std::size_t max_items) {
-  json pieces = json::array();
-  for (const auto& p : d.pieces) pieces.push_back({{"faces", p.faces}, {"volume", p.volume}, {"runs", p.runs}});
-  return {{"upload", id},
-          {"counts", {{"boundary_edges", d.boundary_edges}, {"non_manifold_edges", d.non_manifold_edges}, {"non_manifold_vertices", d.non_manifold_vertices}, {"degenerate_faces", d.degenerate_faces}, {"self_intersections", d.self_intersections}, {"components", d.pieces.size()}}},
-          {"self_intersections_complete", d.self_intersections_complete},
-          {"unchecked_faces", d.unchecked_faces},
-          {"boundary_edges", d.boundary},
-          {"non_manifold_edges", d.non_manifold},
-          {"non_manifold_vertices", d.pinched},
-          {"degenerate_faces", d.degenerate},
-          {"self_intersections", d.intersecting},
-          {"components", pieces},
-          {"largest_component", d.largest},
-          {"max_items", max_items},
-          {"truncated", d.truncated}};
+// The welded surface's bounding box and the l_x that fit it (SizeReport).
+SizeReport size_report(const mesh::SurfaceMesh& welded, const Limits& limits) {
+  const Vec3 lo = welded.vertices.colwise().minCoeff().transpose();
+  const Vec3 hi = welded.vertices.colwise().maxCoeff().transpose();
+  SizeReport size{{lo.x(), lo.y(), lo.z()}, {hi.x(), hi.y(), hi.z()}, (hi - lo).norm(), std::nullopt};
+  const double smallest = std::max(limits.min_lx, smallest_lx_within(welded, static_cast<double>(limits.max_vertex_estimate)));
+  // The range's top is half the largest extent, not the diagonal: preparation refuses l_x beyond
+  // the object's radius about its centre, which is at least half the largest extent (two surface
+  // points that far apart are both within the radius).
+  const double largest = 0.5 * (hi - lo).maxCoeff();
+  if (smallest <= largest && size.diagonal > 0) size.lx_range = std::array<double, 2>{smallest, largest};
+  return size;
 }
 
 }  // namespace
 
-std::shared_ptr<const Upload> KelvinModule::require_upload(Session& session, const Request& request) {
+AssetNames KelvinModule::list_assets(const Nothing& /*none*/, const Caller& /*caller*/) {
+  AssetNames assets;
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(config_.assets_dir, ec)) {
+    const std::string ext = e.path().extension().string();
+    for (const char* known : kMeshExtensions)
+      if (ext == known && valid_name(e.path().stem().string())) assets.names.push_back(e.path().stem().string());
+  }
+  std::sort(assets.names.begin(), assets.names.end());
+  assets.names.erase(std::unique(assets.names.begin(), assets.names.end()), assets.names.end());
+  return assets;
+}
+
+UploadDescription KelvinModule::create_upload(const std::shared_ptr<const Upload>& upload, const Caller& caller) {
+  return add_upload(*require_session(caller), upload);
+}
+
+// A mesh this server holds (an upload of any session), by its digest, as an upload of this
+// session: the answer says only whether it is held, and gives what the digest names.
+UploadDescription KelvinModule::reuse_upload(const UploadDigest& in, const Caller& caller) {
+  auto session = require_session(caller);
+  std::shared_ptr<const Upload> up = held(in.digest);
+  if (!up)
+    throw ApiError(404, "upload_not_held", "this server holds no uploaded mesh with the digest " + in.digest + ": upload the file again", "digest");
+  UploadDescription added = add_upload(*session, up);
+  added.reused = true;
+  return added;
+}
+
+// Gives the upload's triangles back to the client's share (objects made from it keep their own).
+Nothing KelvinModule::delete_upload(const UploadId& in, const Caller& caller) {
+  auto session = require_session(caller);
+  std::lock_guard lock(session->mutex);
+  if (uploads(*session).uploads.erase(in.id) == 0) throw ApiError(404, "unknown_upload", "no such upload in this session", "id");
+  uploads(*session).held.erase(in.id);
+  return {};
+}
+
+UploadSurface KelvinModule::upload_surface(const UploadId& in, const Caller& caller) {
+  return {in.id, require_upload(*require_session(caller), in.id)};
+}
+
+UploadDefects KelvinModule::upload_defects(const UploadId& in, const Caller& caller) {
+  const auto up = require_upload(*require_session(caller), in.id);
+  const std::size_t max_items = config_.limits.max_defect_items;
+  return {in.id, mesh::find_defects(up->surface, max_items), max_items};
+}
+
+std::shared_ptr<const Upload> KelvinModule::require_upload(Session& session, const std::string& id) {
   std::lock_guard lock(session.mutex);
   const auto& held = uploads(session).uploads;
-  const auto it = held.find(request.params.at("id"));
+  const auto it = held.find(id);
   if (it == held.end()) throw ApiError(404, "unknown_upload", "no such upload in this session", "id");
   return it->second;
 }
 
 // Adds the upload to the session (and to the server's index by digest); its description.
-json KelvinModule::add_upload(Session& session, const std::shared_ptr<const Upload>& up) {
+UploadDescription KelvinModule::add_upload(Session& session, const std::shared_ptr<const Upload>& up) {
   const Limits& lim = config_.limits;
   const std::string id = random_id();
   {
@@ -71,142 +119,13 @@ json KelvinModule::add_upload(Session& session, const std::shared_ptr<const Uplo
     for (auto it = held_.begin(); it != held_.end();) it = it->second.expired() ? held_.erase(it) : std::next(it);
     held_[up->digest] = up;
   }
-  json answer = {{"upload", id}, {"n_vertices", up->surface.vertices.rows()}, {"n_faces", up->surface.faces.rows()}, {"scale", up->scale}, {"digest", up->digest}, {"bytes", up->bytes}, {"format", up->format}};
-  if (!up->unit.empty()) answer["unit"] = up->unit;
-  answer.update(size_report(mesh::weld(up->surface).surface, lim));
-  return answer;
+  return {id, up, size_report(mesh::weld(up->surface).surface, lim), false};
 }
 
 std::shared_ptr<const Upload> KelvinModule::held(const std::string& digest) {
   std::lock_guard lock(held_mutex_);
   const auto it = held_.find(digest);
   return it == held_.end() ? nullptr : it->second.lock();
-}
-
-void KelvinModule::register_upload_routes() {
-  router_.add({"GET", "/api/kelvin/assets", [this](Request&) {
-                 json list = json::array();
-                 std::error_code ec;
-                 std::vector<std::string> names;
-                 for (const auto& e : fs::directory_iterator(config_.assets_dir, ec)) {
-                   const std::string ext = e.path().extension().string();
-                   for (const char* known : kMeshExtensions)
-                     if (ext == known && valid_name(e.path().stem().string())) names.push_back(e.path().stem().string());
-                 }
-                 std::sort(names.begin(), names.end());
-                 names.erase(std::unique(names.begin(), names.end()), names.end());
-                 for (const auto& n : names) list.push_back(n);
-                 return json_response(200, {{"assets", list}});
-               }});
-
-  Route upload{"POST", "/api/kelvin/uploads", [this](Request& req) {
-                 auto session = require_session(req);
-                 const Limits& lim = config_.limits;
-                 auto it = req.query.find("format");
-                 if (it == req.query.end()) throw InvalidInput("format", "query parameter format is required (stl, obj, ply, glb, off)");
-                 const std::string format = it->second;
-                 if (format != "stl" && format != "obj" && format != "ply" && format != "glb" && format != "off")
-                   throw InvalidInput("format", "format must be stl, obj, ply, glb or off");
-                 if (req.body.empty()) throw ApiError(400, "empty_body", "the upload is empty");
-                 // Binary STL states its triangle count up front: refuse before parsing (after the
-                 // size check, so that garbage is called invalid rather than too large).
-                 if (format == "stl")
-                   if (const auto n = mesh::binary_stl_triangles(req.body, "body"); n && *n > lim.max_upload_triangles)
-                     throw ApiError(413, "too_many_triangles", "at most " + std::to_string(lim.max_upload_triangles) + " triangles", "body");
-                 {
-                   std::lock_guard lock(session->mutex);
-                   if (uploads(*session).uploads.size() >= lim.max_uploads_per_session)
-                     throw ApiError(429, "too_many_uploads", "this session has too many uploads");
-                 }
-                 // The file's unit: a name or a factor to metres (not both); metres by default.
-                 if (req.query.count("unit") && req.query.count("scale"))
-                   throw InvalidInput("scale", "give unit or scale, not both");
-                 double scale = 1.0;
-                 std::string unit = "m";
-                 if (auto u = req.query.find("unit"); u != req.query.end()) {
-                   single_query(req, "unit");
-                   scale = unit_scale(u->second);
-                   unit = u->second;
-                 } else if (req.query.count("scale")) {
-                   scale = query_number(req, "scale");
-                   if (!(scale > 0) || scale > kMaxCoordinate) throw InvalidInput("scale", "scale must be in (0, 1e6] (metres per file unit)");
-                   unit = "";
-                 }
-                 // A link's upload again (POST .../uploads/reuse answered 404): the mesh must be the
-                 // one the link names.
-                 std::string expected;
-                 if (req.query.count("digest")) {
-                   single_query(req, "digest");
-                   expected = valid_digest(req.query.at("digest"), "digest");
-                 }
-                 auto up = std::make_shared<Upload>();
-                 up->surface = load_bytes(req.body, format, lim, scale);
-                 up->format = format;
-                 up->bytes = req.body.size();
-                 up->unit = unit;
-                 up->scale = scale;
-                 if (static_cast<std::size_t>(up->surface.faces.rows()) > lim.max_upload_triangles)
-                   throw ApiError(413, "too_many_triangles", "at most " + std::to_string(lim.max_upload_triangles) + " triangles", "body");
-                 up->digest = kelvin::surface_digest(up->surface);
-                 if (!expected.empty() && up->digest != expected)
-                   throw ApiError(422, "different_mesh",
-                                  "this file's mesh has the digest " + up->digest + ", not the expected " + expected +
-                                      ": it is another file, or the same file read in another unit",
-                                  "body");
-                 return json_response(201, add_upload(*session, up));
-               }};
-  upload.heavy = true;
-  upload.bounds = {"max_upload_bytes", "max_upload_triangles", "max_uploads_per_session", "max_held_triangles_per_address", "max_held_triangles", "import_memory_bytes", "import_seconds"};
-  upload.body_limit = config_.limits.max_upload_bytes;
-  router_.add(std::move(upload));
-
-  // A mesh this server holds (an upload of any session), by its digest, as an upload of this
-  // session: the answer says only whether it is held, and gives what the digest names.
-  Route reuse{"POST", "/api/kelvin/uploads/reuse", [this](Request& req) {
-                auto session = require_session(req);
-                const json body = parse_body(req);
-                json_require_object(body, "");
-                json_check_keys(body, "", {"digest", "comment"});
-                if (!body.contains("digest") || !body["digest"].is_string()) throw InvalidInput("digest", "digest is required (64 hex digits)");
-                const std::string digest = valid_digest(body["digest"].get<std::string>(), "digest");
-                std::shared_ptr<const Upload> up = held(digest);
-                if (!up)
-                  throw ApiError(404, "upload_not_held",
-                                 "this server holds no uploaded mesh with the digest " + digest + ": upload the file again", "digest");
-                json answer = add_upload(*session, up);
-                answer["reused"] = true;
-                return json_response(201, answer);
-              }};
-  reuse.heavy = true;  // the answer welds the mesh (up to max_upload_triangles)
-  reuse.bounds = {"max_body_bytes", "max_uploads_per_session", "max_held_triangles_per_address", "max_held_triangles"};
-  router_.add(std::move(reuse));
-
-  // Gives the upload's triangles back to the client's share (objects made from it keep their own).
-  router_.add({"DELETE", "/api/kelvin/uploads/{id}", [this](Request& req) {
-                 auto session = require_session(req);
-                 std::lock_guard lock(session->mutex);
-                 if (uploads(*session).uploads.erase(req.params.at("id")) == 0) throw ApiError(404, "unknown_upload", "no such upload in this session", "id");
-                 uploads(*session).held.erase(req.params.at("id"));
-                 return no_content_response();
-               }});
-
-  router_.add({"GET", "/api/kelvin/uploads/{id}/surface", [this](Request& req) {
-                 auto session = require_session(req);
-                 const auto up = require_upload(*session, req);
-                 Response r;
-                 r.content_type = "application/msgpack";
-                 r.body = to_msgpack(mesh_frame(up->surface, {{"type", "surface"}, {"of", "upload"}, {"upload", req.params.at("id")}, {"digest", up->digest}}));
-                 return r;
-               }});
-
-  Route defects{"GET", "/api/kelvin/uploads/{id}/defects", [this](Request& req) {
-                  auto session = require_session(req);
-                  const auto up = require_upload(*session, req);
-                  return json_response(200, defects_json(req.params.at("id"), mesh::find_defects(up->surface, config_.limits.max_defect_items), config_.limits.max_defect_items));
-                }};
-  defects.heavy = true;
-  defects.bounds = {"max_upload_triangles", "max_defect_items"};
-  router_.add(std::move(defects));
 }
 
 }  // namespace distlab::server

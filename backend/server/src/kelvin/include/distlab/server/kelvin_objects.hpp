@@ -199,10 +199,4 @@ inline std::string sigma_key(const KelvinObject& o, const nlohmann::json& sigma)
   return o.surface_digest + sigma.dump();
 }
 
-// What a client needs to choose l_x for a surface: {"bounding_box": {"min", "max", "diagonal"},
-// "lx_range": {"min", "max"} or null when no l_x fits, "lx_fraction_range": the same over the
-// diagonal}. The range is [max(min_lx, smallest_lx_within), half the largest extent] at the
-// default far radius.
-nlohmann::json size_report(const mesh::SurfaceMesh& welded, const Limits& limits);
-
 }  // namespace distlab::server
