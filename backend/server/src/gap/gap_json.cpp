@@ -64,21 +64,6 @@ Polytope parse_hull(const json& j, const std::string& field, const Limits& limit
   return P;
 }
 
-bool finite(const GapResult& r) {
-  const auto& e = r.euclidean;
-  return std::isfinite(r.lambda) && std::isfinite(r.distance) && r.witness_a.allFinite() &&
-         r.witness_b.allFinite() && r.gradient_a.allFinite() && r.gradient_b.allFinite() &&
-         std::isfinite(e.distance) && e.witness_a.allFinite() && e.witness_b.allFinite() &&
-         e.gradient_a.allFinite() && e.gradient_b.allFinite();
-}
-
-// One distinct shape of a request (same JSON apart from the pose), built and validated once.
-struct Prototype {
-  std::string field;  // where it first appears
-  GapBody body;
-  std::optional<ValidationReport> report;
-};
-
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
@@ -206,46 +191,35 @@ json encode_result(const GapResult& r, bool gradient, const std::optional<Penetr
   return out;
 }
 
-json run_gap_request(const json& request, const std::function<void()>& checkpoint, const Limits& limits) {
-  const auto check = [&] {
-    if (checkpoint) checkpoint();
-  };
-  json_require_object(request, "");
-  if (const auto it = request.find("pairs"); it != request.end() && it->is_array() && it->size() > limits.max_gap_pairs)
-    throw LimitExceeded(413, "too_many_pairs", "pairs", "at most " + std::to_string(limits.max_gap_pairs) + " pairs per request");
-  json_check_keys(request, "", {"a", "b", "pairs", "params", "comment"});
-  if (const auto it = request.find("comment"); it != request.end() && !it->is_string())
-    fail("comment", "expected a string, got " + type_of(*it));
-  const bool batch = request.contains("pairs");
-  if (batch)
-    for (const char* k : {"a", "b"})
-      if (request.contains(k)) fail(k, "give either \"a\" and \"b\" or \"pairs\", not both");
-  const auto params_it = request.find("params");
-  const GapRequestParams rp = parse_params(params_it == request.end() ? json() : *params_it, "params", limits);
-  const GapParams& params = rp.params;
+namespace {
 
-  // Every shape instance in request order, with its path.
+// Every shape instance of a request in request order (a, b of each pair), with its path.
+std::vector<std::pair<const json*, std::string>> shape_instances(const json& request, bool batch, const Limits& limits) {
   std::vector<std::pair<const json*, std::string>> instances;
-  if (batch) {
-    const json& pairs = json_array(request["pairs"], "pairs", limits.max_gap_pairs, "pairs");
-    instances.reserve(2 * pairs.size());
-    for (std::size_t i = 0; i < pairs.size(); ++i) {
-      const std::string pf = json_index_path("pairs", i);
-      json_require_object(pairs[i], pf);
-      json_check_keys(pairs[i], pf, {"a", "b"});
-      instances.emplace_back(&json_required(pairs[i], pf, "a"), json_key_path(pf, "a"));
-      instances.emplace_back(&json_required(pairs[i], pf, "b"), json_key_path(pf, "b"));
-    }
-  } else {
+  if (!batch) {
     instances.emplace_back(&json_required(request, "", "a"), "a");
     instances.emplace_back(&json_required(request, "", "b"), "b");
+    return instances;
   }
+  const json& pairs = json_array(request["pairs"], "pairs", limits.max_gap_pairs, "pairs");
+  instances.reserve(2 * pairs.size());
+  for (std::size_t i = 0; i < pairs.size(); ++i) {
+    const std::string pf = json_index_path("pairs", i);
+    json_require_object(pairs[i], pf);
+    json_check_keys(pairs[i], pf, {"a", "b"});
+    instances.emplace_back(&json_required(pairs[i], pf, "a"), json_key_path(pf, "a"));
+    instances.emplace_back(&json_required(pairs[i], pf, "b"), json_key_path(pf, "b"));
+  }
+  return instances;
+}
 
-  // Build each distinct shape once (a hull or a 1000-row polytope is costly to build and check),
-  // on all cores; the lowest failing index wins, so errors are the same as a sequential run's.
-  std::vector<std::size_t> first_instance;  // per prototype
+// The distinct shapes (by their JSON without the pose), each parsed once on all cores; the lowest
+// failing index wins, so errors are the same as a sequential run's.
+void decode_shapes(const std::vector<std::pair<const json*, std::string>>& instances, const Limits& limits,
+                   GapDistanceRequest& out) {
+  std::vector<std::size_t> first_instance;  // per distinct shape
   std::map<std::string, std::size_t> seen;
-  std::vector<std::size_t> proto_of(instances.size());
+  out.instances.resize(instances.size());
   for (std::size_t i = 0; i < instances.size(); ++i) {
     const auto& [j, field] = instances[i];
     json_require_object(*j, field);
@@ -253,94 +227,63 @@ json run_gap_request(const json& request, const std::function<void()>& checkpoin
     key_json.erase("pose");
     const auto [it, inserted] = seen.emplace(key_json.dump(), first_instance.size());
     if (inserted) first_instance.push_back(i);
-    proto_of[i] = it->second;
+    out.instances[i].shape = it->second;
   }
-  std::vector<std::optional<Prototype>> protos(first_instance.size());
-  parallel_for(protos.size(), 0, [&](std::size_t k) {
+  std::vector<std::optional<ShapeSpec>> specs(first_instance.size());
+  parallel_for(specs.size(), 0, [&](std::size_t k) {
     const auto& [j, field] = instances[first_instance[k]];
-    const ShapeSpec spec = parse_shape(*j, field, limits);
-    protos[k].emplace(
-        Prototype{field, GapBody(spec.shape, Pose{}, params, spec.options, field), {}});
+    specs[k] = parse_shape(*j, field, limits);
   });
-  check();
-  std::vector<Pose> poses(instances.size());
+  for (std::size_t k = 0; k < specs.size(); ++k) {
+    out.shapes.push_back(std::move(*specs[k]));
+    out.shape_fields.push_back(instances[first_instance[k]].second);
+  }
   for (std::size_t i = 0; i < instances.size(); ++i) {
     const auto& [j, field] = instances[i];
     if (const auto pit = j->find("pose"); pit != j->end())
-      poses[i] = json_pose(*pit, json_key_path(field, "pose"));
+      out.instances[i].pose = json_pose(*pit, json_key_path(field, "pose"));
   }
+}
 
-  if (rp.validate) {
-    parallel_for(protos.size(), 0,
-                 [&](std::size_t k) { protos[k]->report = validate_p2s(protos[k]->body.p2s()); });
-    for (const auto& p : protos)
-      if (!p->report->ok) fail(p->field, p->report->message);
-    check();
-  }
+json validation_json(const ValidationReport& rep) {
+  return json{{"ok", rep.ok}, {"max_eigenvalue", rep.max_eigenvalue}, {"samples", rep.samples}};
+}
 
-  std::vector<GapBody> bodies;
-  bodies.reserve(instances.size());  // no reallocation: the pairs below point into it
-  for (std::size_t i = 0; i < instances.size(); ++i) {
-    bodies.push_back(protos[proto_of[i]]->body);
-    bodies.back().set_pose(poses[i]);
-  }
-  std::vector<std::pair<const GapBody*, const GapBody*>> pairs;
-  for (std::size_t i = 0; i + 1 < bodies.size(); i += 2)
-    pairs.emplace_back(&bodies[i], &bodies[i + 1]);
+}  // namespace
 
-  // Overlapping pairs: the Euclidean penetration (depth, direction, witness points) beside Λ = 0,
-  // per chunk so that the checkpoint also bounds it (a deep overlap of round shapes costs ms).
-  std::vector<GapResult> results;
-  std::vector<std::optional<Penetration>> pens;
-  const auto add_penetrations = [&](std::size_t begin) {
-    pens.resize(results.size());
-    parallel_for(results.size() - begin, 0, [&](std::size_t k) {
-      const std::size_t i = begin + k;
-      if (results[i].euclidean_computed && results[i].euclidean.distance == 0) {
-        check();  // per pair too: one deep overlap of many-faceted shapes can take seconds
-        pens[i] = penetration(pairs[i].first->euclidean(), pairs[i].first->pose(),
-                              pairs[i].second->euclidean(), pairs[i].second->pose());
-      }
-    });
-  };
-  if (!batch) {
-    results.push_back(gap_distance(*pairs[0].first, *pairs[0].second, params));
-    add_penetrations(0);
-  } else {
-    // In chunks (each on all cores), so the checkpoint runs while a long batch is under way.
-    constexpr std::size_t kChunk = 64;
-    results.reserve(pairs.size());
-    for (std::size_t begin = 0; begin < pairs.size(); begin += kChunk) {
-      check();
-      const std::vector<std::pair<const GapBody*, const GapBody*>> chunk(
-          pairs.begin() + static_cast<std::ptrdiff_t>(begin),
-          pairs.begin() + static_cast<std::ptrdiff_t>(std::min(pairs.size(), begin + kChunk)));
-      for (GapResult& r : gap_distance_batch(chunk, params)) results.push_back(std::move(r));
-      add_penetrations(begin);
-    }
-  }
+GapDistanceRequest decode_gap_request(const json& request, const Limits& limits) {
+  json_require_object(request, "");
+  if (const auto it = request.find("pairs"); it != request.end() && it->is_array() && it->size() > limits.max_gap_pairs)
+    throw LimitExceeded(413, "too_many_pairs", "pairs", "at most " + std::to_string(limits.max_gap_pairs) + " pairs per request");
+  json_check_keys(request, "", {"a", "b", "pairs", "params", "comment"});
+  if (const auto it = request.find("comment"); it != request.end() && !it->is_string())
+    fail("comment", "expected a string, got " + type_of(*it));
+  GapDistanceRequest out;
+  out.batch = request.contains("pairs");
+  if (out.batch)
+    for (const char* k : {"a", "b"})
+      if (request.contains(k)) fail(k, "give either \"a\" and \"b\" or \"pairs\", not both");
+  const auto params_it = request.find("params");
+  out.params = parse_params(params_it == request.end() ? json() : *params_it, "params", limits);
+  decode_shapes(shape_instances(request, out.batch, limits), limits, out);
+  return out;
+}
+
+json encode_gap_results(const GapDistanceResults& results) {
   json out = json::array();
-  for (std::size_t i = 0; i < results.size(); ++i) {
-    if (!finite(results[i]) || (pens[i] && !(std::isfinite(pens[i]->depth) &&
-                                             pens[i]->witness_a.allFinite() &&
-                                             pens[i]->witness_b.allFinite())))
-      throw std::runtime_error(
-          "non-finite result for " + (batch ? json_index_path("pairs", i) : std::string("the pair")) +
-          "; refusing to report it" +
-          (rp.validate ? "" : " (validate is off: parameters that break Property 2 can do this)"));
-    json r = encode_result(results[i], params.gradient, pens[i]);
-    if (rp.validate) {
-      auto summary = [](const ValidationReport& rep) {
-        return json{
-            {"ok", rep.ok}, {"max_eigenvalue", rep.max_eigenvalue}, {"samples", rep.samples}};
-      };
-      r["validation"] = {{"a", summary(*protos[proto_of[2 * i]]->report)},
-                         {"b", summary(*protos[proto_of[2 * i + 1]]->report)}};
-    }
+  for (std::size_t i = 0; i < results.results.size(); ++i) {
+    json r = encode_result(results.results[i], results.gradient, results.penetrations[i]);
+    if (!results.validation.empty())
+      r["validation"] = {{"a", validation_json(results.validation[i].first)},
+                         {"b", validation_json(results.validation[i].second)}};
     out.push_back(std::move(r));
   }
-  if (batch) return json{{"results", std::move(out)}};
+  if (results.batch) return json{{"results", std::move(out)}};
   return std::move(out[0]);
+}
+
+json run_gap_request(const json& request, const std::function<void()>& checkpoint, const Limits& limits) {
+  return encode_gap_results(compute_gap_request(decode_gap_request(request, limits), checkpoint));
 }
 
 json error_json(const InvalidInput& e) { return error_json("invalid_input", e.what(), e.field()); }

@@ -26,10 +26,13 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <utility>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "distlab/gap/distance.hpp"
+#include "distlab/gap/validator.hpp"
 #include "distlab/geometry/error.hpp"
 #include "distlab/server/config.hpp"
 #include "distlab/server/json_fields.hpp"
@@ -58,15 +61,46 @@ struct GapRequestParams {
 // over_budget.
 GapRequestParams parse_params(const nlohmann::json& j, const std::string& field = "params", const Limits& limits = {});
 
-// Runs a whole request; throws InvalidInput (with the field) on bad input and
-// std::runtime_error on an internal failure (e.g. a non-finite result, which is never emitted).
-// `checkpoint` (if given) is called between stages and between chunks of pairs; it may throw
-// to stop the work (the service's time limit).
-// At most max_gap_pairs pairs (413 too_many_pairs, checked before anything else of the request).
+// A distance request, decoded and checked against the limits: every distinct shape once (the same
+// JSON apart from the pose; a hull or a 1000-row polytope is costly to build and check), and the
+// two instances of each pair in request order.
+struct GapShapeInstance {
+  std::size_t shape = 0;  // index into GapDistanceRequest::shapes
+  Pose pose;
+};
+struct GapDistanceRequest {
+  bool batch = false;  // "pairs" (answered {"results": [...]}) rather than "a" and "b"
+  GapRequestParams params;
+  std::vector<ShapeSpec> shapes;
+  std::vector<std::string> shape_fields;    // where each distinct shape first appears ("pairs[2].b")
+  std::vector<GapShapeInstance> instances;  // a, b of pair 0, a, b of pair 1, ...
+};
+// Throws InvalidInput naming the field; past max_gap_pairs 413 too_many_pairs, checked before
+// anything else of the request.
+GapDistanceRequest decode_gap_request(const nlohmann::json& request, const Limits& limits = {});
+
+// Each pair's result, finite (a non-finite one is std::runtime_error, never reported), with the
+// Euclidean penetration of an overlapping pair and, when params.validate, Property 2 of its shapes.
+struct GapDistanceResults {
+  bool batch = false;
+  bool gradient = true;
+  std::vector<GapResult> results;
+  std::vector<std::optional<Penetration>> penetrations;
+  std::vector<std::pair<ValidationReport, ValidationReport>> validation;  // empty unless validated
+};
+// Builds each distinct shape once and checks Property 2 (InvalidInput naming the shape when it
+// fails), then solves the pairs. `checkpoint` (if given) is called between stages and between
+// chunks of pairs; it may throw to stop the work (the service's time limit).
+GapDistanceResults compute_gap_request(const GapDistanceRequest& request, const std::function<void()>& checkpoint = {});
+
+// The answer: one pair -> the pair's object; a batch -> {"results": [...]}.
+nlohmann::json encode_gap_results(const GapDistanceResults& results);
+
+// decode, compute, encode: the CLI's and the Python bindings' whole request.
 nlohmann::json run_gap_request(const nlohmann::json& request, const std::function<void()>& checkpoint = {},
                                const Limits& limits = {});
 
-// Encodes one result (validation reports are added by run_gap_request). `pen`: the Euclidean
+// Encodes one result (validation reports are added by encode_gap_results). `pen`: the Euclidean
 // penetration of an overlapping pair (euclidean.penetration, and signed_distance = -depth).
 nlohmann::json encode_result(const GapResult& r, bool gradient,
                              const std::optional<Penetration>& pen = std::nullopt);
