@@ -37,14 +37,20 @@ void Job::report(const std::string& stage, double fraction) {
   if (emit && on_progress_) on_progress_(*this);
 }
 
-json Job::to_json() const {
+JobStatus Job::status() const {
   std::lock_guard lock(mutex_);
-  json j = {{"id", id}, {"kind", kind}, {"state", to_string(state_)}, {"stage", stage_}, {"fraction", fraction_}};
-  for (const auto& [k, v] : meta.items()) j[k] = v;
+  JobStatus s{id, kind, state_, stage_, fraction_, meta, std::nullopt, result_, error_};
   const auto end = (state_ == JobState::queued || state_ == JobState::running) ? Clock::now() : finished_;
-  if (state_ != JobState::queued) j["seconds"] = std::chrono::duration<double>(end - started_).count();
-  if (!result_.is_null()) j["result"] = result_;
-  if (!error_.is_null()) j["error"] = error_;
+  if (state_ != JobState::queued) s.seconds = std::chrono::duration<double>(end - started_).count();
+  return s;
+}
+
+json job_json(const JobStatus& s) {
+  json j = {{"id", s.id}, {"kind", s.kind}, {"state", to_string(s.state)}, {"stage", s.stage}, {"fraction", s.fraction}};
+  for (const auto& [k, v] : s.meta.items()) j[k] = v;
+  if (s.seconds) j["seconds"] = *s.seconds;
+  if (!s.result.is_null()) j["result"] = s.result;
+  if (!s.error.is_null()) j["error"] = s.error;
   return j;
 }
 

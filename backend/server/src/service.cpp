@@ -1,4 +1,5 @@
-// The core service: construction, dispatch, modules, sessions, jobs routes, the WebSocket protocol.
+// The core service: construction, dispatch, modules, sessions, the WebSocket protocol (its routes:
+// core_routes.cpp).
 #include "distlab/server/service.hpp"
 
 #include <filesystem>
@@ -139,19 +140,6 @@ std::shared_ptr<Session> Service::require_session(const std::string& id) {
   return s;
 }
 
-// Every limit of the table (config.hpp for_each_limit), those the modules own (Module::add_limits)
-// and request_bounds: for each synchronous heavy route, the limits bounding it.
-json Service::limits_json() const {
-  json limits = json::object();
-  for_each_limit(config_.limits, [&](const char* name, auto value) { limits[name] = value; });
-  for (const auto& m : modules_) m->add_limits(limits);
-  json bounds = json::object();
-  for (const Route& r : router_.routes())
-    if (r.heavy) bounds[r.method + " " + r.pattern] = r.bounds;
-  limits["request_bounds"] = bounds;
-  return limits;
-}
-
 // The OpenAPI document with this server's limits: a schema node {"x-limit": {"maxItems":
 // "max_gap_pairs"}} gets maxItems = limits.max_gap_pairs (the checked-in values are the defaults).
 json openapi_with_limits(const json& limits) {
@@ -169,68 +157,6 @@ json openapi_with_limits(const json& limits) {
   };
   walk(doc);
   return doc;
-}
-
-// --------------------------------------------------------------------------------------------
-// Core routes: health, version, OpenAPI, sessions, jobs.
-
-void Service::register_core_routes() {
-  router_.add({"GET", "/api/health", [](Request&) { return json_response(200, {{"status", "ok"}}); }});
-  router_.add({"GET", "/api/version", [this](Request&) {
-                 json modules = json::array();
-                 for (const auto& m : modules_) modules.push_back(m->name());
-                 return json_response(200, {{"name", "distlab"}, {"version", version_string()}, {"api", "1"}, {"modules", modules}});
-               }});
-  router_.add({"GET", "/api/openapi.json", [this](Request&) {
-                 Response r;
-                 r.body = openapi_with_limits(limits_json()).dump(1);
-                 return r;
-               }});
-  router_.add({"GET", "/api/limits", [this](Request&) { return json_response(200, limits_json()); }});
-
-  router_.add({"POST", "/api/session", [this](Request& req) {
-                 auto s = sessions_.create(req.remote_address);
-                 Response r = json_response(201, {{"session", s->id}});
-                 r.headers.emplace_back("Set-Cookie", "distlab_session=" + s->id + "; Path=/; HttpOnly; SameSite=Strict");
-                 return r;
-               }});
-  router_.add({"GET", "/api/session", [this](Request& req) {
-                 auto s = require_session(req);
-                 std::size_t sockets;
-                 {
-                   std::lock_guard lock(s->mutex);
-                   sockets = s->sockets.size();
-                 }
-                 json out = {{"session", s->id}, {"sockets", sockets}, {"jobs", jobs_.list(s->id).size()}};
-                 for (const auto& m : modules_) m->describe_session(*s, out);
-                 return json_response(200, out);
-               }});
-  router_.add({"DELETE", "/api/session", [this](Request& req) {
-                 auto s = require_session(req);
-                 jobs_.cancel_session(s->id);
-                 sessions_.erase(s->id);
-                 return no_content_response();
-               }});
-
-  router_.add({"GET", "/api/jobs", [this](Request& req) {
-                 auto s = require_session(req);
-                 json list = json::array();
-                 for (const auto& j : jobs_.list(s->id)) list.push_back(j->to_json());
-                 return json_response(200, {{"jobs", list}});
-               }});
-  router_.add({"GET", "/api/jobs/{id}", [this](Request& req) {
-                 auto s = require_session(req);
-                 auto j = jobs_.find(s->id, req.params["id"]);
-                 if (!j) throw ApiError(404, "unknown_job", "no such job in this session");
-                 return json_response(200, j->to_json());
-               }});
-  router_.add({"POST", "/api/jobs/{id}/cancel", [this](Request& req) {
-                 auto s = require_session(req);
-                 auto j = jobs_.find(s->id, req.params["id"]);
-                 if (!j) throw ApiError(404, "unknown_job", "no such job in this session");
-                 j->cancel = true;
-                 return json_response(202, j->to_json());
-               }});
 }
 
 // --------------------------------------------------------------------------------------------

@@ -9,6 +9,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -22,6 +23,18 @@ namespace distlab::server {
 
 using JobState = Lifecycle;
 
+// A job at one moment (GET /api/jobs/{id}, the "job" events); job_json writes it.
+struct JobStatus {
+  std::string id, kind;
+  JobState state = JobState::queued;
+  std::string stage;
+  double fraction = 0;
+  nlohmann::json meta;            // the submitter's fields, e.g. {"object": id}
+  std::optional<double> seconds;  // since it started (absent while queued), to now or its end
+  nlohmann::json result, error;   // null until it ends
+};
+nlohmann::json job_json(const JobStatus& status);
+
 class Job {
  public:
   Job(std::string id, std::string session, std::string kind, nlohmann::json meta);
@@ -34,7 +47,8 @@ class Job {
   bool cancelled() const { return cancel.load(std::memory_order_relaxed); }
 
   JobState state() const;
-  nlohmann::json to_json() const;
+  JobStatus status() const;
+  nlohmann::json to_json() const { return job_json(status()); }
 
  private:
   friend class JobManager;

@@ -42,6 +42,12 @@ const std::string& openapi_text();
 nlohmann::json openapi_with_limits(const nlohmann::json& limits);
 std::string version_string();
 
+struct VersionInfo;
+struct LimitSources;
+struct SessionId;
+struct SessionSummary;
+struct JobRef;
+
 class Service {
  public:
   explicit Service(ServiceConfig config);  // no feature yet: add them with add()
@@ -90,7 +96,18 @@ class Service {
 
  private:
   friend class Module;
-  void register_core_routes();
+  void register_core_routes();  // core_routes.cpp: its table and handlers
+  Nothing health(const Nothing& in, const Caller& caller);
+  VersionInfo version(const Nothing& in, const Caller& caller);
+  LimitSources published_limits(const Nothing& in, const Caller& caller);
+  LimitSources limit_sources() const;
+  SessionId create_session(const Nothing& in, const Caller& caller);
+  SessionSummary session_summary(const Nothing& in, const Caller& caller);
+  Nothing end_session(const Nothing& in, const Caller& caller);
+  std::vector<JobStatus> session_jobs(const Nothing& in, const Caller& caller);
+  std::shared_ptr<Job> find_job(const JobRef& ref, const Caller& caller);  // 404 unknown_job
+  JobStatus job(const JobRef& ref, const Caller& caller);
+  JobStatus cancel_job(const JobRef& ref, const Caller& caller);
   void send_state(const std::shared_ptr<Session>& session, const std::shared_ptr<WsSink>& socket);
 
   ServiceConfig config_;
