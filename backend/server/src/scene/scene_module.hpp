@@ -11,6 +11,7 @@
 
 #include "distlab/server/client_share.hpp"
 #include "distlab/server/module.hpp"
+#include "scene_codec.hpp"
 
 namespace distlab::server {
 
@@ -24,6 +25,19 @@ class SceneModule final : public Module {
   void describe_session(Session& session, nlohmann::json& out) override;
 
  private:
+  // The handlers of the table (routes_scene.cpp).
+  SceneList items(const Nothing& in, const Caller& caller);
+  ItemSummary put_item(const NewItem& in, const Caller& caller);
+  ItemSummary set_pose(const ItemPose& in, const Caller& caller);
+  Nothing remove_item(const ItemRef& in, const Caller& caller);
+  Nothing clear(const Nothing& in, const Caller& caller);
+  RecordingStatus start_recording(const RecordingSpec& in, const Caller& caller);
+  RecordingStatus recording(const RecordingRef& in, const Caller& caller);
+  RecordingStatus add_part(const PartUpload& in, const Caller& caller);
+  RecordingStatus finish_recording(const RecordingEnd& in, const Caller& caller);
+  RecordingPart part(const PartRef& in, const Caller& caller);
+  Nothing remove_recording(const RecordingRef& in, const Caller& caller);
+
   // Items' and recordings' bytes, per client address and in all.
   ClientShare held_bytes_{"bytes", "max_held_bytes_per_address", config_.limits.max_held_bytes_per_address, "max_held_bytes",
                           config_.limits.max_held_bytes, "scene items or recordings (DELETE /api/scene/items, /api/scene/recordings/{id})"};
