@@ -27,7 +27,9 @@ inline std::string json_index_path(const std::string& base, std::size_t i) {
 
 // Largest |coordinate| of positions, sizes, vertices, centres and ρ balls in any request: keeps
 // squares and sums far from overflow, so a huge input is refused instead of producing an inf
-// downstream.
+// downstream. A property of the format (a coordinate is metres in [-1e6, 1e6], in the CLI's files
+// and the Python bindings as on the wire), not a server limit: it bounds no resource, and the
+// numerics' finiteness rests on it, so it is no entry of the limits table for a server to raise.
 inline constexpr double kMaxCoordinate = 1e6;
 
 // A finite number; |v| <= max_abs when given (e.g. kMaxCoordinate keeps squares finite).

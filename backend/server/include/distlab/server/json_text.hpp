@@ -12,7 +12,11 @@
 
 namespace distlab::server {
 
-inline constexpr int kMaxJsonDepth = 64;  // the deepest schema (GAP) needs 6 levels
+// How deep a JSON document nests. A property of the format, not a server limit: the deepest schema
+// (GAP) needs 6 levels, so anything past 64 is no request of this API whatever the server; and
+// it keeps the recursive walks over a document (dump, copies) shallow, which a server raising it
+// would not. The Python bindings hold their documents to it too.
+inline constexpr int kMaxJsonDepth = 64;
 
 // Malformed JSON text (a syntax error); `byte` is the 1-based offset nlohmann reports.
 class JsonSyntaxError : public std::runtime_error {
