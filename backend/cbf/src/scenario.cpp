@@ -101,7 +101,6 @@ void validate(const Scenario& s) {
                                 std::to_string(robot.q_min()[i]) + ", " +
                                 std::to_string(robot.q_max()[i]) + "]");
   }
-  if (s.obstacles.size() > 1000) throw InvalidInput("obstacles", "at most 1000 obstacles");
   if (s.fields.size() > kMaxSceneFields)
     throw InvalidInput("fields", "at most " + std::to_string(kMaxSceneFields) + " fields");
   if (s.control_points.size() > kMaxControlPoints)

@@ -228,6 +228,8 @@ export interface paths {
                             max_cbf_duration: number;
                             /** @description collision pairs × steps of one rollout (422 too_long) */
                             max_cbf_pair_steps: number;
+                            /** @description obstacles of one CBF scenario (400, field scenario.obstacles): each is a pair per robot primitive, computed every step */
+                            max_cbf_obstacles: number;
                             /** @description largest stream.batch_steps (400) */
                             max_cbf_batch_steps: number;
                             /** @description steps per GET /api/cbf/rollouts/{id}/frames (413 too_many_frames, field count) */
@@ -3199,7 +3201,7 @@ export interface components {
         /** @description the settings a scenario and a request's params share (params override the scenario's) */
         CbfSettings: {
             dt?: number;
-            /** @description seconds, at most 600 (and at most max_steps steps) */
+            /** @description seconds, at most max_cbf_duration (GET /api/limits; and at most max_cbf_steps steps) */
             duration?: number;
             /** @description one per joint of the robot (its dof) */
             q0?: number[];

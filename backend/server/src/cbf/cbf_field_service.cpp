@@ -119,7 +119,8 @@ std::vector<CbfRolloutField> rollout_fields(const FieldPlan& plan) {
   return out;
 }
 
-json fields_frame(const CbfRollout& r, const std::optional<std::vector<double>>& levels) {
+CbfFieldSurfaces field_surfaces(const std::shared_ptr<const CbfRollout>& rollout, const std::optional<std::vector<double>>& levels) {
+  const CbfRollout& r = *rollout;
   if (r.fields.empty()) throw ApiError(404, "no_fields", "this rollout's scenario has no Kelvin fields");
   std::vector<std::shared_ptr<const kelvin::Field>> prepared;
   std::string state;
@@ -134,16 +135,28 @@ json fields_frame(const CbfRollout& r, const std::optional<std::vector<double>>&
   if (state == "released")
     throw ApiError(410, "fields_released",
                    "this rollout's prepared fields were released for newer rollouts' (cbf_fields_kept_total in GET /api/limits); run it again");
+  CbfFieldSurfaces out{rollout, {}};
+  for (std::size_t i = 0; i < r.fields.size(); ++i) {
+    std::vector<double> wanted = levels ? *levels : std::vector<double>{0.0};
+    if (!levels && r.fields[i].delta != 0) wanted.push_back(r.fields[i].delta);
+    std::vector<CbfIsosurface>& isosurfaces = out.isosurfaces.emplace_back();
+    for (const double level : wanted) {
+      CbfIsosurface& iso = isosurfaces.emplace_back(CbfIsosurface{level, prepared[i]->isosurface(level), 0.0});
+      if (iso.mesh.faces.rows() == 0) iso.h_min = prepared[i]->minimum();
+    }
+  }
+  return out;
+}
+
+json fields_frame(const CbfFieldSurfaces& surfaces) {
+  const CbfRollout& r = *surfaces.rollout;
   json fields = json::array();
   for (std::size_t i = 0; i < r.fields.size(); ++i) {
     const CbfRolloutField& f = r.fields[i];
-    std::vector<double> wanted = levels ? *levels : std::vector<double>{0.0};
-    if (!levels && f.delta != 0) wanted.push_back(f.delta);
     json isosurfaces = json::array();
-    for (const double level : wanted) {
-      const mesh::SurfaceMesh iso = prepared[i]->isosurface(level);
-      json frame = mesh_frame(iso, {{"type", "isosurface"}, {"level", level}});
-      if (iso.faces.rows() == 0) frame["empty"] = true, frame["h_min"] = prepared[i]->minimum();
+    for (const CbfIsosurface& iso : surfaces.isosurfaces[i]) {
+      json frame = mesh_frame(iso.mesh, {{"type", "isosurface"}, {"level", iso.level}});
+      if (iso.mesh.faces.rows() == 0) frame["empty"] = true, frame["h_min"] = iso.h_min;
       isosurfaces.push_back(std::move(frame));
     }
     fields.push_back({{"index", i},

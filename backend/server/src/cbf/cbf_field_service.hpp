@@ -55,12 +55,23 @@ FieldPreparer service_preparer(const std::string& cache_dir, const Limits& limit
 // The objects of a plan as the viewer draws them: each surface as given and σ at its vertices.
 std::vector<CbfRolloutField> rollout_fields(const FieldPlan& plan);
 
+// The iso-surfaces of a rollout's prepared fields, per field: levels the same for every field, or
+// (nullopt) 0 and the field's δ. 404 without fields; 409 while they are prepared or if that failed;
+// 410 once released (Limits::cbf_fields_kept_total).
+struct CbfIsosurface {
+  double level = 0;
+  mesh::SurfaceMesh mesh;
+  double h_min = 0;  // the field's minimum (an empty mesh: a level the field never takes)
+};
+struct CbfFieldSurfaces {
+  std::shared_ptr<const CbfRollout> rollout;
+  std::vector<std::vector<CbfIsosurface>> isosurfaces;  // per field
+};
+CbfFieldSurfaces field_surfaces(const std::shared_ptr<const CbfRollout>& rollout, const std::optional<std::vector<double>>& levels);
 // GET /api/cbf/rollouts/{id}/fields (msgpack): {"type": "cbf_fields", "rollout", "fields":
 // [{"index", "name", "delta", "pose", "frame": "object", "surface": mesh frame (frames.hpp) with σ
 // per vertex as its scalars, "isosurfaces": [mesh frame + "level" (+ "empty", "h_min" for a level
-// the field never takes)]}]}. Geometry is in the object's frame: world = pose · x. levels: the
-// same for every field, or (nullopt) 0 and the field's δ. 404 without fields; 409 while they are
-// prepared or if that failed; 410 once released (CbfLimits::fields_kept_total).
-nlohmann::json fields_frame(const CbfRollout& rollout, const std::optional<std::vector<double>>& levels);
+// the field never takes)]}]}. Geometry is in the object's frame: world = pose · x.
+nlohmann::json fields_frame(const CbfFieldSurfaces& surfaces);
 
 }  // namespace distlab::server

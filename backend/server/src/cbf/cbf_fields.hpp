@@ -52,8 +52,9 @@ void prepare_planned_fields(cbf::Scenario& s, const FieldPlan& plan, const Field
                             const Progress& progress = {}, std::map<std::string, cbf::SceneField>* prepared = nullptr);
 // parse_cbf_request and parse_cbf_sweep with the fields planned, not prepared: the scenarios have
 // neither fields nor control points until prepare_planned_fields (one plan per run).
-CbfRequest plan_cbf_request(const nlohmann::json& request, const std::string& assets_dir, FieldPlan& plan);
-CbfSweep plan_cbf_sweep(const nlohmann::json& request, const std::string& assets_dir, std::size_t max_values,
+CbfRequest plan_cbf_request(const nlohmann::json& request, const std::string& assets_dir, FieldPlan& plan,
+                            const Limits& limits);
+CbfSweep plan_cbf_sweep(const nlohmann::json& request, const std::string& assets_dir, const Limits& limits,
                         std::vector<FieldPlan>& plans);
 
 // Applies params.fields and params.field_mode to a scenario's JSON before it is parsed.

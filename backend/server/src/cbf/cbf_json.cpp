@@ -57,14 +57,14 @@ constexpr std::array<std::string_view, 13> kSettings = {
     "dt", "duration", "q0", "task_gain", "damping", "eta", "eta_joint", "self_collision",
     "goal_tolerance", "slack_weight", "margins", "gap", "velocity_limit"};
 
-void apply_settings(const json& j, const std::string& field, cbf::Scenario& s) {
+void apply_settings(const json& j, const std::string& field, const Limits& limits, cbf::Scenario& s) {
   const auto get = [&](const char* key) { return json_optional(j, key); };
   const auto f = [&](const char* key) { return key_path(field, key); };
   if (auto v = get("dt")) s.dt = number(*v, f("dt"));
   if (auto v = get("duration")) {
     s.duration = number(*v, f("duration"));
-    if (s.duration > kMaxScenarioDuration)
-      fail(f("duration"), "at most " + std::to_string(kMaxScenarioDuration) + " s per request");
+    if (s.duration > limits.max_cbf_duration)
+      fail(f("duration"), "at most " + std::to_string(limits.max_cbf_duration) + " s per request");
   }
   const int dof = s.robot->dof();
   if (auto v = get("q0")) s.q0 = json_vecx(*v, f("q0"), dof, kMaxCoordinate);
@@ -126,7 +126,8 @@ void validated(const cbf::Scenario& s, const std::string& field) {
 
 // parse_scenario with its fields planned, not prepared (cbf_fields.hpp): everything is checked
 // before anything is prepared.
-cbf::Scenario scenario_of(const json& j, const std::string& field, const std::string& assets_dir, FieldPlan& plan) {
+cbf::Scenario scenario_of(const json& j, const std::string& field, const std::string& assets_dir, FieldPlan& plan,
+                          const Limits& limits) {
   require_object(j, field);
   for (const auto& [key, value] : j.items()) {
     static const std::initializer_list<std::string_view> own = {"name", "comment", "robot", "obstacles", "target",
@@ -144,7 +145,8 @@ cbf::Scenario scenario_of(const json& j, const std::string& field, const std::st
   const std::string of = key_path(field, "obstacles");
   const json& obstacles = required(j, field, "obstacles");
   if (!obstacles.is_array()) fail(of, "expected an array of obstacles");
-  if (obstacles.size() > 1000) fail(of, "at most 1000 obstacles");
+  if (obstacles.size() > limits.max_cbf_obstacles)
+    fail(of, "at most " + std::to_string(limits.max_cbf_obstacles) + " obstacles");
   for (std::size_t i = 0; i < obstacles.size(); ++i) {
     const std::string f = index_path(of, i);
     require_object(obstacles[i], f);
@@ -159,7 +161,7 @@ cbf::Scenario scenario_of(const json& j, const std::string& field, const std::st
   s.target = json_pose(required(j, field, "target"), key_path(field, "target"), /*position_required=*/true);
   required(j, field, "q0");
   plan_scenario_fields(j, field, assets_dir, plan, s);
-  apply_settings(j, field, s);
+  apply_settings(j, field, limits, s);
   validated(s, field);
   return s;
 }
@@ -167,9 +169,9 @@ cbf::Scenario scenario_of(const json& j, const std::string& field, const std::st
 }  // namespace
 
 cbf::Scenario parse_scenario(const json& j, const std::string& field, const std::string& assets_dir,
-                             const FieldPreparer& prepare) {
+                             const FieldPreparer& prepare, const Limits& limits) {
   FieldPlan plan;
-  cbf::Scenario s = scenario_of(j, field, assets_dir, plan);
+  cbf::Scenario s = scenario_of(j, field, assets_dir, plan, limits);
   prepare_planned_fields(s, plan, prepare);
   validated(s, field);
   return s;
@@ -245,7 +247,7 @@ std::string params_field(const std::string& field, const json& params) {
   return field;
 }
 
-CbfRequest request_of(const json& r, const std::string& assets_dir, FieldPlan& plan) {
+CbfRequest request_of(const json& r, const std::string& assets_dir, FieldPlan& plan, const Limits& limits) {
   require_object(r, "");
   check_keys(r, "", {"scenario", "metric", "params", "comment"});
   if (auto it = r.find("comment"); it != r.end()) string(*it, "comment");
@@ -259,11 +261,11 @@ CbfRequest request_of(const json& r, const std::string& assets_dir, FieldPlan& p
       const std::string path = scenario_path(sj.get<std::string>(), assets_dir);
       json scenario = read_scenario_file(path);
       apply_field_params(scenario, params);
-      out.scenario = scenario_of(scenario, "scenario", fs::path(path).parent_path().parent_path().string(), plan);
+      out.scenario = scenario_of(scenario, "scenario", fs::path(path).parent_path().parent_path().string(), plan, limits);
     } else {
       json scenario = sj;
       apply_field_params(scenario, params);
-      out.scenario = scenario_of(scenario, "scenario", assets_dir, plan);
+      out.scenario = scenario_of(scenario, "scenario", assets_dir, plan, limits);
     }
   } catch (const InvalidInput& e) {
     throw InvalidInput(params_field(e.field(), params), e.what());
@@ -280,7 +282,7 @@ CbfRequest request_of(const json& r, const std::string& assets_dir, FieldPlan& p
       if (key != "record_pairs" && key != "audit" && key != "fields" && key != "field_mode" &&
           std::find(kSettings.begin(), kSettings.end(), key) == kSettings.end())
         fail("params." + key.substr(0, 64), "unknown key \"" + key.substr(0, 64) + "\"");
-    apply_settings(*it, "params", out.scenario);
+    apply_settings(*it, "params", limits, out.scenario);
     if (auto v = it->find("record_pairs"); v != it->end())
       out.options.record_pairs = boolean(*v, "params.record_pairs");
     if (auto v = it->find("audit"); v != it->end())
@@ -296,13 +298,14 @@ CbfRequest request_of(const json& r, const std::string& assets_dir, FieldPlan& p
 
 }  // namespace
 
-CbfRequest plan_cbf_request(const json& request, const std::string& assets_dir, FieldPlan& plan) {
-  return request_of(request, assets_dir, plan);
+CbfRequest plan_cbf_request(const json& request, const std::string& assets_dir, FieldPlan& plan, const Limits& limits) {
+  return request_of(request, assets_dir, plan, limits);
 }
 
-CbfRequest parse_cbf_request(const json& request, const std::string& assets_dir, const FieldPreparer& prepare) {
+CbfRequest parse_cbf_request(const json& request, const std::string& assets_dir, const FieldPreparer& prepare,
+                             const Limits& limits) {
   FieldPlan plan;
-  CbfRequest out = request_of(request, assets_dir, plan);
+  CbfRequest out = request_of(request, assets_dir, plan, limits);
   prepare_planned_fields(out.scenario, plan, prepare);
   validated(out.scenario, "scenario");
   return out;
@@ -448,7 +451,8 @@ json run_cbf_request(const json& request) {
   return encode_record(cbf::rollout(r.scenario, r.metric, r.options), r.scenario.name);
 }
 
-CbfSweep plan_cbf_sweep(const json& request, const std::string& assets_dir, std::size_t max_values, std::vector<FieldPlan>& plans) {
+CbfSweep plan_cbf_sweep(const json& request, const std::string& assets_dir, const Limits& limits, std::vector<FieldPlan>& plans) {
+  const std::size_t max_values = limits.max_cbf_sweep_values;
   require_object(request, "");
   const json& sw = required(request, "", "sweep");
   require_object(sw, "sweep");
@@ -487,7 +491,7 @@ CbfSweep plan_cbf_sweep(const json& request, const std::string& assets_dir, std:
     const std::string vf = "sweep.values[" + std::to_string(i) + "]";
     try {
       plans.emplace_back();
-      out.runs.push_back(request_of(r, assets_dir, plans.back()));
+      out.runs.push_back(request_of(r, assets_dir, plans.back(), limits));
     } catch (const InvalidInput& e) {
       const std::string& f = e.field();
       // An unknown key at or on the way to the parameter: the path names no parameter.
@@ -502,9 +506,9 @@ CbfSweep plan_cbf_sweep(const json& request, const std::string& assets_dir, std:
   return out;
 }
 
-CbfSweep parse_cbf_sweep(const json& request, const std::string& assets_dir, std::size_t max_values) {
+CbfSweep parse_cbf_sweep(const json& request, const std::string& assets_dir, const Limits& limits) {
   std::vector<FieldPlan> plans;
-  CbfSweep out = plan_cbf_sweep(request, assets_dir, max_values, plans);
+  CbfSweep out = plan_cbf_sweep(request, assets_dir, limits, plans);
   std::map<std::string, cbf::SceneField> prepared;  // the runs' fields are the same: prepared once
   for (std::size_t i = 0; i < out.runs.size(); ++i) {
     prepare_planned_fields(out.runs[i].scenario, plans[i], {}, {}, &prepared);

@@ -9,12 +9,30 @@
 
 #include <nlohmann/json.hpp>
 
+#include "cbf_codec.hpp"
 #include "cbf_field_service.hpp"
 #include "distlab/server/cbf_json.hpp"
 #include "distlab/server/cbf_rollouts.hpp"
 #include "distlab/server/module.hpp"
 
 namespace distlab::server {
+
+// The sweeps of every session, the oldest forgotten past cbf_rollouts_kept_total.
+class CbfSweepStore {
+ public:
+  explicit CbfSweepStore(std::size_t kept) : kept_(kept) {}
+  void add(std::shared_ptr<CbfSweepRun> s);
+  std::shared_ptr<CbfSweepRun> find(const std::string& session, const std::string& id) const;  // owner only
+
+ private:
+  std::size_t kept_;
+  mutable std::mutex mutex_;
+  std::vector<std::shared_ptr<CbfSweepRun>> sweeps_;
+};
+
+// A job cancelled while queued ends without running its work: its rollout, still queued, ends
+// with it (cbf_jobs.cpp).
+void settle(CbfRollout& rollout, const Job& job);
 
 class CbfModule final : public Module {
  public:
@@ -26,23 +44,42 @@ class CbfModule final : public Module {
                   const nlohmann::json& msg, const nlohmann::json& /*request*/) override {
     cbf_ws_message(session, socket, msg);
   }
-  // The rollout limits (also in GET /api/cbf/scenarios).
+  // The scenario format's bounds (cbf/fields.hpp); the rollouts' are in the table (config.hpp).
   void add_limits(nlohmann::json& limits) const override {
-    const CbfLimits& cbf = cbf_rollouts_->limits();
-    limits["max_cbf_steps"] = cbf.max_steps;
-    limits["max_cbf_duration"] = kMaxScenarioDuration;
-    limits["max_cbf_pair_steps"] = cbf.max_pair_steps;
-    limits["max_cbf_batch_steps"] = cbf.max_batch_steps;
-    limits["max_cbf_frames_per_request"] = cbf.max_frames_per_request;
-    limits["cbf_rollouts_kept_per_session"] = cbf.kept_per_session;
-    limits["cbf_rollouts_kept_total"] = cbf.kept_total;
-    limits["max_cbf_sweep_values"] = cbf.max_sweep_values;
-    limits["cbf_fields_kept_total"] = cbf.fields_kept_total;
     limits["max_cbf_fields"] = cbf::kMaxSceneFields;
     limits["max_cbf_control_points"] = cbf::kMaxControlPoints;
   }
 
  private:
+  // The routes' handlers (routes_cbf.cpp; the jobs' in cbf_jobs.cpp).
+  CbfScenarioList scenarios(const Nothing& in, const Caller& caller);
+  CbfScenarioFile scenario(const CbfScenarioName& in, const Caller& caller);
+  CbfRobotDescription robot(const CbfRobotName& in, const Caller& caller);
+  CbfFeasibilityAnswer feasibility(const CbfPlannedRequest& in, const Caller& caller);
+  CbfRolloutStatus start_rollout(const CbfRolloutRequest& in, const Caller& caller);
+  CbfRolloutList rollouts(const Nothing& in, const Caller& caller);
+  CbfRolloutStatus rollout(const CbfRolloutId& in, const Caller& caller);
+  CbfFrames frames(const CbfFramesRequest& in, const Caller& caller);
+  CbfRecord record(const CbfRolloutId& in, const Caller& caller);
+  CbfFieldSurfaces fields(const CbfFieldsRequest& in, const Caller& caller);
+  CbfSweepStatus start_sweep(const CbfSweepRequest& in, const Caller& caller);
+  CbfSweepStatus sweep(const CbfRolloutId& in, const Caller& caller);
+
+  // The caller's rollout `id`, its state brought up to its job's (404 unknown_rollout).
+  std::shared_ptr<CbfRollout> require_rollout(const std::string& id, const Caller& caller);
+
+  // codec() (route_table.hpp) for a decode that also reads the server's assets directory
+  // (scenarios and robots by name).
+  template <class In, class Out>
+  static RouteRun<CbfModule> assets_codec(In (*decode)(const Request&, const Limits&, const std::string&),
+                                          Out (CbfModule::*handle)(const In&, const Caller&),
+                                          Response (*encode)(const Out&)) {
+    return [decode, handle, encode](CbfModule& owner, Request& request, const Limits& limits) {
+      const In input = decode(request, limits, owner.config_.assets_dir);
+      return encode((owner.*handle)(input, caller_of(request)));
+    };
+  }
+
   void cbf_ws_message(const std::shared_ptr<Session>& session, const std::shared_ptr<WsSink>& socket,
                       const nlohmann::json& msg);
 
@@ -52,6 +89,7 @@ class CbfModule final : public Module {
                       std::map<std::string, cbf::SceneField>& prepared);
 
   std::shared_ptr<CbfRolloutStore> cbf_rollouts_;
+  std::shared_ptr<CbfSweepStore> sweeps_;
   SharedFields shared_fields_;
 };
 

@@ -192,15 +192,15 @@ void CbfRolloutStore::add(const std::shared_ptr<CbfRollout>& r,
       }
     }
   };
-  trim([&](const CbfRollout& x) { return x.session == r->session; }, limits_.kept_per_session);
-  trim([](const CbfRollout&) { return true; }, limits_.kept_total);
+  trim([&](const CbfRollout& x) { return x.session == r->session; }, limits_.cbf_rollouts_kept_per_session);
+  trim([](const CbfRollout&) { return true; }, limits_.cbf_rollouts_kept_total);
 }
 
 void CbfRolloutStore::fields_ready(const std::shared_ptr<CbfRollout>& r) {
   std::lock_guard lock(mutex_);
   with_fields_.erase(std::remove_if(with_fields_.begin(), with_fields_.end(), [](const auto& w) { return w.expired(); }), with_fields_.end());
   with_fields_.push_back(r);
-  while (with_fields_.size() > std::max<std::size_t>(1, limits_.fields_kept_total)) {
+  while (with_fields_.size() > std::max<std::size_t>(1, limits_.cbf_fields_kept_total)) {
     if (auto old = with_fields_.front().lock()) {
       std::lock_guard l(old->mutex);
       for (CbfRolloutField& f : old->fields) f.field.reset();

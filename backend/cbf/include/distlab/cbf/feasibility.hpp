@@ -6,6 +6,7 @@
 // minimum robot–obstacle clearance is kept, then refined in q7. A rollout that stops short of the
 // target can be read against this number: if the best clearance is below δ_obs, no CBF-QP with
 // that margin can converge to the exact pose.
+#include <cstddef>
 #include <string>
 
 #include "distlab/cbf/controller.hpp"
@@ -36,5 +37,9 @@ struct Feasibility {
 };
 
 Feasibility target_feasibility(const Scenario& scenario, const FeasibilityOptions& options = {});
+
+// About as many configurations as one target_feasibility examines with the default options
+// (a q7 grid of 1°, seeds and continuations), each against every pair: the work is pairs × this.
+inline constexpr std::size_t kFeasibilityConfigurations = 4000;
 
 }  // namespace distlab::cbf

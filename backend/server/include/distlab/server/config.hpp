@@ -61,6 +61,22 @@ struct Limits {
   std::size_t max_robot_configurations = 10000;
   std::size_t max_robot_pair_evaluations = 50000;
   std::size_t max_robot_obstacles = 256;
+  // CBF rollouts: a rollout's steps (duration / dt) and seconds of simulated time; its collision
+  // pairs × steps, kept in memory (≈ 80 bytes each); a scenario's obstacles (each a pair per
+  // robot primitive, built per step); steps per "cbf_frames" message and per GET .../frames;
+  // runs of one sweep. Rollouts kept per session and in all (older ended ones are forgotten; the
+  // total also bounds the sweeps kept), and those that keep their prepared Kelvin fields once
+  // their job ended (a field is large: wrench_grasp's run peaks at 0.4 GB, 20 MB without).
+  int max_cbf_steps = 20000;
+  double max_cbf_duration = 600;
+  std::size_t max_cbf_pair_steps = 1000000;
+  std::size_t max_cbf_obstacles = 1000;
+  int max_cbf_batch_steps = 500;
+  std::size_t max_cbf_frames_per_request = 2000;
+  std::size_t max_cbf_sweep_values = 16;
+  std::size_t cbf_rollouts_kept_per_session = 4;
+  std::size_t cbf_rollouts_kept_total = 32;
+  std::size_t cbf_fields_kept_total = 2;
   // Connections: beyond max_connections a new one is closed at once; a client that sends no
   // complete header (idle or slowloris) or body within read_timeout_seconds is closed.
   std::size_t max_connections = 512;
@@ -156,6 +172,16 @@ void for_each_limit(L& l, F&& f) {
   f("max_robot_configurations", l.max_robot_configurations);
   f("max_robot_pair_evaluations", l.max_robot_pair_evaluations);
   f("max_robot_obstacles", l.max_robot_obstacles);
+  f("max_cbf_steps", l.max_cbf_steps);
+  f("max_cbf_duration", l.max_cbf_duration);
+  f("max_cbf_pair_steps", l.max_cbf_pair_steps);
+  f("max_cbf_obstacles", l.max_cbf_obstacles);
+  f("max_cbf_batch_steps", l.max_cbf_batch_steps);
+  f("max_cbf_frames_per_request", l.max_cbf_frames_per_request);
+  f("max_cbf_sweep_values", l.max_cbf_sweep_values);
+  f("cbf_rollouts_kept_per_session", l.cbf_rollouts_kept_per_session);
+  f("cbf_rollouts_kept_total", l.cbf_rollouts_kept_total);
+  f("cbf_fields_kept_total", l.cbf_fields_kept_total);
   f("max_connections", l.max_connections);
   f("read_timeout_seconds", l.read_timeout_seconds);
   f("import_memory_bytes", l.import_memory_bytes);

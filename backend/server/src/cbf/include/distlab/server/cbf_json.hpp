@@ -30,6 +30,7 @@
 #include "distlab/cbf/feasibility.hpp"
 #include "distlab/cbf/rollout.hpp"
 #include "distlab/geometry/progress.hpp"
+#include "distlab/server/config.hpp"
 #include "distlab/server/gap_json.hpp"
 
 namespace distlab::server {
@@ -40,12 +41,12 @@ namespace distlab::server {
 using FieldPreparer = std::function<kelvin::Field(const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& options,
                                                   const std::string& field)>;
 
-inline constexpr double kMaxScenarioDuration = 600.0;  // seconds of simulated time per request
-
 // Throws InvalidInput naming the field (prefixed with `field`, e.g. "scenario.q0[2]"). The robot
 // ("robot": NAME, default "panda") is assets/robots/NAME.urdf, looked up as scenario_path does.
+// Bounded by limits.max_cbf_duration and max_cbf_obstacles (the CLI and Python: the defaults).
 cbf::Scenario parse_scenario(const nlohmann::json& j, const std::string& field = "scenario",
-                             const std::string& assets_dir = "", const FieldPreparer& prepare = {});
+                             const std::string& assets_dir = "", const FieldPreparer& prepare = {},
+                             const Limits& limits = {});
 // Reads "fields" and "control_points" of scenario JSON j (the keys of a scenario: cbf_fields.hpp)
 // into s, whose robot is set; `field` prefixes error paths. The fields are prepared by `prepare`.
 void parse_scenario_fields(const nlohmann::json& j, const std::string& field, const std::string& assets_dir,
@@ -70,7 +71,7 @@ struct CbfRequest {
   cbf::RolloutOptions options;
 };
 CbfRequest parse_cbf_request(const nlohmann::json& request, const std::string& assets_dir = "",
-                             const FieldPreparer& prepare = {});
+                             const FieldPreparer& prepare = {}, const Limits& limits = {});
 
 // {"scenario", "metric", "dt", "steps", "pairs": [names], "t": [...], "q": [[7]...], "u": [[7]...],
 //  "task_error": [...], "min_distance": [...], "infeasible_steps": [indices], "slack": {index: s},
@@ -97,8 +98,7 @@ nlohmann::json run_cbf_request(const nlohmann::json& request);
 // dotted key of params (e.g. "margins.gap.obstacle", "gap.tol", "duration"). Run i is the request
 // with params.PATH = values[i] (audit on unless params.audit says otherwise), so each entry is
 // what `distlab cbf` returns for that request. A bad value is InvalidInput("sweep.values[i]"), a
-// path that is no parameter InvalidInput("sweep.parameter").
-inline constexpr std::size_t kMaxSweepValues = 16;
+// path that is no parameter InvalidInput("sweep.parameter"). At most limits.max_cbf_sweep_values.
 // The throw the check finds is nlohmann::json's unreachable internal-error branch of its noexcept
 // default constructor.
 struct CbfSweep {  // NOLINT(bugprone-exception-escape)
@@ -107,8 +107,7 @@ struct CbfSweep {  // NOLINT(bugprone-exception-escape)
   std::vector<nlohmann::json> requests;  // one per value (no "sweep")
   std::vector<CbfRequest> runs;
 };
-CbfSweep parse_cbf_sweep(const nlohmann::json& request, const std::string& assets_dir = "",
-                         std::size_t max_values = kMaxSweepValues);
+CbfSweep parse_cbf_sweep(const nlohmann::json& request, const std::string& assets_dir = "", const Limits& limits = {});
 // One run of a sweep: {"index" (of values), "value", "summary" and "smoothness" (as the run's
 // record), "gap_mode", "position_error", "min_clearance", "total_variation" (Σ over joints),
 // "infeasible_steps" (count), "steps", "step_us_mean"}.

@@ -19,20 +19,6 @@
 
 namespace distlab::server {
 
-// Explicit limits of one rollout request (also reported by GET /api/cbf/scenarios).
-struct CbfLimits {
-  int max_steps = 20000;                           // duration / dt
-  std::size_t max_pair_steps = 1000000;            // steps × pairs kept in memory (≈ 80 bytes each)
-  int max_batch_steps = 500;                       // steps per "cbf_frames" message
-  std::size_t max_frames_per_request = 2000;       // steps per GET .../frames
-  std::size_t kept_per_session = 4;                // most recent rollouts kept (older finished ones go)
-  std::size_t kept_total = 32;                     // also: sweeps kept (all sessions)
-  std::size_t max_sweep_values = kMaxSweepValues;  // runs of one POST /api/cbf/sweeps
-  // Rollouts (all sessions) that keep their prepared Kelvin fields for GET .../fields once their
-  // job has ended, newest first: a field is large (wrench_grasp's: a `distlab cbf` run peaks at 0.4 GB, 20 MB without).
-  std::size_t fields_kept_total = 2;
-};
-
 struct CbfStreamOptions {
   int batch_steps = 50;         // a message carries at most this many steps ...
   double batch_seconds = 0.05;  // ... and is sent at least this often while steps come
@@ -93,19 +79,19 @@ nlohmann::json cbf_robot_json(const cbf::Robot& robot);
 
 class CbfRolloutStore {
  public:
-  explicit CbfRolloutStore(CbfLimits limits) : limits_(limits) {}
-  const CbfLimits& limits() const { return limits_; }
+  // Keeps cbf_rollouts_kept_per_session, cbf_rollouts_kept_total and cbf_fields_kept_total.
+  explicit CbfRolloutStore(const Limits& limits) : limits_(limits) {}
   // Adds r; forgets the oldest ended rollouts past the per-session / total limits and those whose
   // session is gone (alive(session) false).
   void add(const std::shared_ptr<CbfRollout>& r, const std::function<bool(const std::string&)>& alive);
   std::shared_ptr<CbfRollout> find(const std::string& session, const std::string& id) const;  // owner only
   std::vector<std::shared_ptr<CbfRollout>> list(const std::string& session) const;
-  // r's fields are prepared: it keeps them, and rollouts past limits().fields_kept_total newer
+  // r's fields are prepared: it keeps them, and rollouts past cbf_fields_kept_total newer
   // ones release theirs (a running job keeps its own reference until it ends).
   void fields_ready(const std::shared_ptr<CbfRollout>& r);
 
  private:
-  CbfLimits limits_;
+  Limits limits_;
   mutable std::mutex mutex_;
   std::vector<std::shared_ptr<CbfRollout>> rollouts_;   // oldest first
   std::vector<std::weak_ptr<CbfRollout>> with_fields_;  // holding prepared fields, oldest first
