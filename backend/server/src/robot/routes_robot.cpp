@@ -6,15 +6,12 @@
 
 #include "distlab/robot/robot.hpp"
 #include "distlab/server/deadline.hpp"
-#include "distlab/server/robot_json.hpp"
-#include "distlab/server/uploads.hpp"
 #include "robot_module.hpp"
+#include "robot_run.hpp"
 
 namespace distlab::server {
 
-using json = nlohmann::json;
-
-void RobotModule::add_limits(json& limits) const {
+void RobotModule::add_limits(nlohmann::json& limits) const {
   limits["max_urdf_bytes"] = robot::kMaxUrdfBytes;
   limits["max_robot_links"] = robot::kMaxLinks;
   limits["max_robot_joints"] = robot::kMaxJoints;
@@ -24,38 +21,75 @@ void RobotModule::add_limits(json& limits) const {
 }
 
 void RobotModule::register_routes() {
-  const std::string robots_dir = (std::filesystem::path(config_.assets_dir) / "robots").string();
+  using M = RobotModule;
+  // A row per route, as a table.
+  // clang-format off
+  add_routes<M>(router_, *this, config_.limits, {
+    {"GET", "/api/robot/robots", Work::light, {}, codec(decode_nothing, &M::robots, encode_robot_list)},
+    {"POST", "/api/robot/distances", Work::heavy, {"max_body_bytes", "max_urdf_bytes", "max_robot_configurations", "max_robot_pair_evaluations", "max_robot_obstacles", "max_gap_iterations", "max_request_seconds"},
+     codec(decode_robot_distances, &M::distances, encode_robot_distances)},
+  });
+  // clang-format on
+}
 
-  // Parses each built-in URDF once (Robot::load caches them).
-  router_.add({"GET", "/api/robot/robots", [robots_dir](Request&) { return json_response(200, robots_json(robots_dir)); }});
+std::string RobotModule::robots_dir() const { return (std::filesystem::path(config_.assets_dir) / "robots").string(); }
 
-  Route distances{"POST", "/api/robot/distances", [this, robots_dir](Request& req) {
-                    RobotSources sources;
-                    sources.robots_dir = robots_dir;
-                    // Only a URDF with meshes needs the session (its uploads).
-                    sources.upload = [this, &req](const std::string& id, const std::string& field) {
-                      std::shared_ptr<Session> session;
-                      try {
-                        session = require_session(req);
-                      } catch (const ApiError& e) {
-                        throw ApiError(e.status(), e.code(), std::string(e.what()) + " (robot.meshes names uploads of a session)", field);
-                      }
-                      std::lock_guard lock(session->mutex);
-                      const auto& uploads = session->state<SessionUploads>().uploads;
-                      const auto it = uploads.find(id);
-                      if (it == uploads.end()) throw ApiError(404, "unknown_upload", "no such upload in this session", field);
-                      return it->second;
-                    };
-                    const Limits& lim = config_.limits;
-                    const Deadline deadline(lim.max_request_seconds);
-                    const RobotDistancesRequest request = parse_robot_distances(parse_body(req), sources, lim);
-                    const robot::DistanceBatch batch = run_robot_distances(request, [&] { deadline.check("send fewer configurations per request"); });
-                    return json_response(200, encode_robot_distances(request, batch));
-                  }};
-  distances.heavy = true;
-  distances.bounds = {"max_body_bytes", "max_urdf_bytes", "max_robot_configurations", "max_robot_pair_evaluations", "max_robot_obstacles",
-                      "max_gap_iterations", "max_request_seconds"};
-  router_.add(std::move(distances));
+// Parses each built-in URDF once (Robot::load caches them).
+RobotList RobotModule::robots(const Nothing& /*input*/, const Caller& /*caller*/) {
+  RobotList list;
+  const std::string dir = robots_dir();
+  for (const std::string& name : builtin_robot_names(dir)) list.robots.emplace_back(name, builtin_robot(name, dir, "robot"));
+  return list;
+}
+
+RobotDistances RobotModule::distances(const RobotDistancesRequest& request, const Caller& caller) {
+  const Limits& lim = config_.limits;
+  const Deadline deadline(lim.max_request_seconds);
+  std::shared_ptr<const robot::Robot> robot = request_robot(request, caller);
+  const std::vector<double> q = robot_configurations(request.q, robot->dof());
+  const int n = static_cast<int>(request.q.rows.size());
+  RobotDistances out;
+  out.robot_name = request.urdf ? robot->name() : request.builtin;
+  out.gradient = request.params.params.gradient;
+  // Throws InvalidInput naming "params.*", "obstacles[i]..." or "pairs.allow[i]" / "pairs.deny[i]".
+  out.model = std::make_shared<const robot::DistanceModel>(std::move(robot), request.obstacles, request.metric, request.params.params,
+                                                           request.pairs);
+  const std::size_t evaluations = static_cast<std::size_t>(n) * out.model->pairs().size();
+  if (evaluations > lim.max_robot_pair_evaluations)
+    throw ApiError(413, "too_many_evaluations",
+                   std::to_string(n) + " configurations × " + std::to_string(out.model->pairs().size()) + " pairs is above this server's " +
+                       std::to_string(lim.max_robot_pair_evaluations) + " per request; send fewer configurations or pairs",
+                   "q");
+  out.batch = run_robot_distances(*out.model, q, n, request.params.validate, request.urdf ? "robot.urdf" : "robot",
+                                  [&] { deadline.check("send fewer configurations per request"); });
+  return out;
+}
+
+std::shared_ptr<const robot::Robot> RobotModule::request_robot(const RobotDistancesRequest& request, const Caller& caller) {
+  if (!request.urdf) return builtin_robot(request.builtin, robots_dir(), "robot");
+  // Only a URDF with meshes needs the session (its uploads), looked up before the URDF is parsed.
+  return urdf_robot(*request.urdf, request.urdf->meshes.empty() ? std::map<std::string, std::shared_ptr<const Upload>>{}
+                                                                : mesh_uploads(request.urdf->meshes, caller));
+}
+
+std::map<std::string, std::shared_ptr<const Upload>> RobotModule::mesh_uploads(const std::map<std::string, std::string>& meshes,
+                                                                               const Caller& caller) {
+  std::map<std::string, std::shared_ptr<const Upload>> out;
+  for (const auto& [filename, id] : meshes) {
+    const std::string field = robot_mesh_field(filename);
+    std::shared_ptr<Session> session;
+    try {
+      session = require_session(caller);
+    } catch (const ApiError& e) {
+      throw ApiError(e.status(), e.code(), std::string(e.what()) + " (robot.meshes names uploads of a session)", field);
+    }
+    std::lock_guard lock(session->mutex);
+    const auto& uploads = session->state<SessionUploads>().uploads;
+    const auto it = uploads.find(id);
+    if (it == uploads.end()) throw ApiError(404, "unknown_upload", "no such upload in this session", field);
+    out[filename] = it->second;
+  }
+  return out;
 }
 
 }  // namespace distlab::server

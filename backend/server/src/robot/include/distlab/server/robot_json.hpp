@@ -23,8 +23,11 @@
 // Errors:   InvalidInput / ApiError naming the field: "q[3][2]", "obstacles[1].size",
 //           "robot.meshes[\"x.stl\"]", "pairs.allow[0]", "params.tol", ...
 #include <functional>
+#include <map>
 #include <memory>
+#include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -33,7 +36,7 @@
 #include "distlab/robot/robot.hpp"
 #include "distlab/server/config.hpp"
 #include "distlab/server/gap_json.hpp"
-#include "distlab/server/uploads.hpp"
+#include "distlab/server/http.hpp"
 
 namespace distlab::server {
 
@@ -59,38 +62,52 @@ robot::Metric parse_robot_metric(const nlohmann::json& j);
 void validate_robot_bodies(const robot::DistanceModel& model, const std::string& robot_field,
                            const std::function<void()>& checkpoint = {});
 
-// Where a request's robot comes from.
-struct RobotSources {
-  std::string robots_dir;  // the built-in robots, NAME.urdf
-  // The session's upload `id`; throws ApiError (401 without a session, 404 unknown_upload) naming
-  // `field`, the meshes entry that gave the id.
-  std::function<std::shared_ptr<const Upload>(const std::string& id, const std::string& field)> upload;
+// POST /api/robot/distances, read and checked as far as it can be without the robot: its robot
+// as given, q's rows of numbers (finite, |q_i| <= kMaxCoordinate, at most max_robot_configurations
+// rows: 413 too_many_configurations), the obstacles, pairs, metric and params. The handler
+// resolves the robot (robot_run.hpp) and checks q against its dof.
+struct RobotUrdf {
+  std::string text;                           // at most robot::kMaxUrdfBytes
+  std::map<std::string, std::string> meshes;  // <mesh filename> → upload id of the caller's session
 };
-
-// A request, parsed and checked against the limits; `model` holds the robot, the obstacles, the
-// metric, the GAP parameters and the pairs.
+struct RobotQRow {
+  std::vector<double> values;
+  std::string not_array;  // the JSON type of a row that is no array ("" for an array)
+};
+struct RobotQ {
+  bool several = false;         // [[...], ...] rather than one configuration
+  std::vector<RobotQRow> rows;  // none when q is no array or an empty one
+};
 struct RobotDistancesRequest {
-  std::shared_ptr<const robot::DistanceModel> model;
-  std::string robot_name;   // the built-in's name, or the URDF's <robot name>
-  std::string robot_field;  // "robot" or "robot.urdf": where the robot was given
-  bool validate = true;     // params.validate (GAP): Property 2 of every body in a pair
-  bool gradient = true;     // params.gradient: the answer has "jacobian"
-  std::vector<double> q;    // n × dof, row-major
-  int n = 0;
+  std::string builtin;            // a built-in robot's name, or "" with urdf
+  std::optional<RobotUrdf> urdf;  // {"urdf", "meshes"}
+  RobotQ q;
+  std::vector<robot::Obstacle> obstacles;
+  robot::Metric metric = robot::Metric::gap;
+  robot::PairSelection pairs;
+  GapRequestParams params;
 };
+RobotDistancesRequest decode_robot_distances(const Request& request, const Limits& limits);
 
-RobotDistancesRequest parse_robot_distances(const nlohmann::json& body, const RobotSources& sources, const Limits& limits);
+// "robot.meshes[\"x.stl\"]": the field of a meshes entry (the file name as a JSON string, shortened).
+std::string robot_mesh_field(const std::string& filename);
 
-// Checks Property 2 of every GAP body in a pair (validate_robot_bodies) when the request asks for
-// it, then every configuration in chunks; `checkpoint` runs between chunks (the
-// request's time limit). Configurations continue each other's GAP solutions (a trajectory).
-robot::DistanceBatch run_robot_distances(const RobotDistancesRequest& request, const std::function<void()>& checkpoint);
-
+// The answer's content: the model (robot, obstacles, metric, pairs) and every configuration's
+// distances.
+struct RobotDistances {
+  std::shared_ptr<const robot::DistanceModel> model;
+  std::string robot_name;  // the built-in's name, or the URDF's <robot name>
+  bool gradient = true;    // params.gradient: the answer has "jacobian"
+  robot::DistanceBatch batch;
+};
 // The answer (above). std::runtime_error for a non-finite number, which is never sent.
-nlohmann::json encode_robot_distances(const RobotDistancesRequest& request, const robot::DistanceBatch& batch);
+Response encode_robot_distances(const RobotDistances& result);
 
-// The built-in robots (NAME.urdf in robots_dir), sorted: {"robots": [{"name", "dof",
+// GET /api/robot/robots: the built-in robots by name, sorted; answered {"robots": [{"name", "dof",
 // "joint_names", "links", "elements": [{"name", "link"}], "self_pairs"}]}.
-nlohmann::json robots_json(const std::string& robots_dir);
+struct RobotList {
+  std::vector<std::pair<std::string, std::shared_ptr<const robot::Robot>>> robots;
+};
+Response encode_robot_list(const RobotList& list);
 
 }  // namespace distlab::server
