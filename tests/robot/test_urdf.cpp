@@ -145,6 +145,36 @@ TEST(RobotUrdf, HostileTextIsRefusedBeforeParsing) {
     EXPECT_EQ(field_of([name] { Robot::from_file(std::string(DISTLAB_SOURCE_DIR) + "/assets/robots/" + name + ".urdf"); }), "accepted");
 }
 
+// The description limits are the caller's (UrdfOptions::limits; the server's come from its limits
+// table): a description at a limit is accepted, one past it refused naming the limit, and the
+// library's defaults take both.
+TEST(RobotUrdf, DescriptionLimitsAreTheCallers) {
+  using test::field_of;
+  std::string xml = R"(<robot name="r"><link name="l0"><collision><geometry><sphere radius="0.1"/></geometry></collision>)"
+                    R"(<collision><geometry><sphere radius="0.2"/></geometry></collision></link>)";
+  for (int i = 1; i < 3; ++i)
+    xml += "<link name=\"l" + std::to_string(i) + "\"/><joint name=\"j" + std::to_string(i) + "\" type=\"fixed\"><parent link=\"l" +
+           std::to_string(i - 1) + "\"/><child link=\"l" + std::to_string(i) + "\"/></joint>";
+  xml += "</robot>";  // 3 links, 2 joints, 2 collision elements
+  auto parse = [&xml](DescriptionLimits limits) {
+    UrdfOptions options;
+    options.limits = limits;
+    return field_of([&] { Robot::from_urdf(xml, "robot.urdf", options); });
+  };
+  EXPECT_EQ(parse({}), "accepted");
+  EXPECT_EQ(parse({xml.size(), 3, 2, 2, kMaxMeshHullRows, kMaxMeshVertices}), "accepted");
+  const std::pair<DescriptionLimits, std::string> cases[] = {
+      {{xml.size() - 1, 3, 2, 2, kMaxMeshHullRows, kMaxMeshVertices}, "at most " + std::to_string(xml.size() - 1) + " bytes"},
+      {{kMaxUrdfBytes, 2, 2, 2, kMaxMeshHullRows, kMaxMeshVertices}, "at most 2 links"},
+      {{kMaxUrdfBytes, 3, 1, 2, kMaxMeshHullRows, kMaxMeshVertices}, "at most 1 joints"},
+      {{kMaxUrdfBytes, 3, 2, 1, kMaxMeshHullRows, kMaxMeshVertices}, "at most 1 collision elements"},
+  };
+  for (const auto& [limits, what] : cases) {
+    const std::string got = parse(limits);
+    EXPECT_NE(got.find(what), std::string::npos) << got;
+  }
+}
+
 // A mimic of a mimic: θ3 = m3 (m2 q + o2) + o3, by the joints' own matrices; a cycle of mimics.
 TEST(RobotUrdf, MimicChainsAreFollowed) {
   std::string xml = R"(<robot name="chain"><link name="l0"/><link name="l1"/><link name="l2"/><link name="l3"/>)";

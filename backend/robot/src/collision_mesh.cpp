@@ -88,8 +88,8 @@ Polytope mesh_hull(const std::string& filename, const Vec3& scale, const UrdfOpt
       throw InvalidInput(field, what + ": " + e.what());
     }
   }
-  if (static_cast<std::size_t>(m.vertices.rows()) > kMaxMeshVertices)
-    throw InvalidInput(field, what + ": more than " + std::to_string(kMaxMeshVertices) + " vertices");
+  if (static_cast<std::size_t>(m.vertices.rows()) > options.limits.mesh_vertices)
+    throw InvalidInput(field, what + ": more than " + std::to_string(options.limits.mesh_vertices) + " vertices");
   if (m.faces.rows() == 0) throw InvalidInput(field, what + ": has no faces");
   const mesh::Welded welded = mesh::weld(m);
   if (const std::string defect = open_edge(welded.surface); !defect.empty()) {
@@ -105,9 +105,9 @@ Polytope mesh_hull(const std::string& filename, const Vec3& scale, const UrdfOpt
   } catch (const InvalidInput& e) {
     throw InvalidInput(field, what + " is degenerate: " + e.what());
   }
-  if (hull.rows() > kMaxMeshHullRows)
+  if (hull.rows() > options.limits.mesh_hull_rows)
     throw InvalidInput(field, what + ": its convex hull has " + std::to_string(hull.rows()) + " facets, more than " +
-                                  std::to_string(kMaxMeshHullRows) + " (simplify the collision mesh)");
+                                  std::to_string(options.limits.mesh_hull_rows) + " (simplify the collision mesh)");
   return hull;
 }
 

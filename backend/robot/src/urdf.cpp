@@ -140,7 +140,7 @@ class CapturedErrors : public console_bridge::OutputHandler {
 // The links and joints must form one tree before urdfdom sees them: on a cycle (no root link)
 // urdfdom 3.0 fails with its links holding each other (shared pointers in a ring), which leaks
 // them on every such request.
-void check_tree(const TiXmlElement* robot, const std::string& field) {
+void check_tree(const TiXmlElement* robot, const std::string& field, const DescriptionLimits& limits) {
   std::map<std::string, std::string> parent;  // child link -> parent link
   std::map<std::string, int> links;
   for (const TiXmlElement* e = robot->FirstChildElement("link"); e; e = e->NextSiblingElement("link"))
@@ -156,8 +156,8 @@ void check_tree(const TiXmlElement* robot, const std::string& field) {
     if (!links.count(pl) || !links.count(cl)) bad(field, jf + " names a link the URDF does not define");
     if (!parent.emplace(cl, pl).second) bad(field, jf + ": link " + quoted(cl) + " has two parents");
   }
-  if (static_cast<int>(links.size()) > kMaxLinks) bad(field, "at most " + std::to_string(kMaxLinks) + " links");
-  if (static_cast<int>(joints.size()) > kMaxJoints) bad(field, "at most " + std::to_string(kMaxJoints) + " joints");
+  if (links.size() > static_cast<std::size_t>(limits.links)) bad(field, "at most " + std::to_string(limits.links) + " links");
+  if (joints.size() > static_cast<std::size_t>(limits.joints)) bad(field, "at most " + std::to_string(limits.joints) + " joints");
   std::vector<std::string> roots;
   for (const auto& [link, count] : links)
     if (!parent.count(link)) roots.push_back(link);
@@ -222,13 +222,14 @@ std::shared_ptr<const Robot> Robot::load(const std::string& path, const std::str
 
 std::shared_ptr<const Robot> Robot::from_urdf(const std::string& xml, const std::string& field,
                                               const UrdfOptions& options) {
-  if (xml.size() > kMaxUrdfBytes) bad(field, "at most 1 MiB");
+  if (const std::size_t max = options.limits.urdf_bytes; xml.size() > max)
+    bad(field, "at most " + (max % (std::size_t{1} << 20) == 0 ? std::to_string(max >> 20) + " MiB" : std::to_string(max) + " bytes"));
   check_urdf_text(xml, field);  // once, before both parsers below
   TiXmlDocument doc;
   doc.Parse(xml.c_str());
   const TiXmlElement* root = doc.RootElement();
   if (doc.Error() || !root) bad(field, "not XML");
-  check_tree(root, field);
+  check_tree(root, field, options.limits);
   std::string reason;
   const urdf::ModelInterfaceSharedPtr model = parse_urdf(xml, reason);
   if (!model) bad(field, "urdfdom cannot parse it" + (reason.empty() ? std::string() : ": " + reason));
@@ -242,7 +243,7 @@ std::shared_ptr<const Robot> Robot::from_urdf(const std::string& xml, const std:
     r->links_.push_back(attr(e, "name"));
     link_xml.push_back(e);
   }
-  const int nl = static_cast<int>(r->links_.size());  // check_tree: at most kMaxLinks, one tree
+  const int nl = static_cast<int>(r->links_.size());  // check_tree: at most limits.links, one tree
 
   // Joints in file order; evaluation order (parents first) below.
   std::vector<RobotJoint> joints;
@@ -406,8 +407,8 @@ std::shared_ptr<const Robot> Robot::from_urdf(const std::string& xml, const std:
       const std::string name = given.empty() ? r->links_[l] + "/collision[" + std::to_string(c) + "]" : given;
       const std::string cf = "collision[" + std::to_string(c) + "] " + (given.empty() ? "" : quoted(given) + " ") +
                              "of link " + quoted(r->links_[l]);
-      if (static_cast<int>(r->primitives_.size()) >= kMaxCollisionElements)
-        bad(field, "at most " + std::to_string(kMaxCollisionElements) + " collision elements");
+      if (static_cast<int>(r->primitives_.size()) >= options.limits.collision_elements)
+        bad(field, "at most " + std::to_string(options.limits.collision_elements) + " collision elements");
       if (c >= static_cast<int>(ul->collision_array.size()) || !ul->collision_array[c]->geometry)
         bad(field, cf + ": no geometry");
       const urdf::GeometrySharedPtr& g = ul->collision_array[c]->geometry;
