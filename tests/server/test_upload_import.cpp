@@ -31,6 +31,31 @@ TEST_F(UploadImport, HostileFilesAre4xxAndTheServerLivesOn) {
   }
 }
 
+// A caller who may not upload is refused before the file is parsed: without a session the answer
+// is 401 even for a file that cannot be read (a parse first would answer 400), and a session that
+// holds max_uploads_per_session uploads gets 429 for it.
+TEST_F(UploadImport, ARefusedCallerCostsNoParse) {
+  const std::string unreadable = "v 0 0 0\nf 1 2 3\n";  // a face index out of range: 400 once parsed
+  const auto expect_error = [](const httplib::Result& r, int status, const std::string& code) {
+    ASSERT_TRUE(r) << "no response";
+    EXPECT_EQ(r->status, status) << r->body;
+    EXPECT_EQ(body_json(r)["error"]["code"], code) << r->body;
+  };
+  const auto no_session = c.Post("/api/kelvin/uploads?format=obj", unreadable, "application/octet-stream");
+  expect_error(no_session, 401, "session_required");
+  const std::string s = new_session(c);
+  const auto parsed = c.Post("/api/kelvin/uploads?format=obj", session_headers(s), unreadable, "application/octet-stream");
+  expect_error(parsed, 400, "invalid_input");
+  EXPECT_EQ(body_json(parsed)["error"]["field"], "body");
+  const std::size_t most = body_json(c.Get("/api/limits"))["max_uploads_per_session"];
+  for (std::size_t i = 0; i < most; ++i) {
+    const auto r = c.Post("/api/kelvin/uploads?format=obj", session_headers(s), obj_text(), "application/octet-stream");
+    ASSERT_TRUE(r);
+    ASSERT_EQ(r->status, 201) << r->body;
+  }
+  expect_error(c.Post("/api/kelvin/uploads?format=obj", session_headers(s), unreadable, "application/octet-stream"), 429, "too_many_uploads");
+}
+
 TEST_F(UploadImport, AnUploadKeepsTheFilesVerticesAndDuplicates) {
   const std::string s = new_session(c);
   for (const auto& [format, bytes] : std::vector<std::pair<std::string, std::string>>{

@@ -46,7 +46,7 @@ class KelvinModule final : public Module {
   void register_upload_routes();  // assets and uploads (routes_kelvin_uploads.cpp)
   // The upload routes' handlers (routes_kelvin_uploads.cpp; their codec kelvin_upload_codec.hpp).
   AssetNames list_assets(const Nothing& none, const Caller& caller);
-  UploadDescription create_upload(const std::shared_ptr<const Upload>& upload, const Caller& caller);
+  UploadDescription create_upload(const UploadFile& file, const Caller& caller);
   UploadDescription reuse_upload(const UploadDigest& in, const Caller& caller);
   Nothing delete_upload(const UploadId& in, const Caller& caller);
   UploadSurface upload_surface(const UploadId& in, const Caller& caller);
@@ -59,6 +59,8 @@ class KelvinModule final : public Module {
   std::shared_ptr<const Upload> require_upload(Session& session, const std::string& id);
   // Adds an upload to the session and to held_; the upload's description (POST .../uploads).
   UploadDescription add_upload(Session& session, const std::shared_ptr<const Upload>& upload);
+  // 429 too_many_uploads when the session holds max_uploads_per_session (call under its mutex).
+  void require_upload_room(Session& session) const;
   // The mesh with this digest if some session still holds it.
   std::shared_ptr<const Upload> held(const std::string& digest);
 

@@ -2,6 +2,7 @@
 #include "kelvin_upload_codec.hpp"
 
 #include <algorithm>
+#include <utility>
 
 #include <nlohmann/json.hpp>
 
@@ -41,46 +42,54 @@ std::string upload_format(const Request& req) {
 }
 
 // The file's unit: a name ("m", "cm", ...) or a factor to metres (unit ""), not both; metres by
-// default. Sets upload.unit and upload.scale.
-void upload_unit(const Request& req, Upload& upload) {
+// default.
+void upload_unit(const Request& req, UploadFile& file) {
   if (req.query.count("unit") && req.query.count("scale")) throw InvalidInput("scale", "give unit or scale, not both");
-  upload.scale = 1.0;
-  upload.unit = "m";
+  file.scale = 1.0;
+  file.unit = "m";
   if (const auto u = req.query.find("unit"); u != req.query.end()) {
     single_query(req, "unit");
-    upload.scale = unit_scale(u->second);
-    upload.unit = u->second;
+    file.scale = unit_scale(u->second);
+    file.unit = u->second;
   } else if (req.query.count("scale")) {
-    upload.scale = query_number(req, "scale");
-    if (!(upload.scale > 0) || upload.scale > kMaxCoordinate) throw InvalidInput("scale", "scale must be in (0, 1e6] (metres per file unit)");
-    upload.unit = "";
+    file.scale = query_number(req, "scale");
+    if (!(file.scale > 0) || file.scale > kMaxCoordinate) throw InvalidInput("scale", "scale must be in (0, 1e6] (metres per file unit)");
+    file.unit = "";
   }
 }
 
 }  // namespace
 
-std::shared_ptr<const Upload> decode_upload(const Request& req, const Limits& limits) {
-  auto upload = std::make_shared<Upload>();
-  upload->format = upload_format(req);
+UploadFile decode_upload(Request& req, const Limits& limits) {
+  UploadFile file;
+  file.format = upload_format(req);
   // Binary STL states its triangle count up front: refuse before parsing (after the size check,
   // so that garbage is called invalid rather than too large).
-  if (upload->format == "stl")
+  if (file.format == "stl")
     if (const auto n = mesh::binary_stl_triangles(req.body, "body"); n && *n > limits.max_upload_triangles) throw too_many_triangles(limits);
-  upload_unit(req, *upload);
+  upload_unit(req, file);
   // A link's upload again (POST .../uploads/reuse answered 404): the mesh must be the one the
   // link names.
-  std::string expected;
   if (req.query.count("digest")) {
     single_query(req, "digest");
-    expected = valid_digest(req.query.at("digest"), "digest");
+    file.expected_digest = valid_digest(req.query.at("digest"), "digest");
   }
-  upload->surface = load_bytes(req.body, upload->format, limits, upload->scale);
-  upload->bytes = req.body.size();
+  file.bytes = std::move(req.body);
+  return file;
+}
+
+std::shared_ptr<const Upload> read_upload(const UploadFile& file, const Limits& limits) {
+  auto upload = std::make_shared<Upload>();
+  upload->format = file.format;
+  upload->unit = file.unit;
+  upload->scale = file.scale;
+  upload->surface = load_bytes(file.bytes, file.format, limits, file.scale);
+  upload->bytes = file.bytes.size();
   if (static_cast<std::size_t>(upload->surface.faces.rows()) > limits.max_upload_triangles) throw too_many_triangles(limits);
   upload->digest = kelvin::surface_digest(upload->surface);
-  if (!expected.empty() && upload->digest != expected)
+  if (!file.expected_digest.empty() && upload->digest != file.expected_digest)
     throw ApiError(422, "different_mesh",
-                   "this file's mesh has the digest " + upload->digest + ", not the expected " + expected +
+                   "this file's mesh has the digest " + upload->digest + ", not the expected " + file.expected_digest +
                        ": it is another file, or the same file read in another unit",
                    "body");
   return upload;

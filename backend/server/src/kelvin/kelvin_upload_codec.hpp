@@ -61,9 +61,20 @@ struct UploadDefects {
   std::size_t max_items = 0;
 };
 
-// The query (format; unit or scale; the digest a link expects) and the body's bytes, parsed in the
-// isolated child (load_bytes): a binary STL's stated triangle count is refused before parsing.
-std::shared_ptr<const Upload> decode_upload(const Request& req, const Limits& limits);
+// POST /api/kelvin/uploads before its parse: the query (format; unit or scale; the digest a link
+// expects) and the file's bytes, moved out of the request.
+struct UploadFile {
+  std::string bytes, format, unit;  // unit "" when a scale was given
+  double scale = 1.0;               // metres per file unit
+  std::string expected_digest;      // "" when the link named none
+};
+
+// Checks what needs no parse: the query, an empty body, a binary STL's stated triangle count.
+UploadFile decode_upload(Request& req, const Limits& limits);
+// The file parsed in the isolated child (load_bytes) and checked: its triangle count, and the digest
+// a link expects (422 different_mesh). The handler calls it once the caller may upload (its session,
+// room for one more), so that a refused caller costs no parse.
+std::shared_ptr<const Upload> read_upload(const UploadFile& file, const Limits& limits);
 UploadDigest decode_reuse(const Request& req, const Limits& limits);
 UploadId decode_upload_id(const Request& req, const Limits& limits);
 

@@ -60,8 +60,20 @@ AssetNames KelvinModule::list_assets(const Nothing& /*none*/, const Caller& /*ca
   return assets;
 }
 
-UploadDescription KelvinModule::create_upload(const std::shared_ptr<const Upload>& upload, const Caller& caller) {
-  return add_upload(*require_session(caller), upload);
+// The session and its room are checked before the parse, so that a refused caller costs none;
+// add_upload checks the room again, under the lock that adds it.
+UploadDescription KelvinModule::create_upload(const UploadFile& file, const Caller& caller) {
+  auto session = require_session(caller);
+  {
+    std::lock_guard lock(session->mutex);
+    require_upload_room(*session);
+  }
+  return add_upload(*session, read_upload(file, config_.limits));
+}
+
+void KelvinModule::require_upload_room(Session& session) const {
+  if (uploads(session).uploads.size() >= config_.limits.max_uploads_per_session)
+    throw ApiError(429, "too_many_uploads", "this session has too many uploads");
 }
 
 // A mesh this server holds (an upload of any session), by its digest, as an upload of this
@@ -109,8 +121,7 @@ UploadDescription KelvinModule::add_upload(Session& session, const std::shared_p
   const std::string id = random_id();
   {
     std::lock_guard lock(session.mutex);
-    if (uploads(session).uploads.size() >= lim.max_uploads_per_session)
-      throw ApiError(429, "too_many_uploads", "this session has too many uploads");
+    require_upload_room(session);
     uploads(session).held.emplace(id, held_triangles_.reserve(session.address, static_cast<std::size_t>(up->surface.faces.rows()), "body"));
     uploads(session).uploads.emplace(id, up);
   }
