@@ -14,7 +14,7 @@ using json = nlohmann::json;
 void KelvinModule::schedule_frames(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object) {
   {
     std::lock_guard lock(object->mutex);
-    if (object->state != "ready" || object->computing) return;
+    if (object->state != Lifecycle::succeeded || object->computing) return;
     object->computing = true;
   }
   std::weak_ptr<Session> weak = session;
@@ -58,7 +58,7 @@ void KelvinModule::send_frames(const std::shared_ptr<Session>& session, const st
   bool send_surface = only != nullptr, send_sigma = false;
   {
     std::lock_guard lock(object->mutex);
-    if (object->state != "ready" || !object->prepared) return;
+    if (!object->ready()) return;
     prepared = object->prepared;
     sigma = object->sigma;
     solved = object->field_sigma;

@@ -20,14 +20,17 @@ void KelvinModule::ws_message(const std::shared_ptr<Session>& session, const std
     if (it == kelvin_state(*session).objects.end()) throw ApiError(404, "unknown_object", "no such object in this session", "object");
     return it->second;
   };
+  // The same checks as PUT .../levels and .../sigma (kelvin_codec.hpp), after the object's.
   if (type == "watch") {
     json_check_keys(msg, "", {"type", "request", "object", "levels"});
-    if (!msg.contains("levels")) throw InvalidInput("levels", "levels is required");
-    set_levels(session, object(), msg["levels"]);
+    const json& levels = required_field(msg, "levels");
+    const auto o = object();
+    set_levels(session, o, decode_levels(levels, config_.limits));
   } else {  // "sigma"
     json_check_keys(msg, "", {"type", "request", "object", "sigma"});
-    if (!msg.contains("sigma")) throw InvalidInput("sigma", "sigma is required");
-    set_sigma(session, object(), msg["sigma"], socket.get(), request);
+    const json& sigma = required_field(msg, "sigma");
+    const auto o = object();
+    set_sigma(session, o, decode_sigma(sigma), socket.get(), request);
   }
 }
 
@@ -58,7 +61,7 @@ void KelvinModule::joined(const std::shared_ptr<Session>& session, const std::sh
     bool ready;
     {
       std::lock_guard lock(o->mutex);
-      ready = o->state == "ready";
+      ready = o->state == Lifecycle::succeeded;
     }
     if (ready) {
       auto weak = std::weak_ptr<WsSink>(socket);

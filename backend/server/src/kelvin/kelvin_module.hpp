@@ -1,20 +1,24 @@
 #pragma once
 // The Kelvin feature as a module of the service: assets, uploads and objects (routes_kelvin.cpp),
-// their creation and edits (kelvin_service.cpp), their frames (kelvin_frames.cpp), and the
-// WebSocket messages "watch" and "sigma" (kelvin_module.cpp).
+// their creation (kelvin_service.cpp), reads and edits (kelvin_object_handlers.cpp), their frames
+// (kelvin_frames.cpp), and the WebSocket messages "watch" and "sigma" (kelvin_module.cpp).
 #include <atomic>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "distlab/mesh/weld.hpp"
 #include "distlab/server/kelvin_objects.hpp"
 #include "distlab/server/module.hpp"
 #include "distlab/server/service.hpp"
 #include "distlab/server/uploads.hpp"
+#include "kelvin_codec.hpp"
 #include "kelvin_upload_codec.hpp"
 #include "prepare_estimate.hpp"
 
@@ -55,7 +59,7 @@ class KelvinModule final : public Module {
   // This session's objects and uploads; call with session.mutex held.
   static KelvinSessionState& kelvin_state(Session& session) { return session.state<KelvinSessionState>(); }
   static SessionUploads& uploads(Session& session) { return session.state<SessionUploads>(); }
-  std::shared_ptr<KelvinObject> require_object(const Session& session, const Request& request);
+  std::shared_ptr<KelvinObject> require_object(Session& session, const std::string& id);
   std::shared_ptr<const Upload> require_upload(Session& session, const std::string& id);
   // Adds an upload to the session and to held_; the upload's description (POST .../uploads).
   UploadDescription add_upload(Session& session, const std::shared_ptr<const Upload>& upload);
@@ -64,13 +68,54 @@ class KelvinModule final : public Module {
   // The mesh with this digest if some session still holds it.
   std::shared_ptr<const Upload> held(const std::string& digest);
 
-  // estimate_only: checks the inputs and answers estimate_json, creating nothing.
-  nlohmann::json create_object(const std::shared_ptr<Session>& session, const nlohmann::json& body,
-                               bool estimate_only = false);
+  // The object routes' handlers (routes_kelvin.cpp; their codec kelvin_codec.hpp): creation
+  // (kelvin_service.cpp), the rest in kelvin_object_handlers.cpp.
+  CreatedObject create_object(const CreateObjectRequest& in, const Caller& caller);
+  ObjectEstimate estimate(const CreateObjectRequest& in, const Caller& caller);
+  ObjectList list_objects(const Nothing& none, const Caller& caller);
+  std::shared_ptr<KelvinObject> get_object(const ObjectRef& in, const Caller& caller);
+  Nothing delete_object(const ObjectRef& in, const Caller& caller);
+  SigmaState get_sigma(const ObjectRef& in, const Caller& caller);
+  SigmaState put_sigma(const SigmaRequest& in, const Caller& caller);
+  std::vector<double> put_levels(const LevelsRequest& in, const Caller& caller);
+  QueryResult query(const QueryRequest& in, const Caller& caller);
+  Isosurface isosurface(const LevelRequest& in, const Caller& caller);
+  SurfaceView surface(const SurfaceRequest& in, const Caller& caller);
+  ExportFile export_isosurface(const LevelRequest& in, const Caller& caller);
+
+  // What creating and estimating share: the user's mesh (loaded, within the triangle bounds), its
+  // weld, the options with l_x resolved (at least min_lx), and the vertex estimate.
+  struct ObjectPlan {
+    mesh::SurfaceMesh surface;
+    mesh::Welded welded;
+    kelvin::PrepareOptions options;
+    double diagonal = 0, estimate = 0;
+  };
+  ObjectPlan plan_object(const CreateObjectRequest& in, Session& session);
+  // Refuses what the preparation would (over the vertex budget, not closed, a bad centre) before
+  // a job exists; sets the job's meshing cap.
+  void check_preparable(const CreateObjectRequest& in, ObjectPlan& plan) const;
+  std::shared_ptr<KelvinObject> make_object(const CreateObjectRequest& in, ObjectPlan& plan, const Session& session);
+  // Submits the object's preparation job (repair, predict, prepare) and returns it.
+  std::shared_ptr<Job> start_preparation(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,
+                                         const kelvin::PrepareOptions& options);
+  // The job's work; its result {"object", "stats"}.
+  nlohmann::json prepare_object(Job& job, const std::shared_ptr<KelvinObject>& object, const kelvin::PrepareOptions& options,
+                                const std::weak_ptr<Session>& session);
+  // Repairs (if asked), predicts and prepares the object's field, which it sets on the object.
+  void prepare_field(Job& job, KelvinObject& object, const kelvin::PrepareOptions& options, const std::function<void()>& announce);
   // `predicted`: the surface the preparation will prepare, or null when the request's repair
   // makes it (then the estimate predicts nothing and says so).
-  nlohmann::json estimate_json(const mesh::SurfaceMesh& welded, kelvin::PrepareOptions options, double estimate,
-                               const mesh::SurfaceMesh* predicted, bool reshaped);
+  ObjectEstimate estimate_of(const mesh::SurfaceMesh& welded, kelvin::PrepareOptions options, double estimate,
+                             const mesh::SurfaceMesh* predicted, bool reshaped);
+  // The object's prepared field with its σ, or 409 not_ready.
+  struct ReadyField {
+    std::shared_ptr<PreparedField> prepared;
+    kelvin::SigmaSpec sigma;
+    std::string key;
+    std::uint64_t version = 0;
+  };
+  static ReadyField ready_field(KelvinObject& object);
   // kelvin::predict_preparation through predictions_ (options.max_vertices as the job's).
   // Throws what it throws (InvalidInput: the refusal the preparation would give; kelvin::Cancelled
   // once *cancel is set).
@@ -78,10 +123,10 @@ class KelvinModule final : public Module {
                                     const std::atomic<bool>* cancel = nullptr);
   std::optional<kelvin::PreparePrediction> cached_prediction(const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& options);
   // origin: the socket that sent the edit (gets the acknowledgement with its request id).
-  void set_sigma(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,
-                 const nlohmann::json& sigma, WsSink* origin = nullptr, const nlohmann::json& request = nullptr);
+  void set_sigma(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object, const SigmaEdit& sigma,
+                 WsSink* origin = nullptr, const nlohmann::json& request = nullptr);
   void set_levels(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,
-                  const nlohmann::json& levels);
+                  std::vector<double> levels);
   void schedule_frames(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object);
   void send_frames(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,
                    WsSink* only = nullptr);

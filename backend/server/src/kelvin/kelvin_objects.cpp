@@ -140,9 +140,38 @@ std::size_t PreparedRegistry::size() const {
   return entries_.size();
 }
 
+const char* object_state_name(Lifecycle state, PrepareStage stage) {
+  switch (state) {
+    case Lifecycle::queued:
+    case Lifecycle::running:
+      return stage == PrepareStage::repairing ? "repairing" : "preparing";
+    case Lifecycle::succeeded:
+      return "ready";
+    case Lifecycle::failed:
+      return "failed";
+    case Lifecycle::cancelled:
+      return "cancelled";
+  }
+  return "unknown";
+}
+
+namespace {
+json source_json(const ObjectSource& s) {
+  json j = {{"lx", s.lx}, {"vertex_estimate", s.vertex_estimate}, {"repair", s.repair}};
+  if (!s.asset.empty()) j["asset"] = s.asset;
+  else if (!s.upload.empty()) j["upload"] = s.upload;
+  else j["mesh"] = "inline";
+  if (s.center) j["center"] = {s.center->x(), s.center->y(), s.center->z()};
+  if (s.far_radius) j["far_radius"] = *s.far_radius;
+  if (s.grading) j["grading"] = *s.grading;
+  if (s.lx_fraction) j["lx_fraction"] = *s.lx_fraction;
+  return j;
+}
+}  // namespace
+
 json KelvinObject::status_json() {
   std::lock_guard lock(mutex);
-  json j = {{"id", id}, {"state", state}, {"job", job}, {"source", source}, {"n_input_vertices", surface.vertices.rows()}, {"n_input_faces", surface.faces.rows()}, {"n_welded_vertices", welded.vertices.rows()}, {"surface_digest", surface_digest}, {"repair", reshape.repair.kind}, {"sigma_version", sigma_version}, {"levels", levels}, {"key", key}};
+  json j = {{"id", id}, {"state", object_state_name(state, stage)}, {"job", job}, {"source", source_json(source)}, {"n_input_vertices", surface.vertices.rows()}, {"n_input_faces", surface.faces.rows()}, {"n_welded_vertices", welded.vertices.rows()}, {"surface_digest", surface_digest}, {"repair", reshape.repair.kind}, {"sigma_version", sigma_version}, {"levels", levels}, {"key", key}};
   if (!error.is_null()) j["error"] = error;
   if (!repair_report.is_null()) j["repair_report"] = repair_report;
   if (reshape.simplify_faces > 0) j["simplify"] = {{"faces", reshape.simplify_faces}};
@@ -231,10 +260,9 @@ mesh::WrapOptions wrap_options(const RepairRequest& request) {
 }
 }  // namespace
 
-json repair_estimate_json(const mesh::SurfaceMesh& user, const RepairRequest& request) {
-  if (request.kind != "wrap") return nullptr;
-  const mesh::WrapEstimate e = mesh::estimate_wrap(user, wrap_options(request));
-  return {{"alpha", e.alpha}, {"offset", e.offset}, {"faces", std::round(e.faces)}, {"megabytes", e.megabytes}, {"seconds", e.seconds}};
+std::optional<mesh::WrapEstimate> repair_estimate(const mesh::SurfaceMesh& user, const RepairRequest& request) {
+  if (request.kind != "wrap") return std::nullopt;
+  return mesh::estimate_wrap(user, wrap_options(request));
 }
 
 void require_repair_within(const mesh::SurfaceMesh& user, const RepairRequest& request, const Limits& limits) {

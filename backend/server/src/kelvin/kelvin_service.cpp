@@ -1,5 +1,5 @@
-// The Service's Kelvin objects: creation (from an asset, an upload or an inline mesh; prepared
-// as a job), lookup, and edits of σ and of the watched iso-levels (which reschedule the frames).
+// The Kelvin objects' creation (from an asset, an upload or an inline mesh) and its estimate, and
+// the preparation job (repair, prediction, the prepared field).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -34,8 +34,8 @@ void run_repair(KelvinObject& o, const kelvin::PrepareOptions& options, const Li
   // What prepare would refuse (a centre outside, a surface over budget), refused now by name.
   const double estimate = estimate_vertices(r.surface, options.lx, options.far_radius, sizing_for_budget(options));
   if (estimate > static_cast<double>(lim.max_vertex_estimate))
-    throw InvalidInput("lx", "the repaired surface at lx " + json(options.lx).dump() + " would make about " +
-                                 json(std::round(estimate)).dump() + " vertices, over this server's budget of " +
+    throw InvalidInput("lx", "the repaired surface at lx " + number_text(options.lx) + " would make about " +
+                                 number_text(std::round(estimate)) + " vertices, over this server's budget of " +
                                  std::to_string(lim.max_vertex_estimate) + "; use a larger lx");
   kelvin::check_prepare_inputs(r.surface, options);
   mesh::Transfer transfer = mesh::nearest_face_transfer(o.surface, r.surface.vertices, progress);
@@ -47,287 +47,175 @@ void run_repair(KelvinObject& o, const kelvin::PrepareOptions& options, const Li
   o.components_report = std::move(r.components_report);
   o.key = kelvin::prepare_key(o.repaired, options);
   o.field_sigma = field_sigma(o.sigma, o);
-  o.state = "preparing";
+  o.stage = PrepareStage::preparing;
 }
 
 }  // namespace
 
-std::shared_ptr<KelvinObject> KelvinModule::require_object(const Session& session, const Request& request) {
-  auto& s = const_cast<Session&>(session);
-  std::lock_guard lock(s.mutex);
-  auto it = kelvin_state(s).objects.find(request.params.at("id"));
-  if (it == kelvin_state(s).objects.end()) throw ApiError(404, "unknown_object", "no such object in this session");
-  return it->second;
-}
-
-json KelvinModule::create_object(const std::shared_ptr<Session>& session, const json& body, bool estimate_only) {
+KelvinModule::ObjectPlan KelvinModule::plan_object(const CreateObjectRequest& in, Session& session) {
   const Limits& lim = config_.limits;
-  if (!body.is_object()) throw InvalidInput("", "the request must be an object");
-  for (const auto& [k, v] : body.items())
-    if (k != "asset" && k != "upload" && k != "mesh" && k != "lx" && k != "lx_fraction" && k != "center" && k != "far_radius" &&
-        k != "grading" && k != "sigma" && k != "levels" && k != "repair" && k != "repair_options" && k != "simplify" && k != "components" && k != "comment")
-      throw InvalidInput(k, "unknown key \"" + k.substr(0, 64) + "\"");
-  const int sources = static_cast<int>(body.contains("asset")) + static_cast<int>(body.contains("upload")) +
-                      static_cast<int>(body.contains("mesh"));
-  if (sources != 1) throw InvalidInput("", "give exactly one of asset, upload and mesh");
-  if (body.contains("lx") == body.contains("lx_fraction"))
-    throw InvalidInput("lx", "give lx (metres) or lx_fraction (of the bounding box's diagonal), exactly one");
-  kelvin::PrepareOptions options;
-  double lx_fraction = 0;
-  if (body.contains("lx")) {
-    options.lx = json_number(body["lx"], "lx");
-    if (!(options.lx > 0)) throw InvalidInput("lx", "lx must be positive");
-  } else {
-    lx_fraction = json_number(body["lx_fraction"], "lx_fraction");
-    if (!(lx_fraction > 0) || lx_fraction > 1) throw InvalidInput("lx_fraction", "lx_fraction must be in (0, 1]");
-  }
-  if (body.contains("center")) options.centre = json_vec3(body["center"], "center", kMaxCoordinate);
-  if (body.contains("far_radius")) {
-    options.far_radius = json_number(body["far_radius"], "far_radius", kelvin::kMaxFarRadius);
-    if (!(options.far_radius >= 0.5)) throw InvalidInput("far_radius", "far_radius must be in [0.5, " + json(kelvin::kMaxFarRadius).dump() + "]");
-  }
-  if (body.contains("grading")) {  // absent: prepare chooses
-    options.grading = json_number(body["grading"], "grading", kelvin::kMaxGrading);
-    if (!(*options.grading >= 0)) throw InvalidInput("grading", "grading must be in [0, " + json(kelvin::kMaxGrading).dump() + "]");
-  }
-  const ReshapeRequest reshape = parse_reshape(body, lim);
-  const RepairRequest& repair = reshape.repair;
-  const std::size_t simplify_faces = reshape.simplify_faces;
-  json source = json::object();
-  if (options.centre) source["center"] = {options.centre->x(), options.centre->y(), options.centre->z()};
-  if (body.contains("far_radius")) source["far_radius"] = options.far_radius;
-  if (options.grading) source["grading"] = *options.grading;
-
-  mesh::SurfaceMesh surface;
-  if (body.contains("asset")) {
-    if (!body["asset"].is_string() || !valid_name(body["asset"])) throw InvalidInput("asset", "asset must be an asset name");
-    const std::string name = body["asset"];
+  ObjectPlan plan;
+  plan.options = in.options;
+  if (!in.asset.empty()) {
     std::string path;
     for (const char* ext : kMeshExtensions) {
-      const fs::path p = fs::path(config_.assets_dir) / (name + ext);
+      const fs::path p = fs::path(config_.assets_dir) / (in.asset + ext);
       std::error_code ec;
       if (fs::is_regular_file(p, ec)) {
         path = p.string();
         break;
       }
     }
-    if (path.empty()) throw ApiError(404, "unknown_asset", "no asset named \"" + name + "\"", "asset");
-    surface = mesh::load_mesh(path, "asset");
-    source["asset"] = name;
-  } else if (body.contains("upload")) {
-    if (!body["upload"].is_string()) throw InvalidInput("upload", "upload must be an upload id");
-    std::lock_guard lock(session->mutex);
-    auto it = uploads(*session).uploads.find(body["upload"].get<std::string>());
-    if (it == uploads(*session).uploads.end()) throw ApiError(404, "unknown_upload", "no such upload in this session", "upload");
-    surface = it->second->surface;
-    source["upload"] = it->first;
+    if (path.empty()) throw ApiError(404, "unknown_asset", "no asset named \"" + in.asset + "\"", "asset");
+    plan.surface = mesh::load_mesh(path, "asset");
+  } else if (!in.upload.empty()) {
+    std::lock_guard lock(session.mutex);
+    auto it = uploads(session).uploads.find(in.upload);
+    if (it == uploads(session).uploads.end()) throw ApiError(404, "unknown_upload", "no such upload in this session", "upload");
+    plan.surface = it->second->surface;
   } else {
-    surface = inline_mesh(body["mesh"], lim.max_upload_triangles);
-    source["mesh"] = "inline";
+    plan.surface = *in.mesh;
   }
-  if (static_cast<std::size_t>(surface.faces.rows()) > lim.max_upload_triangles)
+  const auto faces = static_cast<std::size_t>(plan.surface.faces.rows());
+  if (faces > lim.max_upload_triangles)
     throw ApiError(413, "too_many_triangles", "at most " + std::to_string(lim.max_upload_triangles) + " triangles", "mesh");
   // A scan is prepared only once simplified or wrapped to what a preparation takes.
-  const auto faces = static_cast<std::size_t>(surface.faces.rows());
-  if (faces > lim.max_object_triangles && simplify_faces == 0 && repair.kind != "wrap")
+  if (faces > lim.max_object_triangles && in.reshape.simplify_faces == 0 && in.reshape.repair.kind != "wrap")
     throw ApiError(422, "too_many_triangles",
                    "the mesh has " + std::to_string(faces) + " triangles and a preparation takes at most " + std::to_string(lim.max_object_triangles) +
                        ": add \"simplify\": {\"faces\": N} with N ≤ " + std::to_string(lim.max_object_triangles) + ", or \"repair\": \"wrap\"",
                    "simplify.faces");
   // A wrap over its budget is refused here, before a job (and its memory) exists.
   try {
-    require_repair_within(surface, repair, lim);
+    require_repair_within(plan.surface, in.reshape.repair, lim);
   } catch (const InvalidInput& e) {
     throw ApiError(422, "over_budget", e.field() + ": " + e.what(), e.field());
   }
   // The user's mesh keeps its vertex order for the API; the field is prepared on the weld. The
-  // budget counts every parameter that grows the mesh (lx and far_radius); the field named is
-  // far_radius when the request would fit with the default far radius.
-  mesh::Welded welded = mesh::weld(surface);
-  const std::string lx_field = body.contains("lx") ? "lx" : "lx_fraction";
-  const double diagonal = (welded.surface.vertices.colwise().maxCoeff() - welded.surface.vertices.colwise().minCoeff()).norm();
-  if (body.contains("lx_fraction")) {
-    options.lx = lx_fraction * diagonal;
-    source["lx_fraction"] = lx_fraction;
-  }
-  source["lx"] = options.lx;
-  if (options.lx < lim.min_lx)
-    throw ApiError(422, "over_budget", lx_field + " gives lx " + json(options.lx).dump() + " m, but lx must be at least " + json(lim.min_lx).dump() + " m on this server", lx_field);
-  const auto budget = static_cast<double>(lim.max_vertex_estimate);
+  // budget counts every parameter that grows the mesh (lx and far_radius).
+  plan.welded = mesh::weld(plan.surface);
+  const mesh::SurfaceMesh& welded = plan.welded.surface;
+  plan.diagonal = (welded.vertices.colwise().maxCoeff() - welded.vertices.colwise().minCoeff()).norm();
+  if (in.lx_fraction) plan.options.lx = *in.lx_fraction * plan.diagonal;
+  if (plan.options.lx < lim.min_lx)
+    throw ApiError(422, "over_budget", std::string(in.lx_field()) + " gives lx " + number_text(plan.options.lx) + " m, but lx must be at least " + number_text(lim.min_lx) + " m on this server", in.lx_field());
   // A simplified surface has about faces / 2 vertices instead of the weld's.
-  const double simplified = simplify_faces > 0 ? static_cast<double>(std::min<Eigen::Index>(welded.surface.vertices.rows(), static_cast<Eigen::Index>(simplify_faces / 2 + 2))) - static_cast<double>(welded.surface.vertices.rows()) : 0.0;
-  const double estimate = estimate_vertices(welded.surface, options.lx, options.far_radius, sizing_for_budget(options)) + simplified;
-  if (estimate_only) {
-    // The vertices are predicted on the surface the preparation will prepare: the weld, its
-    // largest piece, or for a simplification the weld it simplifies (the same shape; a mesh
-    // over max_object_triangles is not predicted: that costs seconds). A fix or wrap makes the
-    // surface in the job, which predicts then (the object's "estimate").
-    std::optional<mesh::SurfaceMesh> piece;
-    const mesh::SurfaceMesh* predicted = nullptr;
-    std::string note;
-    if (repair.kind != "none") {
-      note = "the " + repair.kind + " makes the surface: its field vertices are predicted once it exists (the object's estimate)";
-    } else if (faces > lim.max_object_triangles) {
-      note = "the mesh has more than max_object_triangles triangles: its field vertices are predicted once simplified (the object's estimate)";
-    } else {
-      if (reshape.largest_piece) piece = mesh::largest_piece(welded.surface);
-      predicted = piece ? &*piece : &welded.surface;
-      if (simplify_faces > 0) note = "predicted on the mesh before simplify (the same shape)";
-    }
-    json out = estimate_json(welded.surface, options, estimate, predicted, reshape.any());
-    if (!note.empty() && out["prediction_note"].is_null()) out["prediction_note"] = note;
-    if (json wrap = repair_estimate_json(surface, repair); !wrap.is_null()) out["repair_estimate"] = std::move(wrap);
-    return out;
+  const std::size_t simplify_faces = in.reshape.simplify_faces;
+  const double simplified = simplify_faces > 0 ? static_cast<double>(std::min<Eigen::Index>(welded.vertices.rows(), static_cast<Eigen::Index>(simplify_faces / 2 + 2))) - static_cast<double>(welded.vertices.rows()) : 0.0;
+  plan.estimate = estimate_vertices(welded, plan.options.lx, plan.options.far_radius, sizing_for_budget(plan.options)) + simplified;
+  return plan;
+}
+
+ObjectEstimate KelvinModule::estimate(const CreateObjectRequest& in, const Caller& caller) {
+  auto session = require_session(caller);
+  const ObjectPlan plan = plan_object(in, *session);
+  const RepairRequest& repair = in.reshape.repair;
+  // The vertices are predicted on the surface the preparation will prepare: the weld, its
+  // largest piece, or for a simplification the weld it simplifies (the same shape; a mesh over
+  // max_object_triangles is not predicted: that costs seconds). A fix or wrap makes the surface in
+  // the job, which predicts then (the object's "estimate").
+  std::optional<mesh::SurfaceMesh> piece;
+  const mesh::SurfaceMesh* predicted = nullptr;
+  std::string note;
+  if (repair.kind != "none") {
+    note = "the " + repair.kind + " makes the surface: its field vertices are predicted once it exists (the object's estimate)";
+  } else if (static_cast<std::size_t>(plan.surface.faces.rows()) > config_.limits.max_object_triangles) {
+    note = "the mesh has more than max_object_triangles triangles: its field vertices are predicted once simplified (the object's estimate)";
+  } else {
+    if (in.reshape.largest_piece) piece = mesh::largest_piece(plan.welded.surface);
+    predicted = piece ? &*piece : &plan.welded.surface;
+    if (in.reshape.simplify_faces > 0) note = "predicted on the mesh before simplify (the same shape)";
   }
-  if (estimate > budget) {
-    const bool far = estimate_vertices(welded.surface, options.lx, 1.0, sizing_for_budget(options)) <= budget;
-    const double fits = std::max(lim.min_lx, smallest_lx_within(welded.surface, budget, options.far_radius));
+  ObjectEstimate out = estimate_of(plan.welded.surface, plan.options, plan.estimate, predicted, in.reshape.any());
+  if (!note.empty() && !out.prediction_note) out.prediction_note = note;
+  out.repair = repair_estimate(plan.surface, repair);
+  return out;
+}
+
+void KelvinModule::check_preparable(const CreateObjectRequest& in, ObjectPlan& plan) const {
+  const Limits& lim = config_.limits;
+  kelvin::PrepareOptions& options = plan.options;
+  const mesh::SurfaceMesh& welded = plan.welded.surface;
+  const auto budget = static_cast<double>(lim.max_vertex_estimate);
+  if (plan.estimate > budget) {
+    // The field named is far_radius when the request would fit with the default far radius.
+    const bool far = estimate_vertices(welded, options.lx, 1.0, sizing_for_budget(options)) <= budget;
+    const double fits = std::max(lim.min_lx, smallest_lx_within(welded, budget, options.far_radius));
     const std::string advice =
-        far                ? "; use a smaller far_radius"
-        : fits <= diagonal ? "; lx " + json(fits).dump() + " m or larger fits (lx_fraction " + json(fits / diagonal).dump() + ")"
-                           : "; no lx up to the bounding box's diagonal (" + json(diagonal).dump() + " m) fits: the surface has too many vertices";
+        far                     ? "; use a smaller far_radius"
+        : fits <= plan.diagonal ? "; lx " + number_text(fits) + " m or larger fits (lx_fraction " + number_text(fits / plan.diagonal) + ")"
+                                : "; no lx up to the bounding box's diagonal (" + number_text(plan.diagonal) + " m) fits: the surface has too many vertices";
     throw ApiError(422, "over_budget",
-                   std::string(far ? "far_radius " + json(options.far_radius).dump() : "lx " + json(options.lx).dump()) +
-                       " would make about " + json(std::round(estimate)).dump() + " vertices, over this server's budget of " +
+                   std::string(far ? "far_radius " + number_text(options.far_radius) : "lx " + number_text(options.lx)) +
+                       " would make about " + number_text(std::round(plan.estimate)) + " vertices, over this server's budget of " +
                        std::to_string(lim.max_vertex_estimate) + advice,
-                   far ? "far_radius" : lx_field);
+                   far ? "far_radius" : in.lx_field());
   }
-  source["vertex_estimate"] = std::llround(estimate);
   // The job's meshing cap is the same budget, and whatever prepare would refuse (a surface that
   // is not closed, a centre outside or too near the surface) is refused now, before a job starts.
   options.max_vertices = std::max<std::size_t>(100, lim.max_vertex_estimate);
-  if (repair.kind == "none" && reshape.largest_piece) {
+  if (in.reshape.repair.kind != "none") return;
+  if (in.reshape.largest_piece) {
     // The piece prepared is checked, in its own numbering (the others are dropped).
-    const mesh::SurfaceMesh piece = mesh::largest_piece(welded.surface);
+    const mesh::SurfaceMesh piece = mesh::largest_piece(welded);
     if (const std::string defect = mesh::topology_defect(piece); !defect.empty())
       throw InvalidInput("components", "the largest piece is not a closed manifold surface: " + defect +
                                            " (numbers of the piece's own vertices and faces); \"repair\": \"fix\" or \"wrap\" can make it one");
     kelvin::check_prepare_inputs(piece, options);
-  } else if (repair.kind == "none") {
-    // Topology first, named in the file's numbering: a welded vertex is its first file vertex.
-    std::vector<int> names(static_cast<std::size_t>(welded.surface.vertices.rows()), -1);
-    for (std::size_t i = 0; i < welded.to_welded.size(); ++i)
-      if (const int w = welded.to_welded[i]; w >= 0 && names[static_cast<std::size_t>(w)] < 0) names[static_cast<std::size_t>(w)] = static_cast<int>(i);
-    if (const std::string defect = mesh::topology_defect(welded.surface, names); !defect.empty())
-      throw InvalidInput(body.contains("upload") ? "upload" : body.contains("asset") ? "asset"
-                                                                                     : "mesh",
-                         "the mesh is not a closed manifold surface: " + defect +
-                             " (vertex and face numbers are the file's); \"repair\": \"fix\" or \"wrap\" can make it one");
-    // A simplified surface is checked in the job (run_repair), as a repaired one: on a 2M-face
-    // scan this check takes 3.6 s, too long for the request.
-    if (simplify_faces == 0) kelvin::check_prepare_inputs(welded.surface, options);
+    return;
   }
-  source["repair"] = repair.kind;
+  // Topology first, named in the file's numbering: a welded vertex is its first file vertex.
+  std::vector<int> names(static_cast<std::size_t>(welded.vertices.rows()), -1);
+  for (std::size_t i = 0; i < plan.welded.to_welded.size(); ++i)
+    if (const int w = plan.welded.to_welded[i]; w >= 0 && names[static_cast<std::size_t>(w)] < 0) names[static_cast<std::size_t>(w)] = static_cast<int>(i);
+  if (const std::string defect = mesh::topology_defect(welded, names); !defect.empty())
+    throw InvalidInput(in.source_field(), "the mesh is not a closed manifold surface: " + defect +
+                                              " (vertex and face numbers are the file's); \"repair\": \"fix\" or \"wrap\" can make it one");
+  // A simplified surface is checked in the job (run_repair), as a repaired one: on a 2M-face
+  // scan this check takes 3.6 s, too long for the request.
+  if (in.reshape.simplify_faces == 0) kelvin::check_prepare_inputs(welded, options);
+}
 
+std::shared_ptr<KelvinObject> KelvinModule::make_object(const CreateObjectRequest& in, ObjectPlan& plan, const Session& session) {
   auto object = std::make_shared<KelvinObject>();
-  object->held = held_triangles_.reserve(session->address, faces, body.contains("upload") ? "upload" : body.contains("asset") ? "asset"
-                                                                                                                              : "mesh");
+  object->held = held_triangles_.reserve(session.address, static_cast<std::size_t>(plan.surface.faces.rows()), in.source_field());
   object->id = random_id();
-  object->key = kelvin::prepare_key(welded.surface, options);
-  object->source = source;
-  object->surface = std::move(surface);
-  object->welded = std::move(welded.surface);
-  object->to_welded = std::move(welded.to_welded);
-  object->reshape = reshape;
-  if (object->reshaped()) object->state = "repairing";
+  object->key = kelvin::prepare_key(plan.welded.surface, plan.options);
+  object->source = {in.asset, in.upload, plan.options.centre, in.far_radius, plan.options.grading, in.lx_fraction, plan.options.lx,
+                    std::llround(plan.estimate), in.reshape.repair.kind};
+  object->surface = std::move(plan.surface);
+  object->welded = std::move(plan.welded.surface);
+  object->to_welded = std::move(plan.welded.to_welded);
+  object->reshape = in.reshape;
+  if (object->reshaped()) object->stage = PrepareStage::repairing;
   object->surface_digest = kelvin::surface_digest(object->surface);
-  object->sigma_key = sigma_key(*object, json::object());
-  if (body.contains("sigma")) {
-    object->sigma = parse_sigma(body["sigma"]);
+  object->sigma_key = sigma_key(*object, object->sigma_given);
+  if (in.sigma) {
+    object->sigma = in.sigma->spec;
     object->field_sigma = kelvin::field_sigma(object->sigma, object->surface.vertices, object->to_welded, object->welded.vertices.rows());
-    object->sigma_json = body["sigma"];
-    object->sigma_key = sigma_key(*object, body["sigma"]);
+    object->sigma_given = in.sigma->given;
+    object->sigma_key = sigma_key(*object, in.sigma->given);
   }
-  if (body.contains("levels")) object->levels = parse_levels(body["levels"], "levels", lim.max_levels);
+  if (in.levels) object->levels = *in.levels;
+  return object;
+}
+
+CreatedObject KelvinModule::create_object(const CreateObjectRequest& in, const Caller& caller) {
+  auto session = require_session(caller);
+  ObjectPlan plan = plan_object(in, *session);
+  check_preparable(in, plan);
+  const kelvin::PrepareOptions options = plan.options;
+  auto object = make_object(in, plan, *session);
   {
     std::lock_guard lock(session->mutex);
-    if (kelvin_state(*session).objects.size() >= lim.max_objects_per_session)
-      throw ApiError(429, "too_many_objects",
-                     "this session already has " + std::to_string(lim.max_objects_per_session) + " objects; delete one first");
+    const std::size_t most = config_.limits.max_objects_per_session;
+    if (kelvin_state(*session).objects.size() >= most)
+      throw ApiError(429, "too_many_objects", "this session already has " + std::to_string(most) + " objects; delete one first");
     kelvin_state(*session).objects.emplace(object->id, object);
   }
-  std::weak_ptr<Session> weak_session = session;
   std::shared_ptr<Job> job;
   try {
-    job = jobs_.submit(session->id, "kelvin_prepare", {{"object", object->id}}, [this, object, options, weak_session](Job& j) {
-      auto announce = [&] {
-        if (auto s = weak_session.lock()) s->broadcast(json{{"type", "object"}, {"object", object->status_json()}}.dump(), false);
-      };
-      try {
-        // The job's fraction: a repair's own while it repairs, then the preparation's overall
-        // fraction, its stages weighed by their predicted seconds (set below, once predicted).
-        std::optional<kelvin::StageProgress> stages;
-        kelvin::Progress progress;
-        progress.report = [&j, &stages](const std::string& stage, double fraction) {
-          j.report(stage, stages ? stages->report(stage, fraction) : fraction);
-        };
-        progress.cancel = &j.cancel;
-        if (object->reshaped()) {
-          // The long part of a repair request (the user's mesh is already imported and checked):
-          // fix and wrap poll the job's token and report stage "repair".
-          run_repair(*object, options, config_.limits, progress);
-        }
-        // What this preparation will make, predicted on the surface it prepares: the estimate's
-        // when this request was estimated (POST /api/kelvin/estimate), else predicted now where
-        // the estimate could not (a repaired or simplified surface); a refusal is left to the
-        // preparation to give.
-        const mesh::SurfaceMesh& to_prepare = object->reshaped() ? object->repaired : object->welded;
-        json predicted = nullptr;
-        std::optional<kelvin::PreparePrediction> p;
-        try {
-          p = cached_prediction(to_prepare, options);
-          if (!p && object->reshaped()) p = predict(to_prepare, options, &j.cancel);
-          if (p) predicted = prediction_json(p, prepare_rate_);
-        } catch (const kelvin::Cancelled&) {
-          throw;
-        } catch (const std::exception&) {
-          // No prediction (the preparation gives any refusal itself).
-        }
-        {
-          std::lock_guard lock(object->mutex);
-          object->estimate = std::move(predicted);
-        }
-        // Unpredicted (a request not estimated first), the shares are the rates of the sizing
-        // asked for (or of both sizings) at the size of the preparations measured.
-        stages.emplace(stage_shares(p, prepare_rate_, options.grading));
-        if (object->reshaped()) announce();  // the repair's report and the prediction on its surface
-        j.report("load", 0.0);
-        bool from_memory = false;
-        auto prepared = registry_.acquire(to_prepare, options, progress, &from_memory);
-        stages->finish();
-        const bool computed = !from_memory && !prepared->cache_hit;
-        {
-          std::lock_guard lock(object->mutex);
-          object->prepared = prepared;
-          object->shared = from_memory;
-          if (computed) object->stage_seconds = stages->seconds();
-          object->state = "ready";
-        }
-        j.report("ready", 1.0);
-        announce();
-        if (auto s = weak_session.lock()) schedule_frames(s, object);
-        // This server's seconds per vertex learn from what it computed (not from a cache or
-        // another object's preparation).
-        if (computed) prepare_rate_.record(prepared->field.stats().grading, stages->seconds(), static_cast<double>(prepared->field.stats().n_verts));
-        const json status = object->status_json();
-        return json{{"object", object->id}, {"stats", status.value("stats", json::object())}};
-      } catch (const kelvin::Cancelled&) {
-        {
-          std::lock_guard lock(object->mutex);
-          object->state = "cancelled";
-        }
-        announce();
-        throw;
-      } catch (const std::exception&) {
-        {  // the job's own mapping logs an internal error
-          std::lock_guard lock(object->mutex);
-          object->state = j.cancelled() ? "cancelled" : "failed";
-          object->error = error_answer(std::current_exception(), "job_failed", "internal error (logged on the server)", nullptr).body();
-        }
-        announce();
-        throw;
-      }
-    });
+    job = start_preparation(session, object, options);
   } catch (...) {
     std::lock_guard lock(session->mutex);
     kelvin_state(*session).objects.erase(object->id);
@@ -337,25 +225,121 @@ json KelvinModule::create_object(const std::shared_ptr<Session>& session, const 
     std::lock_guard lock(object->mutex);
     object->job = job->id;
   }
-  return {{"object", object->status_json()}, {"job", job->to_json()}};
+  return {object, job};
+}
+
+std::shared_ptr<Job> KelvinModule::start_preparation(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,
+                                                     const kelvin::PrepareOptions& options) {
+  std::weak_ptr<Session> weak_session = session;
+  return jobs_.submit(session->id, "kelvin_prepare", {{"object", object->id}},
+                      [this, object, options, weak_session](Job& j) { return prepare_object(j, object, options, weak_session); });
+}
+
+json KelvinModule::prepare_object(Job& j, const std::shared_ptr<KelvinObject>& object, const kelvin::PrepareOptions& options,
+                                  const std::weak_ptr<Session>& weak_session) {
+  auto announce = [&] {
+    if (auto s = weak_session.lock()) s->broadcast(json{{"type", "object"}, {"object", object->status_json()}}.dump(), false);
+  };
+  auto end = [&](Lifecycle state, bool with_error) {
+    {
+      std::lock_guard lock(object->mutex);
+      object->state = state;
+      if (with_error)  // the job's own mapping logs an internal error
+        object->error = error_answer(std::current_exception(), "job_failed", "internal error (logged on the server)", nullptr).body();
+    }
+    announce();
+  };
+  {
+    std::lock_guard lock(object->mutex);
+    object->state = Lifecycle::running;
+  }
+  try {
+    prepare_field(j, *object, options, announce);
+    {
+      std::lock_guard lock(object->mutex);
+      object->state = Lifecycle::succeeded;
+    }
+    j.report("ready", 1.0);
+    announce();
+    if (auto s = weak_session.lock()) schedule_frames(s, object);
+    const json status = object->status_json();
+    return json{{"object", object->id}, {"stats", status.value("stats", json::object())}};
+  } catch (const kelvin::Cancelled&) {
+    end(Lifecycle::cancelled, false);
+    throw;
+  } catch (const std::exception&) {
+    end(j.cancelled() ? Lifecycle::cancelled : Lifecycle::failed, true);
+    throw;
+  }
+}
+
+void KelvinModule::prepare_field(Job& j, KelvinObject& object, const kelvin::PrepareOptions& options,
+                                 const std::function<void()>& announce) {
+  // The job's fraction: a repair's own while it repairs, then the preparation's overall fraction,
+  // its stages weighed by their predicted seconds (set below, once predicted).
+  std::optional<kelvin::StageProgress> stages;
+  kelvin::Progress progress;
+  progress.report = [&j, &stages](const std::string& stage, double fraction) {
+    j.report(stage, stages ? stages->report(stage, fraction) : fraction);
+  };
+  progress.cancel = &j.cancel;
+  // The long part of a repair request (the user's mesh is already imported and checked): fix
+  // and wrap poll the job's token and report stage "repair".
+  if (object.reshaped()) run_repair(object, options, config_.limits, progress);
+  // What this preparation will make, predicted on the surface it prepares: the estimate's when
+  // this request was estimated (POST /api/kelvin/estimate), else predicted now where the estimate
+  // could not (a repaired or simplified surface); a refusal is left to the preparation to give.
+  const mesh::SurfaceMesh& to_prepare = object.reshaped() ? object.repaired : object.welded;
+  json predicted = nullptr;
+  std::optional<kelvin::PreparePrediction> p;
+  try {
+    p = cached_prediction(to_prepare, options);
+    if (!p && object.reshaped()) p = predict(to_prepare, options, &j.cancel);
+    if (p) predicted = prediction_json(p, prepare_rate_);
+  } catch (const kelvin::Cancelled&) {
+    throw;
+  } catch (const std::exception&) {
+    // No prediction (the preparation gives any refusal itself).
+  }
+  {
+    std::lock_guard lock(object.mutex);
+    object.estimate = std::move(predicted);
+  }
+  // Unpredicted (a request not estimated first), the shares are the rates of the sizing asked for
+  // (or of both sizings) at the size of the preparations measured.
+  stages.emplace(stage_shares(p, prepare_rate_, options.grading));
+  if (object.reshaped()) announce();  // the repair's report and the prediction on its surface
+  j.report("load", 0.0);
+  bool from_memory = false;
+  auto prepared = registry_.acquire(to_prepare, options, progress, &from_memory);
+  stages->finish();
+  const bool computed = !from_memory && !prepared->cache_hit;
+  {
+    std::lock_guard lock(object.mutex);
+    object.prepared = prepared;
+    object.shared = from_memory;
+    if (computed) object.stage_seconds = stages->seconds();
+  }
+  // This server's seconds per vertex learn from what it computed (not from a cache or another
+  // object's preparation).
+  if (computed) prepare_rate_.record(prepared->field.stats().grading, stages->seconds(), static_cast<double>(prepared->field.stats().n_verts));
 }
 
 // What POST /api/kelvin/objects would do with these inputs, without doing it: the server's vertex
 // count against its budget, the smallest l_x within the budget, the refusal if any, and the
 // prediction: the field vertices the mesher's sizing prediction gives for the sizing the
 // preparation will choose, and the seconds they take at this server's measured rate.
-json KelvinModule::estimate_json(const mesh::SurfaceMesh& welded, kelvin::PrepareOptions options, double estimate,
-                                 const mesh::SurfaceMesh* predicted, bool reshaped) {
+ObjectEstimate KelvinModule::estimate_of(const mesh::SurfaceMesh& welded, kelvin::PrepareOptions options, double estimate,
+                                         const mesh::SurfaceMesh* predicted, bool reshaped) {
   const Limits& lim = config_.limits;
   const auto budget = static_cast<double>(lim.max_vertex_estimate);
   const Vec3 lo = welded.vertices.colwise().minCoeff().transpose(), hi = welded.vertices.colwise().maxCoeff().transpose();
-  json out = {{"vertex_estimate", std::llround(estimate)},
-              {"max_vertex_estimate", lim.max_vertex_estimate},
-              {"min_lx", lim.min_lx},
-              {"diagonal", (hi - lo).norm()},
-              {"lx_for_budget", std::max(lim.min_lx, smallest_lx_within(welded, budget, options.far_radius))},
-              {"problem", nullptr},
-              {"prediction_note", nullptr}};
+  ObjectEstimate out;
+  out.vertex_estimate = std::llround(estimate);
+  out.max_vertex_estimate = lim.max_vertex_estimate;
+  out.min_lx = lim.min_lx;
+  out.diagonal = (hi - lo).norm();
+  out.lx_for_budget = std::max(lim.min_lx, smallest_lx_within(welded, budget, options.far_radius));
   try {
     if (estimate > budget)
       throw InvalidInput("lx", "about " + std::to_string(std::llround(estimate)) + " vertices, over this server's budget of " +
@@ -365,27 +349,26 @@ json KelvinModule::estimate_json(const mesh::SurfaceMesh& welded, kelvin::Prepar
   } catch (const InvalidInput& e) {
     // A reshaping request's surface checks are of the surface it makes, in the job: the user's
     // open mesh is no problem here, only the budget (and l_x) can be judged before.
-    if (!reshaped || e.field() == "lx") out["problem"] = {{"field", e.field()}, {"message", e.what()}};
+    if (!reshaped || e.field() == "lx") out.problem = {e.field(), e.what()};
   }
-  std::optional<kelvin::PreparePrediction> prediction;
-  if (predicted != nullptr && out["problem"].is_null()) {
+  if (predicted != nullptr && !out.problem) {
     const CancelAfter deadline(lim.max_request_seconds);  // the trial meshing stops there
     try {
-      prediction = predict(*predicted, options, deadline.flag());
+      out.prediction = predict(*predicted, options, deadline.flag());
     } catch (const kelvin::Cancelled&) {
-      out["prediction_note"] = "not predicted within this server's max_request_seconds (" + json(lim.max_request_seconds).dump() +
-                               " s): the preparation's meshing will take at least as long";
+      out.prediction_note = "not predicted within this server's max_request_seconds (" + number_text(lim.max_request_seconds) +
+                            " s): the preparation's meshing will take at least as long";
     } catch (const InvalidInput& e) {
       // What the preparation would refuse (a thin sheet, l_x beyond the object's radius about
       // its centre) is known now.
-      if (!reshaped) out["problem"] = {{"field", e.field()}, {"message", e.what()}};
-      out["prediction_note"] = std::string("not predicted: ") + e.what();
+      if (!reshaped) out.problem = {e.field(), e.what()};
+      out.prediction_note = std::string("not predicted: ") + e.what();
     } catch (const std::exception&) {
       // Whatever else the mesher refuses is the preparation's to report, as it was.
-      out["prediction_note"] = "not predicted: the mesher failed on this surface (the preparation will say how)";
+      out.prediction_note = "not predicted: the mesher failed on this surface (the preparation will say how)";
     }
   }
-  out.update(prediction_json(prediction, prepare_rate_, options.grading));
+  out.rate = prediction_rate(out.prediction, prepare_rate_, options.grading);
   return out;
 }
 
@@ -402,46 +385,6 @@ kelvin::PreparePrediction KelvinModule::predict(const mesh::SurfaceMesh& surface
 
 std::optional<kelvin::PreparePrediction> KelvinModule::cached_prediction(const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& options) {
   return predictions_.find(kelvin::prepare_key(surface, options));
-}
-
-void KelvinModule::set_sigma(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,
-                             const json& sigma_json, WsSink* origin, const json& request) {
-  kelvin::SigmaSpec spec = parse_sigma(sigma_json);
-  // surface, welded and to_welded are set at creation and never change: no lock needed.
-  kelvin::SigmaSpec solved = kelvin::field_sigma(spec, object->surface.vertices, object->to_welded, object->welded.vertices.rows());
-  std::uint64_t version;
-  {
-    std::lock_guard lock(object->mutex);
-    // A repaired object carries σ to its repaired surface once that exists (the job does it then).
-    if (object->reshaped() && object->repaired.faces.rows() > 0) solved = field_sigma(spec, *object);
-    object->sigma = std::move(spec);
-    object->field_sigma = std::move(solved);
-    object->sigma_json = sigma_json;
-    object->sigma_key = sigma_key(*object, sigma_json);
-    version = ++object->sigma_version;
-    object->sigma_at = std::chrono::steady_clock::now();
-    ++object->frames_version;
-  }
-  json ack{{"type", "sigma"}, {"object", object->id}, {"sigma_version", version}};
-  // The other sockets of the session learn of the new version; the sender's acknowledgement
-  // echoes its request id (ids are the sender's own: another tab may use the same ones).
-  session->broadcast(ack.dump(), false, origin);
-  if (origin != nullptr) {
-    if (!request.is_null()) ack["request"] = request;
-    origin->send(ack.dump(), false);
-  }
-  schedule_frames(session, object);
-}
-
-void KelvinModule::set_levels(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,
-                              const json& levels) {
-  std::vector<double> parsed = parse_levels(levels, "levels", config_.limits.max_levels);
-  {
-    std::lock_guard lock(object->mutex);
-    object->levels = std::move(parsed);
-    ++object->frames_version;
-  }
-  schedule_frames(session, object);
 }
 
 }  // namespace distlab::server

@@ -78,9 +78,17 @@ void PredictionCache::put(const std::string& key, const kelvin::PreparePredictio
   }
 }
 
+PrepareRate::Rate prediction_rate(const std::optional<kelvin::PreparePrediction>& p, const PrepareRate& rates,
+                                  std::optional<double> grading) {
+  return p ? rates.rate(p->grading, static_cast<double>(std::llround(p->vertices))) : rates.rate(grading, std::nullopt);
+}
+
 json prediction_json(const std::optional<kelvin::PreparePrediction>& p, const PrepareRate& rates, std::optional<double> grading) {
+  return prediction_json(p, prediction_rate(p, rates, grading));
+}
+
+json prediction_json(const std::optional<kelvin::PreparePrediction>& p, const PrepareRate::Rate& rate) {
   const auto n = p ? std::llround(p->vertices) : 0;
-  const PrepareRate::Rate rate = p ? rates.rate(p->grading, static_cast<double>(n)) : rates.rate(grading, std::nullopt);
   json stages = json::object(), exponents = json::object();
   for (std::size_t i = 0; i < kelvin::kPrepareStageCount; ++i) {
     stages[kelvin::kPrepareStages[i]] = rate.stages[i];

@@ -72,6 +72,11 @@ class PredictionCache {
 // sizing's given in `grading` (or any) at the measured preparations' mean vertices.
 nlohmann::json prediction_json(const std::optional<kelvin::PreparePrediction>& p, const PrepareRate& rates,
                                std::optional<double> grading = std::nullopt);
+// The same in two steps: the rate it reads (at p's vertices, or the sizing `grading`'s mean), and
+// the JSON of p at that rate.
+PrepareRate::Rate prediction_rate(const std::optional<kelvin::PreparePrediction>& p, const PrepareRate& rates,
+                                  std::optional<double> grading = std::nullopt);
+nlohmann::json prediction_json(const std::optional<kelvin::PreparePrediction>& p, const PrepareRate::Rate& rate);
 // The shares of a preparation's stages for its progress (kelvin::StageProgress): the predicted
 // seconds of each stage (the rate of the sizing predicted, or of `grading`, at the predicted
 // vertices or the measured preparations' mean).

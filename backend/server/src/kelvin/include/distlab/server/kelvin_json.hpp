@@ -28,6 +28,7 @@
 // Errors:   {"error": {"code", "message", "field"}} as for GAP.
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -82,8 +83,8 @@ inline mesh::WrapBudget wrap_budget(const Limits& l) {
   return {l.max_repair_faces, static_cast<double>(l.max_repair_bytes) / 1e6, l.max_repair_seconds};
 }
 // A wrap's predicted faces, megabytes and seconds (mesh::estimate_wrap) with the α and offset it
-// would use, for POST /api/kelvin/estimate; null for no wrap.
-nlohmann::json repair_estimate_json(const mesh::SurfaceMesh& user, const RepairRequest& request);
+// would use, for POST /api/kelvin/estimate; none for no wrap.
+std::optional<mesh::WrapEstimate> repair_estimate(const mesh::SurfaceMesh& user, const RepairRequest& request);
 // A wrap request over the budget, refused before any work (InvalidInput repair_options.alpha).
 void require_repair_within(const mesh::SurfaceMesh& user, const RepairRequest& request, const Limits& limits);
 // Runs mesh::fix or mesh::wrap on the user's mesh; the result and its report (fix: steps; wrap:

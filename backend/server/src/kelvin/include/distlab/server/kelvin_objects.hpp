@@ -19,12 +19,14 @@
 
 #include <nlohmann/json.hpp>
 
+#include "distlab/geometry/types.hpp"
 #include "distlab/kelvin/field.hpp"
 #include "distlab/kelvin/stages.hpp"
 #include "distlab/mesh/repair.hpp"
 #include "distlab/mesh/surface.hpp"
 #include "distlab/server/config.hpp"
 #include "distlab/server/kelvin_json.hpp"
+#include "distlab/server/lifecycle.hpp"
 #include "distlab/server/uploads.hpp"
 
 namespace distlab::server {
@@ -137,10 +139,25 @@ class PreparedRegistry {
   std::vector<std::shared_ptr<PreparedField>> recent_;  // keeps the last few alive when unused
 };
 
+// How an object was made (its status' "source"): one of asset, upload and an inline mesh, and the
+// preparation's inputs as given (unset: not given) with the l_x they came to.
+struct ObjectSource {
+  std::string asset, upload;  // the one given, or neither for an inline mesh
+  std::optional<Vec3> center;
+  std::optional<double> far_radius, grading, lx_fraction;
+  double lx = 0;
+  long long vertex_estimate = 0;
+  std::string repair;  // ReshapeRequest's repair kind
+};
+
+// What a running preparation is doing: repairing (or simplifying) the user's mesh first, then
+// preparing the field.
+enum class PrepareStage { repairing, preparing };
+
 struct KelvinObject {
   std::string id;
-  std::string key;        // content key
-  nlohmann::json source;  // how it was made: asset/upload/mesh, lx, center, far_radius
+  std::string key;  // content key
+  ObjectSource source;
   // The mesh as the user gave it (the file's vertices in the file's order, duplicated positions
   // kept): every per-vertex array of the API (σ per_vertex in, σ values and the surface frame
   // out) is indexed like its vertices. The field is prepared on `welded` (mesh/weld.hpp).
@@ -151,8 +168,8 @@ struct KelvinObject {
   ClientShare::Reservation held;  // surface's triangles, in its client's share (client_share.hpp)
   // "components", "simplify", "repair" (ReshapeRequest, kelvin_json.hpp): the field is prepared
   // on `repaired` instead of `welded`, and σ per user vertex reaches it by `to_repaired` (the
-  // nearest-face rule). Both are set by the preparation job under `mutex` while state is
-  // "repairing", and never change afterwards.
+  // nearest-face rule). Both are set by the preparation job under `mutex` while its stage is
+  // repairing, and never change afterwards.
   ReshapeRequest reshape;
   mesh::SurfaceMesh repaired;
   mesh::Transfer to_repaired;
@@ -162,8 +179,11 @@ struct KelvinObject {
   // choice; prepare_estimate.hpp), under `mutex`; null until then or if it could not predict.
   nlohmann::json estimate;
 
-  std::mutex mutex;                 // guards everything below
-  std::string state = "preparing";  // repairing | preparing | ready | failed | cancelled
+  std::mutex mutex;  // guards everything below
+  // queued until its job runs, running (in `stage`), then succeeded (the API's "ready"), failed
+  // or cancelled; the API's words are object_state_name's.
+  Lifecycle state = Lifecycle::queued;
+  PrepareStage stage = PrepareStage::preparing;
   std::string job;
   nlohmann::json error;
   std::shared_ptr<PreparedField> prepared;
@@ -174,8 +194,8 @@ struct KelvinObject {
 
   kelvin::SigmaSpec sigma;        // as given: per_vertex per user vertex
   kelvin::SigmaSpec field_sigma;  // what the field solves: per_vertex per welded vertex
-  nlohmann::json sigma_json = nlohmann::json::object();
-  // Identifies the solved σ in the shared field: the σ JSON and the user mesh it is indexed by
+  std::string sigma_given = "{}";  // σ's JSON as given (SigmaEdit::given), echoed by GET .../sigma
+  // Identifies the solved σ in the shared field: the σ as given and the user mesh it is indexed by
   // (objects sharing a preparation may number their vertices differently).
   std::string sigma_key;
   std::uint64_t sigma_version = 0;
@@ -188,15 +208,19 @@ struct KelvinObject {
   bool surface_sent = false;     // the surface frame was broadcast
   std::int64_t sigma_sent = -1;  // sigma_version of the last σ values broadcast
 
+  bool ready() const { return state == Lifecycle::succeeded && prepared; }  // call with `mutex` held
   nlohmann::json status_json();  // locks
 };
+
+// The API's word for an object's state: "repairing" or "preparing" (queued or running, by its
+// stage), "ready", "failed", "cancelled".
+const char* object_state_name(Lifecycle state, PrepareStage stage);
 
 // kelvin::field_sigma for an object repaired or wrapped: per_vertex carried to the
 // repaired surface by to_repaired (call with the object's mutex held, after the repair).
 kelvin::SigmaSpec field_sigma(const kelvin::SigmaSpec& user, const KelvinObject& object);
 
-inline std::string sigma_key(const KelvinObject& o, const nlohmann::json& sigma) {
-  return o.surface_digest + sigma.dump();
-}
+// `given`: σ's JSON as given (SigmaEdit::given).
+inline std::string sigma_key(const KelvinObject& o, const std::string& given) { return o.surface_digest + given; }
 
 }  // namespace distlab::server
