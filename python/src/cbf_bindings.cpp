@@ -18,15 +18,18 @@ py::object cbf_rollout(const py::object& request, const py::object& progress, in
   server::CbfRequest r = server::parse_cbf_request(j);
   Interruptible interrupt(progress);
   const int stride = every > 0 ? every : 1;
-  r.options.cancel = interrupt.flag();
-  r.options.progress = [&](int step, const cbf::StepRecord& s) {
-    return step % stride != 0 ? interrupt.poll() : interrupt.report(step, s.t);
+  r.options.progress.cancel = interrupt.flag();  // Ctrl-C or the callback's exception: Cancelled
+  r.options.on_step = [&](int step, const cbf::StepRecord& s) {
+    if (step % stride != 0) interrupt.poll();
+    else interrupt.report(step, s.t);
   };
   json response;
   {
     py::gil_scoped_release release;
-    const cbf::RolloutRecord record = cbf::rollout(r.scenario, r.metric, r.options);
-    if (!interrupt.cancelled()) response = server::encode_record(record, r.scenario.name);
+    try {
+      response = server::encode_record(cbf::rollout(r.scenario, r.metric, r.options), r.scenario.name);
+    } catch (const Cancelled&) {  // raised below as what cancelled it
+    }
   }
   if (interrupt.cancelled()) interrupt.raise();
   return to_python(response);

@@ -82,14 +82,83 @@ void require_safe_start(const Scenario& scenario, const VecQ& q) {
   }
 }
 
-RolloutRecord rollout(const Scenario& scenario, Metric metric, const RolloutOptions& options) {
+namespace {
+
+// One step of the loop at q, recorded in rec (q moves on by u·dt); false when a field row could
+// not be formed (rec.failure says why).
+bool record_step(CbfController& controller, const std::vector<FieldSurface>& surfaces, std::vector<Vec3>& points,
+                 const Scenario& scenario, Metric metric, const RolloutOptions& options, int i, VecQ& q, RolloutRecord& rec) {
+  StepOutput out;
+  try {
+    out = controller.step(q, options.audit_clearance);
+  } catch (const FieldUndefined& e) {  // the barrier no longer exists here: stop, say why
+    rec.failure = e.what();
+    rec.failure_step = i;
+    return false;
+  }
+  StepRecord s;
+  s.t = i * scenario.dt;
+  s.q = q;
+  s.u = out.u;
+  s.task_error = out.task_error;
+  s.min_clearance = out.min_clearance;
+  s.relaxed = out.relaxed;
+  s.held = out.held;
+  s.slack = out.slack;
+  s.clipped = out.clipped;
+  rec.clipped_steps += out.clipped;
+  s.active = out.active;
+  s.timing = out.timing;
+  for (const PairSample& p : out.pairs) rec.cold_solves += p.cold && metric == Metric::gap;
+  if (options.record_pairs) s.pairs = std::move(out.pairs);
+  if (const FieldBarrier* b = controller.barrier()) {
+    const Kinematics k = controller.robot().forward(q);
+    for (std::size_t p = 0; p < points.size(); ++p) points[p] = b->world_point(k, static_cast<int>(p));
+    for (const FieldSurface& surface : surfaces) s.field_contacts.push_back(surface.contact(points));
+    s.field_points = std::move(out.field_points);
+  }
+  if (s.relaxed || s.held) rec.infeasible_steps.push_back(i);
+  if (options.audit_clearance) rec.min_clearance = std::min(rec.min_clearance, s.min_clearance);
+  rec.timing.kinematics += s.timing.kinematics;
+  rec.timing.distance += s.timing.distance;
+  rec.timing.qp += s.timing.qp;
+  rec.timing.step += s.timing.step;
+  rec.timing.audit += s.timing.audit;
+  rec.timing.field += s.timing.field;
+  q += out.u * scenario.dt;
+  rec.steps.push_back(std::move(s));
+  return true;
+}
+
+// The record's summary once the steps are done (or stopped: `complete` false, never reached).
+void summarise(CbfController& controller, const Scenario& scenario, const RolloutOptions& options, const VecQ& q, bool complete,
+               std::chrono::steady_clock::time_point w0, RolloutRecord& rec) {
+  const double count = std::max<std::size_t>(1, rec.steps.size());
+  rec.timing.kinematics /= count;
+  rec.timing.distance /= count;
+  rec.timing.qp /= count;
+  rec.timing.step /= count;
+  rec.timing.audit /= count;
+  rec.timing.field /= count;
+  if (!options.audit_clearance) rec.min_clearance = std::numeric_limits<double>::quiet_NaN();
+  rec.q_final = q;
+  const Robot& robot = controller.robot();
+  rec.final_task_error = task_function(robot.forward(q), robot, scenario.target).r.norm();
+  rec.reached = complete && rec.failure.empty() && rec.final_task_error < scenario.goal_tolerance;
+  if (rec.failure.empty()) rec.final_state = final_state(controller, q);
+  rec.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
+}
+
+}  // namespace
+
+void rollout(const Scenario& scenario, Metric metric, const RolloutOptions& options, RolloutRecord& rec) {
   const auto w0 = std::chrono::steady_clock::now();
   CbfController controller(scenario, metric);
   require_safe_start(scenario, scenario.q0);
   std::vector<FieldSurface> surfaces;
   for (const SceneField& f : scenario.fields) surfaces.emplace_back(f);
   std::vector<Vec3> points(scenario.control_points.size());
-  RolloutRecord rec;
+  rec = RolloutRecord{};
   rec.control_points = scenario.control_points;
   for (std::size_t i = 0; i < scenario.fields.size(); ++i) {
     const SceneField& f = scenario.fields[i];
@@ -106,70 +175,23 @@ RolloutRecord rollout(const Scenario& scenario, Metric metric, const RolloutOpti
   const int n = scenario.steps();
   rec.steps.reserve(static_cast<std::size_t>(n));
   VecQ q = scenario.q0;
-  for (int i = 0; i < n; ++i) {
-    if (options.cancel && options.cancel->load(std::memory_order_relaxed)) {
-      rec.cancelled = true;
-      break;
+  try {
+    for (int i = 0; i < n; ++i) {
+      options.progress.check();
+      if (!record_step(controller, surfaces, points, scenario, metric, options, i, q, rec)) break;
+      if (options.on_step) options.on_step(i, rec.steps.back());
+      options.progress("rollout", (i + 1.0) / n);
     }
-    StepOutput out;
-    try {
-      out = controller.step(q, options.audit_clearance);
-    } catch (const FieldUndefined& e) {  // the barrier no longer exists here: stop, say why
-      rec.failure = e.what();
-      rec.failure_step = i;
-      break;
-    }
-    StepRecord s;
-    s.t = i * scenario.dt;
-    s.q = q;
-    s.u = out.u;
-    s.task_error = out.task_error;
-    s.min_clearance = out.min_clearance;
-    s.relaxed = out.relaxed;
-    s.held = out.held;
-    s.slack = out.slack;
-    s.clipped = out.clipped;
-    rec.clipped_steps += out.clipped;
-    s.active = out.active;
-    s.timing = out.timing;
-    for (const PairSample& p : out.pairs) rec.cold_solves += p.cold && metric == Metric::gap;
-    if (options.record_pairs) s.pairs = std::move(out.pairs);
-    if (const FieldBarrier* b = controller.barrier()) {
-      const Kinematics k = controller.robot().forward(q);
-      for (std::size_t p = 0; p < points.size(); ++p) points[p] = b->world_point(k, static_cast<int>(p));
-      for (const FieldSurface& surface : surfaces) s.field_contacts.push_back(surface.contact(points));
-      s.field_points = std::move(out.field_points);
-    }
-    if (s.relaxed || s.held) rec.infeasible_steps.push_back(i);
-    if (options.audit_clearance) rec.min_clearance = std::min(rec.min_clearance, s.min_clearance);
-    rec.timing.kinematics += s.timing.kinematics;
-    rec.timing.distance += s.timing.distance;
-    rec.timing.qp += s.timing.qp;
-    rec.timing.step += s.timing.step;
-    rec.timing.audit += s.timing.audit;
-    rec.timing.field += s.timing.field;
-    q += out.u * scenario.dt;
-    rec.steps.push_back(std::move(s));
-    if (options.progress && !options.progress(i, rec.steps.back())) {
-      rec.cancelled = true;
-      break;
-    }
+  } catch (const Cancelled&) {
+    summarise(controller, scenario, options, q, false, w0, rec);
+    throw;
   }
-  const double count = std::max<std::size_t>(1, rec.steps.size());
-  rec.timing.kinematics /= count;
-  rec.timing.distance /= count;
-  rec.timing.qp /= count;
-  rec.timing.step /= count;
-  rec.timing.audit /= count;
-  rec.timing.field /= count;
-  if (!options.audit_clearance) rec.min_clearance = std::numeric_limits<double>::quiet_NaN();
-  rec.q_final = q;
-  const Robot& robot = controller.robot();
-  rec.final_task_error = task_function(robot.forward(q), robot, scenario.target).r.norm();
-  rec.reached = !rec.cancelled && rec.failure.empty() && rec.final_task_error < scenario.goal_tolerance;
-  if (rec.failure.empty()) rec.final_state = final_state(controller, q);
-  rec.wall_seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
+  summarise(controller, scenario, options, q, true, w0, rec);
+}
+
+RolloutRecord rollout(const Scenario& scenario, Metric metric, const RolloutOptions& options) {
+  RolloutRecord rec;
+  rollout(scenario, metric, options, rec);
   return rec;
 }
 

@@ -208,7 +208,7 @@ Response encode_frames(const CbfFrames& frames) {
 }
 
 Response encode_rollout_record(const CbfRecord& record) {
-  return json_response(200, encode_record(*record.record, record.scenario_name, record.with_pairs));
+  return json_response(200, encode_record(*record.record, record.scenario_name, record.with_pairs, record.cancelled));
 }
 
 CbfFieldsRequest decode_fields(const Request& req, const Limits& limits) {

@@ -106,6 +106,7 @@ struct CbfRecord {
   std::shared_ptr<const cbf::RolloutRecord> record;
   std::string scenario_name;
   bool with_pairs = true;
+  bool cancelled = false;  // the steps of a cancelled rollout
 };
 Response encode_rollout_record(const CbfRecord& record);
 

@@ -21,14 +21,14 @@ json run_rollout(const std::shared_ptr<CbfRollout>& r, cbf::RolloutOptions optio
   r->id_known.wait();
   {
     std::lock_guard lock(r->mutex);
-    r->state = "running";
+    r->state = Lifecycle::running;
   }
   cbf::Scenario scenario;
   try {
     scenario = prepare(job);
   } catch (...) {
     std::lock_guard lock(r->mutex);
-    r->state = job.cancelled() ? "cancelled" : "failed";
+    r->state = job.cancelled() ? Lifecycle::cancelled : Lifecycle::failed;
     throw;
   }
   std::size_t sent = 0;
@@ -47,37 +47,41 @@ json run_rollout(const std::shared_ptr<CbfRollout>& r, cbf::RolloutOptions optio
     }
     last = Clock::now();
   };
-  options.cancel = &job.cancel;
-  options.progress = [&](int i, const cbf::StepRecord& step) {
+  options.progress = Progress{[&job](const std::string& stage, double f) { job.report(stage, f); }, &job.cancel};
+  options.on_step = [&](int, const cbf::StepRecord& step) {
     std::size_t done;
     {
       std::lock_guard lock(r->mutex);
       r->steps.push_back(step);
       done = r->steps.size();
     }
-    job.report("rollout", (i + 1.0) / r->steps_total);
     if (done - sent >= static_cast<std::size_t>(r->stream.batch_steps) ||
         std::chrono::duration<double>(Clock::now() - last).count() >= r->stream.batch_seconds)
       flush(done);
-    return !job.cancelled();
+  };
+  // The record, kept when the rollout ends: all its steps, or a cancelled one's so far.
+  auto end = [&r](Lifecycle state, cbf::RolloutRecord&& rec) {
+    std::lock_guard lock(r->mutex);
+    r->state = state;
+    r->steps.clear();
+    r->steps.shrink_to_fit();
+    r->record = std::make_shared<const cbf::RolloutRecord>(std::move(rec));
   };
   cbf::RolloutRecord rec;
   try {
-    rec = cbf::rollout(scenario, r->metric, options);
+    cbf::rollout(scenario, r->metric, options, rec);
+  } catch (const Cancelled&) {
+    flush(r->steps_done());
+    end(Lifecycle::cancelled, std::move(rec));
+    throw;
   } catch (...) {
     std::lock_guard lock(r->mutex);
-    r->state = "failed";
+    r->state = Lifecycle::failed;
     throw;
   }
   flush(r->steps_done());
   json result = rollout_job_result(*r, rec);
-  {
-    std::lock_guard lock(r->mutex);
-    r->state = rec.cancelled ? "cancelled" : "finished";
-    r->steps.clear();
-    r->steps.shrink_to_fit();
-    r->record = std::make_shared<const cbf::RolloutRecord>(std::move(rec));
-  }
+  end(Lifecycle::succeeded, std::move(rec));
   return result;
 }
 
@@ -87,8 +91,7 @@ json run_rollout(const std::shared_ptr<CbfRollout>& r, cbf::RolloutOptions optio
 json run_sweep(const std::shared_ptr<CbfSweepRun>& s, Job& job, const std::function<bool(std::function<void()>)>& post,
                unsigned threads) {
   SweepExecution how;
-  how.cancel = &job.cancel;
-  how.progress = [&job](const std::string& stage, double fraction) { job.report(stage, fraction); };
+  how.progress = Progress{[&job](const std::string& stage, double fraction) { job.report(stage, fraction); }, &job.cancel};
   how.finished = [&s](std::size_t, const json& entry) {
     std::lock_guard lock(s->mutex);
     auto at = std::upper_bound(s->entries.begin(), s->entries.end(), entry["index"],
@@ -107,11 +110,11 @@ json run_sweep(const std::shared_ptr<CbfSweepRun>& s, Job& job, const std::funct
 // A job cancelled while queued ends without running its work: its rollout, still "queued", ended
 // with it (and so did the preparation of its fields).
 void settle(CbfRollout& r, const Job& job) {
-  const JobState s = job.state();
-  if (s == JobState::queued || s == JobState::running) return;
+  const Lifecycle s = job.state();
+  if (!ended(s)) return;
   std::lock_guard lock(r.mutex);
-  if (r.state != "queued") return;
-  r.state = s == JobState::cancelled ? "cancelled" : "failed";
+  if (r.state != Lifecycle::queued) return;
+  r.state = s == Lifecycle::cancelled ? Lifecycle::cancelled : Lifecycle::failed;
   if (!r.fields.empty() && r.fields_state == "preparing") r.fields_state = "failed";
 }
 

@@ -339,7 +339,7 @@ json encode_final_state(const cbf::FinalState& f) {
           {"active", active}};
 }
 
-json encode_record(const cbf::RolloutRecord& rec, const std::string& scenario_name, bool with_pairs) {
+json encode_record(const cbf::RolloutRecord& rec, const std::string& scenario_name, bool with_pairs, bool cancelled) {
   json t = json::array(), q = json::array(), u = json::array(), err = json::array(),
        mind = json::array(), slack = json::object();
   const bool pairs = with_pairs && !rec.steps.empty() && !rec.steps.front().pairs.empty();
@@ -393,7 +393,7 @@ json encode_record(const cbf::RolloutRecord& rec, const std::string& scenario_na
                {{"reached", rec.reached},
                 {"final_task_error", rec.final_task_error},
                 {"min_distance", finite_or_null(rec.min_clearance)},
-                {"cancelled", rec.cancelled},
+                {"cancelled", cancelled},
                 {"cold_solves", rec.cold_solves},
                 {"clipped_steps", rec.clipped_steps},
                 {"q_final", vec_json(rec.q_final)},

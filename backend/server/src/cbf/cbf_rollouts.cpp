@@ -37,9 +37,9 @@ json shape_json(const Shape& shape) {
       shape);
 }
 
-bool ended(const std::string& state) { return state != "queued" && state != "running"; }
-
 }  // namespace
+
+const char* rollout_state_word(Lifecycle state) { return state == Lifecycle::succeeded ? "finished" : to_string(state); }
 
 std::size_t CbfRollout::steps_done() const {
   std::lock_guard lock(mutex);
@@ -68,14 +68,14 @@ json CbfRollout::status_json() const {
   }
   std::lock_guard lock(mutex);
   if (!fields.empty()) j["kelvin"]["state"] = fields_state;
-  j["state"] = state;
+  j["state"] = rollout_state_word(state);
   j["steps_done"] = steps_locked().size();
   if (record) {
     j["summary"] = {{"reached", record->reached},
                     {"final_task_error", record->final_task_error},
                     {"min_distance", finite_or_null(record->min_clearance)},
                     {"infeasible_steps", record->infeasible_steps.size()},
-                    {"cancelled", record->cancelled}};
+                    {"cancelled", state == Lifecycle::cancelled}};
   }
   return j;
 }

@@ -38,18 +38,18 @@ struct SweepState {
   std::vector<std::exception_ptr> errors;
 
   bool stopped() const {
-    return failed.load(std::memory_order_relaxed) || (how->cancel && how->cancel->load(std::memory_order_relaxed));
+    return failed.load(std::memory_order_relaxed) || (how->progress.cancel && how->progress.cancel->load(std::memory_order_relaxed));
   }
   // Under mutex: one report per new stage or per 0.1 % (fraction never decreases).
   void report_locked() {
-    if (!how->progress) return;
+    if (!how->progress.report) return;
     const std::string stage = std::to_string(runs_done) + " of " + std::to_string(n) + " runs done";
     const double fraction = steps_total > 0 ? std::min(1.0, steps_sum / steps_total) : 1.0;
     const int permille = static_cast<int>(fraction * 1000);
     if (stage == reported_stage && permille <= reported_permille) return;
     reported_stage = stage;
     reported_permille = permille;
-    how->progress(stage, fraction);
+    how->progress.report(stage, fraction);
   }
 };
 
@@ -61,24 +61,24 @@ bool run_next(const std::shared_ptr<SweepState>& st) {
     if (!st->stopped()) {
       const CbfRequest& r = st->sweep->runs[i];
       cbf::RolloutOptions options = r.options;
-      options.cancel = st->how->cancel;
-      options.progress = [&](int k, const cbf::StepRecord&) {
+      options.progress.cancel = st->how->progress.cancel;
+      // A run stops (Cancelled) when the sweep is cancelled or another run failed.
+      options.on_step = [&](int k, const cbf::StepRecord&) {
         std::lock_guard lock(st->mutex);
         st->steps_sum += k + 1 - st->steps_done[i];
         st->steps_done[i] = k + 1;
         st->report_locked();
-        return !st->stopped();
+        if (st->stopped()) throw Cancelled();
       };
       const cbf::RolloutRecord rec = cbf::rollout(r.scenario, r.metric, options);
-      if (!rec.cancelled) {
-        json entry = encode_sweep_entry(i, st->sweep->values[i], rec, r.scenario.name);
-        std::lock_guard lock(st->mutex);
-        if (st->how->finished) st->how->finished(i, entry);
-        st->entries[i] = std::move(entry);
-        ++st->runs_done;
-        st->report_locked();
-      }
+      json entry = encode_sweep_entry(i, st->sweep->values[i], rec, r.scenario.name);
+      std::lock_guard lock(st->mutex);
+      if (st->how->finished) st->how->finished(i, entry);
+      st->entries[i] = std::move(entry);
+      ++st->runs_done;
+      st->report_locked();
     }
+  } catch (const Cancelled&) {  // a stopped run has no entry
   } catch (...) {
     std::lock_guard lock(st->mutex);
     st->errors[i] = std::current_exception();
@@ -131,17 +131,16 @@ std::vector<json> execute_sweep(const CbfSweep& sweep, const SweepExecution& how
   st->all_ended.wait(lock, [&] { return st->ended == st->n; });
   for (const auto& e : st->errors)
     if (e) std::rethrow_exception(e);
+  how.progress.check();  // a cancelled sweep has no response
   return std::move(st->entries);
 }
 
 json run_cbf_sweep(const json& request, const Progress& progress) {
   const CbfSweep sweep = parse_cbf_sweep(request);
   SweepExecution how;  // no post: the calling thread and one per further core (parallel_for)
-  how.cancel = progress.cancel;
-  how.progress = progress.report;
+  how.progress = progress;
   how.helpers = std::max(1u, std::thread::hardware_concurrency()) - 1;
   const std::vector<json> entries = execute_sweep(sweep, how);
-  progress.check();  // a cancelled sweep has no response
   const CbfRequest& first = sweep.runs.front();
   return {{"scenario", first.scenario.name},
           {"metric", cbf::to_string(first.metric)},

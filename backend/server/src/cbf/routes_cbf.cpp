@@ -117,10 +117,10 @@ CbfRecord CbfModule::record(const CbfRolloutId& in, const Caller& caller) {
   auto r = require_rollout(in.id, caller);
   std::lock_guard lock(r->mutex);
   if (!r->record)
-    throw ApiError(409, "not_finished", "the rollout is " + r->state +
+    throw ApiError(409, "not_finished", std::string("the rollout is ") + rollout_state_word(r->state) +
                                             "; its record is ready when it ends "
                                             "(its frames so far: GET .../frames)");
-  return {r->record, r->scenario_name, r->record_pairs};
+  return {r->record, r->scenario_name, r->record_pairs, r->state == Lifecycle::cancelled};
 }
 
 CbfFieldSurfaces CbfModule::fields(const CbfFieldsRequest& in, const Caller& caller) {

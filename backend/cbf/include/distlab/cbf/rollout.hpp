@@ -1,12 +1,12 @@
 #pragma once
 // A closed-loop rollout q ← q + u·dt (franka-corridor.md) with a full per-step record.
-#include <atomic>
 #include <functional>
 #include <limits>
 #include <string>
 #include <vector>
 
 #include "distlab/cbf/controller.hpp"
+#include "distlab/geometry/progress.hpp"
 
 namespace distlab::cbf {
 
@@ -66,7 +66,6 @@ struct RolloutRecord {
   double final_task_error = 0;  // ‖r‖ at q_final
   bool reached = false;         // final_task_error < scenario.goal_tolerance
   double min_clearance = 0;     // over the whole rollout
-  bool cancelled = false;
   int cold_solves = 0;  // GAP: pair solves that were not warm-started
   GapMode gap_mode = GapMode::exact;
   int clipped_steps = 0;  // steps whose u was clipped to the velocity limits
@@ -86,14 +85,19 @@ struct RolloutRecord {
 struct RolloutOptions {
   bool record_pairs = true;
   bool audit_clearance = true;  // needed for min_clearance with the GAP metric
-  // Called after every step with its index and record; return false to stop.
-  std::function<bool(int, const StepRecord&)> progress;
-  const std::atomic<bool>* cancel = nullptr;
+  // Called after every step with its index and record (it may throw Cancelled to stop the run).
+  std::function<void(int, const StepRecord&)> on_step;
+  // Stage "rollout", the fraction of steps done, after every step; its cancel is polled before
+  // and after every step (Cancelled).
+  Progress progress;
 };
 
 // Throws InvalidInput("control_points") before the first step when a control point starts where
 // h is undefined or below its field's δ (outside the safe set: no CBF can hold it there).
+// Cancelled stops it between steps: the second form's `record` then holds the steps done so far,
+// summarised (timing, q_final, final state; reached false), before the Cancelled is rethrown.
 RolloutRecord rollout(const Scenario& scenario, Metric metric, const RolloutOptions& options = {});
+void rollout(const Scenario& scenario, Metric metric, const RolloutOptions& options, RolloutRecord& record);
 
 // The start check of rollout: every control point at q has h ≥ δ in every field.
 void require_safe_start(const Scenario& scenario, const VecQ& q);

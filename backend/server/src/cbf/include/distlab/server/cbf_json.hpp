@@ -20,7 +20,6 @@
 //            (true: every pair's distance and witnesses per step), "audit" (true: true
 //            Euclidean clearance per step; needed for min_distance with GAP).
 // Response: see encode_record.
-#include <atomic>
 #include <functional>
 #include <string>
 #include <vector>
@@ -82,9 +81,10 @@ CbfRequest parse_cbf_request(const nlohmann::json& request, const std::string& a
 //  "min_distance", "cancelled", "cold_solves", "clipped_steps", "q_final", "final":
 //  encode_final_state}, "gap_mode", and with gap.mode as_published and record_pairs
 //  "converged_distance": [[per pair]...] (the converged D beside the early-stopped one).
-// with_pairs = false leaves out "distance"/"witness_a"/"witness_b" even if the record has them.
+// with_pairs = false leaves out "distance"/"witness_a"/"witness_b" even if the record has them;
+// cancelled: the record is of the steps a cancelled rollout made (summary "cancelled").
 nlohmann::json encode_record(const cbf::RolloutRecord& record, const std::string& scenario_name,
-                             bool with_pairs = true);
+                             bool with_pairs = true, bool cancelled = false);
 nlohmann::json encode_smoothness(const cbf::RolloutRecord& record);
 // {"ee_position", "position_error", "min_clearance", "closest_pair", "active": [{"name", "kind"
 //  ("pair" | "joint_limit"), "distance", "margin", "clearance", "converged_distance",
@@ -117,9 +117,9 @@ nlohmann::json encode_sweep_entry(std::size_t index, const nlohmann::json& value
 // How a sweep's runs are spread over threads (cbf_sweep.cpp). The calling thread runs runs too,
 // so the sweep advances even when post refuses every helper.
 struct SweepExecution {
-  const std::atomic<bool>* cancel = nullptr;  // stops every run (a cancelled run has no entry)
-  // Over all runs' steps: stage "K of N runs done", fraction; serialised, never decreasing.
-  std::function<void(const std::string& stage, double fraction)> progress;
+  // Over all runs' steps: stage "K of N runs done", fraction; serialised, never decreasing. Its
+  // cancel stops every run (a cancelled run has no entry) and then the sweep (Cancelled).
+  Progress progress;
   // A finished run's entry, as it finishes (serialised; runs finish in any order).
   std::function<void(std::size_t index, const nlohmann::json& entry)> finished;
   // Runs a task on another thread; false: it cannot (fewer runs go in parallel). Empty: the
@@ -128,8 +128,8 @@ struct SweepExecution {
   unsigned helpers = 0;           // threads besides the caller's (at most runs − 1)
   bool one_run_per_task = false;  // a helper re-posts itself after each run (a shared pool stays fair)
 };
-// Runs every run of the sweep; the entries in the sweep's order (null where a run was cancelled).
-// Each entry is the same whatever thread ran it. Rethrows the error of the lowest failing run.
+// Runs every run of the sweep; the entries in the sweep's order. Each entry is the same whatever
+// thread ran it. Rethrows the error of the lowest failing run; Cancelled once every run stopped.
 std::vector<nlohmann::json> execute_sweep(const CbfSweep& sweep, const SweepExecution& how);
 // `distlab cbf` with "sweep": {"scenario", "metric", "parameter", "values", "entries": [...]}, the
 // runs on all cores. progress (geometry/progress.hpp): report(stage, fraction) as execute_sweep's,

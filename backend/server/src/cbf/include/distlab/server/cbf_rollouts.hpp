@@ -16,6 +16,7 @@
 
 #include "distlab/cbf/rollout.hpp"
 #include "distlab/server/cbf_json.hpp"
+#include "distlab/server/lifecycle.hpp"
 
 namespace distlab::server {
 
@@ -58,8 +59,8 @@ struct CbfRollout {
 
   mutable std::mutex mutex;
   std::vector<cbf::StepRecord> steps;                // computed so far (moved into `record` at the end)
-  std::shared_ptr<const cbf::RolloutRecord> record;  // set when the run ended (finished or cancelled)
-  std::string state = "queued";                      // queued | running | finished | cancelled | failed
+  std::shared_ptr<const cbf::RolloutRecord> record;  // set when the run ended (succeeded or cancelled)
+  Lifecycle state = Lifecycle::queued;
 
   std::size_t steps_done() const;
   const std::vector<cbf::StepRecord>& steps_locked() const { return record ? record->steps : steps; }
@@ -69,6 +70,9 @@ struct CbfRollout {
   //  "fields": [{"name", "delta", "pose"}]} with fields).
   nlohmann::json status_json() const;
 };
+
+// A rollout's state in the API's words: queued | running | finished (succeeded) | cancelled | failed.
+const char* rollout_state_word(Lifecycle state);
 
 // A "cbf_frames" message of steps [first, first + count) (clamped to what exists); with fields,
 // each frame's "kelvin": [per field: encode_field_step].
