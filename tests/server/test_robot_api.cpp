@@ -498,5 +498,47 @@ TEST(RobotApiLimits, ConfigurationsEvaluationsObstaclesAndTime) {
   EXPECT_EQ(slow.stop(), 0);
 }
 
+// The description limits are entries of the table (GET /api/limits, --limit), and a URDF is held
+// to the server's values: at each limit accepted, one past it refused naming robot.urdf.
+TEST(RobotApiLimits, DescriptionLimitsAreTheTables) {
+  // A chain of `links` links, each with one sphere, joined by revolute joints.
+  const auto chain = [](int links) {
+    std::string xml = R"(<robot name="r">)";
+    for (int i = 0; i < links; ++i) {
+      xml += "<link name=\"l" + std::to_string(i) + "\"><collision><geometry><sphere radius=\"0.05\"/></geometry></collision></link>";
+      if (i > 0)
+        xml += "<joint name=\"j" + std::to_string(i) + "\" type=\"revolute\"><parent link=\"l" + std::to_string(i - 1) +
+               "\"/><child link=\"l" + std::to_string(i) + "\"/><origin xyz=\"0 0 0.2\"/><axis xyz=\"0 0 1\"/>" +
+               "<limit lower=\"-1\" upper=\"1\" velocity=\"1\" effort=\"1\"/></joint>";
+    }
+    return xml + "</robot>";
+  };
+  const std::string two = chain(2), three = chain(3);
+  ServerProcess server({"--limit", "max_robot_links=2", "--limit", "max_robot_collision_elements=2", "--limit",
+                        "max_urdf_bytes=" + std::to_string(three.size() + 20)});
+  auto c = server.client();
+  const json limits = body_json(c.Get("/api/limits"));
+  EXPECT_EQ(limits["max_robot_links"], 2);
+  EXPECT_EQ(limits["max_robot_collision_elements"], 2);
+  EXPECT_EQ(limits["max_urdf_bytes"], three.size() + 20);
+  EXPECT_EQ(limits["max_robot_joints"], robot::kMaxJoints);
+  const auto request = [](const std::string& urdf, int dof) {
+    return json{{"robot", {{"urdf", urdf}}}, {"q", std::vector<double>(static_cast<std::size_t>(dof), 0.1)},
+                {"obstacles", json::array({box("b", {0.2, 0.2, 0.2}, {0.5, 0.5, 0.5})})}};
+  };
+  auto r = post(c, request(two, 1));
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200) << r->body;
+  const std::pair<std::string, std::string> refused[] = {
+      {three, "at most 2 links"},
+      {three + std::string(21, ' '), "above the limit of " + std::to_string(three.size() + 20)},
+  };
+  for (const auto& [urdf, what] : refused) {
+    r = post(c, request(urdf, 2));
+    expect_error(r, 400, "invalid_input", "robot.urdf");
+    EXPECT_NE(body_json(r)["error"]["message"].get<std::string>().find(what), std::string::npos) << r->body;
+  }
+}
+
 }  // namespace
 }  // namespace distlab::test

@@ -26,20 +26,21 @@ using json = nlohmann::json;
 std::string in_quotes(const std::string& s) { return "\"" + shorten(s) + "\""; }
 
 // {"urdf": TEXT, "meshes": {FILENAME: UPLOAD_ID}}, as far as it can be read without the uploads.
-RobotUrdf read_urdf(const json& j) {
+RobotUrdf read_urdf(const json& j, const Limits& limits) {
   json_check_keys(j, "robot", {"urdf", "meshes"});
   const std::string uf = "robot.urdf", mf = "robot.meshes";
   RobotUrdf out;
   out.text = json_string(json_required(j, "robot", "urdf"), uf);
   // Before the package:// scan reads the text (from_urdf checks the size too, and scans the text
   // for what its XML parser cannot take).
-  if (out.text.size() > robot::kMaxUrdfBytes)
-    fail(uf, "robot.urdf has " + std::to_string(out.text.size()) + " bytes, above the limit of " + std::to_string(robot::kMaxUrdfBytes));
+  out.limits = description_limits(limits);
+  if (out.text.size() > limits.max_urdf_bytes)
+    fail(uf, "robot.urdf has " + std::to_string(out.text.size()) + " bytes, above the limit of " + std::to_string(limits.max_urdf_bytes));
   if (const json* m = json_optional(j, "meshes")) {
     json_require_object(*m, mf);
-    if (m->size() > static_cast<std::size_t>(robot::kMaxCollisionElements))
+    if (m->size() > static_cast<std::size_t>(limits.max_robot_collision_elements))
       fail(mf, "robot.meshes has " + std::to_string(m->size()) + " entries, above the limit of " +
-                   std::to_string(robot::kMaxCollisionElements) + " collision elements");
+                   std::to_string(limits.max_robot_collision_elements) + " collision elements");
     for (const auto& [filename, id] : m->items()) out.meshes[filename] = json_string(id, robot_mesh_field(filename));
   }
   return out;
@@ -168,7 +169,7 @@ std::vector<robot::Obstacle> parse_robot_obstacles(const json& j, const Limits& 
   return out;
 }
 
-robot::PairSelection parse_pair_selection(const json& j) {
+robot::PairSelection parse_pair_selection(const json& j, const Limits& limits) {
   robot::PairSelection s;
   if (j.is_string()) {
     const std::string v = j.get<std::string>();
@@ -190,7 +191,7 @@ robot::PairSelection parse_pair_selection(const json& j) {
     if (v == nullptr) continue;
     const std::string f = json_key_path("pairs", key);
     // At most one entry per pair of links.
-    json_array(*v, f, static_cast<std::size_t>(robot::kMaxLinks) * robot::kMaxLinks, "link pairs");
+    json_array(*v, f, static_cast<std::size_t>(limits.max_robot_links) * static_cast<std::size_t>(limits.max_robot_links), "link pairs");
     if (!v->empty() && !s.self) fail(f, f + " edits the self pairs: set pairs.self to true");
     for (std::size_t i = 0; i < v->size(); ++i) {
       const std::string e = json_index_path(f, i);
@@ -243,14 +244,14 @@ RobotDistancesRequest decode_robot_distances(const Request& request, const Limit
   if (const json* mj = json_optional(body, "metric")) out.metric = parse_robot_metric(*mj);
   const json* pj = json_optional(body, "params");
   out.params = parse_params(pj != nullptr ? *pj : json(nullptr), "params", limits);
-  out.pairs = parse_pair_selection(body.contains("pairs") ? body["pairs"] : json("obstacles"));
+  out.pairs = parse_pair_selection(body.contains("pairs") ? body["pairs"] : json("obstacles"), limits);
   const json* given = json_optional(body, "obstacles");
   out.obstacles = parse_robot_obstacles(given != nullptr ? *given : json::array(), limits);
   const json& rj = json_required(body, "", "robot");
   if (rj.is_string())
     out.builtin = rj.get<std::string>();
   else if (rj.is_object())
-    out.urdf = read_urdf(rj);
+    out.urdf = read_urdf(rj, limits);
   else
     fail("robot", "robot must be a built-in robot's name or {\"urdf\": TEXT, \"meshes\": {...}}");
   out.q = read_q(json_required(body, "", "q"), limits.max_robot_configurations);

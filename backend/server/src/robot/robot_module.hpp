@@ -18,8 +18,6 @@ class RobotModule final : public Module {
   using Module::Module;
   std::string name() const override { return "robot"; }
   void register_routes() override;
-  // The robot library's description limits (robot.hpp), enforced on every URDF.
-  void add_limits(nlohmann::json& limits) const override;
 
   RobotList robots(const Nothing& input, const Caller& caller);
   RobotDistances distances(const RobotDistancesRequest& request, const Caller& caller);

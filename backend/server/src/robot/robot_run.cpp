@@ -72,6 +72,7 @@ std::shared_ptr<const robot::Robot> urdf_robot(const RobotUrdf& urdf, const std:
   // The URDF's filenames are keys of `meshes`: a relative one needs some folder and a package://
   // one its package for resolve_mesh_path to pass it on; nothing is read from either.
   robot::UrdfOptions options;
+  options.limits = urdf.limits;
   options.base_dir = "/upload";
   for (std::size_t at = xml.find("package://"); at != std::string::npos; at = xml.find("package://", at + 1)) {
     const std::size_t begin = at + 10;

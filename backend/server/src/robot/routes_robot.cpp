@@ -11,15 +11,6 @@
 
 namespace distlab::server {
 
-void RobotModule::add_limits(nlohmann::json& limits) const {
-  limits["max_urdf_bytes"] = robot::kMaxUrdfBytes;
-  limits["max_robot_links"] = robot::kMaxLinks;
-  limits["max_robot_joints"] = robot::kMaxJoints;
-  limits["max_robot_collision_elements"] = robot::kMaxCollisionElements;
-  limits["max_robot_mesh_hull_facets"] = robot::kMaxMeshHullRows;
-  limits["max_robot_mesh_vertices"] = robot::kMaxMeshVertices;
-}
-
 void RobotModule::register_routes() {
   using M = RobotModule;
   // A row per route, as a table.

@@ -19,6 +19,7 @@
 #include "distlab/geometry/pose.hpp"
 #include "distlab/geometry/shape.hpp"
 #include "distlab/mesh/surface.hpp"
+#include "distlab/robot/description_limits.hpp"
 
 namespace distlab::robot {
 
@@ -26,23 +27,6 @@ using VecQ = Eigen::VectorXd;                                         // one ent
 using Jac = Eigen::Matrix<double, 6, Eigen::Dynamic>;                 // rows: linear velocity, angular velocity
 using GradQ = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic>;  // rows: ∇_q of each pair
 
-// Limits of a description, the library's defaults (the CLI's and the Python bindings'); a caller
-// that serves untrusted descriptions sets its own through UrdfOptions::limits.
-inline constexpr std::size_t kMaxUrdfBytes = std::size_t{1} << 20;
-inline constexpr int kMaxLinks = 256;
-inline constexpr int kMaxJoints = 256;
-inline constexpr int kMaxCollisionElements = 512;
-inline constexpr int kMaxMeshHullRows = 16384;  // facets of one mesh's hull
-inline constexpr std::size_t kMaxMeshVertices = 2'000'000;
-
-struct DescriptionLimits {
-  std::size_t urdf_bytes = kMaxUrdfBytes;  // of the text
-  int links = kMaxLinks;
-  int joints = kMaxJoints;
-  int collision_elements = kMaxCollisionElements;  // of the whole robot
-  int mesh_hull_rows = kMaxMeshHullRows;           // facets of one mesh's hull
-  std::size_t mesh_vertices = kMaxMeshVertices;    // of one mesh file
-};
 
 // A convex collision element fixed to link `link` (index into Robot::links()) at `pose` in that
 // frame. `element`: its position among the link's <collision> elements (0, 1, ...); `name`: the

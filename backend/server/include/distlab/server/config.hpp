@@ -3,6 +3,8 @@
 #include <cstddef>
 #include <string>
 
+#include "distlab/robot/description_limits.hpp"
+
 namespace distlab::server {
 
 // GET /api/kelvin/objects/{id}/isosurface and .../export extract one level each (a repeated level
@@ -61,6 +63,15 @@ struct Limits {
   std::size_t max_robot_configurations = 10000;
   std::size_t max_robot_pair_evaluations = 50000;
   std::size_t max_robot_obstacles = 256;
+  // A URDF's description (robot::DescriptionLimits, whose defaults these are): its text's bytes,
+  // links, joints and collision elements, and one mesh's vertices and hull facets (each facet a
+  // row of the GAP polytope every configuration evaluates).
+  std::size_t max_urdf_bytes = robot::kMaxUrdfBytes;
+  int max_robot_links = robot::kMaxLinks;
+  int max_robot_joints = robot::kMaxJoints;
+  int max_robot_collision_elements = robot::kMaxCollisionElements;
+  int max_robot_mesh_hull_facets = robot::kMaxMeshHullRows;
+  std::size_t max_robot_mesh_vertices = robot::kMaxMeshVertices;
   // CBF rollouts: a rollout's steps (duration / dt) and seconds of simulated time; its collision
   // pairs × steps, kept in memory (≈ 80 bytes each); a scenario's obstacles (each a pair per
   // robot primitive, built per step); steps per "cbf_frames" message and per GET .../frames;
@@ -172,6 +183,12 @@ void for_each_limit(L& l, F&& f) {
   f("max_robot_configurations", l.max_robot_configurations);
   f("max_robot_pair_evaluations", l.max_robot_pair_evaluations);
   f("max_robot_obstacles", l.max_robot_obstacles);
+  f("max_urdf_bytes", l.max_urdf_bytes);
+  f("max_robot_links", l.max_robot_links);
+  f("max_robot_joints", l.max_robot_joints);
+  f("max_robot_collision_elements", l.max_robot_collision_elements);
+  f("max_robot_mesh_hull_facets", l.max_robot_mesh_hull_facets);
+  f("max_robot_mesh_vertices", l.max_robot_mesh_vertices);
   f("max_cbf_steps", l.max_cbf_steps);
   f("max_cbf_duration", l.max_cbf_duration);
   f("max_cbf_pair_steps", l.max_cbf_pair_steps);
@@ -204,6 +221,12 @@ void for_each_limit(L& l, F&& f) {
   f("max_held_bytes", l.max_held_bytes);
   f("max_cache_bytes", l.max_cache_bytes);
   f("cache_lease_seconds", l.cache_lease_seconds);
+}
+
+// The description limits of the table, as the robot library takes them (UrdfOptions::limits).
+inline robot::DescriptionLimits description_limits(const Limits& l) {
+  return {l.max_urdf_bytes, l.max_robot_links, l.max_robot_joints, l.max_robot_collision_elements, l.max_robot_mesh_hull_facets,
+          l.max_robot_mesh_vertices};
 }
 
 struct ServiceConfig {

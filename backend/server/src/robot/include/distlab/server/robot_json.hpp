@@ -50,7 +50,7 @@ std::vector<robot::Obstacle> parse_robot_obstacles(const nlohmann::json& j, cons
 // "obstacles" | "self" | "both" | {"obstacles": bool, "self": bool, "allow": [[LINK, LINK], ...],
 // "deny": [...]} (allow / deny edit the self pairs, so they need "self": true); errors name
 // "pairs", "pairs.<key>", "pairs.allow[i]", ... (an unknown link: DistanceModel, "pairs.allow[i]").
-robot::PairSelection parse_pair_selection(const nlohmann::json& j);
+robot::PairSelection parse_pair_selection(const nlohmann::json& j, const Limits& limits = {});
 
 // "gap" | "euclidean"; InvalidInput("metric") otherwise.
 robot::Metric parse_robot_metric(const nlohmann::json& j);
@@ -67,8 +67,9 @@ void validate_robot_bodies(const robot::DistanceModel& model, const std::string&
 // rows: 413 too_many_configurations), the obstacles, pairs, metric and params. The handler
 // resolves the robot (robot_run.hpp) and checks q against its dof.
 struct RobotUrdf {
-  std::string text;                           // at most robot::kMaxUrdfBytes
+  std::string text;                           // at most max_urdf_bytes
   std::map<std::string, std::string> meshes;  // <mesh filename> → upload id of the caller's session
+  robot::DescriptionLimits limits;            // the table's, for the library to check the rest
 };
 struct RobotQRow {
   std::vector<double> values;
