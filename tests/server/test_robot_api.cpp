@@ -523,8 +523,7 @@ TEST(RobotApiLimits, DescriptionLimitsAreTheTables) {
   EXPECT_EQ(limits["max_urdf_bytes"], three.size() + 20);
   EXPECT_EQ(limits["max_robot_joints"], robot::kMaxJoints);
   const auto request = [](const std::string& urdf, int dof) {
-    return json{{"robot", {{"urdf", urdf}}}, {"q", std::vector<double>(static_cast<std::size_t>(dof), 0.1)},
-                {"obstacles", json::array({box("b", {0.2, 0.2, 0.2}, {0.5, 0.5, 0.5})})}};
+    return json{{"robot", {{"urdf", urdf}}}, {"q", std::vector<double>(static_cast<std::size_t>(dof), 0.1)}, {"obstacles", json::array({box("b", {0.2, 0.2, 0.2}, {0.5, 0.5, 0.5})})}};
   };
   auto r = post(c, request(two, 1));
   ASSERT_TRUE(r);

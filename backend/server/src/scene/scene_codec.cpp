@@ -234,10 +234,14 @@ std::string clear_message() { return json{{"type", "scene_clear"}}.dump(); }
 
 const char* recording_state_name(Lifecycle state) {
   switch (state) {
-    case Lifecycle::queued: return "waiting";
-    case Lifecycle::running: return "recording";
-    case Lifecycle::succeeded: return "done";
-    default: return "failed";
+    case Lifecycle::queued:
+      return "waiting";
+    case Lifecycle::running:
+      return "recording";
+    case Lifecycle::succeeded:
+      return "done";
+    default:
+      return "failed";
   }
 }
 

@@ -78,12 +78,14 @@ struct RecordingSpec {
   std::size_t parts() const { return format == "png" ? frames : 1; }  // PNG frames, or one WebM
 };
 
-struct Camera {  // the page's when it recorded
+// The page's camera when it recorded.
+struct Camera {
   Eigen::Matrix<double, 16, 1> matrix;  // clip from world, column-major
   int width = 0, height = 0;
 };
 
-struct Recorded {  // the frames the page drew into the recording and their span
+// The frames the page drew into the recording and their span.
+struct Recorded {
   int frames = 0;
   double seconds = 0;
 };

@@ -27,7 +27,6 @@ using VecQ = Eigen::VectorXd;                                         // one ent
 using Jac = Eigen::Matrix<double, 6, Eigen::Dynamic>;                 // rows: linear velocity, angular velocity
 using GradQ = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic>;  // rows: ∇_q of each pair
 
-
 // A convex collision element fixed to link `link` (index into Robot::links()) at `pose` in that
 // frame. `element`: its position among the link's <collision> elements (0, 1, ...); `name`: the
 // element's name attribute, or "LINK/collision[ELEMENT]" when it has none.
