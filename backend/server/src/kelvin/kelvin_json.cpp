@@ -115,14 +115,23 @@ std::uint64_t parse_cache_budget(const json& j, const std::string& field) {
   return static_cast<std::uint64_t>(b);
 }
 
-json run_kelvin_request(const json& r, const kelvin::Progress& progress) {
-  object_with(r, "", {"mesh", "lx", "center", "far_radius", "grading", "feature_angle", "max_vertices", "cache", "cache_budget", "sigma", "query", "isosurfaces", "repair", "repair_options", "simplify", "components", "comment"});
-  const ReshapeRequest reshape = parse_reshape(r, Limits{});
-  if (!r.contains("mesh")) throw InvalidInput("mesh", "mesh is required");
-  const json& m = r["mesh"];
-  object_with(m, "mesh", {"path", "asset"});
-  if (m.contains("path") == m.contains("asset")) throw InvalidInput("mesh", "mesh needs exactly one of path and asset");
-  const std::string path = m.contains("path") ? text(m["path"], "mesh.path") : asset_path(text(m["asset"], "mesh.asset"));
+namespace {
+
+// A `distlab kelvin` request (kelvin_json.hpp), read and checked.
+struct KelvinRun {
+  ReshapeRequest reshape;
+  std::string path, path_field;  // the mesh file, and the field that named it
+  kelvin::PrepareOptions options;
+  bool cached = false;  // "cache" given: prepared through the store
+  kelvin::FieldStore store;
+  kelvin::SigmaSpec sigma;
+  std::vector<Vec3> points;
+  std::vector<double> levels;
+  std::string iso_format, iso_path;
+};
+
+// lx, center, far_radius, grading, feature_angle, max_vertices.
+kelvin::PrepareOptions parse_prepare_options(const json& r) {
   if (!r.contains("lx")) throw InvalidInput("lx", "lx is required");
   kelvin::PrepareOptions options;
   options.lx = number(r["lx"], "lx");
@@ -139,67 +148,62 @@ json run_kelvin_request(const json& r, const kelvin::Progress& progress) {
       throw InvalidInput("max_vertices", "max_vertices must be an integer in [100, 1e8]");
     options.max_vertices = static_cast<std::size_t>(mv);
   }
+  return options;
+}
+
+// "isosurfaces": {"levels", "format", "path"}.
+void parse_isosurfaces(const json& iso, KelvinRun& run) {
+  object_with(iso, "isosurfaces", {"levels", "format", "path"});
+  if (!iso.contains("levels") || !iso["levels"].is_array() || iso["levels"].empty())
+    throw InvalidInput("isosurfaces.levels", "isosurfaces.levels must be a non-empty array of numbers");
+  for (size_t i = 0; i < iso["levels"].size(); ++i)
+    run.levels.push_back(number(iso["levels"][i], "isosurfaces.levels[" + std::to_string(i) + "]"));
+  run.iso_format = iso.contains("format") ? text(iso["format"], "isosurfaces.format") : "ply";
+  if (run.iso_format != "ply" && run.iso_format != "stl" && run.iso_format != "obj" && run.iso_format != "glb")
+    throw InvalidInput("isosurfaces.format", "isosurfaces.format must be ply, stl, obj or glb");
+  if (!iso.contains("path")) throw InvalidInput("isosurfaces.path", "isosurfaces.path is required");
+  run.iso_path = text(iso["path"], "isosurfaces.path");
+}
+
+KelvinRun parse_run(const json& r) {
+  object_with(r, "", {"mesh", "lx", "center", "far_radius", "grading", "feature_angle", "max_vertices", "cache", "cache_budget", "sigma", "query", "isosurfaces", "repair", "repair_options", "simplify", "components", "comment"});
+  KelvinRun run;
+  run.reshape = parse_reshape(r, Limits{});
+  if (!r.contains("mesh")) throw InvalidInput("mesh", "mesh is required");
+  const json& m = r["mesh"];
+  object_with(m, "mesh", {"path", "asset"});
+  if (m.contains("path") == m.contains("asset")) throw InvalidInput("mesh", "mesh needs exactly one of path and asset");
+  run.path = m.contains("path") ? text(m["path"], "mesh.path") : asset_path(text(m["asset"], "mesh.asset"));
+  run.path_field = m.contains("path") ? "mesh.path" : "mesh.asset";
+  run.options = parse_prepare_options(r);
   // The field store (kelvin/store.hpp) and its budget: after writing, least recently used entries
   // go until the entries take at most cache_budget bytes.
-  kelvin::FieldStore store;
-  if (r.contains("cache")) store.dir = text(r["cache"], "cache");
+  run.cached = r.contains("cache");
+  if (run.cached) run.store.dir = text(r["cache"], "cache");
   if (r.contains("cache_budget")) {
-    if (!r.contains("cache")) throw InvalidInput("cache_budget", "cache_budget needs cache (the store's directory)");
-    store.budget_bytes = parse_cache_budget(r["cache_budget"], "cache_budget");
+    if (!run.cached) throw InvalidInput("cache_budget", "cache_budget needs cache (the store's directory)");
+    run.store.budget_bytes = parse_cache_budget(r["cache_budget"], "cache_budget");
   }
-  kelvin::SigmaSpec sigma = r.contains("sigma") ? parse_sigma(r["sigma"]) : kelvin::SigmaSpec{};
-  std::vector<Vec3> points;
+  if (r.contains("sigma")) run.sigma = parse_sigma(r["sigma"]);
   if (r.contains("query")) {
     if (!r["query"].is_array()) throw InvalidInput("query", "query must be an array of [x, y, z]");
-    for (size_t i = 0; i < r["query"].size(); ++i) points.push_back(vec3(r["query"][i], "query[" + std::to_string(i) + "]"));
+    for (size_t i = 0; i < r["query"].size(); ++i) run.points.push_back(vec3(r["query"][i], "query[" + std::to_string(i) + "]"));
   }
-  std::vector<double> levels;
-  std::string iso_format, iso_path;
-  if (r.contains("isosurfaces")) {
-    const json& iso = r["isosurfaces"];
-    object_with(iso, "isosurfaces", {"levels", "format", "path"});
-    if (!iso.contains("levels") || !iso["levels"].is_array() || iso["levels"].empty())
-      throw InvalidInput("isosurfaces.levels", "isosurfaces.levels must be a non-empty array of numbers");
-    for (size_t i = 0; i < iso["levels"].size(); ++i)
-      levels.push_back(number(iso["levels"][i], "isosurfaces.levels[" + std::to_string(i) + "]"));
-    iso_format = iso.contains("format") ? text(iso["format"], "isosurfaces.format") : "ply";
-    if (iso_format != "ply" && iso_format != "stl" && iso_format != "obj" && iso_format != "glb")
-      throw InvalidInput("isosurfaces.format", "isosurfaces.format must be ply, stl, obj or glb");
-    if (!iso.contains("path")) throw InvalidInput("isosurfaces.path", "isosurfaces.path is required");
-    iso_path = text(iso["path"], "isosurfaces.path");
-  }
+  if (r.contains("isosurfaces")) parse_isosurfaces(r["isosurfaces"], run);
+  return run;
+}
 
-  // The file's vertices in the file's order: σ per_vertex is indexed by them; the field is
-  // prepared on the welded surface (mesh/weld.hpp).
-  const mesh::SurfaceMesh surface = mesh::load_mesh(path, m.contains("path") ? "mesh.path" : "mesh.asset");
-  const mesh::Welded welded = mesh::weld(surface);
-  kelvin::SigmaSpec solved = kelvin::field_sigma(sigma, surface.vertices, welded.to_welded, welded.surface.vertices.rows());
-  // "components" / "simplify" / "repair": the field is prepared on the reshaped surface, σ
-  // carried to it (ReshapeRequest).
-  Reshaped reshaped;
-  if (reshape.any()) {
-    reshaped = reshape_surface(surface, welded.surface, reshape, Limits{}, progress);
-    solved = carry_sigma(std::move(solved), sigma, mesh::nearest_face_transfer(surface, reshaped.surface.vertices));
-  }
-  const mesh::SurfaceMesh& prepared = reshape.any() ? reshaped.surface : welded.surface;
-  bool hit = false;
-  kelvin::Field field = r.contains("cache") ? kelvin::Field::prepare_cached(prepared, options, store, progress, &hit)
-                                            : kelvin::Field::prepare(prepared, options, progress);
-  field.set_sigma(solved);
-
-  json out;
+json stats_json(const kelvin::Field& field, bool hit, bool cached) {
   const kelvin::Stats& st = field.stats();
-  out["stats"] = {{"n_verts", st.n_verts}, {"n_tets", st.n_tets}, {"size_mb", st.size_mb}, {"t_mesh", st.t_mesh}, {"t_build", st.t_build}, {"t_decomp", st.t_decomp}, {"t_solve", st.t_solve}, {"grading", st.grading}, {"cache_hit", hit}};
+  json stats = {{"n_verts", st.n_verts}, {"n_tets", st.n_tets}, {"size_mb", st.size_mb}, {"t_mesh", st.t_mesh}, {"t_build", st.t_build}, {"t_decomp", st.t_decomp}, {"t_solve", st.t_solve}, {"grading", st.grading}, {"cache_hit", hit}};
   // On a cache hit t_mesh and t_decomp are the original preparation's; t_load is this load.
-  if (hit) out["stats"]["t_load"] = st.t_load;
+  if (hit) stats["t_load"] = st.t_load;
   // Waited for another process preparing the same field (its lease) before loading or taking over.
-  if (r.contains("cache")) out["stats"]["t_wait"] = st.t_wait;
-  // Fallbacks taken while preparing (e.g. edge protection skipped on thin features).
-  if (!st.warnings.empty()) out["warnings"] = st.warnings;
-  out["mesh"] = {{"n_vertices", surface.vertices.rows()}, {"n_faces", surface.faces.rows()}, {"n_welded_vertices", welded.surface.vertices.rows()}};
-  if (!reshaped.repair_report.is_null()) out["repair"] = reshaped.repair_report;
-  if (!reshaped.simplify_report.is_null()) out["simplify"] = reshaped.simplify_report;
-  if (!reshaped.components_report.is_null()) out["components"] = reshaped.components_report;
+  if (cached) stats["t_wait"] = st.t_wait;
+  return stats;
+}
+
+json query_json(const kelvin::Field& field, const std::vector<Vec3>& points) {
   json h = json::array(), grad = json::array(), inside = json::array();
   int hint = -1;
   for (const Vec3& x : points) {
@@ -208,28 +212,64 @@ json run_kelvin_request(const json& r, const kelvin::Progress& progress) {
     grad.push_back(s.status == kelvin::Status::ok ? vec_json(s.gradient) : json(nullptr));
     inside.push_back(s.status == kelvin::Status::inside);
   }
-  out["query"] = {{"h", h}, {"gradient", grad}, {"inside", inside}};
-  if (!levels.empty()) {
-    json files = json::array();
-    for (size_t i = 0; i < levels.size(); ++i) {
-      fs::path file = iso_path;
-      if (levels.size() > 1)
-        file = file.parent_path() / (file.stem().string() + "_" + std::to_string(i) + file.extension().string());
-      const mesh::SurfaceMesh iso = field.isosurface(levels[i]);
-      if (iso.faces.rows() == 0)
-        throw InvalidInput("isosurfaces.levels[" + std::to_string(i) + "]",
-                           "the field never takes h = " + json(levels[i]).dump() + ": its smallest value is h = " +
-                               json(field.minimum()).dump() + ", and {h = level} is empty below it");
-      const mesh::SurfaceReport check = mesh::inspect_surface(iso);
-      if (!check.manifold())
-        throw InvalidInput("isosurfaces.levels[" + std::to_string(i) + "]",
-                           "the iso-surface at h = " + json(levels[i]).dump() + " is not a closed 2-manifold (" +
-                               mesh::surface_defects(check) + "); not written");
-      mesh::save_mesh(iso, file.string(), iso_format, "isosurfaces.format");
-      files.push_back({{"level", levels[i]}, {"path", file.string()}, {"n_verts", iso.vertices.rows()}, {"n_faces", iso.faces.rows()}, {"digest", kelvin::surface_digest(iso)}, {"check", surface_check_json(check)}});
-    }
-    out["isosurfaces"] = files;
+  return {{"h", h}, {"gradient", grad}, {"inside", inside}};
+}
+
+// Writes each level's iso-surface (PATH-stem_<i>.ext when several); a level the field never
+// takes, or a surface that is not a closed 2-manifold, is refused naming the level.
+json write_isosurfaces(const kelvin::Field& field, const KelvinRun& run) {
+  json files = json::array();
+  for (size_t i = 0; i < run.levels.size(); ++i) {
+    const double level = run.levels[i];
+    fs::path file = run.iso_path;
+    if (run.levels.size() > 1) file = file.parent_path() / (file.stem().string() + "_" + std::to_string(i) + file.extension().string());
+    const mesh::SurfaceMesh iso = field.isosurface(level);
+    const std::string field_name = "isosurfaces.levels[" + std::to_string(i) + "]";
+    if (iso.faces.rows() == 0)
+      throw InvalidInput(field_name, "the field never takes h = " + json(level).dump() + ": its smallest value is h = " +
+                                         json(field.minimum()).dump() + ", and {h = level} is empty below it");
+    const mesh::SurfaceReport check = mesh::inspect_surface(iso);
+    if (!check.manifold())
+      throw InvalidInput(field_name, "the iso-surface at h = " + json(level).dump() + " is not a closed 2-manifold (" +
+                                         mesh::surface_defects(check) + "); not written");
+    mesh::save_mesh(iso, file.string(), run.iso_format, "isosurfaces.format");
+    files.push_back({{"level", level}, {"path", file.string()}, {"n_verts", iso.vertices.rows()}, {"n_faces", iso.faces.rows()}, {"digest", kelvin::surface_digest(iso)}, {"check", surface_check_json(check)}});
   }
+  return files;
+}
+
+}  // namespace
+
+json run_kelvin_request(const json& r, const kelvin::Progress& progress) {
+  const KelvinRun run = parse_run(r);
+  // The file's vertices in the file's order: σ per_vertex is indexed by them; the field is
+  // prepared on the welded surface (mesh/weld.hpp).
+  const mesh::SurfaceMesh surface = mesh::load_mesh(run.path, run.path_field);
+  const mesh::Welded welded = mesh::weld(surface);
+  kelvin::SigmaSpec solved = kelvin::field_sigma(run.sigma, surface.vertices, welded.to_welded, welded.surface.vertices.rows());
+  // "components" / "simplify" / "repair": the field is prepared on the reshaped surface, σ
+  // carried to it (ReshapeRequest).
+  Reshaped reshaped;
+  if (run.reshape.any()) {
+    reshaped = reshape_surface(surface, welded.surface, run.reshape, Limits{}, progress);
+    solved = carry_sigma(std::move(solved), run.sigma, mesh::nearest_face_transfer(surface, reshaped.surface.vertices));
+  }
+  const mesh::SurfaceMesh& prepared = run.reshape.any() ? reshaped.surface : welded.surface;
+  bool hit = false;
+  kelvin::Field field = run.cached ? kelvin::Field::prepare_cached(prepared, run.options, run.store, progress, &hit)
+                                   : kelvin::Field::prepare(prepared, run.options, progress);
+  field.set_sigma(solved);
+
+  json out;
+  out["stats"] = stats_json(field, hit, run.cached);
+  // Fallbacks taken while preparing (e.g. edge protection skipped on thin features).
+  if (!field.stats().warnings.empty()) out["warnings"] = field.stats().warnings;
+  out["mesh"] = {{"n_vertices", surface.vertices.rows()}, {"n_faces", surface.faces.rows()}, {"n_welded_vertices", welded.surface.vertices.rows()}};
+  if (!reshaped.repair_report.is_null()) out["repair"] = reshaped.repair_report;
+  if (!reshaped.simplify_report.is_null()) out["simplify"] = reshaped.simplify_report;
+  if (!reshaped.components_report.is_null()) out["components"] = reshaped.components_report;
+  out["query"] = query_json(field, run.points);
+  if (!run.levels.empty()) out["isosurfaces"] = write_isosurfaces(field, run);
   return out;
 }
 

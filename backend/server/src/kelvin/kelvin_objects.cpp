@@ -62,67 +62,77 @@ std::shared_ptr<PreparedField> PreparedRegistry::acquire(const mesh::SurfaceMesh
                                                          const kelvin::Progress& progress, bool* from_memory) {
   const std::string key = kelvin::prepare_key(surface, options);
   if (from_memory) *from_memory = false;
-  {
-    std::unique_lock lock(mutex_);
-    for (;;) {
-      Entry* e = find_locked(key, surface, options);
-      if (e == nullptr) {
-        Entry fresh{surface, options, {}, true};
-        entries_.emplace(key, std::move(fresh));
-        break;
-      }
-      if (auto f = e->field.lock()) {
-        if (from_memory) *from_memory = true;
-        return f;
-      }
-      if (!e->preparing) {
-        e->preparing = true;
-        break;
-      }
-      // Another job prepares the same content: wait for it (and stay cancellable).
-      cv_.wait_for(lock, std::chrono::milliseconds(100));
-      progress.check();
-    }
+  if (auto f = find_or_claim(key, surface, options, progress)) {
+    if (from_memory) *from_memory = true;
+    return f;
   }
-  auto release = [&](const std::shared_ptr<PreparedField>& f) {
-    {
-      std::lock_guard lock(mutex_);
-      Entry* e = find_locked(key, surface, options);
-      if (e != nullptr) {
-        e->preparing = false;
-        if (f) e->field = f;
-      }
-      if (f) {
-        recent_.push_back(f);
-        if (recent_.size() > 4) recent_.erase(recent_.begin());
-      }
-      // Forget entries nobody holds (their disk cache remains).
-      for (auto it = entries_.begin(); it != entries_.end();)
-        it = (!it->second.preparing && it->second.field.expired()) ? entries_.erase(it) : std::next(it);
-    }
-    cv_.notify_all();
-  };
   try {
-    const auto t0 = std::chrono::steady_clock::now();
-    bool hit = false;
-    kelvin::Field field = store_.dir.empty()
-                              ? kelvin::Field::prepare(surface, options, progress)
-                              : kelvin::Field::prepare_cached(surface, options, store_, progress, &hit);
-    const double response_mb = field.boundary_response_megabytes();
-    const auto response_bytes = static_cast<std::size_t>(std::llround(response_mb * 1e6));
-    std::unique_ptr<ResponseBudget::Share> share;
-    if (response_bytes <= response_bytes_) share = take_response(response_bytes);
-    if (share && !field.build_boundary_response(response_mb, progress)) share.reset();
-    auto prepared = std::make_shared<PreparedField>(key, std::move(field));
-    prepared->cache_hit = hit;
-    prepared->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    prepared->response_share = std::move(share);
-    release(prepared);
+    auto prepared = prepare(key, surface, options, progress);
+    release(key, surface, options, prepared);
     return prepared;
   } catch (...) {
-    release(nullptr);
+    release(key, surface, options, nullptr);
     throw;
   }
+}
+
+std::shared_ptr<PreparedField> PreparedRegistry::find_or_claim(const std::string& key, const mesh::SurfaceMesh& surface,
+                                                               const kelvin::PrepareOptions& options, const kelvin::Progress& progress) {
+  std::unique_lock lock(mutex_);
+  for (;;) {
+    Entry* e = find_locked(key, surface, options);
+    if (e == nullptr) {
+      Entry fresh{surface, options, {}, true};
+      entries_.emplace(key, std::move(fresh));
+      return nullptr;
+    }
+    if (auto f = e->field.lock()) return f;
+    if (!e->preparing) {
+      e->preparing = true;
+      return nullptr;
+    }
+    // Another job prepares the same content: wait for it (and stay cancellable).
+    cv_.wait_for(lock, std::chrono::milliseconds(100));
+    progress.check();
+  }
+}
+
+void PreparedRegistry::release(const std::string& key, const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& options,
+                               const std::shared_ptr<PreparedField>& f) {
+  {
+    std::lock_guard lock(mutex_);
+    Entry* e = find_locked(key, surface, options);
+    if (e != nullptr) {
+      e->preparing = false;
+      if (f) e->field = f;
+    }
+    if (f) {
+      recent_.push_back(f);
+      if (recent_.size() > 4) recent_.erase(recent_.begin());
+    }
+    // Forget entries nobody holds (their disk cache remains).
+    for (auto it = entries_.begin(); it != entries_.end();)
+      it = (!it->second.preparing && it->second.field.expired()) ? entries_.erase(it) : std::next(it);
+  }
+  cv_.notify_all();
+}
+
+std::shared_ptr<PreparedField> PreparedRegistry::prepare(const std::string& key, const mesh::SurfaceMesh& surface,
+                                                         const kelvin::PrepareOptions& options, const kelvin::Progress& progress) {
+  const auto t0 = std::chrono::steady_clock::now();
+  bool hit = false;
+  kelvin::Field field = store_.dir.empty() ? kelvin::Field::prepare(surface, options, progress)
+                                           : kelvin::Field::prepare_cached(surface, options, store_, progress, &hit);
+  const double response_mb = field.boundary_response_megabytes();
+  const auto response_bytes = static_cast<std::size_t>(std::llround(response_mb * 1e6));
+  std::unique_ptr<ResponseBudget::Share> share;
+  if (response_bytes <= response_bytes_) share = take_response(response_bytes);
+  if (share && !field.build_boundary_response(response_mb, progress)) share.reset();
+  auto prepared = std::make_shared<PreparedField>(key, std::move(field));
+  prepared->cache_hit = hit;
+  prepared->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  prepared->response_share = std::move(share);
+  return prepared;
 }
 
 std::unique_ptr<ResponseBudget::Share> PreparedRegistry::take_response(std::size_t bytes) {

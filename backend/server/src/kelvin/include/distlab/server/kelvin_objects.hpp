@@ -128,6 +128,17 @@ class PreparedRegistry {
     bool preparing = false;
   };
   Entry* find_locked(const std::string& key, const mesh::SurfaceMesh& s, const kelvin::PrepareOptions& o);
+  // The field in memory for this content, else nullptr with its preparation claimed for the
+  // caller (after waiting while another job prepares it, cancellable by progress).
+  std::shared_ptr<PreparedField> find_or_claim(const std::string& key, const mesh::SurfaceMesh& s,
+                                               const kelvin::PrepareOptions& o, const kelvin::Progress& progress);
+  // Ends a claim: records the field made (nullptr: none), keeps it among the recent ones, and
+  // forgets the entries nobody holds.
+  void release(const std::string& key, const mesh::SurfaceMesh& s, const kelvin::PrepareOptions& o,
+               const std::shared_ptr<PreparedField>& f);
+  // Prepares (through the store) and builds the boundary response if the budgets allow.
+  std::shared_ptr<PreparedField> prepare(const std::string& key, const mesh::SurfaceMesh& s, const kelvin::PrepareOptions& o,
+                                         const kelvin::Progress& progress);
   std::unique_ptr<ResponseBudget::Share> take_response(std::size_t bytes);
 
   kelvin::FieldStore store_;
