@@ -264,6 +264,14 @@ TEST_F(Api, StaticFilesAndNoTraversal) {
   }
 }
 
+// A scene item's frame (up to max_scene_bytes) is read only for a caller with a session: without
+// one the answer is 401 whatever the body, with one the same body is the frame's 400.
+TEST_F(Api, SceneItemIsReadAfterTheSession) {
+  const std::string body = "\xc1 not msgpack";
+  expect_error(c.Put("/api/scene/items/a", body, "application/msgpack"), 401, "session_required");
+  expect_error(c.Put("/api/scene/items/a", session_headers(new_session(c)), body, "application/msgpack"), 400, "invalid_input");
+}
+
 TEST_F(Api, SessionsAreIsolatedAndUnguessable) {
   const std::string a = new_session(c), b = new_session(c);
   ASSERT_EQ(a.size(), 32u);

@@ -50,7 +50,7 @@ void SceneModule::register_routes() {
       router_, *this, limits,
       {
           {"GET", "/api/scene/items", Work::light, {}, codec(decode_nothing, &SceneModule::items, encode_scene)},
-          {"PUT", "/api/scene/items/{name}", Work::light, {}, codec(decode_new_item, &SceneModule::put_item, encode_item), item_body},
+          {"PUT", "/api/scene/items/{name}", Work::light, {}, codec(decode_item_upload, &SceneModule::put_item, encode_item), item_body},
           {"PUT", "/api/scene/items/{name}/pose", Work::light, {}, codec(decode_item_pose, &SceneModule::set_pose, encode_item)},
           {"DELETE", "/api/scene/items/{name}", Work::light, {}, codec(decode_item_ref, &SceneModule::remove_item, encode_no_content)},
           {"DELETE", "/api/scene/items", Work::light, {}, codec(decode_nothing, &SceneModule::clear, encode_no_content)},
@@ -89,9 +89,10 @@ SceneList SceneModule::items(const Nothing& /*in*/, const Caller& caller) {
 }
 
 // Adding under an existing name replaces that item.
-ItemSummary SceneModule::put_item(const NewItem& in, const Caller& caller) {
+ItemSummary SceneModule::put_item(const ItemUpload& upload, const Caller& caller) {
   const Limits& lim = config_.limits;
   auto s = require_session(caller);
+  const NewItem in = read_item(upload, lim);
   const ItemSummary& item = in.item.summary;
   {
     std::lock_guard lock(s->mutex);

@@ -173,13 +173,17 @@ json recording_json(const RecordingStatus& r) {
 
 ItemRef decode_item_ref(const Request& request, const Limits& /*limits*/) { return {item_name(request.params.at("name"))}; }
 
+ItemUpload decode_item_upload(Request& request, const Limits& /*limits*/) {
+  return {item_name(request.params.at("name")), std::move(request.body)};
+}
+
 // The body is the item's msgpack frame: what the client sent plus type, name, n_vertices (and
 // n_faces or n_segments) is what the pages get.
-NewItem decode_new_item(const Request& request, const Limits& limits) {
+NewItem read_item(const ItemUpload& upload, const Limits& limits) {
   NewItem out;
   ItemSummary& summary = out.item.summary;
-  summary.name = item_name(request.params.at("name"));
-  json item = parse_msgpack(request.body);
+  summary.name = upload.name;
+  json item = parse_msgpack(upload.body);
   check_look(item, summary);
   if (summary.kind == "frame") {
     for (const char* key : {"positions", "indices", "colors", "scalars"})

@@ -46,6 +46,14 @@ struct ItemRef {
   std::string name;
 };
 
+// PUT /api/scene/items/{name} as received: the name checked, the frame's bytes moved from the
+// request. read_item checks the frame once the handler has the caller's session (a caller without
+// one costs no parse of up to max_scene_bytes).
+struct ItemUpload {
+  std::string name;
+  mutable std::string body;
+};
+
 struct ItemPose {
   std::string name;
   Pose pose;
@@ -57,7 +65,8 @@ struct SceneList {
 };
 
 ItemRef decode_item_ref(const Request& request, const Limits& limits);
-NewItem decode_new_item(const Request& request, const Limits& limits);
+ItemUpload decode_item_upload(Request& request, const Limits& limits);
+NewItem read_item(const ItemUpload& upload, const Limits& limits);
 ItemPose decode_item_pose(const Request& request, const Limits& limits);
 Response encode_scene(const SceneList& scene);
 Response encode_item(const ItemSummary& item);

@@ -27,7 +27,7 @@ class SceneModule final : public Module {
  private:
   // The handlers of the table (routes_scene.cpp).
   SceneList items(const Nothing& in, const Caller& caller);
-  ItemSummary put_item(const NewItem& in, const Caller& caller);
+  ItemSummary put_item(const ItemUpload& upload, const Caller& caller);
   ItemSummary set_pose(const ItemPose& in, const Caller& caller);
   Nothing remove_item(const ItemRef& in, const Caller& caller);
   Nothing clear(const Nothing& in, const Caller& caller);
