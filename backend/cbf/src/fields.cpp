@@ -49,8 +49,7 @@ std::vector<ControlPoint> sample_control_points(const robot::Robot& robot, const
                                                 const std::string& element, int count, const std::string& field) {
   const int l = robot.link_index(link);
   if (l < 0) throw InvalidInput(field + ".link", "no link \"" + link + "\" in robot \"" + robot.name() + "\"");
-  if (count < 1 || count > kMaxControlPoints)
-    throw InvalidInput(field + ".sample", "sample must be a count in [1, " + std::to_string(kMaxControlPoints) + "]");
+  if (count < 1) throw InvalidInput(field + ".sample", "sample must be a count >= 1");
   std::vector<const robot::LinkPrimitive*> elements;
   for (const auto& p : robot.primitives())
     if (p.link == l && (element.empty() || p.name == element)) elements.push_back(&p);

@@ -101,10 +101,6 @@ void validate(const Scenario& s) {
                                 std::to_string(robot.q_min()[i]) + ", " +
                                 std::to_string(robot.q_max()[i]) + "]");
   }
-  if (s.fields.size() > kMaxSceneFields)
-    throw InvalidInput("fields", "at most " + std::to_string(kMaxSceneFields) + " fields");
-  if (s.control_points.size() > kMaxControlPoints)
-    throw InvalidInput("control_points", "at most " + std::to_string(kMaxControlPoints) + " control points");
   if (s.fields.empty() != s.control_points.empty())
     throw InvalidInput(s.fields.empty() ? "control_points" : "fields",
                        "fields and control_points go together: a field constrains the control points, and "

@@ -89,7 +89,7 @@ std::optional<PlannedField> plan_field(const json& j, std::size_t index, const s
   return p;
 }
 
-std::vector<cbf::ControlPoint> parse_control_point(const json& j, const std::string& f, const cbf::Robot& robot) {
+std::vector<cbf::ControlPoint> parse_control_point(const json& j, const std::string& f, const cbf::Robot& robot, const Limits& limits) {
   json_require_object(j, f);
   json_check_keys(j, f, {"name", "link", "point", "element", "sample"});
   const std::string link = json_string(json_required(j, f, "link"), json_key_path(f, "link"));
@@ -97,7 +97,7 @@ std::vector<cbf::ControlPoint> parse_control_point(const json& j, const std::str
     if (j.contains("point") || j.contains("name"))
       throw InvalidInput(json_key_path(f, "sample"), "a sampled entry has no point or name (its points are named LINK/ELEMENT#i)");
     const std::string element = j.contains("element") ? json_string(j["element"], json_key_path(f, "element")) : "";
-    return cbf::sample_control_points(robot, link, element, json_integer(j["sample"], json_key_path(f, "sample"), 1, cbf::kMaxControlPoints), f);
+    return cbf::sample_control_points(robot, link, element, json_integer(j["sample"], json_key_path(f, "sample"), 1, static_cast<int>(limits.max_cbf_control_points)), f);
   }
   if (j.contains("element")) throw InvalidInput(json_key_path(f, "element"), "element goes with sample");
   const int l = robot.link_index(link);
@@ -131,12 +131,13 @@ void apply_field_params(json& scenario, const json& params) {
   }
 }
 
-void plan_scenario_fields(const json& j, const std::string& field, const std::string& assets_dir, FieldPlan& plan, cbf::Scenario& s) {
+void plan_scenario_fields(const json& j, const std::string& field, const std::string& assets_dir, const Limits& limits, FieldPlan& plan,
+                          cbf::Scenario& s) {
   const bool hull = j.contains("field_mode") && j["field_mode"] == "hull";
   if (auto it = j.find("fields"); it != j.end()) {
     const std::string ff = json_key_path(field, "fields");
-    if (!it->is_array() || it->size() > cbf::kMaxSceneFields)
-      throw InvalidInput(ff, "fields must be an array of at most " + std::to_string(cbf::kMaxSceneFields) + " Kelvin objects");
+    if (!it->is_array() || it->size() > limits.max_cbf_fields)
+      throw InvalidInput(ff, "fields must be an array of at most " + std::to_string(limits.max_cbf_fields) + " Kelvin objects");
     for (std::size_t i = 0; i < it->size(); ++i)
       if (auto p = plan_field((*it)[i], i, json_index_path(ff, i), assets_dir, hull ? &s.obstacles : nullptr)) plan.fields.push_back(std::move(*p));
   }
@@ -144,12 +145,12 @@ void plan_scenario_fields(const json& j, const std::string& field, const std::st
     const std::string cf = json_key_path(field, "control_points");
     if (!it->is_array()) throw InvalidInput(cf, "control_points must be an array");
     for (std::size_t i = 0; i < it->size(); ++i) {
-      for (cbf::ControlPoint& c : parse_control_point((*it)[i], json_index_path(cf, i), *s.robot)) {
+      for (cbf::ControlPoint& c : parse_control_point((*it)[i], json_index_path(cf, i), *s.robot, limits)) {
         if (c.name.empty()) c.name = "point" + std::to_string(plan.control_points.size());
         plan.control_points.push_back(std::move(c));
       }
-      if (plan.control_points.size() > static_cast<std::size_t>(cbf::kMaxControlPoints))
-        throw InvalidInput(cf, "at most " + std::to_string(cbf::kMaxControlPoints) + " control points");
+      if (plan.control_points.size() > limits.max_cbf_control_points)
+        throw InvalidInput(cf, "at most " + std::to_string(limits.max_cbf_control_points) + " control points");
     }
     if (hull) plan.control_points.clear();  // checked, unused: the hulls are obstacles
   }
@@ -186,9 +187,9 @@ void prepare_planned_fields(cbf::Scenario& s, const FieldPlan& plan, const Field
 }
 
 void parse_scenario_fields(const json& j, const std::string& field, const std::string& assets_dir, const FieldPreparer& prepare,
-                           cbf::Scenario& s) {
+                           cbf::Scenario& s, const Limits& limits) {
   FieldPlan plan;
-  plan_scenario_fields(j, field, assets_dir, plan, s);
+  plan_scenario_fields(j, field, assets_dir, limits, plan, s);
   prepare_planned_fields(s, plan, prepare);
 }
 

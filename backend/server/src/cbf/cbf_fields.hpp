@@ -47,7 +47,7 @@ struct FieldPlan {
 // prepared: fields made before, by PlannedField::key, reused and added to (a sweep's runs share
 // them). progress: repair stage "repair", σ stage "solve"; the preparer reports its own.
 void plan_scenario_fields(const nlohmann::json& j, const std::string& field, const std::string& assets_dir,
-                          FieldPlan& plan, cbf::Scenario& s);
+                          const Limits& limits, FieldPlan& plan, cbf::Scenario& s);
 void prepare_planned_fields(cbf::Scenario& s, const FieldPlan& plan, const FieldPreparer& prepare,
                             const Progress& progress = {}, std::map<std::string, cbf::SceneField>* prepared = nullptr);
 // parse_cbf_request and parse_cbf_sweep with the fields planned, not prepared: the scenarios have

@@ -160,7 +160,7 @@ cbf::Scenario scenario_of(const json& j, const std::string& field, const std::st
   }
   s.target = json_pose(required(j, field, "target"), key_path(field, "target"), /*position_required=*/true);
   required(j, field, "q0");
-  plan_scenario_fields(j, field, assets_dir, plan, s);
+  plan_scenario_fields(j, field, assets_dir, limits, plan, s);
   apply_settings(j, field, limits, s);
   validated(s, field);
   return s;

@@ -44,11 +44,6 @@ class CbfModule final : public Module {
                   const nlohmann::json& msg, const nlohmann::json& /*request*/) override {
     cbf_ws_message(session, socket, msg);
   }
-  // The scenario format's bounds (cbf/fields.hpp); the rollouts' are in the table (config.hpp).
-  void add_limits(nlohmann::json& limits) const override {
-    limits["max_cbf_fields"] = cbf::kMaxSceneFields;
-    limits["max_cbf_control_points"] = cbf::kMaxControlPoints;
-  }
 
  private:
   // The routes' handlers (routes_cbf.cpp; the jobs' in cbf_jobs.cpp).

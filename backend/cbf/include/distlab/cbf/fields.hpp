@@ -28,15 +28,12 @@ struct ControlPoint {
   Vec3 point = Vec3::Zero();  // in the link's frame
 };
 
-inline constexpr int kMaxControlPoints = 1024;  // per scenario
-inline constexpr int kMaxSceneFields = 8;       // per scenario
-
 // `count` points on the surfaces of a link's collision elements (all of them, or the one named
 // `element`), spread evenly over those elements in element order: on each, where rays from its
 // centre along a spherical Fibonacci set of directions leave it (deterministic; the faces of a
 // box get points in proportion to the solid angle they subtend). Names are LINK[/ELEMENT]#i.
 // Throws InvalidInput(field) for an unknown link or element, a link without collision elements,
-// or a count outside [1, kMaxControlPoints].
+// or a count below 1 (the service bounds it: max_cbf_control_points).
 std::vector<ControlPoint> sample_control_points(const robot::Robot& robot, const std::string& link,
                                                 const std::string& element, int count, const std::string& field);
 

@@ -77,7 +77,9 @@ struct Limits {
   // robot primitive, built per step); steps per "cbf_frames" message and per GET .../frames;
   // runs of one sweep. Rollouts kept per session and in all (older ended ones are forgotten; the
   // total also bounds the sweeps kept), and those that keep their prepared Kelvin fields once
-  // their job ended (a field is large: wrench_grasp's run peaks at 0.4 GB, 20 MB without).
+  // their job ended (a field is large: wrench_grasp's run peaks at 0.4 GB, 20 MB without). A
+  // scenario's Kelvin objects (each prepared, and a QP row per control point per step) and control
+  // points (sampled ones counted).
   int max_cbf_steps = 20000;
   double max_cbf_duration = 600;
   std::size_t max_cbf_pair_steps = 1000000;
@@ -88,6 +90,8 @@ struct Limits {
   std::size_t cbf_rollouts_kept_per_session = 4;
   std::size_t cbf_rollouts_kept_total = 32;
   std::size_t cbf_fields_kept_total = 2;
+  std::size_t max_cbf_fields = 8;
+  std::size_t max_cbf_control_points = 1024;
   // Connections: beyond max_connections a new one is closed at once; a client that sends no
   // complete header (idle or slowloris) or body within read_timeout_seconds is closed.
   std::size_t max_connections = 512;
@@ -199,6 +203,8 @@ void for_each_limit(L& l, F&& f) {
   f("cbf_rollouts_kept_per_session", l.cbf_rollouts_kept_per_session);
   f("cbf_rollouts_kept_total", l.cbf_rollouts_kept_total);
   f("cbf_fields_kept_total", l.cbf_fields_kept_total);
+  f("max_cbf_fields", l.max_cbf_fields);
+  f("max_cbf_control_points", l.max_cbf_control_points);
   f("max_connections", l.max_connections);
   f("read_timeout_seconds", l.read_timeout_seconds);
   f("import_memory_bytes", l.import_memory_bytes);

@@ -48,8 +48,9 @@ cbf::Scenario parse_scenario(const nlohmann::json& j, const std::string& field =
                              const Limits& limits = {});
 // Reads "fields" and "control_points" of scenario JSON j (the keys of a scenario: cbf_fields.hpp)
 // into s, whose robot is set; `field` prefixes error paths. The fields are prepared by `prepare`.
+// At most limits.max_cbf_fields fields and max_cbf_control_points control points.
 void parse_scenario_fields(const nlohmann::json& j, const std::string& field, const std::string& assets_dir,
-                           const FieldPreparer& prepare, cbf::Scenario& s);
+                           const FieldPreparer& prepare, cbf::Scenario& s, const Limits& limits = {});
 
 // assets/robots/NAME.urdf, parsed once (an unknown name is InvalidInput(field); a broken file is
 // std::runtime_error).
