@@ -13,24 +13,37 @@ using json = nlohmann::json;
 
 namespace {
 
+// The job's first part: the rollout runs, its scenario's fields prepared (or shared).
+cbf::Scenario start(CbfRollout& r, Job& job, const std::function<cbf::Scenario(Job&)>& prepare) {
+  r.id_known.wait();
+  {
+    std::lock_guard lock(r.mutex);
+    r.state = Lifecycle::running;
+  }
+  try {
+    return prepare(job);
+  } catch (...) {
+    std::lock_guard lock(r.mutex);
+    r.state = job.cancelled() ? Lifecycle::cancelled : Lifecycle::failed;
+    throw;
+  }
+}
+
+// The record, kept when the rollout ends: all its steps, or a cancelled one's so far.
+void end(CbfRollout& r, Lifecycle state, cbf::RolloutRecord&& rec) {
+  std::lock_guard lock(r.mutex);
+  r.state = state;
+  r.steps.clear();
+  r.steps.shrink_to_fit();
+  r.record = std::make_shared<const cbf::RolloutRecord>(std::move(rec));
+}
+
 // The job's work: prepares the scenario (its fields), runs the rollout, keeps every step, streams
 // batches to the session's sockets.
 json run_rollout(const std::shared_ptr<CbfRollout>& r, cbf::RolloutOptions options, const std::weak_ptr<Session>& weak, Job& job,
                  const std::function<cbf::Scenario(Job&)>& prepare) {
   using Clock = std::chrono::steady_clock;
-  r->id_known.wait();
-  {
-    std::lock_guard lock(r->mutex);
-    r->state = Lifecycle::running;
-  }
-  cbf::Scenario scenario;
-  try {
-    scenario = prepare(job);
-  } catch (...) {
-    std::lock_guard lock(r->mutex);
-    r->state = job.cancelled() ? Lifecycle::cancelled : Lifecycle::failed;
-    throw;
-  }
+  const cbf::Scenario scenario = start(*r, job, prepare);
   std::size_t sent = 0;
   auto last = Clock::now();
   auto flush = [&](std::size_t done) {
@@ -59,20 +72,12 @@ json run_rollout(const std::shared_ptr<CbfRollout>& r, cbf::RolloutOptions optio
         std::chrono::duration<double>(Clock::now() - last).count() >= r->stream.batch_seconds)
       flush(done);
   };
-  // The record, kept when the rollout ends: all its steps, or a cancelled one's so far.
-  auto end = [&r](Lifecycle state, cbf::RolloutRecord&& rec) {
-    std::lock_guard lock(r->mutex);
-    r->state = state;
-    r->steps.clear();
-    r->steps.shrink_to_fit();
-    r->record = std::make_shared<const cbf::RolloutRecord>(std::move(rec));
-  };
   cbf::RolloutRecord rec;
   try {
     cbf::rollout(scenario, r->metric, options, rec);
   } catch (const Cancelled&) {
     flush(r->steps_done());
-    end(Lifecycle::cancelled, std::move(rec));
+    end(*r, Lifecycle::cancelled, std::move(rec));
     throw;
   } catch (...) {
     std::lock_guard lock(r->mutex);
@@ -81,7 +86,7 @@ json run_rollout(const std::shared_ptr<CbfRollout>& r, cbf::RolloutOptions optio
   }
   flush(r->steps_done());
   json result = rollout_job_result(*r, rec);
-  end(Lifecycle::succeeded, std::move(rec));
+  end(*r, Lifecycle::succeeded, std::move(rec));
   return result;
 }
 
@@ -163,7 +168,8 @@ CbfSweepStatus CbfModule::start_sweep(const CbfSweepRequest& in, const Caller& c
     std::map<std::string, cbf::SceneField> prepared;
     const Progress progress{[&j](const std::string& stage, double f) { j.report(stage, f); }, &j.cancel};
     for (std::size_t i = 0; i < sweep->runs.size(); ++i) prepare_fields(sweep->runs[i].scenario, (*plans)[i], progress, prepared);
-    return run_sweep(s, j, [this](std::function<void()> task) { return post_compute(std::move(task)); }, compute_.size());
+    return run_sweep(
+        s, j, [this](std::function<void()> task) { return post_compute(std::move(task)); }, compute_.size());
   });
   s->id = job->id;
   sweeps_->add(s);

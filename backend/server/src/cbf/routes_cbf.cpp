@@ -27,32 +27,28 @@ void CbfModule::register_routes() {
   // A rollout is a job of the session (job limits); its length and memory are bounded by steps
   // and pair-steps; ended rollouts past the kept counts are forgotten, oldest first. Feasibility
   // is well under a second (a q7 grid with IK per point); a sweep's runs are each a rollout's.
+  const std::vector<std::string> feasibility_bounds = {"max_body_bytes", "max_cbf_pair_steps", "min_lx", "max_vertex_estimate"};
+  const std::vector<std::string> rollout_bounds = {"max_body_bytes", "max_cbf_steps", "max_cbf_duration", "max_cbf_pair_steps",
+                                                   "max_cbf_batch_steps", "max_jobs_per_session", "max_jobs_total", "max_job_seconds",
+                                                   "cbf_rollouts_kept_per_session", "cbf_rollouts_kept_total", "min_lx",
+                                                   "max_vertex_estimate", "cbf_fields_kept_total"};
+  const std::vector<std::string> sweep_bounds = {"max_body_bytes", "max_cbf_sweep_values", "max_cbf_steps", "max_cbf_pair_steps", "max_jobs_per_session",
+                                                 "max_jobs_total", "max_job_seconds", "min_lx", "max_vertex_estimate"};
   add_routes(router_, *this, config_.limits,
              {{"GET", "/api/cbf/scenarios", Work::light, {}, codec(decode_nothing, &M::scenarios, encode_scenarios)},
               {"GET", "/api/cbf/scenarios/{name}", Work::light, {}, codec(decode_scenario_name, &M::scenario, encode_scenario_file)},
               {"GET", "/api/cbf/robot", Work::light, {}, codec(decode_robot_name, &M::robot, encode_robot)},
-              {"POST", "/api/cbf/feasibility", Work::heavy, {"max_body_bytes", "max_cbf_pair_steps", "min_lx", "max_vertex_estimate"},
-               assets_codec(decode_feasibility, &M::feasibility, encode_feasibility_answer)},
-              {"POST", "/api/cbf/rollouts", Work::heavy,
-               {"max_body_bytes", "max_cbf_steps", "max_cbf_duration", "max_cbf_pair_steps", "max_cbf_batch_steps",
-                "max_jobs_per_session", "max_jobs_total", "max_job_seconds", "cbf_rollouts_kept_per_session",
-                "cbf_rollouts_kept_total", "min_lx", "max_vertex_estimate", "cbf_fields_kept_total"},
-               assets_codec(decode_rollout, &M::start_rollout, encode_rollout_started)},
-              {"POST", "/api/cbf/sweeps", Work::heavy,
-               {"max_body_bytes", "max_cbf_sweep_values", "max_cbf_steps", "max_cbf_pair_steps", "max_jobs_per_session",
-                "max_jobs_total", "max_job_seconds", "min_lx", "max_vertex_estimate"},
-               assets_codec(decode_sweep, &M::start_sweep, encode_sweep_started)},
+              {"POST", "/api/cbf/feasibility", Work::heavy, feasibility_bounds, assets_codec(decode_feasibility, &M::feasibility, encode_feasibility_answer)},
+              {"POST", "/api/cbf/rollouts", Work::heavy, rollout_bounds, assets_codec(decode_rollout, &M::start_rollout, encode_rollout_started)},
+              {"POST", "/api/cbf/sweeps", Work::heavy, sweep_bounds, assets_codec(decode_sweep, &M::start_sweep, encode_sweep_started)},
               {"GET", "/api/cbf/sweeps/{id}", Work::light, {}, codec(decode_rollout_id, &M::sweep, encode_sweep_status)},
               {"GET", "/api/cbf/rollouts", Work::light, {}, codec(decode_nothing, &M::rollouts, encode_rollouts)},
               {"GET", "/api/cbf/rollouts/{id}", Work::light, {}, codec(decode_rollout_id, &M::rollout, encode_rollout_status)},
-              {"GET", "/api/cbf/rollouts/{id}/frames", Work::heavy, {"max_cbf_frames_per_request", "max_cbf_pair_steps"},
-               codec(decode_frames, &M::frames, encode_frames)},
-              {"GET", "/api/cbf/rollouts/{id}/record", Work::heavy, {"max_cbf_steps", "max_cbf_pair_steps"},
-               codec(decode_rollout_id, &M::record, encode_rollout_record)},
+              {"GET", "/api/cbf/rollouts/{id}/frames", Work::heavy, {"max_cbf_frames_per_request", "max_cbf_pair_steps"}, codec(decode_frames, &M::frames, encode_frames)},
+              {"GET", "/api/cbf/rollouts/{id}/record", Work::heavy, {"max_cbf_steps", "max_cbf_pair_steps"}, codec(decode_rollout_id, &M::record, encode_rollout_record)},
               // The objects of a rollout's Kelvin fields and their iso-surfaces, once: the frames
               // carry what changes per step.
-              {"GET", "/api/cbf/rollouts/{id}/fields", Work::heavy, {"max_vertex_estimate", "max_levels", "cbf_fields_kept_total"},
-               codec(decode_fields, &M::fields, encode_fields_frame)}});
+              {"GET", "/api/cbf/rollouts/{id}/fields", Work::heavy, {"max_vertex_estimate", "max_levels", "cbf_fields_kept_total"}, codec(decode_fields, &M::fields, encode_fields_frame)}});
 }
 
 CbfScenarioList CbfModule::scenarios(const Nothing& /*in*/, const Caller& /*caller*/) {

@@ -66,7 +66,7 @@ struct RolloutRecord {
   double final_task_error = 0;  // ‖r‖ at q_final
   bool reached = false;         // final_task_error < scenario.goal_tolerance
   double min_clearance = 0;     // over the whole rollout
-  int cold_solves = 0;  // GAP: pair solves that were not warm-started
+  int cold_solves = 0;          // GAP: pair solves that were not warm-started
   GapMode gap_mode = GapMode::exact;
   int clipped_steps = 0;  // steps whose u was clipped to the velocity limits
   FinalState final_state;
