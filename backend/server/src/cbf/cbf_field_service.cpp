@@ -126,7 +126,7 @@ CbfFieldSurfaces field_surfaces(const std::shared_ptr<const CbfRollout>& rollout
   std::string state;
   {
     std::lock_guard lock(r.mutex);
-    state = r.fields_state;
+    state = r.fields_state_word();
     for (const CbfRolloutField& f : r.fields) prepared.push_back(f.field);
   }
   if (state == "preparing")

@@ -120,7 +120,7 @@ void settle(CbfRollout& r, const Job& job) {
   std::lock_guard lock(r.mutex);
   if (r.state != Lifecycle::queued) return;
   r.state = s == Lifecycle::cancelled ? Lifecycle::cancelled : Lifecycle::failed;
-  if (!r.fields.empty() && r.fields_state == "preparing") r.fields_state = "failed";
+  if (!r.fields.empty() && !ended(r.fields_state)) r.fields_state = Lifecycle::failed;
 }
 
 CbfRolloutStatus CbfModule::start_rollout(const CbfRolloutRequest& in, const Caller& caller) {
@@ -131,18 +131,22 @@ CbfRolloutStatus CbfModule::start_rollout(const CbfRolloutRequest& in, const Cal
   auto prepare = [this, r, plan = in.plan](Job& j) {
     cbf::Scenario s = r->scenario;
     if (plan->fields.empty()) return s;
+    {
+      std::lock_guard lock(r->mutex);
+      r->fields_state = Lifecycle::running;
+    }
     std::map<std::string, cbf::SceneField> prepared;
     try {
       prepare_fields(s, *plan, Progress{[&j](const std::string& stage, double f) { j.report(stage, f); }, &j.cancel}, prepared);
     } catch (...) {
       std::lock_guard lock(r->mutex);
-      r->fields_state = "failed";
+      r->fields_state = Lifecycle::failed;
       throw;
     }
     {
       std::lock_guard lock(r->mutex);
       for (std::size_t i = 0; i < r->fields.size(); ++i) r->fields[i].field = s.fields[i].field;
-      r->fields_state = "ready";
+      r->fields_state = Lifecycle::succeeded;
     }
     cbf_rollouts_->fields_ready(r);
     return s;

@@ -41,6 +41,12 @@ json shape_json(const Shape& shape) {
 
 const char* rollout_state_word(Lifecycle state) { return state == Lifecycle::succeeded ? "finished" : to_string(state); }
 
+const char* CbfRollout::fields_state_word() const {
+  if (!ended(fields_state)) return "preparing";
+  if (fields_state != Lifecycle::succeeded) return "failed";
+  return fields_released ? "released" : "ready";
+}
+
 std::size_t CbfRollout::steps_done() const {
   std::lock_guard lock(mutex);
   return steps_locked().size();
@@ -67,7 +73,7 @@ json CbfRollout::status_json() const {
     j["kelvin"] = {{"control_points", encode_control_points(control_points)}, {"fields", std::move(list)}};
   }
   std::lock_guard lock(mutex);
-  if (!fields.empty()) j["kelvin"]["state"] = fields_state;
+  if (!fields.empty()) j["kelvin"]["state"] = fields_state_word();
   j["state"] = rollout_state_word(state);
   j["steps_done"] = steps_locked().size();
   if (record) {
@@ -204,7 +210,7 @@ void CbfRolloutStore::fields_ready(const std::shared_ptr<CbfRollout>& r) {
     if (auto old = with_fields_.front().lock()) {
       std::lock_guard l(old->mutex);
       for (CbfRolloutField& f : old->fields) f.field.reset();
-      old->fields_state = "released";
+      old->fields_released = true;
     }
     with_fields_.erase(with_fields_.begin());
   }

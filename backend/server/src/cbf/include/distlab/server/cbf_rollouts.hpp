@@ -51,11 +51,14 @@ struct CbfRollout {
   CbfStreamOptions stream;
   int steps_total = 0;
   std::vector<cbf::PairInfo> pairs;
-  // Kelvin fields (empty without): the control points and objects; fields_state (under mutex) is
-  // preparing | ready | released | failed.
+  // Kelvin fields (empty without): the control points and objects. Their preparation (under
+  // mutex) is long work of its own: fields_state_word says it in the API's words, preparing
+  // (queued, running) | ready (succeeded) | released (succeeded, fields_released) | failed.
   std::vector<cbf::ControlPoint> control_points;
   std::vector<CbfRolloutField> fields;
-  std::string fields_state = "preparing";
+  Lifecycle fields_state = Lifecycle::queued;
+  bool fields_released = false;           // for newer rollouts' (Limits::cbf_fields_kept_total)
+  const char* fields_state_word() const;  // under mutex
 
   mutable std::mutex mutex;
   std::vector<cbf::StepRecord> steps;                // computed so far (moved into `record` at the end)
