@@ -113,8 +113,7 @@ Response encode_estimate(const ObjectEstimate& e) {
   if (e.prediction_note) out["prediction_note"] = *e.prediction_note;
   out.update(prediction_json(e.prediction, e.rate));
   if (e.repair)
-    out["repair_estimate"] = {{"alpha", e.repair->alpha}, {"offset", e.repair->offset}, {"faces", std::round(e.repair->faces)},
-                              {"megabytes", e.repair->megabytes}, {"seconds", e.repair->seconds}};
+    out["repair_estimate"] = {{"alpha", e.repair->alpha}, {"offset", e.repair->offset}, {"faces", std::round(e.repair->faces)}, {"megabytes", e.repair->megabytes}, {"seconds", e.repair->seconds}};
   return json_response(200, out);
 }
 

@@ -56,7 +56,8 @@ struct CreateObjectRequest {
   ReshapeRequest reshape;
   std::optional<SigmaEdit> sigma;
   std::optional<std::vector<double>> levels;
-  const char* source_field() const { return !asset.empty() ? "asset" : !upload.empty() ? "upload" : "mesh"; }
+  const char* source_field() const { return !asset.empty() ? "asset" : !upload.empty() ? "upload"
+                                                                                       : "mesh"; }
   const char* lx_field() const { return lx_fraction ? "lx_fraction" : "lx"; }
 };
 CreateObjectRequest decode_create_object(const Request& request, const Limits& limits);

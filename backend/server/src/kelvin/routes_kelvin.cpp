@@ -12,6 +12,8 @@ void KelvinModule::register_routes() {
 
   using M = KelvinModule;
   const std::vector<std::string> iso_bounds = {"max_vertex_estimate", "isosurface_levels_per_request"};
+  // A row per route, as a table.
+  // clang-format off
   add_routes<M>(router_, *this, config_.limits, {
     {"POST", "/api/kelvin/objects", Work::heavy, {"max_body_bytes", "max_upload_triangles", "max_object_triangles", "max_held_triangles_per_address", "max_held_triangles", "min_lx", "max_vertex_estimate", "max_objects_per_session", "max_jobs_per_session", "max_jobs_total", "max_hole_edges", "max_repair_faces"},
      codec(decode_create_object, &M::create_object, encode_created_object)},
@@ -29,6 +31,7 @@ void KelvinModule::register_routes() {
     {"GET", "/api/kelvin/objects/{id}/surface", Work::light, {}, codec(decode_surface, &M::surface, encode_surface)},
     {"GET", "/api/kelvin/objects/{id}/export", Work::heavy, iso_bounds, codec(decode_export, &M::export_isosurface, encode_export)},
   });
+  // clang-format on
 }
 
 }  // namespace distlab::server

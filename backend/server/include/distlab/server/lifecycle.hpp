@@ -5,7 +5,11 @@
 // which the API keeps; the states and their order are these.
 namespace distlab::server {
 
-enum class Lifecycle { queued, running, succeeded, failed, cancelled };
+enum class Lifecycle { queued,
+                       running,
+                       succeeded,
+                       failed,
+                       cancelled };
 
 // "queued", "running", "succeeded", "failed", "cancelled" (the jobs' words).
 const char* to_string(Lifecycle s);

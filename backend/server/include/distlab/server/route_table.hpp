@@ -27,7 +27,8 @@ inline Caller caller_of(const Request& request) { return {request.session_id(), 
 
 // Where a route's work runs: on the I/O thread (light), or queued on the compute pool (heavy),
 // whose queue bounds it (503 busy).
-enum class Work { light, heavy };
+enum class Work { light,
+                  heavy };
 
 // A route without input, or without a result beyond its status.
 struct Nothing {};

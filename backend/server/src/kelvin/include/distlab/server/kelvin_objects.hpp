@@ -163,7 +163,8 @@ struct ObjectSource {
 
 // What a running preparation is doing: repairing (or simplifying) the user's mesh first, then
 // preparing the field.
-enum class PrepareStage { repairing, preparing };
+enum class PrepareStage { repairing,
+                          preparing };
 
 struct KelvinObject {
   std::string id;
@@ -203,8 +204,8 @@ struct KelvinObject {
   // computed it (not found in memory or the store); stats.t_stages.
   std::optional<kelvin::StageSeconds> stage_seconds;
 
-  kelvin::SigmaSpec sigma;        // as given: per_vertex per user vertex
-  kelvin::SigmaSpec field_sigma;  // what the field solves: per_vertex per welded vertex
+  kelvin::SigmaSpec sigma;         // as given: per_vertex per user vertex
+  kelvin::SigmaSpec field_sigma;   // what the field solves: per_vertex per welded vertex
   std::string sigma_given = "{}";  // σ's JSON as given (SigmaEdit::given), echoed by GET .../sigma
   // Identifies the solved σ in the shared field: the σ as given and the user mesh it is indexed by
   // (objects sharing a preparation may number their vertices differently).
@@ -220,7 +221,7 @@ struct KelvinObject {
   std::int64_t sigma_sent = -1;  // sigma_version of the last σ values broadcast
 
   bool ready() const { return state == Lifecycle::succeeded && prepared; }  // call with `mutex` held
-  nlohmann::json status_json();  // locks
+  nlohmann::json status_json();                                             // locks
 };
 
 // The API's word for an object's state: "repairing" or "preparing" (queued or running, by its
