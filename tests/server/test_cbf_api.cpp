@@ -477,6 +477,9 @@ TEST_F(CbfApi, CancelMidwayAndOtherSessionsSeeNothing) {
   const json status = get_json(c, s, "/api/cbf/rollouts/" + id);
   EXPECT_EQ(status["state"], "cancelled");
   EXPECT_EQ(status["job"]["error"]["code"], "cancelled");
+  // The cancelled job keeps the steps so far as its result (the rollout and its summary).
+  EXPECT_EQ(status["job"]["result"]["rollout"], id) << status.dump();
+  EXPECT_EQ(status["job"]["result"]["summary"]["steps"], status["steps_done"]) << status.dump();
   const int done = status["steps_done"];
   EXPECT_GE(done, 100);
   EXPECT_LT(done, 15000);

@@ -76,9 +76,12 @@ json run_rollout(const std::shared_ptr<CbfRollout>& r, cbf::RolloutOptions optio
   try {
     cbf::rollout(scenario, r->metric, options, rec);
   } catch (const Cancelled&) {
+    // The steps so far are the job's result too: the job manager sees the cancel flag and ends
+    // the job cancelled, keeping it (as a rollout that returned cancelled did).
     flush(r->steps_done());
+    json partial = rollout_job_result(*r, rec);
     end(*r, Lifecycle::cancelled, std::move(rec));
-    throw;
+    return partial;
   } catch (...) {
     std::lock_guard lock(r->mutex);
     r->state = Lifecycle::failed;
