@@ -378,6 +378,14 @@ TEST_F(RobotApi, BadInputNamesItsField) {
   expect_error(post(c, with("q", q)), 400, "invalid_input", "q[1][2]");
   q[1][2] = nullptr;
   expect_error(post(c, with("q", q)), 400, "invalid_input", "q[1][2]");
+  // A row's length is checked before its numbers: a first row that is no array makes q one
+  // configuration of the wrong length, and a row holding one array is a row of one element.
+  q = ok["q"];
+  q[0] = "x";
+  expect_error(post(c, with("q", q)), 400, "invalid_input", "q");
+  q = ok["q"];
+  q[1] = json::array({ok["q"][1]});
+  expect_error(post(c, with("q", q)), 400, "invalid_input", "q[1]");
   expect_error(post(c, with("obstacles", 1)), 400, "invalid_input", "obstacles");
   json obs = ok["obstacles"];
   obs[1]["size"] = {0.4, -0.4, 0.05};

@@ -62,7 +62,16 @@ RobotQ read_q(const json& j, std::size_t max_configurations) {
       out.not_array = r.type_name();
       return out;
     }
-    for (std::size_t k = 0; k < r.size(); ++k) out.values.push_back(json_number(r[k], json_index_path(f, k), kMaxCoordinate));
+    out.length = r.size();
+    for (std::size_t k = 0; k < r.size(); ++k) {
+      try {
+        out.values.push_back(json_number(r[k], json_index_path(f, k), kMaxCoordinate));
+      } catch (const InvalidInput& e) {
+        out.bad_field = e.field();
+        out.bad_message = e.what();
+        break;
+      }
+    }
     return out;
   };
   if (!q.several) {

@@ -117,12 +117,13 @@ std::vector<double> robot_configurations(const RobotQ& q, int dof) {
   for (std::size_t i = 0; i < q.rows.size(); ++i) {
     const RobotQRow& row = q.rows[i];
     const std::string f = q.several ? json_index_path("q", i) : "q";
-    if (!row.not_array.empty() || row.values.size() != static_cast<std::size_t>(dof)) {
+    if (!row.not_array.empty() || row.length != static_cast<std::size_t>(dof)) {
       std::string message = f;
       message += " must be an array of " + numbers + ", got ";
-      message += row.not_array.empty() ? std::to_string(row.values.size()) + " elements" : row.not_array;
+      message += row.not_array.empty() ? std::to_string(row.length) + " elements" : row.not_array;
       fail(f, message);
     }
+    if (!row.bad_field.empty()) throw InvalidInput(row.bad_field, row.bad_message);
     out.insert(out.end(), row.values.begin(), row.values.end());
   }
   return out;

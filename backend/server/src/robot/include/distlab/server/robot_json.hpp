@@ -73,7 +73,11 @@ struct RobotUrdf {
 };
 struct RobotQRow {
   std::vector<double> values;
-  std::string not_array;  // the JSON type of a row that is no array ("" for an array)
+  std::size_t length = 0;  // the row's elements
+  std::string not_array;   // the JSON type of a row that is no array ("" for an array)
+  // The row's first element that is no finite number in range, reported once its length is
+  // checked against the dof (a row of the wrong length names the row, as the robot sees it).
+  std::string bad_field, bad_message;
 };
 struct RobotQ {
   bool several = false;         // [[...], ...] rather than one configuration
