@@ -63,18 +63,6 @@ class CbfModule final : public Module {
   // The caller's rollout `id`, its state brought up to its job's (404 unknown_rollout).
   std::shared_ptr<CbfRollout> require_rollout(const std::string& id, const Caller& caller);
 
-  // codec() (route_table.hpp) for a decode that also reads the server's assets directory
-  // (scenarios and robots by name).
-  template <class In, class Out>
-  static RouteRun<CbfModule> assets_codec(In (*decode)(const Request&, const Limits&, const std::string&),
-                                          Out (CbfModule::*handle)(const In&, const Caller&),
-                                          Response (*encode)(const Out&)) {
-    return [decode, handle, encode](CbfModule& owner, Request& request, const Limits& limits) {
-      const In input = decode(request, limits, owner.config_.assets_dir);
-      return encode((owner.*handle)(input, caller_of(request)));
-    };
-  }
-
   void cbf_ws_message(const std::shared_ptr<Session>& session, const std::shared_ptr<WsSink>& socket,
                       const nlohmann::json& msg);
 

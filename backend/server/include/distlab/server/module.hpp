@@ -48,6 +48,9 @@ class Module {
   virtual void describe_session(Session& /*session*/, nlohmann::json& /*out*/) {}
   virtual void shutdown() {}  // after the jobs stopped, before the pools are gone
 
+  // The built-in assets (meshes, scenarios, robots), for a table's decoders (route_table.hpp).
+  const std::string& assets_dir() const { return config_.assets_dir; }
+
  protected:
   // The core's parts a module uses (the same names the Service itself uses).
   std::shared_ptr<Session> require_session(const Request& request);

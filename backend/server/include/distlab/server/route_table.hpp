@@ -60,6 +60,17 @@ RouteRun<M> codec(In (*decode)(Req&, const Limits&), Out (M::*handle)(const In&,
   };
 }
 
+// The same for a decode that also reads the server's assets (scenarios and robots by name):
+// owner.assets_dir() gives it.
+template <class M, class In, class Out, class Req>
+RouteRun<M> codec(In (*decode)(Req&, const Limits&, const std::string& assets_dir), Out (M::*handle)(const In&, const Caller&),
+                  Response (*encode)(const Out&)) {
+  return [decode, handle, encode](M& owner, Request& request, const Limits& limits) {
+    const In input = decode(request, limits, owner.assets_dir());
+    return encode((owner.*handle)(input, caller_of(request)));
+  };
+}
+
 template <class M>
 void add_routes(Router& router, M& owner, const Limits& limits, std::vector<RouteRow<M>> rows) {
   for (auto& row : rows) {
