@@ -23,9 +23,6 @@ using Mesh = CGAL::Surface_mesh<Point>;
 namespace PMP = CGAL::Polygon_mesh_processing;
 namespace SMS = CGAL::Surface_mesh_simplification;
 
-// The reported distance's error, relative to itself.
-constexpr double kRelativeError = 0.05;
-
 // Polls the job's token every 1024 selected edges and reports the share of the collapses done.
 struct Visitor : SMS::Edge_collapse_visitor_base<Mesh> {
   const Progress* progress = nullptr;
@@ -84,7 +81,7 @@ SimplifyResult simplify(const SurfaceMesh& input, std::size_t faces, const std::
     for (auto v : CGAL::vertices_around_face(sm.halfedge(f), sm)) out.surface.faces(static_cast<Eigen::Index>(f.idx()), std::min(k++, 2)) = static_cast<int>(v.idx());
   }
   const Progress distance{[&](const std::string&, double f) { progress("simplify", 0.9 + 0.1 * f); }, progress.cancel};
-  out.input_to_result = hausdorff_distance(input, out.surface, kRelativeError, "simplify", distance).value;
+  out.input_to_result = hausdorff_distance(input, out.surface, kReportedRelativeError, "simplify", distance).value;
   progress("simplify", 1.0);
   return out;
 }

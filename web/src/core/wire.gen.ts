@@ -3603,7 +3603,7 @@ export interface components {
             sigma?: components["schemas"]["Sigma"];
             levels?: number[];
             /**
-             * @description none: the surface must be closed and manifold (a refusal names edges, vertices and faces in the file's numbering, a polygon's triangles by its face). fix: CGAL Polygon_mesh_processing steps (merge duplicate vertices, remove degenerate and duplicate faces, orient, stitch borders, remove zero-area faces, fill holes of at most max_hole_edges edges), counted in repair_report.steps; the job fails naming the defect left. wrap: CGAL 3D Alpha Wrapping at alpha and offset; repair_report gives the one-sided Hausdorff distances (sampled at vertices and face centroids). Either runs in the object's job (state repairing). sigma.per_vertex (per file vertex) reaches the repaired surface by barycentric interpolation on the nearest input face (nearest_face_transfer).
+             * @description none: the surface must be closed and manifold (a refusal names edges, vertices and faces in the file's numbering, a polygon's triangles by its face). fix: CGAL Polygon_mesh_processing steps (merge duplicate vertices, remove degenerate and duplicate faces, orient, stitch borders, remove zero-area faces, fill holes of at most max_hole_edges edges), counted in repair_report.steps; the job fails naming the defect left. wrap: CGAL 3D Alpha Wrapping at alpha and offset; repair_report gives the one-sided Hausdorff distances (fix and wrap; within 5 % of the exact distance). Either runs in the object's job (state repairing). sigma.per_vertex (per file vertex) reaches the repaired surface by barycentric interpolation on the nearest input face (nearest_face_transfer).
              * @default none
              * @enum {string}
              */
@@ -3768,7 +3768,7 @@ export interface components {
             };
             alpha?: number;
             offset?: number;
-            /** @description wrap: input_to_wrap and wrap_to_input; fix: input_to_fixed and fixed_to_input (sampled: the vertices and up to 250k points by area) */
+            /** @description wrap: input_to_wrap and wrap_to_input; fix: input_to_fixed and fixed_to_input (metres; CGAL's bounded-error Hausdorff distance after a vertex bound, within 5 % of the exact one-sided distance) */
             hausdorff?: {
                 input_to_wrap?: number;
                 wrap_to_input?: number;

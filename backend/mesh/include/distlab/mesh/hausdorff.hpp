@@ -14,6 +14,9 @@ struct HausdorffDistance {
   long faces_refined = 0;  // faces of `from` that the vertex bound could not settle (CGAL's part)
 };
 
+// The relative error of the distances that simplify, fix and wrap report.
+inline constexpr double kReportedRelativeError = 0.05;
+
 // max over the points p of `from` of the distance from p to `to`, within relative_error of itself
 // (of 1e-4 of `from`'s size where the distance is below that: every vertex of `from` may lie on `to`).
 // The vertices' distances give a lower bound L; a face none of whose points can be farther than

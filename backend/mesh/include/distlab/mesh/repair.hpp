@@ -58,14 +58,14 @@ struct RepairResult {
   SurfaceMesh surface;                                   // closed, manifold, outward oriented
   std::vector<std::pair<std::string, long long>> steps;  // fix: what each step changed, in order
   double alpha = 0, offset = 0;                          // wrap: the values used
-  // One-sided Hausdorff distances from one surface, sampled (sampled_distance), to the other:
-  // input → result and result → input (metres), for fix and wrap.
+  // One-sided Hausdorff distances (hausdorff_distance, within kReportedRelativeError of
+  // themselves): input → result and result → input (metres), for fix and wrap.
   double input_to_result = 0, result_to_input = 0;
 };
 
 // Both report stage "repair" to `progress` and throw Cancelled once its token is set: fix between
 // its steps and filled holes, wrap between the gates of CGAL's flood fill (its visitor) and
-// between the distance samples. The wrap's fraction is its Steiner points against the count
+// within the distance passes. The wrap's fraction is its Steiner points against the count
 // expected from the face estimate, so it is an estimate, monotone, and below 1 until the end.
 
 // Throws InvalidInput(field) naming the defect that remains after the steps.
@@ -78,11 +78,6 @@ RepairResult fix(const SurfaceMesh& user, const FixOptions& options, const std::
 // makes more faces than that.
 RepairResult wrap(const SurfaceMesh& user, const WrapOptions& options, const WrapBudget& budget,
                   const std::string& field = "repair_options", const Progress& progress = {});
-
-// The largest distance from the surface a to the surface b, sampled on a: its vertices and
-// min(50 per face, 250k) points uniformly by area (CGAL's random uniform sampling, fixed seed),
-// so the count and memory are bounded however thin a's triangles are.
-double sampled_distance(const SurfaceMesh& a, const SurfaceMesh& b, const Progress& progress = {});
 
 // The transfer rule, both directions: a point takes the value at the closest point of the
 // closest triangle of `from`, interpolated barycentrically from that triangle's three vertices
