@@ -91,7 +91,7 @@ TEST(Fix, FillingTheHoleClosesTheSphere) {
 
 using distlab::test::to_cgal;
 
-// The wrap of the open sphere is closed and manifold; its one-sided distances (grid samples)
+// The wrap of the open sphere is closed and manifold; its one-sided distances (bounded error)
 // agree with CGAL's approximate_Hausdorff_distance (random samples, 4000 per m²) within 10 %,
 // and wrap → input is at least the offset (the wrap's vertices lie on the offset surface).
 TEST(Wrap, AnOpenSphereIsWrappedAndItsDistancesAgreeWithCgal) {
