@@ -250,7 +250,7 @@ TEST(KelvinPrepare, CacheEntryWrittenByTwoThreadsAtOnce) {
 std::string forged_entry(const fs::path& from, const std::string& key) {
   std::string bytes = read_file(from);
   const std::string mac_key = read_file(from.parent_path() / "cache.key");
-  static constexpr char kTag[] = "distlab-kelvin-cache-v10";  // cache.cpp's kFormat
+  static constexpr char kTag[] = "distlab-kelvin-cache-v11";  // cache.cpp's kFormat
   const size_t key_at = 8 + sizeof(kTag) + 8;
   EXPECT_EQ(bytes.compare(8, sizeof(kTag) - 1, kTag), 0);
   bytes.replace(key_at, key.size(), key);
@@ -320,7 +320,7 @@ TEST(KelvinPrepare, CacheEntryChangedWithoutTheKeyIsRebuilt) {
   // The first tet-mesh point: after the tag, the key and the surface, inputs and parameters.
   const auto nv = static_cast<size_t>(surface.vertices.rows()), nf = static_cast<size_t>(surface.faces.rows());
   const std::string name = file.stem().string();
-  const size_t points_at = 8 + sizeof("distlab-kelvin-cache-v10") + 8 + name.size() + 8 + 24 * nv + 8 + 12 * nf + 7 * 8 + 4 * 8 + 8;
+  const size_t points_at = 8 + sizeof("distlab-kelvin-cache-v11") + 8 + name.size() + 8 + 24 * nv + 8 + 12 * nf + 7 * 8 + 4 * 8 + 8;
   ASSERT_LT(points_at + 8 * 30, 8 + size);
   for (int attack = 0; attack < 2; ++attack) {
     std::string bytes = original;

@@ -23,7 +23,7 @@ namespace distlab::kelvin {
 namespace {
 
 // Bump when the meshing or the file layout changes: old entries then simply miss.
-constexpr char kFormat[] = "distlab-kelvin-cache-v10";
+constexpr char kFormat[] = "distlab-kelvin-cache-v11";
 constexpr int kInputs = 7;  // requested lx, far_radius, feature_angle, centre, grading (kChosen: not given)
 constexpr double kChosen = -1;
 constexpr size_t kKeyBytes = 32;
