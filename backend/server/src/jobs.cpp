@@ -66,7 +66,7 @@ void JobManager::emit(const Job& job) {
 }
 
 std::shared_ptr<Job> JobManager::submit(const std::string& session, const std::string& kind, json meta,
-                                        std::function<json(Job&)> work) {
+                                        std::function<json(Job&)> work, std::function<void()> skipped) {
   std::shared_ptr<Job> job;
   {
     std::lock_guard lock(mutex_);
@@ -87,7 +87,7 @@ std::shared_ptr<Job> JobManager::submit(const std::string& session, const std::s
     ++active_per_session_[session];
   }
   emit(*job);
-  if (!pool_.post([this, job, work = std::move(work)] { run(job, work); })) {
+  if (!pool_.post([this, job, work = std::move(work), skipped = std::move(skipped)] { run(job, work, skipped); })) {
     std::lock_guard lock(mutex_);
     jobs_.erase(job->id);
     --active_;
@@ -97,7 +97,7 @@ std::shared_ptr<Job> JobManager::submit(const std::string& session, const std::s
   return job;
 }
 
-void JobManager::run(const std::shared_ptr<Job>& job, const std::function<json(Job&)>& work) {
+void JobManager::run(const std::shared_ptr<Job>& job, const std::function<json(Job&)>& work, const std::function<void()>& skipped) {
   {
     std::lock_guard lock(job->mutex_);
     job->state_ = JobState::running;
@@ -107,7 +107,10 @@ void JobManager::run(const std::shared_ptr<Job>& job, const std::function<json(J
   JobState final_state = JobState::succeeded;
   json result, error;
   try {
-    if (job->cancelled()) throw Cancelled();
+    if (job->cancelled()) {
+      if (skipped) skipped();
+      throw Cancelled();
+    }
     result = work(*job);
     if (job->cancelled()) throw Cancelled();
   } catch (const Cancelled&) {  // the one cancellation of every module's work

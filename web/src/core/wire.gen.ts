@@ -942,7 +942,7 @@ export interface paths {
         };
         /**
          * The full record of an ended rollout (finished or cancelled): the JSON of `distlab cbf` for the same request
-         * @description Its size is bounded by the rollout's steps and pairs (max_cbf_steps, max_cbf_pair_steps).
+         * @description Its size is bounded by the rollout's steps and pairs (max_cbf_steps, max_cbf_pair_steps). 409 not_finished while it runs; 409 no_record once it ended without one (cancelled before its first step, or failed).
          */
         get: {
             parameters: {

@@ -115,17 +115,6 @@ json run_sweep(const std::shared_ptr<CbfSweepRun>& s, Job& job, const std::funct
 
 }  // namespace
 
-// A job cancelled while queued ends without running its work: its rollout, still "queued", ended
-// with it (and so did the preparation of its fields).
-void settle(CbfRollout& r, const Job& job) {
-  const Lifecycle s = job.state();
-  if (!ended(s)) return;
-  std::lock_guard lock(r.mutex);
-  if (r.state != Lifecycle::queued) return;
-  r.state = s == Lifecycle::cancelled ? Lifecycle::cancelled : Lifecycle::failed;
-  if (!r.fields.empty() && !ended(r.fields_state)) r.fields_state = Lifecycle::failed;
-}
-
 CbfRolloutStatus CbfModule::start_rollout(const CbfRolloutRequest& in, const Caller& caller) {
   auto session = require_session(caller);
   const std::shared_ptr<CbfRollout>& r = in.rollout;
@@ -155,8 +144,15 @@ CbfRolloutStatus CbfModule::start_rollout(const CbfRolloutRequest& in, const Cal
     return s;
   };
   std::weak_ptr<Session> weak = session;
-  auto job = jobs_.submit(session->id, "cbf_rollout", rollout_job_params(*r),
-                          [r, options = in.options, weak, prepare](Job& j) { return run_rollout(r, options, weak, j, prepare); });
+  // Cancelled while queued: the rollout never starts and ends cancelled, its fields unprepared.
+  auto skipped = [r] {
+    std::lock_guard lock(r->mutex);
+    r->state = Lifecycle::cancelled;
+    if (!r->fields.empty()) r->fields_state = Lifecycle::failed;
+  };
+  auto job = jobs_.submit(
+      session->id, "cbf_rollout", rollout_job_params(*r),
+      [r, options = in.options, weak, prepare](Job& j) { return run_rollout(r, options, weak, j, prepare); }, skipped);
   r->id = job->id;
   r->id_set.set_value();
   cbf_rollouts_->add(r, [this](const std::string& s) { return sessions_.find(s) != nullptr; });

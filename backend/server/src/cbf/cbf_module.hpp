@@ -30,10 +30,6 @@ class CbfSweepStore {
   std::vector<std::shared_ptr<CbfSweepRun>> sweeps_;
 };
 
-// A job cancelled while queued ends without running its work: its rollout, still queued, ends
-// with it (cbf_jobs.cpp).
-void settle(CbfRollout& rollout, const Job& job);
-
 class CbfModule final : public Module {
  public:
   using Module::Module;
@@ -60,7 +56,7 @@ class CbfModule final : public Module {
   CbfSweepStatus start_sweep(const CbfSweepRequest& in, const Caller& caller);
   CbfSweepStatus sweep(const CbfRolloutId& in, const Caller& caller);
 
-  // The caller's rollout `id`, its state brought up to its job's (404 unknown_rollout).
+  // The caller's rollout `id` (404 unknown_rollout).
   std::shared_ptr<CbfRollout> require_rollout(const std::string& id, const Caller& caller);
 
   void cbf_ws_message(const std::shared_ptr<Session>& session, const std::shared_ptr<WsSink>& socket,

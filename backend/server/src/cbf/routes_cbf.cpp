@@ -85,10 +85,7 @@ CbfFeasibilityAnswer CbfModule::feasibility(const CbfPlannedRequest& in, const C
 CbfRolloutList CbfModule::rollouts(const Nothing& /*in*/, const Caller& caller) {
   auto session = require_session(caller);
   CbfRolloutList out;
-  for (const auto& r : cbf_rollouts_->list(session->id)) {
-    if (auto j = jobs_.find(session->id, r->id)) settle(*r, *j);
-    out.rollouts.push_back(r);
-  }
+  for (const auto& r : cbf_rollouts_->list(session->id)) out.rollouts.push_back(r);
   return out;
 }
 
@@ -96,7 +93,6 @@ std::shared_ptr<CbfRollout> CbfModule::require_rollout(const std::string& id, co
   auto session = require_session(caller);
   auto r = cbf_rollouts_->find(session->id, id);
   if (!r) throw ApiError(404, "unknown_rollout", "no such rollout in this session");
-  if (auto j = jobs_.find(session->id, r->id)) settle(*r, *j);
   return r;
 }
 
@@ -112,6 +108,8 @@ CbfFrames CbfModule::frames(const CbfFramesRequest& in, const Caller& caller) {
 CbfRecord CbfModule::record(const CbfRolloutId& in, const Caller& caller) {
   auto r = require_rollout(in.id, caller);
   std::lock_guard lock(r->mutex);
+  if (!r->record && ended(r->state))  // cancelled before its first step, or failed
+    throw ApiError(409, "no_record", std::string("the rollout is ") + rollout_state_word(r->state) + " and has no record (it ended before its first step, or failed: see its job)");
   if (!r->record)
     throw ApiError(409, "not_finished", std::string("the rollout is ") + rollout_state_word(r->state) +
                                             "; its record is ready when it ends "

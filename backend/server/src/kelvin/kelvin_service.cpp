@@ -228,18 +228,32 @@ CreatedObject KelvinModule::create_object(const CreateObjectRequest& in, const C
   return {object, job};
 }
 
+namespace {
+// The object's status to its session's sockets.
+void announce_object(const std::weak_ptr<Session>& weak_session, KelvinObject& object) {
+  if (auto s = weak_session.lock()) s->broadcast(json{{"type", "object"}, {"object", object.status_json()}}.dump(), false);
+}
+}  // namespace
+
 std::shared_ptr<Job> KelvinModule::start_preparation(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,
                                                      const kelvin::PrepareOptions& options) {
   std::weak_ptr<Session> weak_session = session;
-  return jobs_.submit(session->id, "kelvin_prepare", {{"object", object->id}},
-                      [this, object, options, weak_session](Job& j) { return prepare_object(j, object, options, weak_session); });
+  // Cancelled while queued: the preparation never starts, and the object ends cancelled with it.
+  auto skipped = [object, weak_session] {
+    {
+      std::lock_guard lock(object->mutex);
+      object->state = Lifecycle::cancelled;
+    }
+    announce_object(weak_session, *object);
+  };
+  return jobs_.submit(
+      session->id, "kelvin_prepare", {{"object", object->id}},
+      [this, object, options, weak_session](Job& j) { return prepare_object(j, object, options, weak_session); }, skipped);
 }
 
 json KelvinModule::prepare_object(Job& j, const std::shared_ptr<KelvinObject>& object, const kelvin::PrepareOptions& options,
                                   const std::weak_ptr<Session>& weak_session) {
-  auto announce = [&] {
-    if (auto s = weak_session.lock()) s->broadcast(json{{"type", "object"}, {"object", object->status_json()}}.dump(), false);
-  };
+  auto announce = [&] { announce_object(weak_session, *object); };
   auto end = [&](Lifecycle state, bool with_error) {
     {
       std::lock_guard lock(object->mutex);

@@ -77,8 +77,10 @@ class JobManager {
   // Queues work; throws ApiError 429 too_many_jobs past a limit. The work returns the result
   // JSON or throws (Cancelled, geometry/progress.hpp / a "cancelled" state when
   // job.cancel is set -> cancelled; InvalidInput -> failed with the field; others -> failed).
+  // A job cancelled while queued ends cancelled without running its work; `skipped` runs instead,
+  // so that what the work would have ended (an object's or a rollout's state) ends with it.
   std::shared_ptr<Job> submit(const std::string& session, const std::string& kind, nlohmann::json meta,
-                              std::function<nlohmann::json(Job&)> work);
+                              std::function<nlohmann::json(Job&)> work, std::function<void()> skipped = {});
   std::shared_ptr<Job> find(const std::string& session, const std::string& id) const;  // owner only
   std::vector<std::shared_ptr<Job>> list(const std::string& session) const;
   void cancel_session(const std::string& session);
@@ -86,7 +88,7 @@ class JobManager {
 
  private:
   void emit(const Job& job);
-  void run(const std::shared_ptr<Job>& job, const std::function<nlohmann::json(Job&)>& work);
+  void run(const std::shared_ptr<Job>& job, const std::function<nlohmann::json(Job&)>& work, const std::function<void()>& skipped);
   void watchdog();
 
   Options options_;
