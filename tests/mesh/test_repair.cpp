@@ -255,3 +255,27 @@ TEST(Fix, ACancelStopsItAtTheNextStep) {
   EXPECT_THROW(fix(sphere_with_hole(), FixOptions{1000}, "repair", progress), Cancelled);
   EXPECT_EQ(seen.back(), 0.4);
 }
+
+// A closed box with a fin (a triangle on one of its edges, which three faces then share): fix
+// stitches and fills what it can and is still refused, so the advice for it is "wrap" alone; an
+// open box needs fix's max_hole_edges (or wrap); a face turned over, fix (or wrap).
+TEST(Fix, AFinIsLeftAndTheAdviceIsWrap) {
+  SurfaceMesh m = box(Vec3(1, 1, 1));
+  m.vertices.conservativeResize(9, 3);
+  m.vertices.row(8) << 0, 2, 0.5;
+  m.faces.conservativeResize(m.faces.rows() + 1, 3);
+  m.faces.row(m.faces.rows() - 1) << 4, 5, 8;
+  EXPECT_THROW(fix(m, FixOptions{1000}, "repair"), InvalidInput);
+  EXPECT_NE(repair_advice(m).find("\"wrap\" can make it one (\"fix\" cannot"), std::string::npos) << repair_advice(m);
+
+  SurfaceMesh open = box(Vec3(1, 1, 1));
+  open.faces.conservativeResize(open.faces.rows() - 1, 3);
+  EXPECT_NE(repair_advice(open).find("max_hole_edges"), std::string::npos) << repair_advice(open);
+  EXPECT_NO_THROW(fix(open, FixOptions{3}, "repair"));
+
+  SurfaceMesh flipped = box(Vec3(1, 1, 1));
+  flipped.faces.row(0) = flipped.faces.row(0).reverse().eval();
+  ASSERT_NE(topology_defect(flipped), "");
+  EXPECT_EQ(repair_advice(flipped), "\"repair\": \"fix\" or \"wrap\" can make it one");
+  EXPECT_NO_THROW(fix(flipped, FixOptions{}, "repair"));
+}

@@ -187,6 +187,10 @@ TEST_F(UploadLinks, DefectsAreWhereTheFileHasThem) {
   EXPECT_EQ(d["max_items"], body_json(c.Get("/api/limits"))["max_defect_items"]);
   EXPECT_FALSE(d["truncated"].get<bool>());
   EXPECT_EQ(c.Get("/api/kelvin/uploads/nope/defects", session_headers(s))->status, 404);
+  // Preparing it as it is is refused, and the refusal advises the repair that can close a fin.
+  auto r = c.Post("/api/kelvin/objects", session_headers(s), json{{"upload", up["upload"]}, {"lx", 0.3}}.dump(), "application/json");
+  ASSERT_EQ(r->status, 400) << r->body;
+  EXPECT_NE(body_json(r)["error"]["message"].get<std::string>().find("\"wrap\" can make it one (\"fix\" cannot"), std::string::npos) << r->body;
 }
 
 // Fixing the hole of a box's missing face fills it with a triangle in its plane: no input point

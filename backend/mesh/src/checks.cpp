@@ -277,6 +277,40 @@ MeshDefects find_defects(const SurfaceMesh& user, std::size_t max_items) {
   return d;
 }
 
+namespace {
+// Per undirected edge (edge_key): the number of faces, and the balance of its two directions.
+struct EdgeUse {
+  int count = 0;
+  int forward = 0;
+};
+std::unordered_map<std::uint64_t, EdgeUse> edge_uses(const SurfaceMesh& mesh) {
+  const auto nf = static_cast<int>(mesh.faces.rows());
+  std::unordered_map<std::uint64_t, EdgeUse> edges;
+  edges.reserve(static_cast<size_t>(nf) * 2);
+  for (int f = 0; f < nf; ++f)
+    for (int k = 0; k < 3; ++k) {
+      const int a = mesh.faces(f, k), b = mesh.faces(f, (k + 1) % 3);
+      EdgeUse& use = edges[edge_key(a, b)];
+      ++use.count;
+      use.forward += a < b ? 1 : -1;
+    }
+  return edges;
+}
+}  // namespace
+
+std::string repair_advice(const SurfaceMesh& mesh) {
+  bool open = false, fins = false;
+  for (const auto& [key, use] : edge_uses(mesh)) {
+    open = open || use.count == 1;
+    fins = fins || use.count > 2;
+  }
+  // fix's stitching and hole filling leave an edge of three or more faces (a fin) crossing the
+  // surface (Fix.AFinIsLeftAndNamed); holes it fills only up to max_hole_edges (default none).
+  if (fins) return "\"repair\": \"wrap\" can make it one (\"fix\" cannot: an edge has more than two faces)";
+  if (open) return "\"repair\": \"wrap\", or \"fix\" with repair_options.max_hole_edges at least each hole's edge count, can make it one";
+  return "\"repair\": \"fix\" or \"wrap\" can make it one";
+}
+
 std::string topology_defect(const SurfaceMesh& mesh, const std::vector<int>& names) {
   const auto name = [&](std::uint64_t v) {
     return std::to_string(v < names.size() ? static_cast<std::uint64_t>(names[v]) : v);
@@ -290,20 +324,7 @@ std::string topology_defect(const SurfaceMesh& mesh, const std::vector<int>& nam
       return file_face_name(mesh, f) + " has a vertex index out of range";
     if (a == b || b == c || c == a) return "degenerate " + file_face_name(mesh, f) + " (repeated vertex)";
   }
-  // Per undirected edge: number of faces, and the balance of its two directions.
-  struct Use {
-    int count = 0;
-    int forward = 0;
-  };
-  std::unordered_map<std::uint64_t, Use> edges;
-  edges.reserve(static_cast<size_t>(nf) * 2);
-  for (int f = 0; f < nf; ++f)
-    for (int k = 0; k < 3; ++k) {
-      const int a = mesh.faces(f, k), b = mesh.faces(f, (k + 1) % 3);
-      Use& use = edges[edge_key(a, b)];
-      ++use.count;
-      use.forward += a < b ? 1 : -1;
-    }
+  const auto edges = edge_uses(mesh);
   size_t boundary = 0;
   std::uint64_t first_boundary = 0, non_manifold = 0, flipped = 0;
   bool have_non_manifold = false, have_flipped = false;

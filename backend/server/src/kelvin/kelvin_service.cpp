@@ -160,7 +160,7 @@ void KelvinModule::check_preparable(const CreateObjectRequest& in, ObjectPlan& p
     const mesh::SurfaceMesh piece = mesh::largest_piece(welded);
     if (const std::string defect = mesh::topology_defect(piece); !defect.empty())
       throw InvalidInput("components", "the largest piece is not a closed manifold surface: " + defect +
-                                           " (numbers of the piece's own vertices and faces); \"repair\": \"fix\" or \"wrap\" can make it one");
+                                           " (numbers of the piece's own vertices and faces); " + mesh::repair_advice(piece));
     kelvin::check_prepare_inputs(piece, options);
     return;
   }
@@ -170,7 +170,7 @@ void KelvinModule::check_preparable(const CreateObjectRequest& in, ObjectPlan& p
     if (const int w = plan.welded.to_welded[i]; w >= 0 && names[static_cast<std::size_t>(w)] < 0) names[static_cast<std::size_t>(w)] = static_cast<int>(i);
   if (const std::string defect = mesh::topology_defect(welded, names); !defect.empty())
     throw InvalidInput(in.source_field(), "the mesh is not a closed manifold surface: " + defect +
-                                              " (vertex and face numbers are the file's); \"repair\": \"fix\" or \"wrap\" can make it one");
+                                              " (vertex and face numbers are the file's); " + mesh::repair_advice(welded));
   // A simplified surface is checked in the job (run_repair), as a repaired one: on a 2M-face
   // scan this check takes 3.6 s, too long for the request.
   if (in.reshape.simplify_faces == 0) kelvin::check_prepare_inputs(welded, options);

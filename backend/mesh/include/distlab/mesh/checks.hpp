@@ -24,6 +24,11 @@ void require_closed_manifold(SurfaceMesh& mesh, const std::string& field = "mesh
 // message (e.g. the user's first file vertex of a welded vertex); empty: v itself.
 std::string topology_defect(const SurfaceMesh& mesh, const std::vector<int>& names = {});
 
+// For a mesh with a topology_defect: which repair (mesh/repair.hpp) can close it, as a sentence
+// for the refusal. An edge of more than two faces needs "wrap"; open edges need fix's
+// max_hole_edges or "wrap"; the others either.
+std::string repair_advice(const SurfaceMesh& mesh);
+
 // What an exported surface is, counted on its vertices welded at float32 (an STL's precision),
 // independently of how it was made: closed (every edge in exactly two faces), a 2-manifold (also
 // one fan of faces around every vertex, no face collapsed by the weld), its face-connected pieces
