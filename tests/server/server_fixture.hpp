@@ -183,6 +183,24 @@ inline std::string new_session(httplib::Client& c) {
 
 inline httplib::Headers session_headers(const std::string& id) { return {{"X-Distlab-Session", id}}; }
 
+// An error answer: `status` and {"error": {code, message, field}} with a message; code and field
+// as given unless "*". `line`: the caller's, in the failure messages.
+inline void expect_error(const httplib::Result& r, int status, const std::string& code, const std::string& field = "*",
+                         int line = __builtin_LINE()) {
+  SCOPED_TRACE("expect_error at line " + std::to_string(line));
+  ASSERT_TRUE(r) << "no response";
+  EXPECT_EQ(r->status, status) << r->body;
+  const json j = body_json(r);
+  ASSERT_TRUE(j.is_object() && j.contains("error")) << r->body;
+  if (code != "*") {
+    EXPECT_EQ(j["error"]["code"], code) << r->body;
+  }
+  EXPECT_TRUE(j["error"]["message"].is_string() && !j["error"]["message"].get<std::string>().empty()) << r->body;
+  if (field != "*") {
+    EXPECT_EQ(j["error"]["field"], field) << r->body;
+  }
+}
+
 // GET path as session s, expecting `status`; the body as JSON.
 inline json get_json(httplib::Client& c, const std::string& s, const std::string& path, int status = 200) {
   auto r = c.Get(path, session_headers(s));

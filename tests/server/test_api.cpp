@@ -26,21 +26,6 @@ class Api : public ::testing::Test {
   httplib::Client c = g_server->client();
 };
 
-void expect_error(const httplib::Result& r, int status, const std::string& code, const std::string& field = "*") {
-  ASSERT_TRUE(r) << "no response";
-  EXPECT_EQ(r->status, status) << r->body;
-  const json j = body_json(r);
-  ASSERT_TRUE(j.is_object() && j.contains("error")) << r->body;
-  if (code != "*") {
-    EXPECT_EQ(j["error"]["code"], code) << r->body;
-  }
-  EXPECT_TRUE(j["error"]["message"].is_string());
-  ASSERT_TRUE(j["error"]["field"].is_string());
-  if (field != "*") {
-    EXPECT_EQ(j["error"]["field"], field) << r->body;
-  }
-}
-
 const char* kPair = R"({"a": {"type": "box", "size": [1, 1, 1]},
   "b": {"type": "sphere", "radius": 0.5, "pose": {"position": [2, 0, 0]}}})";
 

@@ -29,18 +29,6 @@ class CbfApi : public ::testing::Test {
 };
 ServerProcess* CbfApi::server_ = nullptr;
 
-void expect_error(const httplib::Result& r, int status, const std::string& code, const std::string& field = "*") {
-  ASSERT_TRUE(r) << "no response";
-  EXPECT_EQ(r->status, status) << r->body;
-  const json j = body_json(r);
-  ASSERT_TRUE(j.is_object() && j.contains("error")) << r->body;
-  EXPECT_EQ(j["error"]["code"], code) << r->body;
-  EXPECT_TRUE(j["error"]["message"].is_string());
-  if (field != "*") {
-    EXPECT_EQ(j["error"]["field"], field) << r->body;
-  }
-}
-
 // A WebSocket of session s, after its "hello" (the server has registered it: broadcasts reach it).
 std::unique_ptr<WsClient> connect(int port, const std::string& s) {
   auto ws = std::make_unique<WsClient>(port, s);

@@ -54,15 +54,6 @@ StlMesh read_binary_stl(const std::string& path) {
   return m;
 }
 
-void expect_error(const httplib::Result& r, int status, const std::string& code, const std::string& field) {
-  ASSERT_TRUE(r) << "no response";
-  EXPECT_EQ(r->status, status) << r->body;
-  const json j = body_json(r);
-  ASSERT_TRUE(j.is_object() && j.contains("error")) << r->body;
-  EXPECT_EQ(j["error"]["code"], code) << r->body;
-  EXPECT_EQ(j["error"]["field"], field) << r->body;
-}
-
 // GET .../fields decoded (msgpack).
 json get_fields(httplib::Client& c, const std::string& s, const std::string& id, const std::string& query = "") {
   auto r = c.Get("/api/cbf/rollouts/" + id + "/fields" + query, session_headers(s));

@@ -18,19 +18,6 @@ using namespace distlab::test;
 
 namespace {
 
-void expect_error(const httplib::Result& r, int status, const std::string& code, const std::string& field) {
-  ASSERT_TRUE(r) << "no response";
-  EXPECT_EQ(r->status, status) << r->body;
-  const json j = body_json(r);
-  ASSERT_TRUE(j.is_object() && j.contains("error")) << r->body;
-  if (code != "*") {
-    EXPECT_EQ(j["error"]["code"], code) << r->body;
-  }
-  if (field != "*") {
-    EXPECT_EQ(j["error"]["field"], field) << r->body;
-  }
-}
-
 // A TCP connection to the server from a chosen local address (127.0.0.x: all of 127/8 is local).
 int connect_from(int port, const char* source = "127.0.0.1") {
   const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);

@@ -17,18 +17,6 @@ namespace {
 
 class RobotApi : public SharedServerTest<RobotApi> {};
 
-// `line`: the caller's, in the failure messages.
-void expect_error(const httplib::Result& r, int status, const std::string& code, const std::string& field, int line = __builtin_LINE()) {
-  SCOPED_TRACE("expect_error at line " + std::to_string(line));
-  ASSERT_TRUE(r) << "no response";
-  EXPECT_EQ(r->status, status) << r->body;
-  const json j = body_json(r);
-  ASSERT_TRUE(j.is_object() && j.contains("error")) << r->body;
-  EXPECT_EQ(j["error"]["code"], code) << r->body;
-  EXPECT_TRUE(j["error"]["message"].is_string() && !j["error"]["message"].get<std::string>().empty());
-  EXPECT_EQ(j["error"]["field"], field) << r->body;
-}
-
 httplib::Result post(httplib::Client& c, const json& body, const std::string& session = "") {
   if (session.empty()) return c.Post("/api/robot/distances", body.dump(), "application/json");
   return c.Post("/api/robot/distances", session_headers(session), body.dump(), "application/json");
