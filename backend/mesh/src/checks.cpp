@@ -305,7 +305,7 @@ std::string repair_advice(const SurfaceMesh& mesh) {
     fins = fins || use.count > 2;
   }
   // fix's stitching and hole filling leave an edge of three or more faces (a fin) crossing the
-  // surface (Fix.AFinIsLeftAndNamed); holes it fills only up to max_hole_edges (default none).
+  // surface (Fix.AFinIsLeftAndTheAdviceIsWrap); holes it fills only up to max_hole_edges (default none).
   if (fins) return "\"repair\": \"wrap\" can make it one (\"fix\" cannot: an edge has more than two faces)";
   if (open) return "\"repair\": \"wrap\", or \"fix\" with repair_options.max_hole_edges at least each hole's edge count, can make it one";
   return "\"repair\": \"fix\" or \"wrap\" can make it one";
