@@ -37,8 +37,7 @@ struct WrapOptions {
 //   memory  = 100 MB + 1.0 kB per input face (AABB tree, soup) + 1.3 kB per wrap face (Delaunay);
 //   seconds = wrap faces · (50 + √input faces) µs + 10 µs per input face (the queries near dense
 //             input cost more) + 3 µs per face of either surface for the two distance passes
-//             (hausdorff_distance; not fitted on its own: the whole estimate read 0.20 s for the
-//             wrench at α = diagonal/50, which took 0.24 s in distlab-bench-wrap).
+//             (hausdorff_distance; a rough rate, not yet fitted against distlab-bench-wrap).
 struct WrapEstimate {
   double alpha = 0, offset = 0;
   double faces = 0, megabytes = 0, seconds = 0;
