@@ -56,6 +56,7 @@ class Field:
         simplify: Optional[int] = None,
         repair: Optional[str] = None,
         repair_options: Optional[dict] = None,
+        mesh_threads: Optional[int] = None,
     ) -> "Field":
         """Prepares ``mesh``: a file path (STL, OBJ, PLY, GLB, OFF) or ``(vertices (n, 3), faces
         (m, 3))`` arrays of a closed, oriented surface, with exterior element size ``lx`` (metres).
@@ -79,12 +80,18 @@ class Field:
         max_hole_edges; wrap: alpha, offset in metres), bounded by the service's default limits.
         Their reports are in ``stats()`` ("components", "simplify", "repair"). With any of these
         the field is prepared on the reshaped surface, and ``set_sigma(per_vertex=...)`` takes one
-        value per vertex of ``surface`` (that surface's own)."""
+        value per vertex of ``surface`` (that surface's own).
+
+        ``mesh_threads``: 1 meshes on one thread, the same mesh bit for bit on every run; n > 1
+        meshes in parallel on n threads (faster; the mesh, and the field within its accuracy,
+        differ from run to run); None or 0: one thread below 100,000 vertices by eq. 23's bound,
+        every core above (``stats()["mesh_threads"]`` says which)."""
         options = {"lx": lx, "center": center, "far_radius": far_radius, "grading": grading,
                    "feature_angle": feature_angle,
                    "max_vertices": max_vertices, "unit": unit, "scale": scale, "components": components,
                    "simplify": None if simplify is None else {"faces": simplify},
-                   "repair": repair, "repair_options": repair_options, "cache_budget": cache_budget}
+                   "repair": repair, "repair_options": repair_options, "cache_budget": cache_budget,
+                   "mesh_threads": mesh_threads}
         cache = None if cache_dir is None else os.fspath(cache_dir)
         if isinstance(mesh, (str, os.PathLike)):
             core = _core.KelvinField.prepare(None, None, os.fspath(mesh), options, cache, progress)

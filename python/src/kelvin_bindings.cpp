@@ -68,7 +68,8 @@ mesh::SurfaceMesh mesh_from_arrays(const py::object& vertices, const py::object&
 
 class PyField {
  public:
-  // options: lx, center, far_radius, grading, feature_angle, max_vertices (as the CLI request's keys).
+  // options: lx, center, far_radius, grading, feature_angle, max_vertices, mesh_threads (as the CLI
+  // request's keys).
   static std::unique_ptr<PyField> prepare(const py::object& vertices, const py::object& faces, const py::object& path,
                                           const py::dict& options, const py::object& cache_dir,
                                           const py::object& progress) {
@@ -83,6 +84,8 @@ class PyField {
       po.feature_angle = server::json_number(*v, "feature_angle");
     if (auto v = server::json_optional(o, "max_vertices"); v && !v->is_null())
       po.max_vertices = static_cast<std::size_t>(server::json_integer(*v, "max_vertices", 100, 100000000));
+    if (auto v = server::json_optional(o, "mesh_threads"); v && !v->is_null())
+      po.mesh_threads = server::json_integer(*v, "mesh_threads", 0, kelvin::kMaxMeshThreads);
     // The file's unit (metres per unit, like the service's uploads) and the reshaping, read as
     // the CLI request reads them.
     double scale = 1.0;
@@ -224,6 +227,7 @@ class PyField {
     d["t_decomp"] = s.t_decomp;
     d["t_solve"] = s.t_solve;
     d["grading"] = s.grading;
+    d["mesh_threads"] = s.mesh_threads;
     d["response_mb"] = s.response_mb;
     d["linear_boundary"] = s.linear_boundary;
     d["linear_by_response"] = s.linear_by_response;

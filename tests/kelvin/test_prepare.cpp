@@ -124,6 +124,43 @@ TEST(KelvinPrepare, ReportsProgressAndCancels) {
   EXPECT_THROW(Field::prepare(sphere_mesh(kSphere), sphere_options(0.2), progress), Cancelled);
 }
 
+// Parallel refinement (mesh_threads 2) ends as one thread does: a cancellation noticed by a worker
+// thread, the refinement budget and the vertex budget end it with the same errors, and it is
+// refused outside [0, kMaxMeshThreads] naming mesh_threads.
+TEST(KelvinPrepare, ParallelMeshingCancelsAndKeepsItsBudgets) {
+  PrepareOptions o = sphere_options(0.1);
+  o.mesh_threads = 2;
+  std::atomic<bool> cancel{false};
+  Progress progress;
+  progress.cancel = &cancel;
+  progress.report = [&](const std::string& stage, double f) {
+    if (stage == "mesh" && f > 0) cancel = true;
+  };
+  EXPECT_THROW(Field::prepare(sphere_mesh(kSphere), o, progress), Cancelled);
+
+  PrepareOptions steps = o;
+  steps.max_refinement_steps = 2000;
+  const std::string r = refused_field(sphere_mesh(kSphere), steps);
+  EXPECT_EQ(r.rfind("lx: ", 0), 0u) << r;
+  EXPECT_NE(r.find("refinement steps"), std::string::npos) << r;
+
+  PrepareOptions vertices = o;
+  vertices.max_vertices = 300;
+  const std::string r2 = refused_field(sphere_mesh(kSphere), vertices);
+  EXPECT_EQ(r2.rfind("lx: ", 0), 0u) << r2;
+
+  for (const int bad : {-1, kMaxMeshThreads + 1}) {
+    PrepareOptions b = sphere_options(0.2);
+    b.mesh_threads = bad;
+    EXPECT_EQ(refused_field(sphere_mesh(kSphere), b).rfind("mesh_threads: ", 0), 0u) << refused_field(sphere_mesh(kSphere), b);
+  }
+  PrepareOptions ok = sphere_options(0.2);
+  ok.mesh_threads = 2;
+  const Field f = Field::prepare(sphere_mesh(kSphere), ok);
+  EXPECT_EQ(f.stats().mesh_threads, 2);
+  EXPECT_GT(f.stats().n_tets, 0);
+}
+
 // Without a given centre, the deepest-point search is most of "load" on a large surface: it
 // reports its progress and can be cancelled.
 TEST(KelvinPrepare, DeepestPointSearchReportsProgressAndCancels) {
@@ -250,7 +287,7 @@ TEST(KelvinPrepare, CacheEntryWrittenByTwoThreadsAtOnce) {
 std::string forged_entry(const fs::path& from, const std::string& key) {
   std::string bytes = read_file(from);
   const std::string mac_key = read_file(from.parent_path() / "cache.key");
-  static constexpr char kTag[] = "distlab-kelvin-cache-v11";  // cache.cpp's kFormat
+  static constexpr char kTag[] = "distlab-kelvin-cache-v12";  // cache.cpp's kFormat
   const size_t key_at = 8 + sizeof(kTag) + 8;
   EXPECT_EQ(bytes.compare(8, sizeof(kTag) - 1, kTag), 0);
   bytes.replace(key_at, key.size(), key);
@@ -320,7 +357,7 @@ TEST(KelvinPrepare, CacheEntryChangedWithoutTheKeyIsRebuilt) {
   // The first tet-mesh point: after the tag, the key and the surface, inputs and parameters.
   const auto nv = static_cast<size_t>(surface.vertices.rows()), nf = static_cast<size_t>(surface.faces.rows());
   const std::string name = file.stem().string();
-  const size_t points_at = 8 + sizeof("distlab-kelvin-cache-v11") + 8 + name.size() + 8 + 24 * nv + 8 + 12 * nf + 7 * 8 + 4 * 8 + 8;
+  const size_t points_at = 8 + sizeof("distlab-kelvin-cache-v12") + 8 + name.size() + 8 + 24 * nv + 8 + 12 * nf + 7 * 8 + 5 * 8 + 8;
   ASSERT_LT(points_at + 8 * 30, 8 + size);
   for (int attack = 0; attack < 2; ++attack) {
     std::string bytes = original;

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <limits>
 #include <random>
+#include <thread>
 #include <vector>
 
 #include "distlab/mesh/cgal_surface.hpp"
@@ -100,6 +101,54 @@ TEST(EdgeDistance, ExactBelowTheRadiusALowerBoundEverywhere) {
   }
   EXPECT_GT(near, 1000);
   EXPECT_GT(far, 2000);
+}
+
+// The parallel mesher queries both distances from several threads at once (MeshingParams::threads):
+// four threads, each its own order of the same points, through one shared object, answer what a
+// fresh object answers one query at a time, bit for bit. Lattice cells filled by one thread and
+// read by another (or filled by two at once) must hold the one value a cell has.
+TEST(SurfaceDistance, ThreadsSharingOneObjectAnswerAsOneThread) {
+  const Polyhedron poly = two_spheres();
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1.3, 1.3);
+  std::vector<K::Point_3> points;
+  for (int i = 0; i < 6000; ++i) points.emplace_back(u(rng), u(rng), u(rng));
+  std::vector<double> one(points.size());
+  {
+    const SurfaceDistance fresh(poly);
+    for (std::size_t i = 0; i < points.size(); ++i) one[i] = fresh(points[i]);
+  }
+  EdgeDistance::Segments segments;
+  for (const auto e : poly.edges())
+    if (e.idx() % 7 == 0) segments.emplace_back(poly.point(poly.source(poly.halfedge(e))), poly.point(poly.target(poly.halfedge(e))));
+  const EdgeDistance::Segments kept = segments;
+  std::vector<double> one_edge(points.size());
+  {
+    EdgeDistance::Segments copy = kept;
+    const EdgeDistance fresh(std::move(copy), 0.1);
+    for (std::size_t i = 0; i < points.size(); ++i) one_edge[i] = fresh(points[i]);
+  }
+  const SurfaceDistance shared(poly);
+  const EdgeDistance shared_edges(std::move(segments), 0.1);
+  constexpr int kThreads = 4;
+  std::vector<std::vector<double>> got(kThreads, std::vector<double>(points.size())), got_edge = got;
+  std::vector<std::thread> threads;
+  for (int t = 0; t < kThreads; ++t)
+    threads.emplace_back([&, t] {
+      std::vector<std::size_t> order(points.size());
+      for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+      std::shuffle(order.begin(), order.end(), std::mt19937(static_cast<unsigned>(100 + t)));
+      for (const std::size_t i : order) {
+        got[static_cast<std::size_t>(t)][i] = shared(points[i]);
+        got_edge[static_cast<std::size_t>(t)][i] = shared_edges(points[i]);
+      }
+    });
+  for (auto& th : threads) th.join();
+  for (int t = 0; t < kThreads; ++t)
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      ASSERT_EQ(got[static_cast<std::size_t>(t)][i], one[i]) << "thread " << t << ", point " << i;
+      ASSERT_EQ(got_edge[static_cast<std::size_t>(t)][i], one_edge[i]) << "thread " << t << ", point " << i;
+    }
 }
 
 }  // namespace

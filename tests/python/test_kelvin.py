@@ -37,6 +37,25 @@ def test_grading_reaches_the_mesher_through_cli_and_binding(exe):
     assert cli["stats"]["grading"] == 0.05 and graded["grading"] == 0.05 and paper["grading"] == 0
 
 
+def test_mesh_threads_reach_the_mesher_through_cli_and_binding(exe):
+    # mesh_threads 1 is reproducible: the CLI and the binding make the same mesh and the same h,
+    # bit for bit. 2 meshes in parallel (another mesh each run), says so, and answers within the
+    # mesh's accuracy. Bad values: BAD below.
+    point = [[1.0, 0.2, 0.1]]
+    request = {"mesh": {"asset": "cube"}, "lx": 0.15, "mesh_threads": 1, "query": point}
+    code, cli = run_cli("kelvin", request)
+    assert code == 0, cli
+    cube = str(ROOT / "assets" / "cube.stl")
+    one = kelvin.Field.prepare(cube, lx=0.15, mesh_threads=1)
+    assert cli["stats"]["mesh_threads"] == 1 and one.stats["mesh_threads"] == 1
+    assert cli["stats"]["n_verts"] == one.stats["n_verts"] and cli["stats"]["n_tets"] == one.stats["n_tets"]
+    assert one.query(point)[0][0] == cli["query"]["h"][0]
+    two = kelvin.Field.prepare(cube, lx=0.15, mesh_threads=2)
+    assert two.stats["mesh_threads"] == 2
+    assert abs(two.stats["n_verts"] - one.stats["n_verts"]) <= 0.1 * one.stats["n_verts"]
+    assert abs(two.query(point)[0][0] - one.query(point)[0][0]) < 0.02
+
+
 @pytest.fixture(scope="module")
 def sphere_field():
     # Inversion centre off the sphere's centre, so V is not trivially exact (as in the C++ test).
@@ -190,6 +209,9 @@ BAD = [
     (lambda: kelvin.Field.prepare(SPHERE, lx=0.2, grading=float("nan")), distlab.InvalidInput, "grading"),
     (lambda: kelvin.Field.prepare(SPHERE, lx=0.2, grading="a"), distlab.InvalidInputType, "grading"),
     (lambda: kelvin.solve({"mesh": {"asset": "cube"}, "lx": 0.1, "grading": 2}), distlab.InvalidInput, "grading"),
+    (lambda: kelvin.Field.prepare(SPHERE, lx=0.2, mesh_threads=-1), distlab.InvalidInput, "mesh_threads"),
+    (lambda: kelvin.Field.prepare(SPHERE, lx=0.2, mesh_threads=1.5), distlab.InvalidInput, "mesh_threads"),
+    (lambda: kelvin.solve({"mesh": {"asset": "cube"}, "lx": 0.1, "mesh_threads": 257}), distlab.InvalidInput, "mesh_threads"),
     (lambda: kelvin.solve({"mesh": {"asset": "nope"}, "lx": 0.1}), distlab.InvalidInput, "mesh.asset"),
     (lambda: kelvin.solve({"mesh": {"asset": "cube"}, "lx": 0.1, "extra": 1}), distlab.InvalidInput, "extra"),
     (lambda: kelvin.Field.prepare(SPHERE, lx=0.2, unit="ft"), distlab.InvalidInput, "unit"),

@@ -640,7 +640,7 @@ SphereErrors sphere_errors(PrepareOptions o, int grid) {
 // Accuracy against vertices for the paper's sizing (eq. 23, grading 0) and graded ones, side by
 // side at each l_x: the cube's capacitance error and the sphere's RMSE of h, with N_verts and
 // t_mesh (every row is meshed and solved: a 400k-vertex factorization takes tens of minutes here).
-nlohmann::json sizing_table(const std::vector<double>& lxs, const std::vector<double>& gradings, double far_radius, int grid) {
+nlohmann::json sizing_table(const std::vector<double>& lxs, const std::vector<double>& gradings, double far_radius, int grid, int mesh_threads) {
   std::printf(
       "\nAccuracy against vertices: cube |ln(V(0)/C)| (C = %.7f) and sphere RMSE of h (%d × %d grid, z = 0, [-3, 3]²); "
       "grading 0 is the paper's sizing (eq. 23)\n"
@@ -654,6 +654,7 @@ nlohmann::json sizing_table(const std::vector<double>& lxs, const std::vector<do
       o.lx = lx;
       o.far_radius = far_radius;
       o.grading = g;
+      o.mesh_threads = mesh_threads;
       o.max_vertices = 2'000'000;
       CubeErrors c;
       Stats st;
@@ -688,6 +689,7 @@ struct MesherCase {
 struct MesherSide {
   std::vector<double> t;
   long n_verts = 0;
+  std::vector<long> n_verts_runs;
   double grading = 0;
   double t_refine = 0, t_exude = 0;  // plain: the means of Mesh_3's refinement and exudation
   double t_choice = 0;               // ours: choose_grading's part of t (grading "auto"), mean
@@ -718,9 +720,10 @@ MeshingParams mesher_params(const MesherCase& c, double far_radius, mesh::Surfac
   return params;
 }
 
-void ours_once(const MesherCase& c, double far_radius, MesherSide& out) {
+void ours_once(const MesherCase& c, double far_radius, int threads, MesherSide& out) {
   mesh::SurfaceMesh inverted;
   MeshingParams params = mesher_params(c, far_radius, inverted);
+  params.threads = threads;
   const auto t0 = Clock::now();
   params.grading = c.grading ? *c.grading : choose_grading(inverted, params);
   out.t_choice += since(t0);
@@ -728,14 +731,16 @@ void ours_once(const MesherCase& c, double far_radius, MesherSide& out) {
   make_boundary_manifold(tm);
   out.t.push_back(since(t0));
   out.n_verts = tm.points.rows();
+  out.n_verts_runs.push_back(out.n_verts);
   out.grading = params.grading;
   Sha256 sha;
   sha.add(tm.points.data(), sizeof(double) * static_cast<size_t>(tm.points.size()));
   sha.add(tm.tets.data(), sizeof(int) * static_cast<size_t>(tm.tets.size()));
   sha.add(tm.in_domain.data(), tm.in_domain.size());
   const std::string digest = sha.hex();
-  if (!out.digest.empty() && digest != out.digest) throw std::runtime_error("the mesher made two different meshes of one input");
-  out.digest = digest;
+  // One thread is deterministic; parallel refinement is not (MeshingParams::threads).
+  if (threads == 1 && !out.digest.empty() && digest != out.digest) throw std::runtime_error("the mesher made two different meshes of one input");
+  out.digest = threads == 1 ? digest : "(parallel)";
 }
 
 void plain_once(const MesherCase& c, double far_radius, int threads, const std::string& exe, MesherSide& out) {
@@ -767,35 +772,42 @@ void plain_once(const MesherCase& c, double far_radius, int threads, const std::
   const nlohmann::json j = nlohmann::json::parse(text);
   out.t.push_back(j.at("t_mesh").get<double>());
   out.n_verts = j.at("n_verts").get<long>();
+  out.n_verts_runs.push_back(out.n_verts);
   out.t_refine += j.at("t_refine").get<double>();
   out.t_exude += j.at("t_exude").get<double>();
 }
 
-nlohmann::json mesher_table(const std::vector<MesherCase>& cases, double far_radius, int reps, int plain_threads, const std::string& plain_exe) {
+nlohmann::json mesher_table(const std::vector<MesherCase>& cases, double far_radius, int reps, const std::vector<int>& thread_counts,
+                            const std::string& plain_exe) {
   const std::string load_before = load_average();
   std::printf(
       "\nMesher (issue 38): distlab's (the sizing's choice, Mesh_3, the manifold boundary: Stats::t_mesh) against "
-      "plain CGAL Mesh_3 with eq. 23 on the same inverted surface (%s, %d thread%s), medians of %d runs alternating "
-      "which goes first; load before: %s\n| object | l_x | sizing | N_verts | t_mesh s | of it sizing choice s | µs/vertex | plain N_verts | plain t "
-      "s | plain refine s | plain exude s | plain µs/vertex | t ratio | per-vertex ratio | mesh digest |\n"
-      "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
-      plain_exe.c_str(), plain_threads, plain_threads > 1 ? "s" : "", reps, load_before.c_str());
+      "plain CGAL Mesh_3 with eq. 23 on the same inverted surface (%s) on as many threads (1: Sequential_tag, more: "
+      "Parallel_tag), medians of %d runs alternating which goes first; load before: %s\n| object | l_x | sizing | threads | "
+      "N_verts (runs) | t_mesh s | of it sizing choice s | µs/vertex | plain N_verts | plain t s | plain refine s | plain exude s | "
+      "plain µs/vertex | t ratio | per-vertex ratio | mesh digest |\n"
+      "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+      plain_exe.c_str(), reps, load_before.c_str());
   nlohmann::json out = nlohmann::json::array();
-  for (const MesherCase& c : cases) {
-    MesherSide ours, plain;
-    for (int r = 0; r < reps; ++r)
-      for (int side = 0; side < 2; ++side) {
-        if ((side == 0) == (r % 2 == 0)) ours_once(c, far_radius, ours);
-        else if (!plain_exe.empty()) plain_once(c, far_radius, plain_threads, plain_exe, plain);
-      }
-    const double t = median(ours.t), tp = plain.t.empty() ? std::nan("") : median(plain.t);
-    const double us = 1e6 * t / static_cast<double>(ours.n_verts), usp = 1e6 * tp / static_cast<double>(plain.n_verts);
-    std::printf("| %s | %.3g | %s | %ld | %.2f | %.2f | %.1f | %ld | %.2f | %.2f | %.2f | %.1f | %.2f | %.2f | %s |\n", c.object.c_str(), c.lx,
-                (c.grading ? std::to_string(ours.grading).substr(0, 4) : "auto " + std::to_string(ours.grading).substr(0, 4)).c_str(),
-                ours.n_verts, t, ours.t_choice / reps, us, plain.n_verts, tp, plain.t_refine / reps, plain.t_exude / reps, usp, t / tp, us / usp, ours.digest.substr(0, 12).c_str());
-    std::fflush(stdout);
-    out.push_back({{"object", c.object}, {"lx", c.lx}, {"grading", ours.grading}, {"grading_chosen", !c.grading}, {"n_verts", ours.n_verts}, {"digest", ours.digest}, {"t_mesh", t}, {"t_mesh_runs", ours.t}, {"plain_n_verts", plain.n_verts}, {"plain_t_mesh", tp}, {"plain_t_mesh_runs", plain.t}, {"plain_t_refine_mean", plain.t_refine / reps}, {"plain_t_exude_mean", plain.t_exude / reps}, {"plain_threads", plain_threads}, {"t_sizing_choice_mean", ours.t_choice / reps}});
-  }
+  for (const MesherCase& c : cases)
+    for (const int threads : thread_counts) {
+      MesherSide ours, plain;
+      for (int r = 0; r < reps; ++r)
+        for (int side = 0; side < 2; ++side) {
+          if ((side == 0) == (r % 2 == 0)) ours_once(c, far_radius, threads, ours);
+          else if (!plain_exe.empty()) plain_once(c, far_radius, threads, plain_exe, plain);
+        }
+      const double t = median(ours.t), tp = plain.t.empty() ? std::nan("") : median(plain.t);
+      const double us = 1e6 * t / static_cast<double>(ours.n_verts), usp = 1e6 * tp / static_cast<double>(plain.n_verts);
+      const auto [lo, hi] = std::minmax_element(ours.n_verts_runs.begin(), ours.n_verts_runs.end());
+      const std::string counts = *lo == *hi ? std::to_string(*lo) : std::to_string(*lo) + "–" + std::to_string(*hi);
+      std::printf("| %s | %.3g | %s | %d | %s | %.2f | %.2f | %.1f | %ld | %.2f | %.2f | %.2f | %.1f | %.2f | %.2f | %s |\n", c.object.c_str(), c.lx,
+                  (c.grading ? std::to_string(ours.grading).substr(0, 4) : "auto " + std::to_string(ours.grading).substr(0, 4)).c_str(),
+                  threads, counts.c_str(), t, ours.t_choice / reps, us, plain.n_verts, tp, plain.t_refine / reps, plain.t_exude / reps, usp, t / tp,
+                  us / usp, ours.digest.substr(0, 12).c_str());
+      std::fflush(stdout);
+      out.push_back({{"object", c.object}, {"lx", c.lx}, {"grading", ours.grading}, {"grading_chosen", !c.grading}, {"threads", threads}, {"n_verts", ours.n_verts}, {"n_verts_runs", ours.n_verts_runs}, {"digest", ours.digest}, {"t_mesh", t}, {"t_mesh_runs", ours.t}, {"plain_n_verts", plain.n_verts}, {"plain_n_verts_runs", plain.n_verts_runs}, {"plain_t_mesh", tp}, {"plain_t_mesh_runs", plain.t}, {"plain_t_refine_mean", plain.t_refine / reps}, {"plain_t_exude_mean", plain.t_exude / reps}, {"t_sizing_choice_mean", ours.t_choice / reps}});
+    }
   const std::string load_after = load_average();
   std::printf("load after: %s\n", load_after.c_str());
   return {{"rows", out}, {"load_before", load_before}, {"load_after", load_after}, {"reps", reps}};
@@ -820,7 +832,9 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
   bool table1 = true, table2 = true;
   std::vector<double> sphere_lxs, sizing_lxs, gradings = {0.0, 0.3}, mesher_lxs;
   std::string mesher_gradings = "auto,0", mesher_objects = "cube,wrench";
-  int mesher_reps = 3, mesher_threads = 1;
+  int mesher_reps = 3;
+  std::vector<int> mesher_threads = {1};
+  int mesh_threads = 0;  // PrepareOptions::mesh_threads of every preparation (0: chosen)
   bool mesher_plain = true;
   double grading = 0;
   if (argc == 2 && std::string(argv[1]) == "--help") {
@@ -828,9 +842,10 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
         "usage: distlab-bench-kelvin [--assets DIR] [--lx 0.2,0.15,...] [--grid 1000] [--lu-max 60000]\n"
         "  [--wrench-lx 0.002] [--wrench-features 180] [--json FILE] [--table2-only 1] [--table1-only 1]\n"
         "  [--sphere-rmse 0.1,0.05,...] [--cache-dir DIR (reuse prepared objects)] [--far-radius 1] [--grading 0]\n"
+        "  [--mesh-threads 0 (every preparation's PrepareOptions::mesh_threads; 0: chosen, 1: one thread)]\n"
         "  [--sizing-table 0.05,0.03 (accuracy against vertices, per grading) [--gradings 0,0.3]]\n"
         "  [--mesher 0.03,0.02 (the mesher against plain CGAL Mesh_3, eq. 23) [--mesher-gradings auto,0]\n"
-        "   [--mesher-objects cube,wrench (the wrench at --wrench-lx)] [--mesher-reps 3] [--mesher-threads 1 (plain's)]\n"
+        "   [--mesher-objects cube,wrench (the wrench at --wrench-lx)] [--mesher-reps 3] [--mesher-threads 1,2 (ours and plain's)]\n"
         "   [--mesher-plain 0 (ours only)]]");
     return 0;
   }
@@ -848,15 +863,18 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
     else if (k == "--table2-only") table1 = v == "0";
     else if (k == "--table1-only") table2 = v == "0";
     else if (k == "--sphere-rmse") sphere_lxs = parse_list(v), table1 = table2 = false;
-    else if (k == "--grading") grading = std::stod(v);  // PrepareOptions::grading of every object
+    else if (k == "--mesh-threads") mesh_threads = std::stoi(v);  // PrepareOptions::mesh_threads of every preparation
+    else if (k == "--grading") grading = std::stod(v);            // PrepareOptions::grading of every object
     else if (k == "--sizing-table") sizing_lxs = parse_list(v), table1 = table2 = false;
     else if (k == "--gradings") gradings = parse_list(v);
     else if (k == "--mesher") mesher_lxs = parse_list(v), table1 = table2 = false;
     else if (k == "--mesher-gradings") mesher_gradings = v;
     else if (k == "--mesher-objects") mesher_objects = v;
     else if (k == "--mesher-reps") mesher_reps = std::stoi(v);
-    else if (k == "--mesher-threads") mesher_threads = std::stoi(v);
-    else if (k == "--mesher-plain") mesher_plain = v != "0";
+    else if (k == "--mesher-threads") {
+      mesher_threads.clear();
+      for (double n : parse_list(v)) mesher_threads.push_back(static_cast<int>(n));
+    } else if (k == "--mesher-plain") mesher_plain = v != "0";
     else {
       std::fprintf(stderr, "unknown option %s\n", k.c_str());
       return 2;
@@ -883,6 +901,7 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
     o.lx = lx;
     o.far_radius = far_radius;
     o.grading = grading;
+    o.mesh_threads = mesh_threads;
     rows.push_back(run(cube, o, {zero}, path, random, lu_max, cache_dir, &kept));
     const Field& f = *kept;
     std::vector<double> plane(static_cast<size_t>(grid) * grid);
@@ -952,6 +971,7 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
       o.centre = Vec3::Zero();
       o.feature_angle = wrench_features;
       o.grading = grading;
+      o.mesh_threads = mesh_threads;
       std::fprintf(stderr, "wrench: lx %.4g, feature_angle %.0f\n", o.lx, o.feature_angle);
       wrench_rows.push_back(run(wrench, o, cases, wpath, wrandom, lu_max, cache_dir));
       for (const std::string& w : wrench_rows.back().stats.warnings) std::printf("warning: %s\n", w.c_str());
@@ -978,6 +998,7 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
       o.lx = lx;
       o.far_radius = far_radius;
       o.grading = grading;
+      o.mesh_threads = mesh_threads;
       const SphereErrors e = sphere_errors(o, grid);
       std::printf("| %.3g | %ld | %.3e | %.2e | %.2e | %+.2e | %.2e | %.2e | %.2e | %.2e | %.2e | %.4f | %.4f |\n", lx, e.n_verts, e.rmse, e.rmse_near,
                   e.rmse_far, e.mean, e.band_rmse[0], e.band_rmse[1], e.band_rmse[2], e.band_rmse[3], e.vertex_rmse, e.max_abs, e.boundary_rms / lx);
@@ -1005,7 +1026,7 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
     const std::string exe = std::filesystem::canonical("/proc/self/exe").parent_path() / "distlab-mesh3-plain";
     out["mesher"] = mesher_table(cases, far_radius, mesher_reps, mesher_threads, mesher_plain ? exe : "");
   }
-  if (!sizing_lxs.empty()) out["sizing"] = sizing_table(sizing_lxs, gradings, far_radius, grid);
+  if (!sizing_lxs.empty()) out["sizing"] = sizing_table(sizing_lxs, gradings, far_radius, grid, mesh_threads);
   if (!sphere_json.is_null()) out["sphere_rmse"] = sphere_json;
   for (const Row& r : rows) out["table1"].push_back(to_json(r));
   if (!accuracy.is_null()) out["table1_accuracy"] = accuracy;

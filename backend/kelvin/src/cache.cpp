@@ -23,7 +23,7 @@ namespace distlab::kelvin {
 namespace {
 
 // Bump when the meshing or the file layout changes: old entries then simply miss.
-constexpr char kFormat[] = "distlab-kelvin-cache-v11";
+constexpr char kFormat[] = "distlab-kelvin-cache-v12";
 constexpr int kInputs = 7;  // requested lx, far_radius, feature_angle, centre, grading (kChosen: not given)
 constexpr double kChosen = -1;
 constexpr size_t kKeyBytes = 32;
@@ -186,7 +186,7 @@ void save_prepared(const Field::Impl& m, const std::string& tmp, const std::stri
   const Vec3 c = m.requested.centre.value_or(m.centre);
   const double inputs[kInputs] = {m.requested.lx, m.requested.far_radius, m.requested.feature_angle, c.x(), c.y(), c.z(), m.requested.grading.value_or(kChosen)};
   w.raw(inputs, sizeof(inputs));
-  const double params[4] = {m.options.feature_angle, m.stats.grading, m.stats.t_mesh, m.stats.t_decomp};
+  const double params[5] = {m.options.feature_angle, m.stats.grading, m.stats.t_mesh, m.stats.t_decomp, static_cast<double>(m.stats.mesh_threads)};
   w.raw(params, sizeof(params));
   w.array(m.tm.points.data(), static_cast<std::uint64_t>(m.tm.points.size()));
   w.array(m.tm.tets.data(), static_cast<std::uint64_t>(m.tm.tets.size()));
@@ -284,7 +284,7 @@ bool read_entry_header(const std::string& path, StoreEntry& e) {
     std::uint64_t key_size = 0, nv = 0, nf = 0, np = 0, nt = 0;
     double inputs[kInputs];
     ok = count(key_size, 1) && count(nv, sizeof(double)) && count(nf, sizeof(int)) && read(inputs, sizeof(inputs));
-    at += 4 * sizeof(double);  // params
+    at += 5 * sizeof(double);  // params
     std::uint64_t nn = 0, nd = 0;
     ok = ok && count(np, sizeof(double)) && count(nt, sizeof(int)) && count(nn, sizeof(int)) && read(&nd, sizeof(nd)) &&
          nd <= file_size;
@@ -325,7 +325,7 @@ std::unique_ptr<Field::Impl> load_prepared(const std::string& path, const std::s
   if (!r.raw(stored_key.data(), key_size) || stored_key != key) return nullptr;
   auto m = std::make_unique<Field::Impl>();
   constexpr std::uint64_t max_rows = 1ull << 31;
-  double inputs[kInputs], params[4];
+  double inputs[kInputs], params[5];
   if (!r.matrix(m->surface.vertices, 3, max_rows) || !r.matrix(m->surface.faces, 3, max_rows) ||
       !r.raw(inputs, sizeof(inputs)) || !r.raw(params, sizeof(params)))
     return nullptr;
@@ -361,6 +361,7 @@ std::unique_ptr<Field::Impl> load_prepared(const std::string& path, const std::s
   // A cached object reports the timings of its original preparation (Stats::cached says so).
   m->stats.t_mesh = params[2];
   m->stats.t_decomp = params[3];
+  m->stats.mesh_threads = static_cast<int>(params[4]);
   m->stats.cached = true;
   return m;
 }

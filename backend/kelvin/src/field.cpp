@@ -36,6 +36,8 @@ static void check_options(const PrepareOptions& o) {
     throw InvalidInput("far_radius", "far_radius must be in [0.5, " + std::to_string(static_cast<int>(kMaxFarRadius)) + "]");
   if (o.grading && (!std::isfinite(*o.grading) || *o.grading < 0 || *o.grading > kMaxGrading))
     throw InvalidInput("grading", "grading must be in [0, " + std::to_string(static_cast<int>(kMaxGrading)) + "]");
+  if (o.mesh_threads < 0 || o.mesh_threads > kMaxMeshThreads)
+    throw InvalidInput("mesh_threads", "mesh_threads must be an integer in [0, " + std::to_string(kMaxMeshThreads) + "] (0: chosen)");
   if (o.max_vertices < 100) throw InvalidInput("max_vertices", "max_vertices must be at least 100");
   if (!(o.max_protection_steps >= 0) || !(o.max_refinement_steps >= 1000))  // NaN fails too
     throw InvalidInput("max_refinement_steps", "meshing step limits must be positive (refinement at least 1000)");
@@ -152,6 +154,7 @@ static std::unique_ptr<Field::Impl> mesh_stage(mesh::SurfaceMesh surface, const 
   params.max_vertices = o.max_vertices;
   params.max_protection_evaluations = protection_budget(surface, centre, o, params.grading);
   params.max_refinement_evaluations = o.max_refinement_steps;
+  params.threads = o.mesh_threads > 0 ? o.mesh_threads : choose_mesh_threads(params);
   std::string warning;
   impl->tm = mesh_inverted_domain(inverted, params, progress, &warning);
   const auto t_pinch = std::chrono::steady_clock::now();
@@ -166,6 +169,7 @@ static std::unique_ptr<Field::Impl> mesh_stage(mesh::SurfaceMesh surface, const 
   impl->requested = impl->options;
   impl->options.grading = params.grading;
   impl->stats.grading = params.grading;
+  impl->stats.mesh_threads = params.threads;
   // The effective angle (180 if protection was skipped) is what the cache stores, so a reloaded
   // object reports the same warning.
   if (!warning.empty()) {

@@ -10,8 +10,12 @@
 // with the allocator's frees and consolidation that was ~25% of graded meshing (perf, cube l_x
 // 0.02). Include before any Mesh_3 header is instantiated; mesher.cpp is the only translation
 // unit that does.
-#include <CGAL/Meshes/Filtered_multimap_container.h>
+// These first: with TBB, Filtered_multimap_container.h uses Parallel_tag and CGAL_assertion
+// without including them.
+#include <CGAL/assertions.h>
 #include <CGAL/tags.h>
+
+#include <CGAL/Meshes/Filtered_multimap_container.h>
 
 #include <cstdint>
 #include <functional>

@@ -5,7 +5,11 @@
 // order), so meshing stays deterministic; the unsorted (FIFO) ones mesh 8% more vertices. It
 // changes the cell and vertex bases: it must precede every CGAL include here, and no other
 // translation unit may instantiate Mesh_3.
+// Two instantiations: Sequential_tag (threads 1, deterministic) and Parallel_tag (TBB; a mesh
+// that differs from run to run, MeshingParams::threads).
 #define CGAL_MESH_3_USE_LAZY_SORTED_REFINEMENT_QUEUE
+// The parallel triangulation's vertex count in O(1) (the vertex budget reads it per insertion).
+#define CGAL_CONCURRENT_COMPACT_CONTAINER_APPROXIMATE_SIZE 1
 #include "mesh3_heap_queue.hpp"  // those queues as heaps: the same order, the same mesh
 
 #include <CGAL/AABB_traits.h>
@@ -23,14 +27,18 @@
 #include <CGAL/Side_of_triangle_mesh.h>
 #include <CGAL/Surface_mesh.h>
 #include <CGAL/make_mesh_3.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <numbers>
 #include <optional>
+#include <thread>
 #include <unordered_map>
 #include <vector>
 
@@ -47,9 +55,12 @@ using K = sizing::K;
 using Polyhedron = sizing::Polyhedron;
 using sizing::SurfaceDistance;
 using Domain = CGAL::Polyhedral_mesh_domain_with_features_3<K, Polyhedron>;
-using Tr = CGAL::Mesh_triangulation_3<Domain, CGAL::Default, CGAL::Sequential_tag>::type;
-using C3t3 = CGAL::Mesh_complex_3_in_triangulation_3<Tr, Domain::Corner_index, Domain::Curve_index>;
-using Criteria = CGAL::Mesh_criteria_3<Tr>;
+template <class Concurrency>
+struct Mesh3 {
+  using Tr = typename CGAL::Mesh_triangulation_3<Domain, CGAL::Default, Concurrency>::type;
+  using C3t3 = CGAL::Mesh_complex_3_in_triangulation_3<Tr, Domain::Corner_index, Domain::Curve_index>;
+  using Criteria = CGAL::Mesh_criteria_3<Tr>;
+};
 
 // l_y(y) = max(|y|² l_x, l_min), eq. 23 with the lower bound of Section IV-C-1; graded (g > 0):
 // s_e · max(|y|² l_x + g d_y, l_min) (MeshingParams::grading). Mesh_3 calls it throughout
@@ -57,8 +68,10 @@ using Criteria = CGAL::Mesh_criteria_3<Tr>;
 // Work budget of one meshing attempt, counted in sizing-field evaluations (deterministic, unlike
 // wall time): Mesh_3 evaluates the edge sizing only while it protects sharp edges, and every
 // refinement step evaluates the facet/cell sizing, so the counts bound both stages.
+// Counted atomically: the parallel mesher's threads share it (their counts vary from run to run,
+// their bound does not).
 struct Budget {
-  long edge_calls = 0, calls = 0;
+  std::atomic<long> edge_calls = 0, calls = 0;
   long max_edge_calls = 0, max_calls = 0;
 };
 struct ProtectionBudgetExceeded {};
@@ -109,6 +122,10 @@ struct Sizing {
   }
 };
 
+double seconds_between(std::chrono::steady_clock::time_point a, std::chrono::steady_clock::time_point b) {
+  return std::chrono::duration<double>(b - a).count();
+}
+
 std::string whole(double v) { return std::to_string(static_cast<long long>(std::llround(v))); }
 
 // The polyhedron Mesh_3 meshes must follow the inverted surface, whose flat parts are sphere
@@ -137,16 +154,22 @@ Polyhedron boundary_polyhedron(const mesh::SurfaceMesh& inverted, double max_len
 }
 
 // One Mesh_3 run; protect selects sharp-edge protection (params.feature_angle).
+template <class Concurrency>
 TetMesh mesh_once(const mesh::SurfaceMesh& inverted, const MeshingParams& params, bool protect,
                   Budget& budget, const Progress& progress) {
+  using Tr = typename Mesh3<Concurrency>::Tr;
+  using C3t3 = typename Mesh3<Concurrency>::C3t3;
+  using Criteria = typename Mesh3<Concurrency>::Criteria;
   Polyhedron poly = boundary_polyhedron(inverted, params.boundary_edge_length > 0 ? params.boundary_edge_length : params.lx);
 
   // Determinism: Mesh_3 and the domain draw from these generators; the default one is seeded
   // from the clock.
+  const auto t_domain = std::chrono::steady_clock::now();
   CGAL::get_default_random() = CGAL::Random(0);
   CGAL::Random rng(0);
   Domain domain(poly, &rng);
   if (protect) domain.detect_features(params.feature_angle);
+  if (std::getenv("DISTLAB_MESH_DEBUG")) std::fprintf(stderr, "mesh: domain %.3f s\n", seconds_between(t_domain, std::chrono::steady_clock::now()));
   progress("mesh", 0.1);
 
   // l_y is used as Mesh_3's own size bound (cell and facet circumradii, feature-edge length), as
@@ -184,47 +207,57 @@ TetMesh mesh_once(const mesh::SurfaceMesh& inverted, const MeshingParams& params
   // Exudation without a time limit (determinism) but with a target angle: sliver_bound = 0 asks
   // it to improve the worst cell until nothing improves, which took minutes (profiled).
   CGAL::Mesh_error_code error = CGAL::CGAL_MESH_3_NO_ERROR;
+  const auto t_refine = std::chrono::steady_clock::now();
   C3t3 c3t3 = CGAL::make_mesh_3<C3t3>(
-      domain, criteria, P::no_perturb(), P::exude(P::time_limit = 0, P::sliver_bound = 10),
+      domain, criteria, P::no_perturb(), P::no_exude(),
       P::mesh_3_options(P::maximal_number_of_vertices = params.max_vertices,
                         P::pointer_to_error_code = &error));
+  const auto t_exude = std::chrono::steady_clock::now();
+  if (error == CGAL::CGAL_MESH_3_NO_ERROR) CGAL::exude_mesh_3(c3t3, P::time_limit = 0, P::sliver_bound = 10);
   if (std::getenv("DISTLAB_MESH_DEBUG"))
-    std::fprintf(stderr, "mesh: protect=%d edge_calls=%ld calls=%ld verts=%zu\n", protect ? 1 : 0,
-                 budget.edge_calls, budget.calls, c3t3.triangulation().number_of_vertices());
+    std::fprintf(stderr, "mesh: threads=%d protect=%d edge_calls=%ld calls=%ld verts=%zu refine %.3f s exude %.3f s\n",
+                 params.threads, protect ? 1 : 0, budget.edge_calls.load(), budget.calls.load(),
+                 c3t3.triangulation().number_of_vertices(), seconds_between(t_refine, t_exude),
+                 seconds_between(t_exude, std::chrono::steady_clock::now()));
   if (error == CGAL::CGAL_MESH_3_MAXIMAL_NUMBER_OF_VERTICES_REACHED)
     throw InvalidInput("lx", "lx is too small for this object: meshing reached the vertex budget of " +
                                  std::to_string(params.max_vertices) +
                                  " vertices (PrepareOptions::max_vertices); use a larger lx");
   progress("mesh", 0.9);
+  const auto t_copy = std::chrono::steady_clock::now();
 
-  const Tr& tr = c3t3.triangulation();
-  std::unordered_map<Tr::Vertex_handle, int> vindex;
+  // Indices are kept in the elements themselves, not in hash maps of handles (1 s of the cube's
+  // 1.3M cells at l_x 0.02): a vertex's in its meshing_info (a double, exact for these integers;
+  // refinement no longer reads it), a cell's in its subdomain index once in_domain has been read
+  // from it. The complex is not used afterwards.
+  Tr& tr = c3t3.triangulation();
   TetMesh out;
   out.points.resize(static_cast<Eigen::Index>(tr.number_of_vertices()), 3);
   int nv = 0;
   for (auto v = tr.finite_vertices_begin(); v != tr.finite_vertices_end(); ++v) {
     const auto& p = v->point().point();
     out.points.row(nv) << p.x(), p.y(), p.z();
-    vindex.emplace(v, nv++);
+    v->set_meshing_info(nv++);
   }
   out.points.conservativeResize(nv, 3);
-  std::unordered_map<Tr::Cell_handle, int> cindex;
   int nc = 0;
-  for (auto c = tr.finite_cells_begin(); c != tr.finite_cells_end(); ++c) cindex.emplace(c, nc++);
+  for (auto c = tr.finite_cells_begin(); c != tr.finite_cells_end(); ++c) {
+    out.in_domain.push_back(c3t3.is_in_complex(c) ? 1 : 0);
+    c->set_subdomain_index(nc++);
+  }
   out.tets.resize(nc, 4);
   out.neighbours.resize(nc, 4);
-  out.in_domain.resize(static_cast<size_t>(nc));
   for (auto c = tr.finite_cells_begin(); c != tr.finite_cells_end(); ++c) {
-    const int i = cindex.at(c);
+    const int i = c->subdomain_index();
     for (int k = 0; k < 4; ++k) {
-      out.tets(i, k) = vindex.at(c->vertex(k));
+      out.tets(i, k) = static_cast<int>(c->vertex(k)->meshing_info());
       const auto n = c->neighbor(k);
-      out.neighbours(i, k) = tr.is_infinite(n) ? -1 : cindex.at(n);
+      out.neighbours(i, k) = tr.is_infinite(n) ? -1 : n->subdomain_index();
     }
-    out.in_domain[static_cast<size_t>(i)] = c3t3.is_in_complex(c) ? 1 : 0;
   }
-  if (c3t3.number_of_cells_in_complex() == 0)
-    throw InvalidInput("lx", "meshing produced no tetrahedra (is lx far larger than the object?)");
+  const bool empty = std::count(out.in_domain.begin(), out.in_domain.end(), std::uint8_t{1}) == 0;
+  if (std::getenv("DISTLAB_MESH_DEBUG")) std::fprintf(stderr, "mesh: copy %.3f s\n", seconds_between(t_copy, std::chrono::steady_clock::now()));
+  if (empty) throw InvalidInput("lx", "meshing produced no tetrahedra (is lx far larger than the object?)");
   progress("mesh", 1.0);
   return out;
 }
@@ -317,18 +350,33 @@ SizingPrediction predict_vertices(const mesh::SurfaceMesh& inverted, const Meshi
   return out;
 }
 
+double eq23_vertex_bound(const MeshingParams& params) {
+  // Once inside |y| < ρ (l_y = min_size), once outside (l_y⁻³ = (|y|² l_x)⁻³).
+  const double rho = std::sqrt(params.min_size / params.lx);
+  return kVerticesPerSizingIntegral * 2 * 4 * std::numbers::pi / 3 / std::pow(rho * params.lx, 3);
+}
+
+int choose_mesh_threads(const MeshingParams& params) {
+  if (!(eq23_vertex_bound(params) >= kParallelMeshFrom)) return 1;
+  return static_cast<int>(std::max(1U, std::thread::hardware_concurrency()));
+}
+
 double choose_grading(const mesh::SurfaceMesh& inverted, const MeshingParams& params, const Progress& progress,
                       SizingPrediction* prediction) {
-  // ∫ dV_y / l_y³ of eq. 23 is at most twice (4/3)π / (ρ l_x)³, ρ = √(min_size / l_x) where l_y
-  // reaches min_size: once inside |y| < ρ (l_y = min_size), once outside (l_y⁻³ = (|y|² l_x)⁻³).
-  const double rho = std::sqrt(params.min_size / params.lx);
-  const double most = kVerticesPerSizingIntegral * 2 * 4 * std::numbers::pi / 3 / std::pow(rho * params.lx, 3);
-  if (!(most >= kAutoPredictFrom)) return 0;
+  if (!(eq23_vertex_bound(params) >= kAutoPredictFrom)) return 0;
   MeshingParams graded = params;
   graded.grading = kAutoGrading;
   const SizingPrediction p = predict_vertices(inverted, graded, progress);
   if (prediction != nullptr) *prediction = p;
   return p.graded <= kAutoGradedShare * p.paper ? kAutoGrading : 0;
+}
+
+// Sequential (threads 1) or CGAL's parallel refinement in an arena of params.threads threads.
+TetMesh mesh_once(const mesh::SurfaceMesh& inverted, const MeshingParams& params, bool protect,
+                  Budget& budget, const Progress& progress) {
+  if (params.threads <= 1) return mesh_once<CGAL::Sequential_tag>(inverted, params, protect, budget, progress);
+  tbb::task_arena arena(params.threads);
+  return arena.execute([&] { return mesh_once<CGAL::Parallel_tag>(inverted, params, protect, budget, progress); });
 }
 
 TetMesh mesh_inverted_domain(const mesh::SurfaceMesh& inverted, const MeshingParams& params,

@@ -8,12 +8,14 @@
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Polygon_mesh_processing/bbox.h>
 #include <CGAL/Surface_mesh.h>
+#include <tbb/concurrent_unordered_map.h>
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
-#include <unordered_map>
+#include <memory>
 #include <utility>
 #include <vector>
 
@@ -75,6 +77,10 @@ class SurfaceDistance {
     tree_.insert(triangles_.begin(), triangles_.end());
     tree_.build();
     tree_.accelerate_distance_queries();
+    for (int level = 0; level < kFlatLevels; ++level) {
+      const std::size_t n = std::size_t{32} << level;
+      flat_[static_cast<std::size_t>(level)] = std::make_unique<Slot[]>(n * n * n);
+    }
   }
   // Lattices of 32, 64, 128 and 256 cells across, each consulted only where its parent's cell
   // centre lies within 4 of the parent's cells of the surface: a point answers by the bound of
@@ -89,16 +95,28 @@ class SurfaceDistance {
       const double cell = cell_ * static_cast<double>(1 << (kLevels - 1 - level));
       const LatticeCell at = lattice_cell(q, lo_, cell);
       const double* c = at.centre;
-      auto [it, fresh] = at_centre_[static_cast<std::size_t>(level)].try_emplace(key(at.index[0], at.index[1], at.index[2]));
-      if (fresh) {
+      // A cell starts from its parent's closest point (a start as good as the nearest vertex
+      // from CGAL's k-d tree, measured, and free); a coarsest one from that vertex.
+      auto fill = [&] {
         const K::Point_3 centre(c[0], c[1], c[2]);
-        // A cell starts from its parent's closest point (a start as good as the nearest vertex
-        // from CGAL's k-d tree, measured, and free); a coarsest one from that vertex.
-        it->second.closest = closest(centre, parent != nullptr ? parent->closest : tree_.best_hint(centre).first);
-        it->second.distance = std::sqrt(CGAL::to_double(CGAL::squared_distance(centre, it->second.closest)));
+        Cell fresh;
+        fresh.closest = closest(centre, parent != nullptr ? parent->closest : tree_.best_hint(centre).first);
+        fresh.distance = std::sqrt(CGAL::to_double(CGAL::squared_distance(centre, fresh.closest)));
+        return fresh;
+      };
+      const Cell* at_cell = nullptr;
+      Cell local;  // a flat cell another thread is filling: computed here too (the same value)
+      if (level < kFlatLevels) {
+        at_cell = flat_cell(level, at, fill, local);
+      } else {
+        auto& cells = at_centre_[static_cast<std::size_t>(level - kFlatLevels)];
+        const std::uint64_t k = key(at.index[0], at.index[1], at.index[2]);
+        auto it = cells.find(k);
+        if (it == cells.end()) it = cells.emplace(k, fill()).first;  // another thread's equal value if it came first
+        at_cell = &it->second;
       }
-      if (it->second.distance > 4 * cell) return bound_from_centre(it->second.distance, q, c);
-      parent = &it->second;
+      if (at_cell->distance > 4 * cell) return bound_from_centre(at_cell->distance, q, c);
+      parent = at_cell;
     }
     // Near the surface: exact, from the cell centre's closest point.
     return std::sqrt(CGAL::to_double(CGAL::squared_distance(p, closest(p, parent->closest))));
@@ -117,6 +135,42 @@ class SurfaceDistance {
   };
 
   static constexpr int kLevels = 4;
+  // The two coarsest lattices (32³ and 64³ cells over the bounding box) are flat arrays, the finer
+  // ones hash maps of the cells that are asked for (near the surface). A flat slot is filled once:
+  // empty → being written (one thread) → ready.
+  static constexpr int kFlatLevels = 2;
+  struct Slot {
+    std::atomic<std::uint8_t> state{0};  // 0 empty, 1 being written, 2 ready
+    Cell cell;
+  };
+  template <class Fill>
+  const Cell* flat_cell(int level, const LatticeCell& at, Fill&& fill, Cell& local) const {
+    const std::int64_t n = std::int64_t{32} << level;
+    for (const std::int64_t i : at.index)
+      if (i < 0 || i >= n) {  // outside the box (a query far out): not kept
+        local = fill();
+        return &local;
+      }
+    Slot& slot = flat_[static_cast<std::size_t>(level)][static_cast<std::size_t>((at.index[0] * n + at.index[1]) * n + at.index[2])];
+    if (slot.state.load(std::memory_order_acquire) == 2) return &slot.cell;
+    std::uint8_t empty = 0;
+    if (slot.state.compare_exchange_strong(empty, 1, std::memory_order_acq_rel)) {
+      slot.cell = fill();
+      slot.state.store(2, std::memory_order_release);
+      return &slot.cell;
+    }
+    local = fill();
+    return &local;
+  }
+  // The keys' low bits are one coordinate's index alone; TBB's map buckets by the low bits of the
+  // hash (std::hash is the identity), so the keys are mixed first (splitmix64's finaliser).
+  struct Mix {
+    std::size_t operator()(std::uint64_t x) const {
+      x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
+      x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
+      return static_cast<std::size_t>(x ^ (x >> 31));
+    }
+  };
   static std::uint64_t key(std::int64_t i, std::int64_t j, std::int64_t k) {
     return (static_cast<std::uint64_t>(i & 0x1fffff) << 42) |
            (static_cast<std::uint64_t>(j & 0x1fffff) << 21) | static_cast<std::uint64_t>(k & 0x1fffff);
@@ -185,7 +239,8 @@ class SurfaceDistance {
   std::vector<Plane> planes_;
   Tree tree_;
   double lo_[3] = {0, 0, 0}, cell_ = 1;
-  mutable std::array<std::unordered_map<std::uint64_t, Cell>, kLevels> at_centre_;  // per level, coarsest first
+  mutable std::array<std::unique_ptr<Slot[]>, kFlatLevels> flat_;                                                 // 32³, 64³
+  mutable std::array<tbb::concurrent_unordered_map<std::uint64_t, Cell, Mix>, kLevels - kFlatLevels> at_centre_;  // 128³, 256³
 };
 
 // Distance in x from the object's sharp edges for the graded sizing's edge factor
@@ -222,7 +277,8 @@ class EdgeDistance {
         total *= n_[k];
       }
       if (total <= (std::int64_t{1} << 21)) {
-        at_centre_.assign(static_cast<std::size_t>(total), -1.0);
+        at_centre_ = std::make_unique<std::atomic<double>[]>(static_cast<std::size_t>(total));
+        for (std::int64_t i = 0; i < total; ++i) at_centre_[static_cast<std::size_t>(i)].store(-1.0, std::memory_order_relaxed);
         break;
       }
       cell_ *= 1.25;
@@ -234,7 +290,7 @@ class EdgeDistance {
   // The exact distance (CGAL's AABB_tree::squared_distance) wherever it is below radius, else a
   // value ≥ radius.
   double operator()(const K::Point_3& x) const {
-    if (at_centre_.empty()) return exact(x);
+    if (!at_centre_) return exact(x);
     const double bound = lower_bound(x);
     return bound >= radius_ + margin_ ? bound : exact(x);
   }
@@ -253,8 +309,12 @@ class EdgeDistance {
     const std::int64_t* i = at.index;
     for (int k = 0; k < 3; ++k)
       if (i[k] < 0 || i[k] >= n_[k]) return box;
-    double& centre = at_centre_[static_cast<std::size_t>((i[0] * n_[1] + i[1]) * n_[2] + i[2])];
-    if (centre < 0) centre = exact(K::Point_3(at.centre[0], at.centre[1], at.centre[2]));
+    std::atomic<double>& slot = at_centre_[static_cast<std::size_t>((i[0] * n_[1] + i[1]) * n_[2] + i[2])];
+    double centre = slot.load(std::memory_order_relaxed);
+    if (centre < 0) {  // any thread computes the same value
+      centre = exact(K::Point_3(at.centre[0], at.centre[1], at.centre[2]));
+      slot.store(centre, std::memory_order_relaxed);
+    }
     return std::max(box, bound_from_centre(centre, q, at.centre));
   }
 
@@ -265,7 +325,7 @@ class EdgeDistance {
   double radius_, margin_ = 0, cell_ = 1;
   double lo_[3] = {0, 0, 0}, hi_[3] = {0, 0, 0}, origin_[3] = {0, 0, 0};
   std::int64_t n_[3] = {0, 0, 0};
-  mutable std::vector<double> at_centre_;  // -1: not yet computed
+  std::unique_ptr<std::atomic<double>[]> at_centre_;  // -1: not yet computed; thread-safe (SurfaceDistance)
 };
 
 }  // namespace distlab::kelvin::sizing

@@ -26,7 +26,8 @@ const std::map<std::string, std::string>& export_types() {
   return types;
 }
 
-// The preparation's options of a create request: lx or lx_fraction, center, far_radius, grading.
+// The preparation's options of a create request: lx or lx_fraction, center, far_radius, grading,
+// mesh_threads.
 void decode_options(const json& body, CreateObjectRequest& in) {
   if (body.contains("lx") == body.contains("lx_fraction"))
     throw InvalidInput("lx", "give lx (metres) or lx_fraction (of the bounding box's diagonal), exactly one");
@@ -48,6 +49,7 @@ void decode_options(const json& body, CreateObjectRequest& in) {
     options.grading = json_number(body["grading"], "grading", kelvin::kMaxGrading);
     if (!(*options.grading >= 0)) throw InvalidInput("grading", "grading must be in [0, " + json(kelvin::kMaxGrading).dump() + "]");
   }
+  if (body.contains("mesh_threads")) options.mesh_threads = json_integer(body["mesh_threads"], "mesh_threads", 0, kelvin::kMaxMeshThreads);
 }
 
 // One of asset (a name), upload (an id) and mesh (inline, at most max_upload_triangles).
@@ -82,7 +84,7 @@ CreateObjectRequest decode_create_object(const Request& request, const Limits& l
   const json body = parse_body(request);
   if (!body.is_object()) throw InvalidInput("", "the request must be an object");
   static const std::set<std::string> keys = {"asset", "upload", "mesh", "lx", "lx_fraction", "center", "far_radius", "grading",
-                                             "sigma", "levels", "repair", "repair_options", "simplify", "components", "comment"};
+                                             "mesh_threads", "sigma", "levels", "repair", "repair_options", "simplify", "components", "comment"};
   for (const auto& [k, v] : body.items())
     if (!keys.count(k)) throw InvalidInput(k, "unknown key \"" + k.substr(0, 64) + "\"");
   const int sources = static_cast<int>(body.contains("asset")) + static_cast<int>(body.contains("upload")) +

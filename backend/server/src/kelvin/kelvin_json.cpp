@@ -130,7 +130,7 @@ struct KelvinRun {
   std::string iso_format, iso_path;
 };
 
-// lx, center, far_radius, grading, feature_angle, max_vertices.
+// lx, center, far_radius, grading, feature_angle, max_vertices, mesh_threads.
 kelvin::PrepareOptions parse_prepare_options(const json& r) {
   if (!r.contains("lx")) throw InvalidInput("lx", "lx is required");
   kelvin::PrepareOptions options;
@@ -148,6 +148,7 @@ kelvin::PrepareOptions parse_prepare_options(const json& r) {
       throw InvalidInput("max_vertices", "max_vertices must be an integer in [100, 1e8]");
     options.max_vertices = static_cast<std::size_t>(mv);
   }
+  if (r.contains("mesh_threads")) options.mesh_threads = json_integer(r["mesh_threads"], "mesh_threads", 0, kelvin::kMaxMeshThreads);
   return options;
 }
 
@@ -166,7 +167,7 @@ void parse_isosurfaces(const json& iso, KelvinRun& run) {
 }
 
 KelvinRun parse_run(const json& r) {
-  object_with(r, "", {"mesh", "lx", "center", "far_radius", "grading", "feature_angle", "max_vertices", "cache", "cache_budget", "sigma", "query", "isosurfaces", "repair", "repair_options", "simplify", "components", "comment"});
+  object_with(r, "", {"mesh", "lx", "center", "far_radius", "grading", "feature_angle", "max_vertices", "mesh_threads", "cache", "cache_budget", "sigma", "query", "isosurfaces", "repair", "repair_options", "simplify", "components", "comment"});
   KelvinRun run;
   run.reshape = parse_reshape(r, Limits{});
   if (!r.contains("mesh")) throw InvalidInput("mesh", "mesh is required");
@@ -195,7 +196,7 @@ KelvinRun parse_run(const json& r) {
 
 json stats_json(const kelvin::Field& field, bool hit, bool cached) {
   const kelvin::Stats& st = field.stats();
-  json stats = {{"n_verts", st.n_verts}, {"n_tets", st.n_tets}, {"size_mb", st.size_mb}, {"t_mesh", st.t_mesh}, {"t_build", st.t_build}, {"t_decomp", st.t_decomp}, {"t_solve", st.t_solve}, {"grading", st.grading}, {"cache_hit", hit}};
+  json stats = {{"n_verts", st.n_verts}, {"n_tets", st.n_tets}, {"size_mb", st.size_mb}, {"t_mesh", st.t_mesh}, {"t_build", st.t_build}, {"t_decomp", st.t_decomp}, {"t_solve", st.t_solve}, {"grading", st.grading}, {"mesh_threads", st.mesh_threads}, {"cache_hit", hit}};
   // On a cache hit t_mesh and t_decomp are the original preparation's; t_load is this load.
   if (hit) stats["t_load"] = st.t_load;
   // Waited for another process preparing the same field (its lease) before loading or taking over.

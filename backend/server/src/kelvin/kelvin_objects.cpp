@@ -191,7 +191,7 @@ json KelvinObject::status_json() {
   if (!estimate.is_null()) j["estimate"] = estimate;
   if (prepared) {
     const kelvin::Stats& st = prepared->field.stats();
-    j["stats"] = {{"n_verts", st.n_verts}, {"n_tets", st.n_tets}, {"size_mb", st.size_mb}, {"t_mesh", st.t_mesh}, {"t_build", st.t_build}, {"t_decomp", st.t_decomp}, {"t_solve", st.t_solve}, {"grading", st.grading}, {"response_mb", st.response_mb}, {"cache_hit", prepared->cache_hit}, {"shared", shared}, {"t_prepare", prepared->seconds}};
+    j["stats"] = {{"n_verts", st.n_verts}, {"n_tets", st.n_tets}, {"size_mb", st.size_mb}, {"t_mesh", st.t_mesh}, {"t_build", st.t_build}, {"t_decomp", st.t_decomp}, {"t_solve", st.t_solve}, {"grading", st.grading}, {"mesh_threads", st.mesh_threads}, {"response_mb", st.response_mb}, {"cache_hit", prepared->cache_hit}, {"shared", shared}, {"t_prepare", prepared->seconds}};
     if (stage_seconds) {
       json t = json::object();
       for (std::size_t i = 0; i < kelvin::kPrepareStageCount; ++i) t[kelvin::kPrepareStages[i]] = (*stage_seconds)[i];

@@ -19,6 +19,7 @@ namespace distlab::kelvin {
 
 inline constexpr double kMaxFarRadius = 1000;  // PrepareOptions::far_radius is in [0.5, this]
 inline constexpr double kMaxGrading = 1;       // PrepareOptions::grading is in [0, this]
+inline constexpr int kMaxMeshThreads = 256;    // PrepareOptions::mesh_threads is in [0, this]
 
 struct PrepareOptions {
   double lx = 0.1;             // exterior element size l_x, metres (eq. 23)
@@ -49,6 +50,12 @@ struct PrepareOptions {
   std::size_t max_vertices = 1'000'000;
   double max_protection_steps = 0;
   double max_refinement_steps = 1e8;
+  // Meshing threads (MeshingParams::threads): 1, a mesh the same bit for bit on every run; n > 1,
+  // CGAL's parallel refinement on n threads, faster, a mesh (and field) that differs from run to
+  // run within the mesh's accuracy; 0, chosen by choose_mesh_threads (one thread below
+  // kParallelMeshFrom vertices by eq. 23's bound, every core above). Stats::mesh_threads says
+  // which. Not part of prepare_key: fields meshed either way answer for the same object.
+  int mesh_threads = 0;
 };
 
 // SHA-256 (hex, digest.hpp) of a surface: its vertex and face counts, vertices and faces. Equal
@@ -64,7 +71,8 @@ std::string prepare_key(const mesh::SurfaceMesh& surface, const PrepareOptions& 
 
 struct Stats {
   long n_verts = 0, n_tets = 0;
-  double grading = 0;  // the sizing meshed: PrepareOptions::grading or its choice
+  double grading = 0;    // the sizing meshed: PrepareOptions::grading or its choice
+  int mesh_threads = 1;  // the threads it was meshed with: PrepareOptions::mesh_threads or its choice
   double size_mb = 0;
   double factor_mb = 0;                          // the Cholesky factor's share of size_mb
   double solve_read_mb = 0;                      // what a solve of a dense right-hand side reads of it (both passes)

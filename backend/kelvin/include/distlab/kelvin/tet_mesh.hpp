@@ -41,6 +41,10 @@ struct MeshingParams {
   std::size_t max_vertices = 2'000'000;
   double max_protection_evaluations = 2e5;  // edge-sizing evaluations while protecting edges
   double max_refinement_evaluations = 1e8;  // facet/cell sizing evaluations while refining
+  // 1: one thread, the same mesh bit for bit on every run. n > 1: CGAL's parallel refinement
+  // (Parallel_tag, TBB) on n threads, faster, but the mesh (and its vertex count, by a few
+  // percent) differs from run to run: the field is reproducible to the mesh's accuracy, not bits.
+  int threads = 1;
 };
 
 // The graded sizing's refinement near sharp edges: within kGradedEdgeRadius · l_x of an edge (in
@@ -92,6 +96,16 @@ inline constexpr double kAutoPredictFrom = 5'000;
 // kAutoPredictFrom; its graded count is kAutoGrading's), and is left alone otherwise.
 double choose_grading(const mesh::SurfaceMesh& inverted, const MeshingParams& params, const Progress& progress = {},
                       SizingPrediction* prediction = nullptr);
+
+// Eq. 23's closed-form bound on the vertex count: ∫ dV_y / l_y³ is at most twice
+// (4/3)π / (ρ l_x)³, ρ = √(min_size / l_x) where l_y reaches min_size.
+double eq23_vertex_bound(const MeshingParams& params);
+
+// The threads PrepareOptions::mesh_threads = 0 (automatic) meshes with: one (a mesh the same bit
+// for bit on every run) below kParallelMeshFrom vertices by eq23_vertex_bound, every core
+// (std::thread::hardware_concurrency) from there, where meshing takes seconds.
+inline constexpr double kParallelMeshFrom = 100'000;
+int choose_mesh_threads(const MeshingParams& params);
 
 // CGAL Mesh_3 on the region bounded by the (already inverted, outward-oriented) surface with
 // l_y(y) of MeshingParams::grading (eq. 23 when grading is 0). Deterministic: fixed seeds, no time limits.
