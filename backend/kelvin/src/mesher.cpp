@@ -164,12 +164,13 @@ TetMesh mesh_once(const mesh::SurfaceMesh& inverted, const MeshingParams& params
 
   // Determinism: Mesh_3 and the domain draw from these generators; the default one is seeded
   // from the clock.
+  const bool debug = std::getenv("DISTLAB_MESH_DEBUG") != nullptr;  // stage times and counts on stderr
   const auto t_domain = std::chrono::steady_clock::now();
   CGAL::get_default_random() = CGAL::Random(0);
   CGAL::Random rng(0);
   Domain domain(poly, &rng);
   if (protect) domain.detect_features(params.feature_angle);
-  if (std::getenv("DISTLAB_MESH_DEBUG")) std::fprintf(stderr, "mesh: domain %.3f s\n", seconds_between(t_domain, std::chrono::steady_clock::now()));
+  if (debug) std::fprintf(stderr, "mesh: domain %.3f s\n", seconds_between(t_domain, std::chrono::steady_clock::now()));
   progress("mesh", 0.1);
 
   // l_y is used as Mesh_3's own size bound (cell and facet circumradii, feature-edge length), as
@@ -214,7 +215,7 @@ TetMesh mesh_once(const mesh::SurfaceMesh& inverted, const MeshingParams& params
                         P::pointer_to_error_code = &error));
   const auto t_exude = std::chrono::steady_clock::now();
   if (error == CGAL::CGAL_MESH_3_NO_ERROR) CGAL::exude_mesh_3(c3t3, P::time_limit = 0, P::sliver_bound = 10);
-  if (std::getenv("DISTLAB_MESH_DEBUG"))
+  if (debug)
     std::fprintf(stderr, "mesh: threads=%d protect=%d edge_calls=%ld calls=%ld verts=%zu refine %.3f s exude %.3f s\n",
                  params.threads, protect ? 1 : 0, budget.edge_calls.load(), budget.calls.load(),
                  c3t3.triangulation().number_of_vertices(), seconds_between(t_refine, t_exude),
@@ -256,7 +257,7 @@ TetMesh mesh_once(const mesh::SurfaceMesh& inverted, const MeshingParams& params
     }
   }
   const bool empty = std::count(out.in_domain.begin(), out.in_domain.end(), std::uint8_t{1}) == 0;
-  if (std::getenv("DISTLAB_MESH_DEBUG")) std::fprintf(stderr, "mesh: copy %.3f s\n", seconds_between(t_copy, std::chrono::steady_clock::now()));
+  if (debug) std::fprintf(stderr, "mesh: copy %.3f s\n", seconds_between(t_copy, std::chrono::steady_clock::now()));
   if (empty) throw InvalidInput("lx", "meshing produced no tetrahedra (is lx far larger than the object?)");
   progress("mesh", 1.0);
   return out;
