@@ -226,10 +226,11 @@ def test_record_webm_has_frames_and_a_duration(server, tmp_path):
     doctype, times = ebml_blocks(data)
     assert doctype == "webm"
     # The file holds the frames asked for (a slow renderer makes it longer, not shorter), and
-    # the recording says how long it is: its blocks' span plus the last frame's 1 / fps.
+    # the recording says how long it is, read from the file's own block times (the page's clock
+    # runs ahead of the encoder's on a loaded machine): their span plus the last frame's 1 / fps.
     fps = LIMITS["max_record_frames"]
     assert rec["recorded"]["frames"] == len(times) == fps, (rec, times)
-    assert abs((max(times) - min(times)) / 1000 + 1 / fps - rec["recorded"]["seconds"]) <= 2 / fps, (rec, times)
+    assert abs((max(times) - min(times)) / 1000 + 1 / fps - rec["recorded"]["seconds"]) <= 1e-9, (rec, times)
 
 
 def test_a_cancelled_recording_is_forgotten(server, tmp_path):

@@ -69,7 +69,52 @@ async function recordWebm(vp: Viewport, r: Recording): Promise<{ blob: Blob; rec
   await sleep(1000 / r.fps); // the last frame's time on screen
   recorder.stop();
   await stopped;
-  return { blob: new Blob(chunks, { type: "video/webm" }), recorded };
+  const blob = new Blob(chunks, { type: "video/webm" });
+  // The encoder stamps a frame when it takes it, later than requestFrame on a loaded machine: the
+  // file's own block times say what it holds, the page's clock does not.
+  const times = webmFrameTimes(new Uint8Array(await blob.arrayBuffer()));
+  if (times.length !== recorded.frames) throw new Error(`the WebM holds ${times.length} frames, not the ${recorded.frames} drawn`);
+  return { blob, recorded: { frames: times.length, seconds: (Math.max(...times) - Math.min(...times)) / 1000 + 1 / r.fps } };
+}
+
+/** Each frame's time in ms in a WebM (Matroska) file: its Cluster's timecode plus its SimpleBlock's
+ *  or Block's own, times the Segment's TimecodeScale. A flat walk over the EBML elements: it enters
+ *  the Segment, its Info, Clusters (whose sizes a live recorder leaves unknown) and BlockGroups. */
+export function webmFrameTimes(data: Uint8Array): number[] {
+  const vint = (i: number, keepMarker: boolean): [number, number, boolean] => {
+    const n = Math.clz32(data[i] ?? 0) - 23; // 1 for 0b1xxxxxxx, … 8 for 0b00000001
+    if (n < 1 || n > 8 || i + n > data.length) throw new Error(`the WebM is malformed at byte ${i}`);
+    let v = keepMarker ? data[i] : data[i] & (0xff >> n);
+    let ones = v === 0xff >> n;
+    for (let k = 1; k < n; k++) {
+      v = v * 256 + data[i + k];
+      ones &&= data[i + k] === 0xff;
+    }
+    return [v, i + n, ones && !keepMarker];
+  };
+  const entered = new Set([0x18538067, 0x1549a966, 0x1f43b675, 0xa0]); // Segment, Info, Cluster, BlockGroup
+  const uint = (a: number, b: number) => data.subarray(a, b).reduce((v, x) => v * 256 + x, 0);
+  let i = 0,
+    scale = 1e6,
+    cluster = 0;
+  const ticks: number[] = [];
+  while (i < data.length) {
+    const [id, j] = vint(i, true);
+    const [size, body, unknown] = vint(j, false);
+    if (entered.has(id)) {
+      i = body;
+      continue;
+    }
+    if (unknown || body + size > data.length) throw new Error(`the WebM's element ${id.toString(16)} at byte ${i} has no size`);
+    if (id === 0x2ad7b1) scale = uint(body, body + size);
+    else if (id === 0xe7) cluster = uint(body, body + size);
+    else if (id === 0xa3 || id === 0xa1) {
+      const [, k] = vint(body, false); // the track number
+      ticks.push(cluster + ((((data[k] << 8) | data[k + 1]) << 16) >> 16));
+    }
+    i = body + size;
+  }
+  return ticks.map((t) => (t * scale) / 1e6);
 }
 
 async function record(id: string): Promise<void> {
