@@ -176,19 +176,23 @@ std::shared_ptr<Session> Service::ws_authorize(const Request& request, Response&
 }
 
 void Service::ws_open(const std::shared_ptr<Session>& session, const std::shared_ptr<WsSink>& socket) {
-  {
-    std::lock_guard lock(session->mutex);
-    session->sockets.push_back(socket);
-  }
   send_state(session, socket);
 }
 
 void Service::send_state(const std::shared_ptr<Session>& session, const std::shared_ptr<WsSink>& socket) {
-  json jobs = json::array();
-  for (const auto& j : jobs_.list(session->id)) jobs.push_back(j->to_json());
-  json hello{{"type", "hello"}, {"session", session->id}, {"jobs", jobs}};
-  for (const auto& m : modules_) m->add_state(*session, hello);
-  socket->send(hello.dump(), false);
+  session->start_join(socket);  // listed before the state is read: nothing between is lost
+  std::string hello;
+  try {
+    json jobs = json::array();
+    for (const auto& j : jobs_.list(session->id)) jobs.push_back(j->to_json());
+    json h{{"type", "hello"}, {"session", session->id}, {"jobs", jobs}};
+    for (const auto& m : modules_) m->add_state(*session, h);
+    hello = h.dump();
+  } catch (...) {
+    session->finish_join(*socket, {});
+    throw;
+  }
+  session->finish_join(*socket, hello);
   // Late joiners (and a reconnected client) get the modules' current state after the hello.
   for (const auto& m : modules_) m->joined(session, socket);
 }

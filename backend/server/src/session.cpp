@@ -1,5 +1,7 @@
 #include "distlab/server/session.hpp"
 
+#include <algorithm>
+
 #include "distlab/server/http.hpp"
 
 namespace distlab::server {
@@ -20,7 +22,24 @@ bool Session::has_socket() {
 }
 double Session::idle_seconds() const { return static_cast<double>(now_ns() - last_seen_.load()) * 1e-9; }
 
+void Session::start_join(const std::shared_ptr<WsSink>& socket) {
+  std::lock_guard joining(joining_);
+  std::lock_guard lock(mutex);
+  if (std::none_of(sockets.begin(), sockets.end(), [&](const auto& w) { return w.lock() == socket; })) sockets.push_back(socket);
+  waiting_.try_emplace(socket.get());
+}
+
+void Session::finish_join(WsSink& socket, const std::string& hello) {
+  std::lock_guard joining(joining_);
+  if (!hello.empty()) socket.send(hello, false);
+  if (auto it = waiting_.find(&socket); it != waiting_.end()) {
+    for (const auto& [data, binary] : it->second) socket.send(data, binary);
+    waiting_.erase(it);
+  }
+}
+
 void Session::broadcast(const std::string& data, bool binary, const WsSink* except) {
+  std::lock_guard joining(joining_);
   std::vector<std::shared_ptr<WsSink>> live;
   {
     std::lock_guard lock(mutex);
@@ -33,7 +52,12 @@ void Session::broadcast(const std::string& data, bool binary, const WsSink* exce
       }
     }
   }
-  for (auto& s : live) s->send(data, binary);
+  for (auto& s : live) {
+    if (auto it = waiting_.find(s.get()); it != waiting_.end())
+      it->second.emplace_back(data, binary);
+    else
+      s->send(data, binary);
+  }
 }
 
 std::shared_ptr<Session> SessionStore::create(const std::string& address) {

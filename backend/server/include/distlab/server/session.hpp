@@ -38,6 +38,10 @@ class Session {
 
   std::mutex mutex;  // guards the modules' states and the socket list
   std::vector<std::weak_ptr<WsSink>> sockets;
+  // A socket that joins is listed at once but sent its hello first: what the session broadcasts
+  // before the hello waits here, and is sent right after it (finish_join).
+  void start_join(const std::shared_ptr<WsSink>& socket);
+  void finish_join(WsSink& socket, const std::string& hello);  // an empty hello: none (an error)
 
   // The module state of type T, made empty on first use. Call with `mutex` held.
   template <class T>
@@ -55,6 +59,8 @@ class Session {
   void broadcast(const std::string& data, bool binary, const WsSink* except = nullptr);
 
  private:
+  std::mutex joining_;  // held while a broadcast sends and while a hello and what waited are sent
+  std::map<const WsSink*, std::vector<std::pair<std::string, bool>>> waiting_;
   std::atomic<std::int64_t> last_seen_{0};
   std::map<std::type_index, std::unique_ptr<ModuleState>> states_;
 };
