@@ -110,6 +110,7 @@ export function webmFrameTimes(data: Uint8Array): number[] {
     else if (id === 0xe7) cluster = uint(body, body + size);
     else if (id === 0xa3 || id === 0xa1) {
       const [, k] = vint(body, false); // the track number
+      if (k + 2 > body + size) throw new Error(`the WebM's block at byte ${i} has no timecode`);
       ticks.push(cluster + ((((data[k] << 8) | data[k + 1]) << 16) >> 16));
     }
     i = body + size;
