@@ -70,12 +70,39 @@ struct Mesh3 {
 // refinement step evaluates the facet/cell sizing, so the counts bound both stages.
 // Counted atomically: the parallel mesher's threads share it (their counts vary from run to run,
 // their bound does not).
+struct ProtectionBudgetExceeded {};
+struct RefinementBudgetExceeded {};
 struct Budget {
   std::atomic<long> edge_calls = 0, calls = 0;
   long max_edge_calls = 0, max_calls = 0;
+  // The sizing never throws through Mesh_3: its parallel refinement holds cell locks an exception
+  // leaves taken, and the other threads then retry them forever (a test hung in CI). It raises
+  // Mesh_3's own stop flag (mesh_3_options' pointer_to_stop_atomic_boolean) with the first reason;
+  // mesh_once throws that reason once make_mesh_3 has returned.
+  enum class Reason : int { none,
+                            cancelled,
+                            protection,
+                            refinement };
+  std::atomic<bool> stop = false;
+  std::atomic<Reason> reason = Reason::none;
+  void request_stop(Reason r) {
+    Reason none = Reason::none;
+    reason.compare_exchange_strong(none, r);
+    stop.store(true, std::memory_order_release);
+  }
+  void throw_if_stopped() const {
+    switch (reason.load()) {
+      case Reason::cancelled:
+        throw Cancelled();
+      case Reason::protection:
+        throw ProtectionBudgetExceeded{};
+      case Reason::refinement:
+        throw RefinementBudgetExceeded{};
+      case Reason::none:
+        break;
+    }
+  }
 };
-struct ProtectionBudgetExceeded {};
-struct RefinementBudgetExceeded {};
 
 // The object's sharp edges (normals deviating by more than feature_angle) in x, where the
 // exterior solution is singular (r^(2/3) at a right-angled edge): the graded sizing refines
@@ -103,11 +130,12 @@ struct Sizing {
   const sizing::EdgeDistance* edges = nullptr;
   double edge_radius = 0;
   K::FT operator()(const K::Point_3& p, int, const Domain::Index&) const {
-    progress->check();
-    if (edge) {
-      if (++budget->edge_calls > budget->max_edge_calls) throw ProtectionBudgetExceeded{};
+    if (progress->cancelled()) {
+      budget->request_stop(Budget::Reason::cancelled);
+    } else if (edge) {
+      if (++budget->edge_calls > budget->max_edge_calls) budget->request_stop(Budget::Reason::protection);
     } else if (++budget->calls > budget->max_calls) {
-      throw RefinementBudgetExceeded{};
+      budget->request_stop(Budget::Reason::refinement);
     }
     const double y2 = CGAL::to_double(p.x() * p.x() + p.y() * p.y() + p.z() * p.z());
     double l = lx * y2;
@@ -212,7 +240,8 @@ TetMesh mesh_once(const mesh::SurfaceMesh& inverted, const MeshingParams& params
   C3t3 c3t3 = CGAL::make_mesh_3<C3t3>(
       domain, criteria, P::no_perturb(), P::no_exude(),
       P::mesh_3_options(P::maximal_number_of_vertices = params.max_vertices,
-                        P::pointer_to_error_code = &error));
+                        P::pointer_to_error_code = &error, P::pointer_to_stop_atomic_boolean = &budget.stop));
+  budget.throw_if_stopped();
   const auto t_exude = std::chrono::steady_clock::now();
   if (error == CGAL::CGAL_MESH_3_NO_ERROR) CGAL::exude_mesh_3(c3t3, P::time_limit = 0, P::sliver_bound = 10);
   if (debug)
@@ -404,6 +433,8 @@ TetMesh mesh_inverted_domain(const mesh::SurfaceMesh& inverted, const MeshingPar
                                    " refinement steps; use a larger lx");
     }
     budget.edge_calls = budget.calls = 0;
+    budget.reason = Budget::Reason::none;
+    budget.stop = false;
   }
   try {
     return mesh_once(inverted, params, false, budget, progress);

@@ -23,8 +23,9 @@ struct Progress {
     check();
     if (report) report(stage, fraction);
   }
+  bool cancelled() const { return cancel != nullptr && cancel->load(std::memory_order_relaxed); }
   void check() const {
-    if (cancel != nullptr && cancel->load(std::memory_order_relaxed)) throw Cancelled();
+    if (cancelled()) throw Cancelled();
   }
 };
 
