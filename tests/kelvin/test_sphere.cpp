@@ -6,7 +6,6 @@
 #include <cmath>
 #include <cstdio>
 #include <numbers>
-#include <thread>
 
 #include "distlab/kelvin/tet_mesh.hpp"
 #include "distlab/mesh/primitives.hpp"
@@ -138,7 +137,7 @@ TEST(KelvinCube, MeshingIsDeterministic) {
     PrepareOptions o;
     o.lx = 0.14;
     o.grading = grading;
-    o.mesh_threads = 1;  // also what 0 (the default) chooses at this size: choose_mesh_threads
+    o.mesh_threads = 1;  // also what 0 (the default) chooses
     const Field a = Field::prepare(mesh::box(Vec3::Ones()), o);
     const Field b = Field::prepare(mesh::box(Vec3::Ones()), o);
     ASSERT_EQ(a.tet_mesh().points.rows(), b.tet_mesh().points.rows());
@@ -217,9 +216,8 @@ TEST(KelvinCube, ParallelMeshingIsAsAccurateAsOneThread) {
   }
 }
 
-// mesh_threads 0 (the default): one thread, a reproducible mesh, below kParallelMeshFrom vertices
-// by eq. 23's bound, every core above it.
-TEST(KelvinMesher, ChoosesThreadsByEq23sBound) {
+// Eq. 23's closed-form vertex bound (the automatic sizing's and the budget's).
+TEST(KelvinMesher, Eq23VertexBoundIsItsClosedForm) {
   const double r = std::sqrt(3.0) / 2;  // the unit cube's corners from its centre, far_radius 1 (field.cpp)
   MeshingParams p;
   p.lx = 0.02;
@@ -227,10 +225,7 @@ TEST(KelvinMesher, ChoosesThreadsByEq23sBound) {
   const double bound = eq23_vertex_bound(p);
   // ∫ dV_y / l_y³ ≤ 2 (4/3)π / (ρ l_x)³ with ρ l_x = √(min_size l_x) = l_x / r.
   EXPECT_NEAR(bound, kVerticesPerSizingIntegral * 2 * 4 * std::numbers::pi / 3 / std::pow(0.02 / r, 3), 1e-9 * bound);
-  EXPECT_GT(bound, kParallelMeshFrom);
-  EXPECT_EQ(choose_mesh_threads(p), static_cast<int>(std::max(1U, std::thread::hardware_concurrency())));
   p.lx = 0.14;
   p.min_size = p.lx / (r * r);
-  EXPECT_LT(eq23_vertex_bound(p), kParallelMeshFrom);
-  EXPECT_EQ(choose_mesh_threads(p), 1);
+  EXPECT_NEAR(eq23_vertex_bound(p), bound * std::pow(0.02 / 0.14, 3), 1e-9 * bound);
 }

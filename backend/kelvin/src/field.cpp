@@ -154,7 +154,7 @@ static std::unique_ptr<Field::Impl> mesh_stage(mesh::SurfaceMesh surface, const 
   params.max_vertices = o.max_vertices;
   params.max_protection_evaluations = protection_budget(surface, centre, o, params.grading);
   params.max_refinement_evaluations = o.max_refinement_steps;
-  params.threads = o.mesh_threads > 0 ? o.mesh_threads : choose_mesh_threads(params);
+  params.threads = std::max(o.mesh_threads, 1);  // 0 (chosen): one thread (PrepareOptions::mesh_threads)
   std::string warning;
   impl->tm = mesh_inverted_domain(inverted, params, progress, &warning);
   const auto t_pinch = std::chrono::steady_clock::now();

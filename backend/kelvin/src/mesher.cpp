@@ -38,7 +38,6 @@
 #include <cstdlib>
 #include <numbers>
 #include <optional>
-#include <thread>
 #include <unordered_map>
 #include <vector>
 
@@ -241,14 +240,15 @@ TetMesh mesh_once(const mesh::SurfaceMesh& inverted, const MeshingParams& params
       domain, criteria, P::no_perturb(), P::no_exude(),
       P::mesh_3_options(P::maximal_number_of_vertices = params.max_vertices,
                         P::pointer_to_error_code = &error, P::pointer_to_stop_atomic_boolean = &budget.stop));
-  budget.throw_if_stopped();
   const auto t_exude = std::chrono::steady_clock::now();
-  if (error == CGAL::CGAL_MESH_3_NO_ERROR) CGAL::exude_mesh_3(c3t3, P::time_limit = 0, P::sliver_bound = 10);
+  const bool stopped = budget.stop.load();
+  if (error == CGAL::CGAL_MESH_3_NO_ERROR && !stopped) CGAL::exude_mesh_3(c3t3, P::time_limit = 0, P::sliver_bound = 10);
   if (debug)
-    std::fprintf(stderr, "mesh: threads=%d protect=%d edge_calls=%ld calls=%ld verts=%zu refine %.3f s exude %.3f s\n",
-                 params.threads, protect ? 1 : 0, budget.edge_calls.load(), budget.calls.load(),
+    std::fprintf(stderr, "mesh: threads=%d protect=%d stopped=%d edge_calls=%ld calls=%ld verts=%zu refine %.3f s exude %.3f s\n",
+                 params.threads, protect ? 1 : 0, stopped ? 1 : 0, budget.edge_calls.load(), budget.calls.load(),
                  c3t3.triangulation().number_of_vertices(), seconds_between(t_refine, t_exude),
                  seconds_between(t_exude, std::chrono::steady_clock::now()));
+  budget.throw_if_stopped();
   if (error == CGAL::CGAL_MESH_3_MAXIMAL_NUMBER_OF_VERTICES_REACHED)
     throw InvalidInput("lx", "lx is too small for this object: meshing reached the vertex budget of " +
                                  std::to_string(params.max_vertices) +
@@ -384,11 +384,6 @@ double eq23_vertex_bound(const MeshingParams& params) {
   // Once inside |y| < ρ (l_y = min_size), once outside (l_y⁻³ = (|y|² l_x)⁻³).
   const double rho = std::sqrt(params.min_size / params.lx);
   return kVerticesPerSizingIntegral * 2 * 4 * std::numbers::pi / 3 / std::pow(rho * params.lx, 3);
-}
-
-int choose_mesh_threads(const MeshingParams& params) {
-  if (!(eq23_vertex_bound(params) >= kParallelMeshFrom)) return 1;
-  return static_cast<int>(std::max(1U, std::thread::hardware_concurrency()));
 }
 
 double choose_grading(const mesh::SurfaceMesh& inverted, const MeshingParams& params, const Progress& progress,

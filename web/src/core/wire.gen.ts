@@ -3600,7 +3600,7 @@ export interface components {
             far_radius?: number;
             /** @description 0: the paper's sizing l_y = |y|² lx (eq. 23); g > 0: the graded sizing, finer near sharp edges and growing by g per unit distance (in y) from the inverted surface: fewer vertices at equal accuracy (at lx 0.02 on the unit cube, g 0.05: 185k vertices against 394k); counted in the vertex budget (its edge refinement adds a term per metre of sharp edge). Absent (default): chosen per object and lx, the graded sizing g 0.05 where it is predicted to need at most 2/3 of eq. 23's vertices (fine lx; below about 5k vertices always eq. 23), else eq. 23; stats.grading says which */
             grading?: number;
-            /** @description threads the mesher refines on. 1: one thread, the same mesh bit for bit on every run; n > 1: CGAL's parallel refinement on n threads, faster, but the mesh (and the field, within the mesh's accuracy) differs from run to run; 0 or absent: one thread below 100,000 vertices by eq. 23's closed-form bound, every core of the server above it. stats.mesh_threads says which; a field already in the store is used whichever way it was meshed */
+            /** @description threads the mesher refines on: 0 (absent) or 1, one thread, the same mesh bit for bit on every run. More is refused (400 naming mesh_threads): CGAL 5.5's parallel refinement crashed its process in about 1 of 1,000 small meshings, and the service's process holds every client's state; the CLI and the Python package offer it. stats.mesh_threads says which; a field already in the store is used whichever way it was meshed */
             mesh_threads?: number;
             sigma?: components["schemas"]["Sigma"];
             levels?: number[];

@@ -52,8 +52,9 @@ struct PrepareOptions {
   double max_refinement_steps = 1e8;
   // Meshing threads (MeshingParams::threads): 1, a mesh the same bit for bit on every run; n > 1,
   // CGAL's parallel refinement on n threads, faster, a mesh (and field) that differs from run to
-  // run within the mesh's accuracy; 0, chosen by choose_mesh_threads (one thread below
-  // kParallelMeshFrom vertices by eq. 23's bound, every core above). Stats::mesh_threads says
+  // run within the mesh's accuracy. Opt-in only: CGAL 5.5's parallel refinement crashed (SIGSEGV
+  // in its triangulation, two threads in one conflict zone) in about 1 of 1,000 small meshings
+  // here, so 0 (chosen) is one thread and the service refuses n > 1. Stats::mesh_threads says
   // which. Not part of prepare_key: fields meshed either way answer for the same object.
   int mesh_threads = 0;
 };

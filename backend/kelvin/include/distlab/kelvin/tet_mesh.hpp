@@ -101,12 +101,6 @@ double choose_grading(const mesh::SurfaceMesh& inverted, const MeshingParams& pa
 // (4/3)π / (ρ l_x)³, ρ = √(min_size / l_x) where l_y reaches min_size.
 double eq23_vertex_bound(const MeshingParams& params);
 
-// The threads PrepareOptions::mesh_threads = 0 (automatic) meshes with: one (a mesh the same bit
-// for bit on every run) below kParallelMeshFrom vertices by eq23_vertex_bound, every core
-// (std::thread::hardware_concurrency) from there, where meshing takes seconds.
-inline constexpr double kParallelMeshFrom = 100'000;
-int choose_mesh_threads(const MeshingParams& params);
-
 // CGAL Mesh_3 on the region bounded by the (already inverted, outward-oriented) surface with
 // l_y(y) of MeshingParams::grading (eq. 23 when grading is 0). Deterministic: fixed seeds, no time limits.
 // If edge protection exceeds its step budget (thin features), meshes again without it and sets
