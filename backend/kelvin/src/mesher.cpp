@@ -64,13 +64,13 @@ struct Mesh3 {
 // l_y(y) = max(|y|² l_x, l_min), eq. 23 with the lower bound of Section IV-C-1; graded (g > 0):
 // s_e · max(|y|² l_x + g d_y, l_min) (MeshingParams::grading). Mesh_3 calls it throughout
 // refinement, so it is also where a cancellation request is noticed.
+struct ProtectionBudgetExceeded {};
+struct RefinementBudgetExceeded {};
 // Work budget of one meshing attempt, counted in sizing-field evaluations (deterministic, unlike
 // wall time): Mesh_3 evaluates the edge sizing only while it protects sharp edges, and every
 // refinement step evaluates the facet/cell sizing, so the counts bound both stages.
 // Counted atomically: the parallel mesher's threads share it (their counts vary from run to run,
 // their bound does not).
-struct ProtectionBudgetExceeded {};
-struct RefinementBudgetExceeded {};
 struct Budget {
   std::atomic<long> edge_calls = 0, calls = 0;
   long max_edge_calls = 0, max_calls = 0;
@@ -88,6 +88,11 @@ struct Budget {
     Reason none = Reason::none;
     reason.compare_exchange_strong(none, r);
     stop.store(true, std::memory_order_release);
+  }
+  void reset() {  // for another attempt
+    edge_calls = calls = 0;
+    reason = Reason::none;
+    stop = false;
   }
   void throw_if_stopped() const {
     switch (reason.load()) {
@@ -427,9 +432,7 @@ TetMesh mesh_inverted_domain(const mesh::SurfaceMesh& inverted, const MeshingPar
                                    whole(params.max_refinement_evaluations) +
                                    " refinement steps; use a larger lx");
     }
-    budget.edge_calls = budget.calls = 0;
-    budget.reason = Budget::Reason::none;
-    budget.stop = false;
+    budget.reset();
   }
   try {
     return mesh_once(inverted, params, false, budget, progress);
