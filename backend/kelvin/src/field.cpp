@@ -145,8 +145,8 @@ static std::unique_ptr<Field::Impl> mesh_stage(mesh::SurfaceMesh surface, const 
                                                const PrepareOptions& o, std::unique_ptr<SurfaceOracle> oracle,
                                                const Progress& progress) {
   auto impl = std::make_unique<Field::Impl>();
+  progress("invert", 0.0);  // before the clock: Stats' times lie inside the reports' (StageProgress)
   const auto t0 = std::chrono::steady_clock::now();
-  progress("invert", 0.0);
   mesh::SurfaceMesh inverted;
   MeshingParams params = inverted_domain(surface, centre, o, inverted);
   progress("invert", 1.0);
@@ -182,10 +182,10 @@ static std::unique_ptr<Field::Impl> mesh_stage(mesh::SurfaceMesh surface, const 
 }
 
 void Field::Impl::build(const Progress& progress) {
+  progress("build", 0.0);
   const auto t0 = std::chrono::steady_clock::now();
   auto t_phase = t0;
   build_phases.clear();
-  progress("build", 0.0);
   const auto np = static_cast<size_t>(tm.points.rows());
   const auto nt = static_cast<int>(tm.tets.rows());
   slot.assign(np, -1);
@@ -337,8 +337,8 @@ void Field::Impl::build(const Progress& progress) {
 }
 
 void Field::Impl::factor(const Progress& progress) {
-  const auto t0 = std::chrono::steady_clock::now();
   progress("decomp", 0.0);
+  const auto t0 = std::chrono::steady_clock::now();
   solver.factorize(a_oo_lower);
   stats.t_decomp = seconds_since(t0);
   progress("decomp", 1.0);
