@@ -3,7 +3,9 @@
 // Euclidean distance has a kink, batch = single calls.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 #include "distlab/gap/distance.hpp"
@@ -86,6 +88,38 @@ TEST(GapDistance, DistanceGradientsMatchFiniteDifferences) {
         }
       }
     }
+}
+
+// At h whose 1/h is not an integer Φ has no rational form: the closed form with its tabled
+// (1+s)^(−1/h) (BaseFunction). D and its gradients against the long-double solve and its central
+// differences (gap_gradient_extended: log1p and exp in long double, no table), for boxes,
+// cylinders and polytopes at the benchmark's h.
+TEST(GapDistance, SolvesWithoutARationalFormMatchTheLongDoubleReference) {
+  std::mt19937_64 rng(21);
+  const std::vector<Shape> shapes = {Box{Vec3(0.2, 0.1, 0.3)}, Cylinder{0.08, 0.25}, test::random_polytope(rng, 12, 0.12)};
+  double worst_d = 0, worst_g = 0;
+  for (double h : {0.0123, 0.03, 0.07, 0.08}) {
+    GapParams p = defaults();
+    p.h = h;
+    p.tol = 1e-12;
+    for (size_t i = 0; i < shapes.size(); ++i)
+      for (size_t j = 0; j < shapes.size(); ++j) {
+        const GapBody a(shapes[i], Pose{Vec3::Zero(), test::random_rotation(rng)}, p);
+        const GapBody b(shapes[j], Pose{(0.35 + 0.1 * static_cast<double>(j)) * test::random_unit(rng), test::random_rotation(rng)}, p);
+        const GapResult r = gap_distance(a, b, p);
+        ASSERT_FALSE(r.overlap);
+        ASSERT_TRUE(r.converged);
+        const ExtendedGradient ref = gap_gradient_extended(a, b, r, 1e-6);
+        ASSERT_TRUE(ref.converged);
+        worst_d = std::max(worst_d, std::abs(r.distance - ref.distance) / ref.distance);
+        for (int c = 0; c < 6; ++c)
+          worst_g = std::max({worst_g, std::abs(r.gradient_a[c] - ref.a[c]) / (1 + std::abs(ref.a[c])),
+                              std::abs(r.gradient_b[c] - ref.b[c]) / (1 + std::abs(ref.b[c]))});
+      }
+  }
+  EXPECT_LT(worst_d, 1e-13) << "D";
+  EXPECT_LT(worst_g, 1e-9) << "gradients";
+  std::printf("worst relative error: D %.3g, gradient %.3g\n", worst_d, worst_g);
 }
 
 // Two parallel boxes: rotating B about the normal axis makes the Euclidean distance kink at

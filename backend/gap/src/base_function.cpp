@@ -18,7 +18,10 @@
 // error is at most a few ulp (the closed form lost up to ~500 ulp in Φ near the series limit).
 #include "distlab/gap/base_function.hpp"
 
+#include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -59,11 +62,13 @@ Poly integrate_times_exp(const Poly& p) {
 // 1/Φ''(L) ~ (k−1)^(k−1)/u^(k−1) below it, so larger k keeps the series longer.
 double series_limit_u(int k) { return std::min(4.0, 0.5 + 0.75 * (k - 2)); }
 
-// E(β) = (x^β − 1)/β with x^β given; expm1 where x^β is close to 1.
+// E(β) = (x^β − 1)/β with x^β given; expm1 where x^β is close to 1 (L = ln x; null: |β L| >= 0.5).
 template <class T>
-inline T E(T beta, T x_beta, T L) {
-  const T z = beta * L;
-  if (std::abs(z) < T(0.5)) return z == T(0) ? L : std::expm1(z) / beta;
+inline T E(T beta, T x_beta, const T* L) {
+  if (L) {
+    const T z = beta * *L;
+    if (std::abs(z) < T(0.5)) return z == T(0) ? *L : std::expm1(z) / beta;
+  }
   return (x_beta - T(1)) / beta;
 }
 
@@ -143,11 +148,53 @@ void BaseFunction::build_rational_form() {
   rational_terms_ = N + 1;
 }
 
+// t = x^(−n), n = 1/h, by table (no rational form: 1/h not an integer), where the closed form
+// is used for every term: above the series limit and outside E's expm1 bands. Nodes x_j are
+// the doubles with `bits` significant bits from 1 up, so u = x/x_j − 1 ∈ [0, 2^(1−bits)); with
+// max(n, 1) 2^(1−bits) <= 1/16 each term of Σ C(−n, i) u^i is at most 1/16 of the one before,
+// and 16 terms leave < 2^−63 relative. Nodes in long double: t within ~1.5 ulp, where
+// exp(−log1p(s)/h) carries ~n ln(x) ulp from the logarithm's rounding.
+constexpr std::uint64_t kMaxPowerNodes = 2048;  // 48 kB; h in [0.005, 1] needs at most ~1,900
+
+void BaseFunction::build_power_table(Series& table, double h, int k) {
+  const long double n = 1.0L / h;
+  long double beta_min = INFINITY;
+  for (int i = 1; i < k; ++i) beta_min = std::min({beta_min, std::abs(1 - i * n), std::abs(2 - i * n)});
+  const int bits = 1 + static_cast<int>(std::ceil(std::log2(16 * std::max(n, 1.0L))));
+  if (!(beta_min > 0) || bits > 16) return;  // β = 0 needs L; h < ~1/2000: a long table
+  const double from = std::max(std::expm1(table.limit), static_cast<double>(std::expm1(0.5L / beta_min)));
+  // For n > 2, from where x^(2−n) <= 2^−56 every x^β of E is below half an ulp of 1, so x^β − 1
+  // is −1 exactly and (1 − t)^(k−1) is 1: t = 0 gives the same doubles.
+  double zero = INFINITY;
+  if (n > 2) zero = std::max(from, std::nextafter(static_cast<double>(std::exp2(56 / (n - 2)) - 1), INFINITY));
+  table.power_shift = 53 - bits;
+  const auto bits_of = [](double v) { return std::bit_cast<std::uint64_t>(v); };
+  const std::uint64_t base = bits_of(1.0) >> table.power_shift;
+  const double x_end = std::min({1 + zero, 1024.0, std::bit_cast<double>((base + kMaxPowerNodes) << table.power_shift)});
+  const std::uint64_t count = (bits_of(x_end) >> table.power_shift) - base + 1;  // + 1: x = 1 + s may round up to x_end
+  table.power.resize(3 * count);
+  for (std::uint64_t j = 0; j < count; ++j) {
+    const long double xj = std::bit_cast<double>((base + j) << table.power_shift);
+    const long double t = std::pow(xj, -n);
+    table.power[3 * j] = static_cast<double>(t);
+    table.power[3 * j + 1] = static_cast<double>(t - static_cast<double>(t));
+    table.power[3 * j + 2] = static_cast<double>(1 / xj);
+  }
+  long double c = -n;  // C(−n, i + 1): q/u = Σ C(−n, i + 1) u^i
+  for (int i = 0; i < Series::kPowerTerms; ++i) {
+    table.power_binom[i] = static_cast<double>(c);
+    c *= (-n - i - 1) / (i + 2);
+  }
+  table.power_from = from;
+  table.power_to = x_end - 1;
+  table.power_zero = zero;
+}
+
 // Built once per (h, k) for up to kMaxCachedSeries pairs (requests may name any h; past that
-// each BaseFunction builds its own), then shared.
+// each BaseFunction builds its own), then shared (up to ~49 kB each with the power table: ~13 MB in all).
 constexpr std::size_t kMaxCachedSeries = 256;
 
-std::shared_ptr<const BaseFunction::Series> BaseFunction::series_for(double h, int k) {
+std::shared_ptr<const BaseFunction::Series> BaseFunction::series_for(double h, int k, bool power_table) {
   static std::mutex mutex;
   static std::map<std::pair<double, int>, std::shared_ptr<const Series>> cache;
   {
@@ -182,6 +229,7 @@ std::shared_ptr<const BaseFunction::Series> BaseFunction::series_for(double h, i
   series->c0.assign(p0.begin(), p0.begin() + terms);
   series->c1.assign(p1.begin(), p1.begin() + terms);
   series->c2.assign(p.begin(), p.begin() + terms);
+  if (power_table) build_power_table(*series, h, k);
   const std::lock_guard<std::mutex> lock(mutex);
   if (cache.size() < kMaxCachedSeries) cache.emplace(std::pair{h, k}, series);
   return series;
@@ -199,8 +247,8 @@ BaseFunction::BaseFunction(double h, int k) : h_(h), k_(k) {
     binom_[i] = (i % 2 ? -c : c);
     c = c * (k - 1 - i) / (i + 1);
   }
-  series_ = series_for(h, k);
   build_rational_form();
+  series_ = series_for(h, k, !rational_);
 }
 
 template <class T>
@@ -218,9 +266,8 @@ BaseFunction::JetT<T> BaseFunction::series(T L) const {
 }
 
 template <class T>
-BaseFunction::JetT<T> BaseFunction::closed_form(T s, T L) const {
+BaseFunction::JetT<T> BaseFunction::closed_form(T s, T t, const T* L) const {
   const T x = s + T(1);
-  const T t = std::exp(-L / h_);  // x^(−1/h)
   // i = 0 (a = 0): E(1) = s and E(2) = s(s + 2)/2 exactly, so its term is s²/2.
   JetT<T> j{binom_[0] * T(0.5) * s * s, binom_[0] * s, T(0)};
   T xa = t;  // x^(−i/h)
@@ -241,8 +288,34 @@ BaseFunction::JetT<T> BaseFunction::closed_form(T s, T L) const {
 
 template <class T>
 BaseFunction::JetT<T> BaseFunction::general_jet(T s) const {
+  if constexpr (std::is_same_v<T, double>) {
+    const Series& table = *series_;
+    if (s >= table.power_from) {
+      if (s < table.power_to) return closed_form<T>(s, power_from_table(table, s), nullptr);
+      if (s >= table.power_zero) return closed_form<T>(s, 0.0, nullptr);
+    }
+  }
   const T L = std::log1p(s);
-  return L <= series_->limit ? series(L) : closed_form(s, L);
+  return L <= series_->limit ? series(L) : closed_form(s, std::exp(-L / h_), &L);
+}
+
+double BaseFunction::power_from_table(const Series& table, double s) {
+  const auto bits = [](double v) { return std::bit_cast<std::uint64_t>(v); };
+  const std::uint64_t base = bits(1.0) >> table.power_shift;
+  const std::uint64_t j = (bits(1 + s) >> table.power_shift) - base;
+  const double sj = std::bit_cast<double>((base + j) << table.power_shift) - 1;  // exact
+  const double* node = &table.power[3 * j];
+  const double u = (s - sj) * node[2];  // x / x_j − 1, |u| < 2^(1 − bits)
+  // q = (1+u)^(−n) − 1 by Estrin's scheme (a short dependency chain, as rational_form), then
+  // t = x_j^(−n) (1 + q) with x_j^(−n) = hi + lo: its rounding and q's stay below 1/16 ulp.
+  const auto& c = table.power_binom;
+  const double u2 = u * u, u4 = u2 * u2, u8 = u4 * u4;
+  double p[8];
+  for (int i = 0; i < 8; ++i) p[i] = c[2 * i] + c[2 * i + 1] * u;
+  for (int i = 0; i < 4; ++i) p[i] = p[2 * i] + p[2 * i + 1] * u2;
+  for (int i = 0; i < 2; ++i) p[i] = p[2 * i] + p[2 * i + 1] * u4;
+  const double q = u * (p[0] + p[1] * u8);
+  return node[0] + (node[1] + node[0] * q);
 }
 
 template BaseFunction::JetT<double> BaseFunction::general_jet(double) const;

@@ -2,6 +2,7 @@
 // The base k-P2S function Φ of the GAP paper (Definition 4, eq. 4), for any integer k >= 2 and
 // h > 0:  Φ''(s) = (1 − (s+1)^(−1/h))^(k−1) for s >= 0, and Φ(s) = 0 for s <= 0.
 #include <array>
+#include <cmath>
 #include <memory>
 #include <type_traits>
 #include <vector>
@@ -48,8 +49,9 @@ class BaseFunction {
   // s > 0: series in ln(1+s) or closed form (T = double and long double, base_function.cpp).
   template <class T>
   JetT<T> general_jet(T s) const;
+  // t = x^(−1/h); L = ln x, or null when s is past every expm1 band of E (power_from).
   template <class T>
-  JetT<T> closed_form(T s, T L) const;
+  JetT<T> closed_form(T s, T t, const T* L) const;
   template <class T>
   JetT<T> series(T L) const;
   void build_rational_form();
@@ -67,12 +69,24 @@ class BaseFunction {
   // Taylor coefficients in L = ln(1 + s) of Φ, Φ', Φ'' (all three are entire functions of L)
   // and the L below which the series is used. Built from long-double products of 60-term
   // series (~100 µs, 40 GAP solves), so once per (h, k) and shared (series_for in the .cpp).
+  // Without a rational form (1/h not an integer), the closed form's t = (1+s)^(−1/h) comes from
+  // a table on s ∈ [power_from, power_to) instead of exp(−log1p(s)/h) (base_function.cpp).
   struct Series {
     std::vector<double> c0, c1, c2;
     double limit = 0;
+    // Nodes x_j = 1 + s_j: the doubles with b significant bits from 1 up (b from h, the .cpp);
+    // x's node is j = (bits of x >> power_shift) − (bits of 1 >> power_shift), shift = 53 − b.
+    static constexpr int kPowerTerms = 16;
+    int power_shift = 0;
+    double power_from = INFINITY, power_to = 0;     // the table's range (empty: from >= to)
+    double power_zero = INFINITY;                   // from here t = 0 gives Φ's doubles exactly
+    std::vector<double> power;                      // x_j^(−1/h) as hi + lo, 1/x_j: three a node
+    std::array<double, kPowerTerms> power_binom{};  // C(−1/h, i + 1): (1+u)^(−1/h) = 1 + u Σ C(−1/h, i + 1) u^i
   };
   std::shared_ptr<const Series> series_;
-  static std::shared_ptr<const Series> series_for(double h, int k);
+  static std::shared_ptr<const Series> series_for(double h, int k, bool power_table);
+  static void build_power_table(Series& table, double h, int k);
+  static double power_from_table(const Series& table, double s);
 
   // When n = 1/h is an integer (3 <= n, (k−1) n <= kMaxDegree), Φ^(d) is a rational function of
   // s without cancellation: Φ^(d)(s) = s^(k+1−d) P_d(s) / (1+s)^N, N = (k−1) n, where the
