@@ -152,9 +152,9 @@ void BaseFunction::build_rational_form() {
 // is used for every term: above the series limit and outside E's expm1 bands. Nodes x_j are
 // the doubles with `bits` significant bits from 1 up, so u = x/x_j − 1 ∈ [0, 2^(1−bits)); with
 // max(n, 1) 2^(1−bits) <= 1/16 each term of Σ C(−n, i) u^i is at most 1/16 of the one before,
-// and 16 terms leave < 2^−63 relative. Nodes in long double: t within ~1.5 ulp, where
-// exp(−log1p(s)/h) carries ~n ln(x) ulp from the logarithm's rounding.
-constexpr std::uint64_t kMaxPowerNodes = 2048;  // 48 kB; h in [0.005, 1] needs at most ~1,900
+// and 16 terms leave < 2^−63 relative. Nodes x_j^(−n) from long double, as hi + lo: t within
+// about an ulp (exp(−log1p(s)/h) carries ~n ln(x) ulp from the logarithm's rounding).
+constexpr std::uint64_t kMaxPowerNodes = 2048;  // 3 doubles a node, 49 kB; h in [0.005, 1] needs ~1,900 at most
 
 void BaseFunction::build_power_table(Series& table, double h, int k) {
   const long double n = 1.0L / h;
