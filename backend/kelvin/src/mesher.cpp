@@ -61,9 +61,7 @@ struct Mesh3 {
   using Criteria = CGAL::Mesh_criteria_3<Tr>;
 };
 
-// l_y(y) = max(|y|² l_x, l_min), eq. 23 with the lower bound of Section IV-C-1; graded (g > 0):
-// s_e · max(|y|² l_x + g d_y, l_min) (MeshingParams::grading). Mesh_3 calls it throughout
-// refinement, so it is also where a cancellation request is noticed.
+// What ends a meshing attempt that went over one of its budgets (mesh_inverted_domain).
 struct ProtectionBudgetExceeded {};
 struct RefinementBudgetExceeded {};
 // Work budget of one meshing attempt, counted in sizing-field evaluations (deterministic, unlike
@@ -120,6 +118,10 @@ sizing::EdgeDistance::Segments sharp_segments(const mesh::SurfaceMesh& inverted,
   return segments;
 }
 
+// l_y(y) = max(|y|² l_x, l_min), eq. 23 with the lower bound of Section IV-C-1; graded (g > 0):
+// s_e · max(|y|² l_x + g d_y, l_min) (MeshingParams::grading). Mesh_3 calls it throughout
+// refinement, so it is also where a cancellation request or a spent budget is noticed (and
+// raises the Budget's stop flag).
 struct Sizing {
   double lx, min_size, scale;
   const Progress* progress;
