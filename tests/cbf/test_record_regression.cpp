@@ -19,7 +19,11 @@
 // only where D < 6e-10; no infeasible step added or removed), and for the two together (tracked
 // calls carry b − a too; `distlab cbf` against the second change alone: gap runs' q moved by at
 // most 5.7e-12 rad, D by 1.4e-12; published runs' q, u and D unchanged, converged D by 5.3e-11
-// relative at most; no infeasible step added or removed).
+// relative at most; no infeasible step added or removed). The gap and published digests were
+// retaken when spheres and cylinders were evaluated in world coordinates and E(β) took 1/β from a
+// table (issue 38; `distlab cbf` before/after on the four scenarios: q moved by at most 3.7e-15
+// rad, u by 2.0e-14 rad/s, D by 7.4e-16, converged D by 8.3e-16; euclidean runs unchanged; no
+// infeasible step added or removed).
 #include <cstdlib>
 #include <fstream>
 #include <map>

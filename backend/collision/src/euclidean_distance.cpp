@@ -86,6 +86,13 @@ EuclideanResult fcl_distance(const EuclideanShape& a, const Pose& pose_a, const 
 GjkAnswer gjk_distance_or_common_point(const Shape& a, const Pose& pose_a, const Shape& b,
                                        const Pose& pose_b, double scale, double rel_gap) {
   const Placed pa(a, pose_a), pb(b, pose_b);
+  return gjk_distance_or_common_point(a, pa.R, pa.t, b, pb.R, pb.t, scale, rel_gap);
+}
+
+GjkAnswer gjk_distance_or_common_point(const Shape& a, const Mat3& rotation_a, const Vec3& position_a,
+                                       const Shape& b, const Mat3& rotation_b, const Vec3& position_b,
+                                       double scale, double rel_gap) {
+  const Placed pa(a, rotation_a, position_a), pb(b, rotation_b, position_b);
   const detail::GjkResult g = detail::gjk_closest_double(pa, pb, pb.t - pa.t, 1e-12 * scale,
                                                          detail::kTouch, 64, rel_gap);
   GjkAnswer r;

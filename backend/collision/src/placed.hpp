@@ -19,6 +19,7 @@ struct Placed {
   Vec3 t;
   Placed(const Shape& s, const Pose& p)
       : shape(&s), R(p.rotation.normalized().toRotationMatrix()), t(p.position) {}
+  Placed(const Shape& s, const Mat3& rotation, const Vec3& position) : shape(&s), R(rotation), t(position) {}
   // argmax over the placed shape of d . x, world frame.
   Vec3 support(const Vec3& d) const {
     return R * distlab::support(*shape, R.transpose() * d) + t;

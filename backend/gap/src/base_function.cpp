@@ -62,13 +62,11 @@ Poly integrate_times_exp(const Poly& p) {
 // 1/Φ''(L) ~ (k−1)^(k−1)/u^(k−1) below it, so larger k keeps the series longer.
 double series_limit_u(int k) { return std::min(4.0, 0.5 + 0.75 * (k - 2)); }
 
-// E(β) = (x^β − 1)/β with x^β given; expm1 where x^β is close to 1 (L = ln x; null: |β L| >= 0.5).
+// E(β) = (x^β − 1)/β with x^β given; expm1 where x^β is close to 1 (L = ln x).
 template <class T>
-inline T E(T beta, T x_beta, const T* L) {
-  if (L) {
-    const T z = beta * *L;
-    if (std::abs(z) < T(0.5)) return z == T(0) ? *L : std::expm1(z) / beta;
-  }
+inline T E(T beta, T x_beta, T L) {
+  const T z = beta * L;
+  if (std::abs(z) < T(0.5)) return z == T(0) ? L : std::expm1(z) / beta;
   return (x_beta - T(1)) / beta;
 }
 
@@ -180,6 +178,10 @@ void BaseFunction::build_power_table(Series& table, double h, int k) {
     table.power[3 * j + 1] = static_cast<double>(t - static_cast<double>(t));
     table.power[3 * j + 2] = static_cast<double>(1 / xj);
   }
+  for (int i = 1; i < k; ++i) {
+    table.power_inverse_beta[2 * i - 2] = static_cast<double>(1 / (1 - i * n));
+    table.power_inverse_beta[2 * i - 1] = static_cast<double>(1 / (2 - i * n));
+  }
   long double c = -n;  // C(−n, i + 1): q/u = Σ C(−n, i + 1) u^i
   for (int i = 0; i < Series::kPowerTerms; ++i) {
     table.power_binom[i] = static_cast<double>(c);
@@ -271,10 +273,17 @@ BaseFunction::JetT<T> BaseFunction::closed_form(T s, T t, const T* L) const {
   // i = 0 (a = 0): E(1) = s and E(2) = s(s + 2)/2 exactly, so its term is s²/2.
   JetT<T> j{binom_[0] * T(0.5) * s * s, binom_[0] * s, T(0)};
   T xa = t;  // x^(−i/h)
+  const double* inverse_beta = series_->power_inverse_beta.data();
   for (int i = 1; i < k_; ++i) {
-    const T a = i / T(h_);
-    const T e1 = E<T>(T(1) - a, x * xa, L);
-    const T e2 = E<T>(T(2) - a, x * x * xa, L);
+    T e1, e2;
+    if (L) {
+      const T a = i / T(h_);
+      e1 = E<T>(T(1) - a, x * xa, *L);
+      e2 = E<T>(T(2) - a, x * x * xa, *L);
+    } else {  // the power table's range: every β is far from 0, and its reciprocal is kept
+      e1 = (x * xa - T(1)) * inverse_beta[2 * i - 2];
+      e2 = (x * x * xa - T(1)) * inverse_beta[2 * i - 1];
+    }
     j.value += binom_[i] * (x * e1 - e2);
     j.d1 += binom_[i] * e1;
     xa *= t;

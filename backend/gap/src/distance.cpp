@@ -96,8 +96,10 @@ GapResult gap_distance(const GapBody& a, const GapBody& b, const GapParams& para
     // (kStartRelativeGap). The same GJK settles a clear overlap
     // with a checked common point (the certified path's answer, distance 0, by the same test);
     // near contact the certified path below decides with FCL and libccd.
-    const GjkAnswer g = gjk_distance_or_common_point(a.p2s().shape(), a.pose(), b.p2s().shape(),
-                                                     b.pose(), a.radius() + b.radius(), kStartRelativeGap);
+    const PointToSet &pa = a.p2s(), &pb = b.p2s();
+    const GjkAnswer g =
+        gjk_distance_or_common_point(pa.shape(), pa.rotation(), pa.pose().position, pb.shape(), pb.rotation(),
+                                     pb.pose().position, a.radius() + b.radius(), kStartRelativeGap);
     if (g.common) {
       r.euclidean.witness_a = r.euclidean.witness_b = *g.common;
       return overlapping(r);

@@ -65,6 +65,11 @@ struct GjkAnswer {
 };
 GjkAnswer gjk_distance_or_common_point(const Shape& a, const Pose& pose_a, const Shape& b,
                                        const Pose& pose_b, double scale, double rel_gap = 0);
+// The same with each pose given as its rotation matrix and position, for callers that hold the
+// matrices already (GAP's bodies): no quaternion is normalized and turned into a matrix per call.
+GjkAnswer gjk_distance_or_common_point(const Shape& a, const Mat3& rotation_a, const Vec3& position_a,
+                                       const Shape& b, const Mat3& rotation_b, const Vec3& position_b,
+                                       double scale, double rel_gap = 0);
 
 // Overlapping shapes: the smallest translation of B (depth along direction, a unit vector from A
 // towards B) that separates them, with witness points (A's deepest point inside B, B's inside A;

@@ -49,7 +49,8 @@ class BaseFunction {
   // s > 0: series in ln(1+s) or closed form (T = double and long double, base_function.cpp).
   template <class T>
   JetT<T> general_jet(T s) const;
-  // t = x^(−1/h); L = ln x, or null when s is past every expm1 band of E (power_from).
+  // t = x^(−1/h); L = ln x, or null on the power table's range (past every expm1 band of E: power_from;
+  // E then takes 1/β from the table).
   template <class T>
   JetT<T> closed_form(T s, T t, const T* L) const;
   template <class T>
@@ -82,6 +83,9 @@ class BaseFunction {
     double power_zero = INFINITY;                   // from here t = 0 gives Φ's doubles exactly
     std::vector<double> power;                      // x_j^(−1/h) as hi + lo, 1/x_j: three a node
     std::array<double, kPowerTerms> power_binom{};  // C(−1/h, i + 1): (1+u)^(−1/h) = 1 + u Σ C(−1/h, i + 1) u^i
+    // 1/β for the closed form's exponents β = 1 − i/h, 2 − i/h (i = 1..k−1), each rounded once:
+    // on the table's range E(β) = (x^β − 1)/β takes a product instead of a division.
+    std::array<double, 2 * (kMaxK - 1)> power_inverse_beta{};
   };
   std::shared_ptr<const Series> series_;
   static std::shared_ptr<const Series> series_for(double h, int k, bool power_table);

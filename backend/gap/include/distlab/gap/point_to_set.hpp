@@ -69,6 +69,7 @@ class PointToSet {
   // Moves the shape; evaluations below are in world coordinates.
   void set_pose(const Pose& pose);
   const Pose& pose() const { return pose_; }
+  const Mat3& rotation() const { return R_; }  // pose().R(), kept from set_pose
 
   // e_S and E_S at a world point. `order` 0: value only, 1: + gradient, 2: + Hessian.
   P2SValue weak(const Vec3& p, int order) const;
@@ -116,6 +117,7 @@ class PointToSet {
   P2SValueT<T> weak_local(const Vec3T<T>& p, int order) const;
   template <int Order>
   P2SValue halfspaces_world(const Vec3& p) const;
+  P2SValue round_world(const Vec3& p, int order) const;  // spheres and cylinders
   // strict_pair's pieces: the rows violated at p (s > 0) in row order, their s and indices
   // (returns the count; at most kPairRows padded rows), and eq. (5)'s sum over them from their Φ
   // terms, as halfspaces_world adds them.
