@@ -71,8 +71,9 @@ void solve_into(GapResult& r, const GapBody& a, const GapBody& b, const GapParam
   r.distance = std::sqrt(2.0 * r.lambda);
   if (params.gradient && r.distance > 0) {
     lambda_gradients(s, a.pose(), b.pose(), r.gradient_a, r.gradient_b);
-    r.gradient_a /= r.distance;  // dD = dΛ / D
-    r.gradient_b /= r.distance;
+    const double inverse = 1 / r.distance;  // dD = dΛ / D
+    r.gradient_a *= inverse;
+    r.gradient_b *= inverse;
   }
 }
 
