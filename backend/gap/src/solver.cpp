@@ -179,15 +179,21 @@ inline double error_after_step(const Saddle& s, const Mat3& hb, const Vec3& a_th
   return (1 + 2 * inverse_norm) * 0.5 * (lb * da.squaredNorm() + la * db.squaredNorm());
 }
 
+// The stop rule on that estimate: a quarter of it below tol, and the relative error of ∇E_B it
+// implies below `relative` (kRelativeStep² for tracked calls, kColdErrorRelative for cold ones).
+inline bool error_left_is_below(double left, const P2SValue& eb, double tol, double relative) {
+  return 4 * left < tol && below_local_scale(4 * left, eb, relative);
+}
+
 // Joint Newton on the saddle-point equations of Lemma 3 in (a, b):
 //   r_b = b − Π_B(a) = 0,  r_a = a − Π_A(b) = 0,
 // Jacobian [[∂²E_B − I, I], [I, ∂²E_A − I]], eliminated to one 3×3 solve. Two P2S evaluations a
 // step; backtracking on ‖r‖. Stops when the next Newton step is below tol (and kRelativeStep ℓ),
 // taking that step without evaluating again (the error is then O(tol²)); in double also when the
-// error left after it is (error_after_step, secant from the last point, kColdErrorRelative).
-// The long-double reference takes every evaluation. Returns false if it
-// cannot make progress, or after kDampedSteps damped steps in a row (then the nested method,
-// which is globally convergent, takes over): ‖r‖ is no merit function along the long valleys of
+// error left after it is (error_after_step, secant from the last point, kColdErrorRelative). The
+// long-double reference takes every evaluation. Returns false if it cannot make progress, or
+// after kDampedSteps damped steps in a row (then the nested method, which is globally
+// convergent, takes over): ‖r‖ is no merit function along the long valleys of
 // nearly parallel faces, where the witnesses slide by centimetres at residuals of 1e-14 and
 // backtracking on ‖r‖ crawls (44 steps where the nested method, descending on the convex
 // Λ_B, takes 15).
@@ -216,7 +222,7 @@ bool joint_newton(const E& A, const E& B, SaddleT<T>& s, T tol, int max_iter, in
     if constexpr (std::is_same_v<T, double>) {
       if (!stop && stepped) {
         const double left = error_after_step(*cur, next->eb.hessian, next->a, next->ea.hessian, next->b, inverse_norm, da, db);
-        stop = 4 * left < tol && below_local_scale(4 * left, cur->eb, kColdErrorRelative);
+        stop = error_left_is_below(left, cur->eb, tol, kColdErrorRelative);
       }
     }
     if (stop) {
@@ -418,7 +424,7 @@ void solve_predicted(const PointToSet& A, const PointToSet& B, const Prediction&
     const double next = error_after_step(s, hb, at_a, ha, at_b, inverse_norm, da, db);
     const double step = std::sqrt(std::max(da.squaredNorm(), db.squaredNorm()));
     const bool step_rule = step < tol && below_local_scale(step, s.eb, kRelativeStep);
-    const bool error_rule = 4 * next < tol && below_local_scale(4 * next, s.eb, kRelativeStep * kRelativeStep);
+    const bool error_rule = error_left_is_below(next, s.eb, tol, kRelativeStep * kRelativeStep);
     if (step_rule || error_rule) {
       final_step(s, rb, ra, da, db, dba);
       out.a = s.a, out.b = s.b, out.ab = s.eb.gradient;
