@@ -131,7 +131,7 @@ class Field:
     def query(self, points, hints: bool = True) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
         """h (N,), ∇h (N, 3) and status (N,) (0 ok, INSIDE, NONPOSITIVE; h and ∇h NaN there) at
         ``points`` (N, 3). With ``hints`` each point's search starts at the previous point's cell
-        (fast for coherent orders such as lines and grids)."""
+        (fast for coherent orders such as lines and grids); the answers are the same either way."""
         p = np.ascontiguousarray(np.asarray(points, dtype=np.float64).reshape(-1, 3))
         return self._core.query(p, hints)
 

@@ -60,9 +60,18 @@ Sample Field::query(const Vec3& x, int* hint, Gradient kind) const {
   const double p2 = p.squaredNorm();
   if (!(p2 > 0)) return undefined(Status::inside);
   const Vec3 y = p / p2;  // eq. 5
-  const Location loc = m.locator.locate(m.packed, y, hint ? *hint : -1);
+  const int start = hint ? *hint : -1;
+  Location loc = m.locator.locate(m.packed, y, start);
   if (hint) *hint = loc.cell;
-  if (!loc.outside_hull && m.packed.in_domain[static_cast<size_t>(loc.cell)]) return evaluate(m, loc.cell, loc.lambda, p, y, kind);
+  const auto in_domain = [&m](const Location& l) { return !l.outside_hull && m.packed.in_domain[static_cast<size_t>(l.cell)]; };
+  if (in_domain(loc)) return evaluate(m, loc.cell, loc.lambda, p, y, kind);
+  // What follows depends on the located cell, and off the hull on where the walk left it, so it
+  // starts from the seeding grid's walk: a hint (where the previous point was) changes the speed,
+  // never the answer.
+  if (start >= 0) {
+    loc = m.locator.locate(m.packed, y, -1);
+    if (in_domain(loc)) return evaluate(m, loc.cell, loc.lambda, p, y, kind);
+  }
   // Not in a domain cell: either on the domain's boundary (a point on a shared face, edge or
   // vertex, located in the outside cell by rounding), inside the object, or in a sliver between
   // the input surface and the mesher's piecewise-flat boundary. A domain cell that shares the

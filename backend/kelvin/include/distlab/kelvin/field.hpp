@@ -189,7 +189,7 @@ class Field {
   double boundary_response_megabytes() const;  // what it takes (or would take) in memory
 
   // h(x) and ∇h(x) (Algorithm 1). hint: the cell of a previous query (updated), or nullptr
-  // to locate through the seeding grid. ∇h is the paper's smoothed gradient: vertex gradients of
+  // to locate through the seeding grid; it changes the speed, not the answer. ∇h is the paper's smoothed gradient: vertex gradients of
   // V (volume-weighted over each star [36]) interpolated like V, then eq. 18. It is continuous,
   // whereas h (V interpolated linearly per cell) has a derivative that jumps across faces; the two
   // differ by O(l_x), and the smoothed one is the closer to the exact ∇h (test_gradient.cpp).
