@@ -49,6 +49,7 @@ TEST(MeshChecks, OpenMeshReportsBoundaryEdges) {
   SurfaceMesh m = box(Vec3::Ones());
   m.faces.conservativeResize(11, 3);
   EXPECT_TRUE(contains(refusal(m), "3 boundary edges")) << refusal(m);
+  EXPECT_TRUE(contains(refusal(m), "vertices counted from 0 in the file's order")) << refusal(m);  // OBJ counts from 1
 }
 
 TEST(MeshChecks, NonManifoldEdge) {

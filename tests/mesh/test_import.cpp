@@ -182,6 +182,26 @@ TEST(MeshImport, PolygonsAreTriangulatedWithFileIds) {
   EXPECT_NEAR(area, -1.0, 1e-12);
 }
 
+// An OBJ vertex line that CGAL's reader cannot read (a NaN, a word, two coordinates) is refused
+// naming its line and vertex; a w or a colour after the three coordinates is read as before.
+TEST(MeshImport, ObjVertexLinesNeedThreeFiniteCoordinates) {
+  const std::string tail = "v 1 0 0\nf 1 2 3\nf 1 3 4\n";
+  for (const auto& [line, says] : std::vector<std::pair<std::string, std::string>>{
+           {"v 0 0.1 nan", "has \"nan\""}, {"v 0 inf 0", "has \"inf\""}, {"v 0 0.1 x", "has \"x\""}, {"v 0 0.1", "has fewer"}}) {
+    try {
+      load_mesh(write_file("nan.obj", "# a comment\nv 0 0 0\n" + line + "\nv 0 1 0\n" + tail).string(), "upload");
+      ADD_FAILURE() << line << ": accepted";
+    } catch (const InvalidInput& e) {
+      const std::string m = e.what();
+      EXPECT_EQ(e.field(), "upload") << m;
+      EXPECT_NE(m.find("line 3: vertex 1 (counted from 0) needs three finite coordinates, " + says), std::string::npos) << m;
+    }
+  }
+  const SurfaceMesh m = load_mesh(write_file("w.obj", "v 0 0 0 1\nv 0 1e-1 0 0.5 0.5 0.5\nv 0 1 1\n" + tail).string());
+  EXPECT_EQ(m.vertices.rows(), 4);
+  EXPECT_EQ(m.vertices(1, 1), 0.1);
+}
+
 // Per-face data in the file's order: the file's face f is triangles T(f) … T(f) + k_f − 3 with
 // T(f) = Σ_{g<f} (k_g − 2) (surface.hpp). The file mixes a pentagon, a triangle and a quad (plus
 // another triangle) of known areas in the plane z = 0; gathering the triangles' areas per file

@@ -87,6 +87,18 @@ TEST(RobotUrdf, InputOutsideTheSubsetIsRefusedNamingIt) {
   EXPECT_NE(field_of(parse(head + "</link>" + R"(<joint name="j" type="prismatic"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/><limit lower="1" upper="1" velocity="1" effort="1"/></joint></robot>)")).find("joint \"j\" limit lower must be < upper"), std::string::npos);
   EXPECT_NE(field_of(parse(head + R"(<collision name="c"><origin rpy="0 0 1" distlab:quaternion="1 0 0 0"/><geometry><sphere radius="0.1"/></geometry></collision></link>)" + joint + "</robot>")).find("different rotations"), std::string::npos);
   EXPECT_NE(field_of(parse(head + R"(<collision name="c" distlab:capsule="yes"><geometry><cylinder radius="0.1" length="0.2"/></geometry></collision></link>)" + joint + "</robot>")).find("distlab:capsule"), std::string::npos);
+  // A geometry urdfdom cannot read (it drops it) is refused naming the attribute at fault.
+  for (const auto& [geometry, says] : std::vector<std::pair<std::string, std::string>>{
+           {R"(<box size="0.1 nan 0.1"/>)", "<box> size: numbers must be finite"},
+           {R"(<box size="0.1 0.1"/>)", "<box> size: expected 3 numbers"},
+           {R"(<cylinder radius="0.1"/>)", "<cylinder> has no length"},
+           {R"(<sphere radius="inf"/>)", "<sphere> radius: numbers must be finite"},
+           {R"(<mesh filename="m.stl" scale="1 1 nan"/>)", "<mesh> scale: numbers must be finite"},
+           {R"(<cone radius="0.1"/>)", "<cone> is not a URDF geometry"},
+           {"", "no geometry"}}) {
+    const std::string refused = field_of(parse(head + R"(<collision name="c"><geometry>)" + geometry + "</geometry></collision></link>" + joint + "</robot>"));
+    EXPECT_NE(refused.find("collision[0] \"c\" of link \"b\": " + says), std::string::npos) << geometry << ": " << refused;
+  }
   // Two roots: urdfdom itself refuses the tree.
   // The tree is checked before urdfdom (which leaks a ring of links on a cycle): two roots, a
   // cycle, a link defined twice.

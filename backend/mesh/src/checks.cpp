@@ -338,14 +338,16 @@ std::string topology_defect(const SurfaceMesh& mesh, const std::vector<int>& nam
     }
   }
   auto edge_name = [&](std::uint64_t key) { return "(" + name(key >> 32) + ", " + name(key & 0xffffffffu) + ")"; };
+  // OBJ counts its vertices from 1: say which count these are.
+  const std::string numbering = "; vertices counted from 0 in the file's order";
   if (boundary > 0)
     return std::to_string(boundary) + " boundary edge" + (boundary > 1 ? "s" : "") +
-           " (not closed), first at edge " + edge_name(first_boundary);
+           " (not closed), first at edge " + edge_name(first_boundary) + numbering;
   if (have_non_manifold)
     return "non-manifold edge at vertex " + name(non_manifold >> 32) + " (edge " +
-           edge_name(non_manifold) + " has more than two faces)";
+           edge_name(non_manifold) + " has more than two faces)" + numbering;
   if (have_flipped)
-    return "inconsistently oriented faces at edge " + edge_name(flipped);
+    return "inconsistently oriented faces at edge " + edge_name(flipped) + numbering;
 
   // Non-manifold vertices: the faces around a vertex must form a single fan.
   const std::vector<std::vector<int>> star = stars(mesh);

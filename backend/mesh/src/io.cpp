@@ -162,13 +162,26 @@ std::string obj_text(std::string bytes, const std::string& field) {
   }
   std::string out;
   out.reserve(bytes.size());
-  std::size_t vertices = 0, faces = 0, dropped = 0;
+  std::size_t vertices = 0, faces = 0, dropped = 0, line_number = 0;
   for (std::size_t at = 0; at < bytes.size();) {
     const std::size_t end = std::min(bytes.find('\n', at), bytes.size());
     const std::string_view line = std::string_view(bytes).substr(at, end - at);
     const auto w = words(line);
     const std::string_view key = w.empty() ? std::string_view() : w[0];
-    if (key == "v") ++vertices;
+    ++line_number;
+    if (key == "v") {
+      // CGAL's reader stops at a coordinate it cannot read ("nan") without saying where.
+      for (std::size_t k = 1; k <= 3; ++k) {
+        const std::string word = k < w.size() ? std::string(w[k]) : std::string();
+        char* stop = nullptr;
+        const double x = word.empty() ? 0.0 : std::strtod(word.c_str(), &stop);
+        if (word.empty() || stop != word.c_str() + word.size() || !std::isfinite(x))
+          throw InvalidInput(field, "line " + std::to_string(line_number) + ": vertex " + std::to_string(vertices) +
+                                        " (counted from 0) needs three finite coordinates, " +
+                                        (word.empty() ? std::string("has fewer") : "has \"" + word.substr(0, 32) + "\""));
+      }
+      ++vertices;
+    }
     if (key == "f") ++faces;
     if (key == "p" || key == "l") ++dropped;
     else out.append(line).push_back('\n');

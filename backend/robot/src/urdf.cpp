@@ -121,6 +121,33 @@ std::string attr(const TiXmlElement* e, const char* name) {
 
 std::string quoted(const std::string& s) { return "\"" + s.substr(0, 64) + "\""; }
 
+// urdfdom leaves a collision element without geometry when it cannot read it ("nan" in a size,
+// a missing radius): the element `cf` is refused naming what in its XML is wrong.
+[[noreturn]] void bad_geometry(const TiXmlElement* collision, const std::string& field, const std::string& cf) {
+  const TiXmlElement* g = collision->FirstChildElement("geometry");
+  const TiXmlElement* shape = g ? g->FirstChildElement() : nullptr;
+  if (!shape) bad(field, cf + ": no geometry");
+  const std::string kind = shape->Value(), at = cf + ": <" + kind.substr(0, 64) + "> ";
+  auto need = [&](const char* name, std::size_t count) {
+    const char* v = shape->Attribute(name);
+    if (!v) bad(field, at + "has no " + name);
+    if (count > 0) numbers(v, count, field, at + name);
+  };
+  if (kind == "box") {
+    need("size", 3);
+  } else if (kind == "sphere") {
+    need("radius", 1);
+  } else if (kind == "cylinder") {
+    need("radius", 1), need("length", 1);
+  } else if (kind == "mesh") {
+    need("filename", 0);
+    if (shape->Attribute("scale")) need("scale", 3);
+  } else {
+    bad(field, at + "is not a URDF geometry (box, cylinder, sphere or mesh)");
+  }
+  bad(field, cf + ": urdfdom cannot read its geometry");
+}
+
 // urdfdom says why it refuses a description through console_bridge (to stderr by default, where a
 // caller never sees it and a server's log fills up): its errors are captured for the exception.
 // The handler is process-wide, so parses take turns.
@@ -410,7 +437,7 @@ std::shared_ptr<const Robot> Robot::from_urdf(const std::string& xml, const std:
       if (static_cast<int>(r->primitives_.size()) >= options.limits.collision_elements)
         bad(field, "at most " + std::to_string(options.limits.collision_elements) + " collision elements");
       if (c >= static_cast<int>(ul->collision_array.size()) || !ul->collision_array[c]->geometry)
-        bad(field, cf + ": no geometry");
+        bad_geometry(e, field, cf);
       const urdf::GeometrySharedPtr& g = ul->collision_array[c]->geometry;
       LinkPrimitive prim{name, l, c, Sphere{1}, Pose{}, ""};
       auto positive = [&](double v, const char* what) {
