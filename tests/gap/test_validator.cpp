@@ -42,6 +42,9 @@ TEST(Validator, RefusesWeightsThatBreakProperty2) {
   // The reported worst point really has that eigenvalue.
   EXPECT_NEAR(max_eigenvalue_at(p2s, r.worst_point), r.max_eigenvalue, 1e-12 * r.max_eigenvalue);
   EXPECT_NE(r.message.find("Property 2"), std::string::npos);
+  // e_S's own Hessian (Σ W_i Φ'' u_i u_iᵀ, up to 3 × 5 at a corner) is what breaks it.
+  EXPECT_NE(r.message.find("the Hessian of e_S alone has eigenvalue"), std::string::npos) << r.message;
+  EXPECT_NE(r.message.find("decrease the weights or sigma"), std::string::npos) << r.message;
 }
 
 // The published package's ρ ball (R² = 1.2 × half diagonal²) breaks Property 2 for a gripper-
@@ -176,7 +179,31 @@ TEST(Validator, RefusesShapesThatBreakProperty2OnlyNearTheRhoSphere) {
     EXPECT_NE(r.message.find("Property 2 fails: the Hessian of E_S has eigenvalue"),
               std::string::npos)
         << r.message;
+    // On the ρ sphere ∂²E has ε²∇ρ∇ρᵀ/(σe): the advice is a smaller eps or a larger ball.
+    EXPECT_NE(r.message.find("decrease eps"), std::string::npos) << r.message;
+    EXPECT_NE(r.message.find("enlarge the rho ball (the point is near its sphere)"), std::string::npos) << r.message;
   }
+}
+
+// The advice follows the regime of eq. 6 at the worst point, and following it works: small
+// weights (e and ∇e scale with them) break Property 2 through ε²/σ terms, so a halved eps passes
+// and a smaller sigma makes it worse (a Kinova base hull of 2,886 facets failed this way, and the
+// advice said to decrease sigma).
+TEST(Validator, TheAdviceNamesTheParametersThatLowerTheHessianThere) {
+  P2SOptions small;
+  small.weights = VecX::Constant(6, 0.02);
+  const Box box{Vec3(0.1, 0.1, 0.1)};
+  auto report = [&](double eps, double sigma) {
+    StrictParams sp;
+    sp.eps = eps, sp.sigma = sigma;
+    return validate_p2s(PointToSet(box, BaseFunction(0.1, 2), sp, small, "a"));
+  };
+  const StrictParams defaults;
+  const ValidationReport r = report(defaults.eps, defaults.sigma);
+  ASSERT_FALSE(r.ok);
+  EXPECT_NE(r.message.find("there it grows like eps^2/sigma: decrease eps"), std::string::npos) << r.message;
+  EXPECT_TRUE(report(defaults.eps / 2, defaults.sigma).ok);
+  EXPECT_GT(report(defaults.eps, 0.7).max_eigenvalue, r.max_eigenvalue);
 }
 
 // Robot-link sized shapes with the defaults (README) satisfy Property 2, and the validator's

@@ -333,6 +333,30 @@ class Search {
 
  private:
   static constexpr int kAscentEvaluations = 800;
+  // Which parameters lower ∂²E at p, from eq. 6's two regimes there. Where σe > ε|ρ|, E ≈ ερ +
+  // σe + ε²ρ²/(2σe), whose Hessian has ε²∇ρ∇ρᵀ/(σe) (the ρ sphere, where e is small) and
+  // ε²ρ²∇e∇eᵀ/(σe³): it grows with ε² and falls with σ and the weights (e and ∇e scale with
+  // them); at the ρ sphere a larger ball moves it where e is larger. Where σe < ε|ρ| (near the
+  // set), E ≈ ε(ρ + |ρ|) + σ²e²/(2ε|ρ|), with σ²∇e∇eᵀ/(ε|ρ|): the other way round.
+  // First of all, σ∂²e_S itself (e large): below 1 only with weights W_i ≤ 1/m (Section III-B).
+  std::string remedy(const Vec3& p) const {
+    const P2SValue weak = p2s_.weak(p, 2);
+    const double e = weak.value;
+    const Ball& ball = p2s_.rho_ball();
+    const double rho = 0.5 * ((p - ball.center).squaredNorm() - ball.radius * ball.radius);
+    const StrictParams& sp = p2s_.strict_params();
+    const double weak_part = sp.sigma * Eigen::SelfAdjointEigenSolver<Mat3>(weak.hessian, Eigen::EigenvaluesOnly).eigenvalues()[2];
+    if (weak_part >= 1)
+      return "there sigma times the Hessian of e_S alone has eigenvalue " + std::to_string(weak_part) +
+             ": decrease the weights or sigma";
+    if (sp.sigma * e > sp.eps * std::abs(rho)) {
+      const bool at_sphere = std::abs(rho) < 0.1 * ball.radius * ball.radius;
+      return std::string("there it grows like eps^2/sigma: decrease eps (halving it quarters that growth), or increase the weights or sigma") +
+             (at_sphere ? ", or enlarge the rho ball (the point is near its sphere)" : "");
+    }
+    return "there it grows like sigma^2/eps: decrease sigma or the weights, increase eps, or enlarge the rho ball";
+  }
+
   const PointToSet& p2s_;
   const Vec3 c_;  // ρ centre, shape frame
   // The far field's limit is reached to O(1/distance); beyond this the ascent stops (and A, B
@@ -437,8 +461,7 @@ ValidationReport Search::run(int samples, std::uint64_t seed) {
   std::ostringstream msg;
   if (!(rep_.max_eigenvalue < 1.0)) {
     msg << "Property 2 fails: the Hessian of E_S has eigenvalue " << rep_.max_eigenvalue
-        << " >= 1 at (" << rep_.worst_point.transpose()
-        << ") in the shape frame; decrease eps, sigma or the weights, or enlarge the rho ball";
+        << " >= 1 at (" << rep_.worst_point.transpose() << ") in the shape frame; " << remedy(rep_.worst_point);
   } else if (rep_.min_eigenvalue < -rep_.min_eigenvalue_tolerance) {
     msg << "Property 2 fails: E_S is not convex (eigenvalue " << rep_.min_eigenvalue << ")";
   } else if (rep_.max_inside_norm > 0) {
