@@ -144,8 +144,11 @@ class Field:
         from the file's extension) and returns its check: ``closed``, ``manifold``,
         ``components``, ``volume`` and the defect counts, taken on the surface welded at float32.
         A surface that is not a closed 2-manifold is not written (``distlab.InvalidInput`` on
-        ``level``). At σ's smallest value on the surface the surface is the object's own; every
-        other level is extracted at level − 1e-5 (so no vertex of the mesh lies exactly on it)."""
+        ``level``). At σ's smallest value on the surface it is the object's surface as meshed (the
+        field's boundary facets, within the mesher's l_x-scale approximation of the input, not the
+        input's triangles: an input vertex can lie just inside it, where ``query`` may say INSIDE);
+        every other level is extracted at level − 1e-5 (so no vertex of the mesh lies exactly on
+        it)."""
         path = os.fspath(path)
         fmt = format or os.path.splitext(path)[1].lstrip(".").lower()
         return self._core.export(path, float(level), fmt)
