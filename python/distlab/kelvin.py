@@ -129,7 +129,8 @@ class Field:
         return self._core.build_boundary_response(max_megabytes, progress)
 
     def query(self, points, hints: bool = True) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """h (N,), ∇h (N, 3) and status (N,) (0 ok, INSIDE, NONPOSITIVE; h and ∇h NaN there) at
+        """h (N,), ∇h (N, 3) and status (N,) (0 ok, INSIDE, NONPOSITIVE; h and ∇h NaN there; a
+        point within rounding of the input surface, 1e-12·max(1, |x|) m, is answered, not INSIDE) at
         ``points`` (N, 3). With ``hints`` each point's search starts at the previous point's cell
         (fast for coherent orders such as lines and grids); the answers are the same either way."""
         p = np.ascontiguousarray(np.asarray(points, dtype=np.float64).reshape(-1, 3))
@@ -146,7 +147,7 @@ class Field:
         A surface that is not a closed 2-manifold is not written (``distlab.InvalidInput`` on
         ``level``). At σ's smallest value on the surface it is the object's surface as meshed (the
         field's boundary facets, within the mesher's l_x-scale approximation of the input, not the
-        input's triangles: an input vertex can lie just inside it, where ``query`` may say INSIDE);
+        input's triangles: an input vertex can lie just inside it, and ``query`` still answers there);
         every other level is extracted at level − 1e-5 (so no vertex of the mesh lies exactly on
         it)."""
         path = os.fspath(path)

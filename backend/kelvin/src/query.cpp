@@ -105,7 +105,10 @@ Sample Field::query(const Vec3& x, int* hint, Gradient kind) const {
   }
   constexpr double on_face = 1e-9;  // relative to the cell: rounding, not extrapolation
   if (best >= 0 && best_min >= -on_face) return evaluate(m, best, best_lambda, p, y, kind);
-  if (best < 0 || m.oracle->inside(x)) return undefined(Status::inside);
+  // Inside the object, unless within rounding of its surface (a face's centroid, a vertex), where
+  // h is σ's boundary value (eq. 9) as on the meshed boundary next to it.
+  if (best < 0 || (m.oracle->inside(x) && !(m.oracle->distance(x) <= 1e-12 * std::max(1.0, x.norm()))))
+    return undefined(Status::inside);
   double sum = 0;  // extend from the nearest domain cell, clamped to it
   for (double& l : best_lambda) sum += (l = std::max(l, 0.0));
   for (double& l : best_lambda) l /= sum;
