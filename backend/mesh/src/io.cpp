@@ -24,12 +24,14 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <utility>
 #include <vector>
 
 #include "distlab/geometry/error.hpp"
 #include "distlab/mesh/surface.hpp"
+#include "number_word.hpp"
 #include "polygons.hpp"
 #include "stl.hpp"
 
@@ -172,13 +174,12 @@ std::string obj_text(std::string bytes, const std::string& field) {
     if (key == "v") {
       // CGAL's reader stops at a coordinate it cannot read ("nan") without saying where.
       for (std::size_t k = 1; k <= 3; ++k) {
-        const std::string word = k < w.size() ? std::string(w[k]) : std::string();
-        char* stop = nullptr;
-        const double x = word.empty() ? 0.0 : std::strtod(word.c_str(), &stop);
-        if (word.empty() || stop != word.c_str() + word.size() || !std::isfinite(x))
+        const std::string_view word = k < w.size() ? w[k] : std::string_view();
+        const std::optional<double> x = detail::number_word(word);
+        if (!x || !std::isfinite(*x))
           throw InvalidInput(field, "line " + std::to_string(line_number) + ": vertex " + std::to_string(vertices) +
                                         " (counted from 0) needs three finite coordinates, " +
-                                        (word.empty() ? std::string("has fewer") : "has \"" + word.substr(0, 32) + "\""));
+                                        (word.empty() ? std::string("has fewer") : "has \"" + std::string(word.substr(0, 32)) + "\""));
       }
       ++vertices;
     }

@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <array>
 #include <cctype>
-#include <charconv>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -15,6 +14,7 @@
 
 #include "distlab/geometry/error.hpp"
 #include "distlab/mesh/surface.hpp"
+#include "number_word.hpp"
 
 namespace distlab::mesh {
 
@@ -87,11 +87,9 @@ void read_ascii(std::string_view text, std::vector<detail::Point>& points, std::
   };
   const auto number = [&](const char* what) {
     word = words.next();
-    const std::string_view digits = word.substr(word.rfind('+', 0) == 0 ? 1 : 0);  // from_chars takes no '+'
-    double x = 0;
-    const auto [end, error] = std::from_chars(digits.data(), digits.data() + digits.size(), x);
-    if (word.empty() || error != std::errc() || end != digits.data() + digits.size()) refuse(what);
-    return x;
+    const std::optional<double> x = detail::number_word(word);
+    if (!x) refuse(what);
+    return *x;
   };
   Welder<double> weld;
   word = words.next();  // "solid", as read_stl found it
