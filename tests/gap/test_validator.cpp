@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Eigenvalues>
+#include <numbers>
 
 #include "distlab/gap/validator.hpp"
 #include "gap_test_util.hpp"
@@ -221,6 +222,42 @@ TEST(Validator, PassesRobotLinkShapesAndFindsTheIndependentMaximum) {
     EXPECT_TRUE(r.ok) << shape_type_name(s) << ": " << r.message;
     EXPECT_GE(r.max_eigenvalue, truth.value * (1 - 1e-5)) << shape_type_name(s);
     EXPECT_LT(r.max_eigenvalue, 1.0) << shape_type_name(s);
+  }
+}
+
+// A robot's base as meshed: a cylinder of 300 sides (r 4 cm, 16 cm long), 302 hull rows. With
+// W = 1/(m + margin) its end caps weigh as little as one of 300 slivers (m = 150), e_S is tiny
+// near the ρ sphere beyond them and ∂²E there reaches ~ε²R²/(σ e_S) > 1; by facet area (the
+// default above kExactViolatedRows rows) the caps weigh what they cover, and Property 2 holds.
+// Both weightings keep ∂²e_S < I, checked at points around the hull.
+TEST(Validator, AManyFacetedHullKeepsProperty2WithTheDefaults) {
+  std::vector<Vec3> points;
+  for (int k = 0; k < 300; ++k) {
+    const double t = 2 * std::numbers::pi * k / 300;
+    for (double z : {-0.08, 0.08}) points.emplace_back(0.04 * std::cos(t), 0.04 * std::sin(t), z);
+  }
+  const Polytope hull = polytope_from_points(points, "base");
+  ASSERT_GT(hull.rows(), kExactViolatedRows);
+  const PointToSet by_area(hull, BaseFunction(0.1, 2), StrictParams{}, P2SOptions{}, "a");
+  P2SOptions uniform;
+  uniform.weights = VecX::Constant(hull.rows(), 1.0 / (max_violated_halfspaces(hull.A) + uniform.weight_margin));
+  const PointToSet by_count(hull, BaseFunction(0.1, 2), StrictParams{}, uniform, "a");
+
+  const ValidationReport area = validate_p2s(by_area), count = validate_p2s(by_count);
+  EXPECT_TRUE(area.ok) << area.message;
+  EXPECT_FALSE(count.ok);
+  EXPECT_GT(count.max_eigenvalue, 1.0);
+  const test::SearchResult truth = test::independent_max(by_area);
+  EXPECT_LT(truth.value, 1.0);
+  EXPECT_GE(area.max_eigenvalue, truth.value * (1 - 1e-5));
+
+  std::mt19937_64 rng(9);
+  for (int s = 0; s < 3000; ++s) {
+    const Vec3 p = test::random_unit(rng) * (0.04 + 0.3 * std::uniform_real_distribution<double>()(rng));
+    for (const PointToSet* f : {&by_area, &by_count}) {
+      Eigen::SelfAdjointEigenSolver<Mat3> es(f->weak(p, 2).hessian, Eigen::EigenvaluesOnly);
+      EXPECT_LT(es.eigenvalues()[2], 1.0) << p.transpose();
+    }
   }
 }
 

@@ -1,4 +1,5 @@
-// max_violated_halfspaces against an exact LP oracle (CGAL's solver over Gmpzf).
+// max_violated_halfspaces against an exact LP oracle (CGAL's solver over Gmpzf); the weighted
+// eigenvalue bound against points in every cell; facet areas.
 #include <CGAL/Gmpzf.h>
 #include <CGAL/QP_functions.h>
 #include <CGAL/QP_models.h>
@@ -8,6 +9,8 @@
 #include <cmath>
 #include <random>
 #include <vector>
+
+#include <Eigen/Eigenvalues>
 
 #include "distlab/geometry/error.hpp"
 #include "distlab/geometry/polytope.hpp"
@@ -159,27 +162,76 @@ TEST(MaxViolated, DegenerateLatticeNormalsMatchOracle) {
   }
 }
 
-// The O(n² log n) bound: equal to the exact count on random rows (general position, where each
-// arrangement vertex has two ties), never below it on degenerate ones, and equal to the oracle on
-// the random polytopes above.
-TEST(MaxViolated, BoundEqualsExactInGeneralPositionAndNeverUndercounts) {
+double largest_eigenvalue(const MatX3& A, const VecX& w, const std::vector<Eigen::Index>& set) {
+  Mat3 sum = Mat3::Zero();
+  for (Eigen::Index k : set) sum += w[k] * A.row(k).transpose() * A.row(k);
+  return Eigen::SelfAdjointEigenSolver<Mat3>(sum).eigenvalues()[2];
+}
+
+// λ_max(Σ_{V(p)} w_k a_k a_kᵀ) over points p = t (v + δ(±a_i ± a_j)) far out beside every
+// arrangement vertex v = ±(a_i × a_j): points of every cell around v, so in general position the
+// largest is the exact maximum over all points, found without a sweep.
+double largest_over_points(const MatX3& A, const VecX& w) {
+  double best = 0;
+  for (Eigen::Index i = 0; i < A.rows(); ++i)
+    for (Eigen::Index j = i + 1; j < A.rows(); ++j) {
+      const Vec3 ai = A.row(i), aj = A.row(j), c = ai.cross(aj);
+      if (c.norm() < 1e-9) continue;
+      for (double side : {-1.0, 1.0}) {
+        const Vec3 v = side * c.normalized();
+        for (double si : {-1.0, 1.0})
+          for (double sj : {-1.0, 1.0}) {
+            // A small step off v into the cell where a_i . d has sign si and a_j . d has sign sj.
+            const Vec3 d = v + 1e-7 * (si * ai + sj * aj);
+            std::vector<Eigen::Index> violated;
+            for (Eigen::Index k = 0; k < A.rows(); ++k)
+              if (A.row(k).dot(1e12 * d) > 1.0) violated.push_back(k);  // b = 1, p = 1e12 d
+            best = std::max(best, largest_eigenvalue(A, w, violated));
+          }
+      }
+    }
+  return best;
+}
+
+// The weighted bound of the area-weighted hulls: never below λ_max at a point (random points,
+// and points in every cell of the arrangement), equal to the largest of those in general position,
+// and the sum of orthogonal rows' weights where that is known.
+TEST(MaxViolated, EigenvalueBoundHoldsEverywhereAndIsExactInGeneralPosition) {
   std::mt19937 rng(4242);
   std::normal_distribution<double> gauss;
-  for (int n : {4, 5, 8, 13, 30, 60, 120}) {
-    for (int trial = 0; trial < 6; ++trial) {
+  std::uniform_real_distribution<double> weight(0.1, 3.0);
+  for (int n : {4, 5, 8, 13, 30, 60}) {
+    for (int trial = 0; trial < 4; ++trial) {
       MatX3 A(n, 3);
-      for (int k = 0; k < n; ++k) A.row(k) = Vec3(gauss(rng), gauss(rng), gauss(rng)).normalized().transpose();
+      VecX w(n);
+      for (int k = 0; k < n; ++k) {
+        A.row(k) = Vec3(gauss(rng), gauss(rng), gauss(rng)).normalized().transpose();
+        w[k] = weight(rng);
+      }
       SCOPED_TRACE(::testing::Message() << "n=" << n << " trial=" << trial);
-      EXPECT_EQ(max_violated_halfspaces_bound(A), max_violated_halfspaces(A));
+      const double bound = max_violated_eigenvalue_bound(A, w);
+      const double attained = largest_over_points(A, w);
+      EXPECT_GE(bound, attained);
+      EXPECT_NEAR(bound, attained, 1e-8 * bound);
+      for (int s = 0; s < 2000; ++s) {  // rows are violated only outside b = 1, any distance out
+        const Vec3 p = Vec3(gauss(rng), gauss(rng), gauss(rng)) * std::exp(3 * gauss(rng));
+        std::vector<Eigen::Index> violated;
+        for (Eigen::Index k = 0; k < n; ++k)
+          if (A.row(k).dot(p) > 1.0) violated.push_back(k);
+        EXPECT_LE(largest_eigenvalue(A, w, violated), bound);
+      }
     }
   }
-  // Degenerate: a prism's 8 side normals on one great circle (the oracle is a subset search), and
-  // lattice normals.
-  // Integer rows for the oracle (exact), unit rows for the functions, as above.
-  const MatX3 prism = rows({{1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {-1, 1, 0}, {-1, 0, 0}, {-1, -1, 0}, {0, -1, 0}, {1, -1, 0}, {0, 0, 1}, {0, 0, -1}});
-  const int exact = max_violated_halfspaces(unit_rows(prism));
-  EXPECT_EQ(exact, oracle(prism, VecX::Ones(10)));
-  EXPECT_GE(max_violated_halfspaces_bound(unit_rows(prism)), exact);
+  // A cube's rows: one of each opposite pair at a time, orthogonal, so the largest weight.
+  const MatX3 cube = rows({{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}});
+  EXPECT_NEAR(max_violated_eigenvalue_bound(cube, VecX::Ones(6)), 1.0, 1e-8);
+  VecX w(6);
+  w << 1, 2, 3, 4, 6, 5;
+  EXPECT_NEAR(max_violated_eigenvalue_bound(cube, w), 6.0, 1e-8);
+  // Degenerate arrangements (a prism's side normals on one great circle, lattice normals): an
+  // upper bound still.
+  const MatX3 prism = unit_rows(rows({{1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {-1, 1, 0}, {-1, 0, 0}, {-1, -1, 0}, {0, -1, 0}, {1, -1, 0}, {0, 0, 1}, {0, 0, -1}}));
+  EXPECT_GE(max_violated_eigenvalue_bound(prism, VecX::Ones(10)), largest_over_points(prism, VecX::Ones(10)));
   std::vector<Vec3> dirs;
   for (int x = -1; x <= 1; ++x)
     for (int y = -1; y <= 1; ++y)
@@ -187,7 +239,32 @@ TEST(MaxViolated, BoundEqualsExactInGeneralPositionAndNeverUndercounts) {
         if (x || y || z) dirs.emplace_back(x, y, z);
   MatX3 lattice(static_cast<Eigen::Index>(dirs.size()), 3);
   for (std::size_t k = 0; k < dirs.size(); ++k) lattice.row(static_cast<Eigen::Index>(k)) = dirs[k].normalized().transpose();
-  EXPECT_GE(max_violated_halfspaces_bound(lattice), max_violated_halfspaces(lattice));
+  const VecX ones = VecX::Ones(lattice.rows());
+  EXPECT_GE(max_violated_eigenvalue_bound(lattice, ones), largest_over_points(lattice, ones));
+}
+
+// Each row's facet area: a box's faces; a hull's areas sum to its surface; a row that only
+// touches the set gets none.
+TEST(FacetAreas, AreTheFacetsOwnAreasInRowOrder) {
+  std::vector<Vec3> corners;
+  for (int k = 0; k < 8; ++k) corners.emplace_back(k & 1 ? 0.5 : 0, k & 2 ? 2 : 0, k & 4 ? 3 : 0);
+  const Polytope box = polytope_from_points(corners, "box");
+  const VecX area = facet_areas(box);
+  ASSERT_EQ(area.size(), 6);
+  for (Eigen::Index r = 0; r < 6; ++r) {
+    const Vec3 a = box.A.row(r).cwiseAbs();
+    const double expected = a.x() > 0.5 ? 6.0 : a.y() > 0.5 ? 1.5
+                                                            : 1.0;  // 2×3, 0.5×3, 0.5×2
+    EXPECT_NEAR(area[r], expected, 1e-12) << "row " << r;
+  }
+  // A row through one edge of the unit cube only: a valid half-space, no facet.
+  MatX3 A = rows({{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}, {1, 1, 0}});
+  VecX b(7);
+  b << 1, 0, 1, 0, 1, 0, 2;
+  const Polytope cut = make_polytope(A, b, "cut");
+  const VecX cut_area = facet_areas(cut);
+  for (Eigen::Index r = 0; r < 6; ++r) EXPECT_NEAR(cut_area[r], 1.0, 1e-12) << "row " << r;
+  EXPECT_EQ(cut_area[6], 0.0);
 }
 
 TEST(MaxViolated, ParallelRowsFallBack) {

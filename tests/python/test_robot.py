@@ -413,6 +413,43 @@ def test_meshbot_distances_are_the_cli_convex_hull_requests_in_the_documented_or
     assert checked >= 0.8 * 6 * P
 
 
+def write_obj_prism(path, sides, radius, length):
+    """A cylinder as a robot maker meshes it: `sides` quads around, flat fan-triangulated caps."""
+    t = 2 * np.pi * np.arange(sides) / sides
+    ring = np.column_stack([radius * np.cos(t), radius * np.sin(t)])
+    V = [(x, y, 0.0) for x, y in ring] + [(x, y, length) for x, y in ring] + [(0.0, 0.0, 0.0), (0.0, 0.0, length)]
+    F = []
+    for k in range(sides):
+        a, b = k, (k + 1) % sides
+        F += [(a, b, b + sides), (a, b + sides, a + sides), (2 * sides, b, a), (2 * sides + 1, a + sides, b + sides)]
+    path.write_text("".join(f"v {x!r} {y!r} {z!r}\n" for x, y, z in V) + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in F))
+    return np.array(V)
+
+
+def test_a_finely_meshed_link_is_accepted_with_the_defaults(tmp_path):
+    """A link meshed like a real robot's base (300 sides, flat caps: a hull of 302 facets) passes
+    the Property 2 check with the default params (with W = 1/m its caps weighed 1/150 each and it
+    was refused); its distances are the CLI's convex_hull answers and dD/dq its derivative."""
+    points = write_obj_prism(tmp_path / "base.obj", 300, 0.04, 0.16)
+    (tmp_path / "bot.urdf").write_text(
+        '<robot name="bot"><link name="world"/><link name="l1"><collision><geometry>'
+        '<mesh filename="base.obj"/></geometry></collision></link>'
+        '<joint name="j" type="revolute"><parent link="world"/><child link="l1"/><origin xyz="0 0 0.1" rpy="0.3 0 0"/>'
+        '<axis xyz="1 0 0"/><limit lower="-2" upper="2" effort="1" velocity="1"/></joint></robot>')
+    robot = Robot.from_urdf(tmp_path / "bot.urdf")
+    obstacles = [{"type": "cylinder", "radius": 0.05, "height": 0.2, "pose": {"position": [0.0, 0.25, 0.2]}},
+                 {"type": "sphere", "radius": 0.05, "pose": {"position": [0.2, 0.0, 0.3]}}]
+    q = np.array([0.4])
+    J, fd, d = central_differences(robot, q, obstacles, "gap", "obstacles", 1e-4)
+    assert np.isfinite(d.distance).all() and not d.overlap.any() and d.converged.all()
+    assert_jacobians(J, fd, d.distance, 1e-4, np.ones(len(d.pairs), bool), "prism link")
+    T = homogeneous(rot_x(0.3), (0, 0, 0.1)) @ homogeneous(rot_x(q[0]))
+    hull = {"type": "convex_hull", "points": points.tolist()}
+    for p, o in enumerate(obstacles):
+        cli = cli_pair(hull, pose_of(T), {k: v for k, v in o.items() if k != "pose"}, o["pose"])
+        assert d.distance[0, p] == pytest.approx(cli["distance"], rel=1e-9, abs=1e-12)
+
+
 def test_box_obstacles_take_the_weight_of_the_scenarios(meshbot):
     """A box without weights is weighted 1/(1 + weight_margin) (robot/distances.hpp), as documented:
     the CLI's answer with those weights given, not with the gap library's default."""

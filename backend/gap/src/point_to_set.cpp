@@ -1,7 +1,9 @@
 // Weak and strict point-to-set functions (GAP paper, Sections III-B and III-C).
 //
 // Weak e_S per shape (each satisfies Definition 1 with >= 0 in Property 2):
-// - polytope/box, eq. (5): Σ W_i Φ(a_i·p − b_i); ‖∂²e‖ <= Σ_violated W_i Φ'' < m W_i < 1.
+// - polytope/box, eq. (5): Σ W_i Φ(a_i·p − b_i); ‖∂²e‖ <= Σ_violated W_i Φ'' < m W_i < 1; above
+//   kExactViolatedRows rows W_i ∝ facet area + mean area, scaled by max_violated_eigenvalue_bound
+//   to the same end.
 // - sphere: Φ(‖p‖ − r). Hessian Φ'' nnᵀ + Φ'/‖p‖ (I − nnᵀ); Φ' <= s < ‖p‖, so both parts < 1.
 // - cylinder: Φ(‖p_xy‖ − r) + Φ(z − l/2) + Φ(−z − l/2); the radial, tangential and axial parts
 //   act on orthogonal directions, so m = 1: round shapes get the weight 1/(1 + margin).
@@ -144,8 +146,19 @@ PointToSet::PointToSet(const Shape& shape, const BaseFunction& phi, const Strict
   } else if (rows > 0) {
     if (!std::isfinite(options.weight_margin) || options.weight_margin <= 0)
       throw InvalidInput("params.weight_margin", "weight_margin must be finite and > 0");
-    const int m = rows <= kExactViolatedRows ? max_violated_halfspaces(A_local_) : max_violated_halfspaces_bound(A_local_);
-    weights_ = VecX::Constant(rows, 1.0 / (m + options.weight_margin));
+    const auto* poly = std::get_if<Polytope>(&shape_);
+    if (poly == nullptr || rows <= kExactViolatedRows) {
+      weights_ = VecX::Constant(rows, 1.0 / (max_violated_halfspaces(A_local_) + options.weight_margin));
+    } else {
+      // A mesh's hull: m grows with the facet count, and 1/m weakens a large flat facet as much
+      // as a sliver (a Kinova base's caps: Property 2 fails near the ρ sphere beyond them). Half
+      // the weight goes by facet area, which follows the surface the facets approximate, half
+      // uniformly, which keeps finely tessellated tips from vanishing; K, the bound of
+      // Σ_violated w_i a_i a_iᵀ, keeps ∂²e_S < I as m does.
+      const VecX area = facet_areas(*poly);
+      const VecX w = area.array() + area.mean();
+      weights_ = w / (max_violated_eigenvalue_bound(A_local_, w) * (1 + options.weight_margin));
+    }
   } else if (options.round_weight) {
     if (!(*options.round_weight > 0 && *options.round_weight <= 1))
       throw InvalidInput(field + ".round_weight", "round_weight must be in (0, 1]");

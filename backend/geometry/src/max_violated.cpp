@@ -15,6 +15,9 @@
 #include <numbers>
 #include <vector>
 
+#include <Eigen/Eigenvalues>
+
+#include "distlab/geometry/parallel.hpp"
 #include "distlab/geometry/polytope.hpp"
 
 namespace distlab {
@@ -82,52 +85,119 @@ int max_violated_halfspaces(const MatX3& A) {
   return best;
 }
 
-int max_violated_halfspaces_bound(const MatX3& A) {
+double max_violated_eigenvalue_bound(const MatX3& A, const VecX& w) {
   const Eigen::Index n = A.rows();
-  if (n < 3) return max_violated_halfspaces(A);
   // On the great circle {d : a_i . d = 0}, d(θ) = cos θ e1 + sin θ e2 and a_k . d = r_k cos(θ − φ_k):
   // row k is not strictly negative (a_k . d >= -kTol) on the closed arc |θ − φ_k| <= acos(−kTol/r_k),
-  // or everywhere when r_k <= kTol. U(v) = #{k : a_k . v >= −kTol} = pos(v) + ties(v) bounds the
-  // count of every cell at v (pos(v) + the ties' best half circle), so the largest U over the
-  // arrangement's vertices bounds the largest count; it is that count where a vertex's ties lie in
-  // one open half circle (e.g. two rows in general position).
-  std::vector<double> start, end, candidates;
-  int best = 0;
-  for (Eigen::Index i = 0; i < n; ++i) {
+  // or everywhere when r_k <= kTol. The cells around a vertex v violate the rows positive at v and,
+  // of the rows tied there (whose circles pass through v), those in one open half plane of the
+  // tangent directions (as in max_violated_halfspaces). A sweep along each circle keeps the sum
+  // over the arcs holding the current angle; at a vertex the tied rows are taken out of it and
+  // put back one tangent half circle at a time ([start − kTol, start + π − kTol), as in
+  // best_half_circle: never fewer rows than a cell has, up to rows within kTol of antipodal).
+  // The sum only grows with its set (its terms are PSD), so the largest λ_max found bounds
+  // every point's.
+  struct Event {
+    double angle;
+    int kind;  // 0: an arc starts, 1: a vertex, 2: an arc ends (closed arcs: ends after vertices)
+    Eigen::Index row;
+    bool operator<(const Event& o) const { return angle != o.angle ? angle < o.angle : kind < o.kind; }
+  };
+  const auto term = [&](Eigen::Index k) -> Mat3 {
+    const Vec3 a = A.row(k);
+    return w[k] * a * a.transpose();
+  };
+  const auto largest = [](const Mat3& m) {
+    return Eigen::SelfAdjointEigenSolver<Mat3>().computeDirect(m, Eigen::EigenvaluesOnly).eigenvalues()[2];
+  };
+  constexpr double kTurn = 2 * std::numbers::pi;
+  std::vector<double> best_of(static_cast<std::size_t>(n), 0.0);
+  parallel_for(static_cast<std::size_t>(n), 0, [&](std::size_t circle) {
+    const auto i = static_cast<Eigen::Index>(circle);
     const Vec3 ai = A.row(i);
     const Vec3 e1 = ai.unitOrthogonal(), e2 = ai.cross(e1).normalized();
-    start.clear();
-    end.clear();
-    candidates.clear();
-    int always = 0;
+    std::vector<Event> events;
+    events.reserve(static_cast<std::size_t>(5 * n));
+    std::vector<Eigen::Index> always;  // rows parallel to a_i: tied at every vertex of the circle
+    std::vector<char> active(static_cast<std::size_t>(n), 0);
+    Mat3 sum = Mat3::Zero();
     for (Eigen::Index k = 0; k < n; ++k) {
       const Vec3 ak = A.row(k);
       const double p = ak.dot(e1), q = ak.dot(e2), r = std::hypot(p, q);
       if (r <= kTol) {
-        ++always;
+        always.push_back(k);
         continue;
       }
       const double phi = std::atan2(q, p), half = std::acos(std::max(-1.0, -kTol / r));
-      double s0 = phi - half;
-      while (s0 < 0) s0 += 2 * std::numbers::pi;
-      while (s0 >= 2 * std::numbers::pi) s0 -= 2 * std::numbers::pi;
-      start.push_back(s0);
-      end.push_back(s0 + 2 * half);
+      const double s0 = phi - half - kTurn * std::floor((phi - half) / kTurn), s1 = s0 + 2 * half;
+      events.push_back({s0, 0, k});
+      if (s1 < kTurn) {
+        events.push_back({s1, 2, k});
+      } else {  // wraps: [s0, 2π) and [0, s1 − 2π]
+        events.push_back({0.0, 0, k});
+        events.push_back({s1 - kTurn, 2, k});
+      }
       if (ai.cross(ak).norm() > 1e-12)  // a vertex ±(a_i × a_k) of the arrangement on this circle
         for (double t : {phi + std::numbers::pi / 2, phi - std::numbers::pi / 2})
-          candidates.push_back(t - 2 * std::numbers::pi * std::floor(t / (2 * std::numbers::pi)));
+          events.push_back({t - kTurn * std::floor(t / kTurn), 1, k});
     }
-    std::sort(start.begin(), start.end());
-    std::sort(end.begin(), end.end());
-    for (const double t : candidates) {
-      // Closed arcs [s, e] (e < s + 2π, s in [0, 2π)) holding t: s <= t <= e, or s <= t + 2π <= e.
-      const auto started = std::upper_bound(start.begin(), start.end(), t) - start.begin();
-      const auto ended = std::lower_bound(end.begin(), end.end(), t) - end.begin();
-      const auto wrapped = end.end() - std::lower_bound(end.begin(), end.end(), t + 2 * std::numbers::pi);
-      best = std::max(best, always + static_cast<int>(started - ended + wrapped));
+    std::sort(events.begin(), events.end());
+    double best = 0;
+    std::vector<Eigen::Index> tied;
+    std::vector<std::pair<double, Eigen::Index>> around;  // tied rows by tangent angle at v
+    std::size_t next_vertex = 0;                          // vertex events before it were grouped
+    for (std::size_t e = 0; e < events.size(); ++e) {
+      const Event& ev = events[e];
+      if (ev.kind == 1 && e < next_vertex) continue;
+      if (ev.kind != 1) {
+        const Mat3 t = term(ev.row);
+        if (ev.kind == 0 && !active[ev.row]++) sum += t;
+        else if (ev.kind == 2 && !--active[ev.row]) sum -= t;
+        continue;
+      }
+      // The vertices within kTol of this angle are one vertex: their rows are its tied rows.
+      tied.assign(always.begin(), always.end());
+      tied.push_back(ev.row);
+      next_vertex = e + 1;
+      for (std::size_t f = e + 1; f < events.size() && events[f].angle <= ev.angle + kTol; ++f)
+        if (events[f].kind == 1) {
+          tied.push_back(events[f].row);
+          next_vertex = f + 1;
+        }
+      std::sort(tied.begin(), tied.end());
+      tied.erase(std::unique(tied.begin(), tied.end()), tied.end());
+      if (tied.size() <= 2 && always.size() == 1) {  // a_i and a_k cross: both fit one half circle
+        const Mat3 all = sum + (active[ev.row] ? Mat3::Zero() : term(ev.row)) + term(i);
+        if (all.trace() > best) best = std::max(best, largest(all));  // λ_max <= trace (PSD)
+        continue;
+      }
+      Mat3 base = sum;
+      for (Eigen::Index k : tied)
+        if (active[k]) base -= term(k);
+      const Vec3 v = std::cos(ev.angle) * e1 + std::sin(ev.angle) * e2, along = v.cross(ai);
+      around.clear();
+      for (Eigen::Index k : tied) around.emplace_back(std::atan2(A.row(k).dot(along), A.row(k).dot(ai)), k);
+      std::sort(around.begin(), around.end());
+      for (const auto& [start, unused] : around) {
+        Mat3 window = base;
+        for (const auto& [angle, k] : around) {
+          double offset = angle - start;
+          offset -= kTurn * std::floor(offset / kTurn);
+          if (offset < std::numbers::pi - kTol || offset >= kTurn - kTol) window += term(k);
+        }
+        best = std::max(best, largest(window));
+      }
     }
+    best_of[circle] = best;
+  });
+  double best = n > 0 ? *std::max_element(best_of.begin(), best_of.end()) : 0.0;
+  if (!(best > 0)) {  // no arrangement vertex (all rows parallel): every row at once bounds it
+    Mat3 all = Mat3::Zero();
+    for (Eigen::Index k = 0; k < n; ++k) all += term(k);
+    best = largest(all);
   }
-  return best > 0 ? best : max_violated_halfspaces(A);
+  // Rounding of the running sums and of the closed-form eigenvalues: far below this allowance.
+  return best * (1 + 1e-9) + 1e-12 * w.sum();
 }
 
 }  // namespace distlab

@@ -301,4 +301,18 @@ Polytope polytope_from_points(const std::vector<Vec3>& points, const std::string
   return P;
 }
 
+VecX facet_areas(const Polytope& P) {
+  VecX area = VecX::Zero(P.A.rows());
+  if (P.A.rows() == 0) return area;
+  for (const auto& f : P.faces) {
+    const Vec3 c = (P.vertices[f[1]] - P.vertices[f[0]]).cross(P.vertices[f[2]] - P.vertices[f[0]]);
+    const double twice = c.norm();
+    if (!(twice > 0)) continue;
+    Eigen::Index row = 0;
+    (P.A * (c / twice)).maxCoeff(&row);
+    area[row] += 0.5 * twice;
+  }
+  return area;
+}
+
 }  // namespace distlab

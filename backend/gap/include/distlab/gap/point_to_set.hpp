@@ -24,7 +24,11 @@ struct StrictParams {
 inline constexpr double kDefaultRhoScale = 1.5;
 
 struct P2SOptions {
-  std::optional<VecX> weights;  // polytopes/boxes: W_i; default 1/(m + weight_margin)
+  // Polytopes/boxes: W_i. Default 1/(m + weight_margin) (Section III-B); for a polytope of more
+  // than kExactViolatedRows rows (a mesh's hull) w_i / (K (1 + weight_margin)) with w_i = A_i + Ā
+  // (A_i the facet's area, Ā their mean) and K max_violated_eigenvalue_bound of w, so that
+  // Σ_violated W_i a_i a_iᵀ < I still.
+  std::optional<VecX> weights;
   double weight_margin = 0.01;  // the small positive number in W_i = 1/(m + ε), Section III-B
   std::optional<Ball> rho;      // ball of ρ in the shape frame; default: bounding ball scaled
   // Round shapes (sphere, cylinder, capsule): the weight of their terms, in (0, 1]; default

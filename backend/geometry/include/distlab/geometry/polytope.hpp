@@ -31,11 +31,17 @@ Polytope polytope_from_points(const std::vector<Vec3>& points, const std::string
 // which is found on the arrangement's vertices +-(a_i x a_j).
 int max_violated_halfspaces(const MatX3& A_unit_rows);
 
-// An upper bound of max_violated_halfspaces in O(n² log n) instead of its O(n³), equal to it where
-// the rows are in general position (each arrangement vertex on exactly two great circles): for
-// polytopes of many rows, e.g. the convex hulls of robots' collision meshes (W_i = 1/(m̄ + eps)
-// with m̄ >= m keeps Property 2). The P2S functions use it above kExactViolatedRows rows.
-int max_violated_halfspaces_bound(const MatX3& A_unit_rows);
+// An upper bound of λ_max(Σ_{i in V} w_i a_i a_iᵀ) over the sets V of rows one point can violate
+// (w >= 0), in O(n² log n): largest over the arrangement's vertices v of the sum over the rows
+// with a_i . v >= 0 (within 1e-9), which holds every cell's set at v. ∂²e_S of eq. 5 is at most
+// this times the largest Φ''. Exact where the rows are in general position (each arrangement
+// vertex on exactly two great circles). The P2S functions use it above kExactViolatedRows rows.
+double max_violated_eigenvalue_bound(const MatX3& A_unit_rows, const VecX& w);
+
+// The area of each row's facet: the polytope's triangles, each given to the row whose normal is
+// nearest its own. 0 for a row that touches the set only in an edge or a vertex, or is redundant.
+VecX facet_areas(const Polytope& P);
+
 inline constexpr int kExactViolatedRows = 256;
 
 }  // namespace distlab
