@@ -207,6 +207,22 @@ TEST(Validator, TheAdviceNamesTheParametersThatLowerTheHessianThere) {
   EXPECT_GT(report(defaults.eps, 0.7).max_eigenvalue, r.max_eigenvalue);
 }
 
+// A shape far smaller than h (an IMU's 1.5 mm collision box in a quadruped's description, a1 of
+// Gepetto/example-robot-data): Φ(s) ≈ s³/(6h) over it, so the growth falls with h. The advice
+// says so and gives a bound on h; an h below it passes, the weights left as they are.
+TEST(Validator, TheAdviceForAShapeFarSmallerThanHNamesH) {
+  const Box imu{Vec3(0.0015, 0.0015, 0.0015)};
+  auto report = [&](double h) { return validate_p2s(PointToSet(imu, BaseFunction(h, 2), StrictParams{}, P2SOptions{}, "a")); };
+  const ValidationReport r = report(0.1);
+  ASSERT_FALSE(r.ok);
+  const std::string says = "is far smaller than h = 0.100000, and this growth falls in proportion to h: h below about ";
+  const auto at = r.message.find(says);
+  ASSERT_NE(at, std::string::npos) << r.message;
+  const double bound = std::stod(r.message.substr(at + says.size()));
+  EXPECT_NEAR(bound, 0.1 / r.max_eigenvalue, 1e-6);
+  EXPECT_TRUE(report(0.8 * bound).ok) << report(0.8 * bound).message;
+}
+
 // Robot-link sized shapes with the defaults (README) satisfy Property 2, and the validator's
 // largest eigenvalue is at least the independent search's.
 TEST(Validator, PassesRobotLinkShapesAndFindsTheIndependentMaximum) {
@@ -228,7 +244,7 @@ TEST(Validator, PassesRobotLinkShapesAndFindsTheIndependentMaximum) {
 // A robot's base as meshed: a cylinder of 300 sides (r 4 cm, 16 cm long), 302 hull rows. With
 // W = 1/(m + margin) its end caps weigh as little as one of 300 slivers (m = 150), e_S is tiny
 // near the ρ sphere beyond them and ∂²E there reaches ~ε²R²/(σ e_S) > 1; by facet area (the
-// default above kExactViolatedRows rows) the caps weigh what they cover, and Property 2 holds.
+// default above kAreaWeightedRows rows) the caps weigh what they cover, and Property 2 holds.
 // Both weightings keep ∂²e_S < I, checked at points around the hull.
 TEST(Validator, AManyFacetedHullKeepsProperty2WithTheDefaults) {
   std::vector<Vec3> points;
@@ -237,7 +253,7 @@ TEST(Validator, AManyFacetedHullKeepsProperty2WithTheDefaults) {
     for (double z : {-0.08, 0.08}) points.emplace_back(0.04 * std::cos(t), 0.04 * std::sin(t), z);
   }
   const Polytope hull = polytope_from_points(points, "base");
-  ASSERT_GT(hull.rows(), kExactViolatedRows);
+  ASSERT_GT(hull.rows(), kAreaWeightedRows);
   const PointToSet by_area(hull, BaseFunction(0.1, 2), StrictParams{}, P2SOptions{}, "a");
   P2SOptions uniform;
   uniform.weights = VecX::Constant(hull.rows(), 1.0 / (max_violated_halfspaces(hull.A) + uniform.weight_margin));

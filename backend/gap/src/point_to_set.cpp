@@ -2,7 +2,7 @@
 //
 // Weak e_S per shape (each satisfies Definition 1 with >= 0 in Property 2):
 // - polytope/box, eq. (5): Σ W_i Φ(a_i·p − b_i); ‖∂²e‖ <= Σ_violated W_i Φ'' < m W_i < 1; above
-//   kExactViolatedRows rows W_i ∝ facet area + mean area, scaled by max_violated_eigenvalue_bound
+//   kAreaWeightedRows rows W_i ∝ facet area + mean area, scaled by max_violated_eigenvalue_bound
 //   to the same end.
 // - sphere: Φ(‖p‖ − r). Hessian Φ'' nnᵀ + Φ'/‖p‖ (I − nnᵀ); Φ' <= s < ‖p‖, so both parts < 1.
 // - cylinder: Φ(‖p_xy‖ − r) + Φ(z − l/2) + Φ(−z − l/2); the radial, tangential and axial parts
@@ -147,7 +147,7 @@ PointToSet::PointToSet(const Shape& shape, const BaseFunction& phi, const Strict
     if (!std::isfinite(options.weight_margin) || options.weight_margin <= 0)
       throw InvalidInput("params.weight_margin", "weight_margin must be finite and > 0");
     const auto* poly = std::get_if<Polytope>(&shape_);
-    if (poly == nullptr || rows <= kExactViolatedRows) {
+    if (poly == nullptr || rows <= kAreaWeightedRows) {
       weights_ = VecX::Constant(rows, 1.0 / (max_violated_halfspaces(A_local_) + options.weight_margin));
     } else {
       // A mesh's hull: m grows with the facet count, and 1/m weakens a large flat facet as much

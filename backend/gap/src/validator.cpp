@@ -339,7 +339,7 @@ class Search {
   // them); at the ρ sphere a larger ball moves it where e is larger. Where σe < ε|ρ| (near the
   // set), E ≈ ε(ρ + |ρ|) + σ²e²/(2ε|ρ|), with σ²∇e∇eᵀ/(ε|ρ|): the other way round.
   // First of all, σ∂²e_S itself (e large): below 1 only with weights W_i ≤ 1/m (Section III-B).
-  std::string remedy(const Vec3& p) const {
+  std::string remedy(const Vec3& p, double eigenvalue) const {
     const P2SValue weak = p2s_.weak(p, 2);
     const double e = weak.value;
     const Ball& ball = p2s_.rho_ball();
@@ -351,8 +351,16 @@ class Search {
              ": decrease the weights or sigma";
     if (sp.sigma * e > sp.eps * std::abs(rho)) {
       const bool at_sphere = std::abs(rho) < 0.1 * ball.radius * ball.radius;
-      return std::string("there it grows like eps^2/sigma: decrease eps (halving it quarters that growth), or increase the weights or sigma") +
-             (at_sphere ? ", or enlarge the rho ball (the point is near its sphere)" : "");
+      std::string advice = std::string("there it grows like eps^2/sigma: decrease eps (halving it quarters that growth), or increase the weights or sigma") +
+                           (at_sphere ? ", or enlarge the rho ball (the point is near its sphere)" : "");
+      // Φ(s) ≈ s³/(6h) for s << h, so over a shape far smaller than h, e_S and with it this
+      // growth scale like 1/h.
+      const double h = p2s_.phi().h(), size = bounding_ball(p2s_.shape()).radius;
+      if (size < 0.1 * h)
+        advice += "; the shape (bounding radius " + std::to_string(size) + ") is far smaller than h = " +
+                  std::to_string(h) + ", and this growth falls in proportion to h: h below about " +
+                  std::to_string(h / eigenvalue) + " (or leave such a small shape out)";
+      return advice;
     }
     return "there it grows like sigma^2/eps: decrease sigma or the weights, increase eps, or enlarge the rho ball";
   }
@@ -461,7 +469,7 @@ ValidationReport Search::run(int samples, std::uint64_t seed) {
   std::ostringstream msg;
   if (!(rep_.max_eigenvalue < 1.0)) {
     msg << "Property 2 fails: the Hessian of E_S has eigenvalue " << rep_.max_eigenvalue
-        << " >= 1 at (" << rep_.worst_point.transpose() << ") in the shape frame; " << remedy(rep_.worst_point);
+        << " >= 1 at (" << rep_.worst_point.transpose() << ") in the shape frame; " << remedy(rep_.worst_point, rep_.max_eigenvalue);
   } else if (rep_.min_eigenvalue < -rep_.min_eigenvalue_tolerance) {
     msg << "Property 2 fails: E_S is not convex (eigenvalue " << rep_.min_eigenvalue << ")";
   } else if (rep_.max_inside_norm > 0) {

@@ -25,7 +25,7 @@ inline constexpr double kDefaultRhoScale = 1.5;
 
 struct P2SOptions {
   // Polytopes/boxes: W_i. Default 1/(m + weight_margin) (Section III-B); for a polytope of more
-  // than kExactViolatedRows rows (a mesh's hull) w_i / (K (1 + weight_margin)) with w_i = A_i + Ā
+  // than kAreaWeightedRows rows (a mesh's hull) w_i / (K (1 + weight_margin)) with w_i = A_i + Ā
   // (A_i the facet's area, Ā their mean) and K max_violated_eigenvalue_bound of w, so that
   // Σ_violated W_i a_i a_iᵀ < I still.
   std::optional<VecX> weights;

@@ -33,15 +33,19 @@ int max_violated_halfspaces(const MatX3& A_unit_rows);
 
 // An upper bound of λ_max(Σ_{i in V} w_i a_i a_iᵀ) over the sets V of rows one point can violate
 // (w >= 0), in O(n² log n): largest over the arrangement's vertices v of the sum over the rows
-// with a_i . v >= 0 (within 1e-9), which holds every cell's set at v. ∂²e_S of eq. 5 is at most
+// with a_i . v > 0 and the rows tied at v (a_i . v = 0 within 1e-9) of one tangent half circle,
+// which holds every cell's set at v. ∂²e_S of eq. 5 is at most
 // this times the largest Φ''. Exact where the rows are in general position (each arrangement
-// vertex on exactly two great circles). The P2S functions use it above kExactViolatedRows rows.
+// vertex on exactly two great circles). The P2S functions use it above kAreaWeightedRows rows.
 double max_violated_eigenvalue_bound(const MatX3& A_unit_rows, const VecX& w);
 
 // The area of each row's facet: the polytope's triangles, each given to the row whose normal is
 // nearest its own. 0 for a row that touches the set only in an edge or a vertex, or is redundant.
 VecX facet_areas(const Polytope& P);
 
-inline constexpr int kExactViolatedRows = 256;
+// Above this many rows a polytope is taken for a mesh's hull and its P2S weights go by facet area
+// (PointToSet); hand-written polytopes and the paper's (10 rows) have fewer. A 200-facet pelvis hull
+// (Gepetto/example-robot-data's alex) already broke Property 2 with W = 1/(m + margin).
+inline constexpr int kAreaWeightedRows = 64;
 
 }  // namespace distlab
