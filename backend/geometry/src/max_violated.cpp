@@ -167,8 +167,7 @@ double max_violated_eigenvalue_bound(const MatX3& A, const VecX& w) {
       std::sort(tied.begin(), tied.end());
       tied.erase(std::unique(tied.begin(), tied.end()), tied.end());
       if (tied.size() <= 2 && always.size() == 1) {  // a_i and a_k cross: both fit one half circle
-        const Mat3 all = sum + (active[ev.row] ? Mat3::Zero() : term(ev.row)) + term(i);
-        if (all.trace() > best) best = std::max(best, largest(all));  // λ_max <= trace (PSD)
+        best = std::max(best, largest(sum + (active[ev.row] ? Mat3::Zero() : term(ev.row)) + term(i)));
         continue;
       }
       Mat3 base = sum;
