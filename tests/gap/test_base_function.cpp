@@ -1,6 +1,8 @@
 // Φ (eq. 4) against long-double quadrature of Φ'' and against the Definition 4 properties.
 #include <gtest/gtest.h>
 
+#include <cstdio>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -159,6 +161,40 @@ TEST(BaseFunction, TabledPowerKeepsTheGeneralPathsAccuracy) {
         ASSERT_LE(std::abs(static_cast<double>(got.value - want.value)), 1024 * eps * w * s * s / 2) << "Φ h=" << h << " k=" << k << " s=" << s;
       }
     }
+}
+
+// Where t = (1+s)^(−1/h) is below half an ulp of every power the closed form takes, from
+// s = 2^(56/(1/h − 2)) − 1 on for 1/h > 2, Φ is computed with t = 0, without log1p or exp: past
+// the rational form's range (s > 1e3, 1/h an integer), past the power table's and for h below the
+// table's (1/h > 2048). Against the general path in long double: Φ'' is 1 exactly, Φ and Φ' within
+// 3 ulp (measured ≤ 2.5 and 1.4), up to s = 1e15.
+TEST(BaseFunction, FarOutTheClosedFormTakesTZeroWithinAFewUlp) {
+  for (const auto& [h, k] : {std::pair{0.1, 2}, {0.1, 3}, {0.25, 5}, {0.2, 2}, {0.3, 3}, {0.0003, 2}, {0.0003, 4}}) {
+    const BaseFunction phi(h, k);
+    const double n = 1 / h, zero = std::exp2(56 / (n - 2)) - 1;
+    const bool rational = n == std::round(n) && (k - 1) * n <= 20;  // then Φ is rational up to 1e3
+    // Just past `zero` Φ of a tiny h keeps the closed form's own cancellation (~15 ulp for k = 4,
+    // with exp(log1p) as with t = 0); from 4 zero on it is gone.
+    const double from = rational ? std::max(zero, 1e3) : 4 * zero;
+    double worst[3] = {0, 0, 0};
+    int checked = 0;
+    for (double s = from * 1.0001; s < 1e15; s *= 1.0009, ++checked) {
+      const auto got = phi.jet(s);
+      const auto want = phi.jet_as<long double>(static_cast<long double>(s));
+      const double g[3] = {got.value, got.d1, got.d2};
+      const long double w[3] = {want.value, want.d1, want.d2};
+      for (int d = 0; d < 3; ++d) {
+        const double r = static_cast<double>(w[d]);
+        const double ulp = std::nextafter(std::abs(r), INFINITY) - std::abs(r);
+        worst[d] = std::max(worst[d], static_cast<double>(std::abs(g[d] - w[d])) / ulp);
+      }
+    }
+    std::printf("h %g k %d from s = %.4g: worst ulp %.2f %.2f %.2f\n", h, k, from, worst[0], worst[1], worst[2]);
+    EXPECT_GT(checked, 1000) << "h=" << h << " k=" << k;
+    EXPECT_LE(worst[0], 3.0) << "Φ h=" << h << " k=" << k;
+    EXPECT_LE(worst[1], 3.0) << "Φ' h=" << h << " k=" << k;
+    EXPECT_EQ(worst[2], 0.0) << "Φ'' h=" << h << " k=" << k;
+  }
 }
 
 TEST(BaseFunction, Definition4Properties) {

@@ -154,6 +154,21 @@ void BaseFunction::build_rational_form() {
 // about an ulp (exp(−log1p(s)/h) carries ~n ln(x) ulp from the logarithm's rounding).
 constexpr std::uint64_t kMaxPowerNodes = 2048;  // 3 doubles a node, 49 kB; h in [0.005, 1] needs ~1,900 at most
 
+// For n = 1/h > 2, from where x^(2−n) <= 2^−56 every x^β of E is below half an ulp of 1, so x^β − 1
+// is −1 exactly and (1 − t)^(k−1) is 1: t = 0 gives the same doubles, with no log1p or exp (the
+// validator's far-field points, s ~ 10⁴ R, spent a third of a large hull's check on them).
+// Also E's 1/β, for t = 0 and the table's range (β = 0 gives inf, never used: no table then).
+void BaseFunction::set_power_zero(Series& table, double h, int k) {
+  const long double n = 1.0L / h;
+  for (int i = 1; i < k; ++i) {
+    table.power_inverse_beta[2 * i - 2] = static_cast<double>(1 / (1 - i * n));
+    table.power_inverse_beta[2 * i - 1] = static_cast<double>(1 / (2 - i * n));
+  }
+  if (!(n > 2)) return;
+  table.power_zero = std::max(std::expm1(table.limit),  // above the series (which has no t)
+                              std::nextafter(static_cast<double>(std::exp2(56 / (n - 2)) - 1), INFINITY));
+}
+
 void BaseFunction::build_power_table(Series& table, double h, int k) {
   const long double n = 1.0L / h;
   long double beta_min = INFINITY;
@@ -161,10 +176,7 @@ void BaseFunction::build_power_table(Series& table, double h, int k) {
   const int bits = 1 + static_cast<int>(std::ceil(std::log2(16 * std::max(n, 1.0L))));
   if (!(beta_min > 0) || bits > 16) return;  // β = 0 needs L; h < ~1/2000: a long table
   const double from = std::max(std::expm1(table.limit), static_cast<double>(std::expm1(0.5L / beta_min)));
-  // For n > 2, from where x^(2−n) <= 2^−56 every x^β of E is below half an ulp of 1, so x^β − 1
-  // is −1 exactly and (1 − t)^(k−1) is 1: t = 0 gives the same doubles.
-  double zero = INFINITY;
-  if (n > 2) zero = std::max(from, std::nextafter(static_cast<double>(std::exp2(56 / (n - 2)) - 1), INFINITY));
+  const double zero = std::max(from, table.power_zero);
   table.power_shift = 53 - bits;
   const auto bits_of = [](double v) { return std::bit_cast<std::uint64_t>(v); };
   const std::uint64_t base = bits_of(1.0) >> table.power_shift;
@@ -177,10 +189,6 @@ void BaseFunction::build_power_table(Series& table, double h, int k) {
     table.power[3 * j] = static_cast<double>(t);
     table.power[3 * j + 1] = static_cast<double>(t - static_cast<double>(t));
     table.power[3 * j + 2] = static_cast<double>(1 / xj);
-  }
-  for (int i = 1; i < k; ++i) {
-    table.power_inverse_beta[2 * i - 2] = static_cast<double>(1 / (1 - i * n));
-    table.power_inverse_beta[2 * i - 1] = static_cast<double>(1 / (2 - i * n));
   }
   long double c = -n;  // C(−n, i + 1): q/u = Σ C(−n, i + 1) u^i
   for (int i = 0; i < Series::kPowerTerms; ++i) {
@@ -231,6 +239,7 @@ std::shared_ptr<const BaseFunction::Series> BaseFunction::series_for(double h, i
   series->c0.assign(p0.begin(), p0.begin() + terms);
   series->c1.assign(p1.begin(), p1.begin() + terms);
   series->c2.assign(p.begin(), p.begin() + terms);
+  set_power_zero(*series, h, k);
   if (power_table) build_power_table(*series, h, k);
   const std::lock_guard<std::mutex> lock(mutex);
   if (cache.size() < kMaxCachedSeries) cache.emplace(std::pair{h, k}, series);
@@ -299,10 +308,8 @@ template <class T>
 BaseFunction::JetT<T> BaseFunction::general_jet(T s) const {
   if constexpr (std::is_same_v<T, double>) {
     const Series& table = *series_;
-    if (s >= table.power_from) {
-      if (s < table.power_to) return closed_form<T>(s, power_from_table(table, s), nullptr);
-      if (s >= table.power_zero) return closed_form<T>(s, 0.0, nullptr);
-    }
+    if (s >= table.power_zero) return closed_form<T>(s, 0.0, nullptr);
+    if (s >= table.power_from && s < table.power_to) return closed_form<T>(s, power_from_table(table, s), nullptr);
   }
   const T L = std::log1p(s);
   return L <= series_->limit ? series(L) : closed_form(s, std::exp(-L / h_), &L);

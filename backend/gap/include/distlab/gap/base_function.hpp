@@ -80,7 +80,7 @@ class BaseFunction {
     static constexpr int kPowerTerms = 16;
     int power_shift = 0;
     double power_from = INFINITY, power_to = 0;     // the table's range (empty: from >= to)
-    double power_zero = INFINITY;                   // from here t = 0 gives Φ's doubles exactly
+    double power_zero = INFINITY;                   // from here t = 0 gives Φ's doubles exactly (any table)
     std::vector<double> power;                      // x_j^(−1/h) as hi + lo, 1/x_j: three a node
     std::array<double, kPowerTerms> power_binom{};  // C(−1/h, i + 1): (1+u)^(−1/h) = 1 + u Σ C(−1/h, i + 1) u^i
     // 1/β for the closed form's exponents β = 1 − i/h, 2 − i/h (i = 1..k−1), each rounded once:
@@ -89,6 +89,7 @@ class BaseFunction {
   };
   std::shared_ptr<const Series> series_;
   static std::shared_ptr<const Series> series_for(double h, int k, bool power_table);
+  static void set_power_zero(Series& table, double h, int k);
   static void build_power_table(Series& table, double h, int k);
   static double power_from_table(const Series& table, double s);
 
