@@ -125,7 +125,7 @@ class Params:
 
     h: smoothing of Φ (eq. 4), > 0; k: differentiability order, 2...12; eps: ε of eq. 6 in
     (0, 0.5); sigma: σ of eq. 6 in (0, 1), √(1 − 2ε) by default; weight_margin: the ε of
-    W_i = 1/(m + ε) (above 64 rows, a mesh's hull: by facet area, see the README); tol: Newton
+    W_i = 1/(m + ε) (a convex_hull, or above 64 rows: by facet area, see the README); tol: Newton
     stops when its step, or the error it estimates is left after that step, is below it
     (witnesses within tol); max_iter: 0 = solver default
     (100 Newton, 100000 plain); solver: "newton" or "fixed_point"; gradient: also compute

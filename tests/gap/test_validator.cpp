@@ -241,6 +241,18 @@ TEST(Validator, PassesRobotLinkShapesAndFindsTheIndependentMaximum) {
   }
 }
 
+// A hull weighted by facet area passes the validator (whose maximum an independent search
+// confirms), and the same hull weighted 1/(m + margin) is refused.
+void expect_area_passes_and_count_fails(const PointToSet& by_area, const PointToSet& by_count) {
+  const ValidationReport area = validate_p2s(by_area), count = validate_p2s(by_count);
+  EXPECT_TRUE(area.ok) << area.message;
+  EXPECT_FALSE(count.ok);
+  EXPECT_GT(count.max_eigenvalue, 1.0);
+  const test::SearchResult truth = test::independent_max(by_area);
+  EXPECT_LT(truth.value, 1.0);
+  EXPECT_GE(area.max_eigenvalue, truth.value * (1 - 1e-5));
+}
+
 // A robot's base as meshed: a cylinder of 300 sides (r 4 cm, 16 cm long), 302 hull rows. With
 // W = 1/(m + margin) its end caps weigh as little as one of 300 slivers (m = 150), e_S is tiny
 // near the ρ sphere beyond them and ∂²E there reaches ~ε²R²/(σ e_S) > 1; by facet area (the
@@ -259,13 +271,7 @@ TEST(Validator, AManyFacetedHullKeepsProperty2WithTheDefaults) {
   uniform.weights = VecX::Constant(hull.rows(), 1.0 / (max_violated_halfspaces(hull.A) + uniform.weight_margin));
   const PointToSet by_count(hull, BaseFunction(0.1, 2), StrictParams{}, uniform, "a");
 
-  const ValidationReport area = validate_p2s(by_area), count = validate_p2s(by_count);
-  EXPECT_TRUE(area.ok) << area.message;
-  EXPECT_FALSE(count.ok);
-  EXPECT_GT(count.max_eigenvalue, 1.0);
-  const test::SearchResult truth = test::independent_max(by_area);
-  EXPECT_LT(truth.value, 1.0);
-  EXPECT_GE(area.max_eigenvalue, truth.value * (1 - 1e-5));
+  expect_area_passes_and_count_fails(by_area, by_count);
 
   std::mt19937_64 rng(9);
   for (int s = 0; s < 3000; ++s) {
@@ -275,6 +281,39 @@ TEST(Validator, AManyFacetedHullKeepsProperty2WithTheDefaults) {
       EXPECT_LT(es.eigenvalues()[2], 1.0) << p.transpose();
     }
   }
+}
+
+// A D-shaped plate as a finger's mesh has it (radius 16 mm, 4 mm thick, a half circle of 40
+// segments): 43 hull rows, fewer than kAreaWeightedRows, but one point beyond the round edge
+// violates 41 of them (m = 41), so 1/(m + margin) weighs the flat back as one of 41 slivers and
+// Property 2 fails beyond it. A hull is weighted by area at any size, and passes; the same rows
+// written as A, b keep the paper's 1/(m + margin).
+TEST(Validator, AFewFacetedHullIsWeightedByAreaToo) {
+  std::vector<Vec3> points;
+  for (int k = 0; k <= 40; ++k) {
+    const double t = std::numbers::pi * k / 40;
+    for (double z : {-0.002, 0.002}) points.emplace_back(0.016 * std::cos(t), 0.016 * std::sin(t), z);
+  }
+  const Polytope hull = polytope_from_points(points, "finger");
+  ASSERT_LE(hull.rows(), kAreaWeightedRows);
+  const int m = max_violated_halfspaces(hull.A);
+  EXPECT_EQ(m, hull.rows() - 2);
+  const Polytope written = make_polytope(hull.A, hull.b, "finger");
+  EXPECT_FALSE(written.is_hull);
+
+  const PointToSet by_area(hull, BaseFunction(0.1, 2), StrictParams{}, P2SOptions{}, "a");
+  const PointToSet by_count(written, BaseFunction(0.1, 2), StrictParams{}, P2SOptions{}, "a");
+  EXPECT_TRUE(by_count.weights().isApproxToConstant(1.0 / (m + P2SOptions{}.weight_margin), 1e-15));
+  // The flat back (3.2 cm by 4 mm, the row along −y) weighs what it covers: about five times a
+  // side segment (1.3 mm by 4 mm) with the mean added to each.
+  Eigen::Index back = 0;
+  (hull.A * Vec3(0, -1, 0)).maxCoeff(&back);
+  for (Eigen::Index i = 0; i < hull.rows(); ++i)
+    if (hull.A(i, 1) > 1e-3 && std::abs(hull.A(i, 2)) < 0.5) {
+      EXPECT_GT(by_area.weights()[back], 4 * by_area.weights()[i]) << i;
+    }
+
+  expect_area_passes_and_count_fails(by_area, by_count);
 }
 
 }  // namespace

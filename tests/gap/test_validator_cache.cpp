@@ -1,8 +1,10 @@
 // The Property 2 verdict cache: a repeated shape is answered from the cache with the same
 // verdict; any defining number (shape, weights, ρ ball, ε, σ, h, k) changes the key; the
-// cache is bounded and evicts the least recently used; concurrent callers agree.
+// cache is bounded and evicts the least recently used; concurrent callers agree. A hull's
+// weights are computed once per hull and margin.
 #include <gtest/gtest.h>
 
+#include <numbers>
 #include <thread>
 
 #include "distlab/gap/validator.hpp"
@@ -39,7 +41,7 @@ TEST(ValidatorCache, IsDeterministicAndAnswersARepeatedShapeFromTheCache) {
   const ValidationReport hit = validate_p2s(moved, 500, 9);
   EXPECT_TRUE(hit.cached);
   expect_same(first, hit);
-  const ValidationCacheStats st = validation_cache_stats();
+  const CacheStats st = validation_cache_stats();
   EXPECT_EQ(st.entries, 1u);
   EXPECT_EQ(st.hits, 1u);
   EXPECT_LE(st.bytes, st.capacity);
@@ -78,7 +80,7 @@ TEST(ValidatorCache, StaysWithinItsCapacityAndEvictsTheLeastRecentlyUsed) {
   validate_p2s(b, 100);
   EXPECT_TRUE(validate_p2s(a, 100).cached);  // a is now the most recently used
   validate_p2s(c, 100);                      // evicts b
-  const ValidationCacheStats st = validation_cache_stats();
+  const CacheStats st = validation_cache_stats();
   EXPECT_EQ(st.entries, 2u);
   EXPECT_LE(st.bytes, st.capacity);
   EXPECT_TRUE(validate_p2s(a, 100).cached);
@@ -109,6 +111,49 @@ TEST(ValidatorCache, ConcurrentCallersGetTheSequentialVerdicts) {
     for (std::size_t k = 0; k < got[t].size(); ++k)
       expect_same(got[t][k], sequential[(k % shapes.size() + t) % shapes.size()]);
   EXPECT_EQ(validation_cache_stats().entries, shapes.size());
+}
+
+// A prism of `sides` sides, radius 4 cm, `height` long, as a mesh's hull.
+Polytope prism_hull(int sides, double height) {
+  std::vector<Vec3> points;
+  for (int k = 0; k < sides; ++k) {
+    const double t = 2 * std::numbers::pi * k / sides;
+    for (double z : {-height / 2, height / 2}) points.emplace_back(0.04 * std::cos(t), 0.04 * std::sin(t), z);
+  }
+  return polytope_from_points(points, "hull");
+}
+
+TEST(HullWeightCache, ComputesAHullsWeightsOncePerHullAndMargin) {
+  clear_hull_weight_cache();
+  const Polytope hull = prism_hull(200, 0.16);
+  const VecX first = make(hull).weights();
+  CacheStats st = hull_weight_cache_stats();
+  EXPECT_EQ(st.misses, 1u);
+  EXPECT_EQ(st.hits, 0u);
+  EXPECT_TRUE(make(hull).weights() == first);  // from the cache, bit for bit
+  EXPECT_EQ(hull_weight_cache_stats().hits, 1u);
+  clear_hull_weight_cache();
+  EXPECT_TRUE(make(hull).weights() == first);  // computed again: deterministic
+
+  // Another margin is another entry: W = w / (K (1 + margin)).
+  P2SOptions wider;
+  wider.weight_margin = 0.02;
+  const VecX w2 = PointToSet(hull, BaseFunction(0.1, 2), StrictParams{}, wider, "a").weights();
+  EXPECT_TRUE(w2.isApprox(first * (1.01 / 1.02), 1e-14));
+  // A longer prism has the same row normals but larger sides: the key holds the geometry, and
+  // its sides weigh more against its caps than the short prism's do.
+  const Polytope longer = prism_hull(200, 0.32);
+  const VecX w3 = make(longer).weights();
+  st = hull_weight_cache_stats();
+  EXPECT_EQ(st.misses, 3u);
+  EXPECT_EQ(st.entries, 3u);
+  const auto side_over_cap = [](const Polytope& p, const VecX& w) {
+    Eigen::Index cap = 0, side = 0;
+    p.A.col(2).maxCoeff(&cap);
+    p.A.col(0).maxCoeff(&side);
+    return w[side] / w[cap];
+  };
+  EXPECT_GT(side_over_cap(longer, w3), 1.5 * side_over_cap(hull, first));
 }
 
 }  // namespace

@@ -248,6 +248,32 @@ TEST_F(MeshUrdf, MeshDistancesEqualThoseOfTheSameHull) {
   EXPECT_GT(checked_euclid, 5 * n);
 }
 
+// A model rebuilt for an obstacle that moved (a controller's moving target) takes each mesh
+// hull's weights from the first model's work: no hull is weighed twice, and the distances are
+// those of a model built from nothing.
+TEST_F(MeshUrdf, AModelForMovedObstaclesReusesTheHullsWeights) {
+  const GapParams params;
+  const auto obstacles_at = [](double x) {
+    return std::vector<Obstacle>{{"ball", Sphere{0.05}, {Vec3(x, -0.1, 0.55), Quat::Identity()}}};
+  };
+  const VecQ q = VecQ::Constant(robot->dof(), 0.3);
+  clear_hull_weight_cache();
+  const DistanceModel first(robot, obstacles_at(0.45), Metric::gap, params, PairSelection{});
+  const CacheStats built = hull_weight_cache_stats();
+  EXPECT_GE(built.misses, 2u);  // the test robot's mesh elements
+  const DistanceModel moved(robot, obstacles_at(0.5), Metric::gap, params, PairSelection{});
+  const CacheStats reused = hull_weight_cache_stats();
+  EXPECT_EQ(reused.misses, built.misses);
+  EXPECT_EQ(reused.hits, built.hits + built.misses);
+
+  const DistanceBatch warm = distances(moved, std::span<const double>(q.data(), q.size()), 1);
+  clear_hull_weight_cache();
+  const DistanceModel fresh(robot, obstacles_at(0.5), Metric::gap, params, PairSelection{});
+  const DistanceBatch cold = distances(fresh, std::span<const double>(q.data(), q.size()), 1);
+  EXPECT_EQ(warm.distance, cold.distance);
+  EXPECT_EQ(warm.jacobian, cold.jacobian);
+}
+
 // The text of the test's URDF with `from` replaced by `to` (once), parsed with its options.
 test::Refusal parse_changed(const MeshRobot& spec, const std::string& base_dir, const std::string& from,
                             const std::string& to) {

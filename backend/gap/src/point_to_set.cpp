@@ -2,8 +2,8 @@
 //
 // Weak e_S per shape (each satisfies Definition 1 with >= 0 in Property 2):
 // - polytope/box, eq. (5): Σ W_i Φ(a_i·p − b_i); ‖∂²e‖ <= Σ_violated W_i Φ'' < m W_i < 1; above
-//   kAreaWeightedRows rows W_i ∝ facet area + mean area, scaled by max_violated_eigenvalue_bound
-//   to the same end.
+//   kAreaWeightedRows rows and for every hull of points W_i ∝ facet area + mean area, scaled by
+//   max_violated_eigenvalue_bound to the same end.
 // - sphere: Φ(‖p‖ − r). Hessian Φ'' nnᵀ + Φ'/‖p‖ (I − nnᵀ); Φ' <= s < ‖p‖, so both parts < 1.
 // - cylinder: Φ(‖p_xy‖ − r) + Φ(z − l/2) + Φ(−z − l/2); the radial, tangential and axial parts
 //   act on orthogonal directions, so m = 1: round shapes get the weight 1/(1 + margin).
@@ -23,6 +23,7 @@
 
 #include "distlab/geometry/error.hpp"
 #include "distlab/geometry/overloaded.hpp"
+#include "exact_key_cache.hpp"
 
 namespace distlab {
 namespace {
@@ -115,7 +116,42 @@ P2SValueT<T> strict_from_weak(const P2SValueT<T>& e, const Vec3T<T>& p, const St
   return out;
 }
 
+// A mesh's hull: m grows with the facet count, and 1/m weakens a large flat facet as much as a
+// sliver (a Kinova base's caps: Property 2 fails near the ρ sphere beyond them). Half the weight
+// goes by facet area, which follows the surface the facets approximate, half uniformly, which
+// keeps finely tessellated tips from vanishing; K, the bound of Σ_violated w_i a_i a_iᵀ, keeps
+// ∂²e_S < I as m does. Cached: K costs seconds on thousands of facets.
+std::size_t vector_bytes(const VecX& v) { return sizeof(double) * static_cast<std::size_t>(v.size()); }
+using HullWeightCache = detail::ExactKeyCache<VecX, vector_bytes>;
+
+HullWeightCache& hull_weight_cache() {
+  static HullWeightCache c(kHullWeightCacheBytes);
+  return c;
+}
+
+VecX hull_weights(const Polytope& poly, double margin) {
+  using detail::append_bytes;
+  std::string key;  // everything the weights are computed from: rows, vertices, faces, margin
+  append_bytes(key, margin);
+  const std::size_t rows = static_cast<std::size_t>(poly.A.rows()), faces = poly.faces.size();
+  append_bytes(key, &rows, sizeof rows);
+  append_bytes(key, poly.A.data(), sizeof(double) * 3 * rows);
+  append_bytes(key, &faces, sizeof faces);
+  append_bytes(key, poly.faces.data(), sizeof(Eigen::Vector3i) * faces);
+  append_bytes(key, poly.vertices.data(), sizeof(Vec3) * poly.vertices.size());
+  VecX weights;
+  if (hull_weight_cache().find(key, weights)) return weights;
+  const VecX area = facet_areas(poly);
+  const VecX w = area.array() + area.mean();
+  weights = w / (max_violated_eigenvalue_bound(poly.A, w) * (1 + margin));
+  hull_weight_cache().insert(key, weights);
+  return weights;
+}
+
 }  // namespace
+
+CacheStats hull_weight_cache_stats() { return hull_weight_cache().stats(); }
+void clear_hull_weight_cache() { hull_weight_cache().clear(); }
 
 PointToSet::PointToSet(const Shape& shape, const BaseFunction& phi, const StrictParams& strict,
                        const P2SOptions& options, const std::string& field)
@@ -147,17 +183,10 @@ PointToSet::PointToSet(const Shape& shape, const BaseFunction& phi, const Strict
     if (!std::isfinite(options.weight_margin) || options.weight_margin <= 0)
       throw InvalidInput("params.weight_margin", "weight_margin must be finite and > 0");
     const auto* poly = std::get_if<Polytope>(&shape_);
-    if (poly == nullptr || rows <= kAreaWeightedRows) {
+    if (poly == nullptr || (!poly->is_hull && rows <= kAreaWeightedRows)) {
       weights_ = VecX::Constant(rows, 1.0 / (max_violated_halfspaces(A_local_) + options.weight_margin));
     } else {
-      // A mesh's hull: m grows with the facet count, and 1/m weakens a large flat facet as much
-      // as a sliver (a Kinova base's caps: Property 2 fails near the ρ sphere beyond them). Half
-      // the weight goes by facet area, which follows the surface the facets approximate, half
-      // uniformly, which keeps finely tessellated tips from vanishing; K, the bound of
-      // Σ_violated w_i a_i a_iᵀ, keeps ∂²e_S < I as m does.
-      const VecX area = facet_areas(*poly);
-      const VecX w = area.array() + area.mean();
-      weights_ = w / (max_violated_eigenvalue_bound(A_local_, w) * (1 + options.weight_margin));
+      weights_ = hull_weights(*poly, options.weight_margin);
     }
   } else if (options.round_weight) {
     if (!(*options.round_weight > 0 && *options.round_weight <= 1))

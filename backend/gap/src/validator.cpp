@@ -5,15 +5,13 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
-#include <list>
-#include <mutex>
 #include <random>
 #include <sstream>
-#include <unordered_map>
 #include <utility>
 #include <vector>
 
 #include "distlab/geometry/overloaded.hpp"
+#include "exact_key_cache.hpp"
 
 namespace distlab {
 namespace {
@@ -21,110 +19,50 @@ namespace {
 // ---------------------------------------------------------------------------------------------
 // The verdict cache: exact keys (the defining numbers' bytes), least recently used out first.
 
-void append(std::string& key, const void* data, std::size_t bytes) {
-  key.append(static_cast<const char*>(data), bytes);
-}
-void append(std::string& key, double x) { append(key, &x, sizeof x); }
+using detail::append_bytes;
 
 std::string cache_key(const PointToSet& p2s, int samples, std::uint64_t seed) {
   std::string key;
   const Shape& shape = p2s.shape();
   const std::size_t kind = shape.index();
-  append(key, &kind, sizeof kind);
+  append_bytes(key, &kind, sizeof kind);
   std::visit(Overloaded{[&](const Polytope& p) {
                           const Eigen::Index n = p.A.rows();
-                          append(key, &n, sizeof n);
-                          append(key, p.A.data(), sizeof(double) * static_cast<std::size_t>(p.A.size()));
-                          append(key, p.b.data(), sizeof(double) * static_cast<std::size_t>(n));
+                          append_bytes(key, &n, sizeof n);
+                          append_bytes(key, p.A.data(), sizeof(double) * static_cast<std::size_t>(p.A.size()));
+                          append_bytes(key, p.b.data(), sizeof(double) * static_cast<std::size_t>(n));
                         },
-                        [&](const Box& b) { append(key, b.size.data(), 3 * sizeof(double)); },
-                        [&](const Sphere& s) { append(key, s.radius); },
+                        [&](const Box& b) { append_bytes(key, b.size.data(), 3 * sizeof(double)); },
+                        [&](const Sphere& s) { append_bytes(key, s.radius); },
                         [&](const Cylinder& c) {
-                          append(key, c.radius);
-                          append(key, c.height);
+                          append_bytes(key, c.radius);
+                          append_bytes(key, c.height);
                         },
                         [&](const Capsule& c) {
-                          append(key, c.radius);
-                          append(key, c.height);
+                          append_bytes(key, c.radius);
+                          append_bytes(key, c.height);
                         }},
              shape);
   const VecX& w = p2s.weights();
-  append(key, w.data(), sizeof(double) * static_cast<std::size_t>(w.size()));
-  append(key, p2s.round_weight());
-  append(key, p2s.rho_ball().center.data(), 3 * sizeof(double));
-  append(key, p2s.rho_ball().radius);
-  append(key, p2s.strict_params().eps);
-  append(key, p2s.strict_params().sigma);
-  append(key, p2s.phi().h());
+  append_bytes(key, w.data(), sizeof(double) * static_cast<std::size_t>(w.size()));
+  append_bytes(key, p2s.round_weight());
+  append_bytes(key, p2s.rho_ball().center.data(), 3 * sizeof(double));
+  append_bytes(key, p2s.rho_ball().radius);
+  append_bytes(key, p2s.strict_params().eps);
+  append_bytes(key, p2s.strict_params().sigma);
+  append_bytes(key, p2s.phi().h());
   const int k = p2s.phi().k();
-  append(key, &k, sizeof k);
-  append(key, &samples, sizeof samples);
-  append(key, &seed, sizeof seed);
+  append_bytes(key, &k, sizeof k);
+  append_bytes(key, &samples, sizeof samples);
+  append_bytes(key, &seed, sizeof seed);
   return key;
 }
 
-class VerdictCache {
- public:
-  bool find(const std::string& key, ValidationReport& out) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    const auto it = index_.find(key);
-    if (it == index_.end()) {
-      ++misses_;
-      return false;
-    }
-    ++hits_;
-    order_.splice(order_.begin(), order_, it->second);  // most recently used first
-    out = it->second->second;
-    return true;
-  }
-  void insert(const std::string& key, const ValidationReport& report) {
-    const std::size_t size = cost(key, report);
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (size > capacity_ || index_.count(key)) return;  // too big, or another thread was first
-    order_.emplace_front(key, report);
-    index_.emplace(key, order_.begin());
-    bytes_ += size;
-    evict();
-  }
-  void set_capacity(std::size_t bytes) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    capacity_ = bytes;
-    evict();
-  }
-  ValidationCacheStats stats() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return {order_.size(), bytes_, capacity_, hits_, misses_};
-  }
-  void clear() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    index_.clear();
-    order_.clear();
-    bytes_ = hits_ = misses_ = 0;
-  }
-
- private:
-  // Bytes held per entry: the key twice (list and index) and the report.
-  static std::size_t cost(const std::string& key, const ValidationReport& r) {
-    return 2 * key.size() + sizeof(ValidationReport) + r.message.size() + 128;
-  }
-  void evict() {  // mutex_ held
-    while (bytes_ > capacity_) {
-      auto& last = order_.back();
-      bytes_ -= cost(last.first, last.second);
-      index_.erase(last.first);
-      order_.pop_back();
-    }
-  }
-  std::mutex mutex_;
-  std::size_t capacity_ = kValidationCacheBytes;
-  std::list<std::pair<std::string, ValidationReport>> order_;
-  std::unordered_map<std::string, std::list<std::pair<std::string, ValidationReport>>::iterator>
-      index_;
-  std::size_t bytes_ = 0, hits_ = 0, misses_ = 0;
-};
+std::size_t report_bytes(const ValidationReport& r) { return r.message.size(); }
+using VerdictCache = detail::ExactKeyCache<ValidationReport, report_bytes>;
 
 VerdictCache& cache() {
-  static VerdictCache c;
+  static VerdictCache c(kValidationCacheBytes);
   return c;
 }
 
@@ -500,7 +438,7 @@ ValidationReport validate_p2s(const PointToSet& original, int samples, std::uint
   return rep;
 }
 
-ValidationCacheStats validation_cache_stats() { return cache().stats(); }
+CacheStats validation_cache_stats() { return cache().stats(); }
 void clear_validation_cache() { cache().clear(); }
 void set_validation_cache_capacity(std::size_t bytes) { cache().set_capacity(bytes); }
 

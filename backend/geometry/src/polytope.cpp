@@ -230,6 +230,7 @@ Polytope polytope_from_points(const std::vector<Vec3>& points, const std::string
   if (!full_dimensional(pts)) throw InvalidInput(field + ".points", flat);
   const Hull h = hull_of(pts);
   Polytope P;
+  P.is_hull = true;
   fill_mesh(h, P);
   if (is_thin(P)) throw InvalidInput(field + ".points", flat);
 

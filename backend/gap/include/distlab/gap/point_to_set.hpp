@@ -1,6 +1,7 @@
 #pragma once
 // Point-to-set functions of one shape: the weak e_S (eq. 5 and its round-shape analogues) and the
 // strict E_S = ερ + sqrt(ε²ρ² + σ²e_S²) of eq. (6) (Theorem 2) with ρ = ½(‖p − c‖² − R²).
+#include <cstddef>
 #include <limits>
 #include <optional>
 #include <string>
@@ -24,8 +25,8 @@ struct StrictParams {
 inline constexpr double kDefaultRhoScale = 1.5;
 
 struct P2SOptions {
-  // Polytopes/boxes: W_i. Default 1/(m + weight_margin) (Section III-B); for a polytope of more
-  // than kAreaWeightedRows rows (a mesh's hull) w_i / (K (1 + weight_margin)) with w_i = A_i + Ā
+  // Polytopes/boxes: W_i. Default 1/(m + weight_margin) (Section III-B); for a hull of points
+  // (Polytope::is_hull) or a polytope of more than kAreaWeightedRows rows w_i / (K (1 + weight_margin)) with w_i = A_i + Ā
   // (A_i the facet's area, Ā their mean) and K max_violated_eigenvalue_bound of w, so that
   // Σ_violated W_i a_i a_iᵀ < I still.
   std::optional<VecX> weights;
@@ -61,6 +62,19 @@ struct PoseT {
   Eigen::Quaternion<T> rotation = Eigen::Quaternion<T>::Identity();
   static PoseT from(const Pose& p) { return {p.position.cast<T>(), p.rotation.cast<T>()}; }
 };
+
+// Contents and counters of an exact-key cache (the hull weights below, the validator's verdicts).
+struct CacheStats {
+  std::size_t entries = 0, bytes = 0, capacity = 0, hits = 0, misses = 0;
+};
+
+// A hull's weights (max_violated_eigenvalue_bound: seconds for thousands of facets) are computed
+// once per hull and weight_margin and kept, keyed by the hull's exact numbers, in at most this many
+// bytes (a 2,886-facet hull's entry is ~0.4 MB): a robot's model rebuilt for another obstacle set
+// reuses them. Thread-safe; least recently used out first.
+inline constexpr std::size_t kHullWeightCacheBytes = std::size_t{64} << 20;
+CacheStats hull_weight_cache_stats();
+void clear_hull_weight_cache();
 
 class PointToSet {
  public:

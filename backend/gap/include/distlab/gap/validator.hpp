@@ -54,12 +54,9 @@ struct ValidationReport {
 // `samples` random points besides the targeted ones.
 ValidationReport validate_p2s(const PointToSet& original, int samples = 2000, std::uint64_t seed = 1);
 
-// The verdict cache's contents and counters; clear_validation_cache empties it, and
-// set_validation_cache_capacity replaces kValidationCacheBytes (tests, benchmarks).
-struct ValidationCacheStats {
-  std::size_t entries = 0, bytes = 0, capacity = 0, hits = 0, misses = 0;
-};
-ValidationCacheStats validation_cache_stats();
+// The verdict cache's contents and counters (CacheStats, point_to_set.hpp); clear_validation_cache
+// empties it, and set_validation_cache_capacity replaces kValidationCacheBytes (tests, benchmarks).
+CacheStats validation_cache_stats();
 void clear_validation_cache();
 void set_validation_cache_capacity(std::size_t bytes);
 

@@ -11,6 +11,7 @@ struct Polytope {
   VecX b;                              // n offsets: the set is {x : A x <= b}
   std::vector<Vec3> vertices;          // extreme points, no duplicates
   std::vector<Eigen::Vector3i> faces;  // triangles over `vertices`, outward (counter-clockwise)
+  bool is_hull = false;                // made by polytope_from_points: a mesh's or a cloud's hull
 
   int rows() const { return static_cast<int>(A.rows()); }
 };
@@ -36,16 +37,18 @@ int max_violated_halfspaces(const MatX3& A_unit_rows);
 // with a_i . v > 0 and the rows tied at v (a_i . v = 0 within 1e-9) of one tangent half circle,
 // which holds every cell's set at v. ∂²e_S of eq. 5 is at most
 // this times the largest Φ''. Exact where the rows are in general position (each arrangement
-// vertex on exactly two great circles). The P2S functions use it above kAreaWeightedRows rows.
+// vertex on exactly two great circles). The P2S functions use it for hulls (is_hull) and above
+// kAreaWeightedRows rows.
 double max_violated_eigenvalue_bound(const MatX3& A_unit_rows, const VecX& w);
 
 // The area of each row's facet: the polytope's triangles, each given to the row whose normal is
 // nearest its own. 0 for a row that touches the set only in an edge or a vertex, or is redundant.
 VecX facet_areas(const Polytope& P);
 
-// Above this many rows a polytope is taken for a mesh's hull and its P2S weights go by facet area
-// (PointToSet); hand-written polytopes and the paper's (10 rows) have fewer. A 200-facet pelvis hull
-// (Gepetto/example-robot-data's alex) already broke Property 2 with W = 1/(m + margin).
+// A hull (is_hull) and a polytope of more rows than this get P2S weights by facet area (PointToSet),
+// not 1/(m + margin): a 45-facet hull of finger_edu (Gepetto/example-robot-data), m = 42, broke
+// Property 2 with it. Written rows keep the paper's rule up to here (its polytopes have 10); above,
+// the exact m would cost O(n³).
 inline constexpr int kAreaWeightedRows = 64;
 
 }  // namespace distlab
