@@ -26,9 +26,9 @@ inline constexpr double kDefaultRhoScale = 1.5;
 
 struct P2SOptions {
   // Polytopes/boxes: W_i. Default 1/(m + weight_margin) (Section III-B); for a hull of points
-  // (Polytope::is_hull) or a polytope of more than kAreaWeightedRows rows w_i / (K (1 + weight_margin)) with w_i = A_i + Ā
-  // (A_i the facet's area, Ā their mean) and K max_violated_eigenvalue_bound of w, so that
-  // Σ_violated W_i a_i a_iᵀ < I still.
+  // (Polytope::is_hull) or a polytope of more than kAreaWeightedRows rows
+  // w_i / (K (1 + weight_margin)) with w_i = A_i + Ā (A_i the facet's area, Ā their mean) and K
+  // max_violated_eigenvalue_bound of w, so that Σ_violated W_i a_i a_iᵀ < I still.
   std::optional<VecX> weights;
   double weight_margin = 0.01;  // the small positive number in W_i = 1/(m + ε), Section III-B
   std::optional<Ball> rho;      // ball of ρ in the shape frame; default: bounding ball scaled
@@ -70,8 +70,8 @@ struct CacheStats {
 
 // A hull's weights (max_violated_eigenvalue_bound: seconds for thousands of facets) are computed
 // once per hull and weight_margin and kept, keyed by the hull's exact numbers, in at most this many
-// bytes (a 2,886-facet hull's entry is ~0.4 MB): a robot's model rebuilt for another obstacle set
-// reuses them. Thread-safe; least recently used out first.
+// bytes (a 2,886-facet hull's entry is ~0.3 MB: its rows, faces and vertices twice), so a robot's
+// model rebuilt for another obstacle set reuses them. Thread-safe; least recently used out first.
 inline constexpr std::size_t kHullWeightCacheBytes = std::size_t{64} << 20;
 CacheStats hull_weight_cache_stats();
 void clear_hull_weight_cache();
