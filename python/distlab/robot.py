@@ -30,8 +30,10 @@ each face, as in the CBF scenarios, where the Property 2 validator accepts that 
 box and the params, else (thin walls, large floors) the gap library's general-polytope default
 1/(3 + weight_margin); other shapes get the gap library's defaults, so a mesh element's distance
 is the ``convex_hull`` request's. Shapes far smaller than ``h`` (a millimetre box with h = 0.1)
-break Property 2 under any weight: ``validate`` refuses them naming the body; a smaller ``h``
-(or the Euclidean metric) takes them.
+break Property 2 under any weight: a robot's collision element that does takes its own, smaller
+``h`` where the validator accepts it (a ``UserWarning`` names it and gives that h; its distances
+are sharper than the other elements'); an obstacle that does is refused by ``validate``, naming
+it; a smaller ``h`` (or the Euclidean metric) takes it.
 
 **Witness points.** Euclidean: the nearest points of the two shapes. GAP: the solution (a*, b*)
 of the metric's min–max (the alternating projection's fixed point, eq. 2), which lies near the
@@ -358,7 +360,10 @@ class Robot:
         ``params``: the GAP parameters (a dict as ``distlab gap``'s ``"params"``, or a
         :class:`distlab.gap.Params`); ``validate`` (default on) checks Property 2 of every body
         once per model (a failing obstacle raises InvalidInput ``"obstacles[i]"``, a failing
-        collision element ``"urdf"`` or, for a built-in robot, ``"name"``).
+        collision element ``"urdf"`` or, for a built-in robot, ``"name"``). A collision element small
+        against ``h`` (a few millimetres: an IMU's box, a placeholder sphere) that fails
+        Property 2 takes its own, smaller h where it holds, with a ``UserWarning`` naming it and
+        that h; its distances are then sharper than the other elements'.
         ``threads``: 0 for every core; a batch is split into contiguous runs, one per thread.
         ``tracking`` (GAP): each configuration continues from the solution of the one before in
         its run (gap_distance_tracked; the same answers within the solver's tolerance, fewer

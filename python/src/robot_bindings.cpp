@@ -129,6 +129,9 @@ class PyRobot {
       entry->model = std::make_shared<const robot::DistanceModel>(robot_, std::move(obs), m, rp.params, selection);
       if (rp.validate) server::validate_robot_bodies(*entry->model, field_);
     }
+    // Elements that took their own h (robot::element_params): once per model, as UserWarnings.
+    for (const std::string& w : entry->model->warnings())
+      if (PyErr_WarnEx(PyExc_UserWarning, w.c_str(), 1) != 0) throw py::error_already_set();
     entry->obstacles = std::move(oj);
     entry->pairs = std::move(pj);
     entry->params = std::move(prj);

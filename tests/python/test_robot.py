@@ -450,6 +450,40 @@ def test_a_finely_meshed_link_is_accepted_with_the_defaults(tmp_path):
         assert d.distance[0, p] == pytest.approx(cli["distance"], rel=1e-9, abs=1e-12)
 
 
+def test_a_millimetre_element_takes_its_own_h_with_a_warning(tmp_path):
+    """An IMU's 2 mm box on a link (as in quadrupeds' descriptions) breaks Property 2 at h = 0.1:
+    it takes its own h, which a UserWarning names exactly, once per model. With that h alone the
+    element passes the check the model itself refuses at h = 0.1; distances are finite, converged,
+    and dD/dq is their derivative. An obstacle of that size is still refused, naming it."""
+    (tmp_path / "imu.urdf").write_text(
+        '<robot name="imu"><link name="world"/><link name="l1">'
+        '<collision><origin xyz="0.15 0 0"/><geometry><cylinder radius="0.04" length="0.3"/></geometry></collision>'
+        '<collision><origin xyz="0.05 0 0.045"/><geometry><box size="0.002 0.002 0.002"/></geometry></collision></link>'
+        '<joint name="j" type="revolute"><parent link="world"/><child link="l1"/><origin xyz="0 0 0.1"/>'
+        '<axis xyz="0 1 0"/><limit lower="-1.5" upper="1.5" effort="1" velocity="1"/></joint></robot>')
+    robot = Robot.from_urdf(tmp_path / "imu.urdf")
+    assert robot.warnings == []
+    obstacles = [{"type": "sphere", "radius": 0.05, "pose": {"position": [0.3, 0.2, 0.3]}}]
+    q = np.array([0.3])
+    with pytest.warns(UserWarning, match=r'collision element "l1/collision\[1\]": bounding radius .* small against '
+                                         r'h = 0.1: its GAP function takes h = ') as caught:
+        J, fd, d = central_differences(robot, q, obstacles, "gap", "obstacles", 1e-4)
+    own = float(str(caught[0].message).split("takes h = ")[1].split(",")[0])
+    assert 0 < own < 0.1
+    assert np.isfinite(d.distance).all() and not d.overlap.any() and d.converged.all()
+    assert_jacobians(J, fd, d.distance, 1e-4, np.ones(len(d.pairs), bool), "imu link")
+    # The warning's h is the element's: the CLI's Property 2 check passes the box there, not at 0.1.
+    box = {"type": "box", "size": [0.002, 0.002, 0.002]}
+    ball = {"type": "sphere", "radius": 0.05, "pose": {"position": [0.3, 0, 0]}}
+    assert gap.solve({"a": box, "b": ball, "params": {"h": own, "validate": True}})["distance"] > 0
+    with pytest.raises(distlab.InvalidInput):
+        gap.solve({"a": box, "b": ball, "params": {"h": 0.1, "validate": True}})
+    # The same box as an obstacle is the caller's own: refused at h = 0.1, naming it.
+    with pytest.raises(distlab.InvalidInput) as e:
+        robot.distances(q, [dict(box, pose={"position": [0.5, 0, 0.5]})])
+    assert e.value.field == "obstacles[0]"
+
+
 def test_box_obstacles_take_the_weight_of_the_scenarios(meshbot):
     """A box without weights is weighted 1/(1 + weight_margin) (robot/distances.hpp), as documented:
     the CLI's answer with those weights given, not with the gap library's default."""

@@ -31,6 +31,7 @@
 #include "robot_test_util.hpp"
 
 #include "distlab/gap/distance.hpp"
+#include "distlab/gap/validator.hpp"
 #include "distlab/robot/distances.hpp"
 
 namespace distlab::robot {
@@ -67,6 +68,7 @@ std::vector<double> term_scales(const DistanceModel& model, const VecQ& q) {
   const Kinematics k = robot.forward(q);
   const GapParams& params = model.params();
   const auto& prims = robot.primitives();
+  const DistanceModel::Workspace bodies = model.workspace();  // an element's own h included
   std::vector<double> out;
   for (const RobotPair& p : model.pairs()) {
     const Pose pa = robot.primitive_pose(k, p.a);
@@ -75,10 +77,9 @@ std::vector<double> term_scales(const DistanceModel& model, const VecQ& q) {
     const EuclideanResult e = euclidean_distance(model.robot_shape(p.a), pa, eb, pb);
     Vec6 ga = e.gradient_a, gb = e.gradient_b;
     if (model.metric() == Metric::gap) {
-      const Shape& sb = p.self ? prims[p.b].shape : model.obstacles()[p.b].shape;
-      const P2SOptions none;
-      const GapBody A(prims[p.a].shape, pa, params, gap_body_options(prims[p.a].shape, none, params));
-      const GapBody B(sb, pb, params, gap_body_options(sb, p.self ? none : model.obstacles()[p.b].options, params));
+      GapBody A = bodies.robot_gap[p.a], B = p.self ? bodies.robot_gap[p.b] : model.obstacle_body(p.b);
+      A.set_pose(pa);
+      B.set_pose(pb);
       const GapResult r = gap_distance(A, B, params);
       ga = r.gradient_a, gb = r.gradient_b;
     }
@@ -211,6 +212,74 @@ TEST(DistanceJacobians, MeshRobotRandomConfigurations) {
     EXPECT_EQ(checked.pairs, 6 * 25);
     record(to_string(metric), checked);
   }
+}
+
+// A URDF arm with collision elements small against h = 0.1 (element_params): an IMU's 2 mm box
+// (as in quadrupeds' descriptions), a 1 mm placeholder sphere (a gripper's thumb) and a 9 mm
+// sphere, besides a link-sized cylinder. The base has none (its distances do not move with q).
+std::shared_ptr<const Robot> arm_with_small_elements() {
+  return Robot::from_urdf(R"(<robot name="small">
+  <link name="base"/>
+  <link name="arm">
+    <collision><origin xyz="0.15 0 0"/><geometry><cylinder radius="0.04" length="0.3"/></geometry></collision>
+    <collision><origin xyz="0.05 0 0.045"/><geometry><box size="0.002 0.002 0.002"/></geometry></collision>
+  </link>
+  <link name="hand">
+    <collision><geometry><sphere radius="0.009"/></geometry></collision>
+    <collision><origin xyz="0.02 0 0"/><geometry><sphere radius="0.001"/></geometry></collision>
+  </link>
+  <joint name="shoulder" type="revolute"><parent link="base"/><child link="arm"/><origin xyz="0 0 0.1"/>
+    <axis xyz="0 1 0"/><limit lower="-1.5" upper="1.5" effort="1" velocity="1"/></joint>
+  <joint name="wrist" type="revolute"><parent link="arm"/><child link="hand"/><origin xyz="0.33 0 0"/>
+    <axis xyz="0 0 1"/><limit lower="-2" upper="2" effort="1" velocity="1"/></joint>
+</robot>)");
+}
+
+TEST(DistanceJacobians, ElementsSmallAgainstHTakeTheirOwnH) {
+  const auto robot = arm_with_small_elements();
+  const std::vector<Obstacle> obstacles = {{"ball", Sphere{0.05}, {Vec3(0.3, 0.2, 0.3), Quat::Identity()}},
+                                           {"slab", Box{Vec3(0.6, 0.6, 0.02)}, {Vec3(0.2, 0, 0.5), Quat::Identity()}}};
+  const GapParams params;
+  const DistanceModel model(robot, obstacles, Metric::gap, params, PairSelection{});
+  const auto& prims = robot->primitives();
+  ASSERT_EQ(prims.size(), 4u);
+  const DistanceModel::Workspace w = model.workspace();
+  int own = 0;
+  for (std::size_t i = 0; i < prims.size(); ++i) {
+    SCOPED_TRACE(prims[i].name);
+    const GapBody at_h(prims[i].shape, Pose{}, params, gap_body_options(prims[i].shape, {}, params));
+    const bool passes_at_h = validate_p2s(at_h.p2s()).ok;
+    const double h = w.robot_gap[i].p2s().phi().h();
+    EXPECT_TRUE(validate_p2s(w.robot_gap[i].p2s()).ok);  // every body the model holds keeps Property 2
+    if (passes_at_h) {
+      EXPECT_EQ(h, params.h);  // the 9 mm sphere too: small, but it passes at h
+    } else {
+      ++own;  // the 2 mm box and the 1 mm sphere fail at h, and take a smaller one
+      EXPECT_LT(bounding_ball(prims[i].shape).radius, kSmallElementShare * params.h);
+      EXPECT_LT(h, params.h);
+    }
+  }
+  EXPECT_EQ(own, 2);
+  ASSERT_EQ(model.warnings().size(), 2u);
+  for (const std::string& warning : model.warnings())
+    EXPECT_NE(warning.find("small against h = 0.1: its GAP function takes h = "), std::string::npos) << warning;
+  EXPECT_NE(model.warnings()[0].find(prims[1].name), std::string::npos) << model.warnings()[0];
+  EXPECT_NE(model.warnings()[1].find(prims[3].name), std::string::npos) << model.warnings()[1];
+  // Distances finite and converged, their Jacobians those of central differences.
+  std::mt19937_64 rng(11);
+  Checked checked;
+  for (int trial = 0; trial < 4; ++trial) {
+    const VecQ q = clear_configuration(model, rng, 1e-3);
+    const DistanceBatch b = at(model, q);
+    for (int p = 0; p < b.pairs; ++p) {
+      EXPECT_TRUE(std::isfinite(b.distance[p]) && b.distance[p] > 0) << model.pairs()[p].name;
+      EXPECT_TRUE(b.converged[p]) << model.pairs()[p].name;
+    }
+    expect_gradients_match_differences(model, q, "trial " + std::to_string(trial), checked);
+  }
+  EXPECT_EQ(checked.pairs, 4 * 8);
+  // The Euclidean metric has no h: no warning.
+  EXPECT_TRUE(DistanceModel(robot, obstacles, Metric::euclidean, params, PairSelection{}).warnings().empty());
 }
 
 // Moves `o` along the line of the nearest points of element `i` at q to kNear from it (the slab

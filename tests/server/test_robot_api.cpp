@@ -284,6 +284,31 @@ TEST_F(RobotApi, UrdfWithAnUploadedMeshIsItsHull) {
   EXPECT_NEAR(body_json(r)["distance"][0][0].get<double>(), std::hypot(std::cos(q) - 0.05, std::sin(q) - 0.05) - radius, 1e-9);
 }
 
+// A 2 mm box (an IMU in a quadruped's description) breaks Property 2 at h = 0.1: the element
+// takes its own h (robot::element_params), which the response's warnings give, and the request
+// succeeds with the GAP metric and the default validation; the Euclidean metric has no h.
+TEST_F(RobotApi, AMillimetreElementTakesItsOwnHWithAWarning) {
+  const std::string imu = R"(<robot name="imu"><link name="base"/>
+  <joint name="turn" type="revolute"><parent link="base"/><child link="plate"/><origin xyz="0 0 0.5"/>
+    <axis xyz="0 0 1"/><limit lower="-3" upper="3" velocity="1" effort="1"/></joint>
+  <link name="plate"><collision name="chip"><origin xyz="0.1 0 0"/><geometry><box size="0.002 0.002 0.002"/></geometry></collision></link>
+</robot>)";
+  const json sphere = {{"type", "sphere"}, {"radius", 0.05}, {"pose", {{"position", {0.4, 0, 0.5}}}}};
+  json req = {{"robot", {{"urdf", imu}}}, {"q", json::array({0.2})}, {"obstacles", json::array({sphere})}};
+  auto r = post(c, req);
+  ASSERT_EQ(r->status, 200) << r->body;
+  const json got = body_json(r);
+  ASSERT_EQ(got["warnings"].size(), 1u) << r->body;
+  EXPECT_NE(got["warnings"][0].get<std::string>().find("collision element \"chip\": bounding radius"), std::string::npos) << r->body;
+  EXPECT_NE(got["warnings"][0].get<std::string>().find("small against h = 0.1: its GAP function takes h = "), std::string::npos) << r->body;
+  EXPECT_GT(got["distance"][0][0].get<double>(), 0.0);
+  EXPECT_TRUE(got["converged"][0][0].get<bool>());
+  req["metric"] = "euclidean";
+  r = post(c, req);
+  ASSERT_EQ(r->status, 200) << r->body;
+  EXPECT_EQ(body_json(r)["warnings"], json::array());
+}
+
 TEST_F(RobotApi, UrdfErrorsNameTheirField) {
   const std::string s = new_session(c);
   const std::string cube = upload(c, s, kCubeObj);

@@ -1,6 +1,8 @@
 #include "distlab/robot/distances.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <mutex>
 #include <thread>
 
@@ -21,6 +23,45 @@ P2SOptions gap_body_options(const Shape& shape, P2SOptions options, const GapPar
   // weight is kept only where the validator finds no eigenvalue ≥ 1 (verdicts are cached).
   const GapBody body(shape, Pose{}, params, box, "box");
   return validate_p2s(body.p2s()).ok ? box : options;
+}
+
+namespace {
+// x rounded down to two significant digits (x > 0), computed as an integer over a power of ten
+// so that the value printed with %.2g reads back as the same double.
+double two_digits_down(double x) {
+  const int e = static_cast<int>(std::floor(std::log10(x))) - 1;
+  if (e >= 0 || e < -22) return x;  // 10^-e exact only up to 1e22
+  const double scale = std::pow(10.0, -e);
+  return std::max(std::floor(x * scale), 1.0) / scale;
+}
+}  // namespace
+
+GapParams element_params(const Shape& shape, const GapParams& params,
+                         const std::function<P2SOptions(const GapParams&)>& options, std::string& note) {
+  const double radius = bounding_ball(shape).radius;
+  if (!(radius < kSmallElementShare * params.h)) return params;
+  GapParams own = params;
+  double first_eigenvalue = 0;
+  for (int attempt = 0; attempt < kSmallElementAttempts; ++attempt) {
+    const GapBody body(shape, Pose{}, own, options(own), "element");
+    const ValidationReport report = validate_p2s(body.p2s());
+    if (report.ok) {
+      if (attempt == 0) return params;
+      char text[320];
+      std::snprintf(text, sizeof text,
+                    "bounding radius %.2g m, small against h = %.6g: its GAP function takes h = %.2g, where "
+                    "Property 2 holds (at h = %.6g the Hessian's eigenvalue reaches %.3g); its distances are "
+                    "sharper than the other elements'",
+                    radius, params.h, own.h, params.h, first_eigenvalue);
+      note = text;
+      return own;
+    }
+    // Only the growth that falls with h is helped by a smaller h.
+    if (!(report.max_eigenvalue > 1) || !std::isfinite(report.max_eigenvalue)) break;
+    if (attempt == 0) first_eigenvalue = report.max_eigenvalue;
+    own.h = two_digits_down(own.h * kSmallElementMargin / report.max_eigenvalue);
+  }
+  return params;  // still failing: the validation reports it at h
 }
 
 namespace {
@@ -74,21 +115,26 @@ DistanceModel::DistanceModel(std::shared_ptr<const Robot> robot, std::vector<Obs
                              const GapParams& params, const PairSelection& selection, const BodyOptions& options)
     : robot_(std::move(robot)), obstacles_(std::move(obstacles)), metric_(metric), params_(params), pool_(std::make_shared<Pool>()) {
   if (metric_ == Metric::gap) check_params(params_);
-  const auto body_options = [&](const Shape& shape, const P2SOptions& given) {
-    return options ? options(shape, given) : gap_body_options(shape, given, params_);
+  const auto body_options = [&](const Shape& shape, const P2SOptions& given, const GapParams& p) {
+    return options ? options(shape, given) : gap_body_options(shape, given, p);
   };
   pairs_ = select_pairs(*robot_, obstacles_, selection);
   const auto& prims = robot_->primitives();
   for (const LinkPrimitive& prim : prims) {
     robot_euclid_.emplace_back(prim.shape);
-    if (metric_ == Metric::gap)
-      robot_gap_.emplace_back(prim.shape, Pose{}, params_, body_options(prim.shape, {}), "robot." + prim.name);
+    if (metric_ != Metric::gap) continue;
+    std::string note;
+    const GapParams own =
+        element_params(
+            prim.shape, params_, [&](const GapParams& p) { return body_options(prim.shape, {}, p); }, note);
+    if (!note.empty()) warnings_.push_back("collision element \"" + prim.name + "\": " + note);
+    robot_gap_.emplace_back(prim.shape, Pose{}, own, body_options(prim.shape, {}, own), "robot." + prim.name);
   }
   for (std::size_t j = 0; j < obstacles_.size(); ++j) {
     const Obstacle& o = obstacles_[j];
     obstacle_euclid_.emplace_back(o.shape);
     if (metric_ == Metric::gap)
-      obstacle_gap_.emplace_back(o.shape, o.pose, params_, body_options(o.shape, o.options),
+      obstacle_gap_.emplace_back(o.shape, o.pose, params_, body_options(o.shape, o.options, params_),
                                  "obstacles[" + std::to_string(j) + "]");
   }
 }

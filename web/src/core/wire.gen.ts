@@ -4012,7 +4012,7 @@ export interface components {
             /** @enum {string} */
             metric: "gap" | "euclidean";
             n: number;
-            /** @description what the robot library noticed in the URDF and accepted, e.g. a mesh that is not closed (its vertices' convex hull is used) */
+            /** @description what the robot library noticed and accepted: in the URDF, e.g. a mesh that is not closed (its vertices' convex hull is used); with the GAP metric, a collision element small against h (a few millimetres) that takes its own, smaller h where Property 2 holds */
             warnings: string[];
             pairs: components["schemas"]["RobotPair"][];
             /** @description (N, P): GAP D = sqrt(2 Lambda) or the Euclidean distance; 0 on overlap */

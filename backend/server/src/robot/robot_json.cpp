@@ -267,6 +267,15 @@ RobotDistancesRequest decode_robot_distances(const Request& request, const Limit
   return out;
 }
 
+namespace {
+// The robot's (from its URDF), then the model's (elements with their own h).
+json warnings_json(const robot::DistanceModel& model) {
+  json out = model.robot().warnings();
+  for (const std::string& w : model.warnings()) out.push_back(w);
+  return out;
+}
+}  // namespace
+
 Response encode_robot_distances(const RobotDistances& result) {
   const robot::DistanceModel& model = *result.model;
   const robot::Robot& r = model.robot();
@@ -275,7 +284,7 @@ Response encode_robot_distances(const RobotDistances& result) {
               {"joint_names", r.joint_names()},
               {"metric", robot::to_string(model.metric())},
               {"n", result.batch.n},
-              {"warnings", r.warnings()},
+              {"warnings", warnings_json(model)},
               {"pairs", pairs_json(model)}};
   add_batch_json(result.batch, result.gradient, out);
   return json_response(200, out);

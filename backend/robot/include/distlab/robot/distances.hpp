@@ -77,6 +77,25 @@ struct PairDistance {
 // and other shapes: unchanged.
 P2SOptions gap_body_options(const Shape& shape, P2SOptions options, const GapParams& params);
 
+// Collision elements small against h (millimetres at h = 0.1: an IMU's box, a placeholder
+// sphere, a finger's pad in a maker's URDF) can break Property 2 under any weights: over a shape
+// far smaller than h, Φ(s) ≈ s³/(6h), so the Hessian's growth falls in proportion to h (the
+// validator's advice). An element whose bounding radius is below kSmallElementShare · h and whose
+// check fails takes its own h: kSmallElementMargin · h / (the largest eigenvalue found), rounded
+// down to two significant digits (the warning gives it exactly), checked again, at most
+// kSmallElementAttempts times. Each shape has its own e_S and E_S, which the GAP iteration and
+// eq. 3 take as they are, so the element's D stays differentiable and vanishes on contact; it is
+// sharper (closer to the Euclidean distance) around that element alone. An element that still
+// fails keeps h, and the validation refuses it as before.
+inline constexpr double kSmallElementShare = 0.25;
+inline constexpr double kSmallElementMargin = 0.5;
+inline constexpr int kSmallElementAttempts = 4;
+
+// The GAP parameters of one robot element: `params`, or with its own h as above (`note` says so).
+// `options`: the element's P2S options at given parameters.
+GapParams element_params(const Shape& shape, const GapParams& params,
+                         const std::function<P2SOptions(const GapParams&)>& options, std::string& note);
+
 // The robot, the obstacles, the metric and the pairs, built once (GAP bodies, FCL geometry); read
 // only after construction, so one model serves many threads, each with its own Workspace.
 class DistanceModel {
@@ -96,6 +115,8 @@ class DistanceModel {
   const GapParams& params() const { return params_; }
   const std::vector<RobotPair>& pairs() const { return pairs_; }
   int dof() const { return robot_->dof(); }
+  // Elements that took their own h (element_params), one line each, in primitives() order.
+  const std::vector<std::string>& warnings() const { return warnings_; }
 
   // One thread's state: FK, the robot's bodies at their current poses, and one GapTrack per pair
   // (the last solution, continued along a sequence of configurations).
@@ -134,6 +155,7 @@ class DistanceModel {
   Metric metric_;
   GapParams params_;
   std::vector<RobotPair> pairs_;
+  std::vector<std::string> warnings_;
   std::vector<GapBody> robot_gap_, obstacle_gap_;  // GAP metric only; robot_gap_ at the zero pose
   std::vector<EuclideanShape> robot_euclid_, obstacle_euclid_;
   struct Pool;
