@@ -250,8 +250,8 @@ TEST_F(MeshUrdf, MeshDistancesEqualThoseOfTheSameHull) {
 
 // A model rebuilt for an obstacle that moved (a controller's moving target) takes each mesh
 // hull's weights from the first model's work: no hull is weighed twice, and the distances are
-// those of a model built from nothing.
-TEST_F(MeshUrdf, AModelForMovedObstaclesReusesTheHullsWeights) {
+// those of a model built from nothing. Its FCL geometry is the Robot's.
+TEST_F(MeshUrdf, AModelForMovedObstaclesReusesTheHullsWeightsAndFclGeometry) {
   const GapParams params;
   const auto obstacles_at = [](double x) {
     return std::vector<Obstacle>{{"ball", Sphere{0.05}, {Vec3(x, -0.1, 0.55), Quat::Identity()}}};
@@ -272,6 +272,17 @@ TEST_F(MeshUrdf, AModelForMovedObstaclesReusesTheHullsWeights) {
   const DistanceBatch cold = distances(fresh, std::span<const double>(q.data(), q.size()), 1);
   EXPECT_EQ(warm.distance, cold.distance);
   EXPECT_EQ(warm.jacobian, cold.jacobian);
+
+  // Nor does it build the robot's FCL geometry again: every model's elements, and the GAP bodies of
+  // its workspaces, hold the Robot's own (read-only) geometry.
+  const DistanceModel::Workspace w = moved.workspace();
+  for (int i = 0; i < static_cast<int>(robot->primitives().size()); ++i) {
+    const auto* own = robot->euclidean_shape(i).fcl_geometry().get();
+    ASSERT_NE(own, nullptr);
+    EXPECT_EQ(first.robot_shape(i).fcl_geometry().get(), own) << i;
+    EXPECT_EQ(moved.robot_shape(i).fcl_geometry().get(), own) << i;
+    EXPECT_EQ(w.robot_gap[static_cast<std::size_t>(i)].euclidean().fcl_geometry().get(), own) << i;
+  }
 }
 
 // The text of the test's URDF with `from` replaced by `to` (once), parsed with its options.

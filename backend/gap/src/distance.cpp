@@ -38,10 +38,20 @@ GapBody::GapBody(const Shape& shape, const Pose& pose, const GapParams& params,
                  const P2SOptions& options, const std::string& field)
     : p2s_(shape, BaseFunction(params.h, params.k), StrictParams{params.eps, params.sigma},
            with_margin(options, params), field),
-      euclid_(shape),
-      radius_(0),
-      reach_(0) {
-  const Ball ball = bounding_ball(shape);
+      euclid_(shape) {  // after p2s_, whose checks name the field
+  place(pose);
+}
+
+GapBody::GapBody(const EuclideanShape& shape, const Pose& pose, const GapParams& params,
+                 const P2SOptions& options, const std::string& field)
+    : p2s_(shape.shape(), BaseFunction(params.h, params.k), StrictParams{params.eps, params.sigma},
+           with_margin(options, params), field),
+      euclid_(shape) {
+  place(pose);
+}
+
+void GapBody::place(const Pose& pose) {
+  const Ball ball = bounding_ball(p2s_.shape());
   radius_ = ball.radius;
   reach_ = ball.center.norm() + ball.radius;
   p2s_.set_pose(pose);

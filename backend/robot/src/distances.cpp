@@ -120,16 +120,17 @@ DistanceModel::DistanceModel(std::shared_ptr<const Robot> robot, std::vector<Obs
   };
   pairs_ = select_pairs(*robot_, obstacles_, selection);
   const auto& prims = robot_->primitives();
-  for (const LinkPrimitive& prim : prims) {
-    robot_euclid_.emplace_back(prim.shape);
-    if (metric_ != Metric::gap) continue;
-    std::string note;
-    const GapParams own =
-        element_params(
-            prim.shape, params_, [&](const GapParams& p) { return body_options(prim.shape, {}, p); }, note);
-    if (!note.empty()) warnings_.push_back("collision element \"" + prim.name + "\": " + note);
-    robot_gap_.emplace_back(prim.shape, Pose{}, own, body_options(prim.shape, {}, own), "robot." + prim.name);
-  }
+  if (metric_ == Metric::gap)
+    for (std::size_t i = 0; i < prims.size(); ++i) {
+      const LinkPrimitive& prim = prims[i];
+      std::string note;
+      const GapParams own =
+          element_params(
+              prim.shape, params_, [&](const GapParams& p) { return body_options(prim.shape, {}, p); }, note);
+      if (!note.empty()) warnings_.push_back("collision element \"" + prim.name + "\": " + note);
+      robot_gap_.emplace_back(robot_->euclidean_shape(static_cast<int>(i)), Pose{}, own, body_options(prim.shape, {}, own),
+                              "robot." + prim.name);
+    }
   for (std::size_t j = 0; j < obstacles_.size(); ++j) {
     const Obstacle& o = obstacles_[j];
     obstacle_euclid_.emplace_back(o.shape);
@@ -220,8 +221,8 @@ void DistanceModel::evaluate_at(Workspace& w, bool tracking, std::span<PairDista
       gb = g.gradient_b;
     } else {
       const Pose& pb = pair.self ? w.robot_pose[pair.b] : obstacles_[pair.b].pose;
-      const EuclideanShape& eb = pair.self ? robot_euclid_[pair.b] : obstacle_euclid_[pair.b];
-      const EuclideanResult e = euclidean_distance(robot_euclid_[pair.a], w.robot_pose[pair.a], eb, pb);
+      const EuclideanShape& eb = pair.self ? robot_->euclidean_shape(pair.b) : obstacle_euclid_[pair.b];
+      const EuclideanResult e = euclidean_distance(robot_->euclidean_shape(pair.a), w.robot_pose[pair.a], eb, pb);
       s.distance = s.clearance = e.distance;
       s.witness_a = e.witness_a;
       s.witness_b = e.witness_b;

@@ -481,6 +481,8 @@ std::shared_ptr<const Robot> Robot::from_urdf(const std::string& xml, const std:
       r->primitives_.push_back(std::move(prim));
     }
   }
+  r->euclidean_.reserve(r->primitives_.size());
+  for (const LinkPrimitive& prim : r->primitives_) r->euclidean_.emplace_back(prim.shape);
   // Self-collision pairs: elements of links at least two moving joints apart along the tree path.
   for (int i = 0; i < static_cast<int>(r->primitives_.size()); ++i)
     for (int j = i + 1; j < static_cast<int>(r->primitives_.size()); ++j)

@@ -52,6 +52,9 @@ class GapBody {
  public:
   GapBody(const Shape& shape, const Pose& pose, const GapParams& params,
           const P2SOptions& options = {}, const std::string& field = "shape");
+  // The same sharing FCL geometry already built (a robot's elements: Robot::euclidean_shape).
+  GapBody(const EuclideanShape& shape, const Pose& pose, const GapParams& params,
+          const P2SOptions& options = {}, const std::string& field = "shape");
   void set_pose(const Pose& pose);
   const Pose& pose() const { return p2s_.pose(); }
   const PointToSet& p2s() const { return p2s_; }
@@ -60,9 +63,10 @@ class GapBody {
   double reach() const { return reach_; }    // largest distance of a shape point from its origin
 
  private:
+  void place(const Pose& pose);  // the ball's radius and reach, then the pose
   PointToSet p2s_;
   EuclideanShape euclid_;
-  double radius_, reach_;
+  double radius_ = 0, reach_ = 0;
 };
 
 struct GapResult {

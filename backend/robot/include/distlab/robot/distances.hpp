@@ -134,7 +134,7 @@ class DistanceModel {
   void recycle(std::unique_ptr<Workspace> w) const;
   const GapBody& obstacle_body(int j) const { return obstacle_gap_[j]; }
   const EuclideanShape& obstacle_shape(int j) const { return obstacle_euclid_[j]; }
-  const EuclideanShape& robot_shape(int i) const { return robot_euclid_[i]; }
+  const EuclideanShape& robot_shape(int i) const { return robot_->euclidean_shape(i); }
 
   // Called per GAP pair after the exact solve, before the chain rule: may replace the result
   // (the as_published mode's early-stopped distance) and fill `out`'s extra fields.
@@ -157,7 +157,7 @@ class DistanceModel {
   std::vector<RobotPair> pairs_;
   std::vector<std::string> warnings_;
   std::vector<GapBody> robot_gap_, obstacle_gap_;  // GAP metric only; robot_gap_ at the zero pose
-  std::vector<EuclideanShape> robot_euclid_, obstacle_euclid_;
+  std::vector<EuclideanShape> obstacle_euclid_;    // the robot's: Robot::euclidean_shape
   struct Pool;
   std::shared_ptr<Pool> pool_;
 };
