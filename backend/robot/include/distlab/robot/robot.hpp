@@ -129,7 +129,8 @@ class Robot {
   int ee_link() const { return ee_link_; }
   const std::vector<LinkPrimitive>& primitives() const { return primitives_; }
   // Each element's FCL geometry, built once at load and shared (read-only) by every DistanceModel:
-  // FCL checks a mesh hull's topology in each Convex it constructs (~4 ms for the Kinova's base).
+  // FCL checks a mesh hull's topology in each Convex it constructs (the Kinova's 11 hulls, built
+  // twice per model before: 24 ms of a rebuild, now 2 ms).
   const EuclideanShape& euclidean_shape(int i) const { return euclidean_[static_cast<std::size_t>(i)]; }
   // Self-collision pairs (indices into primitives(), i < j): links ≥ 2 moving joints apart.
   const std::vector<std::pair<int, int>>& self_pairs() const { return self_pairs_; }
