@@ -265,6 +265,13 @@ TEST(DistanceJacobians, ElementsSmallAgainstHTakeTheirOwnH) {
     EXPECT_NE(warning.find("small against h = 0.1: its GAP function takes h = "), std::string::npos) << warning;
   EXPECT_NE(model.warnings()[0].find(prims[1].name), std::string::npos) << model.warnings()[0];
   EXPECT_NE(model.warnings()[1].find(prims[3].name), std::string::npos) << model.warnings()[1];
+  // The h a warning gives reads back as the element's h, to the bit.
+  for (const auto& [k, i] : {std::pair{0, 1}, std::pair{1, 3}}) {
+    const std::string& text = model.warnings()[static_cast<std::size_t>(k)];
+    const std::string takes = "takes h = ";
+    ASSERT_NE(text.find(takes), std::string::npos) << text;
+    EXPECT_EQ(std::stod(text.substr(text.find(takes) + takes.size())), w.robot_gap[static_cast<std::size_t>(i)].p2s().phi().h()) << text;
+  }
   // Distances finite and converged, their Jacobians those of central differences.
   std::mt19937_64 rng(11);
   Checked checked;

@@ -26,19 +26,19 @@ P2SOptions gap_body_options(const Shape& shape, P2SOptions options, const GapPar
 }
 
 namespace {
-// x rounded down to two significant digits (x > 0), computed as an integer over a power of ten
-// so that the value printed with %.2g reads back as the same double.
+// x rounded down to two significant digits (x > 0), computed with an exact power of ten so that
+// the value printed with %.2g reads back as the same double.
 double two_digits_down(double x) {
   const int e = static_cast<int>(std::floor(std::log10(x))) - 1;
-  if (e >= 0 || e < -22) return x;  // 10^-e exact only up to 1e22
-  const double scale = std::pow(10.0, -e);
-  return std::max(std::floor(x * scale), 1.0) / scale;
+  if (e < -22 || e > 22) return x;  // 10^|e| is exact only up to 1e22
+  const double scale = std::pow(10.0, std::abs(e));
+  return e < 0 ? std::max(std::floor(x * scale), 1.0) / scale : std::max(std::floor(x / scale), 1.0) * scale;
 }
 }  // namespace
 
-GapParams element_params(const Shape& shape, const GapParams& params,
+GapParams element_params(const EuclideanShape& shape, const GapParams& params,
                          const std::function<P2SOptions(const GapParams&)>& options, std::string& note) {
-  const double radius = bounding_ball(shape).radius;
+  const double radius = bounding_ball(shape.shape()).radius;
   if (!(radius < kSmallElementShare * params.h)) return params;
   GapParams own = params;
   double first_eigenvalue = 0;
@@ -124,12 +124,12 @@ DistanceModel::DistanceModel(std::shared_ptr<const Robot> robot, std::vector<Obs
     for (std::size_t i = 0; i < prims.size(); ++i) {
       const LinkPrimitive& prim = prims[i];
       std::string note;
+      const EuclideanShape& shape = robot_->euclidean_shape(static_cast<int>(i));
       const GapParams own =
           element_params(
-              prim.shape, params_, [&](const GapParams& p) { return body_options(prim.shape, {}, p); }, note);
+              shape, params_, [&](const GapParams& p) { return body_options(prim.shape, {}, p); }, note);
       if (!note.empty()) warnings_.push_back("collision element \"" + prim.name + "\": " + note);
-      robot_gap_.emplace_back(robot_->euclidean_shape(static_cast<int>(i)), Pose{}, own, body_options(prim.shape, {}, own),
-                              "robot." + prim.name);
+      robot_gap_.emplace_back(shape, Pose{}, own, body_options(prim.shape, {}, own), "robot." + prim.name);
     }
   for (std::size_t j = 0; j < obstacles_.size(); ++j) {
     const Obstacle& o = obstacles_[j];

@@ -91,9 +91,10 @@ inline constexpr double kSmallElementShare = 0.25;
 inline constexpr double kSmallElementMargin = 0.5;
 inline constexpr int kSmallElementAttempts = 4;
 
-// The GAP parameters of one robot element: `params`, or with its own h as above (`note` says so).
-// `options`: the element's P2S options at given parameters.
-GapParams element_params(const Shape& shape, const GapParams& params,
+// The GAP parameters of one robot element (its shape and FCL geometry, Robot::euclidean_shape):
+// `params`, or with its own h as above (`note` says so). `options`: the element's P2S options at
+// given parameters.
+GapParams element_params(const EuclideanShape& shape, const GapParams& params,
                          const std::function<P2SOptions(const GapParams&)>& options, std::string& note);
 
 // The robot, the obstacles, the metric and the pairs, built once (GAP bodies, FCL geometry); read
