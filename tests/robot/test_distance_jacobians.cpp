@@ -289,6 +289,36 @@ TEST(DistanceJacobians, ElementsSmallAgainstHTakeTheirOwnH) {
   EXPECT_TRUE(DistanceModel(robot, obstacles, Metric::euclidean, params, PairSelection{}).warnings().empty());
 }
 
+// Building a model calls its checkpoint before each GAP body and each Property 2 check of a small
+// element, so a time limit stops it at any of them: a checkpoint that throws at its k-th call
+// stops construction with that exception, for every k up to the calls a full build makes.
+TEST(DistanceJacobians, ModelConstructionStopsAtItsCheckpoint) {
+  const auto robot = arm_with_small_elements();
+  const std::vector<Obstacle> obstacles = {{"ball", Sphere{0.05}, {Vec3(0.3, 0.2, 0.3), Quat::Identity()}},
+                                           {"slab", Box{Vec3(0.6, 0.6, 0.02)}, {Vec3(0.2, 0, 0.5), Quat::Identity()}}};
+  const auto calls_of = [&](Metric metric) {
+    int calls = 0;
+    const DistanceModel model(robot, obstacles, metric, GapParams{}, PairSelection{}, nullptr, [&] { ++calls; });
+    return calls;
+  };
+  EXPECT_EQ(calls_of(Metric::euclidean), 2);  // the obstacles' shapes; the robot's are built at load
+  // GAP: 4 bodies and 2 obstacles, and at least one check of each of the 3 small elements (the
+  // 2 mm box and the 1 mm sphere fail at h and are checked again).
+  const int calls = calls_of(Metric::gap);
+  EXPECT_GE(calls, 4 + 2 + 3 + 2);
+  struct Stop {};
+  for (int k = 1; k <= calls; ++k) {
+    int seen = 0;
+    EXPECT_THROW(DistanceModel(robot, obstacles, Metric::gap, GapParams{}, PairSelection{}, nullptr,
+                               [&] {
+                                 if (++seen == k) throw Stop{};
+                               }),
+                 Stop)
+        << "call " << k;
+    EXPECT_EQ(seen, k);
+  }
+}
+
 // Moves `o` along the line of the nearest points of element `i` at q to kNear from it (the slab
 // between the nearest points' planes keeps separating them: the distance falls by the move).
 void place_near(const DistanceModel& model, const VecQ& q, int i, Obstacle& o) {

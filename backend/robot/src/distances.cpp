@@ -37,12 +37,14 @@ double two_digits_down(double x) {
 }  // namespace
 
 GapParams element_params(const EuclideanShape& shape, const GapParams& params,
-                         const std::function<P2SOptions(const GapParams&)>& options, std::string& note) {
+                         const std::function<P2SOptions(const GapParams&)>& options, std::string& note,
+                         const std::function<void()>& checkpoint) {
   const double radius = bounding_ball(shape.shape()).radius;
   if (!(radius < kSmallElementShare * params.h)) return params;
   GapParams own = params;
   double first_eigenvalue = 0;
   for (int attempt = 0; attempt < kSmallElementAttempts; ++attempt) {
+    if (checkpoint) checkpoint();
     const GapBody body(shape, Pose{}, own, options(own), "element");
     const ValidationReport report = validate_p2s(body.p2s());
     if (report.ok) {
@@ -112,7 +114,8 @@ std::vector<RobotPair> select_pairs(const Robot& robot, const std::vector<Obstac
 }
 
 DistanceModel::DistanceModel(std::shared_ptr<const Robot> robot, std::vector<Obstacle> obstacles, Metric metric,
-                             const GapParams& params, const PairSelection& selection, const BodyOptions& options)
+                             const GapParams& params, const PairSelection& selection, const BodyOptions& options,
+                             const std::function<void()>& checkpoint)
     : robot_(std::move(robot)), obstacles_(std::move(obstacles)), metric_(metric), params_(params), pool_(std::make_shared<Pool>()) {
   if (metric_ == Metric::gap) check_params(params_);
   const auto body_options = [&](const Shape& shape, const P2SOptions& given, const GapParams& p) {
@@ -125,14 +128,15 @@ DistanceModel::DistanceModel(std::shared_ptr<const Robot> robot, std::vector<Obs
       const LinkPrimitive& prim = prims[i];
       std::string note;
       const EuclideanShape& shape = robot_->euclidean_shape(static_cast<int>(i));
-      const GapParams own =
-          element_params(
-              shape, params_, [&](const GapParams& p) { return body_options(prim.shape, {}, p); }, note);
+      const GapParams own = element_params(
+          shape, params_, [&](const GapParams& p) { return body_options(prim.shape, {}, p); }, note, checkpoint);
       if (!note.empty()) warnings_.push_back("collision element \"" + prim.name + "\": " + note);
+      if (checkpoint) checkpoint();
       robot_gap_.emplace_back(shape, Pose{}, own, body_options(prim.shape, {}, own), "robot." + prim.name);
     }
   for (std::size_t j = 0; j < obstacles_.size(); ++j) {
     const Obstacle& o = obstacles_[j];
+    if (checkpoint) checkpoint();
     obstacle_euclid_.emplace_back(o.shape);
     if (metric_ == Metric::gap)
       obstacle_gap_.emplace_back(o.shape, o.pose, params_, body_options(o.shape, o.options, params_),

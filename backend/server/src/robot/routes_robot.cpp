@@ -43,8 +43,9 @@ RobotDistances RobotModule::distances(const RobotDistancesRequest& request, cons
   out.robot_name = request.urdf ? robot->name() : request.builtin;
   out.gradient = request.params.params.gradient;
   // Throws InvalidInput naming "params.*", "obstacles[i]..." or "pairs.allow[i]" / "pairs.deny[i]".
+  const auto check = [&] { deadline.check("send fewer or simpler collision elements and obstacles"); };
   out.model = std::make_shared<const robot::DistanceModel>(std::move(robot), request.obstacles, request.metric, request.params.params,
-                                                           request.pairs);
+                                                           request.pairs, nullptr, check);
   const std::size_t evaluations = static_cast<std::size_t>(n) * out.model->pairs().size();
   if (evaluations > lim.max_robot_pair_evaluations)
     throw ApiError(413, "too_many_evaluations",

@@ -93,9 +93,10 @@ inline constexpr int kSmallElementAttempts = 4;
 
 // The GAP parameters of one robot element (its shape and FCL geometry, Robot::euclidean_shape):
 // `params`, or with its own h as above (`note` says so). `options`: the element's P2S options at
-// given parameters.
+// given parameters. `checkpoint`, if given, is called before each check (it may throw to stop).
 GapParams element_params(const EuclideanShape& shape, const GapParams& params,
-                         const std::function<P2SOptions(const GapParams&)>& options, std::string& note);
+                         const std::function<P2SOptions(const GapParams&)>& options, std::string& note,
+                         const std::function<void()>& checkpoint = nullptr);
 
 // The robot, the obstacles, the metric and the pairs, built once (GAP bodies, FCL geometry); read
 // only after construction, so one model serves many threads, each with its own Workspace.
@@ -105,9 +106,12 @@ class DistanceModel {
   // controller's as_published mode passes the published package's construction.
   using BodyOptions = std::function<P2SOptions(const Shape&, const P2SOptions& given)>;
   // Throws InvalidInput naming the field: "params.*" (check_params), "obstacles[i]...",
-  // "pairs.allow[i]" / "pairs.deny[i]" (an unknown link).
+  // "pairs.allow[i]" / "pairs.deny[i]" (an unknown link). Building GAP bodies of large hulls
+  // (their weights, element_params' checks) takes time: `checkpoint`, if given, is called before
+  // each body and each check, and may throw to stop (the server's time limit).
   DistanceModel(std::shared_ptr<const Robot> robot, std::vector<Obstacle> obstacles, Metric metric,
-                const GapParams& params, const PairSelection& selection, const BodyOptions& options = nullptr);
+                const GapParams& params, const PairSelection& selection, const BodyOptions& options = nullptr,
+                const std::function<void()>& checkpoint = nullptr);
 
   const Robot& robot() const { return *robot_; }
   const std::shared_ptr<const Robot>& robot_ptr() const { return robot_; }
