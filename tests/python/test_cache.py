@@ -20,9 +20,10 @@ CUBE_F = np.array([[0, 2, 1], [0, 3, 2], [4, 5, 6], [4, 6, 7], [0, 1, 5], [0, 5,
                    [1, 2, 6], [1, 6, 5], [2, 3, 7], [2, 7, 6], [3, 0, 4], [3, 4, 7]])
 POINTS = [[1.0, 0.3, 0.2], [-0.9, 0.8, 0.1], [0.2, -0.3, 1.5]]
 
-# One process of the two-process test: waits for the go, prepares the cube (sleeping 1.5 s in its
-# first meshing report if it prepares, so the other certainly finds it preparing) and prints what
-# it got.
+# One process of the two-process test: waits for the go, prepares the cube and prints what it got.
+# The one that prepares holds its first meshing report until the other reports waiting (at most
+# 60 s), so the other certainly finds it preparing however late it is scheduled (a fixed 1.5 s
+# sleep, before, was outlasted once on a loaded machine).
 CHILD = textwrap.dedent("""
     import json, os, sys, time
     import numpy as np
@@ -32,9 +33,14 @@ CHILD = textwrap.dedent("""
     while not os.path.exists(sys.argv[5]):
         time.sleep(0.001)
     stages = []
+    waiting = sys.argv[5] + ".waiting"
     def progress(stage, fraction):
+        if stage == "wait":
+            open(waiting, "w").close()
         if stage == "mesh" and "mesh" not in stages:
-            time.sleep(1.5)
+            end = time.monotonic() + 60
+            while not os.path.exists(waiting) and time.monotonic() < end:
+                time.sleep(0.001)
         stages.append(stage)
     f = kelvin.Field.prepare((V, F), lx=0.3, cache_dir=sys.argv[1], progress=progress)
     f.set_sigma(constant=0.2)
