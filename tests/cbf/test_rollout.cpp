@@ -1,5 +1,6 @@
 // The narrow corridor rollout (paper Section IV-B, corridor_narrow) with both metrics: outcomes,
 // never times.
+#include <atomic>
 #include <cmath>
 
 #include <gtest/gtest.h>
@@ -7,6 +8,7 @@
 #include "panda.hpp"
 
 #include "distlab/cbf/rollout.hpp"
+#include "distlab/geometry/progress.hpp"
 
 namespace distlab::cbf {
 namespace {
@@ -50,6 +52,40 @@ TEST_P(Corridor, SafeFeasibleAndComplete) {
 
 INSTANTIATE_TEST_SUITE_P(BothMetrics, Corridor, ::testing::Values(Metric::gap, Metric::euclidean),
                          [](const auto& p) { return std::string(to_string(p.param)); });
+
+// Building the controller's GAP model calls its checkpoint before each body (one per robot element
+// and obstacle), and a checkpoint that throws at any of its calls stops the build with that
+// exception. A rollout passes its cancel there: cancelled before it starts, it stops while the
+// model is built, with nothing reported and an empty record (not even the model's pairs).
+TEST(Rollout, CancelStopsTheModelsConstruction) {
+  const Scenario sc = test::narrow();
+  int calls = 0;
+  {
+    const CbfController counted(sc, Metric::gap, [&] { ++calls; });
+  }
+  EXPECT_GE(calls, static_cast<int>(sc.robot->primitives().size() + sc.obstacles.size()));
+  struct Stop {};
+  for (int k = 1; k <= calls; ++k) {
+    int seen = 0;
+    EXPECT_THROW(CbfController(sc, Metric::gap,
+                               [&] {
+                                 if (++seen == k) throw Stop{};
+                               }),
+                 Stop)
+        << "call " << k;
+    EXPECT_EQ(seen, k);
+  }
+  std::atomic<bool> cancel{true};
+  int reports = 0;
+  RolloutOptions options;
+  options.progress = Progress{[&](const std::string&, double) { ++reports; }, &cancel};
+  RolloutRecord record;
+  record.steps.resize(2);
+  EXPECT_THROW(rollout(sc, Metric::gap, options, record), Cancelled);
+  EXPECT_EQ(reports, 0);
+  EXPECT_TRUE(record.steps.empty());
+  EXPECT_TRUE(record.pairs.empty());
+}
 
 }  // namespace
 }  // namespace distlab::cbf

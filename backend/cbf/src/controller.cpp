@@ -130,7 +130,7 @@ struct CbfController::Impl {
   GradQ grad;
 };
 
-CbfController::CbfController(const Scenario& scenario, Metric metric)
+CbfController::CbfController(const Scenario& scenario, Metric metric, const std::function<void()>& checkpoint)
     : scenario_(scenario), metric_(metric), impl_(std::make_unique<Impl>()) {
   validate(scenario_);
   robot_ = scenario_.robot;
@@ -153,7 +153,8 @@ CbfController::CbfController(const Scenario& scenario, Metric metric)
   }
   robot::PairSelection selection;
   selection.self = scenario_.self_collision;
-  m.model = std::make_unique<robot::DistanceModel>(robot_, scenario_.obstacles, metric_, exact, selection, options);
+  m.model = std::make_unique<robot::DistanceModel>(robot_, scenario_.obstacles, metric_, exact, selection, options,
+                                                   checkpoint);
   m.w = m.model->workspace();
   if (!scenario_.fields.empty()) {
     m.barrier = std::make_unique<FieldBarrier>(scenario_.fields, scenario_.control_points);

@@ -153,12 +153,13 @@ void summarise(CbfController& controller, const Scenario& scenario, const Rollou
 
 void rollout(const Scenario& scenario, Metric metric, const RolloutOptions& options, RolloutRecord& rec) {
   const auto w0 = std::chrono::steady_clock::now();
-  CbfController controller(scenario, metric);
+  rec = RolloutRecord{};
+  // The cancel is polled while the model's bodies are built too (thousand-facet hulls take seconds).
+  CbfController controller(scenario, metric, [&] { options.progress.check(); });
   require_safe_start(scenario, scenario.q0);
   std::vector<FieldSurface> surfaces;
   for (const SceneField& f : scenario.fields) surfaces.emplace_back(f);
   std::vector<Vec3> points(scenario.control_points.size());
-  rec = RolloutRecord{};
   rec.control_points = scenario.control_points;
   for (std::size_t i = 0; i < scenario.fields.size(); ++i) {
     const SceneField& f = scenario.fields[i];

@@ -4,6 +4,7 @@
 //   s.t. ∇_q D_ij · u ≥ −η (D_ij − δ)   for robot–obstacle and self-collision pairs (eq. 7),
 //        u ≥ −η_q (q − q_min),  −u ≥ −η_q (q_max − q)   (joint limits),
 // with D the GAP distance sqrt(2Λ) or the Euclidean distance (FCL).
+#include <functional>
 #include <limits>
 #include <memory>
 #include <string>
@@ -64,7 +65,10 @@ GapResult published_distance(const GapBody& a, const GapBody& b, const GapParams
 
 class CbfController {
  public:
-  CbfController(const Scenario& scenario, Metric metric);
+  // Building the distance model (a GAP body per element and obstacle, their Property 2 checks)
+  // calls `checkpoint`, if given, before each body and check (DistanceModel); it may throw, e.g.
+  // Cancelled, to stop.
+  CbfController(const Scenario& scenario, Metric metric, const std::function<void()>& checkpoint = nullptr);
   ~CbfController();
   CbfController(const CbfController&) = delete;
   CbfController& operator=(const CbfController&) = delete;

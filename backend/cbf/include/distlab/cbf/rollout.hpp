@@ -88,7 +88,7 @@ struct RolloutOptions {
   // Called after every step with its index and record (it may throw Cancelled to stop the run).
   std::function<void(int, const StepRecord&)> on_step;
   // Stage "rollout", the fraction of steps done, after every step; its cancel is polled before
-  // and after every step (Cancelled).
+  // and after every step and before each body of the controller's model (Cancelled).
   Progress progress;
 };
 
@@ -96,6 +96,8 @@ struct RolloutOptions {
 // h is undefined or below its field's δ (outside the safe set: no CBF can hold it there).
 // Cancelled stops it between steps: the second form's `record` then holds the steps done so far,
 // summarised (timing, q_final, final state; reached false), before the Cancelled is rethrown.
+// It also stops the build of the controller's distance model (each body, CbfController), before
+// any step: `record` is then empty.
 RolloutRecord rollout(const Scenario& scenario, Metric metric, const RolloutOptions& options = {});
 void rollout(const Scenario& scenario, Metric metric, const RolloutOptions& options, RolloutRecord& record);
 
