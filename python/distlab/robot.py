@@ -371,7 +371,9 @@ class Robot:
         Newton steps along a trajectory); False solves each one cold. ``warm_start``: the
         previous call's result (or its ``state``) for the first configuration; a state of
         another robot, obstacle set, pair selection, metric or params raises InvalidInput
-        (``"warm_start"``).
+        (``"warm_start"``). The same obstacles at other poses are the same set: a moving
+        obstacle keeps the model built for it (its GAP bodies, validated once), and its pairs
+        continue from the state.
 
         Runs without the GIL; Ctrl-C stops a long batch (KeyboardInterrupt)."""
         q = _q_array(q)

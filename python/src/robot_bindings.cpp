@@ -80,7 +80,8 @@ Configs read_q(const Array& q, const robot::Robot& robot) {
   return c;
 }
 
-// A DistanceModel and what it was built from (the cache key: the call's JSON, compared exactly).
+// A DistanceModel and what it was built from (the cache key: the call's JSON, compared exactly,
+// the obstacles' without their "pose": a moved obstacle keeps its model).
 // The throw the check finds is nlohmann::json's unreachable internal-error branch of its noexcept
 // default constructor (as for server::CbfSweep).
 struct ModelEntry {  // NOLINT(bugprone-exception-escape)
@@ -88,6 +89,21 @@ struct ModelEntry {  // NOLINT(bugprone-exception-escape)
   robot::Metric metric = robot::Metric::gap;
   std::shared_ptr<const robot::DistanceModel> model;
 };
+
+// A call's model and its obstacles' poses (in the model's obstacle order).
+struct ModelCall {
+  std::shared_ptr<const ModelEntry> entry;
+  std::vector<Pose> obstacle_poses;
+};
+
+// The obstacles' JSON without each one's "pose" (the model's key); malformed JSON is left as it
+// is, for parse_robot_obstacles to name its error.
+json without_poses(json obstacles) {
+  if (obstacles.is_array())
+    for (json& o : obstacles)
+      if (o.is_object()) o.erase("pose");
+  return obstacles;
+}
 
 // The tracks a batch ended with: BatchOptions::warm_start of the next call with the same robot,
 // obstacles, metric, pairs and params (any other is refused).
@@ -106,15 +122,25 @@ class PyRobot {
   const robot::Robot& robot() const { return *robot_; }
   const std::shared_ptr<const robot::Robot>& shared() const { return robot_; }
 
-  std::shared_ptr<const ModelEntry> model(const py::object& obstacles, const std::string& metric,
-                                          const py::object& pairs, const py::object& params) {
+  ModelCall model(const py::object& obstacles, const std::string& metric, const py::object& pairs,
+                  const py::object& params) {
     const robot::Metric m = server::parse_robot_metric(json(metric));
-    json oj = to_json(obstacles, "obstacles"), pj = to_json(pairs, "pairs"), prj = to_json(params, "params");
+    const json oj = to_json(obstacles, "obstacles");
+    json key = without_poses(oj), pj = to_json(pairs, "pairs"), prj = to_json(params, "params");
     for (auto it = models_.begin(); it != models_.end(); ++it) {
       const ModelEntry& e = **it;
-      if (e.metric == m && e.params == prj && e.pairs == pj && e.obstacles == oj) {
+      if (e.metric == m && e.params == prj && e.pairs == pj && e.obstacles == key) {
         models_.splice(models_.begin(), models_, it);
-        return models_.front();
+        // The same obstacles, checked when the model was built: only their poses are read.
+        ModelCall call{models_.front(), {}};
+        call.obstacle_poses.reserve(oj.size());
+        for (std::size_t i = 0; i < oj.size(); ++i) {
+          const json* pose = server::json_optional(oj[i], "pose");
+          call.obstacle_poses.push_back(
+              pose != nullptr ? server::json_pose(*pose, server::json_key_path(server::json_index_path("obstacles", i), "pose"))
+                              : Pose{});
+        }
+        return call;
       }
     }
     const server::GapRequestParams rp = server::parse_params(prj, "params");
@@ -122,6 +148,9 @@ class PyRobot {
       throw InvalidInput("params.gradient", "robot distances always come with their Jacobians: leave gradient out or true");
     const robot::PairSelection selection = server::parse_pair_selection(pj);
     std::vector<robot::Obstacle> obs = server::parse_robot_obstacles(oj);
+    std::vector<Pose> poses;
+    poses.reserve(obs.size());
+    for (const robot::Obstacle& o : obs) poses.push_back(o.pose);
     auto entry = std::make_shared<ModelEntry>();
     entry->metric = m;
     {
@@ -132,12 +161,12 @@ class PyRobot {
     // Elements that took their own h (robot::element_params): once per model, as UserWarnings.
     for (const std::string& w : entry->model->warnings())
       if (PyErr_WarnEx(PyExc_UserWarning, w.c_str(), 1) != 0) throw py::error_already_set();
-    entry->obstacles = std::move(oj);
+    entry->obstacles = std::move(key);
     entry->pairs = std::move(pj);
     entry->params = std::move(prj);
     models_.push_front(entry);
     if (models_.size() > kModels) models_.pop_back();
-    return entry;
+    return {std::move(entry), std::move(poses)};
   }
 
  private:
@@ -167,11 +196,13 @@ std::shared_ptr<TrackState> read_warm_start(const py::object& warm, const ModelE
   return state;
 }
 
-robot::DistanceBatch run_batch(const ModelEntry& entry, const Configs& q, unsigned threads, const TrackState* warm,
+robot::DistanceBatch run_batch(const ModelCall& call, const Configs& q, unsigned threads, const TrackState* warm,
                                bool tracking) {
+  const ModelEntry& entry = *call.entry;
   robot::BatchOptions o;
   o.threads = threads;
   o.tracking = tracking;
+  o.obstacle_poses = call.obstacle_poses;
   if (warm != nullptr) o.warm_start = warm->tracks;
   const std::span<const double> qs(q.data, static_cast<std::size_t>(q.n) * entry.model->dof());
   robot::DistanceBatch b;
@@ -206,10 +237,10 @@ py::tuple robot_distances(PyRobot& self, const Array& q, const py::object& obsta
                           const py::object& pairs, const py::object& params, unsigned threads, const py::object& warm_start,
                           bool tracking) {
   const Configs c = read_q(q, self.robot());
-  std::shared_ptr<const ModelEntry> entry = self.model(obstacles, metric, pairs, params);
-  const auto warm = read_warm_start(warm_start, *entry, tracking);
-  robot::DistanceBatch b = run_batch(*entry, c, threads, warm.get(), tracking);
-  return batch_tuple(std::move(b), std::move(entry));
+  ModelCall call = self.model(obstacles, metric, pairs, params);
+  const auto warm = read_warm_start(warm_start, *call.entry, tracking);
+  robot::DistanceBatch b = run_batch(call, c, threads, warm.get(), tracking);
+  return batch_tuple(std::move(b), std::move(call.entry));
 }
 
 // Kelvin fields as barriers of a robot's control points (cbf/fields.hpp): the scenario's "fields"
@@ -319,11 +350,12 @@ py::tuple robot_cbf_rows(PyRobot& self, const Array& q, const py::object& obstac
     throw InvalidInput("fields", "the field barrier belongs to robot \"" + fields->robot().name() + "\"");
   const robot::Robot& robot = self.robot();
   const Configs c = read_q(q, robot);
-  std::shared_ptr<const ModelEntry> entry = self.model(obstacles, metric, pairs, params);
+  const ModelCall call = self.model(obstacles, metric, pairs, params);
+  const std::shared_ptr<const ModelEntry>& entry = call.entry;
   const cbf::RowParams rp{parse_margins(to_json(margins, "margins"), entry->metric), positive(eta, "eta"),
                           positive(eta_joint, "eta_joint")};
   const auto warm = read_warm_start(warm_start, *entry, tracking);
-  robot::DistanceBatch b = run_batch(*entry, c, threads, warm.get(), tracking);
+  robot::DistanceBatch b = run_batch(call, c, threads, warm.get(), tracking);
   const int np = b.pairs, dof = b.dof;
   const int nf = fields ? fields->barrier().rows() : 0;
   const int rows = np + nf + cbf::joint_limit_rows(robot);
@@ -358,7 +390,7 @@ py::tuple robot_cbf_rows(PyRobot& self, const Array& q, const py::object& obstac
   const py::ssize_t n = c.n;
   const py::dtype f64 = py::dtype::of<double>();
   py::array a_arr = owning(std::move(A), {n, rows, dof}, f64), b_arr = owning(std::move(d), {n, rows}, f64);
-  return py::make_tuple(a_arr, b_arr, batch_tuple(std::move(b), std::move(entry)));
+  return py::make_tuple(a_arr, b_arr, batch_tuple(std::move(b), entry));
 }
 
 // The pair table of a state's model, in the order of its arrays' P axis.

@@ -659,9 +659,9 @@ def test_warm_start_is_refused_from_another_model(panda):
             panda.distances(q, **args)
         return info.value.field, str(info.value)
 
-    moved = [dict(o) for o in obstacles]
-    moved[0] = dict(moved[0], pose={"position": [0.52, 0.2, 0.48]})
-    assert field_of(obstacles=moved)[0] == "warm_start"
+    resized = [dict(o) for o in obstacles]
+    resized[0] = dict(resized[0], size=[0.3, 0.05, 0.9])
+    assert field_of(obstacles=resized)[0] == "warm_start"
     # The message names its field itself, so the text does not repeat it (InvalidInput).
     assert field_of(metric="euclidean") == ("warm_start", 'warm_start comes from the metric "gap", not "euclidean"')
     assert field_of(pairs="obstacles")[0] == "warm_start"
@@ -754,7 +754,33 @@ def test_single_configuration_drops_the_n_axis(panda):
     assert none.distance.shape == (2, 0) and none.pairs == []
 
 
-def test_moved_obstacle_is_a_new_model(panda):
+def test_moved_obstacles_continue_the_state(panda):
+    """Obstacles moved between calls keep their model (its key leaves the poses out), and the
+    previous call's state continues: each call equals a cold solve of the moved scene within the
+    solver's tolerance, and the moves do change the distances."""
+    _, obstacles, params = corridor()
+    q = trajectory(panda, 12)
+    state = None
+    for k in range(4):
+        moved = []
+        for j, o in enumerate(obstacles):
+            pose = o.get("pose", {})
+            position = np.asarray(pose.get("position", [0, 0, 0]), float) + (k + 1) * 1e-3 * np.array([1, -j, 0.5])
+            moved.append(dict(o, pose=dict(pose, position=position.tolist())))
+        part = q[3 * k:3 * k + 3]
+        got = panda.distances(part, moved, "gap", "both", params, warm_start=state)
+        state = got.state
+        cold = panda.distances(part, moved, "gap", "both", params, tracking=False)
+        unmoved = panda.distances(part, obstacles, "gap", "both", params, tracking=False)
+        apart = ~cold.overlap
+        np.testing.assert_allclose(got.distance[apart], cold.distance[apart], rtol=1e-12)
+        np.testing.assert_allclose(got.witness_robot, cold.witness_robot, rtol=0, atol=2e-10)
+        moving = apart & np.array([not p["self"] for p in got.pairs])[None, :]
+        assert moving.sum() > 0
+        assert np.all(got.distance[moving] != unmoved.distance[moving])
+
+
+def test_moved_obstacle_gives_its_new_distances(panda):
     """The model cache is keyed by the obstacles' values, not the list object: editing a pose in
     place between calls gives the new distances."""
     q = trajectory(panda, 1)[0]

@@ -257,6 +257,79 @@ TEST(RobotBatch, WarmStartContinuesTheTracks) {
   EXPECT_EQ(e.rfind("warm_start: ", 0), 0u) << e;
 }
 
+// Obstacles moved between calls (BatchOptions::obstacle_poses) without a new model: each call
+// gives what a model built at those poses gives (GAP tracked from the last call's tracks, within
+// the solvers' tolerances of a cold solve; Euclidean bit for bit), and the poses matter (the
+// unmoved model's distances differ). A later call without poses gets the model's own back
+// (the pooled workspace's), bit for bit; a wrong count of poses names "obstacles".
+TEST(RobotBatch, MovedObstaclesNeedNoNewModel) {
+  const auto panda = test::panda();
+  const int n = 4, calls = 5;
+  const std::vector<double> q = trajectory(*panda, n * calls);
+  for (const Metric metric : {Metric::gap, Metric::euclidean}) {
+    const DistanceModel model(panda, corridor(), metric, GapParams{}, with_self());
+    const int np = static_cast<int>(model.pairs().size());
+    const DistanceBatch unmoved = distances(model, q, n * calls, options(1, true));
+    std::vector<GapTrack> tracks;
+    double worst_d = 0, worst_w = 0, worst_g = 0;
+    int unchanged = 0, separate = 0;  // obstacle pairs apart whose distance did not move, of all apart
+    for (int k = 0; k < calls; ++k) {
+      // Each obstacle 1 to 5 mm and 0.5° to 2.5° further along a motion of its own.
+      std::vector<Obstacle> moved = corridor();
+      std::vector<Pose> poses;
+      for (std::size_t j = 0; j < moved.size(); ++j) {
+        Pose& pose = moved[j].pose;
+        const double s = (k + 1) * 1e-3, angle = (k + 1) * 0.5 * std::numbers::pi / 180;
+        pose.position += s * Vec3(1.0 - static_cast<double>(j), 0.5, 0.3 * static_cast<double>(j));
+        pose.rotation = Quat(Eigen::AngleAxisd(angle, Vec3(0.2, 1.0, 0.1 * static_cast<double>(j)).normalized()));
+        poses.push_back(pose);
+      }
+      const auto qk = std::span(q).subspan(static_cast<std::size_t>(k) * n * 7, static_cast<std::size_t>(n) * 7);
+      BatchOptions o = options(1, true);
+      o.obstacle_poses = poses;
+      o.warm_start = tracks;
+      const DistanceBatch got = distances(model, qk, n, o);
+      tracks = got.tracks;
+      const DistanceModel built(panda, moved, metric, GapParams{}, with_self());
+      const DistanceBatch want = distances(built, qk, n, options(1, false));
+      for (std::size_t cell = 0; cell < got.distance.size(); ++cell) {
+        const std::size_t at_unmoved = static_cast<std::size_t>(k) * n * np + cell;
+        ASSERT_EQ(got.overlap[cell], want.overlap[cell]) << k << " " << cell;
+        const bool obstacle_pair = !model.pairs()[cell % static_cast<std::size_t>(np)].self;
+        if (obstacle_pair && !got.overlap[cell] && got.distance[cell] == unmoved.distance[at_unmoved]) ++unchanged;
+        separate += obstacle_pair && !got.overlap[cell];
+        if (metric == Metric::euclidean) {
+          ASSERT_EQ(got.distance[cell], want.distance[cell]) << k << " " << cell;
+          for (int c = 0; c < 7; ++c) ASSERT_EQ(got.jacobian[cell * 7 + c], want.jacobian[cell * 7 + c]);
+          continue;
+        }
+        ASSERT_TRUE(got.converged[cell]);
+        if (got.overlap[cell]) continue;
+        const Eigen::Map<const Eigen::VectorXd> g1(&got.jacobian[cell * 7], 7), g2(&want.jacobian[cell * 7], 7);
+        worst_d = std::max(worst_d, std::abs(got.distance[cell] - want.distance[cell]) / want.distance[cell]);
+        worst_w = std::max({worst_w, (Vec3(&got.witness_robot[cell * 3]) - Vec3(&want.witness_robot[cell * 3])).norm(),
+                            (Vec3(&got.witness_obstacle[cell * 3]) - Vec3(&want.witness_obstacle[cell * 3])).norm()});
+        worst_g = std::max(worst_g, (g1 - g2).cwiseAbs().maxCoeff() / std::max(g2.cwiseAbs().maxCoeff(), 1e-6));
+      }
+    }
+    // Every obstacle pair apart moved with its obstacle.
+    EXPECT_EQ(unchanged, 0) << to_string(metric);
+    EXPECT_GT(separate, calls * n * 3 * 5) << to_string(metric);
+    // As OneAndTwoThreadsAgree: witnesses within both solves' tol, D to rounding, the gradient 1e-8.
+    EXPECT_LE(worst_w, kWitnessTol);
+    EXPECT_LE(worst_d, 1e-12);
+    EXPECT_LE(worst_g, 1e-8);
+    // The pooled workspace is back at the model's poses.
+    const DistanceBatch again = distances(model, q, n * calls, options(1, true));
+    for (std::size_t cell = 0; cell < again.distance.size(); ++cell) ASSERT_EQ(again.distance[cell], unmoved.distance[cell]);
+    BatchOptions one_pose = options(1, true);
+    const std::vector<Pose> poses(1);
+    one_pose.obstacle_poses = poses;
+    const std::string e = error_of([&] { distances(model, std::span(q).first(static_cast<std::size_t>(n) * 7), n, one_pose); });
+    EXPECT_EQ(e.rfind("obstacles: ", 0), 0u) << e;
+  }
+}
+
 // A box's orthogonal-face weight 1/(1 + margin) where it keeps Property 2, the gap library's
 // general rule where it does not (a thin wall, a large floor: the validator finds an eigenvalue
 // >= 1 with the face weight, none with the general rule). A millimetre box breaks it under both

@@ -156,6 +156,14 @@ std::unique_ptr<DistanceModel::Workspace> DistanceModel::acquire() const {
       std::unique_ptr<Workspace> w = std::move(pool_->free.back());
       pool_->free.pop_back();
       w->tracks.assign(pairs_.size(), GapTrack{});
+      // Its last user may have moved the obstacles: back to the model's poses.
+      for (std::size_t j = 0; j < obstacles_.size(); ++j) {
+        const Pose& given = obstacles_[j].pose;
+        Pose& pose = w->obstacle_pose[j];
+        if (pose.position == given.position && pose.rotation.coeffs() == given.rotation.coeffs()) continue;
+        pose = given;
+        if (metric_ == Metric::gap) w->obstacle_gap[j].set_pose(given);
+      }
       return w;
     }
   }
@@ -172,8 +180,20 @@ DistanceModel::Workspace DistanceModel::workspace() const {
   w.robot_gap = robot_gap_;
   w.robot_pose.resize(robot_->primitives().size());
   w.robot_jac.resize(robot_->primitives().size());
+  w.obstacle_gap = obstacle_gap_;
+  for (const Obstacle& o : obstacles_) w.obstacle_pose.push_back(o.pose);
   w.tracks.assign(pairs_.size(), GapTrack{});
   return w;
+}
+
+void DistanceModel::place_obstacles(Workspace& w, std::span<const Pose> poses) const {
+  if (poses.size() != obstacles_.size())
+    throw InvalidInput("obstacles", "the model has " + std::to_string(obstacles_.size()) + " obstacles, not " +
+                                        std::to_string(poses.size()));
+  for (std::size_t j = 0; j < poses.size(); ++j) {
+    w.obstacle_pose[j] = poses[j];
+    if (metric_ == Metric::gap) w.obstacle_gap[j].set_pose(poses[j]);
+  }
 }
 
 void DistanceModel::evaluate(const VecQ& q, Workspace& w, bool tracking, std::span<PairDistance> out, GradQ& grad,
@@ -200,7 +220,7 @@ void DistanceModel::evaluate_at(Workspace& w, bool tracking, std::span<PairDista
     Vec6 ga, gb;
     if (metric_ == Metric::gap) {
       const GapBody& A = w.robot_gap[pair.a];
-      const GapBody& B = pair.self ? w.robot_gap[pair.b] : obstacle_gap_[pair.b];
+      const GapBody& B = pair.self ? w.robot_gap[pair.b] : w.obstacle_gap[pair.b];
       // Tracking: Newton from the witnesses predicted from the previous solution, stopping on its
       // error estimate; an empty track (first call, after an overlap or a failed warm solve) is
       // solved cold, as gap_distance does.
@@ -224,7 +244,7 @@ void DistanceModel::evaluate_at(Workspace& w, bool tracking, std::span<PairDista
       ga = g.gradient_a;
       gb = g.gradient_b;
     } else {
-      const Pose& pb = pair.self ? w.robot_pose[pair.b] : obstacles_[pair.b].pose;
+      const Pose& pb = pair.self ? w.robot_pose[pair.b] : w.obstacle_pose[pair.b];
       const EuclideanShape& eb = pair.self ? robot_->euclidean_shape(pair.b) : obstacle_euclid_[pair.b];
       const EuclideanResult e = euclidean_distance(robot_->euclidean_shape(pair.a), w.robot_pose[pair.a], eb, pb);
       s.distance = s.clearance = e.distance;
@@ -277,6 +297,7 @@ DistanceBatch distances(const DistanceModel& model, std::span<const double> q, i
     std::unique_ptr<DistanceModel::Workspace> held = model.acquire();
     DistanceModel::Workspace& w = *held;
     if (r == 0 && !options.warm_start.empty()) w.tracks.assign(options.warm_start.begin(), options.warm_start.end());
+    if (!options.obstacle_poses.empty()) model.place_obstacles(w, options.obstacle_poses);
     std::vector<PairDistance> out(static_cast<std::size_t>(np));
     GradQ grad(np, dof);
     for (int i = begin; i < end; ++i) {

@@ -123,21 +123,29 @@ class DistanceModel {
   // Elements that took their own h (element_params), one line each, in primitives() order.
   const std::vector<std::string>& warnings() const { return warnings_; }
 
-  // One thread's state: FK, the robot's bodies at their current poses, and one GapTrack per pair
-  // (the last solution, continued along a sequence of configurations).
+  // One thread's state: FK, the robot's bodies at their current poses, the obstacles at theirs
+  // (the model's, or place_obstacles'), and one GapTrack per pair (the last solution, continued
+  // along a sequence of configurations and obstacle poses).
   struct Workspace {
     Kinematics kinematics;
     std::vector<GapBody> robot_gap;
     std::vector<Pose> robot_pose;
-    std::vector<Jac> robot_jac;  // Jacobian of each element's origin, fixed to its link
+    std::vector<Jac> robot_jac;         // Jacobian of each element's origin, fixed to its link
+    std::vector<GapBody> obstacle_gap;  // GAP metric only
+    std::vector<Pose> obstacle_pose;
     std::vector<GapTrack> tracks;
   };
   Workspace workspace() const;
-  // A workspace from the model's pool (made when the pool is empty), its tracks empty; give it
-  // back with recycle() so that a 1 kHz caller does not copy the bodies on every call.
+  // A workspace from the model's pool (made when the pool is empty), its tracks empty and its
+  // obstacles at the model's poses; give it back with recycle() so that a 1 kHz caller does not
+  // copy the bodies on every call.
   std::unique_ptr<Workspace> acquire() const;
   void recycle(std::unique_ptr<Workspace> w) const;
-  const GapBody& obstacle_body(int j) const { return obstacle_gap_[j]; }
+  // Moves w's obstacles to `poses` (one per obstacle, in obstacles() order): a moving obstacle
+  // needs no new model, and its pairs' tracks continue. Throws InvalidInput("obstacles") for
+  // another count; the poses are the caller's to check (finite, unit rotations).
+  void place_obstacles(Workspace& w, std::span<const Pose> poses) const;
+  const GapBody& obstacle_body(int j) const { return obstacle_gap_[j]; }  // at the model's pose
   const EuclideanShape& obstacle_shape(int j) const { return obstacle_euclid_[j]; }
   const EuclideanShape& robot_shape(int i) const { return robot_->euclidean_shape(i); }
 
@@ -187,6 +195,9 @@ struct BatchOptions {
   bool tracking = true;  // GAP: each configuration continues from the one before (a trajectory)
   // Tracks to continue the first configuration from (a previous batch's `tracks`), or empty.
   std::span<const GapTrack> warm_start{};
+  // The obstacles' poses for every configuration (DistanceModel::place_obstacles), or empty: the
+  // model's.
+  std::span<const Pose> obstacle_poses{};
   const std::atomic<bool>* cancel = nullptr;  // set: throws Cancelled between configurations
 };
 
