@@ -32,8 +32,10 @@ box and the params, else (thin walls, large floors) the gap library's general-po
 is the ``convex_hull`` request's. Shapes far smaller than ``h`` (a millimetre box with h = 0.1)
 break Property 2 under any weight: a robot's collision element that does takes its own, smaller
 ``h`` where the validator accepts it (a ``UserWarning`` names it and gives that h; its distances
-are sharper than the other elements'); an obstacle that does is refused by ``validate``, naming
-it; a smaller ``h`` (or the Euclidean metric) takes it.
+are sharper than the other elements'). An element large against ``h`` (a 1 m cylinder or box
+at h = 0.1) that breaks it takes its own, smaller ``eps`` the same way. An obstacle that breaks
+it is refused by ``validate``, naming it; other params (a smaller ``h`` for a small one, a
+smaller ``eps`` for a large one) or the Euclidean metric take it.
 
 **Witness points.** Euclidean: the nearest points of the two shapes. GAP: the solution (a*, b*)
 of the metric's min–max (the alternating projection's fixed point, eq. 2), which lies near the
@@ -364,7 +366,9 @@ class Robot:
         collision element ``"urdf"`` or, for a built-in robot, ``"name"``). A collision element small
         against ``h`` (a few millimetres: an IMU's box, a placeholder sphere) that fails
         Property 2 takes its own, smaller h where it holds, with a ``UserWarning`` naming it and
-        that h; its distances are then sharper than the other elements'.
+        that h; its distances are then sharper than the other elements'. An element large
+        against ``h`` (bounding radius 3 h or more) that fails takes its own, smaller eps
+        instead, with a ``UserWarning`` as well.
         ``threads``: 0 for every core; a batch is split into contiguous runs, one per thread.
         ``tracking`` (GAP): each configuration continues from the solution of the one before in
         its run (gap_distance_tracked; the same answers within the solver's tolerance, fewer
@@ -373,7 +377,8 @@ class Robot:
         another robot, obstacle set, pair selection, metric or params raises InvalidInput
         (``"warm_start"``). The same obstacles at other poses are the same set: a moving
         obstacle keeps the model built for it (its GAP bodies, validated once), and its pairs
-        continue from the state.
+        continue from the state. Move it by its ``"pose"``, its shape (a hull's ``"points"``)
+        given once in its own frame: changed points are another obstacle.
 
         Runs without the GIL; Ctrl-C stops a long batch (KeyboardInterrupt)."""
         q = _q_array(q)

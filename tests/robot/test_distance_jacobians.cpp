@@ -214,6 +214,23 @@ TEST(DistanceJacobians, MeshRobotRandomConfigurations) {
   }
 }
 
+// At `trials` random configurations clear of contact: every pair's distance finite, positive and
+// converged, its Jacobian that of central differences.
+void expect_clear_distances_and_gradients(const DistanceModel& model, std::uint64_t seed, int trials) {
+  std::mt19937_64 rng(seed);
+  Checked checked;
+  for (int trial = 0; trial < trials; ++trial) {
+    const VecQ q = clear_configuration(model, rng, 1e-3);
+    const DistanceBatch b = at(model, q);
+    for (int p = 0; p < b.pairs; ++p) {
+      EXPECT_TRUE(std::isfinite(b.distance[p]) && b.distance[p] > 0) << model.pairs()[p].name;
+      EXPECT_TRUE(b.converged[p]) << model.pairs()[p].name;
+    }
+    expect_gradients_match_differences(model, q, "trial " + std::to_string(trial), checked);
+  }
+  EXPECT_EQ(checked.pairs, trials * static_cast<int>(model.pairs().size()));
+}
+
 // A URDF arm with collision elements small against h = 0.1 (element_params): an IMU's 2 mm box
 // (as in quadrupeds' descriptions), a 1 mm placeholder sphere (a gripper's thumb) and a 9 mm
 // sphere, besides a link-sized cylinder. The base has none (its distances do not move with q).
@@ -272,21 +289,76 @@ TEST(DistanceJacobians, ElementsSmallAgainstHTakeTheirOwnH) {
     ASSERT_NE(text.find(takes), std::string::npos) << text;
     EXPECT_EQ(std::stod(text.substr(text.find(takes) + takes.size())), w.robot_gap[static_cast<std::size_t>(i)].p2s().phi().h()) << text;
   }
-  // Distances finite and converged, their Jacobians those of central differences.
-  std::mt19937_64 rng(11);
-  Checked checked;
-  for (int trial = 0; trial < 4; ++trial) {
-    const VecQ q = clear_configuration(model, rng, 1e-3);
-    const DistanceBatch b = at(model, q);
-    for (int p = 0; p < b.pairs; ++p) {
-      EXPECT_TRUE(std::isfinite(b.distance[p]) && b.distance[p] > 0) << model.pairs()[p].name;
-      EXPECT_TRUE(b.converged[p]) << model.pairs()[p].name;
-    }
-    expect_gradients_match_differences(model, q, "trial " + std::to_string(trial), checked);
-  }
-  EXPECT_EQ(checked.pairs, 4 * 8);
+  expect_clear_distances_and_gradients(model, 11, 4);
   // The Euclidean metric has no h: no warning.
   EXPECT_TRUE(DistanceModel(robot, obstacles, Metric::euclidean, params, PairSelection{}).warnings().empty());
+}
+
+// A URDF with collision elements large against h = 0.1 (element_params): a 1 m cylinder and a
+// 1 m cube mesh (simple_humanoid's body and box.stl in Gepetto/example-robot-data), a 1 m
+// capsule, and a 0.3 m sphere, which holds at the given parameters.
+TEST(DistanceJacobians, ElementsLargeAgainstHTakeTheirOwnEps) {
+  test::TempDir dir;
+  std::string cube = "o cube\n";
+  for (int i = 0; i < 8; ++i)
+    cube += "v " + std::to_string(i & 1 ? 0.5 : -0.5) + " " + std::to_string(i & 2 ? 0.5 : -0.5) + " " +
+            std::to_string(i & 4 ? 0.5 : -0.5) + "\n";
+  // Two triangles a face, outward.
+  cube += "f 1 3 4\nf 1 4 2\nf 5 6 8\nf 5 8 7\nf 1 2 6\nf 1 6 5\nf 3 7 8\nf 3 8 4\nf 1 5 7\nf 1 7 3\nf 2 4 8\nf 2 8 6\n";
+  dir.write("meshes/cube.obj", cube);
+  const std::string urdf = dir.write("large.urdf", R"(<robot name="large">
+  <link name="base"/>
+  <link name="body">
+    <collision><origin xyz="0 0 1"/><geometry><cylinder radius="1" length="1"/></geometry></collision>
+    <collision><origin xyz="0 0 2"/><geometry><mesh filename="meshes/cube.obj"/></geometry></collision>
+    <collision><origin xyz="0 0 2.9"/><geometry><sphere radius="0.3"/></geometry></collision>
+  </link>
+  <link name="arm">
+    <collision distlab:capsule="true"><origin xyz="1.5 0 0" rpy="0 1.5708 0"/><geometry><cylinder radius="1" length="1"/></geometry></collision>
+  </link>
+  <joint name="turn" type="revolute"><parent link="base"/><child link="body"/><axis xyz="0 0 1"/>
+    <limit lower="-1.5" upper="1.5" effort="1" velocity="1"/></joint>
+  <joint name="lift" type="revolute"><parent link="body"/><child link="arm"/><origin xyz="1.2 0 1.5"/>
+    <axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+</robot>)");
+  const auto robot = Robot::from_file(urdf, "robot");
+  const std::vector<Obstacle> obstacles = {{"post", Cylinder{0.1, 2}, {Vec3(0, 3.5, 1), Quat::Identity()}},
+                                           {"crate", Box{Vec3(0.4, 0.4, 0.4)}, {Vec3(-3, 0, 0.3), Quat::Identity()}}};
+  const GapParams params;
+  const DistanceModel model(robot, obstacles, Metric::gap, params, PairSelection{});
+  const auto& prims = robot->primitives();
+  ASSERT_EQ(prims.size(), 4u);
+  const DistanceModel::Workspace w = model.workspace();
+  std::vector<std::string> own;
+  for (std::size_t i = 0; i < prims.size(); ++i) {
+    SCOPED_TRACE(prims[i].name);
+    const GapBody at_eps(prims[i].shape, Pose{}, params, gap_body_options(prims[i].shape, {}, params));
+    const ValidationReport given = validate_p2s(at_eps.p2s());
+    const double eps = w.robot_gap[i].p2s().strict_params().eps;
+    EXPECT_TRUE(validate_p2s(w.robot_gap[i].p2s()).ok);  // every body the model holds keeps Property 2
+    EXPECT_EQ(w.robot_gap[i].p2s().strict_params().sigma, params.sigma);
+    EXPECT_EQ(w.robot_gap[i].p2s().phi().h(), params.h);
+    if (given.ok) {
+      EXPECT_EQ(eps, params.eps);  // the 0.3 m sphere
+    } else {
+      own.push_back(prims[i].name);  // the cylinder (1.21 at ε), the cube (1.14) and the capsule (1.29)
+      EXPECT_GE(bounding_ball(prims[i].shape).radius, kLargeElementShare * params.h);
+      EXPECT_LT(eps, params.eps);
+      // The largest ε of the halvings that holds: twice it fails.
+      GapParams twice = params;
+      twice.eps = 2 * eps;
+      const GapBody at_twice(prims[i].shape, Pose{}, twice, gap_body_options(prims[i].shape, {}, twice));
+      EXPECT_FALSE(validate_p2s(at_twice.p2s()).ok);
+    }
+  }
+  ASSERT_EQ(own.size(), 3u);
+  ASSERT_EQ(model.warnings().size(), 3u);
+  for (std::size_t k = 0; k < 3; ++k) {
+    const std::string& text = model.warnings()[k];
+    EXPECT_NE(text.find(own[k]), std::string::npos) << text;
+    EXPECT_NE(text.find("large against h = 0.1: its GAP function takes eps = "), std::string::npos) << text;
+  }
+  expect_clear_distances_and_gradients(model, 12, 4);
 }
 
 // Building a model calls its checkpoint before each GAP body and each Property 2 check of a small

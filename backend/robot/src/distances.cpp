@@ -40,30 +40,44 @@ GapParams element_params(const EuclideanShape& shape, const GapParams& params,
                          const std::function<P2SOptions(const GapParams&)>& options, std::string& note,
                          const std::function<void()>& checkpoint) {
   const double radius = bounding_ball(shape.shape()).radius;
-  if (!(radius < kSmallElementShare * params.h)) return params;
+  const bool small = radius < kSmallElementShare * params.h, large = radius >= kLargeElementShare * params.h;
+  if (!small && !large) return params;
   GapParams own = params;
-  double first_eigenvalue = 0;
-  for (int attempt = 0; attempt < kSmallElementAttempts; ++attempt) {
+  double first_eigenvalue = 0, last_eigenvalue = 0;
+  const int attempts = small ? kSmallElementAttempts : kLargeElementAttempts;
+  for (int attempt = 0; attempt < attempts; ++attempt) {
     if (checkpoint) checkpoint();
     const GapBody body(shape, Pose{}, own, options(own), "element");
     const ValidationReport report = validate_p2s(body.p2s());
     if (report.ok) {
       if (attempt == 0) return params;
       char text[320];
-      std::snprintf(text, sizeof text,
-                    "bounding radius %.2g m, small against h = %.6g: its GAP function takes h = %.2g, where "
-                    "Property 2 holds (at h = %.6g the Hessian's eigenvalue reaches %.3g); its distances are "
-                    "sharper than the other elements'",
-                    radius, params.h, own.h, params.h, first_eigenvalue);
+      if (small)
+        std::snprintf(text, sizeof text,
+                      "bounding radius %.2g m, small against h = %.6g: its GAP function takes h = %.2g, where "
+                      "Property 2 holds (at h = %.6g the Hessian's eigenvalue reaches %.3g); its distances are "
+                      "sharper than the other elements'",
+                      radius, params.h, own.h, params.h, first_eigenvalue);
+      else
+        std::snprintf(text, sizeof text,
+                      "bounding radius %.3g m, large against h = %.6g: its GAP function takes eps = %.6g, where "
+                      "Property 2 holds (at eps = %.6g the Hessian's eigenvalue reaches %.3g)",
+                      radius, params.h, own.eps, params.eps, first_eigenvalue);
       note = text;
       return own;
     }
-    // Only the growth that falls with h is helped by a smaller h.
+    // Only the growth that falls with h (small) or ε (large) is helped: a large element whose
+    // eigenvalue did not fall with ε stops there.
     if (!(report.max_eigenvalue > 1) || !std::isfinite(report.max_eigenvalue)) break;
+    if (large && attempt > 0 && !(report.max_eigenvalue < last_eigenvalue)) break;
     if (attempt == 0) first_eigenvalue = report.max_eigenvalue;
-    own.h = two_digits_down(own.h * kSmallElementMargin / report.max_eigenvalue);
+    last_eigenvalue = report.max_eigenvalue;
+    if (small)
+      own.h = two_digits_down(own.h * kSmallElementMargin / report.max_eigenvalue);
+    else
+      own.eps /= 2;
   }
-  return params;  // still failing: the validation reports it at h
+  return params;  // still failing: the validation reports it at the given params
 }
 
 namespace {

@@ -90,6 +90,17 @@ P2SOptions gap_body_options(const Shape& shape, P2SOptions options, const GapPar
 inline constexpr double kSmallElementShare = 0.25;
 inline constexpr double kSmallElementMargin = 0.5;
 inline constexpr int kSmallElementAttempts = 4;
+// Elements large against h break it the other way (simple_humanoid's 1 m cylinder and its box
+// mesh in Gepetto/example-robot-data): E_S's Hessian is unchanged when h grows with the shape, so
+// at a fixed h a large shape can fail near its surface (at h = 0.1: a 1 m sphere 1.17, a 1 m
+// capsule 1.29, simple_humanoid's box 1.14), and a smaller ε lowers that (the validator's advice).
+// An element whose bounding radius is at least kLargeElementShare · h and whose check fails takes
+// its own ε, halved (σ kept: σ² ≤ 1 − 2ε still holds) and checked again while the eigenvalue
+// falls, kLargeElementAttempts checks in all (ε/16 the last). Measured: a 1 m cylinder holds at
+// ε/4, a 2 m sphere at ε/8; a 5 m sphere needs more than ε/32 and keeps ε (the validation refuses
+// it, as any element that still fails).
+inline constexpr double kLargeElementShare = 3;
+inline constexpr int kLargeElementAttempts = 5;
 
 // The GAP parameters of one robot element (its shape and FCL geometry, Robot::euclidean_shape):
 // `params`, or with its own h as above (`note` says so). `options`: the element's P2S options at
