@@ -125,6 +125,9 @@ class Distances:
     - ``witness_robot`` ``(N, P, 3)``: the robot side's witness point (world): the nearest point of
       the collision element (Euclidean) or the metric's a* (GAP: near the element, not on it).
     - ``witness_obstacle`` ``(N, P, 3)``: the same for the obstacle, or the self pair's second element.
+    - ``obstacle_gradient`` ``(N, P, 6)``: dD/d(v, ω) of the obstacle (world frame, ω about the
+      obstacle's origin), zeros for self pairs and on overlap: with a moving obstacle's twist
+      (v, ω), ``dD/dt = jacobian @ qdot + obstacle_gradient @ [v, ω]`` (a time-varying CBF's term).
     - ``overlap``, ``converged`` ``(N, P)`` bool; ``iterations`` ``(N, P)`` int (GAP Newton steps).
     - ``pairs``: the pair table, one dict per pair in the order of the P axis: ``name``
       (``"ELEMENT/OBSTACLE"`` or ``"ELEMENT/ELEMENT"``), ``self``, ``link``, ``element`` (its index
@@ -136,13 +139,13 @@ class Distances:
     """
 
     __slots__ = ("distance", "jacobian", "witness_robot", "witness_obstacle", "overlap", "converged", "iterations",
-                 "state", "_pairs")
+                 "state", "obstacle_gradient", "_pairs")
 
     def __init__(self, arrays: tuple, single: bool):
         if single:
-            arrays = tuple(a[0] for a in arrays[:7]) + arrays[7:]
+            arrays = tuple(a[0] for a in arrays[:7]) + (arrays[7], arrays[8][0])
         (self.distance, self.jacobian, self.witness_robot, self.witness_obstacle, self.overlap, self.converged,
-         self.iterations, self.state) = arrays
+         self.iterations, self.state, self.obstacle_gradient) = arrays
         self._pairs = None
 
     @property

@@ -217,8 +217,8 @@ robot::DistanceBatch run_batch(const ModelCall& call, const Configs& q, unsigned
   return b;
 }
 
-// (distance, jacobian, witness_robot, witness_obstacle, overlap, converged, iterations, state),
-// arrays with the leading N axis.
+// (distance, jacobian, witness_robot, witness_obstacle, overlap, converged, iterations, state,
+// obstacle_gradient), arrays with the leading N axis.
 py::tuple batch_tuple(robot::DistanceBatch&& b, std::shared_ptr<const ModelEntry> entry) {
   const py::ssize_t n = b.n, p = b.pairs, dof = b.dof;
   auto state = std::make_shared<TrackState>();
@@ -230,7 +230,8 @@ py::tuple batch_tuple(robot::DistanceBatch&& b, std::shared_ptr<const ModelEntry
                         owning(std::move(b.witness_obstacle), {n, p, 3}, f64),
                         owning(std::move(b.overlap), {n, p}, boolean), owning(std::move(b.converged), {n, p}, boolean),
                         owning(std::move(b.iterations), {n, p}, py::dtype::of<int>()),
-                        std::shared_ptr<TrackState>(std::move(state)));
+                        std::shared_ptr<TrackState>(std::move(state)),
+                        owning(std::move(b.obstacle_gradient), {n, p, 6}, f64));
 }
 
 py::tuple robot_distances(PyRobot& self, const Array& q, const py::object& obstacles, const std::string& metric,

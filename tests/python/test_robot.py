@@ -780,6 +780,58 @@ def test_moved_obstacles_continue_the_state(panda):
         assert np.all(got.distance[moving] != unmoved.distance[moving])
 
 
+def test_obstacle_gradient_is_the_pose_derivative(panda):
+    """obstacle_gradient (N, P, 6) is dD/d(v, ω) of each obstacle: central differences of the
+    distances with the obstacle moved along and turned about each world axis (about its origin);
+    zeros for self pairs. The Euclidean distance is not differentiable in a turn where nearest
+    features are parallel (a link's cylinder beside a wall): there its gradient lies between the
+    one-sided quotients (D = min over the witness pairs)."""
+    _, obstacles, params = corridor()
+    q = trajectory(panda, 3)
+    step = 1e-6
+
+    def turned(quaternion, axis, angle):
+        w, x, y, z = quaternion
+        c, s = np.cos(angle / 2), np.sin(angle / 2)
+        a = np.eye(3)[axis] * s  # (c, a) * (w, x, y, z)
+        v = np.array([x, y, z])
+        return [c * w - a @ v, *(c * v + w * a + np.cross(a, v))]
+
+    for metric in ("gap", "euclidean"):
+        base = panda.distances(q, obstacles, metric, "both", params, tracking=False)
+        assert base.obstacle_gradient.shape == base.distance.shape + (6,)
+        self_pairs = np.array([p["self"] for p in base.pairs])
+        assert np.all(base.obstacle_gradient[:, self_pairs] == 0)
+        worst, checked = 0.0, 0
+        for j, o in enumerate(obstacles):
+            pose = o.get("pose", {})
+            position = np.asarray(pose.get("position", [0, 0, 0]), float)
+            quaternion = pose.get("quaternion", [1, 0, 0, 0])
+            mine = np.array([p["obstacle"] == j for p in base.pairs])
+            for k in range(6):
+                moved = []
+                for sign in (1, -1):
+                    if k < 3:
+                        new = dict(pose, position=(position + sign * step * np.eye(3)[k]).tolist())
+                    else:
+                        new = dict(pose, position=position.tolist(), quaternion=turned(quaternion, k - 3, sign * step))
+                    scene = [dict(other, pose=new) if i == j else other for i, other in enumerate(obstacles)]
+                    moved.append(panda.distances(q, scene, metric, "both", params, tracking=False).distance)
+                use = mine[None, :] & (base.distance > 5e-3)
+                scale = np.maximum(np.abs(base.obstacle_gradient).max(axis=2), 1e-3)[use]
+                g = base.obstacle_gradient[..., k][use]
+                if metric == "euclidean" and k >= 3:
+                    right = (moved[0] - base.distance)[use] / step
+                    left = (base.distance - moved[1])[use] / step
+                    assert np.all(right - g <= 1e-5 * scale) and np.all(g - left <= 1e-5 * scale)
+                    continue
+                fd = ((moved[0] - moved[1]) / (2 * step))[use]
+                worst = max(worst, float(np.max(np.abs(fd - g) / scale)))
+                checked += int(use.sum())
+        assert checked > 3 * (6 if metric == "gap" else 3) * 9
+        assert worst < 1e-6, (metric, worst)
+
+
 def test_moved_obstacle_gives_its_new_distances(panda):
     """The model cache is keyed by the obstacles' values, not the list object: editing a pose in
     place between calls gives the new distances."""

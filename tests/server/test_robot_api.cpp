@@ -63,6 +63,9 @@ void expect_same_as_library(const json& got, const robot::DistanceModel& model, 
       const std::size_t c = i * np + p;
       EXPECT_EQ(got["distance"][i][p].get<double>(), b.distance[c]) << i << " " << p;
       for (std::size_t k = 0; k < dof; ++k) EXPECT_EQ(got["jacobian"][i][p][k].get<double>(), b.jacobian[c * dof + k]);
+      ASSERT_EQ(got["obstacle_gradient"][i][p].size(), 6u);
+      for (std::size_t k = 0; k < 6; ++k)
+        EXPECT_EQ(got["obstacle_gradient"][i][p][k].get<double>(), b.obstacle_gradient[c * 6 + k]);
       for (std::size_t k = 0; k < 3; ++k) {
         EXPECT_EQ(got["witness_robot"][i][p][k].get<double>(), b.witness_robot[c * 3 + k]);
         EXPECT_EQ(got["witness_obstacle"][i][p][k].get<double>(), b.witness_obstacle[c * 3 + k]);
@@ -141,6 +144,7 @@ TEST_F(RobotApi, OneConfigurationSelfPairsAndTheirSelection) {
   r = post(c, req);
   ASSERT_EQ(r->status, 200) << r->body;
   EXPECT_FALSE(body_json(r).contains("jacobian"));
+  EXPECT_FALSE(body_json(r).contains("obstacle_gradient"));
 }
 
 // The Jacobian's layout (N, P, dof): its entries are the route's own distances differenced at

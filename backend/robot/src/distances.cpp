@@ -270,7 +270,10 @@ void DistanceModel::evaluate_at(Workspace& w, bool tracking, std::span<PairDista
     }
     // Chain rule: dD/dq = g_vᵀ J_v(o) + g_ωᵀ J_ω for the origin o of each moving shape.
     grad.row(static_cast<Eigen::Index>(p)) = ga.transpose() * w.robot_jac[pair.a];
-    if (pair.self) grad.row(static_cast<Eigen::Index>(p)) += gb.transpose() * w.robot_jac[pair.b];
+    if (pair.self)
+      grad.row(static_cast<Eigen::Index>(p)) += gb.transpose() * w.robot_jac[pair.b];
+    else
+      s.obstacle_gradient = gb;
   }
 }
 
@@ -298,6 +301,7 @@ DistanceBatch distances(const DistanceModel& model, std::span<const double> q, i
   b.jacobian.resize(cells * dof);
   b.witness_robot.resize(cells * 3);
   b.witness_obstacle.resize(cells * 3);
+  b.obstacle_gradient.resize(cells * 6);
   b.overlap.resize(cells);
   b.converged.resize(cells);
   b.iterations.resize(cells);
@@ -327,6 +331,7 @@ DistanceBatch distances(const DistanceModel& model, std::span<const double> q, i
           b.witness_obstacle[c * 3 + d] = s.witness_b[d];
         }
         for (int j = 0; j < dof; ++j) b.jacobian[c * dof + j] = grad(p, j);
+        for (int k = 0; k < 6; ++k) b.obstacle_gradient[c * 6 + k] = s.obstacle_gradient[k];
         b.overlap[c] = s.overlap;
         b.converged[c] = s.converged;
         b.iterations[c] = s.iterations;

@@ -4019,6 +4019,8 @@ export interface components {
             distance: number[][];
             /** @description (N, P, dof): dD/dq, exact (chain rule through the point Jacobians); absent with params.gradient false */
             jacobian?: number[][][];
+            /** @description (N, P, 6): dD/d(v, ω) of the obstacle, world frame, ω about the obstacle's origin (a moving obstacle's term of dD/dt); zeros for self pairs and on overlap; absent with params.gradient false */
+            obstacle_gradient?: number[][][];
             /** @description (N, P, 3): on the robot's element */
             witness_robot: components["schemas"]["Vec3"][][];
             /** @description (N, P, 3): on the obstacle, or on a self pair's second element */

@@ -104,7 +104,7 @@ json pairs_json(const robot::DistanceModel& model) {
   return pairs;
 }
 
-// The batch's arrays, N-leading: (N, P) and (N, P, dof | 3).
+// The batch's arrays, N-leading: (N, P) and (N, P, dof | 3 | 6).
 void add_batch_json(const robot::DistanceBatch& b, bool gradient, json& out) {
   const auto n = static_cast<std::size_t>(b.n), np = static_cast<std::size_t>(b.pairs), dof = static_cast<std::size_t>(b.dof);
   const auto finite = [](double v, std::size_t i, std::size_t p) {
@@ -112,11 +112,11 @@ void add_batch_json(const robot::DistanceBatch& b, bool gradient, json& out) {
       throw std::runtime_error("non-finite result for configuration " + std::to_string(i) + ", pair " + std::to_string(p) + "; refusing to report it");
     return v;
   };
-  json distance = json::array(), jacobian = json::array(), wr = json::array(), wo = json::array(), overlap = json::array(),
-       converged = json::array(), iterations = json::array();
+  json distance = json::array(), jacobian = json::array(), obstacle_gradient = json::array(), wr = json::array(),
+       wo = json::array(), overlap = json::array(), converged = json::array(), iterations = json::array();
   for (std::size_t i = 0; i < n; ++i) {
-    json d = json::array(), jac = json::array(), a = json::array(), o = json::array(), ov = json::array(), cv = json::array(),
-         it = json::array();
+    json d = json::array(), jac = json::array(), og = json::array(), a = json::array(), o = json::array(),
+         ov = json::array(), cv = json::array(), it = json::array();
     for (std::size_t p = 0; p < np; ++p) {
       const std::size_t c = i * np + p;
       d.push_back(finite(b.distance[c], i, p));
@@ -124,6 +124,9 @@ void add_batch_json(const robot::DistanceBatch& b, bool gradient, json& out) {
         json g = json::array();
         for (std::size_t k = 0; k < dof; ++k) g.push_back(finite(b.jacobian[c * dof + k], i, p));
         jac.push_back(std::move(g));
+        json go = json::array();
+        for (std::size_t k = 0; k < 6; ++k) go.push_back(finite(b.obstacle_gradient[c * 6 + k], i, p));
+        og.push_back(std::move(go));
       }
       a.push_back({finite(b.witness_robot[c * 3], i, p), finite(b.witness_robot[c * 3 + 1], i, p), finite(b.witness_robot[c * 3 + 2], i, p)});
       o.push_back({finite(b.witness_obstacle[c * 3], i, p), finite(b.witness_obstacle[c * 3 + 1], i, p), finite(b.witness_obstacle[c * 3 + 2], i, p)});
@@ -132,7 +135,10 @@ void add_batch_json(const robot::DistanceBatch& b, bool gradient, json& out) {
       it.push_back(b.iterations[c]);
     }
     distance.push_back(std::move(d));
-    if (gradient) jacobian.push_back(std::move(jac));
+    if (gradient) {
+      jacobian.push_back(std::move(jac));
+      obstacle_gradient.push_back(std::move(og));
+    }
     wr.push_back(std::move(a));
     wo.push_back(std::move(o));
     overlap.push_back(std::move(ov));
@@ -145,7 +151,10 @@ void add_batch_json(const robot::DistanceBatch& b, bool gradient, json& out) {
   out["overlap"] = std::move(overlap);
   out["converged"] = std::move(converged);
   out["iterations"] = std::move(iterations);
-  if (gradient) out["jacobian"] = std::move(jacobian);
+  if (gradient) {
+    out["jacobian"] = std::move(jacobian);
+    out["obstacle_gradient"] = std::move(obstacle_gradient);
+  }
 }
 
 }  // namespace

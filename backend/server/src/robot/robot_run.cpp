@@ -159,6 +159,7 @@ robot::DistanceBatch run_robot_distances(const robot::DistanceModel& model, cons
     append(all.jacobian, b.jacobian);
     append(all.witness_robot, b.witness_robot);
     append(all.witness_obstacle, b.witness_obstacle);
+    append(all.obstacle_gradient, b.obstacle_gradient);
     append(all.overlap, b.overlap);
     append(all.converged, b.converged);
     append(all.iterations, b.iterations);

@@ -59,6 +59,9 @@ struct PairDistance {
   double clearance = 0;           // the Euclidean distance where it was computed, else NaN
   Vec3 witness_a = Vec3::Zero();  // on the robot's element
   Vec3 witness_b = Vec3::Zero();  // on the obstacle (or the self pair's second element)
+  // dD/d(v, ω) of the obstacle (world frame, ω about its origin): a moving obstacle's term of
+  // dD/dt. Zero for self pairs (both elements are in the joint-space row) and on overlap.
+  Vec6 obstacle_gradient = Vec6::Zero();
   bool overlap = false;
   int iterations = 0;  // GAP solver iterations (0 for Euclidean)
   bool converged = true;
@@ -194,9 +197,11 @@ struct DistanceBatch {
   std::vector<double> jacobian;          // (N, P, dof): dD/dq
   std::vector<double> witness_robot;     // (N, P, 3), world
   std::vector<double> witness_obstacle;  // (N, P, 3), world: on the obstacle or the second element
-  std::vector<std::uint8_t> overlap;     // (N, P)
-  std::vector<std::uint8_t> converged;   // (N, P)
-  std::vector<int> iterations;           // (N, P)
+  // (N, P, 6): PairDistance::obstacle_gradient, dD/d(v, ω) of the obstacle (0 for self pairs).
+  std::vector<double> obstacle_gradient;
+  std::vector<std::uint8_t> overlap;    // (N, P)
+  std::vector<std::uint8_t> converged;  // (N, P)
+  std::vector<int> iterations;          // (N, P)
   // The tracks after the last configuration: pass them as the next call's warm start.
   std::vector<GapTrack> tracks;
 };
