@@ -170,14 +170,6 @@ std::unique_ptr<DistanceModel::Workspace> DistanceModel::acquire() const {
       std::unique_ptr<Workspace> w = std::move(pool_->free.back());
       pool_->free.pop_back();
       w->tracks.assign(pairs_.size(), GapTrack{});
-      // Its last user may have moved the obstacles: back to the model's poses.
-      for (std::size_t j = 0; j < obstacles_.size(); ++j) {
-        const Pose& given = obstacles_[j].pose;
-        Pose& pose = w->obstacle_pose[j];
-        if (pose.position == given.position && pose.rotation.coeffs() == given.rotation.coeffs()) continue;
-        pose = given;
-        if (metric_ == Metric::gap) w->obstacle_gap[j].set_pose(given);
-      }
       return w;
     }
   }
@@ -201,12 +193,16 @@ DistanceModel::Workspace DistanceModel::workspace() const {
 }
 
 void DistanceModel::place_obstacles(Workspace& w, std::span<const Pose> poses) const {
-  if (poses.size() != obstacles_.size())
+  if (!poses.empty() && poses.size() != obstacles_.size())
     throw InvalidInput("obstacles", "the model has " + std::to_string(obstacles_.size()) + " obstacles, not " +
                                         std::to_string(poses.size()));
-  for (std::size_t j = 0; j < poses.size(); ++j) {
-    w.obstacle_pose[j] = poses[j];
-    if (metric_ == Metric::gap) w.obstacle_gap[j].set_pose(poses[j]);
+  for (std::size_t j = 0; j < obstacles_.size(); ++j) {
+    const Pose& given = poses.empty() ? obstacles_[j].pose : poses[j];
+    Pose& pose = w.obstacle_pose[j];
+    // A hull's world rows are recomputed only for an obstacle that moved.
+    if (pose.position == given.position && pose.rotation.coeffs() == given.rotation.coeffs()) continue;
+    pose = given;
+    if (metric_ == Metric::gap) w.obstacle_gap[j].set_pose(given);
   }
 }
 
@@ -315,7 +311,7 @@ DistanceBatch distances(const DistanceModel& model, std::span<const double> q, i
     std::unique_ptr<DistanceModel::Workspace> held = model.acquire();
     DistanceModel::Workspace& w = *held;
     if (r == 0 && !options.warm_start.empty()) w.tracks.assign(options.warm_start.begin(), options.warm_start.end());
-    if (!options.obstacle_poses.empty()) model.place_obstacles(w, options.obstacle_poses);
+    model.place_obstacles(w, options.obstacle_poses);  // a pooled workspace's may be its last user's
     std::vector<PairDistance> out(static_cast<std::size_t>(np));
     GradQ grad(np, dof);
     for (int i = begin; i < end; ++i) {

@@ -151,13 +151,14 @@ class DistanceModel {
   };
   Workspace workspace() const;
   // A workspace from the model's pool (made when the pool is empty), its tracks empty and its
-  // obstacles at the model's poses; give it back with recycle() so that a 1 kHz caller does not
-  // copy the bodies on every call.
+  // obstacles where its last user placed them (place_obstacles sets them); give it back with
+  // recycle() so that a 1 kHz caller does not copy the bodies on every call.
   std::unique_ptr<Workspace> acquire() const;
   void recycle(std::unique_ptr<Workspace> w) const;
-  // Moves w's obstacles to `poses` (one per obstacle, in obstacles() order): a moving obstacle
-  // needs no new model, and its pairs' tracks continue. Throws InvalidInput("obstacles") for
-  // another count; the poses are the caller's to check (finite, unit rotations).
+  // Moves w's obstacles to `poses` (one per obstacle, in obstacles() order; empty: the model's
+  // own): a moving obstacle needs no new model, and its pairs' tracks continue. Only the obstacles
+  // whose pose changed are moved. Throws InvalidInput("obstacles") for another count; the poses
+  // are the caller's to check (finite, unit rotations).
   void place_obstacles(Workspace& w, std::span<const Pose> poses) const;
   const GapBody& obstacle_body(int j) const { return obstacle_gap_[j]; }  // at the model's pose
   const EuclideanShape& obstacle_shape(int j) const { return obstacle_euclid_[j]; }
