@@ -129,7 +129,11 @@ export function differentBytes(a, b) {
 /** A real mouse stroke across the Kelvin object's visible face, through points given in world space. */
 export async function kelvinStroke(page, from, to, steps = 12) {
   const at = (p) => page.evaluate((p) => window.distlab.kelvin.toScreen(p), p);
-  const a = await at(from), b = await at(to);
+  await screenStroke(page, await at(from), await at(to), steps);
+}
+
+/** A mouse drag from screen position a to b in `steps` moves. */
+export async function screenStroke(page, a, b, steps = 12) {
   await page.mouse.move(a.x, a.y);
   await page.mouse.down();
   for (let i = 1; i <= steps; i++) await page.mouse.move(a.x + ((b.x - a.x) * i) / steps, a.y + ((b.y - a.y) * i) / steps);

@@ -9,7 +9,7 @@ import { readFileSync, writeFileSync, mkdtempSync } from "node:fs";
 import { tmpdir } from "node:os";
 import path from "node:path";
 import { pathToFileURL } from "node:url";
-import { kelvinStroke, openView, screenshot, serverAndBrowser } from "./harness.mjs";
+import { kelvinStroke, openView, screenStroke, screenshot, serverAndBrowser } from "./harness.mjs";
 
 const env = serverAndBrowser();
 const source = process.env.DISTLAB_SOURCE_DIR ?? path.resolve(import.meta.dirname, "../..");
@@ -256,9 +256,14 @@ test("Kelvin: a link with 200 σ strokes stays within 8 KB; σ saves to and load
   try {
     await waitReady(page);
     const lengths = {};
-    for (let s = 0; s < 200; s++) {
+    // The strokes' screen positions in one call: the camera does not move while painting.
+    const ends = Array.from({ length: 200 }, (_, s) => {
       const x = -0.45 + 0.1 * (s % 10), y = -0.475 + 0.05 * Math.floor(s / 10);
-      await stroke(page, [x, y, 0.5], [x + 0.06, y, 0.5], 3);
+      return [[x, y, 0.5], [x + 0.06, y, 0.5]];
+    });
+    const screens = await page.evaluate((ends) => ends.map((e) => e.map((p) => window.distlab.kelvin.toScreen(p))), ends);
+    for (let s = 0; s < 200; s++) {
+      await screenStroke(page, ...screens[s], 3);
       if (s === 19) {
         // 20 strokes: all in the (plain) link; opening it gives the same σ.
         await page.waitForTimeout(400);
