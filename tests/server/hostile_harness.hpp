@@ -18,7 +18,6 @@
 #include <set>
 #include <sstream>
 
-#include "distlab/geometry/asan.hpp"
 #include "server/server_fixture.hpp"
 
 namespace distlab::test::hostile {
@@ -446,7 +445,8 @@ class Runner {
   void start() {
     // The server's limits: no core dumps; memory bounded so a hostile allocation fails instead of
     // taking the shared machine (ASan: through its own options, as it reserves a huge address space).
-#if defined(DISTLAB_ASAN)
+    // DISTLAB_SERVER_ASAN (tests/server/CMakeLists.txt): the server is, whatever this unit is.
+#if defined(DISTLAB_SERVER_ASAN)
     std::string asan = std::getenv("ASAN_OPTIONS") ? std::getenv("ASAN_OPTIONS") : "";
     if (asan.find("hard_rss_limit_mb") == std::string::npos)
       asan += std::string(asan.empty() ? "" : ":") + "hard_rss_limit_mb=4096:max_allocation_size_mb=3072";
@@ -455,7 +455,7 @@ class Runner {
     server_ = std::make_unique<ServerProcess>(extra_, cache_);
     rlimit core{0, 0};
     ::prlimit(server_->pid(), RLIMIT_CORE, &core, nullptr);
-#if !defined(DISTLAB_ASAN)
+#if !defined(DISTLAB_SERVER_ASAN)
     rlimit as{std::size_t{4} << 30, std::size_t{4} << 30};
     ::prlimit(server_->pid(), RLIMIT_AS, &as, nullptr);
 #endif
