@@ -6,7 +6,7 @@
 // the server refused every edit after that.
 import { test } from "node:test";
 import assert from "node:assert/strict";
-import { kelvinStroke, openView, screenshot, serverAndBrowser } from "./harness.mjs";
+import { PAINTING_WINDOW, kelvinStroke, openView, screenshot, serverAndBrowser } from "./harness.mjs";
 
 const env = serverAndBrowser();
 const hash = (state) => `#/kelvin?s=${encodeURIComponent(JSON.stringify(state))}`;
@@ -28,8 +28,7 @@ function sigmaAt(body, x) {
 
 test("overlapping strokes at the default brush keep σ between the base and the brush value, and the iso-surfaces follow every one", async () => {
   const base = -0.5;
-  // A short window: every stroke's frames are drawn in software (SwiftShader).
-  const page = await openView(env.browser, env.server, hash({ object: "cube", lx: 0.1, levels: [0, 0.25], base }), { width: 1280, height: 520 });
+  const page = await openView(env.browser, env.server, hash({ object: "cube", lx: 0.1, levels: [0, 0.25], base }), PAINTING_WINDOW);
   try {
     await waitReady(page);
     const brush = (await K(page, "k.state")).brush;

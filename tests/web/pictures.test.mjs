@@ -9,7 +9,7 @@ import { readFileSync, writeFileSync, mkdtempSync } from "node:fs";
 import { tmpdir } from "node:os";
 import path from "node:path";
 import { pathToFileURL } from "node:url";
-import { kelvinStroke, openView, screenStroke, screenshot, serverAndBrowser } from "./harness.mjs";
+import { PAINTING_WINDOW, kelvinStroke, openView, screenStroke, screenshot, serverAndBrowser } from "./harness.mjs";
 
 const env = serverAndBrowser();
 const source = process.env.DISTLAB_SOURCE_DIR ?? path.resolve(import.meta.dirname, "../..");
@@ -251,8 +251,7 @@ test("Kelvin: a link with 200 σ strokes stays within 8 KB; σ saves to and load
   // Strokes that do not overlap (a brush of 3 cm + 1 cm on a grid of 10 × 20 strokes on the top
   // face), so that no stamp is skipped for changing nothing: the link holds every stroke's stamps.
   const brush = { on: true, value: 1, radius: 0.03, falloff: 0.01 };
-  // A short window: each stroke's frames are drawn in software (SwiftShader), 98 s instead of 123 s at 1280 × 800.
-  const page = await openView(env.browser, env.server, hash("kelvin", { object: "cube", lx: 0.1, levels: [0.25], base: -0.5, brush }), { width: 1280, height: 520 });
+  const page = await openView(env.browser, env.server, hash("kelvin", { object: "cube", lx: 0.1, levels: [0.25], base: -0.5, brush }), PAINTING_WINDOW);
   const downloads = mkdtempSync(path.join(tmpdir(), "distlab-sigma-"));
   try {
     await waitReady(page);
