@@ -83,9 +83,10 @@ class Field:
         value per vertex of ``surface`` (that surface's own).
 
         ``mesh_threads``: None, 0 or 1 meshes on one thread, the same mesh bit for bit on every
-        run; n > 1 (opt-in) meshes in parallel on n threads: faster, the mesh (and the field within
-        its accuracy) differs from run to run, and CGAL 5.5's parallel refinement crashed the
-        process in about 1 of 1,000 small meshings here (``stats["mesh_threads"]`` says which)."""
+        run; n > 1 (opt-in) meshes in parallel on n threads in this process: faster, the mesh (and
+        the field within its accuracy) differs from run to run, and CGAL 5.5's parallel refinement
+        crashed the process in about 1 of 1,000 small meshings here (the CLI and the service run
+        it in a child process instead; ``stats["mesh_threads"]`` says which)."""
         options = {"lx": lx, "center": center, "far_radius": far_radius, "grading": grading,
                    "feature_angle": feature_angle,
                    "max_vertices": max_vertices, "unit": unit, "scale": scale, "components": components,

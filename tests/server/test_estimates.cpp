@@ -104,11 +104,20 @@ TEST_F(Estimates, TheAssetsFieldVerticesAreWithinOneAndAHalfTimesThePrediction) 
     ASSERT_TRUE(st.contains("estimate")) << st.dump();
     EXPECT_EQ(st["estimate"]["vertices_predicted"], e["vertices_predicted"]) << "one prediction per request";
     EXPECT_EQ(st["estimate"]["grading"], st["stats"]["grading"]) << "the sizing predicted is the sizing meshed";
+    EXPECT_EQ(st["estimate"]["mesh_threads"], st["stats"]["mesh_threads"]) << "the threads predicted are the threads meshed";
     EXPECT_GT(st["stats"]["t_prepare"].get<double>(), 0);
   }
   // The rate is what the preparations took per vertex (the last 16; here all of them).
   const json after = post("/api/kelvin/estimate", {{"asset", "cube"}, {"lx", 0.1}}, 200);
   expect_time(after, computed);
+  // Asked to mesh on two threads, the same field in half the meshing (the measured rate is kept
+  // per thread), every other stage as it was.
+  const json two = post("/api/kelvin/estimate", {{"asset", "cube"}, {"lx", 0.1}, {"mesh_threads", 2}}, 200);
+  EXPECT_EQ(after["mesh_threads"], 1) << after.dump();
+  EXPECT_EQ(two["mesh_threads"], 2) << two.dump();
+  EXPECT_EQ(two["vertices_predicted"], after["vertices_predicted"]);
+  for (const auto& [stage, seconds] : after["stage_seconds"].items())
+    EXPECT_NEAR(two["stage_seconds"][stage].get<double>(), seconds.get<double>() / (stage == "mesh" ? 2 : 1), 1e-12 * seconds.get<double>()) << stage;
 }
 
 // Three real meshes as users upload them (assimp-testmodels: none is a closed 2-manifold), wrapped

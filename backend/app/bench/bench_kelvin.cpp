@@ -40,6 +40,7 @@
 #include "distlab/geometry/parallel.hpp"
 #include "distlab/kelvin/digest.hpp"
 #include "distlab/kelvin/field.hpp"
+#include "distlab/kelvin/isolated_mesher.hpp"
 #include "distlab/kelvin/surface_tools.hpp"
 #include "distlab/mesh/primitives.hpp"
 #include "distlab/mesh/surface.hpp"
@@ -720,14 +721,23 @@ MeshingParams mesher_params(const MesherCase& c, double far_radius, mesh::Surfac
   return params;
 }
 
-void ours_once(const MesherCase& c, double far_radius, int threads, MesherSide& out) {
+// worker (a distlab executable): threads > 1 mesh in its child process, as the service does
+// (kelvin/isolated_mesher.hpp); a child that failed is an error here, not a retry.
+void ours_once(const MesherCase& c, double far_radius, int threads, const std::string& worker, MesherSide& out) {
   mesh::SurfaceMesh inverted;
   MeshingParams params = mesher_params(c, far_radius, inverted);
   params.threads = threads;
   const auto t0 = Clock::now();
   params.grading = c.grading ? *c.grading : choose_grading(inverted, params);
   out.t_choice += since(t0);
-  TetMesh tm = mesh_inverted_domain(inverted, params, {});
+  TetMesh tm;
+  if (threads > 1 && !worker.empty()) {
+    IsolatedMeshing report;
+    tm = mesh_inverted_domain_isolated(inverted, params, {}, report, worker);
+    if (!report.retried.empty()) throw std::runtime_error(report.retried);
+  } else {
+    tm = mesh_inverted_domain(inverted, params, {});
+  }
   make_boundary_manifold(tm);
   out.t.push_back(since(t0));
   out.n_verts = tm.points.rows();
@@ -778,23 +788,23 @@ void plain_once(const MesherCase& c, double far_radius, int threads, const std::
 }
 
 nlohmann::json mesher_table(const std::vector<MesherCase>& cases, double far_radius, int reps, const std::vector<int>& thread_counts,
-                            const std::string& plain_exe) {
+                            const std::string& plain_exe, const std::string& worker) {
   const std::string load_before = load_average();
   std::printf(
       "\nMesher (issue 38): distlab's (the sizing's choice, Mesh_3, the manifold boundary: Stats::t_mesh) against "
       "plain CGAL Mesh_3 with eq. 23 on the same inverted surface (%s) on as many threads (1: Sequential_tag, more: "
-      "Parallel_tag), medians of %d runs alternating which goes first; load before: %s\n| object | l_x | sizing | threads | "
+      "Parallel_tag; ours in a child process of %s where given), medians of %d runs alternating which goes first; load before: %s\n| object | l_x | sizing | threads | "
       "N_verts (runs) | t_mesh s | of it sizing choice s | µs/vertex | plain N_verts | plain t s | plain refine s | plain exude s | "
       "plain µs/vertex | t ratio | per-vertex ratio | mesh digest |\n"
       "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
-      plain_exe.c_str(), reps, load_before.c_str());
+      plain_exe.c_str(), worker.empty() ? "none" : worker.c_str(), reps, load_before.c_str());
   nlohmann::json out = nlohmann::json::array();
   for (const MesherCase& c : cases)
     for (const int threads : thread_counts) {
       MesherSide ours, plain;
       for (int r = 0; r < reps; ++r)
         for (int side = 0; side < 2; ++side) {
-          if ((side == 0) == (r % 2 == 0)) ours_once(c, far_radius, threads, ours);
+          if ((side == 0) == (r % 2 == 0)) ours_once(c, far_radius, threads, worker, ours);
           else if (!plain_exe.empty()) plain_once(c, far_radius, threads, plain_exe, plain);
         }
       const double t = median(ours.t), tp = plain.t.empty() ? std::nan("") : median(plain.t);
@@ -806,7 +816,7 @@ nlohmann::json mesher_table(const std::vector<MesherCase>& cases, double far_rad
                   threads, counts.c_str(), t, ours.t_choice / reps, us, plain.n_verts, tp, plain.t_refine / reps, plain.t_exude / reps, usp, t / tp,
                   us / usp, ours.digest.substr(0, 12).c_str());
       std::fflush(stdout);
-      out.push_back({{"object", c.object}, {"lx", c.lx}, {"grading", ours.grading}, {"grading_chosen", !c.grading}, {"threads", threads}, {"n_verts", ours.n_verts}, {"n_verts_runs", ours.n_verts_runs}, {"digest", ours.digest}, {"t_mesh", t}, {"t_mesh_runs", ours.t}, {"plain_n_verts", plain.n_verts}, {"plain_n_verts_runs", plain.n_verts_runs}, {"plain_t_mesh", tp}, {"plain_t_mesh_runs", plain.t}, {"plain_t_refine_mean", plain.t_refine / reps}, {"plain_t_exude_mean", plain.t_exude / reps}, {"t_sizing_choice_mean", ours.t_choice / reps}});
+      out.push_back({{"object", c.object}, {"lx", c.lx}, {"grading", ours.grading}, {"grading_chosen", !c.grading}, {"threads", threads}, {"isolated", threads > 1 && !worker.empty()}, {"n_verts", ours.n_verts}, {"n_verts_runs", ours.n_verts_runs}, {"digest", ours.digest}, {"t_mesh", t}, {"t_mesh_runs", ours.t}, {"plain_n_verts", plain.n_verts}, {"plain_n_verts_runs", plain.n_verts_runs}, {"plain_t_mesh", tp}, {"plain_t_mesh_runs", plain.t}, {"plain_t_refine_mean", plain.t_refine / reps}, {"plain_t_exude_mean", plain.t_exude / reps}, {"t_sizing_choice_mean", ours.t_choice / reps}});
     }
   const std::string load_after = load_average();
   std::printf("load after: %s\n", load_after.c_str());
@@ -836,6 +846,7 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
   std::vector<int> mesher_threads = {1};
   int mesh_threads = 0;  // PrepareOptions::mesh_threads of every preparation (0: chosen)
   bool mesher_plain = true;
+  std::string mesher_worker;
   double grading = 0;
   if (argc == 2 && std::string(argv[1]) == "--help") {
     std::puts(
@@ -846,7 +857,7 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
         "  [--sizing-table 0.05,0.03 (accuracy against vertices, per grading) [--gradings 0,0.3]]\n"
         "  [--mesher 0.03,0.02 (the mesher against plain CGAL Mesh_3, eq. 23) [--mesher-gradings auto,0]\n"
         "   [--mesher-objects cube,wrench (the wrench at --wrench-lx)] [--mesher-reps 3] [--mesher-threads 1,2 (ours and plain's)]\n"
-        "   [--mesher-plain 0 (ours only)]]");
+        "   [--mesher-plain 0 (ours only)] [--mesher-worker build/backend/app/distlab (ours on threads > 1 in its child, as the service)]]");
     return 0;
   }
   for (int i = 1; i + 1 < argc; i += 2) {
@@ -875,6 +886,7 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
       mesher_threads.clear();
       for (double n : parse_list(v)) mesher_threads.push_back(static_cast<int>(n));
     } else if (k == "--mesher-plain") mesher_plain = v != "0";
+    else if (k == "--mesher-worker") mesher_worker = v;
     else {
       std::fprintf(stderr, "unknown option %s\n", k.c_str());
       return 2;
@@ -1024,7 +1036,7 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
         for (const auto& g : sizings) cases.push_back({object, surface, Vec3::Zero(), lx, object == "cube" ? 60.0 : wrench_features, g});
     }
     const std::string exe = std::filesystem::canonical("/proc/self/exe").parent_path() / "distlab-mesh3-plain";
-    out["mesher"] = mesher_table(cases, far_radius, mesher_reps, mesher_threads, mesher_plain ? exe : "");
+    out["mesher"] = mesher_table(cases, far_radius, mesher_reps, mesher_threads, mesher_plain ? exe : "", mesher_worker);
   }
   if (!sizing_lxs.empty()) out["sizing"] = sizing_table(sizing_lxs, gradings, far_radius, grid, mesh_threads);
   if (!sphere_json.is_null()) out["sphere_rmse"] = sphere_json;

@@ -44,7 +44,7 @@ int run_kelvin(const std::vector<std::string>& args, std::istream& in, std::ostr
           progress.report = [&err](const std::string& stage, double f) {
             err << "progress " << stage << " " << static_cast<int>(100 * f) << "%\n";
           };
-        return server::run_kelvin_request(request, progress);
+        return server::run_kelvin_request(request, progress, "/proc/self/exe");  // mesh_threads > 1 in a child
       });
 }
 

@@ -44,6 +44,7 @@ int run_serve(const std::vector<std::string>& args, std::istream&, std::ostream&
   server::ServiceConfig config;
   std::string assets_dir, web_dir;  // as given; found by find_data_dir below
   config.cache_dir = server::default_cache_dir();
+  config.mesh_worker = "/proc/self/exe";  // this binary's mesh-domain (isolated_mesher.hpp)
   server::Limits& lim = config.limits;
   try {
     for (std::size_t i = 0; i < args.size(); ++i) {

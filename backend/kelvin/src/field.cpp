@@ -9,6 +9,7 @@
 
 #include "distlab/geometry/error.hpp"
 #include "distlab/geometry/parallel.hpp"
+#include "distlab/kelvin/isolated_mesher.hpp"
 #include "distlab/mesh/checks.hpp"
 #include "field_impl.hpp"
 #include "reorder.hpp"
@@ -141,6 +142,12 @@ static MeshingParams inverted_domain(const mesh::SurfaceMesh& surface, const Vec
   return params;
 }
 
+// PrepareOptions::mesh_threads, 0 (chosen) resolved.
+static int meshing_threads(const PrepareOptions& o, const MeshingParams& params) {
+  if (o.mesh_threads > 0) return o.mesh_threads;
+  return o.mesh_worker.empty() ? 1 : choose_mesh_threads(params);
+}
+
 static std::unique_ptr<Field::Impl> mesh_stage(mesh::SurfaceMesh surface, const Vec3& centre,
                                                const PrepareOptions& o, std::unique_ptr<SurfaceOracle> oracle,
                                                const Progress& progress) {
@@ -154,9 +161,17 @@ static std::unique_ptr<Field::Impl> mesh_stage(mesh::SurfaceMesh surface, const 
   params.max_vertices = o.max_vertices;
   params.max_protection_evaluations = protection_budget(surface, centre, o, params.grading);
   params.max_refinement_evaluations = o.max_refinement_steps;
-  params.threads = std::max(o.mesh_threads, 1);  // 0 (chosen): one thread (PrepareOptions::mesh_threads)
+  params.threads = meshing_threads(o, params);
   std::string warning;
-  impl->tm = mesh_inverted_domain(inverted, params, progress, &warning);
+  if (params.threads > 1 && !o.mesh_worker.empty()) {
+    IsolatedMeshing report;
+    impl->tm = mesh_inverted_domain_isolated(inverted, params, progress, report, o.mesh_worker);
+    warning = report.warning;
+    params.threads = report.threads;
+    if (!report.retried.empty()) impl->stats.warnings.push_back(report.retried);
+  } else {
+    impl->tm = mesh_inverted_domain(inverted, params, progress, &warning);
+  }
   const auto t_pinch = std::chrono::steady_clock::now();
   const long pinched = make_boundary_manifold(impl->tm);
   if (std::getenv("DISTLAB_MESH_DEBUG"))
@@ -367,6 +382,7 @@ PreparePrediction predict_preparation(const mesh::SurfaceMesh& surface, const Pr
   PreparePrediction out;
   out.centre = centre;
   out.chosen = !options.grading;
+  out.mesh_threads = meshing_threads(options, params);
   SizingPrediction p;
   p.paper = -1;
   if (options.grading) params.grading = *options.grading;

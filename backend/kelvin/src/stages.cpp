@@ -13,11 +13,12 @@ int prepare_stage_index(const std::string& stage, double fraction) {
   return -1;
 }
 
-StageSeconds typical_stage_seconds(double grading, double vertices) {
+StageSeconds typical_stage_seconds(double grading, double vertices, int mesh_threads) {
   // Each stage's seconds at 10^4 vertices (the cube: 26k vertices eq. 23, 36k graded; the
   // wrench: 5.7k eq. 23), scaled to `vertices` by kStageSizeExponents.
   StageSeconds at_10k = {0.02, 1.0, 0.045, 0.15, 0.15, 0.75};
   if (grading > 0) at_10k[1] *= 2;
+  at_10k[1] /= std::max(mesh_threads, 1);
   StageSeconds out{};
   for (std::size_t i = 0; i < kPrepareStageCount; ++i) out[i] = at_10k[i] * std::pow(std::max(vertices, 1.0) / 1e4, kStageSizeExponents[i]);
   return out;

@@ -1,22 +1,14 @@
 // Mesh import in a child process with resource limits (isolated_import.hpp).
 //
-// posix_spawn (not fork) because the server is multithreaded: only exec follows in the child.
 // The child writes  "DLMESH2\n" u64 nv u64 nf u64 np  nv*3 double  nf*3 int32  np int32 (the
 // file's polygon corner counts, surface.hpp; native byte order, same machine), or "DLERROR\n" and
 // a message (exit 1), or exits 3 when its memory ran out.
 #include "distlab/mesh/isolated_import.hpp"
 
-#include <fcntl.h>
-#include <poll.h>
 #include <signal.h>
-#include <spawn.h>
-#include <sys/mman.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
-#include <unistd.h>
 
-#include <cerrno>
-#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -26,9 +18,8 @@
 #include <stdexcept>
 
 #include "distlab/geometry/asan.hpp"
+#include "distlab/geometry/child_process.hpp"
 #include "distlab/geometry/error.hpp"
-
-extern char** environ;
 
 namespace distlab::mesh {
 namespace {
@@ -44,28 +35,6 @@ void set_limit(int resource, rlim_t soft, rlim_t hard) {
 }
 
 std::string megabytes(std::size_t bytes) { return std::to_string(bytes >> 20) + " MB"; }
-
-// Reads the child's output until EOF, the deadline or the cap. Returns false on timeout or cap.
-bool read_child(int fd, std::string& data, double seconds, std::size_t cap) {
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
-  char buffer[1 << 16];
-  for (;;) {
-    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
-    if (left.count() <= 0) return false;
-    pollfd p{fd, POLLIN, 0};
-    const int ready = ::poll(&p, 1, static_cast<int>(std::min<long long>(left.count(), 1000)));
-    if (ready < 0 && errno != EINTR) return false;
-    if (ready <= 0) continue;
-    const ssize_t n = ::read(fd, buffer, sizeof buffer);
-    if (n == 0) return true;
-    if (n < 0) {
-      if (errno == EINTR || errno == EAGAIN) continue;
-      return true;  // read error: judged by what arrived and the exit status
-    }
-    if (data.size() + static_cast<std::size_t>(n) > cap) return false;
-    data.append(buffer, static_cast<std::size_t>(n));
-  }
-}
 
 // The parent trusts nothing the child sends: sizes, coordinates and indices are checked again.
 SurfaceMesh decode(const std::string& data, const std::string& field, const std::string& name) {
@@ -163,46 +132,17 @@ SurfaceMesh run_importer(const std::string& path, int file, const std::string& f
                          const std::string& name, const ImportLimits& limits, const std::string& exe_in) {
   // /proc/self/exe is this process's binary even if its file was replaced since it started.
   const std::string exe = exe_in.empty() ? "/proc/self/exe" : exe_in;
-  int fds[2];
-  if (::pipe2(fds, O_CLOEXEC) != 0) throw std::runtime_error("cannot create a pipe for the mesh importer");
-  posix_spawn_file_actions_t actions;
-  posix_spawnattr_t attr;
-  ::posix_spawn_file_actions_init(&actions);
-  ::posix_spawn_file_actions_adddup2(&actions, fds[1], 1);  // dup2 clears close-on-exec
-  ::posix_spawn_file_actions_addopen(&actions, 0, "/dev/null", O_RDONLY, 0);
-  ::posix_spawn_file_actions_addopen(&actions, 2, "/dev/null", O_WRONLY, 0);  // parsers chatter
-  if (file >= 0) ::posix_spawn_file_actions_adddup2(&actions, file, 3);
-  ::posix_spawn_file_actions_addclosefrom_np(&actions, file >= 0 ? 4 : 3);  // no listening socket or session file
-  ::posix_spawnattr_init(&attr);
-  sigset_t none, defaults;
-  sigemptyset(&none);
-  sigemptyset(&defaults);
-  for (int s : {SIGPIPE, SIGXCPU, SIGTERM, SIGINT}) sigaddset(&defaults, s);
-  ::posix_spawnattr_setsigmask(&attr, &none);
-  ::posix_spawnattr_setsigdefault(&attr, &defaults);
-  ::posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF);
   std::vector<std::string> args = {"distlab", "import-mesh", path, std::to_string(limits.memory_bytes),
                                    std::to_string(limits.seconds)};
   if (!format.empty()) args.push_back(format);
-  std::vector<char*> argv;
-  argv.reserve(args.size() + 1);
-  for (auto& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  pid_t pid = -1;
-  const int spawned = ::posix_spawn(&pid, exe.c_str(), &actions, &attr, argv.data(), environ);
-  ::posix_spawn_file_actions_destroy(&actions);
-  ::posix_spawnattr_destroy(&attr);
-  ::close(fds[1]);
-  if (spawned != 0) {
-    ::close(fds[0]);
-    throw std::runtime_error(std::string("cannot start the mesh importer: ") + std::strerror(spawned));
-  }
   std::string data;
-  const bool finished = read_child(fds[0], data, limits.seconds, limits.memory_bytes + 64);
-  ::close(fds[0]);
-  if (!finished) ::kill(pid, SIGKILL);
   int status = 0;
-  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  bool finished = false;
+  {
+    ChildProcess child(exe, args, file);
+    finished = child.read(data, limits.seconds, limits.memory_bytes + 64) == ChildProcess::End::eof;
+    if (!finished) child.kill();
+    status = child.wait();
   }
   const std::string secs = std::to_string(static_cast<long long>(std::ceil(limits.seconds)));
   if (!finished && data.size() > limits.memory_bytes)
@@ -231,23 +171,8 @@ SurfaceMesh load_mesh_isolated(const std::string& path, const std::string& field
 
 SurfaceMesh load_bytes_isolated(const std::string& bytes, const std::string& format, const std::string& field,
                                 const std::string& name, const ImportLimits& limits, const std::string& exe) {
-  // An anonymous file: nothing in any directory, so nothing is left behind if the server dies.
-  const int file = ::memfd_create("distlab-upload", MFD_CLOEXEC);
-  if (file < 0) throw std::runtime_error(std::string("cannot create an in-memory file: ") + std::strerror(errno));
-  try {
-    for (std::size_t at = 0; at < bytes.size();) {
-      const ssize_t n = ::write(file, bytes.data() + at, bytes.size() - at);
-      if (n < 0 && errno == EINTR) continue;
-      if (n <= 0) throw std::runtime_error(std::string("cannot write an in-memory file: ") + std::strerror(errno));
-      at += static_cast<std::size_t>(n);
-    }
-    SurfaceMesh m = run_importer("/dev/fd/3", file, format, field, name, limits, exe);
-    ::close(file);
-    return m;
-  } catch (...) {
-    ::close(file);
-    throw;
-  }
+  const MemoryFile file("distlab-upload", bytes);
+  return run_importer("/dev/fd/3", file.fd(), format, field, name, limits, exe);
 }
 
 }  // namespace distlab::mesh

@@ -3600,7 +3600,7 @@ export interface components {
             far_radius?: number;
             /** @description 0: the paper's sizing l_y = |y|² lx (eq. 23); g > 0: the graded sizing, finer near sharp edges and growing by g per unit distance (in y) from the inverted surface: fewer vertices at equal accuracy (at lx 0.02 on the unit cube, g 0.05: 185k vertices against 394k); counted in the vertex budget (its edge refinement adds a term per metre of sharp edge). Absent (default): chosen per object and lx, the graded sizing g 0.05 where it is predicted to need at most 2/3 of eq. 23's vertices (fine lx; below about 5k vertices always eq. 23), else eq. 23; stats.grading says which */
             grading?: number;
-            /** @description threads the mesher refines on: 0 (absent) or 1, one thread, the same mesh bit for bit on every run. More is refused (400 naming mesh_threads): CGAL 5.5's parallel refinement crashed its process in about 1 of 1,000 small meshings, and the service's process holds every client's state; the CLI and the Python package offer it. stats.mesh_threads says which; a field already in the store is used whichever way it was meshed */
+            /** @description threads the mesher refines on. 1: one thread, the same mesh bit for bit on every run. n > 1, up to this machine's cores (more is refused, 400 naming mesh_threads): CGAL Mesh_3's parallel refinement, in a child process of the server (CGAL 5.5's parallel refinement crashes its process in about 1 of 1,000 meshings; a crashed child costs a second meshing on one thread, said in stats.warnings): faster on a big field (the cube at lx 0.02 about twice on 2 cores), a mesh that differs from run to run within its accuracy. 0 (absent): one thread for a field whose eq. 23 vertex bound is under 100k (meshed in well under a second), every core above. stats.mesh_threads says which; a field already in the store is used whichever way it was meshed */
             mesh_threads?: number;
             sigma?: components["schemas"]["Sigma"];
             levels?: number[];
@@ -3906,6 +3906,8 @@ export interface components {
             grading: number | null;
             /** @description grading is the preparation's choice (the request gave none) */
             grading_chosen: boolean | null;
+            /** @description the threads the preparation will mesh on (the request's mesh_threads, or for 0 one thread under eq. 23's 100k-vertex bound and every core above); the mesh stage's seconds are divided by them */
+            mesh_threads: number | null;
             /** @description vertices_predicted times seconds_per_vertex.value (the sum of stage_seconds); null when vertices_predicted is */
             seconds_estimate: number | null;
             /** @description this server's seconds per field vertex of each stage, for the sizing predicted (eq23, graded: the graded sizing's meshing costs about twice per vertex; any: both, when the sizing is not predicted) at the predicted vertices: a stage's seconds at n vertices are c·n^p (p: size_exponents), c its seconds measured (stats.t_stages) over Σ n^p of the sizing's last 16 computed preparations (cache hits and shared ones are not computations), or typical values before the sizing's first */

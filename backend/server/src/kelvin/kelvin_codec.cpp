@@ -49,15 +49,8 @@ void decode_options(const json& body, CreateObjectRequest& in) {
     options.grading = json_number(body["grading"], "grading", kelvin::kMaxGrading);
     if (!(*options.grading >= 0)) throw InvalidInput("grading", "grading must be in [0, " + json(kelvin::kMaxGrading).dump() + "]");
   }
-  // The service meshes on one thread: CGAL 5.5's parallel refinement can crash the process, and
-  // with it every client's state (PrepareOptions::mesh_threads).
-  if (body.contains("mesh_threads")) {
-    options.mesh_threads = json_integer(body["mesh_threads"], "mesh_threads", 0, kelvin::kMaxMeshThreads);
-    if (options.mesh_threads > 1)
-      throw InvalidInput("mesh_threads",
-                         "mesh_threads must be 0 or 1 here: the service meshes on one thread "
-                         "(parallel meshing is offered by the CLI and the Python package only)");
-  }
+  // Checked against this server's cores by KelvinModule::check_preparable.
+  if (body.contains("mesh_threads")) options.mesh_threads = json_integer(body["mesh_threads"], "mesh_threads", 0, kelvin::kMaxMeshThreads);
 }
 
 // One of asset (a name), upload (an id) and mesh (inline, at most max_upload_triangles).

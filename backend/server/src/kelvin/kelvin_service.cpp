@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <optional>
+#include <thread>
 
 #include "distlab/geometry/error.hpp"
 #include "distlab/kelvin/progress.hpp"
@@ -56,6 +57,7 @@ KelvinModule::ObjectPlan KelvinModule::plan_object(const CreateObjectRequest& in
   const Limits& lim = config_.limits;
   ObjectPlan plan;
   plan.options = in.options;
+  plan.options.mesh_worker = config_.mesh_worker;
   if (!in.asset.empty()) {
     std::string path;
     for (const char* ext : kMeshExtensions) {
@@ -154,6 +156,13 @@ void KelvinModule::check_preparable(const CreateObjectRequest& in, ObjectPlan& p
   // The job's meshing cap is the same budget, and whatever prepare would refuse (a surface that
   // is not closed, a centre outside or too near the surface) is refused now, before a job starts.
   options.max_vertices = std::max<std::size_t>(100, lim.max_vertex_estimate);
+  // Several meshing threads only in a child process (kelvin/isolated_mesher.hpp): CGAL 5.5's
+  // parallel refinement can crash its process, and this one holds every client's state.
+  const int cores = static_cast<int>(std::max(1U, std::thread::hardware_concurrency()));
+  if (config_.mesh_worker.empty() && options.mesh_threads > 1)
+    throw InvalidInput("mesh_threads", "mesh_threads must be 0 or 1 here: this server meshes in its own process, on one thread");
+  if (options.mesh_threads > cores)
+    throw InvalidInput("mesh_threads", "mesh_threads must be in [0, " + std::to_string(cores) + "] here (this machine's cores)");
   if (in.reshape.repair.kind != "none") return;
   if (in.reshape.largest_piece) {
     // The piece prepared is checked, in its own numbering (the others are dropped).
@@ -336,7 +345,7 @@ void KelvinModule::prepare_field(Job& j, KelvinObject& object, const kelvin::Pre
   }
   // This server's seconds per vertex learn from what it computed (not from a cache or another
   // object's preparation).
-  if (computed) prepare_rate_.record(prepared->field.stats().grading, stages->seconds(), static_cast<double>(prepared->field.stats().n_verts));
+  if (computed) prepare_rate_.record(prepared->field.stats().grading, prepared->field.stats().mesh_threads, stages->seconds(), static_cast<double>(prepared->field.stats().n_verts));
 }
 
 // What POST /api/kelvin/objects would do with these inputs, without doing it: the server's vertex
@@ -386,6 +395,12 @@ ObjectEstimate KelvinModule::estimate_of(const mesh::SurfaceMesh& welded, kelvin
   return out;
 }
 
+// The field's key and the threads asked for: a prediction says the threads it will mesh on, and
+// mesh_threads is not part of the field's key.
+static std::string prediction_key(const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& options) {
+  return kelvin::prepare_key(surface, options) + "/" + std::to_string(options.mesh_threads);
+}
+
 kelvin::PreparePrediction KelvinModule::predict(const mesh::SurfaceMesh& surface, kelvin::PrepareOptions options,
                                                 const std::atomic<bool>* cancel) {
   if (auto hit = cached_prediction(surface, options)) return *hit;
@@ -393,12 +408,12 @@ kelvin::PreparePrediction KelvinModule::predict(const mesh::SurfaceMesh& surface
   kelvin::Progress progress;
   progress.cancel = cancel;
   kelvin::PreparePrediction p = kelvin::predict_preparation(surface, options, progress);
-  predictions_.put(kelvin::prepare_key(surface, options), p);
+  predictions_.put(prediction_key(surface, options), p);
   return p;
 }
 
 std::optional<kelvin::PreparePrediction> KelvinModule::cached_prediction(const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& options) {
-  return predictions_.find(kelvin::prepare_key(surface, options));
+  return predictions_.find(prediction_key(surface, options));
 }
 
 }  // namespace distlab::server

@@ -3,14 +3,19 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <string_view>
 
 namespace distlab::server {
 
 using json = nlohmann::json;
 
 static std::size_t sizing_index(double grading) { return grading > 0 ? 1 : 0; }
+static constexpr std::size_t kMeshStage = 1;  // kelvin::kPrepareStages
+static_assert(std::string_view(kelvin::kPrepareStages[kMeshStage]) == "mesh");
 
-void PrepareRate::record(double grading, const kelvin::StageSeconds& seconds, double vertices) {
+void PrepareRate::record(double grading, int mesh_threads, const kelvin::StageSeconds& measured, double vertices) {
+  kelvin::StageSeconds seconds = measured;
+  seconds[kMeshStage] *= std::max(mesh_threads, 1);
   double total = 0;
   for (double s : seconds) {
     if (!(s >= 0) || !std::isfinite(s)) return;
@@ -23,7 +28,7 @@ void PrepareRate::record(double grading, const kelvin::StageSeconds& seconds, do
   if (recent.size() > kWindow) recent.pop_front();
 }
 
-PrepareRate::Rate PrepareRate::rate(std::optional<double> grading, std::optional<double> vertices) const {
+PrepareRate::Rate PrepareRate::rate(std::optional<double> grading, std::optional<double> vertices, int mesh_threads) const {
   Rate out;
   out.sizing = !grading ? "any" : *grading > 0 ? "graded"
                                                : "eq23";
@@ -45,11 +50,12 @@ PrepareRate::Rate PrepareRate::rate(std::optional<double> grading, std::optional
   }
   const double n = std::max(1.0, vertices.value_or(out.preparations > 0 ? n_sum / static_cast<double>(out.preparations) : 1e4));
   if (out.preparations == 0) {
-    out.stages = kelvin::typical_stage_seconds(grading.value_or(kelvin::kAutoGrading), n);
+    out.stages = kelvin::typical_stage_seconds(grading.value_or(kelvin::kAutoGrading), n, mesh_threads);
     for (double& s : out.stages) s /= n;
   } else {
     for (std::size_t i = 0; i < kelvin::kPrepareStageCount; ++i)
       out.stages[i] = seconds[i] / sizes[i] * std::pow(n, kelvin::kStageSizeExponents[i] - 1);
+    out.stages[kMeshStage] /= std::max(mesh_threads, 1);
   }
   for (double s : out.stages) out.seconds_per_vertex += s;
   return out;
@@ -80,7 +86,7 @@ void PredictionCache::put(const std::string& key, const kelvin::PreparePredictio
 
 PrepareRate::Rate prediction_rate(const std::optional<kelvin::PreparePrediction>& p, const PrepareRate& rates,
                                   std::optional<double> grading) {
-  return p ? rates.rate(p->grading, static_cast<double>(std::llround(p->vertices))) : rates.rate(grading, std::nullopt);
+  return p ? rates.rate(p->grading, static_cast<double>(std::llround(p->vertices)), p->mesh_threads) : rates.rate(grading, std::nullopt);
 }
 
 json prediction_json(const std::optional<kelvin::PreparePrediction>& p, const PrepareRate& rates, std::optional<double> grading) {
@@ -97,6 +103,7 @@ json prediction_json(const std::optional<kelvin::PreparePrediction>& p, const Pr
   json out = {{"vertices_predicted", nullptr},
               {"grading", nullptr},
               {"grading_chosen", nullptr},
+              {"mesh_threads", nullptr},
               {"seconds_estimate", nullptr},
               {"stage_seconds", nullptr},
               {"seconds_per_vertex",
@@ -110,6 +117,7 @@ json prediction_json(const std::optional<kelvin::PreparePrediction>& p, const Pr
     out["vertices_predicted"] = n;
     out["grading"] = p->grading;
     out["grading_chosen"] = p->chosen;
+    out["mesh_threads"] = p->mesh_threads;
     out["seconds_estimate"] = static_cast<double>(n) * rate.seconds_per_vertex;
     for (auto& s : stages) s = s.get<double>() * static_cast<double>(n);
     out["stage_seconds"] = std::move(stages);
@@ -121,7 +129,7 @@ kelvin::StageSeconds stage_shares(const std::optional<kelvin::PreparePrediction>
                                   std::optional<double> grading) {
   if (!p) return rates.rate(grading, std::nullopt).stages;  // at the measured preparations' mean size
   const auto n = static_cast<double>(std::llround(p->vertices));
-  kelvin::StageSeconds shares = rates.rate(p->grading, n).stages;
+  kelvin::StageSeconds shares = rates.rate(p->grading, n, p->mesh_threads).stages;
   for (double& s : shares) s *= n;
   return shares;
 }

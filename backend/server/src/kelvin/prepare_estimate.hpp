@@ -37,10 +37,14 @@ class PrepareRate {
     std::size_t preparations = 0;   // measured ones in the window; 0: the typical rates
     const char* sizing = "any";     // "eq23", "graded", or "any" (both windows: the sizing unknown)
   };
-  void record(double grading, const kelvin::StageSeconds& seconds, double vertices);
+  // The mesh stage is kept in thread-seconds (its seconds × mesh_threads: the parallel
+  // refinement's speed-up is about its threads, 2.2× on two), so fields meshed on one thread and
+  // on several share one rate.
+  void record(double grading, int mesh_threads, const kelvin::StageSeconds& measured, double vertices);
   // The rate of the sizing `grading` meshes (without it, of both sizings' preparations
-  // together) at `vertices` (without them, the measured preparations' mean; 10^4 before any).
-  Rate rate(std::optional<double> grading, std::optional<double> vertices) const;
+  // together) at `vertices` (without them, the measured preparations' mean; 10^4 before any),
+  // meshed on mesh_threads.
+  Rate rate(std::optional<double> grading, std::optional<double> vertices, int mesh_threads = 1) const;
 
  private:
   struct Measured {
@@ -51,7 +55,7 @@ class PrepareRate {
   std::deque<Measured> recent_[2];  // eq. 23, graded
 };
 
-// The last kSize predictions by content key (kelvin::prepare_key: the surface and the options), so that
+// The last kSize predictions by key (kelvin::prepare_key: the surface and the options, and the mesh_threads asked), so that
 // an estimate asked again, and the job that follows it, cost nothing more. Thread-safe.
 class PredictionCache {
  public:
@@ -65,10 +69,10 @@ class PredictionCache {
   std::unordered_map<std::string, decltype(order_)::iterator> index_;
 };
 
-// {"vertices_predicted", "grading", "grading_chosen", "seconds_estimate", "stage_seconds",
+// {"vertices_predicted", "grading", "grading_chosen", "mesh_threads", "seconds_estimate", "stage_seconds",
 // "seconds_per_vertex": {"value", "source": "default" | "measured", "preparations", "sizing",
 // "stages", "size_exponents"}}: the rate of the sizing predicted at the vertices predicted; with
-// no prediction the first three, the seconds and the stage seconds are null and the rate is the
+// no prediction the first four, the seconds and the stage seconds are null and the rate is the
 // sizing's given in `grading` (or any) at the measured preparations' mean vertices.
 nlohmann::json prediction_json(const std::optional<kelvin::PreparePrediction>& p, const PrepareRate& rates,
                                std::optional<double> grading = std::nullopt);

@@ -52,11 +52,16 @@ struct PrepareOptions {
   double max_refinement_steps = 1e8;
   // Meshing threads (MeshingParams::threads): 1, a mesh the same bit for bit on every run; n > 1,
   // CGAL's parallel refinement on n threads, faster, a mesh (and field) that differs from run to
-  // run within the mesh's accuracy. Opt-in only: CGAL 5.5's parallel refinement crashed (SIGSEGV
-  // in its triangulation, two threads in one conflict zone) in about 1 of 1,000 small meshings
-  // here, so 0 (chosen) is one thread and the service refuses n > 1. Stats::mesh_threads says
-  // which. Not part of prepare_key: fields meshed either way answer for the same object.
+  // run within the mesh's accuracy. CGAL 5.5's parallel refinement crashes its process now and
+  // then (isolated_mesher.hpp), so with a mesh_worker it runs in a child process (a crash costs a
+  // second meshing on one thread, not the process) and 0 (chosen) is choose_mesh_threads' count;
+  // without one, n > 1 refines in this process (an opt-in) and 0 is one thread.
+  // Stats::mesh_threads says which. Not part of prepare_key: fields meshed either way answer for
+  // the same object.
   int mesh_threads = 0;
+  // The distlab executable whose `mesh-domain` command meshes on several threads in a child
+  // process ("/proc/self/exe" in the server and the CLI); empty: this process meshes itself.
+  std::string mesh_worker;
 };
 
 // SHA-256 (hex, digest.hpp) of a surface: its vertex and face counts, vertices and faces. Equal
@@ -133,6 +138,7 @@ struct PreparePrediction {
   bool chosen = false;  // grading was chosen (options.grading not given)
   Vec3 centre = Vec3::Zero();
   double protection_trial_lx = 0;  // l_x of the trial meshing (0: none ran)
+  int mesh_threads = 1;            // the threads prepare meshes on (PrepareOptions::mesh_threads)
 };
 PreparePrediction predict_preparation(const mesh::SurfaceMesh& surface, const PrepareOptions& options,
                                       const Progress& progress = {});

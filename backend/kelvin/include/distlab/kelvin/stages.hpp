@@ -34,7 +34,9 @@ inline constexpr StageSeconds kStageSizeExponents = {1, 1, 1, 1.5, 1, 2};
 // package's shares, the server's before its first preparation of the sizing): for eq. 23
 // (grading 0) and the graded sizing (grading > 0), whose meshing costs about twice per vertex.
 // Measured on the cube at l_x 0.05 and the wrench at 0.005 (2-core machine, issue 38 goal 3).
-StageSeconds typical_stage_seconds(double grading, double vertices);
+// Meshing on mesh_threads threads divides the mesh stage by them (the cube at l_x 0.02: 2.2× on
+// two threads).
+StageSeconds typical_stage_seconds(double grading, double vertices, int mesh_threads = 1);
 
 // Thread-safe.
 class StageProgress {

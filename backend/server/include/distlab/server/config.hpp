@@ -241,6 +241,10 @@ struct ServiceConfig {
   std::string cache_dir;         // "" : a temporary directory
   unsigned compute_threads = 0;  // 0: hardware concurrency
   unsigned job_threads = 0;      // 0: hardware concurrency
+  // The distlab executable whose `mesh-domain` command meshes big fields on every core in a child
+  // process (PrepareOptions::mesh_worker; `distlab serve` sets its own); "": one thread here, and
+  // mesh_threads > 1 is refused.
+  std::string mesh_worker;
   Limits limits;
 };
 

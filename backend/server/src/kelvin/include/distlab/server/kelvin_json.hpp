@@ -52,8 +52,11 @@ inline nlohmann::json surface_check_json(const mesh::SurfaceReport& r) {
   return {{"closed", r.closed()}, {"manifold", r.manifold()}, {"components", r.components}, {"volume", r.volume}, {"boundary_edges", r.boundary_edges}, {"non_manifold_edges", r.non_manifold_edges}, {"non_manifold_vertices", r.non_manifold_vertices}, {"degenerate_faces", r.degenerate_faces}};
 }
 
-// Runs a whole request. Throws InvalidInput (with the field) on bad input.
-nlohmann::json run_kelvin_request(const nlohmann::json& request, const kelvin::Progress& progress = {});
+// Runs a whole request. Throws InvalidInput (with the field) on bad input. A request's
+// mesh_threads > 1 meshes in a child process of mesh_worker (PrepareOptions::mesh_worker; the
+// CLI's own binary) where one is given; 0 (absent) is one thread here either way, as in Python.
+nlohmann::json run_kelvin_request(const nlohmann::json& request, const kelvin::Progress& progress = {},
+                                  const std::string& mesh_worker = "");
 
 // Parses the "sigma" object (field prefix "sigma").
 kelvin::SigmaSpec parse_sigma(const nlohmann::json& j);
