@@ -55,7 +55,8 @@ std::string script(const std::string& name, const std::string& body) {
   const fs::path dir = fs::temp_directory_path() / ("distlab_mesh_domain_test_" + std::to_string(::getpid()));
   fs::create_directories(dir);
   const fs::path path = dir / name;
-  std::ofstream(path) << "#!/bin/sh\n" << body << "\n";
+  std::ofstream(path) << "#!/bin/sh\n"
+                      << body << "\n";
   ::chmod(path.c_str(), 0755);
   return path.string();
 }
@@ -153,7 +154,7 @@ TEST(IsolatedMesher, ACrashedOrLyingChildIsMeshedAgainOnOneThread) {
                                     "printf 'M\\111\\000\\000\\000\\000\\000\\000\\000'; "  // 73 bytes: np 1, nt 1
                                     "printf '\\001\\000\\000\\000\\000\\000\\000\\000\\001\\000\\000\\000\\000\\000\\000\\000'; "
                                     "head -c 24 /dev/zero; printf '\\005\\000\\000\\000'; head -c 12 /dev/zero; "  // cell (5, 0, 0, 0)
-                                    "head -c 16 /dev/zero | tr '\\000' '\\377'; head -c 1 /dev/zero");  // no neighbours, outside
+                                    "head -c 16 /dev/zero | tr '\\000' '\\377'; head -c 1 /dev/zero");             // no neighbours, outside
   const struct {
     std::string exe, why;
   } children[] = {{script("segfault", "kill -SEGV $$"), "signal 11"},

@@ -22,7 +22,10 @@ class ChildProcess {
   ChildProcess(const ChildProcess&) = delete;
   ChildProcess& operator=(const ChildProcess&) = delete;
 
-  enum class End { eof, deadline, cap, stopped };
+  enum class End { eof,
+                   deadline,
+                   cap,
+                   stopped };
   // Appends the child's stdout to data until it closes it (eof), `seconds` pass (infinity: no
   // limit), data would pass
   // cap bytes, or tick returns false (stopped). tick runs after every chunk read and at least
