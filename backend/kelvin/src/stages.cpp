@@ -18,7 +18,7 @@ StageSeconds typical_stage_seconds(double grading, double vertices, int mesh_thr
   // wrench: 5.7k eq. 23), scaled to `vertices` by kStageSizeExponents.
   StageSeconds at_10k = {0.02, 1.0, 0.045, 0.15, 0.15, 0.75};
   if (grading > 0) at_10k[1] *= 2;
-  at_10k[1] /= std::max(mesh_threads, 1);
+  at_10k[1] /= mesh_speedup(mesh_threads);
   StageSeconds out{};
   for (std::size_t i = 0; i < kPrepareStageCount; ++i) out[i] = at_10k[i] * std::pow(std::max(vertices, 1.0) / 1e4, kStageSizeExponents[i]);
   return out;

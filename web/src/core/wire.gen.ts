@@ -3906,7 +3906,7 @@ export interface components {
             grading: number | null;
             /** @description grading is the preparation's choice (the request gave none) */
             grading_chosen: boolean | null;
-            /** @description the threads the preparation will mesh on (the request's mesh_threads, or for 0 one thread under eq. 23's 100k-vertex bound and every core above); the mesh stage's seconds are divided by them */
+            /** @description the threads the preparation will mesh on (the request's mesh_threads, or for 0 one thread under eq. 23's 100k-vertex bound and every core above); the mesh stage's seconds are divided by the parallel refinement's speed-up on them (1 + 0.67 per added thread, measured on the cube) */
             mesh_threads: number | null;
             /** @description vertices_predicted times seconds_per_vertex.value (the sum of stage_seconds); null when vertices_predicted is */
             seconds_estimate: number | null;

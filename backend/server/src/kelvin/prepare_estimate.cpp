@@ -15,7 +15,7 @@ static_assert(std::string_view(kelvin::kPrepareStages[kMeshStage]) == "mesh");
 
 void PrepareRate::record(double grading, int mesh_threads, const kelvin::StageSeconds& measured, double vertices) {
   kelvin::StageSeconds seconds = measured;
-  seconds[kMeshStage] *= std::max(mesh_threads, 1);
+  seconds[kMeshStage] *= kelvin::mesh_speedup(mesh_threads);
   double total = 0;
   for (double s : seconds) {
     if (!(s >= 0) || !std::isfinite(s)) return;
@@ -55,7 +55,7 @@ PrepareRate::Rate PrepareRate::rate(std::optional<double> grading, std::optional
   } else {
     for (std::size_t i = 0; i < kelvin::kPrepareStageCount; ++i)
       out.stages[i] = seconds[i] / sizes[i] * std::pow(n, kelvin::kStageSizeExponents[i] - 1);
-    out.stages[kMeshStage] /= std::max(mesh_threads, 1);
+    out.stages[kMeshStage] /= kelvin::mesh_speedup(mesh_threads);
   }
   for (double s : out.stages) out.seconds_per_vertex += s;
   return out;

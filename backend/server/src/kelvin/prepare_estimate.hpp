@@ -37,9 +37,8 @@ class PrepareRate {
     std::size_t preparations = 0;   // measured ones in the window; 0: the typical rates
     const char* sizing = "any";     // "eq23", "graded", or "any" (both windows: the sizing unknown)
   };
-  // The mesh stage is kept in thread-seconds (its seconds × mesh_threads: the parallel
-  // refinement's speed-up is about its threads, 2.2× on two), so fields meshed on one thread and
-  // on several share one rate.
+  // The mesh stage is kept in one-thread seconds (its seconds × kelvin::mesh_speedup of the
+  // threads it meshed on), so fields meshed on one thread and on several share one rate.
   void record(double grading, int mesh_threads, const kelvin::StageSeconds& measured, double vertices);
   // The rate of the sizing `grading` meshes (without it, of both sizings' preparations
   // together) at `vertices` (without them, the measured preparations' mean; 10^4 before any),

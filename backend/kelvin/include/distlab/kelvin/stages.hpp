@@ -34,9 +34,14 @@ inline constexpr StageSeconds kStageSizeExponents = {1, 1, 1, 1.5, 1, 2};
 // package's shares, the server's before its first preparation of the sizing): for eq. 23
 // (grading 0) and the graded sizing (grading > 0), whose meshing costs about twice per vertex.
 // Measured on the cube at l_x 0.05 and the wrench at 0.005 (2-core machine, issue 38 goal 3).
-// Meshing on mesh_threads threads divides the mesh stage by them (the cube at l_x 0.02: 2.2× on
-// two threads).
+// Meshing on mesh_threads threads divides the mesh stage by mesh_speedup(mesh_threads).
 StageSeconds typical_stage_seconds(double grading, double vertices, int mesh_threads = 1);
+
+// The parallel refinement's speed-up on `threads` threads against one: 1 + kParallelMeshGain per
+// added thread. The cube at l_x 0.02, graded, on two threads in the child process: 17.49 → 10.49
+// s (distlab-bench-kelvin --mesher) and 19.08 → 11.43 s in the service, 1.67× both.
+inline constexpr double kParallelMeshGain = 0.67;
+inline double mesh_speedup(int threads) { return 1 + kParallelMeshGain * (threads > 1 ? threads - 1 : 0); }
 
 // Thread-safe.
 class StageProgress {
