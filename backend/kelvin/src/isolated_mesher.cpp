@@ -21,6 +21,7 @@
 #include <optional>
 #include <ostream>
 #include <stdexcept>
+#include <string_view>
 #include <thread>
 
 #include "distlab/geometry/child_process.hpp"
@@ -121,7 +122,7 @@ std::string encode_mesh(const TetMesh& tm) {
   return s;
 }
 
-std::optional<TetMesh> decode_mesh(const std::string& payload) {
+std::optional<TetMesh> decode_mesh(std::string_view payload) {
   Reader r{payload.data(), payload.data() + payload.size()};
   std::uint64_t np = 0, nt = 0;
   if (!r.get(np) || !r.get(nt)) return std::nullopt;
@@ -198,20 +199,20 @@ TetMesh mesh_inverted_domain_isolated(const mesh::SurfaceMesh& inverted, const M
         std::memcpy(&n, data.data() + parsed + 1, 8);
         if (n > data.size() - parsed - 9) return true;
         const char tag = data[parsed];
-        const std::string payload = data.substr(parsed + 9, n);
+        const std::string_view payload = std::string_view(data).substr(parsed + 9, n);  // the mesh is not copied
         parsed += 9 + n;
         if (tag == 'P') {
           double fraction = 0;
           if (payload.size() < 8) return false;
           std::memcpy(&fraction, payload.data(), 8);
           if (!(fraction >= 0 && fraction <= 1)) return false;
-          progress(payload.substr(8), fraction);  // throws Cancelled: the child is killed on the way out
+          progress(std::string(payload.substr(8)), fraction);  // throws Cancelled: the child is killed on the way out
         } else if (tag == 'W') {
-          report.warning = payload;
+          report.warning = std::string(payload);
         } else if (tag == 'E') {
           const std::size_t nul = payload.find('\0');
           if (nul == std::string::npos) return false;
-          refusal.emplace(payload.substr(0, nul), payload.substr(nul + 1));
+          refusal.emplace(std::string(payload.substr(0, nul)), std::string(payload.substr(nul + 1)));
         } else if (tag == 'M') {
           mesh = decode_mesh(payload);
           if (!mesh) return false;
