@@ -524,6 +524,37 @@ TEST(KelvinPrepare, TinyLxFailsQuicklyNamingLx) {
   EXPECT_NE(r2.find("vertex budget"), std::string::npos) << r2;
 }
 
+// max_vertices is refused up front by the sizing's prediction, not by a uniform mesh of the far
+// ball (0.9–40× the field's vertices): the cube at l_x 0.05 (~33k predicted) on a 5,000-vertex
+// limit is refused before meshing, naming lx and the prediction; the thin knife at l_x 0.004 (a
+// uniform ball ~1.0M, ~93k predicted) is predicted within a 320,000 limit, as the server's budget.
+TEST(KelvinPrepare, MaxVerticesIsRefusedByThePrediction) {
+  const mesh::SurfaceMesh cube = mesh::weld(mesh::load_mesh(std::string(DISTLAB_ASSET_DIR) + "/cube.stl")).surface;
+  PrepareOptions o;
+  o.lx = 0.05;
+  o.max_vertices = 5000;
+  bool meshed = false;
+  Progress progress;
+  progress.report = [&](const std::string& stage, double f) { meshed = meshed || (stage == "mesh" && f > 0.1); };
+  std::string r;
+  try {
+    Field::prepare(cube, o, progress);
+  } catch (const InvalidInput& e) {
+    r = e.field() + ": " + e.what();
+  }
+  EXPECT_EQ(r.rfind("lx: ", 0), 0u) << r;
+  EXPECT_NE(r.find("vertices predicted"), std::string::npos) << r;
+  EXPECT_FALSE(meshed);  // refused before Mesh_3 reported anything
+
+  const mesh::SurfaceMesh knife = mesh::weld(mesh::load_mesh(std::string(DISTLAB_ASSET_DIR) + "/knife.stl")).surface;
+  PrepareOptions k;
+  k.lx = 0.004;
+  k.max_vertices = 320000;
+  const PreparePrediction p = predict_preparation(knife, k);
+  EXPECT_GT(p.vertices, 20000);
+  EXPECT_LT(p.vertices, 320000 / 1.5);
+}
+
 // The knife (Fig. 1) meshes with the default options at a coarse l_x and h = σ on its surface.
 TEST(KelvinPrepare, KnifeMeshesAndMatchesSigma) {
   const mesh::SurfaceMesh knife = mesh::weld(mesh::load_mesh(std::string(DISTLAB_ASSET_DIR) + "/knife.stl")).surface;

@@ -702,16 +702,30 @@ TEST_F(KelvinApi, EstimateBeforePreparing) {
     EXPECT_TRUE(e["problem"].is_null()) << name << ": " << e.dump();
     EXPECT_LE(e["vertex_estimate"].get<double>(), e["max_vertex_estimate"].get<double>()) << name;
   }
-  // The smallest l_x within the budget is at the budget's edge: 1% finer is over it, and named.
+  // The smallest l_x the closed form fits is at its edge: there the closed form is what the budget
+  // holds. Finer, the closed form is over and the prediction decides, with its margin of 1.5: the
+  // paper's cube at l_x 0.02 (closed form 1.62M, ~190k made) fits; l_x 0.015 does not, named.
   const json cube = estimate({{"asset", "cube"}, {"lx", 0.2}});
   EXPECT_TRUE(cube["problem"].is_null());
   EXPECT_NEAR(cube["diagonal"].get<double>(), std::sqrt(3.0), 1e-6);
+  EXPECT_EQ(cube["budget_vertices"], cube["vertex_estimate"]);
   const double edge = cube["lx_for_budget"];
-  EXPECT_TRUE(estimate({{"asset", "cube"}, {"lx", edge * 1.001}})["problem"].is_null());
-  const json over = estimate({{"asset", "cube"}, {"lx", edge * 0.99}});
+  const double budget = cube["max_vertex_estimate"];
+  const json at_edge = estimate({{"asset", "cube"}, {"lx", edge * 1.001}});
+  EXPECT_TRUE(at_edge["problem"].is_null()) << at_edge.dump();
+  EXPECT_EQ(at_edge["budget_vertices"], at_edge["vertex_estimate"]);
+  EXPECT_LE(at_edge["vertex_estimate"].get<double>(), budget);
+  const json paper = estimate({{"asset", "cube"}, {"lx", 0.02}});
+  EXPECT_TRUE(paper["problem"].is_null()) << paper.dump();
+  EXPECT_GT(paper["vertex_estimate"].get<double>(), 4 * budget) << paper.dump();
+  EXPECT_NEAR(paper["budget_vertices"].get<double>(), 1.5 * paper["vertices_predicted"].get<double>(), 1.25) << paper.dump();  // both rounded
+  EXPECT_LE(paper["budget_vertices"].get<double>(), budget);
+  const json over = estimate({{"asset", "cube"}, {"lx", 0.015}});
   ASSERT_TRUE(over["problem"].is_object()) << over.dump();
   EXPECT_EQ(over["problem"]["field"], "lx");
-  EXPECT_GT(over["vertex_estimate"].get<double>(), over["max_vertex_estimate"].get<double>());
+  EXPECT_GT(over["budget_vertices"].get<double>(), budget);
+  EXPECT_LT(over["budget_vertices"].get<double>(), over["vertex_estimate"].get<double>());
+  EXPECT_NE(over["problem"]["message"].get<std::string>().find("predicted"), std::string::npos) << over.dump();
   // l_x beyond the object and bad inputs: the same answers as creation.
   EXPECT_EQ(estimate({{"asset", "cube"}, {"lx", 2.0}})["problem"]["field"], "lx");
   auto bad = c.Post("/api/kelvin/estimate", h, json{{"asset", "cube"}, {"lx", "fine"}}.dump(), "application/json");

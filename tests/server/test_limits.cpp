@@ -268,11 +268,10 @@ TEST(Limits, KelvinInputsAreCheckedBeforeAJob) {
   const auto h = session_headers(s);
   const json limits = body_json(c.Get("/api/limits"));
   auto create = [&](const json& body) { return c.Post("/api/kelvin/objects", h, body.dump(), "application/json"); };
-  // The cube at lx 0.1 is within the budget with the default far radius; a far radius of a few
-  // object radii multiplies the mesh by its cube and is over it.
+  // The cube at lx 0.1 is within the budget with the default far radius; with eq. 23 a far
+  // radius of ten object radii multiplies the mesh by its cube (~3.9M predicted) and is over it.
   ASSERT_LT(20 * std::pow(std::sqrt(3.0) / 2 / 0.1, 3), limits["max_vertex_estimate"].get<double>());
-  ASSERT_GT(20 * std::pow(3 * std::sqrt(3.0) / 2 / 0.1, 3), limits["max_vertex_estimate"].get<double>());
-  expect_error(create({{"asset", "cube"}, {"lx", 0.1}, {"far_radius", 3}}), 422, "over_budget", "far_radius");
+  expect_error(create({{"asset", "cube"}, {"lx", 0.1}, {"far_radius", 10}, {"grading", 0}}), 422, "over_budget", "far_radius");
   for (const json& bad : {json(1e300), json(-1), json(0.2), json("3"), json(nullptr)})
     expect_error(create({{"asset", "cube"}, {"lx", 0.1}, {"far_radius", bad}}), 400, "invalid_input", "far_radius");
   for (const json& bad : {json(-0.1), json(1.5), json(1e300), json("0.1"), json(nullptr)})
@@ -325,6 +324,47 @@ TEST(Limits, KelvinInputsAreCheckedBeforeAJob) {
     EXPECT_EQ(st["mesh_threads"], threads) << st.dump();
     EXPECT_GT(st["n_verts"].get<double>(), 100) << st.dump();
   }
+  EXPECT_EQ(server.stop(), 0);
+}
+
+// The vertex budget holds a preparation to 1.5 × its prediction where the closed form (an upper
+// bound, 3–30× the field's vertices) is over it (kelvin_json.hpp, count_vertices): on a 20,000-vertex server the
+// cube at l_x 0.07 (closed form ~37.9k, ~10k made) is accepted and prepared within the prediction's
+// margin and the budget; l_x 0.06 (1.5 × ~15.6k over) is refused naming lx, or lx_fraction when
+// that was given; the estimate and the creation count alike.
+TEST(Limits, TheVertexBudgetHoldsThePredictionWhereTheClosedFormIsOver) {
+  ServerProcess server({"--max-vertices", "20000"});
+  auto c = server.client();
+  const std::string s = new_session(c);
+  const auto h = session_headers(s);
+  auto post = [&](const std::string& route, const json& body) { return c.Post(route, h, body.dump(), "application/json"); };
+  const json fits = {{"asset", "cube"}, {"lx", 0.07}};
+  const json e = body_json(post("/api/kelvin/estimate", fits));
+  ASSERT_TRUE(e["problem"].is_null()) << e.dump();
+  EXPECT_GT(e["vertex_estimate"].get<double>(), 20000) << e.dump();
+  const double predicted = e["vertices_predicted"];
+  EXPECT_NEAR(e["budget_vertices"].get<double>(), 1.5 * predicted, 1.25);  // both rounded to whole vertices
+  EXPECT_LE(e["budget_vertices"].get<double>(), 20000);
+  EXPECT_GT(e["lx_for_budget"].get<double>(), 0.07);  // the closed form alone would not take 0.07
+  auto made = post("/api/kelvin/objects", fits);
+  ASSERT_EQ(made->status, 202) << made->body;
+  const std::string id = body_json(made)["object"]["id"];
+  ASSERT_EQ(wait_ready(c, s, id), "ready");
+  const double n = body_json(c.Get("/api/kelvin/objects/" + id, h))["stats"]["n_verts"];
+  EXPECT_LE(n, 20000);
+  EXPECT_LE(n, 1.5 * predicted);
+  EXPECT_GE(n, predicted / 1.5);
+
+  const json over = {{"asset", "cube"}, {"lx", 0.06}};
+  const json eo = body_json(post("/api/kelvin/estimate", over));
+  ASSERT_TRUE(eo["problem"].is_object()) << eo.dump();
+  EXPECT_EQ(eo["problem"]["field"], "lx");
+  EXPECT_GT(eo["budget_vertices"].get<double>(), 20000);
+  auto refused = post("/api/kelvin/objects", over);
+  expect_error(refused, 422, "over_budget", "lx");
+  EXPECT_EQ(body_json(refused)["error"]["message"], eo["problem"]["message"]);
+  expect_error(post("/api/kelvin/objects", {{"asset", "cube"}, {"lx_fraction", 0.06 / std::sqrt(3.0)}}), 422, "over_budget", "lx_fraction");
+  EXPECT_EQ(body_json(c.Get("/api/kelvin/objects", h))["objects"].size(), 1u);  // the refused left none
   EXPECT_EQ(server.stop(), 0);
 }
 

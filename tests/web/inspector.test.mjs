@@ -107,7 +107,7 @@ test("Kelvin: l_x below the server's minimum or over its budget is flagged inlin
     // Finer than the budget allows on the cube: the estimate's refusal, inline, before any job.
     await type(page, "l_x", "0.0123");
     await page.waitForFunction(() => document.querySelector("[data-testid=kelvin-estimate]")?.classList.contains("bad"));
-    assert.match(await page.locator("[data-testid=kelvin-estimate]").textContent(), /not prepared: about \d+ vertices, over this server's budget/);
+    assert.match(await page.locator("[data-testid=kelvin-estimate]").textContent(), /not prepared: lx 0\.0123 would make about \d+ vertices \(1\.5 × the \d+ predicted\), over this server's budget/);
     assert.match(await msg.first().textContent(), /over this server's budget/);
     assert.deepEqual(creates.map((b) => b.lx).filter((lx) => lx < 0.05), [], "no object was requested at a refused l_x");
     assert.equal((await page.evaluate(() => window.distlab.kelvin.state)).lx, 0.0123, "kept as typed (the field's step is 0.001)");

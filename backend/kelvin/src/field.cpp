@@ -77,13 +77,17 @@ static std::pair<mesh::SurfaceMesh, Vec3> validated(const mesh::SurfaceMesh& inp
                                    std::to_string(0.03 * r_max) + " m makes it one)");
   }
   if (o.lx > r_max) throw InvalidInput("lx", "lx is larger than the object (" + std::to_string(r_max) + " m)");
-  // Rough vertex estimate: ~1 vertex per 1.5 l_x³ of the uniform region, capped for safety.
+  // A guard against absurd l_x before anything grows with 1/l_x (the prediction's bisected
+  // polyhedron, the protection): a uniform mesh of the far ball, ~1 vertex per 1.5 l_x³, is
+  // 0.9–40× the field's vertices on the assets (the most on the thin knife), so past
+  // kAbsurdVertexFactor × max_vertices no sizing fits. The real check is mesh_stage's prediction.
+  constexpr double kAbsurdVertexFactor = 64;
   const double region = 4.18879 * std::pow(o.far_radius * r_max, 3);
   const double estimate = region / (1.5 * std::pow(o.lx, 3));
-  if (estimate > static_cast<double>(o.max_vertices))
-    throw InvalidInput("lx", "lx is too small for this object: about " + std::to_string(estimate) +  // no int cast: may be inf
-                                 " vertices expected, more than the limit of " + std::to_string(o.max_vertices) +
-                                 " (max_vertices)");
+  if (estimate > kAbsurdVertexFactor * static_cast<double>(o.max_vertices))
+    throw InvalidInput("lx", "lx is too small for this object: a uniform mesh of its far region has about " + std::to_string(estimate) +  // no int cast: may be inf
+                                 " vertices, more than " + std::to_string(static_cast<int>(kAbsurdVertexFactor)) + " × the limit of " +
+                                 std::to_string(o.max_vertices) + " (max_vertices)");
   progress("load", 1.0);
   return {std::move(surface), centre};
 }
@@ -142,6 +146,22 @@ static MeshingParams inverted_domain(const mesh::SurfaceMesh& surface, const Vec
   return params;
 }
 
+// predict_vertices for the sizing params.grading (its graded term that grading's, or
+// kAutoGrading's for eq. 23, as choose_grading has it); `chosen` where choose_grading made one.
+static SizingPrediction sizing_prediction(const mesh::SurfaceMesh& inverted, const MeshingParams& params,
+                                          const SizingPrediction& chosen, const Progress& progress) {
+  if (chosen.paper >= 0) return chosen;
+  MeshingParams graded = params;
+  if (graded.grading <= 0) graded.grading = kAutoGrading;
+  return predict_vertices(inverted, graded, progress);
+}
+
+// The field vertices of the sizing `grading` by its terms: the volume's and the surface's
+// (predict_preparation adds a protection trial's for eq. 23 with sharp edges).
+static double sizing_vertices(const SizingPrediction& p, double grading) {
+  return (grading > 0 ? p.graded : p.paper) + kSurfaceVerticesPerSizingIntegral * p.surface;
+}
+
 // PrepareOptions::mesh_threads, 0 (chosen) resolved.
 static int meshing_threads(const PrepareOptions& o, const MeshingParams& params) {
   if (o.mesh_threads > 0) return o.mesh_threads;
@@ -157,7 +177,17 @@ static std::unique_ptr<Field::Impl> mesh_stage(mesh::SurfaceMesh surface, const 
   mesh::SurfaceMesh inverted;
   MeshingParams params = inverted_domain(surface, centre, o, inverted);
   progress("invert", 1.0);
-  params.grading = o.grading ? *o.grading : choose_grading(inverted, params, progress);
+  SizingPrediction chosen;
+  chosen.paper = -1;
+  params.grading = o.grading ? *o.grading : choose_grading(inverted, params, progress, &chosen);
+  // max_vertices refused up front by the sizing's prediction (within 1.5× of the field's on the
+  // assets), where there is one or the mesh is not small; Mesh_3 stops at it whatever this misses.
+  if (chosen.paper >= 0 || eq23_vertex_bound(params) >= kAutoPredictFrom) {
+    const double predicted = sizing_vertices(sizing_prediction(inverted, params, chosen, progress), params.grading);
+    if (predicted > static_cast<double>(o.max_vertices))
+      throw InvalidInput("lx", "lx is too small for this object: about " + std::to_string(std::llround(predicted)) +
+                                   " vertices predicted, more than the limit of " + std::to_string(o.max_vertices) + " (max_vertices)");
+  }
   params.max_vertices = o.max_vertices;
   params.max_protection_evaluations = protection_budget(surface, centre, o, params.grading);
   params.max_refinement_evaluations = o.max_refinement_steps;
@@ -383,24 +413,15 @@ PreparePrediction predict_preparation(const mesh::SurfaceMesh& surface, const Pr
   out.centre = centre;
   out.chosen = !options.grading;
   out.mesh_threads = meshing_threads(options, params);
-  SizingPrediction p;
-  p.paper = -1;
-  if (options.grading) params.grading = *options.grading;
-  else params.grading = choose_grading(inverted, params, progress, &p);
-  if (p.paper < 0) {  // not predicted by the choice: the graded sizing's terms as the choice would have them
-    MeshingParams graded = params;
-    if (graded.grading <= 0) graded.grading = kAutoGrading;
-    p = predict_vertices(inverted, graded, progress);
-  }
+  SizingPrediction chosen;
+  chosen.paper = -1;
+  params.grading = options.grading ? *options.grading : choose_grading(inverted, params, progress, &chosen);
+  const SizingPrediction p = sizing_prediction(inverted, params, chosen, progress);
   out.grading = params.grading;
+  out.vertices = sizing_vertices(p, params.grading);
+  // The graded sizing refines near sharp edges by its own rule: its edge term (p.graded) holds.
+  if (params.grading > 0 || options.feature_angle >= 180 || p.edge_length <= 0) return out;
   const double surface_vertices = kSurfaceVerticesPerSizingIntegral * p.surface;
-  if (params.grading > 0) {
-    // The graded sizing refines near sharp edges by its own rule: its edge term (p.graded) holds.
-    out.vertices = (params.grading == kAutoGrading ? p.graded : predict_vertices(inverted, params, progress).graded) + surface_vertices;
-    return out;
-  }
-  out.vertices = kVerticesPerSizingIntegral * p.volume_paper + surface_vertices;
-  if (options.feature_angle >= 180 || p.edge_length <= 0) return out;
   // Eq. 23 with protected sharp edges: Mesh_3's protecting balls, where curves meet at corners
   // closer than l_x (a wrap's creases: +2k–18k vertices at 1–9k by the volume, issue 37's table),
   // add vertices no integral above foresees, about as many at every l_x (wrapped Wuson: 2250,

@@ -1343,7 +1343,7 @@ export interface paths {
         };
         get?: never;
         put?: never;
-        /** What creating this Kelvin object would cost, creating nothing: the field vertices the mesher's sizing prediction gives for the sizing the preparation will choose, the seconds they take at this server's measured rate, the vertex count the budget counts against max_vertex_estimate, the smallest l_x within it, and the refusal if any (same body as POST /api/kelvin/objects) */
+        /** What creating this Kelvin object would cost, creating nothing: the field vertices the mesher's sizing prediction gives for the sizing the preparation will choose, the seconds they take at this server's measured rate, the vertex count the budget holds to max_vertex_estimate, the smallest l_x its closed form fits, and the refusal if any (same body as POST /api/kelvin/objects) */
         post: {
             parameters: {
                 query?: never;
@@ -1367,13 +1367,15 @@ export interface paths {
                     };
                     content: {
                         "application/json": components["schemas"]["KelvinPrediction"] & {
-                            /** @description the count the vertex budget (max_vertex_estimate) is checked against: a closed form in the bounding radius over l_x, an upper bound of the field's vertices (3–30× the field's vertices on the assets), not a prediction: see vertices_predicted */
+                            /** @description a closed form in the bounding radius over l_x: an upper bound of the field's vertices (3–30× the field's vertices on the assets), not a prediction (see vertices_predicted). Within max_vertex_estimate it is what the budget holds */
                             vertex_estimate: number;
+                            /** @description the count the vertex budget (max_vertex_estimate) holds: vertex_estimate where that is within it, else 1.5 × the field vertices the preparation's prediction gives for these inputs (within 1.5× of the field's on the assets and wrapped scans) where that is smaller; the mesher stops at max_vertex_estimate vertices whatever a prediction misjudged (the job then fails, naming lx) */
+                            budget_vertices: number;
                             max_vertex_estimate: number;
                             min_lx: number;
                             /** @description the object's bounding-box diagonal, metres */
                             diagonal: number;
-                            /** @description the smallest l_x within max_vertex_estimate (at least min_lx) */
+                            /** @description the smallest l_x whose closed form (vertex_estimate) is within max_vertex_estimate, at least min_lx: every l_x from it up is accepted without a prediction; finer ones where budget_vertices fits */
                             lx_for_budget: number;
                             /** @description why POST /api/kelvin/objects would refuse these inputs (field, message) */
                             problem: {
@@ -3809,7 +3811,7 @@ export interface components {
                 max?: components["schemas"]["Vec3"];
                 diagonal?: number;
             };
-            /** @description [max(min_lx, the smallest l_x whose vertex estimate fits max_vertex_estimate), half the largest bounding-box extent] at far_radius 1; null when none fits */
+            /** @description [max(min_lx, the smallest l_x whose closed-form vertex estimate fits max_vertex_estimate), half the largest bounding-box extent] at far_radius 1: every l_x in it is accepted without a prediction, finer ones where 1.5 × their predicted field vertices fit (POST /api/kelvin/estimate's budget_vertices); null when none fits */
             lx_range?: {
                 min?: number;
                 max?: number;

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "distlab/geometry/error.hpp"
+#include "distlab/server/deadline.hpp"
 #include "distlab/server/frames.hpp"
 #include "distlab/server/http.hpp"
 #include "distlab/server/json_fields.hpp"
@@ -17,23 +18,27 @@ using json = nlohmann::json;
 
 namespace {
 
-// The budget of POST /api/kelvin/objects: l_x at least min_lx, the vertex estimate within
-// max_vertex_estimate (422 over_budget naming lx_field, with the smallest l_x that fits).
-void check_budget(const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& options, const std::string& lx_field,
-                  const Limits& lim) {
+// The budget of POST /api/kelvin/objects: l_x at least min_lx and the vertex budget
+// (kelvin_json.hpp: count_vertices; 422 over_budget naming lx_field, with an l_x that fits). The prediction,
+// where the closed form is over and `surface` is the one prepared, stops at `cancel` (a
+// request's deadline or the job's token).
+void check_budget(const mesh::SurfaceMesh& surface, bool prepared, const kelvin::PrepareOptions& options, const std::string& lx_field,
+                  const Limits& lim, const std::atomic<bool>* cancel, bool deadline) {
   if (options.lx < lim.min_lx)
     throw ApiError(422, "over_budget", lx_field + " gives lx " + json(options.lx).dump() + " m, but lx must be at least " + json(lim.min_lx).dump() + " m on this server",
                    lx_field);
-  const auto budget = static_cast<double>(lim.max_vertex_estimate);
-  const double estimate = estimate_vertices(surface, options.lx, options.far_radius, sizing_for_budget(options));
-  if (estimate > budget) {
-    const double fits = std::max(lim.min_lx, smallest_lx_within(surface, budget, options.far_radius));
-    throw ApiError(422, "over_budget",
-                   lx_field + ": lx " + json(options.lx).dump() + " m would make about " + json(std::round(estimate)).dump() +
-                       " vertices, over this server's budget of " + std::to_string(lim.max_vertex_estimate) +
-                       (std::isfinite(fits) ? "; lx " + json(fits).dump() + " m or larger fits" : "; the surface alone is over it"),
-                   lx_field);
-  }
+  const auto predict = [cancel, deadline, &lim](const mesh::SurfaceMesh& s, const kelvin::PrepareOptions& o) {
+    kelvin::Progress progress;
+    progress.cancel = cancel;
+    try {
+      return kelvin::predict_preparation(s, o, progress).vertices;
+    } catch (const kelvin::Cancelled&) {
+      if (!deadline) throw;
+      throw std::runtime_error("not predicted within this server's max_request_seconds (" + json(lim.max_request_seconds).dump() + " s)");
+    }
+  };
+  const double closed_form = estimate_vertices(surface, options.lx, options.far_radius, sizing_for_budget(options));
+  require_within_budget(count_vertices(closed_form, prepared ? &surface : nullptr, options, lim, predict), surface, options, lim, lx_field, lx_field);
 }
 
 }  // namespace
@@ -53,12 +58,13 @@ void refuse_mesh_paths(const json& request) {
 }
 
 void check_field_budget(const PlannedField& p, const Limits& lim) {
-  check_budget(p.prepared, p.options, p.lx_field, lim);
-  if (p.reshape.any()) return;  // the reshaped surface is checked when it is made
   kelvin::PrepareOptions options = p.options;
   options.max_vertices = std::max<std::size_t>(100, lim.max_vertex_estimate);
   try {
-    kelvin::check_prepare_inputs(p.prepared, options);
+    const CancelAfter deadline(lim.max_request_seconds);
+    // The reshaped surface is checked when it is made.
+    check_budget(p.prepared, !p.reshape.any(), p.options, p.lx_field, lim, deadline.flag(), true);
+    if (!p.reshape.any()) kelvin::check_prepare_inputs(p.prepared, options);
   } catch (const InvalidInput& e) {
     const std::string& f = e.field();
     throw InvalidInput(f == "lx" ? p.lx_field : json_key_path(p.field, f.empty() ? "mesh" : f), e.what());
@@ -67,7 +73,7 @@ void check_field_budget(const PlannedField& p, const Limits& lim) {
 
 FieldPreparer service_preparer(const std::string& cache_dir, const Limits& lim, const Progress& progress, SharedFields& shared) {
   return [cache_dir, lim, progress, &shared](const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& options, const std::string& field) {
-    check_budget(surface, options, json_key_path(field, "lx"), lim);
+    check_budget(surface, true, options, json_key_path(field, "lx"), lim, progress.cancel, false);
     kelvin::PrepareOptions capped = options;
     capped.max_vertices = std::max<std::size_t>(100, lim.max_vertex_estimate);
     const std::shared_ptr<std::timed_mutex> content = shared.preparation_lock(surface, capped);

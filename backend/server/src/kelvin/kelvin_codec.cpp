@@ -106,6 +106,7 @@ Response encode_created_object(const CreatedObject& created) {
 
 Response encode_estimate(const ObjectEstimate& e) {
   json out = {{"vertex_estimate", e.vertex_estimate},
+              {"budget_vertices", e.budget_vertices},
               {"max_vertex_estimate", e.max_vertex_estimate},
               {"min_lx", e.min_lx},
               {"diagonal", e.diagonal},

@@ -70,7 +70,8 @@ Response encode_created_object(const CreatedObject& created);
 
 // What creating would cost (KelvinModule::estimate).
 struct ObjectEstimate {
-  long long vertex_estimate = 0;
+  long long vertex_estimate = 0;  // the closed form
+  long long budget_vertices = 0;  // the count the budget holds (VertexCount::count)
   std::size_t max_vertex_estimate = 0;
   double min_lx = 0, diagonal = 0, lx_for_budget = 0;
   std::optional<std::pair<std::string, std::string>> problem;  // field, message

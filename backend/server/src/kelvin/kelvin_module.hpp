@@ -85,16 +85,25 @@ class KelvinModule final : public Module {
 
   // What creating and estimating share: the user's mesh (loaded, within the triangle bounds), its
   // weld, the options with l_x resolved (at least min_lx), and the vertex estimate.
+  // The surface the preparation will prepare where it exists before the job: the weld, its largest
+  // piece, or for a simplification the weld it simplifies (the same shape); none where a fix or
+  // wrap makes it, or over max_object_triangles (predicting that costs seconds): `unpredicted` says.
   struct ObjectPlan {
     mesh::SurfaceMesh surface;
     mesh::Welded welded;
+    std::optional<mesh::SurfaceMesh> piece;
     kelvin::PrepareOptions options;
-    double diagonal = 0, estimate = 0;
+    double diagonal = 0, estimate = 0;  // estimate: the closed form (estimate_vertices)
+    std::string unpredicted;
+    const mesh::SurfaceMesh* to_predict() const { return !unpredicted.empty() ? nullptr : piece ? &*piece
+                                                                                                : &welded.surface; }
   };
   ObjectPlan plan_object(const CreateObjectRequest& in, Session& session);
+  // The plan's count for the vertex budget (kelvin_json.hpp, count_vertices), predicting within max_request_seconds.
+  VertexCount count_vertices(const ObjectPlan& plan);
   // Refuses what the preparation would (over the vertex budget, not closed, a bad centre) before
   // a job exists; sets the job's meshing cap.
-  void check_preparable(const CreateObjectRequest& in, ObjectPlan& plan) const;
+  void check_preparable(const CreateObjectRequest& in, ObjectPlan& plan);
   std::shared_ptr<KelvinObject> make_object(const CreateObjectRequest& in, ObjectPlan& plan, const Session& session);
   // Submits the object's preparation job (repair, predict, prepare) and returns it.
   std::shared_ptr<Job> start_preparation(const std::shared_ptr<Session>& session, const std::shared_ptr<KelvinObject>& object,
@@ -104,10 +113,7 @@ class KelvinModule final : public Module {
                                 const std::weak_ptr<Session>& session);
   // Repairs (if asked), predicts and prepares the object's field, which it sets on the object.
   void prepare_field(Job& job, KelvinObject& object, const kelvin::PrepareOptions& options, const std::function<void()>& announce);
-  // `predicted`: the surface the preparation will prepare, or null when the request's repair
-  // makes it (then the estimate predicts nothing and says so).
-  ObjectEstimate estimate_of(const mesh::SurfaceMesh& welded, kelvin::PrepareOptions options, double estimate,
-                             const mesh::SurfaceMesh* predicted, bool reshaped);
+  ObjectEstimate estimate_of(const CreateObjectRequest& in, const ObjectPlan& plan);
   // The object's prepared field with its σ, or 409 not_ready.
   struct ReadyField {
     std::shared_ptr<PreparedField> prepared;

@@ -30,14 +30,16 @@ namespace {
 
 // Repairs or wraps the object's user mesh and sets everything that depends on the result, under
 // the object's lock: the surface to prepare, the σ transfer, the report, the content key.
-void run_repair(KelvinObject& o, const kelvin::PrepareOptions& options, const Limits& lim, const Progress& progress) {
+void run_repair(KelvinObject& o, const kelvin::PrepareOptions& options, const Limits& lim, const VertexPredictor& predict,
+                const Progress& progress) {
   Reshaped r = reshape_surface(o.surface, o.welded, o.reshape, lim, progress);
   // What prepare would refuse (a centre outside, a surface over budget), refused now by name.
-  const double estimate = estimate_vertices(r.surface, options.lx, options.far_radius, sizing_for_budget(options));
-  if (estimate > static_cast<double>(lim.max_vertex_estimate))
-    throw InvalidInput("lx", "the repaired surface at lx " + number_text(options.lx) + " would make about " +
-                                 number_text(std::round(estimate)) + " vertices, over this server's budget of " +
-                                 std::to_string(lim.max_vertex_estimate) + "; use a larger lx");
+  const double closed_form = estimate_vertices(r.surface, options.lx, options.far_radius, sizing_for_budget(options));
+  try {
+    require_within_budget(count_vertices(closed_form, &r.surface, options, lim, predict), r.surface, options, lim, "lx", "far_radius");
+  } catch (const ApiError& e) {
+    throw InvalidInput(e.field(), std::string("the repaired surface: ") + e.what());
+  }
   kelvin::check_prepare_inputs(r.surface, options);
   mesh::Transfer transfer = mesh::nearest_face_transfer(o.surface, r.surface.vertices, progress);
   std::lock_guard lock(o.mutex);
@@ -105,54 +107,42 @@ KelvinModule::ObjectPlan KelvinModule::plan_object(const CreateObjectRequest& in
   const std::size_t simplify_faces = in.reshape.simplify_faces;
   const double simplified = simplify_faces > 0 ? static_cast<double>(std::min<Eigen::Index>(welded.vertices.rows(), static_cast<Eigen::Index>(simplify_faces / 2 + 2))) - static_cast<double>(welded.vertices.rows()) : 0.0;
   plan.estimate = estimate_vertices(welded, plan.options.lx, plan.options.far_radius, sizing_for_budget(plan.options)) + simplified;
+  if (in.reshape.repair.kind != "none")
+    plan.unpredicted = "the " + in.reshape.repair.kind + " makes the surface: its field vertices are predicted once it exists (the object's estimate)";
+  else if (faces > lim.max_object_triangles)
+    plan.unpredicted = "the mesh has more than max_object_triangles triangles: its field vertices are predicted once simplified (the object's estimate)";
+  else if (in.reshape.largest_piece)
+    plan.piece = mesh::largest_piece(welded);
   return plan;
+}
+
+VertexCount KelvinModule::count_vertices(const ObjectPlan& plan) {
+  const double seconds = config_.limits.max_request_seconds;
+  return server::count_vertices(plan.estimate, plan.to_predict(), plan.options, config_.limits,
+                                [this, seconds](const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& options) {
+                                  const CancelAfter deadline(seconds);  // the trial meshing stops there
+                                  try {
+                                    return predict(surface, options, deadline.flag()).vertices;
+                                  } catch (const kelvin::Cancelled&) {
+                                    throw std::runtime_error("not predicted within this server's max_request_seconds (" + number_text(seconds) + " s)");
+                                  }
+                                });
 }
 
 ObjectEstimate KelvinModule::estimate(const CreateObjectRequest& in, const Caller& caller) {
   auto session = require_session(caller);
   const ObjectPlan plan = plan_object(in, *session);
-  const RepairRequest& repair = in.reshape.repair;
-  // The vertices are predicted on the surface the preparation will prepare: the weld, its
-  // largest piece, or for a simplification the weld it simplifies (the same shape; a mesh over
-  // max_object_triangles is not predicted: that costs seconds). A fix or wrap makes the surface in
-  // the job, which predicts then (the object's "estimate").
-  std::optional<mesh::SurfaceMesh> piece;
-  const mesh::SurfaceMesh* predicted = nullptr;
-  std::string note;
-  if (repair.kind != "none") {
-    note = "the " + repair.kind + " makes the surface: its field vertices are predicted once it exists (the object's estimate)";
-  } else if (static_cast<std::size_t>(plan.surface.faces.rows()) > config_.limits.max_object_triangles) {
-    note = "the mesh has more than max_object_triangles triangles: its field vertices are predicted once simplified (the object's estimate)";
-  } else {
-    if (in.reshape.largest_piece) piece = mesh::largest_piece(plan.welded.surface);
-    predicted = piece ? &*piece : &plan.welded.surface;
-    if (in.reshape.simplify_faces > 0) note = "predicted on the mesh before simplify (the same shape)";
-  }
-  ObjectEstimate out = estimate_of(plan.welded.surface, plan.options, plan.estimate, predicted, in.reshape.any());
-  if (!note.empty() && !out.prediction_note) out.prediction_note = note;
-  out.repair = repair_estimate(plan.surface, repair);
+  ObjectEstimate out = estimate_of(in, plan);
+  if (in.reshape.simplify_faces > 0 && !out.prediction_note && out.prediction) out.prediction_note = "predicted on the mesh before simplify (the same shape)";
+  out.repair = repair_estimate(plan.surface, in.reshape.repair);
   return out;
 }
 
-void KelvinModule::check_preparable(const CreateObjectRequest& in, ObjectPlan& plan) const {
+void KelvinModule::check_preparable(const CreateObjectRequest& in, ObjectPlan& plan) {
   const Limits& lim = config_.limits;
   kelvin::PrepareOptions& options = plan.options;
   const mesh::SurfaceMesh& welded = plan.welded.surface;
-  const auto budget = static_cast<double>(lim.max_vertex_estimate);
-  if (plan.estimate > budget) {
-    // The field named is far_radius when the request would fit with the default far radius.
-    const bool far = estimate_vertices(welded, options.lx, 1.0, sizing_for_budget(options)) <= budget;
-    const double fits = std::max(lim.min_lx, smallest_lx_within(welded, budget, options.far_radius));
-    const std::string advice =
-        far                     ? "; use a smaller far_radius"
-        : fits <= plan.diagonal ? "; lx " + number_text(fits) + " m or larger fits (lx_fraction " + number_text(fits / plan.diagonal) + ")"
-                                : "; no lx up to the bounding box's diagonal (" + number_text(plan.diagonal) + " m) fits: the surface has too many vertices";
-    throw ApiError(422, "over_budget",
-                   std::string(far ? "far_radius " + number_text(options.far_radius) : "lx " + number_text(options.lx)) +
-                       " would make about " + number_text(std::round(plan.estimate)) + " vertices, over this server's budget of " +
-                       std::to_string(lim.max_vertex_estimate) + advice,
-                   far ? "far_radius" : in.lx_field());
-  }
+  require_within_budget(count_vertices(plan), welded, options, lim, in.lx_field(), "far_radius");
   // The job's meshing cap is the same budget, and whatever prepare would refuse (a surface that
   // is not closed, a centre outside or too near the surface) is refused now, before a job starts.
   options.max_vertices = std::max<std::size_t>(100, lim.max_vertex_estimate);
@@ -164,9 +154,9 @@ void KelvinModule::check_preparable(const CreateObjectRequest& in, ObjectPlan& p
   if (options.mesh_threads > cores)
     throw InvalidInput("mesh_threads", "mesh_threads must be in [0, " + std::to_string(cores) + "] here (this machine's cores)");
   if (in.reshape.repair.kind != "none") return;
-  if (in.reshape.largest_piece) {
+  if (plan.piece) {
     // The piece prepared is checked, in its own numbering (the others are dropped).
-    const mesh::SurfaceMesh piece = mesh::largest_piece(welded);
+    const mesh::SurfaceMesh& piece = *plan.piece;
     if (const std::string defect = mesh::topology_defect(piece); !defect.empty())
       throw InvalidInput("components", "the largest piece is not a closed manifold surface: " + defect +
                                            " (numbers of the piece's own vertices and faces); " + mesh::repair_advice(piece));
@@ -308,7 +298,10 @@ void KelvinModule::prepare_field(Job& j, KelvinObject& object, const kelvin::Pre
   progress.cancel = &j.cancel;
   // The long part of a repair request (the user's mesh is already imported and checked): fix
   // and wrap poll the job's token and report stage "repair".
-  if (object.reshaped()) run_repair(object, options, config_.limits, progress);
+  if (object.reshaped())
+    run_repair(
+        object, options, config_.limits, [this, &j](const mesh::SurfaceMesh& s, const kelvin::PrepareOptions& o) { return predict(s, o, &j.cancel).vertices; },
+        progress);
   // What this preparation will make, predicted on the surface it prepares: the estimate's when
   // this request was estimated (POST /api/kelvin/estimate), else predicted now where the estimate
   // could not (a repaired or simplified surface); a refusal is left to the preparation to give.
@@ -348,33 +341,37 @@ void KelvinModule::prepare_field(Job& j, KelvinObject& object, const kelvin::Pre
   if (computed) prepare_rate_.record(prepared->field.stats().grading, prepared->field.stats().mesh_threads, stages->seconds(), static_cast<double>(prepared->field.stats().n_verts));
 }
 
-// What POST /api/kelvin/objects would do with these inputs, without doing it: the server's vertex
-// count against its budget, the smallest l_x within the budget, the refusal if any, and the
-// prediction: the field vertices the mesher's sizing prediction gives for the sizing the
-// preparation will choose, and the seconds they take at this server's measured rate.
-ObjectEstimate KelvinModule::estimate_of(const mesh::SurfaceMesh& welded, kelvin::PrepareOptions options, double estimate,
-                                         const mesh::SurfaceMesh* predicted, bool reshaped) {
+// What POST /api/kelvin/objects would do with these inputs, without doing it: the closed form and
+// the count the vertex budget holds (kelvin_json.hpp, count_vertices), the smallest l_x the closed form fits, the
+// refusal if any, and the prediction: the field vertices the mesher's sizing prediction gives for
+// the sizing the preparation will choose, and the seconds they take at this server's measured rate.
+ObjectEstimate KelvinModule::estimate_of(const CreateObjectRequest& in, const ObjectPlan& plan) {
   const Limits& lim = config_.limits;
-  const auto budget = static_cast<double>(lim.max_vertex_estimate);
-  const Vec3 lo = welded.vertices.colwise().minCoeff().transpose(), hi = welded.vertices.colwise().maxCoeff().transpose();
+  const mesh::SurfaceMesh& welded = plan.welded.surface;
+  kelvin::PrepareOptions options = plan.options;
+  const bool reshaped = in.reshape.any();
   ObjectEstimate out;
-  out.vertex_estimate = std::llround(estimate);
+  out.vertex_estimate = std::llround(plan.estimate);
+  out.budget_vertices = out.vertex_estimate;
   out.max_vertex_estimate = lim.max_vertex_estimate;
   out.min_lx = lim.min_lx;
-  out.diagonal = (hi - lo).norm();
-  out.lx_for_budget = std::max(lim.min_lx, smallest_lx_within(welded, budget, options.far_radius));
+  out.diagonal = plan.diagonal;
+  out.lx_for_budget = std::max(lim.min_lx, smallest_lx_within(welded, static_cast<double>(lim.max_vertex_estimate), options.far_radius));
+  if (!plan.unpredicted.empty()) out.prediction_note = plan.unpredicted;
   try {
-    if (estimate > budget)
-      throw InvalidInput("lx", "about " + std::to_string(std::llround(estimate)) + " vertices, over this server's budget of " +
-                                   std::to_string(lim.max_vertex_estimate) + "; use a larger lx");
+    const VertexCount count = count_vertices(plan);
+    out.budget_vertices = std::llround(count.count());
+    require_within_budget(count, welded, options, lim, in.lx_field(), "far_radius");
     options.max_vertices = std::max<std::size_t>(100, lim.max_vertex_estimate);
     kelvin::check_prepare_inputs(welded, options);
+  } catch (const ApiError& e) {
+    out.problem = {e.field(), e.what()};
   } catch (const InvalidInput& e) {
     // A reshaping request's surface checks are of the surface it makes, in the job: the user's
     // open mesh is no problem here, only the budget (and l_x) can be judged before.
     if (!reshaped || e.field() == "lx") out.problem = {e.field(), e.what()};
   }
-  if (predicted != nullptr && !out.problem) {
+  if (const mesh::SurfaceMesh* predicted = plan.to_predict(); predicted != nullptr && !out.problem) {
     const CancelAfter deadline(lim.max_request_seconds);  // the trial meshing stops there
     try {
       out.prediction = predict(*predicted, options, deadline.flag());

@@ -39,8 +39,9 @@ struct PrepareOptions {
   // says which.
   std::optional<double> grading;
   // Meshing limits, so that no request can hang (all deterministic counts, no wall time):
-  // - max_vertices: refused up front (InvalidInput "lx") when the estimated vertex count exceeds
-  //   it, and Mesh_3 stops with the same error when its triangulation reaches it;
+  // - max_vertices: refused up front (InvalidInput "lx") when the sizing's predicted vertex count
+  //   (predict_vertices' terms, as predict_preparation's without its trial) exceeds it, and Mesh_3
+  //   stops with the same error when its triangulation reaches it;
   // - max_protection_steps: sizing evaluations allowed for sharp-edge protection (0: automatic,
   //   30 × the estimated number of protecting balls + 2000); beyond it the features are thinner
   //   than the elements (protecting balls shrink over and over and the refinement explodes, as

@@ -131,6 +131,44 @@ inline double sizing_for_budget(const kelvin::PrepareOptions& o) { return o.grad
 // +infinity when none does (the surface alone has budget vertices or more).
 double smallest_lx_within(const mesh::SurfaceMesh& surface, double budget, double far_radius = 1.0);
 
+// The vertex budget of a preparation (Limits::max_vertex_estimate): one rule for the Kelvin objects
+// (POST /api/kelvin/objects, /estimate, a repaired surface in its job) and the CBF scenarios' fields.
+//
+// The closed form (estimate_vertices) is free and an upper bound, but 3–30× the field's vertices
+// (8.5× on the paper's cube at l_x 0.02: 1.62M against 190k made). Within the budget it decides
+// alone; over it, the preparation's own prediction (kelvin::predict_preparation, within 1.5× of the
+// field's vertices on the assets and wrapped scans: tests/server/test_estimates.cpp) decides, with
+// kPredictionMargin for its error. Whatever a prediction misjudges, the mesher stops at the budget
+// (PrepareOptions::max_vertices), naming lx.
+inline constexpr double kPredictionMargin = 1.5;
+
+struct VertexCount {
+  double closed_form = 0;           // estimate_vertices (with the request's grading, far radius)
+  std::optional<double> predicted;  // the prediction's field vertices, asked only when closed_form is over
+  std::string unpredicted;          // why there is none although it was needed ("" otherwise)
+  // What the budget holds the preparation to.
+  double count() const;
+};
+
+// The preparation's predicted field vertices for these inputs (PreparePrediction::vertices). Throws
+// InvalidInput for what the preparation would refuse (passed on, but for lx's: over the budget,
+// that is the mesher's own size limit, and the budget's refusal says it) and kelvin::Cancelled when
+// its job is cancelled; any other exception means "not predicted" (its message says why: a deadline).
+using VertexPredictor = std::function<double(const mesh::SurfaceMesh&, const kelvin::PrepareOptions&)>;
+
+// The count of a preparation with `options` (l_x resolved) whose closed form is `closed_form`;
+// `predict` runs on `surface` (the one the preparation prepares) only when the closed form is over
+// the budget (null `surface` or `predict`: the closed form alone).
+VertexCount count_vertices(double closed_form, const mesh::SurfaceMesh* surface, const kelvin::PrepareOptions& options,
+                           const Limits& limits, const VertexPredictor& predict);
+
+// 422 over_budget when count.count() is over max_vertex_estimate, naming `far_field` when the
+// request's far radius alone puts it over (the closed form at far radius 1 fits) and `lx_field`
+// otherwise, with an l_x that fits: the smallest within the closed form (every l_x from it up is
+// accepted without a prediction).
+void require_within_budget(const VertexCount& count, const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& options,
+                           const Limits& limits, const std::string& lx_field, const std::string& far_field);
+
 // The field store (kelvin/store.hpp) of the service and the CBF fields: the directory with the
 // budget and lease of the limits table (max_cache_bytes, cache_lease_seconds).
 inline kelvin::FieldStore field_store(const std::string& dir, const Limits& limits) {
