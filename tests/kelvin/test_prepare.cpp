@@ -524,6 +524,27 @@ TEST(KelvinPrepare, TinyLxFailsQuicklyNamingLx) {
   EXPECT_NE(r2.find("vertex budget"), std::string::npos) << r2;
 }
 
+// Refinement reports its progress as it goes (its sizing evaluations against the prediction's
+// vertices × kSizingCallsPerVertex), not only at 0.1 and 0.9: the mesh stage's fractions rise
+// through (0.1, 0.9) in several steps, never back, and end at 1.
+TEST(KelvinPrepare, MeshingReportsItsRefinementAsItGoes) {
+  const mesh::SurfaceMesh cube = mesh::weld(mesh::load_mesh(std::string(DISTLAB_ASSET_DIR) + "/cube.stl")).surface;
+  PrepareOptions o;
+  o.lx = 0.07;  // ~10k vertices predicted: ~230k sizing evaluations
+  std::vector<double> mesh;
+  Progress progress;
+  progress.report = [&](const std::string& stage, double f) {
+    if (stage == "mesh") mesh.push_back(f);
+  };
+  const Field f = Field::prepare(cube, o, progress);
+  ASSERT_FALSE(mesh.empty());
+  EXPECT_TRUE(std::is_sorted(mesh.begin(), mesh.end()));
+  EXPECT_EQ(mesh.back(), 1.0);
+  const auto between = std::count_if(mesh.begin(), mesh.end(), [](double x) { return x > 0.1 && x < 0.9; });
+  EXPECT_GE(between, 5) << f.stats().n_verts << " vertices";
+  EXPECT_LE(*std::max_element(mesh.begin(), mesh.end() - 2), 0.9);  // before the copy's 0.9 and the end
+}
+
 // max_vertices is refused up front by the sizing's prediction, not by a uniform mesh of the far
 // ball (0.9–40× the field's vertices): the cube at l_x 0.05 (~33k predicted) on a 5,000-vertex
 // limit is refused before meshing, naming lx and the prediction; the thin knife at l_x 0.004 (a

@@ -187,6 +187,7 @@ static std::unique_ptr<Field::Impl> mesh_stage(mesh::SurfaceMesh surface, const 
     if (predicted > static_cast<double>(o.max_vertices))
       throw InvalidInput("lx", "lx is too small for this object: about " + std::to_string(std::llround(predicted)) +
                                    " vertices predicted, more than the limit of " + std::to_string(o.max_vertices) + " (max_vertices)");
+    params.expected_vertices = predicted;
   }
   params.max_vertices = o.max_vertices;
   params.max_protection_evaluations = protection_budget(surface, centre, o, params.grading);

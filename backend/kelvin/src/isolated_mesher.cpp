@@ -1,7 +1,7 @@
 // Parallel meshing in a child process (isolated_mesher.hpp).
 //
-// Request, the child's fd 3: "DLMREQ1\n", the params (7 f64: lx, min_size, feature_angle, grading,
-// boundary_edge_length, max_protection_evaluations, max_refinement_evaluations; u64 max_vertices;
+// Request, the child's fd 3: "DLMREQ2\n", the params (8 f64: lx, min_size, feature_angle, grading,
+// boundary_edge_length, max_protection_evaluations, max_refinement_evaluations, expected_vertices; u64 max_vertices;
 // i32 threads), u64 nv, u64 nf, nv*3 f64, nf*3 i32. Answer, its stdout: records of a tag byte, a
 // u64 length and that many bytes: 'P' progress (f64 fraction, the stage's name), 'W' the warning,
 // 'E' a refusal (field, NUL, message; exit 1), 'M' the mesh (u64 np, u64 nt, np*3 f64 points, nt*4
@@ -36,7 +36,7 @@ int choose_mesh_threads(const MeshingParams& params) {
 
 namespace {
 
-constexpr char kRequestMagic[] = "DLMREQ1\n";
+constexpr char kRequestMagic[] = "DLMREQ2\n";
 constexpr std::size_t kMagic = 8;
 constexpr int kExitRefused = 1, kExitBadRequest = 2;
 
@@ -62,7 +62,7 @@ struct Reader {
 std::string encode_request(const mesh::SurfaceMesh& inverted, const MeshingParams& p) {
   std::string s(kRequestMagic, kMagic);
   for (const double v : {p.lx, p.min_size, p.feature_angle, p.grading, p.boundary_edge_length,
-                         p.max_protection_evaluations, p.max_refinement_evaluations})
+                         p.max_protection_evaluations, p.max_refinement_evaluations, p.expected_vertices})
     put(s, v);
   put(s, static_cast<std::uint64_t>(p.max_vertices));
   put(s, static_cast<std::int32_t>(p.threads));
@@ -81,7 +81,7 @@ bool decode_request(const std::string& data, mesh::SurfaceMesh& inverted, Meshin
   std::uint64_t max_vertices = 0, nv = 0, nf = 0;
   std::int32_t threads = 0;
   for (double* v : {&p.lx, &p.min_size, &p.feature_angle, &p.grading, &p.boundary_edge_length,
-                    &p.max_protection_evaluations, &p.max_refinement_evaluations})
+                    &p.max_protection_evaluations, &p.max_refinement_evaluations, &p.expected_vertices})
     if (!r.get(*v)) return false;
   if (!r.get(max_vertices) || !r.get(threads) || !r.get(nv) || !r.get(nf) || threads < 1) return false;
   if (nv > r.left() / 24 || nf > r.left() / 12 || r.left() != nv * 24 + nf * 12) return false;

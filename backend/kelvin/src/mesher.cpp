@@ -36,6 +36,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <mutex>
 #include <numbers>
 #include <optional>
 #include <unordered_map>
@@ -92,6 +93,27 @@ struct Budget {
     reason = Reason::none;
     stop = false;
   }
+  // Refinement's progress: every kReportEvery sizing evaluations, by their count against
+  // expected_calls (MeshingParams::expected_vertices), from whichever thread counts it; never
+  // back (a second attempt counts again), never past kMaxShare of the refinement's part before
+  // it ends (the prediction may be short), and nothing thrown into Mesh_3.
+  static constexpr long kReportEvery = 1L << 14;
+  static constexpr double kMaxShare = 0.95;
+  double expected_calls = 0;
+  std::mutex report_mutex;
+  double reported = 0;
+  void report_refinement(long n, const Progress& progress) {
+    if (!(expected_calls > 0) || n % kReportEvery != 0 || !progress.report) return;
+    const std::unique_lock lock(report_mutex, std::try_to_lock);
+    if (!lock.owns_lock()) return;
+    const double f = 0.1 + 0.8 * std::min(kMaxShare, static_cast<double>(n) / expected_calls);
+    if (f <= reported) return;
+    reported = f;
+    try {
+      progress.report("mesh", f);
+    } catch (...) {  // NOLINT(bugprone-empty-catch): a report is not worth a refinement left locked
+    }
+  }
   void throw_if_stopped() const {
     switch (reason.load()) {
       case Reason::cancelled:
@@ -140,8 +162,10 @@ struct Sizing {
       budget->request_stop(Budget::Reason::cancelled);
     } else if (edge) {
       if (++budget->edge_calls > budget->max_edge_calls) budget->request_stop(Budget::Reason::protection);
-    } else if (++budget->calls > budget->max_calls) {
+    } else if (const long n = ++budget->calls; n > budget->max_calls) {
       budget->request_stop(Budget::Reason::refinement);
+    } else {
+      budget->report_refinement(n, *progress);
     }
     const double y2 = CGAL::to_double(p.x() * p.x() + p.y() * p.y() + p.z() * p.z());
     double l = lx * y2;
@@ -417,6 +441,7 @@ TetMesh mesh_inverted_domain(const mesh::SurfaceMesh& inverted, const MeshingPar
   // Refinement: Mesh_3 evaluates the sizing field a few tens of times per inserted vertex.
   budget.max_calls = static_cast<long>(std::min<double>(params.max_refinement_evaluations, 4e18));
   budget.max_edge_calls = static_cast<long>(std::min<double>(params.max_protection_evaluations, 4e18));
+  budget.expected_calls = params.expected_vertices * kSizingCallsPerVertex;
   const bool protect = params.feature_angle < 180;
   if (protect) {
     try {
