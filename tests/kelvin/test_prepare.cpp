@@ -222,6 +222,15 @@ TEST(KelvinPrepare, CacheRoundTripAndCorruptionIsRebuilt) {
   ASSERT_EQ(files.size(), 2u);  // the entry and cache.key: no temporary file left behind
   ASSERT_EQ(cache_entries(dir).size(), 1u);
   const fs::path file = cache_entries(dir)[0];
+  {  // Written as a stream: its framing and its MAC (taken on the way) are those of the whole payload.
+    const std::string bytes = read_file(file);
+    ASSERT_GT(bytes.size(), 40u);
+    std::uint64_t size = 0;
+    std::memcpy(&size, bytes.data(), sizeof(size));
+    EXPECT_EQ(size, bytes.size() - 8 - 32);
+    const Digest mac = hmac_sha256(read_file(dir / "cache.key"), std::string_view(bytes).substr(8, size));
+    EXPECT_EQ(bytes.compare(bytes.size() - 32, 32, reinterpret_cast<const char*>(mac.data()), 32), 0);
+  }
 
   // Truncated, one flipped byte, trailing garbage: each is detected, rebuilt and rewritten.
   for (int damage = 0; damage < 3; ++damage) {

@@ -182,6 +182,25 @@ std::vector<ChildResult> run_children(const fs::path& dir, const std::vector<std
 // prepares, sleeps DISTLAB_STORE_HOLD seconds at its first meshing report (so that the other
 // process certainly finds it preparing); "kill": prepares and kills itself with SIGKILL halfway
 // through writing the entry.
+// The entries' MAC: RFC 4231's test cases 1 and 2, whole and in uneven pieces (as an entry is
+// written), and a key longer than the hash's block (case 6).
+TEST(KelvinStore, HmacSha256MatchesRfc4231) {
+  const auto hex = [](const Digest& d) {
+    std::string out;
+    for (unsigned char c : d) out += "0123456789abcdef"[c >> 4], out += "0123456789abcdef"[c & 15];
+    return out;
+  };
+  const std::string key1(20, '\x0b'), key6(131, '\xaa');
+  const std::string data6 = "Test Using Larger Than Block-Size Key - Hash Key First";
+  EXPECT_EQ(hex(hmac_sha256(key1, "Hi There")), "b0344c61d8db38535ca8afceaf0bf12b881dc200c9833da726e9376c2e32cff7");
+  EXPECT_EQ(hex(hmac_sha256(key6, data6)), "60e431591ee0b67f0d8a26aacbf5b77f8e0bc6213728c5140546040f0ee37f54");
+  const std::string data2 = "what do ya want for nothing?";
+  HmacSha256 pieces("Jefe");
+  for (size_t at = 0, n = 1; at < data2.size(); at += n, n = 2 * n + 1)
+    pieces.add(data2.data() + at, std::min(n, data2.size() - at));
+  EXPECT_EQ(hex(pieces.digest()), "5bdcc146bf60754e6a042426089575c75a003f089d2739839dec58b964ec3843");
+}
+
 TEST(KelvinStoreChild, Run) {
   const std::string role = env("DISTLAB_STORE_CHILD");
   if (role.empty()) GTEST_SKIP() << "run by the store tests";

@@ -14,6 +14,8 @@
 #include <limits>
 #include <optional>
 #include <sstream>
+#include <utility>
+#include <vector>
 
 #include "distlab/kelvin/digest.hpp"
 #include "field_impl.hpp"
@@ -108,17 +110,86 @@ std::string cache_mac_key(const std::string& dir) {
 
 namespace {
 
-class Writer {
+std::runtime_error write_error(const std::string& path) {
+  return std::runtime_error("cannot write cache file " + path + ": " + std::strerror(errno));
+}
+
+// An entry streamed to its file as it is serialized, its MAC taken on the way, so the payload
+// (mostly the factor: ~900 MB for the cube at l_x 0.02) is never held or copied in memory; that
+// copy and the string's growth were most of the store's write. Progress "cache" 0.5 to 0.9 over
+// the `expected` bytes.
+class Writer final : public std::streambuf {
  public:
+  Writer(int fd, std::string path, const std::string& mac_key, std::uint64_t expected, const Progress& progress)
+      : fd_(fd),
+        path_(std::move(path)),
+        mac_(mac_key),
+        expected_(std::max<std::uint64_t>(expected, 1)),
+        chunk_(std::clamp<std::uint64_t>(expected / 64, std::uint64_t{4} << 10, std::uint64_t{16} << 20)),
+        progress_(progress),
+        buffer_(chunk_) {
+    setp(buffer_.data(), buffer_.data() + buffer_.size());
+    out.exceptions(std::ios::badbit);  // a failed write or a cancelled progress leaves as thrown
+  }
   template <class T>
-  void pod(const T& v) { raw(&v, sizeof(T)); }
+  void pod(const T& v) {
+    raw(&v, sizeof(T));
+  }
   template <class T>
   void array(const T* p, std::uint64_t n) {
     pod(n);
     raw(p, sizeof(T) * n);
   }
   void raw(const void* p, size_t n) { out.write(static_cast<const char*>(p), static_cast<std::streamsize>(n)); }
-  std::ostringstream out;
+  // Everything written: the payload's size and MAC.
+  std::pair<std::uint64_t, Digest> finish() {
+    out.flush();
+    return {written_, mac_.digest()};
+  }
+  std::ostream out{this};
+
+ protected:
+  int_type overflow(int_type c) override {
+    drain();
+    if (traits_type::eq_int_type(c, traits_type::eof())) return traits_type::not_eof(c);
+    *pptr() = traits_type::to_char_type(c);
+    pbump(1);
+    return c;
+  }
+  std::streamsize xsputn(const char* s, std::streamsize n) override {
+    if (n < epptr() - pptr()) return std::streambuf::xsputn(s, n);
+    drain();  // a large array goes to the file as it is
+    emit(s, static_cast<std::size_t>(n));
+    return n;
+  }
+  int sync() override {
+    drain();
+    return 0;
+  }
+
+ private:
+  void drain() {
+    emit(pbase(), static_cast<std::size_t>(pptr() - pbase()));
+    setp(buffer_.data(), buffer_.data() + buffer_.size());
+  }
+  void emit(const char* p, std::size_t n) {
+    for (std::size_t done = 0; done < n;) {
+      const std::size_t k = std::min(chunk_, n - done);
+      mac_.add(p + done, k);
+      if (!write_all(fd_, p + done, k)) throw write_error(path_);
+      done += k;
+      written_ += k;
+      progress_("cache", 0.5 + 0.4 * std::min(1.0, static_cast<double>(written_) / static_cast<double>(expected_)));
+    }
+  }
+  int fd_;
+  std::string path_;
+  HmacSha256 mac_;
+  std::uint64_t expected_;
+  std::size_t chunk_;  // one progress report per chunk: ~64 in all
+  const Progress& progress_;
+  std::vector<char> buffer_;
+  std::uint64_t written_ = 0;
 };
 
 class Reader {
@@ -178,39 +249,35 @@ std::string entry_key(const std::string& content_key) {
 
 void save_prepared(const Field::Impl& m, const std::string& tmp, const std::string& key,
                    const std::string& mac_key, const Progress& progress) {
-  Writer w;
-  w.raw(kFormat, sizeof(kFormat));
-  w.array(key.data(), key.size());
-  w.array(m.surface.vertices.data(), static_cast<std::uint64_t>(m.surface.vertices.size()));
-  w.array(m.surface.faces.data(), static_cast<std::uint64_t>(m.surface.faces.size()));
-  const Vec3 c = m.requested.centre.value_or(m.centre);
-  const double inputs[kInputs] = {m.requested.lx, m.requested.far_radius, m.requested.feature_angle, c.x(), c.y(), c.z(), m.requested.grading.value_or(kChosen)};
-  w.raw(inputs, sizeof(inputs));
-  const double params[5] = {m.options.feature_angle, m.stats.grading, m.stats.t_mesh, m.stats.t_decomp, static_cast<double>(m.stats.mesh_threads)};
-  w.raw(params, sizeof(params));
-  w.array(m.tm.points.data(), static_cast<std::uint64_t>(m.tm.points.size()));
-  w.array(m.tm.tets.data(), static_cast<std::uint64_t>(m.tm.tets.size()));
-  w.array(m.tm.neighbours.data(), static_cast<std::uint64_t>(m.tm.neighbours.size()));
-  w.array(m.tm.in_domain.data(), static_cast<std::uint64_t>(m.tm.in_domain.size()));
-  m.solver.save(w.out);
-  std::string payload = w.out.str();
-  const Digest mac = hmac_sha256(mac_key, payload);
-  const std::uint64_t size = payload.size();
-
   // The temporary is private to this call; the store links it in once it is complete and on disk.
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
   if (fd < 0) throw std::runtime_error("cannot write cache file " + tmp + ": " + std::strerror(errno));
   try {
-    bool ok = write_all(fd, &size, sizeof(size));
-    constexpr std::size_t kChunk = std::size_t{64} << 10;
-    for (std::size_t done = 0; ok && done < payload.size();) {
-      const std::size_t n = std::min(kChunk, payload.size() - done);
-      ok = write_all(fd, payload.data() + done, n);
-      done += n;
-      progress("cache", 0.5 + 0.4 * static_cast<double>(done) / static_cast<double>(payload.size()));
-    }
-    if (!ok || !write_all(fd, mac.data(), mac.size()) || ::fsync(fd) != 0)
-      throw std::runtime_error("cannot write cache file " + tmp + ": " + std::strerror(errno));
+    // Framing: u64 payload size (written last, at its place), payload, MAC.
+    std::uint64_t size = 0;
+    if (!write_all(fd, &size, sizeof(size))) throw write_error(tmp);
+    const std::uint64_t mesh_bytes = sizeof(double) * static_cast<std::uint64_t>(m.tm.points.size()) +
+                                     sizeof(int) * static_cast<std::uint64_t>(m.tm.tets.size() + m.tm.neighbours.size());
+    Writer w(fd, tmp, mac_key, mesh_bytes + m.solver.saved_bytes(), progress);
+    w.raw(kFormat, sizeof(kFormat));
+    w.array(key.data(), key.size());
+    w.array(m.surface.vertices.data(), static_cast<std::uint64_t>(m.surface.vertices.size()));
+    w.array(m.surface.faces.data(), static_cast<std::uint64_t>(m.surface.faces.size()));
+    const Vec3 c = m.requested.centre.value_or(m.centre);
+    const double inputs[kInputs] = {m.requested.lx, m.requested.far_radius, m.requested.feature_angle, c.x(), c.y(), c.z(), m.requested.grading.value_or(kChosen)};
+    w.raw(inputs, sizeof(inputs));
+    const double params[5] = {m.options.feature_angle, m.stats.grading, m.stats.t_mesh, m.stats.t_decomp, static_cast<double>(m.stats.mesh_threads)};
+    w.raw(params, sizeof(params));
+    w.array(m.tm.points.data(), static_cast<std::uint64_t>(m.tm.points.size()));
+    w.array(m.tm.tets.data(), static_cast<std::uint64_t>(m.tm.tets.size()));
+    w.array(m.tm.neighbours.data(), static_cast<std::uint64_t>(m.tm.neighbours.size()));
+    w.array(m.tm.in_domain.data(), static_cast<std::uint64_t>(m.tm.in_domain.size()));
+    m.solver.save(w.out);
+    const auto [payload_size, mac] = w.finish();
+    size = payload_size;
+    if (!write_all(fd, mac.data(), mac.size()) || ::pwrite(fd, &size, sizeof(size), 0) != static_cast<ssize_t>(sizeof(size)) ||
+        ::fsync(fd) != 0)
+      throw write_error(tmp);
   } catch (...) {
     ::close(fd);
     ::unlink(tmp.c_str());

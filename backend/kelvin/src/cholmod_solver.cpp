@@ -375,6 +375,12 @@ void CholmodSolver::save(std::ostream& out) const {
   impl_->with_cholmod_values(false, [&] { put(out, static_cast<const double*>(f->x), f->xsize); });
 }
 
+std::uint64_t CholmodSolver::saved_bytes() const {
+  const cholmod_factor* f = impl_->factor;
+  if (f == nullptr || !f->is_super) return 0;
+  return 8 * sizeof(std::uint64_t) + sizeof(int) * (2 * f->n + 3 * (f->nsuper + 1) + f->ssize) + sizeof(double) * f->xsize;
+}
+
 bool CholmodSolver::load(std::istream& in) {
   impl_->reset();
   auto read = [&]() -> bool {

@@ -65,6 +65,7 @@ class CholmodSolver {
   double solve_megabytes() const;
 
   void save(std::ostream& out) const;
+  std::uint64_t saved_bytes() const;  // what save() writes
   // Returns false if the stream does not hold a consistent factor (the solver then holds none).
   bool load(std::istream& in);
 

@@ -24,6 +24,21 @@ class Sha256 {
   void* ctx_;  // EVP_MD_CTX
 };
 
+// HMAC-SHA256 over data given in pieces (a cache entry as it is written).
+class HmacSha256 {
+ public:
+  explicit HmacSha256(std::string_view key);
+  ~HmacSha256();
+  HmacSha256(const HmacSha256&) = delete;
+  HmacSha256& operator=(const HmacSha256&) = delete;
+  void add(const void* data, std::size_t size);
+  Digest digest();  // ends the stream
+
+ private:
+  void* mac_;  // EVP_MAC
+  void* ctx_;  // EVP_MAC_CTX
+};
+
 Digest hmac_sha256(std::string_view key, std::string_view data);
 // Constant-time comparison (a MAC check must not leak how many leading bytes matched).
 bool same_digest(const Digest& a, const Digest& b);
