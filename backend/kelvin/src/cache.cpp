@@ -10,15 +10,14 @@
 
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <limits>
 #include <optional>
-#include <sstream>
 #include <utility>
 #include <vector>
 
 #include "distlab/kelvin/digest.hpp"
 #include "field_impl.hpp"
+#include "huge_pages.hpp"
 #include "store_impl.hpp"
 
 namespace distlab::kelvin {
@@ -192,16 +191,21 @@ class Writer final : public std::streambuf {
   std::uint64_t written_ = 0;
 };
 
-class Reader {
+// The payload is read once into memory (huge pages: it is mostly the factor) and parsed in place.
+using Payload = HugeVector<char>;
+
+class Reader final : private std::streambuf {
  public:
-  explicit Reader(std::string data) : in(std::move(data)) {}
+  explicit Reader(Payload data) : data_(std::move(data)) { setg(data_.data(), data_.data(), data_.data() + data_.size()); }
   template <class T>
   bool pod(T& v) { return raw(&v, sizeof(T)); }
   // Reads a length-prefixed array into an Eigen matrix with the given column count.
   template <class M>
   bool matrix(M& m, Eigen::Index cols, std::uint64_t max_rows) {
     std::uint64_t n = 0;
-    if (!pod(n) || n % static_cast<std::uint64_t>(cols) != 0 || n / cols > max_rows) return false;
+    if (!pod(n) || n % static_cast<std::uint64_t>(cols) != 0 || n / cols > max_rows ||
+        n > static_cast<std::uint64_t>(egptr() - gptr()) / sizeof(typename M::Scalar))
+      return false;
     m.resize(static_cast<Eigen::Index>(n / cols), cols);
     return raw(m.data(), sizeof(typename M::Scalar) * n);
   }
@@ -209,7 +213,10 @@ class Reader {
     in.read(static_cast<char*>(p), static_cast<std::streamsize>(n));
     return static_cast<bool>(in);
   }
-  std::istringstream in;
+  std::istream in{this};
+
+ private:
+  Payload data_;
 };
 
 }  // namespace
@@ -291,30 +298,45 @@ namespace {
 // An entry's framing: u64 payload size, payload, HMAC-SHA256 of the payload. "" when it holds
 // (payload and the stored MAC read), else "unreadable" or "truncated" (shorter or longer than
 // its size says).
-std::string read_framed(const std::string& path, std::string& payload, Digest& stored) {
-  std::ifstream f(path, std::ios::binary | std::ios::ate);
-  if (!f) return "unreadable";
-  const auto file_size = static_cast<std::uint64_t>(f.tellg());
-  f.seekg(0);
+std::string read_framed(const std::string& path, Payload& payload, Digest& stored) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return "unreadable";
+  struct stat st {};
   std::uint64_t size = 0;
-  if (!f.read(reinterpret_cast<char*>(&size), sizeof(size)) || file_size < sizeof(size) + stored.size() ||
-      size != file_size - sizeof(size) - stored.size())
-    return "truncated";  // or trailing garbage
-  payload.assign(size, '\0');
-  if (!f.read(payload.data(), static_cast<std::streamsize>(size)) ||
-      !f.read(reinterpret_cast<char*>(stored.data()), static_cast<std::streamsize>(stored.size())) || f.peek() != EOF)
-    return "truncated";
-  return "";
+  const auto read_exactly = [&](void* p, std::size_t n) {
+    for (auto* c = static_cast<char*>(p); n > 0;) {
+      const ssize_t got = ::read(fd, c, n);
+      if (got < 0 && errno == EINTR) continue;
+      if (got <= 0) return false;
+      c += got;
+      n -= static_cast<std::size_t>(got);
+    }
+    return true;
+  };
+  std::string bad;
+  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode))
+    bad = "unreadable";
+  else if (static_cast<std::uint64_t>(st.st_size) < sizeof(size) + stored.size() || !read_exactly(&size, sizeof(size)) ||
+           size != static_cast<std::uint64_t>(st.st_size) - sizeof(size) - stored.size())
+    bad = "truncated";  // or trailing garbage
+  if (bad.empty()) {
+    payload.resize(size);
+    char extra = 0;
+    if (!read_exactly(payload.data(), size) || !read_exactly(stored.data(), stored.size()) || ::read(fd, &extra, 1) != 0)
+      bad = "truncated";  // it changed while read
+  }
+  ::close(fd);
+  return bad;
 }
 
 }  // namespace
 
 std::string verify_entry(const std::string& path, const std::string& name, const std::string* mac_key) {
-  std::string payload;
+  Payload payload;
   Digest stored{};
   if (std::string bad = read_framed(path, payload, stored); !bad.empty()) return bad;
   if (mac_key == nullptr) return "no_key";
-  if (!same_digest(hmac_sha256(*mac_key, payload), stored)) return "bad_mac";
+  if (!same_digest(hmac_sha256(*mac_key, {payload.data(), payload.size()}), stored)) return "bad_mac";
   Reader r(std::move(payload));
   char format[sizeof(kFormat)];
   if (!r.raw(format, sizeof(format)) || std::memcmp(format, kFormat, sizeof(kFormat)) != 0) return "old_format";
@@ -377,12 +399,11 @@ std::unique_ptr<Field::Impl> load_prepared(const std::string& path, const std::s
                                            const mesh::SurfaceMesh& surface, const PrepareOptions& requested,
                                            const std::string& mac_key) {
   if (!requested.centre) return nullptr;
-  std::string payload;
+  Payload payload;
   Digest stored{};
   if (!read_framed(path, payload, stored).empty()) return nullptr;  // absent, truncated or trailing garbage
   // Corrupt, or written by someone without the key (an unkeyed checksum could be recomputed).
-  if (!same_digest(hmac_sha256(mac_key, payload), stored)) return nullptr;
-
+  if (!same_digest(hmac_sha256(mac_key, {payload.data(), payload.size()}), stored)) return nullptr;
   Reader r(std::move(payload));
   char format[sizeof(kFormat)];
   if (!r.raw(format, sizeof(format)) || std::memcmp(format, kFormat, sizeof(kFormat)) != 0) return nullptr;

@@ -132,6 +132,9 @@ struct CholmodSolver::Impl {
     cholmod_copy = factor->x != nullptr;
     if (!supernodal()) return;
     values = pack_values(view(), static_cast<const double*>(factor->x));
+    take_plan();
+  }
+  void take_plan() {
     plan = plan_two_lanes(view());
     entries_read = kelvin::entries_read(view());
   }
@@ -405,8 +408,7 @@ bool CholmodSolver::load(std::istream& in) {
     f->maxesize = sizes[5];
     f->is_monotonic = static_cast<int>(sizes[7]);
     if (!get(in, static_cast<int*>(f->super), nsuper + 1) || !get(in, static_cast<int*>(f->pi), nsuper + 1) ||
-        !get(in, static_cast<int*>(f->px), nsuper + 1) || !get(in, static_cast<int*>(f->s), ssize) ||
-        !get(in, static_cast<double*>(f->x), xsize))
+        !get(in, static_cast<int*>(f->px), nsuper + 1) || !get(in, static_cast<int*>(f->s), ssize))
       return false;
     // Structural sanity, so a corrupt file cannot send the solver out of bounds.
     const int* super = static_cast<const int*>(f->super);
@@ -432,7 +434,18 @@ bool CholmodSolver::load(std::istream& in) {
     const int* s = static_cast<const int*>(f->s);
     for (std::uint64_t k = 0; k < ssize; ++k)
       if (s[k] < 0 || static_cast<std::uint64_t>(s[k]) >= n) return false;
-    impl_->take_values();
+    // The values are packed into the solve's order as they are read, one supernode at a time:
+    // CHOLMOD's copy is not needed after a load (with_cholmod_values rebuilds it on demand).
+    impl_->free_cholmod_copy();
+    impl_->values = solve_layout(impl_->view());
+    std::vector<double> block;
+    for (std::uint64_t k = 0; k < nsuper; ++k) {
+      block.resize(static_cast<std::size_t>(px[k + 1] - px[k]));
+      if (!get(in, block.data(), block.size())) return false;
+      pack_supernode(impl_->view(), static_cast<int>(k), block.data(), impl_->values);
+    }
+    if (!in.ignore(static_cast<std::streamsize>(sizeof(double) * (xsize - static_cast<std::uint64_t>(px[nsuper]))))) return false;
+    impl_->take_plan();
     return true;
   };
   try {

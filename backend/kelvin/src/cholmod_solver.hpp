@@ -22,8 +22,8 @@ class CholmodSolver {
   // throws, the solver holds no factor.
   void factorize(const Eigen::SparseMatrix<double>& lower);
   // A supernodal factor's values are kept in the order solve() reads them (SolveValues, 0.62–0.66x
-  // the time of reading CHOLMOD's layout). CHOLMOD's own copy stays after factorize() and load()
-  // until this frees it; the calls that need it later rebuild it from the solve's copy.
+  // the time of reading CHOLMOD's layout). CHOLMOD's own copy stays after factorize() until this
+  // frees it (load() keeps none); the calls that need it later rebuild it from the solve's copy.
   void release_cholmod_values();
   // Solves A x = b in place (b must have size n): forward and back substitution over the
   // supernodal factor, skipping in the forward pass every supernode whose part of the permuted

@@ -154,7 +154,7 @@ double entries_read(const SupernodalFactor& f) {
   return total;
 }
 
-SolveValues pack_values(const SupernodalFactor& f, const double* x) {
+SolveValues solve_layout(const SupernodalFactor& f) {
   SolveValues out;
   out.start.resize(static_cast<size_t>(f.nsuper) + 1);
   long total = 0;
@@ -165,19 +165,25 @@ SolveValues pack_values(const SupernodalFactor& f, const double* x) {
   }
   out.start.back() = total;
   out.values.resize(static_cast<size_t>(total));
-  parallel_for(static_cast<size_t>(f.nsuper), 0, [&](size_t k) {
-    const int ncol = f.super[k + 1] - f.super[k], nrow = f.pi[k + 1] - f.pi[k];
-    const double* block = x + f.px[k];
-    double* v = out.values.data() + out.start[k];
-    for (int j0 = 0; j0 < ncol; j0 += kChunk) {
-      const int jb = std::min(kChunk, ncol - j0), r0 = j0 + jb;
-      auto at = [&](int r, int q) { return block[static_cast<long>(j0 + q) * nrow + r]; };
-      for (int q = 0; q < jb; ++q)
-        for (int r = 0; r < jb; ++r) *v++ = r >= q ? at(j0 + r, q) : 0.0;
-      for (int r = r0; r < nrow; r += 2)
-        for (int q = 0; q < jb; ++q) *v++ = at(r, q), *v++ = r + 1 < nrow ? at(r + 1, q) : 0.0;
-    }
-  });
+  return out;
+}
+
+void pack_supernode(const SupernodalFactor& f, int k, const double* block, SolveValues& out) {
+  const int ncol = f.super[k + 1] - f.super[k], nrow = f.pi[k + 1] - f.pi[k];
+  double* v = out.values.data() + out.start[static_cast<size_t>(k)];
+  for (int j0 = 0; j0 < ncol; j0 += kChunk) {
+    const int jb = std::min(kChunk, ncol - j0), r0 = j0 + jb;
+    auto at = [&](int r, int q) { return block[static_cast<long>(j0 + q) * nrow + r]; };
+    for (int q = 0; q < jb; ++q)
+      for (int r = 0; r < jb; ++r) *v++ = r >= q ? at(j0 + r, q) : 0.0;
+    for (int r = r0; r < nrow; r += 2)
+      for (int q = 0; q < jb; ++q) *v++ = at(r, q), *v++ = r + 1 < nrow ? at(r + 1, q) : 0.0;
+  }
+}
+
+SolveValues pack_values(const SupernodalFactor& f, const double* x) {
+  SolveValues out = solve_layout(f);
+  parallel_for(static_cast<size_t>(f.nsuper), 0, [&](size_t k) { pack_supernode(f, static_cast<int>(k), x + f.px[k], out); });
   return out;
 }
 

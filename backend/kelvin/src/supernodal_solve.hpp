@@ -43,6 +43,10 @@ struct SolveValues {
 };
 // x: CHOLMOD's values for the structure f (f.values and f.start are not used).
 SolveValues pack_values(const SupernodalFactor& f, const double* x);
+// The same in two steps, for values that arrive one supernode at a time (a stored factor):
+// the layout (values sized, start set), then each supernode's block (CHOLMOD's px[k] … px[k+1]).
+SolveValues solve_layout(const SupernodalFactor& f);
+void pack_supernode(const SupernodalFactor& f, int k, const double* block, SolveValues& out);
 // Back to CHOLMOD's layout (px[nsuper] doubles; the unused upper triangles of the diagonal blocks zero).
 void unpack_values(const SupernodalFactor& f, double* x);
 
