@@ -18,19 +18,13 @@
 
 #include "distlab/cbf/rollout.hpp"
 #include "distlab/server/cbf_json.hpp"
+#include "load_average.hpp"
 
 namespace {
 
 using namespace distlab;
 using nlohmann::json;
 using Clock = std::chrono::steady_clock;
-
-std::string loadavg() {
-  std::ifstream f("/proc/loadavg");
-  std::string a, b, c;
-  f >> a >> b >> c;
-  return a + " " + b + " " + c;
-}
 
 double median(std::vector<double> v) {
   std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
@@ -64,7 +58,7 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
       return 2;
     }
   }
-  const std::string load_before = loadavg();
+  const std::string load_before = bench::load_average();
   const server::CbfRequest req = server::parse_cbf_request({{"scenario", scenario}, {"metric", "euclidean"}});
   const cbf::Scenario& sc = req.scenario;
   if (sc.fields.empty()) {
@@ -131,7 +125,7 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
                              }
                            }));
   }
-  const std::string load_after = loadavg();
+  const std::string load_after = bench::load_average();
 
   std::printf(
       "distlab-bench-fields: scenario %s, %zu steps of its rollout, %d control points × %zu fields, %.0f pairs, "

@@ -45,6 +45,7 @@
 #include "distlab/mesh/primitives.hpp"
 #include "distlab/mesh/surface.hpp"
 #include "distlab/mesh/weld.hpp"
+#include "load_average.hpp"
 #include "query_sets.hpp"
 
 using namespace distlab;
@@ -697,13 +698,6 @@ struct MesherSide {
   std::string digest;                // ours: SHA-256 of the points, cells and domain flags (same mesh, same digest)
 };
 
-std::string load_average() {
-  std::ifstream in("/proc/loadavg");
-  std::string a, b, c;
-  in >> a >> b >> c;
-  return a + " " + b + " " + c;
-}
-
 MeshingParams mesher_params(const MesherCase& c, double far_radius, mesh::SurfaceMesh& inverted) {
   inverted = c.surface;
   double r_max = 0;
@@ -789,7 +783,7 @@ void plain_once(const MesherCase& c, double far_radius, int threads, const std::
 
 nlohmann::json mesher_table(const std::vector<MesherCase>& cases, double far_radius, int reps, const std::vector<int>& thread_counts,
                             const std::string& plain_exe, const std::string& worker) {
-  const std::string load_before = load_average();
+  const std::string load_before = bench::load_average();
   std::printf(
       "\nMesher (issue 38): distlab's (the sizing's choice, Mesh_3, the manifold boundary: Stats::t_mesh) against "
       "plain CGAL Mesh_3 with eq. 23 on the same inverted surface (%s) on as many threads (1: Sequential_tag, more: "
@@ -818,7 +812,7 @@ nlohmann::json mesher_table(const std::vector<MesherCase>& cases, double far_rad
       std::fflush(stdout);
       out.push_back({{"object", c.object}, {"lx", c.lx}, {"grading", ours.grading}, {"grading_chosen", !c.grading}, {"threads", threads}, {"isolated", threads > 1 && !worker.empty()}, {"n_verts", ours.n_verts}, {"n_verts_runs", ours.n_verts_runs}, {"digest", ours.digest}, {"t_mesh", t}, {"t_mesh_runs", ours.t}, {"plain_n_verts", plain.n_verts}, {"plain_n_verts_runs", plain.n_verts_runs}, {"plain_t_mesh", tp}, {"plain_t_mesh_runs", plain.t}, {"plain_t_refine_mean", plain.t_refine / reps}, {"plain_t_exude_mean", plain.t_exude / reps}, {"t_sizing_choice_mean", ours.t_choice / reps}});
     }
-  const std::string load_after = load_average();
+  const std::string load_after = bench::load_average();
   std::printf("load after: %s\n", load_after.c_str());
   return {{"rows", out}, {"load_before", load_before}, {"load_after", load_after}, {"reps", reps}};
 }

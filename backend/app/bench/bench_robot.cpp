@@ -35,6 +35,7 @@
 #include "distlab/collision/euclidean.hpp"
 #include "distlab/robot/distances.hpp"
 #include "distlab/server/cbf_json.hpp"
+#include "load_average.hpp"
 
 namespace {
 
@@ -42,13 +43,6 @@ using namespace distlab;
 using namespace distlab::robot;
 using Clock = std::chrono::steady_clock;
 using nlohmann::json;
-
-std::string loadavg() {
-  std::ifstream f("/proc/loadavg");
-  std::string a, b, c;
-  f >> a >> b >> c;
-  return a + " " + b + " " + c;
-}
 
 // The process's CPU time (every thread), µs: steadier than the wall clock on a loaded machine.
 double cpu_us() {
@@ -118,7 +112,7 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
       return 2;
     }
   }
-  const std::string load_before = loadavg();
+  const std::string load_before = bench::load_average();
   const auto panda = server::load_robot("panda", assets);
   const cbf::Scenario scene = cbf::corridor_narrow_scenario(panda);
   const int dof = panda->dof();
@@ -220,7 +214,7 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
     fcl_self_us.push_back(fcl_run(static_cast<int>(all.pairs().size()), nullptr));
     fk_us.push_back(fk_run());
   }
-  const std::string load_after = loadavg();
+  const std::string load_after = bench::load_average();
 
   // The path's overlaps and smallest distances, obstacle and self pairs (the baseline's values).
   int overlapping = 0;
