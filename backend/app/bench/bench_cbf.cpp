@@ -20,6 +20,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "../src/huge_page_heap.hpp"
 #include "distlab/cbf/rollout.hpp"
 #include "distlab/server/cbf_json.hpp"
 
@@ -72,6 +73,7 @@ double median_of(std::vector<RunTimes> runs, double RunTimes::*field) {
 
 // A failing benchmark ends on its uncaught exception (std::terminate prints it).
 int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
+  distlab::app::use_huge_page_heap(argv);
   std::string scenario_file = "corridor_narrow", json_file, params = "{}";
   double duration = -1;
   int repeat = 1;

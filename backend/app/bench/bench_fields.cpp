@@ -16,6 +16,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "../src/huge_page_heap.hpp"
 #include "distlab/cbf/rollout.hpp"
 #include "distlab/server/cbf_json.hpp"
 #include "load_average.hpp"
@@ -46,6 +47,7 @@ double per_unit(int repeat, double units, Fn&& fn) {
 }  // namespace
 
 int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
+  distlab::app::use_huge_page_heap(argv);
   std::string scenario = "wrench_grasp", json_file;
   int repeat = 5;
   for (int i = 1; i < argc; ++i) {

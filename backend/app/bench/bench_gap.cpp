@@ -34,6 +34,7 @@
 #include <random>
 #include <string>
 
+#include "../src/huge_page_heap.hpp"
 #include "distlab/gap/distance.hpp"
 #include "distlab/gap/validator.hpp"
 #include "distlab/geometry/error.hpp"
@@ -368,6 +369,7 @@ void run_boxes(int box_pairs, const GapParams& paper, bool newton_only, std::mt1
 
 // A failing benchmark ends on its uncaught exception (std::terminate prints it).
 int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
+  distlab::app::use_huge_page_heap(argv);
   int pairs = 50000, box_pairs = 40000;
   unsigned long seed = 1;
   std::string json_path;

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "../src/huge_page_heap.hpp"
 #include "distlab/mesh/isolated_import.hpp"
 #include "distlab/mesh/primitives.hpp"
 #include "distlab/mesh/surface.hpp"
@@ -33,6 +34,7 @@ double median_ms(int runs, F&& f) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  distlab::app::use_huge_page_heap(argv);
   std::string exe, assets = "assets";
   int runs = 9;
   for (int i = 1; i + 1 < argc; i += 2) {

@@ -36,6 +36,7 @@
 #include <unistd.h>
 #include <nlohmann/json.hpp>
 
+#include "../src/huge_page_heap.hpp"
 #include "cholmod_solver.hpp"  // private to distlab_kelvin: the factorization Field::prepare runs
 #include "distlab/geometry/parallel.hpp"
 #include "distlab/kelvin/digest.hpp"
@@ -828,6 +829,7 @@ std::vector<double> parse_list(const std::string& s) {
 
 // A failing benchmark ends on its uncaught exception (std::terminate prints it).
 int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
+  distlab::app::use_huge_page_heap(argv);
   std::vector<double> lxs = {0.2, 0.15, 0.1, 0.08, 0.06, 0.05, 0.04, 0.03, 0.02};
   std::string assets = "assets", json_path = "bench_kelvin.json", cache_dir;
   int grid = 1000;

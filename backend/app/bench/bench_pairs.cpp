@@ -28,6 +28,7 @@
 #include <optional>
 #include <string>
 
+#include "../src/huge_page_heap.hpp"
 #include "gap_cases.hpp"
 
 using namespace distlab;
@@ -214,6 +215,7 @@ struct Bucket {
 
 // A failing benchmark ends on its uncaught exception (std::terminate prints it).
 int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
+  distlab::app::use_huge_page_heap(argv);
   long pairs = 1'000'000, first_pair = 0;
   unsigned long seed = 1;
   int passes = 1, chunk = 4096, plain_every = 1, fd_every = 1;

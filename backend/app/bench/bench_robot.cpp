@@ -30,6 +30,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "../src/huge_page_heap.hpp"
 #include "distlab/cbf/rollout.hpp"
 #include "distlab/cbf/scenario.hpp"
 #include "distlab/collision/euclidean.hpp"
@@ -98,6 +99,7 @@ struct Case {
 
 // A failing benchmark ends on its uncaught exception (std::terminate prints it).
 int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
+  distlab::app::use_huge_page_heap(argv);
   int n = 10000, repeat = 3;
   std::string assets, json_file, save_path;
   for (int i = 1; i < argc; ++i) {

@@ -21,6 +21,7 @@
 #include <thread>
 #include <vector>
 
+#include "../src/huge_page_heap.hpp"
 #include "distlab/kelvin/field.hpp"
 #include "distlab/mesh/surface.hpp"
 #include "distlab/mesh/weld.hpp"
@@ -268,6 +269,7 @@ const char* kUsage =
 
 // A failing benchmark ends on its uncaught exception (std::terminate prints it).
 int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
+  distlab::app::use_huge_page_heap(argv);
   double lx = 0.06, seconds = 30;
   int edits = 40, clients = 50;
   bool brush_edits = false;

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "../src/huge_page_heap.hpp"
 #include "distlab/mesh/hausdorff.hpp"
 #include "distlab/mesh/primitives.hpp"
 #include "distlab/mesh/simplify.hpp"
@@ -49,6 +50,7 @@ double seconds(F&& f) {
 }  // namespace
 
 int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape): a benchmark may stop on a bad argument
+  distlab::app::use_huge_page_heap(argv);
   long faces = 2000000, target = 100000, baseline_max = 500000;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i];

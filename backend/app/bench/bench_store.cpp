@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "../src/huge_page_heap.hpp"
 #include "distlab/kelvin/field.hpp"
 #include "distlab/kelvin/store.hpp"
 #include "distlab/mesh/primitives.hpp"
@@ -54,6 +55,7 @@ double plain_write_seconds(const fs::path& path, std::uint64_t bytes) {
 }  // namespace
 
 int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape): a benchmark may stop on a bad argument
+  distlab::app::use_huge_page_heap(argv);
   std::vector<double> lxs = {0.05, 0.03};
   std::optional<double> grading;
   std::string dir = (fs::temp_directory_path() / "distlab-bench-store").string(), json_path = "bench_store.json";

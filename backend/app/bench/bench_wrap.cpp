@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "../src/huge_page_heap.hpp"
 #include "distlab/mesh/primitives.hpp"
 #include "distlab/mesh/repair.hpp"
 #include "distlab/mesh/surface.hpp"
@@ -18,6 +19,7 @@
 using namespace distlab;
 
 int main(int argc, char** argv) {
+  distlab::app::use_huge_page_heap(argv);
   int runs = 3;
   std::vector<std::pair<std::string, mesh::SurfaceMesh>> cases;
   for (int i = 1; i < argc; ++i) {

@@ -28,6 +28,8 @@
 #include <fstream>
 #include <string>
 
+#include "../src/huge_page_heap.hpp"
+
 namespace {
 
 using K = CGAL::Exact_predicates_inexact_constructions_kernel;
@@ -80,7 +82,8 @@ int run(const Polyhedron& poly, double lx, double min_size, double feature_angle
 
 }  // namespace
 
-int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape): a failing baseline ends on its exception
+int main(int argc, char** argv) {          // NOLINT(bugprone-exception-escape): a failing baseline ends on its exception
+  distlab::app::use_huge_page_heap(argv);  // as ours: the same heap on both sides
   if (argc < 5) {
     std::fputs("usage: distlab-mesh3-plain FILE.off LX MIN_SIZE FEATURE_ANGLE [THREADS]\n", stderr);
     return 2;

@@ -2,6 +2,7 @@
 #include <iostream>
 
 #include "command.hpp"
+#include "huge_page_heap.hpp"
 
 namespace distlab::app {
 
@@ -25,6 +26,7 @@ int usage(std::ostream& out) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  distlab::app::use_huge_page_heap(argv);
   std::ios::sync_with_stdio(false);
   if (argc < 2) return usage(std::cerr);
   const std::string name = argv[1];

@@ -5,7 +5,8 @@
 // default). A random access into 100 MB of 4 KB pages misses the TLB almost every time, and on
 // a VM each miss is a two-level page walk; with 2 MB pages the TLB covers the whole mesh.
 // Without huge pages (kernel setting, or none free) the memory is ordinary: same contents.
-// DISTLAB_HUGE_PAGES=0 in the environment leaves the advice out (A/B runs of the benchmarks).
+// DISTLAB_HUGE_PAGES=0 in the environment leaves the advice out (A/B runs of the benchmarks), and
+// the executables' huge-page heap with it (app's huge_page_heap.hpp).
 #include <sys/mman.h>
 
 #include <cstddef>
