@@ -7,13 +7,20 @@
 
 #include <Eigen/SparseCholesky>
 #include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
 #include <cstring>
+#include <mutex>
 #include <numeric>
 #include <random>
 #include <sstream>
+#include <thread>
+#include <vector>
 
 #include "boundary_response.hpp"
 #include "cholmod_solver.hpp"
+#include "elapsed_progress.hpp"
 
 using namespace distlab;
 using namespace distlab::kelvin;
@@ -354,4 +361,80 @@ TEST(KelvinSolver, BoundaryResponseColumnsAndTheirSum) {
   EXPECT_EQ((one - automatic).cwiseAbs().maxCoeff(), 0);
   const VecX expected = ldlt.solve(VecX(-(a_ob * d)));
   EXPECT_LE((one - expected).cwiseAbs().maxCoeff(), 1e-11 * expected.cwiseAbs().maxCoeff());
+}
+
+// The elapsed-time estimate: linear to 0.9 of the predicted time, continuous and increasing past
+// it, below 1 however long the work runs, 0 without a prediction.
+TEST(KelvinSolver, ElapsedFractionIsLinearThenApproachesOne) {
+  EXPECT_EQ(ElapsedProgress::fraction(0, 2), 0);
+  EXPECT_DOUBLE_EQ(ElapsedProgress::fraction(1, 2), 0.5);
+  EXPECT_DOUBLE_EQ(ElapsedProgress::fraction(1.8, 2), 0.9);
+  EXPECT_NEAR(ElapsedProgress::fraction(1.8 + 1e-9, 2), 0.9, 1e-9);
+  double last = 0;
+  for (double r = 0.01; r < 1000; r *= 1.1) {
+    const double f = ElapsedProgress::fraction(r, 1);
+    EXPECT_GT(f, last) << r;
+    EXPECT_LT(f, 1) << r;
+    last = f;
+  }
+  EXPECT_EQ(ElapsedProgress::fraction(5, 0), 0);
+  EXPECT_EQ(ElapsedProgress::fraction(5, std::nan("")), 0);
+}
+
+// The ticker reports from its own thread while the work runs (here: until it has reported three
+// times), increasing and below 1, and nothing after it is destroyed.
+TEST(KelvinSolver, ElapsedProgressReportsUntilDestroyed) {
+  std::mutex m;
+  std::condition_variable cv;
+  std::vector<double> seen;
+  {
+    const ElapsedProgress ticker(
+        [&](double f) {
+          const std::lock_guard<std::mutex> lock(m);
+          seen.push_back(f);
+          cv.notify_one();
+        },
+        0.05, std::chrono::milliseconds(1));
+    std::unique_lock<std::mutex> lock(m);
+    ASSERT_TRUE(cv.wait_for(lock, std::chrono::seconds(60), [&] { return seen.size() >= 3; }));
+  }
+  const size_t count = seen.size();
+  ASSERT_GE(count, 3u);
+  for (size_t i = 0; i < count; ++i) {
+    EXPECT_GT(seen[i], 0) << i;
+    EXPECT_LT(seen[i], 1) << i;
+    if (i > 0) {
+      EXPECT_GT(seen[i], seen[i - 1]) << i;
+    }
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  EXPECT_EQ(seen.size(), count);  // joined: no report after the destructor
+}
+
+// factorize(done) reports the analysis's share as soon as it is analysed (both orderings), then
+// only larger fractions below 1, and the same factor as without a callback.
+TEST(KelvinSolver, FactorizationReportsItsProgress) {
+  for (const int n : {10, 24}) {  // AMD (1,000 unknowns), METIS (13,824)
+    const Eigen::SparseMatrix<double> lower = grid_matrix(n, 3);
+    std::vector<double> seen;
+    std::mutex m;
+    CholmodSolver with, without;
+    with.factorize(lower, [&](double f) {
+      const std::lock_guard<std::mutex> lock(m);
+      seen.push_back(f);
+    });
+    without.factorize(lower);
+    ASSERT_FALSE(seen.empty()) << n;
+    EXPECT_GT(seen.front(), 0) << n;
+    for (size_t i = 0; i < seen.size(); ++i) {
+      EXPECT_LT(seen[i], 1) << n;
+      if (i > 0) {
+        EXPECT_GT(seen[i], seen[i - 1]) << n;
+      }
+    }
+    VecX a = VecX::Ones(lower.rows()), b = a;
+    with.solve(a);
+    without.solve(b);
+    EXPECT_EQ((a - b).cwiseAbs().maxCoeff(), 0) << n;
+  }
 }

@@ -151,6 +151,27 @@ TEST_F(Estimates, WrappedUploadsFieldVerticesAreWithinOneAndAHalfTimesThePredict
   }
 }
 
+// A boundary response over the server's max_response_bytes (512 MB) is not built (the registry
+// checks its size first), so the estimate gives its stage no seconds: the cube at l_x 0.02 (~190k
+// vertices, ~15k of them on the surface: ~20 GB). Before, its typical n² seconds (~300 s) made
+// the estimate ten times the preparation and held the job's bar at three quarters until ready.
+// A small field's response (the cube at 0.1, ~60 MB) keeps its seconds.
+TEST_F(Estimates, AResponseTooLargeToBuildTakesNoTime) {
+  for (const double lx : {0.02, 0.1}) {
+    const json e = post("/api/kelvin/estimate", {{"asset", "cube"}, {"lx", lx}}, 200);
+    ASSERT_TRUE(e["stage_seconds"].is_object()) << e.dump();
+    double sum = 0;
+    for (const auto& [stage, seconds] : e["stage_seconds"].items()) sum += seconds.get<double>();
+    EXPECT_NEAR(sum, e["seconds_estimate"].get<double>(), 1e-9 * sum) << e.dump();
+    if (lx == 0.02) {
+      EXPECT_EQ(e["stage_seconds"]["response"].get<double>(), 0.0) << e.dump();
+      EXPECT_EQ(e["seconds_per_vertex"]["stages"]["response"].get<double>(), 0.0) << e.dump();
+    } else {
+      EXPECT_GT(e["stage_seconds"]["response"].get<double>(), 0.0) << e.dump();
+    }
+  }
+}
+
 // A preparation's progress follows its stages' real shares (issue 38 goal 3): a server measures
 // each stage's seconds (stats.t_stages) on what it computes, the next estimate of the sizing
 // predicts each stage from them (seconds_per_vertex.stages, at the predicted vertices by the

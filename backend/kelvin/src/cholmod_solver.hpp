@@ -19,8 +19,11 @@ class CholmodSolver {
   CholmodSolver& operator=(const CholmodSolver&) = delete;
 
   // lower: the lower triangle (with diagonal) of an SPD matrix, compressed column storage. If it
-  // throws, the solver holds no factor.
-  void factorize(const Eigen::SparseMatrix<double>& lower);
+  // throws, the solver holds no factor. done(fraction in [0, 1)), if given, is called after the
+  // analysis with its share of the time, then every 250 ms from another thread with an estimate
+  // from the elapsed time against the analysis's flop count at the last factorization's speed
+  // (CHOLMOD reports nothing while it factors); none comes after this returns.
+  void factorize(const Eigen::SparseMatrix<double>& lower, const std::function<void(double)>& done = {});
   // A supernodal factor's values are kept in the order solve() reads them (SolveValues, 0.62–0.66x
   // the time of reading CHOLMOD's layout). CHOLMOD's own copy stays after factorize() until this
   // frees it (load() keeps none); the calls that need it later rebuild it from the solve's copy.

@@ -3925,7 +3925,7 @@ export interface components {
                 stages: components["schemas"]["KelvinStageSeconds"];
                 size_exponents: components["schemas"]["KelvinStageSeconds"];
             };
-            /** @description the predicted seconds of each stage (vertices_predicted × seconds_per_vertex.stages): the job's progress weighs its stages by them; null when vertices_predicted is */
+            /** @description the predicted seconds of each stage (vertices_predicted × seconds_per_vertex.stages): the job's progress weighs its stages by them; response is 0 when the boundary response is surely over max_response_bytes (it is not built); null when vertices_predicted is */
             stage_seconds: components["schemas"]["KelvinStageSeconds"] | null;
         };
         RobotDistancesRequest: {

@@ -114,6 +114,8 @@ class KelvinModule final : public Module {
   // Repairs (if asked), predicts and prepares the object's field, which it sets on the object.
   void prepare_field(Job& job, KelvinObject& object, const kelvin::PrepareOptions& options, const std::function<void()>& announce);
   ObjectEstimate estimate_of(const CreateObjectRequest& in, const ObjectPlan& plan);
+  // The largest boundary response a preparation builds (PreparedRegistry::prepare), in MB.
+  double response_megabytes_limit() const { return static_cast<double>(config_.limits.max_response_bytes) / 1e6; }
   // The object's prepared field with its σ, or 409 not_ready.
   struct ReadyField {
     std::shared_ptr<PreparedField> prepared;

@@ -311,7 +311,7 @@ void KelvinModule::prepare_field(Job& j, KelvinObject& object, const kelvin::Pre
   try {
     p = cached_prediction(to_prepare, options);
     if (!p && object.reshaped()) p = predict(to_prepare, options, &j.cancel);
-    if (p) predicted = prediction_json(p, prepare_rate_);
+    if (p) predicted = prediction_json(p, prepare_rate_, std::nullopt, response_megabytes_limit());
   } catch (const kelvin::Cancelled&) {
     throw;
   } catch (const std::exception&) {
@@ -323,7 +323,7 @@ void KelvinModule::prepare_field(Job& j, KelvinObject& object, const kelvin::Pre
   }
   // Unpredicted (a request not estimated first), the shares are the rates of the sizing asked for
   // (or of both sizings) at the size of the preparations measured.
-  stages.emplace(stage_shares(p, prepare_rate_, options.grading));
+  stages.emplace(stage_shares(p, prepare_rate_, options.grading, response_megabytes_limit()));
   if (object.reshaped()) announce();  // the repair's report and the prediction on its surface
   j.report("load", 0.0);
   bool from_memory = false;
@@ -388,7 +388,7 @@ ObjectEstimate KelvinModule::estimate_of(const CreateObjectRequest& in, const Ob
       out.prediction_note = "not predicted: the mesher failed on this surface (the preparation will say how)";
     }
   }
-  out.rate = prediction_rate(out.prediction, prepare_rate_, options.grading);
+  out.rate = prediction_rate(out.prediction, prepare_rate_, options.grading, response_megabytes_limit());
   return out;
 }
 

@@ -10,8 +10,9 @@ namespace distlab::server {
 using json = nlohmann::json;
 
 static std::size_t sizing_index(double grading) { return grading > 0 ? 1 : 0; }
-static constexpr std::size_t kMeshStage = 1;  // kelvin::kPrepareStages
+static constexpr std::size_t kMeshStage = 1, kResponseStage = 5;  // kelvin::kPrepareStages
 static_assert(std::string_view(kelvin::kPrepareStages[kMeshStage]) == "mesh");
+static_assert(std::string_view(kelvin::kPrepareStages[kResponseStage]) == "response");
 
 void PrepareRate::record(double grading, int mesh_threads, const kelvin::StageSeconds& measured, double vertices) {
   kelvin::StageSeconds seconds = measured;
@@ -32,7 +33,9 @@ PrepareRate::Rate PrepareRate::rate(std::optional<double> grading, std::optional
   Rate out;
   out.sizing = !grading ? "any" : *grading > 0 ? "graded"
                                                : "eq23";
-  kelvin::StageSeconds seconds{}, sizes{};  // Σ seconds and Σ n^p of each stage
+  // Σ seconds and Σ n^p of each stage over the preparations that ran it (a boundary response
+  // over the limit is not built: 0 seconds there say nothing of its rate).
+  kelvin::StageSeconds seconds{}, sizes{};
   double n_sum = 0;
   {
     std::lock_guard lock(mutex_);
@@ -40,6 +43,7 @@ PrepareRate::Rate PrepareRate::rate(std::optional<double> grading, std::optional
       if (grading && k != sizing_index(*grading)) continue;
       for (const auto& m : recent_[k]) {
         for (std::size_t i = 0; i < kelvin::kPrepareStageCount; ++i) {
+          if (i == kResponseStage && !(m.seconds[i] > 0)) continue;
           seconds[i] += m.seconds[i];
           sizes[i] += std::pow(m.vertices, kelvin::kStageSizeExponents[i]);
         }
@@ -49,14 +53,12 @@ PrepareRate::Rate PrepareRate::rate(std::optional<double> grading, std::optional
     }
   }
   const double n = std::max(1.0, vertices.value_or(out.preparations > 0 ? n_sum / static_cast<double>(out.preparations) : 1e4));
-  if (out.preparations == 0) {
-    out.stages = kelvin::typical_stage_seconds(grading.value_or(kelvin::kAutoGrading), n, mesh_threads);
-    for (double& s : out.stages) s /= n;
-  } else {
-    for (std::size_t i = 0; i < kelvin::kPrepareStageCount; ++i)
-      out.stages[i] = seconds[i] / sizes[i] * std::pow(n, kelvin::kStageSizeExponents[i] - 1);
-    out.stages[kMeshStage] /= kelvin::mesh_speedup(mesh_threads);
-  }
+  // Stages none of them ran (all, before the first preparation) at the typical rates.
+  out.stages = kelvin::typical_stage_seconds(grading.value_or(kelvin::kAutoGrading), n, mesh_threads);
+  for (std::size_t i = 0; i < kelvin::kPrepareStageCount; ++i)
+    out.stages[i] = sizes[i] > 0 ? seconds[i] / sizes[i] * std::pow(n, kelvin::kStageSizeExponents[i] - 1) /
+                                       (i == kMeshStage ? kelvin::mesh_speedup(mesh_threads) : 1.0)
+                                 : out.stages[i] / n;
   for (double s : out.stages) out.seconds_per_vertex += s;
   return out;
 }
@@ -85,12 +87,20 @@ void PredictionCache::put(const std::string& key, const kelvin::PreparePredictio
 }
 
 PrepareRate::Rate prediction_rate(const std::optional<kelvin::PreparePrediction>& p, const PrepareRate& rates,
-                                  std::optional<double> grading) {
-  return p ? rates.rate(p->grading, static_cast<double>(std::llround(p->vertices)), p->mesh_threads) : rates.rate(grading, std::nullopt);
+                                  std::optional<double> grading, double max_response_megabytes) {
+  if (!p) return rates.rate(grading, std::nullopt);
+  PrepareRate::Rate out = rates.rate(p->grading, static_cast<double>(std::llround(p->vertices)), p->mesh_threads);
+  // A response surely over the limit is not built (PreparedRegistry::prepare): no time.
+  if (p->response_megabytes_min() > max_response_megabytes) {
+    out.seconds_per_vertex -= out.stages[kResponseStage];
+    out.stages[kResponseStage] = 0;
+  }
+  return out;
 }
 
-json prediction_json(const std::optional<kelvin::PreparePrediction>& p, const PrepareRate& rates, std::optional<double> grading) {
-  return prediction_json(p, prediction_rate(p, rates, grading));
+json prediction_json(const std::optional<kelvin::PreparePrediction>& p, const PrepareRate& rates, std::optional<double> grading,
+                     double max_response_megabytes) {
+  return prediction_json(p, prediction_rate(p, rates, grading, max_response_megabytes));
 }
 
 json prediction_json(const std::optional<kelvin::PreparePrediction>& p, const PrepareRate::Rate& rate) {
@@ -126,11 +136,11 @@ json prediction_json(const std::optional<kelvin::PreparePrediction>& p, const Pr
 }
 
 kelvin::StageSeconds stage_shares(const std::optional<kelvin::PreparePrediction>& p, const PrepareRate& rates,
-                                  std::optional<double> grading) {
-  if (!p) return rates.rate(grading, std::nullopt).stages;  // at the measured preparations' mean size
-  const auto n = static_cast<double>(std::llround(p->vertices));
-  kelvin::StageSeconds shares = rates.rate(p->grading, n, p->mesh_threads).stages;
-  for (double& s : shares) s *= n;
+                                  std::optional<double> grading, double max_response_megabytes) {
+  // Without p, at the measured preparations' mean size.
+  kelvin::StageSeconds shares = prediction_rate(p, rates, grading, max_response_megabytes).stages;
+  if (p)
+    for (double& s : shares) s *= static_cast<double>(std::llround(p->vertices));
   return shares;
 }
 

@@ -25,9 +25,9 @@ namespace distlab::server {
 // meshing costs about twice per vertex): timed by kelvin::StageProgress from the job's own
 // progress reports (cache hits and shared preparations are not computations). A stage's seconds
 // at n vertices are c n^p (p: kelvin::kStageSizeExponents), c the sum of its seconds over the sum
-// of n^p of the sizing's last kWindow, so a large preparation weighs by its size and the rate
-// follows a faster (or busier) server within kWindow preparations. Before the sizing's first,
-// kelvin::typical_stage_seconds. Thread-safe.
+// of n^p of the sizing's last kWindow (for the boundary response, of those that built one), so a
+// large preparation weighs by its size and the rate follows a faster (or busier) server within
+// kWindow preparations. Before the sizing's first, kelvin::typical_stage_seconds. Thread-safe.
 class PrepareRate {
  public:
   static constexpr std::size_t kWindow = 16;
@@ -72,18 +72,20 @@ class PredictionCache {
 // "seconds_per_vertex": {"value", "source": "default" | "measured", "preparations", "sizing",
 // "stages", "size_exponents"}}: the rate of the sizing predicted at the vertices predicted; with
 // no prediction the first four, the seconds and the stage seconds are null and the rate is the
-// sizing's given in `grading` (or any) at the measured preparations' mean vertices.
+// sizing's given in `grading` (or any) at the measured preparations' mean vertices. A boundary
+// response whose least predicted memory is over max_response_megabytes (Limits::
+// max_response_bytes) will not be built: its stage counts 0 seconds.
 nlohmann::json prediction_json(const std::optional<kelvin::PreparePrediction>& p, const PrepareRate& rates,
-                               std::optional<double> grading = std::nullopt);
+                               std::optional<double> grading, double max_response_megabytes);
 // The same in two steps: the rate it reads (at p's vertices, or the sizing `grading`'s mean), and
 // the JSON of p at that rate.
 PrepareRate::Rate prediction_rate(const std::optional<kelvin::PreparePrediction>& p, const PrepareRate& rates,
-                                  std::optional<double> grading = std::nullopt);
+                                  std::optional<double> grading, double max_response_megabytes);
 nlohmann::json prediction_json(const std::optional<kelvin::PreparePrediction>& p, const PrepareRate::Rate& rate);
 // The shares of a preparation's stages for its progress (kelvin::StageProgress): the predicted
 // seconds of each stage (the rate of the sizing predicted, or of `grading`, at the predicted
-// vertices or the measured preparations' mean).
+// vertices or the measured preparations' mean), as prediction_rate gives them.
 kelvin::StageSeconds stage_shares(const std::optional<kelvin::PreparePrediction>& p, const PrepareRate& rates,
-                                  std::optional<double> grading);
+                                  std::optional<double> grading, double max_response_megabytes);
 
 }  // namespace distlab::server

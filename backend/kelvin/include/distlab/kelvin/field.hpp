@@ -140,6 +140,12 @@ struct PreparePrediction {
   Vec3 centre = Vec3::Zero();
   double protection_trial_lx = 0;  // l_x of the trial meshing (0: none ran)
   int mesh_threads = 1;            // the threads prepare meshes on (PrepareOptions::mesh_threads)
+  // At least this many of `vertices` lie on the object's surface (a lower bound, not a count:
+  // Mesh_3 puts 0.8-5.2 vertices per unit of ∫ dA / l² there, by curvature and edge refinement).
+  double boundary_vertices_min = 0;
+  // The least memory the boundary response takes at these counts (Field::boundary_response_megabytes):
+  // a response predicted over a limit is surely over it.
+  double response_megabytes_min() const;
 };
 PreparePrediction predict_preparation(const mesh::SurfaceMesh& surface, const PrepareOptions& options,
                                       const Progress& progress = {});
