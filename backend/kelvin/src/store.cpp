@@ -342,10 +342,7 @@ PreparationLease::PreparationLease(std::string lock, int fd, off_t renewed_at, d
     ino_ = st.st_ino;
   }
   const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(std::max(lease_seconds, 0.04) / 4));
-  heartbeat_ = std::thread([this, period] {
-    std::unique_lock guard(mutex_);
-    while (!stop_cv_.wait_for(guard, period, [this] { return stop_; })) renew();
-  });
+  heartbeat_.emplace(period, [this] { renew(); });
 }
 
 // In place, same width: a waiter reading meanwhile sees a change either way.
@@ -355,12 +352,7 @@ void PreparationLease::renew() const {
 }
 
 PreparationLease::~PreparationLease() {
-  {
-    std::lock_guard guard(mutex_);
-    stop_ = true;
-  }
-  stop_cv_.notify_all();
-  heartbeat_.join();
+  heartbeat_.reset();
   struct stat st {};
   if (::stat(lock_.c_str(), &st) == 0 && st.st_dev == dev_ && st.st_ino == ino_) ::unlink(lock_.c_str());
   ::close(fd_);

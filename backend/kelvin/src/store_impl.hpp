@@ -2,14 +2,12 @@
 // The field store's protocol (store.hpp) as Field::prepare_cached and the cache I/O use it.
 #include <sys/types.h>
 
-#include <condition_variable>
 #include <functional>
 #include <memory>
-#include <mutex>
 #include <optional>
 #include <string>
-#include <thread>
 
+#include "distlab/geometry/periodic.hpp"
 #include "distlab/kelvin/progress.hpp"
 #include "distlab/kelvin/store.hpp"
 
@@ -39,10 +37,7 @@ class PreparationLease {
   off_t renewed_at_;  // offset of the fixed-width "renewed" value in the file
   dev_t dev_ = 0;
   ino_t ino_ = 0;
-  std::mutex mutex_;
-  std::condition_variable stop_cv_;
-  bool stop_ = false;
-  std::thread heartbeat_;
+  std::optional<Periodic> heartbeat_;  // renews the lease; stopped before the lock file goes
 };
 
 // Until `load` takes the entry at `path` (true) or this call holds the entry's lease: returns
