@@ -14,9 +14,12 @@ int prepare_stage_index(const std::string& stage, double fraction) {
 }
 
 StageSeconds typical_stage_seconds(double grading, double vertices, int mesh_threads) {
-  // Each stage's seconds at 10^4 vertices (the cube: 26k vertices eq. 23, 36k graded; the
-  // wrench: 5.7k eq. 23), scaled to `vertices` by kStageSizeExponents.
-  StageSeconds at_10k = {0.02, 1.0, 0.045, 0.15, 0.15, 0.75};
+  // Each stage's seconds at 10^4 vertices, scaled to `vertices` by kStageSizeExponents: medians
+  // of 12 preparations in the service at load < 1 (the cube at l_x 0.02-0.05, the wrench at
+  // 0.002-0.005, the sphere, the knife; 5.7k-198k vertices), the mesh stage per thread and per
+  // eq. 23 vertex (0.40-0.56 s on the cube and the sphere, 1.1-1.8 s on the featured wrench and
+  // knife); the graded sizing's cost 1.85-1.9× per vertex.
+  StageSeconds at_10k = {0.02, 0.6, 0.025, 0.13, 0.15, 0.3};
   if (grading > 0) at_10k[1] *= 2;
   at_10k[1] /= mesh_speedup(mesh_threads);
   StageSeconds out{};

@@ -33,7 +33,7 @@ inline constexpr StageSeconds kStageSizeExponents = {1, 1, 1, 1.5, 1, 2};
 // The seconds of each stage at `vertices` field vertices before any is measured (the Python
 // package's shares, the server's before its first preparation of the sizing): for eq. 23
 // (grading 0) and the graded sizing (grading > 0), whose meshing costs about twice per vertex.
-// Measured on the cube at l_x 0.05 and the wrench at 0.005 (2-core machine, issue 38 goal 3).
+// Medians of preparations in the service at load < 1 (stages.cpp; 2-core machine, issue 38 goal 3).
 // Meshing on mesh_threads threads divides the mesh stage by mesh_speedup(mesh_threads).
 StageSeconds typical_stage_seconds(double grading, double vertices, int mesh_threads = 1);
 
