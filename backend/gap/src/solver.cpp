@@ -136,18 +136,24 @@ void evaluate(const E& A, const E& B, SaddleT<T>& x) {
 // The Newton step (δa, δb) of the saddle equations below from their residuals rb, ra and the
 // Hessians Eb = ∂²E_B(a), Ea = ∂²E_A(b). With Hb = Eb − I, Ha = Ea − I:
 // (Hb δa + δb = −rb, δa + Ha δb = −ra), so (I − Hb Ha) δb = Hb ra − rb and δa = −ra − Ha δb.
-// I − Hb Ha = I − Sb Sa with Sa, Sb = I − ∂²E in (0, I]: its eigenvalues lie in [0, 1), and the
-// 3×3 cofactor inverse (Eigen's closed form) is as accurate as pivoted LU here at a third of the
-// cost; an exactly singular matrix gives non-finite steps (callers check). `inverse_norm`: the
-// Frobenius norm of M⁻¹, if asked for. Also returns δb − δa = ra + Ea δb, which near contact is
-// far below δa and δb themselves.
+// I − Hb Ha = I − Sb Sa with Sa, Sb = I − ∂²E in (0, I]: its eigenvalues lie in [0, 1), and
+// Cramer's rule (the adjugate over the determinant, as Eigen's closed-form 3×3 inverse) is as
+// accurate as pivoted LU here at a third of the cost; the adjugate is applied to the right-hand
+// side before the division, without forming M⁻¹ (a quarter less time on the tracked path). An
+// exactly singular matrix gives non-finite steps (callers check). `inverse_norm_squared`: the
+// squared Frobenius norm of M⁻¹, if asked for (its square root only where a stop rule needs it).
+// Also returns δb − δa = ra + Ea δb, which near contact is far below δa and δb themselves.
 template <class T>
 Vec3T<T> saddle_step(const Mat3T<T>& Eb, const Mat3T<T>& Ea, const Vec3T<T>& rb, const Vec3T<T>& ra, Vec3T<T>& da,
-                     Vec3T<T>& db, T* inverse_norm = nullptr) {
+                     Vec3T<T>& db, T* inverse_norm_squared = nullptr) {
   const Mat3T<T> M = Eb + Ea - Eb * Ea;  // = I − Hb Ha
-  const Mat3T<T> inverse = M.inverse();
-  if (inverse_norm) *inverse_norm = inverse.norm();
-  db = inverse * (Eb * ra - ra - rb);
+  Mat3T<T> adjugate;
+  adjugate << M(1, 1) * M(2, 2) - M(1, 2) * M(2, 1), M(0, 2) * M(2, 1) - M(0, 1) * M(2, 2), M(0, 1) * M(1, 2) - M(0, 2) * M(1, 1),
+      M(1, 2) * M(2, 0) - M(1, 0) * M(2, 2), M(0, 0) * M(2, 2) - M(0, 2) * M(2, 0), M(0, 2) * M(1, 0) - M(0, 0) * M(1, 2),
+      M(1, 0) * M(2, 1) - M(1, 1) * M(2, 0), M(0, 1) * M(2, 0) - M(0, 0) * M(2, 1), M(0, 0) * M(1, 1) - M(0, 1) * M(1, 0);
+  const T inverse_det = T(1) / (M(0, 0) * adjugate(0, 0) + M(0, 1) * adjugate(1, 0) + M(0, 2) * adjugate(2, 0));
+  if (inverse_norm_squared) *inverse_norm_squared = adjugate.squaredNorm() * (inverse_det * inverse_det);
+  db = (adjugate * (Eb * ra - ra - rb)) * inverse_det;
   Vec3T<T> dba = ra + Ea * db;  // not const: returned by move
   da = db - dba;
   return dba;
@@ -171,12 +177,12 @@ void final_step(SaddleT<T>& s, const Vec3T<T>& rb, const Vec3T<T>& ra, const Vec
 // ½ ∂³E[δ, δ] in each equation; ∂³E's size is estimated by the secant of the Hessians between s
 // and an earlier point (Hessians hb at a_then, ha at b_then). The next Newton step (the error
 // left) is then at most (1 + 2‖M⁻¹‖) times that, M of saddle_step: |δb| ≤ ‖M⁻¹‖ (|ra| + |rb|)
-// and |δa| ≤ |ra| + |δb|, as ‖∂²E − I‖ ≤ 1.
+// and |δa| ≤ |ra| + |δb|, as ‖∂²E − I‖ ≤ 1. `inverse_norm_squared`: ‖M⁻¹‖², saddle_step's.
 inline double error_after_step(const Saddle& s, const Mat3& hb, const Vec3& a_then, const Mat3& ha, const Vec3& b_then,
-                               double inverse_norm, const Vec3& da, const Vec3& db) {
+                               double inverse_norm_squared, const Vec3& da, const Vec3& db) {
   const double lb = (s.eb.hessian - hb).norm() / (s.a - a_then).norm();
   const double la = (s.ea.hessian - ha).norm() / (s.b - b_then).norm();
-  return (1 + 2 * inverse_norm) * 0.5 * (lb * da.squaredNorm() + la * db.squaredNorm());
+  return (1 + 2 * std::sqrt(inverse_norm_squared)) * 0.5 * (lb * da.squaredNorm() + la * db.squaredNorm());
 }
 
 // The stop rule on that estimate: a quarter of it below tol, and the relative error of ∇E_B it
@@ -214,14 +220,14 @@ bool joint_newton(const E& A, const E& B, SaddleT<T>& s, T tol, int max_iter, in
   int damped = 0;
   while (!done && iterations < max_iter) {
     V da, db;
-    T inverse_norm = 0;
-    const V dba = saddle_step<T>(cur->eb.hessian, cur->ea.hessian, rb, ra, da, db, &inverse_norm);
+    T inverse_norm_squared = 0;
+    const V dba = saddle_step<T>(cur->eb.hessian, cur->ea.hessian, rb, ra, da, db, &inverse_norm_squared);
     if (!da.allFinite() || !db.allFinite()) break;
     const T step2 = std::max(da.squaredNorm(), db.squaredNorm());
     bool stop = step2 < tol * tol && below_local_scale(std::sqrt(step2), cur->eb, kRelativeStep);
     if constexpr (std::is_same_v<T, double>) {
       if (!stop && stepped) {
-        const double left = error_after_step(*cur, next->eb.hessian, next->a, next->ea.hessian, next->b, inverse_norm, da, db);
+        const double left = error_after_step(*cur, next->eb.hessian, next->a, next->ea.hessian, next->b, inverse_norm_squared, da, db);
         stop = error_left_is_below(left, cur->eb, tol, kColdErrorRelative);
       }
     }
@@ -413,19 +419,18 @@ void solve_predicted(const PointToSet& A, const PointToSet& B, const Prediction&
   for (; iterations < std::min(2, max_iter - 1); ++iterations) {
     const Vec3 rb = s.ba + s.eb.gradient, ra = s.ea.gradient - s.ba;
     Vec3 da, db;
-    double inverse_norm = 0;
-    const Vec3 dba = saddle_step(s.eb.hessian, s.ea.hessian, rb, ra, da, db, &inverse_norm);
+    double inverse_norm_squared = 0;
+    const Vec3 dba = saddle_step(s.eb.hessian, s.ea.hessian, rb, ra, da, db, &inverse_norm_squared);
     if (!da.allFinite() || !db.allFinite()) break;
     // Stop when a quarter of tol bounds the error left after the step (error_after_step, the
     // secant from the carried Hessians or the last point), or, as solve_newton, when the step
     // itself is below tol, taking the step unevaluated. Near contact both also answer to the local
     // length ℓ (kRelativeStep): the step as in joint_newton, the error left, which is what ∇E_B's
     // relative error follows, below kRelativeStep² ℓ.
-    const double next = error_after_step(s, hb, at_a, ha, at_b, inverse_norm, da, db);
     const double step = std::sqrt(std::max(da.squaredNorm(), db.squaredNorm()));
-    const bool step_rule = step < tol && below_local_scale(step, s.eb, kRelativeStep);
-    const bool error_rule = error_left_is_below(next, s.eb, tol, kRelativeStep * kRelativeStep);
-    if (step_rule || error_rule) {
+    if ((step < tol && below_local_scale(step, s.eb, kRelativeStep)) ||
+        error_left_is_below(error_after_step(s, hb, at_a, ha, at_b, inverse_norm_squared, da, db), s.eb, tol,
+                            kRelativeStep * kRelativeStep)) {
       final_step(s, rb, ra, da, db, dba);
       out.a = s.a, out.b = s.b, out.ab = s.eb.gradient;
       out.lambda = s.lambda();
