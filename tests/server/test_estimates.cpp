@@ -172,6 +172,33 @@ TEST_F(Estimates, AResponseTooLargeToBuildTakesNoTime) {
   }
 }
 
+// A job not estimated first (curl, the Python client) predicts a large field itself, so that its
+// stages' shares follow its size rather than the shares at the size of the preparations measured:
+// the cube at l_x 0.0385 (a closed form of at least kPredictedInTheJob, 2e5, vertices). A small
+// one (l_x 0.11) is not predicted: its status has no estimate, and it costs no trial meshing.
+TEST_F(Estimates, ALargeJobNotEstimatedFirstPredictsItsOwnField) {
+  for (const double lx : {0.0385, 0.11}) {
+    SCOPED_TRACE(lx);
+    const json created = post("/api/kelvin/objects", {{"asset", "cube"}, {"lx", lx}}, 202);
+    const json st = settle(created["object"]["id"]);
+    ASSERT_EQ(st["state"], "ready") << st.dump();
+    const double closed_form = st["source"]["vertex_estimate"].get<double>();
+    if (lx < 0.1) {
+      ASSERT_GE(closed_form, 2e5) << st.dump();
+      ASSERT_TRUE(st.contains("estimate") && st["estimate"].is_object()) << st.dump();
+      expect_within(predicted(st["estimate"]), st["stats"]["n_verts"].get<double>(), "cube at l_x 0.0385, not estimated first", st["estimate"], st["stats"]);
+      EXPECT_EQ(st["estimate"]["grading"], st["stats"]["grading"]) << "the sizing predicted is the sizing meshed";
+      double sum = 0;
+      for (const auto& [stage, seconds] : st["estimate"]["stage_seconds"].items()) sum += seconds.get<double>();
+      EXPECT_NEAR(sum, st["estimate"]["seconds_estimate"].get<double>(), 1e-9 * sum) << st.dump();
+    } else {
+      ASSERT_LT(closed_form, 2e5) << st.dump();
+      EXPECT_FALSE(st.contains("estimate")) << st.dump();
+    }
+    c.Delete("/api/kelvin/objects/" + st["id"].get<std::string>(), h);
+  }
+}
+
 // A preparation's progress follows its stages' real shares (issue 38 goal 3): a server measures
 // each stage's seconds (stats.t_stages) on what it computes, the next estimate of the sizing
 // predicts each stage from them (seconds_per_vertex.stages, at the predicted vertices by the

@@ -2721,7 +2721,7 @@ export interface components {
             state: "queued" | "running" | "succeeded" | "failed" | "cancelled";
             /** @description kelvin_prepare: "repair" (a repair request's fix or wrap; cancellable like every stage), then "load", "invert", "mesh", "build", "decomp", "solve", "cache", "response" (the boundary response, when the limits allow it) */
             stage?: string;
-            /** @description kelvin_prepare: during "repair" the repair's own fraction; from "load" on the preparation's overall fraction, never decreasing: Σ over its stages of the stage's predicted seconds (the object's estimate.stage_seconds, or this server's stage rates when the request was not estimated) × the stage's fraction, over their sum (kelvin::StageProgress) */
+            /** @description kelvin_prepare: during "repair" the repair's own fraction; from "load" on the preparation's overall fraction, never decreasing: Σ over its stages of the stage's predicted seconds (the object's estimate.stage_seconds, or this server's stage rates when the job has no estimate) × the stage's fraction, over their sum (kelvin::StageProgress) */
             fraction?: number;
             seconds?: number;
             object?: string;
@@ -3701,7 +3701,7 @@ export interface components {
             };
             /** @description SHA-256 of the mesh as the user gave it (an upload's digest) */
             surface_digest?: string;
-            /** @description what the preparation job predicted before preparing, on the surface it prepares (after the repair of a repair request): the estimate's fields of POST /api/kelvin/estimate; absent until then or when it could not predict */
+            /** @description what the preparation job predicted before preparing, on the surface it prepares (after the repair of a repair request): the estimate's fields of POST /api/kelvin/estimate (the request's own estimate when it was estimated first; else predicted by the job for a repaired or simplified surface, or for a field of at least 200,000 vertices by the budget's closed form (vertex_estimate) that is not in memory); absent until then, for a smaller request not estimated first, or when it could not predict */
             estimate?: components["schemas"]["KelvinPrediction"];
         };
         /** @description a prepared field's size and preparation times (seconds) */

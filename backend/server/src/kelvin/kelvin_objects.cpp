@@ -145,6 +145,12 @@ std::unique_ptr<ResponseBudget::Share> PreparedRegistry::take_response(std::size
   return responses_->take(bytes);
 }
 
+bool PreparedRegistry::in_memory(const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& options) {
+  std::lock_guard lock(mutex_);
+  const Entry* e = find_locked(kelvin::prepare_key(surface, options), surface, options);
+  return e != nullptr && (e->preparing || !e->field.expired());
+}
+
 std::size_t PreparedRegistry::size() const {
   std::lock_guard lock(mutex_);
   return entries_.size();

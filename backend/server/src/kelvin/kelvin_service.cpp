@@ -28,6 +28,14 @@ namespace fs = std::filesystem;
 
 namespace {
 
+// A preparation not estimated first predicts its field itself (a trial meshing, 0.2-0.3 s) when
+// the closed form counts at least this many vertices and the field is not in memory: its stages'
+// shares then follow its size (meshing, decomposition, no response that will not be built) rather
+// than the typical shares at the size of the preparations measured. The closed form overcounts
+// 4-30× (the budget's bound): from here the fields have ~50k vertices or more and take 4 s or
+// more (the cube at l_x 0.0385: 228k closed form, 56k made in 4.5 s), so a few percent.
+constexpr double kPredictedInTheJob = 2e5;
+
 // Repairs or wraps the object's user mesh and sets everything that depends on the result, under
 // the object's lock: the surface to prepare, the σ transfer, the report, the content key.
 void run_repair(KelvinObject& o, const kelvin::PrepareOptions& options, const Limits& lim, const VertexPredictor& predict,
@@ -304,13 +312,15 @@ void KelvinModule::prepare_field(Job& j, KelvinObject& object, const kelvin::Pre
         progress);
   // What this preparation will make, predicted on the surface it prepares: the estimate's when
   // this request was estimated (POST /api/kelvin/estimate), else predicted now where the estimate
-  // could not (a repaired or simplified surface); a refusal is left to the preparation to give.
+  // could not (a repaired or simplified surface) or where the stages' shares need it (a large
+  // field not in memory, kPredictedInTheJob); a refusal is left to the preparation to give.
   const mesh::SurfaceMesh& to_prepare = object.reshaped() ? object.repaired : object.welded;
   json predicted = nullptr;
   std::optional<kelvin::PreparePrediction> p;
   try {
     p = cached_prediction(to_prepare, options);
-    if (!p && object.reshaped()) p = predict(to_prepare, options, &j.cancel);
+    const bool large = static_cast<double>(object.source.vertex_estimate) >= kPredictedInTheJob && !registry_.in_memory(to_prepare, options);
+    if (!p && (object.reshaped() || large)) p = predict(to_prepare, options, &j.cancel);
     if (p) predicted = prediction_json(p, prepare_rate_, std::nullopt, response_megabytes_limit());
   } catch (const kelvin::Cancelled&) {
     throw;
@@ -321,8 +331,8 @@ void KelvinModule::prepare_field(Job& j, KelvinObject& object, const kelvin::Pre
     std::lock_guard lock(object.mutex);
     object.estimate = std::move(predicted);
   }
-  // Unpredicted (a request not estimated first), the shares are the rates of the sizing asked for
-  // (or of both sizings) at the size of the preparations measured.
+  // Unpredicted (a small request not estimated first), the shares are the rates of the sizing
+  // asked for (or of both sizings) at the size of the preparations measured.
   stages.emplace(stage_shares(p, prepare_rate_, options.grading, response_megabytes_limit()));
   if (object.reshaped()) announce();  // the repair's report and the prediction on its surface
   j.report("load", 0.0);
