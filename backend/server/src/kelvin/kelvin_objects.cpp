@@ -145,9 +145,9 @@ std::unique_ptr<ResponseBudget::Share> PreparedRegistry::take_response(std::size
   return responses_->take(bytes);
 }
 
-bool PreparedRegistry::in_memory(const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& options) {
+bool PreparedRegistry::in_memory(const std::string& key, const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& options) {
   std::lock_guard lock(mutex_);
-  const Entry* e = find_locked(kelvin::prepare_key(surface, options), surface, options);
+  const Entry* e = find_locked(key, surface, options);
   return e != nullptr && (e->preparing || !e->field.expired());
 }
 

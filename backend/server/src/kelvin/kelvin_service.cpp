@@ -319,8 +319,9 @@ void KelvinModule::prepare_field(Job& j, KelvinObject& object, const kelvin::Pre
   std::optional<kelvin::PreparePrediction> p;
   try {
     p = cached_prediction(to_prepare, options);
-    const bool large = static_cast<double>(object.source.vertex_estimate) >= kPredictedInTheJob && !registry_.in_memory(to_prepare, options);
-    if (!p && (object.reshaped() || large)) p = predict(to_prepare, options, &j.cancel);
+    // object.key: the content's key, set before this job or by its repair above (no second hash).
+    const auto large = [&] { return static_cast<double>(object.source.vertex_estimate) >= kPredictedInTheJob && !registry_.in_memory(object.key, to_prepare, options); };
+    if (!p && (object.reshaped() || large())) p = predict(to_prepare, options, &j.cancel);
     if (p) predicted = prediction_json(p, prepare_rate_, std::nullopt, response_megabytes_limit());
   } catch (const kelvin::Cancelled&) {
     throw;

@@ -117,9 +117,9 @@ class PreparedRegistry {
   // InvalidInput for a bad surface.
   std::shared_ptr<PreparedField> acquire(const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& options,
                                          const kelvin::Progress& progress, bool* from_memory = nullptr);
-  // True if acquire would find this content in memory or being prepared by another job (it
-  // then makes no mesh of its own).
-  bool in_memory(const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& options);
+  // True if acquire would find this content (`key`: kelvin::prepare_key of it, as the object
+  // keeps it) in memory or being prepared by another job: it then makes no mesh of its own.
+  bool in_memory(const std::string& key, const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& options);
   std::size_t size() const;
   std::size_t response_bytes_used() const { return responses_->used(); }
 
