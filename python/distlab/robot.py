@@ -264,14 +264,26 @@ class Robot:
         file raises :class:`distlab.InvalidInput` (field ``"urdf"``) whose message names the URDF
         element; so does, before any XML parser reads it, a file nesting elements deeper than 64,
         with more than 64 attributes on an element, CDATA, a DOCTYPE or unquoted attribute
-        values (an untrusted file cannot exhaust the stack or take seconds to parse)."""
+        values (an untrusted file cannot exhaust the stack or take seconds to parse). A file or a
+        ``package_dirs`` folder that is not there raises InvalidInput naming it (``"urdf"``,
+        ``"package_dirs['NAME']"``) with its absolute path; ``package_search_dirs`` may list folders
+        that are not there (as ROS_PACKAGE_PATH)."""
+        # The paths are the caller's own: the messages give them whole (the C++ reader, shared
+        # with the service, names the file alone).
+        file = os.path.abspath(os.fspath(path))
+        if os.path.isdir(file):
+            raise InvalidInput("urdf", f'"{file}" is a folder, not a URDF file')
+        if not os.path.exists(file):
+            raise InvalidInput("urdf", f'cannot read the robot file "{file}": no such file')
         dirs = {}
         for name, folder in (package_dirs or {}).items():
             if not isinstance(name, str):
                 raise InvalidInputType("package_dirs", f"package names must be strings, got {type(name).__name__}")
             dirs[name] = os.path.abspath(os.fspath(folder))
+            if not os.path.isdir(dirs[name]):
+                raise InvalidInput(f"package_dirs[{name!r}]", f'"{dirs[name]}" is not a folder')
         search = [os.path.abspath(os.fspath(folder)) for folder in package_search_dirs]
-        robot = cls(_core.Robot.from_file(os.fspath(path), dirs, search, bool(require_closed_meshes)))
+        robot = cls(_core.Robot.from_file(file, dirs, search, bool(require_closed_meshes)))
         for message in robot.warnings:
             warnings.warn(f"{os.fspath(path)}: {message}", UserWarning, stacklevel=2)
         return robot
@@ -398,7 +410,8 @@ class Robot:
         ``{"obstacle": δ_obs, "self": δ_self}`` (either may be left out); default the scenario's
         for the metric (gap 0.002 / 0.0001, euclidean 0.03 / 0.01). ``fields``: a
         :class:`FieldBarrier` of this robot, whose rows come after the pairs' (the built-in
-        controller's order). The other arguments as :meth:`distances`."""
+        controller's order). The other arguments as :meth:`distances`. Overlapping pairs, whose rows
+        no u satisfies, are named in a ``UserWarning``."""
         q = _q_array(q)
         if fields is not None and not isinstance(fields, FieldBarrier):
             raise InvalidInputType("fields", "fields must be a FieldBarrier (Robot.field_barrier)")
@@ -407,7 +420,18 @@ class Robot:
                                         _params(params), _threads(threads), _state(warm_start), bool(tracking),
                                         None if fields is None else fields._core)
         single = q.ndim == 1
-        return CbfRows(A[0] if single else A, b[0] if single else b, Distances(out, single))
+        rows = CbfRows(A[0] if single else A, b[0] if single else b, Distances(out, single))
+        overlap = np.asarray(rows.distances.overlap)
+        overlapping = np.flatnonzero(overlap if single else overlap.any(axis=0))
+        if overlapping.size:
+            # Their rows 0 · u >= η δ hold for no u: the QP is infeasible. A pair of a real
+            # description that always overlaps (a gripper's linkage) is to be denied.
+            names = [rows.distances.names[i] for i in overlapping[:4]]
+            more = f" and {overlapping.size - 4} more" if overlapping.size > 4 else ""
+            warnings.warn(f"cbf_rows: {', '.join(names)}{more} overlap, so their rows 0 · u >= eta · margin hold for no u; "
+                          "a self pair that always overlaps is left out by pairs={'self': True, 'deny': [[link_a, link_b]]}",
+                          UserWarning, stacklevel=2)
+        return rows
 
     def field_barrier(self, fields: Sequence[Mapping[str, Any]], control_points: Sequence[Mapping[str, Any]],
                       cache_dir: Optional[Union[str, os.PathLike]] = None) -> FieldBarrier:

@@ -10,6 +10,7 @@ import signal
 import subprocess
 import sys
 import time
+import warnings
 
 import numpy as np
 import pytest
@@ -734,6 +735,24 @@ def test_cbf_rows_layout_margins_and_continuous_joints(meshbot):
                                -0.5 * (default.distances.distance - 0.002), rtol=0, atol=1e-15)
 
 
+def test_cbf_rows_name_the_overlapping_pairs(meshbot):
+    """An overlapping pair's row holds for no u: a UserWarning names it (and only then)."""
+    q = random_q(meshbot, np.random.default_rng(8), 1)[0]
+    apart = [{"type": "sphere", "radius": 0.05, "pose": {"position": [3.0, 0, 0]}, "name": "far"}]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        rows = meshbot.cbf_rows(q, apart, "euclidean", pairs="obstacles")
+    assert not rows.distances.overlap.any()
+    engulfing = [{"type": "sphere", "radius": 5.0, "pose": {"position": [0, 0, 0]}, "name": "engulfing"}]
+    with pytest.warns(UserWarning, match="overlap") as caught:
+        rows = meshbot.cbf_rows(np.stack([q, q]), engulfing, "euclidean", pairs="obstacles")
+    assert rows.distances.overlap.all()
+    message = str(caught[0].message)
+    names = rows.distances.names
+    assert all(name in message for name in names[:4]) and (len(names) <= 4 or f"{len(names) - 4} more" in message)
+    assert (rows.b[:, :len(names)] > 0).all() and not rows.A[:, :len(names)].any()  # 0 · u >= b > 0
+
+
 # ---------------------------------------------------------------------------------------------
 # Shapes and bad input
 
@@ -934,6 +953,17 @@ def test_bad_urdf_names_the_element(meshbot_dir, tmp_path):
     assert "package \"testpkg\"" in message and "l2_tet" in message
     message = error(text.replace("meshes/box.stl", "meshes/missing.stl"), {"testpkg": str(meshbot_dir / "pkg")})
     assert "missing.stl" in message and "no such file" in message and "l1_stl" in message
+    assert f'"{robot_dir / "meshes" / "missing.stl"}"' in message  # where it looked
+    message = error(text.replace("meshes/box.stl", "meshes"), {"testpkg": str(meshbot_dir / "pkg")})
+    assert "a folder, not a file" in message and "l1_stl" in message
+    # The caller's own paths, whole: a package folder, the URDF itself.
+    with pytest.raises(distlab.InvalidInput) as info:
+        Robot.from_urdf(robot_dir / "meshbot.urdf", {"testpkg": meshbot_dir / "no_such_pkg"})
+    assert info.value.field == "package_dirs['testpkg']" and str(meshbot_dir / "no_such_pkg") in str(info.value)
+    for missing, why in ((tmp_path / "nowhere.urdf", "no such file"), (tmp_path, "is a folder")):
+        with pytest.raises(distlab.InvalidInput) as info:
+            Robot.from_urdf(missing)
+        assert info.value.field == "urdf" and f'"{missing}"' in str(info.value) and why in str(info.value)
     message = error(text.replace('type="prismatic"', 'type="floating"'), {"testpkg": str(meshbot_dir / "pkg")})
     assert "j2" in message and "floating" in message
     # A mesh with a hole: its hull all the same, with a warning naming it; refused on request.
@@ -955,8 +985,6 @@ def test_bad_urdf_names_the_element(meshbot_dir, tmp_path):
     assert "deeper than 64" in error('<robot name="r">' + "<a>" * 100000 + "</a>" * 100000 + "</robot>")
     assert "more than 64 attributes" in error('<robot name="r"><link name="l" ' + 'a="" ' * 70000 + "/></robot>")
     assert "DOCTYPE" in error('<!DOCTYPE r [<!ENTITY x "y">]><robot name="r"/>')
-    with pytest.raises(distlab.InvalidInput):
-        Robot.from_urdf(tmp_path / "nowhere.urdf")
 
 
 # ---------------------------------------------------------------------------------------------

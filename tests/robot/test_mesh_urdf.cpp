@@ -308,6 +308,14 @@ TEST_F(MeshUrdf, ErrorsNameTheUrdfElement) {
   const std::string l1 = "collision[0] of link \"l1\"";
   expect_refused(parse_changed(spec, base, "meshes/dented.stl", "meshes/missing.stl"),
                  {l1, "\"meshes/missing.stl\"", "no such file"});
+  {  // Where it looked, and that the folder is not there.
+    UrdfOptions options = spec.options;
+    options.base_dir = base;
+    for (auto& [name, folder] : options.package_dirs) folder = dir.path() + "/no_such_folder";
+    expect_refused(test::refusal([&] { Robot::from_urdf(spec.urdf, "robot", options); }),
+                   {"\"wedge\"", "\"" + dir.path() + "/no_such_folder/meshes/wedge.stl\"", "no such file",
+                    "its folder \"" + dir.path() + "/no_such_folder/meshes/\" does not exist"});
+  }
   expect_refused(parse_changed(spec, base, "package://pkg/meshes/wedge.stl", "package://nowhere/meshes/wedge.stl"),
                  {"collision[0] \"wedge\" of link \"l2\"", "package \"nowhere\" is not in package_dirs"});
   expect_refused(parse_changed(spec, base, "package://pkg/meshes/wedge.stl", "package://pkg/../robot/meshes/box.obj"),

@@ -81,7 +81,18 @@ Polytope mesh_hull(const std::string& filename, const Vec3& scale, const UrdfOpt
     m = options.read_mesh(filename, path, field);
   } else {
     struct stat st {};
-    if (::stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) throw InvalidInput(field, what + ": no such file");
+    // The local reader (Python, the CLI; the server's uploads come through read_mesh): the path it
+    // looked at is the user's own, and a package folder that is not there is the likelier mistake.
+    if (::stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) {
+      const auto quoted = [](const std::string& text) { return "\"" + text.substr(0, 300) + "\""; };
+      const std::string folder = path.substr(0, path.find_last_of('/') + 1);
+      struct stat dir {};
+      const bool no_folder = !folder.empty() && (::stat(folder.c_str(), &dir) != 0 || !S_ISDIR(dir.st_mode));
+      const std::string reason = S_ISDIR(st.st_mode) ? "a folder, not a file"
+                                 : no_folder         ? "no such file: its folder " + quoted(folder) + " does not exist"
+                                                     : "no such file";
+      throw InvalidInput(field, what + ", read from " + quoted(path) + ": " + reason);
+    }
     try {
       m = mesh::load_mesh(path, field);
     } catch (const InvalidInput& e) {
