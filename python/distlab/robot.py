@@ -173,7 +173,9 @@ class CbfRows(tuple):
     (:attr:`FieldBarrier.names`): ``∇_q h_r · u >= −η (h_r − δ_r)``; then per joint with a finite
     lower limit (joint order)
     ``u_i >= −η_q (q_i − q_min_i)``, then per joint with a finite upper limit
-    ``−u_i >= −η_q (q_max_i − q_i)`` (continuous joints have neither).
+    ``−u_i >= −η_q (q_max_i − q_i)`` (continuous joints have neither). A q beyond a limit is
+    accepted (as by :meth:`Robot.distances`): that limit's row then has b > 0, asking u to bring
+    the joint back inside at rate η_q, as a CBF does outside its safe set.
     Also ``.distances`` (the :class:`Distances` they come from) and ``.state`` (for ``warm_start``).
     """
 

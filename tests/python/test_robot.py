@@ -729,6 +729,11 @@ def test_cbf_rows_layout_margins_and_continuous_joints(meshbot):
     np.testing.assert_array_equal(A[P + 3:], -np.eye(4)[bounded])
     np.testing.assert_allclose(b[P:P + 3], -0.3 * (q[bounded] - meshbot.q_min[bounded]), rtol=0, atol=1e-15)
     np.testing.assert_allclose(b[P + 3:], -0.3 * (meshbot.q_max[bounded] - q[bounded]), rtol=0, atol=1e-15)
+    # Beyond a limit: accepted, and that limit's row asks the joint back (b > 0).
+    beyond = q.copy()
+    beyond[bounded[0]] = meshbot.q_max[bounded[0]] + 0.3
+    _, b_beyond = meshbot.cbf_rows(beyond, OBSTACLES, "euclidean", margins=margins, eta=0.7, eta_joint=0.3)
+    assert b_beyond[P + 3] == pytest.approx(0.09, abs=1e-15) and (b_beyond[P:P + 3] < 0).all()
     # Default margins: the scenario's per metric.
     default = meshbot.cbf_rows(q, OBSTACLES, "gap", pairs="obstacles")
     np.testing.assert_allclose(default.b[:len(default.distances.pairs)],
