@@ -57,10 +57,9 @@ std::size_t ResponseBudget::used() const {
   return used_;
 }
 
-std::shared_ptr<PreparedField> PreparedRegistry::acquire(const mesh::SurfaceMesh& surface,
+std::shared_ptr<PreparedField> PreparedRegistry::acquire(const std::string& key, const mesh::SurfaceMesh& surface,
                                                          const kelvin::PrepareOptions& options,
                                                          const kelvin::Progress& progress, bool* from_memory) {
-  const std::string key = kelvin::prepare_key(surface, options);
   if (from_memory) *from_memory = false;
   if (auto f = find_or_claim(key, surface, options, progress)) {
     if (from_memory) *from_memory = true;

@@ -319,7 +319,8 @@ void KelvinModule::prepare_field(Job& j, KelvinObject& object, const kelvin::Pre
   std::optional<kelvin::PreparePrediction> p;
   try {
     p = cached_prediction(to_prepare, options);
-    // object.key: the content's key, set before this job or by its repair above (no second hash).
+    // object.key: the content's key, set before this job or by its repair above (not hashed again,
+    // here or in acquire).
     const auto large = [&] { return static_cast<double>(object.source.vertex_estimate) >= kPredictedInTheJob && !registry_.in_memory(object.key, to_prepare, options); };
     if (!p && (object.reshaped() || large())) p = predict(to_prepare, options, &j.cancel);
     if (p) predicted = prediction_json(p, prepare_rate_, std::nullopt, response_megabytes_limit());
@@ -338,7 +339,7 @@ void KelvinModule::prepare_field(Job& j, KelvinObject& object, const kelvin::Pre
   if (object.reshaped()) announce();  // the repair's report and the prediction on its surface
   j.report("load", 0.0);
   bool from_memory = false;
-  auto prepared = registry_.acquire(to_prepare, options, progress, &from_memory);
+  auto prepared = registry_.acquire(object.key, to_prepare, options, progress, &from_memory);
   stages->finish();
   const bool computed = !from_memory && !prepared->cache_hit;
   {

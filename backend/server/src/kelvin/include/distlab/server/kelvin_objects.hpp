@@ -110,15 +110,16 @@ class PreparedRegistry {
       : store_(std::move(store)),
         response_bytes_(response_bytes),
         responses_(std::make_shared<ResponseBudget>(response_bytes_total)) {}
-  // The prepared field for this content: from memory, else waits for another job preparing the
-  // same content, else prepares (through the disk cache) and builds its boundary response if
+  // The prepared field for this content (`key`: kelvin::prepare_key of it, as the object keeps
+  // it, so the surface is not hashed again): from memory, else waits for another job preparing
+  // the same content, else prepares (through the disk cache) and builds its boundary response if
   // the budgets allow (progress stage "response"; beyond the total, fields no object holds any
   // more give theirs up first). Throws kelvin::Cancelled if progress.cancel becomes true,
   // InvalidInput for a bad surface.
-  std::shared_ptr<PreparedField> acquire(const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& options,
+  std::shared_ptr<PreparedField> acquire(const std::string& key, const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& options,
                                          const kelvin::Progress& progress, bool* from_memory = nullptr);
-  // True if acquire would find this content (`key`: kelvin::prepare_key of it, as the object
-  // keeps it) in memory or being prepared by another job: it then makes no mesh of its own.
+  // True if acquire would find this content (`key` as there) in memory or being prepared by
+  // another job: it then makes no mesh of its own.
   bool in_memory(const std::string& key, const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& options);
   std::size_t size() const;
   std::size_t response_bytes_used() const { return responses_->used(); }
