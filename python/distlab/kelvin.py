@@ -10,7 +10,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-from . import _core
+from . import _core, executable
 from . import batch as _batch
 from .errors import InvalidInput
 
@@ -23,11 +23,18 @@ INSIDE = 1
 NONPOSITIVE = 2
 
 
+def _mesh_worker() -> str:
+    # The distlab program beside this package meshes mesh_threads > 1 in a child process, as the
+    # CLI does: CGAL 5.5's parallel refinement crashes its process now and then. "": none there.
+    exe = executable()
+    return exe if os.access(exe, os.X_OK) else ""
+
+
 def solve(request: Mapping[str, Any], progress: Optional[Callable[[str, float], Any]] = None) -> dict:
     """Runs a ``distlab kelvin`` request (``{"mesh", "lx", "sigma", "query", "isosurfaces", ...}``)
     and returns its response as a dict (numeric arrays as numpy arrays; ``null`` h as NaN): the
     CLI's numbers, bit for bit. ``progress(stage, fraction)`` as for :meth:`Field.prepare`."""
-    return _core.kelvin_solve(dict(request), progress)
+    return _core.kelvin_solve(dict(request), progress, _mesh_worker())
 
 
 class Field:
@@ -83,10 +90,13 @@ class Field:
         value per vertex of ``surface`` (that surface's own).
 
         ``mesh_threads``: None, 0 or 1 meshes on one thread, the same mesh bit for bit on every
-        run; n > 1 (opt-in) meshes in parallel on n threads in this process: faster, the mesh (and
-        the field within its accuracy) differs from run to run, and CGAL 5.5's parallel refinement
-        crashed the process in about 1 of 1,000 small meshings here (the CLI and the service run
-        it in a child process instead; ``stats["mesh_threads"]`` says which)."""
+        run; n > 1 (opt-in) meshes in parallel on n threads: faster, the mesh (and the field
+        within its accuracy) differs from run to run. As in the CLI and the service, it runs in a
+        child process, the ``distlab`` program beside this package (:func:`distlab.executable`),
+        because CGAL 5.5's parallel refinement crashes its process in about 1 of 1,000 small
+        meshings: a crashed child is run once more, then the mesh is made on one thread, and
+        ``stats["warnings"]`` says so (``stats["mesh_threads"]``: the threads it was made on).
+        Without that program it runs in this process, which such a crash ends."""
         options = {"lx": lx, "center": center, "far_radius": far_radius, "grading": grading,
                    "feature_angle": feature_angle,
                    "max_vertices": max_vertices, "unit": unit, "scale": scale, "components": components,
@@ -95,11 +105,11 @@ class Field:
                    "mesh_threads": mesh_threads}
         cache = None if cache_dir is None else os.fspath(cache_dir)
         if isinstance(mesh, (str, os.PathLike)):
-            core = _core.KelvinField.prepare(None, None, os.fspath(mesh), options, cache, progress)
+            core = _core.KelvinField.prepare(None, None, os.fspath(mesh), options, cache, progress, _mesh_worker())
         else:
             vertices, faces = mesh
             core = _core.KelvinField.prepare(np.asarray(vertices, dtype=np.float64), np.asarray(faces), None,
-                                             options, cache, progress)
+                                             options, cache, progress, _mesh_worker())
         return cls(core)
 
     def set_sigma(self, per_vertex=None, *, constant: float = 0.0, axis=None, brushes=None,

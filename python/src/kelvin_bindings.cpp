@@ -27,14 +27,16 @@ namespace {
 using Doubles = py::array_t<double, py::array::c_style | py::array::forcecast>;
 using Ints = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>;
 
-py::object kelvin_solve(const py::object& request, const py::object& progress) {
+// mesh_worker: the distlab executable that meshes mesh_threads > 1 in a child process
+// (PrepareOptions::mesh_worker); "": in this process.
+py::object kelvin_solve(const py::object& request, const py::object& progress, const std::string& mesh_worker) {
   const json j = to_json(request);
   Interruptible interrupt(progress);
   kelvin::Progress p;
   p.cancel = interrupt.flag();
   p.report = [&](const std::string& stage, double f) { interrupt.report(stage, f); };
   json response;
-  interrupt.run([&] { response = server::run_kelvin_request(j, p); });
+  interrupt.run([&] { response = server::run_kelvin_request(j, p, mesh_worker); });
   return to_python(response);
 }
 
@@ -69,10 +71,10 @@ mesh::SurfaceMesh mesh_from_arrays(const py::object& vertices, const py::object&
 class PyField {
  public:
   // options: lx, center, far_radius, grading, feature_angle, max_vertices, mesh_threads (as the CLI
-  // request's keys).
+  // request's keys); mesh_worker as kelvin_solve's, for mesh_threads > 1 (as the CLI).
   static std::unique_ptr<PyField> prepare(const py::object& vertices, const py::object& faces, const py::object& path,
                                           const py::dict& options, const py::object& cache_dir,
-                                          const py::object& progress) {
+                                          const py::object& progress, const std::string& mesh_worker) {
     const json o = to_json(options);
     kelvin::PrepareOptions po;
     po.lx = server::json_number(server::json_required(o, "", "lx"), "lx");
@@ -86,6 +88,7 @@ class PyField {
       po.max_vertices = static_cast<std::size_t>(server::json_integer(*v, "max_vertices", 100, 100000000));
     if (auto v = server::json_optional(o, "mesh_threads"); v && !v->is_null())
       po.mesh_threads = server::json_integer(*v, "mesh_threads", 0, kelvin::kMaxMeshThreads);
+    if (po.mesh_threads > 1) po.mesh_worker = mesh_worker;
     // The file's unit (metres per unit, like the service's uploads) and the reshaping, read as
     // the CLI request reads them.
     double scale = 1.0;
@@ -266,7 +269,7 @@ py::object cache_call(const std::function<json()>& f) {
 }  // namespace
 
 void bind_kelvin(py::module_& m) {
-  m.def("kelvin_solve", &kelvin_solve, py::arg("request"), py::arg("progress") = py::none());
+  m.def("kelvin_solve", &kelvin_solve, py::arg("request"), py::arg("progress") = py::none(), py::arg("mesh_worker") = "");
   m.def("cache_default_dir", &server::default_cache_dir);
   m.def(
       "cache_ls", [](const std::string& dir) { return cache_call([&] { return server::cache_ls_json(dir); }); }, py::arg("dir"));
@@ -297,7 +300,7 @@ void bind_kelvin(py::module_& m) {
       .def("report", &kelvin::StageProgress::report, py::arg("stage"), py::arg("fraction"));
   py::class_<PyField>(m, "KelvinField")
       .def_static("prepare", &PyField::prepare, py::arg("vertices"), py::arg("faces"), py::arg("path"),
-                  py::arg("options"), py::arg("cache_dir"), py::arg("progress"))
+                  py::arg("options"), py::arg("cache_dir"), py::arg("progress"), py::arg("mesh_worker") = "")
       .def("set_sigma", &PyField::set_sigma, py::arg("sigma"), py::arg("gradients") = true)
       .def("build_boundary_response", &PyField::build_boundary_response, py::arg("max_megabytes"),
            py::arg("progress") = py::none())

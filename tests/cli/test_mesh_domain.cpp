@@ -1,7 +1,8 @@
 // Parallel meshing in a child process (kelvin/isolated_mesher.hpp) with the real `distlab
 // mesh-domain` child: the mesh crosses the pipe unchanged, refusals keep their field, a
-// cancellation kills the child, and a child that crashes or forges its answer costs a second
-// meshing on one thread here, never a wrong mesh. Stand-in children are small shell scripts.
+// cancellation kills the child, a child that crashes is run once more, and one that crashes twice
+// or forges its answer costs a second meshing on one thread here, never a wrong mesh. Stand-in
+// children are small shell scripts.
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -51,10 +52,15 @@ void expect_same(const TetMesh& a, const TetMesh& b) {
   EXPECT_EQ(a.in_domain, b.in_domain);
 }
 
-std::string script(const std::string& name, const std::string& body) {
+// This test's folder of stand-in children and their files.
+fs::path scratch(const std::string& name) {
   const fs::path dir = fs::temp_directory_path() / ("distlab_mesh_domain_test_" + std::to_string(::getpid()));
   fs::create_directories(dir);
-  const fs::path path = dir / name;
+  return dir / name;
+}
+
+std::string script(const std::string& name, const std::string& body) {
+  const fs::path path = scratch(name);
   std::ofstream(path) << "#!/bin/sh\n"
                       << body << "\n";
   ::chmod(path.c_str(), 0755);
@@ -146,29 +152,60 @@ TEST(IsolatedMesher, ACancellationKillsTheChild) {
   EXPECT_TRUE(no_child_left());
 }
 
+// A child that dies by a signal (CGAL's race) is run once more; one that dies twice, or answers
+// wrongly, costs a meshing here on one thread. Each stand-in counts its runs in a file.
 TEST(IsolatedMesher, ACrashedOrLyingChildIsMeshedAgainOnOneThread) {
   const mesh::SurfaceMesh inverted = inverted_sphere();
   const TetMesh here = mesh_inverted_domain(inverted, params(1), {});
   // A mesh record whose cell names a vertex that does not exist.
-  const std::string forged = script("forged",
-                                    "printf 'M\\111\\000\\000\\000\\000\\000\\000\\000'; "  // 73 bytes: np 1, nt 1
-                                    "printf '\\001\\000\\000\\000\\000\\000\\000\\000\\001\\000\\000\\000\\000\\000\\000\\000'; "
-                                    "head -c 24 /dev/zero; printf '\\005\\000\\000\\000'; head -c 12 /dev/zero; "  // cell (5, 0, 0, 0)
-                                    "head -c 16 /dev/zero | tr '\\000' '\\377'; head -c 1 /dev/zero");             // no neighbours, outside
+  const std::string forged_answer =
+      "printf 'M\\111\\000\\000\\000\\000\\000\\000\\000'; "  // 73 bytes: np 1, nt 1
+      "printf '\\001\\000\\000\\000\\000\\000\\000\\000\\001\\000\\000\\000\\000\\000\\000\\000'; "
+      "head -c 24 /dev/zero; printf '\\005\\000\\000\\000'; head -c 12 /dev/zero; "  // cell (5, 0, 0, 0)
+      "head -c 16 /dev/zero | tr '\\000' '\\377'; head -c 1 /dev/zero";              // no neighbours, outside
   const struct {
-    std::string exe, why;
-  } children[] = {{script("segfault", "kill -SEGV $$"), "signal 11"},
-                  {script("garbage", "echo this is not a mesh"), "no valid mesh"},
-                  {forged, "no valid mesh"},
-                  {script("silent", "exit 0"), "no valid mesh"},
-                  {script("refusing", "exit 1"), "exit 1"}};
+    std::string name, body, why;
+    int runs;
+  } children[] = {{"segfault", "kill -SEGV $$", "signal 11", 2},
+                  {"abort", "kill -ABRT $$", "signal 6", 2},
+                  {"garbage", "echo this is not a mesh", "no valid mesh", 1},
+                  {"forged", forged_answer, "no valid mesh", 1},
+                  {"silent", "exit 0", "no valid mesh", 1},
+                  {"refusing", "exit 1", "exit 1", 1}};
   for (const auto& child : children) {
+    const fs::path runs = scratch(child.name + ".runs");
+    fs::remove(runs);
+    const std::string exe = script(child.name, "echo run >> '" + runs.string() + "'; " + child.body);
     IsolatedMeshing report;
-    const TetMesh again = mesh_inverted_domain_isolated(inverted, params(2), {}, report, child.exe);
-    EXPECT_NE(report.retried.find(child.why), std::string::npos) << child.exe << ": " << report.retried;
-    EXPECT_EQ(report.threads, 1);
+    const TetMesh again = mesh_inverted_domain_isolated(inverted, params(2), {}, report, exe);
+    EXPECT_NE(report.retried.find(child.why), std::string::npos) << child.name << ": " << report.retried;
+    EXPECT_EQ(report.threads, 1) << child.name;
+    EXPECT_EQ(report.crashes.size(), static_cast<std::size_t>(child.runs - 1)) << child.name;
+    std::ifstream counted(runs);
+    std::string line;
+    int n = 0;
+    while (std::getline(counted, line)) ++n;
+    EXPECT_EQ(n, child.runs) << child.name;
     expect_same(again, here);
   }
+  EXPECT_TRUE(no_child_left());
+}
+
+// A child that crashes once is replaced by another: the mesh is still refined on two threads, and
+// the crash is reported.
+TEST(IsolatedMesher, AChildThatCrashesOnceIsRunAgainInParallel) {
+  const fs::path flag = scratch("crash_once.crashed");
+  fs::remove(flag);
+  const std::string exe = script("crash_once", "if [ ! -e '" + flag.string() + "' ]; then touch '" + flag.string() +
+                                                   "'; kill -SEGV $$; fi; exec '" DISTLAB_EXE "' \"$@\"");
+  IsolatedMeshing report;
+  const TetMesh two = mesh_inverted_domain_isolated(inverted_sphere(), params(2), {}, report, exe);
+  EXPECT_TRUE(fs::exists(flag));
+  EXPECT_TRUE(report.retried.empty()) << report.retried;
+  EXPECT_EQ(report.threads, 2);
+  ASSERT_EQ(report.crashes.size(), 1u);
+  EXPECT_NE(report.crashes[0].find("signal 11"), std::string::npos) << report.crashes[0];
+  EXPECT_GT(two.tets.rows(), 100);
   EXPECT_TRUE(no_child_left());
 }
 

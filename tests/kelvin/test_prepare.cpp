@@ -13,6 +13,7 @@
 #include <iterator>
 #include <thread>
 
+#include "child_test.hpp"
 #include "distlab/geometry/error.hpp"
 #include "distlab/kelvin/digest.hpp"
 #include "distlab/mesh/surface.hpp"
@@ -124,10 +125,17 @@ TEST(KelvinPrepare, ReportsProgressAndCancels) {
   EXPECT_THROW(Field::prepare(sphere_mesh(kSphere), sphere_options(0.2), progress), Cancelled);
 }
 
-// Parallel refinement (mesh_threads 2) ends as one thread does: a cancellation noticed by a worker
-// thread, the refinement budget and the vertex budget end it with the same errors, and it is
-// refused outside [0, kMaxMeshThreads] naming mesh_threads.
+// Parallel refinement (mesh_threads 2) in this process ends as one thread does: a cancellation
+// noticed by a worker thread, the refinement budget and the vertex budget end it with the same
+// errors, and it is refused outside [0, kMaxMeshThreads] naming mesh_threads. In a child process
+// (child_test.hpp): CGAL's parallel refinement crashes now and then, and a crash runs it again.
 TEST(KelvinPrepare, ParallelMeshingCancelsAndKeepsItsBudgets) {
+  run_test_in_child("KelvinPrepareInChild.ParallelMeshingCancelsAndKeepsItsBudgets");
+}
+
+TEST(KelvinPrepareInChild, ParallelMeshingCancelsAndKeepsItsBudgets) {
+  if (!is_child_test("KelvinPrepareInChild.ParallelMeshingCancelsAndKeepsItsBudgets"))
+    GTEST_SKIP() << "run in a child by KelvinPrepare.ParallelMeshingCancelsAndKeepsItsBudgets";
   PrepareOptions o = sphere_options(0.1);
   o.mesh_threads = 2;
   std::atomic<bool> cancel{false};

@@ -8,7 +8,6 @@
 
 #include <fcntl.h>
 #include <signal.h>
-#include <spawn.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <time.h>
@@ -28,16 +27,16 @@
 #include <thread>
 #include <vector>
 
+#include "child_test.hpp"
 #include "distlab/kelvin/digest.hpp"
 #include "distlab/kelvin/field.hpp"
 #include "distlab/kelvin/store.hpp"
 #include "distlab/mesh/primitives.hpp"
 
-extern char** environ;
-
 namespace fs = std::filesystem;
 using namespace distlab;
 using namespace distlab::kelvin;
+using namespace distlab::kelvin::testing;
 
 namespace {
 
@@ -115,28 +114,9 @@ struct ChildResult {
   std::map<std::string, std::string> values;
 };
 
-pid_t spawn_child(const std::map<std::string, std::string>& vars) {
-  std::vector<std::string> strings;
-  for (char** e = environ; *e != nullptr; ++e) strings.emplace_back(*e);
-  for (const auto& [k, v] : vars) strings.push_back(k + "=" + v);
-  std::vector<char*> envp;
-  for (auto& s : strings) envp.push_back(s.data());
-  envp.push_back(nullptr);
-  std::string exe = fs::read_symlink("/proc/self/exe").string(), filter = "--gtest_filter=KelvinStoreChild.Run";
-  char* argv[] = {exe.data(), filter.data(), nullptr};
-  posix_spawn_file_actions_t fa;
-  posix_spawn_file_actions_init(&fa);
-  posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0);
-  pid_t pid = 0;
-  const int r = posix_spawn(&pid, exe.c_str(), &fa, nullptr, argv, envp.data());
-  posix_spawn_file_actions_destroy(&fa);
-  return r == 0 ? pid : -1;
-}
-
 ChildResult wait_child(pid_t pid, const fs::path& out) {
   ChildResult r;
-  int status = 0;
-  if (pid > 0 && ::waitpid(pid, &status, 0) == pid) r.status = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  r.status = wait_test(pid);
   std::istringstream in(read_file(out));
   std::string line;
   while (std::getline(in, line)) {
@@ -160,7 +140,7 @@ std::vector<ChildResult> run_children(const fs::path& dir, const std::vector<std
     vars["DISTLAB_STORE_DIR"] = dir.string();
     vars["DISTLAB_STORE_OUT"] = outs.back().string();
     vars["DISTLAB_STORE_GO"] = go.string();
-    pids.push_back(spawn_child(vars));
+    pids.push_back(spawn_test("KelvinStoreChild.Run", vars));
   }
   for (const fs::path& out : outs)
     for (int i = 0; i < 6000 && !fs::exists(out.string() + ".ready"); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));

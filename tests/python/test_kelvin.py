@@ -54,6 +54,33 @@ def test_mesh_threads_reach_the_mesher_through_cli_and_binding(exe):
     assert two.stats["mesh_threads"] == 2
     assert abs(two.stats["n_verts"] - one.stats["n_verts"]) <= 0.1 * one.stats["n_verts"]
     assert abs(two.query(point)[0][0] - one.query(point)[0][0]) < 0.02
+    assert not any("child process" in w for w in two.stats["warnings"]), two.stats["warnings"]
+
+
+def test_mesh_threads_mesh_in_a_child_that_may_crash(tmp_path, monkeypatch):
+    # mesh_threads > 1 meshes in a child process (the distlab program), so a crash of CGAL's
+    # parallel refinement there costs a new child, then one thread, never this process. A stand-in
+    # child that always crashes: two children, then the same field as one thread's, said in warnings.
+    runs = tmp_path / "runs"
+    crashing = tmp_path / "crashing"
+    crashing.write_text(f"#!/bin/sh\necho run >> '{runs}'\nkill -SEGV $$\n")
+    crashing.chmod(0o755)
+    monkeypatch.setattr(kelvin, "_mesh_worker", lambda: str(crashing))
+    cube = str(ROOT / "assets" / "cube.stl")
+    one = kelvin.Field.prepare(cube, lx=0.15, mesh_threads=1)
+    two = kelvin.Field.prepare(cube, lx=0.15, mesh_threads=2)
+    assert runs.read_text().count("run") == 2
+    assert two.stats["mesh_threads"] == 1
+    assert two.stats["n_verts"] == one.stats["n_verts"] and two.stats["n_tets"] == one.stats["n_tets"]
+    warnings = two.stats["warnings"]
+    assert any("signal 11" in w and "in a new child" in w for w in warnings), warnings
+    assert any("signal 11" in w and "meshed again on one thread" in w for w in warnings), warnings
+    solved = kelvin.solve({"mesh": {"asset": "cube"}, "lx": 0.15, "mesh_threads": 2})
+    assert runs.read_text().count("run") == 4
+    assert solved["stats"]["mesh_threads"] == 1 and solved["stats"]["n_verts"] == one.stats["n_verts"]
+    # The program beside the package is the worker by default.
+    monkeypatch.undo()
+    assert kelvin._mesh_worker() == distlab.executable() and os.access(distlab.executable(), os.X_OK)
 
 
 @pytest.fixture(scope="module")

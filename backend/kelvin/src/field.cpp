@@ -210,6 +210,7 @@ static std::unique_ptr<Field::Impl> mesh_stage(mesh::SurfaceMesh surface, const 
     impl->tm = mesh_inverted_domain_isolated(inverted, params, progress, report, o.mesh_worker);
     warning = report.warning;
     params.threads = report.threads;
+    for (const std::string& crash : report.crashes) impl->stats.warnings.push_back(crash);
     if (!report.retried.empty()) impl->stats.warnings.push_back(report.retried);
   } else {
     impl->tm = mesh_inverted_domain(inverted, params, progress, &warning);

@@ -4,8 +4,9 @@
 // inserts in a neighbouring conflict zone, about 1 in 1,000 small meshings here (upstream:
 // CGAL issue #7295, PR #7496, races in Regular_triangulation_3's parallel code). A process that
 // holds other work (the server, every client's state) therefore refines on several threads only
-// in a child, `exe mesh-domain`: its progress arrives as it goes, a cancellation kills it, and if
-// it dies or answers garbage the mesh is made again in this process on one thread.
+// in a child, `exe mesh-domain`: its progress arrives as it goes, a cancellation kills it; a child
+// that dies by a signal is run once more, and if that one dies too, or a child answers garbage,
+// the mesh is made again in this process on one thread.
 #include <iosfwd>
 #include <string>
 #include <vector>
@@ -21,9 +22,10 @@ inline constexpr double kParallelMeshFrom = 100'000;
 int choose_mesh_threads(const MeshingParams& params);
 
 struct IsolatedMeshing {
-  std::string warning;  // mesh_inverted_domain's (edge protection given up)
-  int threads = 1;      // the threads the returned mesh was refined on
-  std::string retried;  // why the child's mesh was not used and it was meshed here on one thread
+  std::string warning;               // mesh_inverted_domain's (edge protection given up)
+  int threads = 1;                   // the threads the returned mesh was refined on
+  std::string retried;               // why the child's mesh was not used and it was meshed here on one thread
+  std::vector<std::string> crashes;  // children that died and were run again (each said why)
 };
 
 // mesh_inverted_domain(inverted, params) refined by `exe mesh-domain` (exe "": this process's own
