@@ -88,7 +88,7 @@ class PyField {
       po.max_vertices = static_cast<std::size_t>(server::json_integer(*v, "max_vertices", 100, 100000000));
     if (auto v = server::json_optional(o, "mesh_threads"); v && !v->is_null())
       po.mesh_threads = server::json_integer(*v, "mesh_threads", 0, kelvin::kMaxMeshThreads);
-    if (po.mesh_threads > 1) po.mesh_worker = mesh_worker;
+    server::use_mesh_worker(po, mesh_worker);
     // The file's unit (metres per unit, like the service's uploads) and the reshaping, read as
     // the CLI request reads them.
     double scale = 1.0;

@@ -248,6 +248,9 @@ TetMesh mesh_inverted_domain_isolated(const mesh::SurfaceMesh& inverted, const M
     failure = answered ? "answered no valid mesh" : "failed (" + exit_name(status) + ")";
     return std::nullopt;
   };
+  const auto said = [&](const std::string& then) {
+    return "the parallel mesher (" + std::to_string(params.threads) + " threads, in a child process) " + failure + "; " + then;
+  };
   // A crash is the upstream race (isolated_mesher.hpp, ~1 in 1,000): a second child is as fast as
   // the first and fails as rarely; a child that crashes twice, or answers wrongly, is not asked again.
   for (int attempt = 1; attempt <= kChildAttempts; ++attempt) {
@@ -258,12 +261,10 @@ TetMesh mesh_inverted_domain_isolated(const mesh::SurfaceMesh& inverted, const M
       return std::move(*mesh);
     }
     if (!crashed || attempt == kChildAttempts) break;
-    report.crashes.push_back("the parallel mesher (" + std::to_string(params.threads) + " threads, in a child process) " +
-                             failure + "; meshed again in a new child");
+    report.crashes.push_back(said("meshed again in a new child"));
     std::fprintf(stderr, "distlab: %s\n", report.crashes.back().c_str());
   }
-  report.retried = "the parallel mesher (" + std::to_string(params.threads) + " threads, in a child process) " + failure +
-                   "; meshed again on one thread";
+  report.retried = said("meshed again on one thread");
   std::fprintf(stderr, "distlab: %s\n", report.retried.c_str());
   MeshingParams one = params;
   one.threads = 1;

@@ -243,7 +243,7 @@ json write_isosurfaces(const kelvin::Field& field, const KelvinRun& run) {
 
 json run_kelvin_request(const json& r, const kelvin::Progress& progress, const std::string& mesh_worker) {
   KelvinRun run = parse_run(r);
-  if (run.options.mesh_threads > 1) run.options.mesh_worker = mesh_worker;
+  use_mesh_worker(run.options, mesh_worker);
   // The file's vertices in the file's order: σ per_vertex is indexed by them; the field is
   // prepared on the welded surface (mesh/weld.hpp).
   const mesh::SurfaceMesh surface = mesh::load_mesh(run.path, run.path_field);

@@ -52,9 +52,15 @@ inline nlohmann::json surface_check_json(const mesh::SurfaceReport& r) {
   return {{"closed", r.closed()}, {"manifold", r.manifold()}, {"components", r.components}, {"volume", r.volume}, {"boundary_edges", r.boundary_edges}, {"non_manifold_edges", r.non_manifold_edges}, {"non_manifold_vertices", r.non_manifold_vertices}, {"degenerate_faces", r.degenerate_faces}};
 }
 
-// Runs a whole request. Throws InvalidInput (with the field) on bad input. A request's
-// mesh_threads > 1 meshes in a child process of mesh_worker (PrepareOptions::mesh_worker; the
-// CLI's own binary) where one is given; 0 (absent) is one thread here either way, as in Python.
+// The CLI's and Python's rule for the mesh worker (PrepareOptions::mesh_worker): only an explicit
+// mesh_threads > 1 meshes in its child process; 0 (absent) stays one thread here, the same field
+// bit for bit (the service's 0 chooses the threads instead).
+inline void use_mesh_worker(kelvin::PrepareOptions& options, const std::string& mesh_worker) {
+  if (options.mesh_threads > 1) options.mesh_worker = mesh_worker;
+}
+
+// Runs a whole request. Throws InvalidInput (with the field) on bad input. mesh_worker as in
+// use_mesh_worker (the CLI's own binary).
 nlohmann::json run_kelvin_request(const nlohmann::json& request, const kelvin::Progress& progress = {},
                                   const std::string& mesh_worker = "");
 
