@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <optional>
 #include <string>
 
 #include "distlab/kelvin/field.hpp"
@@ -27,14 +28,14 @@ mesh::SurfaceMesh asset(const std::string& name) {
   return mesh::weld(mesh::load_mesh(std::string(DISTLAB_ASSET_DIR) + "/" + name + ".stl")).surface;
 }
 
-// The surface inverted about its deepest point and the meshing parameters mesh_stage (field.cpp)
+// The surface inverted about its deepest point (or `about`) and the meshing parameters mesh_stage (field.cpp)
 // gives it, far_radius 1.
 struct Inverted {
   mesh::SurfaceMesh surface;
   MeshingParams params;
 };
-Inverted invert(const mesh::SurfaceMesh& s, double lx, double feature_angle) {
-  const Vec3 centre = SurfaceOracle(s).deepest_point();
+Inverted invert(const mesh::SurfaceMesh& s, double lx, double feature_angle, std::optional<Vec3> about = std::nullopt) {
+  const Vec3 centre = about ? *about : SurfaceOracle(s).deepest_point();
   Inverted out{s, {}};
   double r_max = 0;
   for (Eigen::Index v = 0; v < s.vertices.rows(); ++v) {
@@ -72,6 +73,21 @@ TEST(PredictVertices, AgreesWithWhatMesh3Meshes) {
     const double paper = vertices_meshed(in, 0), graded = vertices_meshed(in, kAutoGrading);
     EXPECT_NEAR(p.paper / paper, 1.0, 0.12) << c.name << ": eq. 23 predicted " << p.paper << ", meshed " << paper;
     EXPECT_NEAR(p.graded / graded, 1.0, 0.12) << c.name << ": graded predicted " << p.graded << ", meshed " << graded;
+  }
+}
+
+// The graded sizing refines near sharp edges (its edge term) and has Mesh_3 protect none, so the
+// wrench with its edges, inverted about the case files' centre (0, 0, 0, inside the 5 mm plate),
+// meshes as predicted at neighbouring l_x. When the graded sizing also protected the features
+// Mesh_3 detects in y, the sphere patches near the centre faked 174 feature curves at l_x 0.0025
+// against 28 at 0.0026, and the count jumped from 28.6k to 55.0k vertices.
+TEST(PredictVertices, GradedSizingWithSharpEdgesFollowsLx) {
+  const mesh::SurfaceMesh wrench = asset("wrench");
+  for (const double lx : {0.0026, 0.0025}) {
+    Inverted in = invert(wrench, lx, 60, Vec3::Zero());
+    in.params.grading = kAutoGrading;
+    const double predicted = predict_vertices(in.surface, in.params).graded, meshed = vertices_meshed(in, kAutoGrading);
+    EXPECT_NEAR(predicted / meshed, 1.0, 0.12) << "l_x " << lx << ": predicted " << predicted << ", meshed " << meshed;
   }
 }
 
@@ -163,11 +179,11 @@ TEST(ChooseGrading, FieldReportsAndCachesTheChoice) {
   fs::remove_all(dir);
 }
 
-// With sharp-edge protection on (feature_angle 60) the choice is made the same way and the
-// protected graded meshing converges: the knife at l_x 0.02 (22.1k vertices by eq. 23, 13.9k
-// graded, both protected) gets the graded sizing, no warning, a field that solves; progress
-// reports the prediction as the first tenth of "mesh", never going back.
-TEST(ChooseGrading, WithEdgeProtection) {
+// With sharp edges (feature_angle 60) the choice is made the same way and the graded meshing
+// (refined near the edges, none protected) converges: the knife at l_x 0.02 (22.1k vertices by
+// eq. 23 with its edges protected, 10.9k graded) gets the graded sizing, no warning, a field that
+// solves; progress reports the prediction as the first tenth of "mesh", never going back.
+TEST(ChooseGrading, WithSharpEdges) {
   PrepareOptions options;
   options.lx = 0.02;
   options.feature_angle = 60;

@@ -25,13 +25,14 @@ const char* const kHelp =
     "          \"sigma\"?: {\"constant\", \"per_vertex\", \"axis\", \"brushes\"},\n"
     "          \"query\"?: [[x,y,z], ...], \"isosurfaces\"?: {\"levels\", \"format\", \"path\"} (one level: path;\n"
     "                     several: path's stem + \"_<i>\" + its extension, i the level's index in levels),\n"
-    "          \"feature_angle\"?: deg (60; 180 = no edge protection), \"max_vertices\"?: n (1000000),\n"
+    "          \"feature_angle\"?: deg (60; sharp edges: eq. 23 protects them, the graded sizing\n"
+    "                     refines near them; 180: none), \"max_vertices\"?: n (1000000),\n"
     "          \"repair\"?: \"none\" | \"fix\" | \"wrap\", \"repair_options\"?: {\"max_hole_edges\"} | {\"alpha\", \"offset\"}}\n"
     "response {\"stats\": {...}, \"query\": {\"h\", \"gradient\", \"inside\"}, \"isosurfaces\"?: [...],\n"
     "          \"repair\"?: {fix: \"steps\"; wrap: \"alpha\", \"offset\", \"hausdorff\"},\n"
     "          \"warnings\"?: [...]}\n"
     "limits   meshing never hangs: more than max_vertices vertices (estimated or reached) or too many\n"
-    "         refinement steps fail with an \"lx\" error; edge protection that does not converge\n"
+    "         refinement steps fail with an \"lx\" error; eq. 23's edge protection that does not converge\n"
     "         (features thinner than the elements) is dropped, with a warning.\n";
 
 int run_kelvin(const std::vector<std::string>& args, std::istream& in, std::ostream& out,

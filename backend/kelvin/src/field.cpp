@@ -114,14 +114,14 @@ void check_prepare_inputs(const mesh::SurfaceMesh& surface, const PrepareOptions
 // where the edge size maps back to min(l_x, 0.25 |x − c|). When features are thinner than that,
 // CGAL shrinks the balls over and over (tens of thousands of evaluations on the 5 mm wrench plate
 // at l_x = 4 mm against a few hundred at 6 mm) and the refinement that follows explodes.
-static double protection_budget(const mesh::SurfaceMesh& s, const Vec3& centre, const PrepareOptions& o, double grading) {
+// Only eq. 23 protects edges (mesh_inverted_domain).
+static double protection_budget(const mesh::SurfaceMesh& s, const Vec3& centre, const PrepareOptions& o) {
   if (o.max_protection_steps > 0) return o.max_protection_steps;
   if (o.feature_angle >= 180) return 0;
   double balls = 0;
   for (const auto& [u, v] : sharp_edges(s, o.feature_angle)) {
     const Vec3 a = s.vertices.row(u), b = s.vertices.row(v);
-    // The graded sizing makes edges kGradedEdgeFloor times finer.
-    const double size = std::min(o.lx, 0.25 * (0.5 * (a + b) - centre).norm()) * (grading > 0 ? kGradedEdgeFloor : 1.0);
+    const double size = std::min(o.lx, 0.25 * (0.5 * (a + b) - centre).norm());
     balls += (b - a).norm() / std::max(size, 1e-12);
   }
   return 30 * balls + 2000;
@@ -201,7 +201,7 @@ static std::unique_ptr<Field::Impl> mesh_stage(mesh::SurfaceMesh surface, const 
     params.expected_vertices = predicted;
   }
   params.max_vertices = o.max_vertices;
-  params.max_protection_evaluations = protection_budget(surface, centre, o, params.grading);
+  params.max_protection_evaluations = protection_budget(surface, centre, o);
   params.max_refinement_evaluations = o.max_refinement_steps;
   params.threads = meshing_threads(o, params);
   std::string warning;
@@ -460,7 +460,7 @@ PreparePrediction predict_preparation(const mesh::SurfaceMesh& surface, const Pr
   tp.max_vertices = options.max_vertices;
   // The protection's budget is the target's: where features are thinner than the elements it
   // gives up after it (and prepare meshes without it), at any l_x alike.
-  tp.max_protection_evaluations = protection_budget(valid, centre, options, 0);
+  tp.max_protection_evaluations = protection_budget(valid, centre, options);
   tp.max_refinement_evaluations = options.max_refinement_steps;
   const double trial_terms = kVerticesPerSizingIntegral * p.volume_paper / (scale * scale * scale) + surface_vertices / (scale * scale);
   try {

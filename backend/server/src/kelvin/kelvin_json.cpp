@@ -139,7 +139,7 @@ kelvin::PrepareOptions parse_prepare_options(const json& r) {
   if (r.contains("far_radius")) options.far_radius = number(r["far_radius"], "far_radius");
   // Sizing (PrepareOptions::grading, in [0, 1]; 0 is eq. 23); prepare refuses a bad value.
   if (r.contains("grading")) options.grading = number(r["grading"], "grading");  // absent: prepare chooses
-  // Sharp-edge protection threshold (degrees); 180 turns protection off (see the wrench cases).
+  // Sharp-edge threshold (degrees, PrepareOptions::feature_angle); 180: no sharp edges.
   if (r.contains("feature_angle")) options.feature_angle = number(r["feature_angle"], "feature_angle");
   // Meshing vertex budget (default 1,000,000): beyond it the request fails with an "lx" error.
   if (r.contains("max_vertices")) {

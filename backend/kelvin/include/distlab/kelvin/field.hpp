@@ -27,9 +27,10 @@ struct PrepareOptions {
   // l_y is bounded below by its value at |x| = far_radius · (largest centre-to-surface distance):
   // beyond that radius the exterior mesh coarsens quadratically instead of staying at l_x.
   double far_radius = 1.0;
-  // Sharp-edge detection (degrees between face normals); 180 disables edge protection. With
-  // protection, Mesh_3 (CGAL 5.5) did not finish on the 5 mm wrench plate (refine_balls loops);
-  // without it, edges are rounded at the element scale but boundary vertices stay on the surface.
+  // Sharp edges (face normals deviating by more than this, degrees; none at 180): eq. 23 has
+  // Mesh_3 protect them (their meshed curves follow the edges; the 5 mm wrench plate needed the
+  // protection budget below), the graded sizing refines near them instead (MeshingParams). Without
+  // protection edges are rounded at the element scale but boundary vertices stay on the surface.
   double feature_angle = 60.0;
   // 0: the paper's sizing, eq. 23. > 0: the graded sizing (MeshingParams::grading): the element
   // size grows by `grading` per unit distance (in y) from the inverted surface and shrinks near
@@ -42,7 +43,7 @@ struct PrepareOptions {
   // - max_vertices: refused up front (InvalidInput "lx") when the sizing's predicted vertex count
   //   (predict_vertices' terms, as predict_preparation's without its trial) exceeds it, and Mesh_3
   //   stops with the same error when its triangulation reaches it;
-  // - max_protection_steps: sizing evaluations allowed for sharp-edge protection (0: automatic,
+  // - max_protection_steps: sizing evaluations allowed for eq. 23's edge protection (0: automatic,
   //   30 × the estimated number of protecting balls + 2000); beyond it the features are thinner
   //   than the elements (protecting balls shrink over and over and the refinement explodes, as
   //   on the 5 mm wrench plate at l_x = 4 mm: 194k vertices, 330 s) and the object is meshed

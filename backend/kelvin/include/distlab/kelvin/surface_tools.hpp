@@ -11,11 +11,12 @@
 namespace distlab::kelvin {
 
 // The sharp edges (vertex pairs a < b) of a surface: the two faces' normals deviate by more than
-// feature_angle degrees (none at 180). Mesh_3 protects them; the graded sizing refines near them.
+// feature_angle degrees (none at 180). Eq. 23 has Mesh_3 protect them; the graded sizing refines
+// near them.
 std::vector<std::pair<int, int>> sharp_edges(const mesh::SurfaceMesh& s, double feature_angle);
 
 // Vertices the graded sizing (PrepareOptions::grading) adds near sharp edges, per metre of edge
-// and per 1/l_x, as an upper bound: the unit cube measured 55–63 (l_x 0.15–0.05), counted 150.
+// and per 1/l_x, as an upper bound: the cube, wrench and knife measured 57–72 (kGradedEdgeVerticesTypical), counted 150.
 inline constexpr double kGradedEdgeVerticesPerLength = 150;
 
 class SurfaceOracle {

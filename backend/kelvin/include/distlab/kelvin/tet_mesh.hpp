@@ -27,7 +27,7 @@ struct TetMesh {
 struct MeshingParams {
   double lx = 0.1;              // exterior element size l_x (eq. 23)
   double min_size = 0.0;        // lower bound of the interior sizing field l_y
-  double feature_angle = 60.0;  // dihedral angle (degrees) below which edges are kept sharp
+  double feature_angle = 60.0;  // sharp edges: eq. 23 protects them, the graded sizing refines near them
   // 0: l_y = max(|y|² l_x, min_size) (eq. 23, uniform in x). g > 0, the graded sizing:
   // l_y = s_e · max(|y|² l_x + g · d_y, min_size), d_y the distance in y from the inverted surface
   // (coarser away from the object, where V is smooth) and s_e = max(√(e_x / (kGradedEdgeRadius
@@ -79,9 +79,10 @@ SizingPrediction predict_vertices(const mesh::SurfaceMesh& inverted, const Meshi
 // Fitted on the cube with eq. 23 (l_x 0.05–0.02: 0.74–0.71, the finest last; coarser meshes
 // have relatively more surface vertices) and checked on the wrench and the knife (notes of issue 19).
 inline constexpr double kVerticesPerSizingIntegral = 0.71;
-// The cube measured 55–63 vertices per metre of sharp edge per 1/l_x (l_x 0.15–0.03); the
-// server's vertex budget counts the upper bound kGradedEdgeVerticesPerLength (surface_tools.hpp).
-inline constexpr double kGradedEdgeVerticesTypical = 60;
+// Vertices per metre of sharp edge per 1/l_x (feature_angle 60 against 180): the cube 62–72 (l_x
+// 0.15–0.03), the wrench 62 (l_x 0.002, centre 0), the knife 57 (l_x 0.02); the server's vertex
+// budget counts the upper bound kGradedEdgeVerticesPerLength (surface_tools.hpp).
+inline constexpr double kGradedEdgeVerticesTypical = 64;
 // Vertices per unit of SizingPrediction::surface (∫ dA_y / l_y² over the inverted surface) beyond
 // the volume term, both sizings: fitted on the sphere (204–9.6k vertices at l_x 0.15–0.035, where
 // the volume term alone is 54–90% of the count) and checked on the cube and wraps without edge
@@ -110,8 +111,8 @@ double eq23_vertex_bound(const MeshingParams& params);
 
 // CGAL Mesh_3 on the region bounded by the (already inverted, outward-oriented) surface with
 // l_y(y) of MeshingParams::grading (eq. 23 when grading is 0). Deterministic: fixed seeds, no time limits.
-// If edge protection exceeds its step budget (thin features), meshes again without it and sets
-// *warning. Exceeding the vertex or refinement budget throws InvalidInput("lx", …).
+// Eq. 23 protects the sharp edges (feature_angle < 180); if that exceeds its step budget (thin
+// features), meshes again without it and sets *warning. The graded sizing protects none. Exceeding the vertex or refinement budget throws InvalidInput("lx", …).
 TetMesh mesh_inverted_domain(const mesh::SurfaceMesh& inverted, const MeshingParams& params,
                              const Progress& progress, std::string* warning = nullptr);
 
