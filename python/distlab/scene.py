@@ -18,6 +18,7 @@ from __future__ import annotations
 import os
 import re
 import shutil
+import signal
 import subprocess
 import tempfile
 import time
@@ -216,7 +217,7 @@ def record(client: "Client", path, *, seconds: Optional[float] = None, frames: O
         [_chromium(), "--headless=new", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
          "--disable-component-update", "--enable-unsafe-swiftshader", "--use-angle=swiftshader", "--mute-audio",
          f"--user-data-dir={profile}", f"--window-size={int(width)},{int(height)}", url],
-        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
     try:
         end = time.monotonic() + rec["seconds"] + timeout
         while rec["state"] not in ("done", "failed"):
@@ -235,10 +236,19 @@ def record(client: "Client", path, *, seconds: Optional[float] = None, frames: O
         rec["files"] = targets
         return rec
     finally:  # done, failed, or Ctrl-C: the service forgets it, and a page still recording stops
-        browser.kill()
+        # chromium's own children (renderer, GPU, crash handler) outlive a killed parent and keep
+        # writing into the profile: end the whole group before the profile is removed.
+        try:
+            os.killpg(browser.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
         browser.wait()
         try:
             client._request("DELETE", f"/api/scene/recordings/{rec['id']}")
         except Exception:  # noqa: BLE001  (best effort on the way out)
             pass
-        shutil.rmtree(profile, ignore_errors=True)
+        for _ in range(20):  # a file the group was writing as it died may appear once more
+            shutil.rmtree(profile, ignore_errors=True)
+            if not os.path.exists(profile):
+                break
+            time.sleep(0.05)

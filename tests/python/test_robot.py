@@ -996,13 +996,13 @@ def test_bad_urdf_names_the_element(meshbot_dir, tmp_path):
 # Ctrl-C
 
 CHILD = r"""
-import os, sys, tempfile
+import os, sys
 import numpy as np
 from distlab.robot import Robot
 
 # A slider with a ball against a 796-facet hull, GAP's plain iteration: ~150 us per configuration,
 # ~80 bytes of answer; 1.5 M of them take minutes.
-folder = tempfile.mkdtemp()
+folder = sys.argv[2]
 with open(os.path.join(folder, "slider.urdf"), "w") as f:
     f.write('<robot name="slider"><link name="base"/><joint name="x" type="prismatic"><parent link="base"/>'
             '<child link="cart"/><axis xyz="1 0 0"/><limit lower="-1" upper="1" velocity="1" effort="1"/></joint>'
@@ -1026,12 +1026,12 @@ print(outcome, float(robot.distances(small, obstacles, params=params).distance.m
 """
 
 
-def test_sigint_stops_a_long_batch():
+def test_sigint_stops_a_long_batch(tmp_path):
     """SIGINT while a batch of minutes runs: KeyboardInterrupt within the subprocess's timeout
     (a batch that ignored it would run on and fail the test), and the interpreter computes
     again afterwards."""
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
-    child = subprocess.Popen([sys.executable, "-c", CHILD, "1500000"], stdout=subprocess.PIPE, text=True, env=env,
+    child = subprocess.Popen([sys.executable, "-c", CHILD, "1500000", str(tmp_path)], stdout=subprocess.PIPE, text=True, env=env,
                              cwd=str(ROOT))
     try:
         assert child.stdout.readline().strip() == "started"

@@ -4,7 +4,6 @@ and recordings made by the page in headless chromium show the items where they a
 
 import _thread
 import json
-import tempfile
 import threading
 
 import matplotlib.image
@@ -83,7 +82,7 @@ def test_items_stream_to_the_sessions_own_sockets(server):
     assert a.scene.items() == []
 
 
-def test_bad_items_are_refused_naming_the_field(server):
+def test_bad_items_are_refused_naming_the_field(server, tmp_path):
     c = distlab.Client(server)
     V = np.zeros((3, 3))
     V[1, 0] = V[2, 1] = 1
@@ -96,8 +95,8 @@ def test_bad_items_are_refused_naming_the_field(server):
         (lambda: c._request("PUT", "/api/scene/items/bad%20name", data=b"\x80"), 400, "name"),
         (lambda: c.scene.add_points("p", np.zeros((LIMITS["max_scene_vertices"] + 1, 3))), 413, "positions"),
         (lambda: c.scene.set_pose("nothing", np.eye(4)), 404, "name"),
-        (lambda: c.record(tempfile.mkdtemp(), frames=LIMITS["max_record_frames"] + 1), 413, "frames"),
-        (lambda: c.record(tempfile.mkdtemp(), frames=1, view="plots"), 400, "view"),
+        (lambda: c.record(tmp_path, frames=LIMITS["max_record_frames"] + 1), 413, "frames"),
+        (lambda: c.record(tmp_path, frames=1, view="plots"), 400, "view"),
     ]
     for call, status, field in cases:
         with pytest.raises(ServiceError) as info:

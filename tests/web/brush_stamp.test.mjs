@@ -6,7 +6,7 @@
 // The TypeScript module is transpiled with the project's own TypeScript (web/node_modules).
 import test from "node:test";
 import assert from "node:assert/strict";
-import { mkdtempSync, readFileSync, writeFileSync } from "node:fs";
+import { mkdtempSync, readFileSync, rmSync, writeFileSync } from "node:fs";
 import { createRequire } from "node:module";
 import { tmpdir } from "node:os";
 import path from "node:path";
@@ -16,9 +16,11 @@ const source = process.env.DISTLAB_SOURCE_DIR ?? path.resolve(import.meta.dirnam
 const ts = createRequire(path.join(source, "web", "package.json"))("typescript");
 const ts_src = readFileSync(path.join(source, "web/src/views/kelvin/brush_stamp.ts"), "utf8");
 const js = ts.transpileModule(ts_src, { compilerOptions: { module: ts.ModuleKind.ESNext, target: ts.ScriptTarget.ES2022 } }).outputText;
-const file = path.join(mkdtempSync(path.join(tmpdir(), "distlab-brush-")), "brush_stamp.mjs");
+const dir = mkdtempSync(path.join(tmpdir(), "distlab-brush-"));
+const file = path.join(dir, "brush_stamp.mjs");
 writeFileSync(file, js);
 const { applyBrush, brushWeight, stampTowards } = await import(pathToFileURL(file).href);
+rmSync(dir, { recursive: true }); // the module is loaded; nothing of the test stays behind
 
 const H = 0.0125; // grid step: 161 × 161 points on z = 0
 const N = 161;
