@@ -2,18 +2,16 @@
 // Panda's finger pads and the paper's wrench (kelvin-semantics-aware-distance.txt, case (a) of
 // eq. 24) run three ways. Outcomes only, never times.
 #include <cmath>
-#include <filesystem>
 #include <fstream>
 #include <functional>
 #include <map>
-
-#include <unistd.h>
 
 #include <gtest/gtest.h>
 
 #include "distlab/cbf/feasibility.hpp"
 #include "distlab/geometry/error.hpp"
 #include "distlab/server/cbf_json.hpp"
+#include "temp_dir.hpp"
 
 namespace distlab::cbf {
 namespace {
@@ -23,17 +21,9 @@ using nlohmann::json;
 const std::string kAssets = std::string(DISTLAB_SOURCE_DIR) + "/assets";
 
 // The wrench is prepared once per process, through a disk cache of the test's own (removed at exit).
-struct CacheDir {
-  std::filesystem::path path = std::filesystem::temp_directory_path() / ("distlab-wrench-grasp-" + std::to_string(::getpid()));
-  CacheDir() { std::filesystem::create_directories(path); }
-  ~CacheDir() {
-    std::error_code ec;
-    std::filesystem::remove_all(path, ec);
-  }
-};
 kelvin::Field prepare(const mesh::SurfaceMesh& surface, const kelvin::PrepareOptions& options, const std::string&) {
-  static const CacheDir dir;
-  return kelvin::Field::prepare_cached(surface, options, dir.path.string());
+  static const distlab::test::TempDir dir("distlab-wrench-grasp");
+  return kelvin::Field::prepare_cached(surface, options, dir.path());
 }
 
 const RolloutRecord& run(const json& params) {

@@ -20,6 +20,7 @@
 #include "distlab/geometry/error.hpp"
 #include "distlab/kelvin/isolated_mesher.hpp"
 #include "distlab/mesh/primitives.hpp"
+#include "temp_dir.hpp"
 
 namespace fs = std::filesystem;
 using namespace distlab;
@@ -52,19 +53,13 @@ void expect_same(const TetMesh& a, const TetMesh& b) {
   EXPECT_EQ(a.in_domain, b.in_domain);
 }
 
-// This test's folder of stand-in children and their files.
-fs::path scratch(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("distlab_mesh_domain_test_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
-  return dir / name;
-}
+// The stand-in children and their files are in this program's folder.
+fs::path scratch(const std::string& name) { return test::process_temp_dir() / name; }
 
 std::string script(const std::string& name, const std::string& body) {
-  const fs::path path = scratch(name);
-  std::ofstream(path) << "#!/bin/sh\n"
-                      << body << "\n";
+  const std::string path = test::process_temp_dir().write(name, "#!/bin/sh\n" + body + "\n");
   ::chmod(path.c_str(), 0755);
-  return path.string();
+  return path;
 }
 
 bool no_child_left() {

@@ -13,6 +13,7 @@
 #include <thread>
 
 #include "sphere_fixture.hpp"
+#include "temp_dir.hpp"
 
 using namespace distlab;
 using namespace distlab::kelvin;
@@ -147,7 +148,8 @@ TEST(BoundaryResponse, MemoryBoundCancelAndProgress) {
 // response: the same strokes give the same V bit for bit as on the field that was prepared.
 TEST(BoundaryResponse, SameOnAFieldLoadedFromTheCache) {
   const Sphere s;
-  const std::string dir = ::testing::TempDir() + "distlab_response_cache_" + std::to_string(::getpid());
+  const test::TempDir folder("distlab_response_cache");
+  const std::string& dir = folder.path();
   bool hit = true;
   Field prepared = Field::prepare_cached(sphere_mesh(s), sphere_options(0.1), dir, {}, &hit);
   ASSERT_FALSE(hit);
@@ -161,5 +163,4 @@ TEST(BoundaryResponse, SameOnAFieldLoadedFromTheCache) {
   EXPECT_EQ(a, b);
   EXPECT_GE(a, 40);
   for (std::size_t k = 0; k < specs.size(); ++k) EXPECT_EQ(relative_difference(first[k], second[k]), 0) << "stroke " << k;
-  std::filesystem::remove_all(dir);
 }

@@ -10,6 +10,7 @@
 #include "distlab/mesh/checks.hpp"
 #include "distlab/mesh/weld.hpp"
 #include "sphere_fixture.hpp"
+#include "temp_dir.hpp"
 
 using namespace distlab;
 using namespace distlab::kelvin;
@@ -123,8 +124,7 @@ TEST(KelvinField, IsoSurfaceExportsReadBackClosed) {
   field.set_sigma(constant_sigma(0.3));
   const mesh::SurfaceMesh iso = field.isosurface(0.45);
   const double volume = mesh::signed_volume(iso);
-  const auto dir = std::filesystem::temp_directory_path() / ("distlab_kelvin_iso_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
+  const test::TempDir dir("distlab_kelvin_iso");
   for (const char* format : {"stl", "obj", "ply", "glb"}) {
     const std::string path = (dir / (std::string("iso.") + format)).string();
     mesh::save_mesh(iso, path, format);
@@ -134,7 +134,6 @@ TEST(KelvinField, IsoSurfaceExportsReadBackClosed) {
     EXPECT_EQ(mesh::topology_defect(back), "") << format;
     EXPECT_NEAR(mesh::signed_volume(back), volume, 1e-5 * volume) << format;  // float files
   }
-  std::filesystem::remove_all(dir);
 }
 
 TEST(KelvinField, PointsInsideAreFlagged) {

@@ -21,6 +21,7 @@
 #include "distlab/mesh/checks.hpp"
 #include "distlab/mesh/primitives.hpp"
 #include "mesh/independent_check.hpp"
+#include "temp_dir.hpp"
 
 namespace distlab::kelvin {
 namespace {
@@ -196,7 +197,8 @@ std::vector<SigmaSpec> sigma_sweep(const mesh::SurfaceMesh& s) {
 // An L-shaped prism read from an OBJ whose caps are single non-convex 6-corner polygons (the
 // loader triangulates them; a fan from the first corner would cover the notch).
 mesh::SurfaceMesh l_prism_from_obj() {
-  const auto path = std::filesystem::temp_directory_path() / ("distlab_l_prism_" + std::to_string(::getpid()) + ".obj");
+  const test::TempDir dir("distlab_l_prism");
+  const auto path = dir / "l_prism.obj";
   {
     std::ofstream obj(path);
     const double l[6][2] = {{2, 1}, {1, 1}, {1, 2}, {0, 2}, {0, 0}, {2, 0}};  // counter-clockwise
@@ -205,9 +207,7 @@ mesh::SurfaceMesh l_prism_from_obj() {
     obj << "f 6 5 4 3 2 1\nf 7 8 9 10 11 12\n";
     for (int i = 0; i < 6; ++i) obj << "f " << i + 1 << " " << (i + 1) % 6 + 1 << " " << 7 + (i + 1) % 6 << " " << 7 + i << "\n";
   }
-  mesh::SurfaceMesh m = mesh::load_mesh(path.string());
-  std::filesystem::remove(path);
-  return m;
+  return mesh::load_mesh(path.string());
 }
 
 TEST(KelvinIsoSurface, EveryLevelIsAClosedManifoldIncludingTheBoundaryLevel) {

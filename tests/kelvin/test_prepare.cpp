@@ -19,6 +19,7 @@
 #include "distlab/mesh/surface.hpp"
 #include "distlab/mesh/weld.hpp"
 #include "sphere_fixture.hpp"
+#include "temp_dir.hpp"
 
 namespace fs = std::filesystem;
 using namespace distlab;
@@ -36,12 +37,6 @@ std::string refused_field(const mesh::SurfaceMesh& m, const PrepareOptions& o) {
     return e.field() + ": " + e.what();
   }
   return "accepted";
-}
-
-fs::path fresh_dir(const std::string& name) {
-  fs::path dir = fs::temp_directory_path() / ("distlab_kelvin_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  return dir;
 }
 
 // The cache entries (*.kelvin) of a directory; the MAC key lives beside them in cache.key.
@@ -206,7 +201,8 @@ TEST(KelvinPrepare, LxWithoutInteriorVerticesIsRefusedNamingLx) {
 }
 
 TEST(KelvinPrepare, CacheRoundTripAndCorruptionIsRebuilt) {
-  const fs::path dir = fresh_dir("cache");
+  const test::TempDir folder("distlab_kelvin_cache");
+  const fs::path dir = folder.path();
   const auto surface = sphere_mesh(kSphere);
   bool hit = true;
   Field a = Field::prepare_cached(surface, sphere_options(0.2), dir.string(), {}, &hit);
@@ -264,14 +260,14 @@ TEST(KelvinPrepare, CacheRoundTripAndCorruptionIsRebuilt) {
   // A different lx is a different entry.
   Field::prepare_cached(surface, sphere_options(0.25), dir.string(), {}, &hit);
   EXPECT_FALSE(hit);
-  fs::remove_all(dir);
 }
 
 // Two threads of one process preparing the same content into one cache directory: each writes
 // its own temporary file (once both wrote ".tmp.<pid>", and one rename failed or an entry mixed
 // their bytes), the entry left is complete, and no temporary file stays behind.
 TEST(KelvinPrepare, CacheEntryWrittenByTwoThreadsAtOnce) {
-  const fs::path dir = fresh_dir("threads");
+  const test::TempDir folder("distlab_kelvin_threads");
+  const fs::path dir = folder.path();
   const auto surface = sphere_mesh(kSphere);
   std::vector<long> vertices(2, 0);
   std::vector<std::string> errors(2);
@@ -294,7 +290,6 @@ TEST(KelvinPrepare, CacheEntryWrittenByTwoThreadsAtOnce) {
   EXPECT_EQ(loaded.stats().n_verts, vertices[0]);
   for (const auto& entry : fs::directory_iterator(dir))
     EXPECT_EQ(entry.path().filename().string().find(".tmp."), std::string::npos) << entry.path();
-  fs::remove_all(dir);
 }
 
 // A file that carries the right name and key but was prepared from other inputs (a digest
@@ -314,7 +309,8 @@ std::string forged_entry(const fs::path& from, const std::string& key) {
 }
 
 TEST(KelvinPrepare, CacheEntryWithACollidingNameIsNotServed) {
-  const fs::path dir = fresh_dir("collide");
+  const test::TempDir folder("distlab_kelvin_collide");
+  const fs::path dir = folder.path();
   const auto surface = sphere_mesh(kSphere);
   auto entries = [&] { return cache_entries(dir); };
   bool hit = true;
@@ -351,7 +347,6 @@ TEST(KelvinPrepare, CacheEntryWithACollidingNameIsNotServed) {
   std::ofstream(file_a, std::ios::binary | std::ios::trunc) << same;
   Field::prepare_cached(surface, sphere_options(0.2), dir.string(), {}, &hit);
   EXPECT_TRUE(hit);
-  fs::remove_all(dir);
 }
 
 // Whoever can write the cache directory but cannot read its key cannot make an entry that is
@@ -360,10 +355,12 @@ TEST(KelvinPrepare, CacheEntryWithACollidingNameIsNotServed) {
 // in place of the MAC, is detected and rebuilt, and h is the truth's.
 TEST(KelvinPrepare, CacheEntryChangedWithoutTheKeyIsRebuilt) {
   const auto surface = sphere_mesh(kSphere);
-  const fs::path truth_dir = fresh_dir("truth");
+  const test::TempDir truth_folder("distlab_kelvin_truth");
+  const fs::path truth_dir = truth_folder.path();
   Field truth = Field::prepare_cached(surface, sphere_options(0.2), truth_dir.string());
   truth.set_sigma(constant_sigma(0.2));
-  const fs::path dir = fresh_dir("forged");
+  const test::TempDir folder("distlab_kelvin_forged");
+  const fs::path dir = folder.path();
   bool hit = true;
   Field::prepare_cached(surface, sphere_options(0.2), dir.string(), {}, &hit);
   const fs::path file = cache_entries(dir).at(0);
@@ -398,14 +395,13 @@ TEST(KelvinPrepare, CacheEntryChangedWithoutTheKeyIsRebuilt) {
     Field::prepare_cached(surface, sphere_options(0.2), dir.string(), {}, &hit);
     EXPECT_TRUE(hit) << attack;  // the rebuilt entry is written under the key again
   }
-  fs::remove_all(dir);
-  fs::remove_all(truth_dir);
 }
 
 // The key file is created with mode 0600 and 32 bytes; one with another mode or size is not
 // trusted: it is replaced by a new key, and entries written under the old one are rebuilt.
 TEST(KelvinPrepare, CacheKeyIsPrivateAndReplacedWhenNotTrusted) {
-  const fs::path dir = fresh_dir("key");
+  const test::TempDir folder("distlab_kelvin_key");
+  const fs::path dir = folder.path();
   const auto surface = sphere_mesh(kSphere);
   const fs::path key = dir / "cache.key";
   auto mode = [&] {
@@ -433,7 +429,6 @@ TEST(KelvinPrepare, CacheKeyIsPrivateAndReplacedWhenNotTrusted) {
     Field::prepare_cached(surface, sphere_options(0.2), dir.string(), {}, &hit);
     EXPECT_TRUE(hit) << damage;
   }
-  fs::remove_all(dir);
 }
 
 // The wrench asset (a 5 mm plate with a ring end and an open end, 96.47 mm long) meshes without
@@ -485,7 +480,8 @@ TEST(KelvinPrepare, WrenchWithDefaultOptionsMeshes) {
       const Field g = Field::prepare(wrench, o);
       EXPECT_TRUE(g.tet_mesh().points == f.tet_mesh().points);
       // A cache reload reports the same fallback.
-      const fs::path dir = fresh_dir("wrench_fallback");
+      const test::TempDir folder("distlab_kelvin_wrench_fallback");
+      const fs::path dir = folder.path();
       bool hit = true;
       const Field c1 = Field::prepare_cached(wrench, o, dir.string(), {}, &hit);
       EXPECT_FALSE(hit);
@@ -495,7 +491,6 @@ TEST(KelvinPrepare, WrenchWithDefaultOptionsMeshes) {
       ASSERT_EQ(c2.stats().warnings.size(), 1u);
       EXPECT_NE(c2.stats().warnings[0].find("edge protection"), std::string::npos);
       EXPECT_TRUE(c2.tet_mesh().points == f.tet_mesh().points);
-      fs::remove_all(dir);
     }
     f.set_sigma(constant_sigma(0.5));
     const auto points = f.boundary_points();

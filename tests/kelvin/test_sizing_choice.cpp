@@ -17,6 +17,7 @@
 #include "distlab/mesh/primitives.hpp"
 #include "distlab/mesh/surface.hpp"
 #include "distlab/mesh/weld.hpp"
+#include "temp_dir.hpp"
 
 namespace fs = std::filesystem;
 using namespace distlab;
@@ -140,8 +141,8 @@ TEST(ChooseGrading, TakesTheGradedSizingOnlyWhereItSavesClearly) {
 // Not given, the grading is chosen, reported in Stats, and the field is the one an explicit
 // request for that sizing gives; a cache hit reports the same choice.
 TEST(ChooseGrading, FieldReportsAndCachesTheChoice) {
-  const fs::path dir = fs::temp_directory_path() / ("distlab_sizing_choice_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
+  const test::TempDir folder("distlab_sizing_choice");
+  const fs::path dir = folder.path();
   const mesh::SurfaceMesh wrench = asset("wrench");
   PrepareOptions chosen;
   chosen.lx = 0.003;
@@ -176,7 +177,6 @@ TEST(ChooseGrading, FieldReportsAndCachesTheChoice) {
   const Field d = Field::prepare(mesh::box(Vec3::Ones()), coarse), e = Field::prepare(mesh::box(Vec3::Ones()), paper);
   EXPECT_EQ(d.stats().grading, 0.0);
   EXPECT_EQ(d.stats().n_verts, e.stats().n_verts);
-  fs::remove_all(dir);
 }
 
 // With sharp edges (feature_angle 60) the choice is made the same way and the graded meshing

@@ -32,6 +32,7 @@
 #include "distlab/kelvin/field.hpp"
 #include "distlab/kelvin/store.hpp"
 #include "distlab/mesh/primitives.hpp"
+#include "temp_dir.hpp"
 
 namespace fs = std::filesystem;
 using namespace distlab;
@@ -52,13 +53,6 @@ PrepareOptions small_options(double lx) {
   return o;
 }
 const std::vector<Vec3> kPoints = {{0.9, 0.1, 0.2}, {-0.7, 0.6, 0.1}, {0.2, -0.3, 1.4}, {2.0, 1.0, -1.0}};
-
-fs::path fresh_dir(const std::string& name) {
-  fs::path dir = fs::temp_directory_path() / ("distlab_store_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
 
 std::vector<std::string> names_in(const fs::path& dir) {
   std::vector<std::string> out;
@@ -212,7 +206,8 @@ TEST(KelvinStoreChild, Run) {
 // lease / 4 while it sleeps 4 leases in its meshing), the other waits and loads that entry; the
 // fields are the same bit for bit.
 TEST(KelvinStore, TwoProcessesPrepareOneFieldOnce) {
-  const fs::path dir = fresh_dir("two");
+  const test::TempDir folder("distlab_store_two");
+  const fs::path dir = folder.path();
   const std::map<std::string, std::string> role = {
       {"DISTLAB_STORE_CHILD", "prepare"}, {"DISTLAB_STORE_LX", "0.3"}, {"DISTLAB_STORE_LEASE", "0.4"}, {"DISTLAB_STORE_HOLD", "1.6"}};
   const std::vector<ChildResult> r = run_children(dir, {role, role});
@@ -229,14 +224,14 @@ TEST(KelvinStore, TwoProcessesPrepareOneFieldOnce) {
   // One entry, the key, nothing else: the lease and the temporary are gone.
   EXPECT_EQ(names_in(dir).size(), 2u) << ::testing::PrintToString(names_in(dir));
   EXPECT_EQ(entries_in(dir).size(), 1u);
-  fs::remove_all(dir);
 }
 
 // A writer killed (SIGKILL) halfway through writing its entry leaves its lease and a partial
 // temporary, and no entry anyone reads. The next preparation takes the dead holder's lease over
 // at once (its process is gone) and succeeds; gc removes the leftovers.
 TEST(KelvinStore, WriterKilledMidWriteLeavesNoEntry) {
-  const fs::path dir = fresh_dir("killed");
+  const test::TempDir folder("distlab_store_killed");
+  const fs::path dir = folder.path();
   const std::vector<ChildResult> r = run_children(dir, {{{"DISTLAB_STORE_CHILD", "kill"}, {"DISTLAB_STORE_LX", "0.12"}}});
   ASSERT_EQ(r.at(0).status, 128 + SIGKILL);
   EXPECT_TRUE(entries_in(dir).empty()) << ::testing::PrintToString(names_in(dir));
@@ -275,19 +270,19 @@ TEST(KelvinStore, WriterKilledMidWriteLeavesNoEntry) {
   EXPECT_TRUE(list_store(dir.string()).temporaries.empty());
   Field again = Field::prepare_cached(small_surface(), small_options(0.12), store, {}, &hit);
   EXPECT_TRUE(hit);
-  fs::remove_all(dir);
 }
 
 // A lock from another machine (its process cannot be checked) that nobody renews is taken over
 // once the waiter has seen it unchanged for its lease, and not before; two waiters take it over
 // once between them (it is renamed aside, so only one of them gets it).
 TEST(KelvinStore, ExpiredLeaseIsTakenOverByOneWaiter) {
-  const fs::path dir = fresh_dir("expired");
+  const test::TempDir folder("distlab_store_expired");
+  const fs::path dir = folder.path();
   // The entry's name is its content key: found by preparing it in another store.
-  const fs::path scratch = fresh_dir("expired_scratch");
+  const test::TempDir scratch_folder("distlab_store_expired_scratch");
+  const fs::path scratch = scratch_folder.path();
   Field::prepare_cached(small_surface(), small_options(0.3), scratch.string());
   const std::string name = entries_in(scratch).at(0).filename().string();
-  fs::remove_all(scratch);
   const std::string lock =
       "distlab-lease 1\nhost elsewhere\nnode another-boot:1\npid 1\npid_start 1\ntoken 0\nlease 0.5\nstarted 0\nrenewed 0\n";
   write_file(dir / (name + ".lock"), lock);
@@ -312,14 +307,14 @@ TEST(KelvinStore, ExpiredLeaseIsTakenOverByOneWaiter) {
   EXPECT_EQ((r[0].values.at("hit") == "0") + (r[1].values.at("hit") == "0"), 1);
   EXPECT_EQ(r[0].values.at("h"), r[1].values.at("h"));
   EXPECT_EQ(r[0].values.at("h"), fingerprint(f));
-  fs::remove_all(dir);
 }
 
 // Only a complete entry under its own name is ever read: a complete copy under a temporary's
 // name is not an entry, a truncated entry is refused by its framing and a changed one by its MAC
 // (rebuilt either way); verify names each kind and --fix removes them.
 TEST(KelvinStore, HalfWrittenAndDamagedEntriesAreNeverServed) {
-  const fs::path dir = fresh_dir("damaged");
+  const test::TempDir folder("distlab_store_damaged");
+  const fs::path dir = folder.path();
   bool hit = true;
   Field a = Field::prepare_cached(small_surface(), small_options(0.3), dir.string(), {}, &hit);
   const std::string truth = fingerprint(a);
@@ -381,13 +376,13 @@ TEST(KelvinStore, HalfWrittenAndDamagedEntriesAreNeverServed) {
   EXPECT_EQ(status(false), (std::map<std::string, std::string>{{name, "ok"}}));
   fs::remove(dir / "cache.key");
   EXPECT_EQ(status(false), (std::map<std::string, std::string>{{name, "no_key"}}));
-  fs::remove_all(dir);
 }
 
 // The budget evicts the least recently used entries (a load counts as a use), spares entries
 // used within keep_recent_seconds, and runs after each write of a store with a budget.
 TEST(KelvinStore, BudgetEvictsLeastRecentlyUsed) {
-  const fs::path dir = fresh_dir("budget");
+  const test::TempDir folder("distlab_store_budget");
+  const fs::path dir = folder.path();
   std::map<double, fs::path> entry;  // by lx
   std::map<double, std::uint64_t> size;
   for (const double lx : {0.3, 0.35, 0.4}) {
@@ -434,5 +429,4 @@ TEST(KelvinStore, BudgetEvictsLeastRecentlyUsed) {
   Field::prepare_cached(small_surface(), small_options(0.4), store, {}, &hit);
   EXPECT_FALSE(hit);
   EXPECT_EQ(entries_in(dir), std::vector<fs::path>{entry[0.4]});
-  fs::remove_all(dir);
 }

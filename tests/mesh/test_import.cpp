@@ -21,27 +21,18 @@
 #include "distlab/mesh/primitives.hpp"
 #include "distlab/mesh/surface.hpp"
 #include "mesh/hostile_meshes.hpp"
+#include "temp_dir.hpp"
 
 namespace fs = std::filesystem;
 using namespace distlab;
 using namespace distlab::mesh;
 using namespace distlab::test;
 
-namespace {
-
-fs::path temp_dir() {
-  fs::path dir = fs::temp_directory_path() / ("distlab_mesh_test_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
-  return dir;
-}
-
-}  // namespace
-
 TEST(MeshImport, RoundTripEveryFormatWeldsAndStaysClosed) {
   const SurfaceMesh sphere = icosphere(0.25, 2);
   ASSERT_GT(signed_volume(sphere), 0);
   for (const std::string format : {"stl", "obj", "ply", "glb"}) {
-    const fs::path path = temp_dir() / ("sphere." + format);
+    const fs::path path = process_temp_dir() / ("sphere." + format);
     save_mesh(sphere, path.string(), format);
     SurfaceMesh back = load_mesh(path.string());
     // STL stores three corners per face: welding must bring it back to the indexed mesh.
@@ -51,14 +42,14 @@ TEST(MeshImport, RoundTripEveryFormatWeldsAndStaysClosed) {
     EXPECT_NEAR(signed_volume(back), signed_volume(sphere), 1e-6) << format;
   }
   // OBJ is one file: no material library is written or referenced.
-  std::ifstream obj(temp_dir() / "sphere.obj");
+  std::ifstream obj(process_temp_dir() / "sphere.obj");
   const std::string text((std::istreambuf_iterator<char>(obj)), std::istreambuf_iterator<char>());
   EXPECT_EQ(text.find("mtllib"), std::string::npos);
-  EXPECT_FALSE(fs::exists(temp_dir() / "sphere.mtl"));
+  EXPECT_FALSE(fs::exists(process_temp_dir() / "sphere.mtl"));
 }
 
 TEST(MeshImport, ReadsOffText) {
-  const fs::path path = temp_dir() / "tet.off";
+  const fs::path path = process_temp_dir() / "tet.off";
   std::ofstream(path) << "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
   SurfaceMesh tet = load_mesh(path.string());
   EXPECT_EQ(tet.vertices.rows(), 4);
@@ -75,7 +66,7 @@ TEST(MeshImport, MissingAndUnreadableFilesNameTheField) {
     EXPECT_EQ(e.field(), "mesh.path");
     EXPECT_NE(std::string(e.what()).find("no such file"), std::string::npos);
   }
-  const fs::path path = temp_dir() / "garbage.stl";
+  const fs::path path = process_temp_dir() / "garbage.stl";
   std::ofstream(path) << "this is not a mesh";
   EXPECT_THROW(load_mesh(path.string()), InvalidInput);
 }
@@ -83,7 +74,7 @@ TEST(MeshImport, MissingAndUnreadableFilesNameTheField) {
 // Garbage named .stl is called what it is (not a size-limit error from its "triangle count").
 TEST(MeshImport, BinaryStlMustBe84Plus50NBytes) {
   const SurfaceMesh cube = box(Vec3(0.1, 0.2, 0.3));
-  const fs::path good = temp_dir() / "cube.stl";
+  const fs::path good = process_temp_dir() / "cube.stl";
   save_mesh(cube, good.string(), "stl");
   std::ifstream in(good, std::ios::binary);
   const std::string bytes{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
@@ -113,7 +104,7 @@ TEST(MeshImport, BinaryStlMustBe84Plus50NBytes) {
       EXPECT_NE(std::string(e.what()).find(says), std::string::npos) << e.what();
     }
     // The importer refuses the same file with the same message.
-    const fs::path path = temp_dir() / "bad.stl";
+    const fs::path path = process_temp_dir() / "bad.stl";
     std::ofstream(path, std::ios::binary) << b;
     try {
       load_mesh(path.string(), "mesh.path");
@@ -127,7 +118,7 @@ TEST(MeshImport, BinaryStlMustBe84Plus50NBytes) {
 
 TEST(MeshExport, UnknownFormatIsRefused) {
   try {
-    save_mesh(box(Vec3::Ones()), (temp_dir() / "x.abc").string(), "abc");
+    save_mesh(box(Vec3::Ones()), (process_temp_dir() / "x.abc").string(), "abc");
     FAIL();
   } catch (const InvalidInput& e) {
     EXPECT_EQ(e.field(), "format");
@@ -139,12 +130,6 @@ namespace {
 std::string slurp(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
-fs::path write_file(const std::string& name, const std::string& bytes) {
-  const fs::path path = temp_dir() / name;
-  std::ofstream(path, std::ios::binary) << bytes;
-  return path;
 }
 
 void expect_file_order(const SurfaceMesh& m, const std::string& format) {
@@ -161,16 +146,16 @@ void expect_file_order(const SurfaceMesh& m, const std::string& format) {
 // Per-vertex arrays are given in the file's vertex order: the loader must return exactly the
 // file's vertices in that order, duplicates included, not the order the faces meet them.
 TEST(MeshImport, KeepsTheFilesVertexOrderAndDuplicates) {
-  expect_file_order(load_mesh(write_file("order.obj", obj_text()).string()), "obj");
-  expect_file_order(load_mesh(write_file("order.off", off_text()).string()), "off");
-  expect_file_order(load_mesh(write_file("order.ply", ply_ascii()).string()), "ascii ply");
-  expect_file_order(load_mesh(write_file("order_b.ply", ply_binary()).string()), "binary ply");
+  expect_file_order(load_mesh(write_temp_file("order.obj", obj_text()).string()), "obj");
+  expect_file_order(load_mesh(write_temp_file("order.off", off_text()).string()), "off");
+  expect_file_order(load_mesh(write_temp_file("order.ply", ply_ascii()).string()), "ascii ply");
+  expect_file_order(load_mesh(write_temp_file("order_b.ply", ply_binary()).string()), "binary ply");
 }
 
 // Polygons become triangles of the file's vertex ids (no vertex added or renumbered), turning as
 // the polygon does (this one clockwise seen from +z).
 TEST(MeshImport, PolygonsAreTriangulatedWithFileIds) {
-  const SurfaceMesh m = load_mesh(write_file("quad.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 9 9 9\nf 4 3 2 1\n").string());
+  const SurfaceMesh m = load_mesh(write_temp_file("quad.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 9 9 9\nf 4 3 2 1\n").string());
   ASSERT_EQ(m.vertices.rows(), 5);
   ASSERT_EQ(m.faces.rows(), 2);
   double area = 0;
@@ -189,7 +174,7 @@ TEST(MeshImport, ObjVertexLinesNeedThreeFiniteCoordinates) {
   for (const auto& [line, says] : std::vector<std::pair<std::string, std::string>>{
            {"v 0 0.1 nan", "has \"nan\""}, {"v 0 inf 0", "has \"inf\""}, {"v 0 0.1 x", "has \"x\""}, {"v 0 0.1", "has fewer"}}) {
     try {
-      load_mesh(write_file("nan.obj", "# a comment\nv 0 0 0\n" + line + "\nv 0 1 0\n" + tail).string(), "upload");
+      load_mesh(write_temp_file("nan.obj", "# a comment\nv 0 0 0\n" + line + "\nv 0 1 0\n" + tail).string(), "upload");
       ADD_FAILURE() << line << ": accepted";
     } catch (const InvalidInput& e) {
       const std::string m = e.what();
@@ -197,7 +182,7 @@ TEST(MeshImport, ObjVertexLinesNeedThreeFiniteCoordinates) {
       EXPECT_NE(m.find("line 3: vertex 1 (counted from 0) needs three finite coordinates, " + says), std::string::npos) << m;
     }
   }
-  const SurfaceMesh m = load_mesh(write_file("w.obj", "v 0 0 0 1\nv 0 1e-1 0 0.5 0.5 0.5\nv 0 1 1\n" + tail).string());
+  const SurfaceMesh m = load_mesh(write_temp_file("w.obj", "v 0 0 0 1\nv 0 1e-1 0 0.5 0.5 0.5\nv 0 1 1\n" + tail).string());
   EXPECT_EQ(m.vertices.rows(), 4);
   EXPECT_EQ(m.vertices(1, 1), 0.1);
 }
@@ -214,7 +199,7 @@ TEST(MeshImport, TrianglesOfEachFileFaceFollowInTheFilesOrder) {
       "v 20 0 0\nv 25 0 0\nv 25 7 0\nv 20 7 0\n"       // rectangle, area 35
       "v 30 0 0\nv 31 0 0\nv 30 1 0\n"                 // right triangle, area 0.5
       "f 1 2 3 4 5\nf 6 7 8\nf 9 10 11 12\nf 13 14 15\n";
-  const SurfaceMesh m = load_mesh(write_file("mixed.obj", obj).string());
+  const SurfaceMesh m = load_mesh(write_temp_file("mixed.obj", obj).string());
   const std::vector<int> corners = {5, 3, 4, 3};
   ASSERT_EQ(m.faces.rows(), 3 + 1 + 2 + 1);
   const auto shoelace = [&](const std::vector<int>& ids) {
@@ -245,14 +230,14 @@ TEST(MeshImport, TrianglesOfEachFileFaceFollowInTheFilesOrder) {
 // named as the user's face: triangle 3 is face 2's (the quad's) second; a triangle file has none.
 TEST(MeshImport, TrianglesAreNamedByTheFilesFaces) {
   const std::string v = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv -1 0.5 0\n";
-  const SurfaceMesh m = load_mesh(write_file("names.obj", v + "f 1 2 3 4 5\nf 1 2 3\nf 1 1 2 3 4\n").string());
+  const SurfaceMesh m = load_mesh(write_temp_file("names.obj", v + "f 1 2 3 4 5\nf 1 2 3\nf 1 1 2 3 4\n").string());
   EXPECT_EQ(m.polygon_corners, (std::vector<int>{5, 3, 4}));
   const std::vector<std::string> names = {"face 0 (triangle 0 of its 5-corner polygon)", "face 0 (triangle 1 of its 5-corner polygon)",
                                           "face 0 (triangle 2 of its 5-corner polygon)", "face 1",
                                           "face 2 (triangle 0 of its 4-corner polygon)", "face 2 (triangle 1 of its 4-corner polygon)"};
   ASSERT_EQ(m.faces.rows(), static_cast<Eigen::Index>(names.size()));
   for (Eigen::Index t = 0; t < m.faces.rows(); ++t) EXPECT_EQ(file_face_name(m, t), names[static_cast<std::size_t>(t)]);
-  EXPECT_TRUE(load_mesh(write_file("tri.obj", v + "f 1 2 3\nf 1 3 4\n").string()).polygon_corners.empty());
+  EXPECT_TRUE(load_mesh(write_temp_file("tri.obj", v + "f 1 2 3\nf 1 3 4\n").string()).polygon_corners.empty());
   SurfaceMesh stale = m;
   stale.polygon_corners = {4};  // counts that do not cover the faces are no numbering
   EXPECT_EQ(file_face_name(stale, 4), "face 4");
@@ -264,13 +249,13 @@ TEST(MeshImport, TrianglesAreNamedByTheFilesFaces) {
 // check (tests/mesh/test_polygon_faces.cpp has the other polygons that are no disk).
 TEST(MeshImport, RepeatedCornersAreDroppedAndPinchedPolygonsNamed) {
   const std::string v = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 2 0\nv 0 2 0\n";
-  SurfaceMesh m = load_mesh(write_file("dup.obj", v + "f 1 2 3\nf 1 2 2 3 4 1\n").string());
+  SurfaceMesh m = load_mesh(write_temp_file("dup.obj", v + "f 1 2 3\nf 1 2 2 3 4 1\n").string());
   ASSERT_EQ(m.faces.rows(), 1 + 2);  // the quad (1 2 3 0): corners 0 and 2 repeat their predecessors
   EXPECT_EQ(m.polygon_corners, (std::vector<int>{3, 4}));
   for (Eigen::Index t = 1; t < 3; ++t)
     for (int k = 0; k < 3; ++k) EXPECT_LT(m.faces(t, k), 4);
   try {
-    load_mesh(write_file("pinch.obj", v + "f 1 2 3\nf 1 2 3 5 6 3\n").string(), "upload");
+    load_mesh(write_temp_file("pinch.obj", v + "f 1 2 3\nf 1 2 3 5 6 3\n").string(), "upload");
     FAIL() << "a pinched polygon was accepted";
   } catch (const InvalidInput& e) {
     EXPECT_EQ(e.field(), "upload");
@@ -282,7 +267,7 @@ TEST(MeshImport, RepeatedCornersAreDroppedAndPinchedPolygonsNamed) {
 TEST(MeshImport, IndexedRoundTripKeepsOrder) {
   const SurfaceMesh sphere = icosphere(0.25, 2);
   for (const std::string format : {"ply", "glb"}) {
-    const fs::path path = temp_dir() / ("order." + format);
+    const fs::path path = process_temp_dir() / ("order." + format);
     save_mesh(sphere, path.string(), format);
     const SurfaceMesh back = load_mesh(path.string());
     ASSERT_EQ(back.vertices.rows(), sphere.vertices.rows()) << format;
@@ -294,7 +279,7 @@ TEST(MeshImport, IndexedRoundTripKeepsOrder) {
 // STL has no vertex list: its vertices are the distinct corner positions in order of first
 // appearance, facet by facet (the contract in surface.hpp), read here from the bytes directly.
 TEST(MeshImport, StlVerticesAreCornersInOrderOfFirstAppearance) {
-  const fs::path path = temp_dir() / "box.stl";
+  const fs::path path = process_temp_dir() / "box.stl";
   save_mesh(box(Vec3(0.1, 0.2, 0.3)), path.string(), "stl");
   const std::string bytes = slurp(path);
   std::vector<std::array<float, 3>> first;
@@ -333,7 +318,7 @@ TEST(MeshImport, ColladaAppliesItsUnitNotItsUpAxis) {
   <library_visual_scenes><visual_scene id="s"><node id="n"><instance_geometry url="#g"/></node></visual_scene></library_visual_scenes>
   <scene><instance_visual_scene url="#s"/></scene>
 </COLLADA>)";
-  const SurfaceMesh m = load_mesh(write_file("tet.dae", dae).string());
+  const SurfaceMesh m = load_mesh(write_temp_file("tet.dae", dae).string());
   ASSERT_EQ(m.faces.rows(), 4);
   // assimp may repeat a vertex per face corner; the distinct positions, in order of first use, are the file's.
   std::vector<Vec3> seen;
@@ -346,7 +331,7 @@ TEST(MeshImport, ColladaAppliesItsUnitNotItsUpAxis) {
   const std::vector<Vec3> expected = {{0, 0, 0}, {0, 0.2, 0}, {0.1, 0, 0}, {0, 0, 0.3}};  // first use: 0 2 1, then 3
   // assimp holds coordinates as floats: equal to float rounding (2^-24 relative).
   for (std::size_t i = 0; i < 4; ++i) EXPECT_LE((seen[i] - expected[i]).norm(), 6e-8 * expected[i].norm()) << i;
-  EXPECT_THROW(load_mesh(write_file("broken.dae", "<COLLADA><library_geometries>").string()), InvalidInput);
+  EXPECT_THROW(load_mesh(write_temp_file("broken.dae", "<COLLADA><library_geometries>").string()), InvalidInput);
 }
 
 TEST(MeshImport, HostileFilesAreRefusedWithoutExhaustion) {
@@ -354,14 +339,14 @@ TEST(MeshImport, HostileFilesAreRefusedWithoutExhaustion) {
   ::getrusage(RUSAGE_SELF, &before);
   int i = 0;
   for (const auto& [format, bytes] : hostile_meshes()) {
-    const fs::path path = write_file("hostile" + std::to_string(i++) + "." + format, bytes);
+    const fs::path path = write_temp_file("hostile" + std::to_string(i++) + "." + format, bytes);
     try {
       const SurfaceMesh m = load_mesh(path.string(), "upload");
       ADD_FAILURE() << "accepted hostile file " << i - 1 << " (" << format << ", " << m.vertices.rows() << " vertices)";
     } catch (const InvalidInput& e) {
       std::printf("hostile %d (%s): %s\n", i - 1, format.c_str(), e.what());
       EXPECT_EQ(e.field(), "upload") << e.what();
-      EXPECT_EQ(std::string(e.what()).find(temp_dir().string()), std::string::npos) << "message reveals the path: " << e.what();
+      EXPECT_EQ(std::string(e.what()).find(process_temp_dir().path()), std::string::npos) << "message reveals the path: " << e.what();
     }
   }
   rusage after{};
@@ -373,7 +358,7 @@ TEST(MeshImport, HostileFilesAreRefusedWithoutExhaustion) {
 TEST(MeshImport, NonFiniteCoordinatesAreNamed) {
   const auto files = hostile_meshes();
   for (std::size_t k = files.size() - 2; k < files.size(); ++k) {
-    const fs::path path = write_file("nonfinite" + std::to_string(k) + "." + files[k].first, files[k].second);
+    const fs::path path = write_temp_file("nonfinite" + std::to_string(k) + "." + files[k].first, files[k].second);
     try {
       load_mesh(path.string(), "upload");
       ADD_FAILURE() << files[k].first;

@@ -7,33 +7,24 @@
 #include <unistd.h>
 
 #include <cstdint>
-#include <filesystem>
-#include <fstream>
 #include <limits>
 #include <string>
 
 #include "distlab/geometry/error.hpp"
 #include "distlab/mesh/isolated_import.hpp"
+#include "temp_dir.hpp"
 
-namespace fs = std::filesystem;
 using namespace distlab;
 using namespace distlab::mesh;
+using distlab::test::process_temp_dir;
 
 namespace {
 
-fs::path temp_dir() {
-  fs::path dir = fs::temp_directory_path() / ("distlab_isolated_test_" + std::to_string(::getpid()));
-  fs::create_directories(dir);
-  return dir;
-}
-
 // A stand-in child: a shell script (args: path memory seconds are ignored).
 std::string child(const std::string& name, const std::string& body) {
-  const fs::path path = temp_dir() / name;
-  std::ofstream(path) << "#!/bin/sh\n"
-                      << body << "\n";
+  const std::string path = process_temp_dir().write(name, "#!/bin/sh\n" + body + "\n");
   ::chmod(path.c_str(), 0755);
-  return path.string();
+  return path;
 }
 
 // The mesh protocol with nv vertices (all coordinates x), one face (a, b, c) and the polygon
@@ -51,20 +42,18 @@ std::string payload(std::uint64_t nv, double x, std::int32_t a, std::int32_t b, 
 }
 
 std::string cat_child(const std::string& name, const std::string& bytes) {
-  const fs::path data = temp_dir() / (name + ".bin");
-  std::ofstream(data, std::ios::binary) << bytes;
-  return child(name, "cat '" + data.string() + "'");
+  return child(name, "cat '" + process_temp_dir().write(name + ".bin", bytes) + "'");
 }
 
 std::string refusal(const std::string& exe, double seconds = 5) {
-  const std::string secret = (temp_dir() / "upload-secret.off").string();
+  const std::string secret = (process_temp_dir() / "upload-secret.off").string();
   try {
     load_mesh_isolated(secret, "body", "the uploaded off file", {std::size_t{64} << 20, seconds}, exe);
   } catch (const InvalidInput& e) {
     EXPECT_EQ(e.field(), "body");
     const std::string what = e.what();
     EXPECT_EQ(what.find("upload-secret"), std::string::npos) << what;
-    EXPECT_EQ(what.find(temp_dir().string()), std::string::npos) << what;
+    EXPECT_EQ(what.find(process_temp_dir().path()), std::string::npos) << what;
     EXPECT_NE(what.find("the uploaded off file"), std::string::npos) << what;
     return what;
   }

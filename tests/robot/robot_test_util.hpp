@@ -22,6 +22,7 @@
 
 #include "distlab/geometry/error.hpp"
 #include "distlab/robot/robot.hpp"
+#include "temp_dir.hpp"
 
 namespace distlab::robot::test {
 
@@ -92,32 +93,7 @@ inline Refusal refusal(const std::function<void()>& f) {
   return {"accepted", ""};
 }
 
-// A fresh folder below the system's temporary one, removed with everything in it.
-class TempDir {
- public:
-  TempDir() {
-    std::string pattern = (std::filesystem::temp_directory_path() / "distlab-robot-XXXXXX").string();
-    if (::mkdtemp(pattern.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
-    path_ = pattern;
-  }
-  ~TempDir() {
-    std::error_code ec;
-    std::filesystem::remove_all(path_, ec);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-  const std::string& path() const { return path_; }
-  // Writes `text` to path()/relative (folders created) and returns the full path.
-  std::string write(const std::string& relative, const std::string& text) const {
-    const std::filesystem::path p = std::filesystem::path(path_) / relative;
-    std::filesystem::create_directories(p.parent_path());
-    std::ofstream(p, std::ios::binary) << text;
-    return p.string();
-  }
-
- private:
-  std::string path_;
-};
+using distlab::test::TempDir;
 
 // A polygon mesh as the files below write it: vertices and faces (counter-clockwise from outside).
 struct PolyMesh {

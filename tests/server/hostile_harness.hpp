@@ -295,13 +295,11 @@ class Runner {
  public:
   // extra: server options; setup(ctx): creates the sessions and objects the cases refer to.
   Runner(std::vector<std::string> extra, std::function<void(Ctx&, ServerProcess&)> setup)
-      : extra_(std::move(extra)), setup_(std::move(setup)), cache_(temp_dir("distlab-hostile-cache")) {
+      : extra_(std::move(extra)), setup_(std::move(setup)), cache_("distlab-hostile-cache") {
     start();
   }
   ~Runner() {
     if (server_) server_->stop();
-    std::error_code ec;
-    fs::remove_all(cache_, ec);
   }
 
   ServerProcess& server() { return *server_; }
@@ -452,7 +450,7 @@ class Runner {
       asan += std::string(asan.empty() ? "" : ":") + "hard_rss_limit_mb=4096:max_allocation_size_mb=3072";
     ::setenv("ASAN_OPTIONS", asan.c_str(), 1);
 #endif
-    server_ = std::make_unique<ServerProcess>(extra_, cache_);
+    server_ = std::make_unique<ServerProcess>(extra_, cache_.path());
     rlimit core{0, 0};
     ::prlimit(server_->pid(), RLIMIT_CORE, &core, nullptr);
 #if !defined(DISTLAB_SERVER_ASAN)
@@ -466,7 +464,7 @@ class Runner {
 
   std::vector<std::string> extra_;
   std::function<void(Ctx&, ServerProcess&)> setup_;
-  std::string cache_;
+  TempDir cache_;
   std::unique_ptr<ServerProcess> server_;
   Ctx ctx_;
   Tally tally_;

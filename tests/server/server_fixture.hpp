@@ -20,6 +20,7 @@
 #include <fstream>
 #include <functional>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <random>
 #include <string>
 #include <thread>
@@ -27,17 +28,12 @@
 
 #include <gtest/gtest.h>
 
+#include "temp_dir.hpp"
+
 namespace distlab::test {
 
 using json = nlohmann::json;
 namespace fs = std::filesystem;
-
-inline std::string temp_dir(const std::string& prefix) {
-  std::random_device rd;
-  const fs::path p = fs::temp_directory_path() / (prefix + "-" + std::to_string(rd()) + std::to_string(::getpid()));
-  fs::create_directories(p);
-  return p.string();
-}
 
 class ServerProcess {
  public:
@@ -47,21 +43,16 @@ class ServerProcess {
   explicit ServerProcess(std::vector<std::string> extra = {}, std::string cache_dir = "", rlim_t max_open_files = 0)
       : max_open_files_(max_open_files) {
     ::signal(SIGPIPE, SIG_IGN);  // a server closing on a refused upload must not kill the test
-    cache_dir_ = cache_dir.empty() ? temp_dir("distlab-test-cache") : cache_dir;
-    own_cache_ = cache_dir.empty();
-    web_dir_ = temp_dir("distlab-test-web");
-    std::ofstream(fs::path(web_dir_) / "index.html") << "<!doctype html><title>distlab test</title>\n";
-    fs::create_directories(fs::path(web_dir_) / "js");
-    std::ofstream(fs::path(web_dir_) / "js" / "app.js") << "console.log('distlab');\n";
-    std::ofstream(fs::path(web_dir_).parent_path() / (fs::path(web_dir_).filename().string() + "-secret.txt")) << "secret\n";
+    cache_dir_ = cache_dir.empty() ? own_cache_.emplace("distlab-test-cache").path() : cache_dir;
+    web_root_.write("web/index.html", "<!doctype html><title>distlab test</title>\n");
+    web_root_.write("web/js/app.js", "console.log('distlab');\n");
+    web_root_.write("web-secret.txt", "secret\n");  // beside the web folder: never served
+    web_dir_ = (web_root_ / "web").string();
     start(std::move(extra));
   }
+  // The server stops before the members remove its folders.
   ~ServerProcess() {
     if (pid_ > 0) stop();
-    std::error_code ec;
-    fs::remove_all(web_dir_, ec);
-    fs::remove(fs::path(web_dir_).parent_path() / (fs::path(web_dir_).filename().string() + "-secret.txt"), ec);
-    if (own_cache_) fs::remove_all(cache_dir_, ec);
   }
   ServerProcess(const ServerProcess&) = delete;
   ServerProcess& operator=(const ServerProcess&) = delete;
@@ -149,8 +140,9 @@ class ServerProcess {
   pid_t pid_ = -1;
   FILE* out_ = nullptr;
   int port_ = 0;
+  std::optional<TempDir> own_cache_;  // when no cache folder is given
+  TempDir web_root_{"distlab-test-web"};
   std::string cache_dir_, web_dir_;
-  bool own_cache_ = true;
 };
 
 // One server per test suite: started before its first test, stopped after its last, which must

@@ -53,8 +53,9 @@ TEST_F(Api, OpenApiDocumentsEveryRouteAndNothingElse) {
   EXPECT_EQ(doc["openapi"], "3.1.0");
   const json& paths = doc["paths"];
   // The routes the server really registers (the same Service the binary runs).
+  const TempDir cache("distlab-openapi");
   server::ServiceConfig cfg;
-  cfg.cache_dir = temp_dir("distlab-openapi");
+  cfg.cache_dir = cache.path();
   cfg.compute_threads = cfg.job_threads = 1;
   std::set<std::string> registered, documented;
   {
@@ -66,7 +67,6 @@ TEST_F(Api, OpenApiDocumentsEveryRouteAndNothingElse) {
       registered.insert(m + " " + route.pattern);
     }
   }
-  fs::remove_all(cfg.cache_dir);
   for (const auto& [path, ops] : paths.items())
     for (const auto& [method, op] : ops.items()) {
       documented.insert(method + " " + path);

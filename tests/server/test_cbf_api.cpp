@@ -93,17 +93,15 @@ std::string flag_text(const std::vector<std::string>& flags) {
 
 // `distlab cbf` on the same request.
 json run_cli(const json& request, const std::vector<std::string>& flags = {}) {
-  const std::string dir = temp_dir("distlab-cbf-cli");
-  const std::string in = dir + "/request.json", out = dir + "/record.json";
+  const TempDir dir("distlab-cbf-cli");
+  const std::string in = dir.path() + "/request.json", out = dir.path() + "/record.json";
   std::ofstream(in) << request.dump();
   const std::string cmd = "DISTLAB_ASSETS='" + std::string(DISTLAB_SOURCE_DIR) + "/assets' '" + DISTLAB_EXE +
                           "' cbf" + flag_text(flags) + " < '" + in + "' > '" + out + "'";
   const int rc = std::system(cmd.c_str());
   EXPECT_EQ(rc, 0) << cmd;
   std::ifstream f(out);
-  const json j = json::parse(f, nullptr, false);
-  fs::remove_all(dir);
-  return j;
+  return json::parse(f, nullptr, false);
 }
 
 TEST_F(CbfApi, ScenariosAndRobot) {

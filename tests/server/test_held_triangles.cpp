@@ -19,7 +19,8 @@ constexpr int kObjectTriangles = 5000;
 
 // The unit icosphere at level 5 as a binary STL (three file vertices per triangle).
 std::string sphere_stl() {
-  const std::string path = temp_dir("held") + "/sphere.stl";
+  const TempDir dir("distlab-held");
+  const std::string path = (dir / "sphere.stl").string();
   mesh::save_mesh(mesh::icosphere(1.0, 5), path, "stl");
   std::ifstream f(path, std::ios::binary);
   return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};

@@ -168,7 +168,8 @@ std::string forged(const std::string& file) {
 }
 
 TEST(HostileCache, CorruptedOrForgedCacheFilesAreRebuilt) {
-  const std::string cache = temp_dir("distlab-hostile-cachefiles");
+  const TempDir cache_dir("distlab-hostile-cachefiles");
+  const std::string& cache = cache_dir.path();
   const json points = {{1.2, 0.1, 0.0}, {0.3, 0.9, -0.4}, {0.0, 0.0, 1.5}};
   json truth;
   {
@@ -252,7 +253,6 @@ TEST(HostileCache, CorruptedOrForgedCacheFilesAreRebuilt) {
     EXPECT_EQ(server.stop(), 0) << name;
   }
   std::printf("\n=== hostile cache files: %zu cases, %zu failures ===\n", cases, failures);
-  fs::remove_all(cache);
 }
 
 // ---------------------------------------------------------------------------------------------

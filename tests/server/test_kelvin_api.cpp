@@ -882,12 +882,12 @@ TEST(ResponseBudget, SharesHoldTheirBytesUntilDestroyed) {
 }
 
 TEST(KelvinRestart, ReloadsPreparedObjectFromCache) {
-  const std::string cache = temp_dir("distlab-test-restart");
+  const TempDir cache("distlab-test-restart");
   json first_stats;
   const json pts = {{1.0, 0.2, 0}, {0.3, 0.9, -0.4}};
   json h1;
   {
-    ServerProcess server({}, cache);
+    ServerProcess server({}, cache.path());
     auto c = server.client();
     const std::string s = new_session(c);
     WsClient ws(server.port(), s);
@@ -899,7 +899,7 @@ TEST(KelvinRestart, ReloadsPreparedObjectFromCache) {
     EXPECT_EQ(server.stop(), 0);
   }
   {
-    ServerProcess server({}, cache);
+    ServerProcess server({}, cache.path());
     auto c = server.client();
     const std::string s = new_session(c);
     WsClient ws(server.port(), s);
@@ -912,7 +912,6 @@ TEST(KelvinRestart, ReloadsPreparedObjectFromCache) {
     EXPECT_EQ(query(c, s, id, pts)["h"], h1);
     EXPECT_EQ(server.stop(), 0);
   }
-  fs::remove_all(cache);
 }
 
 }  // namespace

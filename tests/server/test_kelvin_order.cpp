@@ -234,8 +234,8 @@ TEST_F(KelvinOrder, UploadedObjSigmaPerVertexInFileOrder) {
 // `distlab kelvin` with the OBJ file. Needs mesh::load_mesh's file-order reader too.
 TEST(KelvinOrderCli, ObjFileSigmaPerVertexInFileOrder) {
   const mesh::SurfaceMesh m = shuffled_sphere();
-  const std::string dir = temp_dir("distlab-kelvin-order");
-  const std::string obj = dir + "/sphere.obj", in = dir + "/request.json", out = dir + "/response.json";
+  const TempDir dir("distlab-kelvin-order");
+  const std::string obj = dir.path() + "/sphere.obj", in = dir.path() + "/request.json", out = dir.path() + "/response.json";
   std::ofstream(obj) << mesh_obj_text(m);
   const json points = shell_points();
   std::ofstream(in) << json{{"mesh", {{"path", obj}}}, {"lx", kLx}, {"center", kCenter}, {"sigma", sigma_per_vertex(m)}, {"query", points}}.dump();
@@ -243,7 +243,6 @@ TEST(KelvinOrderCli, ObjFileSigmaPerVertexInFileOrder) {
   EXPECT_EQ(std::system(cmd.c_str()), 0) << cmd;
   std::ifstream f(out);
   const json response = json::parse(f, nullptr, false);
-  fs::remove_all(dir);
   ASSERT_TRUE(response.contains("query")) << response.dump();
   EXPECT_EQ(response["mesh"]["n_vertices"], m.vertices.rows());
   const double rms = rms_error(points, response["query"]["h"]);

@@ -22,7 +22,7 @@
 // third, so the first strokes are the slowest and make the p95 (per_stroke_median_ms,
 // shells_before/after show it). It is not a warm-up: with σ reset before each stroke, every stroke
 // measured as slow as the first.
-import { mkdtempSync, writeFileSync } from "node:fs";
+import { mkdtempSync, rmSync, writeFileSync } from "node:fs";
 import { tmpdir } from "node:os";
 import path from "node:path";
 import { launchBrowser, openView, startServer } from "./harness.mjs";
@@ -159,6 +159,7 @@ try {
 } finally {
   await browser.close();
   await server.stop();
+  rmSync(work, { recursive: true, force: true });
 }
 
 async function orbitLarge() {

@@ -18,8 +18,9 @@ export const decodeMsgpack = require("@msgpack/msgpack").decode;
 export const artifacts = process.env.DISTLAB_ARTIFACTS ?? path.join(source, "build", "web-artifacts");
 mkdirSync(artifacts, { recursive: true });
 
-/** Starts `distlab serve --port 0` and resolves once it prints the port it listens on. */
-export async function startServer({ extra = [], cacheDir, port: wanted = 0 } = {}) {
+/** Starts `distlab serve --port 0` and resolves once it prints the port it listens on. stop()
+ *  removes the cache directory if this made it, or if removeCache (a restart taking it over). */
+export async function startServer({ extra = [], cacheDir, port: wanted = 0, removeCache = !cacheDir } = {}) {
   const exe = process.env.DISTLAB_EXE ?? path.join(source, "build", "backend", "app", "distlab");
   const web = process.env.DISTLAB_WEB_DIST ?? path.join(source, "web", "dist"); // another front-end build (A/B)
   if (!existsSync(path.join(web, "index.html"))) throw new Error(`no front-end build at ${web} (run npm run build in web/)`);
@@ -51,9 +52,16 @@ export async function startServer({ extra = [], cacheDir, port: wanted = 0 } = {
         proc.kill("SIGTERM");
         await new Promise((r) => proc.once("exit", r));
       }
-      if (!cacheDir && !keepCache) rmSync(cache, { recursive: true, force: true });
+      if (removeCache && !keepCache) rmSync(cache, { recursive: true, force: true });
     },
   };
+}
+
+/** A fresh directory under the system's temporary one, removed after the test `t` whatever its outcome. */
+export function tempDir(t, prefix) {
+  const dir = mkdtempSync(path.join(tmpdir(), prefix));
+  t.after(() => rmSync(dir, { recursive: true, force: true }));
+  return dir;
 }
 
 export async function launchBrowser() {

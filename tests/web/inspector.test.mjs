@@ -4,7 +4,7 @@
 // and one view's notifications stay in that view.
 import { test } from "node:test";
 import assert from "node:assert/strict";
-import { openView, screenshot, serverAndBrowser } from "./harness.mjs";
+import { openView, screenshot, serverAndBrowser, tempDir } from "./harness.mjs";
 
 const env = serverAndBrowser();
 
@@ -136,12 +136,11 @@ async function page_kelvin(body) {
   }
 }
 
-test("a shared link's PNG from the documented command (web/scripts/snapshot.mjs), as the page's button makes it", async () => {
+test("a shared link's PNG from the documented command (web/scripts/snapshot.mjs), as the page's button makes it", async (t) => {
   const { execFile } = await import("node:child_process");
-  const { mkdtempSync, readFileSync } = await import("node:fs");
-  const { tmpdir } = await import("node:os");
+  const { readFileSync } = await import("node:fs");
   const path = await import("node:path");
-  const out = path.join(mkdtempSync(path.join(tmpdir(), "distlab-snap-")), "gap.png");
+  const out = path.join(tempDir(t, "distlab-snap-"), "gap.png");
   const script = path.resolve(import.meta.dirname, "../../web/scripts/snapshot.mjs");
   const url = `${env.server.url}#/gap?s=${encodeURIComponent(JSON.stringify({ params: { h: 0.1, k: 2, eps: 0.02 } }))}`;
   const stdout = await new Promise((resolve, reject) =>

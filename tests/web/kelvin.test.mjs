@@ -297,7 +297,7 @@ test("after a server restart the page re-creates its object (from the server's c
   const port = env.server.port;
   await env.server.stop({ keepCache: true });
   await page.waitForFunction(() => document.getElementById("connection")?.textContent?.startsWith("offline"), null, { timeout: 15000 });
-  env.server = await startServer({ cacheDir: env.server.cacheDir, port });
+  env.server = await startServer({ cacheDir: env.server.cacheDir, port, removeCache: true });
   await page.waitForFunction((id) => window.distlab.kelvin.objectId && window.distlab.kelvin.objectId !== id && window.distlab.kelvin.ready, id, { timeout: 120000 });
   const o = await K(page, "k.object");
   assert.equal(o.stats.cache_hit, true, "prepared object reloaded from the cache");

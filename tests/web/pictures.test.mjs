@@ -5,11 +5,10 @@
 import { test } from "node:test";
 import assert from "node:assert/strict";
 import { createRequire } from "node:module";
-import { readFileSync, writeFileSync, mkdtempSync } from "node:fs";
-import { tmpdir } from "node:os";
+import { readFileSync, writeFileSync } from "node:fs";
 import path from "node:path";
 import { pathToFileURL } from "node:url";
-import { PAINTING_WINDOW, kelvinStroke, openView, screenStroke, screenshot, serverAndBrowser } from "./harness.mjs";
+import { PAINTING_WINDOW, kelvinStroke, openView, screenStroke, screenshot, serverAndBrowser, tempDir } from "./harness.mjs";
 
 const env = serverAndBrowser();
 const source = process.env.DISTLAB_SOURCE_DIR ?? path.resolve(import.meta.dirname, "../..");
@@ -247,12 +246,12 @@ test("Kelvin: the brush paints through translucent iso-shells (and does not orbi
   }
 });
 
-test("Kelvin: a link with 200 σ strokes stays within 8 KB; σ saves to and loads from a case-format file that restores it exactly (the same iso-surface)", async () => {
+test("Kelvin: a link with 200 σ strokes stays within 8 KB; σ saves to and loads from a case-format file that restores it exactly (the same iso-surface)", async (t) => {
   // Strokes that do not overlap (a brush of 3 cm + 1 cm on a grid of 10 × 20 strokes on the top
   // face), so that no stamp is skipped for changing nothing: the link holds every stroke's stamps.
   const brush = { on: true, value: 1, radius: 0.03, falloff: 0.01 };
   const page = await openView(env.browser, env.server, hash("kelvin", { object: "cube", lx: 0.1, levels: [0.25], base: -0.5, brush }), PAINTING_WINDOW);
-  const downloads = mkdtempSync(path.join(tmpdir(), "distlab-sigma-"));
+  const downloads = tempDir(t, "distlab-sigma-");
   try {
     await waitReady(page);
     const lengths = {};

@@ -85,7 +85,7 @@ test("the page reconnects after the server restarts on the same port", async () 
   const port = env.server.port;
   await env.server.stop({ keepCache: true });
   await page.waitForFunction(() => document.getElementById("connection")?.textContent?.startsWith("offline"), null, { timeout: 60000 });
-  env.server = await startServer({ cacheDir: env.server.cacheDir, port });
+  env.server = await startServer({ cacheDir: env.server.cacheDir, port, removeCache: true });
   // A restart on another port cannot be followed by the page; the test restarts on the same one.
   await page.waitForFunction(() => document.getElementById("connection")?.textContent === "connected", null, { timeout: 120000 });
 });
