@@ -15,7 +15,7 @@
 
 #include "distlab/geometry/error.hpp"
 #include "distlab/mesh/surface.hpp"
-#include "mesh/temp_files.hpp"
+#include "temp_dir.hpp"
 
 namespace fs = std::filesystem;
 using namespace distlab;
