@@ -77,6 +77,15 @@ class SerialOpenMP {
   int saved_ = 1;
 };
 
+// CHOLMOD's arrays on huge pages like ours (huge_pages.hpp), in the Python module too, whose
+// heap is not (the executables' is: app's huge_page_heap.hpp): above all the factor's values,
+// which the solves then stream in place (take_values). Set once before main, while nothing
+// allocates through it; std::free still releases every block.
+[[maybe_unused]] const bool kCholmodOnHugePages = [] {
+  SuiteSparse_config.malloc_func = &HugePageAllocator<double>::huge_page_malloc;
+  return true;
+}();
+
 // Below this many unknowns the factor is ordered by AMD, above by nested dissection (METIS).
 // METIS's analysis costs 4–7 µs per unknown against AMD's 0.7 µs, which dominates small
 // factorizations. CPU times on a 14-neighbour tetrahedral grid Laplacian, analysis + factor:
@@ -116,9 +125,8 @@ struct CholmodSolver::Impl {
   int solve_threads = std::thread::hardware_concurrency() >= 2 ? 2 : 1;
   mutable double read_fraction = 1;
   double entries_read = 0;  // per pass (supernodal_solve.hpp)
-  // The supernodal factor's values in the solve's order (take_values). CHOLMOD's own copy stays
-  // until release_cholmod_values(), and is rebuilt from them while a caller needs CHOLMOD's layout
-  // again (with_cholmod_values).
+  // The supernodal factor's values in the solve's order (take_values, in CHOLMOD's own array). A
+  // caller that needs CHOLMOD's layout again has a copy rebuilt from them (with_cholmod_values).
   SolveValues values;
   mutable std::mutex cholmod_values;
   mutable std::atomic<bool> cholmod_copy{false};  // factor->x is there (read without the lock)
@@ -138,11 +146,15 @@ struct CholmodSolver::Impl {
     entries_read = 0;
     cholmod_copy = false;
   }
-  // After a factorization or a load: the values in the solve's order and the solve plan.
+  // After a factorization: the values in the solve's order, packed into CHOLMOD's array (which
+  // they take over), and the solve plan. A simplicial factor keeps CHOLMOD's values.
   void take_values() {
     cholmod_copy = factor->x != nullptr;
-    if (!supernodal()) return;
-    values = pack_values(view(), static_cast<const double*>(factor->x));
+    if (!supernodal() || factor->x == nullptr) return;
+    auto* taken = static_cast<double*>(factor->x);
+    factor->x = nullptr;  // the values' now (freed with them, or by pack_in_place if it throws)
+    cholmod_copy = false;
+    values = pack_in_place(view(), taken);
     take_plan();
   }
   void take_plan() {
@@ -403,7 +415,17 @@ void CholmodSolver::save(std::ostream& out) const {
   put(out, static_cast<const int*>(f->pi), f->nsuper + 1);
   put(out, static_cast<const int*>(f->px), f->nsuper + 1);
   put(out, static_cast<const int*>(f->s), f->ssize);
-  impl_->with_cholmod_values(false, [&] { put(out, static_cast<const double*>(f->x), f->xsize); });
+  // CHOLMOD's layout, one supernode at a time (no second array of the factor's size).
+  const SupernodalFactor view = impl_->view();
+  const int* px = static_cast<const int*>(f->px);
+  std::vector<double> block;
+  for (int k = 0; k < view.nsuper; ++k) {
+    block.resize(static_cast<size_t>(px[k + 1] - px[k]));
+    unpack_supernode(view, k, block.data());
+    put(out, block.data(), block.size());
+  }
+  const std::vector<double> tail(f->xsize - static_cast<size_t>(px[view.nsuper]), 0.0);
+  put(out, tail.data(), tail.size());
 }
 
 std::uint64_t CholmodSolver::saved_bytes() const {
@@ -470,7 +492,7 @@ bool CholmodSolver::load(std::istream& in) {
     for (std::uint64_t k = 0; k < nsuper; ++k) {
       block.resize(static_cast<std::size_t>(px[k + 1] - px[k]));
       if (!get(in, block.data(), block.size())) return false;
-      pack_supernode(impl_->view(), static_cast<int>(k), block.data(), impl_->values);
+      pack_supernode(impl_->view(), static_cast<int>(k), block.data(), impl_->values.values.data() + impl_->values.start[k]);
     }
     if (!in.ignore(static_cast<std::streamsize>(sizeof(double) * (xsize - static_cast<std::uint64_t>(px[nsuper]))))) return false;
     impl_->take_plan();

@@ -25,8 +25,9 @@ class CholmodSolver {
   // (CHOLMOD reports nothing while it factors); none comes after this returns.
   void factorize(const Eigen::SparseMatrix<double>& lower, const std::function<void(double)>& done = {});
   // A supernodal factor's values are kept in the order solve() reads them (SolveValues, 0.62–0.66x
-  // the time of reading CHOLMOD's layout). CHOLMOD's own copy stays after factorize() until this
-  // frees it (load() keeps none); the calls that need it later rebuild it from the solve's copy.
+  // the time of reading CHOLMOD's layout), rewritten in CHOLMOD's own array: neither factorize()
+  // nor load() keeps CHOLMOD's layout. The calls that need it rebuild it from the solve's values;
+  // solve_cholmod() keeps that copy until this frees it.
   void release_cholmod_values();
   // Solves A x = b in place (b must have size n): forward and back substitution over the
   // supernodal factor, skipping in the forward pass every supernode whose part of the permuted

@@ -29,11 +29,18 @@ struct HugePageAllocator {
   T* allocate(std::size_t n) {
     const std::size_t bytes = n * sizeof(T);
     if (bytes < kHugePage) return static_cast<T*>(::operator new(bytes, std::align_val_t(alignof(T))));
+    void* p = huge_page_malloc(bytes);
+    if (!p) throw std::bad_alloc();
+    return static_cast<T*>(p);
+  }
+  // malloc with the same advice for blocks of 2 MB or more (std::free releases either); nullptr
+  // when out of memory. Also CHOLMOD's allocator (cholmod_solver.cpp).
+  static void* huge_page_malloc(std::size_t bytes) noexcept {
+    if (bytes < kHugePage) return std::malloc(bytes);
     const std::size_t rounded = (bytes + kHugePage - 1) / kHugePage * kHugePage;
     void* p = std::aligned_alloc(kHugePage, rounded);
-    if (!p) throw std::bad_alloc();
-    if (advise()) ::madvise(p, rounded, MADV_HUGEPAGE);  // advice only: failure leaves 4 KB pages
-    return static_cast<T*>(p);
+    if (p != nullptr && advise()) ::madvise(p, rounded, MADV_HUGEPAGE);  // advice only: failure leaves 4 KB pages
+    return p;
   }
   void deallocate(T* p, std::size_t n) noexcept {
     if (n * sizeof(T) < kHugePage)

@@ -1,7 +1,10 @@
 #include "supernodal_solve.hpp"
 
 #include <algorithm>
+#include <cstdlib>
 #include <cstring>
+#include <map>
+#include <new>
 #include <numeric>
 
 #include "distlab/geometry/parallel.hpp"
@@ -154,23 +157,32 @@ double entries_read(const SupernodalFactor& f) {
   return total;
 }
 
-SolveValues solve_layout(const SupernodalFactor& f) {
-  SolveValues out;
-  out.start.resize(static_cast<size_t>(f.nsuper) + 1);
+namespace {
+std::vector<long> layout_starts(const SupernodalFactor& f) {
+  std::vector<long> start(static_cast<size_t>(f.nsuper) + 1);
   long total = 0;
   for (int k = 0; k < f.nsuper; ++k) {
-    out.start[static_cast<size_t>(k)] = total;
+    start[static_cast<size_t>(k)] = total;
     const int ncol = f.super[k + 1] - f.super[k], nrow = f.pi[k + 1] - f.pi[k];
     for (int j0 = 0; j0 < ncol; j0 += kChunk) total += chunk_size(nrow, j0, std::min(kChunk, ncol - j0));
   }
-  out.start.back() = total;
-  out.values.resize(static_cast<size_t>(total));
+  start.back() = total;
+  return start;
+}
+}  // namespace
+
+SolveValues solve_layout(const SupernodalFactor& f) {
+  SolveValues out;
+  out.start = layout_starts(f);
+  const auto total = static_cast<size_t>(out.start.back());
+  auto* values = static_cast<double*>(HugePageAllocator<double>::huge_page_malloc(std::max<size_t>(total, 1) * sizeof(double)));
+  if (values == nullptr) throw std::bad_alloc();
+  out.values = ValueArray(values, total);
   return out;
 }
 
-void pack_supernode(const SupernodalFactor& f, int k, const double* block, SolveValues& out) {
+void pack_supernode(const SupernodalFactor& f, int k, const double* block, double* v) {
   const int ncol = f.super[k + 1] - f.super[k], nrow = f.pi[k + 1] - f.pi[k];
-  double* v = out.values.data() + out.start[static_cast<size_t>(k)];
   for (int j0 = 0; j0 < ncol; j0 += kChunk) {
     const int jb = std::min(kChunk, ncol - j0), r0 = j0 + jb;
     auto at = [&](int r, int q) { return block[static_cast<long>(j0 + q) * nrow + r]; };
@@ -181,31 +193,60 @@ void pack_supernode(const SupernodalFactor& f, int k, const double* block, Solve
   }
 }
 
-SolveValues pack_values(const SupernodalFactor& f, const double* x) {
-  SolveValues out = solve_layout(f);
-  parallel_for(static_cast<size_t>(f.nsuper), 0, [&](size_t k) { pack_supernode(f, static_cast<int>(k), x + f.px[k], out); });
+SolveValues pack_in_place(const SupernodalFactor& f, double* x) {
+  ValueArray held(x, static_cast<size_t>(f.px[f.nsuper]));
+  SolveValues out;
+  out.start = layout_starts(f);
+  const auto total = static_cast<size_t>(out.start.back());
+  // Many small supernodes can take more room in the solve's order than in CHOLMOD's (padded
+  // tiles), so the output may also run ahead of blocks not yet read: those are copied aside first.
+  if (total > held.size()) held.resize(total);
+  x = held.data();
+  std::map<int, std::vector<double>> aside;
+  std::vector<double> own;
+  int next = 1;  // every supernode in (k, next) that the output reached is aside
+  for (int k = 0; k < f.nsuper; ++k) {
+    const long begin = out.start[static_cast<size_t>(k)], end = out.start[static_cast<size_t>(k) + 1];
+    const double* block = x + f.px[k];
+    std::vector<double> kept;
+    if (auto it = aside.find(k); it != aside.end()) {
+      kept = std::move(it->second);
+      aside.erase(it);
+      block = kept.data();
+    }
+    for (next = std::max(next, k + 1); next < f.nsuper && f.px[next] < end; ++next)
+      aside.emplace(next, std::vector<double>(x + f.px[next], x + f.px[next + 1]));
+    if (block == x + f.px[k] && begin < f.px[k + 1] && f.px[k] < end) {  // the output overlaps its own block
+      own.assign(x + f.px[k], x + f.px[k + 1]);
+      block = own.data();
+    }
+    pack_supernode(f, k, block, x + begin);
+  }
+  held.resize(total);
+  out.values = std::move(held);
   return out;
 }
 
+void unpack_supernode(const SupernodalFactor& f, int k, double* block) {
+  const int ncol = f.super[k + 1] - f.super[k], nrow = f.pi[k + 1] - f.pi[k];
+  std::fill_n(block, static_cast<long>(ncol) * nrow, 0.0);
+  const double* v = f.values + f.start[k];
+  for (int j0 = 0; j0 < ncol; j0 += kChunk) {
+    const int jb = std::min(kChunk, ncol - j0), r0 = j0 + jb;
+    auto at = [&](int r, int q) -> double& { return block[static_cast<long>(j0 + q) * nrow + r]; };
+    for (int q = 0; q < jb; ++q)
+      for (int r = 0; r < jb; ++r, ++v)
+        if (r >= q) at(j0 + r, q) = *v;
+    for (int r = r0; r < nrow; r += 2)
+      for (int q = 0; q < jb; ++q, v += 2) {
+        at(r, q) = v[0];
+        if (r + 1 < nrow) at(r + 1, q) = v[1];
+      }
+  }
+}
+
 void unpack_values(const SupernodalFactor& f, double* x) {
-  parallel_for(static_cast<size_t>(f.nsuper), 0, [&](size_t k) {
-    const int ncol = f.super[k + 1] - f.super[k], nrow = f.pi[k + 1] - f.pi[k];
-    double* block = x + f.px[k];
-    std::fill_n(block, static_cast<long>(ncol) * nrow, 0.0);
-    const double* v = f.values + f.start[k];
-    for (int j0 = 0; j0 < ncol; j0 += kChunk) {
-      const int jb = std::min(kChunk, ncol - j0), r0 = j0 + jb;
-      auto at = [&](int r, int q) -> double& { return block[static_cast<long>(j0 + q) * nrow + r]; };
-      for (int q = 0; q < jb; ++q)
-        for (int r = 0; r < jb; ++r, ++v)
-          if (r >= q) at(j0 + r, q) = *v;
-      for (int r = r0; r < nrow; r += 2)
-        for (int q = 0; q < jb; ++q, v += 2) {
-          at(r, q) = v[0];
-          if (r + 1 < nrow) at(r + 1, q) = v[1];
-        }
-    }
-  });
+  parallel_for(static_cast<size_t>(f.nsuper), 0, [&](size_t k) { unpack_supernode(f, static_cast<int>(k), x + f.px[k]); });
 }
 
 SolvePlan plan_one_lane(const SupernodalFactor& f) {
