@@ -34,13 +34,6 @@ struct SupernodalFactor {
   const long* start = nullptr;
 };
 
-// The factor's values in the order a solve reads them. Each supernode is cut into chunks of up to
-// 8 columns; a chunk holds its diagonal block (column-major, upper part zero), then the rows below
-// it in tiles of 2 rows × the chunk's columns (a pair of rows per column), the last tile padded
-// with a zero row. The forward pass reads the whole array in ascending addresses; the back pass
-// reads each chunk's tiles from the last one up, then its diagonal block, so it reads the array in
-// descending addresses. Either way the hardware prefetcher sees one stream, where CHOLMOD's
-// column-major blocks made it follow 8 columns at once and restart at every chunk.
 // One array from malloc (huge-page advised; std::free releases it).
 class ValueArray {
  public:
@@ -70,6 +63,13 @@ class ValueArray {
   std::size_t size_ = 0;
 };
 
+// The factor's values in the order a solve reads them. Each supernode is cut into chunks of up to
+// 8 columns; a chunk holds its diagonal block (column-major, upper part zero), then the rows below
+// it in tiles of 2 rows × the chunk's columns (a pair of rows per column), the last tile padded
+// with a zero row. The forward pass reads the whole array in ascending addresses; the back pass
+// reads each chunk's tiles from the last one up, then its diagonal block, so it reads the array in
+// descending addresses. Either way the hardware prefetcher sees one stream, where CHOLMOD's
+// column-major blocks made it follow 8 columns at once and restart at every chunk.
 struct SolveValues {
   ValueArray values;
   std::vector<long> start;  // per supernode, and the total at nsuper
