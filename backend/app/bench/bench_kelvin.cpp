@@ -3,7 +3,7 @@
 // usage: distlab-bench-kelvin [--assets DIR] [--lx 0.2,0.15,...] [--grid 1000] [--lu-max 60000]
 //                             [--wrench-lx 0.002] [--wrench-features 180] [--json FILE]
 //                             [--table2-only 1] [--table1-only 1] [--sphere-rmse 0.1,0.05,...]
-//                             [--cache-dir DIR] [--far-radius 1] [--grading 0]
+//                             [--cache-dir DIR] [--far-radius 1] [--grading 0 or auto] [--mesh-worker EXE]
 //                             [--sizing-table 0.05,0.03 [--gradings 0,0.3]]
 // --cache-dir reuses prepared objects (Field::prepare_cached): t_mesh and t_decomp are then those
 // of the original preparation, t_build is measured again.
@@ -374,7 +374,7 @@ void measure_strokes(Field& f, const SigmaSpec& base, Row& r) {
 }
 
 nlohmann::json to_json(const Row& r) {
-  return {{"lx", r.lx}, {"n_verts", r.stats.n_verts}, {"n_tets", r.stats.n_tets}, {"size_mb", r.stats.size_mb}, {"rmse", r.rmse}, {"t_mesh", r.stats.t_mesh}, {"t_build", r.stats.t_build}, {"t_decomp", r.stats.t_decomp}, {"t_solve_ms", r.solve_ms}, {"t_solve_sd_ms", r.solve_sd}, {"t_grad_ms", r.grad_ms}, {"t_solve_median_ms", r.solve_med}, {"t_solve_one_thread_median_ms", r.solve_1t_med}, {"t_cholmod_solve_ms", r.chol_solve_ms}, {"t_own_dense_solve_ms", r.dense_solve_ms}, {"t_query_nohint_p90_us", r.q_seed_p90}, {"t_solve_cases_ms", r.case_solve_ms}, {"t_query_hint_us", r.q_hint}, {"t_query_nohint_us", r.q_seed}, {"t_sparselu_decomp", r.lu_decomp}, {"t_sparselu_solve_ms", r.lu_solve_ms}, {"t_aabb_distance_us", r.aabb_us}, {"t_decomp_median", r.decomp_med}, {"t_solve_b_ms", r.solve_b_ms}, {"t_solve_ones_ms", r.solve_ones_ms}, {"t_sparselu_solve_ones_ms", r.lu_solve_ones_ms}, {"sparselu_decomp_repeats", r.decomp_reps}, {"sparselu_solve_repeats", r.solve_reps}, {"factor_mb", r.stats.factor_mb}, {"t_own_dense_solve_one_thread_ms", r.dense_1t_ms}, {"t_own_dense_solve_one_thread_cpu_ms", r.dense_1t_cpu_ms}, {"t_stroke_solve_ms", r.stroke_ms}, {"stroke_read_fraction", r.stroke_read}, {"full_read_fraction", r.full_read}, {"t_set_sigma_full_ms", r.field_full_ms}, {"t_set_sigma_stroke_ms", r.field_stroke_ms}, {"t_set_sigma_full_beside_response_ms", r.response_full_ms}, {"t_set_sigma_stroke_by_response_ms", r.response_stroke_ms}, {"response_mb", r.response_mb}, {"t_response_build", r.response_build_s}, {"stroke_boundary_values", r.stroke_boundary}, {"n_boundary", r.n_boundary}};
+  return {{"lx", r.lx}, {"n_verts", r.stats.n_verts}, {"n_tets", r.stats.n_tets}, {"size_mb", r.stats.size_mb}, {"rmse", r.rmse}, {"t_mesh", r.stats.t_mesh}, {"t_build", r.stats.t_build}, {"t_decomp", r.stats.t_decomp}, {"grading", r.stats.grading}, {"mesh_threads", r.stats.mesh_threads}, {"t_solve_ms", r.solve_ms}, {"t_solve_sd_ms", r.solve_sd}, {"t_grad_ms", r.grad_ms}, {"t_solve_median_ms", r.solve_med}, {"t_solve_one_thread_median_ms", r.solve_1t_med}, {"t_cholmod_solve_ms", r.chol_solve_ms}, {"t_own_dense_solve_ms", r.dense_solve_ms}, {"t_query_nohint_p90_us", r.q_seed_p90}, {"t_solve_cases_ms", r.case_solve_ms}, {"t_query_hint_us", r.q_hint}, {"t_query_nohint_us", r.q_seed}, {"t_sparselu_decomp", r.lu_decomp}, {"t_sparselu_solve_ms", r.lu_solve_ms}, {"t_aabb_distance_us", r.aabb_us}, {"t_decomp_median", r.decomp_med}, {"t_solve_b_ms", r.solve_b_ms}, {"t_solve_ones_ms", r.solve_ones_ms}, {"t_sparselu_solve_ones_ms", r.lu_solve_ones_ms}, {"sparselu_decomp_repeats", r.decomp_reps}, {"sparselu_solve_repeats", r.solve_reps}, {"factor_mb", r.stats.factor_mb}, {"t_own_dense_solve_one_thread_ms", r.dense_1t_ms}, {"t_own_dense_solve_one_thread_cpu_ms", r.dense_1t_cpu_ms}, {"t_stroke_solve_ms", r.stroke_ms}, {"stroke_read_fraction", r.stroke_read}, {"full_read_fraction", r.full_read}, {"t_set_sigma_full_ms", r.field_full_ms}, {"t_set_sigma_stroke_ms", r.field_stroke_ms}, {"t_set_sigma_full_beside_response_ms", r.response_full_ms}, {"t_set_sigma_stroke_by_response_ms", r.response_stroke_ms}, {"response_mb", r.response_mb}, {"t_response_build", r.response_build_s}, {"stroke_boundary_values", r.stroke_boundary}, {"n_boundary", r.n_boundary}};
 }
 
 Row run(const mesh::SurfaceMesh& surface, const PrepareOptions& o, const std::vector<SigmaSpec>& sigmas,
@@ -842,14 +842,15 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
   std::vector<int> mesher_threads = {1};
   int mesh_threads = 0;  // PrepareOptions::mesh_threads of every preparation (0: chosen)
   bool mesher_plain = true;
-  std::string mesher_worker;
-  double grading = 0;
+  std::string mesher_worker, mesh_worker;
+  std::optional<double> grading = 0.0;  // none: chosen per object (choose_grading), as the service
   if (argc == 2 && std::string(argv[1]) == "--help") {
     std::puts(
         "usage: distlab-bench-kelvin [--assets DIR] [--lx 0.2,0.15,...] [--grid 1000] [--lu-max 60000]\n"
         "  [--wrench-lx 0.002] [--wrench-features 180] [--json FILE] [--table2-only 1] [--table1-only 1]\n"
-        "  [--sphere-rmse 0.1,0.05,...] [--cache-dir DIR (reuse prepared objects)] [--far-radius 1] [--grading 0]\n"
+        "  [--sphere-rmse 0.1,0.05,...] [--cache-dir DIR (reuse prepared objects)] [--far-radius 1] [--grading 0 (or auto)]\n"
         "  [--mesh-threads 0 (every preparation's PrepareOptions::mesh_threads; 0: chosen, 1: one thread)]\n"
+        "  [--mesh-worker build/backend/app/distlab (PrepareOptions::mesh_worker: threads > 1 mesh in its child, as the service)]\n"
         "  [--sizing-table 0.05,0.03 (accuracy against vertices, per grading) [--gradings 0,0.3]]\n"
         "  [--mesher 0.03,0.02 (the mesher against plain CGAL Mesh_3, eq. 23) [--mesher-gradings auto,0]\n"
         "   [--mesher-objects cube,wrench (the wrench at --wrench-lx)] [--mesher-reps 3] [--mesher-threads 1,2 (ours and plain's)]\n"
@@ -871,7 +872,8 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
     else if (k == "--table1-only") table2 = v == "0";
     else if (k == "--sphere-rmse") sphere_lxs = parse_list(v), table1 = table2 = false;
     else if (k == "--mesh-threads") mesh_threads = std::stoi(v);  // PrepareOptions::mesh_threads of every preparation
-    else if (k == "--grading") grading = std::stod(v);            // PrepareOptions::grading of every object
+    else if (k == "--grading") grading = v == "auto" ? std::nullopt : std::optional<double>(std::stod(v));  // of every object
+    else if (k == "--mesh-worker") mesh_worker = v;
     else if (k == "--sizing-table") sizing_lxs = parse_list(v), table1 = table2 = false;
     else if (k == "--gradings") gradings = parse_list(v);
     else if (k == "--mesher") mesher_lxs = parse_list(v), table1 = table2 = false;
@@ -910,6 +912,7 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
     o.far_radius = far_radius;
     o.grading = grading;
     o.mesh_threads = mesh_threads;
+    o.mesh_worker = mesh_worker;
     rows.push_back(run(cube, o, {zero}, path, random, lu_max, cache_dir, &kept));
     const Field& f = *kept;
     std::vector<double> plane(static_cast<size_t>(grid) * grid);
@@ -980,6 +983,7 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
       o.feature_angle = wrench_features;
       o.grading = grading;
       o.mesh_threads = mesh_threads;
+      o.mesh_worker = mesh_worker;
       std::fprintf(stderr, "wrench: lx %.4g, feature_angle %.0f\n", o.lx, o.feature_angle);
       wrench_rows.push_back(run(wrench, o, cases, wpath, wrandom, lu_max, cache_dir));
       for (const std::string& w : wrench_rows.back().stats.warnings) std::printf("warning: %s\n", w.c_str());
@@ -1007,6 +1011,7 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
       o.far_radius = far_radius;
       o.grading = grading;
       o.mesh_threads = mesh_threads;
+      o.mesh_worker = mesh_worker;
       const SphereErrors e = sphere_errors(o, grid);
       std::printf("| %.3g | %ld | %.3e | %.2e | %.2e | %+.2e | %.2e | %.2e | %.2e | %.2e | %.2e | %.4f | %.4f |\n", lx, e.n_verts, e.rmse, e.rmse_near,
                   e.rmse_far, e.mean, e.band_rmse[0], e.band_rmse[1], e.band_rmse[2], e.band_rmse[3], e.vertex_rmse, e.max_abs, e.boundary_rms / lx);
