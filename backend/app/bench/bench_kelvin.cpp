@@ -859,34 +859,39 @@ int main(int argc, char** argv) {  // NOLINT(bugprone-exception-escape)
   }
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string k = argv[i], v = argv[i + 1];
-    if (k == "--lx") lxs = parse_list(v);
-    else if (k == "--grid") grid = std::stoi(v);
-    else if (k == "--lu-max") lu_max = std::stol(v);
-    else if (k == "--assets") assets = v;
-    else if (k == "--wrench-lx") wrench_lx = std::stod(v);
-    else if (k == "--wrench-features") wrench_features = std::stod(v);
-    else if (k == "--json") json_path = v;
-    else if (k == "--cache-dir") cache_dir = v;
-    else if (k == "--far-radius") far_radius = std::stod(v);  // PrepareOptions::far_radius of the cube and sphere
-    else if (k == "--table2-only") table1 = v == "0";
-    else if (k == "--table1-only") table2 = v == "0";
-    else if (k == "--sphere-rmse") sphere_lxs = parse_list(v), table1 = table2 = false;
-    else if (k == "--mesh-threads") mesh_threads = std::stoi(v);  // PrepareOptions::mesh_threads of every preparation
-    else if (k == "--grading") grading = v == "auto" ? std::nullopt : std::optional<double>(std::stod(v));  // of every object
-    else if (k == "--mesh-worker") mesh_worker = v;
-    else if (k == "--sizing-table") sizing_lxs = parse_list(v), table1 = table2 = false;
-    else if (k == "--gradings") gradings = parse_list(v);
-    else if (k == "--mesher") mesher_lxs = parse_list(v), table1 = table2 = false;
-    else if (k == "--mesher-gradings") mesher_gradings = v;
-    else if (k == "--mesher-objects") mesher_objects = v;
-    else if (k == "--mesher-reps") mesher_reps = std::stoi(v);
-    else if (k == "--mesher-threads") {
-      mesher_threads.clear();
-      for (double n : parse_list(v)) mesher_threads.push_back(static_cast<int>(n));
-    } else if (k == "--mesher-plain") mesher_plain = v != "0";
-    else if (k == "--mesher-worker") mesher_worker = v;
-    else {
-      std::fprintf(stderr, "unknown option %s\n", k.c_str());
+    try {
+      if (k == "--lx") lxs = parse_list(v);
+      else if (k == "--grid") grid = std::stoi(v);
+      else if (k == "--lu-max") lu_max = std::stol(v);
+      else if (k == "--assets") assets = v;
+      else if (k == "--wrench-lx") wrench_lx = std::stod(v);
+      else if (k == "--wrench-features") wrench_features = std::stod(v);
+      else if (k == "--json") json_path = v;
+      else if (k == "--cache-dir") cache_dir = v;
+      else if (k == "--far-radius") far_radius = std::stod(v);  // PrepareOptions::far_radius of the cube and sphere
+      else if (k == "--table2-only") table1 = v == "0";
+      else if (k == "--table1-only") table2 = v == "0";
+      else if (k == "--sphere-rmse") sphere_lxs = parse_list(v), table1 = table2 = false;
+      else if (k == "--mesh-threads") mesh_threads = std::stoi(v);                                            // PrepareOptions::mesh_threads of every preparation
+      else if (k == "--grading") grading = v == "auto" ? std::nullopt : std::optional<double>(std::stod(v));  // of every object
+      else if (k == "--mesh-worker") mesh_worker = v;
+      else if (k == "--sizing-table") sizing_lxs = parse_list(v), table1 = table2 = false;
+      else if (k == "--gradings") gradings = parse_list(v);
+      else if (k == "--mesher") mesher_lxs = parse_list(v), table1 = table2 = false;
+      else if (k == "--mesher-gradings") mesher_gradings = v;
+      else if (k == "--mesher-objects") mesher_objects = v;
+      else if (k == "--mesher-reps") mesher_reps = std::stoi(v);
+      else if (k == "--mesher-threads") {
+        mesher_threads.clear();
+        for (double n : parse_list(v)) mesher_threads.push_back(static_cast<int>(n));
+      } else if (k == "--mesher-plain") mesher_plain = v != "0";
+      else if (k == "--mesher-worker") mesher_worker = v;
+      else {
+        std::fprintf(stderr, "unknown option %s\n", k.c_str());
+        return 2;
+      }
+    } catch (const std::logic_error&) {  // std::stod and the like: not a number, or out of range
+      std::fprintf(stderr, "%s: not a valid value: %s\n", k.c_str(), v.c_str());
       return 2;
     }
   }
